@@ -1,0 +1,9 @@
+//! voxscope: a volume inspector built on the flat-list sparse octree of Lukic, "Vulkan based
+//! volume rendering using ray tracing", ray-cast by a wgpu compute shader.
+//!
+//! The modules follow the data: [`volume`] (grids and loaders) → [`octree`] (the flat list,
+//! its statistics and colors) → [`render`] (wgpu device, ray caster, camera) → [`cli`].
+//! Dependencies only point that way.
+
+pub mod volume;
+pub mod octree;

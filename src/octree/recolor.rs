@@ -1,0 +1,38 @@
+//! Recoloring on the CPU: one pass per level, deepest first. Leaves take their color from the
+//! transfer function's lookup table, inner nodes average their 8 children. The topology is
+//! never touched. (The GPU does the same in `recolor.wgsl` for live edits.)
+
+use std::time::{Duration, Instant};
+
+use rayon::prelude::*;
+
+use super::{Octree, average_color};
+
+/// Recolors every node of `octree` from `lookup_table` (65 536 packed colors, one per value
+/// level). Returns the time it took.
+pub fn recolor(octree: &mut Octree, lookup_table: &[u32]) -> Duration {
+    let started = Instant::now();
+    for level in (0..=octree.depth).rev() {
+        let range = octree.level_range(level);
+        let (upper, lower) = octree.nodes.split_at_mut(range.end);
+        let children_start = range.end as u32;
+        let level_nodes = &mut upper[range.start..];
+        let bounds = &octree.bounds[range.clone()];
+        level_nodes
+            .par_iter_mut()
+            .zip(bounds)
+            .for_each(|(node, bounds)| {
+                node.color = if node.is_leaf() {
+                    if bounds.is_empty() {
+                        0
+                    } else {
+                        lookup_table[bounds.min() as usize]
+                    }
+                } else {
+                    let first = (node.first_child - children_start) as usize;
+                    average_color(std::array::from_fn(|c| lower[first + c].color))
+                };
+            });
+    }
+    started.elapsed()
+}

@@ -1,0 +1,52 @@
+//! Per-level node statistics: what `info` prints and the app charts.
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use super::{Node, Octree};
+
+/// Counts of one level of the octree under the current colors.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub struct LevelStatistics {
+    pub level: u32,
+    /// Nodes stored at this level.
+    pub nodes: u64,
+    /// Of those, leaves (voxels, or collapsed uniform subtrees).
+    pub leaves: u64,
+    /// Of those, fully transparent (alpha 0: skipped whole by the ray caster).
+    pub transparent: u64,
+    /// Of those, fully opaque (alpha 255).
+    pub opaque: u64,
+    /// Bytes of this level's nodes.
+    pub bytes: u64,
+    /// Nodes this level would have in the complete tree (8^level).
+    pub full_tree_nodes: u64,
+}
+
+/// Statistics of every level, `0..=depth`.
+pub fn level_statistics(octree: &Octree) -> Vec<LevelStatistics> {
+    (0..=octree.depth)
+        .map(|level| {
+            let nodes = &octree.nodes[octree.level_range(level)];
+            let (leaves, transparent, opaque) = nodes
+                .par_iter()
+                .map(|node| {
+                    (
+                        node.is_leaf() as u64,
+                        (node.alpha() == 0) as u64,
+                        (node.alpha() == 255) as u64,
+                    )
+                })
+                .reduce(|| (0, 0, 0), |a, b| (a.0 + b.0, a.1 + b.1, a.2 + b.2));
+            LevelStatistics {
+                level,
+                nodes: nodes.len() as u64,
+                leaves,
+                transparent,
+                opaque,
+                bytes: (nodes.len() * std::mem::size_of::<Node>()) as u64,
+                full_tree_nodes: 8u64.pow(level),
+            }
+        })
+        .collect()
+}

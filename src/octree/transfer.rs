@@ -1,0 +1,71 @@
+//! The transfer function: value window, opacity mode, and the lookup table that turns a
+//! voxel's 16-bit value level into a color. The table is what both the CPU and the GPU recolor
+//! read, so they agree to the bit.
+
+use serde::{Deserialize, Serialize};
+
+use super::pack_rgba;
+use crate::volume::{Quantization, ValueWindow, values::LEVELS};
+
+/// How a voxel's opacity follows from its normalized value `t` (0…1 inside the window).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum OpacityMode {
+    /// Alpha equals the gray value: `alpha = t` (the paper's default).
+    Gray,
+    /// Transparent below the threshold, opaque at or above it.
+    Binary,
+}
+
+/// Maps values to colors. Color is the gray of `t`; alpha follows [`OpacityMode`].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct TransferFunction {
+    pub opacity: OpacityMode,
+    /// Values at or below `low` map to 0, at or above `high` to 1 (data units).
+    pub window: ValueWindow,
+    /// Binary mode's threshold on `t`, 0…1.
+    pub threshold: f32,
+}
+
+impl TransferFunction {
+    /// Alpha = gray over `window`.
+    pub fn gray(window: ValueWindow) -> Self {
+        Self {
+            opacity: OpacityMode::Gray,
+            window,
+            threshold: 0.5,
+        }
+    }
+
+    /// RGBA of a voxel whose normalized value is `t` (0…1).
+    pub fn color_of_normalized(&self, t: f64) -> [u8; 4] {
+        let gray = (t.clamp(0.0, 1.0) * 255.0).round() as u8;
+        let alpha = match self.opacity {
+            OpacityMode::Gray => gray,
+            OpacityMode::Binary => {
+                if t >= self.threshold as f64 {
+                    255
+                } else {
+                    0
+                }
+            }
+        };
+        [gray, gray, gray, alpha]
+    }
+
+    /// Packed colors for all 65 536 value levels of `quantization`.
+    pub fn lookup_table(&self, quantization: Quantization) -> Vec<u32> {
+        (0..LEVELS)
+            .map(|level| {
+                let value = quantization.value(level as u16);
+                pack_rgba(self.color_of_normalized(self.window.normalize(value)))
+            })
+            .collect()
+    }
+
+    /// The first value level at which `t` reaches 1 (top of the window): a MIP ray that has
+    /// seen it can stop.
+    pub fn saturation_level(&self, quantization: Quantization) -> u16 {
+        let level = (self.window.high - quantization.offset) / quantization.step;
+        level.ceil().clamp(0.0, (LEVELS - 1) as f64) as u16
+    }
+}

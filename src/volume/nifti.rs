@@ -1,0 +1,259 @@
+//! NIfTI-1 (`.nii`, `.nii.gz`, `.hdr` + `.img`): the 348-byte header, either byte order,
+//! `scl_slope`/`scl_inter`, spacing from `pixdim`, orientation from the sform or qform.
+//!
+//! Our own reader rather than the `nifti` crate: it is ~200 lines, and it lets every size be
+//! validated against the file before anything is allocated.
+
+use std::io::Read;
+use std::path::{Path, PathBuf};
+
+use flate2::read::MultiGzDecoder;
+
+use super::error::Problem;
+use super::orientation::reorient_to_ras;
+use super::source::{
+    Storage, checked_payload_bytes, io_reason, is_gzip, open, read_payload, skip_bytes,
+};
+use super::{Endian, ValueScale, Volume, VoxelData, VoxelType};
+
+const HEADER_BYTES: usize = 348;
+
+/// The fields of a NIfTI-1 header that voxscope uses.
+#[derive(Debug, Clone)]
+struct Header {
+    endian: Endian,
+    dims: [usize; 3],
+    voxel_type: VoxelType,
+    pixdim: [f32; 8],
+    vox_offset: u64,
+    scale: ValueScale,
+    /// RAS direction of each index axis, when the header gives an orientation.
+    directions: Option<[[f64; 3]; 3]>,
+    /// `n+1` (one file) or `ni1` (header and `.img`).
+    single_file: bool,
+}
+
+/// True when the file (maybe gzipped) starts with a NIfTI-1 header size field.
+pub(crate) fn looks_like_nifti(path: &Path) -> bool {
+    let Ok(mut reader) = reader_for(path) else {
+        return false;
+    };
+    let mut first = [0u8; 4];
+    reader.read_exact(&mut first).is_ok()
+        && (i32::from_le_bytes(first) == HEADER_BYTES as i32
+            || i32::from_be_bytes(first) == HEADER_BYTES as i32)
+}
+
+pub(crate) fn load(path: &Path) -> Result<Volume, Problem> {
+    let gzip = is_gzip(path)?;
+    let mut reader = reader_for(path)?;
+    let mut raw_header = [0u8; HEADER_BYTES];
+    reader.read_exact(&mut raw_header).map_err(|e| {
+        if e.kind() == std::io::ErrorKind::UnexpectedEof {
+            format!("too short for a NIfTI-1 header ({HEADER_BYTES} bytes)")
+        } else {
+            format!("cannot read NIfTI header: {}", io_reason(&e))
+        }
+    })?;
+    let header = parse_header(&raw_header)?;
+
+    let (data_path, mut data_reader, data_gzip, skip) = if header.single_file {
+        (path.to_path_buf(), reader, gzip, header.vox_offset.saturating_sub(HEADER_BYTES as u64))
+    } else {
+        let image = image_path(path)?;
+        let gzip = is_gzip(&image)?;
+        (image.clone(), reader_for(&image)?, gzip, header.vox_offset)
+    };
+    let file_bytes = std::fs::metadata(&data_path)
+        .map_err(|e| format!("cannot open {}: {}", data_path.display(), io_reason(&e)))?
+        .len();
+    let storage = if data_gzip { Storage::Gzip } else { Storage::Plain };
+    let header_part = if header.single_file && !data_gzip { header.vox_offset } else { 0 };
+    let bytes = checked_payload_bytes(
+        header.dims,
+        header.voxel_type,
+        file_bytes.saturating_sub(header_part),
+        storage,
+    )?;
+    skip_bytes(&mut data_reader, skip)?;
+    let payload = read_payload(data_reader, bytes)?;
+    let data = VoxelData::decode(header.voxel_type, &payload, header.endian);
+    drop(payload);
+
+    let spacing = std::array::from_fn(|axis| header.pixdim[axis + 1] as f64);
+    let mut volume = Volume::new(path.display().to_string(), "NIfTI-1", header.dims, spacing, data)
+        .map_err(|e| e.problem)?;
+    volume.value_scale = header.scale;
+    Ok(match header.directions {
+        Some(directions) => reorient_to_ras(volume, directions),
+        None => volume,
+    })
+}
+
+/// A reader over the decompressed bytes of `path`.
+fn reader_for(path: &Path) -> Result<Box<dyn Read>, Problem> {
+    let reader = open(path)?;
+    Ok(if is_gzip(path)? {
+        Box::new(MultiGzDecoder::new(reader))
+    } else {
+        Box::new(reader)
+    })
+}
+
+/// The `.img` beside a `.hdr`.
+fn image_path(header_path: &Path) -> Result<PathBuf, Problem> {
+    for extension in ["img", "img.gz"] {
+        let candidate = header_path.with_extension(extension);
+        if candidate.is_file() {
+            return Ok(candidate);
+        }
+    }
+    Err(format!(
+        "NIfTI header (ni1) needs its data file {}, which does not exist",
+        header_path.with_extension("img").display()
+    ))
+}
+
+fn parse_header(bytes: &[u8; HEADER_BYTES]) -> Result<Header, Problem> {
+    let size_le = i32::from_le_bytes(bytes[0..4].try_into().expect("4 bytes"));
+    let endian = match size_le {
+        348 => Endian::Little,
+        _ if i32::from_be_bytes(bytes[0..4].try_into().expect("4 bytes")) == 348 => Endian::Big,
+        540 => return Err("NIfTI-2 files are not supported yet (only NIfTI-1)".into()),
+        other => {
+            return Err(format!(
+                "not a NIfTI-1 file (header size field is {other}, expected 348)"
+            ));
+        }
+    };
+    let field = HeaderReader { bytes, endian };
+    let single_file = match &bytes[344..348] {
+        b"n+1\0" => true,
+        b"ni1\0" => false,
+        _ => return Err("not a NIfTI-1 file (bad magic at byte 344)".into()),
+    };
+
+    let dim: [i16; 8] = std::array::from_fn(|i| field.i16(40 + 2 * i));
+    let rank = dim[0];
+    if !(1..=7).contains(&rank) {
+        return Err(format!("NIfTI dim[0] is {rank}, expected 1 to 7"));
+    }
+    let extent = |axis: usize| -> Result<usize, Problem> {
+        if axis > rank as usize {
+            return Ok(1);
+        }
+        let n = dim[axis];
+        if n < 1 {
+            return Err(format!("NIfTI dim[{axis}] is {n}, expected at least 1"));
+        }
+        Ok(n as usize)
+    };
+    let dims = [extent(1)?, extent(2)?, extent(3)?];
+    for axis in 4..=rank as usize {
+        if extent(axis)? != 1 {
+            return Err(format!(
+                "NIfTI image has {} volumes along dimension {axis}; only single 3D volumes are supported",
+                dim[axis]
+            ));
+        }
+    }
+    let datatype = field.i16(70);
+    let voxel_type = match datatype {
+        2 => VoxelType::U8,
+        4 => VoxelType::I16,
+        8 => VoxelType::I32,
+        16 => VoxelType::F32,
+        64 => VoxelType::F64,
+        256 => VoxelType::I8,
+        512 => VoxelType::U16,
+        768 => VoxelType::U32,
+        32 | 128 | 1792 | 2048 | 2304 => {
+            return Err(format!(
+                "NIfTI datatype {datatype} (complex or RGB) is not a scalar volume"
+            ));
+        }
+        other => return Err(format!("unknown NIfTI datatype {other}")),
+    };
+    let pixdim: [f32; 8] = std::array::from_fn(|i| field.f32(76 + 4 * i));
+    let vox_offset = field.f32(108);
+    if !(vox_offset.is_finite() && vox_offset >= 0.0) {
+        return Err(format!("NIfTI vox_offset {vox_offset} is invalid"));
+    }
+    if single_file && vox_offset < HEADER_BYTES as f32 {
+        return Err(format!(
+            "NIfTI vox_offset {vox_offset} lies inside the 348-byte header"
+        ));
+    }
+    let slope = field.f32(112);
+    let intercept = field.f32(116);
+    // The standard: a slope of 0 (or NaN, written by some tools) means "no scaling".
+    let scale = if slope.is_finite() && slope != 0.0 {
+        ValueScale {
+            slope: slope as f64,
+            intercept: if intercept.is_finite() { intercept as f64 } else { 0.0 },
+        }
+    } else {
+        ValueScale::IDENTITY
+    };
+
+    let qform_code = field.i16(252);
+    let sform_code = field.i16(254);
+    let directions = if sform_code > 0 {
+        let rows: [[f32; 4]; 3] =
+            std::array::from_fn(|r| std::array::from_fn(|c| field.f32(280 + 16 * r + 4 * c)));
+        Some(std::array::from_fn(|axis| {
+            std::array::from_fn(|world| rows[world][axis] as f64)
+        }))
+    } else if qform_code > 0 {
+        let [b, c, d] = [field.f32(256), field.f32(260), field.f32(264)].map(|v| v as f64);
+        let a = (1.0 - (b * b + c * c + d * d)).max(0.0).sqrt();
+        let rotation = [
+            [a * a + b * b - c * c - d * d, 2.0 * (b * c - a * d), 2.0 * (b * d + a * c)],
+            [2.0 * (b * c + a * d), a * a + c * c - b * b - d * d, 2.0 * (c * d - a * b)],
+            [2.0 * (b * d - a * c), 2.0 * (c * d + a * b), a * a + d * d - c * c - b * b],
+        ];
+        let qfac = if pixdim[0] < 0.0 { -1.0 } else { 1.0 };
+        Some(std::array::from_fn(|axis| {
+            let sign = if axis == 2 { qfac } else { 1.0 };
+            std::array::from_fn(|world| rotation[world][axis] * sign)
+        }))
+    } else {
+        None
+    };
+
+    Ok(Header {
+        endian,
+        dims,
+        voxel_type,
+        pixdim,
+        vox_offset: vox_offset as u64,
+        scale,
+        directions,
+        single_file,
+    })
+}
+
+/// Reads fixed-offset fields in the header's byte order.
+struct HeaderReader<'a> {
+    bytes: &'a [u8; HEADER_BYTES],
+    endian: Endian,
+}
+
+impl HeaderReader<'_> {
+    fn i16(&self, offset: usize) -> i16 {
+        let b = [self.bytes[offset], self.bytes[offset + 1]];
+        match self.endian {
+            Endian::Little => i16::from_le_bytes(b),
+            Endian::Big => i16::from_be_bytes(b),
+        }
+    }
+
+    fn f32(&self, offset: usize) -> f32 {
+        let b: [u8; 4] = self.bytes[offset..offset + 4].try_into().expect("4 bytes");
+        match self.endian {
+            Endian::Little => f32::from_le_bytes(b),
+            Endian::Big => f32::from_be_bytes(b),
+        }
+    }
+}
+

@@ -1,0 +1,144 @@
+//! Procedural volumes for tests, demos and benchmarks: `synthetic:KIND:SIZE`, where SIZE is
+//! `N` (a cube) or `XxYxZ`. Deterministic: the same spec always gives the same voxels.
+
+use rayon::prelude::*;
+
+use super::error::Problem;
+use super::raw::parse_dims;
+use super::{Scalar, Volume, checked_voxel_count};
+
+/// The procedural volumes voxscope can make.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SyntheticKind {
+    /// A ball (u8): 0 outside, rising from 80 at the rim to 255 at the center.
+    Sphere,
+    /// Concentric shells (u16): alternating bands of 1000 and 0, for binary thresholds.
+    Shells,
+    /// Smooth value noise in about −1…1 (f32), a dense semi-transparent cloud.
+    Noise,
+    /// A linear ramp (u8) from 0 at the origin corner to 255 at the far corner.
+    Gradient,
+}
+
+impl SyntheticKind {
+    pub const ALL: [SyntheticKind; 4] = [Self::Sphere, Self::Shells, Self::Noise, Self::Gradient];
+
+    /// The name used in specs.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Sphere => "sphere",
+            Self::Shells => "shells",
+            Self::Noise => "noise",
+            Self::Gradient => "gradient",
+        }
+    }
+
+    /// Makes a volume of this kind with the given dimensions.
+    pub fn generate(self, dims: [usize; 3]) -> Result<Volume, Problem> {
+        let count = checked_voxel_count(dims)?;
+        let center = dims.map(|d| (d as f64 - 1.0) / 2.0);
+        let radius = dims.iter().copied().min().unwrap_or(1) as f64 * 0.4;
+        let position = |i: usize| {
+            [
+                (i % dims[0]) as f64,
+                ((i / dims[0]) % dims[1]) as f64,
+                (i / (dims[0] * dims[1])) as f64,
+            ]
+        };
+        let distance = |p: [f64; 3]| {
+            ((p[0] - center[0]).powi(2) + (p[1] - center[1]).powi(2) + (p[2] - center[2]).powi(2))
+                .sqrt()
+        };
+        let data = match self {
+            Self::Sphere => fill::<u8>(count, |i| {
+                let r = distance(position(i)) / radius.max(0.5);
+                if r <= 1.0 { 255.0 - 175.0 * r } else { 0.0 }
+            }),
+            Self::Shells => fill::<u16>(count, |i| {
+                let r = distance(position(i)) / radius.max(0.5);
+                let band = (r * 4.0).floor() as i64;
+                if r <= 1.0 && band % 2 == 0 { 1000.0 } else { 0.0 }
+            }),
+            Self::Noise => fill::<f32>(count, |i| value_noise(position(i))),
+            Self::Gradient => {
+                let span = (dims[0] + dims[1] + dims[2]).saturating_sub(3).max(1) as f64;
+                fill::<u8>(count, |i| {
+                    let p = position(i);
+                    255.0 * (p[0] + p[1] + p[2]) / span
+                })
+            }
+        };
+        Volume::new(
+            format!("synthetic:{}:{}x{}x{}", self.name(), dims[0], dims[1], dims[2]),
+            "synthetic",
+            dims,
+            [1.0; 3],
+            data,
+        )
+        .map_err(|e| e.problem)
+    }
+}
+
+/// Parses `KIND:SIZE` (the part after `synthetic:`) and generates the volume.
+pub(crate) fn generate(spec: &str) -> Result<Volume, Problem> {
+    let names = SyntheticKind::ALL.map(|k| k.name()).join(", ");
+    let (kind_name, size) = spec
+        .split_once(':')
+        .ok_or_else(|| format!("synthetic spec needs KIND:SIZE (kinds: {names})"))?;
+    let kind = SyntheticKind::ALL
+        .into_iter()
+        .find(|k| k.name() == kind_name)
+        .ok_or_else(|| format!("unknown synthetic kind '{kind_name}' (kinds: {names})"))?;
+    let dims = parse_dims(size).ok_or_else(|| format!("synthetic size '{size}' is not N or XxYxZ"))?;
+    kind.generate(dims)
+}
+
+fn fill<T: Scalar>(count: usize, value: impl Fn(usize) -> f64 + Sync) -> super::VoxelData {
+    T::wrap((0..count).into_par_iter().map(|i| T::from_f64(value(i).round_if_integer::<T>())).collect())
+}
+
+/// Rounds for integer targets so generated values are not truncated toward zero.
+trait RoundForType {
+    fn round_if_integer<T: Scalar>(self) -> f64;
+}
+
+impl RoundForType for f64 {
+    fn round_if_integer<T: Scalar>(self) -> f64 {
+        if T::TYPE.is_integer() { self.round() } else { self }
+    }
+}
+
+/// Two octaves of trilinear value noise on integer lattices (8 and 3 voxels apart).
+fn value_noise(p: [f64; 3]) -> f64 {
+    0.7 * lattice_noise(p, 8.0, 1) + 0.3 * lattice_noise(p, 3.0, 2)
+}
+
+fn lattice_noise(p: [f64; 3], cell: f64, seed: u64) -> f64 {
+    let q = p.map(|c| c / cell);
+    let base = q.map(|c| c.floor());
+    let frac: [f64; 3] = std::array::from_fn(|a| {
+        let t = q[a] - base[a];
+        t * t * (3.0 - 2.0 * t) // smoothstep, so the noise has no visible lattice
+    });
+    let mut sum = 0.0;
+    for corner in 0..8u32 {
+        let offset = [corner & 1, (corner >> 1) & 1, (corner >> 2) & 1];
+        let weight: f64 = (0..3)
+            .map(|a| if offset[a] == 1 { frac[a] } else { 1.0 - frac[a] })
+            .product();
+        let lattice = std::array::from_fn(|a| base[a] as i64 + offset[a] as i64);
+        sum += weight * hash_to_unit(lattice, seed);
+    }
+    sum
+}
+
+/// A deterministic pseudo-random value in −1…1 for a lattice point.
+fn hash_to_unit(point: [i64; 3], seed: u64) -> f64 {
+    let mut h = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    for c in point {
+        h ^= (c as u64).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        h = (h ^ (h >> 31)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    }
+    h ^= h >> 29;
+    (h >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+}
