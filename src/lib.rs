@@ -5,5 +5,7 @@
 //! its statistics and colors) → [`render`] (wgpu device, ray caster, camera) → [`cli`].
 //! Dependencies only point that way.
 
-pub mod volume;
+pub mod cli;
 pub mod octree;
+pub mod render;
+pub mod volume;

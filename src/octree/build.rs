@@ -93,8 +93,10 @@ pub fn build(volume: &QuantizedVolume, options: BuildOptions) -> Result<Octree, 
     for level in 0..=depth {
         let level_start = nodes.len();
         let next_level_start = level_start + cells.len();
-        let level_bounds: Vec<ValueBounds> =
-            cells.par_iter().map(|&cell| bounds_of(level, cell)).collect();
+        let level_bounds: Vec<ValueBounds> = cells
+            .par_iter()
+            .map(|&cell| bounds_of(level, cell))
+            .collect();
         let leaves: Vec<bool> = cells
             .par_iter()
             .zip(&level_bounds)
@@ -139,7 +141,11 @@ pub fn build(volume: &QuantizedVolume, options: BuildOptions) -> Result<Octree, 
                 let (x, y, z) = (cell % n, (cell / n) % n, cell / (n * n));
                 for (child, slot) in children.iter_mut().enumerate() {
                     let child = child as u32;
-                    let (cx, cy, cz) = (2 * x + (child & 1), 2 * y + ((child >> 1) & 1), 2 * z + (child >> 2));
+                    let (cx, cy, cz) = (
+                        2 * x + (child & 1),
+                        2 * y + ((child >> 1) & 1),
+                        2 * z + (child >> 2),
+                    );
                     *slot = cx + next_n * (cy + next_n * cz);
                 }
             });

@@ -7,15 +7,17 @@ mod nifti;
 mod nrrd;
 mod orientation;
 mod raw;
+mod sample;
 mod source;
 mod synthetic;
 pub(crate) mod values;
 mod voxel_type;
 
 pub use error::LoadError;
-pub use orientation::Orientation;
 pub use nrrd::NrrdEncoding;
+pub use orientation::Orientation;
 pub use raw::RawLayout;
+pub use sample::{SAMPLE_NAME, sample};
 pub use source::{LoadOptions, load};
 pub use synthetic::SyntheticKind;
 pub use values::{Histogram, Quantization, QuantizedVolume, ValueWindow};

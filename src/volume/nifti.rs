@@ -11,9 +11,7 @@ use flate2::read::MultiGzDecoder;
 
 use super::error::Problem;
 use super::orientation::reorient_to_ras;
-use super::source::{
-    Storage, checked_payload_bytes, io_reason, is_gzip, open, read_payload, skip_bytes,
-};
+use super::source::{Storage, checked_payload_bytes, io_reason, read_payload, skip_bytes};
 use super::{Endian, ValueScale, Volume, VoxelData, VoxelType};
 
 const HEADER_BYTES: usize = 348;
@@ -35,18 +33,24 @@ struct Header {
 
 /// True when the file (maybe gzipped) starts with a NIfTI-1 header size field.
 pub(crate) fn looks_like_nifti(path: &Path) -> bool {
-    let Ok(mut reader) = reader_for(path) else {
+    let Ok(bytes) = std::fs::read(path) else {
         return false;
     };
     let mut first = [0u8; 4];
-    reader.read_exact(&mut first).is_ok()
+    decompressed(&bytes).read_exact(&mut first).is_ok()
         && (i32::from_le_bytes(first) == HEADER_BYTES as i32
             || i32::from_be_bytes(first) == HEADER_BYTES as i32)
 }
 
 pub(crate) fn load(path: &Path) -> Result<Volume, Problem> {
-    let gzip = is_gzip(path)?;
-    let mut reader = reader_for(path)?;
+    let bytes = std::fs::read(path).map_err(|e| format!("cannot read: {}", io_reason(&e)))?;
+    decode(&path.display().to_string(), &bytes, Some(path))
+}
+
+/// Decodes a NIfTI-1 file held in memory (`bytes` is the file, maybe gzipped). `path` locates
+/// the `.img` of a header/image pair; without it only single files (`n+1`) decode.
+pub(crate) fn decode(name: &str, bytes: &[u8], path: Option<&Path>) -> Result<Volume, Problem> {
+    let mut reader = decompressed(bytes);
     let mut raw_header = [0u8; HEADER_BYTES];
     reader.read_exact(&mut raw_header).map_err(|e| {
         if e.kind() == std::io::ErrorKind::UnexpectedEof {
@@ -57,32 +61,41 @@ pub(crate) fn load(path: &Path) -> Result<Volume, Problem> {
     })?;
     let header = parse_header(&raw_header)?;
 
-    let (data_path, mut data_reader, data_gzip, skip) = if header.single_file {
-        (path.to_path_buf(), reader, gzip, header.vox_offset.saturating_sub(HEADER_BYTES as u64))
+    let image_bytes;
+    let (data, mut data_reader, skip) = if header.single_file {
+        let skip = header.vox_offset.saturating_sub(HEADER_BYTES as u64);
+        (bytes, reader, skip)
     } else {
+        let path = path.ok_or("a NIfTI header/image pair needs its .img file")?;
         let image = image_path(path)?;
-        let gzip = is_gzip(&image)?;
-        (image.clone(), reader_for(&image)?, gzip, header.vox_offset)
+        image_bytes = std::fs::read(&image)
+            .map_err(|e| format!("cannot read {}: {}", image.display(), io_reason(&e)))?;
+        (
+            &image_bytes[..],
+            decompressed(&image_bytes),
+            header.vox_offset,
+        )
     };
-    let file_bytes = std::fs::metadata(&data_path)
-        .map_err(|e| format!("cannot open {}: {}", data_path.display(), io_reason(&e)))?
-        .len();
-    let storage = if data_gzip { Storage::Gzip } else { Storage::Plain };
-    let header_part = if header.single_file && !data_gzip { header.vox_offset } else { 0 };
-    let bytes = checked_payload_bytes(
-        header.dims,
-        header.voxel_type,
-        file_bytes.saturating_sub(header_part),
-        storage,
-    )?;
+    let gzip = is_gzip_bytes(data);
+    let storage = if gzip { Storage::Gzip } else { Storage::Plain };
+    // In a plain single file the voxels start at vox_offset; a gzip stream hides offsets.
+    let before_data = if gzip {
+        0
+    } else if header.single_file {
+        header.vox_offset
+    } else {
+        skip
+    };
+    let available = (data.len() as u64).saturating_sub(before_data);
+    let payload_bytes = checked_payload_bytes(header.dims, header.voxel_type, available, storage)?;
     skip_bytes(&mut data_reader, skip)?;
-    let payload = read_payload(data_reader, bytes)?;
-    let data = VoxelData::decode(header.voxel_type, &payload, header.endian);
+    let payload = read_payload(data_reader, payload_bytes)?;
+    let voxels = VoxelData::decode(header.voxel_type, &payload, header.endian);
     drop(payload);
 
     let spacing = std::array::from_fn(|axis| header.pixdim[axis + 1] as f64);
-    let mut volume = Volume::new(path.display().to_string(), "NIfTI-1", header.dims, spacing, data)
-        .map_err(|e| e.problem)?;
+    let mut volume =
+        Volume::new(name, "NIfTI-1", header.dims, spacing, voxels).map_err(|e| e.problem)?;
     volume.value_scale = header.scale;
     Ok(match header.directions {
         Some(directions) => reorient_to_ras(volume, directions),
@@ -90,14 +103,17 @@ pub(crate) fn load(path: &Path) -> Result<Volume, Problem> {
     })
 }
 
-/// A reader over the decompressed bytes of `path`.
-fn reader_for(path: &Path) -> Result<Box<dyn Read>, Problem> {
-    let reader = open(path)?;
-    Ok(if is_gzip(path)? {
-        Box::new(MultiGzDecoder::new(reader))
+fn is_gzip_bytes(bytes: &[u8]) -> bool {
+    bytes.starts_with(&[0x1f, 0x8b])
+}
+
+/// A reader over the decompressed content of a file held in memory.
+fn decompressed(bytes: &[u8]) -> Box<dyn Read + '_> {
+    if is_gzip_bytes(bytes) {
+        Box::new(MultiGzDecoder::new(bytes))
     } else {
-        Box::new(reader)
-    })
+        Box::new(bytes)
+    }
 }
 
 /// The `.img` beside a `.hdr`.
@@ -190,7 +206,11 @@ fn parse_header(bytes: &[u8; HEADER_BYTES]) -> Result<Header, Problem> {
     let scale = if slope.is_finite() && slope != 0.0 {
         ValueScale {
             slope: slope as f64,
-            intercept: if intercept.is_finite() { intercept as f64 } else { 0.0 },
+            intercept: if intercept.is_finite() {
+                intercept as f64
+            } else {
+                0.0
+            },
         }
     } else {
         ValueScale::IDENTITY
@@ -208,9 +228,21 @@ fn parse_header(bytes: &[u8; HEADER_BYTES]) -> Result<Header, Problem> {
         let [b, c, d] = [field.f32(256), field.f32(260), field.f32(264)].map(|v| v as f64);
         let a = (1.0 - (b * b + c * c + d * d)).max(0.0).sqrt();
         let rotation = [
-            [a * a + b * b - c * c - d * d, 2.0 * (b * c - a * d), 2.0 * (b * d + a * c)],
-            [2.0 * (b * c + a * d), a * a + c * c - b * b - d * d, 2.0 * (c * d - a * b)],
-            [2.0 * (b * d - a * c), 2.0 * (c * d + a * b), a * a + d * d - c * c - b * b],
+            [
+                a * a + b * b - c * c - d * d,
+                2.0 * (b * c - a * d),
+                2.0 * (b * d + a * c),
+            ],
+            [
+                2.0 * (b * c + a * d),
+                a * a + c * c - b * b - d * d,
+                2.0 * (c * d - a * b),
+            ],
+            [
+                2.0 * (b * d - a * c),
+                2.0 * (c * d + a * b),
+                a * a + d * d - c * c - b * b,
+            ],
         ];
         let qfac = if pixdim[0] < 0.0 { -1.0 } else { 1.0 };
         Some(std::array::from_fn(|axis| {
@@ -256,4 +288,3 @@ impl HeaderReader<'_> {
         }
     }
 }
-

@@ -42,8 +42,12 @@ struct Header {
 pub(crate) fn load(path: &Path) -> Result<Volume, Problem> {
     let mut reader = open(path)?;
     let (header, header_bytes) = read_header(&mut reader)?;
-    let voxel_type = header.voxel_type.ok_or("NRRD header lacks the 'type' field")?;
-    let encoding = header.encoding.ok_or("NRRD header lacks the 'encoding' field")?;
+    let voxel_type = header
+        .voxel_type
+        .ok_or("NRRD header lacks the 'type' field")?;
+    let encoding = header
+        .encoding
+        .ok_or("NRRD header lacks the 'encoding' field")?;
     let (dims, axes) = spatial_axes(&header)?;
     let endian = match header.endian {
         Some(endian) => endian,
@@ -104,7 +108,13 @@ pub(crate) fn load(path: &Path) -> Result<Volume, Problem> {
             data.take(available)
                 .read_to_string(&mut text)
                 .map_err(|e| format!("ascii data: {}", io_reason(&e)))?;
-            return finish(path, dims, &axes, &header, parse_ascii(&text, voxel_type, count)?);
+            return finish(
+                path,
+                dims,
+                &axes,
+                &header,
+                parse_ascii(&text, voxel_type, count)?,
+            );
         }
     };
     let data = VoxelData::decode(voxel_type, &payload, endian);
@@ -121,7 +131,10 @@ fn finish(
 ) -> Result<Volume, Problem> {
     let directions: Option<[[f64; 3]; 3]> = header.space_directions.as_ref().and_then(|all| {
         let flips = header.to_ras.unwrap_or([1.0; 3]);
-        let picked: Option<Vec<[f64; 3]>> = axes.iter().map(|&a| all.get(a).copied().flatten()).collect();
+        let picked: Option<Vec<[f64; 3]>> = axes
+            .iter()
+            .map(|&a| all.get(a).copied().flatten())
+            .collect();
         picked.map(|v| std::array::from_fn(|i| std::array::from_fn(|w| v[i][w] * flips[w])))
     });
     let spacing: [f64; 3] = std::array::from_fn(|i| {
@@ -147,8 +160,13 @@ fn finish(
 /// The three spatial axes among the header's `dimension` axes (size-1 axes dropped when there
 /// are more than three), as dims and as indices into the per-axis fields.
 fn spatial_axes(header: &Header) -> Result<([usize; 3], [usize; 3]), Problem> {
-    let sizes = header.sizes.as_ref().ok_or("NRRD header lacks the 'sizes' field")?;
-    let dimension = header.dimension.ok_or("NRRD header lacks the 'dimension' field")?;
+    let sizes = header
+        .sizes
+        .as_ref()
+        .ok_or("NRRD header lacks the 'sizes' field")?;
+    let dimension = header
+        .dimension
+        .ok_or("NRRD header lacks the 'dimension' field")?;
     if sizes.len() != dimension {
         return Err(format!(
             "NRRD 'sizes' has {} entries but 'dimension' is {dimension}",
@@ -228,7 +246,10 @@ fn parse_field(header: &mut Header, key: &str, value: &str) -> Result<(), Proble
     let numbers = |value: &str| -> Result<Vec<f64>, Problem> {
         value
             .split_whitespace()
-            .map(|n| n.parse::<f64>().map_err(|_| format!("NRRD '{key}' value '{n}' is not a number")))
+            .map(|n| {
+                n.parse::<f64>()
+                    .map_err(|_| format!("NRRD '{key}' value '{n}' is not a number"))
+            })
             .collect()
     };
     match key {
@@ -255,7 +276,11 @@ fn parse_field(header: &mut Header, key: &str, value: &str) -> Result<(), Proble
                 "raw" => NrrdEncoding::Raw,
                 "gzip" | "gz" => NrrdEncoding::Gzip,
                 "ascii" | "text" | "txt" => NrrdEncoding::Ascii,
-                other => return Err(format!("NRRD encoding '{other}' is not supported (raw, gzip, ascii)")),
+                other => {
+                    return Err(format!(
+                        "NRRD encoding '{other}' is not supported (raw, gzip, ascii)"
+                    ));
+                }
             })
         }
         "endian" => {
@@ -360,7 +385,10 @@ fn parse_ascii(text: &str, voxel_type: VoxelType, count: usize) -> Result<VoxelD
         .split(|c: char| c.is_whitespace() || c == ',')
         .filter(|t| !t.is_empty())
         .take(count)
-        .map(|t| t.parse::<f64>().map_err(|_| format!("ascii value '{t}' is not a number")))
+        .map(|t| {
+            t.parse::<f64>()
+                .map_err(|_| format!("ascii value '{t}' is not a number"))
+        })
         .collect::<Result<_, _>>()?;
     if values.len() < count {
         return Err(format!(

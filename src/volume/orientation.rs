@@ -56,7 +56,11 @@ pub(crate) fn reorient_to_ras(volume: Volume, directions: [[f64; 3]; 3]) -> Volu
     let old_strides = [1, old_dims[0], old_dims[0] * old_dims[1]];
     let count = volume.voxel_count();
     let data = volume.data.gather(count, |n| {
-        let new = [n % dims[0], (n / dims[0]) % dims[1], n / (dims[0] * dims[1])];
+        let new = [
+            n % dims[0],
+            (n / dims[0]) % dims[1],
+            n / (dims[0] * dims[1]),
+        ];
         (0..3)
             .map(|w| {
                 let coord = if flipped[w] {
@@ -135,9 +139,16 @@ mod tests {
 
     #[test]
     fn ras_and_degenerate_stay_as_stored() {
-        let volume = Volume::new("t", "test", [2, 2, 2], [1.0; 3], VoxelData::U8(vec![0; 8])).unwrap();
+        let volume =
+            Volume::new("t", "test", [2, 2, 2], [1.0; 3], VoxelData::U8(vec![0; 8])).unwrap();
         let identity = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-        assert_eq!(reorient_to_ras(volume.clone(), identity).orientation, Orientation::AsStored);
-        assert_eq!(reorient_to_ras(volume, [[0.0; 3]; 3]).orientation, Orientation::AsStored);
+        assert_eq!(
+            reorient_to_ras(volume.clone(), identity).orientation,
+            Orientation::AsStored
+        );
+        assert_eq!(
+            reorient_to_ras(volume, [[0.0; 3]; 3]).orientation,
+            Orientation::AsStored
+        );
     }
 }

@@ -71,6 +71,12 @@ pub(crate) fn load(path: &Path, layout: &RawLayout, file_bytes: u64) -> Result<V
     }
     let payload = read_payload(open(path)?, bytes)?;
     let data = VoxelData::decode(layout.voxel_type, &payload, layout.endian);
-    Volume::new(path.display().to_string(), "raw", layout.dims, [1.0; 3], data)
-        .map_err(|e| e.problem)
+    Volume::new(
+        path.display().to_string(),
+        "raw",
+        layout.dims,
+        [1.0; 3],
+        data,
+    )
+    .map_err(|e| e.problem)
 }

@@ -36,9 +36,12 @@ pub fn load(spec: &str, options: &LoadOptions) -> Result<Volume, LoadError> {
 }
 
 fn load_file(path: &Path, options: &LoadOptions) -> Result<Volume, Problem> {
-    let metadata = std::fs::metadata(path).map_err(|e| format!("cannot open: {}", io_reason(&e)))?;
+    let metadata =
+        std::fs::metadata(path).map_err(|e| format!("cannot open: {}", io_reason(&e)))?;
     if metadata.is_dir() {
-        return Err("is a directory; open a volume file (.nii, .nii.gz, .nrrd, .nhdr) or use --raw".into());
+        return Err(
+            "is a directory; open a volume file (.nii, .nii.gz, .nrrd, .nhdr) or use --raw".into(),
+        );
     }
     if metadata.len() == 0 {
         return Err("file is empty".into());
@@ -150,14 +153,4 @@ pub(crate) fn skip_bytes(reader: &mut impl Read, count: u64) -> Result<(), Probl
         ));
     }
     Ok(())
-}
-
-/// True when the file starts with the gzip magic bytes.
-pub(crate) fn is_gzip(path: &Path) -> Result<bool, Problem> {
-    let mut magic = [0u8; 2];
-    let mut file = File::open(path).map_err(|e| format!("cannot open: {}", io_reason(&e)))?;
-    let read = file
-        .read(&mut magic)
-        .map_err(|e| format!("cannot read: {}", io_reason(&e)))?;
-    Ok(read == 2 && magic == [0x1f, 0x8b])
 }

@@ -57,7 +57,11 @@ impl SyntheticKind {
             Self::Shells => fill::<u16>(count, |i| {
                 let r = distance(position(i)) / radius.max(0.5);
                 let band = (r * 4.0).floor() as i64;
-                if r <= 1.0 && band % 2 == 0 { 1000.0 } else { 0.0 }
+                if r <= 1.0 && band % 2 == 0 {
+                    1000.0
+                } else {
+                    0.0
+                }
             }),
             Self::Noise => fill::<f32>(count, |i| value_noise(position(i))),
             Self::Gradient => {
@@ -69,7 +73,13 @@ impl SyntheticKind {
             }
         };
         Volume::new(
-            format!("synthetic:{}:{}x{}x{}", self.name(), dims[0], dims[1], dims[2]),
+            format!(
+                "synthetic:{}:{}x{}x{}",
+                self.name(),
+                dims[0],
+                dims[1],
+                dims[2]
+            ),
             "synthetic",
             dims,
             [1.0; 3],
@@ -89,12 +99,18 @@ pub(crate) fn generate(spec: &str) -> Result<Volume, Problem> {
         .into_iter()
         .find(|k| k.name() == kind_name)
         .ok_or_else(|| format!("unknown synthetic kind '{kind_name}' (kinds: {names})"))?;
-    let dims = parse_dims(size).ok_or_else(|| format!("synthetic size '{size}' is not N or XxYxZ"))?;
+    let dims =
+        parse_dims(size).ok_or_else(|| format!("synthetic size '{size}' is not N or XxYxZ"))?;
     kind.generate(dims)
 }
 
 fn fill<T: Scalar>(count: usize, value: impl Fn(usize) -> f64 + Sync) -> super::VoxelData {
-    T::wrap((0..count).into_par_iter().map(|i| T::from_f64(value(i).round_if_integer::<T>())).collect())
+    T::wrap(
+        (0..count)
+            .into_par_iter()
+            .map(|i| T::from_f64(value(i).round_if_integer::<T>()))
+            .collect(),
+    )
 }
 
 /// Rounds for integer targets so generated values are not truncated toward zero.
@@ -104,7 +120,11 @@ trait RoundForType {
 
 impl RoundForType for f64 {
     fn round_if_integer<T: Scalar>(self) -> f64 {
-        if T::TYPE.is_integer() { self.round() } else { self }
+        if T::TYPE.is_integer() {
+            self.round()
+        } else {
+            self
+        }
     }
 }
 
@@ -124,7 +144,13 @@ fn lattice_noise(p: [f64; 3], cell: f64, seed: u64) -> f64 {
     for corner in 0..8u32 {
         let offset = [corner & 1, (corner >> 1) & 1, (corner >> 2) & 1];
         let weight: f64 = (0..3)
-            .map(|a| if offset[a] == 1 { frac[a] } else { 1.0 - frac[a] })
+            .map(|a| {
+                if offset[a] == 1 {
+                    frac[a]
+                } else {
+                    1.0 - frac[a]
+                }
+            })
             .product();
         let lattice = std::array::from_fn(|a| base[a] as i64 + offset[a] as i64);
         sum += weight * hash_to_unit(lattice, seed);

@@ -113,7 +113,8 @@ impl QuantizedVolume {
     /// Quantizes every voxel of `volume` (non-finite values count as the minimum).
     pub fn new(volume: &Volume) -> Self {
         let scale = volume.value_scale;
-        let [min, max] = with_voxel_slice!(&volume.data, values => finite_range(values, |v| scale.apply(v)));
+        let [min, max] =
+            with_voxel_slice!(&volume.data, values => finite_range(values, |v| scale.apply(v)));
         let span = max - min;
         let integer_step = scale.slope.abs();
         let step = if span <= 0.0 {

@@ -127,7 +127,9 @@ macro_rules! impl_scalar {
             }
             #[inline]
             fn decode(bytes: &[u8], endian: Endian) -> Self {
-                let array = bytes.try_into().expect("caller passes exactly one value's bytes");
+                let array = bytes
+                    .try_into()
+                    .expect("caller passes exactly one value's bytes");
                 match endian {
                     Endian::Little => <$t>::from_le_bytes(array),
                     Endian::Big => <$t>::from_be_bytes(array),

@@ -1,0 +1,124 @@
+//! Argument groups shared by the subcommands.
+
+use clap::{Args, ValueEnum};
+
+use crate::octree::{OpacityMode, TransferFunction};
+use crate::render::{RenderMode, RenderSettings};
+use crate::volume::{LoadOptions, RawLayout, ValueWindow};
+
+/// Which volume to open.
+#[derive(Debug, Clone, Args)]
+pub struct VolumeArgs {
+    /// Volume file (.nii, .nii.gz, .nrrd, .nhdr, raw with --raw) or synthetic:KIND:SIZE
+    /// (kinds: sphere, shells, noise, gradient; SIZE: N or XxYxZ). Default: the built-in
+    /// sample head MRI.
+    pub file: Option<String>,
+    /// Read FILE as headerless voxels: XxYxZ:TYPE[:le|:be], TYPE one of u8 i8 u16 i16 u32 i32 f32 f64.
+    #[arg(long, value_name = "LAYOUT", value_parser = RawLayout::parse)]
+    pub raw: Option<RawLayout>,
+    /// Voxel size SX,SY,SZ (overrides the file's).
+    #[arg(long, value_name = "SX,SY,SZ", value_parser = parse_spacing)]
+    pub spacing: Option<[f64; 3]>,
+}
+
+impl VolumeArgs {
+    /// The options for [`crate::volume::load`].
+    pub fn load_options(&self) -> LoadOptions {
+        LoadOptions {
+            raw: self.raw,
+            spacing: self.spacing,
+        }
+    }
+}
+
+/// The transfer function and rendering options.
+#[derive(Debug, Clone, Args)]
+pub struct TransferArgs {
+    /// How opacity follows the value: alpha = gray value, or binary at --threshold.
+    #[arg(long, value_enum, default_value_t = OpacityArg::Gray)]
+    pub opacity: OpacityArg,
+    /// Binary threshold on the windowed value, 0…1.
+    #[arg(long, default_value_t = 0.3, value_parser = parse_unit)]
+    pub threshold: f32,
+    /// Value window LOW:HIGH in the data's own units (default: 0.5–99.5 percentiles).
+    #[arg(long, value_name = "LOW:HIGH", allow_hyphen_values = true, value_parser = ValueWindow::parse)]
+    pub window: Option<ValueWindow>,
+    /// Global opacity scale (below 1 makes dense volumes see-through).
+    #[arg(long, default_value_t = 1.0)]
+    pub density: f32,
+    /// Direct volume rendering or maximum intensity projection.
+    #[arg(long, value_enum, default_value_t = ModeArg::Dvr)]
+    pub mode: ModeArg,
+    /// Deepest octree level rays descend to (0 = root only; default: the voxels).
+    #[arg(long)]
+    pub level: Option<u32>,
+    /// Also stop descending where a node projects to less than a pixel.
+    #[arg(long)]
+    pub pixel_lod: bool,
+    /// Composite each node's alpha as is (the paper), without correcting for path length.
+    #[arg(long)]
+    pub no_opacity_correction: bool,
+    /// Draw nodes visited per ray as a heat map instead of the volume.
+    #[arg(long)]
+    pub heatmap: bool,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum OpacityArg {
+    Gray,
+    Binary,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum ModeArg {
+    Dvr,
+    Mip,
+}
+
+impl TransferArgs {
+    /// The transfer function, with `default_window` where no --window was given.
+    pub fn transfer_function(&self, default_window: ValueWindow) -> TransferFunction {
+        TransferFunction {
+            opacity: match self.opacity {
+                OpacityArg::Gray => OpacityMode::Gray,
+                OpacityArg::Binary => OpacityMode::Binary,
+            },
+            window: self.window.unwrap_or(default_window),
+            threshold: self.threshold,
+        }
+    }
+
+    /// Render settings for an octree of `depth`; the level is clamped to it.
+    pub fn render_settings(&self, depth: u32) -> RenderSettings {
+        RenderSettings {
+            mode: match self.mode {
+                ModeArg::Dvr => RenderMode::Dvr,
+                ModeArg::Mip => RenderMode::Mip,
+            },
+            max_level: self.level.unwrap_or(depth).min(depth),
+            pixel_lod: self.pixel_lod,
+            opacity_correction: !self.no_opacity_correction,
+            density: self.density,
+            heatmap: self.heatmap,
+        }
+    }
+}
+
+fn parse_spacing(text: &str) -> Result<[f64; 3], String> {
+    let values: Vec<f64> = text
+        .split(',')
+        .map(|v| v.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("spacing '{text}' is not SX,SY,SZ"))?;
+    match values[..] {
+        [x, y, z] if [x, y, z].iter().all(|v| v.is_finite() && *v > 0.0) => Ok([x, y, z]),
+        _ => Err(format!("spacing '{text}' needs three positive numbers")),
+    }
+}
+
+fn parse_unit(text: &str) -> Result<f32, String> {
+    match text.parse::<f32>() {
+        Ok(v) if (0.0..=1.0).contains(&v) => Ok(v),
+        _ => Err(format!("'{text}' is not a number from 0 to 1")),
+    }
+}

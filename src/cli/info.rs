@@ -1,0 +1,143 @@
+//! `voxscope info`: the volume and its octree, as a table or as JSON.
+
+use clap::Args;
+use serde_json::json;
+
+use super::{Prepared, TransferArgs, VolumeArgs};
+use crate::octree::{Node, full_tree_nodes, level_statistics};
+use crate::volume::format_dims;
+
+#[derive(Debug, Args)]
+pub struct InfoArgs {
+    #[command(flatten)]
+    pub volume: VolumeArgs,
+    /// Transparent/opaque counts follow this transfer function.
+    #[command(flatten)]
+    pub transfer: TransferArgs,
+    /// Print one JSON object instead of the table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub fn run(args: &InfoArgs) -> Result<(), String> {
+    let prepared = Prepared::new(&args.volume, &args.transfer)?;
+    if args.json {
+        println!("{}", info_json(&prepared));
+    } else {
+        print!("{}", info_table(&prepared));
+    }
+    Ok(())
+}
+
+fn info_json(p: &Prepared) -> serde_json::Value {
+    let levels = level_statistics(&p.octree);
+    let volume = &p.volume;
+    json!({
+        "volume": {
+            "file": volume.name,
+            "format": volume.format,
+            "dims": volume.dims,
+            "voxel_type": volume.voxel_type().name(),
+            "spacing": volume.spacing,
+            "value_range": p.quantized.value_range,
+            "value_scale": {"slope": volume.value_scale.slope, "intercept": volume.value_scale.intercept},
+            "robust_window": [p.quantized.robust_window().low, p.quantized.robust_window().high],
+            "orientation": volume.orientation.describe(),
+            "voxels": volume.voxel_count(),
+        },
+        "octree": {
+            "depth": p.octree.depth,
+            "side": p.octree.side(),
+            "node_bytes": std::mem::size_of::<Node>(),
+            "total_nodes": p.octree.nodes.len(),
+            "total_bytes": p.octree.node_bytes(),
+            "full_tree_nodes": full_tree_nodes(p.octree.depth),
+            "collapsed_uniform": p.octree.collapsed,
+            "build_seconds": p.octree.build_seconds,
+            "recolor_seconds": p.recolor_time.as_secs_f64(),
+            "recolor_device": "cpu",
+            "levels": levels,
+        },
+        "transfer": p.transfer,
+    })
+}
+
+fn info_table(p: &Prepared) -> String {
+    use std::fmt::Write;
+    let volume = &p.volume;
+    let octree = &p.octree;
+    let window = p.transfer.window;
+    let [low, high] = p.quantized.value_range;
+    let mut out = String::new();
+    let _ = writeln!(out, "file         {}", volume.name);
+    let _ = writeln!(
+        out,
+        "format       {} ({})",
+        volume.format,
+        volume.orientation.describe()
+    );
+    let _ = writeln!(
+        out,
+        "dimensions   {}  ({} voxels)",
+        format_dims(volume.dims),
+        volume.voxel_count()
+    );
+    let _ = writeln!(out, "voxel type   {}", volume.voxel_type().name());
+    let [sx, sy, sz] = volume.spacing;
+    let _ = writeln!(out, "spacing      {sx} x {sy} x {sz}");
+    let _ = writeln!(out, "value range  {low} … {high}");
+    let _ = writeln!(out, "window       {} … {}", window.low, window.high);
+    let _ = writeln!(
+        out,
+        "octree       depth {}, cube {}³, 8-byte nodes{}",
+        octree.depth,
+        octree.side(),
+        if octree.collapsed {
+            ", uniform subtrees collapsed"
+        } else {
+            ""
+        }
+    );
+    let _ = writeln!(out);
+    let _ = writeln!(
+        out,
+        "{:>5} {:>12} {:>12} {:>12} {:>12} {:>14} {:>14}",
+        "level", "nodes", "leaves", "transparent", "opaque", "bytes", "full tree"
+    );
+    let levels = level_statistics(octree);
+    for s in &levels {
+        let _ = writeln!(
+            out,
+            "{:>5} {:>12} {:>12} {:>12} {:>12} {:>14} {:>14}",
+            s.level, s.nodes, s.leaves, s.transparent, s.opaque, s.bytes, s.full_tree_nodes
+        );
+    }
+    let sum = |f: fn(&crate::octree::LevelStatistics) -> u64| levels.iter().map(f).sum::<u64>();
+    let _ = writeln!(
+        out,
+        "{:>5} {:>12} {:>12} {:>12} {:>12} {:>14} {:>14}",
+        "total",
+        sum(|s| s.nodes),
+        sum(|s| s.leaves),
+        sum(|s| s.transparent),
+        sum(|s| s.opaque),
+        sum(|s| s.bytes),
+        full_tree_nodes(octree.depth)
+    );
+    let _ = writeln!(out);
+    let _ = writeln!(
+        out,
+        "stored       {} nodes, {:.1} MiB ({:.1}% of the full tree's {} nodes, eq. 1)",
+        octree.nodes.len(),
+        octree.node_bytes() as f64 / (1 << 20) as f64,
+        100.0 * octree.nodes.len() as f64 / full_tree_nodes(octree.depth) as f64,
+        full_tree_nodes(octree.depth)
+    );
+    let _ = writeln!(
+        out,
+        "build        {:.3} s    recolor {:.1} ms (CPU)",
+        octree.build_seconds,
+        p.recolor_time.as_secs_f64() * 1e3
+    );
+    out
+}

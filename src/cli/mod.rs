@@ -1,0 +1,43 @@
+//! The command line: `voxscope info`, `voxscope render`.
+
+mod args;
+mod info;
+mod prepare;
+mod render;
+
+use clap::{Parser, Subcommand};
+
+pub use args::{TransferArgs, VolumeArgs};
+pub use prepare::Prepared;
+
+/// voxscope: look inside volume data. A flat-list sparse octree, ray-cast on the GPU.
+#[derive(Debug, Parser)]
+#[command(name = "voxscope", version, about, long_about = None)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Print the volume (dimensions, type, spacing, values) and its octree, level by level.
+    Info(info::InfoArgs),
+    /// Render the volume to a PNG without a window.
+    Render(render::RenderArgs),
+}
+
+/// Runs the command line; returns the process exit code. Errors print as one line.
+pub fn run() -> std::process::ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Info(args) => info::run(&args),
+        Command::Render(args) => render::run(&args),
+    };
+    match result {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(message) => {
+            eprintln!("error: {message}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}

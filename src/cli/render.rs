@@ -1,0 +1,114 @@
+//! `voxscope render`: one image, no window.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use clap::Args;
+
+use super::{Prepared, TransferArgs, VolumeArgs};
+use crate::render::{
+    Camera, GpuContext, GpuVolume, Raycaster, RenderTarget, read_image, render_frame,
+};
+
+#[derive(Debug, Args)]
+pub struct RenderArgs {
+    #[command(flatten)]
+    pub volume: VolumeArgs,
+    #[command(flatten)]
+    pub transfer: TransferArgs,
+    /// Output PNG.
+    #[arg(short, long, value_name = "FILE.png")]
+    pub output: PathBuf,
+    /// Image size WxH.
+    #[arg(long, default_value = "1024x768", value_parser = parse_size)]
+    pub size: (u32, u32),
+    /// Camera rotation around the vertical axis, degrees (0: from the front).
+    #[arg(long, default_value_t = 30.0, allow_hyphen_values = true)]
+    pub azimuth: f64,
+    /// Camera angle above the horizontal, degrees.
+    #[arg(long, default_value_t = 20.0, allow_hyphen_values = true)]
+    pub elevation: f64,
+    /// Camera distance from the volume center in bounding-sphere radii.
+    #[arg(long, default_value_t = 3.0)]
+    pub distance: f64,
+    /// Vertical field of view, degrees.
+    #[arg(long, default_value_t = 45.0)]
+    pub fov: f64,
+}
+
+pub fn run(args: &RenderArgs) -> Result<(), String> {
+    check_output(&args.output, args.volume.file.as_deref())?;
+    let started = Instant::now();
+    let prepared = Prepared::new(&args.volume, &args.transfer)?;
+    let settings = args.transfer.render_settings(prepared.octree.depth);
+    let context = GpuContext::new_headless().map_err(|e| e.to_string())?;
+    let volume = GpuVolume::upload(
+        &context,
+        &prepared.octree,
+        prepared.volume.spacing,
+        settings.max_level,
+        &prepared.transfer,
+    )
+    .map_err(|e| format!("{}: {e}", prepared.volume.name))?;
+    let raycaster = Raycaster::new(&context);
+    let target = RenderTarget::new(&context, args.size.0, args.size.1);
+    let camera = Camera {
+        azimuth_deg: args.azimuth,
+        elevation_deg: args.elevation,
+        distance: args.distance,
+        fov_y_deg: args.fov,
+        pan: [0.0; 3],
+    };
+    render_frame(&context, &raycaster, &volume, &target, &camera, &settings);
+    let image = read_image(&context, &target).map_err(|e| e.to_string())?;
+    image
+        .save(&args.output)
+        .map_err(|e| format!("cannot write {}: {e}", args.output.display()))?;
+    eprintln!(
+        "wrote {} ({}x{}, level {}/{}) on {} in {:.2} s",
+        args.output.display(),
+        target.width,
+        target.height,
+        settings.max_level,
+        prepared.octree.depth,
+        context.describe(),
+        started.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+/// The output must be a .png and never the input volume itself.
+fn check_output(output: &Path, input: Option<&str>) -> Result<(), String> {
+    let is_png = output
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+    if !is_png {
+        return Err(format!(
+            "{}: the output must be a .png file",
+            output.display()
+        ));
+    }
+    if let Some(input) = input {
+        let same = match (std::fs::canonicalize(input), std::fs::canonicalize(output)) {
+            (Ok(a), Ok(b)) => a == b,
+            _ => false,
+        };
+        if same {
+            return Err(format!(
+                "{}: refusing to overwrite the input volume",
+                output.display()
+            ));
+        }
+    }
+    Ok(())
+}
+
+fn parse_size(text: &str) -> Result<(u32, u32), String> {
+    let (w, h) = text
+        .split_once('x')
+        .ok_or_else(|| format!("size '{text}' is not WxH"))?;
+    match (w.parse::<u32>(), h.parse::<u32>()) {
+        (Ok(w), Ok(h)) if (1..=16384).contains(&w) && (1..=16384).contains(&h) => Ok((w, h)),
+        _ => Err(format!("size '{text}' needs W and H from 1 to 16384")),
+    }
+}

@@ -1,0 +1,93 @@
+//! The wgpu device: created headless here (CLI, tests, benchmarks), or handed over by the app.
+
+use std::fmt;
+
+/// Why rendering could not start or go on.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RenderError(pub String);
+
+impl fmt::Display for RenderError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for RenderError {}
+
+/// A device, its queue and what it can do, decided once.
+pub struct GpuContext {
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub adapter_info: wgpu::AdapterInfo,
+    /// The limits the device was created with: the adapter's own, not wgpu's defaults.
+    pub limits: wgpu::Limits,
+    /// Whether GPU timestamp queries can time passes.
+    pub has_timestamps: bool,
+}
+
+impl GpuContext {
+    /// The features voxscope asks for when the adapter has them.
+    pub fn wanted_features(adapter_features: wgpu::Features) -> wgpu::Features {
+        adapter_features & wgpu::Features::TIMESTAMP_QUERY
+    }
+
+    /// Opens the best adapter without a window. `WGPU_BACKEND` (e.g. `vulkan`) and
+    /// `WGPU_ADAPTER_NAME` select one, as everywhere in wgpu.
+    pub fn new_headless() -> Result<Self, RenderError> {
+        let instance =
+            wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        let options = wgpu::RequestAdapterOptions {
+            power_preference: wgpu::PowerPreference::from_env()
+                .unwrap_or(wgpu::PowerPreference::HighPerformance),
+            ..Default::default()
+        };
+        let adapter = pollster::block_on(instance.request_adapter(&options)).map_err(|e| {
+            RenderError(format!(
+                "no GPU adapter found ({e}); for a software device install mesa-vulkan-drivers and set WGPU_BACKEND=vulkan"
+            ))
+        })?;
+        let limits = adapter.limits();
+        let features = Self::wanted_features(adapter.features());
+        let descriptor = wgpu::DeviceDescriptor {
+            label: Some("voxscope::device"),
+            required_features: features,
+            required_limits: limits.clone(),
+            ..Default::default()
+        };
+        let (device, queue) = pollster::block_on(adapter.request_device(&descriptor))
+            .map_err(|e| RenderError(format!("the GPU refused a device: {e}")))?;
+        Ok(Self::from_device(device, queue, adapter.get_info()))
+    }
+
+    /// Wraps a device created elsewhere (the app's, from egui-wgpu).
+    pub fn from_device(
+        device: wgpu::Device,
+        queue: wgpu::Queue,
+        adapter_info: wgpu::AdapterInfo,
+    ) -> Self {
+        let limits = device.limits();
+        let has_timestamps = device.features().contains(wgpu::Features::TIMESTAMP_QUERY);
+        Self {
+            device,
+            queue,
+            adapter_info,
+            limits,
+            has_timestamps,
+        }
+    }
+
+    /// Largest buffer a shader can bind as storage, in bytes.
+    pub fn max_storage_bytes(&self) -> u64 {
+        self.limits
+            .max_storage_buffer_binding_size
+            .min(self.limits.max_buffer_size)
+    }
+
+    /// `NVIDIA H100 80GB HBM3 (Vulkan)`.
+    pub fn describe(&self) -> String {
+        format!(
+            "{} ({:?})",
+            self.adapter_info.name, self.adapter_info.backend
+        )
+    }
+}

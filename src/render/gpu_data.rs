@@ -1,0 +1,75 @@
+//! GPU-side structs: `#[repr(C)]`, Pod, sizes checked at compile time and against the WGSL
+//! by a naga test.
+
+/// Uniforms of `raycast.wgsl`. Keep in sync with `struct Params` there.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub(crate) struct RaycastParams {
+    pub eye: [f32; 4],
+    pub forward: [f32; 4],
+    pub right: [f32; 4],
+    pub up: [f32; 4],
+    pub volume: [f32; 4],
+    pub image_size: [u32; 2],
+    pub depth: u32,
+    pub max_level: u32,
+    pub mode: u32,
+    pub flags: u32,
+    pub density: f32,
+    pub lod_factor: f32,
+    pub mip_saturation: u32,
+    pub _pad: [u32; 3],
+}
+
+const _: () = assert!(std::mem::size_of::<RaycastParams>() == 128);
+
+/// Uniforms of one level's dispatch of `recolor.wgsl`. Keep in sync with `struct Params` there.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]
+pub(crate) struct RecolorParams {
+    pub level_start: u32,
+    pub level_count: u32,
+    pub groups_x: u32,
+    pub _pad: u32,
+}
+
+const _: () = assert!(std::mem::size_of::<RecolorParams>() == 16);
+
+pub(crate) const FLAG_OPACITY_CORRECTION: u32 = 1;
+pub(crate) const FLAG_PIXEL_LOD: u32 = 2;
+pub(crate) const FLAG_HEATMAP: u32 = 4;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Size of the WGSL struct `name` in `source`, as naga lays it out.
+    fn wgsl_struct_size(source: &str, name: &str) -> u32 {
+        let module = naga::front::wgsl::parse_str(source).expect("shader parses");
+        let mut layouter = naga::proc::Layouter::default();
+        layouter.update(module.to_ctx()).expect("layout");
+        let (handle, _) = module
+            .types
+            .iter()
+            .find(|(_, ty)| ty.name.as_deref() == Some(name))
+            .expect("struct exists");
+        layouter[handle].size
+    }
+
+    #[test]
+    fn rust_structs_mirror_wgsl() {
+        let raycast = include_str!("../../shaders/raycast.wgsl");
+        let recolor = include_str!("../../shaders/recolor.wgsl");
+        let node = std::mem::size_of::<crate::octree::Node>() as u32;
+        assert_eq!(
+            wgsl_struct_size(raycast, "Params"),
+            std::mem::size_of::<RaycastParams>() as u32
+        );
+        assert_eq!(wgsl_struct_size(raycast, "Node"), node);
+        assert_eq!(
+            wgsl_struct_size(recolor, "Params"),
+            std::mem::size_of::<RecolorParams>() as u32
+        );
+        assert_eq!(wgsl_struct_size(recolor, "Node"), node);
+    }
+}

@@ -1,0 +1,124 @@
+//! An octree on the GPU: node list, value bounds and the transfer function's lookup table,
+//! with the sizes checked against the device before anything is allocated there.
+
+use wgpu::util::DeviceExt;
+
+use super::{GpuContext, RenderError};
+use crate::octree::{Node, Octree, TransferFunction, ValueBounds};
+use crate::volume::Quantization;
+
+/// GPU buffers of one octree, uploaded through `levels` (a prefix of the flat list).
+pub struct GpuVolume {
+    pub nodes: wgpu::Buffer,
+    pub bounds: wgpu::Buffer,
+    pub lookup_table: wgpu::Buffer,
+    /// Voxels along x, y, z.
+    pub dims: [usize; 3],
+    /// Physical voxel size along x, y, z.
+    pub spacing: [f64; 3],
+    /// Depth of the whole octree.
+    pub depth: u32,
+    /// Deepest level on the GPU (`depth` unless a prefix was uploaded).
+    pub uploaded_level: u32,
+    /// `level_starts` of the octree, through `uploaded_level + 1`.
+    pub level_starts: Vec<usize>,
+    pub quantization: Quantization,
+    /// Level at which a MIP ray may stop (top of the current window).
+    pub mip_saturation: u16,
+}
+
+impl GpuVolume {
+    /// Uploads `octree` (colors as they are) through level `max_level`. Fails with a message
+    /// naming both sizes, and the deepest level that would fit, when the device cannot hold it.
+    pub fn upload(
+        context: &GpuContext,
+        octree: &Octree,
+        spacing: [f64; 3],
+        max_level: u32,
+        transfer: &TransferFunction,
+    ) -> Result<Self, RenderError> {
+        let uploaded_level = max_level.min(octree.depth);
+        let count = octree.nodes_through_level(uploaded_level);
+        let limit = context.max_storage_bytes();
+        let bytes = (count * std::mem::size_of::<Node>()) as u64;
+        if bytes > limit {
+            let fitting = (0..=octree.depth).rev().find(|&l| {
+                (octree.nodes_through_level(l) * std::mem::size_of::<Node>()) as u64 <= limit
+            });
+            let advice = match fitting {
+                Some(level) => format!("; try --level {level} or lower"),
+                None => String::new(),
+            };
+            return Err(RenderError(format!(
+                "the octree through level {uploaded_level} needs {} MiB of nodes but this GPU ({}) allows {} MiB per storage buffer{advice}",
+                bytes.div_ceil(1 << 20),
+                context.adapter_info.name,
+                limit >> 20,
+            )));
+        }
+        let device = &context.device;
+        let nodes = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("voxscope::octree_nodes"),
+            contents: bytemuck::cast_slice(&octree.nodes[..count]),
+            usage: wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::COPY_DST
+                | wgpu::BufferUsages::COPY_SRC,
+        });
+        let bounds = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("voxscope::octree_bounds"),
+            contents: bytemuck::cast_slice::<ValueBounds, u8>(&octree.bounds[..count]),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        let table = transfer.lookup_table(octree.quantization);
+        let lookup_table = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("voxscope::transfer_lookup_table"),
+            contents: bytemuck::cast_slice(&table),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+        });
+        Ok(Self {
+            nodes,
+            bounds,
+            lookup_table,
+            dims: octree.dims,
+            spacing,
+            depth: octree.depth,
+            uploaded_level,
+            level_starts: octree.level_starts[..uploaded_level as usize + 2].to_vec(),
+            quantization: octree.quantization,
+            mip_saturation: transfer.saturation_level(octree.quantization),
+        })
+    }
+
+    /// True when every level is on the GPU, so [`super::GpuRecolor`] can recolor it.
+    pub fn is_complete(&self) -> bool {
+        self.uploaded_level == self.depth
+    }
+
+    /// Nodes on the GPU.
+    pub fn node_count(&self) -> usize {
+        self.level_starts[self.uploaded_level as usize + 1]
+    }
+
+    /// Writes a new transfer function's lookup table (recolor afterwards).
+    pub fn set_transfer(&mut self, context: &GpuContext, transfer: &TransferFunction) {
+        let table = transfer.lookup_table(self.quantization);
+        context
+            .queue
+            .write_buffer(&self.lookup_table, 0, bytemuck::cast_slice(&table));
+        self.mip_saturation = transfer.saturation_level(self.quantization);
+    }
+
+    /// Replaces the node colors with those of `octree` (recolored on the CPU).
+    pub fn write_colors(&self, context: &GpuContext, octree: &Octree) {
+        context.queue.write_buffer(
+            &self.nodes,
+            0,
+            bytemuck::cast_slice(&octree.nodes[..self.node_count()]),
+        );
+    }
+
+    /// Bytes of every buffer on the GPU.
+    pub fn gpu_bytes(&self) -> u64 {
+        self.nodes.size() + self.bounds.size() + self.lookup_table.size()
+    }
+}

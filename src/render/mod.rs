@@ -1,0 +1,46 @@
+//! Rendering on the GPU with wgpu: the device, the octree's buffers, the ray-casting and
+//! recolor compute pipelines, the camera. Knows nothing about the UI: the app and the command
+//! line both drive it.
+
+mod camera;
+mod context;
+mod gpu_data;
+mod gpu_volume;
+mod raycaster;
+mod readback;
+mod recolor;
+mod settings;
+
+pub use camera::{Camera, ViewFrame};
+pub use context::{GpuContext, RenderError};
+pub use gpu_volume::GpuVolume;
+pub use raycaster::{Raycaster, RenderTarget};
+pub use readback::{read_buffer, read_image, read_visits};
+pub use recolor::GpuRecolor;
+pub use settings::{EARLY_TERMINATION_ALPHA, RenderMode, RenderSettings};
+
+/// Renders one frame into `target` and waits for it.
+pub fn render_frame(
+    context: &GpuContext,
+    raycaster: &Raycaster,
+    volume: &GpuVolume,
+    target: &RenderTarget,
+    camera: &Camera,
+    settings: &RenderSettings,
+) {
+    let mut encoder = context
+        .device
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("voxscope::frame"),
+        });
+    raycaster.encode(
+        context,
+        &mut encoder,
+        volume,
+        target,
+        camera,
+        settings,
+        None,
+    );
+    context.queue.submit([encoder.finish()]);
+}

@@ -1,0 +1,262 @@
+//! The compute pipeline that ray-casts a [`GpuVolume`] into a texture.
+
+use glam::DVec3;
+
+use super::gpu_data::{FLAG_HEATMAP, FLAG_OPACITY_CORRECTION, FLAG_PIXEL_LOD, RaycastParams};
+use super::{Camera, GpuContext, GpuVolume, RenderMode, RenderSettings};
+
+/// Pixels per workgroup side; keep in sync with `@workgroup_size` in `raycast.wgsl`.
+const WORKGROUP_SIDE: u32 = 8;
+
+/// Where a frame goes: an RGBA8 storage texture and the per-pixel count of nodes visited.
+pub struct RenderTarget {
+    pub texture: wgpu::Texture,
+    pub view: wgpu::TextureView,
+    /// One `u32` per pixel: nodes its ray visited.
+    pub visits: wgpu::Buffer,
+    pub width: u32,
+    pub height: u32,
+}
+
+impl RenderTarget {
+    /// The texture format the ray caster writes.
+    pub const FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
+
+    /// A target of `width`×`height` pixels (each at least 1).
+    pub fn new(context: &GpuContext, width: u32, height: u32) -> Self {
+        let (width, height) = (width.max(1), height.max(1));
+        let texture = context.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("voxscope::raycast_target"),
+            size: wgpu::Extent3d {
+                width,
+                height,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: Self::FORMAT,
+            usage: wgpu::TextureUsages::STORAGE_BINDING
+                | wgpu::TextureUsages::TEXTURE_BINDING
+                | wgpu::TextureUsages::COPY_SRC,
+            view_formats: &[],
+        });
+        let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
+        let visits = context.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("voxscope::raycast_visits"),
+            size: (width as u64 * height as u64 * 4).max(4),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        Self {
+            texture,
+            view,
+            visits,
+            width,
+            height,
+        }
+    }
+
+    /// Bytes on the GPU.
+    pub fn gpu_bytes(&self) -> u64 {
+        self.width as u64 * self.height as u64 * 4 + self.visits.size()
+    }
+}
+
+/// The ray-casting compute pipeline.
+pub struct Raycaster {
+    pipeline: wgpu::ComputePipeline,
+    layout: wgpu::BindGroupLayout,
+    params: wgpu::Buffer,
+}
+
+impl Raycaster {
+    pub fn new(context: &GpuContext) -> Self {
+        let device = &context.device;
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("voxscope::raycast.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(include_str!("../../shaders/raycast.wgsl").into()),
+        });
+        let storage = |binding, read_only| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only },
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        };
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("voxscope::raycast_layout"),
+            entries: &[
+                wgpu::BindGroupLayoutEntry {
+                    binding: 0,
+                    visibility: wgpu::ShaderStages::COMPUTE,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    count: None,
+                },
+                storage(1, true),
+                storage(2, true),
+                storage(3, true),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 4,
+                    visibility: wgpu::ShaderStages::COMPUTE,
+                    ty: wgpu::BindingType::StorageTexture {
+                        access: wgpu::StorageTextureAccess::WriteOnly,
+                        format: RenderTarget::FORMAT,
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                    },
+                    count: None,
+                },
+                storage(5, false),
+            ],
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("voxscope::raycast_pipeline_layout"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("voxscope::raycast_pipeline"),
+            layout: Some(&pipeline_layout),
+            module: &module,
+            entry_point: Some("main"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        let params = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("voxscope::raycast_params"),
+            size: std::mem::size_of::<RaycastParams>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        Self {
+            pipeline,
+            layout,
+            params,
+        }
+    }
+
+    /// Records one frame into `encoder` (the parameters are written through the queue, so
+    /// submit before recording the next frame with other parameters).
+    pub fn encode(
+        &self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        volume: &GpuVolume,
+        target: &RenderTarget,
+        camera: &Camera,
+        settings: &RenderSettings,
+        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
+        let params = raycast_params(volume, target, camera, settings);
+        context
+            .queue
+            .write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+        let bind_group = context
+            .device
+            .create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("voxscope::raycast_bind_group"),
+                layout: &self.layout,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: self.params.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: volume.nodes.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: volume.bounds.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 3,
+                        resource: volume.lookup_table.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 4,
+                        resource: wgpu::BindingResource::TextureView(&target.view),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 5,
+                        resource: target.visits.as_entire_binding(),
+                    },
+                ],
+            });
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("voxscope::raycast_pass"),
+            timestamp_writes,
+        });
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, &bind_group, &[]);
+        pass.dispatch_workgroups(
+            target.width.div_ceil(WORKGROUP_SIDE),
+            target.height.div_ceil(WORKGROUP_SIDE),
+            1,
+        );
+    }
+}
+
+/// The camera and settings in the shader's voxel space.
+fn raycast_params(
+    volume: &GpuVolume,
+    target: &RenderTarget,
+    camera: &Camera,
+    settings: &RenderSettings,
+) -> RaycastParams {
+    let spacing = DVec3::from(volume.spacing);
+    let dims = DVec3::new(
+        volume.dims[0] as f64,
+        volume.dims[1] as f64,
+        volume.dims[2] as f64,
+    );
+    let extent = dims * spacing;
+    let frame = camera.frame(
+        extent.to_array(),
+        target.width as f64 / target.height as f64,
+    );
+    // World (centered, physical) to voxel space: shift by half the extent, divide by spacing.
+    let to_voxel_point = |p: DVec3| (p + extent * 0.5) / spacing;
+    let to_voxel_vector = |v: DVec3| v / spacing;
+    let tan_x = frame.tan_half_fov_y * frame.aspect;
+    let tan_y = frame.tan_half_fov_y;
+    let vec4 = |v: DVec3, w: f64| [v.x as f32, v.y as f32, v.z as f32, w as f32];
+    let smallest_spacing = spacing.min_element();
+    let pixel_angle = 2.0 * tan_y / target.height as f64;
+    let mut flags = 0;
+    if settings.opacity_correction {
+        flags |= FLAG_OPACITY_CORRECTION;
+    }
+    if settings.pixel_lod {
+        flags |= FLAG_PIXEL_LOD;
+    }
+    if settings.heatmap {
+        flags |= FLAG_HEATMAP;
+    }
+    RaycastParams {
+        eye: vec4(to_voxel_point(frame.eye), 0.0),
+        forward: vec4(to_voxel_vector(frame.forward), 0.0),
+        right: vec4(to_voxel_vector(frame.right * tan_x), tan_x),
+        up: vec4(to_voxel_vector(frame.up * tan_y), tan_y),
+        volume: vec4(dims, (1u64 << volume.depth) as f64),
+        image_size: [target.width, target.height],
+        depth: volume.depth,
+        max_level: settings.max_level.min(volume.uploaded_level),
+        mode: match settings.mode {
+            RenderMode::Dvr => 0,
+            RenderMode::Mip => 1,
+        },
+        flags,
+        density: settings.density.max(0.0),
+        lod_factor: (pixel_angle / smallest_spacing) as f32,
+        mip_saturation: volume.mip_saturation as u32,
+        _pad: [0; 3],
+    }
+}

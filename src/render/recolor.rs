@@ -1,0 +1,155 @@
+//! Recoloring on the GPU after a transfer-function edit: one dispatch per level, deepest
+//! first, all in one submission. The topology never changes.
+
+use super::gpu_data::RecolorParams;
+use super::{GpuContext, GpuVolume, RenderError};
+
+/// Threads per workgroup; keep in sync with `@workgroup_size` in `recolor.wgsl`.
+const WORKGROUP: u32 = 256;
+
+/// The recolor compute pipeline.
+pub struct GpuRecolor {
+    pipeline: wgpu::ComputePipeline,
+    layout: wgpu::BindGroupLayout,
+}
+
+impl GpuRecolor {
+    pub fn new(context: &GpuContext) -> Self {
+        let device = &context.device;
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("voxscope::recolor.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(include_str!("../../shaders/recolor.wgsl").into()),
+        });
+        let buffer = |binding, ty, has_dynamic_offset| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty,
+                has_dynamic_offset,
+                min_binding_size: None,
+            },
+            count: None,
+        };
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("voxscope::recolor_layout"),
+            entries: &[
+                buffer(0, wgpu::BufferBindingType::Uniform, true),
+                buffer(
+                    1,
+                    wgpu::BufferBindingType::Storage { read_only: false },
+                    false,
+                ),
+                buffer(
+                    2,
+                    wgpu::BufferBindingType::Storage { read_only: true },
+                    false,
+                ),
+                buffer(
+                    3,
+                    wgpu::BufferBindingType::Storage { read_only: true },
+                    false,
+                ),
+            ],
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("voxscope::recolor_pipeline_layout"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("voxscope::recolor_pipeline"),
+            layout: Some(&pipeline_layout),
+            module: &module,
+            entry_point: Some("main"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        Self { pipeline, layout }
+    }
+
+    /// Records the recolor of every level of `volume` from its lookup table into `encoder`.
+    /// Fails when only a prefix of the octree is on the GPU (recolor on the CPU then).
+    pub fn encode(
+        &self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        volume: &GpuVolume,
+        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) -> Result<(), RenderError> {
+        if !volume.is_complete() {
+            return Err(RenderError(format!(
+                "only levels 0..={} of {} are on the GPU; recolor on the CPU",
+                volume.uploaded_level, volume.depth
+            )));
+        }
+        let device = &context.device;
+        let max_groups = context.limits.max_compute_workgroups_per_dimension.max(1);
+        let stride = context.limits.min_uniform_buffer_offset_alignment.max(16) as usize;
+        let levels = volume.depth as usize + 1;
+        // One parameter block per level, deepest first, at aligned offsets.
+        let mut blocks = vec![0u8; stride * levels];
+        let mut dispatches = Vec::with_capacity(levels);
+        for (slot, level) in (0..levels).rev().enumerate() {
+            let start = volume.level_starts[level] as u32;
+            let count = (volume.level_starts[level + 1] - volume.level_starts[level]) as u32;
+            let groups = count.div_ceil(WORKGROUP);
+            let groups_x = groups.min(max_groups);
+            let groups_y = groups.div_ceil(groups_x.max(1));
+            let params = RecolorParams {
+                level_start: start,
+                level_count: count,
+                groups_x,
+                _pad: 0,
+            };
+            blocks[slot * stride..slot * stride + 16].copy_from_slice(bytemuck::bytes_of(&params));
+            dispatches.push(((slot * stride) as u32, groups_x, groups_y));
+        }
+        let params = wgpu::util::DeviceExt::create_buffer_init(
+            device,
+            &wgpu::util::BufferInitDescriptor {
+                label: Some("voxscope::recolor_params"),
+                contents: &blocks,
+                usage: wgpu::BufferUsages::UNIFORM,
+            },
+        );
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("voxscope::recolor_bind_group"),
+            layout: &self.layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                        buffer: &params,
+                        offset: 0,
+                        size: wgpu::BufferSize::new(16),
+                    }),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: volume.nodes.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: volume.bounds.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: volume.lookup_table.as_entire_binding(),
+                },
+            ],
+        });
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("voxscope::recolor_pass"),
+            timestamp_writes,
+        });
+        pass.set_pipeline(&self.pipeline);
+        for (offset, groups_x, groups_y) in dispatches {
+            if groups_x == 0 {
+                continue;
+            }
+            pass.set_bind_group(0, &bind_group, &[offset]);
+            pass.dispatch_workgroups(groups_x, groups_y, 1);
+        }
+        Ok(())
+    }
+}
