@@ -28,8 +28,7 @@ impl Prepared {
         let mut octree = octree::build(&quantized, BuildOptions::default())
             .map_err(|e| format!("{}: {e}", volume.name))?;
         let transfer = transfer_args.transfer_function(quantized.robust_window());
-        let lookup_table = transfer.lookup_table(octree.quantization);
-        let recolor_time = octree::recolor(&mut octree, &lookup_table);
+        let recolor_time = octree::recolor(&mut octree, &transfer);
         Ok(Self {
             volume,
             quantized,

@@ -7,7 +7,7 @@ use clap::Args;
 
 use super::{Prepared, TransferArgs, VolumeArgs};
 use crate::render::{
-    Camera, GpuContext, GpuVolume, Raycaster, RenderTarget, read_image, render_frame,
+    Camera, Frame, GpuContext, GpuVolume, Raycaster, RenderTarget, read_image, render_frame,
 };
 
 #[derive(Debug, Args)]
@@ -59,7 +59,13 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         fov_y_deg: args.fov,
         pan: [0.0; 3],
     };
-    render_frame(&context, &raycaster, &volume, &target, &camera, &settings);
+    let frame = Frame {
+        volume: &volume,
+        target: &target,
+        camera: &camera,
+        settings: &settings,
+    };
+    render_frame(&context, &raycaster, &frame);
     let image = read_image(&context, &target).map_err(|e| e.to_string())?;
     image
         .save(&args.output)

@@ -6,12 +6,13 @@ use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
 
-use super::{Octree, average_color};
+use super::{Octree, TransferFunction, average_color};
 
-/// Recolors every node of `octree` from `lookup_table` (65 536 packed colors, one per value
-/// level). Returns the time it took.
-pub fn recolor(octree: &mut Octree, lookup_table: &[u32]) -> Duration {
+/// Recolors every node of `octree` with `transfer`. Returns the time it took, the lookup
+/// table included.
+pub fn recolor(octree: &mut Octree, transfer: &TransferFunction) -> Duration {
     let started = Instant::now();
+    let lookup_table = transfer.lookup_table(octree.quantization);
     for level in (0..=octree.depth).rev() {
         let range = octree.level_range(level);
         let (upper, lower) = octree.nodes.split_at_mut(range.end);

@@ -25,9 +25,9 @@ pub fn sibling_indices(start: usize, n: usize) -> [usize; 8] {
 #[inline]
 pub fn next_block_start(current: usize, n: usize) -> usize {
     let mut next = current + 2;
-    if (current + 2) % n == 0 {
+    if (current + 2).is_multiple_of(n) {
         next += n;
-        if ((current + 2) / n + 1) % n == 0 {
+        if ((current + 2) / n + 1).is_multiple_of(n) {
             next += n * n;
         }
     }

@@ -3,7 +3,7 @@
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::{Node, Octree};
+use super::Octree;
 
 /// Counts of one level of the octree under the current colors.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -44,7 +44,7 @@ pub fn level_statistics(octree: &Octree) -> Vec<LevelStatistics> {
                 leaves,
                 transparent,
                 opaque,
-                bytes: (nodes.len() * std::mem::size_of::<Node>()) as u64,
+                bytes: std::mem::size_of_val(nodes) as u64,
                 full_tree_nodes: 8u64.pow(level),
             }
         })

@@ -14,33 +14,18 @@ mod settings;
 pub use camera::{Camera, ViewFrame};
 pub use context::{GpuContext, RenderError};
 pub use gpu_volume::GpuVolume;
-pub use raycaster::{Raycaster, RenderTarget};
+pub use raycaster::{Frame, Raycaster, RenderTarget};
 pub use readback::{read_buffer, read_image, read_visits};
 pub use recolor::GpuRecolor;
 pub use settings::{EARLY_TERMINATION_ALPHA, RenderMode, RenderSettings};
 
-/// Renders one frame into `target` and waits for it.
-pub fn render_frame(
-    context: &GpuContext,
-    raycaster: &Raycaster,
-    volume: &GpuVolume,
-    target: &RenderTarget,
-    camera: &Camera,
-    settings: &RenderSettings,
-) {
+/// Renders one frame and submits it.
+pub fn render_frame(context: &GpuContext, raycaster: &Raycaster, frame: &Frame<'_>) {
     let mut encoder = context
         .device
         .create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("voxscope::frame"),
         });
-    raycaster.encode(
-        context,
-        &mut encoder,
-        volume,
-        target,
-        camera,
-        settings,
-        None,
-    );
+    raycaster.encode(context, &mut encoder, frame, None);
     context.queue.submit([encoder.finish()]);
 }

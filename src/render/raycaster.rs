@@ -63,6 +63,16 @@ impl RenderTarget {
     }
 }
 
+/// What one frame draws, where, and how: the per-frame half of rendering (the pipelines live
+/// in [`Raycaster`]).
+#[derive(Clone, Copy)]
+pub struct Frame<'a> {
+    pub volume: &'a GpuVolume,
+    pub target: &'a RenderTarget,
+    pub camera: &'a Camera,
+    pub settings: &'a RenderSettings,
+}
+
 /// The ray-casting compute pipeline.
 pub struct Raycaster {
     pipeline: wgpu::ComputePipeline,
@@ -148,12 +158,15 @@ impl Raycaster {
         &self,
         context: &GpuContext,
         encoder: &mut wgpu::CommandEncoder,
-        volume: &GpuVolume,
-        target: &RenderTarget,
-        camera: &Camera,
-        settings: &RenderSettings,
+        frame: &Frame<'_>,
         timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
+        let Frame {
+            volume,
+            target,
+            camera,
+            settings,
+        } = *frame;
         let params = raycast_params(volume, target, camera, settings);
         context
             .queue

@@ -166,10 +166,10 @@ fn parse_header(bytes: &[u8; HEADER_BYTES]) -> Result<Header, Problem> {
     };
     let dims = [extent(1)?, extent(2)?, extent(3)?];
     for axis in 4..=rank as usize {
-        if extent(axis)? != 1 {
+        let n = extent(axis)?;
+        if n != 1 {
             return Err(format!(
-                "NIfTI image has {} volumes along dimension {axis}; only single 3D volumes are supported",
-                dim[axis]
+                "NIfTI image has {n} volumes along dimension {axis}; only single 3D volumes are supported"
             ));
         }
     }

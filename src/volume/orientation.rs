@@ -94,7 +94,7 @@ fn nearest_axes(directions: [[f64; 3]; 3]) -> Option<[(usize, bool); 3]> {
     candidates.sort_by(|a, b| b.0.total_cmp(&a.0));
     let mut assigned = [false; 3];
     for (magnitude, i, w) in candidates {
-        if assigned[i] || taken[w] || !(magnitude > 0.0) {
+        if assigned[i] || taken[w] || magnitude.is_nan() || magnitude <= 0.0 {
             continue;
         }
         assigned[i] = true;

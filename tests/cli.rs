@@ -1,0 +1,166 @@
+//! The real binary: `info`, `info --json`, `render`, and its exit codes on bad input.
+
+mod support;
+
+use std::process::{Command, Output};
+
+use support::shared_data;
+
+fn voxscope(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_voxscope"))
+        .args(args)
+        .output()
+        .expect("the binary runs")
+}
+
+fn stderr(output: &Output) -> String {
+    String::from_utf8_lossy(&output.stderr).into_owned()
+}
+
+#[test]
+fn info_json_has_the_documented_keys_with_depth_plus_one_levels() {
+    let path = shared_data("mri-head-256.nii.gz");
+    let output = voxscope(&["info", "--json", path.to_str().unwrap()]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let json: serde_json::Value = serde_json::from_slice(&output.stdout).expect("one JSON object");
+    let volume = &json["volume"];
+    assert_eq!(volume["dims"], serde_json::json!([256, 256, 256]));
+    assert_eq!(volume["voxel_type"], "u8");
+    assert_eq!(volume["spacing"], serde_json::json!([1.0, 1.0, 1.0]));
+    assert_eq!(volume["value_range"][0], 0.0);
+    let octree = &json["octree"];
+    assert_eq!(octree["depth"], 8);
+    assert_eq!(octree["node_bytes"], 8);
+    assert!(octree["build_seconds"].as_f64().unwrap() > 0.0);
+    let levels = octree["levels"].as_array().unwrap();
+    assert_eq!(levels.len(), 9);
+    let total: u64 = levels.iter().map(|l| l["nodes"].as_u64().unwrap()).sum();
+    assert_eq!(octree["total_nodes"].as_u64().unwrap(), total);
+    for (i, level) in levels.iter().enumerate() {
+        assert_eq!(level["level"], i);
+        for key in ["nodes", "leaves", "transparent", "opaque", "bytes"] {
+            assert!(level[key].is_u64(), "level {i} lacks {key}");
+        }
+        assert_eq!(
+            level["bytes"].as_u64().unwrap(),
+            8 * level["nodes"].as_u64().unwrap()
+        );
+    }
+    assert_eq!(levels[0]["nodes"], 1);
+}
+
+#[test]
+fn info_table_prints_volume_and_levels() {
+    let output = voxscope(&["info", "synthetic:sphere:40x30x20"]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let text = String::from_utf8(output.stdout).unwrap();
+    for expected in [
+        "40x30x20",
+        "u8",
+        "level",
+        "transparent",
+        "opaque",
+        "total",
+        "build",
+    ] {
+        assert!(text.contains(expected), "missing '{expected}' in:\n{text}");
+    }
+}
+
+#[test]
+fn render_writes_the_png_it_was_asked_for() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("head.png");
+    let path = shared_data("mri-head-128x128x62.nii.gz");
+    let output = voxscope(&[
+        "render",
+        path.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--size",
+        "160x120",
+        "--opacity",
+        "binary",
+        "--threshold",
+        "0.4",
+        "--level",
+        "5",
+        "--azimuth",
+        "-30",
+        "--elevation",
+        "15",
+        "--distance",
+        "2",
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let image = image::open(&out).unwrap().to_rgba8();
+    assert_eq!(image.dimensions(), (160, 120));
+    assert!(
+        support::reference::coverage(&image) > 0.05,
+        "the head is visible"
+    );
+}
+
+#[test]
+fn render_without_a_file_draws_the_embedded_sample() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x.png");
+    let output = voxscope(&["render", "-o", out.to_str().unwrap(), "--size", "64x48"]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    assert!(support::reference::coverage(&image::open(&out).unwrap().to_rgba8()) > 0.02);
+}
+
+#[test]
+fn bad_input_exits_non_zero_with_one_line_naming_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let empty = dir.path().join("empty.nrrd");
+    std::fs::write(&empty, b"").unwrap();
+    let cases: Vec<(Vec<String>, &str)> = vec![
+        (
+            vec!["info".into(), empty.display().to_string()],
+            "file is empty",
+        ),
+        (
+            vec!["info".into(), dir.path().display().to_string()],
+            "is a directory",
+        ),
+        (
+            vec!["info".into(), "synthetic:sphere:0".into()],
+            "zero extent",
+        ),
+        (
+            vec![
+                "render".into(),
+                empty.display().to_string(),
+                "-o".into(),
+                dir.path().join("o.png").display().to_string(),
+            ],
+            "file is empty",
+        ),
+    ];
+    for (args, problem) in cases {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let output = voxscope(&args);
+        let message = stderr(&output);
+        assert_eq!(output.status.code(), Some(1), "{args:?}: {message}");
+        assert_eq!(
+            message.trim_end().lines().count(),
+            1,
+            "{args:?}: one line, got {message}"
+        );
+        assert!(message.contains(problem), "{args:?}: {message}");
+        assert!(!message.contains("panicked"));
+    }
+    // The input is never overwritten.
+    let input = dir.path().join("in.png");
+    std::fs::write(&input, b"not a volume").unwrap();
+    let output = voxscope(&[
+        "render",
+        input.to_str().unwrap(),
+        "-o",
+        input.to_str().unwrap(),
+    ]);
+    assert_eq!(output.status.code(), Some(1));
+    assert!(stderr(&output).contains("refusing to overwrite"));
+    assert_eq!(std::fs::read(&input).unwrap(), b"not a volume");
+}

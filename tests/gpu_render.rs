@@ -1,0 +1,309 @@
+//! The GPU ray caster against the CPU reference renderer, across volumes (real and synthetic,
+//! cubic and not), cameras, levels, opacity modes and MIP; and GPU recolor against CPU recolor.
+
+mod support;
+
+use support::reference::{coverage, psnr, reference_render};
+use support::{colored_octree, gpu, gpu_render, image_dir, shared_data};
+use voxscope::octree::{self, BuildOptions, OpacityMode, TransferFunction};
+use voxscope::render::{Camera, GpuRecolor, GpuVolume, RenderMode, RenderSettings, read_buffer};
+use voxscope::volume::{self, LoadOptions, Volume};
+
+const SIZE: (u32, u32) = (96, 72);
+
+fn load(spec: &str) -> Volume {
+    volume::load(spec, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn cameras() -> [Camera; 4] {
+    [
+        Camera::default(),
+        Camera {
+            azimuth_deg: -120.0,
+            elevation_deg: -35.0,
+            distance: 1.6,
+            ..Camera::default()
+        },
+        Camera {
+            azimuth_deg: 0.0,
+            elevation_deg: 89.0,
+            distance: 2.2,
+            fov_y_deg: 30.0,
+            ..Camera::default()
+        },
+        // Inside the volume: rays start at the eye, not at the box.
+        Camera {
+            azimuth_deg: 200.0,
+            elevation_deg: 10.0,
+            distance: 0.25,
+            fov_y_deg: 70.0,
+            ..Camera::default()
+        },
+    ]
+}
+
+/// Renders one case on both sides, saves both images, and checks they agree.
+fn compare(
+    name: &str,
+    volume: &Volume,
+    transfer: Option<TransferFunction>,
+    camera: &Camera,
+    settings: impl Fn(u32) -> RenderSettings,
+) -> f64 {
+    let context = gpu();
+    let (octree, transfer) = colored_octree(volume, transfer, BuildOptions::default());
+    let settings = settings(octree.depth);
+    let gpu_image = gpu_render(
+        &context,
+        &octree,
+        volume.spacing,
+        &transfer,
+        camera,
+        &settings,
+        SIZE,
+    );
+    let cpu_image = reference_render(
+        &octree,
+        volume.spacing,
+        &transfer,
+        camera,
+        &settings,
+        SIZE.0,
+        SIZE.1,
+    );
+    let dir = image_dir();
+    gpu_image.save(dir.join(format!("{name}-gpu.png"))).unwrap();
+    cpu_image.save(dir.join(format!("{name}-cpu.png"))).unwrap();
+    let db = psnr(&gpu_image, &cpu_image);
+    eprintln!("{name}: {db:.1} dB, coverage {:.2}", coverage(&cpu_image));
+    assert!(
+        db >= 40.0,
+        "{name}: GPU and CPU reference differ, PSNR {db:.1} dB"
+    );
+    db
+}
+
+fn full(depth: u32) -> RenderSettings {
+    RenderSettings::full_detail(depth)
+}
+
+#[test]
+fn synthetic_cube_matches_reference_from_every_camera() {
+    let volume = load("synthetic:sphere:32");
+    for (i, camera) in cameras().iter().enumerate() {
+        compare(&format!("sphere-cam{i}"), &volume, None, camera, full);
+    }
+    // The default view is not an empty picture.
+    let (octree, transfer) = colored_octree(&volume, None, BuildOptions::default());
+    let image = reference_render(
+        &octree,
+        volume.spacing,
+        &transfer,
+        &Camera::default(),
+        &full(octree.depth),
+        SIZE.0,
+        SIZE.1,
+    );
+    assert!(
+        coverage(&image) > 0.05,
+        "the sphere covers {:.3} of the image",
+        coverage(&image)
+    );
+}
+
+#[test]
+fn non_cubic_float_volume_matches_reference_at_every_level() {
+    let volume = load("synthetic:noise:20x27x13");
+    let camera = Camera {
+        distance: 1.8,
+        ..Camera::default()
+    };
+    for level in 0..=5 {
+        let db = compare(
+            &format!("noise-level{level}"),
+            &volume,
+            None,
+            &camera,
+            |depth| RenderSettings {
+                max_level: level.min(depth),
+                density: 0.3,
+                ..full(depth)
+            },
+        );
+        eprintln!("noise level {level}: {db:.1} dB");
+    }
+}
+
+#[test]
+fn binary_opacity_and_plain_compositing_match_reference() {
+    let volume = load("synthetic:shells:40x30x24");
+    let window = volume::QuantizedVolume::new(&volume).robust_window();
+    let binary = TransferFunction {
+        opacity: OpacityMode::Binary,
+        window,
+        threshold: 0.5,
+    };
+    let camera = Camera {
+        azimuth_deg: 75.0,
+        elevation_deg: 40.0,
+        distance: 1.7,
+        ..Camera::default()
+    };
+    compare("shells-binary", &volume, Some(binary), &camera, full);
+    compare(
+        "shells-binary-level3",
+        &volume,
+        Some(binary),
+        &camera,
+        |d| RenderSettings {
+            max_level: 3,
+            ..full(d)
+        },
+    );
+    compare("shells-gray-plain", &volume, None, &camera, |d| {
+        RenderSettings {
+            opacity_correction: false,
+            density: 0.2,
+            ..full(d)
+        }
+    });
+}
+
+#[test]
+fn mip_matches_reference() {
+    let volume = load("synthetic:noise:24x24x30");
+    for (i, camera) in cameras().iter().take(2).enumerate() {
+        compare(&format!("noise-mip-cam{i}"), &volume, None, camera, |d| {
+            RenderSettings {
+                mode: RenderMode::Mip,
+                ..full(d)
+            }
+        });
+    }
+    compare("noise-mip-level2", &volume, None, &Camera::default(), |d| {
+        RenderSettings {
+            mode: RenderMode::Mip,
+            max_level: 2,
+            ..full(d)
+        }
+    });
+}
+
+#[test]
+fn pixel_footprint_lod_matches_reference() {
+    let volume = load("synthetic:sphere:64");
+    // Far away at a small size, many nodes project below a pixel.
+    let camera = Camera {
+        distance: 6.0,
+        ..Camera::default()
+    };
+    compare("sphere-pixel-lod", &volume, None, &camera, |d| {
+        RenderSettings {
+            pixel_lod: true,
+            ..full(d)
+        }
+    });
+}
+
+#[test]
+fn real_mri_heads_match_reference() {
+    // Anisotropic (2×2×3 mm), reoriented, i16: the embedded sample.
+    let sample = volume::sample().unwrap();
+    let camera = Camera {
+        azimuth_deg: 20.0,
+        elevation_deg: 10.0,
+        distance: 1.6,
+        ..Camera::default()
+    };
+    compare("sample-gray", &sample, None, &camera, full);
+    compare("sample-mip", &sample, None, &camera, |d| RenderSettings {
+        mode: RenderMode::Mip,
+        ..full(d)
+    });
+    compare("sample-level4", &sample, None, &camera, |d| {
+        RenderSettings {
+            max_level: 4,
+            ..full(d)
+        }
+    });
+    // Non-cubic 197×233×189 template.
+    let mni = load(
+        shared_data("mni152-t1-197x233x189.nii.gz")
+            .to_str()
+            .unwrap(),
+    );
+    let window = volume::QuantizedVolume::new(&mni).robust_window();
+    let binary = TransferFunction {
+        opacity: OpacityMode::Binary,
+        window,
+        threshold: 0.35,
+    };
+    compare("mni152-binary", &mni, Some(binary), &camera, full);
+}
+
+#[test]
+fn gpu_recolor_equals_cpu_recolor_bit_for_bit() {
+    let context = gpu();
+    let recolor = GpuRecolor::new(&context);
+    for spec in ["synthetic:noise:37x20x29", "synthetic:shells:32"] {
+        let volume = load(spec);
+        let (mut octree, first) = colored_octree(&volume, None, BuildOptions::default());
+        let mut gpu_volume =
+            GpuVolume::upload(&context, &octree, volume.spacing, octree.depth, &first).unwrap();
+        // A different transfer function, applied on both sides.
+        let second = TransferFunction {
+            opacity: OpacityMode::Binary,
+            window: voxscope::volume::ValueWindow {
+                low: first.window.low,
+                high: first.window.high * 0.8,
+            },
+            threshold: 0.4,
+        };
+        gpu_volume.set_transfer(&context, &second);
+        let mut encoder = context.device.create_command_encoder(&Default::default());
+        recolor
+            .encode(&context, &mut encoder, &gpu_volume, None)
+            .unwrap();
+        context.queue.submit([encoder.finish()]);
+        let bytes = read_buffer(&context, &gpu_volume.nodes, gpu_volume.nodes.size()).unwrap();
+        let gpu_nodes: &[voxscope::octree::Node] = bytemuck::cast_slice(&bytes);
+        octree::recolor(&mut octree, &second);
+        assert_eq!(gpu_nodes.len(), octree.nodes.len());
+        let differing = gpu_nodes
+            .iter()
+            .zip(&octree.nodes)
+            .filter(|(a, b)| a != b)
+            .count();
+        assert_eq!(
+            differing, 0,
+            "{spec}: {differing} nodes differ after GPU recolor"
+        );
+        assert!(
+            octree.nodes.iter().any(|n| n.alpha() == 255),
+            "{spec}: binary recolor made opaque nodes"
+        );
+    }
+}
+
+#[test]
+fn an_octree_beyond_the_device_limit_fails_with_both_sizes_and_a_level_to_try() {
+    let mut context = gpu();
+    let volume = load("synthetic:sphere:64");
+    let (octree, transfer) = colored_octree(
+        &volume,
+        None,
+        BuildOptions {
+            collapse_uniform: false,
+        },
+    );
+    // Pretend the device allows a bit more than levels 0..=4 (4681 nodes).
+    context.limits.max_storage_buffer_binding_size = 40_000;
+    let error = GpuVolume::upload(&context, &octree, volume.spacing, octree.depth, &transfer)
+        .err()
+        .expect("upload must fail")
+        .to_string();
+    assert!(error.contains("MiB"), "{error}");
+    assert!(error.contains("--level 4"), "{error}");
+    // The suggested level fits.
+    GpuVolume::upload(&context, &octree, volume.spacing, 4, &transfer).expect("level 4 fits");
+}
