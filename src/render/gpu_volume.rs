@@ -57,6 +57,8 @@ impl GpuVolume {
             )));
         }
         let device = &context.device;
+        // Allocation failures become errors, not the default handler's panic.
+        let out_of_memory = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let nodes = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("voxscope::octree_nodes"),
             contents: bytemuck::cast_slice(&octree.nodes[..count]),
@@ -75,6 +77,13 @@ impl GpuVolume {
             contents: bytemuck::cast_slice(&table),
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
         });
+        if let Some(error) = pollster::block_on(out_of_memory.pop()) {
+            return Err(RenderError(format!(
+                "the GPU ({}) has no room for the octree's {} MiB: {error}; try a lower --level",
+                context.adapter_info.name,
+                bytes.div_ceil(1 << 20)
+            )));
+        }
         Ok(Self {
             nodes,
             bounds,
