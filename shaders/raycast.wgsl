@@ -8,8 +8,10 @@
 // box corner and exit distance. After a node is composited or skipped, the ray's `t` moves to
 // its exit; finished nodes are popped, and the descent continues from the deepest ancestor
 // still containing the ray: the next sibling or an ancestor's sibling, never the root again.
-// All plane distances are computed with the same expressions, so a child's exit equals the
-// mid-plane distance its parent uses to pick the next child, exactly.
+// Children are picked, and ancestors popped, at a probe point a thousandth of a voxel ahead of
+// `t`: a child's exit and its parent's mid-plane are the same plane, but the shader compiler
+// may round the two distances differently, and deciding at `t` itself could then pick the
+// child just left, forever. With the probe, `t` strictly advances at every step.
 
 // Keep in sync with `Node` in src/octree/node.rs.
 struct Node {
@@ -103,6 +105,7 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32) -> RayResult 
     let use_lod = (params.flags & FLAG_PIXEL_LOD) != 0u;
     let correct_opacity = (params.flags & FLAG_OPACITY_CORRECTION) != 0u;
     let mip = params.mode == MODE_MIP;
+    let probe_step = 1e-3 / max(voxels_per_t, 1e-20);
 
     var stack_node: array<u32, STACK_SIZE>;
     var stack_corner: array<vec3<f32>, STACK_SIZE>;
@@ -118,11 +121,12 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32) -> RayResult 
     var running_max = 0u;
 
     for (var step = 0u; step < MAX_STEPS; step++) {
+        let probe = t + max(probe_step, abs(t) * 5e-7);
         // Pop the nodes the ray has left.
-        while level > 0u && stack_exit[level] <= t {
+        while level > 0u && stack_exit[level] <= probe {
             level -= 1u;
         }
-        if stack_exit[level] <= t {
+        if stack_exit[level] <= probe {
             break; // left the root: done
         }
         // Descend from the deepest node still ahead until a node is composited or skipped.
@@ -142,7 +146,7 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32) -> RayResult 
                 skip = (node.color >> 24u) == 0u;
             }
             if skip {
-                t = t_out;
+                t = max(t_out, probe);
                 break;
             }
             let cut = node.first_child == LEAF || level >= params.max_level
@@ -154,20 +158,20 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32) -> RayResult 
                     let rgba = unpack4x8unorm(node.color);
                     var a = min(rgba.a * params.density, 1.0);
                     if correct_opacity && a < 1.0 {
-                        a = 1.0 - pow(1.0 - a, (t_out - t) * voxels_per_t);
+                        a = 1.0 - pow(1.0 - a, max(t_out - t, 0.0) * voxels_per_t);
                     }
                     color += (1.0 - alpha) * a * rgba.rgb;
                     alpha += (1.0 - alpha) * a;
                 }
-                t = t_out;
+                t = max(t_out, probe);
                 break;
             }
-            // The child containing the ray at t: per axis, which side of the mid-plane.
+            // The child containing the probe point: per axis, which side of the mid-plane.
             let half = size * 0.5;
             let corner = stack_corner[level];
             let t_mid = (corner + vec3<f32>(half) - origin) * inv;
-            let upper = select(vec3<bool>(t < t_mid.x, t < t_mid.y, t < t_mid.z),
-                               vec3<bool>(t >= t_mid.x, t >= t_mid.y, t >= t_mid.z), positive);
+            let upper = select(vec3<bool>(probe < t_mid.x, probe < t_mid.y, probe < t_mid.z),
+                               vec3<bool>(probe >= t_mid.x, probe >= t_mid.y, probe >= t_mid.z), positive);
             let child_corner = corner + select(vec3<f32>(0.0), vec3<f32>(half), upper);
             let exit_planes = child_corner + select(vec3<f32>(0.0), vec3<f32>(half), positive);
             let child_exit = min_component((exit_planes - origin) * inv);

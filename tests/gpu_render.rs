@@ -307,3 +307,45 @@ fn an_octree_beyond_the_device_limit_fails_with_both_sizes_and_a_level_to_try() 
     // The suggested level fits.
     GpuVolume::upload(&context, &octree, volume.spacing, 4, &transfer).expect("level 4 fits");
 }
+
+#[test]
+fn rays_visit_a_bounded_number_of_nodes_from_every_direction() {
+    // A ray crosses at most 3·side voxels and each step descends at most depth + 1 nodes;
+    // a traversal that revisits nodes (as a rounding-sensitive child choice once did, near the
+    // volume at some azimuths) blows far past this.
+    let context = gpu();
+    let volume = load("synthetic:sphere:64");
+    let (octree, transfer) = colored_octree(&volume, None, BuildOptions::default());
+    let bound = 3 * octree.side() as u32 * (octree.depth + 1);
+    let gpu_volume =
+        GpuVolume::upload(&context, &octree, volume.spacing, octree.depth, &transfer).unwrap();
+    let raycaster = voxscope::render::Raycaster::new(&context);
+    let target = voxscope::render::RenderTarget::new(&context, 64, 48);
+    let settings = full(octree.depth);
+    for distance in [0.4, 1.5, 3.0] {
+        for elevation in [-50.0, 20.0, 70.0] {
+            for step in 0..12 {
+                let camera = Camera {
+                    azimuth_deg: 30.0 * step as f64,
+                    elevation_deg: elevation,
+                    distance,
+                    ..Camera::default()
+                };
+                let frame = voxscope::render::Frame {
+                    volume: &gpu_volume,
+                    target: &target,
+                    camera: &camera,
+                    settings: &settings,
+                };
+                voxscope::render::render_frame(&context, &raycaster, &frame);
+                let visits = voxscope::render::read_visits(&context, &target).unwrap();
+                let max = visits.iter().copied().max().unwrap();
+                assert!(
+                    max <= bound,
+                    "azimuth {} elevation {elevation} distance {distance}: a ray visited {max} nodes (bound {bound})",
+                    camera.azimuth_deg
+                );
+            }
+        }
+    }
+}

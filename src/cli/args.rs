@@ -76,6 +76,14 @@ pub enum ModeArg {
 }
 
 impl TransferArgs {
+    /// Every option at its default, as if none were given (clap's defaults, one source).
+    pub fn defaults() -> Self {
+        use clap::FromArgMatches;
+        let command = Self::augment_args(clap::Command::new("defaults"));
+        Self::from_arg_matches(&command.get_matches_from(["defaults"]))
+            .expect("the defaults of TransferArgs parse")
+    }
+
     /// The transfer function, with `default_window` where no --window was given.
     pub fn transfer_function(&self, default_window: ValueWindow) -> TransferFunction {
         TransferFunction {

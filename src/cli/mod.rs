@@ -1,6 +1,7 @@
 //! The command line: `voxscope info`, `voxscope render`.
 
 mod args;
+mod bench;
 mod info;
 mod prepare;
 mod render;
@@ -24,6 +25,8 @@ pub enum Command {
     Info(info::InfoArgs),
     /// Render the volume to a PNG without a window.
     Render(render::RenderArgs),
+    /// Measure GPU time per frame (near, medium, far; gray, binary, MIP), build and recolor.
+    Bench(bench::BenchArgs),
 }
 
 /// Runs the command line; returns the process exit code. Errors print as one line.
@@ -32,6 +35,7 @@ pub fn run() -> std::process::ExitCode {
     let result = match cli.command {
         Command::Info(args) => info::run(&args),
         Command::Render(args) => render::run(&args),
+        Command::Bench(args) => bench::run(&args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -109,7 +109,7 @@ fn check_output(output: &Path, input: Option<&str>) -> Result<(), String> {
     Ok(())
 }
 
-fn parse_size(text: &str) -> Result<(u32, u32), String> {
+pub(super) fn parse_size(text: &str) -> Result<(u32, u32), String> {
     let (w, h) = text
         .split_once('x')
         .ok_or_else(|| format!("size '{text}' is not WxH"))?;

@@ -10,6 +10,7 @@ mod raycaster;
 mod readback;
 mod recolor;
 mod settings;
+mod timer;
 
 pub use camera::{Camera, ViewFrame};
 pub use context::{GpuContext, RenderError};
@@ -18,6 +19,7 @@ pub use raycaster::{Frame, Raycaster, RenderTarget};
 pub use readback::{read_buffer, read_image, read_visits};
 pub use recolor::GpuRecolor;
 pub use settings::{EARLY_TERMINATION_ALPHA, RenderMode, RenderSettings};
+pub use timer::GpuTimer;
 
 /// Renders one frame and submits it.
 pub fn render_frame(context: &GpuContext, raycaster: &Raycaster, frame: &Frame<'_>) {
