@@ -167,16 +167,43 @@ fn bad_input_exits_non_zero_with_one_line_naming_the_file() {
 
 #[test]
 fn bench_runs_briefly_on_any_device_and_reports_every_case() {
-    let output = voxscope(&["bench", "synthetic:sphere:32", "--size", "48x32", "--frames", "3", "--json"]);
+    let output = voxscope(&[
+        "bench",
+        "synthetic:sphere:32",
+        "--size",
+        "48x32",
+        "--frames",
+        "3",
+        "--json",
+    ]);
     assert!(output.status.success(), "{}", stderr(&output));
     let json: serde_json::Value = serde_json::from_slice(&output.stdout).expect("one JSON object");
-    for key in ["adapter", "backend", "timing", "size", "results", "build_seconds", "recolor_ms", "gpu_bytes"] {
+    for key in [
+        "adapter",
+        "backend",
+        "timing",
+        "size",
+        "results",
+        "build_seconds",
+        "recolor_ms",
+        "gpu_bytes",
+    ] {
         assert!(!json[key].is_null(), "missing {key}");
     }
     let results = json["results"].as_array().unwrap();
     assert_eq!(results.len(), 9, "3 modes × 3 cameras");
     for row in results {
-        for key in ["renderer", "mode", "camera", "median_ms", "p95_ms", "fps", "rays_per_s", "nodes_per_ray_avg", "nodes_per_ray_max"] {
+        for key in [
+            "renderer",
+            "mode",
+            "camera",
+            "median_ms",
+            "p95_ms",
+            "fps",
+            "rays_per_s",
+            "nodes_per_ray_avg",
+            "nodes_per_ray_max",
+        ] {
             assert!(!row[key].is_null(), "row lacks {key}: {row}");
         }
         let median = row["median_ms"].as_f64().unwrap();
