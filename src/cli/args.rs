@@ -3,7 +3,7 @@
 use clap::{Args, ValueEnum};
 
 use crate::octree::{OpacityMode, TransferFunction};
-use crate::render::{RenderMode, RenderSettings};
+use crate::render::{RenderMode, RenderSettings, RendererKind};
 use crate::volume::{LoadOptions, RawLayout, ValueWindow};
 
 /// Which volume to open.
@@ -61,12 +61,33 @@ pub struct TransferArgs {
     /// Draw nodes visited per ray as a heat map instead of the volume.
     #[arg(long)]
     pub heatmap: bool,
+    /// The dense renderer samples the nearest voxel instead of filtering trilinearly.
+    #[arg(long)]
+    pub nearest: bool,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum OpacityArg {
     Gray,
     Binary,
+}
+
+/// Which renderer draws the volume.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum RendererArg {
+    /// The paper's octree (voxel leaves).
+    Octree,
+    /// One 3D texture at fixed steps (the peers' baseline).
+    Dense,
+}
+
+impl From<RendererArg> for RendererKind {
+    fn from(arg: RendererArg) -> Self {
+        match arg {
+            RendererArg::Octree => RendererKind::Octree,
+            RendererArg::Dense => RendererKind::Dense,
+        }
+    }
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -108,6 +129,7 @@ impl TransferArgs {
             opacity_correction: !self.no_opacity_correction,
             density: self.density,
             heatmap: self.heatmap,
+            trilinear: !self.nearest,
         }
     }
 }

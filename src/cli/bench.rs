@@ -7,12 +7,12 @@ use clap::Args;
 use serde::Serialize;
 use serde_json::json;
 
-use super::args::{OpacityArg, TransferArgs};
+use super::args::{OpacityArg, RendererArg, TransferArgs};
 use super::{Prepared, VolumeArgs};
 use crate::octree::{OpacityMode, TransferFunction};
 use crate::render::{
-    Camera, Frame, GpuContext, GpuRecolor, GpuTimer, GpuVolume, Raycaster, RenderMode,
-    RenderSettings, RenderTarget, read_visits,
+    Camera, GpuContext, GpuTimer, RenderMode, RenderSettings, RenderTarget, RendererKind,
+    VolumeRenderer, read_visits,
 };
 use crate::volume::ValueWindow;
 
@@ -35,6 +35,9 @@ pub struct BenchArgs {
     /// Global opacity scale.
     #[arg(long, default_value_t = 1.0)]
     pub density: f32,
+    /// Only this renderer (default: all).
+    #[arg(long, value_enum)]
+    pub renderer: Option<RendererArg>,
     /// Print one JSON object instead of the table.
     #[arg(long)]
     pub json: bool,
@@ -71,16 +74,6 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
     let prepared = Prepared::new(&args.volume, &transfer_args)?;
     let context = GpuContext::new_headless().map_err(|e| e.to_string())?;
     let depth = prepared.octree.depth;
-    let mut volume = GpuVolume::upload(
-        &context,
-        &prepared.octree,
-        prepared.volume.spacing,
-        depth,
-        &prepared.transfer,
-    )
-    .map_err(|e| format!("{}: {e}", prepared.volume.name))?;
-    let raycaster = Raycaster::new(&context);
-    let recolor = GpuRecolor::new(&context);
     let target = RenderTarget::new(&context, args.size.0, args.size.1);
     let timer = GpuTimer::new(&context, args.frames.max(RECOLOR_RUNS));
     let timing = if timer.is_some() {
@@ -99,43 +92,70 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
         ("dvr-binary", binary, RenderMode::Dvr),
         ("mip", gray, RenderMode::Mip),
     ];
+    let kinds: Vec<RendererKind> = match args.renderer {
+        Some(one) => vec![one.into()],
+        None => RendererKind::ALL.to_vec(),
+    };
     let mut results = Vec::new();
     let mut recolor_ms = Vec::new();
-    for (mode_name, transfer, mode) in modes {
-        volume.set_transfer(&context, &transfer);
-        recolor_ms.extend(time_recolor(&context, &recolor, &volume, timer.as_ref())?);
-        let settings = RenderSettings {
-            mode,
-            density: args.density,
-            ..RenderSettings::full_detail(depth)
-        };
-        for (camera_name, distance) in CAMERAS {
-            let camera = Camera {
-                distance,
-                ..Camera::default()
+    let mut gpu_bytes = serde_json::Map::new();
+    for kind in kinds {
+        let mut renderer = VolumeRenderer::new(
+            &context,
+            kind,
+            &prepared.octree,
+            &prepared.quantized,
+            prepared.volume.spacing,
+            depth,
+            &prepared.transfer,
+        )
+        .map_err(|e| format!("{}: {e}", prepared.volume.name))?;
+        for (name, bytes) in renderer.gpu_bytes() {
+            gpu_bytes.insert(format!("{}_{name}", kind.name()), bytes.into());
+        }
+        for (mode_name, transfer, mode) in modes {
+            let times = time_transfer_edits(&context, &mut renderer, &transfer, timer.as_ref())?;
+            if kind == RendererKind::Octree {
+                recolor_ms.extend(times);
+            }
+            let settings = RenderSettings {
+                mode,
+                density: args.density,
+                ..RenderSettings::full_detail(depth)
             };
-            let frame = Frame {
-                volume: &volume,
-                target: &target,
-                camera: &camera,
-                settings: &settings,
-            };
-            let times = time_frames(&context, &raycaster, &frame, args.frames, timer.as_ref())?;
-            let (nodes_avg, nodes_max) = sample_visits(&context, &raycaster, &frame)?;
-            let median = percentile(&times, 50.0);
-            results.push(BenchResult {
-                renderer: "octree",
-                mode: mode_name,
-                camera: camera_name,
-                median_ms: median,
-                p95_ms: percentile(&times, 95.0),
-                fps: 1000.0 / median,
-                rays_per_s: (target.width as f64 * target.height as f64) / (median * 1e-3),
-                nodes_per_ray_avg: nodes_avg,
-                nodes_per_ray_max: nodes_max,
-            });
+            for (camera_name, distance) in CAMERAS {
+                let camera = Camera {
+                    distance,
+                    ..Camera::default()
+                };
+                let view = View {
+                    renderer: &renderer,
+                    target: &target,
+                    camera,
+                    settings: &settings,
+                };
+                let times = time_frames(&context, &view, args.frames, timer.as_ref())?;
+                let (nodes_avg, nodes_max) = sample_visits(&context, &view)?;
+                let median = percentile(&times, 50.0);
+                results.push(BenchResult {
+                    renderer: kind.name(),
+                    mode: mode_name,
+                    camera: camera_name,
+                    median_ms: median,
+                    p95_ms: percentile(&times, 95.0),
+                    fps: 1000.0 / median,
+                    rays_per_s: (target.width as f64 * target.height as f64) / (median * 1e-3),
+                    nodes_per_ray_avg: nodes_avg,
+                    nodes_per_ray_max: nodes_max,
+                });
+            }
         }
     }
+    gpu_bytes.insert(
+        "target_texture".into(),
+        (target.width as u64 * target.height as u64 * 4).into(),
+    );
+    gpu_bytes.insert("visits_buffer".into(), target.visits.size().into());
     let report = json!({
         "adapter": context.adapter_info.name,
         "backend": format!("{:?}", context.adapter_info.backend),
@@ -154,14 +174,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
         "build_seconds": prepared.octree.build_seconds,
         "recolor_ms": percentile(&recolor_ms, 50.0),
         "recolor_cpu_ms": prepared.recolor_time.as_secs_f64() * 1e3,
-        "gpu_bytes": {
-            "octree_nodes": volume.nodes.size(),
-            "octree_bounds": volume.bounds.size(),
-            "transfer_lookup_table": volume.lookup_table.size(),
-            "target_texture": target.width as u64 * target.height as u64 * 4,
-            "visits_buffer": target.visits.size(),
-            "total": volume.gpu_bytes() + target.gpu_bytes(),
-        },
+        "gpu_bytes": gpu_bytes,
     });
     if args.json {
         println!("{report}");
@@ -171,17 +184,24 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
     Ok(())
 }
 
+/// One renderer, target, camera and settings: what a timed frame draws.
+struct View<'a> {
+    renderer: &'a VolumeRenderer,
+    target: &'a RenderTarget,
+    camera: Camera,
+    settings: &'a RenderSettings,
+}
+
 /// Renders `count` frames with the azimuth sweeping a full turn; milliseconds per frame.
 fn time_frames(
     context: &GpuContext,
-    raycaster: &Raycaster,
-    frame: &Frame<'_>,
+    view: &View<'_>,
     count: u32,
     timer: Option<&GpuTimer>,
 ) -> Result<Vec<f64>, String> {
     let at_azimuth = |i: u32| Camera {
-        azimuth_deg: frame.camera.azimuth_deg + 360.0 * i as f64 / count as f64,
-        ..*frame.camera
+        azimuth_deg: view.camera.azimuth_deg + 360.0 * i as f64 / count as f64,
+        ..view.camera
     };
     let submit = |camera: &Camera, writes| {
         let mut encoder = context
@@ -189,59 +209,59 @@ fn time_frames(
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("voxscope::bench_frame"),
             });
-        raycaster.encode(context, &mut encoder, &Frame { camera, ..*frame }, writes);
+        view.renderer.encode(
+            context,
+            &mut encoder,
+            view.target,
+            camera,
+            view.settings,
+            writes,
+        );
         context.queue.submit([encoder.finish()]);
-    };
-    let wait = || {
-        context
-            .device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| format!("GPU wait failed: {e}"))
     };
     for i in 0..WARMUP_FRAMES {
         submit(&at_azimuth(i * count / WARMUP_FRAMES), None);
     }
-    wait()?;
+    wait(context)?;
     match timer {
         Some(timer) => {
             for i in 0..count {
                 submit(&at_azimuth(i), Some(timer.pass_writes(i)));
             }
-            wait()?;
+            wait(context)?;
             timer.read_ms(context, count).map_err(|e| e.to_string())
         }
         None => (0..count)
             .map(|i| {
                 let started = Instant::now();
                 submit(&at_azimuth(i), None);
-                wait()?;
+                wait(context)?;
                 Ok(started.elapsed().as_secs_f64() * 1e3)
             })
             .collect(),
     }
 }
 
-/// Average and largest nodes visited per ray that enters the volume, over four azimuths.
-fn sample_visits(
-    context: &GpuContext,
-    raycaster: &Raycaster,
-    frame: &Frame<'_>,
-) -> Result<(f64, u32), String> {
+fn wait(context: &GpuContext) -> Result<(), String> {
+    context
+        .device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map(|_| ())
+        .map_err(|e| format!("GPU wait failed: {e}"))
+}
+
+/// Average and largest nodes (octree) or samples (dense) per ray that enters the volume, over
+/// four azimuths.
+fn sample_visits(context: &GpuContext, view: &View<'_>) -> Result<(f64, u32), String> {
     let (mut sum, mut rays, mut max) = (0u64, 0u64, 0u32);
     for quarter in 0..4 {
         let camera = Camera {
-            azimuth_deg: frame.camera.azimuth_deg + 90.0 * quarter as f64,
-            ..*frame.camera
+            azimuth_deg: view.camera.azimuth_deg + 90.0 * quarter as f64,
+            ..view.camera
         };
-        crate::render::render_frame(
-            context,
-            raycaster,
-            &Frame {
-                camera: &camera,
-                ..*frame
-            },
-        );
-        for visits in read_visits(context, frame.target).map_err(|e| e.to_string())? {
+        view.renderer
+            .render(context, view.target, &camera, view.settings);
+        for visits in read_visits(context, view.target).map_err(|e| e.to_string())? {
             if visits > 0 {
                 sum += visits as u64;
                 rays += 1;
@@ -259,11 +279,12 @@ fn sample_visits(
     ))
 }
 
-/// Milliseconds of GPU recolors of every level.
-fn time_recolor(
+/// Applies `transfer` `RECOLOR_RUNS` times; milliseconds of each (GPU recolor for the octree,
+/// a lookup-table write for dense).
+fn time_transfer_edits(
     context: &GpuContext,
-    recolor: &GpuRecolor,
-    volume: &GpuVolume,
+    renderer: &mut VolumeRenderer,
+    transfer: &TransferFunction,
     timer: Option<&GpuTimer>,
 ) -> Result<Vec<f64>, String> {
     let mut times = Vec::new();
@@ -272,28 +293,23 @@ fn time_recolor(
         let mut encoder = context
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("voxscope::bench_recolor"),
+                label: Some("voxscope::bench_transfer_edit"),
             });
-        recolor
-            .encode(
-                context,
-                &mut encoder,
-                volume,
-                timer.map(|t| t.pass_writes(run)),
-            )
+        let writes = timer
+            .filter(|_| renderer.kind() == RendererKind::Octree)
+            .map(|t| t.pass_writes(run));
+        renderer
+            .set_transfer(context, &mut encoder, transfer, writes)
             .map_err(|e| e.to_string())?;
         context.queue.submit([encoder.finish()]);
-        context
-            .device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| format!("GPU wait failed: {e}"))?;
+        wait(context)?;
         times.push(started.elapsed().as_secs_f64() * 1e3);
     }
     match timer {
-        Some(timer) => timer
+        Some(timer) if renderer.kind() == RendererKind::Octree => timer
             .read_ms(context, RECOLOR_RUNS)
             .map_err(|e| e.to_string()),
-        None => Ok(times),
+        _ => Ok(times),
     }
 }
 
@@ -349,11 +365,14 @@ fn print_table(report: &serde_json::Value, results: &[BenchResult]) {
         );
     }
     println!(
-        "build {:.3} s   recolor {:.3} ms GPU, {:.1} ms CPU   GPU memory {:.1} MiB",
+        "build {:.3} s   recolor {:.3} ms GPU, {:.1} ms CPU   GPU memory of all renderers {:.1} MiB",
         report["build_seconds"].as_f64().unwrap_or_default(),
         report["recolor_ms"].as_f64().unwrap_or_default(),
         report["recolor_cpu_ms"].as_f64().unwrap_or_default(),
-        report["gpu_bytes"]["total"].as_f64().unwrap_or_default() / (1 << 20) as f64
+        report["gpu_bytes"]
+            .as_object()
+            .map_or(0.0, |m| m.values().filter_map(|v| v.as_f64()).sum::<f64>())
+            / (1 << 20) as f64
     );
 }
 

@@ -5,10 +5,9 @@ use std::time::Instant;
 
 use clap::Args;
 
+use super::args::RendererArg;
 use super::{Prepared, TransferArgs, VolumeArgs};
-use crate::render::{
-    Camera, Frame, GpuContext, GpuVolume, Raycaster, RenderTarget, read_image, render_frame,
-};
+use crate::render::{Camera, GpuContext, RenderTarget, VolumeRenderer, read_image};
 
 #[derive(Debug, Args)]
 pub struct RenderArgs {
@@ -16,6 +15,9 @@ pub struct RenderArgs {
     pub volume: VolumeArgs,
     #[command(flatten)]
     pub transfer: TransferArgs,
+    /// Which renderer draws the image.
+    #[arg(long, value_enum, default_value_t = RendererArg::Octree)]
+    pub renderer: RendererArg,
     /// Output PNG.
     #[arg(short, long, value_name = "FILE.png")]
     pub output: PathBuf,
@@ -42,15 +44,16 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     let prepared = Prepared::new(&args.volume, &args.transfer)?;
     let settings = args.transfer.render_settings(prepared.octree.depth);
     let context = GpuContext::new_headless().map_err(|e| e.to_string())?;
-    let volume = GpuVolume::upload(
+    let renderer = VolumeRenderer::new(
         &context,
+        args.renderer.into(),
         &prepared.octree,
+        &prepared.quantized,
         prepared.volume.spacing,
         settings.max_level,
         &prepared.transfer,
     )
     .map_err(|e| format!("{}: {e}", prepared.volume.name))?;
-    let raycaster = Raycaster::new(&context);
     let target = RenderTarget::new(&context, args.size.0, args.size.1);
     let camera = Camera {
         azimuth_deg: args.azimuth,
@@ -59,22 +62,17 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         fov_y_deg: args.fov,
         pan: [0.0; 3],
     };
-    let frame = Frame {
-        volume: &volume,
-        target: &target,
-        camera: &camera,
-        settings: &settings,
-    };
-    render_frame(&context, &raycaster, &frame);
+    renderer.render(&context, &target, &camera, &settings);
     let image = read_image(&context, &target).map_err(|e| e.to_string())?;
     image
         .save(&args.output)
         .map_err(|e| format!("cannot write {}: {e}", args.output.display()))?;
     eprintln!(
-        "wrote {} ({}x{}, level {}/{}) on {} in {:.2} s",
+        "wrote {} ({}x{}, {} renderer, level {}/{}) on {} in {:.2} s",
         args.output.display(),
         target.width,
         target.height,
+        renderer.kind().name(),
         settings.max_level,
         prepared.octree.depth,
         context.describe(),

@@ -4,22 +4,27 @@
 
 mod camera;
 mod context;
+mod dense;
 mod gpu_data;
 mod gpu_volume;
+mod pipeline;
 mod raycaster;
 mod readback;
 mod recolor;
 mod settings;
 mod timer;
+mod volume_renderer;
 
 pub use camera::{Camera, ViewFrame};
 pub use context::{GpuContext, RenderError};
+pub use dense::{DenseRaycaster, DenseVolume};
 pub use gpu_volume::GpuVolume;
 pub use raycaster::{Frame, Raycaster, RenderTarget};
 pub use readback::{read_buffer, read_image, read_visits};
 pub use recolor::GpuRecolor;
 pub use settings::{EARLY_TERMINATION_ALPHA, RenderMode, RenderSettings};
 pub use timer::GpuTimer;
+pub use volume_renderer::{RendererKind, VolumeRenderer};
 
 /// Renders one frame and submits it.
 pub fn render_frame(context: &GpuContext, raycaster: &Raycaster, frame: &Frame<'_>) {

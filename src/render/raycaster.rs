@@ -3,10 +3,10 @@
 use glam::DVec3;
 
 use super::gpu_data::{FLAG_HEATMAP, FLAG_OPACITY_CORRECTION, FLAG_PIXEL_LOD, RaycastParams};
+use super::pipeline::{
+    compute_pipeline, dispatch_per_pixel, output_image_entry, storage_entry, uniform_entry,
+};
 use super::{Camera, GpuContext, GpuVolume, RenderMode, RenderSettings};
-
-/// Pixels per workgroup side; keep in sync with `@workgroup_size` in `raycast.wgsl`.
-const WORKGROUP_SIDE: u32 = 8;
 
 /// Where a frame goes: an RGBA8 storage texture and the per-pixel count of nodes visited.
 pub struct RenderTarget {
@@ -64,13 +64,52 @@ impl RenderTarget {
 }
 
 /// What one frame draws, where, and how: the per-frame half of rendering (the pipelines live
-/// in [`Raycaster`]).
-#[derive(Clone, Copy)]
-pub struct Frame<'a> {
-    pub volume: &'a GpuVolume,
+/// in [`Raycaster`] and [`super::DenseRaycaster`]).
+pub struct Frame<'a, V = GpuVolume> {
+    pub volume: &'a V,
     pub target: &'a RenderTarget,
     pub camera: &'a Camera,
     pub settings: &'a RenderSettings,
+}
+
+impl<V> Clone for Frame<'_, V> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+
+impl<V> Copy for Frame<'_, V> {}
+
+/// What the ray casters' shared parameters need to know of a volume on the GPU.
+pub(crate) trait VolumeShape {
+    /// Voxels along x, y, z.
+    fn dims(&self) -> [usize; 3];
+    /// Physical voxel size along x, y, z.
+    fn spacing(&self) -> [f64; 3];
+    /// Octree depth (0 where there is no octree).
+    fn depth(&self) -> u32;
+    /// Deepest level a ray may descend to.
+    fn level_cap(&self) -> u32;
+    /// Value level at which a MIP ray may stop.
+    fn mip_saturation(&self) -> u16;
+}
+
+impl VolumeShape for GpuVolume {
+    fn dims(&self) -> [usize; 3] {
+        self.dims
+    }
+    fn spacing(&self) -> [f64; 3] {
+        self.spacing
+    }
+    fn depth(&self) -> u32 {
+        self.depth
+    }
+    fn level_cap(&self) -> u32 {
+        self.uploaded_level
+    }
+    fn mip_saturation(&self) -> u16 {
+        self.mip_saturation
+    }
 }
 
 /// The ray-casting compute pipeline.
@@ -83,62 +122,19 @@ pub struct Raycaster {
 impl Raycaster {
     pub fn new(context: &GpuContext) -> Self {
         let device = &context.device;
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("voxscope::raycast.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(include_str!("../../shaders/raycast.wgsl").into()),
-        });
-        let storage = |binding, read_only| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only },
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("voxscope::raycast_layout"),
-            entries: &[
-                wgpu::BindGroupLayoutEntry {
-                    binding: 0,
-                    visibility: wgpu::ShaderStages::COMPUTE,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
-                    count: None,
-                },
-                storage(1, true),
-                storage(2, true),
-                storage(3, true),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 4,
-                    visibility: wgpu::ShaderStages::COMPUTE,
-                    ty: wgpu::BindingType::StorageTexture {
-                        access: wgpu::StorageTextureAccess::WriteOnly,
-                        format: RenderTarget::FORMAT,
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                    },
-                    count: None,
-                },
-                storage(5, false),
+        let (pipeline, layout) = compute_pipeline(
+            device,
+            "raycast",
+            include_str!("../../shaders/raycast.wgsl"),
+            &[
+                uniform_entry(0, false),
+                storage_entry(1, true),
+                storage_entry(2, true),
+                storage_entry(3, true),
+                output_image_entry(4),
+                storage_entry(5, false),
             ],
-        });
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("voxscope::raycast_pipeline_layout"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("voxscope::raycast_pipeline"),
-            layout: Some(&pipeline_layout),
-            module: &module,
-            entry_point: Some("main"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
+        );
         let params = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("voxscope::raycast_params"),
             size: std::mem::size_of::<RaycastParams>() as u64,
@@ -203,32 +199,29 @@ impl Raycaster {
                     },
                 ],
             });
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("voxscope::raycast_pass"),
+        dispatch_per_pixel(
+            encoder,
+            "raycast",
+            &self.pipeline,
+            &bind_group,
+            target,
             timestamp_writes,
-        });
-        pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, &bind_group, &[]);
-        pass.dispatch_workgroups(
-            target.width.div_ceil(WORKGROUP_SIDE),
-            target.height.div_ceil(WORKGROUP_SIDE),
-            1,
         );
     }
 }
 
 /// The camera and settings in the shader's voxel space.
-fn raycast_params(
-    volume: &GpuVolume,
+pub(crate) fn raycast_params(
+    volume: &impl VolumeShape,
     target: &RenderTarget,
     camera: &Camera,
     settings: &RenderSettings,
 ) -> RaycastParams {
-    let spacing = DVec3::from(volume.spacing);
+    let spacing = DVec3::from(volume.spacing());
     let dims = DVec3::new(
-        volume.dims[0] as f64,
-        volume.dims[1] as f64,
-        volume.dims[2] as f64,
+        volume.dims()[0] as f64,
+        volume.dims()[1] as f64,
+        volume.dims()[2] as f64,
     );
     let extent = dims * spacing;
     let frame = camera.frame(
@@ -258,10 +251,10 @@ fn raycast_params(
         forward: vec4(to_voxel_vector(frame.forward), 0.0),
         right: vec4(to_voxel_vector(frame.right * tan_x), tan_x),
         up: vec4(to_voxel_vector(frame.up * tan_y), tan_y),
-        volume: vec4(dims, (1u64 << volume.depth) as f64),
+        volume: vec4(dims, (1u64 << volume.depth()) as f64),
         image_size: [target.width, target.height],
-        depth: volume.depth,
-        max_level: settings.max_level.min(volume.uploaded_level),
+        depth: volume.depth(),
+        max_level: settings.max_level.min(volume.level_cap()),
         mode: match settings.mode {
             RenderMode::Dvr => 0,
             RenderMode::Mip => 1,
@@ -269,7 +262,7 @@ fn raycast_params(
         flags,
         density: settings.density.max(0.0),
         lod_factor: (pixel_angle / smallest_spacing) as f32,
-        mip_saturation: volume.mip_saturation as u32,
+        mip_saturation: volume.mip_saturation() as u32,
         _pad: [0; 3],
     }
 }

@@ -30,6 +30,9 @@ pub struct RenderSettings {
     pub density: f32,
     /// Draw how many nodes each ray visited instead of the image.
     pub heatmap: bool,
+    /// Renderers that sample textures (`dense`) filter trilinearly; off samples the nearest
+    /// voxel. The octree always draws whole nodes.
+    pub trilinear: bool,
 }
 
 impl RenderSettings {
@@ -42,6 +45,7 @@ impl RenderSettings {
             opacity_correction: true,
             density: 1.0,
             heatmap: false,
+            trilinear: true,
         }
     }
 }

@@ -1,0 +1,174 @@
+//! One volume on the GPU drawn by one of the renderers, behind one interface: what the command
+//! line, the benchmark and the app switch between.
+
+use super::{
+    Camera, DenseRaycaster, DenseVolume, Frame, GpuContext, GpuRecolor, GpuVolume, Raycaster,
+    RenderError, RenderSettings, RenderTarget,
+};
+use crate::octree::{Octree, TransferFunction};
+use crate::volume::QuantizedVolume;
+
+/// The renderers voxscope has.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum RendererKind {
+    /// The paper's octree: 8-byte nodes, voxel leaves, empty-space skipping, LOD cut.
+    Octree,
+    /// One 3D texture, fixed one-voxel steps, hardware filtering (the peers' baseline).
+    Dense,
+}
+
+impl RendererKind {
+    pub const ALL: [RendererKind; 2] = [Self::Octree, Self::Dense];
+
+    /// `octree`, `dense`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Octree => "octree",
+            Self::Dense => "dense",
+        }
+    }
+}
+
+enum State {
+    Octree {
+        raycaster: Raycaster,
+        recolor: GpuRecolor,
+        volume: GpuVolume,
+    },
+    Dense {
+        raycaster: DenseRaycaster,
+        volume: DenseVolume,
+    },
+}
+
+/// A volume uploaded for one renderer, with its pipelines.
+pub struct VolumeRenderer {
+    state: State,
+}
+
+impl VolumeRenderer {
+    /// Uploads what `kind` needs: the octree (colored as it is, through `max_level`) or the
+    /// quantized voxels.
+    pub fn new(
+        context: &GpuContext,
+        kind: RendererKind,
+        octree: &Octree,
+        quantized: &QuantizedVolume,
+        spacing: [f64; 3],
+        max_level: u32,
+        transfer: &TransferFunction,
+    ) -> Result<Self, RenderError> {
+        let state = match kind {
+            RendererKind::Octree => State::Octree {
+                raycaster: Raycaster::new(context),
+                recolor: GpuRecolor::new(context),
+                volume: GpuVolume::upload(context, octree, spacing, max_level, transfer)?,
+            },
+            RendererKind::Dense => State::Dense {
+                raycaster: DenseRaycaster::new(context),
+                volume: DenseVolume::upload(context, quantized, spacing, transfer)?,
+            },
+        };
+        Ok(Self { state })
+    }
+
+    /// Which renderer this is.
+    pub fn kind(&self) -> RendererKind {
+        match self.state {
+            State::Octree { .. } => RendererKind::Octree,
+            State::Dense { .. } => RendererKind::Dense,
+        }
+    }
+
+    /// Applies a new transfer function: writes the lookup table and, for the octree, records
+    /// the GPU recolor of every level into `encoder` (topology untouched).
+    pub fn set_transfer(
+        &mut self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        transfer: &TransferFunction,
+        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) -> Result<(), RenderError> {
+        match &mut self.state {
+            State::Octree {
+                recolor, volume, ..
+            } => {
+                volume.set_transfer(context, transfer);
+                recolor.encode(context, encoder, volume, timestamp_writes)
+            }
+            State::Dense { volume, .. } => {
+                volume.set_transfer(context, transfer);
+                Ok(())
+            }
+        }
+    }
+
+    /// Records one frame into `encoder`.
+    pub fn encode(
+        &self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &RenderTarget,
+        camera: &Camera,
+        settings: &RenderSettings,
+        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
+        match &self.state {
+            State::Octree {
+                raycaster, volume, ..
+            } => {
+                let frame = Frame {
+                    volume,
+                    target,
+                    camera,
+                    settings,
+                };
+                raycaster.encode(context, encoder, &frame, timestamp_writes);
+            }
+            State::Dense { raycaster, volume } => {
+                let frame = Frame {
+                    volume,
+                    target,
+                    camera,
+                    settings,
+                };
+                raycaster.encode(context, encoder, &frame, timestamp_writes);
+            }
+        }
+    }
+
+    /// Records and submits one frame.
+    pub fn render(
+        &self,
+        context: &GpuContext,
+        target: &RenderTarget,
+        camera: &Camera,
+        settings: &RenderSettings,
+    ) {
+        let mut encoder = context
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("voxscope::frame"),
+            });
+        self.encode(context, &mut encoder, target, camera, settings, None);
+        context.queue.submit([encoder.finish()]);
+    }
+
+    /// GPU memory of each of this renderer's buffers and textures, by name.
+    pub fn gpu_bytes(&self) -> Vec<(&'static str, u64)> {
+        match &self.state {
+            State::Octree { volume, .. } => vec![
+                ("octree_nodes", volume.nodes.size()),
+                ("octree_bounds", volume.bounds.size()),
+                ("transfer_lookup_table", volume.lookup_table.size()),
+            ],
+            State::Dense { volume, .. } => vec![
+                (
+                    "dense_texture",
+                    volume.gpu_bytes() - volume.lookup_table.size(),
+                ),
+                ("transfer_lookup_table", volume.lookup_table.size()),
+            ],
+        }
+    }
+}
