@@ -20,9 +20,10 @@ struct Params {
     density: f32,
     lod_factor: f32,
     mip_saturation: u32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
+    brick_level: u32,
+    brick_size: u32,
+    atlas_scale: f32,
+    atlas_grid: vec4<u32>,
 }
 
 const MODE_MIP: u32 = 1u;
@@ -74,7 +75,12 @@ fn march(origin: vec3<f32>, dir: vec3<f32>) -> MarchResult {
     var color = vec3<f32>(0.0);
     var alpha = 0.0;
     var running_max = 0u;
-    for (var t = t_enter + 0.5 * step; t < t_leave; t += step) {
+    // Sample k sits at t_enter + (k + 0.5) · step (as in the bricks renderer, sample for sample).
+    for (var k = 0.0; ; k += 1.0) {
+        let t = t_enter + (k + 0.5) * step;
+        if t >= t_leave {
+            break;
+        }
         let position = origin + t * dir;
         let level = textureSampleLevel(levels, level_sampler, position / dims, 0.0).r;
         let index = u32(clamp(round(level), 0.0, 65535.0));

@@ -34,12 +34,15 @@ struct Params {
     density: f32,           // global opacity scale
     lod_factor: f32,        // pixel angle / smallest spacing: footprint in voxels per unit t
     mip_saturation: u32,    // value level at which MIP may stop
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
+    brick_level: u32,       // level of brick leaves (bricks renderer), else beyond the depth
+    brick_size: u32,        // voxels along a brick's side
+    atlas_scale: f32,       // atlas texel value × this = value level (255 for unorm8, 1 for f16)
+    atlas_grid: vec4<u32>,  // xyz: bricks along each atlas axis
 }
 
 const LEAF: u32 = 0xffffffffu;
+// Keep in sync with `BRICK_FLAG` in src/octree/bricks.rs.
+const BRICK_FLAG: u32 = 0x80000000u;
 const MODE_DVR: u32 = 0u;
 const MODE_MIP: u32 = 1u;
 const FLAG_OPACITY_CORRECTION: u32 = 1u;
@@ -57,6 +60,9 @@ const MAX_STEPS: u32 = 100000u;
 @group(0) @binding(3) var<storage, read> lookup_table: array<u32>;
 @group(0) @binding(4) var output: texture_storage_2d<rgba8unorm, write>;
 @group(0) @binding(5) var<storage, read_write> visits: array<u32>;
+// The bricks renderer's atlas of value levels (a 1-texel stand-in for the plain octree).
+@group(0) @binding(6) var atlas: texture_3d<f32>;
+@group(0) @binding(7) var atlas_sampler: sampler;
 
 struct RayResult {
     color: vec3<f32>,
@@ -106,6 +112,9 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32) -> RayResult 
     let correct_opacity = (params.flags & FLAG_OPACITY_CORRECTION) != 0u;
     let mip = params.mode == MODE_MIP;
     let probe_step = 1e-3 / max(voxels_per_t, 1e-20);
+    // Bricks are sampled once per voxel of path, at the same places as the dense renderer.
+    let sample_step = 1.0 / max(voxels_per_t, 1e-20);
+    let atlas_texels = vec3<f32>(textureDimensions(atlas));
 
     var stack_node: array<u32, STACK_SIZE>;
     var stack_corner: array<vec3<f32>, STACK_SIZE>;
@@ -151,6 +160,39 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32) -> RayResult 
             }
             let cut = node.first_child == LEAF || level >= params.max_level
                 || (use_lod && size <= t * lod_per_t);
+            if !cut && level == params.brick_level && (node.first_child & BRICK_FLAG) != 0u {
+                // A brick: march its voxels in the atlas with hardware trilinear filtering.
+                let slot = node.first_child & ~BRICK_FLAG;
+                let grid = params.atlas_grid.xyz;
+                let cell = vec3<u32>(slot % grid.x, (slot / grid.x) % grid.y, slot / (grid.x * grid.y));
+                let brick_texel = vec3<f32>(cell) * f32(params.brick_size + 2u) + 1.0;
+                let corner = stack_corner[level];
+                var k = max(ceil((t - t_enter) / sample_step - 0.5), 0.0);
+                loop {
+                    let ts = t_enter + (k + 0.5) * sample_step;
+                    if ts >= t_out || alpha >= EARLY_TERMINATION_ALPHA {
+                        break;
+                    }
+                    let local = origin + ts * dir - corner;
+                    let texel = textureSampleLevel(atlas, atlas_sampler, (brick_texel + local) / atlas_texels, 0.0).r;
+                    let value_level = u32(clamp(round(texel * params.atlas_scale), 0.0, 65535.0));
+                    result.visited += 1u;
+                    if mip {
+                        running_max = max(running_max, value_level);
+                        if running_max >= params.mip_saturation {
+                            break;
+                        }
+                    } else {
+                        let rgba = unpack4x8unorm(lookup_table[value_level]);
+                        let a = min(rgba.a * params.density, 1.0);
+                        color += (1.0 - alpha) * a * rgba.rgb;
+                        alpha += (1.0 - alpha) * a;
+                    }
+                    k += 1.0;
+                }
+                t = max(t_out, probe);
+                break;
+            }
             if cut {
                 if mip {
                     running_max = max(running_max, bounds[stack_node[level]] >> 16u);

@@ -191,7 +191,14 @@ fn bench_runs_briefly_on_any_device_and_reports_every_case() {
         assert!(!json[key].is_null(), "missing {key}");
     }
     let results = json["results"].as_array().unwrap();
-    assert_eq!(results.len(), 9, "3 modes × 3 cameras");
+    assert_eq!(results.len(), 27, "3 renderers × 3 modes × 3 cameras");
+    for renderer in ["octree", "dense", "bricks"] {
+        assert_eq!(
+            results.iter().filter(|r| r["renderer"] == renderer).count(),
+            9,
+            "{renderer}"
+        );
+    }
     for row in results {
         for key in [
             "renderer",
@@ -210,5 +217,15 @@ fn bench_runs_briefly_on_any_device_and_reports_every_case() {
         assert!(median > 0.0 && median <= row["p95_ms"].as_f64().unwrap());
         assert!(row["nodes_per_ray_avg"].as_f64().unwrap() >= 1.0);
     }
-    assert!(json["gpu_bytes"]["octree_nodes"].as_u64().unwrap() > 0);
+    for (renderer, buffer) in [
+        ("octree", "nodes"),
+        ("dense", "texture"),
+        ("bricks", "atlas"),
+        ("target", "texture"),
+    ] {
+        assert!(
+            json["gpu_bytes"][renderer][buffer].as_u64().unwrap() > 0,
+            "{renderer} {buffer}"
+        );
+    }
 }

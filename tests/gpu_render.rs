@@ -426,3 +426,133 @@ fn dense_with_nearest_sampling_agrees_with_the_octree_at_full_level() {
         );
     }
 }
+
+#[test]
+fn bricks_match_dense_sample_for_sample() {
+    // Same sample positions and, thanks to the one-voxel apron, the same trilinear values: the
+    // bricks renderer differs from dense only where it skips what is transparent anyway.
+    let context = gpu();
+    let sample = volume::sample().unwrap();
+    let cases: Vec<(Volume, RenderMode, OpacityMode)> = vec![
+        (
+            load("synthetic:noise:45x30x21"),
+            RenderMode::Dvr,
+            OpacityMode::Gray,
+        ),
+        (
+            load("synthetic:shells:40x36x29"),
+            RenderMode::Dvr,
+            OpacityMode::Binary,
+        ),
+        (
+            load("synthetic:noise:45x30x21"),
+            RenderMode::Mip,
+            OpacityMode::Gray,
+        ),
+        (sample.clone(), RenderMode::Dvr, OpacityMode::Gray),
+        (sample, RenderMode::Mip, OpacityMode::Gray),
+    ];
+    for (volume, mode, opacity) in cases {
+        let quantized = volume::QuantizedVolume::new(&volume);
+        let transfer = TransferFunction {
+            opacity,
+            ..TransferFunction::gray(quantized.robust_window())
+        };
+        let (octree, transfer) = colored_octree(&volume, Some(transfer), BuildOptions::default());
+        let settings = RenderSettings {
+            mode,
+            density: 0.4,
+            ..full(octree.depth)
+        };
+        let camera = Camera {
+            azimuth_deg: -40.0,
+            elevation_deg: 25.0,
+            distance: 1.7,
+            ..Camera::default()
+        };
+        let render = |kind| {
+            let renderer = VolumeRenderer::new(
+                &context,
+                kind,
+                &octree,
+                &quantized,
+                volume.spacing,
+                octree.depth,
+                &transfer,
+            )
+            .unwrap();
+            let target = voxscope::render::RenderTarget::new(&context, SIZE.0, SIZE.1);
+            renderer.render(&context, &target, &camera, &settings);
+            voxscope::render::read_image(&context, &target).unwrap()
+        };
+        let (dense, bricks) = (render(RendererKind::Dense), render(RendererKind::Bricks));
+        let name = format!("{}-{mode:?}-{opacity:?}", volume.name.replace(':', "-"));
+        dense
+            .save(image_dir().join(format!("{name}-dense.png")))
+            .unwrap();
+        bricks
+            .save(image_dir().join(format!("{name}-bricks.png")))
+            .unwrap();
+        let db = psnr(&dense, &bricks);
+        eprintln!(
+            "{name}: bricks vs dense {db:.1} dB, coverage {:.2}",
+            coverage(&dense)
+        );
+        assert!(coverage(&bricks) > 0.05, "{name}: bricks drew nothing");
+        assert!(
+            db >= 45.0,
+            "{name}: bricks and dense differ, PSNR {db:.1} dB"
+        );
+    }
+}
+
+#[test]
+fn bricks_recolor_on_the_gpu_keeps_empty_bricks_transparent() {
+    // After a transfer edit on the GPU, a brick is transparent exactly when all its voxels are:
+    // rendering with a binary threshold above every value of a region leaves it black.
+    let context = gpu();
+    let volume = load("synthetic:sphere:48");
+    let quantized = volume::QuantizedVolume::new(&volume);
+    let (octree, gray) = colored_octree(&volume, None, BuildOptions::default());
+    let mut renderer = VolumeRenderer::new(
+        &context,
+        RendererKind::Bricks,
+        &octree,
+        &quantized,
+        volume.spacing,
+        octree.depth,
+        &gray,
+    )
+    .unwrap();
+    let settings = full(octree.depth);
+    let camera = Camera {
+        distance: 1.8,
+        ..Camera::default()
+    };
+    let target = voxscope::render::RenderTarget::new(&context, SIZE.0, SIZE.1);
+    let mut frame_after = |transfer: &TransferFunction| {
+        let mut encoder = context.device.create_command_encoder(&Default::default());
+        renderer
+            .set_transfer(&context, &mut encoder, transfer, None)
+            .unwrap();
+        context.queue.submit([encoder.finish()]);
+        renderer.render(&context, &target, &camera, &settings);
+        voxscope::render::read_image(&context, &target).unwrap()
+    };
+    let visible = frame_after(&gray);
+    assert!(coverage(&visible) > 0.1);
+    let nothing = TransferFunction {
+        opacity: OpacityMode::Binary,
+        threshold: 1.0,
+        window: voxscope::volume::ValueWindow {
+            low: 0.0,
+            high: 1000.0,
+        },
+    };
+    assert_eq!(
+        coverage(&frame_after(&nothing)),
+        0.0,
+        "every brick became transparent"
+    );
+    assert!(coverage(&frame_after(&gray)) > 0.1, "and visible again");
+}

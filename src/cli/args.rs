@@ -79,6 +79,8 @@ pub enum RendererArg {
     Octree,
     /// One 3D texture at fixed steps (the peers' baseline).
     Dense,
+    /// The octree down to 8³ bricks, marched in a 3D texture atlas.
+    Bricks,
 }
 
 impl From<RendererArg> for RendererKind {
@@ -86,6 +88,7 @@ impl From<RendererArg> for RendererKind {
         match arg {
             RendererArg::Octree => RendererKind::Octree,
             RendererArg::Dense => RendererKind::Dense,
+            RendererArg::Bricks => RendererKind::Bricks,
         }
     }
 }

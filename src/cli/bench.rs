@@ -110,9 +110,12 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
             &prepared.transfer,
         )
         .map_err(|e| format!("{}: {e}", prepared.volume.name))?;
-        for (name, bytes) in renderer.gpu_bytes() {
-            gpu_bytes.insert(format!("{}_{name}", kind.name()), bytes.into());
-        }
+        let buffers: serde_json::Map<String, serde_json::Value> = renderer
+            .gpu_bytes()
+            .into_iter()
+            .map(|(name, bytes)| (name.to_owned(), bytes.into()))
+            .collect();
+        gpu_bytes.insert(kind.name().to_owned(), buffers.into());
         for (mode_name, transfer, mode) in modes {
             let times = time_transfer_edits(&context, &mut renderer, &transfer, timer.as_ref())?;
             if kind == RendererKind::Octree {
@@ -152,10 +155,9 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
         }
     }
     gpu_bytes.insert(
-        "target_texture".into(),
-        (target.width as u64 * target.height as u64 * 4).into(),
+        "target".into(),
+        json!({"texture": target.width as u64 * target.height as u64 * 4, "visits": target.visits.size()}),
     );
-    gpu_bytes.insert("visits_buffer".into(), target.visits.size().into());
     let report = json!({
         "adapter": context.adapter_info.name,
         "backend": format!("{:?}", context.adapter_info.backend),
@@ -369,11 +371,16 @@ fn print_table(report: &serde_json::Value, results: &[BenchResult]) {
         report["build_seconds"].as_f64().unwrap_or_default(),
         report["recolor_ms"].as_f64().unwrap_or_default(),
         report["recolor_cpu_ms"].as_f64().unwrap_or_default(),
-        report["gpu_bytes"]
-            .as_object()
-            .map_or(0.0, |m| m.values().filter_map(|v| v.as_f64()).sum::<f64>())
-            / (1 << 20) as f64
+        total_bytes(&report["gpu_bytes"]) / (1 << 20) as f64
     );
+}
+
+/// Sum of every number in a (nested) JSON object.
+fn total_bytes(value: &serde_json::Value) -> f64 {
+    match value {
+        serde_json::Value::Object(map) => map.values().map(total_bytes).sum(),
+        other => other.as_f64().unwrap_or_default(),
+    }
 }
 
 #[cfg(test)]

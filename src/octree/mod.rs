@@ -3,6 +3,7 @@
 //! parallel list let a transfer-function edit recolor the nodes without touching the topology.
 //! Pure CPU: nothing here knows about GPUs.
 
+mod bricks;
 mod build;
 mod node;
 mod recolor;
@@ -12,6 +13,7 @@ mod transfer;
 
 use std::ops::Range;
 
+pub use bricks::{BRICK_FLAG, BrickLayout};
 pub use build::{BuildError, BuildOptions, MAX_DEPTH, build};
 pub use node::{LEAF, Node, ValueBounds, average_color, pack_rgba, unpack_rgba};
 pub use recolor::recolor;

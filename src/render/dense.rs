@@ -6,7 +6,8 @@ use half::f16;
 use wgpu::util::DeviceExt;
 
 use super::pipeline::{
-    compute_pipeline, dispatch_per_pixel, output_image_entry, storage_entry, uniform_entry,
+    atlas_entry, atlas_sampler_entry, clamped_sampler, compute_pipeline, dispatch_per_pixel,
+    output_image_entry, storage_entry, uniform_entry,
 };
 use super::raycaster::{VolumeShape, raycast_params};
 use super::{Frame, GpuContext, RenderError};
@@ -145,38 +146,13 @@ impl DenseRaycaster {
             include_str!("../../shaders/dense.wgsl"),
             &[
                 uniform_entry(0, false),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 1,
-                    visibility: wgpu::ShaderStages::COMPUTE,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
-                        view_dimension: wgpu::TextureViewDimension::D3,
-                        multisampled: false,
-                    },
-                    count: None,
-                },
-                wgpu::BindGroupLayoutEntry {
-                    binding: 2,
-                    visibility: wgpu::ShaderStages::COMPUTE,
-                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-                    count: None,
-                },
+                atlas_entry(1),
+                atlas_sampler_entry(2),
                 storage_entry(3, true),
                 output_image_entry(4),
                 storage_entry(5, false),
             ],
         );
-        let sampler = |filter: wgpu::FilterMode, label: &str| {
-            device.create_sampler(&wgpu::SamplerDescriptor {
-                label: Some(label),
-                address_mode_u: wgpu::AddressMode::ClampToEdge,
-                address_mode_v: wgpu::AddressMode::ClampToEdge,
-                address_mode_w: wgpu::AddressMode::ClampToEdge,
-                mag_filter: filter,
-                min_filter: filter,
-                ..Default::default()
-            })
-        };
         let params = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("voxscope::dense_params"),
             size: std::mem::size_of::<super::gpu_data::RaycastParams>() as u64,
@@ -187,8 +163,12 @@ impl DenseRaycaster {
             pipeline,
             layout,
             params,
-            trilinear: sampler(wgpu::FilterMode::Linear, "voxscope::dense_trilinear"),
-            nearest: sampler(wgpu::FilterMode::Nearest, "voxscope::dense_nearest"),
+            trilinear: clamped_sampler(
+                device,
+                wgpu::FilterMode::Linear,
+                "voxscope::dense_trilinear",
+            ),
+            nearest: clamped_sampler(device, wgpu::FilterMode::Nearest, "voxscope::dense_nearest"),
         }
     }
 

@@ -18,10 +18,16 @@ pub(crate) struct RaycastParams {
     pub density: f32,
     pub lod_factor: f32,
     pub mip_saturation: u32,
-    pub _pad: [u32; 3],
+    /// Level of brick leaves; beyond the depth when there are none.
+    pub brick_level: u32,
+    pub brick_size: u32,
+    /// Atlas texel value × this = value level.
+    pub atlas_scale: f32,
+    /// Bricks along x, y, z of the atlas (w unused).
+    pub atlas_grid: [u32; 4],
 }
 
-const _: () = assert!(std::mem::size_of::<RaycastParams>() == 128);
+const _: () = assert!(std::mem::size_of::<RaycastParams>() == 144);
 
 /// Uniforms of one level's dispatch of `recolor.wgsl`. Keep in sync with `struct Params` there.
 #[repr(C)]
@@ -34,6 +40,22 @@ pub(crate) struct RecolorParams {
 }
 
 const _: () = assert!(std::mem::size_of::<RecolorParams>() == 16);
+
+/// Uniforms of `brick_recolor.wgsl`. Keep in sync with `struct Params` there.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub(crate) struct BrickRecolorParams {
+    pub level_start: u32,
+    pub level_count: u32,
+    pub groups_x: u32,
+    pub brick_size: u32,
+    pub atlas_grid: [u32; 4],
+    pub dims: [u32; 4],
+    pub atlas_scale: f32,
+    pub _pad: [u32; 3],
+}
+
+const _: () = assert!(std::mem::size_of::<BrickRecolorParams>() == 64);
 
 pub(crate) const FLAG_OPACITY_CORRECTION: u32 = 1;
 pub(crate) const FLAG_PIXEL_LOD: u32 = 2;
@@ -66,10 +88,21 @@ mod tests {
             std::mem::size_of::<RaycastParams>() as u32
         );
         assert_eq!(wgsl_struct_size(raycast, "Node"), node);
+        let dense = include_str!("../../shaders/dense.wgsl");
+        assert_eq!(
+            wgsl_struct_size(dense, "Params"),
+            std::mem::size_of::<RaycastParams>() as u32
+        );
         assert_eq!(
             wgsl_struct_size(recolor, "Params"),
             std::mem::size_of::<RecolorParams>() as u32
         );
         assert_eq!(wgsl_struct_size(recolor, "Node"), node);
+        let bricks = include_str!("../../shaders/brick_recolor.wgsl");
+        assert_eq!(
+            wgsl_struct_size(bricks, "Params"),
+            std::mem::size_of::<BrickRecolorParams>() as u32
+        );
+        assert_eq!(wgsl_struct_size(bricks, "Node"), node);
     }
 }

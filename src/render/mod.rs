@@ -2,6 +2,7 @@
 //! recolor compute pipelines, the camera. Knows nothing about the UI: the app and the command
 //! line both drive it.
 
+mod bricks;
 mod camera;
 mod context;
 mod dense;
@@ -15,11 +16,12 @@ mod settings;
 mod timer;
 mod volume_renderer;
 
+pub use bricks::{GpuBrickRecolor, GpuBricks};
 pub use camera::{Camera, ViewFrame};
 pub use context::{GpuContext, RenderError};
 pub use dense::{DenseRaycaster, DenseVolume};
 pub use gpu_volume::GpuVolume;
-pub use raycaster::{Frame, Raycaster, RenderTarget};
+pub use raycaster::{Frame, OctreeOnGpu, Raycaster, RenderTarget, VolumeShape};
 pub use readback::{read_buffer, read_image, read_visits};
 pub use recolor::GpuRecolor;
 pub use settings::{EARLY_TERMINATION_ALPHA, RenderMode, RenderSettings};

@@ -4,7 +4,8 @@ use glam::DVec3;
 
 use super::gpu_data::{FLAG_HEATMAP, FLAG_OPACITY_CORRECTION, FLAG_PIXEL_LOD, RaycastParams};
 use super::pipeline::{
-    compute_pipeline, dispatch_per_pixel, output_image_entry, storage_entry, uniform_entry,
+    atlas_entry, atlas_sampler_entry, clamped_sampler, compute_pipeline, dispatch_per_pixel,
+    output_image_entry, storage_entry, uniform_entry,
 };
 use super::{Camera, GpuContext, GpuVolume, RenderMode, RenderSettings};
 
@@ -81,7 +82,7 @@ impl<V> Clone for Frame<'_, V> {
 impl<V> Copy for Frame<'_, V> {}
 
 /// What the ray casters' shared parameters need to know of a volume on the GPU.
-pub(crate) trait VolumeShape {
+pub trait VolumeShape {
     /// Voxels along x, y, z.
     fn dims(&self) -> [usize; 3];
     /// Physical voxel size along x, y, z.
@@ -92,6 +93,45 @@ pub(crate) trait VolumeShape {
     fn level_cap(&self) -> u32;
     /// Value level at which a MIP ray may stop.
     fn mip_saturation(&self) -> u16;
+    /// Where brick leaves are, if any.
+    fn bricks(&self) -> Option<BrickShape> {
+        None
+    }
+}
+
+/// Brick leaves of a volume on the GPU, as the shader needs them.
+#[derive(Debug, Clone, Copy)]
+pub struct BrickShape {
+    pub level: u32,
+    pub size: u32,
+    /// Atlas texel value × this = value level.
+    pub atlas_scale: f32,
+    pub atlas_grid: [u32; 3],
+}
+
+/// An octree on the GPU that [`Raycaster`] can draw: plain ([`GpuVolume`]) or with brick
+/// leaves ([`super::GpuBricks`]).
+pub trait OctreeOnGpu: VolumeShape {
+    fn nodes(&self) -> &wgpu::Buffer;
+    fn bounds(&self) -> &wgpu::Buffer;
+    fn lookup_table(&self) -> &wgpu::Buffer;
+    /// The brick atlas, if there are bricks.
+    fn atlas(&self) -> Option<&wgpu::TextureView>;
+}
+
+impl OctreeOnGpu for GpuVolume {
+    fn nodes(&self) -> &wgpu::Buffer {
+        &self.nodes
+    }
+    fn bounds(&self) -> &wgpu::Buffer {
+        &self.bounds
+    }
+    fn lookup_table(&self) -> &wgpu::Buffer {
+        &self.lookup_table
+    }
+    fn atlas(&self) -> Option<&wgpu::TextureView> {
+        None
+    }
 }
 
 impl VolumeShape for GpuVolume {
@@ -117,6 +157,9 @@ pub struct Raycaster {
     pipeline: wgpu::ComputePipeline,
     layout: wgpu::BindGroupLayout,
     params: wgpu::Buffer,
+    /// Bound where a volume has no brick atlas.
+    no_atlas: wgpu::TextureView,
+    atlas_sampler: wgpu::Sampler,
 }
 
 impl Raycaster {
@@ -133,8 +176,28 @@ impl Raycaster {
                 storage_entry(3, true),
                 output_image_entry(4),
                 storage_entry(5, false),
+                atlas_entry(6),
+                atlas_sampler_entry(7),
             ],
         );
+        let no_atlas = device
+            .create_texture(&wgpu::TextureDescriptor {
+                label: Some("voxscope::no_atlas"),
+                size: wgpu::Extent3d {
+                    width: 1,
+                    height: 1,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D3,
+                format: wgpu::TextureFormat::R16Float,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING,
+                view_formats: &[],
+            })
+            .create_view(&wgpu::TextureViewDescriptor::default());
+        let atlas_sampler =
+            clamped_sampler(device, wgpu::FilterMode::Linear, "voxscope::atlas_sampler");
         let params = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("voxscope::raycast_params"),
             size: std::mem::size_of::<RaycastParams>() as u64,
@@ -145,6 +208,8 @@ impl Raycaster {
             pipeline,
             layout,
             params,
+            no_atlas,
+            atlas_sampler,
         }
     }
 
@@ -154,7 +219,7 @@ impl Raycaster {
         &self,
         context: &GpuContext,
         encoder: &mut wgpu::CommandEncoder,
-        frame: &Frame<'_>,
+        frame: &Frame<'_, impl OctreeOnGpu>,
         timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
         let Frame {
@@ -179,15 +244,15 @@ impl Raycaster {
                     },
                     wgpu::BindGroupEntry {
                         binding: 1,
-                        resource: volume.nodes.as_entire_binding(),
+                        resource: volume.nodes().as_entire_binding(),
                     },
                     wgpu::BindGroupEntry {
                         binding: 2,
-                        resource: volume.bounds.as_entire_binding(),
+                        resource: volume.bounds().as_entire_binding(),
                     },
                     wgpu::BindGroupEntry {
                         binding: 3,
-                        resource: volume.lookup_table.as_entire_binding(),
+                        resource: volume.lookup_table().as_entire_binding(),
                     },
                     wgpu::BindGroupEntry {
                         binding: 4,
@@ -196,6 +261,16 @@ impl Raycaster {
                     wgpu::BindGroupEntry {
                         binding: 5,
                         resource: target.visits.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 6,
+                        resource: wgpu::BindingResource::TextureView(
+                            volume.atlas().unwrap_or(&self.no_atlas),
+                        ),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 7,
+                        resource: wgpu::BindingResource::Sampler(&self.atlas_sampler),
                     },
                 ],
             });
@@ -236,6 +311,7 @@ pub(crate) fn raycast_params(
     let vec4 = |v: DVec3, w: f64| [v.x as f32, v.y as f32, v.z as f32, w as f32];
     let smallest_spacing = spacing.min_element();
     let pixel_angle = 2.0 * tan_y / target.height as f64;
+    let bricks = volume.bricks();
     let mut flags = 0;
     if settings.opacity_correction {
         flags |= FLAG_OPACITY_CORRECTION;
@@ -263,6 +339,11 @@ pub(crate) fn raycast_params(
         density: settings.density.max(0.0),
         lod_factor: (pixel_angle / smallest_spacing) as f32,
         mip_saturation: volume.mip_saturation() as u32,
-        _pad: [0; 3],
+        brick_level: bricks.map_or(u32::MAX, |b| b.level),
+        brick_size: bricks.map_or(1, |b| b.size),
+        atlas_scale: bricks.map_or(1.0, |b| b.atlas_scale),
+        atlas_grid: bricks.map_or([1; 4], |b| {
+            [b.atlas_grid[0], b.atlas_grid[1], b.atlas_grid[2], 0]
+        }),
     }
 }

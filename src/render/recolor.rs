@@ -82,16 +82,36 @@ impl GpuRecolor {
                 volume.uploaded_level, volume.depth
             )));
         }
+        let levels = RecolorLevels {
+            nodes: &volume.nodes,
+            bounds: &volume.bounds,
+            lookup_table: &volume.lookup_table,
+            level_starts: &volume.level_starts,
+            deepest: volume.depth,
+        };
+        self.encode_levels(context, encoder, &levels, timestamp_writes);
+        Ok(())
+    }
+
+    /// Records the recolor of levels `deepest..=0`, deepest first: leaves from the lookup
+    /// table, inner nodes from their children (which must be final before).
+    pub(crate) fn encode_levels(
+        &self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        levels: &RecolorLevels<'_>,
+        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
         let device = &context.device;
         let max_groups = context.limits.max_compute_workgroups_per_dimension.max(1);
         let stride = context.limits.min_uniform_buffer_offset_alignment.max(16) as usize;
-        let levels = volume.depth as usize + 1;
+        let count_levels = levels.deepest as usize + 1;
         // One parameter block per level, deepest first, at aligned offsets.
-        let mut blocks = vec![0u8; stride * levels];
-        let mut dispatches = Vec::with_capacity(levels);
-        for (slot, level) in (0..levels).rev().enumerate() {
-            let start = volume.level_starts[level] as u32;
-            let count = (volume.level_starts[level + 1] - volume.level_starts[level]) as u32;
+        let mut blocks = vec![0u8; stride * count_levels];
+        let mut dispatches = Vec::with_capacity(count_levels);
+        for (slot, level) in (0..count_levels).rev().enumerate() {
+            let start = levels.level_starts[level] as u32;
+            let count = (levels.level_starts[level + 1] - levels.level_starts[level]) as u32;
             let groups = count.div_ceil(WORKGROUP);
             let groups_x = groups.min(max_groups);
             let groups_y = groups.div_ceil(groups_x.max(1));
@@ -126,15 +146,15 @@ impl GpuRecolor {
                 },
                 wgpu::BindGroupEntry {
                     binding: 1,
-                    resource: volume.nodes.as_entire_binding(),
+                    resource: levels.nodes.as_entire_binding(),
                 },
                 wgpu::BindGroupEntry {
                     binding: 2,
-                    resource: volume.bounds.as_entire_binding(),
+                    resource: levels.bounds.as_entire_binding(),
                 },
                 wgpu::BindGroupEntry {
                     binding: 3,
-                    resource: volume.lookup_table.as_entire_binding(),
+                    resource: levels.lookup_table.as_entire_binding(),
                 },
             ],
         });
@@ -150,6 +170,15 @@ impl GpuRecolor {
             pass.set_bind_group(0, &bind_group, &[offset]);
             pass.dispatch_workgroups(groups_x, groups_y, 1);
         }
-        Ok(())
     }
+}
+
+/// The buffers and levels one recolor covers.
+pub(crate) struct RecolorLevels<'a> {
+    pub nodes: &'a wgpu::Buffer,
+    pub bounds: &'a wgpu::Buffer,
+    pub lookup_table: &'a wgpu::Buffer,
+    pub level_starts: &'a [usize],
+    /// Levels `deepest..=0` are recolored.
+    pub deepest: u32,
 }

@@ -2,10 +2,10 @@
 //! line, the benchmark and the app switch between.
 
 use super::{
-    Camera, DenseRaycaster, DenseVolume, Frame, GpuContext, GpuRecolor, GpuVolume, Raycaster,
-    RenderError, RenderSettings, RenderTarget,
+    Camera, DenseRaycaster, DenseVolume, Frame, GpuBrickRecolor, GpuBricks, GpuContext, GpuRecolor,
+    GpuVolume, Raycaster, RenderError, RenderSettings, RenderTarget,
 };
-use crate::octree::{Octree, TransferFunction};
+use crate::octree::{BrickLayout, Octree, TransferFunction};
 use crate::volume::QuantizedVolume;
 
 /// The renderers voxscope has.
@@ -15,16 +15,22 @@ pub enum RendererKind {
     Octree,
     /// One 3D texture, fixed one-voxel steps, hardware filtering (the peers' baseline).
     Dense,
+    /// The octree down to bricks of `BRICK_SIZE`³ voxels, marched in a 3D atlas inside.
+    Bricks,
 }
 
+/// Voxels along a brick's side in the bricks renderer.
+pub const BRICK_SIZE: usize = 8;
+
 impl RendererKind {
-    pub const ALL: [RendererKind; 2] = [Self::Octree, Self::Dense];
+    pub const ALL: [RendererKind; 3] = [Self::Octree, Self::Dense, Self::Bricks];
 
     /// `octree`, `dense`.
     pub fn name(self) -> &'static str {
         match self {
             Self::Octree => "octree",
             Self::Dense => "dense",
+            Self::Bricks => "bricks",
         }
     }
 }
@@ -38,6 +44,11 @@ enum State {
     Dense {
         raycaster: DenseRaycaster,
         volume: DenseVolume,
+    },
+    Bricks {
+        raycaster: Raycaster,
+        recolor: GpuBrickRecolor,
+        volume: Box<GpuBricks>,
     },
 }
 
@@ -68,6 +79,28 @@ impl VolumeRenderer {
                 raycaster: DenseRaycaster::new(context),
                 volume: DenseVolume::upload(context, quantized, spacing, transfer)?,
             },
+            RendererKind::Bricks => {
+                let layout = BrickLayout::new(
+                    octree,
+                    quantized,
+                    BRICK_SIZE,
+                    context.limits.max_texture_dimension_3d as usize,
+                )
+                .map_err(RenderError)?;
+                State::Bricks {
+                    raycaster: Raycaster::new(context),
+                    recolor: GpuBrickRecolor::new(context),
+                    volume: Box::new(GpuBricks::upload(
+                        context,
+                        &layout,
+                        octree.dims,
+                        spacing,
+                        octree.depth,
+                        octree.quantization,
+                        transfer,
+                    )?),
+                }
+            }
         };
         Ok(Self { state })
     }
@@ -77,6 +110,7 @@ impl VolumeRenderer {
         match self.state {
             State::Octree { .. } => RendererKind::Octree,
             State::Dense { .. } => RendererKind::Dense,
+            State::Bricks { .. } => RendererKind::Bricks,
         }
     }
 
@@ -98,6 +132,13 @@ impl VolumeRenderer {
             }
             State::Dense { volume, .. } => {
                 volume.set_transfer(context, transfer);
+                Ok(())
+            }
+            State::Bricks {
+                recolor, volume, ..
+            } => {
+                volume.set_transfer(context, transfer);
+                recolor.encode(context, encoder, volume, timestamp_writes);
                 Ok(())
             }
         }
@@ -134,6 +175,17 @@ impl VolumeRenderer {
                 };
                 raycaster.encode(context, encoder, &frame, timestamp_writes);
             }
+            State::Bricks {
+                raycaster, volume, ..
+            } => {
+                let frame = Frame {
+                    volume: volume.as_ref(),
+                    target,
+                    camera,
+                    settings,
+                };
+                raycaster.encode(context, encoder, &frame, timestamp_writes);
+            }
         }
     }
 
@@ -158,17 +210,15 @@ impl VolumeRenderer {
     pub fn gpu_bytes(&self) -> Vec<(&'static str, u64)> {
         match &self.state {
             State::Octree { volume, .. } => vec![
-                ("octree_nodes", volume.nodes.size()),
-                ("octree_bounds", volume.bounds.size()),
-                ("transfer_lookup_table", volume.lookup_table.size()),
+                ("nodes", volume.nodes.size()),
+                ("bounds", volume.bounds.size()),
+                ("lookup_table", volume.lookup_table.size()),
             ],
             State::Dense { volume, .. } => vec![
-                (
-                    "dense_texture",
-                    volume.gpu_bytes() - volume.lookup_table.size(),
-                ),
-                ("transfer_lookup_table", volume.lookup_table.size()),
+                ("texture", volume.gpu_bytes() - volume.lookup_table.size()),
+                ("lookup_table", volume.lookup_table.size()),
             ],
+            State::Bricks { volume, .. } => volume.gpu_bytes(),
         }
     }
 }

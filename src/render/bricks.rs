@@ -1,0 +1,361 @@
+//! The bricks renderer's GPU side: the octree prefix with brick leaves, the 3D brick atlas,
+//! and the recolor of the brick level. Drawn by the same [`super::Raycaster`] as the octree.
+
+use wgpu::util::DeviceExt;
+
+use super::gpu_data::BrickRecolorParams;
+use super::pipeline::{atlas_entry, compute_pipeline, storage_entry, uniform_entry};
+use super::raycaster::{BrickShape, OctreeOnGpu, VolumeShape};
+use super::recolor::RecolorLevels;
+use super::{GpuContext, GpuRecolor, RenderError};
+use crate::octree::{BrickLayout, TransferFunction, ValueBounds};
+use crate::volume::Quantization;
+
+/// Threads per workgroup of `brick_recolor.wgsl`.
+const WORKGROUP: u32 = 64;
+
+/// An octree with brick leaves on the GPU.
+pub struct GpuBricks {
+    nodes: wgpu::Buffer,
+    bounds: wgpu::Buffer,
+    lookup_table: wgpu::Buffer,
+    atlas: wgpu::Texture,
+    atlas_view: wgpu::TextureView,
+    brick_origins: wgpu::Buffer,
+    level_starts: Vec<usize>,
+    shape: BrickShape,
+    dims: [usize; 3],
+    spacing: [f64; 3],
+    depth: u32,
+    quantization: Quantization,
+    mip_saturation: u16,
+}
+
+impl GpuBricks {
+    /// Uploads `layout` (nodes colored as they are). The atlas is 8-bit when every value level
+    /// fits (≤ 255), 16-bit float otherwise.
+    pub fn upload(
+        context: &GpuContext,
+        layout: &BrickLayout,
+        dims: [usize; 3],
+        spacing: [f64; 3],
+        depth: u32,
+        quantization: Quantization,
+        transfer: &TransferFunction,
+    ) -> Result<Self, RenderError> {
+        let device = &context.device;
+        let atlas_dims = layout.atlas_dims();
+        let limit = context.limits.max_texture_dimension_3d as usize;
+        if atlas_dims.iter().any(|&d| d > limit) {
+            return Err(RenderError(format!(
+                "the brick atlas needs {}x{}x{} texels but this GPU allows {limit} per side",
+                atlas_dims[0], atlas_dims[1], atlas_dims[2]
+            )));
+        }
+        let eight_bit = layout.atlas.iter().all(|&level| level <= 255);
+        let (format, bytes, atlas_scale): (wgpu::TextureFormat, Vec<u8>, f32) = if eight_bit {
+            (
+                wgpu::TextureFormat::R8Unorm,
+                layout.atlas.iter().map(|&l| l as u8).collect(),
+                255.0,
+            )
+        } else {
+            let halves: Vec<half::f16> = layout
+                .atlas
+                .iter()
+                .map(|&l| half::f16::from_f32(l as f32))
+                .collect();
+            (
+                wgpu::TextureFormat::R16Float,
+                bytemuck::cast_slice(&halves).to_vec(),
+                1.0,
+            )
+        };
+        let texel_bytes = if eight_bit { 1 } else { 2 };
+        let size = wgpu::Extent3d {
+            width: atlas_dims[0] as u32,
+            height: atlas_dims[1] as u32,
+            depth_or_array_layers: atlas_dims[2] as u32,
+        };
+        let out_of_memory = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let atlas = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("voxscope::brick_atlas"),
+            size,
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D3,
+            format,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+            view_formats: &[],
+        });
+        context.queue.write_texture(
+            atlas.as_image_copy(),
+            &bytes,
+            wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(size.width * texel_bytes),
+                rows_per_image: Some(size.height),
+            },
+            size,
+        );
+        let buffer = |label: &str, contents: &[u8], usage: wgpu::BufferUsages| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage,
+            })
+        };
+        let storage = wgpu::BufferUsages::STORAGE;
+        let nodes = buffer(
+            "voxscope::brick_octree_nodes",
+            bytemuck::cast_slice(&layout.nodes),
+            storage | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+        );
+        let bounds = buffer(
+            "voxscope::brick_octree_bounds",
+            bytemuck::cast_slice::<ValueBounds, u8>(&layout.bounds),
+            storage,
+        );
+        let lookup_table = buffer(
+            "voxscope::brick_lookup_table",
+            bytemuck::cast_slice(&transfer.lookup_table(quantization)),
+            storage | wgpu::BufferUsages::COPY_DST,
+        );
+        let origins: Vec<[u32; 4]> = layout
+            .brick_origins
+            .iter()
+            .map(|o| [o[0] as u32, o[1] as u32, o[2] as u32, 0])
+            .chain(std::iter::once([0; 4])) // never empty
+            .collect();
+        let brick_origins = buffer(
+            "voxscope::brick_origins",
+            bytemuck::cast_slice(&origins),
+            storage,
+        );
+        if let Some(error) = pollster::block_on(out_of_memory.pop()) {
+            return Err(RenderError(format!(
+                "the GPU has no room for the bricks: {error}"
+            )));
+        }
+        Ok(Self {
+            atlas_view: atlas.create_view(&wgpu::TextureViewDescriptor::default()),
+            atlas,
+            nodes,
+            bounds,
+            lookup_table,
+            brick_origins,
+            level_starts: layout.level_starts.clone(),
+            shape: BrickShape {
+                level: layout.brick_level,
+                size: layout.brick_size as u32,
+                atlas_scale,
+                atlas_grid: layout.atlas_grid.map(|g| g as u32),
+            },
+            dims,
+            spacing,
+            depth,
+            quantization,
+            mip_saturation: transfer.saturation_level(quantization),
+        })
+    }
+
+    /// Writes a new transfer function's lookup table (recolor afterwards).
+    pub fn set_transfer(&mut self, context: &GpuContext, transfer: &TransferFunction) {
+        let table = transfer.lookup_table(self.quantization);
+        context
+            .queue
+            .write_buffer(&self.lookup_table, 0, bytemuck::cast_slice(&table));
+        self.mip_saturation = transfer.saturation_level(self.quantization);
+    }
+
+    /// GPU memory by buffer and texture.
+    pub fn gpu_bytes(&self) -> Vec<(&'static str, u64)> {
+        let texel = if self.shape.atlas_scale == 255.0 {
+            1
+        } else {
+            2
+        };
+        let atlas = self.atlas.size();
+        vec![
+            (
+                "atlas",
+                atlas.width as u64
+                    * atlas.height as u64
+                    * atlas.depth_or_array_layers as u64
+                    * texel,
+            ),
+            ("nodes", self.nodes.size()),
+            ("bounds", self.bounds.size()),
+            ("brick_origins", self.brick_origins.size()),
+            ("lookup_table", self.lookup_table.size()),
+        ]
+    }
+}
+
+impl VolumeShape for GpuBricks {
+    fn dims(&self) -> [usize; 3] {
+        self.dims
+    }
+    fn spacing(&self) -> [f64; 3] {
+        self.spacing
+    }
+    fn depth(&self) -> u32 {
+        self.depth
+    }
+    fn level_cap(&self) -> u32 {
+        self.depth
+    }
+    fn mip_saturation(&self) -> u16 {
+        self.mip_saturation
+    }
+    fn bricks(&self) -> Option<BrickShape> {
+        Some(self.shape)
+    }
+}
+
+impl OctreeOnGpu for GpuBricks {
+    fn nodes(&self) -> &wgpu::Buffer {
+        &self.nodes
+    }
+    fn bounds(&self) -> &wgpu::Buffer {
+        &self.bounds
+    }
+    fn lookup_table(&self) -> &wgpu::Buffer {
+        &self.lookup_table
+    }
+    fn atlas(&self) -> Option<&wgpu::TextureView> {
+        Some(&self.atlas_view)
+    }
+}
+
+/// Recolors a [`GpuBricks`]: the brick level from the atlas, the levels above from children.
+pub struct GpuBrickRecolor {
+    pipeline: wgpu::ComputePipeline,
+    layout: wgpu::BindGroupLayout,
+    levels: GpuRecolor,
+}
+
+impl GpuBrickRecolor {
+    pub fn new(context: &GpuContext) -> Self {
+        let (pipeline, layout) = compute_pipeline(
+            &context.device,
+            "brick_recolor",
+            include_str!("../../shaders/brick_recolor.wgsl"),
+            &[
+                uniform_entry(0, false),
+                storage_entry(1, false),
+                storage_entry(2, true),
+                storage_entry(3, true),
+                atlas_entry(4),
+                storage_entry(5, true),
+            ],
+        );
+        Self {
+            pipeline,
+            layout,
+            levels: GpuRecolor::new(context),
+        }
+    }
+
+    /// Records the recolor of every node of `bricks` from its lookup table.
+    pub fn encode(
+        &self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        bricks: &GpuBricks,
+        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
+        let level = bricks.shape.level as usize;
+        let start = bricks.level_starts[level] as u32;
+        let count = (bricks.level_starts[level + 1] - bricks.level_starts[level]) as u32;
+        let groups = count.div_ceil(WORKGROUP).max(1);
+        let groups_x = groups.min(context.limits.max_compute_workgroups_per_dimension.max(1));
+        let dims = bricks.dims.map(|d| d as u32);
+        let params = BrickRecolorParams {
+            level_start: start,
+            level_count: count,
+            groups_x,
+            brick_size: bricks.shape.size,
+            atlas_grid: [
+                bricks.shape.atlas_grid[0],
+                bricks.shape.atlas_grid[1],
+                bricks.shape.atlas_grid[2],
+                0,
+            ],
+            dims: [dims[0], dims[1], dims[2], 0],
+            atlas_scale: bricks.shape.atlas_scale,
+            _pad: [0; 3],
+        };
+        let device = &context.device;
+        let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("voxscope::brick_recolor_params"),
+            contents: bytemuck::bytes_of(&params),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("voxscope::brick_recolor_bind_group"),
+            layout: &self.layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: params.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: bricks.nodes.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: bricks.bounds.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: bricks.lookup_table.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: wgpu::BindingResource::TextureView(&bricks.atlas_view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 5,
+                    resource: bricks.brick_origins.as_entire_binding(),
+                },
+            ],
+        });
+        // Time the whole recolor: the first pass starts the clock, the last one stops it.
+        let (first, last) = match &timestamp_writes {
+            Some(w) if level > 0 => (
+                Some(wgpu::ComputePassTimestampWrites {
+                    query_set: w.query_set,
+                    beginning_of_pass_write_index: w.beginning_of_pass_write_index,
+                    end_of_pass_write_index: None,
+                }),
+                Some(wgpu::ComputePassTimestampWrites {
+                    query_set: w.query_set,
+                    beginning_of_pass_write_index: None,
+                    end_of_pass_write_index: w.end_of_pass_write_index,
+                }),
+            ),
+            _ => (timestamp_writes, None),
+        };
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("voxscope::brick_recolor_pass"),
+                timestamp_writes: first,
+            });
+            pass.set_pipeline(&self.pipeline);
+            pass.set_bind_group(0, &bind_group, &[]);
+            pass.dispatch_workgroups(groups_x, groups.div_ceil(groups_x), 1);
+        }
+        if level > 0 {
+            let levels = RecolorLevels {
+                nodes: &bricks.nodes,
+                bounds: &bricks.bounds,
+                lookup_table: &bricks.lookup_table,
+                level_starts: &bricks.level_starts,
+                deepest: level as u32 - 1,
+            };
+            self.levels.encode_levels(context, encoder, &levels, last);
+        }
+    }
+}
