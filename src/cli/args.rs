@@ -149,6 +149,14 @@ fn parse_spacing(text: &str) -> Result<[f64; 3], String> {
     }
 }
 
+/// A brick side: a power of two from 4 to 32.
+pub(super) fn parse_brick_size(text: &str) -> Result<usize, String> {
+    match text.parse::<usize>() {
+        Ok(n) if n.is_power_of_two() && (4..=32).contains(&n) => Ok(n),
+        _ => Err(format!("brick size '{text}' is not 4, 8, 16 or 32")),
+    }
+}
+
 fn parse_unit(text: &str) -> Result<f32, String> {
     match text.parse::<f32>() {
         Ok(v) if (0.0..=1.0).contains(&v) => Ok(v),

@@ -7,7 +7,10 @@ use clap::Args;
 
 use super::args::RendererArg;
 use super::{Prepared, TransferArgs, VolumeArgs};
-use crate::render::{Camera, GpuContext, RenderTarget, VolumeRenderer, read_image};
+use crate::render::{
+    Camera, DEFAULT_BRICK_SIZE, GpuContext, RenderTarget, RendererOptions, VolumeRenderer,
+    read_image,
+};
 
 #[derive(Debug, Args)]
 pub struct RenderArgs {
@@ -18,6 +21,9 @@ pub struct RenderArgs {
     /// Which renderer draws the image.
     #[arg(long, value_enum, default_value_t = RendererArg::Octree)]
     pub renderer: RendererArg,
+    /// Voxels along a brick's side (bricks renderer): 4, 8, 16 or 32.
+    #[arg(long, default_value_t = DEFAULT_BRICK_SIZE, value_parser = super::args::parse_brick_size)]
+    pub brick_size: usize,
     /// Output PNG.
     #[arg(short, long, value_name = "FILE.png")]
     pub output: PathBuf,
@@ -46,7 +52,10 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     let context = GpuContext::new_headless().map_err(|e| e.to_string())?;
     let renderer = VolumeRenderer::new(
         &context,
-        args.renderer.into(),
+        RendererOptions {
+            kind: args.renderer.into(),
+            brick_size: args.brick_size,
+        },
         &prepared.octree,
         &prepared.quantized,
         prepared.volume.spacing,

@@ -26,7 +26,7 @@ pub use readback::{read_buffer, read_image, read_visits};
 pub use recolor::GpuRecolor;
 pub use settings::{EARLY_TERMINATION_ALPHA, RenderMode, RenderSettings};
 pub use timer::GpuTimer;
-pub use volume_renderer::{RendererKind, VolumeRenderer};
+pub use volume_renderer::{DEFAULT_BRICK_SIZE, RendererKind, RendererOptions, VolumeRenderer};
 
 /// Renders one frame and submits it.
 pub fn render_frame(context: &GpuContext, raycaster: &Raycaster, frame: &Frame<'_>) {

@@ -15,12 +15,29 @@ pub enum RendererKind {
     Octree,
     /// One 3D texture, fixed one-voxel steps, hardware filtering (the peers' baseline).
     Dense,
-    /// The octree down to bricks of `BRICK_SIZE`³ voxels, marched in a 3D atlas inside.
+    /// The octree down to bricks (8³ voxels unless chosen otherwise), marched in a 3D atlas.
     Bricks,
 }
 
-/// Voxels along a brick's side in the bricks renderer.
-pub const BRICK_SIZE: usize = 8;
+/// Voxels along a brick's side in the bricks renderer, unless chosen otherwise.
+pub const DEFAULT_BRICK_SIZE: usize = 8;
+
+/// The structural choices of a renderer (changing them means uploading again).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RendererOptions {
+    pub kind: RendererKind,
+    /// Voxels along a brick's side (bricks renderer; a power of two).
+    pub brick_size: usize,
+}
+
+impl From<RendererKind> for RendererOptions {
+    fn from(kind: RendererKind) -> Self {
+        Self {
+            kind,
+            brick_size: DEFAULT_BRICK_SIZE,
+        }
+    }
+}
 
 impl RendererKind {
     pub const ALL: [RendererKind; 3] = [Self::Octree, Self::Dense, Self::Bricks];
@@ -62,14 +79,15 @@ impl VolumeRenderer {
     /// quantized voxels.
     pub fn new(
         context: &GpuContext,
-        kind: RendererKind,
+        options: impl Into<RendererOptions>,
         octree: &Octree,
         quantized: &QuantizedVolume,
         spacing: [f64; 3],
         max_level: u32,
         transfer: &TransferFunction,
     ) -> Result<Self, RenderError> {
-        let state = match kind {
+        let options = options.into();
+        let state = match options.kind {
             RendererKind::Octree => State::Octree {
                 raycaster: Raycaster::new(context),
                 recolor: GpuRecolor::new(context),
@@ -83,7 +101,7 @@ impl VolumeRenderer {
                 let layout = BrickLayout::new(
                     octree,
                     quantized,
-                    BRICK_SIZE,
+                    options.brick_size,
                     context.limits.max_texture_dimension_3d as usize,
                 )
                 .map_err(RenderError)?;
