@@ -1,7 +1,8 @@
 // Recolors the brick level of the bricks renderer: a collapsed leaf from the lookup table, a
 // brick as the opacity-weighted average of its voxels' colors (alpha: the mean rounded up, so
-// a brick is transparent only when all its voxels are). The levels above are recolored by
-// recolor.wgsl afterwards.
+// a brick is transparent only when all its voxels are). One workgroup per node: its threads
+// share the brick's voxels and reduce in workgroup memory. The levels above are recolored by
+// recolor.wgsl afterwards. (Sums fit u32: 32³ voxels × 255 × 255 < 2³².)
 
 // Keep in sync with `Node` in src/octree/node.rs.
 struct Node {
@@ -25,6 +26,7 @@ struct Params {
 
 const LEAF: u32 = 0xffffffffu;
 const BRICK_FLAG: u32 = 0x80000000u;
+// One workgroup per node of the brick level; its threads share the brick's voxels.
 const WORKGROUP: u32 = 64u;
 
 @group(0) @binding(0) var<uniform> params: Params;
@@ -34,58 +36,75 @@ const WORKGROUP: u32 = 64u;
 @group(0) @binding(4) var atlas: texture_3d<f32>;
 @group(0) @binding(5) var<storage, read> brick_origins: array<vec4<u32>>;
 
+// Per thread: alpha sum, alpha-weighted red, green, blue; and voxel count.
+var<workgroup> partial_color: array<vec4<u32>, WORKGROUP>;
+var<workgroup> partial_count: array<u32, WORKGROUP>;
+var<workgroup> shared_first_child: u32;
+
 @compute @workgroup_size(64, 1, 1)
 fn main(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index) lane: u32) {
-    let offset = (group.y * params.groups_x + group.x) * WORKGROUP + lane;
+    let offset = group.y * params.groups_x + group.x;
     if offset >= params.level_count {
         return;
     }
     let index = params.level_start + offset;
-    let node = nodes[index];
-    if node.first_child == LEAF {
-        let b = bounds[index];
-        if (b & 0xffffu) > (b >> 16u) {
-            nodes[index].color = 0u;
-        } else {
-            nodes[index].color = lookup_table[b & 0xffffu];
+    if lane == 0u {
+        shared_first_child = nodes[index].first_child;
+    }
+    // The same value for the whole workgroup, so the barriers below stay in uniform control flow.
+    let first_child = workgroupUniformLoad(&shared_first_child);
+    if first_child == LEAF {
+        if lane == 0u {
+            let b = bounds[index];
+            if (b & 0xffffu) > (b >> 16u) {
+                nodes[index].color = 0u;
+            } else {
+                nodes[index].color = lookup_table[b & 0xffffu];
+            }
         }
         return;
     }
-    let slot = node.first_child & ~BRICK_FLAG;
+    let slot = first_child & ~BRICK_FLAG;
     let grid = params.atlas_grid.xyz;
     let cell = vec3<u32>(slot % grid.x, (slot / grid.x) % grid.y, slot / (grid.x * grid.y));
     let base = cell * (params.brick_size + 2u) + vec3<u32>(1u);
     let origin = brick_origins[slot].xyz;
     let size = params.brick_size;
-    var alpha_sum = 0u;
-    var r = 0u;
-    var g = 0u;
-    var b = 0u;
+    var sums = vec4<u32>(0u);
     var count = 0u;
-    for (var z = 0u; z < size; z++) {
-        for (var y = 0u; y < size; y++) {
-            for (var x = 0u; x < size; x++) {
-                let voxel = origin + vec3<u32>(x, y, z);
-                if any(voxel >= params.dims.xyz) {
-                    continue; // padding
-                }
-                let texel = textureLoad(atlas, vec3<i32>(base + vec3<u32>(x, y, z)), 0).r;
-                let level = u32(clamp(round(texel * params.atlas_scale), 0.0, 65535.0));
-                let color = lookup_table[level];
-                let a = color >> 24u;
-                alpha_sum += a;
-                r += (color & 0xffu) * a;
-                g += ((color >> 8u) & 0xffu) * a;
-                b += ((color >> 16u) & 0xffu) * a;
-                count += 1u;
-            }
+    for (var i = lane; i < size * size * size; i += WORKGROUP) {
+        let local = vec3<u32>(i % size, (i / size) % size, i / (size * size));
+        if any(origin + local >= params.dims.xyz) {
+            continue; // padding
         }
+        let texel = textureLoad(atlas, vec3<i32>(base + local), 0).r;
+        let level = u32(clamp(round(texel * params.atlas_scale), 0.0, 65535.0));
+        let color = lookup_table[level];
+        let a = color >> 24u;
+        sums += vec4<u32>(a, (color & 0xffu) * a, ((color >> 8u) & 0xffu) * a, ((color >> 16u) & 0xffu) * a);
+        count += 1u;
     }
+    partial_color[lane] = sums;
+    partial_count[lane] = count;
+    workgroupBarrier();
+    for (var stride = WORKGROUP / 2u; stride > 0u; stride >>= 1u) {
+        if lane < stride {
+            partial_color[lane] += partial_color[lane + stride];
+            partial_count[lane] += partial_count[lane + stride];
+        }
+        workgroupBarrier();
+    }
+    if lane != 0u {
+        return;
+    }
+    let total = partial_color[0];
+    let alpha_sum = total.x;
     if alpha_sum == 0u {
         nodes[index].color = 0u;
         return;
     }
+    let voxels = partial_count[0];
     let half = alpha_sum / 2u;
-    nodes[index].color = ((r + half) / alpha_sum) | (((g + half) / alpha_sum) << 8u)
-        | (((b + half) / alpha_sum) << 16u) | (((alpha_sum + count - 1u) / count) << 24u);
+    nodes[index].color = ((total.y + half) / alpha_sum) | (((total.z + half) / alpha_sum) << 8u)
+        | (((total.w + half) / alpha_sum) << 16u) | (((alpha_sum + voxels - 1u) / voxels) << 24u);
 }

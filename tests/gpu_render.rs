@@ -556,3 +556,123 @@ fn bricks_recolor_on_the_gpu_keeps_empty_bricks_transparent() {
     );
     assert!(coverage(&frame_after(&gray)) > 0.1, "and visible again");
 }
+
+#[test]
+fn gpu_brick_recolor_equals_the_cpu_rule_bit_for_bit() {
+    use voxscope::octree::{BRICK_FLAG, BrickLayout, LEAF, average_color};
+    use voxscope::render::{GpuBrickRecolor, GpuBricks, OctreeOnGpu};
+    let context = gpu();
+    let recolor = GpuBrickRecolor::new(&context);
+    // u8 data (8-bit atlas) and u16 data (16-bit float atlas), bricks of 4 and 8, non-cubic.
+    for (spec, brick_size) in [
+        ("synthetic:noise:37x26x19", 4),
+        ("synthetic:sphere:40x33x21", 8),
+        ("synthetic:shells:36x30x28", 8),
+    ] {
+        let volume = load(spec);
+        let quantized = volume::QuantizedVolume::new(&volume);
+        let (octree, first) = colored_octree(&volume, None, BuildOptions::default());
+        let layout = BrickLayout::new(&octree, &quantized, brick_size, 2048).unwrap();
+        let mut bricks = GpuBricks::upload(
+            &context,
+            &layout,
+            octree.dims,
+            volume.spacing,
+            octree.depth,
+            octree.quantization,
+            &first,
+        )
+        .unwrap();
+        let second = TransferFunction {
+            opacity: OpacityMode::Binary,
+            threshold: 0.35,
+            ..first
+        };
+        bricks.set_transfer(&context, &second);
+        let mut encoder = context.device.create_command_encoder(&Default::default());
+        recolor.encode(&context, &mut encoder, &bricks, None);
+        context.queue.submit([encoder.finish()]);
+        let bytes = read_buffer(&context, bricks.nodes(), bricks.nodes().size()).unwrap();
+        let gpu_nodes: &[voxscope::octree::Node] = bytemuck::cast_slice(&bytes);
+
+        // The rule on the CPU: a brick is the opacity-weighted mean of its voxels (alpha: the
+        // mean rounded up), a leaf its table color, an inner node the average of its children.
+        let table = second.lookup_table(octree.quantization);
+        let dims = volume.dims;
+        // What the atlas holds: levels as they are (8-bit atlas), or rounded to half floats.
+        let eight_bit = layout.atlas.iter().all(|&l| l <= 255);
+        let stored = |level: u16| {
+            if eight_bit {
+                level
+            } else {
+                half::f16::from_f32(level as f32).to_f32().round() as u16
+            }
+        };
+        let mut expected = vec![0u32; layout.nodes.len()];
+        for level in (0..=layout.brick_level).rev() {
+            for index in
+                layout.level_starts[level as usize]..layout.level_starts[level as usize + 1]
+            {
+                let node = layout.nodes[index];
+                let bounds = layout.bounds[index];
+                expected[index] = if node.first_child == LEAF {
+                    if bounds.is_empty() {
+                        0
+                    } else {
+                        table[bounds.min() as usize]
+                    }
+                } else if node.first_child & BRICK_FLAG != 0 {
+                    let origin = layout.brick_origins[(node.first_child & !BRICK_FLAG) as usize];
+                    let (mut sums, mut count) = ([0u64; 4], 0u64);
+                    for z in origin[2]..(origin[2] + brick_size).min(dims[2]) {
+                        for y in origin[1]..(origin[1] + brick_size).min(dims[1]) {
+                            for x in origin[0]..(origin[0] + brick_size).min(dims[0]) {
+                                let [r, g, b, a] = voxscope::octree::unpack_rgba(
+                                    table[stored(quantized.levels[x + dims[0] * (y + dims[1] * z)])
+                                        as usize],
+                                )
+                                .map(u64::from);
+                                sums = [
+                                    sums[0] + a,
+                                    sums[1] + r * a,
+                                    sums[2] + g * a,
+                                    sums[3] + b * a,
+                                ];
+                                count += 1;
+                            }
+                        }
+                    }
+                    if sums[0] == 0 {
+                        0
+                    } else {
+                        let channel = |w: u64| ((w + sums[0] / 2) / sums[0]) as u8;
+                        voxscope::octree::pack_rgba([
+                            channel(sums[1]),
+                            channel(sums[2]),
+                            channel(sums[3]),
+                            sums[0].div_ceil(count) as u8,
+                        ])
+                    }
+                } else {
+                    let first = node.first_child as usize;
+                    average_color(std::array::from_fn(|c| expected[first + c]))
+                };
+            }
+        }
+        let differing = gpu_nodes
+            .iter()
+            .zip(&expected)
+            .filter(|(n, e)| n.color != **e)
+            .count();
+        assert_eq!(
+            differing,
+            0,
+            "{spec}: {differing} of {} node colors differ",
+            expected.len()
+        );
+        assert!(
+            expected.iter().any(|&c| c >> 24 > 0),
+            "{spec}: the recolor made nothing visible"
+        );
+    }
+}

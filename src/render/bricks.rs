@@ -11,9 +11,6 @@ use super::{GpuContext, GpuRecolor, RenderError};
 use crate::octree::{BrickLayout, TransferFunction, ValueBounds};
 use crate::volume::Quantization;
 
-/// Threads per workgroup of `brick_recolor.wgsl`.
-const WORKGROUP: u32 = 64;
-
 /// An octree with brick leaves on the GPU.
 pub struct GpuBricks {
     nodes: wgpu::Buffer,
@@ -268,7 +265,8 @@ impl GpuBrickRecolor {
         let level = bricks.shape.level as usize;
         let start = bricks.level_starts[level] as u32;
         let count = (bricks.level_starts[level + 1] - bricks.level_starts[level]) as u32;
-        let groups = count.div_ceil(WORKGROUP).max(1);
+        // One workgroup per node of the brick level.
+        let groups = count.max(1);
         let groups_x = groups.min(context.limits.max_compute_workgroups_per_dimension.max(1));
         let dims = bricks.dims.map(|d| d as u32);
         let params = BrickRecolorParams {
