@@ -79,7 +79,7 @@ pub enum RendererArg {
     Octree,
     /// One 3D texture at fixed steps (the peers' baseline).
     Dense,
-    /// The octree down to 8³ bricks, marched in a 3D texture atlas.
+    /// The octree down to bricks (default 32³), marched in a 3D texture atlas.
     Bricks,
 }
 

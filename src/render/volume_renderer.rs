@@ -15,12 +15,12 @@ pub enum RendererKind {
     Octree,
     /// One 3D texture, fixed one-voxel steps, hardware filtering (the peers' baseline).
     Dense,
-    /// The octree down to bricks (8³ voxels unless chosen otherwise), marched in a 3D atlas.
+    /// The octree down to bricks (32³ voxels unless chosen otherwise), marched in a 3D atlas.
     Bricks,
 }
 
 /// Voxels along a brick's side in the bricks renderer, unless chosen otherwise.
-pub const DEFAULT_BRICK_SIZE: usize = 8;
+pub const DEFAULT_BRICK_SIZE: usize = 32;
 
 /// The structural choices of a renderer (changing them means uploading again).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
