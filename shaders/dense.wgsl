@@ -1,4 +1,4 @@
-// The dense baseline: one 3D texture of value levels, marched at fixed steps of one voxel
+// The dense baseline: one 3D texture of value levels (8-bit when they fit), marched at fixed steps of one voxel
 // with hardware filtering (trilinear, or nearest), the same transfer lookup table, early ray
 // termination and MIP as the octree ray caster. This is what napari/vispy, pygfx and ParaView
 // do; voxscope keeps it to measure against and to cross-check the octree.
@@ -22,7 +22,7 @@ struct Params {
     mip_saturation: u32,
     brick_level: u32,
     brick_size: u32,
-    atlas_scale: f32,
+    atlas_scale: f32,       // texel value × this = value level (255 for 8-bit, 1 for f16)
     atlas_grid: vec4<u32>,
 }
 
@@ -83,7 +83,7 @@ fn march(origin: vec3<f32>, dir: vec3<f32>) -> MarchResult {
         }
         let position = origin + t * dir;
         let level = textureSampleLevel(levels, level_sampler, position / dims, 0.0).r;
-        let index = u32(clamp(round(level), 0.0, 65535.0));
+        let index = u32(clamp(round(level * params.atlas_scale), 0.0, 65535.0));
         result.samples += 1u;
         if mip {
             running_max = max(running_max, index);

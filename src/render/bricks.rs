@@ -4,10 +4,11 @@
 use wgpu::util::DeviceExt;
 
 use super::gpu_data::BrickRecolorParams;
+use super::level_texture::LevelTexture;
 use super::pipeline::{atlas_entry, compute_pipeline, storage_entry, uniform_entry};
 use super::raycaster::{BrickShape, OctreeOnGpu, VolumeShape};
 use super::recolor::RecolorLevels;
-use super::{GpuContext, GpuRecolor, RenderError};
+use super::{GpuContext, GpuRecolor, GpuTransferTable, RenderError};
 use crate::octree::{BrickLayout, TransferFunction, ValueBounds};
 use crate::volume::Quantization;
 
@@ -15,17 +16,14 @@ use crate::volume::Quantization;
 pub struct GpuBricks {
     nodes: wgpu::Buffer,
     bounds: wgpu::Buffer,
-    lookup_table: wgpu::Buffer,
-    atlas: wgpu::Texture,
-    atlas_view: wgpu::TextureView,
+    transfer: GpuTransferTable,
+    atlas: LevelTexture,
     brick_origins: wgpu::Buffer,
     level_starts: Vec<usize>,
     shape: BrickShape,
     dims: [usize; 3],
     spacing: [f64; 3],
     depth: u32,
-    quantization: Quantization,
-    mip_saturation: u16,
 }
 
 impl GpuBricks {
@@ -41,60 +39,10 @@ impl GpuBricks {
         transfer: &TransferFunction,
     ) -> Result<Self, RenderError> {
         let device = &context.device;
-        let atlas_dims = layout.atlas_dims();
-        let limit = context.limits.max_texture_dimension_3d as usize;
-        if atlas_dims.iter().any(|&d| d > limit) {
-            return Err(RenderError(format!(
-                "the brick atlas needs {}x{}x{} texels but this GPU allows {limit} per side",
-                atlas_dims[0], atlas_dims[1], atlas_dims[2]
-            )));
-        }
-        let eight_bit = layout.atlas.iter().all(|&level| level <= 255);
-        let (format, bytes, atlas_scale): (wgpu::TextureFormat, Vec<u8>, f32) = if eight_bit {
-            (
-                wgpu::TextureFormat::R8Unorm,
-                layout.atlas.iter().map(|&l| l as u8).collect(),
-                255.0,
-            )
-        } else {
-            let halves: Vec<half::f16> = layout
-                .atlas
-                .iter()
-                .map(|&l| half::f16::from_f32(l as f32))
-                .collect();
-            (
-                wgpu::TextureFormat::R16Float,
-                bytemuck::cast_slice(&halves).to_vec(),
-                1.0,
-            )
-        };
-        let texel_bytes = if eight_bit { 1 } else { 2 };
-        let size = wgpu::Extent3d {
-            width: atlas_dims[0] as u32,
-            height: atlas_dims[1] as u32,
-            depth_or_array_layers: atlas_dims[2] as u32,
-        };
+        let atlas =
+            LevelTexture::upload(context, "brick_atlas", layout.atlas_dims(), &layout.atlas)?;
+        let atlas_scale = atlas.scale;
         let out_of_memory = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-        let atlas = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("voxscope::brick_atlas"),
-            size,
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D3,
-            format,
-            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-            view_formats: &[],
-        });
-        context.queue.write_texture(
-            atlas.as_image_copy(),
-            &bytes,
-            wgpu::TexelCopyBufferLayout {
-                offset: 0,
-                bytes_per_row: Some(size.width * texel_bytes),
-                rows_per_image: Some(size.height),
-            },
-            size,
-        );
         let buffer = |label: &str, contents: &[u8], usage: wgpu::BufferUsages| {
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some(label),
@@ -113,11 +61,7 @@ impl GpuBricks {
             bytemuck::cast_slice::<ValueBounds, u8>(&layout.bounds),
             storage,
         );
-        let lookup_table = buffer(
-            "voxscope::brick_lookup_table",
-            bytemuck::cast_slice(&transfer.lookup_table(quantization)),
-            storage | wgpu::BufferUsages::COPY_DST,
-        );
+        let transfer = GpuTransferTable::new(context, quantization, transfer);
         let origins: Vec<[u32; 4]> = layout
             .brick_origins
             .iter()
@@ -135,11 +79,10 @@ impl GpuBricks {
             )));
         }
         Ok(Self {
-            atlas_view: atlas.create_view(&wgpu::TextureViewDescriptor::default()),
             atlas,
             nodes,
             bounds,
-            lookup_table,
+            transfer,
             brick_origins,
             level_starts: layout.level_starts.clone(),
             shape: BrickShape {
@@ -151,40 +94,22 @@ impl GpuBricks {
             dims,
             spacing,
             depth,
-            quantization,
-            mip_saturation: transfer.saturation_level(quantization),
         })
     }
 
     /// Writes a new transfer function's lookup table (recolor afterwards).
     pub fn set_transfer(&mut self, context: &GpuContext, transfer: &TransferFunction) {
-        let table = transfer.lookup_table(self.quantization);
-        context
-            .queue
-            .write_buffer(&self.lookup_table, 0, bytemuck::cast_slice(&table));
-        self.mip_saturation = transfer.saturation_level(self.quantization);
+        self.transfer.write(context, transfer);
     }
 
     /// GPU memory by buffer and texture.
     pub fn gpu_bytes(&self) -> Vec<(&'static str, u64)> {
-        let texel = if self.shape.atlas_scale == 255.0 {
-            1
-        } else {
-            2
-        };
-        let atlas = self.atlas.size();
         vec![
-            (
-                "atlas",
-                atlas.width as u64
-                    * atlas.height as u64
-                    * atlas.depth_or_array_layers as u64
-                    * texel,
-            ),
+            ("atlas", self.atlas.bytes),
             ("nodes", self.nodes.size()),
             ("bounds", self.bounds.size()),
             ("brick_origins", self.brick_origins.size()),
-            ("lookup_table", self.lookup_table.size()),
+            ("lookup_table", self.transfer.size()),
         ]
     }
 }
@@ -203,7 +128,7 @@ impl VolumeShape for GpuBricks {
         self.depth
     }
     fn mip_saturation(&self) -> u16 {
-        self.mip_saturation
+        self.transfer.mip_saturation()
     }
     fn bricks(&self) -> Option<BrickShape> {
         Some(self.shape)
@@ -218,10 +143,10 @@ impl OctreeOnGpu for GpuBricks {
         &self.bounds
     }
     fn lookup_table(&self) -> &wgpu::Buffer {
-        &self.lookup_table
+        &self.transfer.buffer
     }
     fn atlas(&self) -> Option<&wgpu::TextureView> {
-        Some(&self.atlas_view)
+        Some(&self.atlas.view)
     }
 }
 
@@ -308,11 +233,11 @@ impl GpuBrickRecolor {
                 },
                 wgpu::BindGroupEntry {
                     binding: 3,
-                    resource: bricks.lookup_table.as_entire_binding(),
+                    resource: bricks.transfer.buffer.as_entire_binding(),
                 },
                 wgpu::BindGroupEntry {
                     binding: 4,
-                    resource: wgpu::BindingResource::TextureView(&bricks.atlas_view),
+                    resource: wgpu::BindingResource::TextureView(&bricks.atlas.view),
                 },
                 wgpu::BindGroupEntry {
                     binding: 5,
@@ -349,7 +274,7 @@ impl GpuBrickRecolor {
             let levels = RecolorLevels {
                 nodes: &bricks.nodes,
                 bounds: &bricks.bounds,
-                lookup_table: &bricks.lookup_table,
+                lookup_table: &bricks.transfer.buffer,
                 level_starts: &bricks.level_starts,
                 deepest: level as u32 - 1,
             };

@@ -2,28 +2,22 @@
 //! one-voxel steps with hardware filtering. What napari/vispy, pygfx and ParaView do; voxscope
 //! keeps it to measure the octree against, and as a cross-check.
 
-use half::f16;
-use wgpu::util::DeviceExt;
-
+use super::level_texture::LevelTexture;
 use super::pipeline::{
     atlas_entry, atlas_sampler_entry, clamped_sampler, compute_pipeline, dispatch_per_pixel,
     output_image_entry, storage_entry, uniform_entry,
 };
 use super::raycaster::{VolumeShape, raycast_params};
-use super::{Frame, GpuContext, RenderError};
+use super::{Frame, GpuContext, GpuTransferTable, RenderError};
 use crate::octree::TransferFunction;
-use crate::volume::{Quantization, QuantizedVolume};
+use crate::volume::QuantizedVolume;
 
-/// A volume as one 3D texture of value levels (16-bit floats: integers up to 2048 are exact,
-/// larger levels keep 11 significant bits).
+/// A volume as one 3D texture of value levels (8-bit when they fit, else 16-bit float).
 pub struct DenseVolume {
-    pub texture: wgpu::Texture,
-    view: wgpu::TextureView,
-    pub lookup_table: wgpu::Buffer,
+    levels: LevelTexture,
+    pub transfer: GpuTransferTable,
     pub dims: [usize; 3],
     pub spacing: [f64; 3],
-    quantization: Quantization,
-    mip_saturation: u16,
 }
 
 impl DenseVolume {
@@ -34,79 +28,22 @@ impl DenseVolume {
         spacing: [f64; 3],
         transfer: &TransferFunction,
     ) -> Result<Self, RenderError> {
-        let limit = context.limits.max_texture_dimension_3d as usize;
-        if volume.dims.iter().any(|&d| d > limit) {
-            return Err(RenderError(format!(
-                "the dense renderer needs a {}x{}x{} 3D texture but this GPU allows {limit} per side",
-                volume.dims[0], volume.dims[1], volume.dims[2]
-            )));
-        }
-        let levels: Vec<f16> = volume
-            .levels
-            .iter()
-            .map(|&l| f16::from_f32(l as f32))
-            .collect();
-        let size = wgpu::Extent3d {
-            width: volume.dims[0] as u32,
-            height: volume.dims[1] as u32,
-            depth_or_array_layers: volume.dims[2] as u32,
-        };
-        let device = &context.device;
-        let out_of_memory = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-        let texture = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("voxscope::dense_levels"),
-            size,
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D3,
-            format: wgpu::TextureFormat::R16Float,
-            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-            view_formats: &[],
-        });
-        context.queue.write_texture(
-            texture.as_image_copy(),
-            bytemuck::cast_slice(&levels),
-            wgpu::TexelCopyBufferLayout {
-                offset: 0,
-                bytes_per_row: Some(size.width * 2),
-                rows_per_image: Some(size.height),
-            },
-            size,
-        );
-        let table = transfer.lookup_table(volume.quantization);
-        let lookup_table = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("voxscope::dense_lookup_table"),
-            contents: bytemuck::cast_slice(&table),
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-        });
-        if let Some(error) = pollster::block_on(out_of_memory.pop()) {
-            return Err(RenderError(format!(
-                "the GPU has no room for the dense texture: {error}"
-            )));
-        }
         Ok(Self {
-            view: texture.create_view(&wgpu::TextureViewDescriptor::default()),
-            texture,
-            lookup_table,
+            levels: LevelTexture::upload(context, "dense_texture", volume.dims, &volume.levels)?,
+            transfer: GpuTransferTable::new(context, volume.quantization, transfer),
             dims: volume.dims,
             spacing,
-            quantization: volume.quantization,
-            mip_saturation: transfer.saturation_level(volume.quantization),
         })
     }
 
     /// Writes a new transfer function (no other work: the texture holds values, not colors).
     pub fn set_transfer(&mut self, context: &GpuContext, transfer: &TransferFunction) {
-        let table = transfer.lookup_table(self.quantization);
-        context
-            .queue
-            .write_buffer(&self.lookup_table, 0, bytemuck::cast_slice(&table));
-        self.mip_saturation = transfer.saturation_level(self.quantization);
+        self.transfer.write(context, transfer);
     }
 
-    /// Bytes on the GPU.
+    /// Bytes on the GPU: the texture and the lookup table.
     pub fn gpu_bytes(&self) -> u64 {
-        self.dims.iter().map(|&d| d as u64).product::<u64>() * 2 + self.lookup_table.size()
+        self.levels.bytes + self.transfer.size()
     }
 }
 
@@ -124,7 +61,10 @@ impl VolumeShape for DenseVolume {
         0
     }
     fn mip_saturation(&self) -> u16 {
-        self.mip_saturation
+        self.transfer.mip_saturation()
+    }
+    fn level_scale(&self) -> f32 {
+        self.levels.scale
     }
 }
 
@@ -201,7 +141,7 @@ impl DenseRaycaster {
                     },
                     wgpu::BindGroupEntry {
                         binding: 1,
-                        resource: wgpu::BindingResource::TextureView(&frame.volume.view),
+                        resource: wgpu::BindingResource::TextureView(&frame.volume.levels.view),
                     },
                     wgpu::BindGroupEntry {
                         binding: 2,
@@ -209,7 +149,7 @@ impl DenseRaycaster {
                     },
                     wgpu::BindGroupEntry {
                         binding: 3,
-                        resource: frame.volume.lookup_table.as_entire_binding(),
+                        resource: frame.volume.transfer.buffer.as_entire_binding(),
                     },
                     wgpu::BindGroupEntry {
                         binding: 4,

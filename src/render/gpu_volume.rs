@@ -3,15 +3,14 @@
 
 use wgpu::util::DeviceExt;
 
-use super::{GpuContext, RenderError};
+use super::{GpuContext, GpuTransferTable, RenderError};
 use crate::octree::{Node, Octree, TransferFunction, ValueBounds};
-use crate::volume::Quantization;
 
 /// GPU buffers of one octree, uploaded through `levels` (a prefix of the flat list).
 pub struct GpuVolume {
     pub nodes: wgpu::Buffer,
     pub bounds: wgpu::Buffer,
-    pub lookup_table: wgpu::Buffer,
+    pub transfer: GpuTransferTable,
     /// Voxels along x, y, z.
     pub dims: [usize; 3],
     /// Physical voxel size along x, y, z.
@@ -22,9 +21,6 @@ pub struct GpuVolume {
     pub uploaded_level: u32,
     /// `level_starts` of the octree, through `uploaded_level + 1`.
     pub level_starts: Vec<usize>,
-    pub quantization: Quantization,
-    /// Level at which a MIP ray may stop (top of the current window).
-    pub mip_saturation: u16,
 }
 
 impl GpuVolume {
@@ -71,12 +67,7 @@ impl GpuVolume {
             contents: bytemuck::cast_slice::<ValueBounds, u8>(&octree.bounds[..count]),
             usage: wgpu::BufferUsages::STORAGE,
         });
-        let table = transfer.lookup_table(octree.quantization);
-        let lookup_table = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("voxscope::transfer_lookup_table"),
-            contents: bytemuck::cast_slice(&table),
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-        });
+        let transfer = GpuTransferTable::new(context, octree.quantization, transfer);
         if let Some(error) = pollster::block_on(out_of_memory.pop()) {
             return Err(RenderError(format!(
                 "the GPU ({}) has no room for the octree's {} MiB: {error}; try a lower --level",
@@ -87,14 +78,12 @@ impl GpuVolume {
         Ok(Self {
             nodes,
             bounds,
-            lookup_table,
+            transfer,
             dims: octree.dims,
             spacing,
             depth: octree.depth,
             uploaded_level,
             level_starts: octree.level_starts[..uploaded_level as usize + 2].to_vec(),
-            quantization: octree.quantization,
-            mip_saturation: transfer.saturation_level(octree.quantization),
         })
     }
 
@@ -110,11 +99,7 @@ impl GpuVolume {
 
     /// Writes a new transfer function's lookup table (recolor afterwards).
     pub fn set_transfer(&mut self, context: &GpuContext, transfer: &TransferFunction) {
-        let table = transfer.lookup_table(self.quantization);
-        context
-            .queue
-            .write_buffer(&self.lookup_table, 0, bytemuck::cast_slice(&table));
-        self.mip_saturation = transfer.saturation_level(self.quantization);
+        self.transfer.write(context, transfer);
     }
 
     /// Replaces the node colors with those of `octree` (recolored on the CPU).
@@ -128,6 +113,6 @@ impl GpuVolume {
 
     /// Bytes of every buffer on the GPU.
     pub fn gpu_bytes(&self) -> u64 {
-        self.nodes.size() + self.bounds.size() + self.lookup_table.size()
+        self.nodes.size() + self.bounds.size() + self.transfer.size()
     }
 }

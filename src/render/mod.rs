@@ -8,12 +8,14 @@ mod context;
 mod dense;
 mod gpu_data;
 mod gpu_volume;
+mod level_texture;
 mod pipeline;
 mod raycaster;
 mod readback;
 mod recolor;
 mod settings;
 mod timer;
+mod transfer_table;
 mod volume_renderer;
 
 pub use bricks::{GpuBrickRecolor, GpuBricks};
@@ -26,6 +28,7 @@ pub use readback::{read_buffer, read_image, read_visits};
 pub use recolor::GpuRecolor;
 pub use settings::{EARLY_TERMINATION_ALPHA, RenderMode, RenderSettings};
 pub use timer::GpuTimer;
+pub use transfer_table::GpuTransferTable;
 pub use volume_renderer::{DEFAULT_BRICK_SIZE, RendererKind, RendererOptions, VolumeRenderer};
 
 /// Renders one frame and submits it.

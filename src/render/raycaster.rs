@@ -97,6 +97,10 @@ pub trait VolumeShape {
     fn bricks(&self) -> Option<BrickShape> {
         None
     }
+    /// Texel value × this = value level, for the volume's level texture (if it has one).
+    fn level_scale(&self) -> f32 {
+        self.bricks().map_or(1.0, |b| b.atlas_scale)
+    }
 }
 
 /// Brick leaves of a volume on the GPU, as the shader needs them.
@@ -127,7 +131,7 @@ impl OctreeOnGpu for GpuVolume {
         &self.bounds
     }
     fn lookup_table(&self) -> &wgpu::Buffer {
-        &self.lookup_table
+        &self.transfer.buffer
     }
     fn atlas(&self) -> Option<&wgpu::TextureView> {
         None
@@ -148,7 +152,7 @@ impl VolumeShape for GpuVolume {
         self.uploaded_level
     }
     fn mip_saturation(&self) -> u16 {
-        self.mip_saturation
+        self.transfer.mip_saturation()
     }
 }
 
@@ -341,7 +345,7 @@ pub(crate) fn raycast_params(
         mip_saturation: volume.mip_saturation() as u32,
         brick_level: bricks.map_or(u32::MAX, |b| b.level),
         brick_size: bricks.map_or(1, |b| b.size),
-        atlas_scale: bricks.map_or(1.0, |b| b.atlas_scale),
+        atlas_scale: volume.level_scale(),
         atlas_grid: bricks.map_or([1; 4], |b| {
             [b.atlas_grid[0], b.atlas_grid[1], b.atlas_grid[2], 0]
         }),

@@ -2,6 +2,7 @@
 //! first, all in one submission. The topology never changes.
 
 use super::gpu_data::RecolorParams;
+use super::pipeline::{compute_pipeline, storage_entry, uniform_entry};
 use super::{GpuContext, GpuVolume, RenderError};
 
 /// Threads per workgroup; keep in sync with `@workgroup_size` in `recolor.wgsl`.
@@ -15,55 +16,17 @@ pub struct GpuRecolor {
 
 impl GpuRecolor {
     pub fn new(context: &GpuContext) -> Self {
-        let device = &context.device;
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("voxscope::recolor.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(include_str!("../../shaders/recolor.wgsl").into()),
-        });
-        let buffer = |binding, ty, has_dynamic_offset| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty,
-                has_dynamic_offset,
-                min_binding_size: None,
-            },
-            count: None,
-        };
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("voxscope::recolor_layout"),
-            entries: &[
-                buffer(0, wgpu::BufferBindingType::Uniform, true),
-                buffer(
-                    1,
-                    wgpu::BufferBindingType::Storage { read_only: false },
-                    false,
-                ),
-                buffer(
-                    2,
-                    wgpu::BufferBindingType::Storage { read_only: true },
-                    false,
-                ),
-                buffer(
-                    3,
-                    wgpu::BufferBindingType::Storage { read_only: true },
-                    false,
-                ),
+        let (pipeline, layout) = compute_pipeline(
+            &context.device,
+            "recolor",
+            include_str!("../../shaders/recolor.wgsl"),
+            &[
+                uniform_entry(0, true),
+                storage_entry(1, false),
+                storage_entry(2, true),
+                storage_entry(3, true),
             ],
-        });
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("voxscope::recolor_pipeline_layout"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("voxscope::recolor_pipeline"),
-            layout: Some(&pipeline_layout),
-            module: &module,
-            entry_point: Some("main"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
+        );
         Self { pipeline, layout }
     }
 
@@ -85,7 +48,7 @@ impl GpuRecolor {
         let levels = RecolorLevels {
             nodes: &volume.nodes,
             bounds: &volume.bounds,
-            lookup_table: &volume.lookup_table,
+            lookup_table: &volume.transfer.buffer,
             level_starts: &volume.level_starts,
             deepest: volume.depth,
         };

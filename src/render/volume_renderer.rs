@@ -230,11 +230,11 @@ impl VolumeRenderer {
             State::Octree { volume, .. } => vec![
                 ("nodes", volume.nodes.size()),
                 ("bounds", volume.bounds.size()),
-                ("lookup_table", volume.lookup_table.size()),
+                ("lookup_table", volume.transfer.size()),
             ],
             State::Dense { volume, .. } => vec![
-                ("texture", volume.gpu_bytes() - volume.lookup_table.size()),
-                ("lookup_table", volume.lookup_table.size()),
+                ("texture", volume.gpu_bytes() - volume.transfer.size()),
+                ("lookup_table", volume.transfer.size()),
             ],
             State::Bricks { volume, .. } => volume.gpu_bytes(),
         }
