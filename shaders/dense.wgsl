@@ -3,33 +3,8 @@
 // termination and MIP as the octree ray caster. This is what napari/vispy, pygfx and ParaView
 // do; voxscope keeps it to measure against and to cross-check the octree.
 //
-// Space and parameters are those of raycast.wgsl (voxel space, camera vectors in voxels).
-
-// Keep in sync with `RaycastParams` in src/render/gpu_data.rs (shared with raycast.wgsl).
-struct Params {
-    eye: vec4<f32>,
-    forward: vec4<f32>,
-    right: vec4<f32>,
-    up: vec4<f32>,
-    volume: vec4<f32>,      // xyz: volume dims in voxels
-    image_size: vec2<u32>,
-    depth: u32,
-    max_level: u32,
-    mode: u32,
-    flags: u32,
-    density: f32,
-    lod_factor: f32,
-    mip_saturation: u32,
-    brick_level: u32,
-    brick_size: u32,
-    atlas_scale: f32,       // texel value × this = value level (255 for 8-bit, 1 for f16)
-    atlas_grid: vec4<u32>,
-}
-
-const MODE_MIP: u32 = 1u;
-const FLAG_HEATMAP: u32 = 4u;
-// Keep in sync with `EARLY_TERMINATION_ALPHA` in src/render/settings.rs.
-const EARLY_TERMINATION_ALPHA: f32 = 0.99;
+// Space and parameters are those of raycast.wgsl (voxel space, camera vectors in voxels);
+// both start with ray_common.wgsl.
 
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var levels: texture_3d<f32>;
@@ -38,19 +13,6 @@ const EARLY_TERMINATION_ALPHA: f32 = 0.99;
 @group(0) @binding(4) var output: texture_storage_2d<rgba8unorm, write>;
 @group(0) @binding(5) var<storage, read_write> visits: array<u32>;
 
-fn max_component(v: vec3<f32>) -> f32 { return max(v.x, max(v.y, v.z)); }
-fn min_component(v: vec3<f32>) -> f32 { return min(v.x, min(v.y, v.z)); }
-
-fn heat(x: f32) -> vec3<f32> {
-    let c0 = vec3<f32>(0.0, 0.0, 0.02);
-    let c1 = vec3<f32>(0.47, 0.07, 0.43);
-    let c2 = vec3<f32>(0.93, 0.41, 0.13);
-    let c3 = vec3<f32>(0.99, 0.99, 0.64);
-    if x < 0.33 { return mix(c0, c1, x / 0.33); }
-    if x < 0.66 { return mix(c1, c2, (x - 0.33) / 0.33); }
-    return mix(c2, c3, (x - 0.66) / 0.34);
-}
-
 struct MarchResult {
     color: vec3<f32>,
     samples: u32,
@@ -58,14 +20,10 @@ struct MarchResult {
 
 fn march(origin: vec3<f32>, dir: vec3<f32>) -> MarchResult {
     var result = MarchResult(vec3<f32>(0.0), 0u);
-    let tiny = vec3<f32>(1e-20);
-    let sign = select(vec3<f32>(-1.0), vec3<f32>(1.0), dir >= vec3<f32>(0.0));
-    let inv = 1.0 / select(dir, sign * tiny, abs(dir) < tiny);
     let dims = params.volume.xyz;
-    let t_low = (vec3<f32>(0.0) - origin) * inv;
-    let t_high = (dims - origin) * inv;
-    let t_enter = max(max_component(min(t_low, t_high)), 0.0);
-    let t_leave = min_component(max(t_low, t_high));
+    let interval = volume_interval(origin, safe_inverse(dir));
+    let t_enter = interval.x;
+    let t_leave = interval.y;
     if t_enter >= t_leave {
         return result;
     }
@@ -111,20 +69,10 @@ fn march(origin: vec3<f32>, dir: vec3<f32>) -> MarchResult {
 
 @compute @workgroup_size(8, 8, 1)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
-    let size = params.image_size;
-    if id.x >= size.x || id.y >= size.y {
+    if id.x >= params.image_size.x || id.y >= params.image_size.y {
         return;
     }
-    let ndc = vec2<f32>(
-        2.0 * (f32(id.x) + 0.5) / f32(size.x) - 1.0,
-        1.0 - 2.0 * (f32(id.y) + 0.5) / f32(size.y),
-    );
-    let dir = params.forward.xyz + ndc.x * params.right.xyz + ndc.y * params.up.xyz;
-    let result = march(params.eye.xyz, dir);
-    var rgb = result.color;
-    if (params.flags & FLAG_HEATMAP) != 0u {
-        rgb = heat(clamp(log2(1.0 + f32(result.samples)) / 10.0, 0.0, 1.0));
-    }
-    textureStore(output, vec2<i32>(id.xy), vec4<f32>(rgb, 1.0));
-    visits[id.y * size.x + id.x] = result.samples;
+    let ray = pixel_ray(id.xy);
+    let result = march(params.eye.xyz, ray.dir);
+    write_pixel(id.xy, result.color, result.samples);
 }

@@ -162,7 +162,7 @@ impl GpuBrickRecolor {
         let (pipeline, layout) = compute_pipeline(
             &context.device,
             "brick_recolor",
-            include_str!("../../shaders/brick_recolor.wgsl"),
+            super::shaders::BRICK_RECOLOR,
             &[
                 uniform_entry(0, false),
                 storage_entry(1, false),

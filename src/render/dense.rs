@@ -83,7 +83,7 @@ impl DenseRaycaster {
         let (pipeline, layout) = compute_pipeline(
             device,
             "dense",
-            include_str!("../../shaders/dense.wgsl"),
+            super::shaders::DENSE,
             &[
                 uniform_entry(0, false),
                 atlas_entry(1),

@@ -80,15 +80,15 @@ mod tests {
 
     #[test]
     fn rust_structs_mirror_wgsl() {
-        let raycast = include_str!("../../shaders/raycast.wgsl");
-        let recolor = include_str!("../../shaders/recolor.wgsl");
+        let raycast = crate::render::shaders::RAYCAST;
+        let recolor = crate::render::shaders::RECOLOR;
         let node = std::mem::size_of::<crate::octree::Node>() as u32;
         assert_eq!(
             wgsl_struct_size(raycast, "Params"),
             std::mem::size_of::<RaycastParams>() as u32
         );
         assert_eq!(wgsl_struct_size(raycast, "Node"), node);
-        let dense = include_str!("../../shaders/dense.wgsl");
+        let dense = crate::render::shaders::DENSE;
         assert_eq!(
             wgsl_struct_size(dense, "Params"),
             std::mem::size_of::<RaycastParams>() as u32
@@ -98,7 +98,7 @@ mod tests {
             std::mem::size_of::<RecolorParams>() as u32
         );
         assert_eq!(wgsl_struct_size(recolor, "Node"), node);
-        let bricks = include_str!("../../shaders/brick_recolor.wgsl");
+        let bricks = crate::render::shaders::BRICK_RECOLOR;
         assert_eq!(
             wgsl_struct_size(bricks, "Params"),
             std::mem::size_of::<BrickRecolorParams>() as u32

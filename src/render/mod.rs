@@ -14,6 +14,7 @@ mod raycaster;
 mod readback;
 mod recolor;
 mod settings;
+pub mod shaders;
 mod timer;
 mod transfer_table;
 mod volume_renderer;

@@ -172,7 +172,7 @@ impl Raycaster {
         let (pipeline, layout) = compute_pipeline(
             device,
             "raycast",
-            include_str!("../../shaders/raycast.wgsl"),
+            super::shaders::RAYCAST,
             &[
                 uniform_entry(0, false),
                 storage_entry(1, true),

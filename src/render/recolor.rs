@@ -19,7 +19,7 @@ impl GpuRecolor {
         let (pipeline, layout) = compute_pipeline(
             &context.device,
             "recolor",
-            include_str!("../../shaders/recolor.wgsl"),
+            super::shaders::RECOLOR,
             &[
                 uniform_entry(0, true),
                 storage_entry(1, false),
