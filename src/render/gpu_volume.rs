@@ -102,15 +102,6 @@ impl GpuVolume {
         self.transfer.write(context, transfer);
     }
 
-    /// Replaces the node colors with those of `octree` (recolored on the CPU).
-    pub fn write_colors(&self, context: &GpuContext, octree: &Octree) {
-        context.queue.write_buffer(
-            &self.nodes,
-            0,
-            bytemuck::cast_slice(&octree.nodes[..self.node_count()]),
-        );
-    }
-
     /// Bytes of every buffer on the GPU.
     pub fn gpu_bytes(&self) -> u64 {
         self.nodes.size() + self.bounds.size() + self.transfer.size()
