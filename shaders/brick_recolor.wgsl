@@ -4,12 +4,6 @@
 // share the brick's voxels and reduce in workgroup memory. The levels above are recolored by
 // recolor.wgsl afterwards. (Sums fit u32: 32³ voxels × 255 × 255 < 2³².)
 
-// Keep in sync with `Node` in src/octree/node.rs.
-struct Node {
-    color: u32,
-    first_child: u32,
-}
-
 // Keep in sync with `BrickRecolorParams` in src/render/gpu_data.rs.
 struct Params {
     level_start: u32,
@@ -24,8 +18,6 @@ struct Params {
     _pad2: u32,
 }
 
-const LEAF: u32 = 0xffffffffu;
-const BRICK_FLAG: u32 = 0x80000000u;
 // One workgroup per node of the brick level; its threads share the brick's voxels.
 const WORKGROUP: u32 = 64u;
 
@@ -79,9 +71,7 @@ fn main(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index
         }
         let texel = textureLoad(atlas, vec3<i32>(base + local), 0).r;
         let level = u32(clamp(round(texel * params.atlas_scale), 0.0, 65535.0));
-        let color = lookup_table[level];
-        let a = color >> 24u;
-        sums += vec4<u32>(a, (color & 0xffu) * a, ((color >> 8u) & 0xffu) * a, ((color >> 16u) & 0xffu) * a);
+        sums += weighted_sums(lookup_table[level]);
         count += 1u;
     }
     partial_color[lane] = sums;
@@ -97,14 +87,5 @@ fn main(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index
     if lane != 0u {
         return;
     }
-    let total = partial_color[0];
-    let alpha_sum = total.x;
-    if alpha_sum == 0u {
-        nodes[index].color = 0u;
-        return;
-    }
-    let voxels = partial_count[0];
-    let half = alpha_sum / 2u;
-    nodes[index].color = ((total.y + half) / alpha_sum) | (((total.z + half) / alpha_sum) << 8u)
-        | (((total.w + half) / alpha_sum) << 16u) | (((alpha_sum + voxels - 1u) / voxels) << 24u);
+    nodes[index].color = weighted_mean(partial_color[0], partial_count[0]);
 }

@@ -13,16 +13,6 @@
 // may round the two distances differently, and deciding at `t` itself could then pick the
 // child just left, forever. With the probe, `t` strictly advances at every step.
 
-// Keep in sync with `Node` in src/octree/node.rs.
-struct Node {
-    color: u32,       // RGBA8, red lowest, straight alpha
-    first_child: u32, // index of the first of 8 children, or LEAF
-}
-
-
-const LEAF: u32 = 0xffffffffu;
-// Keep in sync with `BRICK_FLAG` in src/octree/bricks.rs.
-const BRICK_FLAG: u32 = 0x80000000u;
 // MAX_DEPTH + 1 (src/octree/build.rs).
 const STACK_SIZE: u32 = 11u;
 const MAX_STEPS: u32 = 100000u;

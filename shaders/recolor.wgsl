@@ -3,12 +3,6 @@
 // once per level, deepest first, so children are final before their parents read them.
 // Integer math only: the result equals the CPU's `recolor` bit for bit.
 
-// Keep in sync with `Node` in src/octree/node.rs.
-struct Node {
-    color: u32,
-    first_child: u32,
-}
-
 // Keep in sync with `RecolorParams` in src/render/gpu_data.rs.
 struct Params {
     level_start: u32,
@@ -18,7 +12,6 @@ struct Params {
     _pad: u32,
 }
 
-const LEAF: u32 = 0xffffffffu;
 const WORKGROUP: u32 = 256u;
 
 @group(0) @binding(0) var<uniform> params: Params;
@@ -26,30 +19,13 @@ const WORKGROUP: u32 = 256u;
 @group(0) @binding(2) var<storage, read> bounds: array<u32>;
 @group(0) @binding(3) var<storage, read> lookup_table: array<u32>;
 
-fn channel(color: u32, shift: u32) -> u32 {
-    return (color >> shift) & 0xffu;
-}
-
-// Keep in sync with `average_color` in src/octree/node.rs.
+// The parent's color from its 8 children.
 fn average_color(first: u32) -> u32 {
-    var alpha_sum = 0u;
-    var r = 0u;
-    var g = 0u;
-    var b = 0u;
+    var sums = vec4<u32>(0u);
     for (var c = 0u; c < 8u; c++) {
-        let color = nodes[first + c].color;
-        let a = channel(color, 24u);
-        alpha_sum += a;
-        r += channel(color, 0u) * a;
-        g += channel(color, 8u) * a;
-        b += channel(color, 16u) * a;
+        sums += weighted_sums(nodes[first + c].color);
     }
-    if alpha_sum == 0u {
-        return 0u;
-    }
-    let half = alpha_sum / 2u;
-    return ((r + half) / alpha_sum) | (((g + half) / alpha_sum) << 8u)
-        | (((b + half) / alpha_sum) << 16u) | (((alpha_sum + 7u) / 8u) << 24u);
+    return weighted_mean(sums, 8u);
 }
 
 @compute @workgroup_size(256, 1, 1)

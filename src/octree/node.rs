@@ -6,7 +6,7 @@ pub const LEAF: u32 = u32::MAX;
 /// One octree node: 4 bytes of RGBA color and the index of its first child.
 ///
 /// The 8 children of a node are stored together, so `first_child..first_child + 8` are its
-/// children. Keep in sync with `struct Node` in `shaders/raycast.wgsl` and `shaders/recolor.wgsl`.
+/// children. Keep in sync with `struct Node` in `shaders/node_common.wgsl`.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct Node {
@@ -47,7 +47,8 @@ pub fn unpack_rgba(color: u32) -> [u8; 4] {
 
 /// The color of a parent from its 8 children: the opacity-weighted average color (the average
 /// of premultiplied colors, un-premultiplied), rounded; alpha is the plain average rounded up,
-/// so a parent is transparent only when every child is. Keep in sync with `recolor.wgsl`.
+/// so a parent is transparent only when every child is. Keep in sync with `weighted_mean` in
+/// `node_common.wgsl`.
 #[inline]
 pub fn average_color(children: [u32; 8]) -> u32 {
     let mut alpha_sum = 0u32;
