@@ -2,10 +2,13 @@
 //! volume rendering using ray tracing", ray-cast by a wgpu compute shader.
 //!
 //! The modules follow the data: [`volume`] (grids and loaders) → [`octree`] (the flat list,
-//! its statistics and colors) → [`render`] (wgpu device, ray caster, camera) → [`cli`].
+//! its statistics and colors) → [`render`] (wgpu device, ray caster, camera) → [`app`] (the window) and
+//! [`cli`] (commands without one).
 //! Dependencies only point that way.
 
+pub mod app;
 pub mod cli;
 pub mod octree;
+pub mod progress;
 pub mod render;
 pub mod volume;

@@ -145,6 +145,7 @@ fn binary_opacity_and_plain_compositing_match_reference() {
         opacity: OpacityMode::Binary,
         window,
         threshold: 0.5,
+        colormap: Default::default(),
     };
     let camera = Camera {
         azimuth_deg: 75.0,
@@ -240,6 +241,7 @@ fn real_mri_heads_match_reference() {
         opacity: OpacityMode::Binary,
         window,
         threshold: 0.35,
+        colormap: Default::default(),
     };
     compare("mni152-binary", &mni, Some(binary), &camera, full);
 }
@@ -261,6 +263,7 @@ fn gpu_recolor_equals_cpu_recolor_bit_for_bit() {
                 high: first.window.high * 0.8,
             },
             threshold: 0.4,
+            colormap: Default::default(),
         };
         gpu_volume.set_transfer(&context, &second);
         let mut encoder = context.device.create_command_encoder(&Default::default());
@@ -554,6 +557,7 @@ fn bricks_recolor_on_the_gpu_keeps_empty_bricks_transparent() {
     let nothing = TransferFunction {
         opacity: OpacityMode::Binary,
         threshold: 1.0,
+        colormap: Default::default(),
         window: voxscope::volume::ValueWindow {
             low: 0.0,
             high: 1000.0,
@@ -596,6 +600,7 @@ fn gpu_brick_recolor_equals_the_cpu_rule_bit_for_bit() {
         let second = TransferFunction {
             opacity: OpacityMode::Binary,
             threshold: 0.35,
+            colormap: Default::default(),
             ..first
         };
         bricks.set_transfer(&context, &second);

@@ -207,6 +207,7 @@ fn statistics_count_transparent_and_opaque_nodes_per_level() {
         opacity: OpacityMode::Binary,
         window,
         threshold: 0.5,
+        colormap: Default::default(),
     };
     let (octree, _) = built(&volume, FULL, Some(binary));
     let stats = level_statistics(&octree);
@@ -238,6 +239,7 @@ fn recolor_changes_colors_but_never_the_topology() {
             opacity: OpacityMode::Binary,
             window,
             threshold: 0.2,
+            colormap: Default::default(),
         },
     );
     assert_eq!(
@@ -293,7 +295,7 @@ proptest! {
         }).collect();
         let volume = volume_u8(dims, values.clone());
         let window = ValueWindow { low: 0.0, high: 200.0 };
-        let transfer = TransferFunction { opacity: OpacityMode::Binary, window, threshold };
+        let transfer = TransferFunction { opacity: OpacityMode::Binary, window, threshold, colormap: Default::default() };
         let (octree, _) = built(&volume, BuildOptions { collapse_uniform: collapse }, Some(transfer));
         check_layout(&octree);
         check_colors(&octree);

@@ -2,7 +2,7 @@
 
 use clap::{Args, ValueEnum};
 
-use crate::octree::{OpacityMode, TransferFunction};
+use crate::octree::{Colormap, OpacityMode, TransferFunction};
 use crate::render::{RenderMode, RenderSettings, RendererKind};
 use crate::volume::{LoadOptions, RawLayout, ValueWindow};
 
@@ -43,6 +43,9 @@ pub struct TransferArgs {
     /// Value window LOW:HIGH in the data's own units (default: 0.5–99.5 percentiles).
     #[arg(long, value_name = "LOW:HIGH", allow_hyphen_values = true, value_parser = ValueWindow::parse)]
     pub window: Option<ValueWindow>,
+    /// Colors of the windowed value: grays, viridis, inferno, magma, plasma or cividis.
+    #[arg(long, default_value = "grays", value_parser = parse_colormap)]
+    pub colormap: Colormap,
     /// Global opacity scale (below 1 makes dense volumes see-through).
     #[arg(long, default_value_t = 1.0)]
     pub density: f32,
@@ -117,6 +120,7 @@ impl TransferArgs {
             },
             window: self.window.unwrap_or(default_window),
             threshold: self.threshold,
+            colormap: self.colormap,
         }
     }
 
@@ -155,6 +159,13 @@ pub(super) fn parse_brick_size(text: &str) -> Result<usize, String> {
         Ok(n) if n.is_power_of_two() && (4..=32).contains(&n) => Ok(n),
         _ => Err(format!("brick size '{text}' is not 4, 8, 16 or 32")),
     }
+}
+
+fn parse_colormap(text: &str) -> Result<Colormap, String> {
+    Colormap::from_name(text).ok_or_else(|| {
+        let names: Vec<&str> = Colormap::ALL.iter().map(|c| c.name()).collect();
+        format!("colormap '{text}' is not one of {}", names.join(", "))
+    })
 }
 
 fn parse_unit(text: &str) -> Result<f32, String> {

@@ -1,4 +1,5 @@
-//! The command line: `voxscope info`, `voxscope render`.
+//! The command line: `voxscope [FILE]` opens the app; `voxscope info`, `render` and `bench`
+//! work without a window.
 
 mod args;
 mod bench;
@@ -13,10 +14,13 @@ pub use prepare::Prepared;
 
 /// voxscope: look inside volume data. A flat-list sparse octree, ray-cast on the GPU.
 #[derive(Debug, Parser)]
-#[command(name = "voxscope", version, about, long_about = None)]
+#[command(name = "voxscope", version, about, long_about = None, args_conflicts_with_subcommands = true)]
 pub struct Cli {
     #[command(subcommand)]
-    pub command: Command,
+    pub command: Option<Command>,
+    /// Volume to open in the app (.nii, .nii.gz, .nrrd, .nhdr, or synthetic:KIND:SIZE).
+    /// Without a command and a file, the app opens the built-in sample head MRI.
+    pub file: Option<String>,
 }
 
 #[derive(Debug, Subcommand)]
@@ -33,9 +37,10 @@ pub enum Command {
 pub fn run() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Info(args) => info::run(&args),
-        Command::Render(args) => render::run(&args),
-        Command::Bench(args) => bench::run(&args),
+        Some(Command::Info(args)) => info::run(&args),
+        Some(Command::Render(args)) => render::run(&args),
+        Some(Command::Bench(args)) => bench::run(&args),
+        None => crate::app::run(cli.file.map(crate::app::VolumeSource::Spec)),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -9,6 +9,7 @@ use rayon::prelude::*;
 
 use super::sibling_index::{next_block_start, sibling_indices};
 use super::{LEAF, Node, Octree, ValueBounds};
+use crate::progress::Progress;
 use crate::volume::QuantizedVolume;
 
 /// Deepest supported octree (a 1024³ cube): cells of every level fit in `u32`.
@@ -45,7 +46,18 @@ impl std::error::Error for BuildError {}
 /// Builds the octree of `volume`. Colors are left at zero: call [`super::recolor`] with a
 /// transfer function's lookup table.
 pub fn build(volume: &QuantizedVolume, options: BuildOptions) -> Result<Octree, BuildError> {
+    build_with_progress(volume, options, &Progress::new())
+}
+
+/// [`build`], reporting its fraction done to `progress` (stage `building octree`) and stopping
+/// with an error between levels once `progress` is cancelled.
+pub fn build_with_progress(
+    volume: &QuantizedVolume,
+    options: BuildOptions,
+    progress: &Progress,
+) -> Result<Octree, BuildError> {
     let started = Instant::now();
+    progress.begin("building octree");
     let dims = volume.dims;
     let longest = dims.iter().copied().max().unwrap_or(1);
     let depth = longest.next_power_of_two().trailing_zeros();
@@ -55,7 +67,15 @@ pub fn build(volume: &QuantizedVolume, options: BuildOptions) -> Result<Octree, 
             1 << MAX_DEPTH
         )));
     }
-    let grids = bounds_per_level(volume, depth);
+    // Progress: the voxel pass counts as many steps as all other levels together.
+    let steps = 3.0 * depth as f32 + 2.0;
+    let step_done = |step: f32| -> Result<(), BuildError> {
+        progress.set_fraction(step / steps);
+        progress
+            .check()
+            .map_err(|_| BuildError("cancelled".to_owned()))
+    };
+    let grids = bounds_per_level(volume, depth, &step_done)?;
     let side = 1usize << depth;
 
     // Bounds of a node: from the level grids, or from the voxel itself at the last level.
@@ -91,6 +111,7 @@ pub fn build(volume: &QuantizedVolume, options: BuildOptions) -> Result<Octree, 
     let mut level_starts = vec![0usize];
     let mut cells: Vec<u32> = vec![0];
     for level in 0..=depth {
+        step_done(2.0 * depth as f32 + 1.0 + level as f32)?;
         let level_start = nodes.len();
         let next_level_start = level_start + cells.len();
         let level_bounds: Vec<ValueBounds> = cells
@@ -152,6 +173,7 @@ pub fn build(volume: &QuantizedVolume, options: BuildOptions) -> Result<Octree, 
         cells = next_cells;
     }
 
+    progress.set_fraction(1.0);
     Ok(Octree {
         dims,
         depth,
@@ -167,9 +189,13 @@ pub fn build(volume: &QuantizedVolume, options: BuildOptions) -> Result<Octree, 
 /// Value bounds of every cell of levels `0..depth` (cubic grids of side `2^level`, x fastest).
 /// Level `depth - 1` reads the voxels (padding beyond the volume is empty); each level above
 /// merges the 8 siblings of every block of the level below with the paper's listings 1 and 2.
-fn bounds_per_level(volume: &QuantizedVolume, depth: u32) -> Vec<Vec<ValueBounds>> {
+fn bounds_per_level(
+    volume: &QuantizedVolume,
+    depth: u32,
+    step_done: &dyn Fn(f32) -> Result<(), BuildError>,
+) -> Result<Vec<Vec<ValueBounds>>, BuildError> {
     if depth == 0 {
-        return Vec::new();
+        return Ok(Vec::new());
     }
     let dims = volume.dims;
     let mut grids: Vec<Vec<ValueBounds>> = vec![Vec::new(); depth as usize];
@@ -196,6 +222,7 @@ fn bounds_per_level(volume: &QuantizedVolume, depth: u32) -> Vec<Vec<ValueBounds
             }
         });
     grids[depth as usize - 1] = finest;
+    step_done(depth as f32 + 1.0)?;
 
     for level in (0..depth - 1).rev() {
         let child_grid = &grids[level as usize + 1];
@@ -214,6 +241,7 @@ fn bounds_per_level(volume: &QuantizedVolume, depth: u32) -> Vec<Vec<ValueBounds
                 }
             });
         grids[level as usize] = grid;
+        step_done(2.0 * depth as f32 - level as f32)?;
     }
-    grids
+    Ok(grids)
 }

@@ -14,11 +14,11 @@ mod transfer;
 use std::ops::Range;
 
 pub use bricks::{BRICK_FLAG, BrickLayout};
-pub use build::{BuildError, BuildOptions, MAX_DEPTH, build};
+pub use build::{BuildError, BuildOptions, MAX_DEPTH, build, build_with_progress};
 pub use node::{LEAF, Node, ValueBounds, average_color, pack_rgba, unpack_rgba};
 pub use recolor::recolor;
-pub use statistics::{LevelStatistics, level_statistics};
-pub use transfer::{OpacityMode, TransferFunction};
+pub use statistics::{LevelStatistics, level_statistics, level_statistics_under};
+pub use transfer::{Colormap, OpacityMode, TransferFunction};
 
 use crate::volume::Quantization;
 

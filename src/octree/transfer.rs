@@ -16,7 +16,7 @@ pub enum OpacityMode {
     Binary,
 }
 
-/// Maps values to colors. Color is the gray of `t`; alpha follows [`OpacityMode`].
+/// Maps values to colors. Color is the colormap at `t`; alpha follows [`OpacityMode`].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct TransferFunction {
     pub opacity: OpacityMode,
@@ -24,6 +24,67 @@ pub struct TransferFunction {
     pub window: ValueWindow,
     /// Binary mode's threshold on `t`, 0…1.
     pub threshold: f32,
+    /// The color of `t` (gray unless chosen otherwise).
+    #[serde(default)]
+    pub colormap: Colormap,
+}
+
+/// The colors a normalized value `t` can take: grays, or one of the perceptually uniform maps
+/// of matplotlib (Smith & van der Walt), which keep equal value steps equally visible.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub enum Colormap {
+    #[default]
+    Grays,
+    Viridis,
+    Inferno,
+    Magma,
+    Plasma,
+    Cividis,
+}
+
+impl Colormap {
+    pub const ALL: [Colormap; 6] = [
+        Self::Grays,
+        Self::Viridis,
+        Self::Inferno,
+        Self::Magma,
+        Self::Plasma,
+        Self::Cividis,
+    ];
+
+    /// `grays`, `viridis`, …
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Grays => "grays",
+            Self::Viridis => "viridis",
+            Self::Inferno => "inferno",
+            Self::Magma => "magma",
+            Self::Plasma => "plasma",
+            Self::Cividis => "cividis",
+        }
+    }
+
+    /// The colormap called `name` (as [`Self::name`] spells it).
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|c| c.name() == name)
+    }
+
+    /// RGB of `t` (0…1).
+    pub fn rgb(self, t: f64) -> [u8; 3] {
+        let t = t.clamp(0.0, 1.0);
+        let gradient = match self {
+            Self::Grays => {
+                let gray = (t * 255.0).round() as u8;
+                return [gray; 3];
+            }
+            Self::Viridis => colorous::VIRIDIS,
+            Self::Inferno => colorous::INFERNO,
+            Self::Magma => colorous::MAGMA,
+            Self::Plasma => colorous::PLASMA,
+            Self::Cividis => colorous::CIVIDIS,
+        };
+        gradient.eval_continuous(t).as_array()
+    }
 }
 
 impl TransferFunction {
@@ -33,14 +94,16 @@ impl TransferFunction {
             opacity: OpacityMode::Gray,
             window,
             threshold: 0.5,
+            colormap: Colormap::Grays,
         }
     }
 
     /// RGBA of a voxel whose normalized value is `t` (0…1).
     pub fn color_of_normalized(&self, t: f64) -> [u8; 4] {
-        let gray = (t.clamp(0.0, 1.0) * 255.0).round() as u8;
+        let t = t.clamp(0.0, 1.0);
+        let [r, g, b] = self.colormap.rgb(t);
         let alpha = match self.opacity {
-            OpacityMode::Gray => gray,
+            OpacityMode::Gray => (t * 255.0).round() as u8,
             OpacityMode::Binary => {
                 if t >= self.threshold as f64 {
                     255
@@ -49,7 +112,7 @@ impl TransferFunction {
                 }
             }
         };
-        [gray, gray, gray, alpha]
+        [r, g, b, alpha]
     }
 
     /// Packed colors for all 65 536 value levels of `quantization`.

@@ -31,6 +31,18 @@ impl GpuContext {
         adapter_features & wgpu::Features::TIMESTAMP_QUERY
     }
 
+    /// What voxscope asks of `adapter`: all of its limits (large storage buffers and 3D
+    /// textures, not wgpu's portable defaults) and the [`Self::wanted_features`] it has.
+    /// The app hands this to egui-wgpu so its device can run the ray caster too.
+    pub fn device_descriptor(adapter: &wgpu::Adapter) -> wgpu::DeviceDescriptor<'static> {
+        wgpu::DeviceDescriptor {
+            label: Some("voxscope::device"),
+            required_features: Self::wanted_features(adapter.features()),
+            required_limits: adapter.limits(),
+            ..Default::default()
+        }
+    }
+
     /// Opens the best adapter without a window. `WGPU_BACKEND` (e.g. `vulkan`) and
     /// `WGPU_ADAPTER_NAME` select one, as everywhere in wgpu.
     pub fn new_headless() -> Result<Self, RenderError> {
@@ -46,14 +58,7 @@ impl GpuContext {
                 "no GPU adapter found ({e}); for a software device install mesa-vulkan-drivers and set WGPU_BACKEND=vulkan"
             ))
         })?;
-        let limits = adapter.limits();
-        let features = Self::wanted_features(adapter.features());
-        let descriptor = wgpu::DeviceDescriptor {
-            label: Some("voxscope::device"),
-            required_features: features,
-            required_limits: limits.clone(),
-            ..Default::default()
-        };
+        let descriptor = Self::device_descriptor(&adapter);
         let (device, queue) = pollster::block_on(adapter.request_device(&descriptor))
             .map_err(|e| RenderError(format!("the GPU refused a device: {e}")))?;
         Ok(Self::from_device(device, queue, adapter.get_info()))

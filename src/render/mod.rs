@@ -6,6 +6,7 @@ mod bricks;
 mod camera;
 mod context;
 mod dense;
+mod frame_probe;
 mod gpu_data;
 mod gpu_volume;
 mod level_texture;
@@ -23,11 +24,14 @@ pub use bricks::{GpuBrickRecolor, GpuBricks};
 pub use camera::{Camera, ViewFrame};
 pub use context::{GpuContext, RenderError};
 pub use dense::{DenseRaycaster, DenseVolume};
+pub use frame_probe::{FrameProbe, FrameReport};
 pub use gpu_volume::GpuVolume;
 pub use raycaster::{Frame, OctreeOnGpu, Raycaster, RenderTarget, VolumeShape};
 pub use readback::{read_buffer, read_image, read_visits};
 pub use recolor::GpuRecolor;
-pub use settings::{EARLY_TERMINATION_ALPHA, RenderMode, RenderSettings};
+pub use settings::{
+    EARLY_TERMINATION_ALPHA, HEATMAP_SATURATION, RenderMode, RenderSettings, heatmap_color,
+};
 pub use timer::GpuTimer;
 pub use transfer_table::GpuTransferTable;
 pub use volume_renderer::{DEFAULT_BRICK_SIZE, RendererKind, RendererOptions, VolumeRenderer};

@@ -49,3 +49,27 @@ impl RenderSettings {
         }
     }
 }
+
+/// The heat map's color for a ray that visited `work` nodes (or samples): an inferno-like ramp
+/// over `log2(1 + work) / 10`, so 0 is black and 1023 or more is pale yellow. The app draws its
+/// legend from this; keep in sync with `heat` and `write_pixel` in `ray_common.wgsl`.
+pub fn heatmap_color(work: u32) -> [u8; 3] {
+    let x = ((1.0 + work as f32).log2() / 10.0).clamp(0.0, 1.0);
+    let stops = [
+        [0.0, 0.0, 0.02],
+        [0.47, 0.07, 0.43],
+        [0.93, 0.41, 0.13],
+        [0.99, 0.99, 0.64],
+    ];
+    let (from, to, f) = if x < 0.33 {
+        (stops[0], stops[1], x / 0.33)
+    } else if x < 0.66 {
+        (stops[1], stops[2], (x - 0.33) / 0.33)
+    } else {
+        (stops[2], stops[3], (x - 0.66) / 0.34)
+    };
+    std::array::from_fn(|c| ((from[c] + (to[c] - from[c]) * f) * 255.0).round() as u8)
+}
+
+/// Work per ray at which the heat map reaches its brightest color.
+pub const HEATMAP_SATURATION: u32 = 1023;

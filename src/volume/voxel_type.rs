@@ -192,6 +192,11 @@ impl VoxelData {
         with_voxel_slice!(self, values => type_of(values))
     }
 
+    /// No voxels, same type: keeps a volume's description once its voxels are not needed.
+    pub fn emptied(&self) -> Self {
+        Self::decode(self.voxel_type(), &[], Endian::Little)
+    }
+
     /// Number of voxels.
     pub fn len(&self) -> usize {
         with_voxel_slice!(self, values => values.len())

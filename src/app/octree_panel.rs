@@ -1,0 +1,284 @@
+//! The right panel: level of detail, renderer, heat map, and the numbers: per-level node
+//! statistics (table and chart), build and upload time, GPU memory, per-frame cost.
+
+use egui::Ui;
+use egui_plot::{Bar, BarChart, Legend, Plot};
+
+use super::scene::Scene;
+use super::settings::AppSettings;
+use crate::octree::LevelStatistics;
+use crate::render::{FrameReport, HEATMAP_SATURATION, RendererKind, heatmap_color};
+
+/// What the panel shows besides the settings it edits.
+pub struct OctreeFacts<'a> {
+    pub scene: Option<&'a Scene>,
+    pub statistics: &'a [LevelStatistics],
+    /// True while the statistics are being recounted for a new transfer function.
+    pub statistics_pending: bool,
+    pub frame: Option<FrameReport>,
+    /// Frames per second over the last second of continuous drawing.
+    pub fps: Option<f64>,
+    pub adapter: &'a str,
+    /// Bytes of the panes' render targets.
+    pub target_bytes: u64,
+}
+
+/// Draws the panel; edits `settings` and `max_level`.
+pub fn show(ui: &mut Ui, settings: &mut AppSettings, max_level: &mut u32, facts: &OctreeFacts<'_>) {
+    ui.heading("Octree");
+    ui.add_space(4.0);
+    let depth = facts.scene.map_or(0, |s| s.data.octree.depth);
+    egui::Grid::new("octree_grid")
+        .num_columns(2)
+        .spacing([8.0, 6.0])
+        .show(ui, |ui| {
+            let label = ui.label("Max level");
+            ui.add_enabled(depth > 0, egui::Slider::new(max_level, 0..=depth))
+                .labelled_by(label.id)
+                .on_hover_text("Deepest level rays descend to: 0 is the root alone, the last level the voxels");
+            ui.end_row();
+
+            let label = ui.label("Renderer");
+            egui::ComboBox::from_id_salt("renderer")
+                .selected_text(settings.renderer.name())
+                .show_ui(ui, |ui| {
+                    for kind in RendererKind::ALL {
+                        ui.selectable_value(&mut settings.renderer, kind, kind.name());
+                    }
+                })
+                .response
+                .labelled_by(label.id)
+                .on_hover_text("octree: the paper's voxel octree · dense: one 3D texture (the usual way) · bricks: octree down to bricks in a 3D atlas");
+            ui.end_row();
+
+            if settings.renderer == RendererKind::Bricks {
+                let label = ui.label("Brick size");
+                egui::ComboBox::from_id_salt("brick_size")
+                    .selected_text(format!("{0}³", settings.brick_size))
+                    .show_ui(ui, |ui| {
+                        for size in [8, 16, 32] {
+                            ui.selectable_value(&mut settings.brick_size, size, format!("{size}³"));
+                        }
+                    })
+                    .response
+                    .labelled_by(label.id);
+                ui.end_row();
+            }
+        });
+    ui.checkbox(&mut settings.pixel_lod, "Pixel-footprint LOD")
+        .on_hover_text("Also stop where a node projects to less than a pixel");
+    ui.checkbox(&mut settings.opacity_correction, "Opacity correction")
+        .on_hover_text("Correct alpha for the distance a ray travels in a node; off is the paper's plain compositing");
+    ui.add_enabled(
+        settings.renderer != RendererKind::Octree,
+        egui::Checkbox::new(&mut settings.trilinear, "Trilinear filtering"),
+    )
+    .on_hover_text("Dense and bricks sample textures; the octree draws whole nodes");
+    ui.checkbox(&mut settings.heatmap, "Nodes-visited heat map")
+        .on_hover_text("Show per pixel how many nodes its ray visited");
+    if settings.heatmap {
+        heatmap_legend(ui);
+    }
+    ui.checkbox(&mut settings.continuous, "Redraw every frame")
+        .on_hover_text(
+            "Measure sustained frame rate; otherwise the view is drawn only when something changes",
+        );
+
+    ui.separator();
+    frame_numbers(ui, facts);
+
+    let Some(scene) = facts.scene else { return };
+    ui.separator();
+    ui.strong("Nodes per level");
+    if facts.statistics_pending {
+        ui.small("recounting for the new transfer function…");
+    }
+    statistics_table(ui, facts.statistics);
+    statistics_chart(ui, facts.statistics);
+    let octree = &scene.data.octree;
+    ui.small(format!(
+        "{} nodes stored of {} in the full tree (eq. 1){}",
+        group_digits(octree.nodes.len() as u64),
+        group_digits(crate::octree::full_tree_nodes(octree.depth)),
+        if octree.collapsed {
+            ", uniform subtrees collapsed"
+        } else {
+            ""
+        }
+    ));
+}
+
+fn frame_numbers(ui: &mut Ui, facts: &OctreeFacts<'_>) {
+    egui::Grid::new("frame_grid")
+        .num_columns(2)
+        .spacing([8.0, 3.0])
+        .show(ui, |ui| {
+            ui.label("GPU");
+            ui.label(facts.adapter);
+            ui.end_row();
+            if let Some(scene) = facts.scene {
+                ui.label("Load + build");
+                ui.label(format!(
+                    "{:.2} s (octree {:.2} s), upload {:.2} s",
+                    scene.data.load_seconds, scene.data.octree.build_seconds, scene.upload_seconds
+                ));
+                ui.end_row();
+                let buffers = scene.renderer.gpu_bytes();
+                let total: u64 = buffers.iter().map(|(_, b)| b).sum::<u64>() + facts.target_bytes;
+                ui.label("GPU memory");
+                ui.label(format!("{}", format_bytes(total))).on_hover_text(
+                    buffers
+                        .iter()
+                        .map(|(name, bytes)| format!("{name}: {}", format_bytes(*bytes)))
+                        .chain([format!(
+                            "render targets: {}",
+                            format_bytes(facts.target_bytes)
+                        )])
+                        .collect::<Vec<_>>()
+                        .join("\n"),
+                );
+                ui.end_row();
+            }
+            if let Some(frame) = facts.frame {
+                ui.label("GPU time");
+                ui.label(match frame.gpu_ms {
+                    Some(ms) => format!("{ms:.3} ms per frame"),
+                    None => "no timestamp queries on this GPU".to_owned(),
+                });
+                ui.end_row();
+                ui.label("Nodes per ray");
+                ui.label(format!(
+                    "{:.1} average, {} max",
+                    frame.nodes_per_ray_avg, frame.nodes_per_ray_max
+                ));
+                ui.end_row();
+            }
+            ui.label("Frame rate");
+            ui.label(match facts.fps {
+                Some(fps) => format!("{fps:.0} fps"),
+                None => "idle (drawn on change)".to_owned(),
+            });
+            ui.end_row();
+        });
+}
+
+fn heatmap_legend(ui: &mut Ui) {
+    let (rect, _) = ui.allocate_exact_size(
+        egui::vec2(ui.available_width().min(220.0), 12.0),
+        egui::Sense::hover(),
+    );
+    let steps = 48;
+    for i in 0..steps {
+        let x0 = rect.left() + rect.width() * i as f32 / steps as f32;
+        let x1 = rect.left() + rect.width() * (i + 1) as f32 / steps as f32;
+        // Evenly spaced in log2(1 + work), as the shader maps it.
+        let work = (2f32.powf(10.0 * (i as f32 + 0.5) / steps as f32) - 1.0) as u32;
+        let [r, g, b] = heatmap_color(work);
+        ui.painter().rect_filled(
+            egui::Rect::from_min_max(egui::pos2(x0, rect.top()), egui::pos2(x1, rect.bottom())),
+            0.0,
+            egui::Color32::from_rgb(r, g, b),
+        );
+    }
+    ui.horizontal(|ui| {
+        ui.small("0");
+        ui.small("· 31 ·");
+        ui.small(format!("{HEATMAP_SATURATION}+ nodes per ray (log scale)"));
+    });
+}
+
+fn statistics_table(ui: &mut Ui, statistics: &[LevelStatistics]) {
+    egui::ScrollArea::horizontal()
+        .id_salt("stats_scroll")
+        .show(ui, |ui| {
+            egui::Grid::new("stats_table")
+                .striped(true)
+                .num_columns(6)
+                .spacing([10.0, 2.0])
+                .show(ui, |ui| {
+                    for header in ["level", "nodes", "leaves", "transp.", "opaque", "bytes"] {
+                        ui.strong(header);
+                    }
+                    ui.end_row();
+                    for level in statistics {
+                        ui.label(level.level.to_string());
+                        ui.monospace(group_digits(level.nodes));
+                        ui.monospace(group_digits(level.leaves));
+                        ui.monospace(group_digits(level.transparent));
+                        ui.monospace(group_digits(level.opaque));
+                        ui.monospace(format_bytes(level.bytes));
+                        ui.end_row();
+                    }
+                });
+        });
+}
+
+fn statistics_chart(ui: &mut Ui, statistics: &[LevelStatistics]) {
+    let log = |n: u64| (1.0 + n as f64).log10();
+    let series =
+        |name: &str, offset: f64, color: egui::Color32, value: fn(&LevelStatistics) -> u64| {
+            let bars = statistics
+                .iter()
+                .map(|s| Bar::new(s.level as f64 + offset, log(value(s))).width(0.26))
+                .collect();
+            BarChart::new(name, bars).color(color)
+        };
+    Plot::new("stats_chart")
+        .height(150.0)
+        .legend(Legend::default().position(egui_plot::Corner::LeftTop))
+        .allow_drag(false)
+        .allow_zoom(false)
+        .allow_scroll(false)
+        .show_grid([false, true])
+        .x_axis_label("level")
+        .y_axis_formatter(|mark, _| format!("1e{:.0}", mark.value))
+        .show(ui, |plot| {
+            plot.bar_chart(series(
+                "nodes",
+                -0.28,
+                egui::Color32::from_rgb(110, 150, 230),
+                |s| s.nodes,
+            ));
+            plot.bar_chart(series(
+                "opaque",
+                0.0,
+                egui::Color32::from_rgb(240, 170, 60),
+                |s| s.opaque,
+            ));
+            plot.bar_chart(series(
+                "transparent",
+                0.28,
+                egui::Color32::from_rgb(150, 150, 150),
+                |s| s.transparent,
+            ));
+        });
+}
+
+/// `12 345 678`.
+pub fn group_digits(n: u64) -> String {
+    let digits = n.to_string();
+    let mut out = String::new();
+    for (i, c) in digits.chars().enumerate() {
+        if i > 0 && (digits.len() - i) % 3 == 0 {
+            out.push('\u{202f}');
+        }
+        out.push(c);
+    }
+    out
+}
+
+/// `48.0 MiB`.
+pub fn format_bytes(bytes: u64) -> String {
+    const UNITS: [&str; 5] = ["B", "KiB", "MiB", "GiB", "TiB"];
+    let mut value = bytes as f64;
+    let mut unit = 0;
+    while value >= 1024.0 && unit + 1 < UNITS.len() {
+        value /= 1024.0;
+        unit += 1;
+    }
+    if unit == 0 {
+        format!("{bytes} B")
+    } else {
+        format!("{value:.1} {}", UNITS[unit])
+    }
+}

@@ -1,0 +1,251 @@
+//! A volume ready to look at, and the background jobs that make one: load, quantize, build
+//! the octree, color it, upload it. Nothing here blocks the UI thread.
+
+use std::sync::Arc;
+use std::sync::mpsc::{self, Receiver, TryRecvError};
+use std::time::Instant;
+
+use crate::octree::{self, BuildOptions, LevelStatistics, Octree, TransferFunction};
+use crate::progress::Progress;
+use crate::render::{GpuContext, RendererOptions, VolumeRenderer};
+use crate::volume::{self, LoadOptions, QuantizedVolume, ValueWindow, Volume};
+
+/// What to open: the embedded sample or a file path / synthetic spec.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum VolumeSource {
+    Sample,
+    Spec(String),
+}
+
+impl VolumeSource {
+    /// The spec as the command line and the recent list write it (`sample` for the sample).
+    pub fn spec(&self) -> &str {
+        match self {
+            Self::Sample => "sample",
+            Self::Spec(spec) => spec,
+        }
+    }
+
+    /// The inverse of [`Self::spec`].
+    pub fn from_spec(spec: &str) -> Self {
+        if spec == "sample" {
+            Self::Sample
+        } else {
+            Self::Spec(spec.to_owned())
+        }
+    }
+
+    fn load(&self) -> Result<Volume, String> {
+        match self {
+            Self::Sample => volume::sample(),
+            Self::Spec(spec) => volume::load(spec, &LoadOptions::default()),
+        }
+        .map_err(|e| e.to_string())
+    }
+}
+
+/// A loaded volume's CPU side: what every renderer is made from, shared with jobs.
+pub struct VolumeData {
+    pub source: VolumeSource,
+    /// The volume's description; its voxels are dropped once quantized.
+    pub volume: Volume,
+    pub quantized: QuantizedVolume,
+    pub octree: Octree,
+    /// The robust (0.5–99.5 %) window, the default.
+    pub default_window: ValueWindow,
+    /// Histogram of the values in [`HISTOGRAM_BINS`] bins over the value range.
+    pub histogram: Vec<u64>,
+    pub load_seconds: f64,
+}
+
+/// Bins of the histogram the transfer panel draws.
+pub const HISTOGRAM_BINS: usize = 256;
+
+impl VolumeData {
+    /// True when the values look like CT Hounsfield units (air near −1000, bone above +200).
+    pub fn is_ct_like(&self) -> bool {
+        let [low, high] = self.quantized.value_range;
+        low <= -900.0 && low >= -3100.0 && high >= 200.0
+    }
+
+    /// The value at the center of histogram bin `bin`'s left edge.
+    pub fn bin_value(&self, bin: f64) -> f64 {
+        let [low, high] = self.quantized.value_range;
+        low + (high - low) * bin / HISTOGRAM_BINS as f64
+    }
+}
+
+fn display_histogram(quantized: &QuantizedVolume) -> Vec<u64> {
+    let [low, high] = quantized.value_range;
+    let span = (high - low).max(f64::MIN_POSITIVE);
+    let mut bins = vec![0u64; HISTOGRAM_BINS];
+    for (level, &count) in quantized.histogram.counts.iter().enumerate() {
+        if count > 0 {
+            let value = quantized.quantization.value(level as u16);
+            let bin = ((value - low) / span * HISTOGRAM_BINS as f64) as usize;
+            bins[bin.min(HISTOGRAM_BINS - 1)] += count;
+        }
+    }
+    bins
+}
+
+/// A volume on screen: its data and the renderer drawing it.
+pub struct Scene {
+    pub data: Arc<VolumeData>,
+    pub renderer: VolumeRenderer,
+    pub options: RendererOptions,
+    /// The transfer function the renderer's colors currently follow.
+    pub applied_transfer: TransferFunction,
+    /// Wall time of the last upload.
+    pub upload_seconds: f64,
+}
+
+/// Work running on another thread, reporting through a [`Progress`], ending in one result.
+pub struct Job<T> {
+    pub progress: Arc<Progress>,
+    receiver: Receiver<Result<T, String>>,
+    pub started: Instant,
+    /// What the job does, for the progress bar (`opening head.nii.gz`).
+    pub title: String,
+}
+
+impl<T: Send + 'static> Job<T> {
+    /// Runs `work` on a new thread; `wake` is called when it ends (to repaint the UI).
+    pub fn spawn(
+        title: String,
+        wake: impl Fn() + Send + 'static,
+        work: impl FnOnce(&Progress) -> Result<T, String> + Send + 'static,
+    ) -> Self {
+        let progress = Arc::new(Progress::new());
+        let (sender, receiver) = mpsc::channel();
+        let job_progress = Arc::clone(&progress);
+        std::thread::Builder::new()
+            .name("voxscope-job".into())
+            .spawn(move || {
+                let result = work(&job_progress);
+                let _ = sender.send(result);
+                wake();
+            })
+            .expect("a thread can be started");
+        Self {
+            progress,
+            receiver,
+            started: Instant::now(),
+            title,
+        }
+    }
+
+    /// The result once the job has ended; `None` while it runs.
+    pub fn try_take(&self) -> Option<Result<T, String>> {
+        match self.receiver.try_recv() {
+            Ok(result) => Some(result),
+            Err(TryRecvError::Empty) => None,
+            Err(TryRecvError::Disconnected) => Some(Err("the job stopped unexpectedly".into())),
+        }
+    }
+
+    /// Waits for the result (tests, and nothing on the UI thread).
+    pub fn wait(self) -> Result<T, String> {
+        self.receiver
+            .recv()
+            .unwrap_or_else(|_| Err("the job stopped unexpectedly".into()))
+    }
+}
+
+/// Loads `source` and prepares everything to draw it with `options`: the job behind
+/// File ▸ Open, drops, recent files and the command line.
+pub fn prepare_scene(
+    source: &VolumeSource,
+    transfer: impl FnOnce(&VolumeData) -> TransferFunction,
+    gpu: &GpuContext,
+    options: RendererOptions,
+    progress: &Progress,
+) -> Result<(Scene, Vec<LevelStatistics>), String> {
+    let started = Instant::now();
+    progress.begin("reading");
+    let mut volume = source.load()?;
+    progress.check().map_err(|_| "cancelled".to_owned())?;
+    progress.begin("quantizing");
+    let quantized = QuantizedVolume::new(&volume);
+    volume.data = volume.data.emptied();
+    progress.check().map_err(|_| "cancelled".to_owned())?;
+    let mut octree = octree::build_with_progress(&quantized, BuildOptions::default(), progress)
+        .map_err(|e| format!("{}: {e}", volume.name))?;
+    let default_window = quantized.robust_window();
+    let histogram = display_histogram(&quantized);
+    let data = VolumeData {
+        source: source.clone(),
+        volume,
+        quantized,
+        octree: octree.clone(),
+        default_window,
+        histogram,
+        load_seconds: 0.0,
+    };
+    let transfer = transfer(&data);
+    progress.begin("coloring");
+    octree::recolor(&mut octree, &transfer);
+    let statistics = octree::level_statistics(&octree);
+    let data = VolumeData {
+        octree,
+        load_seconds: started.elapsed().as_secs_f64(),
+        ..data
+    };
+    progress.check().map_err(|_| "cancelled".to_owned())?;
+    let scene = upload(Arc::new(data), gpu, options, transfer, progress)?;
+    Ok((scene, statistics))
+}
+
+/// Uploads `data` for the renderer `options` names, colored by `transfer`.
+pub fn upload(
+    data: Arc<VolumeData>,
+    gpu: &GpuContext,
+    options: RendererOptions,
+    transfer: TransferFunction,
+    progress: &Progress,
+) -> Result<Scene, String> {
+    progress.begin("uploading to the GPU");
+    let started = Instant::now();
+    let mut renderer = VolumeRenderer::new(
+        gpu,
+        options,
+        &data.octree,
+        &data.quantized,
+        data.volume.spacing,
+        data.octree.depth,
+        &transfer,
+    )
+    .map_err(|e| format!("{}: {e}", data.volume.name))?;
+    // The CPU colors of `data.octree` follow the transfer function of the load, which may not
+    // be `transfer` (after a renderer switch): recolor on the GPU so the scene matches it.
+    let mut encoder = gpu
+        .device
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("voxscope::scene_recolor"),
+        });
+    renderer
+        .set_transfer(gpu, &mut encoder, &transfer, None)
+        .map_err(|e| format!("{}: {e}", data.volume.name))?;
+    gpu.queue.submit([encoder.finish()]);
+    Ok(Scene {
+        data,
+        renderer,
+        options,
+        applied_transfer: transfer,
+        upload_seconds: started.elapsed().as_secs_f64(),
+    })
+}
+
+/// Per-level statistics under `transfer`, on another thread.
+pub fn statistics_job(
+    data: Arc<VolumeData>,
+    transfer: TransferFunction,
+    wake: impl Fn() + Send + 'static,
+) -> Job<(TransferFunction, Vec<LevelStatistics>)> {
+    Job::spawn("counting nodes".into(), wake, move |_| {
+        Ok((
+            transfer,
+            octree::level_statistics_under(&data.octree, &transfer),
+        ))
+    })
+}

@@ -1,0 +1,131 @@
+//! What the app remembers between runs (eframe persistence, stored as RON): the transfer
+//! function's choices, render settings, camera, layout, renderer, recent files.
+
+use serde::{Deserialize, Serialize};
+
+use crate::octree::{Colormap, OpacityMode, TransferFunction};
+use crate::render::{Camera, DEFAULT_BRICK_SIZE, RenderMode, RendererKind};
+use crate::volume::ValueWindow;
+
+/// The key under which eframe stores [`AppSettings`].
+pub const STORAGE_KEY: &str = "voxscope.settings";
+
+/// Recent files kept in File ▸ Open recent.
+pub const RECENT_LIMIT: usize = 10;
+
+/// How the central panel is split.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Layout {
+    /// One view.
+    Single,
+    /// 2–6 panes, one octree level each, same camera (the paper's Figure 3).
+    LevelGrid,
+    /// Two panes, two transfer functions, same camera.
+    TransferPair,
+}
+
+/// The transfer-function choices that carry over from one volume to the next (the window is
+/// the data's own and is reset on load).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct TransferChoice {
+    pub opacity: OpacityMode,
+    pub threshold: f32,
+    pub colormap: Colormap,
+}
+
+impl TransferChoice {
+    pub fn with_window(self, window: ValueWindow) -> TransferFunction {
+        TransferFunction {
+            opacity: self.opacity,
+            window,
+            threshold: self.threshold,
+            colormap: self.colormap,
+        }
+    }
+}
+
+impl From<TransferFunction> for TransferChoice {
+    fn from(transfer: TransferFunction) -> Self {
+        Self {
+            opacity: transfer.opacity,
+            threshold: transfer.threshold,
+            colormap: transfer.colormap,
+        }
+    }
+}
+
+/// A saved transfer function (File ▸ Save transfer function…), as RON.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct TransferPreset {
+    pub transfer: TransferFunction,
+    pub density: f32,
+    pub mode: RenderMode,
+}
+
+/// Everything persisted.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct AppSettings {
+    pub transfer: TransferChoice,
+    /// The second transfer function of [`Layout::TransferPair`].
+    pub compare_transfer: TransferChoice,
+    pub mode: RenderMode,
+    pub density: f32,
+    pub pixel_lod: bool,
+    pub opacity_correction: bool,
+    pub trilinear: bool,
+    pub heatmap: bool,
+    pub renderer: RendererKind,
+    pub brick_size: usize,
+    pub camera: Camera,
+    pub layout: Layout,
+    /// Panes of the level grid, 2…6.
+    pub grid_panes: usize,
+    /// Re-render every frame (to watch sustained frame rate) instead of only on change.
+    pub continuous: bool,
+    pub show_transfer_panel: bool,
+    pub show_octree_panel: bool,
+    /// Most recent first.
+    pub recent: Vec<String>,
+}
+
+impl Default for AppSettings {
+    fn default() -> Self {
+        Self {
+            transfer: TransferChoice {
+                opacity: OpacityMode::Gray,
+                threshold: 0.3,
+                colormap: Colormap::Grays,
+            },
+            compare_transfer: TransferChoice {
+                opacity: OpacityMode::Binary,
+                threshold: 0.3,
+                colormap: Colormap::Grays,
+            },
+            mode: RenderMode::Dvr,
+            density: 1.0,
+            pixel_lod: false,
+            opacity_correction: true,
+            trilinear: true,
+            heatmap: false,
+            renderer: RendererKind::Octree,
+            brick_size: DEFAULT_BRICK_SIZE,
+            camera: Camera::default(),
+            layout: Layout::Single,
+            grid_panes: 4,
+            continuous: false,
+            show_transfer_panel: true,
+            show_octree_panel: true,
+            recent: Vec::new(),
+        }
+    }
+}
+
+impl AppSettings {
+    /// Puts `source` first in the recent list (once), keeping at most [`RECENT_LIMIT`].
+    pub fn remember(&mut self, source: &str) {
+        self.recent.retain(|s| s != source);
+        self.recent.insert(0, source.to_owned());
+        self.recent.truncate(RECENT_LIMIT);
+    }
+}

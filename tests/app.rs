@@ -1,0 +1,382 @@
+//! The app, driven through egui_kittest on the software Vulkan device: snapshots of every
+//! view the issue names (tests/snapshots, each looked at), and interactions that must change
+//! the rendered image. GPU tests fail when no adapter is found; none is skipped.
+
+mod support;
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use egui_kittest::Harness;
+use egui_kittest::kittest::Queryable;
+use voxscope::app::{AppSettings, Layout, STORAGE_KEY, VolumeSource, VoxscopeApp, wgpu_setup};
+use voxscope::octree::{self, OpacityMode};
+use voxscope::volume::SAMPLE_NAME;
+
+const SIZE: egui::Vec2 = egui::vec2(1280.0, 800.0);
+
+fn harness_with(source: Option<VolumeSource>, size: egui::Vec2) -> Harness<'static, VoxscopeApp> {
+    let mut harness = Harness::builder()
+        .with_size(size)
+        .wgpu_setup(wgpu_setup())
+        .build_eframe(move |cc| VoxscopeApp::new(cc, source));
+    settle(&mut harness);
+    harness
+}
+
+fn harness() -> Harness<'static, VoxscopeApp> {
+    harness_with(None, SIZE)
+}
+
+/// Steps until no background work is left and the view is drawn.
+fn settle(harness: &mut Harness<'_, VoxscopeApp>) {
+    let started = Instant::now();
+    loop {
+        harness.step();
+        if !harness.state().is_busy() {
+            break;
+        }
+        assert!(
+            started.elapsed() < Duration::from_secs(120),
+            "the app stayed busy for 2 minutes"
+        );
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    // One more frame to draw what the last job delivered, and one to read its numbers.
+    harness.run_steps(2);
+    while harness.state().is_busy() {
+        harness.step();
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    harness.run_steps(1);
+}
+
+/// A snapshot with the measured times (which vary from run to run) masked.
+fn snapshot(harness: &mut Harness<'_, VoxscopeApp>, name: &str) {
+    let right = harness.ctx.content_rect().right();
+    let rows: Vec<egui::Rect> = ["Load + build", "GPU time"]
+        .iter()
+        .map(|label| harness.get_by_label(label).rect())
+        .collect();
+    let values_left = harness.get_by_label("Nodes per ray").rect().right() + 4.0;
+    for row in rows {
+        harness.mask(egui::Rect::from_min_max(
+            egui::pos2(values_left, row.top()),
+            egui::pos2(right, row.bottom()),
+        ));
+    }
+    harness.snapshot(name);
+}
+
+/// The rendered view as an image (what File ▸ Save screenshot writes).
+fn view(harness: &Harness<'_, VoxscopeApp>) -> image::RgbaImage {
+    harness.state().view_image(1.0).expect("the view is drawn")
+}
+
+fn differing_pixels(a: &image::RgbaImage, b: &image::RgbaImage) -> usize {
+    assert_eq!(a.dimensions(), b.dimensions());
+    a.pixels().zip(b.pixels()).filter(|(p, q)| p != q).count()
+}
+
+/// Pixels that are not the black background.
+fn lit_pixels(image: &image::RgbaImage) -> usize {
+    image
+        .pixels()
+        .filter(|p| p.0[0] > 8 || p.0[1] > 8 || p.0[2] > 8)
+        .count()
+}
+
+/// A relative path under target/, so messages in snapshots do not depend on the checkout.
+fn scratch(name: &str) -> PathBuf {
+    let dir = Path::new("target/app-test");
+    std::fs::create_dir_all(dir).expect("create target/app-test");
+    dir.join(name)
+}
+
+#[test]
+fn main_window_opens_the_sample_and_draws_it() {
+    let mut harness = harness();
+    let app = harness.state();
+    assert_eq!(app.error(), None);
+    let (name, depth) = app.volume().expect("the sample is open");
+    assert_eq!(name, SAMPLE_NAME);
+    assert_eq!(depth, 7);
+    let image = view(&harness);
+    let lit = lit_pixels(&image);
+    assert!(
+        lit > image.len() / 4 / 20,
+        "the head covers a good part of the view ({lit} lit pixels)"
+    );
+    let report = app.frame_report().expect("the first frame was measured");
+    assert!(report.nodes_per_ray_avg > 1.0, "{report:?}");
+    snapshot(&mut harness, "main_window");
+}
+
+#[test]
+fn binary_mode_and_dragging_its_threshold_change_the_image() {
+    let mut harness = harness();
+    let gray = view(&harness);
+    harness.get_by_label("Binary").click();
+    settle(&mut harness);
+    assert_eq!(
+        harness.state().settings.transfer.opacity,
+        OpacityMode::Binary
+    );
+    let binary = view(&harness);
+    assert!(differing_pixels(&gray, &binary) > 1000);
+    snapshot(&mut harness, "binary_opacity");
+
+    // Drag the threshold handle on the histogram to the right.
+    let before = harness.state().settings.transfer.threshold;
+    let handle = harness
+        .get_by_label("binary threshold: drag")
+        .rect()
+        .center();
+    harness.hover_at(handle);
+    harness.step();
+    harness.drag_at(handle);
+    harness.step();
+    for dx in [10.0, 20.0, 30.0, 40.0] {
+        harness.hover_at(handle + egui::vec2(dx, 0.0));
+        harness.step();
+    }
+    harness.drop_at(handle + egui::vec2(40.0, 0.0));
+    settle(&mut harness);
+    let after = harness.state().settings.transfer.threshold;
+    assert!(after > before + 0.05, "threshold {before} → {after}");
+    let dragged = view(&harness);
+    assert!(differing_pixels(&binary, &dragged) > 500);
+}
+
+#[test]
+fn max_level_slider_changes_the_image() {
+    let mut harness = harness();
+    let full = view(&harness);
+    harness
+        .get_by_role_and_label(egui::accesskit::Role::Slider, "Max level")
+        .set_value_accesskit(3.0);
+    settle(&mut harness);
+    assert_eq!(harness.state().max_level, 3);
+    let coarse = view(&harness);
+    assert!(
+        differing_pixels(&full, &coarse) > 5000,
+        "level 3 draws 16³ blocks, not voxels"
+    );
+    snapshot(&mut harness, "max_level_3");
+}
+
+#[test]
+fn mip_snapshot() {
+    let mut harness = harness();
+    let dvr = view(&harness);
+    harness.get_by_label("MIP").click();
+    settle(&mut harness);
+    assert!(differing_pixels(&dvr, &view(&harness)) > 1000);
+    snapshot(&mut harness, "mip");
+}
+
+#[test]
+fn level_grid_shows_one_pane_per_level() {
+    let mut harness = harness();
+    harness.get_by_label("Level grid").click();
+    settle(&mut harness);
+    assert_eq!(harness.state().settings.layout, Layout::LevelGrid);
+    // Four panes by default: levels 4…7 of the sample's depth-7 octree.
+    let levels: Vec<String> = harness
+        .get_all_by_role_and_label(egui::accesskit::Role::SpinButton, "level")
+        .map(|node| node.value().expect("a value"))
+        .collect();
+    assert_eq!(levels, ["4", "5", "6", "7"]);
+    snapshot(&mut harness, "level_grid");
+}
+
+#[test]
+fn transfer_pair_shows_gray_beside_binary() {
+    let mut harness = harness();
+    harness.get_by_label("Transfer pair").click();
+    settle(&mut harness);
+    let image = view(&harness);
+    let half = image.width() / 2;
+    let left = image::imageops::crop_imm(&image, 0, 0, half - 2, image.height()).to_image();
+    let right = image::imageops::crop_imm(&image, half + 2, 0, half - 2, image.height()).to_image();
+    assert!(
+        differing_pixels(&left, &right) > 1000,
+        "A (gray) and B (binary) differ"
+    );
+    snapshot(&mut harness, "transfer_pair");
+}
+
+#[test]
+fn heat_map_shows_work_per_ray() {
+    let mut harness = harness();
+    harness.get_by_label("Nodes-visited heat map").click();
+    settle(&mut harness);
+    assert!(harness.state().settings.heatmap);
+    let image = view(&harness);
+    // Rays that miss the volume are black; hits are colored by their work.
+    assert!(lit_pixels(&image) > 10_000);
+    snapshot(&mut harness, "heat_map");
+}
+
+#[test]
+fn statistics_panel_counts_under_the_live_transfer_function() {
+    let mut harness = harness_with(None, egui::vec2(1280.0, 1100.0));
+    snapshot(&mut harness, "statistics_panel");
+    harness.get_by_label("Binary").click();
+    settle(&mut harness);
+    let app = harness.state();
+    let data = voxscope::volume::sample().expect("sample");
+    let quantized = voxscope::volume::QuantizedVolume::new(&data);
+    let mut tree = octree::build(&quantized, octree::BuildOptions::default()).expect("build");
+    octree::recolor(&mut tree, &app.transfer());
+    let expected = octree::level_statistics(&tree);
+    assert_eq!(app.statistics(), expected.as_slice());
+}
+
+#[test]
+fn a_broken_file_shows_its_error_and_keeps_the_volume() {
+    let mut harness = harness();
+    let path = scratch("broken.nii");
+    std::fs::write(&path, b"this is not a NIfTI file, only some text").expect("write");
+    let spec = path.display().to_string();
+    let ctx = harness.ctx.clone();
+    harness
+        .state_mut()
+        .open(VolumeSource::Spec(spec.clone()), &ctx);
+    settle(&mut harness);
+    let app = harness.state();
+    let error = app.error().expect("an error is shown");
+    assert!(error.starts_with(&spec), "{error}");
+    assert!(!error.contains('\n'));
+    assert_eq!(
+        app.volume().map(|v| v.0),
+        Some(SAMPLE_NAME),
+        "the sample stays on screen"
+    );
+    snapshot(&mut harness, "error_broken_file");
+}
+
+#[test]
+fn opening_and_dropping_real_files_replace_the_volume() {
+    let mut harness = harness();
+    let mni = support::shared_data("mni152-t1-197x233x189.nii.gz");
+    let ctx = harness.ctx.clone();
+    harness
+        .state_mut()
+        .open(VolumeSource::Spec(mni.display().to_string()), &ctx);
+    settle(&mut harness);
+    assert_eq!(harness.state().error(), None);
+    assert_eq!(
+        harness.state().volume().expect("open").0,
+        mni.display().to_string()
+    );
+    assert!(lit_pixels(&view(&harness)) > 10_000);
+
+    // A drop goes through the same path.
+    let head = support::shared_data("mri-head-128x128x62.nii.gz");
+    harness
+        .input_mut()
+        .dropped_files
+        .push(std::sync::Arc::new(DroppedPath(head.clone())));
+    settle(&mut harness);
+    assert_eq!(
+        harness.state().volume().expect("open").0,
+        head.display().to_string()
+    );
+    let recent = &harness.state().settings.recent;
+    assert_eq!(
+        recent[..2],
+        [head.display().to_string(), mni.display().to_string()]
+    );
+}
+
+#[test]
+fn screenshot_transfer_functions_and_settings_are_saved() {
+    let mut harness = harness();
+    harness.get_by_label("Binary").click();
+    settle(&mut harness);
+
+    let png = scratch("screenshot.png");
+    harness
+        .state()
+        .save_screenshot(&png, 1.0)
+        .expect("screenshot");
+    let shot = image::open(&png).expect("a PNG").to_rgba8();
+    assert_eq!(shot, view(&harness));
+    assert!(lit_pixels(&shot) > 10_000);
+
+    let ron_path = scratch("binary.ron");
+    harness
+        .state()
+        .save_transfer(&ron_path)
+        .expect("save transfer");
+    let saved = harness.state().transfer();
+    harness.get_by_label("Gray").click();
+    settle(&mut harness);
+    assert_ne!(harness.state().transfer(), saved);
+    harness
+        .state_mut()
+        .load_transfer(&ron_path)
+        .expect("load transfer");
+    assert_eq!(harness.state().transfer(), saved);
+
+    let garbage = scratch("garbage.ron");
+    std::fs::write(&garbage, "(this is: not a transfer function").expect("write");
+    let error = harness
+        .state_mut()
+        .load_transfer(&garbage)
+        .expect_err("garbage is refused");
+    assert!(
+        error.starts_with(&garbage.display().to_string()) && !error.contains('\n'),
+        "{error}"
+    );
+
+    // Persistence: what App::save stores comes back in a new window.
+    let mut storage = MemoryStorage::default();
+    harness.state_mut().settings.layout = Layout::TransferPair;
+    eframe::App::save(harness.state_mut(), &mut storage);
+    let stored: AppSettings = eframe::get_value(&storage, STORAGE_KEY).expect("stored");
+    assert_eq!(stored, harness.state().settings);
+    let storage: &'static MemoryStorage = Box::leak(Box::new(storage));
+    let restored = Harness::builder()
+        .with_size(SIZE)
+        .wgpu_setup(wgpu_setup())
+        .build_eframe(move |cc| {
+            cc.storage = Some(storage);
+            VoxscopeApp::new(cc, None)
+        });
+    assert_eq!(restored.state().settings.layout, Layout::TransferPair);
+    assert_eq!(
+        restored.state().settings.transfer.opacity,
+        OpacityMode::Binary
+    );
+}
+
+#[derive(Default)]
+struct MemoryStorage(std::collections::HashMap<String, String>);
+
+impl eframe::Storage for MemoryStorage {
+    fn get_string(&self, key: &str) -> Option<String> {
+        self.0.get(key).cloned()
+    }
+    fn set_string(&mut self, key: &str, value: String) {
+        self.0.insert(key.to_owned(), value);
+    }
+    fn remove_string(&mut self, key: &str) {
+        self.0.remove(key);
+    }
+    fn flush(&mut self) {}
+}
+
+/// A file dropped on the window, as winit would hand it over.
+#[derive(Debug)]
+struct DroppedPath(PathBuf);
+
+impl egui::DroppedFile for DroppedPath {
+    fn path(&self) -> &Path {
+        &self.0
+    }
+    fn bytes(&self) -> Result<Vec<u8>, String> {
+        std::fs::read(&self.0).map_err(|e| e.to_string())
+    }
+}
