@@ -126,7 +126,7 @@ fn frame_numbers(ui: &mut Ui, facts: &OctreeFacts<'_>) {
                 let buffers = scene.renderer.gpu_bytes();
                 let total: u64 = buffers.iter().map(|(_, b)| b).sum::<u64>() + facts.target_bytes;
                 ui.label("GPU memory");
-                ui.label(format!("{}", format_bytes(total))).on_hover_text(
+                ui.label(format_bytes(total)).on_hover_text(
                     buffers
                         .iter()
                         .map(|(name, bytes)| format!("{name}: {}", format_bytes(*bytes)))
@@ -231,7 +231,13 @@ fn statistics_chart(ui: &mut Ui, statistics: &[LevelStatistics]) {
         .allow_scroll(false)
         .show_grid([false, true])
         .x_axis_label("level")
-        .y_axis_formatter(|mark, _| format!("1e{:.0}", mark.value))
+        .y_axis_formatter(|mark, _| {
+            if mark.value.fract() == 0.0 {
+                format!("1e{:.0}", mark.value)
+            } else {
+                String::new()
+            }
+        })
         .show(ui, |plot| {
             plot.bar_chart(series(
                 "nodes",
@@ -259,7 +265,7 @@ pub fn group_digits(n: u64) -> String {
     let digits = n.to_string();
     let mut out = String::new();
     for (i, c) in digits.chars().enumerate() {
-        if i > 0 && (digits.len() - i) % 3 == 0 {
+        if i > 0 && (digits.len() - i).is_multiple_of(3) {
             out.push('\u{202f}');
         }
         out.push(c);

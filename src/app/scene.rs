@@ -65,7 +65,7 @@ impl VolumeData {
     /// True when the values look like CT Hounsfield units (air near −1000, bone above +200).
     pub fn is_ct_like(&self) -> bool {
         let [low, high] = self.quantized.value_range;
-        low <= -900.0 && low >= -3100.0 && high >= 200.0
+        (-3100.0..=-900.0).contains(&low) && high >= 200.0
     }
 
     /// The value at the center of histogram bin `bin`'s left edge.

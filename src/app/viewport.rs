@@ -74,9 +74,10 @@ impl Pane {
         self.drawn = None;
     }
 
-    /// Paints the last drawn image into `rect`.
+    /// Paints the target into `rect`. What the target holds by the time egui renders this
+    /// frame is shown: panes are drawn later in the same frame, before egui's render pass.
     pub fn paint(&self, ui: &Ui, rect: Rect) {
-        if let (Some(id), Some(_)) = (self.texture, self.drawn) {
+        if let Some(id) = self.texture {
             let uv = Rect::from_min_max(pos2(0.0, 0.0), pos2(1.0, 1.0));
             ui.painter().image(id, rect, uv, Color32::WHITE);
         }

@@ -267,10 +267,13 @@ impl VoxscopeApp {
             )
         })?;
         let window = preset.transfer.window;
-        if !(window.low.is_finite() && window.high.is_finite() && window.high > window.low)
-            || !(0.0..=1.0).contains(&preset.transfer.threshold)
-            || !(preset.density > 0.0 && preset.density <= 1.0)
-        {
+        let valid = window.low.is_finite()
+            && window.high.is_finite()
+            && window.high > window.low
+            && (0.0..=1.0).contains(&preset.transfer.threshold)
+            && preset.density > 0.0
+            && preset.density <= 1.0;
+        if !valid {
             return Err(format!(
                 "{}: the window, threshold or opacity scale is out of range",
                 path.display()
@@ -573,12 +576,12 @@ impl VoxscopeApp {
                     volume.orientation.describe(),
                 ));
             }
-            if let Some((notice, at)) = &self.notice {
-                if at.elapsed() < Duration::from_secs(5) {
-                    ui.separator();
-                    ui.label(notice);
-                    ui.ctx().request_repaint_after(Duration::from_millis(500));
-                }
+            if let Some((notice, at)) = &self.notice
+                && at.elapsed() < Duration::from_secs(5)
+            {
+                ui.separator();
+                ui.label(notice);
+                ui.ctx().request_repaint_after(Duration::from_millis(500));
             }
         });
     }
