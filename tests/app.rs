@@ -380,3 +380,31 @@ impl egui::DroppedFile for DroppedPath {
         std::fs::read(&self.0).map_err(|e| e.to_string())
     }
 }
+
+#[test]
+fn switching_the_renderer_uploads_in_the_background_and_draws_the_same_head() {
+    let mut harness = harness();
+    let octree_view = view(&harness);
+    for (name, kind) in [
+        ("bricks", voxscope::render::RendererKind::Bricks),
+        ("dense", voxscope::render::RendererKind::Dense),
+    ] {
+        harness.get_by_label("Renderer").click();
+        harness.run_steps(2);
+        harness.get_by_label(name).click();
+        settle(&mut harness);
+        assert_eq!(harness.state().settings.renderer, kind);
+        assert_eq!(harness.state().renderer_kind(), Some(kind));
+        let image = view(&harness);
+        // Trilinear sampling draws the same head, smoother than voxel cubes.
+        let changed = differing_pixels(&octree_view, &image);
+        assert!(
+            changed > 1000,
+            "{name} draws differently ({changed} pixels)"
+        );
+        assert!(
+            lit_pixels(&image) > lit_pixels(&octree_view) / 2,
+            "{name} draws the head"
+        );
+    }
+}

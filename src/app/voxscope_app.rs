@@ -174,6 +174,11 @@ impl VoxscopeApp {
             .map(|s| (s.data.volume.name.as_str(), s.data.octree.depth))
     }
 
+    /// The renderer drawing the volume on screen.
+    pub fn renderer_kind(&self) -> Option<crate::render::RendererKind> {
+        self.scene.as_ref().map(|s| s.options.kind)
+    }
+
     /// The statistics panel's per-level numbers.
     pub fn statistics(&self) -> &[LevelStatistics] {
         &self.statistics

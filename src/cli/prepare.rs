@@ -1,8 +1,11 @@
 //! The CPU half of every command: load, quantize, build the octree, color it.
 
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use crate::octree::{self, BuildOptions, Octree, TransferFunction};
+use crate::progress::Progress;
 use crate::volume::{self, QuantizedVolume, Volume};
 
 use super::{TransferArgs, VolumeArgs};
@@ -25,8 +28,8 @@ impl Prepared {
         }
         .map_err(|e| e.to_string())?;
         let quantized = QuantizedVolume::new(&volume);
-        let mut octree = octree::build(&quantized, BuildOptions::default())
-            .map_err(|e| format!("{}: {e}", volume.name))?;
+        let mut octree =
+            build_reporting_progress(&quantized).map_err(|e| format!("{}: {e}", volume.name))?;
         let transfer = transfer_args.transfer_function(quantized.robust_window());
         let recolor_time = octree::recolor(&mut octree, &transfer);
         Ok(Self {
@@ -37,4 +40,35 @@ impl Prepared {
             recolor_time,
         })
     }
+}
+
+/// Builds the octree; a build still running after a second prints its progress to stderr
+/// once a second (`building octree: 42 %`), so large volumes do not look hung.
+fn build_reporting_progress(quantized: &QuantizedVolume) -> Result<Octree, octree::BuildError> {
+    let progress = Arc::new(Progress::new());
+    let finished = Arc::new(AtomicBool::new(false));
+    let reporter = {
+        let (progress, finished) = (Arc::clone(&progress), Arc::clone(&finished));
+        std::thread::spawn(move || {
+            let mut reported = false;
+            let mut waited = Duration::ZERO;
+            while !finished.load(Ordering::Relaxed) {
+                std::thread::sleep(Duration::from_millis(50));
+                waited += Duration::from_millis(50);
+                if waited >= Duration::from_secs(1) {
+                    waited = Duration::ZERO;
+                    let (stage, fraction) = progress.get();
+                    eprint!("\r{stage}: {:3.0} %", fraction * 100.0);
+                    reported = true;
+                }
+            }
+            if reported {
+                eprintln!("\rbuilding octree: done ");
+            }
+        })
+    };
+    let result = octree::build_with_progress(quantized, BuildOptions::default(), &progress);
+    finished.store(true, Ordering::Relaxed);
+    let _ = reporter.join();
+    result
 }
