@@ -65,7 +65,9 @@ pub struct VoxscopeApp {
     probe: Option<FrameProbe>,
     last_report: Option<FrameReport>,
     draw_times: Vec<Instant>,
-    dialog: Option<(DialogKind, Receiver<Option<PathBuf>>)>,
+    dialog: Option<(DialogKind, Receiver<(Option<PathBuf>, Duration)>)>,
+    /// The text of File ▸ Open path.
+    path_text: String,
     /// The scene serial whose first drawing was logged.
     logged_scene: u64,
 }
@@ -111,6 +113,7 @@ impl VoxscopeApp {
             last_report: None,
             draw_times: Vec::new(),
             dialog: None,
+            path_text: String::new(),
             logged_scene: 0,
         };
         if app.gpu.is_none() {
@@ -326,11 +329,16 @@ impl VoxscopeApp {
             self.last_report = Some(report);
         }
         if let Some((_, receiver)) = &self.dialog
-            && let Ok(path) = receiver.try_recv()
+            && let Ok((path, open_for)) = receiver.try_recv()
         {
             let (kind, _) = self.dialog.take().expect("checked above");
-            if let Some(path) = path {
-                self.dialog_done(kind, path, ctx);
+            match path {
+                Some(path) => self.dialog_done(kind, path, ctx),
+                // Nobody cancels a dialog this fast: none could be shown.
+                None if open_for < Duration::from_millis(300) => {
+                    self.fail("no file dialog could be shown (is xdg-desktop-portal running?); type a path in File ▸ Open path, or drop the file on the window".into());
+                }
+                None => {}
             }
         }
         if self.is_busy() {
@@ -435,7 +443,9 @@ impl VoxscopeApp {
             }
         };
         std::thread::spawn(move || {
-            let _ = sender.send(builder());
+            let started = Instant::now();
+            let path = builder();
+            let _ = sender.send((path, started.elapsed()));
             wake.request_repaint();
         });
         self.dialog = Some((kind, receiver));
@@ -463,6 +473,21 @@ impl VoxscopeApp {
                     }
                     if let Some(spec) = chosen {
                         self.open(VolumeSource::from_spec(&spec), &ctx);
+                    }
+                });
+                ui.menu_button("Open path", |ui| {
+                    let edit = ui.add(
+                        egui::TextEdit::singleline(&mut self.path_text)
+                            .hint_text("/path/to/volume.nii.gz or synthetic:sphere:64")
+                            .desired_width(360.0),
+                    );
+                    let entered =
+                        edit.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
+                    if (ui.button("Open").clicked() || entered) && !self.path_text.trim().is_empty()
+                    {
+                        let spec = self.path_text.trim().to_owned();
+                        self.open(VolumeSource::Spec(spec), &ctx);
+                        ui.close();
                     }
                 });
                 if ui.button("Open sample").clicked() {
