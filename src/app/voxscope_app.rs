@@ -36,6 +36,9 @@ enum DialogKind {
     LoadTransfer,
 }
 
+/// What a file dialog answered (`None`: nothing chosen) and how long it was open.
+type DialogAnswer = (Option<PathBuf>, Duration);
+
 /// The voxscope window.
 pub struct VoxscopeApp {
     pub settings: AppSettings,
@@ -65,7 +68,7 @@ pub struct VoxscopeApp {
     probe: Option<FrameProbe>,
     last_report: Option<FrameReport>,
     draw_times: Vec<Instant>,
-    dialog: Option<(DialogKind, Receiver<(Option<PathBuf>, Duration)>)>,
+    dialog: Option<(DialogKind, Receiver<DialogAnswer>)>,
     /// The text of File ▸ Open path.
     path_text: String,
     /// The scene serial whose first drawing was logged.
