@@ -44,6 +44,7 @@ fn info_json(p: &Prepared) -> serde_json::Value {
             "robust_window": [p.quantized.robust_window().low, p.quantized.robust_window().high],
             "orientation": volume.orientation.describe(),
             "voxels": volume.voxel_count(),
+            "metadata": volume.metadata.iter().map(|(k, v)| (k.clone(), json!(v))).collect::<serde_json::Map<String, serde_json::Value>>(),
         },
         "octree": {
             "depth": p.octree.depth,
@@ -86,6 +87,9 @@ fn info_table(p: &Prepared) -> String {
     let [sx, sy, sz] = volume.spacing;
     let _ = writeln!(out, "spacing      {sx} x {sy} x {sz}");
     let _ = writeln!(out, "value range  {low} … {high}");
+    for (key, value) in &volume.metadata {
+        let _ = writeln!(out, "{key:<12} {value}");
+    }
     let _ = writeln!(out, "window       {} … {}", window.low, window.high);
     let _ = writeln!(
         out,

@@ -10,6 +10,7 @@ mod raw;
 mod sample;
 mod source;
 mod synthetic;
+mod tiff;
 pub(crate) mod values;
 mod voxel_type;
 
@@ -51,6 +52,8 @@ pub struct Volume {
     pub value_scale: ValueScale,
     /// How the axes were reordered on load, if at all.
     pub orientation: Orientation,
+    /// Format-specific facts worth showing (`unit`, `modality`, `series`…), in order.
+    pub metadata: Vec<(String, String)>,
 }
 
 /// A linear map from stored values to the data's own units (NIfTI `scl_slope`/`scl_inter`).
@@ -103,6 +106,7 @@ impl Volume {
             data,
             value_scale: ValueScale::IDENTITY,
             orientation: Orientation::AsStored,
+            metadata: Vec::new(),
         })
     }
 

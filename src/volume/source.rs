@@ -40,7 +40,8 @@ fn load_file(path: &Path, options: &LoadOptions) -> Result<Volume, Problem> {
         std::fs::metadata(path).map_err(|e| format!("cannot open: {}", io_reason(&e)))?;
     if metadata.is_dir() {
         return Err(
-            "is a directory; open a volume file (.nii, .nii.gz, .nrrd, .nhdr) or use --raw".into(),
+            "is a directory; open a volume file (.nii, .nii.gz, .nrrd, .nhdr, .tif) or use --raw"
+                .into(),
         );
     }
     if metadata.len() == 0 {
@@ -59,6 +60,9 @@ fn load_file(path: &Path, options: &LoadOptions) -> Result<Volume, Problem> {
     if name.ends_with(".nrrd") || name.ends_with(".nhdr") {
         return super::nrrd::load(path);
     }
+    if name.ends_with(".tif") || name.ends_with(".tiff") {
+        return super::tiff::load(path);
+    }
     // No known extension: look at the first bytes.
     let mut magic = [0u8; 4];
     let read = File::open(path)
@@ -67,10 +71,15 @@ fn load_file(path: &Path, options: &LoadOptions) -> Result<Volume, Problem> {
     if read >= 4 && &magic == b"NRRD" {
         return super::nrrd::load(path);
     }
+    if read >= 4
+        && (&magic == b"II*\0" || &magic == b"MM\0*" || &magic == b"II+\0" || &magic == b"MM\0+")
+    {
+        return super::tiff::load(path);
+    }
     if super::nifti::looks_like_nifti(path) {
         return super::nifti::load(path);
     }
-    Err("unrecognized format: expected NIfTI-1 (.nii, .nii.gz), NRRD (.nrrd, .nhdr), or raw voxels with --raw WxHxD:TYPE".into())
+    Err("unrecognized format: expected NIfTI-1 (.nii, .nii.gz), NRRD (.nrrd, .nhdr), TIFF (.tif, .tiff), or raw voxels with --raw WxHxD:TYPE".into())
 }
 
 /// Opens `path` for reading, buffered; the problem names the OS reason.

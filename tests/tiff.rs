@@ -1,0 +1,204 @@
+//! Multi-page TIFF stacks: every sample type, ImageJ and OME-TIFF spacing, the real nuclei
+//! stack, and broken files (one-line errors, no panic, the file untouched).
+
+mod support;
+
+use std::path::Path;
+
+use tiff::encoder::{Rational, TiffEncoder, colortype};
+use tiff::tags::Tag;
+use voxscope::volume::{self, LoadOptions, VoxelType};
+
+/// Writes `pages` pages of `width`×`height`, voxel (x, y, z) = `value(x, y, z)`.
+fn write_stack<C: colortype::ColorType>(
+    path: &Path,
+    [width, height, pages]: [u32; 3],
+    description: Option<&str>,
+    resolution: Option<f64>,
+    value: impl Fn(u32, u32, u32) -> C::Inner,
+) where
+    [C::Inner]: tiff::encoder::TiffValue,
+{
+    let file = std::fs::File::create(path).expect("create");
+    let mut encoder = TiffEncoder::new(file).expect("encoder");
+    for z in 0..pages {
+        let mut image = encoder.new_image::<C>(width, height).expect("page");
+        if z == 0 {
+            if let Some(text) = description {
+                image
+                    .encoder()
+                    .write_tag(Tag::ImageDescription, text)
+                    .expect("description");
+            }
+            if let Some(per_unit) = resolution {
+                let value = Rational {
+                    n: (per_unit * 1000.0).round() as u32,
+                    d: 1000,
+                };
+                image.x_resolution(value.clone());
+                image.y_resolution(value);
+            }
+        }
+        let data: Vec<C::Inner> = (0..height)
+            .flat_map(|y| (0..width).map(move |x| (x, y)))
+            .map(|(x, y)| value(x, y, z))
+            .collect();
+        image.write_data(&data).expect("write page");
+    }
+}
+
+fn load(path: &Path) -> Result<volume::Volume, String> {
+    volume::load(&path.display().to_string(), &LoadOptions::default()).map_err(|e| e.to_string())
+}
+
+#[test]
+fn every_sample_type_reads_back_voxel_for_voxel() {
+    let dir = tempfile::tempdir().unwrap();
+    let dims = [7u32, 5, 4];
+    // Values 0…99, inside every type's range.
+    let at = |x: u32, y: u32, z: u32| ((x + 7 * (y + 5 * z)) % 100) as f64;
+    macro_rules! case {
+        ($color:ty, $convert:expr, $type:expr) => {{
+            let path = dir.path().join(format!("{}.tif", $type.name()));
+            write_stack::<$color>(&path, dims, None, None, |x, y, z| $convert(at(x, y, z)));
+            let volume = load(&path).unwrap_or_else(|e| panic!("{e}"));
+            assert_eq!(volume.format, "TIFF");
+            assert_eq!(volume.dims, [7, 5, 4]);
+            assert_eq!(volume.voxel_type(), $type);
+            for (index, expected) in (0..140).map(|i| (i, (i % 100) as f64)) {
+                assert_eq!(
+                    volume.data.get(index),
+                    Some(expected),
+                    "{} voxel {index}",
+                    $type.name()
+                );
+            }
+        }};
+    }
+    case!(colortype::Gray8, |v: f64| v as u8, VoxelType::U8);
+    case!(colortype::GrayI8, |v: f64| v as i8, VoxelType::I8);
+    case!(colortype::Gray16, |v: f64| v as u16, VoxelType::U16);
+    case!(colortype::GrayI16, |v: f64| v as i16, VoxelType::I16);
+    case!(colortype::Gray32, |v: f64| v as u32, VoxelType::U32);
+    case!(colortype::GrayI32, |v: f64| v as i32, VoxelType::I32);
+    case!(colortype::Gray32Float, |v: f64| v as f32, VoxelType::F32);
+    case!(colortype::Gray64Float, |v: f64| v, VoxelType::F64);
+}
+
+#[test]
+fn imagej_and_ome_metadata_give_the_spacing() {
+    let dir = tempfile::tempdir().unwrap();
+    let imagej = dir.path().join("imagej.tif");
+    write_stack::<colortype::Gray16>(
+        &imagej,
+        [8, 6, 3],
+        Some("ImageJ=1.54f\nimages=3\nslices=3\nunit=micron\nspacing=0.29\nloop=false\n"),
+        Some(1.0 / 0.26),
+        |x, _, _| x as u16,
+    );
+    let volume = load(&imagej).unwrap();
+    let [sx, sy, sz] = volume.spacing;
+    assert!(
+        (sx - 0.26).abs() < 1e-3 && (sy - 0.26).abs() < 1e-3 && (sz - 0.29).abs() < 1e-9,
+        "{:?}",
+        volume.spacing
+    );
+    assert!(volume.metadata.contains(&("unit".into(), "micron".into())));
+    assert!(
+        volume
+            .metadata
+            .contains(&("spacing from".into(), "ImageJ".into()))
+    );
+
+    let ome = dir.path().join("stack.ome.tif");
+    let xml = r#"<?xml version="1.0"?><OME><Image><Pixels DimensionOrder="XYZCT" SizeX="8" SizeY="6" SizeZ="3" SizeC="1" SizeT="1" PhysicalSizeX="0.5" PhysicalSizeY="0.5" PhysicalSizeZ="2.0" PhysicalSizeXUnit="um" Type="uint8"/></Image></OME>"#;
+    write_stack::<colortype::Gray8>(&ome, [8, 6, 3], Some(xml), None, |_, y, _| y as u8);
+    let volume = load(&ome).unwrap();
+    assert_eq!(volume.spacing, [0.5, 0.5, 2.0]);
+    assert!(volume.metadata.contains(&("unit".into(), "um".into())));
+
+    let hyperstack = dir.path().join("hyper.tif");
+    write_stack::<colortype::Gray8>(
+        &hyperstack,
+        [4, 4, 4],
+        Some("ImageJ=1.54f\nimages=4\nchannels=2\nslices=2\n"),
+        None,
+        |_, _, _| 1,
+    );
+    let error = load(&hyperstack).unwrap_err();
+    assert!(
+        error.contains("2 channels") && !error.contains('\n'),
+        "{error}"
+    );
+}
+
+#[test]
+fn the_real_nuclei_stack_opens() {
+    let path = support::shared_data("nuclei-60x256x256.tif");
+    let volume = load(&path).unwrap();
+    assert_eq!(volume.dims, [256, 256, 60]);
+    assert_eq!(volume.voxel_type(), VoxelType::U16);
+    assert!(volume.metadata.contains(&("pages".into(), "60".into())));
+    let quantized = volume::QuantizedVolume::new(&volume);
+    assert_eq!(quantized.value_range, [0.0, 65535.0]);
+}
+
+#[test]
+fn broken_stacks_fail_in_one_line_and_stay_untouched() {
+    let dir = tempfile::tempdir().unwrap();
+    let good = dir.path().join("good.tif");
+    write_stack::<colortype::Gray16>(&good, [16, 16, 4], None, None, |x, y, z| (x + y + z) as u16);
+    let bytes = std::fs::read(&good).unwrap();
+
+    let mut cases: Vec<(&str, Vec<u8>, &str)> = vec![
+        ("truncated.tif", bytes[..bytes.len() / 2].to_vec(), ""),
+        ("header-only.tif", bytes[..8].to_vec(), ""),
+        (
+            "garbage.tif",
+            b"II*\0 this is not really a tiff at all".to_vec(),
+            "",
+        ),
+    ];
+    // A second stack whose pages differ in size.
+    let mixed = dir.path().join("mixed-src.tif");
+    {
+        let file = std::fs::File::create(&mixed).unwrap();
+        let mut encoder = TiffEncoder::new(file).unwrap();
+        encoder
+            .write_image::<colortype::Gray8>(4, 4, &[0; 16])
+            .unwrap();
+        encoder
+            .write_image::<colortype::Gray8>(5, 4, &[0; 20])
+            .unwrap();
+    }
+    cases.push((
+        "mixed.tif",
+        std::fs::read(&mixed).unwrap(),
+        "page 2 is 5x4 but page 1 is 4x4",
+    ));
+    let rgb = dir.path().join("rgb-src.tif");
+    {
+        let file = std::fs::File::create(&rgb).unwrap();
+        let mut encoder = TiffEncoder::new(file).unwrap();
+        encoder
+            .write_image::<colortype::RGB8>(4, 4, &[0; 48])
+            .unwrap();
+    }
+    cases.push((
+        "rgb.tif",
+        std::fs::read(&rgb).unwrap(),
+        "only grayscale pages",
+    ));
+
+    for (name, content, expected) in cases {
+        let path = dir.path().join(name);
+        std::fs::write(&path, &content).unwrap();
+        let started = std::time::Instant::now();
+        let error = load(&path).expect_err(name);
+        assert!(started.elapsed().as_secs_f64() < 1.0, "{name}");
+        assert!(error.starts_with(&path.display().to_string()), "{error}");
+        assert!(!error.contains('\n'), "{error}");
+        assert!(error.contains(expected), "{name}: {error}");
+        assert_eq!(std::fs::read(&path).unwrap(), content, "{name} untouched");
+    }
+}
