@@ -122,7 +122,7 @@ fn bad_input_exits_non_zero_with_one_line_naming_the_file() {
         ),
         (
             vec!["info".into(), dir.path().display().to_string()],
-            "is a directory",
+            "is a folder without slice images",
         ),
         (
             vec!["info".into(), "synthetic:sphere:0".into()],

@@ -515,7 +515,7 @@ fn bad_files_give_one_line_errors_and_stay_untouched() {
     assert_clean_error(
         &path("folder.nii"),
         load(&path("folder.nii")),
-        "is a directory",
+        "is a folder without slice images",
     );
     assert_clean_error(
         &path("missing.nii"),

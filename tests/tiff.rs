@@ -202,3 +202,75 @@ fn broken_stacks_fail_in_one_line_and_stay_untouched() {
         assert_eq!(std::fs::read(&path).unwrap(), content, "{name} untouched");
     }
 }
+
+#[test]
+fn a_folder_of_slices_opens_in_the_order_of_the_numbers_in_their_names() {
+    let dir = tempfile::tempdir().unwrap();
+    // 12 PNG slices: lexicographic order would put slice_10 before slice_2.
+    for z in 1..=12u16 {
+        let image = image::ImageBuffer::<image::Luma<u16>, _>::from_fn(6, 4, |x, _| {
+            image::Luma([z * 100 + x as u16])
+        });
+        image
+            .save(dir.path().join(format!("slice_{z}.png")))
+            .unwrap();
+    }
+    std::fs::write(dir.path().join("notes.txt"), "not a slice").unwrap();
+    let volume = load(dir.path()).unwrap();
+    assert_eq!(volume.format, "slices");
+    assert_eq!(volume.dims, [6, 4, 12]);
+    assert_eq!(volume.voxel_type(), VoxelType::U16);
+    for z in 0..12usize {
+        for x in 0..6usize {
+            assert_eq!(
+                volume.data.get(x + 6 * 4 * z),
+                Some(((z + 1) * 100 + x) as f64)
+            );
+        }
+    }
+    assert!(
+        volume
+            .metadata
+            .contains(&("first, last".into(), "slice_1.png, slice_12.png".into()))
+    );
+
+    // TIFF slices, 8-bit, with ImageJ spacing on the first.
+    let tiffs = tempfile::tempdir().unwrap();
+    for z in 0..3u32 {
+        let description = (z == 0).then_some("ImageJ=1.54f\nunit=micron\nspacing=2.5\n");
+        write_stack::<colortype::Gray8>(
+            &tiffs.path().join(format!("z{z:03}.tif")),
+            [5, 5, 1],
+            description,
+            Some(2.0),
+            move |x, _, _| (x + 10 * z) as u8,
+        );
+    }
+    let volume = load(tiffs.path()).unwrap();
+    assert_eq!(volume.dims, [5, 5, 3]);
+    assert_eq!(volume.data.get(2 + 25 * 2), Some(22.0));
+    assert_eq!(volume.spacing, [0.5, 0.5, 2.5]);
+
+    // Mismatched and colored slices fail in one line naming the slice.
+    let bad = tempfile::tempdir().unwrap();
+    image::GrayImage::new(4, 4)
+        .save(bad.path().join("a1.png"))
+        .unwrap();
+    image::GrayImage::new(5, 4)
+        .save(bad.path().join("a2.png"))
+        .unwrap();
+    let error = load(bad.path()).unwrap_err();
+    assert!(
+        error.contains("a2.png is 5x4 but the first is 4x4") && !error.contains('\n'),
+        "{error}"
+    );
+    let rgb = tempfile::tempdir().unwrap();
+    image::RgbImage::new(4, 4)
+        .save(rgb.path().join("c1.png"))
+        .unwrap();
+    let error = load(rgb.path()).unwrap_err();
+    assert!(error.contains("only grayscale PNG slices"), "{error}");
+    let empty = tempfile::tempdir().unwrap();
+    let error = load(empty.path()).unwrap_err();
+    assert!(error.contains("without slice images"), "{error}");
+}

@@ -8,6 +8,7 @@ mod nrrd;
 mod orientation;
 mod raw;
 mod sample;
+mod slices;
 mod source;
 mod synthetic;
 mod tiff;

@@ -39,10 +39,7 @@ fn load_file(path: &Path, options: &LoadOptions) -> Result<Volume, Problem> {
     let metadata =
         std::fs::metadata(path).map_err(|e| format!("cannot open: {}", io_reason(&e)))?;
     if metadata.is_dir() {
-        return Err(
-            "is a directory; open a volume file (.nii, .nii.gz, .nrrd, .nhdr, .tif) or use --raw"
-                .into(),
-        );
+        return super::slices::load(path);
     }
     if metadata.len() == 0 {
         return Err("file is empty".into());

@@ -128,26 +128,15 @@ fn append_page(
             return Err("64-bit integer samples are not supported".into());
         }
     };
-    let Some(stack) = stack else {
-        *stack = Some(page);
-        return Ok(());
-    };
-    match (stack, page) {
-        (VoxelData::U8(s), VoxelData::U8(p)) => s.extend(p),
-        (VoxelData::I8(s), VoxelData::I8(p)) => s.extend(p),
-        (VoxelData::U16(s), VoxelData::U16(p)) => s.extend(p),
-        (VoxelData::I16(s), VoxelData::I16(p)) => s.extend(p),
-        (VoxelData::U32(s), VoxelData::U32(p)) => s.extend(p),
-        (VoxelData::I32(s), VoxelData::I32(p)) => s.extend(p),
-        (VoxelData::F32(s), VoxelData::F32(p)) => s.extend(p),
-        (VoxelData::F64(s), VoxelData::F64(p)) => s.extend(p),
-        (s, p) => {
-            return Err(format!(
+    match stack {
+        None => *stack = Some(page),
+        Some(stack) => stack.append(page).map_err(|page| {
+            format!(
                 "page {number} holds {} samples but page 1 holds {}; a stack needs one sample type",
-                p.voxel_type().name(),
-                s.voxel_type().name()
-            ));
-        }
+                page.voxel_type().name(),
+                stack.voxel_type().name()
+            )
+        })?,
     }
     Ok(())
 }

@@ -192,6 +192,22 @@ impl VoxelData {
         with_voxel_slice!(self, values => type_of(values))
     }
 
+    /// Appends `other`'s voxels; `Err(other)` back when its type differs.
+    pub fn append(&mut self, other: VoxelData) -> Result<(), VoxelData> {
+        match (self, other) {
+            (Self::U8(s), Self::U8(o)) => s.extend(o),
+            (Self::I8(s), Self::I8(o)) => s.extend(o),
+            (Self::U16(s), Self::U16(o)) => s.extend(o),
+            (Self::I16(s), Self::I16(o)) => s.extend(o),
+            (Self::U32(s), Self::U32(o)) => s.extend(o),
+            (Self::I32(s), Self::I32(o)) => s.extend(o),
+            (Self::F32(s), Self::F32(o)) => s.extend(o),
+            (Self::F64(s), Self::F64(o)) => s.extend(o),
+            (_, other) => return Err(other),
+        }
+        Ok(())
+    }
+
     /// No voxels, same type: keeps a volume's description once its voxels are not needed.
     pub fn emptied(&self) -> Self {
         Self::decode(self.voxel_type(), &[], Endian::Little)
