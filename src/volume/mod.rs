@@ -3,6 +3,7 @@
 //! octrees or GPUs.
 
 mod error;
+mod mrc;
 mod nifti;
 mod nrrd;
 mod orientation;

@@ -60,11 +60,22 @@ fn load_file(path: &Path, options: &LoadOptions) -> Result<Volume, Problem> {
     if name.ends_with(".tif") || name.ends_with(".tiff") {
         return super::tiff::load(path);
     }
+    if [".mrc", ".map", ".rec", ".ccp4", ".mrcs", ".st", ".ali"]
+        .iter()
+        .any(|ext| name.ends_with(ext))
+    {
+        return super::mrc::load(path);
+    }
     // No known extension: look at the first bytes.
-    let mut magic = [0u8; 4];
-    let read = File::open(path)
-        .and_then(|mut f| f.read(&mut magic))
+    let mut head = Vec::with_capacity(212);
+    File::open(path)
+        .and_then(|f| f.take(212).read_to_end(&mut head))
         .map_err(|e| format!("cannot read: {}", io_reason(&e)))?;
+    let read = head.len();
+    let magic: [u8; 4] = std::array::from_fn(|i| head.get(i).copied().unwrap_or(0));
+    if read >= 212 && &head[208..212] == b"MAP " {
+        return super::mrc::load(path);
+    }
     if read >= 4 && &magic == b"NRRD" {
         return super::nrrd::load(path);
     }
@@ -76,7 +87,7 @@ fn load_file(path: &Path, options: &LoadOptions) -> Result<Volume, Problem> {
     if super::nifti::looks_like_nifti(path) {
         return super::nifti::load(path);
     }
-    Err("unrecognized format: expected NIfTI-1 (.nii, .nii.gz), NRRD (.nrrd, .nhdr), TIFF (.tif, .tiff), or raw voxels with --raw WxHxD:TYPE".into())
+    Err("unrecognized format: expected NIfTI-1 (.nii, .nii.gz), NRRD (.nrrd, .nhdr), TIFF (.tif, .tiff), MRC (.mrc, .map, .rec), or raw voxels with --raw WxHxD:TYPE".into())
 }
 
 /// Opens `path` for reading, buffered; the problem names the OS reason.
