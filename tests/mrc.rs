@@ -55,7 +55,6 @@ impl Map {
         put(3, self.mode.to_le_bytes());
         put(23, (self.extended.len() as i32).to_le_bytes());
         put(55, 1i32.to_le_bytes());
-        drop(put);
         header[208..212].copy_from_slice(b"MAP ");
         header[212..214].copy_from_slice(if self.big_endian {
             &[0x11, 0x11]
