@@ -2,6 +2,7 @@
 //! spec, and the value statistics that the transfer function needs. Pure CPU; knows nothing of
 //! octrees or GPUs.
 
+mod dicom;
 mod error;
 mod mrc;
 mod nifti;

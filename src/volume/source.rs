@@ -39,6 +39,9 @@ fn load_file(path: &Path, options: &LoadOptions) -> Result<Volume, Problem> {
     let metadata =
         std::fs::metadata(path).map_err(|e| format!("cannot open: {}", io_reason(&e)))?;
     if metadata.is_dir() {
+        if !super::dicom::dicom_files(path).is_empty() {
+            return super::dicom::load(path);
+        }
         return super::slices::load(path);
     }
     if metadata.len() == 0 {
@@ -56,6 +59,9 @@ fn load_file(path: &Path, options: &LoadOptions) -> Result<Volume, Problem> {
     }
     if name.ends_with(".nrrd") || name.ends_with(".nhdr") {
         return super::nrrd::load(path);
+    }
+    if name.ends_with(".dcm") || super::dicom::is_dicom(path) {
+        return super::dicom::load(path);
     }
     if name.ends_with(".tif") || name.ends_with(".tiff") {
         return super::tiff::load(path);
@@ -87,7 +93,7 @@ fn load_file(path: &Path, options: &LoadOptions) -> Result<Volume, Problem> {
     if super::nifti::looks_like_nifti(path) {
         return super::nifti::load(path);
     }
-    Err("unrecognized format: expected NIfTI-1 (.nii, .nii.gz), NRRD (.nrrd, .nhdr), TIFF (.tif, .tiff), MRC (.mrc, .map, .rec), or raw voxels with --raw WxHxD:TYPE".into())
+    Err("unrecognized format: expected NIfTI-1 (.nii, .nii.gz), NRRD (.nrrd, .nhdr), TIFF (.tif, .tiff), MRC (.mrc, .map, .rec), DICOM (.dcm, or a folder), or raw voxels with --raw WxHxD:TYPE".into())
 }
 
 /// Opens `path` for reading, buffered; the problem names the OS reason.

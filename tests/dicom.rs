@@ -1,0 +1,139 @@
+//! DICOM series: the real brain series, one file of it, a folder with two series, and broken
+//! files.
+
+mod support;
+
+use std::path::Path;
+
+use voxscope::volume::{self, LoadOptions, VoxelType};
+
+fn load(path: &Path) -> Result<volume::Volume, String> {
+    volume::load(&path.display().to_string(), &LoadOptions::default()).map_err(|e| e.to_string())
+}
+
+fn has(volume: &volume::Volume, key: &str, value: &str) -> bool {
+    volume.metadata.iter().any(|(k, v)| k == key && v == value)
+}
+
+#[test]
+fn the_real_series_opens_sorted_scaled_and_upright() {
+    let dir = support::shared_data("brain-pd-dicom");
+    let volume = load(&dir).unwrap();
+    assert_eq!(volume.format, "DICOM");
+    assert_eq!(volume.dims, [256, 256, 20]);
+    assert_eq!(volume.voxel_type(), VoxelType::I16);
+    let [sx, sy, sz] = volume.spacing;
+    assert!(
+        (sx - 0.859375).abs() < 1e-9 && (sy - 0.859375).abs() < 1e-9,
+        "{:?}",
+        volume.spacing
+    );
+    assert!(
+        sz > 5.0 && sz < 8.0,
+        "slice spacing from the positions: {sz}"
+    );
+    assert!(
+        has(&volume, "modality", "MR") && has(&volume, "files", "20"),
+        "{:?}",
+        volume.metadata
+    );
+    assert_eq!(volume.orientation.describe(), "stored LPS, shown RAS");
+
+    // One file of the series opens the whole series.
+    let one = load(&dir.join("brain_007.dcm")).unwrap();
+    assert_eq!(one.dims, volume.dims);
+    assert_eq!(one.data.get(12345), volume.data.get(12345));
+}
+
+#[test]
+fn a_folder_with_two_series_opens_the_larger_and_lists_the_other() {
+    let source = support::shared_data("brain-pd-dicom");
+    let dir = tempfile::tempdir().unwrap();
+    let mut files: Vec<_> = std::fs::read_dir(&source)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    files.sort();
+    let header = dicom_object::OpenFileOptions::new()
+        .read_until(dicom_dictionary_std::tags::PIXEL_DATA)
+        .open_file(&files[0])
+        .unwrap();
+    let uid = header
+        .element(dicom_dictionary_std::tags::SERIES_INSTANCE_UID)
+        .unwrap()
+        .to_str()
+        .unwrap()
+        .trim_end_matches('\0')
+        .trim()
+        .to_owned();
+    let last = uid.chars().last().unwrap();
+    let other = format!(
+        "{}{}",
+        &uid[..uid.len() - 1],
+        if last == '9' { '8' } else { '9' }
+    );
+    for (index, file) in files.iter().enumerate() {
+        let mut bytes = std::fs::read(file).unwrap();
+        if index < 6 {
+            // Same length, another series UID.
+            let at = bytes
+                .windows(uid.len())
+                .position(|w| w == uid.as_bytes())
+                .expect("the series UID is in the file");
+            bytes[at..at + uid.len()].copy_from_slice(other.as_bytes());
+        }
+        std::fs::write(dir.path().join(file.file_name().unwrap()), bytes).unwrap();
+    }
+    let volume = load(dir.path()).unwrap();
+    assert_eq!(volume.dims[2], 14);
+    assert!(has(&volume, "files", "14"));
+    assert!(
+        volume.metadata.iter().any(|(k, v)| k == "other series 1"
+            && v.contains(other.as_str())
+            && v.contains("6 files")),
+        "{:?}",
+        volume.metadata
+    );
+}
+
+#[test]
+fn broken_dicom_files_fail_in_one_line_and_stay_untouched() {
+    let source = support::shared_data("brain-pd-dicom/brain_001.dcm");
+    let bytes = std::fs::read(&source).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    // Where the pixel data element (7FE0,0010) OW starts.
+    let pixels = bytes
+        .windows(6)
+        .position(|w| w == [0xe0, 0x7f, 0x10, 0x00, b'O', b'W'])
+        .expect("pixel data");
+    let cases: Vec<(&str, Vec<u8>, &str)> = vec![
+        ("cut-header.dcm", bytes[..600].to_vec(), "cut-header.dcm: "),
+        (
+            "cut-pixels.dcm",
+            bytes[..pixels + 12 + 5000].to_vec(),
+            "pixel data",
+        ),
+        (
+            "preamble-only.dcm",
+            bytes[..132].to_vec(),
+            "not a readable DICOM file",
+        ),
+    ];
+    for (name, content, expected) in cases {
+        let folder = dir.path().join(name.trim_end_matches(".dcm"));
+        std::fs::create_dir(&folder).unwrap();
+        let path = folder.join(name);
+        std::fs::write(&path, &content).unwrap();
+        let started = std::time::Instant::now();
+        let Err(error) = load(&path) else {
+            panic!("{name} loaded");
+        };
+        assert!(started.elapsed().as_secs_f64() < 2.0);
+        assert!(
+            error.starts_with(&path.display().to_string()) && !error.contains('\n'),
+            "{error}"
+        );
+        assert!(error.contains(expected), "{name}: {error}");
+        assert_eq!(std::fs::read(&path).unwrap(), content);
+    }
+}
