@@ -20,8 +20,8 @@ use crate::render::{
 use crate::volume::{Orientation, ValueWindow};
 
 /// The file extensions File ▸ Open offers.
-pub const OPEN_EXTENSIONS: [&str; 11] = [
-    "nii", "gz", "nrrd", "nhdr", "tif", "tiff", "mrc", "map", "rec", "ccp4", "dcm",
+pub const OPEN_EXTENSIONS: [&str; 12] = [
+    "nii", "gz", "nrrd", "nhdr", "tif", "tiff", "mrc", "map", "rec", "ccp4", "dcm", "vti",
 ];
 
 /// The GPU as the app shares it with egui-wgpu.
@@ -427,7 +427,10 @@ impl VoxscopeApp {
                 match kind {
                     0 => dialog
                         .set_title("Open a volume")
-                        .add_filter("Volumes (NIfTI, NRRD, TIFF, MRC, DICOM)", &OPEN_EXTENSIONS)
+                        .add_filter(
+                            "Volumes (NIfTI, NRRD, TIFF, MRC, DICOM, VTI)",
+                            &OPEN_EXTENSIONS,
+                        )
                         .add_filter("All files", &["*"])
                         .pick_file(),
                     1 => dialog

@@ -16,6 +16,7 @@ mod synthetic;
 mod tiff;
 pub(crate) mod values;
 mod voxel_type;
+mod vti;
 
 pub use error::LoadError;
 pub use nrrd::NrrdEncoding;

@@ -60,6 +60,9 @@ fn load_file(path: &Path, options: &LoadOptions) -> Result<Volume, Problem> {
     if name.ends_with(".nrrd") || name.ends_with(".nhdr") {
         return super::nrrd::load(path);
     }
+    if name.ends_with(".vti") {
+        return super::vti::load(path);
+    }
     if name.ends_with(".dcm") || super::dicom::is_dicom(path) {
         return super::dicom::load(path);
     }
@@ -93,7 +96,7 @@ fn load_file(path: &Path, options: &LoadOptions) -> Result<Volume, Problem> {
     if super::nifti::looks_like_nifti(path) {
         return super::nifti::load(path);
     }
-    Err("unrecognized format: expected NIfTI-1 (.nii, .nii.gz), NRRD (.nrrd, .nhdr), TIFF (.tif, .tiff), MRC (.mrc, .map, .rec), DICOM (.dcm, or a folder), or raw voxels with --raw WxHxD:TYPE".into())
+    Err("unrecognized format: expected NIfTI-1 (.nii, .nii.gz), NRRD (.nrrd, .nhdr), TIFF (.tif, .tiff), MRC (.mrc, .map, .rec), VTK ImageData (.vti), DICOM (.dcm, or a folder), or raw voxels with --raw WxHxD:TYPE".into())
 }
 
 /// Opens `path` for reading, buffered; the problem names the OS reason.

@@ -192,6 +192,23 @@ impl VoxelData {
         with_voxel_slice!(self, values => type_of(values))
     }
 
+    /// `values` converted to `voxel_type` (saturating), e.g. from an ascii file.
+    pub fn from_f64_values(voxel_type: VoxelType, values: &[f64]) -> Self {
+        fn convert<T: Scalar>(values: &[f64]) -> VoxelData {
+            T::wrap(values.iter().map(|&v| T::from_f64(v)).collect())
+        }
+        match voxel_type {
+            VoxelType::U8 => convert::<u8>(values),
+            VoxelType::I8 => convert::<i8>(values),
+            VoxelType::U16 => convert::<u16>(values),
+            VoxelType::I16 => convert::<i16>(values),
+            VoxelType::U32 => convert::<u32>(values),
+            VoxelType::I32 => convert::<i32>(values),
+            VoxelType::F32 => convert::<f32>(values),
+            VoxelType::F64 => convert::<f64>(values),
+        }
+    }
+
     /// Appends `other`'s voxels; `Err(other)` back when its type differs.
     pub fn append(&mut self, other: VoxelData) -> Result<(), VoxelData> {
         match (self, other) {

@@ -1,0 +1,381 @@
+//! VTK XML ImageData (`.vti`), ParaView's usual export: ascii, base64 `binary` and appended
+//! (raw or base64) data arrays, uncompressed or zlib-compressed, 32- or 64-bit headers.
+//! The point-data scalars are read (or the first one-component cell or point array).
+
+use std::io::Read;
+use std::path::Path;
+
+use base64::Engine as _;
+use base64::engine::general_purpose::STANDARD;
+use flate2::read::ZlibDecoder;
+
+use super::error::Problem;
+use super::source::io_reason;
+use super::{Endian, MAX_VOXELS, Scalar, Volume, VoxelData, VoxelType, checked_voxel_count};
+
+/// Largest file read into memory (the XML and its data are parsed whole).
+const MAX_FILE_BYTES: u64 = 1 << 34;
+
+/// Deflate cannot expand more than about 1032:1.
+const MAX_DEFLATE_RATIO: usize = 1032;
+
+/// Reads a `.vti` file.
+pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
+    let size = std::fs::metadata(path)
+        .map_err(|e| format!("cannot open: {}", io_reason(&e)))?
+        .len();
+    if size > MAX_FILE_BYTES {
+        return Err(format!(
+            "{size} bytes is beyond the {MAX_FILE_BYTES}-byte limit"
+        ));
+    }
+    let bytes = std::fs::read(path).map_err(|e| format!("cannot read: {}", io_reason(&e)))?;
+    // Appended raw data is binary inside the XML: parse the text before it, and keep the
+    // bytes after the `_` that starts it.
+    let (text, appended) = match find(&bytes, b"<AppendedData") {
+        Some(at) => {
+            let tag_end = find(&bytes[at..], b">")
+                .map(|i| at + i + 1)
+                .ok_or("an unterminated <AppendedData> tag")?;
+            let underscore = find(&bytes[tag_end..], b"_")
+                .map(|i| tag_end + i + 1)
+                .ok_or("<AppendedData> without its '_' marker")?;
+            let encoding =
+                attribute_in(&bytes[at..tag_end], "encoding").unwrap_or_else(|| "raw".into());
+            let mut text = String::from_utf8_lossy(&bytes[..at]).into_owned();
+            text.push_str("</VTKFile>");
+            (text, Some((encoding, &bytes[underscore..])))
+        }
+        None => (String::from_utf8_lossy(&bytes).into_owned(), None),
+    };
+    let document =
+        roxmltree::Document::parse(&text).map_err(|e| format!("not valid VTK XML: {e}"))?;
+    let root = document.root_element();
+    if root.tag_name().name() != "VTKFile" || root.attribute("type") != Some("ImageData") {
+        return Err(format!(
+            "a VTK XML file of type {:?}; only ImageData (.vti) holds a regular grid",
+            root.attribute("type").unwrap_or("?")
+        ));
+    }
+    let endian = match root.attribute("byte_order") {
+        Some("BigEndian") => Endian::Big,
+        _ => Endian::Little,
+    };
+    let header64 = root.attribute("header_type") == Some("UInt64");
+    let compressed = match root.attribute("compressor") {
+        None | Some("") => false,
+        Some("vtkZLibDataCompressor") => true,
+        Some(other) => return Err(format!("compressor {other} is not supported (zlib is)")),
+    };
+    let image = child(root, "ImageData").ok_or("no <ImageData> element")?;
+    let extent = numbers::<i64>(image.attribute("WholeExtent").ok_or("no WholeExtent")?, 6)?;
+    let spacing = image
+        .attribute("Spacing")
+        .map(|s| numbers::<f64>(s, 3))
+        .transpose()?
+        .unwrap_or(vec![1.0; 3]);
+    let pieces: Vec<_> = image
+        .children()
+        .filter(|n| n.has_tag_name("Piece"))
+        .collect();
+    if pieces.len() != 1 {
+        return Err(format!(
+            "{} pieces; only single-piece image data is supported",
+            pieces.len()
+        ));
+    }
+    let piece = pieces[0];
+    let point_dims: [i64; 3] = std::array::from_fn(|a| extent[2 * a + 1] - extent[2 * a] + 1);
+    if point_dims.iter().any(|&n| n < 1) {
+        return Err(format!("WholeExtent {extent:?} is empty"));
+    }
+    // The scalars: PointData's named Scalars, else its first 1-component array, else CellData's.
+    let (array, dims) = ["PointData", "CellData"]
+        .iter()
+        .filter_map(|section| child(piece, section).map(|s| (s, *section)))
+        .find_map(|(section, name)| {
+            let arrays: Vec<_> = section
+                .children()
+                .filter(|n| n.has_tag_name("DataArray"))
+                .collect();
+            let named = section
+                .attribute("Scalars")
+                .and_then(|s| arrays.iter().find(|a| a.attribute("Name") == Some(s)));
+            let array = named.or_else(|| {
+                arrays
+                    .iter()
+                    .find(|a| a.attribute("NumberOfComponents").is_none_or(|c| c == "1"))
+            })?;
+            let dims = if name == "PointData" {
+                point_dims
+            } else {
+                point_dims.map(|n| (n - 1).max(1))
+            };
+            Some((*array, dims))
+        })
+        .ok_or("no one-component point or cell data array")?;
+    let components: usize = array
+        .attribute("NumberOfComponents")
+        .unwrap_or("1")
+        .parse()
+        .map_err(|_| "a bad NumberOfComponents")?;
+    if components != 1 {
+        return Err(format!(
+            "array {:?} has {components} components; only scalars are supported",
+            array.attribute("Name").unwrap_or("")
+        ));
+    }
+    let dims = dims.map(|n| n as usize);
+    let count = checked_voxel_count(dims)?;
+    let type_name = array.attribute("type").ok_or("a DataArray without type")?;
+    let voxel_type = match type_name {
+        "Int8" => VoxelType::I8,
+        "UInt8" => VoxelType::U8,
+        "Int16" => VoxelType::I16,
+        "UInt16" => VoxelType::U16,
+        "Int32" => VoxelType::I32,
+        "UInt32" => VoxelType::U32,
+        "Float32" => VoxelType::F32,
+        "Float64" => VoxelType::F64,
+        other => return Err(format!("DataArray type {other} is not supported")),
+    };
+    let needed = count * voxel_type.size();
+    let format = array.attribute("format").unwrap_or("ascii");
+    let data = match format {
+        "ascii" => {
+            let values: Vec<f64> = array
+                .text()
+                .unwrap_or_default()
+                .split_ascii_whitespace()
+                .take(count + 1)
+                .map(|v| {
+                    v.parse::<f64>()
+                        .map_err(|_| format!("{v:?} is not a number"))
+                })
+                .collect::<Result<_, _>>()?;
+            if values.len() != count {
+                return Err(format!(
+                    "the ascii array holds {} values, {count} expected",
+                    values.len()
+                ));
+            }
+            VoxelData::from_f64_values(voxel_type, &values)
+        }
+        "binary" => {
+            let text: String = array
+                .text()
+                .unwrap_or_default()
+                .chars()
+                .filter(|c| !c.is_ascii_whitespace())
+                .collect();
+            let raw = decode_inline_binary(&text, header64, endian, compressed, needed)?;
+            VoxelData::decode(voxel_type, &raw, endian)
+        }
+        "appended" => {
+            let (encoding, appended) =
+                appended.ok_or("an appended array without <AppendedData>")?;
+            let offset: usize = array
+                .attribute("offset")
+                .unwrap_or("0")
+                .parse()
+                .map_err(|_| "a bad appended offset")?;
+            let raw = if encoding == "base64" {
+                let block = appended
+                    .get(offset..)
+                    .ok_or("the appended offset is past the end of the file")?;
+                let end = block
+                    .iter()
+                    .position(|b| !(b.is_ascii_alphanumeric() || matches!(b, b'+' | b'/' | b'=')))
+                    .unwrap_or(block.len());
+                decode_inline_binary(
+                    std::str::from_utf8(&block[..end]).unwrap_or_default(),
+                    header64,
+                    endian,
+                    compressed,
+                    needed,
+                )?
+            } else {
+                let block = appended
+                    .get(offset..)
+                    .ok_or("the appended offset is past the end of the file")?;
+                read_blocks(block, header64, endian, compressed, needed)?
+            };
+            VoxelData::decode(voxel_type, &raw, endian)
+        }
+        other => return Err(format!("DataArray format {other} is not supported")),
+    };
+    if count > MAX_VOXELS {
+        return Err(format!("more than {MAX_VOXELS} voxels"));
+    }
+    let mut volume = Volume::new(
+        path.display().to_string(),
+        "VTK ImageData",
+        dims,
+        [spacing[0], spacing[1], spacing[2]],
+        data,
+    )
+    .map_err(|e| e.problem)?;
+    volume.metadata = vec![(
+        "array".to_owned(),
+        format!(
+            "{} ({type_name}, {format}{})",
+            array.attribute("Name").unwrap_or("unnamed"),
+            if compressed { ", zlib" } else { "" }
+        ),
+    )];
+    if let Some(origin) = image.attribute("Origin") {
+        volume
+            .metadata
+            .push(("origin".to_owned(), origin.to_owned()));
+    }
+    Ok(volume)
+}
+
+/// Decodes a `binary` (base64) array: header and data encoded together, or (compressed)
+/// the header and the blocks encoded separately.
+fn decode_inline_binary(
+    text: &str,
+    header64: bool,
+    endian: Endian,
+    compressed: bool,
+    needed: usize,
+) -> Result<Vec<u8>, Problem> {
+    let word = if header64 { 8 } else { 4 };
+    if !compressed {
+        let raw = STANDARD
+            .decode(text)
+            .map_err(|e| format!("bad base64 data: {e}"))?;
+        return read_blocks(&raw, header64, endian, false, needed);
+    }
+    // The header (3 words + one per block) is a base64 string of its own.
+    let first = STANDARD
+        .decode(
+            text.get(..base64_len(3 * word))
+                .ok_or("a truncated base64 header")?,
+        )
+        .map_err(|e| format!("bad base64 header: {e}"))?;
+    let blocks = read_word(&first, 0, header64, endian)?;
+    if blocks > needed + 1 {
+        return Err(format!("a header claiming {blocks} blocks"));
+    }
+    let header_text = base64_len((3 + blocks) * word);
+    let header = STANDARD
+        .decode(text.get(..header_text).ok_or("a truncated base64 header")?)
+        .map_err(|e| format!("bad base64 header: {e}"))?;
+    let data = STANDARD
+        .decode(&text[header_text..])
+        .map_err(|e| format!("bad base64 data: {e}"))?;
+    let mut joined = header;
+    joined.truncate((3 + blocks) * word);
+    joined.extend(data);
+    read_blocks(&joined, header64, endian, true, needed)
+}
+
+fn base64_len(bytes: usize) -> usize {
+    bytes.div_ceil(3) * 4
+}
+
+/// Reads an array's bytes after its header: uncompressed (one byte-count word) or zlib
+/// blocks (`[blocks, block size, last size, compressed sizes…]`).
+fn read_blocks(
+    block: &[u8],
+    header64: bool,
+    endian: Endian,
+    compressed: bool,
+    needed: usize,
+) -> Result<Vec<u8>, Problem> {
+    let word = if header64 { 8 } else { 4 };
+    if !compressed {
+        let length = read_word(block, 0, header64, endian)?;
+        if length < needed {
+            return Err(format!("the array holds {length} bytes, {needed} expected"));
+        }
+        return block
+            .get(word..word + needed)
+            .map(<[u8]>::to_vec)
+            .ok_or_else(|| format!("truncated: {needed} bytes of data expected"));
+    }
+    let blocks = read_word(block, 0, header64, endian)?;
+    let block_size = read_word(block, 1, header64, endian)?;
+    if blocks == 0
+        || block_size == 0
+        || blocks.saturating_mul(block_size) < needed
+        || blocks > needed / block_size + 2
+    {
+        return Err(format!(
+            "a compression header of {blocks} blocks of {block_size} bytes for {needed} bytes"
+        ));
+    }
+    let mut at = (3 + blocks) * word;
+    if at > block.len() {
+        return Err("truncated compression header".into());
+    }
+    let mut out = Vec::with_capacity(needed);
+    for b in 0..blocks {
+        let size = read_word(block, 3 + b, header64, endian)?;
+        let chunk = block
+            .get(at..at + size)
+            .ok_or("truncated: a compressed block runs past the end of the file")?;
+        if size.saturating_mul(MAX_DEFLATE_RATIO) < block_size.min(needed - out.len()) {
+            return Err("a compressed block too small for its size".into());
+        }
+        let limit = (needed - out.len()).min(block_size) as u64;
+        ZlibDecoder::new(chunk)
+            .take(limit)
+            .read_to_end(&mut out)
+            .map_err(|e| format!("bad zlib data: {}", io_reason(&e)))?;
+        at += size;
+        if out.len() >= needed {
+            break;
+        }
+    }
+    if out.len() < needed {
+        return Err(format!(
+            "the compressed array holds {} bytes, {needed} expected",
+            out.len()
+        ));
+    }
+    Ok(out)
+}
+
+fn read_word(bytes: &[u8], index: usize, header64: bool, endian: Endian) -> Result<usize, Problem> {
+    let word = if header64 { 8 } else { 4 };
+    let raw = bytes
+        .get(index * word..(index + 1) * word)
+        .ok_or("truncated array header")?;
+    let value = match (header64, endian) {
+        (true, Endian::Little) => u64::from_le_bytes(raw.try_into().expect("8 bytes")),
+        (true, Endian::Big) => u64::from_be_bytes(raw.try_into().expect("8 bytes")),
+        (false, _) => u32::decode(raw, endian) as u64,
+    };
+    usize::try_from(value).map_err(|_| "an array header beyond this machine's address space".into())
+}
+
+fn child<'a, 'input>(
+    node: roxmltree::Node<'a, 'input>,
+    name: &str,
+) -> Option<roxmltree::Node<'a, 'input>> {
+    node.children().find(|n| n.has_tag_name(name))
+}
+
+fn numbers<T: std::str::FromStr>(text: &str, count: usize) -> Result<Vec<T>, Problem> {
+    let values: Vec<T> = text
+        .split_ascii_whitespace()
+        .map(|v| v.parse().map_err(|_| format!("{v:?} is not a number")))
+        .collect::<Result<_, _>>()?;
+    if values.len() != count {
+        return Err(format!("{text:?} should hold {count} numbers"));
+    }
+    Ok(values)
+}
+
+fn find(haystack: &[u8], needle: &[u8]) -> Option<usize> {
+    haystack.windows(needle.len()).position(|w| w == needle)
+}
+
+fn attribute_in(tag: &[u8], name: &str) -> Option<String> {
+    let text = String::from_utf8_lossy(tag);
+    let start = text.find(&format!("{name}=\""))? + name.len() + 2;
+    let end = text[start..].find('"')?;
+    Some(text[start..start + end].to_owned())
+}
