@@ -68,6 +68,23 @@ impl VolumeData {
         (-3100.0..=-900.0).contains(&low) && high >= 200.0
     }
 
+    /// The number of distinct values when this looks like a label volume (integer voxels,
+    /// at most 64 distinct values): segmentations and atlases, shown best with categorical
+    /// colors.
+    pub fn label_count(&self) -> Option<usize> {
+        if !self.volume.data.voxel_type().is_integer() || self.quantized.quantization.step != 1.0 {
+            return None;
+        }
+        let distinct = self
+            .quantized
+            .histogram
+            .counts
+            .iter()
+            .filter(|&&c| c > 0)
+            .count();
+        (distinct <= 64).then_some(distinct)
+    }
+
     /// The value at the center of histogram bin `bin`'s left edge.
     pub fn bin_value(&self, bin: f64) -> f64 {
         let [low, high] = self.quantized.value_range;

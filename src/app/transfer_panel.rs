@@ -133,6 +133,25 @@ pub fn show(
                 }
             }
         });
+        if let Some(labels) = data.label_count() {
+            ui.horizontal_wrapped(|ui| {
+                ui.small(format!("Label volume: {labels} distinct values."));
+                if ui
+                    .button("Show labels")
+                    .on_hover_text("Categorical colors per value, label 0 transparent")
+                    .clicked()
+                {
+                    let [low, high] = data.quantized.value_range;
+                    if high > low {
+                        *window = ValueWindow { low, high };
+                        settings.transfer.colormap = Colormap::Labels;
+                        settings.transfer.opacity = OpacityMode::Binary;
+                        // Just above 0: every label but the background is opaque.
+                        settings.transfer.threshold = (window.normalize(0.5) as f32).max(1e-4);
+                    }
+                }
+            });
+        }
         ui.add_space(4.0);
         histogram(ui, settings, window, data);
     }

@@ -33,6 +33,7 @@ struct AppGpu {
 /// A file dialog running on its own thread.
 enum DialogKind {
     Open,
+    OpenFolder,
     SaveScreenshot,
     SaveTransfer,
     LoadTransfer,
@@ -379,7 +380,7 @@ impl VoxscopeApp {
 
     fn dialog_done(&mut self, kind: DialogKind, path: PathBuf, ctx: &egui::Context) {
         let result = match kind {
-            DialogKind::Open => {
+            DialogKind::Open | DialogKind::OpenFolder => {
                 self.open(VolumeSource::Spec(path.display().to_string()), ctx);
                 Ok(None)
             }
@@ -418,6 +419,7 @@ impl VoxscopeApp {
                 DialogKind::SaveScreenshot => 1,
                 DialogKind::SaveTransfer => 2,
                 DialogKind::LoadTransfer => 3,
+                DialogKind::OpenFolder => 4,
             };
             move || {
                 let mut dialog = rfd::FileDialog::new();
@@ -438,6 +440,9 @@ impl VoxscopeApp {
                         .add_filter("PNG image", &["png"])
                         .set_file_name("voxscope.png")
                         .save_file(),
+                    4 => dialog
+                        .set_title("Open a folder: a DICOM series or TIFF/PNG slices")
+                        .pick_folder(),
                     2 => dialog
                         .set_title("Save transfer function")
                         .add_filter("Transfer function (RON)", &["ron"])
@@ -468,6 +473,13 @@ impl VoxscopeApp {
                     .clicked()
                 {
                     self.start_dialog(DialogKind::Open, &ctx);
+                }
+                if ui
+                    .button("Open folder…")
+                    .on_hover_text("A DICOM series, or a folder of TIFF/PNG slices")
+                    .clicked()
+                {
+                    self.start_dialog(DialogKind::OpenFolder, &ctx);
                 }
                 ui.menu_button("Open recent", |ui| {
                     if self.settings.recent.is_empty() {

@@ -40,16 +40,20 @@ pub enum Colormap {
     Magma,
     Plasma,
     Cividis,
+    /// Categorical colors by integer value (label volumes, segmentations): value `v` gets the
+    /// `v mod 20`-th color of a 20-color qualitative palette; 0 is black.
+    Labels,
 }
 
 impl Colormap {
-    pub const ALL: [Colormap; 6] = [
+    pub const ALL: [Colormap; 7] = [
         Self::Grays,
         Self::Viridis,
         Self::Inferno,
         Self::Magma,
         Self::Plasma,
         Self::Cividis,
+        Self::Labels,
     ];
 
     /// `grays`, `viridis`, …
@@ -61,6 +65,7 @@ impl Colormap {
             Self::Magma => "magma",
             Self::Plasma => "plasma",
             Self::Cividis => "cividis",
+            Self::Labels => "labels",
         }
     }
 
@@ -69,10 +74,31 @@ impl Colormap {
         Self::ALL.into_iter().find(|c| c.name() == name)
     }
 
-    /// RGB of `t` (0…1).
+    /// RGB of a voxel whose value is `value` and normalized value `t` (0…1): continuous maps
+    /// follow `t`, [`Self::Labels`] the integer value.
+    pub fn rgb_of(self, value: f64, t: f64) -> [u8; 3] {
+        match self {
+            Self::Labels => {
+                let label = value.round();
+                if label == 0.0 || !label.is_finite() {
+                    return [0; 3];
+                }
+                let index = (label.abs() as u64 % 20) as usize;
+                if index < 10 {
+                    colorous::TABLEAU10[index].as_array()
+                } else {
+                    colorous::SET3[index - 10].as_array()
+                }
+            }
+            _ => self.rgb(t),
+        }
+    }
+
+    /// RGB of `t` (0…1); [`Self::Labels`] shows its palette along `t`.
     pub fn rgb(self, t: f64) -> [u8; 3] {
         let t = t.clamp(0.0, 1.0);
         let gradient = match self {
+            Self::Labels => return Self::Labels.rgb_of(1.0 + (t * 19.0).round(), t),
             Self::Grays => {
                 let gray = (t * 255.0).round() as u8;
                 return [gray; 3];
@@ -101,7 +127,14 @@ impl TransferFunction {
     /// RGBA of a voxel whose normalized value is `t` (0…1).
     pub fn color_of_normalized(&self, t: f64) -> [u8; 4] {
         let t = t.clamp(0.0, 1.0);
-        let [r, g, b] = self.colormap.rgb(t);
+        let value = self.window.low + t * (self.window.high - self.window.low);
+        self.color_of(value, t)
+    }
+
+    /// RGBA of a voxel of `value` (data units), `t` being its place in the window.
+    fn color_of(&self, value: f64, t: f64) -> [u8; 4] {
+        let t = t.clamp(0.0, 1.0);
+        let [r, g, b] = self.colormap.rgb_of(value, t);
         let alpha = match self.opacity {
             OpacityMode::Gray => (t * 255.0).round() as u8,
             OpacityMode::Binary => {
@@ -120,7 +153,7 @@ impl TransferFunction {
         (0..LEVELS)
             .map(|level| {
                 let value = quantization.value(level as u16);
-                pack_rgba(self.color_of_normalized(self.window.normalize(value)))
+                pack_rgba(self.color_of(value, self.window.normalize(value)))
             })
             .collect()
     }
@@ -130,5 +163,39 @@ impl TransferFunction {
     pub fn saturation_level(&self, quantization: Quantization) -> u16 {
         let level = (self.window.high - quantization.offset) / quantization.step;
         level.ceil().clamp(0.0, (LEVELS - 1) as f64) as u16
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn label_colors_follow_the_integer_value_and_zero_is_black() {
+        let transfer = TransferFunction {
+            opacity: OpacityMode::Binary,
+            window: ValueWindow {
+                low: 0.0,
+                high: 40.0,
+            },
+            threshold: 0.5 / 40.0,
+            colormap: Colormap::Labels,
+        };
+        let quantization = Quantization {
+            offset: 0.0,
+            step: 1.0,
+        };
+        let table = transfer.lookup_table(quantization);
+        assert_eq!(table[0], 0, "label 0: black and transparent");
+        let colors: Vec<[u8; 4]> = (1..=20)
+            .map(|v| super::super::unpack_rgba(table[v]))
+            .collect();
+        for (i, a) in colors.iter().enumerate() {
+            assert_eq!(a[3], 255, "labels are opaque");
+            for b in &colors[i + 1..] {
+                assert_ne!(a, b, "20 labels, 20 colors");
+            }
+        }
+        assert_eq!(table[21], table[1], "the palette repeats every 20 labels");
     }
 }
