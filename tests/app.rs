@@ -408,3 +408,45 @@ fn switching_the_renderer_uploads_in_the_background_and_draws_the_same_head() {
         );
     }
 }
+
+#[test]
+fn cancel_stops_a_load_and_keeps_the_current_volume() {
+    let mut harness = harness();
+    let ctx = harness.ctx.clone();
+    harness
+        .state_mut()
+        .open(VolumeSource::Spec("synthetic:noise:320".into()), &ctx);
+    harness.step();
+    // The status bar shows the job with its progress and a Cancel button.
+    harness.get_by_label("Cancel").click();
+    settle(&mut harness);
+    let app = harness.state();
+    assert_eq!(app.volume().map(|v| v.0), Some(SAMPLE_NAME));
+    assert_eq!(app.error(), None);
+}
+
+#[test]
+fn a_volume_too_large_for_the_octree_buffers_opens_with_bricks() {
+    let mut harness = harness();
+    let ctx = harness.ctx.clone();
+    // 320³ needs 286 MiB of octree nodes; lavapipe allows 128 MiB per storage buffer.
+    harness
+        .state_mut()
+        .open(VolumeSource::Spec("synthetic:noise:320".into()), &ctx);
+    settle(&mut harness);
+    let app = harness.state();
+    assert_eq!(app.error(), None);
+    assert_eq!(
+        app.volume().map(|v| v.0),
+        Some("synthetic:noise:320x320x320")
+    );
+    assert_eq!(
+        app.renderer_kind(),
+        Some(voxscope::render::RendererKind::Bricks)
+    );
+    assert_eq!(
+        app.settings.renderer,
+        voxscope::render::RendererKind::Bricks
+    );
+    assert!(lit_pixels(&view(&harness)) > 10_000);
+}

@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use crate::octree::{self, BuildOptions, LevelStatistics, Octree, TransferFunction};
 use crate::progress::Progress;
-use crate::render::{GpuContext, RendererOptions, VolumeRenderer};
+use crate::render::{GpuContext, RendererKind, RendererOptions, VolumeRenderer};
 use crate::volume::{self, LoadOptions, QuantizedVolume, ValueWindow, Volume};
 
 /// What to open: the embedded sample or a file path / synthetic spec.
@@ -173,7 +173,7 @@ impl<T: Send + 'static> Job<T> {
 /// File ▸ Open, drops, recent files and the command line.
 pub fn prepare_scene(
     source: &VolumeSource,
-    transfer: impl FnOnce(&VolumeData) -> TransferFunction,
+    transfer: impl FnOnce(ValueWindow) -> TransferFunction,
     gpu: &GpuContext,
     options: RendererOptions,
     progress: &Progress,
@@ -190,26 +190,34 @@ pub fn prepare_scene(
         .map_err(|e| format!("{}: {e}", volume.name))?;
     let default_window = quantized.robust_window();
     let histogram = display_histogram(&quantized);
-    let data = VolumeData {
-        source: source.clone(),
-        volume,
-        quantized,
-        octree: octree.clone(),
-        default_window,
-        histogram,
-        load_seconds: 0.0,
-    };
-    let transfer = transfer(&data);
+    let transfer = transfer(default_window);
     progress.begin("coloring");
     octree::recolor(&mut octree, &transfer);
     let statistics = octree::level_statistics(&octree);
     let data = VolumeData {
+        source: source.clone(),
+        volume,
+        quantized,
         octree,
+        default_window,
+        histogram,
         load_seconds: started.elapsed().as_secs_f64(),
-        ..data
     };
     progress.check().map_err(|_| "cancelled".to_owned())?;
-    let scene = upload(Arc::new(data), gpu, options, transfer, progress)?;
+    let data = Arc::new(data);
+    let scene = match upload(Arc::clone(&data), gpu, options, transfer, progress) {
+        Ok(scene) => scene,
+        // The voxel octree of a large volume can exceed a storage buffer; bricks store the
+        // same volume in a fraction of the memory.
+        Err(_) if options.kind == RendererKind::Octree => {
+            let bricks = RendererOptions {
+                kind: RendererKind::Bricks,
+                ..options
+            };
+            upload(data, gpu, bricks, transfer, progress)?
+        }
+        Err(message) => return Err(message),
+    };
     Ok((scene, statistics))
 }
 

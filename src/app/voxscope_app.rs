@@ -153,7 +153,7 @@ impl VoxscopeApp {
             move |progress| {
                 prepare_scene(
                     &source,
-                    |data| choice.with_window(data.default_window),
+                    |window| choice.with_window(window),
                     &context,
                     options,
                     progress,
@@ -305,7 +305,19 @@ impl VoxscopeApp {
         if let Some(result) = self.loading.as_ref().and_then(|job| job.try_take()) {
             self.loading = None;
             match result {
-                Ok((scene, statistics)) => self.show_scene(scene, statistics),
+                Ok((scene, statistics)) => {
+                    if scene.options.kind != self.settings.renderer {
+                        self.notice = Some((
+                            format!(
+                                "the octree does not fit this GPU's buffers; showing it with the {} renderer",
+                                scene.options.kind.name()
+                            ),
+                            Instant::now(),
+                        ));
+                        self.settings.renderer = scene.options.kind;
+                    }
+                    self.show_scene(scene, statistics)
+                }
                 Err(message) if message == "cancelled" => {
                     self.notice = Some(("opening cancelled".into(), Instant::now()));
                 }
@@ -319,7 +331,14 @@ impl VoxscopeApp {
                     self.scene = Some(scene);
                     self.scene_serial += 1;
                 }
-                Err(message) => self.fail(message),
+                Err(message) => {
+                    // Back to the renderer on screen, or the switch would be retried forever.
+                    if let Some(scene) = &self.scene {
+                        self.settings.renderer = scene.options.kind;
+                        self.settings.brick_size = scene.options.brick_size;
+                    }
+                    self.fail(message);
+                }
             }
         }
         if let Some(result) = self.statistics_job.as_ref().and_then(|job| job.try_take()) {
@@ -591,16 +610,18 @@ impl VoxscopeApp {
         ui.horizontal(|ui| {
             if let Some(job) = &self.loading {
                 let (stage, fraction) = job.progress.get();
+                // Fixed-width items first, so Cancel does not move as the text changes.
                 ui.spinner();
-                ui.label(format!("{}: {stage}", job.title));
+                if ui.button("Cancel").clicked() {
+                    eprintln!("voxscope: cancelling {}", job.title);
+                    job.progress.cancel();
+                }
                 ui.add(
                     egui::ProgressBar::new(fraction)
                         .desired_width(160.0)
                         .show_percentage(),
                 );
-                if ui.button("Cancel").clicked() {
-                    job.progress.cancel();
-                }
+                ui.label(format!("{}: {stage}", job.title));
                 ui.separator();
             } else if let Some((options, _)) = &self.uploading {
                 ui.spinner();
