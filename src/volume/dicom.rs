@@ -177,6 +177,12 @@ pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
         })
         .collect();
     let mut slices = series.remove(&chosen_series).expect("chosen from the map");
+    // A multi-frame file asked for by name is a volume of its own.
+    if let Some(file) = &chosen_file
+        && let Some(index) = slices.iter().position(|s| &s.path == file && s.frames > 1)
+    {
+        slices = vec![slices.swap_remove(index)];
+    }
 
     // Sort along the slice normal.
     let orientation = slices[0].orientation;
