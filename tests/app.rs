@@ -450,3 +450,34 @@ fn a_volume_too_large_for_the_octree_buffers_opens_with_bricks() {
     );
     assert!(lit_pixels(&view(&harness)) > 10_000);
 }
+
+#[test]
+fn dragging_orbits_at_half_resolution_on_a_slow_gpu_then_draws_full() {
+    let mut harness = harness();
+    let full = harness.state().pane_sizes()[0];
+    let azimuth = harness.state().settings.camera.azimuth_deg;
+    // The middle of the central panel.
+    let center = egui::pos2(640.0, 420.0);
+    harness.hover_at(center);
+    harness.step();
+    harness.drag_at(center);
+    harness.step();
+    for dx in [10.0, 30.0, 50.0, 70.0] {
+        harness.hover_at(center + egui::vec2(dx, 0.0));
+        harness.step();
+    }
+    let moving = harness.state().pane_sizes()[0];
+    // lavapipe takes far more than 20 ms per frame.
+    assert_eq!(
+        moving,
+        [full[0].div_ceil(2), full[1].div_ceil(2)].map(|v| v.max(1)),
+        "half size while moving (full {full:?})"
+    );
+    assert!(
+        harness.state().settings.camera.azimuth_deg != azimuth,
+        "the drag orbits"
+    );
+    harness.drop_at(center + egui::vec2(70.0, 0.0));
+    settle(&mut harness);
+    assert_eq!(harness.state().pane_sizes()[0], full);
+}

@@ -79,6 +79,11 @@ pub fn show(ui: &mut Ui, settings: &mut AppSettings, max_level: &mut u32, facts:
     if settings.heatmap {
         heatmap_legend(ui);
     }
+    ui.checkbox(
+        &mut settings.fast_interaction,
+        "Half resolution while moving",
+    )
+    .on_hover_text("When a frame takes over 20 ms, draw at half resolution while the camera moves");
     ui.checkbox(&mut settings.continuous, "Redraw every frame")
         .on_hover_text(
             "Measure sustained frame rate; otherwise the view is drawn only when something changes",

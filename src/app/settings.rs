@@ -81,6 +81,8 @@ pub struct AppSettings {
     pub layout: Layout,
     /// Panes of the level grid, 2…6.
     pub grid_panes: usize,
+    /// Draw at half resolution while the camera moves, when frames are slow.
+    pub fast_interaction: bool,
     /// Re-render every frame (to watch sustained frame rate) instead of only on change.
     pub continuous: bool,
     pub show_transfer_panel: bool,
@@ -113,6 +115,7 @@ impl Default for AppSettings {
             camera: Camera::default(),
             layout: Layout::Single,
             grid_panes: 4,
+            fast_interaction: true,
             continuous: false,
             show_transfer_panel: true,
             show_octree_panel: true,

@@ -76,6 +76,8 @@ pub struct VoxscopeApp {
     path_text: String,
     /// The scene serial whose first drawing was logged.
     logged_scene: u64,
+    /// True while the camera is being moved (drag or wheel), as of the last frame.
+    interacting: bool,
 }
 
 impl VoxscopeApp {
@@ -121,6 +123,7 @@ impl VoxscopeApp {
             dialog: None,
             path_text: String::new(),
             logged_scene: 0,
+            interacting: false,
         };
         if app.gpu.is_none() {
             app.fail(
@@ -181,6 +184,14 @@ impl VoxscopeApp {
         self.scene
             .as_ref()
             .map(|s| (s.data.volume.name.as_str(), s.data.octree.depth))
+    }
+
+    /// Pixel sizes of the panes' render targets.
+    pub fn pane_sizes(&self) -> Vec<[u32; 2]> {
+        self.panes
+            .iter()
+            .filter_map(|p| p.target.as_ref().map(|t| [t.width, t.height]))
+            .collect()
     }
 
     /// The renderer drawing the volume on screen.
@@ -707,12 +718,22 @@ impl VoxscopeApp {
                 pane.release(&mut egui_renderer);
             }
             self.panes.resize_with(count, Pane::default);
+            // While the camera moves on a slow GPU, draw at half resolution (as ParaView's
+            // interactive LOD does); the full image follows when the motion stops.
+            let slow = self
+                .last_report
+                .is_none_or(|r| r.gpu_ms.is_none_or(|ms| ms > 20.0));
+            let scale = if self.interacting && slow && self.settings.fast_interaction {
+                0.5
+            } else {
+                1.0
+            };
             if self.scene.is_some() {
                 for (pane, rect) in self.panes.iter_mut().zip(&rects) {
                     pane.ensure_size(
                         &gpu.context,
                         &mut egui_renderer,
-                        viewport::pixel_size(*rect, ppp),
+                        viewport::pixel_size(*rect, ppp * scale),
                     );
                 }
             }
@@ -721,6 +742,8 @@ impl VoxscopeApp {
             let v = &s.data.volume;
             std::array::from_fn(|a| v.dims[a] as f64 * v.spacing[a])
         });
+        let was_interacting = self.interacting;
+        self.interacting = false;
         for (index, rect) in rects.iter().enumerate() {
             let response = ui
                 .scope_builder(UiBuilder::new().max_rect(*rect), |ui| {
@@ -731,9 +754,15 @@ impl VoxscopeApp {
                 self.panes[index].paint(ui, *rect);
             }
             if let Some(extent) = extent {
-                viewport::control_camera(&mut self.settings.camera, &response, ui, extent);
+                let moved =
+                    viewport::control_camera(&mut self.settings.camera, &response, ui, extent);
+                self.interacting |= moved || response.dragged();
             }
             self.pane_label(ui, index, *rect);
+        }
+        if was_interacting && !self.interacting {
+            // Motion ended: one more frame draws the full-resolution image.
+            ui.ctx().request_repaint();
         }
         if let Some(rect) = rects.first() {
             let oriented = self.scene.as_ref().is_some_and(|s| {
