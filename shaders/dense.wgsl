@@ -29,41 +29,27 @@ fn march(origin: vec3<f32>, dir: vec3<f32>) -> MarchResult {
     }
     // One voxel per step.
     let step = 1.0 / length(dir);
-    let mip = params.mode == MODE_MIP;
-    var color = vec3<f32>(0.0);
-    var alpha = 0.0;
-    var running_max = 0u;
-    // Sample k sits at t_enter + (k + 0.5) · step (as in the bricks renderer, sample for sample).
-    for (var k = 0.0; ; k += 1.0) {
-        let t = t_enter + (k + 0.5) * step;
-        if t >= t_leave {
+    var acc = Accumulation(vec3<f32>(0.0), 0.0, 0u, false);
+    // Sample k sits at t_enter + (k + 0.5) · step (as in the bricks renderer, sample for sample),
+    // fetched BATCH at a time.
+    for (var k = 0.0; ; k += f32(BATCH)) {
+        let t = t_enter + (vec4<f32>(k) + BATCH_OFFSETS) * step;
+        let count = count_before(t, t_leave);
+        if count == 0u {
             break;
         }
-        let position = origin + t * dir;
-        let level = textureSampleLevel(levels, level_sampler, position / dims, 0.0).r;
-        let index = u32(clamp(round(level * params.atlas_scale), 0.0, 65535.0));
-        result.samples += 1u;
-        if mip {
-            running_max = max(running_max, index);
-            if running_max >= params.mip_saturation {
-                break;
-            }
-        } else {
-            let rgba = unpack4x8unorm(lookup_table[index]);
-            // A step is one voxel long, so opacity correction leaves alpha as it is.
-            let a = min(rgba.a * params.density, 1.0);
-            color += (1.0 - alpha) * a * rgba.rgb;
-            alpha += (1.0 - alpha) * a;
-            if alpha >= EARLY_TERMINATION_ALPHA {
-                break;
-            }
+        let batch_levels = vec4<u32>(
+            value_index(textureSampleLevel(levels, level_sampler, (origin + t.x * dir) / dims, 0.0).r),
+            value_index(textureSampleLevel(levels, level_sampler, (origin + t.y * dir) / dims, 0.0).r),
+            value_index(textureSampleLevel(levels, level_sampler, (origin + t.z * dir) / dims, 0.0).r),
+            value_index(textureSampleLevel(levels, level_sampler, (origin + t.w * dir) / dims, 0.0).r),
+        );
+        result.samples += accumulate(&acc, batch_levels, count);
+        if acc.done || count < BATCH {
+            break;
         }
     }
-    if mip {
-        result.color = unpack4x8unorm(lookup_table[running_max]).rgb;
-    } else {
-        result.color = color;
-    }
+    result.color = final_color(acc);
     return result;
 }
 

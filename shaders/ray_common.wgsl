@@ -78,6 +78,70 @@ fn volume_interval(origin: vec3<f32>, inv: vec3<f32>) -> vec2<f32> {
     return vec2<f32>(max(max_component(min(t_low, t_high)), 0.0), min_component(max(t_low, t_high)));
 }
 
+// Samples are fetched four at a time: their texture reads do not depend on each other, so a
+// ray waits for one memory latency per four samples instead of one per sample (the frame is
+// bound by its longest rays' chains of dependent reads: docs/benchmarks.md, attempt 7).
+const BATCH: u32 = 4u;
+const BATCH_OFFSETS: vec4<f32> = vec4<f32>(0.5, 1.5, 2.5, 3.5);
+
+// A ray's front-to-back state: DVR color and opacity, or the MIP running maximum.
+struct Accumulation {
+    color: vec3<f32>,
+    alpha: f32,
+    running_max: u32,
+    // Opaque (DVR) or saturated (MIP): nothing behind can change the pixel.
+    done: bool,
+}
+
+// Takes the first `count` of four value levels in order along the ray, as one-voxel samples,
+// and returns how many it took before the ray was done. The four lookups are issued before
+// any is blended, for the same reason as the batched fetches.
+fn accumulate(acc: ptr<function, Accumulation>, levels: vec4<u32>, count: u32) -> u32 {
+    if params.mode == MODE_MIP {
+        for (var j = 0u; j < count; j++) {
+            (*acc).running_max = max((*acc).running_max, levels[j]);
+            if (*acc).running_max >= params.mip_saturation {
+                (*acc).done = true;
+                return j + 1u;
+            }
+        }
+        return count;
+    }
+    let colors = vec4<u32>(lookup_table[levels.x], lookup_table[levels.y],
+                           lookup_table[levels.z], lookup_table[levels.w]);
+    for (var j = 0u; j < count; j++) {
+        let rgba = unpack4x8unorm(colors[j]);
+        // A step is one voxel long, so opacity correction leaves alpha as it is.
+        let a = min(rgba.a * params.density, 1.0);
+        (*acc).color += (1.0 - (*acc).alpha) * a * rgba.rgb;
+        (*acc).alpha += (1.0 - (*acc).alpha) * a;
+        if (*acc).alpha >= EARLY_TERMINATION_ALPHA {
+            (*acc).done = true;
+            return j + 1u;
+        }
+    }
+    return count;
+}
+
+// How many of the four sample distances `t` lie before `t_end`.
+fn count_before(t: vec4<f32>, t_end: f32) -> u32 {
+    let inside = select(vec4<u32>(0u), vec4<u32>(1u), t < vec4<f32>(t_end));
+    return inside.x + inside.y + inside.z + inside.w;
+}
+
+// A texel of value levels (0…1 in the texture) as a lookup-table index.
+fn value_index(texel: f32) -> u32 {
+    return u32(clamp(round(texel * params.atlas_scale), 0.0, 65535.0));
+}
+
+// The pixel's color once the ray is finished: blended over black, or the MIP's color.
+fn final_color(acc: Accumulation) -> vec3<f32> {
+    if params.mode == MODE_MIP {
+        return unpack4x8unorm(lookup_table[acc.running_max]).rgb;
+    }
+    return acc.color;
+}
+
 // Writes a pixel: the color, or the heat map of `work` (nodes or samples) when asked.
 fn write_pixel(id: vec2<u32>, color: vec3<f32>, work: u32) {
     var rgb = color;

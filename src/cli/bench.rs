@@ -59,6 +59,9 @@ pub struct BenchResult {
     /// Over rays that enter the volume, sampled from four azimuths.
     pub nodes_per_ray_avg: f64,
     pub nodes_per_ray_max: u32,
+    /// Work done ÷ work the warps pay for: each 8×4-pixel warp of an 8×8 workgroup runs as long
+    /// as its longest ray, so 1 means no divergence.
+    pub simd_efficiency: f64,
 }
 
 /// The paper's three cases: near, medium and far, in bounding-sphere radii.
@@ -101,6 +104,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
     };
     let mut results = Vec::new();
     let mut recolor_ms = serde_json::Map::new();
+    let mut recolor_wall_ms = serde_json::Map::new();
     let mut gpu_bytes = serde_json::Map::new();
     for kind in kinds {
         let mut renderer = VolumeRenderer::new(
@@ -122,14 +126,11 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
             .map(|(name, bytes)| (name.to_owned(), bytes.into()))
             .collect();
         gpu_bytes.insert(kind.name().to_owned(), buffers.into());
-        let mut edit_ms = Vec::new();
+        let (mut edit_gpu_ms, mut edit_wall_ms) = (Vec::new(), Vec::new());
         for (mode_name, transfer, mode) in modes {
-            edit_ms.extend(time_transfer_edits(
-                &context,
-                &mut renderer,
-                &transfer,
-                timer.as_ref(),
-            )?);
+            let edits = time_transfer_edits(&context, &mut renderer, &transfer, timer.as_ref())?;
+            edit_gpu_ms.extend(edits.gpu.unwrap_or_default());
+            edit_wall_ms.extend(edits.wall);
             let settings = RenderSettings {
                 mode,
                 density: args.density,
@@ -147,7 +148,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
                     settings: &settings,
                 };
                 let times = time_frames(&context, &view, args.frames, timer.as_ref())?;
-                let (nodes_avg, nodes_max) = sample_visits(&context, &view)?;
+                let work = sample_visits(&context, &view)?;
                 let median = percentile(&times, 50.0);
                 results.push(BenchResult {
                     renderer: kind.name(),
@@ -157,12 +158,23 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
                     p95_ms: percentile(&times, 95.0),
                     fps: 1000.0 / median,
                     rays_per_s: (target.width as f64 * target.height as f64) / (median * 1e-3),
-                    nodes_per_ray_avg: nodes_avg,
-                    nodes_per_ray_max: nodes_max,
+                    nodes_per_ray_avg: work.average,
+                    nodes_per_ray_max: work.max,
+                    simd_efficiency: work.simd_efficiency,
                 });
             }
         }
-        recolor_ms.insert(kind.name().to_owned(), percentile(&edit_ms, 50.0).into());
+        // GPU time where the renderer recolors on the GPU with timestamps, else wall time.
+        let edit_ms = if edit_gpu_ms.is_empty() {
+            &edit_wall_ms
+        } else {
+            &edit_gpu_ms
+        };
+        recolor_ms.insert(kind.name().to_owned(), percentile(edit_ms, 50.0).into());
+        recolor_wall_ms.insert(
+            kind.name().to_owned(),
+            percentile(&edit_wall_ms, 50.0).into(),
+        );
     }
     gpu_bytes.insert(
         "target".into(),
@@ -185,6 +197,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
         "results": results,
         "build_seconds": prepared.octree.build_seconds,
         "recolor_ms": recolor_ms,
+        "recolor_wall_ms": recolor_wall_ms,
         "brick_size": args.brick_size,
         "recolor_cpu_ms": prepared.recolor_time.as_secs_f64() * 1e3,
         "gpu_bytes": gpu_bytes,
@@ -263,10 +276,20 @@ fn wait(context: &GpuContext) -> Result<(), String> {
         .map_err(|e| format!("GPU wait failed: {e}"))
 }
 
-/// Average and largest nodes (octree) or samples (dense) per ray that enters the volume, over
-/// four azimuths.
-fn sample_visits(context: &GpuContext, view: &View<'_>) -> Result<(f64, u32), String> {
-    let (mut sum, mut rays, mut max) = (0u64, 0u64, 0u32);
+/// Work per ray over four azimuths: nodes (octree), samples (dense) or both (bricks).
+struct RayWork {
+    /// Average over rays that enter the volume.
+    average: f64,
+    max: u32,
+    simd_efficiency: f64,
+}
+
+/// The pixels one warp of 32 invocations covers: 4 rows of an 8×8 workgroup.
+const WARP_TILE: (usize, usize) = (8, 4);
+
+fn sample_visits(context: &GpuContext, view: &View<'_>) -> Result<RayWork, String> {
+    let (mut sum, mut rays, mut max, mut paid) = (0u64, 0u64, 0u32, 0u64);
+    let (width, height) = (view.target.width as usize, view.target.height as usize);
     for quarter in 0..4 {
         let camera = Camera {
             azimuth_deg: view.camera.azimuth_deg + 90.0 * quarter as f64,
@@ -274,33 +297,67 @@ fn sample_visits(context: &GpuContext, view: &View<'_>) -> Result<(f64, u32), St
         };
         view.renderer
             .render(context, view.target, &camera, view.settings);
-        for visits in read_visits(context, view.target).map_err(|e| e.to_string())? {
-            if visits > 0 {
-                sum += visits as u64;
-                rays += 1;
-                max = max.max(visits);
-            }
+        let visits = read_visits(context, view.target).map_err(|e| e.to_string())?;
+        for &work in visits.iter().filter(|&&work| work > 0) {
+            sum += work as u64;
+            rays += 1;
+            max = max.max(work);
         }
+        paid += warp_cost(&visits, width, height);
     }
-    Ok((
-        if rays > 0 {
+    Ok(RayWork {
+        average: if rays > 0 {
             sum as f64 / rays as f64
         } else {
             0.0
         },
         max,
-    ))
+        simd_efficiency: if paid > 0 {
+            sum as f64 / paid as f64
+        } else {
+            1.0
+        },
+    })
 }
 
-/// Applies `transfer` `RECOLOR_RUNS` times; milliseconds of each (GPU time of the recolor for
-/// the octree and bricks; for dense, which only rewrites its lookup table, wall time).
+/// The work the warps pay for: per warp tile, its longest ray times the lanes.
+fn warp_cost(visits: &[u32], width: usize, height: usize) -> u64 {
+    let (tile_width, tile_height) = WARP_TILE;
+    let mut paid = 0u64;
+    for tile_y in (0..height).step_by(tile_height) {
+        for tile_x in (0..width).step_by(tile_width) {
+            let longest = (tile_y..(tile_y + tile_height).min(height))
+                .flat_map(|y| {
+                    let row = y * width;
+                    visits[row + tile_x..row + (tile_x + tile_width).min(width)].iter()
+                })
+                .max()
+                .copied()
+                .unwrap_or(0);
+            paid += longest as u64 * (tile_width * tile_height) as u64;
+        }
+    }
+    paid
+}
+
+/// Milliseconds of each transfer edit.
+struct EditTimes {
+    /// GPU time of the recolor passes (octree and bricks, with timestamps); the dense renderer
+    /// only rewrites its lookup table and has none.
+    gpu: Option<Vec<f64>>,
+    /// Wall time from encoding to the device's idle: what a blocking edit would cost.
+    wall: Vec<f64>,
+}
+
+/// Applies `transfer` `RECOLOR_RUNS` times.
 fn time_transfer_edits(
     context: &GpuContext,
     renderer: &mut VolumeRenderer,
     transfer: &TransferFunction,
     timer: Option<&GpuTimer>,
-) -> Result<Vec<f64>, String> {
-    let mut times = Vec::new();
+) -> Result<EditTimes, String> {
+    let timer = timer.filter(|_| renderer.kind() != RendererKind::Dense);
+    let mut wall = Vec::new();
     for run in 0..RECOLOR_RUNS {
         let started = Instant::now();
         let mut encoder = context
@@ -308,25 +365,25 @@ fn time_transfer_edits(
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("voxscope::bench_transfer_edit"),
             });
-        let writes = timer
-            .filter(|_| renderer.kind() == RendererKind::Octree)
-            .map(|t| t.pass_writes(run));
         renderer
-            .set_transfer(context, &mut encoder, transfer, writes)
+            .set_transfer(
+                context,
+                &mut encoder,
+                transfer,
+                timer.map(|t| t.pass_writes(run)),
+            )
             .map_err(|e| e.to_string())?;
         context.queue.submit([encoder.finish()]);
         wait(context)?;
-        times.push(started.elapsed().as_secs_f64() * 1e3);
+        wall.push(started.elapsed().as_secs_f64() * 1e3);
     }
-    match timer {
-        Some(timer) if renderer.kind() == RendererKind::Octree => timer
-            .read_ms(context, RECOLOR_RUNS)
-            .map_err(|e| e.to_string()),
-        _ => Ok(times),
-    }
+    let gpu = timer
+        .map(|timer| timer.read_ms(context, RECOLOR_RUNS))
+        .transpose()
+        .map_err(|e| e.to_string())?;
+    Ok(EditTimes { gpu, wall })
 }
 
-/// The `p`-th percentile (nearest rank) of `values`.
 fn percentile(values: &[f64], p: f64) -> f64 {
     if values.is_empty() {
         return f64::NAN;
@@ -352,7 +409,7 @@ fn print_table(report: &serde_json::Value, results: &[BenchResult]) {
         report["volume"]["file"], report["volume"]["octree_nodes"]
     );
     println!(
-        "{:<8} {:<11} {:<7} {:>10} {:>10} {:>9} {:>12} {:>11} {:>10}",
+        "{:<8} {:<11} {:<7} {:>10} {:>10} {:>9} {:>12} {:>11} {:>10} {:>6}",
         "renderer",
         "mode",
         "camera",
@@ -361,11 +418,12 @@ fn print_table(report: &serde_json::Value, results: &[BenchResult]) {
         "fps",
         "Mrays/s",
         "nodes/ray",
-        "max nodes"
+        "max nodes",
+        "SIMD"
     );
     for r in results {
         println!(
-            "{:<8} {:<11} {:<7} {:>10.3} {:>10.3} {:>9.1} {:>12.1} {:>11.1} {:>10}",
+            "{:<8} {:<11} {:<7} {:>10.3} {:>10.3} {:>9.1} {:>12.1} {:>11.1} {:>10} {:>6.2}",
             r.renderer,
             r.mode,
             r.camera,
@@ -374,7 +432,8 @@ fn print_table(report: &serde_json::Value, results: &[BenchResult]) {
             r.fps,
             r.rays_per_s / 1e6,
             r.nodes_per_ray_avg,
-            r.nodes_per_ray_max
+            r.nodes_per_ray_max,
+            r.simd_efficiency
         );
     }
     println!(
@@ -396,7 +455,19 @@ fn total_bytes(value: &serde_json::Value) -> f64 {
 
 #[cfg(test)]
 mod tests {
-    use super::percentile;
+    use super::{percentile, warp_cost};
+
+    #[test]
+    fn warps_pay_for_their_longest_ray() {
+        // 16×4 pixels: two warp tiles. The left one has one ray of 10, the right one is empty.
+        let mut visits = vec![0u32; 16 * 4];
+        visits[3 * 16 + 2] = 10;
+        assert_eq!(warp_cost(&visits, 16, 4), 10 * 32);
+        // Uniform work costs what it does.
+        assert_eq!(warp_cost(&[7; 16 * 4], 16, 4), 7 * 64);
+        // A partial tile at the edge pays for its lanes as if full.
+        assert_eq!(warp_cost(&[1; 9], 9, 1), 64);
+    }
 
     #[test]
     fn percentiles_are_nearest_rank() {

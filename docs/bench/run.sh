@@ -1,0 +1,58 @@
+#!/usr/bin/env bash
+# One benchmark run on the lent GPU machine (docs/benchmarks.md), from the repository root there.
+# It builds nothing: it expects, carried beside the checkout (both ignored by git),
+#   .gl/     the Vulkan loader's .deb files (device README), unpacked into / here;
+#   .bench/  voxscope (a stripped release binary), optionally voxscope-base (the binary to
+#            compare against), and the volumes below.
+# Usage: bash docs/bench/run.sh RUN_NAME   (JSON files go to $OUT, named RUN_NAME-…)
+set -uo pipefail
+run=${1:?usage: run.sh RUN_NAME}
+out=${OUT:-/tmp/voxscope-bench}
+mkdir -p "$out"
+for deb in .gl/*.deb; do dpkg -x "$deb" /; done
+ldconfig
+export WGPU_BACKEND=vulkan
+if ! ldconfig -p | grep libvulkan >/dev/null; then echo "no Vulkan loader"; exit 1; fi
+if [ ! -e /usr/share/vulkan/icd.d/nvidia_icd.json ]; then
+    export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
+fi
+nvidia-smi --query-gpu=name,driver_version,clocks.sm,clocks.max.sm,temperature.gpu --format=csv
+
+head=.bench/mri-head-256.nii.gz
+mni=.bench/mni152-t1-197x233x189.nii.gz
+bench() { # NAME BINARY ARGS…
+    local name=$1 binary=$2
+    shift 2
+    [ -x "$binary" ] || return 0
+    echo "== $name: $binary $*"
+    local started=$SECONDS
+    if "$binary" bench "$@" --json >"$out/$run-$name.json" 2>"$out/$run-$name.err"; then
+        echo "   $((SECONDS - started)) s"
+    else
+        echo "   FAILED: $(tail -3 "$out/$run-$name.err")"
+    fi
+    [ -s "$out/$run-$name.err" ] || rm -f "$out/$run-$name.err"
+}
+
+bench head256 .bench/voxscope "$head"
+bench head256-base .bench/voxscope-base "$head"
+# Few rays, all in flight at once: the frame takes as long as the longest ray's chain.
+bench head256-64x48 .bench/voxscope "$head" --size 64x48
+bench head256-64x48-base .bench/voxscope-base "$head" --size 64x48
+bench mni152 .bench/voxscope "$mni"
+bench gradient1024-bricks .bench/voxscope synthetic:gradient:1024 --renderer bricks --frames 50
+bench gradient1024-dense .bench/voxscope synthetic:gradient:1024 --renderer dense --frames 50
+
+# A short table for the reply: renderer, mode, camera, median ms of each JSON.
+python3 - "$out" "$run" <<'EOF'
+import json, pathlib, sys
+out, run = pathlib.Path(sys.argv[1]), sys.argv[2]
+for path in sorted(out.glob(f"{run}-*.json")):
+    report = json.loads(path.read_text())
+    rows = {}
+    for r in report["results"]:
+        rows.setdefault((r["renderer"], r["mode"]), []).append(f'{r["median_ms"]:.3f}')
+    print(path.name, report["adapter"], report.get("driver", ""))
+    for (renderer, mode), times in rows.items():
+        print(f"  {renderer:7} {mode:11} " + " / ".join(times))
+EOF
