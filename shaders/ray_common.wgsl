@@ -20,6 +20,7 @@ struct Params {
     brick_size: u32,        // voxels along a brick's side
     atlas_scale: f32,       // atlas texel value × this = value level (255 for unorm8, 1 for f16)
     atlas_grid: vec4<u32>,  // xyz: bricks along each atlas axis
+    brick_grid: vec4<u32>,  // xyz: brick cells along each volume axis (the walked grid)
 }
 
 const MODE_DVR: u32 = 0u;

@@ -26,6 +26,10 @@ const MAX_STEPS: u32 = 100000u;
 // The bricks renderer's atlas of value levels (a 1-texel stand-in for the plain octree).
 @group(0) @binding(6) var atlas: texture_3d<f32>;
 @group(0) @binding(7) var atlas_sampler: sampler;
+// The bricks renderer's grid of brick cells, x fastest (src/render/bricks.rs): per cell, a copy
+// of the node covering it (color, first_child) and its value bounds (`brick_grid.wgsl`), and
+// the atlas cell of its brick, packed ten bits per axis.
+@group(0) @binding(8) var<storage, read> brick_grid: array<vec4<u32>>;
 
 // A node's corner: integer voxel coordinates below the octree side (≤ 1024, MAX_DEPTH 10),
 // ten bits each.
@@ -38,13 +42,67 @@ fn unpack_corner(packed: u32) -> vec3<f32> {
     return vec3<f32>(vec3<u32>(packed & 0x3ffu, (packed >> 10u) & 0x3ffu, packed >> 20u));
 }
 
+// Invocations per workgroup (`@workgroup_size` below; 8×8, src/render/pipeline.rs).
+const WORKGROUP: u32 = 64u;
+
+// The traversal stack in workgroup memory, level-major: entry [level][lane] of invocation
+// `lane`, so the 32 lanes of a warp always fall in distinct banks whatever their levels.
+// Node index, packed corner, exit distance.
+var<workgroup> stack_node: array<array<u32, WORKGROUP>, STACK_SIZE>;
+var<workgroup> stack_corner: array<array<u32, WORKGROUP>, STACK_SIZE>;
+var<workgroup> stack_exit: array<array<f32, WORKGROUP>, STACK_SIZE>;
+
 struct RayResult {
     color: vec3<f32>,
     visited: u32,
 }
 
 
-fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32) -> RayResult {
+// Marches a brick from `t` to `t_out` in the atlas with hardware trilinear filtering, at the
+// dense renderer's sample distances t_enter + (k + ½)·step. `to_atlas` maps a voxel-space
+// point of this brick to its atlas texel (`brick_to_atlas`). Returns the samples taken.
+fn march_brick(acc: ptr<function, Accumulation>, origin: vec3<f32>, dir: vec3<f32>, t_enter: f32,
+               sample_step: f32, t: f32, t_out: f32, to_atlas: vec3<f32>) -> u32 {
+    // Texel coordinates to normalized ones (no texture query: its latency would sit in every
+    // brick's chain).
+    let atlas_scale = 1.0 / vec3<f32>(params.atlas_grid.xyz * (params.brick_size + 2u));
+    var taken = 0u;
+    var k = max(ceil((t - t_enter) / sample_step - 0.5), 0.0);
+    loop {
+        let ts = t_enter + (vec4<f32>(k) + BATCH_OFFSETS) * sample_step;
+        let count = count_before(ts, t_out);
+        if count == 0u {
+            break;
+        }
+        let batch_levels = vec4<u32>(
+            value_index(textureSampleLevel(atlas, atlas_sampler, (origin + ts.x * dir + to_atlas) * atlas_scale, 0.0).r),
+            value_index(textureSampleLevel(atlas, atlas_sampler, (origin + ts.y * dir + to_atlas) * atlas_scale, 0.0).r),
+            value_index(textureSampleLevel(atlas, atlas_sampler, (origin + ts.z * dir + to_atlas) * atlas_scale, 0.0).r),
+            value_index(textureSampleLevel(atlas, atlas_sampler, (origin + ts.w * dir + to_atlas) * atlas_scale, 0.0).r),
+        );
+        taken += accumulate(acc, batch_levels, count);
+        if (*acc).done || count < BATCH {
+            break;
+        }
+        k += f32(BATCH);
+    }
+    return taken;
+}
+
+// The offset from voxel space to atlas texels of the brick whose first voxel is `corner` and
+// whose atlas cell is packed in `atlas_cell` (ten bits per axis).
+fn brick_to_atlas(atlas_cell: u32, corner: vec3<f32>) -> vec3<f32> {
+    let cell = vec3<u32>(atlas_cell & 0x3ffu, (atlas_cell >> 10u) & 0x3ffu, atlas_cell >> 20u);
+    return vec3<f32>(cell * (params.brick_size + 2u)) + 1.0 - corner;
+}
+
+// A brick slot's atlas cell, packed as `brick_to_atlas` reads it.
+fn atlas_cell_of_slot(slot: u32) -> u32 {
+    let grid = params.atlas_grid.xyz;
+    return (slot % grid.x) | (((slot / grid.x) % grid.y) << 10u) | ((slot / (grid.x * grid.y)) << 20u);
+}
+
+fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, lane: u32) -> RayResult {
     var result = RayResult(vec3<f32>(0.0), 0u);
     let inv = safe_inverse(dir);
     let positive = inv >= vec3<f32>(0.0);
@@ -66,21 +124,17 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32) -> RayResult 
     let probe_step = 1e-3 / max(voxels_per_t, 1e-20);
     // Bricks are sampled once per voxel of path, at the same places as the dense renderer.
     let sample_step = 1.0 / max(voxels_per_t, 1e-20);
-    let atlas_texels = vec3<f32>(textureDimensions(atlas));
 
     // The path from the root; entry `level` is the current node, also kept in registers
     // (`node_index`, `corner`, `t_out`) so that a descent step waits on one node read alone.
-    // Three words a level, the corner packed: local memory traffic, more than node reads,
-    // bounds this loop (docs/benchmarks.md, attempts 8–11).
-    var stack_node: array<u32, STACK_SIZE>;
-    var stack_corner: array<u32, STACK_SIZE>; // pack_corner
-    var stack_exit: array<f32, STACK_SIZE>;
+    // Three words a level, the corner packed, in this invocation's slice of workgroup memory:
+    // stack traffic, more than node reads, bounds this loop (docs/benchmarks.md, attempts 8–12).
     var node_index = 0u;
     var corner = vec3<f32>(0.0);
     var t_out = min(min_component((select(vec3<f32>(0.0), vec3<f32>(side), positive) - origin) * inv), t_leave);
-    stack_node[0] = node_index;
-    stack_corner[0] = 0u;
-    stack_exit[0] = t_out;
+    stack_node[0][lane] = node_index;
+    stack_corner[0][lane] = 0u;
+    stack_exit[0][lane] = t_out;
     var level = 0u;
     var t = t_enter;
 
@@ -90,16 +144,16 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32) -> RayResult 
         let probe = t + max(probe_step, abs(t) * 5e-7);
         // Pop the nodes the ray has left, back to the deepest one still ahead.
         if t_out <= probe {
-            while level > 0u && stack_exit[level - 1u] <= probe {
+            while level > 0u && stack_exit[level - 1u][lane] <= probe {
                 level -= 1u;
             }
             if level == 0u {
                 break; // left the root: done
             }
             level -= 1u;
-            node_index = stack_node[level];
-            corner = unpack_corner(stack_corner[level]);
-            t_out = stack_exit[level];
+            node_index = stack_node[level][lane];
+            corner = unpack_corner(stack_corner[level][lane]);
+            t_out = stack_exit[level][lane];
         }
         // Descend from the deepest node still ahead until a node is composited or skipped.
         loop {
@@ -126,30 +180,9 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32) -> RayResult 
             let cut = node.first_child == LEAF || level >= params.max_level
                 || (use_lod && size <= t * lod_per_t);
             if !cut && level == params.brick_level && (node.first_child & BRICK_FLAG) != 0u {
-                // A brick: march its voxels in the atlas with hardware trilinear filtering.
-                let slot = node.first_child & ~BRICK_FLAG;
-                let grid = params.atlas_grid.xyz;
-                let cell = vec3<u32>(slot % grid.x, (slot / grid.x) % grid.y, slot / (grid.x * grid.y));
-                let brick_texel = vec3<f32>(cell) * f32(params.brick_size + 2u) + 1.0;
-                var k = max(ceil((t - t_enter) / sample_step - 0.5), 0.0);
-                loop {
-                    let ts = t_enter + (vec4<f32>(k) + BATCH_OFFSETS) * sample_step;
-                    let count = count_before(ts, t_out);
-                    if count == 0u {
-                        break;
-                    }
-                    let batch_levels = vec4<u32>(
-                        value_index(textureSampleLevel(atlas, atlas_sampler, (brick_texel + (origin + ts.x * dir - corner)) / atlas_texels, 0.0).r),
-                        value_index(textureSampleLevel(atlas, atlas_sampler, (brick_texel + (origin + ts.y * dir - corner)) / atlas_texels, 0.0).r),
-                        value_index(textureSampleLevel(atlas, atlas_sampler, (brick_texel + (origin + ts.z * dir - corner)) / atlas_texels, 0.0).r),
-                        value_index(textureSampleLevel(atlas, atlas_sampler, (brick_texel + (origin + ts.w * dir - corner)) / atlas_texels, 0.0).r),
-                    );
-                    result.visited += accumulate(&acc, batch_levels, count);
-                    if acc.done || count < BATCH {
-                        break;
-                    }
-                    k += f32(BATCH);
-                }
+                let to_atlas = brick_to_atlas(atlas_cell_of_slot(node.first_child & ~BRICK_FLAG), corner);
+                result.visited += march_brick(&acc, origin, dir, t_enter, sample_step, t, t_out,
+                                              to_atlas);
                 t = max(t_out, probe);
                 break;
             }
@@ -179,9 +212,9 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32) -> RayResult 
             node_index = node.first_child + select(0u, 1u, upper.x) + select(0u, 2u, upper.y)
                 + select(0u, 4u, upper.z);
             level += 1u;
-            stack_node[level] = node_index;
-            stack_corner[level] = pack_corner(corner);
-            stack_exit[level] = t_out;
+            stack_node[level][lane] = node_index;
+            stack_corner[level][lane] = pack_corner(corner);
+            stack_exit[level][lane] = t_out;
         }
         if acc.alpha >= EARLY_TERMINATION_ALPHA || (mip && acc.running_max >= params.mip_saturation)
             || t >= t_leave {
@@ -192,12 +225,162 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32) -> RayResult 
     return result;
 }
 
+// A brick cell of the walk and the way out of it: where the ray leaves it, and the cell across
+// that exit (Amanatides & Woo: the nearest of the three exit planes).
+struct WalkCell {
+    cell: vec3<i32>,
+    // Ray distances to the cell's exit plane along each axis.
+    exits: vec3<f32>,
+    // Where the ray leaves the cell (or the volume).
+    t_out: f32,
+    next: vec3<i32>,
+    next_exits: vec3<f32>,
+    // The ray ends in this cell.
+    last: bool,
+}
+
+fn walk_cell(cell: vec3<i32>, exits: vec3<f32>, t_leave: f32, step: vec3<i32>, cell_span: vec3<f32>) -> WalkCell {
+    var axis = vec3<bool>(false, false, true);
+    if exits.x <= exits.y && exits.x <= exits.z {
+        axis = vec3<bool>(true, false, false);
+    } else if exits.y <= exits.z {
+        axis = vec3<bool>(false, true, false);
+    }
+    let next = cell + select(vec3<i32>(0), step, axis);
+    let t_out = min(min_component(exits), t_leave);
+    let grid = vec3<i32>(params.brick_grid.xyz);
+    let last = t_out >= t_leave || any(next < vec3<i32>(0)) || any(next >= grid);
+    return WalkCell(cell, exits, t_out, next, exits + select(vec3<f32>(0.0), cell_span, axis), last);
+}
+
+// The bricks renderer at full detail: instead of popping and descending the tree at every
+// brick, the ray walks the grid of brick cells (Amanatides & Woo at brick resolution). Each cell
+// costs one 16-byte read, issued a cell ahead so that it overlaps the marching of the current
+// cell; a cell whose node is transparent (DVR) or cannot raise the maximum (MIP) is skipped.
+// One flat loop, a batch of samples per iteration (moving to the next cell first when the last
+// batch reached the current one's exit): the lanes of a warp leave their cells at different
+// samples, and nested cell and sample loops would make each wait for the others at every cell.
+// The samples are the dense renderer's (t_enter + (k + ½)·step), as in `march_brick`.
+fn walk_bricks(origin: vec3<f32>, dir: vec3<f32>) -> RayResult {
+    var result = RayResult(vec3<f32>(0.0), 0u);
+    let inv = safe_inverse(dir);
+    let positive = inv >= vec3<f32>(0.0);
+    let interval = volume_interval(origin, inv);
+    let t_enter = interval.x;
+    let t_leave = interval.y;
+    if t_enter >= t_leave {
+        return result;
+    }
+    let mip = params.mode == MODE_MIP;
+    let sample_step = 1.0 / max(length(dir), 1e-20);
+    let brick = f32(params.brick_size);
+    let grid = vec3<i32>(params.brick_grid.xyz);
+    let step = select(vec3<i32>(-1), vec3<i32>(1), positive);
+    let cell_span = brick * abs(inv);
+    let atlas_scale = 1.0 / vec3<f32>(params.atlas_grid.xyz * (params.brick_size + 2u));
+
+    let first = clamp(vec3<i32>(floor((origin + t_enter * dir) / brick)), vec3<i32>(0), grid - 1);
+    let first_exits = (vec3<f32>(first) * brick + select(vec3<f32>(0.0), vec3<f32>(brick), positive) - origin) * inv;
+    var here = walk_cell(first, first_exits, t_leave, step, cell_span);
+    var entry = brick_grid[grid_index(here.cell)];
+    var next_entry = brick_grid[grid_index(here.next)];
+    result.visited = 1u;
+    // Decided once per cell (MIP: against the maximum when the ray enters it).
+    var draw = draws_brick(entry, 0u);
+    var to_atlas = brick_to_atlas(entry.w, vec3<f32>(here.cell) * brick);
+    var k = 0.0;
+    var advance = false;
+    var acc = Accumulation(vec3<f32>(0.0), 0.0, 0u, false);
+    for (var i = 0u; i < MAX_STEPS; i++) {
+        if advance {
+            if here.last {
+                break;
+            }
+            here = walk_cell(here.next, here.next_exits, t_leave, step, cell_span);
+            entry = next_entry;
+            next_entry = brick_grid[grid_index(here.next)];
+            draw = draws_brick(entry, acc.running_max);
+            to_atlas = brick_to_atlas(entry.w, vec3<f32>(here.cell) * brick);
+            result.visited += 1u;
+            advance = false;
+        }
+        if draw {
+            let ts = t_enter + (vec4<f32>(k) + BATCH_OFFSETS) * sample_step;
+            let count = count_before(ts, here.t_out);
+            let batch_levels = vec4<u32>(
+                value_index(textureSampleLevel(atlas, atlas_sampler, (origin + ts.x * dir + to_atlas) * atlas_scale, 0.0).r),
+                value_index(textureSampleLevel(atlas, atlas_sampler, (origin + ts.y * dir + to_atlas) * atlas_scale, 0.0).r),
+                value_index(textureSampleLevel(atlas, atlas_sampler, (origin + ts.z * dir + to_atlas) * atlas_scale, 0.0).r),
+                value_index(textureSampleLevel(atlas, atlas_sampler, (origin + ts.w * dir + to_atlas) * atlas_scale, 0.0).r),
+            );
+            result.visited += accumulate(&acc, batch_levels, count);
+            k += f32(count);
+            advance = count < BATCH;
+        } else {
+            // Skipped, or a uniform region (a leaf above the bricks): its samples in one go.
+            let end = max(ceil((here.t_out - t_enter) / sample_step - 0.5), k);
+            if entry.y == LEAF && (entry.z & 0xffffu) <= (entry.z >> 16u) {
+                if mip {
+                    acc.running_max = max(acc.running_max, entry.z >> 16u);
+                    acc.done = acc.running_max >= params.mip_saturation;
+                } else if (entry.x >> 24u) != 0u {
+                    let rgba = unpack4x8unorm(entry.x);
+                    let a = 1.0 - pow(1.0 - min(rgba.a * params.density, 1.0), end - k);
+                    acc.color += (1.0 - acc.alpha) * a * rgba.rgb;
+                    acc.alpha += (1.0 - acc.alpha) * a;
+                    acc.done = acc.alpha >= EARLY_TERMINATION_ALPHA;
+                }
+            }
+            k = end;
+            advance = true;
+        }
+        if acc.done {
+            break;
+        }
+    }
+    result.color = final_color(acc);
+    return result;
+}
+
+// Whether a grid entry is a brick that can change the pixel: DVR, not transparent; MIP, its
+// maximum above the ray's so far.
+fn draws_brick(entry: vec4<u32>, running_max: u32) -> bool {
+    if entry.y == LEAF {
+        return false;
+    }
+    if params.mode == MODE_MIP {
+        return (entry.z >> 16u) > running_max;
+    }
+    return (entry.x >> 24u) != 0u;
+}
+
+// Index of a brick cell (clamped into the grid) in `brick_grid`.
+fn grid_index(cell: vec3<i32>) -> u32 {
+    let size = params.brick_grid.xyz;
+    let c = vec3<u32>(clamp(cell, vec3<i32>(0), vec3<i32>(size) - 1));
+    return c.x + size.x * (c.y + size.y * c.z);
+}
+
 @compute @workgroup_size(8, 8, 1)
-fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+fn main(@builtin(global_invocation_id) id: vec3<u32>,
+        @builtin(local_invocation_index) lane: u32) {
     if id.x >= params.image_size.x || id.y >= params.image_size.y {
         return;
     }
     let ray = pixel_ray(id.xy);
-    let result = trace_ray(params.eye.xyz, ray.dir, ray.world_length);
+    let result = trace_ray(params.eye.xyz, ray.dir, ray.world_length, lane);
+    write_pixel(id.xy, result.color, result.visited);
+}
+
+// Octrees with brick leaves when nothing may stop above the bricks (full level, no pixel
+// LOD; src/render/raycaster.rs decides): the grid walk. Its own pipeline, so it allocates no
+// workgroup memory for the tree's stack and keeps the whole L1 for texture reads.
+@compute @workgroup_size(8, 8, 1)
+fn main_bricks(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= params.image_size.x || id.y >= params.image_size.y {
+        return;
+    }
+    let ray = pixel_ray(id.xy);
+    let result = walk_bricks(params.eye.xyz, ray.dir);
     write_pixel(id.xy, result.color, result.visited);
 }

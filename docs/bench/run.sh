@@ -4,10 +4,11 @@
 #   .gl/     the Vulkan loader's .deb files (device README), unpacked into / here;
 #   .bench/  voxscope (a stripped release binary), optionally voxscope-base (the binary to
 #            compare against), and the volumes below.
-# Usage: bash docs/bench/run.sh RUN_NAME   (JSON files go to $OUT, named RUN_NAME-…)
+# Usage: bash docs/bench/run.sh RUN_NAME   (JSON files named RUN_NAME-… go to /tmp/voxscope-bench,
+# and, where $OUT is set (the device tool brings back at most 8 files), packed in $OUT/RUN_NAME.tar.gz)
 set -uo pipefail
 run=${1:?usage: run.sh RUN_NAME}
-out=${OUT:-/tmp/voxscope-bench}
+out=/tmp/voxscope-bench
 mkdir -p "$out"
 for deb in .gl/*.deb; do dpkg -x "$deb" /; done
 ldconfig
@@ -39,6 +40,9 @@ bench head256-base .bench/voxscope-base "$head"
 # Few rays, all in flight at once: the frame takes as long as the longest ray's chain.
 bench head256-64x48 .bench/voxscope "$head" --size 64x48
 bench head256-64x48-base .bench/voxscope-base "$head" --size 64x48
+# Brick size against the per-brick cost (runs 4-5 chose 32 when a brick cost a descent).
+bench head256-bricks-b16 .bench/voxscope "$head" --renderer bricks --brick-size 16
+bench head256-bricks-b8 .bench/voxscope "$head" --renderer bricks --brick-size 8
 bench mni152 .bench/voxscope "$mni"
 bench gradient1024-bricks .bench/voxscope synthetic:gradient:1024 --renderer bricks --frames 50
 bench gradient1024-dense .bench/voxscope synthetic:gradient:1024 --renderer dense --frames 50
@@ -56,3 +60,4 @@ for path in sorted(out.glob(f"{run}-*.json")):
     for (renderer, mode), times in rows.items():
         print(f"  {renderer:7} {mode:11} " + " / ".join(times))
 EOF
+[ -n "${OUT:-}" ] && tar czf "$OUT/$run.tar.gz" -C "$out" $(cd "$out" && ls | grep "^$run-")

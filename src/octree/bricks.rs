@@ -31,6 +31,11 @@ pub struct BrickLayout {
     pub atlas: Vec<u16>,
     /// First voxel of each brick slot.
     pub brick_origins: Vec<[usize; 3]>,
+    /// Brick cells along x, y, z that the volume touches (`dims / brick_size`, rounded up).
+    pub grid_dims: [usize; 3],
+    /// For each brick cell, x fastest, the node covering it: its brick, or a leaf above the
+    /// brick level. What a ray walking the cells reads instead of descending the tree.
+    pub grid_leaves: Vec<u32>,
 }
 
 impl BrickLayout {
@@ -80,7 +85,8 @@ impl BrickLayout {
             }
         }
         let padded = brick_size + 2;
-        let per_axis_limit = (max_atlas_side / padded).max(1);
+        // The ray caster packs atlas cells in ten bits per axis.
+        let per_axis_limit = (max_atlas_side / padded).clamp(1, 1024);
         let count = brick_origins.len().max(1);
         let gx = ((count as f64).cbrt().ceil() as usize).clamp(1, per_axis_limit);
         let gy = count.div_ceil(gx).min(gx).clamp(1, per_axis_limit);
@@ -122,9 +128,13 @@ impl BrickLayout {
                     }
                 }
             });
+        let grid_dims = dims.map(|d| d.div_ceil(brick_size));
+        let grid_leaves = grid_leaves(octree, brick_level, grid_dims);
         Ok(Self {
             brick_size,
             brick_level,
+            grid_dims,
+            grid_leaves,
             nodes,
             bounds,
             level_starts: octree.level_starts[..brick_level as usize + 2].to_vec(),
@@ -138,6 +148,31 @@ impl BrickLayout {
     pub fn atlas_dims(&self) -> [usize; 3] {
         self.atlas_grid.map(|g| g * (self.brick_size + 2))
     }
+}
+
+/// For each cell of `grid_dims` (x fastest), the node of level ≤ `brick_level` covering it:
+/// the descent from the root stops at a leaf or at the brick level.
+fn grid_leaves(octree: &Octree, brick_level: u32, grid_dims: [usize; 3]) -> Vec<u32> {
+    let mut leaves = Vec::with_capacity(grid_dims.iter().product());
+    for z in 0..grid_dims[2] {
+        for y in 0..grid_dims[1] {
+            for x in 0..grid_dims[0] {
+                let mut index = 0usize;
+                for level in 0..brick_level {
+                    let node = octree.nodes[index];
+                    if node.is_leaf() {
+                        break;
+                    }
+                    let shift = brick_level - 1 - level;
+                    let octant =
+                        ((x >> shift) & 1) | ((y >> shift) & 1) << 1 | ((z >> shift) & 1) << 2;
+                    index = node.first_child as usize + octant;
+                }
+                leaves.push(index as u32);
+            }
+        }
+    }
+    leaves
 }
 
 /// Voxel coordinate of apron index `i` (0 is the apron before the brick) clamped to the volume.
@@ -178,6 +213,20 @@ mod tests {
             .filter(|n| n.first_child != LEAF && n.first_child & BRICK_FLAG != 0)
             .count();
         assert_eq!(bricks, layout.brick_origins.len());
+        // Each brick cell points at its own brick (this volume has no uniform region).
+        assert_eq!(layout.grid_dims, [5, 3, 3]);
+        let mut cell_index = 0;
+        for z in 0..3 {
+            for y in 0..3 {
+                for x in 0..5 {
+                    let node = layout.nodes[layout.grid_leaves[cell_index] as usize];
+                    assert!(node.first_child != LEAF && node.first_child & BRICK_FLAG != 0);
+                    let slot = (node.first_child & !BRICK_FLAG) as usize;
+                    assert_eq!(layout.brick_origins[slot], [x * 4, y * 4, z * 4]);
+                    cell_index += 1;
+                }
+            }
+        }
         for (slot, origin) in layout.brick_origins.iter().enumerate() {
             let cell = [
                 slot % layout.atlas_grid[0],

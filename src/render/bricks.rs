@@ -3,13 +3,13 @@
 
 use wgpu::util::DeviceExt;
 
-use super::gpu_data::BrickRecolorParams;
+use super::gpu_data::{BrickRecolorParams, GridCell, RecolorParams};
 use super::level_texture::LevelTexture;
 use super::pipeline::{atlas_entry, compute_pipeline, storage_entry, uniform_entry};
 use super::raycaster::{BrickShape, OctreeOnGpu, VolumeShape};
 use super::recolor::RecolorLevels;
 use super::{GpuContext, GpuRecolor, GpuTransferTable, RenderError};
-use crate::octree::{BrickLayout, TransferFunction, ValueBounds};
+use crate::octree::{BRICK_FLAG, BrickLayout, TransferFunction, ValueBounds};
 use crate::volume::Quantization;
 
 /// An octree with brick leaves on the GPU.
@@ -19,6 +19,11 @@ pub struct GpuBricks {
     transfer: GpuTransferTable,
     atlas: LevelTexture,
     brick_origins: wgpu::Buffer,
+    /// Per brick cell: the index of the node covering it (static).
+    grid_leaves: wgpu::Buffer,
+    /// Per brick cell: a [`GridCell`], refreshed after each recolor.
+    grid: wgpu::Buffer,
+    grid_cells: u32,
     level_starts: Vec<usize>,
     shape: BrickShape,
     dims: [usize; 3],
@@ -73,6 +78,41 @@ impl GpuBricks {
             bytemuck::cast_slice(&origins),
             storage,
         );
+        // Never empty: a binding needs at least one element.
+        let leaves: Vec<u32> = if layout.grid_leaves.is_empty() {
+            vec![0]
+        } else {
+            layout.grid_leaves.clone()
+        };
+        let cells: Vec<GridCell> = leaves
+            .iter()
+            .map(|&index| {
+                let node = layout.nodes[index as usize];
+                let [gx, gy, _] = layout.atlas_grid;
+                let atlas_cell = if node.is_leaf() {
+                    0
+                } else {
+                    let slot = (node.first_child & !BRICK_FLAG) as usize;
+                    (slot % gx | (slot / gx % gy) << 10 | (slot / (gx * gy)) << 20) as u32
+                };
+                GridCell {
+                    color: node.color,
+                    first_child: node.first_child,
+                    bounds: layout.bounds[index as usize].0,
+                    atlas_cell,
+                }
+            })
+            .collect();
+        let grid_leaves = buffer(
+            "voxscope::brick_grid_leaves",
+            bytemuck::cast_slice(&leaves),
+            storage,
+        );
+        let grid = buffer(
+            "voxscope::brick_grid",
+            bytemuck::cast_slice(&cells),
+            storage,
+        );
         if let Some(error) = pollster::block_on(out_of_memory.pop()) {
             return Err(RenderError(format!(
                 "the GPU has no room for the bricks: {error}"
@@ -84,10 +124,14 @@ impl GpuBricks {
             bounds,
             transfer,
             brick_origins,
+            grid_leaves,
+            grid,
+            grid_cells: layout.grid_leaves.len() as u32,
             level_starts: layout.level_starts.clone(),
             shape: BrickShape {
                 level: layout.brick_level,
                 size: layout.brick_size as u32,
+                grid: layout.grid_dims.map(|g| g as u32),
                 atlas_scale,
                 atlas_grid: layout.atlas_grid.map(|g| g as u32),
             },
@@ -109,6 +153,7 @@ impl GpuBricks {
             ("nodes", self.nodes.size()),
             ("bounds", self.bounds.size()),
             ("brick_origins", self.brick_origins.size()),
+            ("brick_grid", self.grid.size() + self.grid_leaves.size()),
             ("lookup_table", self.transfer.size()),
         ]
     }
@@ -148,14 +193,23 @@ impl OctreeOnGpu for GpuBricks {
     fn atlas(&self) -> Option<&wgpu::TextureView> {
         Some(&self.atlas.view)
     }
+    fn brick_grid(&self) -> Option<&wgpu::Buffer> {
+        Some(&self.grid)
+    }
 }
 
-/// Recolors a [`GpuBricks`]: the brick level from the atlas, the levels above from children.
+/// Recolors a [`GpuBricks`]: the brick level from the atlas, the levels above from children,
+/// then the cell grid from the nodes.
 pub struct GpuBrickRecolor {
     pipeline: wgpu::ComputePipeline,
     layout: wgpu::BindGroupLayout,
     levels: GpuRecolor,
+    grid_pipeline: wgpu::ComputePipeline,
+    grid_layout: wgpu::BindGroupLayout,
 }
+
+/// Threads per workgroup of `brick_grid.wgsl`.
+const GRID_WORKGROUP: u32 = 256;
 
 impl GpuBrickRecolor {
     pub fn new(context: &GpuContext) -> Self {
@@ -172,10 +226,24 @@ impl GpuBrickRecolor {
                 storage_entry(5, true),
             ],
         );
+        let (grid_pipeline, grid_layout) = compute_pipeline(
+            &context.device,
+            "brick_grid",
+            super::shaders::BRICK_GRID,
+            &[
+                uniform_entry(0, false),
+                storage_entry(1, true),
+                storage_entry(2, true),
+                storage_entry(3, true),
+                storage_entry(4, false),
+            ],
+        );
         Self {
             pipeline,
             layout,
             levels: GpuRecolor::new(context),
+            grid_pipeline,
+            grid_layout,
         }
     }
 
@@ -245,9 +313,9 @@ impl GpuBrickRecolor {
                 },
             ],
         });
-        // Time the whole recolor: the first pass starts the clock, the last one stops it.
+        // Time the whole recolor: the first pass starts the clock, the grid's stops it.
         let (first, last) = match &timestamp_writes {
-            Some(w) if level > 0 => (
+            Some(w) => (
                 Some(wgpu::ComputePassTimestampWrites {
                     query_set: w.query_set,
                     beginning_of_pass_write_index: w.beginning_of_pass_write_index,
@@ -259,7 +327,7 @@ impl GpuBrickRecolor {
                     end_of_pass_write_index: w.end_of_pass_write_index,
                 }),
             ),
-            _ => (timestamp_writes, None),
+            None => (None, None),
         };
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -278,7 +346,65 @@ impl GpuBrickRecolor {
                 level_starts: &bricks.level_starts,
                 deepest: level as u32 - 1,
             };
-            self.levels.encode_levels(context, encoder, &levels, last);
+            self.levels.encode_levels(context, encoder, &levels, None);
         }
+        self.encode_grid(context, encoder, bricks, last);
+    }
+
+    /// Records the refresh of the cell grid from the (recolored) nodes.
+    fn encode_grid(
+        &self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        bricks: &GpuBricks,
+        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
+        let device = &context.device;
+        let groups = bricks.grid_cells.div_ceil(GRID_WORKGROUP).max(1);
+        let groups_x = groups.min(context.limits.max_compute_workgroups_per_dimension.max(1));
+        let params = RecolorParams {
+            level_start: 0,
+            level_count: bricks.grid_cells,
+            groups_x,
+            _pad: 0,
+        };
+        let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("voxscope::brick_grid_params"),
+            contents: bytemuck::bytes_of(&params),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("voxscope::brick_grid_bind_group"),
+            layout: &self.grid_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: params.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: bricks.nodes.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: bricks.bounds.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: bricks.grid_leaves.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: bricks.grid.as_entire_binding(),
+                },
+            ],
+        });
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("voxscope::brick_grid_pass"),
+            timestamp_writes,
+        });
+        pass.set_pipeline(&self.grid_pipeline);
+        pass.set_bind_group(0, &bind_group, &[]);
+        pass.dispatch_workgroups(groups_x, groups.div_ceil(groups_x), 1);
     }
 }

@@ -25,9 +25,26 @@ pub(crate) struct RaycastParams {
     pub atlas_scale: f32,
     /// Bricks along x, y, z of the atlas (w unused).
     pub atlas_grid: [u32; 4],
+    /// Brick cells along x, y, z of the volume (w unused): the grid a full-detail ray walks.
+    pub brick_grid: [u32; 4],
 }
 
-const _: () = assert!(std::mem::size_of::<RaycastParams>() == 144);
+const _: () = assert!(std::mem::size_of::<RaycastParams>() == 160);
+
+/// One cell of the bricks renderer's grid: a copy of the node covering it and its value
+/// bounds (refreshed by `brick_grid.wgsl` after a recolor), and its brick's atlas cell.
+/// Keep in sync with `brick_grid.wgsl` and `walk_bricks` in `raycast.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]
+pub(crate) struct GridCell {
+    pub color: u32,
+    pub first_child: u32,
+    pub bounds: u32,
+    /// Atlas cell of the brick, ten bits per axis (x lowest); 0 where the node is no brick.
+    pub atlas_cell: u32,
+}
+
+const _: () = assert!(std::mem::size_of::<GridCell>() == 16);
 
 /// Uniforms of one level's dispatch of `recolor.wgsl`. Keep in sync with `struct Params` there.
 #[repr(C)]
@@ -104,5 +121,11 @@ mod tests {
             std::mem::size_of::<BrickRecolorParams>() as u32
         );
         assert_eq!(wgsl_struct_size(bricks, "Node"), node);
+        let grid = crate::render::shaders::BRICK_GRID;
+        assert_eq!(
+            wgsl_struct_size(grid, "Params"),
+            std::mem::size_of::<RecolorParams>() as u32
+        );
+        assert_eq!(wgsl_struct_size(grid, "Node"), node);
     }
 }

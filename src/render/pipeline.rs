@@ -56,6 +56,18 @@ pub(crate) fn compute_pipeline(
     source: &str,
     entries: &[wgpu::BindGroupLayoutEntry],
 ) -> (wgpu::ComputePipeline, wgpu::BindGroupLayout) {
+    let (mut pipelines, layout) = compute_pipelines(device, label, source, &["main"], entries);
+    (pipelines.remove(0), layout)
+}
+
+/// One compute pipeline per entry point of `source`, all with one bind group of `entries`.
+pub(crate) fn compute_pipelines(
+    device: &wgpu::Device,
+    label: &str,
+    source: &str,
+    entry_points: &[&str],
+    entries: &[wgpu::BindGroupLayoutEntry],
+) -> (Vec<wgpu::ComputePipeline>, wgpu::BindGroupLayout) {
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some(&format!("voxscope::{label}.wgsl")),
         source: wgpu::ShaderSource::Wgsl(source.into()),
@@ -69,15 +81,20 @@ pub(crate) fn compute_pipeline(
         bind_group_layouts: &[Some(&layout)],
         immediate_size: 0,
     });
-    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some(&format!("voxscope::{label}_pipeline")),
-        layout: Some(&pipeline_layout),
-        module: &module,
-        entry_point: Some("main"),
-        compilation_options: Default::default(),
-        cache: None,
-    });
-    (pipeline, layout)
+    let pipelines = entry_points
+        .iter()
+        .map(|entry_point| {
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(&format!("voxscope::{label}_{entry_point}_pipeline")),
+                layout: Some(&pipeline_layout),
+                module: &module,
+                entry_point: Some(entry_point),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        })
+        .collect();
+    (pipelines, layout)
 }
 
 /// Pixels per workgroup side; keep in sync with `@workgroup_size` in `raycast.wgsl` and

@@ -4,7 +4,7 @@ use glam::DVec3;
 
 use super::gpu_data::{FLAG_HEATMAP, FLAG_OPACITY_CORRECTION, FLAG_PIXEL_LOD, RaycastParams};
 use super::pipeline::{
-    atlas_entry, atlas_sampler_entry, clamped_sampler, compute_pipeline, dispatch_per_pixel,
+    atlas_entry, atlas_sampler_entry, clamped_sampler, compute_pipelines, dispatch_per_pixel,
     output_image_entry, storage_entry, uniform_entry,
 };
 use super::{Camera, GpuContext, GpuVolume, RenderMode, RenderSettings};
@@ -111,6 +111,8 @@ pub struct BrickShape {
     /// Atlas texel value × this = value level.
     pub atlas_scale: f32,
     pub atlas_grid: [u32; 3],
+    /// Brick cells along x, y, z of the volume.
+    pub grid: [u32; 3],
 }
 
 /// An octree on the GPU that [`Raycaster`] can draw: plain ([`GpuVolume`]) or with brick
@@ -121,6 +123,10 @@ pub trait OctreeOnGpu: VolumeShape {
     fn lookup_table(&self) -> &wgpu::Buffer;
     /// The brick atlas, if there are bricks.
     fn atlas(&self) -> Option<&wgpu::TextureView>;
+    /// The grid of brick cells (`GridCell`s), if there are bricks.
+    fn brick_grid(&self) -> Option<&wgpu::Buffer> {
+        None
+    }
 }
 
 impl OctreeOnGpu for GpuVolume {
@@ -156,23 +162,28 @@ impl VolumeShape for GpuVolume {
     }
 }
 
-/// The ray-casting compute pipeline.
+/// The ray-casting compute pipelines: `main` descends the tree (plain octrees, and bricks when a
+/// level cut or the pixel LOD may stop above them); `main_bricks` walks the brick grid.
 pub struct Raycaster {
     pipeline: wgpu::ComputePipeline,
+    bricks_pipeline: wgpu::ComputePipeline,
     layout: wgpu::BindGroupLayout,
     params: wgpu::Buffer,
     /// Bound where a volume has no brick atlas.
     no_atlas: wgpu::TextureView,
+    /// Bound where a volume has no brick grid.
+    no_grid: wgpu::Buffer,
     atlas_sampler: wgpu::Sampler,
 }
 
 impl Raycaster {
     pub fn new(context: &GpuContext) -> Self {
         let device = &context.device;
-        let (pipeline, layout) = compute_pipeline(
+        let (pipelines, layout) = compute_pipelines(
             device,
             "raycast",
             super::shaders::RAYCAST,
+            &["main", "main_bricks"],
             &[
                 uniform_entry(0, false),
                 storage_entry(1, true),
@@ -182,8 +193,16 @@ impl Raycaster {
                 storage_entry(5, false),
                 atlas_entry(6),
                 atlas_sampler_entry(7),
+                storage_entry(8, true),
             ],
         );
+        let [pipeline, bricks_pipeline] = <[_; 2]>::try_from(pipelines).expect("two entry points");
+        let no_grid = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("voxscope::no_brick_grid"),
+            size: std::mem::size_of::<super::gpu_data::GridCell>() as u64,
+            usage: wgpu::BufferUsages::STORAGE,
+            mapped_at_creation: false,
+        });
         let no_atlas = device
             .create_texture(&wgpu::TextureDescriptor {
                 label: Some("voxscope::no_atlas"),
@@ -210,9 +229,11 @@ impl Raycaster {
         });
         Self {
             pipeline,
+            bricks_pipeline,
             layout,
             params,
             no_atlas,
+            no_grid,
             atlas_sampler,
         }
     }
@@ -276,12 +297,27 @@ impl Raycaster {
                         binding: 7,
                         resource: wgpu::BindingResource::Sampler(&self.atlas_sampler),
                     },
+                    wgpu::BindGroupEntry {
+                        binding: 8,
+                        resource: volume
+                            .brick_grid()
+                            .unwrap_or(&self.no_grid)
+                            .as_entire_binding(),
+                    },
                 ],
             });
+        // Mirrors `main_bricks` in raycast.wgsl: the brick grid holds the brick level alone.
+        let walk_bricks = volume.bricks().is_some_and(|b| params.max_level >= b.level)
+            && params.flags & FLAG_PIXEL_LOD == 0;
+        let pipeline = if walk_bricks {
+            &self.bricks_pipeline
+        } else {
+            &self.pipeline
+        };
         dispatch_per_pixel(
             encoder,
             "raycast",
-            &self.pipeline,
+            pipeline,
             &bind_group,
             target,
             timestamp_writes,
@@ -349,5 +385,6 @@ pub(crate) fn raycast_params(
         atlas_grid: bricks.map_or([1; 4], |b| {
             [b.atlas_grid[0], b.atlas_grid[1], b.atlas_grid[2], 0]
         }),
+        brick_grid: bricks.map_or([1, 1, 1, 0], |b| [b.grid[0], b.grid[1], b.grid[2], 0]),
     }
 }

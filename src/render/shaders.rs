@@ -27,9 +27,15 @@ pub(crate) const BRICK_RECOLOR: &str = concat!(
     include_str!("../../shaders/brick_recolor.wgsl")
 );
 
+/// The refresh of the bricks renderer's cell grid after a recolor.
+pub(crate) const BRICK_GRID: &str = concat!(
+    include_str!("../../shaders/node_common.wgsl"),
+    include_str!("../../shaders/brick_grid.wgsl")
+);
+
 /// Every shader voxscope compiles: its name, its composed source, and the files in `shaders/`
 /// it is made of (so a test can validate each one and know no file is left out).
-pub const ALL: [(&str, &str, &[&str]); 4] = [
+pub const ALL: [(&str, &str, &[&str]); 5] = [
     (
         "raycast",
         RAYCAST,
@@ -41,5 +47,10 @@ pub const ALL: [(&str, &str, &[&str]); 4] = [
         "brick_recolor",
         BRICK_RECOLOR,
         &["node_common.wgsl", "brick_recolor.wgsl"],
+    ),
+    (
+        "brick_grid",
+        BRICK_GRID,
+        &["node_common.wgsl", "brick_grid.wgsl"],
     ),
 ];
