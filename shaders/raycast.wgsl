@@ -319,7 +319,8 @@ fn walk_bricks(origin: vec3<f32>, dir: vec3<f32>) -> RayResult {
         } else {
             // Skipped, or a uniform region (a leaf above the bricks): its samples in one go.
             let end = max(ceil((here.t_out - t_enter) / sample_step - 0.5), k);
-            if entry.y == LEAF && (entry.z & 0xffffu) <= (entry.z >> 16u) {
+            // (Only where a sample falls: a ray can clip a cell's corner between two samples.)
+            if entry.y == LEAF && (entry.z & 0xffffu) <= (entry.z >> 16u) && end > k {
                 if mip {
                     acc.running_max = max(acc.running_max, entry.z >> 16u);
                     acc.done = acc.running_max >= params.mip_saturation;

@@ -430,6 +430,33 @@ fn dense_with_nearest_sampling_agrees_with_the_octree_at_full_level() {
     }
 }
 
+/// 40×36×29 u8: a uniform block of 180 where x < 16, a pattern of varied values elsewhere.
+fn uniform_block_volume() -> Volume {
+    let dims = [40, 36, 29];
+    let mut values = Vec::with_capacity(dims.iter().product());
+    for z in 0..dims[2] {
+        for y in 0..dims[1] {
+            for x in 0..dims[0] {
+                values.push(if x < 16 {
+                    180
+                } else if (x + y + z) % 7 == 0 {
+                    255
+                } else {
+                    ((x * y + z * 5) % 97) as u8
+                });
+            }
+        }
+    }
+    Volume::new(
+        "uniform-block",
+        "test",
+        dims,
+        [1.0; 3],
+        volume::VoxelData::U8(values),
+    )
+    .unwrap()
+}
+
 #[test]
 fn bricks_match_dense_sample_for_sample() {
     // Same sample positions and, thanks to the one-voxel apron, the same trilinear values: the
@@ -447,6 +474,10 @@ fn bricks_match_dense_sample_for_sample() {
             RenderMode::Dvr,
             OpacityMode::Binary,
         ),
+        // A uniform block: leaves above the brick level, composited by the grid walk as runs
+        // of equal samples.
+        (uniform_block_volume(), RenderMode::Dvr, OpacityMode::Gray),
+        (uniform_block_volume(), RenderMode::Mip, OpacityMode::Gray),
         (
             load("synthetic:noise:45x30x21"),
             RenderMode::Mip,
@@ -462,6 +493,19 @@ fn bricks_match_dense_sample_for_sample() {
             ..TransferFunction::gray(quantized.robust_window())
         };
         let (octree, transfer) = colored_octree(&volume, Some(transfer), BuildOptions::default());
+        if volume.name == "uniform-block" {
+            // The premise of the shells cases: cells the walk meets as uniform, visible leaves.
+            let layout = voxscope::octree::BrickLayout::new(&octree, &quantized, 4, 2048).unwrap();
+            let uniform_visible = layout.grid_leaves.iter().any(|&index| {
+                let node = layout.nodes[index as usize];
+                node.first_child == voxscope::octree::LEAF && node.color >> 24 != 0
+            });
+            assert!(
+                uniform_visible,
+                "no uniform visible cell in {}",
+                volume.name
+            );
+        }
         let settings = RenderSettings {
             mode,
             density: 0.4,

@@ -93,7 +93,7 @@ impl GpuBricks {
                     0
                 } else {
                     let slot = (node.first_child & !BRICK_FLAG) as usize;
-                    (slot % gx | (slot / gx % gy) << 10 | (slot / (gx * gy)) << 20) as u32
+                    ((slot % gx) | ((slot / gx % gy) << 10) | ((slot / (gx * gy)) << 20)) as u32
                 };
                 GridCell {
                     color: node.color,
