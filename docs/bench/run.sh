@@ -46,6 +46,12 @@ bench head256-bricks-b8 .bench/voxscope "$head" --renderer bricks --brick-size 8
 bench mni152 .bench/voxscope "$mni"
 bench gradient1024-bricks .bench/voxscope synthetic:gradient:1024 --renderer bricks --frames 50
 bench gradient1024-dense .bench/voxscope synthetic:gradient:1024 --renderer dense --frames 50
+# Nothing uniform, nothing transparent: rays end after a few samples. One process per renderer:
+# in one process the bricks renderer ran 2x slower after the octree's 1.8 GB had come and gone
+# (run 21; the head showed no such effect).
+for renderer in octree dense bricks; do
+    bench noise512-$renderer .bench/voxscope synthetic:noise:512 --renderer $renderer --frames 50
+done
 
 # A short table for the reply: renderer, mode, camera, median ms of each JSON.
 python3 - "$out" "$run" <<'EOF'
