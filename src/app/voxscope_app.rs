@@ -31,6 +31,7 @@ struct AppGpu {
 }
 
 /// A file dialog running on its own thread.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum DialogKind {
     Open,
     OpenFolder,
@@ -444,20 +445,13 @@ impl VoxscopeApp {
             .first()
             .and_then(|spec| Path::new(spec).parent().map(Path::to_path_buf));
         let builder = {
-            let kind = match kind {
-                DialogKind::Open => 0,
-                DialogKind::SaveScreenshot => 1,
-                DialogKind::SaveTransfer => 2,
-                DialogKind::LoadTransfer => 3,
-                DialogKind::OpenFolder => 4,
-            };
             move || {
                 let mut dialog = rfd::FileDialog::new();
                 if let Some(directory) = &directory {
                     dialog = dialog.set_directory(directory);
                 }
                 match kind {
-                    0 => dialog
+                    DialogKind::Open => dialog
                         .set_title("Open a volume")
                         .add_filter(
                             "Volumes (NIfTI, NRRD, TIFF, MRC, DICOM, VTI)",
@@ -465,20 +459,20 @@ impl VoxscopeApp {
                         )
                         .add_filter("All files", &["*"])
                         .pick_file(),
-                    1 => dialog
+                    DialogKind::SaveScreenshot => dialog
                         .set_title("Save screenshot")
                         .add_filter("PNG image", &["png"])
                         .set_file_name("voxscope.png")
                         .save_file(),
-                    4 => dialog
+                    DialogKind::OpenFolder => dialog
                         .set_title("Open a folder: a DICOM series or TIFF/PNG slices")
                         .pick_folder(),
-                    2 => dialog
+                    DialogKind::SaveTransfer => dialog
                         .set_title("Save transfer function")
                         .add_filter("Transfer function (RON)", &["ron"])
                         .set_file_name("transfer.ron")
                         .save_file(),
-                    _ => dialog
+                    DialogKind::LoadTransfer => dialog
                         .set_title("Load transfer function")
                         .add_filter("Transfer function (RON)", &["ron"])
                         .pick_file(),

@@ -3,7 +3,7 @@
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::{Octree, TransferFunction, unpack_rgba};
+use super::{Node, Octree, TransferFunction, unpack_rgba};
 
 /// Counts of one level of the octree under the current colors.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -28,25 +28,7 @@ pub fn level_statistics(octree: &Octree) -> Vec<LevelStatistics> {
     (0..=octree.depth)
         .map(|level| {
             let nodes = &octree.nodes[octree.level_range(level)];
-            let (leaves, transparent, opaque) = nodes
-                .par_iter()
-                .map(|node| {
-                    (
-                        node.is_leaf() as u64,
-                        (node.alpha() == 0) as u64,
-                        (node.alpha() == 255) as u64,
-                    )
-                })
-                .reduce(|| (0, 0, 0), |a, b| (a.0 + b.0, a.1 + b.1, a.2 + b.2));
-            LevelStatistics {
-                level,
-                nodes: nodes.len() as u64,
-                leaves,
-                transparent,
-                opaque,
-                bytes: std::mem::size_of_val(nodes) as u64,
-                full_tree_nodes: 8u64.pow(level),
-            }
+            count_level(level, nodes, nodes.par_iter().map(|node| node.alpha()))
         })
         .collect()
 }
@@ -83,28 +65,37 @@ pub fn level_statistics_under(
                 }
             })
             .collect();
-        let (leaves, transparent, opaque) = nodes
-            .par_iter()
-            .zip(&alphas)
-            .map(|(node, &alpha)| {
-                (
-                    node.is_leaf() as u64,
-                    (alpha == 0) as u64,
-                    (alpha == 255) as u64,
-                )
-            })
-            .reduce(|| (0, 0, 0), |a, b| (a.0 + b.0, a.1 + b.1, a.2 + b.2));
-        statistics.push(LevelStatistics {
-            level,
-            nodes: nodes.len() as u64,
-            leaves,
-            transparent,
-            opaque,
-            bytes: std::mem::size_of_val(nodes) as u64,
-            full_tree_nodes: 8u64.pow(level),
-        });
+        statistics.push(count_level(level, nodes, alphas.par_iter().copied()));
         below = alphas;
     }
     statistics.reverse();
     statistics
+}
+
+/// Counts one level's `nodes` whose alphas are `alphas` (in the same order).
+fn count_level(
+    level: u32,
+    nodes: &[Node],
+    alphas: impl IndexedParallelIterator<Item = u8>,
+) -> LevelStatistics {
+    let (leaves, transparent, opaque) = nodes
+        .par_iter()
+        .zip(alphas)
+        .map(|(node, alpha)| {
+            (
+                node.is_leaf() as u64,
+                (alpha == 0) as u64,
+                (alpha == 255) as u64,
+            )
+        })
+        .reduce(|| (0, 0, 0), |a, b| (a.0 + b.0, a.1 + b.1, a.2 + b.2));
+    LevelStatistics {
+        level,
+        nodes: nodes.len() as u64,
+        leaves,
+        transparent,
+        opaque,
+        bytes: std::mem::size_of_val(nodes) as u64,
+        full_tree_nodes: 8u64.pow(level),
+    }
 }

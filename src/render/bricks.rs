@@ -5,7 +5,9 @@ use wgpu::util::DeviceExt;
 
 use super::gpu_data::{BrickRecolorParams, GridCell, RecolorParams};
 use super::level_texture::LevelTexture;
-use super::pipeline::{atlas_entry, compute_pipeline, storage_entry, uniform_entry};
+use super::pipeline::{
+    atlas_entry, compute_pipeline, numbered_bind_group, storage_entry, uniform_entry,
+};
 use super::raycaster::{BrickShape, OctreeOnGpu, VolumeShape};
 use super::recolor::RecolorLevels;
 use super::{GpuContext, GpuRecolor, GpuTransferTable, RenderError};
@@ -283,36 +285,19 @@ impl GpuBrickRecolor {
             contents: bytemuck::bytes_of(&params),
             usage: wgpu::BufferUsages::UNIFORM,
         });
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("voxscope::brick_recolor_bind_group"),
-            layout: &self.layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: params.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: bricks.nodes.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: bricks.bounds.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 3,
-                    resource: bricks.transfer.buffer.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 4,
-                    resource: wgpu::BindingResource::TextureView(&bricks.atlas.view),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 5,
-                    resource: bricks.brick_origins.as_entire_binding(),
-                },
+        let bind_group = numbered_bind_group(
+            device,
+            "voxscope::brick_recolor_bind_group",
+            &self.layout,
+            &[
+                params.as_entire_binding(),
+                bricks.nodes.as_entire_binding(),
+                bricks.bounds.as_entire_binding(),
+                bricks.transfer.buffer.as_entire_binding(),
+                wgpu::BindingResource::TextureView(&bricks.atlas.view),
+                bricks.brick_origins.as_entire_binding(),
             ],
-        });
+        );
         // Time the whole recolor: the first pass starts the clock, the grid's stops it.
         let (first, last) = match &timestamp_writes {
             Some(w) => (
@@ -373,32 +358,18 @@ impl GpuBrickRecolor {
             contents: bytemuck::bytes_of(&params),
             usage: wgpu::BufferUsages::UNIFORM,
         });
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("voxscope::brick_grid_bind_group"),
-            layout: &self.grid_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: params.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: bricks.nodes.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: bricks.bounds.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 3,
-                    resource: bricks.grid_leaves.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 4,
-                    resource: bricks.grid.as_entire_binding(),
-                },
+        let bind_group = numbered_bind_group(
+            device,
+            "voxscope::brick_grid_bind_group",
+            &self.grid_layout,
+            &[
+                params.as_entire_binding(),
+                bricks.nodes.as_entire_binding(),
+                bricks.bounds.as_entire_binding(),
+                bricks.grid_leaves.as_entire_binding(),
+                bricks.grid.as_entire_binding(),
             ],
-        });
+        );
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("voxscope::brick_grid_pass"),
             timestamp_writes,

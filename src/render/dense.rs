@@ -5,7 +5,7 @@
 use super::level_texture::LevelTexture;
 use super::pipeline::{
     atlas_entry, atlas_sampler_entry, clamped_sampler, compute_pipeline, dispatch_per_pixel,
-    output_image_entry, storage_entry, uniform_entry,
+    numbered_bind_group, output_image_entry, storage_entry, uniform_entry,
 };
 use super::raycaster::{VolumeShape, raycast_params};
 use super::{Frame, GpuContext, GpuTransferTable, RenderError};
@@ -129,38 +129,19 @@ impl DenseRaycaster {
         } else {
             &self.nearest
         };
-        let bind_group = context
-            .device
-            .create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("voxscope::dense_bind_group"),
-                layout: &self.layout,
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: self.params.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 1,
-                        resource: wgpu::BindingResource::TextureView(&frame.volume.levels.view),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 2,
-                        resource: wgpu::BindingResource::Sampler(sampler),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 3,
-                        resource: frame.volume.transfer.buffer.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 4,
-                        resource: wgpu::BindingResource::TextureView(&frame.target.view),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 5,
-                        resource: frame.target.visits.as_entire_binding(),
-                    },
-                ],
-            });
+        let bind_group = numbered_bind_group(
+            &context.device,
+            "voxscope::dense_bind_group",
+            &self.layout,
+            &[
+                self.params.as_entire_binding(),
+                wgpu::BindingResource::TextureView(&frame.volume.levels.view),
+                wgpu::BindingResource::Sampler(sampler),
+                frame.volume.transfer.buffer.as_entire_binding(),
+                wgpu::BindingResource::TextureView(&frame.target.view),
+                frame.target.visits.as_entire_binding(),
+            ],
+        );
         dispatch_per_pixel(
             encoder,
             "dense",

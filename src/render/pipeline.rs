@@ -49,6 +49,29 @@ pub(crate) fn output_image_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
     }
 }
 
+/// A bind group of `layout` whose entries are `resources`, bound at 0, 1, 2… in order (every
+/// layout here numbers its bindings that way).
+pub(crate) fn numbered_bind_group(
+    device: &wgpu::Device,
+    label: &str,
+    layout: &wgpu::BindGroupLayout,
+    resources: &[wgpu::BindingResource<'_>],
+) -> wgpu::BindGroup {
+    let entries: Vec<wgpu::BindGroupEntry<'_>> = resources
+        .iter()
+        .enumerate()
+        .map(|(binding, resource)| wgpu::BindGroupEntry {
+            binding: binding as u32,
+            resource: resource.clone(),
+        })
+        .collect();
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(label),
+        layout,
+        entries: &entries,
+    })
+}
+
 /// A compute pipeline of `source`'s `main` with one bind group of `entries`.
 pub(crate) fn compute_pipeline(
     device: &wgpu::Device,

@@ -5,7 +5,7 @@ use glam::DVec3;
 use super::gpu_data::{FLAG_HEATMAP, FLAG_OPACITY_CORRECTION, FLAG_PIXEL_LOD, RaycastParams};
 use super::pipeline::{
     atlas_entry, atlas_sampler_entry, clamped_sampler, compute_pipelines, dispatch_per_pixel,
-    output_image_entry, storage_entry, uniform_entry,
+    numbered_bind_group, output_image_entry, storage_entry, uniform_entry,
 };
 use super::{Camera, GpuContext, GpuVolume, RenderMode, RenderSettings};
 
@@ -257,55 +257,25 @@ impl Raycaster {
         context
             .queue
             .write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
-        let bind_group = context
-            .device
-            .create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("voxscope::raycast_bind_group"),
-                layout: &self.layout,
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: self.params.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 1,
-                        resource: volume.nodes().as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 2,
-                        resource: volume.bounds().as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 3,
-                        resource: volume.lookup_table().as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 4,
-                        resource: wgpu::BindingResource::TextureView(&target.view),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 5,
-                        resource: target.visits.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 6,
-                        resource: wgpu::BindingResource::TextureView(
-                            volume.atlas().unwrap_or(&self.no_atlas),
-                        ),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 7,
-                        resource: wgpu::BindingResource::Sampler(&self.atlas_sampler),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 8,
-                        resource: volume
-                            .brick_grid()
-                            .unwrap_or(&self.no_grid)
-                            .as_entire_binding(),
-                    },
-                ],
-            });
+        let bind_group = numbered_bind_group(
+            &context.device,
+            "voxscope::raycast_bind_group",
+            &self.layout,
+            &[
+                self.params.as_entire_binding(),
+                volume.nodes().as_entire_binding(),
+                volume.bounds().as_entire_binding(),
+                volume.lookup_table().as_entire_binding(),
+                wgpu::BindingResource::TextureView(&target.view),
+                target.visits.as_entire_binding(),
+                wgpu::BindingResource::TextureView(volume.atlas().unwrap_or(&self.no_atlas)),
+                wgpu::BindingResource::Sampler(&self.atlas_sampler),
+                volume
+                    .brick_grid()
+                    .unwrap_or(&self.no_grid)
+                    .as_entire_binding(),
+            ],
+        );
         // Mirrors `main_bricks` in raycast.wgsl: the brick grid holds the brick level alone.
         let walk_bricks = volume.bricks().is_some_and(|b| params.max_level >= b.level)
             && params.flags & FLAG_PIXEL_LOD == 0;

@@ -2,7 +2,7 @@
 //! first, all in one submission. The topology never changes.
 
 use super::gpu_data::RecolorParams;
-use super::pipeline::{compute_pipeline, storage_entry, uniform_entry};
+use super::pipeline::{compute_pipeline, numbered_bind_group, storage_entry, uniform_entry};
 use super::{GpuContext, GpuVolume, RenderError};
 
 /// Threads per workgroup; keep in sync with `@workgroup_size` in `recolor.wgsl`.
@@ -95,32 +95,21 @@ impl GpuRecolor {
                 usage: wgpu::BufferUsages::UNIFORM,
             },
         );
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("voxscope::recolor_bind_group"),
-            layout: &self.layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                        buffer: &params,
-                        offset: 0,
-                        size: wgpu::BufferSize::new(16),
-                    }),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: levels.nodes.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: levels.bounds.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 3,
-                    resource: levels.lookup_table.as_entire_binding(),
-                },
+        let bind_group = numbered_bind_group(
+            device,
+            "voxscope::recolor_bind_group",
+            &self.layout,
+            &[
+                wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer: &params,
+                    offset: 0,
+                    size: wgpu::BufferSize::new(16),
+                }),
+                levels.nodes.as_entire_binding(),
+                levels.bounds.as_entire_binding(),
+                levels.lookup_table.as_entire_binding(),
             ],
-        });
+        );
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("voxscope::recolor_pass"),
             timestamp_writes,
