@@ -102,15 +102,28 @@ fn atlas_cell_of_slot(slot: u32) -> u32 {
     return (slot % grid.x) | (((slot / grid.x) % grid.y) << 10u) | ((slot / (grid.x * grid.y)) << 20u);
 }
 
+// A ray clipped to the volume's box (not the padded cube): 1 / dir, whether it runs towards +
+// along each axis, and the distances where it enters (clamped to the eye) and leaves.
+struct ClippedRay {
+    inv: vec3<f32>,
+    positive: vec3<bool>,
+    t_enter: f32,
+    t_leave: f32,
+}
+
+fn clip_ray(origin: vec3<f32>, dir: vec3<f32>) -> ClippedRay {
+    let inv = safe_inverse(dir);
+    let interval = volume_interval(origin, inv);
+    return ClippedRay(inv, inv >= vec3<f32>(0.0), interval.x, interval.y);
+}
+
 fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, lane: u32) -> RayResult {
     var result = RayResult(vec3<f32>(0.0), 0u);
-    let inv = safe_inverse(dir);
-    let positive = inv >= vec3<f32>(0.0);
-
-    // Clip to the volume's box (not the padded cube).
-    let interval = volume_interval(origin, inv);
-    let t_enter = interval.x;
-    let t_leave = interval.y;
+    let clipped = clip_ray(origin, dir);
+    let inv = clipped.inv;
+    let positive = clipped.positive;
+    let t_enter = clipped.t_enter;
+    let t_leave = clipped.t_leave;
     if t_enter >= t_leave {
         return result;
     }
@@ -263,11 +276,11 @@ fn walk_cell(cell: vec3<i32>, exits: vec3<f32>, t_leave: f32, step: vec3<i32>, c
 // The samples are the dense renderer's (t_enter + (k + ½)·step), as in `march_brick`.
 fn walk_bricks(origin: vec3<f32>, dir: vec3<f32>) -> RayResult {
     var result = RayResult(vec3<f32>(0.0), 0u);
-    let inv = safe_inverse(dir);
-    let positive = inv >= vec3<f32>(0.0);
-    let interval = volume_interval(origin, inv);
-    let t_enter = interval.x;
-    let t_leave = interval.y;
+    let clipped = clip_ray(origin, dir);
+    let inv = clipped.inv;
+    let positive = clipped.positive;
+    let t_enter = clipped.t_enter;
+    let t_leave = clipped.t_leave;
     if t_enter >= t_leave {
         return result;
     }

@@ -144,6 +144,12 @@ impl BrickLayout {
         })
     }
 
+    /// Where brick `slot` sits in the atlas, in bricks along x, y, z (slots fill x first).
+    pub fn atlas_cell(&self, slot: usize) -> [usize; 3] {
+        let [gx, gy, _] = self.atlas_grid;
+        [slot % gx, (slot / gx) % gy, slot / (gx * gy)]
+    }
+
     /// Texels of the atlas along x, y, z.
     pub fn atlas_dims(&self) -> [usize; 3] {
         self.atlas_grid.map(|g| g * (self.brick_size + 2))
@@ -228,11 +234,7 @@ mod tests {
             }
         }
         for (slot, origin) in layout.brick_origins.iter().enumerate() {
-            let cell = [
-                slot % layout.atlas_grid[0],
-                (slot / layout.atlas_grid[0]) % layout.atlas_grid[1],
-                slot / (layout.atlas_grid[0] * layout.atlas_grid[1]),
-            ];
+            let cell = layout.atlas_cell(slot);
             for k in 0..6 {
                 for j in 0..6 {
                     for i in 0..6 {

@@ -90,12 +90,12 @@ impl GpuBricks {
             .iter()
             .map(|&index| {
                 let node = layout.nodes[index as usize];
-                let [gx, gy, _] = layout.atlas_grid;
+                // Ten bits per axis, x lowest (`brick_to_atlas` in raycast.wgsl).
                 let atlas_cell = if node.is_leaf() {
                     0
                 } else {
-                    let slot = (node.first_child & !BRICK_FLAG) as usize;
-                    ((slot % gx) | ((slot / gx % gy) << 10) | ((slot / (gx * gy)) << 20)) as u32
+                    let [x, y, z] = layout.atlas_cell((node.first_child & !BRICK_FLAG) as usize);
+                    (x | (y << 10) | (z << 20)) as u32
                 };
                 GridCell {
                     color: node.color,
