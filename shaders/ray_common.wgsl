@@ -79,11 +79,13 @@ fn volume_interval(origin: vec3<f32>, inv: vec3<f32>) -> vec2<f32> {
     return vec2<f32>(max(max_component(min(t_low, t_high)), 0.0), min_component(max(t_low, t_high)));
 }
 
-// Samples are fetched four at a time: their texture reads do not depend on each other, so a
-// ray waits for one memory latency per four samples instead of one per sample (the frame is
-// bound by its longest rays' chains of dependent reads: docs/benchmarks.md, attempt 7).
+// Samples are fetched in batches of four: their texture reads do not depend on each other, so
+// a ray waits for one memory latency per batch instead of one per sample (the frame is bound by
+// its longest rays' chains of dependent reads: docs/benchmarks.md, attempt 7). The dense march
+// and the bricks' grid walk fetch two batches per loop iteration (attempt 17).
 const BATCH: u32 = 4u;
 const BATCH_OFFSETS: vec4<f32> = vec4<f32>(0.5, 1.5, 2.5, 3.5);
+const BATCH_PAIR: u32 = 2u * BATCH;
 
 // A ray's front-to-back state: DVR color and opacity, or the MIP running maximum.
 struct Accumulation {
@@ -122,6 +124,15 @@ fn accumulate(acc: ptr<function, Accumulation>, levels: vec4<u32>, count: u32) -
         }
     }
     return count;
+}
+
+// `accumulate` for two batches fetched together: the first `count` of their eight levels.
+fn accumulate_pair(acc: ptr<function, Accumulation>, first: vec4<u32>, second: vec4<u32>, count: u32) -> u32 {
+    var taken = accumulate(acc, first, min(count, BATCH));
+    if !(*acc).done && count > BATCH {
+        taken += accumulate(acc, second, count - BATCH);
+    }
+    return taken;
 }
 
 // How many of the four sample distances `t` lie before `t_end`.

@@ -75,10 +75,10 @@ fn march_brick(acc: ptr<function, Accumulation>, origin: vec3<f32>, dir: vec3<f3
             break;
         }
         let batch_levels = vec4<u32>(
-            value_index(textureSampleLevel(atlas, atlas_sampler, (origin + ts.x * dir + to_atlas) * atlas_scale, 0.0).r),
-            value_index(textureSampleLevel(atlas, atlas_sampler, (origin + ts.y * dir + to_atlas) * atlas_scale, 0.0).r),
-            value_index(textureSampleLevel(atlas, atlas_sampler, (origin + ts.z * dir + to_atlas) * atlas_scale, 0.0).r),
-            value_index(textureSampleLevel(atlas, atlas_sampler, (origin + ts.w * dir + to_atlas) * atlas_scale, 0.0).r),
+            atlas_level(origin + ts.x * dir + to_atlas, atlas_scale),
+            atlas_level(origin + ts.y * dir + to_atlas, atlas_scale),
+            atlas_level(origin + ts.z * dir + to_atlas, atlas_scale),
+            atlas_level(origin + ts.w * dir + to_atlas, atlas_scale),
         );
         taken += accumulate(acc, batch_levels, count);
         if (*acc).done || count < BATCH {
@@ -87,6 +87,25 @@ fn march_brick(acc: ptr<function, Accumulation>, origin: vec3<f32>, dir: vec3<f3
         k += f32(BATCH);
     }
     return taken;
+}
+
+// The value level at an atlas texel position (a voxel-space point plus its brick's `to_atlas`),
+// trilinear; `atlas_scale` turns texels into normalized coordinates.
+fn atlas_level(texel: vec3<f32>, atlas_scale: vec3<f32>) -> u32 {
+    return value_index(textureSampleLevel(atlas, atlas_sampler, texel * atlas_scale, 0.0).r);
+}
+
+// Four samples of the grid walk at distances `ts`: those before `t_out` in the current brick
+// (atlas offset `to_atlas`), the others in the next one (`to_atlas_next`).
+fn brick_batch(origin: vec3<f32>, dir: vec3<f32>, ts: vec4<f32>, t_out: f32, to_atlas: vec3<f32>,
+               to_atlas_next: vec3<f32>, atlas_scale: vec3<f32>) -> vec4<u32> {
+    let here = ts < vec4<f32>(t_out);
+    return vec4<u32>(
+        atlas_level(origin + ts.x * dir + select(to_atlas_next, to_atlas, here.x), atlas_scale),
+        atlas_level(origin + ts.y * dir + select(to_atlas_next, to_atlas, here.y), atlas_scale),
+        atlas_level(origin + ts.z * dir + select(to_atlas_next, to_atlas, here.z), atlas_scale),
+        atlas_level(origin + ts.w * dir + select(to_atlas_next, to_atlas, here.w), atlas_scale),
+    );
 }
 
 // The offset from voxel space to atlas texels of the brick whose first voxel is `corner` and
@@ -270,8 +289,8 @@ fn walk_cell(cell: vec3<i32>, exits: vec3<f32>, t_leave: f32, step: vec3<i32>, c
 // brick, the ray walks the grid of brick cells (Amanatides & Woo at brick resolution). Each cell
 // costs one 16-byte read, issued a cell ahead so that it overlaps the marching of the current
 // cell; a cell whose node is transparent (DVR) or cannot raise the maximum (MIP) is skipped.
-// One flat loop, a batch of samples per iteration (moving to the next cell first when the last
-// batch reached the current one's exit): the lanes of a warp leave their cells at different
+// One flat loop, two batches of samples per iteration (moving to the next cell first when the
+// last iteration reached the current one's exit): the lanes of a warp leave their cells at different
 // samples, and nested cell and sample loops would make each wait for the others at every cell.
 // The samples are the dense renderer's (t_enter + (k + ½)·step), as in `march_brick`.
 fn walk_bricks(origin: vec3<f32>, dir: vec3<f32>) -> RayResult {
@@ -319,16 +338,32 @@ fn walk_bricks(origin: vec3<f32>, dir: vec3<f32>) -> RayResult {
         }
         if draw {
             let ts = t_enter + (vec4<f32>(k) + BATCH_OFFSETS) * sample_step;
-            let count = count_before(ts, here.t_out);
-            let batch_levels = vec4<u32>(
-                value_index(textureSampleLevel(atlas, atlas_sampler, (origin + ts.x * dir + to_atlas) * atlas_scale, 0.0).r),
-                value_index(textureSampleLevel(atlas, atlas_sampler, (origin + ts.y * dir + to_atlas) * atlas_scale, 0.0).r),
-                value_index(textureSampleLevel(atlas, atlas_sampler, (origin + ts.z * dir + to_atlas) * atlas_scale, 0.0).r),
-                value_index(textureSampleLevel(atlas, atlas_sampler, (origin + ts.w * dir + to_atlas) * atlas_scale, 0.0).r),
-            );
-            result.visited += accumulate(&acc, batch_levels, count);
+            let ts2 = ts + f32(BATCH) * sample_step;
+            let count_here = count_before(ts, here.t_out) + count_before(ts2, here.t_out);
+            // Samples past the cell's exit come from the next cell when that one is drawn too
+            // (its entry is already here), so a cell boundary costs no short iteration.
+            // Samples past that cell too (a ray clipping its corner) wait for the next one.
+            // (Nested ifs, not &&: only an iteration at the exit may wait for the next entry.)
+            var count = count_here;
+            var to_atlas_next = to_atlas;
+            if count_here < BATCH_PAIR && !here.last {
+                if draws_brick(next_entry, acc.running_max) {
+                    let t_next = min(min_component(here.next_exits), t_leave);
+                    count = count_before(ts, t_next) + count_before(ts2, t_next);
+                    to_atlas_next = brick_to_atlas(next_entry.w, vec3<f32>(here.next) * brick);
+                }
+            }
+            let first = brick_batch(origin, dir, ts, here.t_out, to_atlas, to_atlas_next, atlas_scale);
+            let second = brick_batch(origin, dir, ts2, here.t_out, to_atlas, to_atlas_next, atlas_scale);
+            result.visited += accumulate_pair(&acc, first, second, count);
             k += f32(count);
-            advance = count < BATCH;
+            advance = count_here < BATCH_PAIR;
+            // MIP: once the ray's maximum reaches the brick's (its own voxels' maximum, which
+            // the cell skip trusts too), the rest of the brick cannot raise it.
+            if mip && !advance && acc.running_max >= (entry.z >> 16u) {
+                k = max(ceil((here.t_out - t_enter) / sample_step - 0.5), k);
+                advance = true;
+            }
         } else {
             // Skipped, or a uniform region (a leaf above the bricks): its samples in one go.
             let end = max(ceil((here.t_out - t_enter) / sample_step - 0.5), k);
