@@ -38,7 +38,7 @@ fn march(origin: vec3<f32>, dir: vec3<f32>) -> MarchResult {
     // fetched two batches at a time.
     for (var k = 0.0; ; k += f32(BATCH_PAIR)) {
         let t = t_enter + (vec4<f32>(k) + BATCH_OFFSETS) * step;
-        let t2 = t + f32(BATCH) * step;
+        let t2 = t_enter + (vec4<f32>(k + f32(BATCH)) + BATCH_OFFSETS) * step;
         let count = count_before(t, t_leave) + count_before(t2, t_leave);
         if count == 0u {
             break;

@@ -338,7 +338,7 @@ fn walk_bricks(origin: vec3<f32>, dir: vec3<f32>) -> RayResult {
         }
         if draw {
             let ts = t_enter + (vec4<f32>(k) + BATCH_OFFSETS) * sample_step;
-            let ts2 = ts + f32(BATCH) * sample_step;
+            let ts2 = t_enter + (vec4<f32>(k + f32(BATCH)) + BATCH_OFFSETS) * sample_step;
             let count_here = count_before(ts, here.t_out) + count_before(ts2, here.t_out);
             // Samples past the cell's exit come from the next cell when that one is drawn too
             // (its entry is already here), so a cell boundary costs no short iteration.
