@@ -47,9 +47,10 @@ pub(super) fn dicom_files(dir: &Path) -> Vec<PathBuf> {
     files
 }
 
-/// One file's header: what sorting and grouping need.
+/// One file's header (read up to the pixel data, once) and what sorting and grouping need.
 struct SliceHeader {
     path: PathBuf,
+    object: DefaultDicomObject,
     series: String,
     description: String,
     position: Option<[f64; 3]>,
@@ -144,6 +145,7 @@ pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
             orientation: floats(&object, tags::IMAGE_ORIENTATION_PATIENT)
                 .and_then(|v| v.try_into().ok()),
             frames: integer(&object, tags::NUMBER_OF_FRAMES).unwrap_or(1).max(1) as usize,
+            object,
         });
     }
     let mut series: BTreeMap<String, Vec<SliceHeader>> = BTreeMap::new();
@@ -205,10 +207,9 @@ pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
 
     let mut data: Option<VoxelData> = None;
     let mut size = [0usize; 2];
-    let mut first_meta: Option<(DefaultDicomObject, ValueScale)> = None;
+    let mut first_scale: Option<ValueScale> = None;
     for (index, slice) in slices.iter().enumerate() {
-        let object = open_header(&slice.path)?;
-        let (pixels, rows, columns, scale) = decode_pixels(&object, &slice.path)?;
+        let (pixels, rows, columns, scale) = decode_pixels(&slice.object, &slice.path)?;
         if index == 0 {
             size = [columns, rows];
         } else if size != [columns, rows] {
@@ -231,9 +232,9 @@ pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
                 )
             })?,
         }
-        match &first_meta {
-            None => first_meta = Some((object, scale)),
-            Some((_, first_scale)) if *first_scale != scale => {
+        match first_scale {
+            None => first_scale = Some(scale),
+            Some(first_scale) if first_scale != scale => {
                 return Err(format!(
                     "{} rescales by {}·v + {} but the series' first file by {}·v + {}; mixed rescaling is not supported",
                     file_name(&slice.path),
@@ -247,11 +248,12 @@ pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
         }
     }
     let data = data.expect("at least one slice");
-    let (first, scale) = first_meta.expect("at least one slice");
+    let scale = first_scale.expect("at least one slice");
+    let first = &slices[0].object;
     let depth = data.len() / (size[0] * size[1]);
 
     // Spacing: PixelSpacing is row spacing (y), then column spacing (x).
-    let pixel_spacing = floats(&first, tags::PIXEL_SPACING)
+    let pixel_spacing = floats(first, tags::PIXEL_SPACING)
         .filter(|v| v.len() == 2)
         .unwrap_or(vec![1.0, 1.0]);
     let positions: Vec<f64> = slices.iter().map(&along).collect();
@@ -261,8 +263,8 @@ pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
             gaps.sort_by(f64::total_cmp);
             gaps[gaps.len() / 2]
         } else {
-            floats(&first, tags::SPACING_BETWEEN_SLICES)
-                .or_else(|| floats(&first, tags::SLICE_THICKNESS))
+            floats(first, tags::SPACING_BETWEEN_SLICES)
+                .or_else(|| floats(first, tags::SLICE_THICKNESS))
                 .and_then(|v| v.first().copied())
                 .unwrap_or(1.0)
         };
@@ -284,7 +286,7 @@ pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
         ("units", tags::RESCALE_TYPE),
         ("photometric", tags::PHOTOMETRIC_INTERPRETATION),
     ] {
-        if let Some(value) = text(&first, tag) {
+        if let Some(value) = text(first, tag) {
             metadata.push((key.to_owned(), value));
         }
     }
@@ -651,44 +653,19 @@ fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
 mod tests {
     use super::decode_rle_frame;
 
-    /// PackBits-encodes `bytes` with both literal and replicate runs.
-    fn pack(bytes: &[u8]) -> Vec<u8> {
-        let mut out = Vec::new();
-        let mut i = 0;
-        while i < bytes.len() {
-            let run = bytes[i..]
-                .iter()
-                .take(128)
-                .take_while(|&&b| b == bytes[i])
-                .count();
-            if run >= 3 {
-                out.push((1 - run as i32) as i8 as u8);
-                out.push(bytes[i]);
-                i += run;
-            } else {
-                let count = (bytes.len() - i).min(2);
-                out.push((count - 1) as u8);
-                out.extend(&bytes[i..i + count]);
-                i += count;
-            }
-        }
-        out
-    }
-
     #[test]
     fn rle_frames_decode_to_little_endian_pixels() {
-        let pixels: Vec<u16> = (0..300u16)
-            .map(|i| if i < 100 { 7 } else { i * 211 })
-            .collect();
-        let high: Vec<u8> = pixels.iter().map(|p| (p >> 8) as u8).collect();
-        let low: Vec<u8> = pixels.iter().map(|p| *p as u8).collect();
-        let (high, low) = (pack(&high), pack(&low));
+        // Two segments (high bytes, then low bytes), each a PackBits replicate run of four
+        // and a literal run of two. (tests/dicom.rs writes whole RLE files with an encoder.)
+        let pixels: Vec<u16> = vec![7, 7, 7, 7, 0x1234, 0xabcd];
+        let high = [0xfd, 0x00, 0x01, 0x12, 0xab];
+        let low = [0xfd, 0x07, 0x01, 0x34, 0xcd];
         let mut frame = vec![0u8; 64];
         frame[0..4].copy_from_slice(&2u32.to_le_bytes());
         frame[4..8].copy_from_slice(&64u32.to_le_bytes());
         frame[8..12].copy_from_slice(&(64 + high.len() as u32).to_le_bytes());
-        frame.extend(&high);
-        frame.extend(&low);
+        frame.extend(high);
+        frame.extend(low);
         let mut out = Vec::new();
         decode_rle_frame(&frame, pixels.len(), 2, &mut out).unwrap();
         let decoded: Vec<u16> = out
@@ -699,7 +676,7 @@ mod tests {
 
         // A frame cut short is an error, not a panic.
         let mut out = Vec::new();
-        assert!(decode_rle_frame(&frame[..frame.len() - 40], pixels.len(), 2, &mut out).is_err());
+        assert!(decode_rle_frame(&frame[..frame.len() - 2], pixels.len(), 2, &mut out).is_err());
         assert!(decode_rle_frame(&frame[..30], pixels.len(), 2, &mut out).is_err());
     }
 }

@@ -61,11 +61,15 @@ pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
         Some("BigEndian") => Endian::Big,
         _ => Endian::Little,
     };
-    let header64 = root.attribute("header_type") == Some("UInt64");
     let compressed = match root.attribute("compressor") {
         None | Some("") => false,
         Some("vtkZLibDataCompressor") => true,
         Some(other) => return Err(format!("compressor {other} is not supported (zlib is)")),
+    };
+    let encoding = ArrayEncoding {
+        header64: root.attribute("header_type") == Some("UInt64"),
+        endian,
+        compressed,
     };
     let image = child(root, "ImageData").ok_or("no <ImageData> element")?;
     let extent = numbers::<i64>(image.attribute("WholeExtent").ok_or("no WholeExtent")?, 6)?;
@@ -168,37 +172,32 @@ pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
                 .chars()
                 .filter(|c| !c.is_ascii_whitespace())
                 .collect();
-            let raw = decode_inline_binary(&text, header64, endian, compressed, needed)?;
+            let raw = decode_inline_binary(&text, encoding, needed)?;
             VoxelData::decode(voxel_type, &raw, endian)
         }
         "appended" => {
-            let (encoding, appended) =
+            let (appended_encoding, appended) =
                 appended.ok_or("an appended array without <AppendedData>")?;
             let offset: usize = array
                 .attribute("offset")
                 .unwrap_or("0")
                 .parse()
                 .map_err(|_| "a bad appended offset")?;
-            let raw = if encoding == "base64" {
-                let block = appended
-                    .get(offset..)
-                    .ok_or("the appended offset is past the end of the file")?;
+            let block = appended
+                .get(offset..)
+                .ok_or("the appended offset is past the end of the file")?;
+            let raw = if appended_encoding == "base64" {
                 let end = block
                     .iter()
                     .position(|b| !(b.is_ascii_alphanumeric() || matches!(b, b'+' | b'/' | b'=')))
                     .unwrap_or(block.len());
                 decode_inline_binary(
                     std::str::from_utf8(&block[..end]).unwrap_or_default(),
-                    header64,
-                    endian,
-                    compressed,
+                    encoding,
                     needed,
                 )?
             } else {
-                let block = appended
-                    .get(offset..)
-                    .ok_or("the appended offset is past the end of the file")?;
-                read_blocks(block, header64, endian, compressed, needed)?
+                read_blocks(block, encoding, needed)?
             };
             VoxelData::decode(voxel_type, &raw, endian)
         }
@@ -235,17 +234,15 @@ pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
 /// the header and the blocks encoded separately.
 fn decode_inline_binary(
     text: &str,
-    header64: bool,
-    endian: Endian,
-    compressed: bool,
+    encoding: ArrayEncoding,
     needed: usize,
 ) -> Result<Vec<u8>, Problem> {
-    let word = if header64 { 8 } else { 4 };
-    if !compressed {
+    let word = encoding.word_bytes();
+    if !encoding.compressed {
         let raw = STANDARD
             .decode(text)
             .map_err(|e| format!("bad base64 data: {e}"))?;
-        return read_blocks(&raw, header64, endian, false, needed);
+        return read_blocks(&raw, encoding, needed);
     }
     // The header (3 words + one per block) is a base64 string of its own.
     let first = STANDARD
@@ -254,7 +251,7 @@ fn decode_inline_binary(
                 .ok_or("a truncated base64 header")?,
         )
         .map_err(|e| format!("bad base64 header: {e}"))?;
-    let blocks = read_word(&first, 0, header64, endian)?;
+    let blocks = encoding.word(&first, 0)?;
     if blocks > needed + 1 {
         return Err(format!("a header claiming {blocks} blocks"));
     }
@@ -268,7 +265,7 @@ fn decode_inline_binary(
     let mut joined = header;
     joined.truncate((3 + blocks) * word);
     joined.extend(data);
-    read_blocks(&joined, header64, endian, true, needed)
+    read_blocks(&joined, encoding, needed)
 }
 
 fn base64_len(bytes: usize) -> usize {
@@ -277,16 +274,10 @@ fn base64_len(bytes: usize) -> usize {
 
 /// Reads an array's bytes after its header: uncompressed (one byte-count word) or zlib
 /// blocks (`[blocks, block size, last size, compressed sizes…]`).
-fn read_blocks(
-    block: &[u8],
-    header64: bool,
-    endian: Endian,
-    compressed: bool,
-    needed: usize,
-) -> Result<Vec<u8>, Problem> {
-    let word = if header64 { 8 } else { 4 };
-    if !compressed {
-        let length = read_word(block, 0, header64, endian)?;
+fn read_blocks(block: &[u8], encoding: ArrayEncoding, needed: usize) -> Result<Vec<u8>, Problem> {
+    let word = encoding.word_bytes();
+    if !encoding.compressed {
+        let length = encoding.word(block, 0)?;
         if length < needed {
             return Err(format!("the array holds {length} bytes, {needed} expected"));
         }
@@ -295,8 +286,8 @@ fn read_blocks(
             .map(<[u8]>::to_vec)
             .ok_or_else(|| format!("truncated: {needed} bytes of data expected"));
     }
-    let blocks = read_word(block, 0, header64, endian)?;
-    let block_size = read_word(block, 1, header64, endian)?;
+    let blocks = encoding.word(block, 0)?;
+    let block_size = encoding.word(block, 1)?;
     if blocks == 0
         || block_size == 0
         || blocks.saturating_mul(block_size) < needed
@@ -312,7 +303,7 @@ fn read_blocks(
     }
     let mut out = Vec::with_capacity(needed);
     for b in 0..blocks {
-        let size = read_word(block, 3 + b, header64, endian)?;
+        let size = encoding.word(block, 3 + b)?;
         let chunk = block
             .get(at..at + size)
             .ok_or("truncated: a compressed block runs past the end of the file")?;
@@ -338,17 +329,34 @@ fn read_blocks(
     Ok(out)
 }
 
-fn read_word(bytes: &[u8], index: usize, header64: bool, endian: Endian) -> Result<usize, Problem> {
-    let word = if header64 { 8 } else { 4 };
-    let raw = bytes
-        .get(index * word..(index + 1) * word)
-        .ok_or("truncated array header")?;
-    let value = match (header64, endian) {
-        (true, Endian::Little) => u64::from_le_bytes(raw.try_into().expect("8 bytes")),
-        (true, Endian::Big) => u64::from_be_bytes(raw.try_into().expect("8 bytes")),
-        (false, _) => u32::decode(raw, endian) as u64,
-    };
-    usize::try_from(value).map_err(|_| "an array header beyond this machine's address space".into())
+/// How the file's binary arrays are stored: the header's word size (`header_type`), the byte
+/// order, and whether the data is in zlib blocks.
+#[derive(Debug, Clone, Copy)]
+struct ArrayEncoding {
+    header64: bool,
+    endian: Endian,
+    compressed: bool,
+}
+
+impl ArrayEncoding {
+    fn word_bytes(self) -> usize {
+        if self.header64 { 8 } else { 4 }
+    }
+
+    /// Word `index` of an array header.
+    fn word(self, bytes: &[u8], index: usize) -> Result<usize, Problem> {
+        let word = self.word_bytes();
+        let raw = bytes
+            .get(index * word..(index + 1) * word)
+            .ok_or("truncated array header")?;
+        let value = match (self.header64, self.endian) {
+            (true, Endian::Little) => u64::from_le_bytes(raw.try_into().expect("8 bytes")),
+            (true, Endian::Big) => u64::from_be_bytes(raw.try_into().expect("8 bytes")),
+            (false, _) => u32::decode(raw, self.endian) as u64,
+        };
+        usize::try_from(value)
+            .map_err(|_| "an array header beyond this machine's address space".into())
+    }
 }
 
 fn child<'a, 'input>(
