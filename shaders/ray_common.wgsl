@@ -21,6 +21,7 @@ struct Params {
     atlas_scale: f32,       // atlas texel value × this = value level (255 for unorm8, 1 for f16)
     atlas_grid: vec4<u32>,  // xyz: bricks along each atlas axis
     brick_grid: vec4<u32>,  // xyz: brick cells along each volume axis (the walked grid)
+    atlas_texel: vec4<f32>, // xyz: 1 / the atlas's size in texels (texel to normalized)
 }
 
 const MODE_DVR: u32 = 0u;

@@ -63,9 +63,6 @@ struct RayResult {
 // point of this brick to its atlas texel (`brick_to_atlas`). Returns the samples taken.
 fn march_brick(acc: ptr<function, Accumulation>, origin: vec3<f32>, dir: vec3<f32>, t_enter: f32,
                sample_step: f32, t: f32, t_out: f32, to_atlas: vec3<f32>) -> u32 {
-    // Texel coordinates to normalized ones (no texture query: its latency would sit in every
-    // brick's chain).
-    let atlas_scale = 1.0 / vec3<f32>(params.atlas_grid.xyz * (params.brick_size + 2u));
     var taken = 0u;
     var k = max(ceil((t - t_enter) / sample_step - 0.5), 0.0);
     loop {
@@ -75,10 +72,10 @@ fn march_brick(acc: ptr<function, Accumulation>, origin: vec3<f32>, dir: vec3<f3
             break;
         }
         let batch_levels = vec4<u32>(
-            atlas_level(origin + ts.x * dir + to_atlas, atlas_scale),
-            atlas_level(origin + ts.y * dir + to_atlas, atlas_scale),
-            atlas_level(origin + ts.z * dir + to_atlas, atlas_scale),
-            atlas_level(origin + ts.w * dir + to_atlas, atlas_scale),
+            atlas_level(origin + ts.x * dir + to_atlas),
+            atlas_level(origin + ts.y * dir + to_atlas),
+            atlas_level(origin + ts.z * dir + to_atlas),
+            atlas_level(origin + ts.w * dir + to_atlas),
         );
         taken += accumulate(acc, batch_levels, count);
         if (*acc).done || count < BATCH {
@@ -90,21 +87,21 @@ fn march_brick(acc: ptr<function, Accumulation>, origin: vec3<f32>, dir: vec3<f3
 }
 
 // The value level at an atlas texel position (a voxel-space point plus its brick's `to_atlas`),
-// trilinear; `atlas_scale` turns texels into normalized coordinates.
-fn atlas_level(texel: vec3<f32>, atlas_scale: vec3<f32>) -> u32 {
-    return value_index(textureSampleLevel(atlas, atlas_sampler, texel * atlas_scale, 0.0).r);
+// trilinear.
+fn atlas_level(texel: vec3<f32>) -> u32 {
+    return value_index(textureSampleLevel(atlas, atlas_sampler, texel * params.atlas_texel.xyz, 0.0).r);
 }
 
 // Four samples of the grid walk at distances `ts`: those before `t_out` in the current brick
 // (atlas offset `to_atlas`), the others in the next one (`to_atlas_next`).
 fn brick_batch(origin: vec3<f32>, dir: vec3<f32>, ts: vec4<f32>, t_out: f32, to_atlas: vec3<f32>,
-               to_atlas_next: vec3<f32>, atlas_scale: vec3<f32>) -> vec4<u32> {
+               to_atlas_next: vec3<f32>) -> vec4<u32> {
     let here = ts < vec4<f32>(t_out);
     return vec4<u32>(
-        atlas_level(origin + ts.x * dir + select(to_atlas_next, to_atlas, here.x), atlas_scale),
-        atlas_level(origin + ts.y * dir + select(to_atlas_next, to_atlas, here.y), atlas_scale),
-        atlas_level(origin + ts.z * dir + select(to_atlas_next, to_atlas, here.z), atlas_scale),
-        atlas_level(origin + ts.w * dir + select(to_atlas_next, to_atlas, here.w), atlas_scale),
+        atlas_level(origin + ts.x * dir + select(to_atlas_next, to_atlas, here.x)),
+        atlas_level(origin + ts.y * dir + select(to_atlas_next, to_atlas, here.y)),
+        atlas_level(origin + ts.z * dir + select(to_atlas_next, to_atlas, here.z)),
+        atlas_level(origin + ts.w * dir + select(to_atlas_next, to_atlas, here.w)),
     );
 }
 
@@ -309,7 +306,6 @@ fn walk_bricks(origin: vec3<f32>, dir: vec3<f32>) -> RayResult {
     let grid = vec3<i32>(params.brick_grid.xyz);
     let step = select(vec3<i32>(-1), vec3<i32>(1), positive);
     let cell_span = brick * abs(inv);
-    let atlas_scale = 1.0 / vec3<f32>(params.atlas_grid.xyz * (params.brick_size + 2u));
 
     let first = clamp(vec3<i32>(floor((origin + t_enter * dir) / brick)), vec3<i32>(0), grid - 1);
     let first_exits = (vec3<f32>(first) * brick + select(vec3<f32>(0.0), vec3<f32>(brick), positive) - origin) * inv;
@@ -353,8 +349,8 @@ fn walk_bricks(origin: vec3<f32>, dir: vec3<f32>) -> RayResult {
                     to_atlas_next = brick_to_atlas(next_entry.w, vec3<f32>(here.next) * brick);
                 }
             }
-            let first = brick_batch(origin, dir, ts, here.t_out, to_atlas, to_atlas_next, atlas_scale);
-            let second = brick_batch(origin, dir, ts2, here.t_out, to_atlas, to_atlas_next, atlas_scale);
+            let first = brick_batch(origin, dir, ts, here.t_out, to_atlas, to_atlas_next);
+            let second = brick_batch(origin, dir, ts2, here.t_out, to_atlas, to_atlas_next);
             result.visited += accumulate_pair(&acc, first, second, count);
             k += f32(count);
             advance = count_here < BATCH_PAIR;

@@ -27,9 +27,12 @@ pub(crate) struct RaycastParams {
     pub atlas_grid: [u32; 4],
     /// Brick cells along x, y, z of the volume (w unused): the grid a full-detail ray walks.
     pub brick_grid: [u32; 4],
+    /// 1 / the atlas's size in texels along x, y, z (w unused): texel to normalized coordinates,
+    /// a uniform so that the grid walk keeps no registers for it.
+    pub atlas_texel: [f32; 4],
 }
 
-const _: () = assert!(std::mem::size_of::<RaycastParams>() == 160);
+const _: () = assert!(std::mem::size_of::<RaycastParams>() == 176);
 
 /// One cell of the bricks renderer's grid: a copy of the node covering it and its value
 /// bounds (refreshed by `brick_grid.wgsl` after a recolor), and its brick's atlas cell.

@@ -356,5 +356,14 @@ pub(crate) fn raycast_params(
             [b.atlas_grid[0], b.atlas_grid[1], b.atlas_grid[2], 0]
         }),
         brick_grid: bricks.map_or([1, 1, 1, 0], |b| [b.grid[0], b.grid[1], b.grid[2], 0]),
+        atlas_texel: bricks.map_or([1.0, 1.0, 1.0, 0.0], |b| {
+            let texels = |g: u32| 1.0 / (g * (b.size + 2)) as f32;
+            [
+                texels(b.atlas_grid[0]),
+                texels(b.atlas_grid[1]),
+                texels(b.atlas_grid[2]),
+                0.0,
+            ]
+        }),
     }
 }
