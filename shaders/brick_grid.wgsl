@@ -3,18 +3,9 @@
 // so a ray walking the cells reads one 16-byte entry per cell instead of descending the tree.
 // The fourth word, the brick's atlas cell, never changes (written at upload).
 
-// Keep in sync with `RecolorParams` in src/render/gpu_data.rs (level_start is unused here,
-// level_count is the number of cells).
-struct Params {
-    level_start: u32,
-    level_count: u32,
-    groups_x: u32,
-    _pad: u32,
-}
-
 const WORKGROUP: u32 = 256u;
 
-@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(0) var<uniform> params: LevelParams;
 @group(0) @binding(1) var<storage, read> nodes: array<Node>;
 @group(0) @binding(2) var<storage, read> bounds: array<u32>;
 @group(0) @binding(3) var<storage, read> grid_leaves: array<u32>;

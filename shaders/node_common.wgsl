@@ -1,10 +1,21 @@
-// Shared by raycast.wgsl, recolor.wgsl and brick_recolor.wgsl: src/render/shaders.rs prepends
-// this file to each (WGSL has no includes). The octree node and its color arithmetic.
+// Shared by raycast.wgsl, recolor.wgsl, brick_recolor.wgsl and brick_grid.wgsl:
+// src/render/shaders.rs prepends this file to each (WGSL has no includes). The octree node, its
+// color arithmetic, and the uniforms of a pass over one run of nodes.
 
 // Keep in sync with `Node` in src/octree/node.rs.
 struct Node {
     color: u32,       // RGBA8, red lowest, straight alpha
     first_child: u32, // index of the first of 8 children, or LEAF
+}
+
+// The uniforms of recolor.wgsl (one level's nodes) and brick_grid.wgsl (level_count: the
+// cells; level_start unused). Keep in sync with `RecolorParams` in src/render/gpu_data.rs.
+struct LevelParams {
+    level_start: u32,
+    level_count: u32,
+    // Workgroups along x of the 2D dispatch (a level can exceed 65535 workgroups).
+    groups_x: u32,
+    _pad: u32,
 }
 
 const LEAF: u32 = 0xffffffffu;

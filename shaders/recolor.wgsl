@@ -3,18 +3,9 @@
 // once per level, deepest first, so children are final before their parents read them.
 // Integer math only: the result equals the CPU's `recolor` bit for bit.
 
-// Keep in sync with `RecolorParams` in src/render/gpu_data.rs.
-struct Params {
-    level_start: u32,
-    level_count: u32,
-    // Workgroups along x of the 2D dispatch (a level can exceed 65535 workgroups).
-    groups_x: u32,
-    _pad: u32,
-}
-
 const WORKGROUP: u32 = 256u;
 
-@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(0) var<uniform> params: LevelParams;
 @group(0) @binding(1) var<storage, read_write> nodes: array<Node>;
 @group(0) @binding(2) var<storage, read> bounds: array<u32>;
 @group(0) @binding(3) var<storage, read> lookup_table: array<u32>;

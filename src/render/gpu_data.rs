@@ -49,7 +49,8 @@ pub(crate) struct GridCell {
 
 const _: () = assert!(std::mem::size_of::<GridCell>() == 16);
 
-/// Uniforms of one level's dispatch of `recolor.wgsl`. Keep in sync with `struct Params` there.
+/// Uniforms of one level's dispatch of `recolor.wgsl` and of `brick_grid.wgsl`. Keep in sync
+/// with `struct LevelParams` in `node_common.wgsl`.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]
 pub(crate) struct RecolorParams {
@@ -114,7 +115,7 @@ mod tests {
             std::mem::size_of::<RaycastParams>() as u32
         );
         assert_eq!(
-            wgsl_struct_size(recolor, "Params"),
+            wgsl_struct_size(recolor, "LevelParams"),
             std::mem::size_of::<RecolorParams>() as u32
         );
         assert_eq!(wgsl_struct_size(recolor, "Node"), node);
@@ -126,7 +127,7 @@ mod tests {
         assert_eq!(wgsl_struct_size(bricks, "Node"), node);
         let grid = crate::render::shaders::BRICK_GRID;
         assert_eq!(
-            wgsl_struct_size(grid, "Params"),
+            wgsl_struct_size(grid, "LevelParams"),
             std::mem::size_of::<RecolorParams>() as u32
         );
         assert_eq!(wgsl_struct_size(grid, "Node"), node);
