@@ -59,10 +59,11 @@ struct RayResult {
 
 
 // Marches a brick from `t` to `t_out` in the atlas with hardware trilinear filtering, at the
-// dense renderer's sample distances t_enter + (k + ½)·step. `to_atlas` maps a voxel-space
-// point of this brick to its atlas texel (`brick_to_atlas`). Returns the samples taken.
-fn march_brick(acc: ptr<function, Accumulation>, origin: vec3<f32>, dir: vec3<f32>, t_enter: f32,
-               sample_step: f32, t: f32, t_out: f32, to_atlas: vec3<f32>) -> u32 {
+// dense renderer's sample distances t_enter + (k + ½)·step. `atlas_base` and `atlas_dir` are
+// the ray in this brick's normalized atlas coordinates (`atlas_origin`). Returns the samples
+// taken.
+fn march_brick(acc: ptr<function, Accumulation>, atlas_base: vec3<f32>, atlas_dir: vec3<f32>,
+               t_enter: f32, sample_step: f32, t: f32, t_out: f32) -> u32 {
     var taken = 0u;
     var k = max(ceil((t - t_enter) / sample_step - 0.5), 0.0);
     loop {
@@ -72,10 +73,10 @@ fn march_brick(acc: ptr<function, Accumulation>, origin: vec3<f32>, dir: vec3<f3
             break;
         }
         let batch_levels = vec4<u32>(
-            atlas_level(origin + ts.x * dir + to_atlas),
-            atlas_level(origin + ts.y * dir + to_atlas),
-            atlas_level(origin + ts.z * dir + to_atlas),
-            atlas_level(origin + ts.w * dir + to_atlas),
+            atlas_level_at(atlas_base + ts.x * atlas_dir),
+            atlas_level_at(atlas_base + ts.y * atlas_dir),
+            atlas_level_at(atlas_base + ts.z * atlas_dir),
+            atlas_level_at(atlas_base + ts.w * atlas_dir),
         );
         taken += accumulate(acc, batch_levels, count);
         if (*acc).done || count < BATCH {
@@ -86,23 +87,31 @@ fn march_brick(acc: ptr<function, Accumulation>, origin: vec3<f32>, dir: vec3<f3
     return taken;
 }
 
-// The value level at an atlas texel position (a voxel-space point plus its brick's `to_atlas`),
-// trilinear.
-fn atlas_level(texel: vec3<f32>) -> u32 {
-    return value_index(textureSampleLevel(atlas, atlas_sampler, texel * params.atlas_texel.xyz, 0.0).r);
-}
-
-// Four samples of the grid walk at distances `ts`: those before `t_out` in the current brick
-// (atlas offset `to_atlas`), the others in the next one (`to_atlas_next`).
-fn brick_batch(origin: vec3<f32>, dir: vec3<f32>, ts: vec4<f32>, t_out: f32, to_atlas: vec3<f32>,
-               to_atlas_next: vec3<f32>) -> vec4<u32> {
+// Four samples of the grid walk at distances `ts`: those before `t_out` in the current brick,
+// the others in the next one. `atlas_here` and `atlas_next` are the ray's origin in each
+// brick's normalized atlas coordinates (`atlas_origin`), `atlas_dir` its direction there: one
+// multiply-add per coordinate and sample.
+fn brick_batch(atlas_dir: vec3<f32>, ts: vec4<f32>, t_out: f32, atlas_here: vec3<f32>,
+               atlas_next: vec3<f32>) -> vec4<u32> {
     let here = ts < vec4<f32>(t_out);
     return vec4<u32>(
-        atlas_level(origin + ts.x * dir + select(to_atlas_next, to_atlas, here.x)),
-        atlas_level(origin + ts.y * dir + select(to_atlas_next, to_atlas, here.y)),
-        atlas_level(origin + ts.z * dir + select(to_atlas_next, to_atlas, here.z)),
-        atlas_level(origin + ts.w * dir + select(to_atlas_next, to_atlas, here.w)),
+        atlas_level_at(select(atlas_next, atlas_here, here.x) + ts.x * atlas_dir),
+        atlas_level_at(select(atlas_next, atlas_here, here.y) + ts.y * atlas_dir),
+        atlas_level_at(select(atlas_next, atlas_here, here.z) + ts.z * atlas_dir),
+        atlas_level_at(select(atlas_next, atlas_here, here.w) + ts.w * atlas_dir),
     );
+}
+
+// The value level at normalized atlas coordinates, trilinear.
+fn atlas_level_at(coords: vec3<f32>) -> u32 {
+    return value_index(textureSampleLevel(atlas, atlas_sampler, coords, 0.0).r);
+}
+
+// A ray's origin in the normalized atlas coordinates of the brick with atlas cell `atlas_cell`
+// and first voxel `corner`: origin + t·atlas_dir is then the atlas place of voxel-space point
+// origin + t·dir of that brick.
+fn atlas_origin(origin: vec3<f32>, atlas_cell: u32, corner: vec3<f32>) -> vec3<f32> {
+    return (origin + brick_to_atlas(atlas_cell, corner)) * params.atlas_texel.xyz;
 }
 
 // The offset from voxel space to atlas texels of the brick whose first voxel is `corner` and
@@ -209,9 +218,10 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, lane: u32) ->
             let cut = node.first_child == LEAF || level >= params.max_level
                 || (use_lod && size <= t * lod_per_t);
             if !cut && level == params.brick_level && (node.first_child & BRICK_FLAG) != 0u {
-                let to_atlas = brick_to_atlas(atlas_cell_of_slot(node.first_child & ~BRICK_FLAG), corner);
-                result.visited += march_brick(&acc, origin, dir, t_enter, sample_step, t, t_out,
-                                              to_atlas);
+                let atlas_base = atlas_origin(origin, atlas_cell_of_slot(node.first_child & ~BRICK_FLAG),
+                                              corner);
+                result.visited += march_brick(&acc, atlas_base, dir * params.atlas_texel.xyz,
+                                              t_enter, sample_step, t, t_out);
                 t = max(t_out, probe);
                 break;
             }
@@ -315,7 +325,8 @@ fn walk_bricks(origin: vec3<f32>, dir: vec3<f32>) -> RayResult {
     result.visited = 1u;
     // Decided once per cell (MIP: against the maximum when the ray enters it).
     var draw = draws_brick(entry, 0u);
-    var to_atlas = brick_to_atlas(entry.w, vec3<f32>(here.cell) * brick);
+    let atlas_dir = dir * params.atlas_texel.xyz;
+    var atlas_here = atlas_origin(origin, entry.w, vec3<f32>(here.cell) * brick);
     var k = 0.0;
     var advance = false;
     var acc = Accumulation(vec3<f32>(0.0), 0.0, 0u, false);
@@ -328,7 +339,7 @@ fn walk_bricks(origin: vec3<f32>, dir: vec3<f32>) -> RayResult {
             entry = next_entry;
             next_entry = brick_grid[grid_index(here.next)];
             draw = draws_brick(entry, acc.running_max);
-            to_atlas = brick_to_atlas(entry.w, vec3<f32>(here.cell) * brick);
+            atlas_here = atlas_origin(origin, entry.w, vec3<f32>(here.cell) * brick);
             result.visited += 1u;
             advance = false;
         }
@@ -341,16 +352,16 @@ fn walk_bricks(origin: vec3<f32>, dir: vec3<f32>) -> RayResult {
             // Samples past that cell too (a ray clipping its corner) wait for the next one.
             // (Nested ifs, not &&: only an iteration at the exit may wait for the next entry.)
             var count = count_here;
-            var to_atlas_next = to_atlas;
+            var atlas_next = atlas_here;
             if count_here < BATCH_PAIR && !here.last {
                 if draws_brick(next_entry, acc.running_max) {
                     let t_next = min(min_component(here.next_exits), t_leave);
                     count = count_before(ts, t_next) + count_before(ts2, t_next);
-                    to_atlas_next = brick_to_atlas(next_entry.w, vec3<f32>(here.next) * brick);
+                    atlas_next = atlas_origin(origin, next_entry.w, vec3<f32>(here.next) * brick);
                 }
             }
-            let first = brick_batch(origin, dir, ts, here.t_out, to_atlas, to_atlas_next);
-            let second = brick_batch(origin, dir, ts2, here.t_out, to_atlas, to_atlas_next);
+            let first = brick_batch(atlas_dir, ts, here.t_out, atlas_here, atlas_next);
+            let second = brick_batch(atlas_dir, ts2, here.t_out, atlas_here, atlas_next);
             result.visited += accumulate_pair(&acc, first, second, count);
             k += f32(count);
             advance = count_here < BATCH_PAIR;
