@@ -5,9 +5,10 @@
 // anisotropic spacing needs no work here, and a segment's length in voxels is `dt * |dir|`.
 //
 // Traversal: a short stack holds the path from the root to the current node, with each node's
-// box corner and exit distance; the current node's own entry is also held in registers. After a node is composited or skipped, the ray's `t` moves to
-// its exit; finished nodes are popped, and the descent continues from the deepest ancestor
-// still containing the ray: the next sibling or an ancestor's sibling, never the root again.
+// box corner and exit distance; the current node's own entry is also held in registers. After a
+// node is composited or skipped, the ray's `t` moves to its exit; finished nodes are popped, and
+// the descent continues from the deepest ancestor still containing the ray: the next sibling or
+// an ancestor's sibling, never the root again.
 // Children are picked, and ancestors popped, at a probe point a thousandth of a voxel ahead of
 // `t`: a child's exit and its parent's mid-plane are the same plane, but the shader compiler
 // may round the two distances differently, and deciding at `t` itself could then pick the
@@ -144,12 +145,8 @@ fn clip_ray(origin: vec3<f32>, dir: vec3<f32>) -> ClippedRay {
 
 fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, lane: u32) -> RayResult {
     var result = RayResult(vec3<f32>(0.0), 0u);
-    let clipped = clip_ray(origin, dir);
-    let inv = clipped.inv;
-    let positive = clipped.positive;
-    let t_enter = clipped.t_enter;
-    let t_leave = clipped.t_leave;
-    if t_enter >= t_leave {
+    let ray = clip_ray(origin, dir);
+    if ray.t_enter >= ray.t_leave {
         return result;
     }
 
@@ -169,12 +166,13 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, lane: u32) ->
     // stack traffic, more than node reads, bounds this loop (docs/benchmarks.md, attempts 8–12).
     var node_index = 0u;
     var corner = vec3<f32>(0.0);
-    var t_out = min(min_component((select(vec3<f32>(0.0), vec3<f32>(side), positive) - origin) * inv), t_leave);
+    let root_exits = (select(vec3<f32>(0.0), vec3<f32>(side), ray.positive) - origin) * ray.inv;
+    var t_out = min(min_component(root_exits), ray.t_leave);
     stack_node[0][lane] = node_index;
     stack_corner[0][lane] = 0u;
     stack_exit[0][lane] = t_out;
     var level = 0u;
-    var t = t_enter;
+    var t = ray.t_enter;
 
     var acc = Accumulation(vec3<f32>(0.0), 0.0, 0u, false);
 
@@ -221,7 +219,7 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, lane: u32) ->
                 let atlas_base = atlas_origin(origin, atlas_cell_of_slot(node.first_child & ~BRICK_FLAG),
                                               corner);
                 result.visited += march_brick(&acc, atlas_base, dir * params.atlas_texel.xyz,
-                                              t_enter, sample_step, t, t_out);
+                                              ray.t_enter, sample_step, t, t_out);
                 t = max(t_out, probe);
                 break;
             }
@@ -242,12 +240,13 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, lane: u32) ->
             }
             // The child containing the probe point: per axis, which side of the mid-plane.
             let half = size * 0.5;
-            let t_mid = (corner + vec3<f32>(half) - origin) * inv;
+            let t_mid = (corner + vec3<f32>(half) - origin) * ray.inv;
             let upper = select(vec3<bool>(probe < t_mid.x, probe < t_mid.y, probe < t_mid.z),
-                               vec3<bool>(probe >= t_mid.x, probe >= t_mid.y, probe >= t_mid.z), positive);
+                               vec3<bool>(probe >= t_mid.x, probe >= t_mid.y, probe >= t_mid.z),
+                               ray.positive);
             corner += select(vec3<f32>(0.0), vec3<f32>(half), upper);
-            let exit_planes = corner + select(vec3<f32>(0.0), vec3<f32>(half), positive);
-            t_out = min(min_component((exit_planes - origin) * inv), t_out);
+            let exit_planes = corner + select(vec3<f32>(0.0), vec3<f32>(half), ray.positive);
+            t_out = min(min_component((exit_planes - origin) * ray.inv), t_out);
             node_index = node.first_child + select(0u, 1u, upper.x) + select(0u, 2u, upper.y)
                 + select(0u, 4u, upper.z);
             level += 1u;
@@ -256,7 +255,7 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, lane: u32) ->
             stack_exit[level][lane] = t_out;
         }
         if acc.alpha >= EARLY_TERMINATION_ALPHA || (mip && acc.running_max >= params.mip_saturation)
-            || t >= t_leave {
+            || t >= ray.t_leave {
             break;
         }
     }
@@ -278,7 +277,8 @@ struct WalkCell {
     last: bool,
 }
 
-fn walk_cell(cell: vec3<i32>, exits: vec3<f32>, t_leave: f32, step: vec3<i32>, cell_span: vec3<f32>) -> WalkCell {
+fn walk_cell(cell: vec3<i32>, exits: vec3<f32>, t_leave: f32, step: vec3<i32>,
+             cell_span: vec3<f32>) -> WalkCell {
     var axis = vec3<bool>(false, false, true);
     if exits.x <= exits.y && exits.x <= exits.z {
         axis = vec3<bool>(true, false, false);
@@ -302,24 +302,21 @@ fn walk_cell(cell: vec3<i32>, exits: vec3<f32>, t_leave: f32, step: vec3<i32>, c
 // The samples are the dense renderer's (t_enter + (k + ½)·step), as in `march_brick`.
 fn walk_bricks(origin: vec3<f32>, dir: vec3<f32>) -> RayResult {
     var result = RayResult(vec3<f32>(0.0), 0u);
-    let clipped = clip_ray(origin, dir);
-    let inv = clipped.inv;
-    let positive = clipped.positive;
-    let t_enter = clipped.t_enter;
-    let t_leave = clipped.t_leave;
-    if t_enter >= t_leave {
+    let ray = clip_ray(origin, dir);
+    if ray.t_enter >= ray.t_leave {
         return result;
     }
     let mip = params.mode == MODE_MIP;
     let sample_step = 1.0 / max(length(dir), 1e-20);
     let brick = f32(params.brick_size);
     let grid = vec3<i32>(params.brick_grid.xyz);
-    let step = select(vec3<i32>(-1), vec3<i32>(1), positive);
-    let cell_span = brick * abs(inv);
+    let step = select(vec3<i32>(-1), vec3<i32>(1), ray.positive);
+    let cell_span = brick * abs(ray.inv);
 
-    let first = clamp(vec3<i32>(floor((origin + t_enter * dir) / brick)), vec3<i32>(0), grid - 1);
-    let first_exits = (vec3<f32>(first) * brick + select(vec3<f32>(0.0), vec3<f32>(brick), positive) - origin) * inv;
-    var here = walk_cell(first, first_exits, t_leave, step, cell_span);
+    let first = clamp(vec3<i32>(floor((origin + ray.t_enter * dir) / brick)), vec3<i32>(0), grid - 1);
+    let first_far_corner = vec3<f32>(first) * brick + select(vec3<f32>(0.0), vec3<f32>(brick), ray.positive);
+    let first_exits = (first_far_corner - origin) * ray.inv;
+    var here = walk_cell(first, first_exits, ray.t_leave, step, cell_span);
     var entry = brick_grid[grid_index(here.cell)];
     var next_entry = brick_grid[grid_index(here.next)];
     result.visited = 1u;
@@ -335,7 +332,7 @@ fn walk_bricks(origin: vec3<f32>, dir: vec3<f32>) -> RayResult {
             if here.last {
                 break;
             }
-            here = walk_cell(here.next, here.next_exits, t_leave, step, cell_span);
+            here = walk_cell(here.next, here.next_exits, ray.t_leave, step, cell_span);
             entry = next_entry;
             next_entry = brick_grid[grid_index(here.next)];
             draw = draws_brick(entry, acc.running_max);
@@ -344,8 +341,8 @@ fn walk_bricks(origin: vec3<f32>, dir: vec3<f32>) -> RayResult {
             advance = false;
         }
         if draw {
-            let ts = t_enter + (vec4<f32>(k) + BATCH_OFFSETS) * sample_step;
-            let ts2 = t_enter + (vec4<f32>(k + f32(BATCH)) + BATCH_OFFSETS) * sample_step;
+            let ts = ray.t_enter + (vec4<f32>(k) + BATCH_OFFSETS) * sample_step;
+            let ts2 = ray.t_enter + (vec4<f32>(k + f32(BATCH)) + BATCH_OFFSETS) * sample_step;
             let count_here = count_before(ts, here.t_out) + count_before(ts2, here.t_out);
             // Samples past the cell's exit come from the next cell when that one is drawn too
             // (its entry is already here), so a cell boundary costs no short iteration.
@@ -355,7 +352,7 @@ fn walk_bricks(origin: vec3<f32>, dir: vec3<f32>) -> RayResult {
             var atlas_next = atlas_here;
             if count_here < BATCH_PAIR && !here.last {
                 if draws_brick(next_entry, acc.running_max) {
-                    let t_next = min(min_component(here.next_exits), t_leave);
+                    let t_next = min(min_component(here.next_exits), ray.t_leave);
                     count = count_before(ts, t_next) + count_before(ts2, t_next);
                     atlas_next = atlas_origin(origin, next_entry.w, vec3<f32>(here.next) * brick);
                 }
@@ -368,12 +365,12 @@ fn walk_bricks(origin: vec3<f32>, dir: vec3<f32>) -> RayResult {
             // MIP: once the ray's maximum reaches the brick's (its own voxels' maximum, which
             // the cell skip trusts too), the rest of the brick cannot raise it.
             if mip && !advance && acc.running_max >= (entry.z >> 16u) {
-                k = max(ceil((here.t_out - t_enter) / sample_step - 0.5), k);
+                k = max(ceil((here.t_out - ray.t_enter) / sample_step - 0.5), k);
                 advance = true;
             }
         } else {
             // Skipped, or a uniform region (a leaf above the bricks): its samples in one go.
-            let end = max(ceil((here.t_out - t_enter) / sample_step - 0.5), k);
+            let end = max(ceil((here.t_out - ray.t_enter) / sample_step - 0.5), k);
             // (Only where a sample falls: a ray can clip a cell's corner between two samples.)
             if entry.y == LEAF && (entry.z & 0xffffu) <= (entry.z >> 16u) && end > k {
                 if mip {
