@@ -1,7 +1,7 @@
 //! `voxscope bench`: GPU time per frame for the paper's three camera distances and the three
 //! transfer modes, plus build, recolor and memory figures.
 
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use clap::Args;
 use serde::Serialize;
@@ -66,7 +66,12 @@ pub struct BenchResult {
 
 /// The paper's three cases: near, medium and far, in bounding-sphere radii.
 const CAMERAS: [(&str, f64); 3] = [("near", 1.5), ("medium", 3.0), ("far", 6.0)];
+/// Frames rendered and thrown away before each configuration is timed: at least this many, in
+/// rounds of this many, until `WARMUP_TIME` has passed. A GPU that sat idle while the octree was
+/// built starts at idle clocks; five frames alone left the first configuration of a 1024³ run
+/// up to 30 % slow in some processes (docs/benchmarks.md, runs 32 and 34).
 const WARMUP_FRAMES: u32 = 5;
+const WARMUP_TIME: Duration = Duration::from_millis(200);
 const RECOLOR_RUNS: u32 = 20;
 
 pub fn run(args: &BenchArgs) -> Result<(), String> {
@@ -245,10 +250,16 @@ fn time_frames(
         );
         context.queue.submit([encoder.finish()]);
     };
-    for i in 0..WARMUP_FRAMES {
-        submit(&at_azimuth(i * count / WARMUP_FRAMES), None);
+    let warming = Instant::now();
+    loop {
+        for i in 0..WARMUP_FRAMES {
+            submit(&at_azimuth(i * count / WARMUP_FRAMES), None);
+        }
+        wait(context)?;
+        if warming.elapsed() >= WARMUP_TIME {
+            break;
+        }
     }
-    wait(context)?;
     match timer {
         Some(timer) => {
             for i in 0..count {
