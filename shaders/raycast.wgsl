@@ -75,10 +75,10 @@ fn march_brick(acc: ptr<function, Accumulation>, origin: vec3<f32>, dir: vec3<f3
             break;
         }
         let batch_levels = vec4<u32>(
-            atlas_level_at((origin + ts.x * dir + to_atlas) * params.atlas_texel.xyz),
-            atlas_level_at((origin + ts.y * dir + to_atlas) * params.atlas_texel.xyz),
-            atlas_level_at((origin + ts.z * dir + to_atlas) * params.atlas_texel.xyz),
-            atlas_level_at((origin + ts.w * dir + to_atlas) * params.atlas_texel.xyz),
+            atlas_level(origin + ts.x * dir + to_atlas),
+            atlas_level(origin + ts.y * dir + to_atlas),
+            atlas_level(origin + ts.z * dir + to_atlas),
+            atlas_level(origin + ts.w * dir + to_atlas),
         );
         taken += accumulate(acc, batch_levels, count);
         if (*acc).done || count < BATCH {
@@ -107,6 +107,11 @@ fn brick_batch(atlas_dir: vec3<f32>, ts: vec4<f32>, t_out: f32, atlas_here: vec3
 // The value level at normalized atlas coordinates, trilinear.
 fn atlas_level_at(coords: vec3<f32>) -> u32 {
     return value_index(textureSampleLevel(atlas, atlas_sampler, coords, 0.0).r);
+}
+
+// The value level at an atlas texel position (a voxel-space point plus its brick's `to_atlas`).
+fn atlas_level(texel: vec3<f32>) -> u32 {
+    return atlas_level_at(texel * params.atlas_texel.xyz);
 }
 
 // A ray's origin in the normalized atlas coordinates of the brick with atlas cell `atlas_cell`
