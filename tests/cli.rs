@@ -1,4 +1,4 @@
-//! The real binary: `info`, `info --json`, `render`, and its exit codes on bad input.
+//! The real binary: `info`, `render`, `bench`, `ceilings`, and its exit codes on bad input.
 
 mod support;
 
@@ -228,4 +228,38 @@ fn bench_runs_briefly_on_any_device_and_reports_every_case() {
             "{renderer} {buffer}"
         );
     }
+}
+
+#[test]
+fn ceilings_checks_each_kernel_and_reports_every_figure() {
+    // Every kernel's output is checked against what it must compute before its rate is
+    // reported, so a success here means all six ran right on this device.
+    let output = voxscope(&["ceilings", "--quick", "--json"]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let json: serde_json::Value = serde_json::from_slice(&output.stdout).expect("one JSON object");
+    for key in [
+        "memory_bytes_per_s",
+        "filtered_samples_per_s",
+        "texture_latency_ns",
+        "buffer_latency_ns",
+        "fma_flops_per_s",
+        "store_only_invocations_per_s",
+    ] {
+        let value = json[key].as_f64().unwrap_or(f64::NAN);
+        assert!(value.is_finite() && value > 0.0, "{key}: {value}");
+    }
+    for kernel in [
+        "stream",
+        "filtered",
+        "texture_chain",
+        "buffer_chain",
+        "fma_rate",
+        "store_only",
+    ] {
+        assert!(
+            json["median_ms"][kernel].as_f64().unwrap() > 0.0,
+            "{kernel}"
+        );
+    }
+    assert_eq!(json["sizes"]["stream_bytes"], 1 << 20);
 }

@@ -35,6 +35,18 @@ bench() { # NAME BINARY ARGS…
     [ -s "$out/$run-$name.err" ] || rm -f "$out/$run-$name.err"
 }
 
+ceilings() { # NAME: the GPU's own ceilings (voxscope ceilings), the table to the reply
+    echo "== $1"
+    .bench/voxscope ceilings --json >"$out/$run-$1.json" && python3 -c '
+import json, sys
+c = json.load(open(sys.argv[1]))
+print(f"   {c['memory_bytes_per_s']/1e9:.0f} GB/s, {c['filtered_samples_per_s']/1e9:.0f} G samples/s, "
+      f"latency {c['texture_latency_ns']:.0f} ns texture / {c['buffer_latency_ns']:.0f} ns buffer, "
+      f"{c['fma_flops_per_s']/1e12:.1f} TFLOP/s, {c['store_only_invocations_per_s']/1e9:.0f} G store-only/s")
+' "$out/$run-$1.json"
+}
+
+ceilings ceilings
 bench head256 .bench/voxscope "$head"
 bench head256-base .bench/voxscope-base "$head"
 # Few rays, all in flight at once: the frame takes as long as the longest ray's chain.
@@ -53,12 +65,16 @@ for renderer in octree dense bricks; do
     bench noise512-$renderer .bench/voxscope synthetic:noise:512 --renderer $renderer --frames 50
 done
 
+ceilings ceilings-end
+
 # A short table for the reply: renderer, mode, camera, median ms of each JSON.
 python3 - "$out" "$run" <<'EOF'
 import json, pathlib, sys
 out, run = pathlib.Path(sys.argv[1]), sys.argv[2]
 for path in sorted(out.glob(f"{run}-*.json")):
     report = json.loads(path.read_text())
+    if "results" not in report:
+        continue
     rows = {}
     for r in report["results"]:
         rows.setdefault((r["renderer"], r["mode"]), []).append(f'{r["median_ms"]:.3f}')

@@ -280,11 +280,7 @@ fn time_frames(
 }
 
 fn wait(context: &GpuContext) -> Result<(), String> {
-    context
-        .device
-        .poll(wgpu::PollType::wait_indefinitely())
-        .map(|_| ())
-        .map_err(|e| format!("GPU wait failed: {e}"))
+    context.wait_idle().map_err(|e| e.to_string())
 }
 
 /// Work per ray over four azimuths: nodes (octree), samples (dense) or both (bricks).

@@ -1,8 +1,9 @@
-//! The command line: `voxscope [FILE]` opens the app; `voxscope info`, `render` and `bench`
-//! work without a window.
+//! The command line: `voxscope [FILE]` opens the app; `voxscope info`, `render`, `bench` and
+//! `ceilings` work without a window.
 
 mod args;
 mod bench;
+mod ceilings;
 mod info;
 mod prepare;
 mod render;
@@ -31,6 +32,8 @@ pub enum Command {
     Render(render::RenderArgs),
     /// Measure GPU time per frame (near, medium, far; gray, binary, MIP), build and recolor.
     Bench(bench::BenchArgs),
+    /// Measure the GPU's own ceilings: memory bandwidth, filtered samples, fetch latencies, FMA.
+    Ceilings(ceilings::CeilingsArgs),
 }
 
 /// Runs the command line; returns the process exit code. Errors print as one line.
@@ -40,6 +43,7 @@ pub fn run() -> std::process::ExitCode {
         Some(Command::Info(args)) => info::run(&args),
         Some(Command::Render(args)) => render::run(&args),
         Some(Command::Bench(args)) => bench::run(&args),
+        Some(Command::Ceilings(args)) => ceilings::run(&args),
         None => crate::app::run(cli.file.map(crate::app::VolumeSource::Spec)),
     };
     match result {

@@ -81,6 +81,14 @@ impl GpuContext {
         }
     }
 
+    /// Waits until the GPU has finished everything submitted.
+    pub fn wait_idle(&self) -> Result<(), RenderError> {
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map(|_| ())
+            .map_err(|e| RenderError(format!("GPU wait failed: {e}")))
+    }
+
     /// Largest buffer a shader can bind as storage, in bytes.
     pub fn max_storage_bytes(&self) -> u64 {
         self.limits

@@ -78,6 +78,26 @@ pub(crate) struct BrickRecolorParams {
 
 const _: () = assert!(std::mem::size_of::<BrickRecolorParams>() == 64);
 
+/// Uniforms of `ceilings.wgsl`. Keep in sync with `struct CeilingParams` there.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub(crate) struct CeilingParams {
+    /// `vec4<u32>` elements streamed from source to destination.
+    pub elements: u32,
+    /// Fetches or FMA rounds per invocation.
+    pub iterations: u32,
+    /// Invocations that work.
+    pub invocations: u32,
+    /// Entries of the index chain.
+    pub chain_length: u32,
+    /// `a ← a · fma_scale + fma_offset`.
+    pub fma_scale: f32,
+    pub fma_offset: f32,
+    pub _padding: [u32; 2],
+}
+
+const _: () = assert!(std::mem::size_of::<CeilingParams>() == 32);
+
 pub(crate) const FLAG_OPACITY_CORRECTION: u32 = 1;
 pub(crate) const FLAG_PIXEL_LOD: u32 = 2;
 pub(crate) const FLAG_HEATMAP: u32 = 4;
@@ -131,5 +151,9 @@ mod tests {
             std::mem::size_of::<RecolorParams>() as u32
         );
         assert_eq!(wgsl_struct_size(grid, "Node"), node);
+        assert_eq!(
+            wgsl_struct_size(crate::render::shaders::CEILINGS, "CeilingParams"),
+            std::mem::size_of::<CeilingParams>() as u32
+        );
     }
 }

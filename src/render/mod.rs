@@ -4,6 +4,7 @@
 
 mod bricks;
 mod camera;
+mod ceilings;
 mod context;
 mod dense;
 mod frame_probe;
@@ -22,6 +23,7 @@ mod volume_renderer;
 
 pub use bricks::{GpuBrickRecolor, GpuBricks};
 pub use camera::{Camera, ViewFrame};
+pub use ceilings::{CeilingSizes, Ceilings, measure_ceilings};
 pub use context::{GpuContext, RenderError};
 pub use dense::{DenseRaycaster, DenseVolume};
 pub use frame_probe::{FrameProbe, FrameReport};

@@ -9,10 +9,7 @@ fn map_and_read(context: &GpuContext, buffer: &wgpu::Buffer) -> Result<Vec<u8>, 
     slice.map_async(wgpu::MapMode::Read, move |result| {
         let _ = sender.send(result);
     });
-    context
-        .device
-        .poll(wgpu::PollType::wait_indefinitely())
-        .map_err(|e| RenderError(format!("GPU wait failed: {e}")))?;
+    context.wait_idle()?;
     receiver
         .recv()
         .map_err(|_| RenderError("GPU readback was dropped".into()))?

@@ -33,9 +33,12 @@ pub(crate) const BRICK_GRID: &str = concat!(
     include_str!("../../shaders/brick_grid.wgsl")
 );
 
+/// The measurements of the GPU's own ceilings (`voxscope ceilings`).
+pub(crate) const CEILINGS: &str = include_str!("../../shaders/ceilings.wgsl");
+
 /// Every shader voxscope compiles: its name, its composed source, and the files in `shaders/`
 /// it is made of (so a test can validate each one and know no file is left out).
-pub const ALL: [(&str, &str, &[&str]); 5] = [
+pub const ALL: [(&str, &str, &[&str]); 6] = [
     (
         "raycast",
         RAYCAST,
@@ -53,4 +56,5 @@ pub const ALL: [(&str, &str, &[&str]); 5] = [
         BRICK_GRID,
         &["node_common.wgsl", "brick_grid.wgsl"],
     ),
+    ("ceilings", CEILINGS, &["ceilings.wgsl"]),
 ];
