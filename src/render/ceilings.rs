@@ -359,7 +359,8 @@ impl Kit {
                 }
                 _ => expected_fma_total(invocation as u32, iterations),
             };
-            if !((got - expected).abs() <= 1e-3 * expected.abs().max(1.0)) {
+            let close = (got - expected).abs() <= 1e-3 * expected.abs().max(1.0);
+            if !close || got.is_nan() {
                 return Err(wrong(format!(
                     "gave {got} for invocation {invocation}, expected {expected}"
                 )));
