@@ -233,13 +233,14 @@ fn bench_runs_briefly_on_any_device_and_reports_every_case() {
 #[test]
 fn ceilings_checks_each_kernel_and_reports_every_figure() {
     // Every kernel's output is checked against what it must compute before its rate is
-    // reported, so a success here means all six ran right on this device.
+    // reported, so a success here means all seven ran right on this device.
     let output = voxscope(&["ceilings", "--quick", "--json"]);
     assert!(output.status.success(), "{}", stderr(&output));
     let json: serde_json::Value = serde_json::from_slice(&output.stdout).expect("one JSON object");
     for key in [
         "memory_bytes_per_s",
         "filtered_samples_per_s",
+        "filtered_f16_samples_per_s",
         "texture_latency_ns",
         "buffer_latency_ns",
         "fma_flops_per_s",

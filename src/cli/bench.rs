@@ -59,6 +59,9 @@ pub struct BenchResult {
     /// Over rays that enter the volume, sampled from four azimuths.
     pub nodes_per_ray_avg: f64,
     pub nodes_per_ray_max: u32,
+    /// Rays that enter the volume (do any work), averaged over the four azimuths: with
+    /// `nodes_per_ray_avg`, the work of a frame.
+    pub rays_in_volume: f64,
     /// Work done ÷ work the warps pay for: each 8×4-pixel warp of an 8×8 workgroup runs as long
     /// as its longest ray, so 1 means no divergence.
     pub simd_efficiency: f64,
@@ -165,6 +168,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
                     rays_per_s: (target.width as f64 * target.height as f64) / (median * 1e-3),
                     nodes_per_ray_avg: work.average,
                     nodes_per_ray_max: work.max,
+                    rays_in_volume: work.rays,
                     simd_efficiency: work.simd_efficiency,
                 });
             }
@@ -288,6 +292,8 @@ struct RayWork {
     /// Average over rays that enter the volume.
     average: f64,
     max: u32,
+    /// Rays that enter the volume, per azimuth.
+    rays: f64,
     simd_efficiency: f64,
 }
 
@@ -319,6 +325,7 @@ fn sample_visits(context: &GpuContext, view: &View<'_>) -> Result<RayWork, Strin
             0.0
         },
         max,
+        rays: rays as f64 / 4.0,
         simd_efficiency: if paid > 0 {
             sum as f64 / paid as f64
         } else {

@@ -38,6 +38,7 @@ pub fn run(args: &CeilingsArgs) -> Result<(), String> {
             "repeats": sizes.repeats,
             "memory_bytes_per_s": ceilings.memory_bytes_per_s,
             "filtered_samples_per_s": ceilings.filtered_samples_per_s,
+            "filtered_f16_samples_per_s": ceilings.filtered_f16_samples_per_s,
             "texture_latency_ns": ceilings.texture_latency_ns,
             "buffer_latency_ns": ceilings.buffer_latency_ns,
             "fma_flops_per_s": ceilings.fma_flops_per_s,
@@ -67,6 +68,10 @@ pub fn run(args: &CeilingsArgs) -> Result<(), String> {
     println!(
         "filtered 3D samples (8-bit)         {:9.1} G/s",
         ceilings.filtered_samples_per_s * 1e-9
+    );
+    println!(
+        "filtered 3D samples (16-bit float)  {:9.1} G/s",
+        ceilings.filtered_f16_samples_per_s * 1e-9
     );
     println!(
         "dependent texture sample latency    {:9.1} ns",

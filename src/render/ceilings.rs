@@ -68,6 +68,8 @@ pub struct Ceilings {
     /// Trilinear samples per second from a 64³ 8-bit 3D texture (the renderers' format), each
     /// invocation walking its own line one texel per sample, as a ray does.
     pub filtered_samples_per_s: f64,
+    /// The same from a 16-bit float texture (volumes whose value levels pass 255).
+    pub filtered_f16_samples_per_s: f64,
     /// Nanoseconds from one filtered sample to the next when each position waits on the
     /// previous sample (the texture is cache-resident).
     pub texture_latency_ns: f64,
@@ -86,6 +88,8 @@ pub struct Ceilings {
 const TEXTURE_SIDE: usize = 64;
 /// Its every texel's value level: not zero, so a kernel that read nothing cannot pass.
 const TEXTURE_LEVEL: u16 = 77;
+/// The same for the 16-bit float texture (above 255, so it gets that format; exact in f16).
+const TEXTURE_LEVEL_F16: u16 = 300;
 /// Entries of the index chain: 16 KiB.
 const CHAIN_LENGTH: u32 = 4096;
 /// The chain steps by this (odd, so one cycle through all entries; 4 KiB apart, a new cache line
@@ -102,13 +106,16 @@ const STREAM_WORKGROUPS: u32 = 8192;
 /// Untimed passes before any timing, until this has passed: a GPU idle before starts slow.
 const WARMUP_TIME: Duration = Duration::from_millis(200);
 
-const KERNELS: [&str; 6] = [
-    "stream",
-    "filtered",
-    "texture_chain",
-    "buffer_chain",
-    "fma_rate",
-    "store_only",
+/// Each measurement's name and the entry point of `ceilings.wgsl` it runs (`filtered_f16` runs
+/// `filtered` on a 16-bit float texture, the format of volumes whose levels pass 255).
+const KERNELS: [(&str, &str); 7] = [
+    ("stream", "stream"),
+    ("filtered", "filtered"),
+    ("filtered_f16", "filtered"),
+    ("texture_chain", "texture_chain"),
+    ("buffer_chain", "buffer_chain"),
+    ("fma_rate", "fma_rate"),
+    ("store_only", "store_only"),
 ];
 
 /// Runs every measurement with `sizes` and checks each kernel's output.
@@ -123,7 +130,7 @@ pub fn measure_ceilings(
         kit.time(context, 1, None, 3)?;
     }
     let mut median_ms = [("", 0.0); KERNELS.len()];
-    for (kernel, name) in KERNELS.iter().enumerate() {
+    for (kernel, (name, _)) in KERNELS.iter().enumerate() {
         kit.time(context, kernel, None, 2)?;
         let mut times = kit.time(context, kernel, timer.as_ref(), sizes.repeats)?;
         times.sort_by(f64::total_cmp);
@@ -142,10 +149,11 @@ pub fn measure_ceilings(
         sizes,
         memory_bytes_per_s: 2.0 * kit.stream_bytes() as f64 / seconds(0),
         filtered_samples_per_s: samples / seconds(1),
-        texture_latency_ns: seconds(2) * 1e9 / sizes.chain_fetches as f64,
-        buffer_latency_ns: seconds(3) * 1e9 / sizes.chain_fetches as f64,
-        fma_flops_per_s: flops / seconds(4),
-        store_only_invocations_per_s: sizes.invocations as f64 / seconds(5),
+        filtered_f16_samples_per_s: samples / seconds(2),
+        texture_latency_ns: seconds(3) * 1e9 / sizes.chain_fetches as f64,
+        buffer_latency_ns: seconds(4) * 1e9 / sizes.chain_fetches as f64,
+        fma_flops_per_s: flops / seconds(5),
+        store_only_invocations_per_s: sizes.invocations as f64 / seconds(6),
         median_ms,
     })
 }
@@ -157,6 +165,8 @@ struct Kit {
     pipelines: Vec<wgpu::ComputePipeline>,
     /// One bind group per kernel (their parameters differ).
     bind_groups: Vec<wgpu::BindGroup>,
+    /// Texel value × this = value level, of the 8-bit and the 16-bit texture.
+    texel_scales: [f32; 2],
     destination: wgpu::Buffer,
     results: wgpu::Buffer,
 }
@@ -176,7 +186,7 @@ impl Kit {
             device,
             "ceilings",
             super::shaders::CEILINGS,
-            &KERNELS,
+            &KERNELS.map(|(_, entry_point)| entry_point),
             &[
                 uniform_entry(0, false),
                 storage_entry(1, true),
@@ -204,12 +214,18 @@ impl Kit {
             contents: bytemuck::cast_slice(&chain),
             usage: wgpu::BufferUsages::STORAGE,
         });
-        let side = TEXTURE_SIDE;
-        let texture = LevelTexture::upload(
+        let texels = TEXTURE_SIDE.pow(3);
+        let byte_texture = LevelTexture::upload(
             context,
             "ceilings_texture",
-            [side; 3],
-            &vec![TEXTURE_LEVEL; side * side * side],
+            [TEXTURE_SIDE; 3],
+            &vec![TEXTURE_LEVEL; texels],
+        )?;
+        let half_texture = LevelTexture::upload(
+            context,
+            "ceilings_texture_f16",
+            [TEXTURE_SIDE; 3],
+            &vec![TEXTURE_LEVEL_F16; texels],
         )?;
         let sampler = clamped_sampler(
             device,
@@ -219,6 +235,11 @@ impl Kit {
         let bind_groups = (0..KERNELS.len())
             .map(|kernel| {
                 let (iterations, invocations) = Self::work(sizes, kernel);
+                let texture = if KERNELS[kernel].0 == "filtered_f16" {
+                    &half_texture
+                } else {
+                    &byte_texture
+                };
                 let params = CeilingParams {
                     elements,
                     iterations,
@@ -254,6 +275,7 @@ impl Kit {
             elements,
             pipelines,
             bind_groups,
+            texel_scales: [byte_texture.scale, half_texture.scale],
             destination,
             results,
         })
@@ -266,9 +288,9 @@ impl Kit {
     /// Iterations per invocation and invocations of `kernel` (0 for the stream kernel, which
     /// loops over its elements).
     fn work(sizes: CeilingSizes, kernel: usize) -> (u32, u32) {
-        match KERNELS[kernel] {
+        match KERNELS[kernel].0 {
             "stream" => (0, 0),
-            "filtered" => (sizes.samples, sizes.invocations),
+            "filtered" | "filtered_f16" => (sizes.samples, sizes.invocations),
             "fma_rate" => (sizes.fma_rounds, sizes.invocations),
             "store_only" => (0, sizes.invocations),
             _ => (sizes.chain_fetches, CHAIN_INVOCATIONS),
@@ -330,7 +352,7 @@ impl Kit {
 
     /// Checks what `kernel` wrote against what it must have computed.
     fn check(&self, context: &GpuContext, kernel: usize) -> Result<(), RenderError> {
-        let name = KERNELS[kernel];
+        let name = KERNELS[kernel].0;
         let wrong = |detail: String| RenderError(format!("ceilings: the {name} kernel {detail}"));
         if name == "stream" {
             let bytes = self.stream_bytes();
@@ -347,11 +369,13 @@ impl Kit {
         let (iterations, invocations) = Self::work(self.sizes, kernel);
         let bytes = read_buffer(context, &self.results, invocations as u64 * 4)?;
         let results: &[f32] = bytemuck::cast_slice(&bytes);
-        let level = TEXTURE_LEVEL as f32 / 255.0;
+        let [byte_scale, half_scale] = self.texel_scales;
+        let texel = TEXTURE_LEVEL as f32 / byte_scale;
         for (invocation, &got) in results.iter().enumerate() {
             let expected = match name {
-                "filtered" => iterations as f32 * level,
-                "texture_chain" => level,
+                "filtered" => iterations as f32 * texel,
+                "filtered_f16" => iterations as f32 * TEXTURE_LEVEL_F16 as f32 / half_scale,
+                "texture_chain" => texel,
                 "store_only" => invocation as f32,
                 "buffer_chain" => {
                     let start = invocation as u64 % CHAIN_LENGTH as u64;
