@@ -210,9 +210,11 @@ fn bench_runs_briefly_on_any_device_and_reports_every_case() {
             "rays_per_s",
             "nodes_per_ray_avg",
             "nodes_per_ray_max",
+            "rays_in_volume",
         ] {
             assert!(!row[key].is_null(), "row lacks {key}: {row}");
         }
+        assert!(row["rays_in_volume"].as_f64().unwrap() >= 1.0, "{row}");
         let median = row["median_ms"].as_f64().unwrap();
         assert!(median > 0.0 && median <= row["p95_ms"].as_f64().unwrap());
         assert!(row["nodes_per_ray_avg"].as_f64().unwrap() >= 1.0);

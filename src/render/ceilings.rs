@@ -373,7 +373,9 @@ impl Kit {
         let texel = TEXTURE_LEVEL as f32 / byte_scale;
         // `fma_rate`'s result depends only on the invocation's low three bits.
         let fma_totals: Vec<f32> = if name == "fma_rate" {
-            (0..8).map(|low| expected_fma_total(low, iterations)).collect()
+            (0..8)
+                .map(|low| expected_fma_total(low, iterations))
+                .collect()
         } else {
             Vec::new()
         };
