@@ -6,6 +6,8 @@
 //! `cargo run --release --example shader_stats` compiles each compute entry point of `raycast`
 //! and `dense` from WGSL to SPIR-V with naga (bounds checks as wgpu applies them), builds a
 //! pipeline on the first Vulkan device that has the extension, and prints its statistics.
+//! `shader_stats FILE.wgsl:ENTRY …` measures those entry points of those (composed) WGSL files
+//! instead: variants of a shader, compared without rebuilding.
 //! (NVIDIA's driver 580 offers statistics but no internal representations; Mesa's lavapipe
 //! in Debian 12 does not offer the extension.)
 
@@ -85,8 +87,8 @@ fn with_instance(instance: &ash::Instance) -> Result<(), String> {
     let executables = ash::khr::pipeline_executable_properties::Device::new(instance, &device);
 
     let mut result = Ok(());
-    for (shader, entry_point) in ENTRY_POINTS {
-        result = report(&device, &executables, shader, entry_point);
+    for (label, source, entry_point) in shaders_to_measure()? {
+        result = report(&device, &executables, &label, &source, &entry_point);
         if result.is_err() {
             break;
         }
@@ -95,17 +97,46 @@ fn with_instance(instance: &ash::Instance) -> Result<(), String> {
     result
 }
 
+/// Label, WGSL source and entry point of each shader to measure: the command line's
+/// `FILE.wgsl:ENTRY` arguments, or else [`ENTRY_POINTS`] of voxscope's own shaders.
+fn shaders_to_measure() -> Result<Vec<(String, String, String)>, String> {
+    let arguments: Vec<String> = std::env::args().skip(1).collect();
+    if arguments.is_empty() {
+        return ENTRY_POINTS
+            .iter()
+            .map(|&(shader, entry_point)| {
+                let (_, source, _) = voxscope::render::shaders::ALL
+                    .iter()
+                    .find(|(name, _, _)| *name == shader)
+                    .ok_or_else(|| format!("no shader {shader}"))?;
+                Ok((
+                    shader.to_owned(),
+                    source.to_string(),
+                    entry_point.to_owned(),
+                ))
+            })
+            .collect();
+    }
+    arguments
+        .iter()
+        .map(|argument| {
+            let (file, entry_point) = argument
+                .rsplit_once(':')
+                .ok_or_else(|| format!("{argument}: expected FILE.wgsl:ENTRY"))?;
+            let source = std::fs::read_to_string(file).map_err(|e| format!("{file}: {e}"))?;
+            Ok((file.to_owned(), source, entry_point.to_owned()))
+        })
+        .collect()
+}
+
 /// Compiles one entry point, builds its pipeline and prints what the driver reports.
 fn report(
     device: &ash::Device,
     executables: &ash::khr::pipeline_executable_properties::Device,
     shader: &str,
+    source: &str,
     entry_point: &str,
 ) -> Result<(), String> {
-    let (_, source, _) = voxscope::render::shaders::ALL
-        .iter()
-        .find(|(name, _, _)| *name == shader)
-        .ok_or_else(|| format!("no shader {shader}"))?;
     let module = naga::front::wgsl::parse_str(source).map_err(|e| format!("{shader}: {e}"))?;
     let info = naga::valid::Validator::new(
         naga::valid::ValidationFlags::all(),
