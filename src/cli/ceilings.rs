@@ -24,6 +24,7 @@ pub fn run(args: &CeilingsArgs) -> Result<(), String> {
         CeilingSizes::FULL
     };
     let ceilings = measure_ceilings(&context, sizes).map_err(|e| e.to_string())?;
+    let sizes = ceilings.sizes;
     let median_ms: serde_json::Map<String, serde_json::Value> = ceilings
         .median_ms
         .iter()
