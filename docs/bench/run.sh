@@ -35,10 +35,16 @@ bench() { # NAME BINARY ARGS…
     [ -s "$out/$run-$name.err" ] || rm -f "$out/$run-$name.err"
 }
 
-ceilings() { # NAME: the GPU's own ceilings (voxscope ceilings); its table goes to the reply
+ceilings() { # NAME: the GPU's own ceilings (voxscope ceilings); a summary goes to the reply
     echo "== $1"
-    .bench/voxscope ceilings | tee "$out/$run-$1.txt" | sed 's/^/   /'
-    .bench/voxscope ceilings --json >"$out/$run-$1.json"
+    .bench/voxscope ceilings --json >"$out/$run-$1.json" || return 0
+    python3 - "$out/$run-$1.json" <<'EOF'
+import json, sys
+c = json.load(open(sys.argv[1]))
+print(f"   {c['memory_bytes_per_s'] / 1e9:.0f} GB/s, {c['filtered_samples_per_s'] / 1e9:.0f} G samples/s, "
+      f"latency {c['texture_latency_ns']:.0f} ns texture / {c['buffer_latency_ns']:.1f} ns buffer, "
+      f"{c['fma_flops_per_s'] / 1e12:.1f} TFLOP/s, {c['store_only_invocations_per_s'] / 1e9:.0f} G store-only/s")
+EOF
 }
 
 ceilings ceilings

@@ -12,7 +12,7 @@ use super::{Prepared, VolumeArgs};
 use crate::octree::{OpacityMode, TransferFunction};
 use crate::render::{
     Camera, DEFAULT_BRICK_SIZE, GpuContext, GpuTimer, RenderMode, RenderSettings, RenderTarget,
-    RendererKind, RendererOptions, VolumeRenderer, read_visits,
+    RendererKind, RendererOptions, VolumeRenderer, read_visits, time_passes, timing_name,
 };
 use crate::volume::ValueWindow;
 
@@ -90,11 +90,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
     let depth = prepared.octree.depth;
     let target = RenderTarget::new(&context, args.size.0, args.size.1);
     let timer = GpuTimer::new(&context, args.frames.max(RECOLOR_RUNS));
-    let timing = if timer.is_some() {
-        "gpu-timestamps"
-    } else {
-        "wall-clock-with-device-wait"
-    };
+    let timing = timing_name(timer.as_ref());
 
     let gray = prepared.transfer;
     let binary = TransferFunction {
@@ -264,23 +260,10 @@ fn time_frames(
             break;
         }
     }
-    match timer {
-        Some(timer) => {
-            for i in 0..count {
-                submit(&at_azimuth(i), Some(timer.pass_writes(i)));
-            }
-            wait(context)?;
-            timer.read_ms(context, count).map_err(|e| e.to_string())
-        }
-        None => (0..count)
-            .map(|i| {
-                let started = Instant::now();
-                submit(&at_azimuth(i), None);
-                wait(context)?;
-                Ok(started.elapsed().as_secs_f64() * 1e3)
-            })
-            .collect(),
-    }
+    time_passes(context, timer, count, |i, writes| {
+        submit(&at_azimuth(i), writes)
+    })
+    .map_err(|e| e.to_string())
 }
 
 fn wait(context: &GpuContext) -> Result<(), String> {

@@ -62,33 +62,41 @@ pub fn run(args: &CeilingsArgs) -> Result<(), String> {
         ceilings.timing,
         sizes.repeats
     );
-    println!(
-        "memory bandwidth (read + write)     {:9.1} GB/s",
-        ceilings.memory_bytes_per_s * 1e-9
-    );
-    println!(
-        "filtered 3D samples (8-bit)         {:9.1} G/s",
-        ceilings.filtered_samples_per_s * 1e-9
-    );
-    println!(
-        "filtered 3D samples (16-bit float)  {:9.1} G/s",
-        ceilings.filtered_f16_samples_per_s * 1e-9
-    );
-    println!(
-        "dependent texture sample latency    {:9.1} ns",
-        ceilings.texture_latency_ns
-    );
-    println!(
-        "dependent storage read latency      {:9.1} ns",
-        ceilings.buffer_latency_ns
-    );
-    println!(
-        "FMA rate                            {:9.2} TFLOP/s",
-        ceilings.fma_flops_per_s * 1e-12
-    );
-    println!(
-        "store-only invocations              {:9.2} G/s",
-        ceilings.store_only_invocations_per_s * 1e-9
-    );
+    let rows = [
+        (
+            "memory bandwidth (read + write)",
+            ceilings.memory_bytes_per_s * 1e-9,
+            "GB/s",
+        ),
+        (
+            "filtered 3D samples (8-bit)",
+            ceilings.filtered_samples_per_s * 1e-9,
+            "G/s",
+        ),
+        (
+            "filtered 3D samples (16-bit float)",
+            ceilings.filtered_f16_samples_per_s * 1e-9,
+            "G/s",
+        ),
+        (
+            "dependent texture sample latency",
+            ceilings.texture_latency_ns,
+            "ns",
+        ),
+        (
+            "dependent storage read latency",
+            ceilings.buffer_latency_ns,
+            "ns",
+        ),
+        ("FMA rate", ceilings.fma_flops_per_s * 1e-12, "TFLOP/s"),
+        (
+            "store-only invocations",
+            ceilings.store_only_invocations_per_s * 1e-9,
+            "G/s",
+        ),
+    ];
+    for (label, value, unit) in rows {
+        println!("{label:<36}{value:9.2} {unit}");
+    }
     Ok(())
 }

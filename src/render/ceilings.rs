@@ -17,7 +17,7 @@ use super::pipeline::{
     atlas_entry, atlas_sampler_entry, clamped_sampler, compute_pipelines, numbered_bind_group,
     storage_entry, uniform_entry,
 };
-use super::{GpuContext, GpuTimer, RenderError, read_buffer};
+use super::{GpuContext, GpuTimer, RenderError, read_buffer, time_passes, timing_name};
 
 /// How much work each measurement does.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -150,11 +150,7 @@ pub fn measure_ceilings(
     let samples = sizes.invocations as f64 * sizes.samples as f64;
     let flops = sizes.invocations as f64 * sizes.fma_rounds as f64 * 8.0 * 4.0 * 2.0;
     Ok(Ceilings {
-        timing: if timer.is_some() {
-            "gpu-timestamps"
-        } else {
-            "wall-clock-with-device-wait"
-        },
+        timing: timing_name(timer.as_ref()),
         sizes: CeilingSizes {
             stream_bytes: kit.stream_bytes(),
             ..sizes
@@ -325,7 +321,7 @@ impl Kit {
         timer: Option<&GpuTimer>,
         passes: u32,
     ) -> Result<Vec<f64>, RenderError> {
-        let encode = |writes| {
+        let submit = |_, writes| {
             let mut encoder =
                 context
                     .device
@@ -343,23 +339,7 @@ impl Kit {
             }
             context.queue.submit([encoder.finish()]);
         };
-        match timer {
-            Some(timer) => {
-                for pass in 0..passes {
-                    encode(Some(timer.pass_writes(pass)));
-                }
-                context.wait_idle()?;
-                timer.read_ms(context, passes)
-            }
-            None => (0..passes)
-                .map(|_| {
-                    let started = Instant::now();
-                    encode(None);
-                    context.wait_idle()?;
-                    Ok(started.elapsed().as_secs_f64() * 1e3)
-                })
-                .collect(),
-        }
+        time_passes(context, timer, passes, submit)
     }
 
     /// Checks what `kernel` wrote against what it must have computed.

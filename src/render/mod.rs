@@ -34,7 +34,7 @@ pub use recolor::GpuRecolor;
 pub use settings::{
     EARLY_TERMINATION_ALPHA, HEATMAP_SATURATION, RenderMode, RenderSettings, heatmap_color,
 };
-pub use timer::GpuTimer;
+pub use timer::{GpuTimer, time_passes, timing_name};
 pub use transfer_table::GpuTransferTable;
 pub use volume_renderer::{DEFAULT_BRICK_SIZE, RendererKind, RendererOptions, VolumeRenderer};
 

@@ -1,4 +1,7 @@
-//! GPU time of compute passes, from timestamp queries written at each pass's start and end.
+//! GPU time of compute passes, from timestamp queries written at each pass's start and end, or
+//! wall time with a device wait per pass where the device has no timestamps.
+
+use std::time::Instant;
 
 use super::{GpuContext, RenderError, read_buffer};
 
@@ -63,5 +66,42 @@ impl GpuTimer {
             .chunks_exact(2)
             .map(|pair| pair[1].saturating_sub(pair[0]) as f64 * self.period_ns * 1e-6)
             .collect())
+    }
+}
+
+/// How [`time_passes`] times with `timer`: `gpu-timestamps`, or `wall-clock-with-device-wait`.
+pub fn timing_name(timer: Option<&GpuTimer>) -> &'static str {
+    if timer.is_some() {
+        "gpu-timestamps"
+    } else {
+        "wall-clock-with-device-wait"
+    }
+}
+
+/// Milliseconds of `passes` passes, each encoded and submitted by `submit(pass, writes)`: GPU
+/// time from `timer`'s timestamps (all passes submitted, then one wait), or without a timer
+/// wall time from submission to the device's idle, pass by pass.
+pub fn time_passes<'timer>(
+    context: &GpuContext,
+    timer: Option<&'timer GpuTimer>,
+    passes: u32,
+    mut submit: impl FnMut(u32, Option<wgpu::ComputePassTimestampWrites<'timer>>),
+) -> Result<Vec<f64>, RenderError> {
+    match timer {
+        Some(timer) => {
+            for pass in 0..passes {
+                submit(pass, Some(timer.pass_writes(pass)));
+            }
+            context.wait_idle()?;
+            timer.read_ms(context, passes)
+        }
+        None => (0..passes)
+            .map(|pass| {
+                let started = Instant::now();
+                submit(pass, None);
+                context.wait_idle()?;
+                Ok(started.elapsed().as_secs_f64() * 1e3)
+            })
+            .collect(),
     }
 }
