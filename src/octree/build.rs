@@ -33,11 +33,29 @@ impl Default for BuildOptions {
 
 /// Why an octree could not be built.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct BuildError(pub String);
+pub enum BuildError {
+    /// The [`Progress`] was cancelled; nothing is wrong with the volume.
+    Cancelled,
+    /// The volume's longest axis needs a deeper tree than [`MAX_DEPTH`].
+    TooDeep { longest: usize, depth: u32 },
+    /// The flat list would need node indices beyond `u32`.
+    TooManyNodes,
+}
 
 impl fmt::Display for BuildError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(&self.0)
+        match self {
+            Self::Cancelled => f.write_str("cancelled"),
+            Self::TooDeep { longest, depth } => write!(
+                f,
+                "a volume {longest} voxels long needs an octree of depth {depth}; the voxel octree supports up to {} voxels per axis (depth {MAX_DEPTH})",
+                1 << MAX_DEPTH
+            ),
+            Self::TooManyNodes => write!(
+                f,
+                "the octree would have more than {LEAF} nodes; use a smaller volume"
+            ),
+        }
     }
 }
 
@@ -62,10 +80,7 @@ pub fn build_with_progress(
     let longest = dims.iter().copied().max().unwrap_or(1);
     let depth = longest.next_power_of_two().trailing_zeros();
     if depth > MAX_DEPTH {
-        return Err(BuildError(format!(
-            "a volume {longest} voxels long needs an octree of depth {depth}; the voxel octree supports up to {} voxels per axis (depth {MAX_DEPTH})",
-            1 << MAX_DEPTH
-        )));
+        return Err(BuildError::TooDeep { longest, depth });
     }
     // Progress: the voxel pass counts as many steps as all other levels together.
     let steps = 3.0 * depth as f32 + 2.0;
@@ -73,7 +88,7 @@ pub fn build_with_progress(
         progress.set_fraction(step / steps);
         progress
             .check()
-            .map_err(|_| BuildError("cancelled".to_owned()))
+            .map_err(|_| BuildError::Cancelled)
     };
     let grids = bounds_per_level(volume, depth, &step_done)?;
     let side = 1usize << depth;
@@ -125,10 +140,7 @@ pub fn build_with_progress(
             .collect();
         let inner = leaves.iter().filter(|&&leaf| !leaf).count();
         if (next_level_start + 8 * inner) as u64 >= LEAF as u64 {
-            return Err(BuildError(format!(
-                "the octree would have more than {} nodes; use a smaller volume",
-                LEAF
-            )));
+            return Err(BuildError::TooManyNodes);
         }
         let mut rank = 0u32;
         nodes.extend(leaves.iter().map(|&leaf| Node {
