@@ -9,7 +9,9 @@ use std::time::{Duration, Instant};
 
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
-use voxscope::app::{AppSettings, Layout, STORAGE_KEY, VolumeSource, VoxscopeApp, wgpu_setup};
+use voxscope::app::{
+    AppSettings, Command, Layout, STORAGE_KEY, VolumeSource, VoxscopeApp, wgpu_setup,
+};
 use voxscope::octree::{self, OpacityMode};
 use voxscope::volume::SAMPLE_NAME;
 
@@ -156,7 +158,7 @@ fn max_level_slider_changes_the_image() {
         .get_by_role_and_label(egui::accesskit::Role::Slider, "Max level")
         .set_value_accesskit(3.0);
     settle(&mut harness);
-    assert_eq!(harness.state().max_level, 3);
+    assert_eq!(harness.state().view.max_level, 3);
     let coarse = view(&harness);
     assert!(
         differing_pixels(&full, &coarse) > 5000,
@@ -242,7 +244,7 @@ fn a_broken_file_shows_its_error_and_keeps_the_volume() {
     let ctx = harness.ctx.clone();
     harness
         .state_mut()
-        .open(VolumeSource::Spec(spec.clone()), &ctx);
+        .run_command(Command::Open(VolumeSource::Spec(spec.clone())), &ctx);
     settle(&mut harness);
     let app = harness.state();
     let error = app.error().expect("an error is shown");
@@ -261,9 +263,10 @@ fn opening_and_dropping_real_files_replace_the_volume() {
     let mut harness = harness();
     let mni = support::shared_data("mni152-t1-197x233x189.nii.gz");
     let ctx = harness.ctx.clone();
-    harness
-        .state_mut()
-        .open(VolumeSource::Spec(mni.display().to_string()), &ctx);
+    harness.state_mut().run_command(
+        Command::Open(VolumeSource::Spec(mni.display().to_string())),
+        &ctx,
+    );
     settle(&mut harness);
     assert_eq!(harness.state().error(), None);
     assert_eq!(
@@ -413,9 +416,10 @@ fn switching_the_renderer_uploads_in_the_background_and_draws_the_same_head() {
 fn cancel_stops_a_load_and_keeps_the_current_volume() {
     let mut harness = harness();
     let ctx = harness.ctx.clone();
-    harness
-        .state_mut()
-        .open(VolumeSource::Spec("synthetic:noise:320".into()), &ctx);
+    harness.state_mut().run_command(
+        Command::Open(VolumeSource::Spec("synthetic:noise:320".into())),
+        &ctx,
+    );
     harness.step();
     // The status bar shows the job with its progress and a Cancel button.
     harness.get_by_label("Cancel").click();
@@ -426,13 +430,41 @@ fn cancel_stops_a_load_and_keeps_the_current_volume() {
 }
 
 #[test]
+fn cancel_during_the_octree_build_is_a_notice_not_an_error() {
+    let mut harness = harness();
+    let ctx = harness.ctx.clone();
+    harness.state_mut().run_command(
+        Command::Open(VolumeSource::Spec("synthetic:noise:320".into())),
+        &ctx,
+    );
+    // Wait for the longest stage, the octree build, and cancel there.
+    let started = Instant::now();
+    while harness.state().opening_stage() != Some("building octree") {
+        assert!(
+            harness.state().opening_stage().is_some(),
+            "the open ended before its build was seen"
+        );
+        assert!(started.elapsed() < Duration::from_secs(120));
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    harness.step();
+    harness.get_by_label("Cancel").click();
+    settle(&mut harness);
+    let app = harness.state();
+    assert_eq!(app.error(), None);
+    assert_eq!(app.notice(), Some("opening cancelled"));
+    assert_eq!(app.volume().map(|v| v.0), Some(SAMPLE_NAME));
+}
+
+#[test]
 fn a_volume_too_large_for_the_octree_buffers_opens_with_bricks() {
     let mut harness = harness();
     let ctx = harness.ctx.clone();
     // 320³ needs 286 MiB of octree nodes; lavapipe allows 128 MiB per storage buffer.
-    harness
-        .state_mut()
-        .open(VolumeSource::Spec("synthetic:noise:320".into()), &ctx);
+    harness.state_mut().run_command(
+        Command::Open(VolumeSource::Spec("synthetic:noise:320".into())),
+        &ctx,
+    );
     settle(&mut harness);
     let app = harness.state();
     assert_eq!(app.error(), None);

@@ -1,21 +1,45 @@
 //! The desktop app (eframe/egui): the ray caster's image in the central panel, the transfer
 //! function on the left, the octree and its numbers on the right, level and transfer
 //! comparisons, background loading. Builds on [`crate::render`]; nothing below imports egui.
+//!
+//! How it is put together (docs/architecture.md has the whole picture):
+//! - [`VoxscopeApp`] holds [`AppSettings`] (persisted), the volume on screen ([`Scene`]) and
+//!   its [`ViewState`], the background [`jobs`] and the [`central`] view;
+//! - every action is a [`Command`], sent by menus, toolbar, shortcuts, drops and tests and
+//!   run in one place;
+//! - background work ends in typed [`jobs::JobEvent`]s, polled once per frame.
 
+mod central;
+mod command;
+mod dialogs;
+mod jobs;
+mod menu;
 mod octree_panel;
 mod scene;
 mod settings;
 mod transfer_panel;
+mod view_state;
 mod viewport;
 mod voxscope_app;
 
 use std::sync::Arc;
 
-pub use scene::{Job, VolumeData, VolumeSource};
+pub use command::{Command, Panel, ViewPreset};
+pub use dialogs::{DialogKind, OPEN_EXTENSIONS};
+pub use jobs::{Job, JobError};
+pub use scene::{Scene, VolumeData, VolumeSource};
 pub use settings::{AppSettings, Layout, STORAGE_KEY, TransferChoice, TransferPreset};
-pub use voxscope_app::{OPEN_EXTENSIONS, VoxscopeApp};
+pub use view_state::ViewState;
+pub use voxscope_app::VoxscopeApp;
 
 use crate::render::GpuContext;
+
+/// The GPU as the app shares it with egui-wgpu: the ray casters' context on egui's device,
+/// and egui-wgpu's renderer, which shows the render targets as textures.
+pub struct AppGpu {
+    pub context: Arc<GpuContext>,
+    pub render_state: egui_wgpu::RenderState,
+}
 
 /// How the app (and its tests) ask egui-wgpu for a device: the adapter's own limits and the
 /// features the ray caster wants, so storage buffers and 3D textures are as large as the GPU

@@ -2,10 +2,10 @@
 //! the octree, color it, upload it. Nothing here blocks the UI thread.
 
 use std::sync::Arc;
-use std::sync::mpsc::{self, Receiver, TryRecvError};
 use std::time::Instant;
 
-use crate::octree::{self, BuildOptions, LevelStatistics, Octree, TransferFunction};
+use super::jobs::{Counted, Job, JobError, Opened};
+use crate::octree::{self, BuildOptions, Octree, TransferFunction};
 use crate::progress::Progress;
 use crate::render::{GpuContext, RendererKind, RendererOptions, VolumeRenderer};
 use crate::volume::{self, LoadOptions, QuantizedVolume, ValueWindow, Volume};
@@ -35,12 +35,12 @@ impl VolumeSource {
         }
     }
 
-    fn load(&self) -> Result<Volume, String> {
+    fn load(&self) -> Result<Volume, JobError> {
         match self {
             Self::Sample => volume::sample(),
             Self::Spec(spec) => volume::load(spec, &LoadOptions::default()),
         }
-        .map_err(|e| e.to_string())
+        .map_err(|e| JobError::Failed(e.to_string()))
     }
 }
 
@@ -117,58 +117,6 @@ pub struct Scene {
     pub upload_seconds: f64,
 }
 
-/// Work running on another thread, reporting through a [`Progress`], ending in one result.
-pub struct Job<T> {
-    pub progress: Arc<Progress>,
-    receiver: Receiver<Result<T, String>>,
-    pub started: Instant,
-    /// What the job does, for the progress bar (`opening head.nii.gz`).
-    pub title: String,
-}
-
-impl<T: Send + 'static> Job<T> {
-    /// Runs `work` on a new thread; `wake` is called when it ends (to repaint the UI).
-    pub fn spawn(
-        title: String,
-        wake: impl Fn() + Send + 'static,
-        work: impl FnOnce(&Progress) -> Result<T, String> + Send + 'static,
-    ) -> Self {
-        let progress = Arc::new(Progress::new());
-        let (sender, receiver) = mpsc::channel();
-        let job_progress = Arc::clone(&progress);
-        std::thread::Builder::new()
-            .name("voxscope-job".into())
-            .spawn(move || {
-                let result = work(&job_progress);
-                let _ = sender.send(result);
-                wake();
-            })
-            .expect("a thread can be started");
-        Self {
-            progress,
-            receiver,
-            started: Instant::now(),
-            title,
-        }
-    }
-
-    /// The result once the job has ended; `None` while it runs.
-    pub fn try_take(&self) -> Option<Result<T, String>> {
-        match self.receiver.try_recv() {
-            Ok(result) => Some(result),
-            Err(TryRecvError::Empty) => None,
-            Err(TryRecvError::Disconnected) => Some(Err("the job stopped unexpectedly".into())),
-        }
-    }
-
-    /// Waits for the result (tests, and nothing on the UI thread).
-    pub fn wait(self) -> Result<T, String> {
-        self.receiver
-            .recv()
-            .unwrap_or_else(|_| Err("the job stopped unexpectedly".into()))
-    }
-}
-
 /// Loads `source` and prepares everything to draw it with `options`: the job behind
 /// File ▸ Open, drops, recent files and the command line.
 pub fn prepare_scene(
@@ -177,17 +125,17 @@ pub fn prepare_scene(
     gpu: &GpuContext,
     options: RendererOptions,
     progress: &Progress,
-) -> Result<(Scene, Vec<LevelStatistics>), String> {
+) -> Result<Opened, JobError> {
     let started = Instant::now();
     progress.begin("reading");
     let mut volume = source.load()?;
-    progress.check().map_err(|_| "cancelled".to_owned())?;
+    progress.check()?;
     progress.begin("quantizing");
     let quantized = QuantizedVolume::new(&volume);
     volume.data = volume.data.emptied();
-    progress.check().map_err(|_| "cancelled".to_owned())?;
+    progress.check()?;
     let mut octree = octree::build_with_progress(&quantized, BuildOptions::default(), progress)
-        .map_err(|e| format!("{}: {e}", volume.name))?;
+        .map_err(|e| JobError::from_build(&volume.name, e))?;
     let default_window = quantized.robust_window();
     let histogram = display_histogram(&quantized);
     let transfer = transfer(default_window);
@@ -203,22 +151,22 @@ pub fn prepare_scene(
         histogram,
         load_seconds: started.elapsed().as_secs_f64(),
     };
-    progress.check().map_err(|_| "cancelled".to_owned())?;
+    progress.check()?;
     let data = Arc::new(data);
     let scene = match upload(Arc::clone(&data), gpu, options, transfer, progress) {
         Ok(scene) => scene,
         // The voxel octree of a large volume can exceed a storage buffer; bricks store the
         // same volume in a fraction of the memory.
-        Err(_) if options.kind == RendererKind::Octree => {
+        Err(JobError::Failed(_)) if options.kind == RendererKind::Octree => {
             let bricks = RendererOptions {
                 kind: RendererKind::Bricks,
                 ..options
             };
             upload(data, gpu, bricks, transfer, progress)?
         }
-        Err(message) => return Err(message),
+        Err(error) => return Err(error),
     };
-    Ok((scene, statistics))
+    Ok(Opened { scene, statistics })
 }
 
 /// Uploads `data` for the renderer `options` names, colored by `transfer`.
@@ -228,7 +176,7 @@ pub fn upload(
     options: RendererOptions,
     transfer: TransferFunction,
     progress: &Progress,
-) -> Result<Scene, String> {
+) -> Result<Scene, JobError> {
     progress.begin("uploading to the GPU");
     let started = Instant::now();
     let mut renderer = VolumeRenderer::new(
@@ -240,7 +188,7 @@ pub fn upload(
         data.octree.depth,
         &transfer,
     )
-    .map_err(|e| format!("{}: {e}", data.volume.name))?;
+    .map_err(|e| JobError::Failed(format!("{}: {e}", data.volume.name)))?;
     // The CPU colors of `data.octree` follow the transfer function of the load, which may not
     // be `transfer` (after a renderer switch): recolor on the GPU so the scene matches it.
     let mut encoder = gpu
@@ -250,7 +198,7 @@ pub fn upload(
         });
     renderer
         .set_transfer(gpu, &mut encoder, &transfer, None)
-        .map_err(|e| format!("{}: {e}", data.volume.name))?;
+        .map_err(|e| JobError::Failed(format!("{}: {e}", data.volume.name)))?;
     gpu.queue.submit([encoder.finish()]);
     Ok(Scene {
         data,
@@ -266,7 +214,7 @@ pub fn statistics_job(
     data: Arc<VolumeData>,
     transfer: TransferFunction,
     wake: impl Fn() + Send + 'static,
-) -> Job<(TransferFunction, Vec<LevelStatistics>)> {
+) -> Job<Counted> {
     Job::spawn("counting nodes".into(), wake, move |_| {
         Ok((
             transfer,

@@ -1,8 +1,11 @@
 //! What the app remembers between runs (eframe persistence, stored as RON): the transfer
 //! function's choices, render settings, camera, layout, renderer, recent files.
 
+use std::path::Path;
+
 use serde::{Deserialize, Serialize};
 
+use super::command::Panel;
 use crate::octree::{Colormap, OpacityMode, TransferFunction};
 use crate::render::{Camera, DEFAULT_BRICK_SIZE, RenderMode, RendererKind};
 use crate::volume::ValueWindow;
@@ -22,6 +25,28 @@ pub enum Layout {
     LevelGrid,
     /// Two panes, two transfer functions, same camera.
     TransferPair,
+}
+
+impl Layout {
+    pub const ALL: [Self; 3] = [Self::Single, Self::LevelGrid, Self::TransferPair];
+
+    /// The toolbar's name: `Single`, `Level grid`, `Transfer pair`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Single => "Single",
+            Self::LevelGrid => "Level grid",
+            Self::TransferPair => "Transfer pair",
+        }
+    }
+
+    /// The View menu's longer name.
+    pub fn description(self) -> &'static str {
+        match self {
+            Self::Single => "Single view",
+            Self::LevelGrid => "Level grid (compare levels)",
+            Self::TransferPair => "Transfer pair (compare settings)",
+        }
+    }
 }
 
 /// The transfer-function choices that carry over from one volume to the next (the window is
@@ -60,6 +85,46 @@ pub struct TransferPreset {
     pub transfer: TransferFunction,
     pub density: f32,
     pub mode: RenderMode,
+}
+
+impl TransferPreset {
+    /// Largest file accepted as a transfer function.
+    const MAX_BYTES: u64 = 1 << 20;
+
+    /// Reads and validates a file written by File ▸ Save transfer function…; the error is
+    /// one line naming the file.
+    pub fn read(path: &Path) -> Result<Self, String> {
+        let metadata = std::fs::metadata(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        if metadata.len() > Self::MAX_BYTES {
+            return Err(format!(
+                "{}: {} bytes is too large for a transfer function",
+                path.display(),
+                metadata.len()
+            ));
+        }
+        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let preset: Self = ron::from_str(&text).map_err(|e| {
+            format!(
+                "{}: not a voxscope transfer function: {}",
+                path.display(),
+                e.to_string().lines().next().unwrap_or_default()
+            )
+        })?;
+        let window = preset.transfer.window;
+        let valid = window.low.is_finite()
+            && window.high.is_finite()
+            && window.high > window.low
+            && (0.0..=1.0).contains(&preset.transfer.threshold)
+            && preset.density > 0.0
+            && preset.density <= 1.0;
+        if !valid {
+            return Err(format!(
+                "{}: the window, threshold or opacity scale is out of range",
+                path.display()
+            ));
+        }
+        Ok(preset)
+    }
 }
 
 /// Everything persisted.
@@ -125,6 +190,22 @@ impl Default for AppSettings {
 }
 
 impl AppSettings {
+    /// Whether the side panel `panel` is shown.
+    pub fn panel_shown(&self, panel: Panel) -> bool {
+        match panel {
+            Panel::Transfer => self.show_transfer_panel,
+            Panel::Octree => self.show_octree_panel,
+        }
+    }
+
+    /// Shows `panel` if hidden, hides it if shown.
+    pub fn toggle_panel(&mut self, panel: Panel) {
+        match panel {
+            Panel::Transfer => self.show_transfer_panel ^= true,
+            Panel::Octree => self.show_octree_panel ^= true,
+        }
+    }
+
     /// Puts `source` first in the recent list (once), keeping at most [`RECENT_LIMIT`].
     pub fn remember(&mut self, source: &str) {
         self.recent.retain(|s| s != source);

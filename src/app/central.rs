@@ -1,0 +1,523 @@
+//! The central view: its panes laid out for the chosen [`Layout`], each a render target drawn
+//! again only when what it shows changed; the strips above the panes (the level grid's pane
+//! count, the transfer pair's B), the pane labels, the orientation gizmo, and the measured
+//! cost of the last frame.
+
+use std::time::{Duration, Instant};
+
+use egui::{Align2, Color32, Rect, RichText, Ui, UiBuilder, vec2};
+
+use super::AppGpu;
+use super::octree_panel::group_digits;
+use super::scene::Scene;
+use super::settings::{AppSettings, Layout, TransferChoice};
+use super::view_state::{MAX_GRID_PANES, ViewState};
+use super::viewport::{self, DrawKey, Pane};
+use crate::octree::OpacityMode;
+use crate::render::{FrameProbe, FrameReport, RenderError, RenderSettings, read_image};
+use crate::volume::Orientation;
+
+/// Height of the strip of controls above the panes of the level grid and the transfer pair.
+const STRIP_HEIGHT: f32 = 30.0;
+
+/// Points between panes.
+const PANE_GAP: f32 = 2.0;
+
+/// Frames slower than this are drawn at half resolution while the camera moves.
+const SLOW_FRAME_MS: f64 = 20.0;
+
+/// The central view's panes and what it measured of their drawing.
+pub struct CentralView {
+    panes: Vec<Pane>,
+    /// Where the panes were laid out last frame, in points, and the whole view.
+    pane_rects: Vec<Rect>,
+    view_rect: Rect,
+    /// Times the first drawn pane of a frame and counts its nodes per ray.
+    probe: Option<FrameProbe>,
+    last_report: Option<FrameReport>,
+    /// When frames were drawn in the last second (frame rate while drawing continuously).
+    draw_times: Vec<Instant>,
+    /// True while the camera is being moved (drag or wheel), as of the last frame.
+    interacting: bool,
+    /// The scene serial whose first drawing was logged.
+    logged_scene: u64,
+}
+
+/// What a frame of the central view reads and edits.
+pub struct ViewInputs<'a> {
+    pub gpu: Option<&'a AppGpu>,
+    pub scene: Option<&'a Scene>,
+    pub settings: &'a mut AppSettings,
+    pub view: &'a mut ViewState,
+    /// A volume is being opened (the empty view says "Loading…").
+    pub opening: bool,
+}
+
+impl CentralView {
+    /// An empty view; `probe` measures frames where the GPU allows.
+    pub fn new(probe: Option<FrameProbe>) -> Self {
+        Self {
+            panes: Vec::new(),
+            pane_rects: Vec::new(),
+            view_rect: Rect::NOTHING,
+            probe,
+            last_report: None,
+            draw_times: Vec::new(),
+            interacting: false,
+            logged_scene: 0,
+        }
+    }
+
+    /// The whole central view's rect, in points, as laid out last frame.
+    pub fn rect(&self) -> Rect {
+        self.view_rect
+    }
+
+    /// Pixel sizes of the panes' render targets.
+    pub fn pane_sizes(&self) -> Vec<[u32; 2]> {
+        self.panes
+            .iter()
+            .filter_map(|p| p.target.as_ref().map(|t| [t.width, t.height]))
+            .collect()
+    }
+
+    /// The last measured frame.
+    pub fn frame_report(&self) -> Option<FrameReport> {
+        self.last_report
+    }
+
+    /// Bytes of the panes' render targets.
+    pub fn target_bytes(&self) -> u64 {
+        self.panes
+            .iter()
+            .filter_map(|p| p.target.as_ref())
+            .map(|t| t.gpu_bytes())
+            .sum()
+    }
+
+    /// True while a frame's measurement is on its way back from the GPU.
+    pub fn is_measuring(&self) -> bool {
+        self.probe.as_ref().is_some_and(|p| !p.is_idle())
+    }
+
+    /// Takes the measurement of an earlier frame once the GPU has delivered it.
+    pub fn poll_probe(&mut self, gpu: &AppGpu) {
+        if let Some(report) = self.probe.as_mut().and_then(|p| p.poll(&gpu.context)) {
+            self.last_report = Some(report);
+        }
+    }
+
+    /// Frames per second over the last second, while drawing every frame.
+    pub fn fps(&self, continuous: bool) -> Option<f64> {
+        let (first, last) = (self.draw_times.first()?, self.draw_times.last()?);
+        (continuous && self.draw_times.len() >= 2).then(|| {
+            let span = last.duration_since(*first).as_secs_f64().max(1e-6);
+            (self.draw_times.len() - 1) as f64 / span
+        })
+    }
+
+    /// Lays out the panes, paints their last images and takes the camera input.
+    pub fn ui(&mut self, ui: &mut Ui, inputs: ViewInputs<'_>) {
+        let ViewInputs {
+            gpu,
+            scene,
+            settings,
+            view,
+            opening,
+        } = inputs;
+        let view_rect = ui.available_rect_before_wrap();
+        self.view_rect = view_rect;
+        ui.painter()
+            .rect_filled(view_rect, 0.0, Color32::from_gray(12));
+        let count = pane_count(settings);
+        let mut area = view_rect;
+        if matches!(settings.layout, Layout::LevelGrid | Layout::TransferPair) {
+            let strip = Rect::from_min_size(area.min, vec2(area.width(), STRIP_HEIGHT - 2.0));
+            area.min.y += STRIP_HEIGHT;
+            ui.scope_builder(
+                UiBuilder::new().max_rect(strip.shrink2(vec2(6.0, 2.0))),
+                |ui| {
+                    ui.horizontal(|ui| match settings.layout {
+                        Layout::LevelGrid => grid_strip(ui, settings),
+                        _ => pair_strip(ui, settings),
+                    });
+                },
+            );
+        }
+        let rects = grid_rects(area, count, PANE_GAP);
+        self.pane_rects = rects.clone();
+        if let Some(gpu) = gpu {
+            self.fit_targets(
+                gpu,
+                scene.is_some(),
+                &rects,
+                ui.ctx().pixels_per_point(),
+                settings,
+            );
+        }
+
+        let extent = scene.map(|s| s.data.volume.extent());
+        let was_interacting = self.interacting;
+        self.interacting = false;
+        for (index, rect) in rects.iter().enumerate() {
+            let response = ui
+                .scope_builder(UiBuilder::new().max_rect(*rect), |ui| {
+                    viewport::allocate_pane(ui, rect.size())
+                })
+                .inner;
+            if let Some(scene) = scene {
+                self.panes[index].paint(ui, *rect);
+                let moved = viewport::control_camera(
+                    &mut settings.camera,
+                    &response,
+                    ui,
+                    extent.unwrap_or([1.0; 3]),
+                );
+                self.interacting |= moved || response.dragged();
+                pane_label(ui, scene, settings, view, index, count, *rect);
+            }
+        }
+        if was_interacting && !self.interacting {
+            // Motion ended: one more frame draws the full-resolution image.
+            ui.ctx().request_repaint();
+        }
+        if let (Some(scene), Some(rect)) = (scene, rects.first()) {
+            viewport::paint_axis_gizmo(ui, *rect, &settings.camera, axis_labels(scene));
+        }
+        if scene.is_none() {
+            let text = if opening {
+                "Loading…"
+            } else {
+                "Open a volume: File > Open…, or drop a file here"
+            };
+            ui.painter().text(
+                view_rect.center(),
+                Align2::CENTER_CENTER,
+                text,
+                egui::FontId::proportional(18.0),
+                Color32::GRAY,
+            );
+        }
+        if ui.ctx().input(|i| !i.raw.hovered_files.is_empty()) {
+            ui.painter()
+                .rect_filled(view_rect, 0.0, Color32::from_black_alpha(160));
+            ui.painter().text(
+                view_rect.center(),
+                Align2::CENTER_CENTER,
+                "Drop to open",
+                egui::FontId::proportional(24.0),
+                Color32::WHITE,
+            );
+        }
+    }
+
+    /// Gives every pane a target of its rect's pixel size (half that while the camera moves
+    /// on a slow GPU, as ParaView's interactive LOD does; the full image follows when the
+    /// motion stops), and drops the panes the layout no longer has.
+    fn fit_targets(
+        &mut self,
+        gpu: &AppGpu,
+        has_scene: bool,
+        rects: &[Rect],
+        pixels_per_point: f32,
+        settings: &AppSettings,
+    ) {
+        let mut egui_renderer = gpu.render_state.renderer.write();
+        while self.panes.len() > rects.len() {
+            if let Some(mut pane) = self.panes.pop() {
+                pane.release(&mut egui_renderer);
+            }
+        }
+        self.panes.resize_with(rects.len(), Pane::default);
+        let slow = self
+            .last_report
+            .is_none_or(|r| r.gpu_ms.is_none_or(|ms| ms > SLOW_FRAME_MS));
+        let scale = if self.interacting && slow && settings.fast_interaction {
+            0.5
+        } else {
+            1.0
+        };
+        if has_scene {
+            for (pane, rect) in self.panes.iter_mut().zip(rects) {
+                pane.ensure_size(
+                    &gpu.context,
+                    &mut egui_renderer,
+                    viewport::pixel_size(*rect, pixels_per_point * scale),
+                );
+            }
+        }
+    }
+
+    /// Draws every pane whose image is out of date (or all, when drawing continuously).
+    /// `serial` changes with every new scene.
+    pub fn draw(
+        &mut self,
+        gpu: &AppGpu,
+        scene: &mut Scene,
+        serial: u64,
+        settings: &AppSettings,
+        view: &ViewState,
+    ) -> Result<(), RenderError> {
+        let depth = scene.data.octree.depth;
+        let main = settings.transfer.with_window(view.window);
+        let compare = settings.compare_transfer.with_window(view.window);
+        let count = self.panes.len();
+        let mut drew = false;
+        for (index, pane) in self.panes.iter_mut().enumerate() {
+            let Some(target) = &pane.target else { continue };
+            let (level, transfer) = match settings.layout {
+                Layout::Single => (view.max_level.min(depth), main),
+                Layout::LevelGrid => (view.grid_level(index, count, depth), main),
+                Layout::TransferPair => (
+                    view.max_level.min(depth),
+                    if index == 0 { main } else { compare },
+                ),
+            };
+            let render_settings = RenderSettings {
+                mode: settings.mode,
+                max_level: level,
+                pixel_lod: settings.pixel_lod,
+                opacity_correction: settings.opacity_correction,
+                density: settings.density,
+                heatmap: settings.heatmap,
+                trilinear: settings.trilinear,
+            };
+            let key = DrawKey {
+                size: [target.width, target.height],
+                camera: settings.camera,
+                settings: render_settings,
+                transfer,
+                scene: serial,
+            };
+            if pane.drawn == Some(key) && !settings.continuous {
+                continue;
+            }
+            let mut encoder =
+                gpu.context
+                    .device
+                    .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                        label: Some("voxscope::app_frame"),
+                    });
+            if scene.applied_transfer != transfer {
+                scene
+                    .renderer
+                    .set_transfer(&gpu.context, &mut encoder, &transfer, None)?;
+                scene.applied_transfer = transfer;
+            }
+            let measure = !drew && self.probe.as_ref().is_some_and(FrameProbe::is_idle);
+            let probe = self.probe.as_mut().filter(|_| measure);
+            let writes = probe.as_ref().and_then(|p| p.timestamp_writes());
+            scene.renderer.encode(
+                &gpu.context,
+                &mut encoder,
+                target,
+                &key.camera,
+                &render_settings,
+                writes,
+            );
+            if let Some(probe) = probe {
+                probe.record(&gpu.context, &mut encoder, target);
+                gpu.context.queue.submit([encoder.finish()]);
+                probe.submitted();
+            } else {
+                gpu.context.queue.submit([encoder.finish()]);
+            }
+            pane.drawn = Some(key);
+            drew = true;
+            if self.logged_scene != serial {
+                self.logged_scene = serial;
+                eprintln!(
+                    "voxscope: drew {} ({}x{} px, {} renderer, level {level})",
+                    scene.data.volume.name,
+                    target.width,
+                    target.height,
+                    scene.options.kind.name()
+                );
+            }
+        }
+        let now = Instant::now();
+        if drew {
+            self.draw_times.push(now);
+        }
+        self.draw_times
+            .retain(|t| now.duration_since(*t) < Duration::from_secs(1));
+        Ok(())
+    }
+
+    /// What is drawn: the panes' images composed as laid out, at full pixel resolution.
+    pub fn image(&self, gpu: &AppGpu, pixels_per_point: f32) -> Result<image::RgbaImage, String> {
+        let size = viewport::pixel_size(self.view_rect, pixels_per_point);
+        let mut canvas =
+            image::RgbaImage::from_pixel(size[0], size[1], image::Rgba([0, 0, 0, 255]));
+        let mut any = false;
+        for (pane, rect) in self.panes.iter().zip(&self.pane_rects) {
+            let (Some(target), Some(_)) = (&pane.target, pane.drawn) else {
+                continue;
+            };
+            let image = read_image(&gpu.context, target).map_err(|e| e.to_string())?;
+            let offset = (rect.min - self.view_rect.min) * pixels_per_point;
+            image::imageops::overlay(
+                &mut canvas,
+                &image,
+                offset.x.round() as i64,
+                offset.y.round() as i64,
+            );
+            any = true;
+        }
+        if !any {
+            return Err("nothing is drawn yet".into());
+        }
+        Ok(canvas)
+    }
+}
+
+/// Panes of the layout: 1, the level grid's 2–6, or 2.
+fn pane_count(settings: &AppSettings) -> usize {
+    match settings.layout {
+        Layout::Single => 1,
+        Layout::LevelGrid => settings.grid_panes.clamp(2, MAX_GRID_PANES),
+        Layout::TransferPair => 2,
+    }
+}
+
+/// The gizmo's names for +x, +y, +z: `R A S` for patient data.
+fn axis_labels(scene: &Scene) -> [&'static str; 3] {
+    let volume = &scene.data.volume;
+    let oriented = matches!(volume.orientation, Orientation::Reoriented { .. })
+        || matches!(volume.format, "NIfTI-1" | "NRRD");
+    if oriented {
+        ["R", "A", "S"]
+    } else {
+        ["x", "y", "z"]
+    }
+}
+
+/// The level grid's strip: how many panes.
+fn grid_strip(ui: &mut Ui, settings: &mut AppSettings) {
+    let label = ui.label("Panes");
+    ui.add(egui::Slider::new(
+        &mut settings.grid_panes,
+        2..=MAX_GRID_PANES,
+    ))
+    .labelled_by(label.id);
+    ui.label("· each pane: its own max level, one linked camera");
+}
+
+/// The transfer pair's strip: pane B's transfer function.
+fn pair_strip(ui: &mut Ui, settings: &mut AppSettings) {
+    ui.label("B:");
+    let b = &mut settings.compare_transfer;
+    ui.selectable_value(&mut b.opacity, OpacityMode::Gray, "Gray");
+    ui.selectable_value(&mut b.opacity, OpacityMode::Binary, "Binary");
+    if b.opacity == OpacityMode::Binary {
+        ui.add(egui::Slider::new(&mut b.threshold, 0.0..=1.0).text("threshold"));
+    }
+    let colormap_label = ui.label("colormap");
+    egui::ComboBox::from_id_salt("compare_colormap")
+        .selected_text(b.colormap.name())
+        .show_ui(ui, |ui| {
+            for colormap in crate::octree::Colormap::ALL {
+                ui.selectable_value(&mut b.colormap, colormap, colormap.name());
+            }
+        })
+        .response
+        .labelled_by(colormap_label.id);
+    if ui.button("Swap A and B").clicked() {
+        std::mem::swap(&mut settings.transfer, &mut settings.compare_transfer);
+    }
+}
+
+/// The label at the top of pane `index` of `count`: its level and node count (the level
+/// grid's level is editable there), or the transfer pair's A or B.
+fn pane_label(
+    ui: &mut Ui,
+    scene: &Scene,
+    settings: &AppSettings,
+    view: &mut ViewState,
+    index: usize,
+    count: usize,
+    rect: Rect,
+) {
+    let octree = &scene.data.octree;
+    let depth = octree.depth;
+    let header = Rect::from_min_size(rect.min + vec2(6.0, 4.0), vec2(rect.width() - 12.0, 22.0));
+    let nodes = |level: u32| group_digits(octree.nodes_through_level(level) as u64);
+    let paint = |ui: &Ui, text: String| {
+        ui.painter().text(
+            header.left_top(),
+            Align2::LEFT_TOP,
+            text,
+            egui::FontId::proportional(13.0),
+            Color32::from_gray(220),
+        );
+    };
+    match settings.layout {
+        Layout::Single => {
+            let level = view.max_level.min(depth);
+            paint(ui, format!("level {level} · {} nodes", nodes(level)));
+        }
+        Layout::LevelGrid => {
+            let nodes = format!("{} nodes", nodes(view.grid_level(index, count, depth)));
+            let Some(level) = view.grid_level_mut(index, count) else {
+                return;
+            };
+            ui.scope_builder(UiBuilder::new().max_rect(header), |ui| {
+                ui.horizontal(|ui| {
+                    let label = ui.label(RichText::new("level").color(Color32::from_gray(220)));
+                    ui.add(egui::DragValue::new(level).range(0..=depth))
+                        .labelled_by(label.id);
+                    ui.label(RichText::new(nodes).color(Color32::from_gray(220)));
+                });
+            });
+        }
+        Layout::TransferPair => {
+            let choice = if index == 0 {
+                settings.transfer
+            } else {
+                settings.compare_transfer
+            };
+            let name = if index == 0 { "A" } else { "B" };
+            paint(ui, format!("{name} · {}", describe_choice(choice)));
+        }
+    }
+}
+
+/// `alpha = gray, grays`, `binary at 0.30, viridis`.
+fn describe_choice(choice: TransferChoice) -> String {
+    match choice.opacity {
+        OpacityMode::Gray => format!("alpha = gray, {}", choice.colormap.name()),
+        OpacityMode::Binary => format!(
+            "binary at {:.2}, {}",
+            choice.threshold,
+            choice.colormap.name()
+        ),
+    }
+}
+
+/// `count` panes over `area`, in as square a grid as fits, `gap` points apart.
+fn grid_rects(area: Rect, count: usize, gap: f32) -> Vec<Rect> {
+    let count = count.max(1);
+    let columns = if area.width() >= area.height() {
+        (count as f32).sqrt().ceil() as usize
+    } else {
+        count.div_ceil((count as f32).sqrt().ceil() as usize)
+    }
+    .max(1);
+    let columns = if count <= 3 && area.width() >= area.height() {
+        count
+    } else {
+        columns
+    };
+    let rows = count.div_ceil(columns);
+    let width = (area.width() - gap * (columns - 1) as f32) / columns as f32;
+    let height = (area.height() - gap * (rows - 1) as f32) / rows as f32;
+    (0..count)
+        .map(|i| {
+            let (column, row) = (i % columns, i / columns);
+            Rect::from_min_size(
+                area.min + vec2(column as f32 * (width + gap), row as f32 * (height + gap)),
+                vec2(width.max(1.0), height.max(1.0)),
+            )
+        })
+        .collect()
+}

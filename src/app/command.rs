@@ -1,0 +1,144 @@
+//! Everything a user can ask of the app, as one enum: the menus, the toolbar, keyboard
+//! shortcuts, dropped files and the tests all send [`Command`]s, and the app handles each in
+//! one place ([`super::VoxscopeApp::run_command`]), so an action exists once.
+
+use std::path::PathBuf;
+
+use egui::{Key, KeyboardShortcut, Modifiers};
+
+use super::dialogs::DialogKind;
+use super::scene::VolumeSource;
+use super::settings::Layout;
+
+/// An action of the app.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Command {
+    /// Open a volume in the background; the one on screen stays until it is ready.
+    Open(VolumeSource),
+    /// Show a native file dialog; its answer becomes another command.
+    ShowDialog(DialogKind),
+    /// Stop the open in progress.
+    CancelOpen,
+    /// Save what the central view shows as PNG.
+    SaveScreenshot(PathBuf),
+    /// Save the transfer function as RON.
+    SaveTransfer(PathBuf),
+    /// Load a transfer function saved by [`Command::SaveTransfer`].
+    LoadTransfer(PathBuf),
+    /// Split the central view another way.
+    SetLayout(Layout),
+    /// Look from the front, side or top.
+    ViewFrom(ViewPreset),
+    /// The default camera.
+    ResetCamera,
+    /// Show or hide a side panel.
+    TogglePanel(Panel),
+    /// Hide the error banner.
+    DismissError,
+    /// Close the window.
+    Quit,
+}
+
+/// The camera presets: front, side, top (for RAS data: anterior, patient's right, superior).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ViewPreset {
+    Front,
+    Side,
+    Top,
+}
+
+impl ViewPreset {
+    pub const ALL: [Self; 3] = [Self::Front, Self::Side, Self::Top];
+
+    /// `Front`, `Side`, `Top`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Front => "Front",
+            Self::Side => "Side",
+            Self::Top => "Top",
+        }
+    }
+
+    /// Azimuth and elevation in degrees (top stops short of the pole, where the orbit's
+    /// up vector would be undefined).
+    pub fn angles(self) -> (f64, f64) {
+        match self {
+            Self::Front => (0.0, 0.0),
+            Self::Side => (90.0, 0.0),
+            Self::Top => (0.0, 89.0),
+        }
+    }
+}
+
+/// The side panels.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Panel {
+    /// Left: the transfer function.
+    Transfer,
+    /// Right: the octree, renderer and numbers.
+    Octree,
+}
+
+impl Panel {
+    pub const ALL: [Self; 2] = [Self::Transfer, Self::Octree];
+
+    /// The View menu's name for it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Transfer => "Transfer function panel",
+            Self::Octree => "Octree panel",
+        }
+    }
+}
+
+impl Command {
+    /// The keyboard shortcut of a command, shown in its menu item too.
+    pub fn shortcut(&self) -> Option<KeyboardShortcut> {
+        match self {
+            Self::ShowDialog(DialogKind::Open) => {
+                Some(KeyboardShortcut::new(Modifiers::COMMAND, Key::O))
+            }
+            Self::Quit => Some(KeyboardShortcut::new(Modifiers::COMMAND, Key::Q)),
+            _ => None,
+        }
+    }
+
+    /// The commands that have a keyboard shortcut.
+    pub fn with_shortcuts() -> [Self; 2] {
+        [Self::ShowDialog(DialogKind::Open), Self::Quit]
+    }
+}
+
+/// The commands sent during a frame, handled once the frame's UI is built.
+#[derive(Debug, Default)]
+pub struct CommandQueue(Vec<Command>);
+
+impl CommandQueue {
+    /// Queues `command`.
+    pub fn send(&mut self, command: Command) {
+        self.0.push(command);
+    }
+
+    /// Takes the queued commands in the order they were sent.
+    pub fn take(&mut self) -> Vec<Command> {
+        std::mem::take(&mut self.0)
+    }
+}
+
+/// A menu item or button that sends `command` when clicked, with its shortcut shown.
+pub fn command_button(
+    ui: &mut egui::Ui,
+    text: &str,
+    command: Command,
+    queue: &mut CommandQueue,
+) -> egui::Response {
+    let mut button = egui::Button::new(text);
+    if let Some(shortcut) = command.shortcut() {
+        button = button.shortcut_text(ui.ctx().format_shortcut(&shortcut));
+    }
+    let response = ui.add(button);
+    if response.clicked() {
+        queue.send(command);
+    }
+    response
+}

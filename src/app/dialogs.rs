@@ -1,0 +1,85 @@
+//! Native file dialogs (rfd), each on its own thread so the UI keeps running while one is open.
+
+use std::path::{Path, PathBuf};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+use super::jobs::DialogAnswer;
+
+/// The file dialogs the app shows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DialogKind {
+    /// File ▸ Open…: a volume file.
+    Open,
+    /// File ▸ Open folder…: a DICOM series or a folder of slices.
+    OpenFolder,
+    /// File ▸ Save screenshot…
+    SaveScreenshot,
+    /// File ▸ Save transfer function…
+    SaveTransfer,
+    /// File ▸ Load transfer function…
+    LoadTransfer,
+}
+
+/// The file extensions File ▸ Open offers.
+pub const OPEN_EXTENSIONS: [&str; 12] = [
+    "nii", "gz", "nrrd", "nhdr", "tif", "tiff", "mrc", "map", "rec", "ccp4", "dcm", "vti",
+];
+
+/// A dialog that closes faster than this was never shown: nobody cancels one so quickly.
+pub const NOT_SHOWN_WITHIN: Duration = Duration::from_millis(300);
+
+/// Starts the dialog `kind` on its own thread, opening in `directory` when given; its answer
+/// arrives on the returned receiver, and `wake` is called then (to repaint the UI).
+pub fn spawn(
+    kind: DialogKind,
+    directory: Option<PathBuf>,
+    wake: impl Fn() + Send + 'static,
+) -> mpsc::Receiver<DialogAnswer> {
+    let (sender, receiver) = mpsc::channel();
+    std::thread::spawn(move || {
+        let started = Instant::now();
+        let path = show(kind, directory.as_deref());
+        let _ = sender.send(DialogAnswer {
+            path,
+            open_for: started.elapsed(),
+        });
+        wake();
+    });
+    receiver
+}
+
+/// Shows the dialog and waits for the user's answer (on the dialog's thread).
+fn show(kind: DialogKind, directory: Option<&Path>) -> Option<PathBuf> {
+    let mut dialog = rfd::FileDialog::new();
+    if let Some(directory) = directory {
+        dialog = dialog.set_directory(directory);
+    }
+    match kind {
+        DialogKind::Open => dialog
+            .set_title("Open a volume")
+            .add_filter(
+                "Volumes (NIfTI, NRRD, TIFF, MRC, DICOM, VTI)",
+                &OPEN_EXTENSIONS,
+            )
+            .add_filter("All files", &["*"])
+            .pick_file(),
+        DialogKind::OpenFolder => dialog
+            .set_title("Open a folder: a DICOM series or TIFF/PNG slices")
+            .pick_folder(),
+        DialogKind::SaveScreenshot => dialog
+            .set_title("Save screenshot")
+            .add_filter("PNG image", &["png"])
+            .set_file_name("voxscope.png")
+            .save_file(),
+        DialogKind::SaveTransfer => dialog
+            .set_title("Save transfer function")
+            .add_filter("Transfer function (RON)", &["ron"])
+            .set_file_name("transfer.ron")
+            .save_file(),
+        DialogKind::LoadTransfer => dialog
+            .set_title("Load transfer function")
+            .add_filter("Transfer function (RON)", &["ron"])
+            .pick_file(),
+    }
+}

@@ -1,0 +1,187 @@
+//! The menu bar with its toolbar, and the status bar. Every item sends a [`Command`]; the
+//! layouts and view presets are listed once and shown in both the View menu and the toolbar.
+
+use std::time::Duration;
+
+use egui::Ui;
+
+use super::command::{Command, CommandQueue, Panel, ViewPreset, command_button};
+use super::dialogs::DialogKind;
+use super::jobs::Jobs;
+use super::scene::{Scene, VolumeSource};
+use super::settings::{AppSettings, Layout};
+
+/// How long a notice (`saved …`) stays in the status bar.
+pub const NOTICE_DURATION: Duration = Duration::from_secs(5);
+
+/// The File and View menus, then the toolbar: layouts and view presets.
+pub fn menu_bar(ui: &mut Ui, settings: &AppSettings, has_scene: bool, queue: &mut CommandQueue) {
+    egui::MenuBar::new().ui(ui, |ui| {
+        ui.menu_button("File", |ui| file_menu(ui, settings, has_scene, queue));
+        ui.menu_button("View", |ui| view_menu(ui, settings, queue));
+        ui.separator();
+        for layout in Layout::ALL {
+            if ui
+                .selectable_label(settings.layout == layout, layout.name())
+                .clicked()
+            {
+                queue.send(Command::SetLayout(layout));
+            }
+        }
+        ui.separator();
+        for preset in ViewPreset::ALL {
+            if ui.small_button(preset.name()).clicked() {
+                queue.send(Command::ViewFrom(preset));
+            }
+        }
+    });
+}
+
+fn file_menu(ui: &mut Ui, settings: &AppSettings, has_scene: bool, queue: &mut CommandQueue) {
+    command_button(ui, "Open…", Command::ShowDialog(DialogKind::Open), queue);
+    command_button(
+        ui,
+        "Open folder…",
+        Command::ShowDialog(DialogKind::OpenFolder),
+        queue,
+    )
+    .on_hover_text("A DICOM series, or a folder of TIFF/PNG slices");
+    ui.menu_button("Open recent", |ui| {
+        if settings.recent.is_empty() {
+            ui.label("nothing yet");
+        }
+        for spec in &settings.recent {
+            command_button(
+                ui,
+                spec,
+                Command::Open(VolumeSource::from_spec(spec)),
+                queue,
+            );
+        }
+    });
+    ui.menu_button("Open path", |ui| open_path(ui, queue));
+    command_button(
+        ui,
+        "Open sample",
+        Command::Open(VolumeSource::Sample),
+        queue,
+    );
+    ui.separator();
+    ui.add_enabled_ui(has_scene, |ui| {
+        command_button(
+            ui,
+            "Save screenshot…",
+            Command::ShowDialog(DialogKind::SaveScreenshot),
+            queue,
+        );
+    });
+    command_button(
+        ui,
+        "Save transfer function…",
+        Command::ShowDialog(DialogKind::SaveTransfer),
+        queue,
+    );
+    command_button(
+        ui,
+        "Load transfer function…",
+        Command::ShowDialog(DialogKind::LoadTransfer),
+        queue,
+    );
+    ui.separator();
+    command_button(ui, "Quit", Command::Quit, queue);
+}
+
+/// File ▸ Open path: a typed path or `synthetic:` spec, opened with Enter or the button.
+fn open_path(ui: &mut Ui, queue: &mut CommandQueue) {
+    let id = ui.make_persistent_id("open_path_text");
+    let mut text: String = ui.data_mut(|d| d.get_temp(id).unwrap_or_default());
+    let edit = ui.add(
+        egui::TextEdit::singleline(&mut text)
+            .hint_text("/path/to/volume.nii.gz or synthetic:sphere:64")
+            .desired_width(360.0),
+    );
+    let entered = edit.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
+    if (ui.button("Open").clicked() || entered) && !text.trim().is_empty() {
+        queue.send(Command::Open(VolumeSource::Spec(text.trim().to_owned())));
+        ui.close();
+    }
+    ui.data_mut(|d| d.insert_temp(id, text));
+}
+
+fn view_menu(ui: &mut Ui, settings: &AppSettings, queue: &mut CommandQueue) {
+    for layout in Layout::ALL {
+        if ui
+            .radio(settings.layout == layout, layout.description())
+            .clicked()
+        {
+            queue.send(Command::SetLayout(layout));
+        }
+    }
+    ui.separator();
+    for preset in ViewPreset::ALL {
+        command_button(ui, preset.name(), Command::ViewFrom(preset), queue);
+    }
+    command_button(ui, "Reset camera", Command::ResetCamera, queue);
+    ui.separator();
+    for panel in Panel::ALL {
+        let mut shown = settings.panel_shown(panel);
+        if ui.checkbox(&mut shown, panel.name()).changed() {
+            queue.send(Command::TogglePanel(panel));
+        }
+    }
+}
+
+/// The status bar: the open in progress (with Cancel), an upload, the volume on screen, and
+/// the latest notice.
+pub fn status_bar(
+    ui: &mut Ui,
+    jobs: &Jobs,
+    scene: Option<&Scene>,
+    notice: Option<&str>,
+    queue: &mut CommandQueue,
+) {
+    ui.horizontal(|ui| {
+        if let Some((title, stage, fraction)) = jobs.open_progress() {
+            // Fixed-width items first, so Cancel does not move as the text changes.
+            ui.spinner();
+            if ui.button("Cancel").clicked() {
+                queue.send(Command::CancelOpen);
+            }
+            ui.add(
+                egui::ProgressBar::new(fraction)
+                    .desired_width(160.0)
+                    .show_percentage(),
+            );
+            ui.label(format!("{title}: {stage}"));
+            ui.separator();
+        } else if let Some((options, _)) = &jobs.uploading {
+            ui.spinner();
+            ui.label(format!(
+                "uploading for the {} renderer…",
+                options.kind.name()
+            ));
+            ui.separator();
+        }
+        if let Some(scene) = scene {
+            let volume = &scene.data.volume;
+            ui.label(format!(
+                "{} · {} · {}×{}×{} {} · spacing {:.3}×{:.3}×{:.3} · {}",
+                volume.name,
+                volume.format,
+                volume.dims[0],
+                volume.dims[1],
+                volume.dims[2],
+                volume.data.voxel_type().name(),
+                volume.spacing[0],
+                volume.spacing[1],
+                volume.spacing[2],
+                volume.orientation.describe(),
+            ));
+        }
+        if let Some(notice) = notice {
+            ui.separator();
+            ui.label(notice);
+            ui.ctx().request_repaint_after(Duration::from_millis(500));
+        }
+    });
+}
