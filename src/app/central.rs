@@ -8,12 +8,11 @@ use std::time::{Duration, Instant};
 use egui::{Align2, Color32, Rect, RichText, Ui, UiBuilder, vec2};
 
 use super::AppGpu;
-use super::octree_panel::group_digits;
+use super::pane_header::{grid_strip, pair_strip, pane_label};
 use super::scene::Scene;
-use super::settings::{AppSettings, Layout, TransferChoice};
+use super::settings::{AppSettings, Layout};
 use super::view_state::{MAX_GRID_PANES, ViewState};
 use super::viewport::{self, DrawKey, Pane};
-use crate::octree::OpacityMode;
 use crate::render::{FrameProbe, FrameReport, RenderError, RenderSettings, read_image};
 use crate::volume::Orientation;
 
@@ -392,108 +391,6 @@ fn axis_labels(scene: &Scene) -> [&'static str; 3] {
     }
 }
 
-/// The level grid's strip: how many panes.
-fn grid_strip(ui: &mut Ui, settings: &mut AppSettings) {
-    let label = ui.label("Panes");
-    ui.add(egui::Slider::new(
-        &mut settings.grid_panes,
-        2..=MAX_GRID_PANES,
-    ))
-    .labelled_by(label.id);
-    ui.label("· each pane: its own max level, one linked camera");
-}
-
-/// The transfer pair's strip: pane B's transfer function.
-fn pair_strip(ui: &mut Ui, settings: &mut AppSettings) {
-    ui.label("B:");
-    let b = &mut settings.compare_transfer;
-    ui.selectable_value(&mut b.opacity, OpacityMode::Gray, "Gray");
-    ui.selectable_value(&mut b.opacity, OpacityMode::Binary, "Binary");
-    if b.opacity == OpacityMode::Binary {
-        ui.add(egui::Slider::new(&mut b.threshold, 0.0..=1.0).text("threshold"));
-    }
-    let colormap_label = ui.label("colormap");
-    egui::ComboBox::from_id_salt("compare_colormap")
-        .selected_text(b.colormap.name())
-        .show_ui(ui, |ui| {
-            for colormap in crate::octree::Colormap::ALL {
-                ui.selectable_value(&mut b.colormap, colormap, colormap.name());
-            }
-        })
-        .response
-        .labelled_by(colormap_label.id);
-    if ui.button("Swap A and B").clicked() {
-        std::mem::swap(&mut settings.transfer, &mut settings.compare_transfer);
-    }
-}
-
-/// The label at the top of pane `index` of `count`: its level and node count (the level
-/// grid's level is editable there), or the transfer pair's A or B.
-fn pane_label(
-    ui: &mut Ui,
-    scene: &Scene,
-    settings: &AppSettings,
-    view: &mut ViewState,
-    index: usize,
-    count: usize,
-    rect: Rect,
-) {
-    let octree = &scene.data.octree;
-    let depth = octree.depth;
-    let header = Rect::from_min_size(rect.min + vec2(6.0, 4.0), vec2(rect.width() - 12.0, 22.0));
-    let nodes = |level: u32| group_digits(octree.nodes_through_level(level) as u64);
-    let paint = |ui: &Ui, text: String| {
-        ui.painter().text(
-            header.left_top(),
-            Align2::LEFT_TOP,
-            text,
-            egui::FontId::proportional(13.0),
-            Color32::from_gray(220),
-        );
-    };
-    match settings.layout {
-        Layout::Single => {
-            let level = view.max_level.min(depth);
-            paint(ui, format!("level {level} · {} nodes", nodes(level)));
-        }
-        Layout::LevelGrid => {
-            let nodes = format!("{} nodes", nodes(view.grid_level(index, count, depth)));
-            let Some(level) = view.grid_level_mut(index, count) else {
-                return;
-            };
-            ui.scope_builder(UiBuilder::new().max_rect(header), |ui| {
-                ui.horizontal(|ui| {
-                    let label = ui.label(RichText::new("level").color(Color32::from_gray(220)));
-                    ui.add(egui::DragValue::new(level).range(0..=depth))
-                        .labelled_by(label.id);
-                    ui.label(RichText::new(nodes).color(Color32::from_gray(220)));
-                });
-            });
-        }
-        Layout::TransferPair => {
-            let choice = if index == 0 {
-                settings.transfer
-            } else {
-                settings.compare_transfer
-            };
-            let name = if index == 0 { "A" } else { "B" };
-            paint(ui, format!("{name} · {}", describe_choice(choice)));
-        }
-    }
-}
-
-/// `alpha = gray, grays`, `binary at 0.30, viridis`.
-fn describe_choice(choice: TransferChoice) -> String {
-    match choice.opacity {
-        OpacityMode::Gray => format!("alpha = gray, {}", choice.colormap.name()),
-        OpacityMode::Binary => format!(
-            "binary at {:.2}, {}",
-            choice.threshold,
-            choice.colormap.name()
-        ),
-    }
-}
-
 /// `count` panes over `area`, in as square a grid as fits, `gap` points apart.
 fn grid_rects(area: Rect, count: usize, gap: f32) -> Vec<Rect> {
     let count = count.max(1);
@@ -520,4 +417,26 @@ fn grid_rects(area: Rect, count: usize, gap: f32) -> Vec<Rect> {
             )
         })
         .collect()
+}
+
+/// The error banner over the bottom of `view_rect`; returns true when Dismiss was clicked.
+pub fn error_banner(ui: &mut Ui, view_rect: Rect, message: &str) -> bool {
+    let banner = Rect::from_min_size(
+        view_rect.min + vec2(12.0, view_rect.height() - 60.0),
+        vec2(view_rect.width() - 24.0, 48.0),
+    );
+    let mut dismissed = false;
+    ui.scope_builder(UiBuilder::new().max_rect(banner), |ui| {
+        egui::Frame::new()
+            .fill(Color32::from_rgb(120, 24, 24))
+            .inner_margin(8.0)
+            .corner_radius(4.0)
+            .show(ui, |ui| {
+                ui.horizontal(|ui| {
+                    ui.label(RichText::new(format!("Error: {message}")).color(Color32::WHITE));
+                    dismissed = ui.button("Dismiss").clicked();
+                });
+            });
+    });
+    dismissed
 }

@@ -15,6 +15,7 @@ mod dialogs;
 mod jobs;
 mod menu;
 mod octree_panel;
+mod pane_header;
 mod scene;
 mod settings;
 mod transfer_panel;

@@ -91,6 +91,13 @@ impl TransferPreset {
     /// Largest file accepted as a transfer function.
     const MAX_BYTES: u64 = 1 << 20;
 
+    /// Writes the preset as RON (what File ▸ Save transfer function… saves).
+    pub fn write(&self, path: &Path) -> Result<(), String> {
+        let text = ron::ser::to_string_pretty(self, ron::ser::PrettyConfig::default())
+            .map_err(|e| format!("{}: cannot encode: {e}", path.display()))?;
+        std::fs::write(path, text).map_err(|e| format!("{}: cannot write: {e}", path.display()))
+    }
+
     /// Reads and validates a file written by File ▸ Save transfer function…; the error is
     /// one line naming the file.
     pub fn read(path: &Path) -> Result<Self, String> {

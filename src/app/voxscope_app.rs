@@ -6,10 +6,10 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use egui::{Color32, Rect, RichText, Ui, UiBuilder, vec2};
+use egui::Ui;
 
 use super::AppGpu;
-use super::central::{CentralView, ViewInputs};
+use super::central::{self, CentralView, ViewInputs};
 use super::command::{Command, CommandQueue};
 use super::dialogs::{self, DialogKind, NOT_SHOWN_WITHIN};
 use super::jobs::{DialogAnswer, Job, JobError, JobEvent, Jobs, Opened};
@@ -216,14 +216,12 @@ impl VoxscopeApp {
 
     /// Writes the transfer function, opacity scale and mode as RON.
     pub fn save_transfer(&self, path: &Path) -> Result<(), String> {
-        let preset = TransferPreset {
+        TransferPreset {
             transfer: self.transfer(),
             density: self.settings.density,
             mode: self.settings.mode,
-        };
-        let text = ron::ser::to_string_pretty(&preset, ron::ser::PrettyConfig::default())
-            .map_err(|e| format!("{}: cannot encode: {e}", path.display()))?;
-        std::fs::write(path, text).map_err(|e| format!("{}: cannot write: {e}", path.display()))
+        }
+        .write(path)
     }
 
     /// Reads a transfer function saved by [`Self::save_transfer`].
@@ -426,32 +424,6 @@ impl VoxscopeApp {
             self.run_command(command, ctx);
         }
     }
-
-    /// The error banner over the bottom of the central view.
-    fn error_banner(&mut self, ui: &mut Ui, view_rect: Rect) {
-        let Some(message) = &self.error else { return };
-        let banner = Rect::from_min_size(
-            view_rect.min + vec2(12.0, view_rect.height() - 60.0),
-            vec2(view_rect.width() - 24.0, 48.0),
-        );
-        let text = format!("Error: {message}");
-        let mut dismissed = false;
-        ui.scope_builder(UiBuilder::new().max_rect(banner), |ui| {
-            egui::Frame::new()
-                .fill(Color32::from_rgb(120, 24, 24))
-                .inner_margin(8.0)
-                .corner_radius(4.0)
-                .show(ui, |ui| {
-                    ui.horizontal(|ui| {
-                        ui.label(RichText::new(text).color(Color32::WHITE));
-                        dismissed = ui.button("Dismiss").clicked();
-                    });
-                });
-        });
-        if dismissed {
-            self.commands.send(Command::DismissError);
-        }
-    }
 }
 
 impl eframe::App for VoxscopeApp {
@@ -522,7 +494,11 @@ impl eframe::App for VoxscopeApp {
                     opening: self.jobs.opening.is_some(),
                 },
             );
-            self.error_banner(ui, self.central.rect());
+            if let Some(message) = &self.error
+                && central::error_banner(ui, self.central.rect(), message)
+            {
+                self.commands.send(Command::DismissError);
+            }
         });
 
         self.run_queued_commands(&ctx);
