@@ -419,24 +419,33 @@ fn grid_rects(area: Rect, count: usize, gap: f32) -> Vec<Rect> {
         .collect()
 }
 
-/// The error banner over the bottom of `view_rect`; returns true when Dismiss was clicked.
+/// The error banner over the bottom of `view_rect`, as tall as its wrapped message needs;
+/// returns true when Dismiss was clicked.
 pub fn error_banner(ui: &mut Ui, view_rect: Rect, message: &str) -> bool {
-    let banner = Rect::from_min_size(
-        view_rect.min + vec2(12.0, view_rect.height() - 60.0),
-        vec2(view_rect.width() - 24.0, 48.0),
-    );
+    let area = view_rect.shrink(12.0);
     let mut dismissed = false;
-    ui.scope_builder(UiBuilder::new().max_rect(banner), |ui| {
-        egui::Frame::new()
-            .fill(Color32::from_rgb(120, 24, 24))
-            .inner_margin(8.0)
-            .corner_radius(4.0)
-            .show(ui, |ui| {
-                ui.horizontal(|ui| {
-                    ui.label(RichText::new(format!("Error: {message}")).color(Color32::WHITE));
-                    dismissed = ui.button("Dismiss").clicked();
+    ui.scope_builder(
+        UiBuilder::new()
+            .max_rect(area)
+            .layout(egui::Layout::bottom_up(egui::Align::Min)),
+        |ui| {
+            egui::Frame::new()
+                .fill(Color32::from_rgb(120, 24, 24))
+                .inner_margin(8.0)
+                .corner_radius(4.0)
+                .show(ui, |ui| {
+                    ui.set_width(area.width() - 16.0);
+                    ui.horizontal_top(|ui| {
+                        dismissed = ui.button("Dismiss").clicked();
+                        ui.add(
+                            egui::Label::new(
+                                RichText::new(format!("Error: {message}")).color(Color32::WHITE),
+                            )
+                            .wrap(),
+                        );
+                    });
                 });
-            });
-    });
+        },
+    );
     dismissed
 }

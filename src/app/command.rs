@@ -15,8 +15,11 @@ use super::settings::Layout;
 pub enum Command {
     /// Open a volume in the background; the one on screen stays until it is ready.
     Open(VolumeSource),
-    /// Show a native file dialog; its answer becomes another command.
+    /// Show the desktop's file dialog (the app's own browser where the desktop has none);
+    /// its answer becomes another command.
     ShowDialog(DialogKind),
+    /// Show the app's own file browser (File > Open path…).
+    Browse(DialogKind),
     /// Stop the open in progress.
     CancelOpen,
     /// Save what the central view shows as PNG.

@@ -59,7 +59,8 @@ fn file_menu(ui: &mut Ui, settings: &AppSettings, has_scene: bool, queue: &mut C
             );
         }
     });
-    ui.menu_button("Open path", |ui| open_path(ui, queue));
+    command_button(ui, "Open path…", Command::Browse(DialogKind::Open), queue)
+        .on_hover_text("Type a path or a synthetic: spec, or browse folders");
     command_button(
         ui,
         "Open sample",
@@ -89,23 +90,6 @@ fn file_menu(ui: &mut Ui, settings: &AppSettings, has_scene: bool, queue: &mut C
     );
     ui.separator();
     command_button(ui, "Quit", Command::Quit, queue);
-}
-
-/// File ▸ Open path: a typed path or `synthetic:` spec, opened with Enter or the button.
-fn open_path(ui: &mut Ui, queue: &mut CommandQueue) {
-    let id = ui.make_persistent_id("open_path_text");
-    let mut text: String = ui.data_mut(|d| d.get_temp(id).unwrap_or_default());
-    let edit = ui.add(
-        egui::TextEdit::singleline(&mut text)
-            .hint_text("/path/to/volume.nii.gz or synthetic:sphere:64")
-            .desired_width(360.0),
-    );
-    let entered = edit.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
-    if (ui.button("Open").clicked() || entered) && !text.trim().is_empty() {
-        queue.send(Command::Open(VolumeSource::Spec(text.trim().to_owned())));
-        ui.close();
-    }
-    ui.data_mut(|d| d.insert_temp(id, text));
 }
 
 fn view_menu(ui: &mut Ui, settings: &AppSettings, queue: &mut CommandQueue) {

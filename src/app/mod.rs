@@ -12,12 +12,14 @@
 mod central;
 mod command;
 mod dialogs;
+mod file_browser;
 mod jobs;
 mod menu;
 mod octree_panel;
 mod pane_header;
 mod scene;
 mod settings;
+mod transfer_editor;
 mod transfer_panel;
 mod view_state;
 mod viewport;

@@ -108,5 +108,14 @@ fn describe_choice(choice: TransferChoice) -> String {
             choice.threshold,
             choice.colormap.name()
         ),
+        OpacityMode::Points(curve) => format!(
+            "curve of {} points, {}",
+            curve.points().len(),
+            if curve.has_colors() {
+                "its own colors"
+            } else {
+                choice.colormap.name()
+            }
+        ),
     }
 }

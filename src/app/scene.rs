@@ -5,7 +5,10 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use super::jobs::{Counted, Job, JobError, Opened};
-use crate::octree::{self, BuildOptions, Octree, TransferFunction};
+use super::settings::TransferChoice;
+use crate::octree::{
+    self, BuildOptions, Colormap, DataKind, Octree, Preset, TransferFunction, default_transfer,
+};
 use crate::progress::Progress;
 use crate::render::{GpuContext, RendererKind, RendererOptions, VolumeRenderer};
 use crate::volume::{self, LoadOptions, QuantizedVolume, ValueWindow, Volume};
@@ -55,6 +58,8 @@ pub struct VolumeData {
     pub default_window: ValueWindow,
     /// Histogram of the values in [`HISTOGRAM_BINS`] bins over the value range.
     pub histogram: Vec<u64>,
+    /// CT, labels, or other: what the presets and defaults follow.
+    pub kind: DataKind,
     pub load_seconds: f64,
 }
 
@@ -62,29 +67,6 @@ pub struct VolumeData {
 pub const HISTOGRAM_BINS: usize = 256;
 
 impl VolumeData {
-    /// True when the values look like CT Hounsfield units (air near −1000, bone above +200).
-    pub fn is_ct_like(&self) -> bool {
-        let [low, high] = self.quantized.value_range;
-        (-3100.0..=-900.0).contains(&low) && high >= 200.0
-    }
-
-    /// The number of distinct values when this looks like a label volume (integer voxels,
-    /// at most 64 distinct values): segmentations and atlases, shown best with categorical
-    /// colors.
-    pub fn label_count(&self) -> Option<usize> {
-        if !self.volume.data.voxel_type().is_integer() || self.quantized.quantization.step != 1.0 {
-            return None;
-        }
-        let distinct = self
-            .quantized
-            .histogram
-            .counts
-            .iter()
-            .filter(|&&c| c > 0)
-            .count();
-        (distinct <= 64).then_some(distinct)
-    }
-
     /// The value at the center of histogram bin `bin`'s left edge.
     pub fn bin_value(&self, bin: f64) -> f64 {
         let [low, high] = self.quantized.value_range;
@@ -121,7 +103,7 @@ pub struct Scene {
 /// File ▸ Open, drops, recent files and the command line.
 pub fn prepare_scene(
     source: &VolumeSource,
-    transfer: impl FnOnce(ValueWindow) -> TransferFunction,
+    choice: TransferChoice,
     gpu: &GpuContext,
     options: RendererOptions,
     progress: &Progress,
@@ -138,7 +120,8 @@ pub fn prepare_scene(
         .map_err(|e| JobError::from_build(&volume.name, e))?;
     let default_window = quantized.robust_window();
     let histogram = display_histogram(&quantized);
-    let transfer = transfer(default_window);
+    let kind = DataKind::of_volume(&volume, &quantized);
+    let transfer = opening_transfer(choice, &quantized, kind);
     progress.begin("coloring");
     octree::recolor(&mut octree, &transfer);
     let statistics = octree::level_statistics(&octree);
@@ -149,6 +132,7 @@ pub fn prepare_scene(
         octree,
         default_window,
         histogram,
+        kind,
         load_seconds: started.elapsed().as_secs_f64(),
     };
     progress.check()?;
@@ -167,6 +151,33 @@ pub fn prepare_scene(
         Err(error) => return Err(error),
     };
     Ok(Opened { scene, statistics })
+}
+
+/// The transfer function a volume opens with: its kind's default (a CT preset, labels) where
+/// it has one, else the user's `choice` over the robust window — unless that choice only
+/// makes sense for other data (a curve outside these values, the labels colormap), when a
+/// percentile ramp stands in.
+pub fn opening_transfer(
+    choice: TransferChoice,
+    quantized: &QuantizedVolume,
+    kind: DataKind,
+) -> TransferFunction {
+    if let Some(transfer) = default_transfer(quantized, kind) {
+        return transfer;
+    }
+    let [low, high] = quantized.value_range;
+    let foreign_curve = choice.opacity.curve().is_some_and(|curve| {
+        let [first, last] = curve.span();
+        last < low || first > high
+    });
+    if foreign_curve || choice.colormap == Colormap::Labels {
+        let colormap = match choice.colormap {
+            Colormap::Labels => Colormap::Grays,
+            colormap => colormap,
+        };
+        return Preset::Ramp.transfer(quantized, colormap);
+    }
+    choice.with_window(quantized.robust_window())
 }
 
 /// Uploads `data` for the renderer `options` names, colored by `transfer`.

@@ -12,6 +12,7 @@ use super::AppGpu;
 use super::central::{self, CentralView, ViewInputs};
 use super::command::{Command, CommandQueue};
 use super::dialogs::{self, DialogKind, NOT_SHOWN_WITHIN};
+use super::file_browser::{BrowserOutcome, FileBrowser};
 use super::jobs::{DialogAnswer, Job, JobError, JobEvent, Jobs, Opened};
 use super::menu::{self, NOTICE_DURATION};
 use super::octree_panel::{self, OctreeFacts};
@@ -40,6 +41,10 @@ pub struct VoxscopeApp {
     error: Option<String>,
     /// A short confirmation (screenshot saved), shown a few seconds.
     notice: Option<(String, Instant)>,
+    /// The app's own file browser, while open.
+    browser: Option<FileBrowser>,
+    /// The desktop could not show a file dialog: use the app's browser from now on.
+    no_desktop_dialogs: bool,
 }
 
 impl VoxscopeApp {
@@ -69,6 +74,8 @@ impl VoxscopeApp {
             central: CentralView::new(probe),
             error: None,
             notice: None,
+            browser: None,
+            no_desktop_dialogs: false,
         };
         if app.gpu.is_none() {
             app.fail("voxscope needs the wgpu renderer; no GPU device was handed to the app");
@@ -89,8 +96,16 @@ impl VoxscopeApp {
                 self.open(source, ctx);
                 Ok(None)
             }
+            Command::ShowDialog(kind) if self.no_desktop_dialogs => {
+                self.browse(kind, ctx);
+                Ok(None)
+            }
             Command::ShowDialog(kind) => {
                 self.show_dialog(kind, ctx);
+                Ok(None)
+            }
+            Command::Browse(kind) => {
+                self.browse(kind, ctx);
                 Ok(None)
             }
             Command::CancelOpen => {
@@ -147,7 +162,9 @@ impl VoxscopeApp {
     /// True while a volume loads, a renderer uploads, statistics are counted, a dialog is
     /// open or a frame's measurement is on its way back.
     pub fn is_busy(&self) -> bool {
-        self.jobs.is_busy() || self.central.is_measuring()
+        self.jobs.is_busy()
+            || self.central.is_measuring()
+            || self.browser.as_ref().is_some_and(FileBrowser::is_listing)
     }
 
     /// The error shown in the window, if any.
@@ -265,15 +282,7 @@ impl VoxscopeApp {
         self.jobs.open(Job::spawn(
             title,
             move || wake.request_repaint(),
-            move |progress| {
-                prepare_scene(
-                    &source,
-                    |window| choice.with_window(window),
-                    &context,
-                    options,
-                    progress,
-                )
-            },
+            move |progress| prepare_scene(&source, choice, &context, options, progress),
         ));
     }
 
@@ -323,16 +332,38 @@ impl VoxscopeApp {
         }
     }
 
+    /// Opens the app's own file browser for `kind`, in the folder of the most recent file.
+    fn browse(&mut self, kind: DialogKind, ctx: &egui::Context) {
+        self.browser = Some(FileBrowser::new(
+            kind,
+            recent_directory(&self.settings),
+            ctx,
+        ));
+    }
+
+    /// Whether the app's file browser is open, and for what.
+    pub fn browsing(&self) -> Option<DialogKind> {
+        self.browser.as_ref().map(FileBrowser::kind)
+    }
+
     fn dialog_closed(&mut self, kind: DialogKind, answer: DialogAnswer, ctx: &egui::Context) {
-        let Some(path) = answer.path else {
-            if answer.open_for < NOT_SHOWN_WITHIN {
-                self.fail("no file dialog could be shown (is xdg-desktop-portal running?); type a path in File > Open path, or drop the file on the window");
+        match answer.path {
+            Some(path) => self.chosen(kind, path, ctx),
+            // Nobody cancels a dialog this fast: the desktop could not show one.
+            None if answer.open_for < NOT_SHOWN_WITHIN => {
+                eprintln!("voxscope: no desktop file dialog; using voxscope's own browser");
+                self.no_desktop_dialogs = true;
+                self.browse(kind, ctx);
             }
-            return;
-        };
+            None => {}
+        }
+    }
+
+    /// Acts on a path chosen in a file dialog or the app's browser.
+    fn chosen(&mut self, kind: DialogKind, path: PathBuf, ctx: &egui::Context) {
         let command = match kind {
             DialogKind::Open | DialogKind::OpenFolder => {
-                Command::Open(VolumeSource::Spec(path.display().to_string()))
+                Command::Open(VolumeSource::from_spec(&path.display().to_string()))
             }
             DialogKind::SaveScreenshot => Command::SaveScreenshot(path),
             DialogKind::SaveTransfer => Command::SaveTransfer(path),
@@ -350,6 +381,9 @@ impl VoxscopeApp {
             self.settings.renderer = scene.options.kind;
         }
         let depth = scene.data.octree.depth;
+        // The volume may open with its own transfer function (a CT preset, labels): the
+        // panel shows and edits that one.
+        self.settings.transfer = TransferChoice::from(scene.applied_transfer);
         self.view = ViewState::new(depth, scene.applied_transfer, statistics);
         if let VolumeSource::Spec(spec) = &scene.data.source {
             self.settings.remember(spec);
@@ -501,6 +535,15 @@ impl eframe::App for VoxscopeApp {
             }
         });
 
+        if let Some(browser) = &mut self.browser
+            && let Some(outcome) = browser.show(&ctx, &self.settings.recent)
+        {
+            let kind = browser.kind();
+            self.browser = None;
+            if let BrowserOutcome::Chosen(path) = outcome {
+                self.chosen(kind, path, &ctx);
+            }
+        }
         self.run_queued_commands(&ctx);
         self.follow_settings(&ctx);
         if let (Some(gpu), Some(scene)) = (&self.gpu, &mut self.scene)

@@ -1,10 +1,15 @@
 //! Argument groups shared by the subcommands.
 
+use std::path::PathBuf;
+
 use clap::{Args, ValueEnum};
 
-use crate::octree::{Colormap, OpacityMode, TransferFunction};
+use crate::app::TransferPreset;
+use crate::octree::{
+    Colormap, DataKind, OpacityCurve, OpacityMode, Preset, TransferFunction, default_transfer,
+};
 use crate::render::{RenderMode, RenderSettings, RendererKind};
-use crate::volume::{LoadOptions, RawLayout, ValueWindow};
+use crate::volume::{LoadOptions, QuantizedVolume, RawLayout, ValueWindow};
 
 /// Which volume to open.
 #[derive(Debug, Clone, Args)]
@@ -34,24 +39,39 @@ impl VolumeArgs {
 /// The transfer function and rendering options.
 #[derive(Debug, Clone, Args)]
 pub struct TransferArgs {
-    /// How opacity follows the value: alpha = gray value, or binary at --threshold.
-    #[arg(long, value_enum, default_value_t = OpacityArg::Gray)]
-    pub opacity: OpacityArg,
+    /// How opacity follows the value: alpha = gray value, or binary at --threshold. Without
+    /// it (or --opacity-points, --preset, --tf), the data decides: CT opens with the
+    /// ct-soft-tissue preset, label volumes with the labels colormap, the rest with gray.
+    #[arg(long, value_enum, conflicts_with_all = ["opacity_points", "preset", "tf"])]
+    pub opacity: Option<OpacityArg>,
+    /// A piecewise-linear opacity curve V:A,V:A,… (value in data units, opacity 0…1, sorted
+    /// by value; linear in between, flat outside).
+    #[arg(long, value_name = "V:A,…", allow_hyphen_values = true, value_parser = OpacityCurve::parse, conflicts_with_all = ["preset", "tf"])]
+    pub opacity_points: Option<OpacityCurve>,
+    /// A volume-rendering preset: ct-soft-tissue, ct-bone, ct-vessels, ct-lung, ct-skin
+    /// (Hounsfield units) or ramp (60th to 99.5th percentile).
+    #[arg(long, value_name = "NAME", value_parser = parse_preset, conflicts_with = "tf")]
+    pub preset: Option<Preset>,
+    /// A transfer function saved by the app (File > Save transfer function…, RON): its
+    /// curve, window and colormap, and its opacity scale and mode unless given here.
+    #[arg(long, value_name = "FILE.ron")]
+    pub tf: Option<PathBuf>,
     /// Binary threshold on the windowed value, 0…1.
     #[arg(long, default_value_t = 0.3, value_parser = parse_unit)]
     pub threshold: f32,
     /// Value window LOW:HIGH in the data's own units (default: 0.5–99.5 percentiles).
     #[arg(long, value_name = "LOW:HIGH", allow_hyphen_values = true, value_parser = ValueWindow::parse)]
     pub window: Option<ValueWindow>,
-    /// Colors of the windowed value: grays, viridis, inferno, magma, plasma or cividis.
-    #[arg(long, default_value = "grays", value_parser = parse_colormap)]
-    pub colormap: Colormap,
-    /// Global opacity scale (below 1 makes dense volumes see-through).
-    #[arg(long, default_value_t = 1.0)]
-    pub density: f32,
-    /// Direct volume rendering or maximum intensity projection.
-    #[arg(long, value_enum, default_value_t = ModeArg::Dvr)]
-    pub mode: ModeArg,
+    /// Colors of the windowed value: grays, viridis, inferno, magma, plasma, cividis or
+    /// labels (default: grays; labels for label volumes).
+    #[arg(long, value_parser = parse_colormap)]
+    pub colormap: Option<Colormap>,
+    /// Global opacity scale (below 1 makes dense volumes see-through; default 1).
+    #[arg(long)]
+    pub density: Option<f32>,
+    /// Direct volume rendering or maximum intensity projection (default: dvr).
+    #[arg(long, value_enum)]
+    pub mode: Option<ModeArg>,
     /// Deepest octree level rays descend to (0 = root only; default: the voxels).
     #[arg(long)]
     pub level: Option<u32>,
@@ -111,30 +131,65 @@ impl TransferArgs {
             .expect("the defaults of TransferArgs parse")
     }
 
-    /// The transfer function, with `default_window` where no --window was given.
-    pub fn transfer_function(&self, default_window: ValueWindow) -> TransferFunction {
-        TransferFunction {
-            opacity: match self.opacity {
-                OpacityArg::Gray => OpacityMode::Gray,
-                OpacityArg::Binary => OpacityMode::Binary,
-            },
-            window: self.window.unwrap_or(default_window),
-            threshold: self.threshold,
-            colormap: self.colormap,
-        }
+    /// The saved transfer function of --tf, if given.
+    pub fn saved(&self) -> Result<Option<TransferPreset>, String> {
+        self.tf.as_deref().map(TransferPreset::read).transpose()
     }
 
-    /// Render settings for an octree of `depth`; the level is clamped to it.
-    pub fn render_settings(&self, depth: u32) -> RenderSettings {
+    /// The transfer function for `volume`, whose values are of `kind`: --tf (`saved`), --preset,
+    /// --opacity-points or --opacity where given, else the kind's default (a CT preset, the
+    /// labels colormap), else alpha = gray; --window and --colormap override any of them.
+    pub fn transfer_function(
+        &self,
+        volume: &QuantizedVolume,
+        kind: DataKind,
+        saved: Option<&TransferPreset>,
+    ) -> TransferFunction {
+        let colormap = self.colormap.unwrap_or(Colormap::Grays);
+        let gray = |opacity| TransferFunction {
+            opacity,
+            window: volume.robust_window(),
+            threshold: self.threshold,
+            colormap,
+        };
+        let mut transfer = if let Some(saved) = saved {
+            saved.transfer
+        } else if let Some(preset) = self.preset {
+            preset.transfer(volume, colormap)
+        } else if let Some(curve) = self.opacity_points {
+            gray(OpacityMode::Points(curve))
+        } else {
+            match self.opacity {
+                Some(OpacityArg::Gray) => gray(OpacityMode::Gray),
+                Some(OpacityArg::Binary) => gray(OpacityMode::Binary),
+                None => default_transfer(volume, kind).unwrap_or_else(|| gray(OpacityMode::Gray)),
+            }
+        };
+        if let Some(window) = self.window {
+            transfer.window = window;
+        }
+        if let Some(colormap) = self.colormap {
+            transfer.colormap = colormap;
+        }
+        transfer
+    }
+
+    /// Render settings for an octree of `depth`; the level is clamped to it. `saved` is the
+    /// --tf file's, whose opacity scale and mode apply unless given here.
+    pub fn render_settings(&self, depth: u32, saved: Option<&TransferPreset>) -> RenderSettings {
+        let mode = match self.mode {
+            Some(ModeArg::Dvr) => RenderMode::Dvr,
+            Some(ModeArg::Mip) => RenderMode::Mip,
+            None => saved.map_or(RenderMode::Dvr, |s| s.mode),
+        };
         RenderSettings {
-            mode: match self.mode {
-                ModeArg::Dvr => RenderMode::Dvr,
-                ModeArg::Mip => RenderMode::Mip,
-            },
+            mode,
             max_level: self.level.unwrap_or(depth).min(depth),
             pixel_lod: self.pixel_lod,
             opacity_correction: !self.no_opacity_correction,
-            density: self.density,
+            density: self
+                .density
+                .unwrap_or_else(|| saved.map_or(1.0, |s| s.density)),
             heatmap: self.heatmap,
             trilinear: !self.nearest,
         }
@@ -165,6 +220,13 @@ fn parse_colormap(text: &str) -> Result<Colormap, String> {
     Colormap::from_name(text).ok_or_else(|| {
         let names: Vec<&str> = Colormap::ALL.iter().map(|c| c.name()).collect();
         format!("colormap '{text}' is not one of {}", names.join(", "))
+    })
+}
+
+fn parse_preset(text: &str) -> Result<Preset, String> {
+    Preset::from_name(text).ok_or_else(|| {
+        let names: Vec<&str> = Preset::ALL.iter().map(|p| p.name()).collect();
+        format!("preset '{text}' is not one of {}", names.join(", "))
     })
 }
 

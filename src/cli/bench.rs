@@ -84,7 +84,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
     let mut transfer_args = TransferArgs::defaults();
     transfer_args.window = args.window;
     transfer_args.threshold = args.threshold;
-    transfer_args.opacity = OpacityArg::Gray;
+    transfer_args.opacity = Some(OpacityArg::Gray);
     let prepared = Prepared::new(&args.volume, &transfer_args)?;
     let context = GpuContext::new_headless().map_err(|e| e.to_string())?;
     let depth = prepared.octree.depth;

@@ -4,7 +4,8 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
-use crate::octree::{self, BuildOptions, Octree, TransferFunction};
+use crate::app::TransferPreset;
+use crate::octree::{self, BuildOptions, DataKind, Octree, TransferFunction};
 use crate::progress::Progress;
 use crate::volume::{self, QuantizedVolume, Volume};
 
@@ -16,12 +17,16 @@ pub struct Prepared {
     pub quantized: QuantizedVolume,
     pub octree: Octree,
     pub transfer: TransferFunction,
+    /// The transfer function file of --tf, whose opacity scale and mode apply too.
+    pub saved: Option<TransferPreset>,
     pub recolor_time: Duration,
 }
 
 impl Prepared {
     /// Loads and prepares what `volume_args` and `transfer_args` name.
     pub fn new(volume_args: &VolumeArgs, transfer_args: &TransferArgs) -> Result<Self, String> {
+        // A bad --tf file fails before the volume is read.
+        let saved = transfer_args.saved()?;
         let volume = match &volume_args.file {
             Some(spec) => volume::load(spec, &volume_args.load_options()),
             None => volume::sample(),
@@ -30,13 +35,15 @@ impl Prepared {
         let quantized = QuantizedVolume::new(&volume);
         let mut octree =
             build_reporting_progress(&quantized).map_err(|e| format!("{}: {e}", volume.name))?;
-        let transfer = transfer_args.transfer_function(quantized.robust_window());
+        let kind = DataKind::of_volume(&volume, &quantized);
+        let transfer = transfer_args.transfer_function(&quantized, kind, saved.as_ref());
         let recolor_time = octree::recolor(&mut octree, &transfer);
         Ok(Self {
             volume,
             quantized,
             octree,
             transfer,
+            saved,
             recolor_time,
         })
     }

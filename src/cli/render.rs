@@ -8,8 +8,8 @@ use clap::Args;
 use super::args::RendererArg;
 use super::{Prepared, TransferArgs, VolumeArgs};
 use crate::render::{
-    Camera, DEFAULT_BRICK_SIZE, GpuContext, RenderTarget, RendererOptions, VolumeRenderer,
-    read_image,
+    Camera, DEFAULT_BRICK_SIZE, GpuContext, RenderTarget, RendererKind, RendererOptions,
+    VolumeRenderer, read_image,
 };
 
 #[derive(Debug, Args)]
@@ -18,9 +18,10 @@ pub struct RenderArgs {
     pub volume: VolumeArgs,
     #[command(flatten)]
     pub transfer: TransferArgs,
-    /// Which renderer draws the image.
-    #[arg(long, value_enum, default_value_t = RendererArg::Octree)]
-    pub renderer: RendererArg,
+    /// Which renderer draws the image (default: octree, or bricks, said on stderr, when the
+    /// octree does not fit this GPU's storage buffers, as the app does).
+    #[arg(long, value_enum)]
+    pub renderer: Option<RendererArg>,
     /// Voxels along a brick's side (bricks renderer): 4, 8, 16 or 32.
     #[arg(long, default_value_t = DEFAULT_BRICK_SIZE, value_parser = super::args::parse_brick_size)]
     pub brick_size: usize,
@@ -48,12 +49,33 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     check_output(&args.output, args.volume.file.as_deref())?;
     let started = Instant::now();
     let prepared = Prepared::new(&args.volume, &args.transfer)?;
-    let settings = args.transfer.render_settings(prepared.octree.depth);
+    let settings = args
+        .transfer
+        .render_settings(prepared.octree.depth, prepared.saved.as_ref());
     let context = GpuContext::new_headless().map_err(|e| e.to_string())?;
+    let kind = match args.renderer {
+        Some(renderer) => renderer.into(),
+        None => {
+            let nodes = prepared.octree.nodes_through_level(settings.max_level);
+            let bytes = (nodes * std::mem::size_of::<crate::octree::Node>()) as u64;
+            if bytes <= context.max_storage_bytes() {
+                RendererKind::Octree
+            } else {
+                eprintln!(
+                    "the octree through level {} needs {} MiB of nodes but this GPU ({}) allows {} MiB per storage buffer; rendering with bricks",
+                    settings.max_level,
+                    bytes.div_ceil(1 << 20),
+                    context.adapter_info.name,
+                    context.max_storage_bytes() >> 20
+                );
+                RendererKind::Bricks
+            }
+        }
+    };
     let renderer = VolumeRenderer::new(
         &context,
         RendererOptions {
-            kind: args.renderer.into(),
+            kind,
             brick_size: args.brick_size,
         },
         &prepared.octree,

@@ -86,9 +86,7 @@ pub fn build_with_progress(
     let steps = 3.0 * depth as f32 + 2.0;
     let step_done = |step: f32| -> Result<(), BuildError> {
         progress.set_fraction(step / steps);
-        progress
-            .check()
-            .map_err(|_| BuildError::Cancelled)
+        progress.check().map_err(|_| BuildError::Cancelled)
     };
     let grids = bounds_per_level(volume, depth, &step_done)?;
     let side = 1usize << depth;

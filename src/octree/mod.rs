@@ -6,6 +6,7 @@
 mod bricks;
 mod build;
 mod node;
+mod presets;
 mod recolor;
 pub mod sibling_index;
 mod statistics;
@@ -16,9 +17,12 @@ use std::ops::Range;
 pub use bricks::{BRICK_FLAG, BrickLayout};
 pub use build::{BuildError, BuildOptions, MAX_DEPTH, build, build_with_progress};
 pub use node::{LEAF, Node, ValueBounds, average_color, pack_rgba, unpack_rgba};
+pub use presets::{DataKind, MAX_LABELS, Preset, default_transfer, labels_transfer};
 pub use recolor::recolor;
 pub use statistics::{LevelStatistics, level_statistics, level_statistics_under};
-pub use transfer::{Colormap, OpacityMode, TransferFunction};
+pub use transfer::{
+    Colormap, ControlPoint, MAX_CURVE_POINTS, OpacityCurve, OpacityMode, TransferFunction,
+};
 
 use crate::volume::Quantization;
 

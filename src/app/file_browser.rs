@@ -1,0 +1,349 @@
+//! The app's own file browser, for where the desktop's file dialog cannot be shown (no
+//! portal, a bare X session, a remote display) and for File > Open path: a typed path, the
+//! folder's subfolders and the files voxscope reads, recent places. Folders are listed on
+//! another thread, so a slow disk or network mount never stalls the UI.
+
+use std::path::{Path, PathBuf};
+use std::sync::mpsc::{self, Receiver, TryRecvError};
+
+use egui::{Key, RichText, Ui};
+
+use super::dialogs::{DialogKind, OPEN_EXTENSIONS};
+use super::octree_panel::format_bytes;
+
+/// Most entries shown of one folder (a folder of a million files stays usable).
+const MAX_ENTRIES: usize = 5000;
+
+/// What the browser ended with.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum BrowserOutcome {
+    /// The user chose this path (a file, a folder, or for saving a new file's path).
+    Chosen(PathBuf),
+    /// The user closed the browser.
+    Cancelled,
+}
+
+/// One folder's listing.
+#[derive(Debug, Clone, Default)]
+struct Listing {
+    folders: Vec<String>,
+    /// File names and sizes.
+    files: Vec<(String, u64)>,
+    /// Entries left out beyond [`MAX_ENTRIES`].
+    left_out: usize,
+}
+
+/// The browser's state while it is open.
+pub struct FileBrowser {
+    kind: DialogKind,
+    directory: PathBuf,
+    /// The typed path: a folder to go to, a file to open, or a file name to save as.
+    path_text: String,
+    listing: Option<Result<Listing, String>>,
+    pending: Option<Receiver<Result<Listing, String>>>,
+    /// List every file, not only the formats voxscope reads.
+    show_all: bool,
+    /// Focus the path field in the next frame.
+    focus_path: bool,
+}
+
+impl FileBrowser {
+    /// A browser for `kind`, showing `directory` (the current folder if `None`).
+    pub fn new(kind: DialogKind, directory: Option<PathBuf>, ctx: &egui::Context) -> Self {
+        let directory = directory
+            .filter(|d| d.is_absolute())
+            .or_else(|| std::env::current_dir().ok())
+            .unwrap_or_else(|| PathBuf::from("/"));
+        let path_text = match kind {
+            DialogKind::SaveScreenshot => "voxscope.png".to_owned(),
+            DialogKind::SaveTransfer => "transfer.ron".to_owned(),
+            _ => String::new(),
+        };
+        let mut browser = Self {
+            kind,
+            directory: PathBuf::new(),
+            path_text,
+            listing: None,
+            pending: None,
+            show_all: false,
+            focus_path: true,
+        };
+        browser.go_to(directory, ctx);
+        browser
+    }
+
+    /// True while the folder is being listed.
+    pub fn is_listing(&self) -> bool {
+        self.pending.is_some()
+    }
+
+    /// What the browser is for.
+    pub fn kind(&self) -> DialogKind {
+        self.kind
+    }
+
+    /// Lists `directory` on another thread.
+    fn go_to(&mut self, directory: PathBuf, ctx: &egui::Context) {
+        let (sender, receiver) = mpsc::channel();
+        let wake = ctx.clone();
+        let listed = directory.clone();
+        let folders_only = self.kind == DialogKind::OpenFolder;
+        std::thread::spawn(move || {
+            let _ = sender.send(list(&listed, folders_only));
+            wake.request_repaint();
+        });
+        self.directory = directory;
+        self.listing = None;
+        self.pending = Some(receiver);
+    }
+
+    /// Shows the browser as a modal window; `recent` are recent volumes (their folders are
+    /// offered as places). Returns the outcome once the user chose or cancelled.
+    pub fn show(&mut self, ctx: &egui::Context, recent: &[String]) -> Option<BrowserOutcome> {
+        if let Some(receiver) = &self.pending {
+            match receiver.try_recv() {
+                Ok(listing) => {
+                    self.listing = Some(listing);
+                    self.pending = None;
+                }
+                Err(TryRecvError::Disconnected) => {
+                    self.listing = Some(Err("the folder could not be listed".into()));
+                    self.pending = None;
+                }
+                Err(TryRecvError::Empty) => {}
+            }
+        }
+        let mut outcome = None;
+        let mut go_to = None;
+        let modal = egui::Modal::new(egui::Id::unique("file_browser")).show(ctx, |ui| {
+            ui.set_width(640.0);
+            ui.heading(self.title());
+            ui.add_space(4.0);
+            self.path_row(ui, &mut outcome, &mut go_to);
+            ui.separator();
+            ui.horizontal_top(|ui| {
+                ui.vertical(|ui| {
+                    ui.set_width(150.0);
+                    places(ui, &self.directory, recent, &mut go_to);
+                });
+                ui.separator();
+                ui.vertical(|ui| self.entries(ui, &mut outcome, &mut go_to));
+            });
+            ui.separator();
+            ui.horizontal(|ui| {
+                if self.kind == DialogKind::Open {
+                    ui.checkbox(&mut self.show_all, "Show all files");
+                }
+                ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
+                    if ui.button("Cancel").clicked() {
+                        outcome = Some(BrowserOutcome::Cancelled);
+                    }
+                    if self.kind == DialogKind::OpenFolder
+                        && ui.button("Open this folder").clicked()
+                    {
+                        outcome = Some(BrowserOutcome::Chosen(self.directory.clone()));
+                    }
+                });
+            });
+        });
+        if modal.should_close() && outcome.is_none() {
+            outcome = Some(BrowserOutcome::Cancelled);
+        }
+        if let Some(directory) = go_to {
+            self.go_to(directory, ctx);
+        }
+        outcome
+    }
+
+    fn title(&self) -> &'static str {
+        match self.kind {
+            DialogKind::Open => "Open a volume",
+            DialogKind::OpenFolder => "Open a folder: a DICOM series or TIFF/PNG slices",
+            DialogKind::SaveScreenshot => "Save screenshot (PNG)",
+            DialogKind::SaveTransfer => "Save transfer function (RON)",
+            DialogKind::LoadTransfer => "Load transfer function (RON)",
+        }
+    }
+
+    /// The typed path: Enter goes to a folder, or opens (saves) a file.
+    fn path_row(
+        &mut self,
+        ui: &mut Ui,
+        outcome: &mut Option<BrowserOutcome>,
+        go_to: &mut Option<PathBuf>,
+    ) {
+        ui.horizontal(|ui| {
+            let label = ui.label("Path");
+            let hint = match self.kind {
+                DialogKind::SaveScreenshot | DialogKind::SaveTransfer => "file name or path",
+                _ => "/path/to/volume.nii.gz, a folder, or synthetic:sphere:64",
+            };
+            let edit = ui
+                .add(
+                    egui::TextEdit::singleline(&mut self.path_text)
+                        .hint_text(hint)
+                        .desired_width(f32::INFINITY),
+                )
+                .labelled_by(label.id);
+            if std::mem::take(&mut self.focus_path) {
+                edit.request_focus();
+            }
+            let entered = edit.lost_focus() && ui.input(|i| i.key_pressed(Key::Enter));
+            if entered && !self.path_text.trim().is_empty() {
+                let typed = self.path_text.trim();
+                if typed.starts_with("synthetic:") && self.kind == DialogKind::Open {
+                    *outcome = Some(BrowserOutcome::Chosen(PathBuf::from(typed)));
+                    return;
+                }
+                let path = self.directory.join(typed);
+                if path.is_dir() && self.kind != DialogKind::OpenFolder {
+                    *go_to = Some(path);
+                    self.path_text.clear();
+                    self.focus_path = true;
+                } else {
+                    *outcome = Some(BrowserOutcome::Chosen(path));
+                }
+            }
+        });
+        ui.horizontal(|ui| {
+            if ui.small_button("Up").clicked()
+                && let Some(parent) = self.directory.parent()
+            {
+                *go_to = Some(parent.to_path_buf());
+            }
+            ui.label(RichText::new(self.directory.display().to_string()).monospace());
+        });
+    }
+
+    /// The folder's subfolders and matching files.
+    fn entries(
+        &mut self,
+        ui: &mut Ui,
+        outcome: &mut Option<BrowserOutcome>,
+        go_to: &mut Option<PathBuf>,
+    ) {
+        let listing = match &self.listing {
+            None => {
+                ui.horizontal(|ui| {
+                    ui.spinner();
+                    ui.label("listing…");
+                });
+                return;
+            }
+            Some(Err(message)) => {
+                ui.colored_label(ui.visuals().error_fg_color, message);
+                return;
+            }
+            Some(Ok(listing)) => listing,
+        };
+        let wanted = |name: &str| match self.kind {
+            DialogKind::Open => self.show_all || is_volume_file(name),
+            DialogKind::OpenFolder => false,
+            DialogKind::SaveScreenshot => has_extension(name, "png"),
+            DialogKind::SaveTransfer | DialogKind::LoadTransfer => has_extension(name, "ron"),
+        };
+        egui::ScrollArea::vertical()
+            .id_salt("file_browser_entries")
+            .max_height(320.0)
+            .auto_shrink([false, false])
+            .show(ui, |ui| {
+                for folder in &listing.folders {
+                    if ui.selectable_label(false, format!("📁 {folder}")).clicked() {
+                        *go_to = Some(self.directory.join(folder));
+                    }
+                }
+                for (name, bytes) in listing.files.iter().filter(|(n, _)| wanted(n)) {
+                    let response =
+                        ui.selectable_label(false, format!("{name}  ·  {}", format_bytes(*bytes)));
+                    if response.clicked() {
+                        match self.kind {
+                            DialogKind::SaveScreenshot | DialogKind::SaveTransfer => {
+                                self.path_text = name.clone();
+                            }
+                            _ => *outcome = Some(BrowserOutcome::Chosen(self.directory.join(name))),
+                        }
+                    }
+                }
+                if listing.left_out > 0 {
+                    ui.small(format!("… {} more entries not shown", listing.left_out));
+                }
+                if listing.folders.is_empty() && !listing.files.iter().any(|(n, _)| wanted(n)) {
+                    ui.small("nothing here to open");
+                }
+            });
+    }
+}
+
+/// Home, the working folder, the folders of recent volumes, and the root.
+fn places(ui: &mut Ui, current: &Path, recent: &[String], go_to: &mut Option<PathBuf>) {
+    ui.strong("Places");
+    let mut shown: Vec<PathBuf> = Vec::new();
+    let home = std::env::var_os("HOME").map(PathBuf::from);
+    let candidates = home
+        .into_iter()
+        .map(|p| ("Home".to_owned(), p))
+        .chain(
+            std::env::current_dir()
+                .ok()
+                .map(|p| ("Working folder".to_owned(), p)),
+        )
+        .chain(recent.iter().filter_map(|spec| {
+            let parent = Path::new(spec).parent()?.to_path_buf();
+            let name = parent.file_name()?.to_string_lossy().into_owned();
+            Some((name, parent))
+        }))
+        .chain(std::iter::once(("/".to_owned(), PathBuf::from("/"))));
+    for (name, path) in candidates {
+        if !path.is_absolute() || shown.contains(&path) {
+            continue;
+        }
+        if ui
+            .selectable_label(path == current, name)
+            .on_hover_text(path.display().to_string())
+            .clicked()
+        {
+            *go_to = Some(path.clone());
+        }
+        shown.push(path);
+    }
+}
+
+/// Lists `directory`: subfolders and files, sorted by name, hidden entries left out.
+fn list(directory: &Path, folders_only: bool) -> Result<Listing, String> {
+    let entries = std::fs::read_dir(directory)
+        .map_err(|e| format!("{}: cannot list: {e}", directory.display()))?;
+    let mut listing = Listing::default();
+    for entry in entries.flatten() {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        if name.starts_with('.') {
+            continue;
+        }
+        if listing.folders.len() + listing.files.len() >= MAX_ENTRIES {
+            listing.left_out += 1;
+            continue;
+        }
+        // Follows links, so a link to a folder is a folder.
+        let Ok(metadata) = std::fs::metadata(entry.path()) else {
+            continue;
+        };
+        if metadata.is_dir() {
+            listing.folders.push(name);
+        } else if !folders_only {
+            listing.files.push((name, metadata.len()));
+        }
+    }
+    listing.folders.sort_by_key(|n| n.to_lowercase());
+    listing.files.sort_by_key(|(n, _)| n.to_lowercase());
+    Ok(listing)
+}
+
+/// True when `name` ends with `.extension` (any case).
+fn has_extension(name: &str, extension: &str) -> bool {
+    name.rsplit_once('.')
+        .is_some_and(|(_, e)| e.eq_ignore_ascii_case(extension))
+}
+
+/// True for the files File > Open offers.
+pub fn is_volume_file(name: &str) -> bool {
+    OPEN_EXTENSIONS.iter().any(|e| has_extension(name, e))
+}
