@@ -135,7 +135,7 @@ pub enum JobEvent {
     /// That upload failed; the renderer on screen stays.
     UploadFailed(JobError),
     /// Statistics under a transfer function were counted.
-    Counted(Counted),
+    Counted(Box<Counted>),
     /// A file dialog closed.
     DialogClosed(DialogKind, DialogAnswer),
 }
@@ -199,7 +199,7 @@ impl Jobs {
             self.counting = None;
             // Counting only fails if its thread died; the next frame starts it again.
             if let Ok(counted) = result {
-                events.push(JobEvent::Counted(counted));
+                events.push(JobEvent::Counted(Box::new(counted)));
             }
         }
         if let Some((kind, receiver)) = &self.dialog {

@@ -317,7 +317,8 @@ impl VoxscopeApp {
                     }
                     self.fail(error.to_string());
                 }
-                JobEvent::Counted((transfer, statistics)) => {
+                JobEvent::Counted(counted) => {
+                    let (transfer, statistics) = *counted;
                     self.view.statistics = statistics;
                     self.view.statistics_for = Some(transfer);
                 }

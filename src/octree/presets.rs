@@ -79,7 +79,7 @@ impl Preset {
     /// and window the colormap (what slices show) over the tissue they show; the ramp takes
     /// its points from the volume's histogram.
     pub fn transfer(self, volume: &QuantizedVolume, colormap: Colormap) -> TransferFunction {
-        let (points, window): (&[(f64, f32, [u8; 3])], ValueWindow) = match self {
+        let (points, window): (&[PresetPoint], ValueWindow) = match self {
             Self::CtBone => (
                 &[
                     (152.0, 0.0, [198, 102, 93]),
@@ -160,6 +160,9 @@ impl Preset {
         }
     }
 }
+
+/// A preset's control point: value (HU), opacity, color.
+type PresetPoint = (f64, f32, [u8; 3]);
 
 /// What kind of values a volume holds, for the transfer function it opens with.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -8,6 +8,9 @@ use super::pack_rgba;
 use crate::volume::{Quantization, ValueWindow, values::LEVELS};
 
 /// How a voxel's opacity follows from its value.
+// The curve is held inline (not boxed) so that a transfer function stays `Copy`: it is
+// compared every frame to decide what to redraw.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub enum OpacityMode {
     /// Alpha equals the gray value: `alpha = t`, `t` the value's place in the window (0…1;
