@@ -5,6 +5,7 @@
 
 mod bricks;
 mod build;
+mod clip;
 mod node;
 mod presets;
 mod recolor;
@@ -16,10 +17,13 @@ use std::ops::Range;
 
 pub use bricks::{BRICK_FLAG, BrickLayout};
 pub use build::{BuildError, BuildOptions, MAX_DEPTH, build, build_with_progress};
+pub use clip::{Clip, ClipPlane};
 pub use node::{LEAF, Node, ValueBounds, average_color, pack_rgba, unpack_rgba};
 pub use presets::{DataKind, MAX_LABELS, Preset, default_transfer, labels_transfer};
 pub use recolor::recolor;
-pub use statistics::{LevelStatistics, level_statistics, level_statistics_under};
+pub use statistics::{
+    LevelStatistics, level_statistics, level_statistics_under, level_statistics_within,
+};
 pub use transfer::{
     Colormap, ControlPoint, MAX_CURVE_POINTS, OpacityCurve, OpacityMode, TransferFunction,
 };

@@ -1,0 +1,151 @@
+//! `voxscope probe`: the value of one voxel, where it is, and in which units, for scripts.
+
+use clap::Args;
+use serde_json::json;
+
+use super::VolumeArgs;
+use crate::volume::{self, Orientation, Volume, format_dims};
+
+#[derive(Debug, Args)]
+pub struct ProbeArgs {
+    #[command(flatten)]
+    pub volume: VolumeArgs,
+    /// The voxel I,J,K in the displayed order (RAS-reordered, as `slice` and the app use).
+    #[arg(long, value_name = "I,J,K", value_parser = parse_index)]
+    pub at: [usize; 3],
+    /// Print one JSON object instead of lines.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// What `probe` reports of one voxel.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Probed {
+    /// The voxel in the displayed (RAS-reordered) order.
+    pub index: [usize; 3],
+    /// The same voxel in the file's own index order.
+    pub stored_index: [usize; 3],
+    /// The voxel's center relative to the first voxel's, in the file's unit.
+    pub position: [f64; 3],
+    /// The value in the data's own units (scale and intercept applied).
+    pub value: f64,
+    /// The values' unit where the file says (`HU` for CT).
+    pub unit: Option<String>,
+}
+
+pub fn run(args: &ProbeArgs) -> Result<(), String> {
+    let volume = match &args.volume.file {
+        Some(spec) => volume::load(spec, &args.volume.load_options()),
+        None => volume::sample(),
+    }
+    .map_err(|e| e.to_string())?;
+    let probed = probe(&volume, args.at)?;
+    if args.json {
+        println!(
+            "{}",
+            json!({
+                "file": volume.name,
+                "dims": volume.dims,
+                "index": probed.index,
+                "stored_index": probed.stored_index,
+                "position": probed.position,
+                "position_unit": spatial_unit(&volume),
+                "value": probed.value,
+                "unit": probed.unit,
+            })
+        );
+    } else {
+        let [i, j, k] = probed.index;
+        let [x, y, z] = probed.position;
+        let [si, sj, sk] = probed.stored_index;
+        println!("voxel      ({i}, {j}, {k}) displayed · ({si}, {sj}, {sk}) as stored");
+        println!(
+            "position   ({x:.3}, {y:.3}, {z:.3}) {} from the first voxel",
+            spatial_unit(&volume)
+        );
+        match &probed.unit {
+            Some(unit) => println!("value      {} {unit}", probed.value),
+            None => println!("value      {}", probed.value),
+        }
+    }
+    Ok(())
+}
+
+/// The voxel `index` (displayed order) of `volume`; an index outside the volume is an error
+/// naming the dimensions.
+pub fn probe(volume: &Volume, index: [usize; 3]) -> Result<Probed, String> {
+    let [i, j, k] = index;
+    let value = volume.value(i, j, k).ok_or_else(|| {
+        format!(
+            "{}: voxel ({i}, {j}, {k}) is outside its {} voxels",
+            volume.name,
+            format_dims(volume.dims)
+        )
+    })?;
+    Ok(Probed {
+        index,
+        stored_index: stored_index(volume, index),
+        position: std::array::from_fn(|a| index[a] as f64 * volume.spacing[a]),
+        value,
+        unit: value_unit(volume),
+    })
+}
+
+/// Where displayed voxel `index` sits in the file: each stored axis ran along one RAS axis,
+/// forwards or backwards (`Orientation::Reoriented`'s letters, e.g. `LIA`).
+pub fn stored_index(volume: &Volume, index: [usize; 3]) -> [usize; 3] {
+    let Orientation::Reoriented { stored } = &volume.orientation else {
+        return index;
+    };
+    let mut result = index;
+    for (axis, letter) in stored.chars().enumerate().take(3) {
+        let (world, forward) = match letter {
+            'R' => (0, true),
+            'L' => (0, false),
+            'A' => (1, true),
+            'P' => (1, false),
+            'S' => (2, true),
+            _ => (2, false),
+        };
+        let displayed = index[world];
+        result[axis] = if forward {
+            displayed
+        } else {
+            volume.dims[world] - 1 - displayed
+        };
+    }
+    result
+}
+
+/// The unit of the values, where the file gives one.
+fn value_unit(volume: &Volume) -> Option<String> {
+    let metadata = |key: &str| {
+        volume
+            .metadata
+            .iter()
+            .find(|(k, _)| k == key)
+            .map(|(_, v)| v.trim().to_owned())
+    };
+    if metadata("modality").is_some_and(|m| m.eq_ignore_ascii_case("CT")) {
+        return Some("HU".to_owned());
+    }
+    metadata("value unit").or_else(|| metadata("units"))
+}
+
+/// The unit of positions: the file's where it names one, else mm.
+fn spatial_unit(volume: &Volume) -> String {
+    volume
+        .metadata
+        .iter()
+        .find(|(k, _)| k == "unit")
+        .map_or_else(|| "mm".to_owned(), |(_, v)| v.clone())
+}
+
+fn parse_index(text: &str) -> Result<[usize; 3], String> {
+    let values: Vec<usize> = text
+        .split(',')
+        .map(|v| v.trim().parse::<usize>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("'{text}' is not I,J,K (three whole numbers)"))?;
+    <[usize; 3]>::try_from(values).map_err(|_| format!("'{text}' is not I,J,K (three numbers)"))
+}
