@@ -10,7 +10,7 @@ use std::time::Duration;
 
 use super::dialogs::DialogKind;
 use super::scene::Scene;
-use crate::octree::{BuildError, LevelStatistics, TransferFunction};
+use crate::octree::{BuildError, Clip, LevelStatistics, TransferFunction};
 use crate::progress::{Cancelled, Progress};
 use crate::render::RendererOptions;
 
@@ -115,8 +115,8 @@ pub struct Opened {
     pub statistics: Vec<LevelStatistics>,
 }
 
-/// Per-level statistics counted under a transfer function.
-pub type Counted = (TransferFunction, Vec<LevelStatistics>);
+/// Per-level statistics counted under a transfer function, within a clip.
+pub type Counted = (TransferFunction, Clip, Vec<LevelStatistics>);
 
 /// What the user chose in a native file dialog, and how long it was open.
 pub struct DialogAnswer {

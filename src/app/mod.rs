@@ -10,6 +10,7 @@
 //! - background work ends in typed [`jobs::JobEvent`]s, polled once per frame.
 
 mod central;
+mod clip_panel;
 mod command;
 mod dialogs;
 mod file_browser;

@@ -4,8 +4,10 @@
 use egui::Ui;
 use egui_plot::{Bar, BarChart, Legend, Plot};
 
+use super::clip_panel::{self, ClipContext};
 use super::scene::Scene;
 use super::settings::AppSettings;
+use super::view_state::ViewState;
 use crate::octree::LevelStatistics;
 use crate::render::{FrameReport, HEATMAP_SATURATION, RendererKind, heatmap_color};
 
@@ -23,8 +25,14 @@ pub struct OctreeFacts<'a> {
     pub target_bytes: u64,
 }
 
-/// Draws the panel; edits `settings` and `max_level`.
-pub fn show(ui: &mut Ui, settings: &mut AppSettings, max_level: &mut u32, facts: &OctreeFacts<'_>) {
+/// Draws the panel; edits `settings` and the view state (max level, clipping).
+pub fn show(
+    ui: &mut Ui,
+    settings: &mut AppSettings,
+    view: &mut ViewState,
+    facts: &OctreeFacts<'_>,
+) {
+    let max_level = &mut view.max_level;
     ui.heading("Octree");
     ui.add_space(4.0);
     let depth = facts.scene.map_or(0, |s| s.data.octree.depth);
@@ -88,6 +96,17 @@ pub fn show(ui: &mut Ui, settings: &mut AppSettings, max_level: &mut u32, facts:
         .on_hover_text(
             "Measure sustained frame rate; otherwise the view is drawn only when something changes",
         );
+
+    if let Some(scene) = facts.scene {
+        let volume = &scene.data.volume;
+        let context = ClipContext {
+            dims: volume.dims,
+            extent: volume.extent(),
+            cursor: view.cursor,
+            camera: settings.camera,
+        };
+        clip_panel::show(ui, &mut view.clipping, &context);
+    }
 
     ui.separator();
     frame_numbers(ui, facts);

@@ -7,7 +7,8 @@ use std::time::Instant;
 use super::jobs::{Counted, Job, JobError, Opened};
 use super::settings::TransferChoice;
 use crate::octree::{
-    self, BuildOptions, Colormap, DataKind, Octree, Preset, TransferFunction, default_transfer,
+    self, BuildOptions, Clip, Colormap, DataKind, Octree, Preset, TransferFunction,
+    default_transfer,
 };
 use crate::progress::Progress;
 use crate::render::{GpuContext, RendererKind, RendererOptions, VolumeRenderer};
@@ -220,16 +221,18 @@ pub fn upload(
     })
 }
 
-/// Per-level statistics under `transfer`, on another thread.
+/// Per-level statistics under `transfer` within `clip`, on another thread.
 pub fn statistics_job(
     data: Arc<VolumeData>,
     transfer: TransferFunction,
+    clip: Clip,
     wake: impl Fn() + Send + 'static,
 ) -> Job<Counted> {
     Job::spawn("counting nodes".into(), wake, move |_| {
         Ok((
             transfer,
-            octree::level_statistics_under(&data.octree, &transfer),
+            clip,
+            octree::level_statistics_within(&data.octree, &transfer, &clip),
         ))
     })
 }

@@ -3,7 +3,7 @@
 //! statistics under the live transfer function. (What carries over from one volume to the
 //! next is in [`super::AppSettings`].)
 
-use crate::octree::{LevelStatistics, TransferFunction};
+use crate::octree::{Clip, ClipPlane, LevelStatistics, TransferFunction};
 use crate::volume::ValueWindow;
 
 /// The level grid's largest pane count.
@@ -21,8 +21,67 @@ pub struct ViewState {
     pub grid_levels: Vec<u32>,
     /// Nodes, leaves, transparent and opaque nodes per level.
     pub statistics: Vec<LevelStatistics>,
-    /// The transfer function [`Self::statistics`] were counted under.
-    pub statistics_for: Option<TransferFunction>,
+    /// The transfer function and clip [`Self::statistics`] were counted under.
+    pub statistics_for: Option<(TransferFunction, Clip)>,
+    /// The point every view shares (the slices' crossing), in voxel space: voxel `(i, j, k)`
+    /// is the cube `[i, i+1) × [j, j+1) × [k, k+1)`, displayed (RAS-reordered) order.
+    pub cursor: [f64; 3],
+    /// What is clipped away.
+    pub clipping: Clipping,
+    /// Distances measured, in voxel space (shown in mm).
+    pub rulers: Vec<Ruler>,
+}
+
+/// The crop box and clip plane as the panel edits them: each kept while switched off, so
+/// switching it on again restores it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Clipping {
+    pub box_on: bool,
+    /// Per axis, the kept fraction `[low, high]`.
+    pub bounds: [[f32; 2]; 3],
+    pub plane_on: bool,
+    pub plane: ClipPlane,
+}
+
+impl Default for Clipping {
+    fn default() -> Self {
+        Self {
+            box_on: false,
+            bounds: [[0.0, 1.0]; 3],
+            plane_on: false,
+            plane: ClipPlane {
+                normal: [0.0, 0.0, 1.0],
+                distance: 0.5,
+            },
+        }
+    }
+}
+
+impl Clipping {
+    /// The clip the renderers and statistics use.
+    pub fn clip(&self) -> Clip {
+        Clip {
+            bounds: self.box_on.then_some(self.bounds),
+            plane: self.plane_on.then_some(self.plane),
+        }
+    }
+}
+
+/// A measured distance between two points (voxel space).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ruler {
+    pub from: [f64; 3],
+    pub to: [f64; 3],
+}
+
+impl Ruler {
+    /// Its length in the file's unit (usually mm) for voxels of `spacing`.
+    pub fn length(&self, spacing: [f64; 3]) -> f64 {
+        (0..3)
+            .map(|a| ((self.to[a] - self.from[a]) * spacing[a]).powi(2))
+            .sum::<f64>()
+            .sqrt()
+    }
 }
 
 impl Default for ViewState {
@@ -36,21 +95,38 @@ impl Default for ViewState {
             grid_levels: Vec::new(),
             statistics: Vec::new(),
             statistics_for: None,
+            cursor: [0.0; 3],
+            clipping: Clipping::default(),
+            rulers: Vec::new(),
         }
     }
 }
 
 impl ViewState {
-    /// The state a newly opened volume starts with: its octree of `depth` drawn in full,
-    /// colored by `transfer`, whose statistics are `statistics`.
-    pub fn new(depth: u32, transfer: TransferFunction, statistics: Vec<LevelStatistics>) -> Self {
+    /// The state a newly opened volume of `dims` voxels starts with: its octree of `depth`
+    /// drawn in full, colored by `transfer`, whose statistics are `statistics`; the cursor in
+    /// the middle, nothing clipped or measured.
+    pub fn new(
+        dims: [usize; 3],
+        depth: u32,
+        transfer: TransferFunction,
+        statistics: Vec<LevelStatistics>,
+    ) -> Self {
         Self {
             window: transfer.window,
             max_level: depth,
             grid_levels: default_grid_levels(depth),
             statistics,
-            statistics_for: Some(transfer),
+            statistics_for: Some((transfer, Clip::NONE)),
+            cursor: dims.map(|d| (d / 2) as f64 + 0.5),
+            clipping: Clipping::default(),
+            rulers: Vec::new(),
         }
+    }
+
+    /// The voxel under the cursor.
+    pub fn cursor_voxel(&self, dims: [usize; 3]) -> [usize; 3] {
+        std::array::from_fn(|a| (self.cursor[a].max(0.0) as usize).min(dims[a].saturating_sub(1)))
     }
 
     /// The level of pane `index` of a level grid of `count` panes, capped at `depth`.
@@ -67,9 +143,9 @@ impl ViewState {
         self.grid_levels.get_mut(grid_slot(index, count))
     }
 
-    /// True when the statistics describe `transfer`.
+    /// True when the statistics describe `transfer` within the current clip.
     pub fn statistics_current(&self, transfer: &TransferFunction) -> bool {
-        self.statistics_for.as_ref() == Some(transfer)
+        self.statistics_for == Some((*transfer, self.clipping.clip()))
     }
 }
 
@@ -96,10 +172,10 @@ mod tests {
             low: 0.0,
             high: 1.0,
         });
-        let view = ViewState::new(8, transfer, Vec::new());
+        let view = ViewState::new([256; 3], 8, transfer, Vec::new());
         let levels: Vec<u32> = (0..4).map(|i| view.grid_level(i, 4, 8)).collect();
         assert_eq!(levels, [5, 6, 7, 8]);
-        let shallow = ViewState::new(3, transfer, Vec::new());
+        let shallow = ViewState::new([8; 3], 3, transfer, Vec::new());
         let levels: Vec<u32> = (0..6).map(|i| shallow.grid_level(i, 6, 3)).collect();
         assert_eq!(levels, [0, 0, 0, 1, 2, 3]);
     }

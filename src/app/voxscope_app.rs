@@ -318,9 +318,9 @@ impl VoxscopeApp {
                     self.fail(error.to_string());
                 }
                 JobEvent::Counted(counted) => {
-                    let (transfer, statistics) = *counted;
+                    let (transfer, clip, statistics) = *counted;
                     self.view.statistics = statistics;
-                    self.view.statistics_for = Some(transfer);
+                    self.view.statistics_for = Some((transfer, clip));
                 }
                 JobEvent::DialogClosed(kind, answer) => self.dialog_closed(kind, answer, ctx),
             }
@@ -385,7 +385,12 @@ impl VoxscopeApp {
         // The volume may open with its own transfer function (a CT preset, labels): the
         // panel shows and edits that one.
         self.settings.transfer = TransferChoice::from(scene.applied_transfer);
-        self.view = ViewState::new(depth, scene.applied_transfer, statistics);
+        self.view = ViewState::new(
+            scene.data.volume.dims,
+            depth,
+            scene.applied_transfer,
+            statistics,
+        );
         if let VolumeSource::Spec(spec) = &scene.data.source {
             self.settings.remember(spec);
         }
@@ -435,6 +440,7 @@ impl VoxscopeApp {
             self.jobs.counting = Some(scene::statistics_job(
                 Arc::clone(&scene.data),
                 transfer,
+                self.view.clipping.clip(),
                 move || wake.request_repaint(),
             ));
         }
@@ -492,15 +498,18 @@ impl eframe::App for VoxscopeApp {
         }
         if self.settings.show_octree_panel {
             let transfer = self.transfer();
+            let statistics_pending =
+                self.jobs.counting.is_some() || !self.view.statistics_current(&transfer);
+            // Lent to the panel's facts while the panel edits the rest of the view state.
+            let statistics = std::mem::take(&mut self.view.statistics);
             egui::Panel::right("octree_panel")
                 .default_size(390.0)
                 .show(ui, |ui| {
                     egui::ScrollArea::vertical().show(ui, |ui| {
                         let facts = OctreeFacts {
                             scene: self.scene.as_ref(),
-                            statistics: &self.view.statistics,
-                            statistics_pending: self.jobs.counting.is_some()
-                                || !self.view.statistics_current(&transfer),
+                            statistics: &statistics,
+                            statistics_pending,
                             frame: self.central.frame_report(),
                             fps: self.central.fps(self.settings.continuous),
                             adapter: self
@@ -509,14 +518,10 @@ impl eframe::App for VoxscopeApp {
                                 .map_or("none", |g| g.context.adapter_info.name.as_str()),
                             target_bytes: self.central.target_bytes(),
                         };
-                        octree_panel::show(
-                            ui,
-                            &mut self.settings,
-                            &mut self.view.max_level,
-                            &facts,
-                        );
+                        octree_panel::show(ui, &mut self.settings, &mut self.view, &facts);
                     });
                 });
+            self.view.statistics = statistics;
         }
         egui::CentralPanel::no_frame().show(ui, |ui| {
             self.central.ui(
