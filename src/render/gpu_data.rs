@@ -36,7 +36,7 @@ const _: () = assert!(std::mem::size_of::<RaycastParams>() == 176);
 
 /// One cell of the bricks renderer's grid: a copy of the node covering it and its value
 /// bounds (refreshed by `brick_grid.wgsl` after a recolor), and its brick's atlas cell.
-/// Keep in sync with `brick_grid.wgsl` and `walk_bricks` in `raycast.wgsl`.
+/// Keep in sync with `struct GridCell` in `grid_cell.wgsl`.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]
 pub(crate) struct GridCell {

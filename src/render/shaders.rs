@@ -1,6 +1,7 @@
 //! The WGSL the pipelines compile. WGSL has no includes, so shared declarations live in
 //! `ray_common.wgsl` (the ray casters' parameters and per-pixel ray), `node_common.wgsl` (the
-//! octree node and its color arithmetic), and are prepended here.
+//! octree node and its color arithmetic) and `grid_cell.wgsl` (the bricks renderer's cell), and
+//! are prepended here.
 //!
 //! Each shader's files are written once, in the `shaders!` list below: the macro makes both
 //! the composed source and the file list of [`ALL`] from it, so the test that every file in
@@ -37,7 +38,7 @@ macro_rules! shaders {
 
 shaders! {
     /// The octree and bricks ray caster.
-    RAYCAST = "raycast" ["ray_common.wgsl", "node_common.wgsl", "raycast.wgsl"];
+    RAYCAST = "raycast" ["ray_common.wgsl", "node_common.wgsl", "grid_cell.wgsl", "raycast.wgsl"];
     /// The dense baseline.
     DENSE = "dense" ["ray_common.wgsl", "dense.wgsl"];
     /// Per-level recolor of octree nodes.
@@ -45,7 +46,7 @@ shaders! {
     /// Recolor of the brick level.
     BRICK_RECOLOR = "brick_recolor" ["node_common.wgsl", "brick_recolor.wgsl"];
     /// The refresh of the bricks renderer's cell grid after a recolor.
-    BRICK_GRID = "brick_grid" ["node_common.wgsl", "brick_grid.wgsl"];
+    BRICK_GRID = "brick_grid" ["node_common.wgsl", "grid_cell.wgsl", "brick_grid.wgsl"];
     /// The measurements of the GPU's own ceilings (`voxscope ceilings`).
     CEILINGS = "ceilings" ["ceilings.wgsl"];
 }
