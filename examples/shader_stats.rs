@@ -105,13 +105,13 @@ fn shaders_to_measure() -> Result<Vec<(String, String, String)>, String> {
         return ENTRY_POINTS
             .iter()
             .map(|&(shader, entry_point)| {
-                let (_, source, _) = voxscope::render::shaders::ALL
+                let found = voxscope::render::shaders::ALL
                     .iter()
-                    .find(|(name, _, _)| *name == shader)
+                    .find(|s| s.name == shader)
                     .ok_or_else(|| format!("no shader {shader}"))?;
                 Ok((
                     shader.to_owned(),
-                    source.to_string(),
+                    found.source.to_owned(),
                     entry_point.to_owned(),
                 ))
             })

@@ -7,7 +7,7 @@ use support::reference::{coverage, psnr, reference_render};
 use support::{colored_octree, gpu, gpu_render, image_dir, shared_data};
 use voxscope::octree::{self, BuildOptions, OpacityMode, TransferFunction};
 use voxscope::render::{
-    Camera, DEFAULT_BRICK_SIZE, GpuRecolor, GpuVolume, RenderMode, RenderSettings, RendererKind,
+    Camera, DEFAULT_BRICK_SIZE, GpuContext, GpuVolume, RenderMode, RenderSettings, RendererKind,
     RendererOptions, VolumeRenderer, read_buffer,
 };
 use voxscope::volume::{self, LoadOptions, Volume};
@@ -47,17 +47,17 @@ fn cameras() -> [Camera; 4] {
 
 /// Renders one case on both sides, saves both images, and checks they agree.
 fn compare(
+    context: &GpuContext,
     name: &str,
     volume: &Volume,
     transfer: Option<TransferFunction>,
     camera: &Camera,
     settings: impl Fn(u32) -> RenderSettings,
 ) -> f64 {
-    let context = gpu();
     let (octree, transfer) = colored_octree(volume, transfer, BuildOptions::default());
     let settings = settings(octree.depth);
     let gpu_image = gpu_render(
-        &context,
+        context,
         &octree,
         volume.spacing,
         &transfer,
@@ -92,9 +92,17 @@ fn full(depth: u32) -> RenderSettings {
 
 #[test]
 fn synthetic_cube_matches_reference_from_every_camera() {
+    let context = gpu();
     let volume = load("synthetic:sphere:32");
     for (i, camera) in cameras().iter().enumerate() {
-        compare(&format!("sphere-cam{i}"), &volume, None, camera, full);
+        compare(
+            &context,
+            &format!("sphere-cam{i}"),
+            &volume,
+            None,
+            camera,
+            full,
+        );
     }
     // The default view is not an empty picture.
     let (octree, transfer) = colored_octree(&volume, None, BuildOptions::default());
@@ -116,6 +124,7 @@ fn synthetic_cube_matches_reference_from_every_camera() {
 
 #[test]
 fn non_cubic_float_volume_matches_reference_at_every_level() {
+    let context = gpu();
     let volume = load("synthetic:noise:20x27x13");
     let camera = Camera {
         distance: 1.8,
@@ -123,6 +132,7 @@ fn non_cubic_float_volume_matches_reference_at_every_level() {
     };
     for level in 0..=5 {
         let db = compare(
+            &context,
             &format!("noise-level{level}"),
             &volume,
             None,
@@ -139,6 +149,7 @@ fn non_cubic_float_volume_matches_reference_at_every_level() {
 
 #[test]
 fn binary_opacity_and_plain_compositing_match_reference() {
+    let context = gpu();
     let volume = load("synthetic:shells:40x30x24");
     let window = volume::QuantizedVolume::new(&volume).robust_window();
     let binary = TransferFunction {
@@ -153,8 +164,16 @@ fn binary_opacity_and_plain_compositing_match_reference() {
         distance: 1.7,
         ..Camera::default()
     };
-    compare("shells-binary", &volume, Some(binary), &camera, full);
     compare(
+        &context,
+        "shells-binary",
+        &volume,
+        Some(binary),
+        &camera,
+        full,
+    );
+    compare(
+        &context,
         "shells-binary-level3",
         &volume,
         Some(binary),
@@ -164,7 +183,7 @@ fn binary_opacity_and_plain_compositing_match_reference() {
             ..full(d)
         },
     );
-    compare("shells-gray-plain", &volume, None, &camera, |d| {
+    compare(&context, "shells-gray-plain", &volume, None, &camera, |d| {
         RenderSettings {
             opacity_correction: false,
             density: 0.2,
@@ -175,33 +194,45 @@ fn binary_opacity_and_plain_compositing_match_reference() {
 
 #[test]
 fn mip_matches_reference() {
+    let context = gpu();
     let volume = load("synthetic:noise:24x24x30");
     for (i, camera) in cameras().iter().take(2).enumerate() {
-        compare(&format!("noise-mip-cam{i}"), &volume, None, camera, |d| {
-            RenderSettings {
+        compare(
+            &context,
+            &format!("noise-mip-cam{i}"),
+            &volume,
+            None,
+            camera,
+            |d| RenderSettings {
                 mode: RenderMode::Mip,
                 ..full(d)
-            }
-        });
+            },
+        );
     }
-    compare("noise-mip-level2", &volume, None, &Camera::default(), |d| {
-        RenderSettings {
+    compare(
+        &context,
+        "noise-mip-level2",
+        &volume,
+        None,
+        &Camera::default(),
+        |d| RenderSettings {
             mode: RenderMode::Mip,
             max_level: 2,
             ..full(d)
-        }
-    });
+        },
+    );
 }
 
 #[test]
 fn pixel_footprint_lod_matches_reference() {
+    let context = gpu();
     let volume = load("synthetic:sphere:64");
     // Far away at a small size, many nodes project below a pixel.
     let camera = Camera {
         distance: 6.0,
         ..Camera::default()
     };
-    compare("sphere-pixel-lod", &volume, None, &camera, |d| {
+    compare(&context, "sphere-pixel-lod", &volume, None, &camera, |d| {
         RenderSettings {
             pixel_lod: true,
             ..full(d)
@@ -211,6 +242,7 @@ fn pixel_footprint_lod_matches_reference() {
 
 #[test]
 fn real_mri_heads_match_reference() {
+    let context = gpu();
     // Anisotropic (2×2×3 mm), reoriented, i16: the embedded sample.
     let sample = volume::sample().unwrap();
     let camera = Camera {
@@ -219,12 +251,14 @@ fn real_mri_heads_match_reference() {
         distance: 1.6,
         ..Camera::default()
     };
-    compare("sample-gray", &sample, None, &camera, full);
-    compare("sample-mip", &sample, None, &camera, |d| RenderSettings {
-        mode: RenderMode::Mip,
-        ..full(d)
+    compare(&context, "sample-gray", &sample, None, &camera, full);
+    compare(&context, "sample-mip", &sample, None, &camera, |d| {
+        RenderSettings {
+            mode: RenderMode::Mip,
+            ..full(d)
+        }
     });
-    compare("sample-level4", &sample, None, &camera, |d| {
+    compare(&context, "sample-level4", &sample, None, &camera, |d| {
         RenderSettings {
             max_level: 4,
             ..full(d)
@@ -243,13 +277,13 @@ fn real_mri_heads_match_reference() {
         threshold: 0.35,
         colormap: Default::default(),
     };
-    compare("mni152-binary", &mni, Some(binary), &camera, full);
+    compare(&context, "mni152-binary", &mni, Some(binary), &camera, full);
 }
 
 #[test]
 fn gpu_recolor_equals_cpu_recolor_bit_for_bit() {
     let context = gpu();
-    let recolor = GpuRecolor::new(&context);
+    let recolor = context.recolor();
     for spec in ["synthetic:noise:37x20x29", "synthetic:shells:32"] {
         let volume = load(spec);
         let (mut octree, first) = colored_octree(&volume, None, BuildOptions::default());
@@ -325,7 +359,6 @@ fn rays_visit_a_bounded_number_of_nodes_from_every_direction() {
     let bound = 3 * octree.side() as u32 * (octree.depth + 1);
     let gpu_volume =
         GpuVolume::upload(&context, &octree, volume.spacing, octree.depth, &transfer).unwrap();
-    let raycaster = voxscope::render::Raycaster::new(&context);
     let target = voxscope::render::RenderTarget::new(&context, 64, 48);
     let settings = full(octree.depth);
     for distance in [0.4, 1.5, 3.0] {
@@ -343,7 +376,7 @@ fn rays_visit_a_bounded_number_of_nodes_from_every_direction() {
                     camera: &camera,
                     settings: &settings,
                 };
-                voxscope::render::render_frame(&context, &raycaster, &frame);
+                voxscope::render::render_frame(&context, &frame);
                 let visits = voxscope::render::read_visits(&context, &target).unwrap();
                 let max = visits.iter().copied().max().unwrap();
                 assert!(
@@ -618,9 +651,9 @@ fn bricks_recolor_on_the_gpu_keeps_empty_bricks_transparent() {
 #[test]
 fn gpu_brick_recolor_equals_the_cpu_rule_bit_for_bit() {
     use voxscope::octree::{BRICK_FLAG, BrickLayout, LEAF, average_color};
-    use voxscope::render::{GpuBrickRecolor, GpuBricks, OctreeOnGpu};
+    use voxscope::render::{GpuBricks, OctreeOnGpu};
     let context = gpu();
-    let recolor = GpuBrickRecolor::new(&context);
+    let recolor = context.brick_recolor();
     // u8 data (8-bit atlas) and u16 data (16-bit float atlas), bricks of 4 and 8, non-cubic.
     for (spec, brick_size) in [
         ("synthetic:noise:37x26x19", 4),
@@ -732,6 +765,177 @@ fn gpu_brick_recolor_equals_the_cpu_rule_bit_for_bit() {
         assert!(
             expected.iter().any(|&c| c >> 24 > 0),
             "{spec}: the recolor made nothing visible"
+        );
+    }
+}
+
+/// Uploads `volume` for `options` with its own robust gray transfer function.
+fn volume_renderer(
+    context: &GpuContext,
+    volume: &Volume,
+    options: impl Into<RendererOptions>,
+) -> VolumeRenderer {
+    let quantized = volume::QuantizedVolume::new(volume);
+    let (octree, transfer) = colored_octree(volume, None, BuildOptions::default());
+    VolumeRenderer::new(
+        context,
+        options,
+        &octree,
+        &quantized,
+        volume.spacing,
+        octree.depth,
+        &transfer,
+    )
+    .unwrap_or_else(|e| panic!("{}: {e}", volume.name))
+}
+
+#[test]
+fn pipelines_are_built_once_per_device() {
+    // Opening volumes and switching renderers compiles each pipeline family once: the first
+    // renderer of each kind builds what it lacks, nothing after that builds anything.
+    let context = gpu();
+    assert_eq!(
+        context.pipelines_built(),
+        0,
+        "a new device has no pipelines"
+    );
+    let volumes = [
+        load("synthetic:sphere:40"),
+        load("synthetic:noise:37x20x29"),
+    ];
+    let target = voxscope::render::RenderTarget::new(&context, 32, 24);
+    let camera = Camera::default();
+    let gray = TransferFunction::gray(volume::QuantizedVolume::new(&volumes[0]).robust_window());
+    let binary = TransferFunction {
+        opacity: OpacityMode::Binary,
+        ..gray
+    };
+    // Draw and edit the transfer function, as the app does after opening and on every edit.
+    let use_renderer = |renderer: &mut VolumeRenderer| {
+        for transfer in [&binary, &gray] {
+            let mut encoder = context.device.create_command_encoder(&Default::default());
+            renderer
+                .set_transfer(&context, &mut encoder, transfer, None)
+                .unwrap();
+            context.queue.submit([encoder.finish()]);
+            renderer.render(&context, &target, &camera, &full(8));
+        }
+        context.wait_idle().unwrap();
+    };
+    for kind in RendererKind::ALL {
+        let before = context.pipelines_built();
+        use_renderer(&mut volume_renderer(&context, &volumes[0], kind));
+        assert!(
+            context.pipelines_built() > before,
+            "the first {} renderer built its pipelines",
+            kind.name()
+        );
+    }
+    let built = context.pipelines_built();
+    // Octree, dense and bricks: the two ray casters (three entry points), the two recolors and
+    // the grid refresh.
+    assert_eq!(
+        built, 6,
+        "pipelines built by the first renderer of each kind"
+    );
+    for volume in &volumes {
+        for kind in [
+            RendererKind::Bricks,
+            RendererKind::Octree,
+            RendererKind::Dense,
+            RendererKind::Bricks,
+        ] {
+            use_renderer(&mut volume_renderer(&context, volume, kind));
+            use_renderer(&mut volume_renderer(
+                &context,
+                volume,
+                RendererOptions {
+                    kind,
+                    brick_size: 8,
+                },
+            ));
+        }
+    }
+    assert_eq!(
+        context.pipelines_built(),
+        built,
+        "opening volumes and switching renderers built pipelines again"
+    );
+}
+
+#[test]
+fn panes_of_several_volumes_recorded_into_one_encoder_draw_as_if_alone() {
+    // The pipelines are shared, so each frame must carry its own parameters: two volumes, each
+    // in two panes with other cameras and levels, all recorded into one encoder and submitted
+    // once, give the images each pane gives drawn and submitted alone.
+    let context = gpu();
+    let sphere = load("synthetic:sphere:40");
+    let noise = load("synthetic:noise:45x30x21");
+    let renderers = [
+        volume_renderer(&context, &sphere, RendererKind::Octree),
+        volume_renderer(&context, &noise, RendererKind::Bricks),
+        volume_renderer(&context, &sphere, RendererKind::Dense),
+    ];
+    let near = Camera {
+        azimuth_deg: 60.0,
+        distance: 1.4,
+        ..Camera::default()
+    };
+    let far = Camera {
+        azimuth_deg: -30.0,
+        elevation_deg: -20.0,
+        distance: 2.5,
+        ..Camera::default()
+    };
+    let level_3 = RenderSettings {
+        max_level: 3,
+        ..full(8)
+    };
+    let mip = RenderSettings {
+        mode: RenderMode::Mip,
+        ..full(8)
+    };
+    // Renderer, camera, settings, size of each pane.
+    let panes = [
+        (0, &near, full(8), (48, 40)),
+        (0, &far, level_3, (40, 48)),
+        (1, &near, mip, (48, 40)),
+        (1, &far, full(8), (64, 24)),
+        (2, &far, full(8), (48, 40)),
+        (2, &near, mip, (32, 32)),
+    ];
+    let targets: Vec<_> = panes
+        .iter()
+        .map(|&(_, _, _, (w, h))| voxscope::render::RenderTarget::new(&context, w, h))
+        .collect();
+    let alone: Vec<image::RgbaImage> = panes
+        .iter()
+        .zip(&targets)
+        .map(|(&(renderer, camera, settings, _), target)| {
+            renderers[renderer].render(&context, target, camera, &settings);
+            voxscope::render::read_image(&context, target).unwrap()
+        })
+        .collect();
+    // Fresh targets (zeroed): a pane left undrawn cannot pass.
+    let targets: Vec<_> = panes
+        .iter()
+        .map(|&(_, _, _, (w, h))| voxscope::render::RenderTarget::new(&context, w, h))
+        .collect();
+    let mut encoder = context.device.create_command_encoder(&Default::default());
+    for (&(renderer, camera, settings, _), target) in panes.iter().zip(&targets) {
+        renderers[renderer].encode(&context, &mut encoder, target, camera, &settings, None);
+    }
+    context.queue.submit([encoder.finish()]);
+    for (index, (target, expected)) in targets.iter().zip(&alone).enumerate() {
+        let together = voxscope::render::read_image(&context, target).unwrap();
+        assert!(
+            coverage(expected) > 0.02,
+            "pane {index} draws something ({})",
+            coverage(expected)
+        );
+        assert!(
+            together == *expected,
+            "pane {index} differs when recorded with the others"
         );
     }
 }

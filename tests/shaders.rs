@@ -8,7 +8,8 @@ use std::path::PathBuf;
 #[test]
 fn every_shader_validates_and_every_file_is_used() {
     let mut used = BTreeSet::new();
-    for (name, source, files) in voxscope::render::shaders::ALL {
+    for shader in voxscope::render::shaders::ALL {
+        let (name, source) = (shader.name, shader.source);
         let module = naga::front::wgsl::parse_str(source)
             .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(source)));
         naga::valid::Validator::new(
@@ -17,7 +18,21 @@ fn every_shader_validates_and_every_file_is_used() {
         )
         .validate(&module)
         .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(source)));
-        used.extend(files.iter().map(|f| f.to_string()));
+        // The source is its files in order: the list this test reads is the one it was made of.
+        let files: Vec<String> = shader
+            .files
+            .iter()
+            .map(|file| {
+                std::fs::read_to_string(
+                    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+                        .join("shaders")
+                        .join(file),
+                )
+                .unwrap_or_else(|e| panic!("{name}: shaders/{file}: {e}"))
+            })
+            .collect();
+        assert_eq!(source, files.concat(), "{name} is its files, concatenated");
+        used.extend(shader.files.iter().map(|f| f.to_string()));
     }
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("shaders");
     let on_disk: BTreeSet<String> = std::fs::read_dir(&dir)

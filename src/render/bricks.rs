@@ -10,7 +10,7 @@ use super::pipeline::{
 };
 use super::raycaster::{BrickShape, OctreeOnGpu, VolumeShape};
 use super::recolor::RecolorLevels;
-use super::{GpuContext, GpuRecolor, GpuTransferTable, RenderError};
+use super::{GpuContext, GpuTransferTable, RenderError};
 use crate::octree::{BRICK_FLAG, BrickLayout, TransferFunction, ValueBounds};
 use crate::volume::Quantization;
 
@@ -200,12 +200,12 @@ impl OctreeOnGpu for GpuBricks {
     }
 }
 
-/// Recolors a [`GpuBricks`]: the brick level from the atlas, the levels above from children,
-/// then the cell grid from the nodes.
+/// Recolors a [`GpuBricks`]: the brick level from the atlas, the levels above from children
+/// (with the device's [`super::GpuRecolor`]), then the cell grid from the nodes. One per
+/// device ([`GpuContext::brick_recolor`]).
 pub struct GpuBrickRecolor {
     pipeline: wgpu::ComputePipeline,
     layout: wgpu::BindGroupLayout,
-    levels: GpuRecolor,
     grid_pipeline: wgpu::ComputePipeline,
     grid_layout: wgpu::BindGroupLayout,
 }
@@ -214,9 +214,10 @@ pub struct GpuBrickRecolor {
 const GRID_WORKGROUP: u32 = 256;
 
 impl GpuBrickRecolor {
-    pub fn new(context: &GpuContext) -> Self {
+    /// Builds the pipelines; [`GpuContext::brick_recolor`] does, once per device.
+    pub(crate) fn new(context: &GpuContext) -> Self {
         let (pipeline, layout) = compute_pipeline(
-            &context.device,
+            context,
             "brick_recolor",
             super::shaders::BRICK_RECOLOR,
             &[
@@ -229,7 +230,7 @@ impl GpuBrickRecolor {
             ],
         );
         let (grid_pipeline, grid_layout) = compute_pipeline(
-            &context.device,
+            context,
             "brick_grid",
             super::shaders::BRICK_GRID,
             &[
@@ -243,7 +244,6 @@ impl GpuBrickRecolor {
         Self {
             pipeline,
             layout,
-            levels: GpuRecolor::new(context),
             grid_pipeline,
             grid_layout,
         }
@@ -331,7 +331,9 @@ impl GpuBrickRecolor {
                 level_starts: &bricks.level_starts,
                 deepest: level as u32 - 1,
             };
-            self.levels.encode_levels(context, encoder, &levels, None);
+            context
+                .recolor()
+                .encode_levels(context, encoder, &levels, None);
         }
         self.encode_grid(context, encoder, bricks, last);
     }

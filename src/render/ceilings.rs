@@ -191,7 +191,7 @@ impl Kit {
             ));
         }
         let (pipelines, layout) = compute_pipelines(
-            device,
+            context,
             "ceilings",
             super::shaders::CEILINGS,
             &KERNELS.map(|(_, entry_point)| entry_point),

@@ -2,6 +2,8 @@
 
 use std::fmt;
 
+use super::pipeline_cache::PipelineCache;
+
 /// Why rendering could not start or go on.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct RenderError(pub String);
@@ -14,7 +16,8 @@ impl fmt::Display for RenderError {
 
 impl std::error::Error for RenderError {}
 
-/// A device, its queue and what it can do, decided once.
+/// A device, its queue and what it can do, decided once; and the pipelines built with it,
+/// each once ([`PipelineCache`]).
 pub struct GpuContext {
     pub device: wgpu::Device,
     pub queue: wgpu::Queue,
@@ -23,6 +26,7 @@ pub struct GpuContext {
     pub limits: wgpu::Limits,
     /// Whether GPU timestamp queries can time passes.
     pub has_timestamps: bool,
+    pub(crate) pipelines: PipelineCache,
 }
 
 impl GpuContext {
@@ -46,6 +50,11 @@ impl GpuContext {
     /// Opens the best adapter without a window. `WGPU_BACKEND` (e.g. `vulkan`) and
     /// `WGPU_ADAPTER_NAME` select one, as everywhere in wgpu.
     pub fn new_headless() -> Result<Self, RenderError> {
+        Self::from_adapter(&Self::headless_adapter()?)
+    }
+
+    /// The adapter [`Self::new_headless`] opens: tests share one and open a device per test.
+    pub fn headless_adapter() -> Result<wgpu::Adapter, RenderError> {
         let instance =
             wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
         let options = wgpu::RequestAdapterOptions {
@@ -53,12 +62,17 @@ impl GpuContext {
                 .unwrap_or(wgpu::PowerPreference::HighPerformance),
             ..Default::default()
         };
-        let adapter = pollster::block_on(instance.request_adapter(&options)).map_err(|e| {
+        // The adapter keeps what it needs of the instance alive.
+        pollster::block_on(instance.request_adapter(&options)).map_err(|e| {
             RenderError(format!(
                 "no GPU adapter found ({e}); for a software device install mesa-vulkan-drivers and set WGPU_BACKEND=vulkan"
             ))
-        })?;
-        let descriptor = Self::device_descriptor(&adapter);
+        })
+    }
+
+    /// A new device of `adapter`, asked for what voxscope wants ([`Self::device_descriptor`]).
+    pub fn from_adapter(adapter: &wgpu::Adapter) -> Result<Self, RenderError> {
+        let descriptor = Self::device_descriptor(adapter);
         let (device, queue) = pollster::block_on(adapter.request_device(&descriptor))
             .map_err(|e| RenderError(format!("the GPU refused a device: {e}")))?;
         Ok(Self::from_device(device, queue, adapter.get_info()))
@@ -78,6 +92,7 @@ impl GpuContext {
             adapter_info,
             limits,
             has_timestamps,
+            pipelines: PipelineCache::default(),
         }
     }
 

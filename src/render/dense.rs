@@ -7,7 +7,7 @@ use super::pipeline::{
     atlas_entry, atlas_sampler_entry, clamped_sampler, compute_pipeline, dispatch_per_pixel,
     numbered_bind_group, output_image_entry, storage_entry, uniform_entry,
 };
-use super::raycaster::{VolumeShape, raycast_params};
+use super::raycaster::{VolumeShape, frame_params_buffer, raycast_params};
 use super::{Frame, GpuContext, GpuTransferTable, RenderError};
 use crate::octree::TransferFunction;
 use crate::volume::QuantizedVolume;
@@ -68,20 +68,21 @@ impl VolumeShape for DenseVolume {
     }
 }
 
-/// The fixed-step ray-marching pipeline.
+/// The fixed-step ray-marching pipeline and its samplers, one per device
+/// ([`GpuContext::dense_raycaster`]).
 pub struct DenseRaycaster {
     pipeline: wgpu::ComputePipeline,
     layout: wgpu::BindGroupLayout,
-    params: wgpu::Buffer,
     trilinear: wgpu::Sampler,
     nearest: wgpu::Sampler,
 }
 
 impl DenseRaycaster {
-    pub fn new(context: &GpuContext) -> Self {
+    /// Builds the pipeline; [`GpuContext::dense_raycaster`] does, once per device.
+    pub(crate) fn new(context: &GpuContext) -> Self {
         let device = &context.device;
         let (pipeline, layout) = compute_pipeline(
-            device,
+            context,
             "dense",
             super::shaders::DENSE,
             &[
@@ -93,16 +94,9 @@ impl DenseRaycaster {
                 storage_entry(5, false),
             ],
         );
-        let params = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("voxscope::dense_params"),
-            size: std::mem::size_of::<super::gpu_data::RaycastParams>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
         Self {
             pipeline,
             layout,
-            params,
             trilinear: clamped_sampler(
                 device,
                 wgpu::FilterMode::Linear,
@@ -112,7 +106,8 @@ impl DenseRaycaster {
         }
     }
 
-    /// Records one frame into `encoder` (submit before recording another with other settings).
+    /// Records one frame into `encoder`, its parameters in a buffer of its own (so frames of
+    /// several panes and volumes can share an encoder).
     pub fn encode(
         &self,
         context: &GpuContext,
@@ -120,10 +115,11 @@ impl DenseRaycaster {
         frame: &Frame<'_, DenseVolume>,
         timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
-        let params = raycast_params(frame.volume, frame.target, frame.camera, frame.settings);
-        context
-            .queue
-            .write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+        let params = frame_params_buffer(
+            context,
+            "voxscope::dense_params",
+            &raycast_params(frame.volume, frame.target, frame.camera, frame.settings),
+        );
         let sampler = if frame.settings.trilinear {
             &self.trilinear
         } else {
@@ -134,7 +130,7 @@ impl DenseRaycaster {
             "voxscope::dense_bind_group",
             &self.layout,
             &[
-                self.params.as_entire_binding(),
+                params.as_entire_binding(),
                 wgpu::BindingResource::TextureView(&frame.volume.levels.view),
                 wgpu::BindingResource::Sampler(sampler),
                 frame.volume.transfer.buffer.as_entire_binding(),

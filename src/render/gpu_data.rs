@@ -1,5 +1,5 @@
-//! GPU-side structs: `#[repr(C)]`, Pod, sizes checked at compile time and against the WGSL
-//! by a naga test.
+//! GPU-side structs: `#[repr(C)]`, Pod, sizes checked at compile time, and field offsets and
+//! sizes checked against the WGSL by a naga test.
 
 /// Uniforms of `raycast.wgsl`. Keep in sync with `struct Params` there.
 #[repr(C)]
@@ -36,7 +36,7 @@ const _: () = assert!(std::mem::size_of::<RaycastParams>() == 176);
 
 /// One cell of the bricks renderer's grid: a copy of the node covering it and its value
 /// bounds (refreshed by `brick_grid.wgsl` after a recolor), and its brick's atlas cell.
-/// Keep in sync with `brick_grid.wgsl` and `walk_bricks` in `raycast.wgsl`.
+/// Keep in sync with `struct GridCell` in `grid_cell.wgsl`.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]
 pub(crate) struct GridCell {
@@ -104,56 +104,296 @@ pub(crate) const FLAG_HEATMAP: u32 = 4;
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    //! Every struct a shader binds (a uniform, or the element of a storage array) has a Rust
+    //! mirror here, with the same fields at the same byte offsets and sizes, as naga lays the
+    //! WGSL out. Fields named `_…` are padding: not compared by name (WGSL spells a `[u32; 3]`
+    //! as three scalars), but the struct sizes catch them.
+    use std::collections::BTreeMap;
+    use std::mem::{offset_of, size_of};
 
-    /// Size of the WGSL struct `name` in `source`, as naga lays it out.
-    fn wgsl_struct_size(source: &str, name: &str) -> u32 {
-        let module = naga::front::wgsl::parse_str(source).expect("shader parses");
+    use super::*;
+    use crate::octree::Node;
+    use crate::render::shaders;
+
+    /// A struct as one side lays it out.
+    struct Layout {
+        name: String,
+        size: u32,
+        /// In declaration order.
+        fields: Vec<Field>,
+    }
+
+    struct Field {
+        name: String,
+        offset: u32,
+        size: u32,
+    }
+
+    /// The size of the field `field` selects, without a value of `T`.
+    fn size_of_field<T, F>(_field: fn(&T) -> &F) -> u32 {
+        size_of::<F>() as u32
+    }
+
+    /// The layout of `$ty`, whose every field must be listed: the pattern in
+    /// `every_field_listed` does not compile when one is missing.
+    macro_rules! rust_layout {
+        ($ty:ident { $($field:ident),+ $(,)? }) => {{
+            #[allow(dead_code)]
+            fn every_field_listed(value: $ty) {
+                let $ty { $($field: _),+ } = value;
+            }
+            Layout {
+                name: stringify!($ty).to_owned(),
+                size: size_of::<$ty>() as u32,
+                fields: vec![$(Field {
+                    name: stringify!($field).to_owned(),
+                    offset: offset_of!($ty, $field) as u32,
+                    size: size_of_field(|value: &$ty| &value.$field),
+                }),+],
+            }
+        }};
+    }
+
+    fn raycast_params() -> Layout {
+        rust_layout!(RaycastParams {
+            eye,
+            forward,
+            right,
+            up,
+            volume,
+            image_size,
+            depth,
+            max_level,
+            mode,
+            flags,
+            density,
+            lod_factor,
+            mip_saturation,
+            brick_level,
+            brick_size,
+            atlas_scale,
+            atlas_grid,
+            brick_grid,
+            atlas_texel,
+        })
+    }
+
+    fn node() -> Layout {
+        rust_layout!(Node { color, first_child })
+    }
+
+    fn grid_cell() -> Layout {
+        rust_layout!(GridCell {
+            color,
+            first_child,
+            bounds,
+            atlas_cell,
+        })
+    }
+
+    fn recolor_params() -> Layout {
+        rust_layout!(RecolorParams {
+            level_start,
+            level_count,
+            groups_x,
+            _pad,
+        })
+    }
+
+    fn brick_recolor_params() -> Layout {
+        rust_layout!(BrickRecolorParams {
+            level_start,
+            level_count,
+            groups_x,
+            brick_size,
+            atlas_grid,
+            dims,
+            atlas_scale,
+            _pad,
+        })
+    }
+
+    fn ceiling_params() -> Layout {
+        rust_layout!(CeilingParams {
+            elements,
+            iterations,
+            invocations,
+            chain_length,
+            fma_scale,
+            fma_offset,
+            _padding,
+        })
+    }
+
+    /// For each shader, the Rust mirror of each WGSL struct it binds, by WGSL name.
+    fn mirrors(shader: &str) -> Vec<(&'static str, Layout)> {
+        match shader {
+            "raycast" => vec![
+                ("Params", raycast_params()),
+                ("Node", node()),
+                ("GridCell", grid_cell()),
+            ],
+            "dense" => vec![("Params", raycast_params())],
+            "recolor" => vec![("LevelParams", recolor_params()), ("Node", node())],
+            "brick_recolor" => vec![("Params", brick_recolor_params()), ("Node", node())],
+            "brick_grid" => vec![
+                ("LevelParams", recolor_params()),
+                ("Node", node()),
+                ("GridCell", grid_cell()),
+            ],
+            "ceilings" => vec![("CeilingParams", ceiling_params())],
+            other => panic!("no mirrors listed for the shader {other}"),
+        }
+    }
+
+    /// The layout of every struct `module` binds (a uniform or storage variable of that
+    /// struct, or an array of it), by struct name.
+    fn bound_structs(module: &naga::Module) -> BTreeMap<String, Layout> {
         let mut layouter = naga::proc::Layouter::default();
         layouter.update(module.to_ctx()).expect("layout");
-        let (handle, _) = module
-            .types
-            .iter()
-            .find(|(_, ty)| ty.name.as_deref() == Some(name))
-            .expect("struct exists");
-        layouter[handle].size
+        let mut structs = BTreeMap::new();
+        for (_, global) in module.global_variables.iter() {
+            if global.binding.is_none() {
+                continue;
+            }
+            let mut ty = global.ty;
+            if let naga::TypeInner::Array { base, .. } = module.types[ty].inner {
+                ty = base;
+            }
+            let naga::TypeInner::Struct { members, .. } = &module.types[ty].inner else {
+                continue;
+            };
+            let name = module.types[ty].name.clone().expect("structs are named");
+            let fields = members
+                .iter()
+                .map(|member| Field {
+                    name: member.name.clone().unwrap_or_default(),
+                    offset: member.offset,
+                    size: layouter[member.ty].size,
+                })
+                .collect();
+            let size = layouter[ty].size;
+            structs.insert(name.clone(), Layout { name, size, fields });
+        }
+        structs
+    }
+
+    /// Whether `wgsl` (a struct of `shader`, as [`bound_structs`] gives it) lays out `rust`'s
+    /// fields as Rust does; the error names the field that differs.
+    fn compare(shader: &str, wgsl: &Layout, rust: &Layout) -> Result<(), String> {
+        fn named(layout: &Layout) -> Vec<&Field> {
+            layout
+                .fields
+                .iter()
+                .filter(|field| !field.name.starts_with('_'))
+                .collect()
+        }
+        let (wgsl_fields, rust_fields) = (named(wgsl), named(rust));
+        let here = format!("{shader}: WGSL {} and Rust {}", wgsl.name, rust.name);
+        for index in 0..wgsl_fields.len().max(rust_fields.len()) {
+            match (wgsl_fields.get(index), rust_fields.get(index)) {
+                (Some(w), Some(r)) if w.name != r.name => {
+                    return Err(format!(
+                        "{here}: field {} is `{}` in WGSL, `{}` in Rust",
+                        index + 1,
+                        w.name,
+                        r.name
+                    ));
+                }
+                (Some(w), Some(r)) if w.offset != r.offset => {
+                    return Err(format!(
+                        "{here}: `{}` is at byte {} in WGSL, {} in Rust",
+                        r.name, w.offset, r.offset
+                    ));
+                }
+                (Some(w), Some(r)) if w.size != r.size => {
+                    return Err(format!(
+                        "{here}: `{}` takes {} bytes in WGSL, {} in Rust",
+                        r.name, w.size, r.size
+                    ));
+                }
+                (Some(w), None) => return Err(format!("{here}: `{}` is missing in Rust", w.name)),
+                (None, Some(r)) => return Err(format!("{here}: `{}` is missing in WGSL", r.name)),
+                _ => {}
+            }
+        }
+        if wgsl.size != rust.size {
+            return Err(format!(
+                "{here}: {} bytes in WGSL, {} in Rust (padding)",
+                wgsl.size, rust.size
+            ));
+        }
+        Ok(())
     }
 
     #[test]
-    fn rust_structs_mirror_wgsl() {
-        let raycast = crate::render::shaders::RAYCAST;
-        let recolor = crate::render::shaders::RECOLOR;
-        let node = std::mem::size_of::<crate::octree::Node>() as u32;
-        assert_eq!(
-            wgsl_struct_size(raycast, "Params"),
-            std::mem::size_of::<RaycastParams>() as u32
-        );
-        assert_eq!(wgsl_struct_size(raycast, "Node"), node);
-        let dense = crate::render::shaders::DENSE;
-        assert_eq!(
-            wgsl_struct_size(dense, "Params"),
-            std::mem::size_of::<RaycastParams>() as u32
-        );
-        assert_eq!(
-            wgsl_struct_size(recolor, "LevelParams"),
-            std::mem::size_of::<RecolorParams>() as u32
-        );
-        assert_eq!(wgsl_struct_size(recolor, "Node"), node);
-        let bricks = crate::render::shaders::BRICK_RECOLOR;
-        assert_eq!(
-            wgsl_struct_size(bricks, "Params"),
-            std::mem::size_of::<BrickRecolorParams>() as u32
-        );
-        assert_eq!(wgsl_struct_size(bricks, "Node"), node);
-        let grid = crate::render::shaders::BRICK_GRID;
-        assert_eq!(
-            wgsl_struct_size(grid, "LevelParams"),
-            std::mem::size_of::<RecolorParams>() as u32
-        );
-        assert_eq!(wgsl_struct_size(grid, "Node"), node);
-        assert_eq!(
-            wgsl_struct_size(crate::render::shaders::CEILINGS, "CeilingParams"),
-            std::mem::size_of::<CeilingParams>() as u32
-        );
+    fn rust_structs_mirror_wgsl_field_by_field() {
+        for shader in shaders::ALL {
+            let module = naga::front::wgsl::parse_str(shader.source).expect("shader parses");
+            let mut bound = bound_structs(&module);
+            for (wgsl_name, rust) in mirrors(shader.name) {
+                let wgsl = bound.remove(wgsl_name).unwrap_or_else(|| {
+                    panic!(
+                        "{}: binds no struct {wgsl_name} (mirror {})",
+                        shader.name, rust.name
+                    )
+                });
+                if let Err(problem) = compare(shader.name, &wgsl, &rust) {
+                    panic!("{problem}");
+                }
+            }
+            let unmirrored: Vec<&String> = bound.keys().collect();
+            assert!(
+                unmirrored.is_empty(),
+                "{}: binds {unmirrored:?} with no Rust mirror listed in gpu_data's test",
+                shader.name
+            );
+        }
+    }
+
+    /// The comparison names what differs: a field moved, renamed, resized or missing.
+    #[test]
+    fn a_differing_field_is_named() {
+        let rust = rust_layout!(RecolorParams {
+            level_start,
+            level_count,
+            groups_x,
+            _pad,
+        });
+        let check = |wgsl: &str| {
+            let source = format!("{wgsl}\n@group(0) @binding(0) var<uniform> params: LevelParams;");
+            let module = naga::front::wgsl::parse_str(&source).expect("test WGSL parses");
+            let bound = bound_structs(&module);
+            compare("test", &bound["LevelParams"], &rust)
+        };
+        let same =
+            "struct LevelParams { level_start: u32, level_count: u32, groups_x: u32, _p: u32 }";
+        assert_eq!(check(same), Ok(()));
+        let cases = [
+            (
+                "struct LevelParams { level_count: u32, level_start: u32, groups_x: u32, _p: u32 }",
+                "field 1 is `level_count` in WGSL, `level_start` in Rust",
+            ),
+            (
+                "struct LevelParams { level_start: u32, level_count: u32, _p: u32, groups_x: u32 }",
+                "`groups_x` is at byte 12 in WGSL, 8 in Rust",
+            ),
+            (
+                "struct LevelParams { level_start: u32, level_count: u32, groups_x: vec2<u32> }",
+                "`groups_x` takes 8 bytes in WGSL, 4 in Rust",
+            ),
+            (
+                "struct LevelParams { level_start: u32, level_count: u32, _p: vec2<u32> }",
+                "`groups_x` is missing in WGSL",
+            ),
+            (
+                "struct LevelParams { level_start: u32, level_count: u32, groups_x: u32 }",
+                "12 bytes in WGSL, 16 in Rust",
+            ),
+        ];
+        for (wgsl, expected) in cases {
+            let problem = check(wgsl).expect_err(wgsl);
+            assert!(problem.contains(expected), "{wgsl}: {problem}");
+        }
     }
 }

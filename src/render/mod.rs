@@ -12,6 +12,7 @@ mod gpu_data;
 mod gpu_volume;
 mod level_texture;
 mod pipeline;
+mod pipeline_cache;
 mod raycaster;
 mod readback;
 mod recolor;
@@ -38,13 +39,15 @@ pub use timer::{GpuTimer, time_passes, timing_name};
 pub use transfer_table::GpuTransferTable;
 pub use volume_renderer::{DEFAULT_BRICK_SIZE, RendererKind, RendererOptions, VolumeRenderer};
 
-/// Renders one frame and submits it.
-pub fn render_frame(context: &GpuContext, raycaster: &Raycaster, frame: &Frame<'_>) {
+/// Renders one frame of an octree with the device's [`Raycaster`] and submits it.
+pub fn render_frame(context: &GpuContext, frame: &Frame<'_>) {
     let mut encoder = context
         .device
         .create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("voxscope::frame"),
         });
-    raycaster.encode(context, &mut encoder, frame, None);
+    context
+        .raycaster()
+        .encode(context, &mut encoder, frame, None);
     context.queue.submit([encoder.finish()]);
 }

@@ -1,5 +1,7 @@
 //! Building blocks shared by the compute pipelines: layout entries and pipeline creation.
 
+use super::GpuContext;
+
 /// A uniform buffer entry visible to compute shaders.
 pub(crate) fn uniform_entry(binding: u32, has_dynamic_offset: bool) -> wgpu::BindGroupLayoutEntry {
     buffer_entry(
@@ -74,23 +76,26 @@ pub(crate) fn numbered_bind_group(
 
 /// A compute pipeline of `source`'s `main` with one bind group of `entries`.
 pub(crate) fn compute_pipeline(
-    device: &wgpu::Device,
+    context: &GpuContext,
     label: &str,
     source: &str,
     entries: &[wgpu::BindGroupLayoutEntry],
 ) -> (wgpu::ComputePipeline, wgpu::BindGroupLayout) {
-    let (mut pipelines, layout) = compute_pipelines(device, label, source, &["main"], entries);
+    let (mut pipelines, layout) = compute_pipelines(context, label, source, &["main"], entries);
     (pipelines.remove(0), layout)
 }
 
-/// One compute pipeline per entry point of `source`, all with one bind group of `entries`.
+/// One compute pipeline per entry point of `source`, all with one bind group of `entries`
+/// (counted in [`GpuContext::pipelines_built`]).
 pub(crate) fn compute_pipelines(
-    device: &wgpu::Device,
+    context: &GpuContext,
     label: &str,
     source: &str,
     entry_points: &[&str],
     entries: &[wgpu::BindGroupLayoutEntry],
 ) -> (Vec<wgpu::ComputePipeline>, wgpu::BindGroupLayout) {
+    let device = &context.device;
+    context.pipelines.count_built(entry_points.len());
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some(&format!("voxscope::{label}.wgsl")),
         source: wgpu::ShaderSource::Wgsl(source.into()),

@@ -163,12 +163,12 @@ impl VolumeShape for GpuVolume {
 }
 
 /// The ray-casting compute pipelines: `main` descends the tree (plain octrees, and bricks when a
-/// level cut or the pixel LOD may stop above them); `main_bricks` walks the brick grid.
+/// level cut or the pixel LOD may stop above them); `main_bricks` walks the brick grid. One per
+/// device ([`GpuContext::raycaster`]), shared by the octree and bricks renderers of every volume.
 pub struct Raycaster {
     pipeline: wgpu::ComputePipeline,
     bricks_pipeline: wgpu::ComputePipeline,
     layout: wgpu::BindGroupLayout,
-    params: wgpu::Buffer,
     /// Bound where a volume has no brick atlas.
     no_atlas: wgpu::TextureView,
     /// Bound where a volume has no brick grid.
@@ -177,10 +177,11 @@ pub struct Raycaster {
 }
 
 impl Raycaster {
-    pub fn new(context: &GpuContext) -> Self {
+    /// Builds the pipelines; [`GpuContext::raycaster`] does, once per device.
+    pub(crate) fn new(context: &GpuContext) -> Self {
         let device = &context.device;
         let (pipelines, layout) = compute_pipelines(
-            device,
+            context,
             "raycast",
             super::shaders::RAYCAST,
             &["main", "main_bricks"],
@@ -221,25 +222,19 @@ impl Raycaster {
             .create_view(&wgpu::TextureViewDescriptor::default());
         let atlas_sampler =
             clamped_sampler(device, wgpu::FilterMode::Linear, "voxscope::atlas_sampler");
-        let params = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("voxscope::raycast_params"),
-            size: std::mem::size_of::<RaycastParams>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
         Self {
             pipeline,
             bricks_pipeline,
             layout,
-            params,
             no_atlas,
             no_grid,
             atlas_sampler,
         }
     }
 
-    /// Records one frame into `encoder` (the parameters are written through the queue, so
-    /// submit before recording the next frame with other parameters).
+    /// Records one frame into `encoder`, its parameters in a buffer of its own: the pipelines
+    /// are shared, so frames of several panes and volumes can be recorded into one encoder, or
+    /// into several submitted in any order, without overwriting each other's parameters.
     pub fn encode(
         &self,
         context: &GpuContext,
@@ -254,15 +249,13 @@ impl Raycaster {
             settings,
         } = *frame;
         let params = raycast_params(volume, target, camera, settings);
-        context
-            .queue
-            .write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+        let params_buffer = frame_params_buffer(context, "voxscope::raycast_params", &params);
         let bind_group = numbered_bind_group(
             &context.device,
             "voxscope::raycast_bind_group",
             &self.layout,
             &[
-                self.params.as_entire_binding(),
+                params_buffer.as_entire_binding(),
                 volume.nodes().as_entire_binding(),
                 volume.bounds().as_entire_binding(),
                 volume.lookup_table().as_entire_binding(),
@@ -293,6 +286,23 @@ impl Raycaster {
             timestamp_writes,
         );
     }
+}
+
+/// A uniform buffer holding one frame's `params`: one per recorded frame, so nothing shared is
+/// written between frames. (176 bytes, created with its contents: no queue write to order.)
+pub(crate) fn frame_params_buffer(
+    context: &GpuContext,
+    label: &str,
+    params: &RaycastParams,
+) -> wgpu::Buffer {
+    wgpu::util::DeviceExt::create_buffer_init(
+        &context.device,
+        &wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents: bytemuck::bytes_of(params),
+            usage: wgpu::BufferUsages::UNIFORM,
+        },
+    )
 }
 
 /// The camera and settings in the shader's voxel space.

@@ -8,16 +8,17 @@ use super::{GpuContext, GpuVolume, RenderError};
 /// Threads per workgroup; keep in sync with `@workgroup_size` in `recolor.wgsl`.
 const WORKGROUP: u32 = 256;
 
-/// The recolor compute pipeline.
+/// The recolor compute pipeline, one per device ([`GpuContext::recolor`]).
 pub struct GpuRecolor {
     pipeline: wgpu::ComputePipeline,
     layout: wgpu::BindGroupLayout,
 }
 
 impl GpuRecolor {
-    pub fn new(context: &GpuContext) -> Self {
+    /// Builds the pipeline; [`GpuContext::recolor`] does, once per device.
+    pub(crate) fn new(context: &GpuContext) -> Self {
         let (pipeline, layout) = compute_pipeline(
-            &context.device,
+            context,
             "recolor",
             super::shaders::RECOLOR,
             &[

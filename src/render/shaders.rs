@@ -1,60 +1,52 @@
 //! The WGSL the pipelines compile. WGSL has no includes, so shared declarations live in
-//! `ray_common.wgsl` (the ray casters' parameters and per-pixel ray) and `node_common.wgsl`
-//! (the octree node and its color arithmetic), and are prepended here.
+//! `ray_common.wgsl` (the ray casters' parameters and per-pixel ray), `node_common.wgsl` (the
+//! octree node and its color arithmetic) and `grid_cell.wgsl` (the bricks renderer's cell), and
+//! are prepended here.
+//!
+//! Each shader's files are written once, in the `shaders!` list below: the macro makes both
+//! the composed source and the file list of [`ALL`] from it, so the test that every file in
+//! `shaders/` is used reads the same list the sources are built from.
 
-/// The octree and bricks ray caster.
-pub(crate) const RAYCAST: &str = concat!(
-    include_str!("../../shaders/ray_common.wgsl"),
-    include_str!("../../shaders/node_common.wgsl"),
-    include_str!("../../shaders/raycast.wgsl")
-);
+/// One shader voxscope compiles.
+#[derive(Debug, Clone, Copy)]
+pub struct Shader {
+    /// Its name in labels and test messages (`raycast`).
+    pub name: &'static str,
+    /// The files of `shaders/` it is made of, in order.
+    pub files: &'static [&'static str],
+    /// Those files' text, concatenated.
+    pub source: &'static str,
+}
 
-/// The dense baseline.
-pub(crate) const DENSE: &str = concat!(
-    include_str!("../../shaders/ray_common.wgsl"),
-    include_str!("../../shaders/dense.wgsl")
-);
+/// Declares each shader once: a `pub(crate) const NAME: &str` of its files concatenated, and
+/// [`ALL`], every shader with its name and file list.
+macro_rules! shaders {
+    ($($(#[$doc:meta])* $constant:ident = $name:literal [$($file:literal),+ $(,)?];)+) => {
+        $(
+            $(#[$doc])*
+            pub(crate) const $constant: &str =
+                concat!($(include_str!(concat!("../../shaders/", $file))),+);
+        )+
 
-/// Per-level recolor of octree nodes.
-pub(crate) const RECOLOR: &str = concat!(
-    include_str!("../../shaders/node_common.wgsl"),
-    include_str!("../../shaders/recolor.wgsl")
-);
+        /// Every shader voxscope compiles: its name, the files in `shaders/` it is made of, and
+        /// its composed source (so a test can validate each one and know no file is left out).
+        pub const ALL: &[Shader] = &[
+            $(Shader { name: $name, files: &[$($file),+], source: $constant },)+
+        ];
+    };
+}
 
-/// Recolor of the brick level.
-pub(crate) const BRICK_RECOLOR: &str = concat!(
-    include_str!("../../shaders/node_common.wgsl"),
-    include_str!("../../shaders/brick_recolor.wgsl")
-);
-
-/// The refresh of the bricks renderer's cell grid after a recolor.
-pub(crate) const BRICK_GRID: &str = concat!(
-    include_str!("../../shaders/node_common.wgsl"),
-    include_str!("../../shaders/brick_grid.wgsl")
-);
-
-/// The measurements of the GPU's own ceilings (`voxscope ceilings`).
-pub(crate) const CEILINGS: &str = include_str!("../../shaders/ceilings.wgsl");
-
-/// Every shader voxscope compiles: its name, its composed source, and the files in `shaders/`
-/// it is made of (so a test can validate each one and know no file is left out).
-pub const ALL: [(&str, &str, &[&str]); 6] = [
-    (
-        "raycast",
-        RAYCAST,
-        &["ray_common.wgsl", "node_common.wgsl", "raycast.wgsl"],
-    ),
-    ("dense", DENSE, &["ray_common.wgsl", "dense.wgsl"]),
-    ("recolor", RECOLOR, &["node_common.wgsl", "recolor.wgsl"]),
-    (
-        "brick_recolor",
-        BRICK_RECOLOR,
-        &["node_common.wgsl", "brick_recolor.wgsl"],
-    ),
-    (
-        "brick_grid",
-        BRICK_GRID,
-        &["node_common.wgsl", "brick_grid.wgsl"],
-    ),
-    ("ceilings", CEILINGS, &["ceilings.wgsl"]),
-];
+shaders! {
+    /// The octree and bricks ray caster.
+    RAYCAST = "raycast" ["ray_common.wgsl", "node_common.wgsl", "grid_cell.wgsl", "raycast.wgsl"];
+    /// The dense baseline.
+    DENSE = "dense" ["ray_common.wgsl", "dense.wgsl"];
+    /// Per-level recolor of octree nodes.
+    RECOLOR = "recolor" ["node_common.wgsl", "recolor.wgsl"];
+    /// Recolor of the brick level.
+    BRICK_RECOLOR = "brick_recolor" ["node_common.wgsl", "brick_recolor.wgsl"];
+    /// The refresh of the bricks renderer's cell grid after a recolor.
+    BRICK_GRID = "brick_grid" ["node_common.wgsl", "grid_cell.wgsl", "brick_grid.wgsl"];
+    /// The measurements of the GPU's own ceilings (`voxscope ceilings`).
+    CEILINGS = "ceilings" ["ceilings.wgsl"];
+}

@@ -1,9 +1,11 @@
 //! One volume on the GPU drawn by one of the renderers, behind one interface: what the command
-//! line, the benchmark and the app switch between.
+//! line, the benchmark and the app switch between. It holds the volume's buffers and textures
+//! alone; the pipelines that draw and recolor it are the device's
+//! (`pipeline_cache.rs`), built once, whatever the number of volumes and renderers.
 
 use super::{
-    Camera, DenseRaycaster, DenseVolume, Frame, GpuBrickRecolor, GpuBricks, GpuContext, GpuRecolor,
-    GpuVolume, Raycaster, RenderError, RenderSettings, RenderTarget,
+    Camera, DenseVolume, Frame, GpuBricks, GpuContext, GpuVolume, RenderError, RenderSettings,
+    RenderTarget,
 };
 use crate::octree::{BrickLayout, Octree, TransferFunction};
 use crate::volume::QuantizedVolume;
@@ -53,30 +55,38 @@ impl RendererKind {
 }
 
 enum State {
-    Octree {
-        raycaster: Raycaster,
-        recolor: GpuRecolor,
-        volume: GpuVolume,
-    },
-    Dense {
-        raycaster: DenseRaycaster,
-        volume: DenseVolume,
-    },
-    Bricks {
-        raycaster: Raycaster,
-        recolor: GpuBrickRecolor,
-        volume: Box<GpuBricks>,
-    },
+    Octree(GpuVolume),
+    Dense(DenseVolume),
+    Bricks(Box<GpuBricks>),
 }
 
-/// A volume uploaded for one renderer, with its pipelines.
+/// A volume uploaded for one renderer, drawn with the device's pipelines.
 pub struct VolumeRenderer {
     state: State,
 }
 
+/// Builds the device's pipelines that `kind` draws and recolors with, where not built yet.
+fn build_pipelines(context: &GpuContext, kind: RendererKind) {
+    match kind {
+        RendererKind::Octree => {
+            context.raycaster();
+            context.recolor();
+        }
+        RendererKind::Dense => {
+            context.dense_raycaster();
+        }
+        RendererKind::Bricks => {
+            context.raycaster();
+            context.recolor();
+            context.brick_recolor();
+        }
+    }
+}
+
 impl VolumeRenderer {
     /// Uploads what `kind` needs: the octree (colored as it is, through `max_level`) or the
-    /// quantized voxels.
+    /// quantized voxels. Builds the device's pipelines for `kind` if this is its first use, so
+    /// that the compile happens here (the app's loading thread) and not at the first frame.
     pub fn new(
         context: &GpuContext,
         options: impl Into<RendererOptions>,
@@ -87,16 +97,14 @@ impl VolumeRenderer {
         transfer: &TransferFunction,
     ) -> Result<Self, RenderError> {
         let options = options.into();
+        build_pipelines(context, options.kind);
         let state = match options.kind {
-            RendererKind::Octree => State::Octree {
-                raycaster: Raycaster::new(context),
-                recolor: GpuRecolor::new(context),
-                volume: GpuVolume::upload(context, octree, spacing, max_level, transfer)?,
-            },
-            RendererKind::Dense => State::Dense {
-                raycaster: DenseRaycaster::new(context),
-                volume: DenseVolume::upload(context, quantized, spacing, transfer)?,
-            },
+            RendererKind::Octree => State::Octree(GpuVolume::upload(
+                context, octree, spacing, max_level, transfer,
+            )?),
+            RendererKind::Dense => {
+                State::Dense(DenseVolume::upload(context, quantized, spacing, transfer)?)
+            }
             RendererKind::Bricks => {
                 let layout = BrickLayout::new(
                     octree,
@@ -105,19 +113,15 @@ impl VolumeRenderer {
                     context.limits.max_texture_dimension_3d as usize,
                 )
                 .map_err(RenderError)?;
-                State::Bricks {
-                    raycaster: Raycaster::new(context),
-                    recolor: GpuBrickRecolor::new(context),
-                    volume: Box::new(GpuBricks::upload(
-                        context,
-                        &layout,
-                        octree.dims,
-                        spacing,
-                        octree.depth,
-                        octree.quantization,
-                        transfer,
-                    )?),
-                }
+                State::Bricks(Box::new(GpuBricks::upload(
+                    context,
+                    &layout,
+                    octree.dims,
+                    spacing,
+                    octree.depth,
+                    octree.quantization,
+                    transfer,
+                )?))
             }
         };
         Ok(Self { state })
@@ -126,9 +130,9 @@ impl VolumeRenderer {
     /// Which renderer this is.
     pub fn kind(&self) -> RendererKind {
         match self.state {
-            State::Octree { .. } => RendererKind::Octree,
-            State::Dense { .. } => RendererKind::Dense,
-            State::Bricks { .. } => RendererKind::Bricks,
+            State::Octree(_) => RendererKind::Octree,
+            State::Dense(_) => RendererKind::Dense,
+            State::Bricks(_) => RendererKind::Bricks,
         }
     }
 
@@ -142,27 +146,29 @@ impl VolumeRenderer {
         timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) -> Result<(), RenderError> {
         match &mut self.state {
-            State::Octree {
-                recolor, volume, ..
-            } => {
+            State::Octree(volume) => {
                 volume.set_transfer(context, transfer);
-                recolor.encode(context, encoder, volume, timestamp_writes)
+                context
+                    .recolor()
+                    .encode(context, encoder, volume, timestamp_writes)
             }
-            State::Dense { volume, .. } => {
+            State::Dense(volume) => {
                 volume.set_transfer(context, transfer);
                 Ok(())
             }
-            State::Bricks {
-                recolor, volume, ..
-            } => {
+            State::Bricks(volume) => {
                 volume.set_transfer(context, transfer);
-                recolor.encode(context, encoder, volume, timestamp_writes);
+                context
+                    .brick_recolor()
+                    .encode(context, encoder, volume, timestamp_writes);
                 Ok(())
             }
         }
     }
 
-    /// Records one frame into `encoder`.
+    /// Records one frame into `encoder`. Frames of several renderers and targets may share an
+    /// encoder: each carries its own parameters. (The lookup table is the volume's: a
+    /// [`Self::set_transfer`] between two frames of one encoder applies to both.)
     pub fn encode(
         &self,
         context: &GpuContext,
@@ -173,36 +179,38 @@ impl VolumeRenderer {
         timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
         match &self.state {
-            State::Octree {
-                raycaster, volume, ..
-            } => {
+            State::Octree(volume) => {
                 let frame = Frame {
                     volume,
                     target,
                     camera,
                     settings,
                 };
-                raycaster.encode(context, encoder, &frame, timestamp_writes);
+                context
+                    .raycaster()
+                    .encode(context, encoder, &frame, timestamp_writes);
             }
-            State::Dense { raycaster, volume } => {
+            State::Dense(volume) => {
                 let frame = Frame {
                     volume,
                     target,
                     camera,
                     settings,
                 };
-                raycaster.encode(context, encoder, &frame, timestamp_writes);
+                context
+                    .dense_raycaster()
+                    .encode(context, encoder, &frame, timestamp_writes);
             }
-            State::Bricks {
-                raycaster, volume, ..
-            } => {
+            State::Bricks(volume) => {
                 let frame = Frame {
                     volume: volume.as_ref(),
                     target,
                     camera,
                     settings,
                 };
-                raycaster.encode(context, encoder, &frame, timestamp_writes);
+                context
+                    .raycaster()
+                    .encode(context, encoder, &frame, timestamp_writes);
             }
         }
     }
@@ -227,16 +235,16 @@ impl VolumeRenderer {
     /// GPU memory of each of this renderer's buffers and textures, by name.
     pub fn gpu_bytes(&self) -> Vec<(&'static str, u64)> {
         match &self.state {
-            State::Octree { volume, .. } => vec![
+            State::Octree(volume) => vec![
                 ("nodes", volume.nodes.size()),
                 ("bounds", volume.bounds.size()),
                 ("lookup_table", volume.transfer.size()),
             ],
-            State::Dense { volume, .. } => vec![
+            State::Dense(volume) => vec![
                 ("texture", volume.gpu_bytes() - volume.transfer.size()),
                 ("lookup_table", volume.transfer.size()),
             ],
-            State::Bricks { volume, .. } => volume.gpu_bytes(),
+            State::Bricks(volume) => volume.gpu_bytes(),
         }
     }
 }

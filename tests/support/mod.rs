@@ -6,11 +6,11 @@ pub mod reference;
 pub mod writers;
 
 use std::path::PathBuf;
+use std::sync::LazyLock;
 
 use voxscope::octree::{self, BuildOptions, Octree, TransferFunction};
 use voxscope::render::{
-    Camera, Frame, GpuContext, GpuVolume, Raycaster, RenderSettings, RenderTarget, read_image,
-    render_frame,
+    Camera, Frame, GpuContext, GpuVolume, RenderSettings, RenderTarget, read_image, render_frame,
 };
 use voxscope::volume::{QuantizedVolume, Volume};
 
@@ -23,9 +23,19 @@ pub fn shared_data(name: &str) -> PathBuf {
     path
 }
 
-/// A headless GPU; failing when there is none (GPU tests are never skipped).
+/// The adapter every test of a test binary shares (as re_renderer's tests do): finding one
+/// is the slow part, a device of it is cheap. An error, not a panic, so that every test
+/// fails with the reason rather than with a poisoned lock.
+static ADAPTER: LazyLock<Result<wgpu::Adapter, String>> =
+    LazyLock::new(|| GpuContext::headless_adapter().map_err(|e| e.to_string()));
+
+/// A fresh device of the shared adapter, for one test (its pipelines are built once, on first
+/// use, as in the app); failing when there is no adapter (GPU tests are never skipped).
 pub fn gpu() -> GpuContext {
-    GpuContext::new_headless().unwrap_or_else(|e| panic!("GPU tests need an adapter: {e}"))
+    let adapter = ADAPTER
+        .as_ref()
+        .unwrap_or_else(|e| panic!("GPU tests need an adapter: {e}"));
+    GpuContext::from_adapter(adapter).unwrap_or_else(|e| panic!("GPU tests need a device: {e}"))
 }
 
 /// Quantizes, builds and colors `volume` with `transfer` (the robust window if `None`).
@@ -41,7 +51,7 @@ pub fn colored_octree(
     (octree, transfer)
 }
 
-/// Renders on the GPU and reads the image back.
+/// Renders on the GPU (the device's octree ray caster) and reads the image back.
 pub fn gpu_render(
     context: &GpuContext,
     octree: &Octree,
@@ -53,7 +63,6 @@ pub fn gpu_render(
 ) -> image::RgbaImage {
     let volume =
         GpuVolume::upload(context, octree, spacing, octree.depth, transfer).expect("upload");
-    let raycaster = Raycaster::new(context);
     let target = RenderTarget::new(context, size.0, size.1);
     let frame = Frame {
         volume: &volume,
@@ -61,7 +70,7 @@ pub fn gpu_render(
         camera,
         settings,
     };
-    render_frame(context, &raycaster, &frame);
+    render_frame(context, &frame);
     read_image(context, &target).expect("readback")
 }
 

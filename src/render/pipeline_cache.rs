@@ -1,0 +1,69 @@
+//! The long-lived half of rendering: compute pipelines, their bind group layouts, samplers and
+//! stand-in resources, built once per device and shared by every volume, renderer and pane
+//! drawn with it (re_renderer's `ctx.renderer::<T>()`, egui's custom 3D demo). Each family is
+//! built on first use, so a device that never draws `dense` never compiles it; volumes hold
+//! only their buffers and textures, and opening a file or switching renderers compiles nothing
+//! that was compiled before.
+//!
+//! Owned by [`GpuContext`], so the app's context (from egui-wgpu's device) and the command
+//! line's headless one both have it. Nothing here changes per frame: each frame's parameters
+//! go in a buffer of that frame's own ([`super::Raycaster::encode`]), so frames of several
+//! panes and volumes can be recorded into one encoder.
+
+use std::sync::OnceLock;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use super::{DenseRaycaster, GpuBrickRecolor, GpuContext, GpuRecolor, Raycaster};
+
+/// The pipeline families of one device, each built on first use.
+#[derive(Default)]
+pub(crate) struct PipelineCache {
+    raycaster: OnceLock<Raycaster>,
+    dense_raycaster: OnceLock<DenseRaycaster>,
+    recolor: OnceLock<GpuRecolor>,
+    brick_recolor: OnceLock<GpuBrickRecolor>,
+    /// Compute pipelines built with this device so far.
+    built: AtomicUsize,
+}
+
+impl PipelineCache {
+    /// Counts `count` more compute pipelines built (`pipeline::compute_pipelines`).
+    pub(crate) fn count_built(&self, count: usize) {
+        self.built.fetch_add(count, Ordering::Relaxed);
+    }
+}
+
+impl GpuContext {
+    /// The octree and bricks ray caster of this device, built on first use.
+    pub fn raycaster(&self) -> &Raycaster {
+        self.pipelines
+            .raycaster
+            .get_or_init(|| Raycaster::new(self))
+    }
+
+    /// The dense ray caster of this device, built on first use.
+    pub fn dense_raycaster(&self) -> &DenseRaycaster {
+        self.pipelines
+            .dense_raycaster
+            .get_or_init(|| DenseRaycaster::new(self))
+    }
+
+    /// The octree recolor of this device, built on first use.
+    pub fn recolor(&self) -> &GpuRecolor {
+        self.pipelines.recolor.get_or_init(|| GpuRecolor::new(self))
+    }
+
+    /// The bricks recolor of this device (which also runs [`Self::recolor`]), built on first
+    /// use.
+    pub fn brick_recolor(&self) -> &GpuBrickRecolor {
+        self.pipelines
+            .brick_recolor
+            .get_or_init(|| GpuBrickRecolor::new(self))
+    }
+
+    /// How many compute pipelines this context has built: each family's once, however many
+    /// volumes, renderers and panes use it (and `ceilings`' at each measurement).
+    pub fn pipelines_built(&self) -> usize {
+        self.pipelines.built.load(Ordering::Relaxed)
+    }
+}
