@@ -5,7 +5,7 @@
 
 use std::time::{Duration, Instant};
 
-use egui::{Align2, Color32, Rect, RichText, Ui, UiBuilder, vec2};
+use egui::{Align2, Color32, Pos2, Rect, RichText, Ui, UiBuilder, vec2};
 
 use super::AppGpu;
 use super::pane_header::{grid_strip, pair_strip, pane_label};
@@ -174,6 +174,7 @@ impl CentralView {
                 );
                 self.interacting |= moved || response.dragged();
                 pane_label(ui, scene, settings, view, index, count, *rect);
+                paint_overlays_3d(ui, *rect, scene, settings, view);
             }
         }
         if was_interacting && !self.interacting {
@@ -265,7 +266,7 @@ impl CentralView {
         for (index, pane) in self.panes.iter_mut().enumerate() {
             let Some(target) = &pane.target else { continue };
             let (level, transfer) = match settings.layout {
-                Layout::Single => (view.max_level.min(depth), main),
+                Layout::Single | Layout::Slices => (view.max_level.min(depth), main),
                 Layout::LevelGrid => (view.grid_level(index, count, depth), main),
                 Layout::TransferPair => (
                     view.max_level.min(depth),
@@ -373,7 +374,7 @@ impl CentralView {
 /// Panes of the layout: 1, the level grid's 2–6, or 2.
 fn pane_count(settings: &AppSettings) -> usize {
     match settings.layout {
-        Layout::Single => 1,
+        Layout::Single | Layout::Slices => 1,
         Layout::LevelGrid => settings.grid_panes.clamp(2, MAX_GRID_PANES),
         Layout::TransferPair => 2,
     }
@@ -448,4 +449,76 @@ pub fn error_banner(ui: &mut Ui, view_rect: Rect, message: &str) -> bool {
         },
     );
     dismissed
+}
+
+/// The colors of the slice views, as 3D Slicer's: axial red, coronal green, sagittal yellow.
+/// Index by the axis a slice is perpendicular to (x: sagittal, y: coronal, z: axial).
+pub const SLICE_COLORS: [Color32; 3] = [
+    Color32::from_rgb(230, 200, 60),
+    Color32::from_rgb(90, 190, 90),
+    Color32::from_rgb(225, 80, 70),
+];
+
+/// The ruler's color on every view.
+pub const RULER_COLOR: Color32 = Color32::from_rgb(80, 220, 255);
+
+/// Draws what the 3D pane `rect` shows over the volume: the rulers with their lengths, and in
+/// the Slices layout the cursor and (as an option) the three slice planes through it.
+fn paint_overlays_3d(ui: &Ui, rect: Rect, scene: &Scene, settings: &AppSettings, view: &ViewState) {
+    let volume = &scene.data.volume;
+    let (extent, spacing, dims) = (volume.extent(), volume.spacing, volume.dims);
+    let project =
+        |voxel: [f64; 3]| viewport::project(&settings.camera, extent, spacing, rect, voxel);
+    let painter = ui.painter_at(rect);
+    let unit = super::octree_panel::unit(volume);
+    for ruler in &view.rulers {
+        let (Some(from), Some(to)) = (project(ruler.from), project(ruler.to)) else {
+            continue;
+        };
+        painter.line_segment([from, to], egui::Stroke::new(2.0, RULER_COLOR));
+        painter.circle_filled(from, 3.0, RULER_COLOR);
+        painter.circle_filled(to, 3.0, RULER_COLOR);
+        painter.text(
+            from.lerp(to, 0.5) + vec2(6.0, -6.0),
+            Align2::LEFT_BOTTOM,
+            format!("{:.1} {unit}", ruler.length(spacing)),
+            egui::FontId::proportional(13.0),
+            RULER_COLOR,
+        );
+    }
+    if settings.layout != Layout::Slices {
+        return;
+    }
+    let cursor = view.cursor;
+    if settings.show_slice_planes {
+        for (axis, color) in SLICE_COLORS.iter().enumerate() {
+            let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+            let corners: Vec<Pos2> = [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)]
+                .iter()
+                .filter_map(|&(a, b)| {
+                    let mut point = cursor;
+                    point[u] = a * dims[u] as f64;
+                    point[v] = b * dims[v] as f64;
+                    project(point)
+                })
+                .collect();
+            if corners.len() == 4 {
+                painter.add(egui::Shape::closed_line(
+                    corners,
+                    egui::Stroke::new(1.5, color.gamma_multiply(0.8)),
+                ));
+            }
+        }
+    }
+    // Arms 4 % of the volume's largest physical side long.
+    let arm = extent.iter().copied().fold(0.0, f64::max) * 0.04;
+    for (axis, color) in SLICE_COLORS.iter().enumerate() {
+        let mut from = cursor;
+        let mut to = cursor;
+        from[axis] -= arm / spacing[axis];
+        to[axis] += arm / spacing[axis];
+        if let (Some(a), Some(b)) = (project(from), project(to)) {
+            painter.line_segment([a, b], egui::Stroke::new(2.0, *color));
+        }
+    }
 }

@@ -106,6 +106,7 @@ pub fn show(
             camera: settings.camera,
         };
         clip_panel::show(ui, &mut view.clipping, &context);
+        measurements(ui, view, volume.spacing, &unit(volume));
     }
 
     ui.separator();
@@ -311,4 +312,47 @@ pub fn format_bytes(bytes: u64) -> String {
     } else {
         format!("{value:.1} {}", UNITS[unit])
     }
+}
+
+/// The rulers measured so far, each with its length and a button to remove it.
+fn measurements(ui: &mut Ui, view: &mut ViewState, spacing: [f64; 3], unit: &str) {
+    let title = if view.rulers.is_empty() {
+        "Measurements".to_owned()
+    } else {
+        format!("Measurements ({})", view.rulers.len())
+    };
+    egui::CollapsingHeader::new(title)
+        .id_salt("measurements")
+        .show(ui, |ui| {
+            if view.rulers.is_empty() {
+                ui.small("Choose the Ruler tool, then drag in a slice or click two points in the 3D view.");
+                return;
+            }
+            let mut remove = None;
+            egui::Grid::new("rulers").num_columns(3).striped(true).show(ui, |ui| {
+                for (index, ruler) in view.rulers.iter().enumerate() {
+                    ui.label(format!("{}", index + 1));
+                    ui.monospace(format!("{:.2} {unit}", ruler.length(spacing)));
+                    if ui.small_button("Remove").clicked() {
+                        remove = Some(index);
+                    }
+                    ui.end_row();
+                }
+            });
+            if let Some(index) = remove {
+                view.rulers.remove(index);
+            }
+            if ui.small_button("Remove all").clicked() {
+                view.rulers.clear();
+            }
+        });
+}
+
+/// The volume's spatial unit: the file's where it names one, else mm.
+pub fn unit(volume: &crate::volume::Volume) -> String {
+    volume
+        .metadata
+        .iter()
+        .find(|(key, _)| key == "unit")
+        .map_or_else(|| "mm".to_owned(), |(_, value)| value.clone())
 }

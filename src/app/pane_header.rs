@@ -69,7 +69,7 @@ pub fn pane_label(
         );
     };
     match settings.layout {
-        Layout::Single => {
+        Layout::Single | Layout::Slices => {
             let level = view.max_level.min(depth);
             paint(ui, format!("level {level} · {} nodes", nodes(level)));
         }

@@ -25,10 +25,17 @@ pub enum Layout {
     LevelGrid,
     /// Two panes, two transfer functions, same camera.
     TransferPair,
+    /// The 3D view beside axial, coronal and sagittal slices, all sharing one cursor.
+    Slices,
 }
 
 impl Layout {
-    pub const ALL: [Self; 3] = [Self::Single, Self::LevelGrid, Self::TransferPair];
+    pub const ALL: [Self; 4] = [
+        Self::Single,
+        Self::LevelGrid,
+        Self::TransferPair,
+        Self::Slices,
+    ];
 
     /// The toolbar's name: `Single`, `Level grid`, `Transfer pair`.
     pub fn name(self) -> &'static str {
@@ -36,6 +43,7 @@ impl Layout {
             Self::Single => "Single",
             Self::LevelGrid => "Level grid",
             Self::TransferPair => "Transfer pair",
+            Self::Slices => "Slices",
         }
     }
 
@@ -45,6 +53,7 @@ impl Layout {
             Self::Single => "Single view",
             Self::LevelGrid => "Level grid (compare levels)",
             Self::TransferPair => "Transfer pair (compare settings)",
+            Self::Slices => "Slices (3D, axial, coronal, sagittal)",
         }
     }
 }
@@ -159,8 +168,23 @@ pub struct AppSettings {
     pub continuous: bool,
     pub show_transfer_panel: bool,
     pub show_octree_panel: bool,
+    /// What a click in a view does.
+    pub tool: Tool,
+    /// Slices sample linearly (else the nearest voxel).
+    pub slice_linear: bool,
+    /// The 3D view of the Slices layout shows the three slice planes in place.
+    pub show_slice_planes: bool,
     /// Most recent first.
     pub recent: Vec<String>,
+}
+
+/// What a click or drag in a view does.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Tool {
+    /// Orbit, pan and zoom; a click moves the cursor.
+    Navigate,
+    /// Drag in a slice, or click two points in the 3D view, to measure a distance.
+    Ruler,
 }
 
 impl Default for AppSettings {
@@ -191,6 +215,9 @@ impl Default for AppSettings {
             continuous: false,
             show_transfer_panel: true,
             show_octree_panel: true,
+            tool: Tool::Navigate,
+            slice_linear: false,
+            show_slice_planes: true,
             recent: Vec::new(),
         }
     }

@@ -185,3 +185,51 @@ pub fn paint_axis_gizmo(ui: &Ui, rect: Rect, camera: &Camera, labels: [&str; 3])
 pub fn allocate_pane(ui: &mut Ui, size: Vec2) -> Response {
     ui.allocate_response(size, Sense::click_and_drag())
 }
+
+/// Where the voxel-space point `voxel` of a volume of `spacing` and physical `extent` appears
+/// in a pane `rect` seen by `camera`; `None` behind the eye.
+pub fn project(
+    camera: &Camera,
+    extent: [f64; 3],
+    spacing: [f64; 3],
+    rect: Rect,
+    voxel: [f64; 3],
+) -> Option<Pos2> {
+    let aspect = (rect.width() / rect.height().max(1.0)) as f64;
+    let frame = camera.frame(extent, aspect);
+    let world = DVec3::from(voxel) * DVec3::from(spacing) - DVec3::from(extent) * 0.5;
+    let toward = world - frame.eye;
+    let depth = toward.dot(frame.forward);
+    if depth <= 1e-9 {
+        return None;
+    }
+    let ndc_x = toward.dot(frame.right) / (depth * frame.tan_half_fov_y * frame.aspect);
+    let ndc_y = toward.dot(frame.up) / (depth * frame.tan_half_fov_y);
+    Some(pos2(
+        rect.left() + (ndc_x as f32 + 1.0) * 0.5 * rect.width(),
+        rect.top() + (1.0 - ndc_y as f32) * 0.5 * rect.height(),
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_volume_center_projects_to_the_pane_center_and_right_is_minus_x_from_the_front() {
+        let camera = Camera {
+            azimuth_deg: 0.0,
+            elevation_deg: 0.0,
+            ..Camera::default()
+        };
+        let rect = Rect::from_min_size(pos2(10.0, 20.0), vec2(200.0, 100.0));
+        let extent = [100.0, 100.0, 100.0];
+        let center = project(&camera, extent, [1.0; 3], rect, [50.0; 3]).expect("in front");
+        assert!((center - rect.center()).length() < 1e-3, "{center:?}");
+        // From the front, the patient's left (−x) is on the screen's right.
+        let left = project(&camera, extent, [1.0; 3], rect, [30.0, 50.0, 50.0]).expect("in front");
+        assert!(left.x > center.x);
+        let up = project(&camera, extent, [1.0; 3], rect, [50.0, 50.0, 70.0]).expect("in front");
+        assert!(up.y < center.y, "superior is up");
+    }
+}
