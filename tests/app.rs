@@ -4,6 +4,10 @@
 
 mod support;
 
+use support::app_harness::{
+    SIZE, differing_pixels, harness, harness_with, lit_pixels, scratch, settle, snapshot, view,
+};
+
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -14,86 +18,6 @@ use voxscope::app::{
 };
 use voxscope::octree::{self, OpacityMode};
 use voxscope::volume::SAMPLE_NAME;
-
-const SIZE: egui::Vec2 = egui::vec2(1280.0, 800.0);
-
-fn harness_with(source: Option<VolumeSource>, size: egui::Vec2) -> Harness<'static, VoxscopeApp> {
-    let mut harness = Harness::builder()
-        .with_size(size)
-        .wgpu_setup(wgpu_setup())
-        .build_eframe(move |cc| VoxscopeApp::new(cc, source));
-    settle(&mut harness);
-    harness
-}
-
-fn harness() -> Harness<'static, VoxscopeApp> {
-    harness_with(None, SIZE)
-}
-
-/// Steps until no background work is left and the view is drawn.
-fn settle(harness: &mut Harness<'_, VoxscopeApp>) {
-    let started = Instant::now();
-    loop {
-        harness.step();
-        if !harness.state().is_busy() {
-            break;
-        }
-        assert!(
-            started.elapsed() < Duration::from_secs(120),
-            "the app stayed busy for 2 minutes"
-        );
-        std::thread::sleep(Duration::from_millis(5));
-    }
-    // One more frame to draw what the last job delivered, and one to read its numbers.
-    harness.run_steps(2);
-    while harness.state().is_busy() {
-        harness.step();
-        std::thread::sleep(Duration::from_millis(5));
-    }
-    harness.run_steps(1);
-}
-
-/// A snapshot with the measured times (which vary from run to run) masked.
-fn snapshot(harness: &mut Harness<'_, VoxscopeApp>, name: &str) {
-    let right = harness.ctx.content_rect().right();
-    let rows: Vec<egui::Rect> = ["Load + build", "GPU time"]
-        .iter()
-        .map(|label| harness.get_by_label(label).rect())
-        .collect();
-    let values_left = harness.get_by_label("Nodes per ray").rect().right() + 4.0;
-    for row in rows {
-        harness.mask(egui::Rect::from_min_max(
-            egui::pos2(values_left, row.top()),
-            egui::pos2(right, row.bottom()),
-        ));
-    }
-    harness.snapshot(name);
-}
-
-/// The rendered view as an image (what File ▸ Save screenshot writes).
-fn view(harness: &Harness<'_, VoxscopeApp>) -> image::RgbaImage {
-    harness.state().view_image(1.0).expect("the view is drawn")
-}
-
-fn differing_pixels(a: &image::RgbaImage, b: &image::RgbaImage) -> usize {
-    assert_eq!(a.dimensions(), b.dimensions());
-    a.pixels().zip(b.pixels()).filter(|(p, q)| p != q).count()
-}
-
-/// Pixels that are not the black background.
-fn lit_pixels(image: &image::RgbaImage) -> usize {
-    image
-        .pixels()
-        .filter(|p| p.0[0] > 8 || p.0[1] > 8 || p.0[2] > 8)
-        .count()
-}
-
-/// A relative path under target/, so messages in snapshots do not depend on the checkout.
-fn scratch(name: &str) -> PathBuf {
-    let dir = Path::new("target/app-test");
-    std::fs::create_dir_all(dir).expect("create target/app-test");
-    dir.join(name)
-}
 
 #[test]
 fn main_window_opens_the_sample_and_draws_it() {

@@ -14,6 +14,9 @@ use super::octree_panel::format_bytes;
 /// Most entries shown of one folder (a folder of a million files stays usable).
 const MAX_ENTRIES: usize = 5000;
 
+/// Height of the list of entries, in points.
+const LIST_HEIGHT: f32 = 320.0;
+
 /// What the browser ended with.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum BrowserOutcome {
@@ -121,14 +124,20 @@ impl FileBrowser {
             ui.add_space(4.0);
             self.path_row(ui, &mut outcome, &mut go_to);
             ui.separator();
-            ui.horizontal_top(|ui| {
-                ui.vertical(|ui| {
-                    ui.set_width(150.0);
-                    places(ui, &self.directory, recent, &mut go_to);
-                });
-                ui.separator();
-                ui.vertical(|ui| self.entries(ui, &mut outcome, &mut go_to));
-            });
+            // A fixed height: a separator or list that fills the available height would grow
+            // the modal every frame.
+            ui.allocate_ui_with_layout(
+                egui::vec2(ui.available_width(), LIST_HEIGHT),
+                egui::Layout::left_to_right(egui::Align::Min),
+                |ui| {
+                    ui.vertical(|ui| {
+                        ui.set_width(150.0);
+                        places(ui, &self.directory, recent, &mut go_to);
+                    });
+                    ui.add_space(8.0);
+                    ui.vertical(|ui| self.entries(ui, &mut outcome, &mut go_to));
+                },
+            );
             ui.separator();
             ui.horizontal(|ui| {
                 if self.kind == DialogKind::Open {
@@ -215,27 +224,14 @@ impl FileBrowser {
         });
     }
 
-    /// The folder's subfolders and matching files.
+    /// The folder's subfolders and matching files, in a list of fixed height (so the modal
+    /// keeps its size, and place, while a folder is listed).
     fn entries(
         &mut self,
         ui: &mut Ui,
         outcome: &mut Option<BrowserOutcome>,
         go_to: &mut Option<PathBuf>,
     ) {
-        let listing = match &self.listing {
-            None => {
-                ui.horizontal(|ui| {
-                    ui.spinner();
-                    ui.label("listing…");
-                });
-                return;
-            }
-            Some(Err(message)) => {
-                ui.colored_label(ui.visuals().error_fg_color, message);
-                return;
-            }
-            Some(Ok(listing)) => listing,
-        };
         let wanted = |name: &str| match self.kind {
             DialogKind::Open => self.show_all || is_volume_file(name),
             DialogKind::OpenFolder => false,
@@ -244,23 +240,39 @@ impl FileBrowser {
         };
         egui::ScrollArea::vertical()
             .id_salt("file_browser_entries")
-            .max_height(320.0)
+            .min_scrolled_height(LIST_HEIGHT)
+            .max_height(LIST_HEIGHT)
             .auto_shrink([false, false])
             .show(ui, |ui| {
+                let listing = match &self.listing {
+                    None => {
+                        ui.horizontal(|ui| {
+                            ui.spinner();
+                            ui.label("listing…");
+                        });
+                        return;
+                    }
+                    Some(Err(message)) => {
+                        ui.colored_label(ui.visuals().error_fg_color, message);
+                        return;
+                    }
+                    Some(Ok(listing)) => listing,
+                };
                 for folder in &listing.folders {
-                    if ui.selectable_label(false, format!("📁 {folder}")).clicked() {
+                    if ui.selectable_label(false, format!("{folder}/")).clicked() {
                         *go_to = Some(self.directory.join(folder));
                     }
                 }
                 for (name, bytes) in listing.files.iter().filter(|(n, _)| wanted(n)) {
-                    let response =
-                        ui.selectable_label(false, format!("{name}  ·  {}", format_bytes(*bytes)));
-                    if response.clicked() {
+                    let text = format!("{name}  ·  {}", format_bytes(*bytes));
+                    if ui.selectable_label(false, text).clicked() {
                         match self.kind {
                             DialogKind::SaveScreenshot | DialogKind::SaveTransfer => {
                                 self.path_text = name.clone();
                             }
-                            _ => *outcome = Some(BrowserOutcome::Chosen(self.directory.join(name))),
+                            _ => {
+                                *outcome = Some(BrowserOutcome::Chosen(self.directory.join(name)));
+                            }
                         }
                     }
                 }

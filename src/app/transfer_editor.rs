@@ -222,6 +222,12 @@ fn selection_id(ui: &Ui) -> egui::Id {
     ui.scope_id().with("selected_point")
 }
 
+/// The index of the selected control point, as kept between frames.
+fn selected_point(ui: &Ui) -> Option<usize> {
+    ui.data(|d| d.get_temp::<Option<usize>>(selection_id(ui)))
+        .flatten()
+}
+
 /// Control points: drawn on the curve, dragged, deleted with a right-click, added where the
 /// empty plot is clicked.
 fn edit_points(
@@ -231,7 +237,7 @@ fn edit_points(
     background: &Response,
 ) {
     let selection = selection_id(ui);
-    let mut selected: Option<usize> = ui.data(|d| d.get_temp(selection));
+    let mut selected = selected_point(ui);
     let mut remove = None;
     let mut any_point_hit = false;
     for index in 0..curve.points().len() {
@@ -301,12 +307,7 @@ fn edit_points(
 
 /// The selected point's value, opacity and own color, as numbers to type.
 fn selected_point_fields(ui: &mut Ui, curve: &mut crate::octree::OpacityCurve) {
-    let selection = selection_id(ui);
-    let Some(index) = ui
-        .data(|d| d.get_temp::<Option<usize>>(selection))
-        .flatten()
-        .filter(|&i| i < curve.points().len())
-    else {
+    let Some(index) = selected_point(ui).filter(|&i| i < curve.points().len()) else {
         return;
     };
     let point = curve.points()[index];

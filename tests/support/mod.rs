@@ -2,6 +2,7 @@
 //! writers for loader tests, and GPU helpers.
 #![allow(dead_code)] // each test binary uses a different part
 
+pub mod app_harness;
 pub mod reference;
 pub mod writers;
 

@@ -1,0 +1,112 @@
+//! The transfer-function editor, presets and the app's own file browser, driven through
+//! egui_kittest on the software Vulkan device (snapshots in tests/snapshots, each looked at).
+
+mod support;
+
+use egui_kittest::kittest::Queryable;
+use support::app_harness::{
+    click_at, differing_pixels, drag, harness, lit_pixels, settle, snapshot, view,
+};
+use voxscope::app::{Command, DialogKind};
+use voxscope::octree::OpacityMode;
+
+/// The control points of the main transfer function (panics if it is not a curve).
+fn points(harness: &egui_kittest::Harness<'_, voxscope::app::VoxscopeApp>) -> Vec<(f64, f32)> {
+    match &harness.state().settings.transfer.opacity {
+        OpacityMode::Points(curve) => curve
+            .points()
+            .iter()
+            .map(|p| (p.value, p.opacity))
+            .collect(),
+        other => panic!("the opacity is {other:?}, not a curve"),
+    }
+}
+
+#[test]
+fn the_points_editor_adds_moves_and_deletes_control_points_and_the_image_follows() {
+    let mut harness = harness();
+    let gray = view(&harness);
+    harness.get_by_label("Points").click();
+    settle(&mut harness);
+    // Switching to Points turns the gray ramp over the window into a two-point curve: the
+    // same picture.
+    assert_eq!(points(&harness).len(), 2);
+    assert_eq!(differing_pixels(&gray, &view(&harness)), 0);
+
+    // A click on the empty histogram, above the middle of the ramp, adds a point there.
+    let low = harness.get_by_label("window low: drag").rect();
+    let high = harness.get_by_label("window high: drag").rect();
+    let spot = egui::pos2(
+        (low.center().x + high.center().x) / 2.0,
+        low.top() + 0.15 * low.height(),
+    );
+    click_at(&harness, spot);
+    settle(&mut harness);
+    let added = points(&harness);
+    assert_eq!(added.len(), 3, "{added:?}");
+    assert!(added[1].1 > 0.7, "the new point is high: {added:?}");
+    let raised = view(&harness);
+    assert!(differing_pixels(&gray, &raised) > 1000);
+    snapshot(&mut harness, "transfer_editor_points");
+
+    // Dragging it down to the bottom makes the middle values transparent.
+    let point = harness.get_by_label("point 2: drag").rect().center();
+    drag(&mut harness, point, egui::pos2(point.x, low.bottom()));
+    settle(&mut harness);
+    let dragged = points(&harness);
+    assert!(dragged[1].1 < 0.05, "{dragged:?}");
+    assert!(lit_pixels(&view(&harness)) < lit_pixels(&raised));
+
+    // A right-click deletes it.
+    harness.get_by_label("point 2: drag").click_secondary();
+    settle(&mut harness);
+    assert_eq!(points(&harness).len(), 2);
+}
+
+#[test]
+fn the_app_browser_opens_a_typed_path_and_a_listed_file() {
+    let mut harness = harness();
+    let ctx = harness.ctx.clone();
+    harness
+        .state_mut()
+        .run_command(Command::Browse(DialogKind::Open), &ctx);
+    settle(&mut harness);
+    assert_eq!(harness.state().browsing(), Some(DialogKind::Open));
+    let mni = support::shared_data("mni152-t1-197x233x189.nii.gz");
+    let path = harness.get_by_label("Path");
+    path.focus();
+    path.type_text(&mni.display().to_string());
+    harness.step();
+    harness.key_press(egui::Key::Enter);
+    settle(&mut harness);
+    assert_eq!(harness.state().browsing(), None);
+    assert_eq!(harness.state().error(), None);
+    assert_eq!(
+        harness.state().volume().expect("open").0,
+        mni.display().to_string()
+    );
+
+    // Typing a folder goes there; its volume files are listed and a click opens one.
+    harness
+        .state_mut()
+        .run_command(Command::Browse(DialogKind::Open), &ctx);
+    settle(&mut harness);
+    let folder = mni.parent().expect("a folder");
+    let path = harness.get_by_label("Path");
+    path.focus();
+    path.type_text(&folder.display().to_string());
+    harness.step();
+    harness.key_press(egui::Key::Enter);
+    settle(&mut harness);
+    assert_eq!(harness.state().browsing(), Some(DialogKind::Open));
+    harness
+        .get_by_label_contains("mri-head-128x128x62.nii.gz")
+        .click();
+    settle(&mut harness);
+    assert_eq!(harness.state().browsing(), None);
+    let head = folder.join("mri-head-128x128x62.nii.gz");
+    assert_eq!(
+        harness.state().volume().expect("open").0,
+        head.display().to_string()
+    );
+}

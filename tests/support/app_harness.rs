@@ -1,0 +1,120 @@
+//! The app under egui_kittest on the software Vulkan device: a harness that waits for the
+//! background work, snapshots with the measured times masked, and image helpers.
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use egui_kittest::Harness;
+use egui_kittest::kittest::Queryable;
+use voxscope::app::{VolumeSource, VoxscopeApp, wgpu_setup};
+
+pub const SIZE: egui::Vec2 = egui::vec2(1280.0, 800.0);
+
+pub fn harness_with(
+    source: Option<VolumeSource>,
+    size: egui::Vec2,
+) -> Harness<'static, VoxscopeApp> {
+    let mut harness = Harness::builder()
+        .with_size(size)
+        .wgpu_setup(wgpu_setup())
+        .build_eframe(move |cc| VoxscopeApp::new(cc, source));
+    settle(&mut harness);
+    harness
+}
+
+pub fn harness() -> Harness<'static, VoxscopeApp> {
+    harness_with(None, SIZE)
+}
+
+/// Steps until no background work is left and the view is drawn.
+pub fn settle(harness: &mut Harness<'_, VoxscopeApp>) {
+    let started = Instant::now();
+    loop {
+        harness.step();
+        if !harness.state().is_busy() {
+            break;
+        }
+        assert!(
+            started.elapsed() < Duration::from_secs(120),
+            "the app stayed busy for 2 minutes"
+        );
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    // One more frame to draw what the last job delivered, and one to read its numbers.
+    harness.run_steps(2);
+    while harness.state().is_busy() {
+        harness.step();
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    harness.run_steps(1);
+}
+
+/// A snapshot with the measured times (which vary from run to run) masked.
+pub fn snapshot(harness: &mut Harness<'_, VoxscopeApp>, name: &str) {
+    let right = harness.ctx.content_rect().right();
+    let rows: Vec<egui::Rect> = ["Load + build", "GPU time"]
+        .iter()
+        .map(|label| harness.get_by_label(label).rect())
+        .collect();
+    let values_left = harness.get_by_label("Nodes per ray").rect().right() + 4.0;
+    for row in rows {
+        harness.mask(egui::Rect::from_min_max(
+            egui::pos2(values_left, row.top()),
+            egui::pos2(right, row.bottom()),
+        ));
+    }
+    harness.snapshot(name);
+}
+
+/// The rendered view as an image (what File ▸ Save screenshot writes).
+pub fn view(harness: &Harness<'_, VoxscopeApp>) -> image::RgbaImage {
+    harness.state().view_image(1.0).expect("the view is drawn")
+}
+
+pub fn differing_pixels(a: &image::RgbaImage, b: &image::RgbaImage) -> usize {
+    assert_eq!(a.dimensions(), b.dimensions());
+    a.pixels().zip(b.pixels()).filter(|(p, q)| p != q).count()
+}
+
+/// Pixels that are not the black background.
+pub fn lit_pixels(image: &image::RgbaImage) -> usize {
+    image
+        .pixels()
+        .filter(|p| p.0[0] > 8 || p.0[1] > 8 || p.0[2] > 8)
+        .count()
+}
+
+/// A relative path under target/, so messages in snapshots do not depend on the checkout.
+pub fn scratch(name: &str) -> PathBuf {
+    let dir = Path::new("target/app-test");
+    std::fs::create_dir_all(dir).expect("create target/app-test");
+    dir.join(name)
+}
+
+/// A primary-button click at `pos` (a place that is no widget of its own, like a spot on the
+/// histogram).
+pub fn click_at(harness: &Harness<'_, VoxscopeApp>, pos: egui::Pos2) {
+    harness.hover_at(pos);
+    for pressed in [true, false] {
+        harness.event(egui::Event::PointerButton {
+            pos,
+            button: egui::PointerButton::Primary,
+            pressed,
+            modifiers: egui::Modifiers::NONE,
+        });
+    }
+}
+
+/// Drags from `from` to `to` in a few steps, as a hand would.
+pub fn drag(harness: &mut Harness<'_, VoxscopeApp>, from: egui::Pos2, to: egui::Pos2) {
+    harness.hover_at(from);
+    harness.step();
+    harness.drag_at(from);
+    harness.step();
+    for f in [0.25, 0.5, 0.75, 1.0] {
+        harness.hover_at(from.lerp(to, f));
+        harness.step();
+    }
+    harness.drop_at(to);
+    harness.step();
+}
