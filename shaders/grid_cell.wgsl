@@ -11,3 +11,13 @@ struct GridCell {
     bounds: u32,      // the node's value bounds: minimum in the low 16 bits, maximum in the high
     atlas_cell: u32,  // the brick's atlas cell, ten bits per axis, x lowest; 0 if no brick
 }
+
+// The fields of a GridCell as components of the vec4<u32> the grid walk reads and keeps a cell
+// in: `cell[CELL_BOUNDS]` is `cell.z`, by name (raycast.wgsl's `brick_grid` says why not
+// GridCell values). Abstract integers, so that nothing of them reaches the SPIR-V: the walk's is
+// byte for byte what `.x/.y/.z/.w` gave. In the order of GridCell's fields; a test in
+// src/render/gpu_data.rs checks each name against its field.
+const CELL_COLOR = 0;
+const CELL_FIRST_CHILD = 1;
+const CELL_BOUNDS = 2;
+const CELL_ATLAS_CELL = 3;

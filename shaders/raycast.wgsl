@@ -27,8 +27,12 @@ const MAX_STEPS: u32 = 100000u;
 // The bricks renderer's atlas of value levels (a 1-texel stand-in for the plain octree).
 @group(0) @binding(6) var atlas: texture_3d<f32>;
 @group(0) @binding(7) var atlas_sampler: sampler;
-// The bricks renderer's grid of brick cells (`GridCell`, grid_cell.wgsl).
-@group(0) @binding(8) var<storage, read> brick_grid: array<GridCell>;
+// The bricks renderer's grid of brick cells (`GridCell`, grid_cell.wgsl), read and kept as
+// vectors whose components the CELL_* constants there name: `cell[CELL_BOUNDS]`. As GridCell
+// values (read from an array<GridCell>, or built from the vector at the read or at each use) the
+// grid walk ran 1–5 % slower on an H200 with driver 580, the driver's code 128–900 bytes longer
+// (docs/bench runs 40–42).
+@group(0) @binding(8) var<storage, read> brick_grid: array<vec4<u32>>;
 
 // A node's corner: integer voxel coordinates below the octree side (≤ 1024, MAX_DEPTH 10),
 // ten bits each.
@@ -326,7 +330,7 @@ fn walk_bricks(origin: vec3<f32>, dir: vec3<f32>) -> RayResult {
     // Decided once per cell (MIP: against the maximum when the ray enters it).
     var draw = draws_brick(entry, 0u);
     let atlas_dir = dir * params.atlas_texel.xyz;
-    var atlas_here = atlas_origin(origin, entry.atlas_cell, vec3<f32>(here.cell) * brick);
+    var atlas_here = atlas_origin(origin, entry[CELL_ATLAS_CELL], vec3<f32>(here.cell) * brick);
     var k = 0.0;
     var advance = false;
     var acc = Accumulation(vec3<f32>(0.0), 0.0, 0u, false);
@@ -339,7 +343,7 @@ fn walk_bricks(origin: vec3<f32>, dir: vec3<f32>) -> RayResult {
             entry = next_entry;
             next_entry = brick_grid[grid_index(here.next)];
             draw = draws_brick(entry, acc.running_max);
-            atlas_here = atlas_origin(origin, entry.atlas_cell, vec3<f32>(here.cell) * brick);
+            atlas_here = atlas_origin(origin, entry[CELL_ATLAS_CELL], vec3<f32>(here.cell) * brick);
             result.visited += 1u;
             advance = false;
         }
@@ -357,7 +361,8 @@ fn walk_bricks(origin: vec3<f32>, dir: vec3<f32>) -> RayResult {
                 if draws_brick(next_entry, acc.running_max) {
                     let t_next = min(min_component(here.next_exits), ray.t_leave);
                     count = count_before(ts, t_next) + count_before(ts2, t_next);
-                    atlas_next = atlas_origin(origin, next_entry.atlas_cell, vec3<f32>(here.next) * brick);
+                    atlas_next = atlas_origin(origin, next_entry[CELL_ATLAS_CELL],
+                                              vec3<f32>(here.next) * brick);
                 }
             }
             let first = brick_batch(atlas_dir, ts, here.t_out, atlas_here, atlas_next);
@@ -367,7 +372,7 @@ fn walk_bricks(origin: vec3<f32>, dir: vec3<f32>) -> RayResult {
             advance = count_here < BATCH_PAIR;
             // MIP: once the ray's maximum reaches the brick's (its own voxels' maximum, which
             // the cell skip trusts too), the rest of the brick cannot raise it.
-            if mip && !advance && acc.running_max >= (entry.bounds >> 16u) {
+            if mip && !advance && acc.running_max >= (entry[CELL_BOUNDS] >> 16u) {
                 k = max(ceil((here.t_out - ray.t_enter) / sample_step - 0.5), k);
                 advance = true;
             }
@@ -375,12 +380,13 @@ fn walk_bricks(origin: vec3<f32>, dir: vec3<f32>) -> RayResult {
             // Skipped, or a uniform region (a leaf above the bricks): its samples in one go.
             let end = max(ceil((here.t_out - ray.t_enter) / sample_step - 0.5), k);
             // (Only where a sample falls: a ray can clip a cell's corner between two samples.)
-            if entry.first_child == LEAF && (entry.bounds & 0xffffu) <= (entry.bounds >> 16u) && end > k {
+            if entry[CELL_FIRST_CHILD] == LEAF
+                && (entry[CELL_BOUNDS] & 0xffffu) <= (entry[CELL_BOUNDS] >> 16u) && end > k {
                 if mip {
-                    acc.running_max = max(acc.running_max, entry.bounds >> 16u);
+                    acc.running_max = max(acc.running_max, entry[CELL_BOUNDS] >> 16u);
                     acc.done = acc.running_max >= params.mip_saturation;
-                } else if (entry.color >> 24u) != 0u {
-                    let rgba = unpack4x8unorm(entry.color);
+                } else if (entry[CELL_COLOR] >> 24u) != 0u {
+                    let rgba = unpack4x8unorm(entry[CELL_COLOR]);
                     let a = 1.0 - pow(1.0 - min(rgba.a * params.density, 1.0), end - k);
                     acc.color += (1.0 - acc.alpha) * a * rgba.rgb;
                     acc.alpha += (1.0 - acc.alpha) * a;
@@ -398,16 +404,16 @@ fn walk_bricks(origin: vec3<f32>, dir: vec3<f32>) -> RayResult {
     return result;
 }
 
-// Whether a grid entry is a brick that can change the pixel: DVR, not transparent; MIP, its
+// Whether a grid cell is a brick that can change the pixel: DVR, not transparent; MIP, its
 // maximum above the ray's so far.
-fn draws_brick(entry: GridCell, running_max: u32) -> bool {
-    if entry.first_child == LEAF {
+fn draws_brick(cell: vec4<u32>, running_max: u32) -> bool {
+    if cell[CELL_FIRST_CHILD] == LEAF {
         return false;
     }
     if params.mode == MODE_MIP {
-        return (entry.bounds >> 16u) > running_max;
+        return (cell[CELL_BOUNDS] >> 16u) > running_max;
     }
-    return (entry.color >> 24u) != 0u;
+    return (cell[CELL_COLOR] >> 24u) != 0u;
 }
 
 // Index of a brick cell (clamped into the grid) in `brick_grid`.

@@ -36,7 +36,8 @@ const _: () = assert!(std::mem::size_of::<RaycastParams>() == 176);
 
 /// One cell of the bricks renderer's grid: a copy of the node covering it and its value
 /// bounds (refreshed by `brick_grid.wgsl` after a recolor), and its brick's atlas cell.
-/// Keep in sync with `struct GridCell` in `grid_cell.wgsl`.
+/// Keep in sync with `struct GridCell` in `grid_cell.wgsl` and the `CELL_*` names of its
+/// fields as vector components there (the grid walk reads a cell as a `vec4<u32>`).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]
 pub(crate) struct GridCell {
@@ -105,9 +106,10 @@ pub(crate) const FLAG_HEATMAP: u32 = 4;
 #[cfg(test)]
 mod tests {
     //! Every struct a shader binds (a uniform, or the element of a storage array) has a Rust
-    //! mirror here, with the same fields at the same byte offsets and sizes, as naga lays the
-    //! WGSL out. Fields named `_…` are padding: not compared by name (WGSL spells a `[u32; 3]`
-    //! as three scalars), but the struct sizes catch them.
+    //! mirror here, and every mirror has the same fields at the same byte offsets and sizes as
+    //! naga lays the WGSL struct out in each shader that declares it (raycast.wgsl declares
+    //! `GridCell` but binds its grid as vectors). Fields named `_…` are padding: not compared by
+    //! name (WGSL spells a `[u32; 3]` as three scalars), but the struct sizes catch them.
     use std::collections::BTreeMap;
     use std::mem::{offset_of, size_of};
 
@@ -225,7 +227,7 @@ mod tests {
         })
     }
 
-    /// For each shader, the Rust mirror of each WGSL struct it binds, by WGSL name.
+    /// For each shader, the Rust mirror of each WGSL struct it binds or reads, by WGSL name.
     fn mirrors(shader: &str) -> Vec<(&'static str, Layout)> {
         match shader {
             "raycast" => vec![
@@ -246,24 +248,16 @@ mod tests {
         }
     }
 
-    /// The layout of every struct `module` binds (a uniform or storage variable of that
-    /// struct, or an array of it), by struct name.
-    fn bound_structs(module: &naga::Module) -> BTreeMap<String, Layout> {
+    /// The layout of every named struct `module` declares, by name.
+    fn declared_structs(module: &naga::Module) -> BTreeMap<String, Layout> {
         let mut layouter = naga::proc::Layouter::default();
         layouter.update(module.to_ctx()).expect("layout");
         let mut structs = BTreeMap::new();
-        for (_, global) in module.global_variables.iter() {
-            if global.binding.is_none() {
-                continue;
-            }
-            let mut ty = global.ty;
-            if let naga::TypeInner::Array { base, .. } = module.types[ty].inner {
-                ty = base;
-            }
-            let naga::TypeInner::Struct { members, .. } = &module.types[ty].inner else {
+        for (handle, ty) in module.types.iter() {
+            let (naga::TypeInner::Struct { members, .. }, Some(name)) = (&ty.inner, &ty.name)
+            else {
                 continue;
             };
-            let name = module.types[ty].name.clone().expect("structs are named");
             let fields = members
                 .iter()
                 .map(|member| Field {
@@ -272,13 +266,41 @@ mod tests {
                     size: layouter[member.ty].size,
                 })
                 .collect();
-            let size = layouter[ty].size;
-            structs.insert(name.clone(), Layout { name, size, fields });
+            let size = layouter[handle].size;
+            structs.insert(
+                name.clone(),
+                Layout {
+                    name: name.clone(),
+                    size,
+                    fields,
+                },
+            );
         }
         structs
     }
 
-    /// Whether `wgsl` (a struct of `shader`, as [`bound_structs`] gives it) lays out `rust`'s
+    /// The names of the structs `module` binds: a uniform or storage variable of that struct,
+    /// or an array of it.
+    fn bound_structs(module: &naga::Module) -> Vec<String> {
+        let mut names = Vec::new();
+        for (_, global) in module.global_variables.iter() {
+            if global.binding.is_none() {
+                continue;
+            }
+            let mut ty = global.ty;
+            if let naga::TypeInner::Array { base, .. } = module.types[ty].inner {
+                ty = base;
+            }
+            if let (naga::TypeInner::Struct { .. }, Some(name)) =
+                (&module.types[ty].inner, &module.types[ty].name)
+            {
+                names.push(name.clone());
+            }
+        }
+        names
+    }
+
+    /// Whether `wgsl` (a struct of `shader`, as [`declared_structs`] gives it) lays out `rust`'s
     /// fields as Rust does; the error names the field that differs.
     fn compare(shader: &str, wgsl: &Layout, rust: &Layout) -> Result<(), String> {
         fn named(layout: &Layout) -> Vec<&Field> {
@@ -330,22 +352,66 @@ mod tests {
     fn rust_structs_mirror_wgsl_field_by_field() {
         for shader in shaders::ALL {
             let module = naga::front::wgsl::parse_str(shader.source).expect("shader parses");
-            let mut bound = bound_structs(&module);
-            for (wgsl_name, rust) in mirrors(shader.name) {
-                let wgsl = bound.remove(wgsl_name).unwrap_or_else(|| {
+            let declared = declared_structs(&module);
+            let mirrors = mirrors(shader.name);
+            for (wgsl_name, rust) in &mirrors {
+                let wgsl = declared.get(*wgsl_name).unwrap_or_else(|| {
                     panic!(
-                        "{}: binds no struct {wgsl_name} (mirror {})",
+                        "{}: declares no struct {wgsl_name} (mirror {})",
                         shader.name, rust.name
                     )
                 });
-                if let Err(problem) = compare(shader.name, &wgsl, &rust) {
+                if let Err(problem) = compare(shader.name, wgsl, rust) {
                     panic!("{problem}");
                 }
             }
-            let unmirrored: Vec<&String> = bound.keys().collect();
-            assert!(
-                unmirrored.is_empty(),
-                "{}: binds {unmirrored:?} with no Rust mirror listed in gpu_data's test",
+            for bound in bound_structs(&module) {
+                assert!(
+                    mirrors.iter().any(|(wgsl_name, _)| *wgsl_name == bound),
+                    "{}: binds {bound} with no Rust mirror listed in gpu_data's test",
+                    shader.name
+                );
+            }
+        }
+    }
+
+    /// The `CELL_*` constants of `source` (`const CELL_NAME = N;`), which name GridCell's fields
+    /// as components of a vector. Abstract integers: naga keeps none of them in the module, so
+    /// they are read from the text.
+    fn cell_components(source: &str) -> Vec<(String, u32)> {
+        source
+            .lines()
+            .filter_map(|line| line.strip_prefix("const CELL_"))
+            .map(|rest| {
+                let (name, value) = rest
+                    .trim_end_matches(';')
+                    .split_once(" = ")
+                    .unwrap_or_else(|| panic!("`const CELL_{rest}` is not `const CELL_NAME = N;`"));
+                let value = value
+                    .parse()
+                    .unwrap_or_else(|_| panic!("CELL_{name}: {value} is not a component index"));
+                (format!("CELL_{name}"), value)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn grid_cell_components_are_named_after_its_fields_in_order() {
+        for shader in shaders::ALL {
+            let module = naga::front::wgsl::parse_str(shader.source).expect("shader parses");
+            let Some(cell) = declared_structs(&module).remove("GridCell") else {
+                continue;
+            };
+            let expected: Vec<(String, u32)> = cell
+                .fields
+                .iter()
+                .enumerate()
+                .map(|(index, field)| (format!("CELL_{}", field.name.to_uppercase()), index as u32))
+                .collect();
+            assert_eq!(
+                cell_components(shader.source),
+                expected,
+                "{}: each GridCell field's CELL_ component, in order",
                 shader.name
             );
         }
@@ -363,8 +429,7 @@ mod tests {
         let check = |wgsl: &str| {
             let source = format!("{wgsl}\n@group(0) @binding(0) var<uniform> params: LevelParams;");
             let module = naga::front::wgsl::parse_str(&source).expect("test WGSL parses");
-            let bound = bound_structs(&module);
-            compare("test", &bound["LevelParams"], &rust)
+            compare("test", &declared_structs(&module)["LevelParams"], &rust)
         };
         let same =
             "struct LevelParams { level_start: u32, level_count: u32, groups_x: u32, _p: u32 }";
