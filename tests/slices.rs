@@ -688,6 +688,32 @@ fn slices_with_different_windows_in_one_encoder_keep_their_own_colors() {
         let image = read_image(&context, target).unwrap();
         assert!(image == alone[i], "slice {i} recorded with the other");
     }
+    // Views alternating between their windows reuse their tables; at most four are kept.
+    let table_bytes = |renderer: &VolumeRenderer| {
+        renderer
+            .gpu_bytes()
+            .iter()
+            .find(|(name, _)| *name == "slice_colors")
+            .map_or(0, |(_, bytes)| *bytes)
+    };
+    let one_table = 65_536 * 4;
+    assert_eq!(table_bytes(&renderer), 2 * one_table);
+    for settings in settings.iter().cycle().take(10) {
+        draw(&context, &renderer, settings, size);
+    }
+    assert_eq!(table_bytes(&renderer), 2 * one_table, "alternating windows");
+    for high in [100.0, 200.0, 400.0, 800.0, 1600.0] {
+        let settings = SliceSettings {
+            window: ValueWindow { low: 0.0, high },
+            ..settings[0]
+        };
+        draw(&context, &renderer, &settings, size);
+    }
+    assert_eq!(
+        table_bytes(&renderer),
+        4 * one_table,
+        "the last four windows"
+    );
 }
 
 #[test]

@@ -302,21 +302,25 @@ pub(crate) fn slice_lookup_table(
         .collect()
 }
 
-/// A volume's slice colors on the GPU and the window and colormap they were made for. A new
-/// window or colormap makes a new buffer (rather than writing this one), so slices recorded
-/// earlier into a command encoder keep their own colors.
+/// One color table on the GPU and the window and colormap it was made for.
 pub(crate) struct SliceColors {
     window: ValueWindow,
     colormap: Colormap,
     buffer: wgpu::Buffer,
 }
 
-/// The slice colors of one volume, made again only when the window or colormap change.
+/// How many color tables a volume keeps: enough for views that each show their own window or
+/// colormap without making tables every frame.
+const KEPT_COLOR_TABLES: usize = 4;
+
+/// A volume's slice color tables, the most recently used first, each made once for its window
+/// and colormap. A new window or colormap makes a new buffer (rather than writing an old one),
+/// so slices recorded earlier into a command encoder keep their own colors.
 #[derive(Default)]
-pub(crate) struct SliceColorCache(Mutex<Option<SliceColors>>);
+pub(crate) struct SliceColorCache(Mutex<Vec<SliceColors>>);
 
 impl SliceColorCache {
-    /// The lookup table of `window` and `colormap` for values of `quantization`.
+    /// The color table of `window` and `colormap` for values of `quantization`.
     pub(crate) fn get(
         &self,
         context: &GpuContext,
@@ -324,17 +328,18 @@ impl SliceColorCache {
         window: ValueWindow,
         colormap: Colormap,
     ) -> wgpu::Buffer {
-        // A poisoned lock only means a panic elsewhere while it was held; the cache is still
-        // valid (it is replaced whole).
-        let mut cached = self
+        // A poisoned lock only means a panic elsewhere while it was held; the tables in it are
+        // still whole (each is made before it is added).
+        let mut tables = self
             .0
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner);
-        match &*cached {
-            Some(colors) if colors.window == window && colors.colormap == colormap => {
-                colors.buffer.clone()
-            }
-            _ => {
+        let found = tables
+            .iter()
+            .position(|t| t.window == window && t.colormap == colormap);
+        let colors = match found {
+            Some(index) => tables.remove(index),
+            None => {
                 let table = slice_lookup_table(quantization, window, colormap);
                 let buffer = context
                     .device
@@ -343,14 +348,17 @@ impl SliceColorCache {
                         contents: bytemuck::cast_slice(&table),
                         usage: wgpu::BufferUsages::STORAGE,
                     });
-                *cached = Some(SliceColors {
+                SliceColors {
                     window,
                     colormap,
-                    buffer: buffer.clone(),
-                });
-                buffer
+                    buffer,
+                }
             }
-        }
+        };
+        let buffer = colors.buffer.clone();
+        tables.insert(0, colors);
+        tables.truncate(KEPT_COLOR_TABLES);
+        buffer
     }
 
     /// Bytes on the GPU (0 until the first slice).
@@ -358,8 +366,9 @@ impl SliceColorCache {
         self.0
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner)
-            .as_ref()
-            .map_or(0, |colors| colors.buffer.size())
+            .iter()
+            .map(|colors| colors.buffer.size())
+            .sum()
     }
 }
 

@@ -66,8 +66,7 @@ pub struct VolumeRenderer {
     state: State,
     /// What the value levels mean (for the slices' colors).
     quantization: Quantization,
-    /// The slices' colors, made on the first slice and again when the window or colormap
-    /// change.
+    /// The slices' color tables, made on the first slice of each window and colormap.
     slice_colors: SliceColorCache,
 }
 
@@ -246,8 +245,9 @@ impl VolumeRenderer {
     /// value at each pixel's point, from what this renderer holds (the dense texture; the
     /// bricks' cell grid and atlas; the octree's leaves), through `settings`' window and
     /// colormap, opaque; transparent black outside the volume. The slice pipeline is built on
-    /// the device's first slice. The colors are made again only when the window or colormap
-    /// change; slices of several windows may share an encoder.
+    /// the device's first slice. A color table is made once per window and colormap (the
+    /// last four are kept, for views with windows of their own); slices of several windows may
+    /// share an encoder.
     pub fn encode_slice(
         &self,
         context: &GpuContext,
