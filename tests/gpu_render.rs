@@ -654,7 +654,7 @@ fn gpu_brick_recolor_equals_the_cpu_rule_bit_for_bit() {
     use voxscope::render::{GpuBricks, OctreeOnGpu};
     let context = gpu();
     let recolor = context.brick_recolor();
-    // u8 data (8-bit atlas) and u16 data (16-bit float atlas), bricks of 4 and 8, non-cubic.
+    // u8 data (8-bit atlas), u16 and f32 data (16-bit atlas), bricks of 4 and 8, non-cubic.
     for (spec, brick_size) in [
         ("synthetic:noise:37x26x19", 4),
         ("synthetic:sphere:40x33x21", 8),
@@ -691,10 +691,11 @@ fn gpu_brick_recolor_equals_the_cpu_rule_bit_for_bit() {
         // mean rounded up), a leaf its table color, an inner node the average of its children.
         let table = second.lookup_table(octree.quantization);
         let dims = volume.dims;
-        // What the atlas holds: levels as they are (8-bit atlas), or rounded to half floats.
+        // What the atlas holds: levels as they are (8-bit and 16-bit normalized atlases), or
+        // rounded to half floats (devices without 16-bit normalized textures).
         let eight_bit = layout.atlas.iter().all(|&l| l <= 255);
         let stored = |level: u16| {
-            if eight_bit {
+            if eight_bit || context.has_norm16_textures {
                 level
             } else {
                 half::f16::from_f32(level as f32).to_f32().round() as u16

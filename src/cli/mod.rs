@@ -1,5 +1,5 @@
 //! The command line: `voxscope [FILE]` opens the app; `voxscope info`, `render`, `bench`,
-//! `ceilings` and `probe` work without a window.
+//! `ceilings`, `probe` and `slice` work without a window.
 
 mod args;
 mod bench;
@@ -8,6 +8,7 @@ mod info;
 mod prepare;
 mod probe;
 mod render;
+mod slice;
 
 use clap::{Parser, Subcommand};
 
@@ -37,6 +38,8 @@ pub enum Command {
     Ceilings(ceilings::CeilingsArgs),
     /// Print one voxel's value, position and unit (indices as the app and `slice` show them).
     Probe(probe::ProbeArgs),
+    /// Write one slice of the volume to a PNG at one pixel per voxel, oriented as the app shows it.
+    Slice(slice::SliceArgs),
 }
 
 /// Runs the command line; returns the process exit code. Errors print as one line.
@@ -48,6 +51,7 @@ pub fn run() -> std::process::ExitCode {
         Some(Command::Bench(args)) => bench::run(&args),
         Some(Command::Ceilings(args)) => ceilings::run(&args),
         Some(Command::Probe(args)) => probe::run(&args),
+        Some(Command::Slice(args)) => slice::run(&args),
         None => crate::app::run(cli.file.map(crate::app::VolumeSource::Spec)),
     };
     match result {

@@ -35,7 +35,7 @@ pub struct GpuBricks {
 
 impl GpuBricks {
     /// Uploads `layout` (nodes colored as they are). The atlas is 8-bit when every value level
-    /// fits (≤ 255), 16-bit float otherwise.
+    /// fits (≤ 255), 16-bit otherwise (`LevelTexture`).
     pub fn upload(
         context: &GpuContext,
         layout: &BrickLayout,

@@ -26,13 +26,18 @@ pub struct GpuContext {
     pub limits: wgpu::Limits,
     /// Whether GPU timestamp queries can time passes.
     pub has_timestamps: bool,
+    /// Whether 16-bit normalized textures (`R16Unorm`) can be sampled: value levels above
+    /// 255 are then stored exactly (`LevelTexture`), else as 16-bit floats.
+    pub has_norm16_textures: bool,
     pub(crate) pipelines: PipelineCache,
 }
 
 impl GpuContext {
-    /// The features voxscope asks for when the adapter has them.
+    /// The features voxscope asks for when the adapter has them: timestamp queries (GPU time
+    /// per pass) and 16-bit normalized textures (exact value levels above 255).
     pub fn wanted_features(adapter_features: wgpu::Features) -> wgpu::Features {
-        adapter_features & wgpu::Features::TIMESTAMP_QUERY
+        adapter_features
+            & (wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::TEXTURE_FORMAT_16BIT_NORM)
     }
 
     /// What voxscope asks of `adapter`: all of its limits (large storage buffers and 3D
@@ -85,13 +90,14 @@ impl GpuContext {
         adapter_info: wgpu::AdapterInfo,
     ) -> Self {
         let limits = device.limits();
-        let has_timestamps = device.features().contains(wgpu::Features::TIMESTAMP_QUERY);
+        let features = device.features();
         Self {
             device,
             queue,
             adapter_info,
             limits,
-            has_timestamps,
+            has_timestamps: features.contains(wgpu::Features::TIMESTAMP_QUERY),
+            has_norm16_textures: features.contains(wgpu::Features::TEXTURE_FORMAT_16BIT_NORM),
             pipelines: PipelineCache::default(),
         }
     }

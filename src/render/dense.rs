@@ -12,9 +12,10 @@ use super::{Frame, GpuContext, GpuTransferTable, RenderError};
 use crate::octree::TransferFunction;
 use crate::volume::QuantizedVolume;
 
-/// A volume as one 3D texture of value levels (8-bit when they fit, else 16-bit float).
+/// A volume as one 3D texture of value levels (8 or 16 bits, `LevelTexture`).
 pub struct DenseVolume {
-    levels: LevelTexture,
+    /// The value levels (read by the slices too).
+    pub(crate) levels: LevelTexture,
     pub transfer: GpuTransferTable,
     pub dims: [usize; 3],
     pub spacing: [f64; 3],

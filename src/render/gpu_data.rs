@@ -99,6 +99,35 @@ pub(crate) struct CeilingParams {
 
 const _: () = assert!(std::mem::size_of::<CeilingParams>() == 32);
 
+/// Uniforms of `slice.wgsl`. Keep in sync with `struct SliceParams` there.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub(crate) struct SliceParams {
+    /// Voxel-space point at the center of pixel (0, 0) (w unused).
+    pub origin: [f32; 4],
+    /// Voxel-space step per pixel to the right (w unused).
+    pub step_x: [f32; 4],
+    /// Voxel-space step per pixel down (w unused).
+    pub step_y: [f32; 4],
+    /// Voxels along x, y, z; w: the octree's depth.
+    pub dims: [u32; 4],
+    /// Brick cells along x, y, z (w unused).
+    pub brick_grid: [u32; 4],
+    pub image_size: [u32; 2],
+    /// Which volume the slice reads (`SOURCE_*` in slice.rs).
+    pub source: u32,
+    /// 1: the nearest voxel; 0: trilinear.
+    pub nearest: u32,
+    /// Texel value × this = value level.
+    pub level_scale: f32,
+    /// The deepest octree level on the GPU.
+    pub deepest_level: u32,
+    pub brick_size: u32,
+    pub _pad: u32,
+}
+
+const _: () = assert!(std::mem::size_of::<SliceParams>() == 112);
+
 pub(crate) const FLAG_OPACITY_CORRECTION: u32 = 1;
 pub(crate) const FLAG_PIXEL_LOD: u32 = 2;
 pub(crate) const FLAG_HEATMAP: u32 = 4;
@@ -227,6 +256,23 @@ mod tests {
         })
     }
 
+    fn slice_params() -> Layout {
+        rust_layout!(SliceParams {
+            origin,
+            step_x,
+            step_y,
+            dims,
+            brick_grid,
+            image_size,
+            source,
+            nearest,
+            level_scale,
+            deepest_level,
+            brick_size,
+            _pad,
+        })
+    }
+
     /// For each shader, the Rust mirror of each WGSL struct it binds or reads, by WGSL name.
     fn mirrors(shader: &str) -> Vec<(&'static str, Layout)> {
         match shader {
@@ -244,6 +290,11 @@ mod tests {
                 ("GridCell", grid_cell()),
             ],
             "ceilings" => vec![("CeilingParams", ceiling_params())],
+            "slice" => vec![
+                ("SliceParams", slice_params()),
+                ("Node", node()),
+                ("GridCell", grid_cell()),
+            ],
             other => panic!("no mirrors listed for the shader {other}"),
         }
     }

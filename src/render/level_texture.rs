@@ -1,5 +1,7 @@
 //! Value levels in a 3D texture (the dense volume, the brick atlas): 8-bit when every level
-//! fits (≤ 255, exact), otherwise 16-bit float (exact up to 2048, then 11 significant bits).
+//! fits (≤ 255), otherwise 16-bit normalized where the device has it
+//! ([`GpuContext::has_norm16_textures`]); both are exact. Devices without it get 16-bit floats,
+//! exact up to 2048 and rounded to 11 significant bits above (a CT's levels reach 4000 and more).
 
 use super::{GpuContext, RenderError};
 
@@ -7,7 +9,8 @@ use super::{GpuContext, RenderError};
 pub(crate) struct LevelTexture {
     /// The texture's view (it keeps the texture alive).
     pub view: wgpu::TextureView,
-    /// Texel value × this = value level (255 for 8-bit, 1 for 16-bit float).
+    /// Texel value × this = value level (255 for 8-bit, 65 535 for 16-bit normalized, 1 for
+    /// 16-bit float), rounded.
     pub scale: f32,
     /// Bytes on the GPU.
     pub bytes: u64,
@@ -29,21 +32,21 @@ impl LevelTexture {
                 dims[0], dims[1], dims[2]
             )));
         }
-        let eight_bit = levels.iter().all(|&level| level <= 255);
-        let (format, texel_bytes, scale) = if eight_bit {
-            (wgpu::TextureFormat::R8Unorm, 1, 255.0)
-        } else {
-            (wgpu::TextureFormat::R16Float, 2, 1.0)
+        let format = LevelFormat::for_levels(context, levels);
+        let data: Vec<u8> = match format {
+            LevelFormat::Unorm8 => levels.iter().map(|&level| level as u8).collect(),
+            LevelFormat::Unorm16 => bytemuck::cast_slice(levels).to_vec(),
+            LevelFormat::Float16 => {
+                let halves: Vec<half::f16> = levels
+                    .iter()
+                    .map(|&level| half::f16::from_f32(level as f32))
+                    .collect();
+                bytemuck::cast_slice(&halves).to_vec()
+            }
         };
-        let data: Vec<u8> = if eight_bit {
-            levels.iter().map(|&level| level as u8).collect()
-        } else {
-            let halves: Vec<half::f16> = levels
-                .iter()
-                .map(|&level| half::f16::from_f32(level as f32))
-                .collect();
-            bytemuck::cast_slice(&halves).to_vec()
-        };
+        let texel_bytes = format.texel_bytes();
+        let scale = format.scale();
+        let format = format.texture_format();
         let size = wgpu::Extent3d {
             width: dims[0] as u32,
             height: dims[1] as u32,
@@ -82,5 +85,53 @@ impl LevelTexture {
             scale,
             bytes: data.len() as u64,
         })
+    }
+}
+
+/// The texture formats value levels are stored in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum LevelFormat {
+    /// Every level ≤ 255: one byte, exact.
+    Unorm8,
+    /// 16-bit normalized: exact for all 65 536 levels.
+    Unorm16,
+    /// 16-bit float, where the device has no 16-bit normalized textures: exact up to 2048.
+    Float16,
+}
+
+impl LevelFormat {
+    /// The format `levels` are stored in on `context`'s device.
+    pub fn for_levels(context: &GpuContext, levels: &[u16]) -> Self {
+        if levels.iter().all(|&level| level <= 255) {
+            Self::Unorm8
+        } else if context.has_norm16_textures {
+            Self::Unorm16
+        } else {
+            Self::Float16
+        }
+    }
+
+    fn texture_format(self) -> wgpu::TextureFormat {
+        match self {
+            Self::Unorm8 => wgpu::TextureFormat::R8Unorm,
+            Self::Unorm16 => wgpu::TextureFormat::R16Unorm,
+            Self::Float16 => wgpu::TextureFormat::R16Float,
+        }
+    }
+
+    fn texel_bytes(self) -> u32 {
+        match self {
+            Self::Unorm8 => 1,
+            Self::Unorm16 | Self::Float16 => 2,
+        }
+    }
+
+    /// Texel value × this = value level.
+    fn scale(self) -> f32 {
+        match self {
+            Self::Unorm8 => 255.0,
+            Self::Unorm16 => 65535.0,
+            Self::Float16 => 1.0,
+        }
     }
 }

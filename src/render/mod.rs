@@ -1,5 +1,5 @@
-//! Rendering on the GPU with wgpu: the device, the octree's buffers, the ray-casting and
-//! recolor compute pipelines, the camera. Knows nothing about the UI: the app and the command
+//! Rendering on the GPU with wgpu: the device, the octree's buffers, the ray-casting, recolor
+//! and slice compute pipelines, the camera. Knows nothing about the UI: the app and the command
 //! line both drive it.
 
 mod bricks;
@@ -18,6 +18,7 @@ mod readback;
 mod recolor;
 mod settings;
 pub mod shaders;
+mod slice;
 mod timer;
 mod transfer_table;
 mod volume_renderer;
@@ -35,6 +36,7 @@ pub use recolor::GpuRecolor;
 pub use settings::{
     EARLY_TERMINATION_ALPHA, HEATMAP_SATURATION, RenderMode, RenderSettings, heatmap_color,
 };
+pub use slice::{EdgeLabels, SliceConvention, SliceFrame, SliceSettings, SliceView, Slicer};
 pub use timer::{GpuTimer, time_passes, timing_name};
 pub use transfer_table::GpuTransferTable;
 pub use volume_renderer::{DEFAULT_BRICK_SIZE, RendererKind, RendererOptions, VolumeRenderer};

@@ -13,7 +13,7 @@
 use std::sync::OnceLock;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use super::{DenseRaycaster, GpuBrickRecolor, GpuContext, GpuRecolor, Raycaster};
+use super::{DenseRaycaster, GpuBrickRecolor, GpuContext, GpuRecolor, Raycaster, Slicer};
 
 /// The pipeline families of one device, each built on first use.
 #[derive(Default)]
@@ -22,6 +22,7 @@ pub(crate) struct PipelineCache {
     dense_raycaster: OnceLock<DenseRaycaster>,
     recolor: OnceLock<GpuRecolor>,
     brick_recolor: OnceLock<GpuBrickRecolor>,
+    slicer: OnceLock<Slicer>,
     /// Compute pipelines built with this device so far.
     built: AtomicUsize,
 }
@@ -59,6 +60,11 @@ impl GpuContext {
         self.pipelines
             .brick_recolor
             .get_or_init(|| GpuBrickRecolor::new(self))
+    }
+
+    /// The slice pipeline of this device (every renderer's slices), built on first use.
+    pub fn slicer(&self) -> &Slicer {
+        self.pipelines.slicer.get_or_init(|| Slicer::new(self))
     }
 
     /// How many compute pipelines this context has built: each family's once, however many

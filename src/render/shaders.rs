@@ -47,6 +47,8 @@ shaders! {
     BRICK_RECOLOR = "brick_recolor" ["node_common.wgsl", "brick_recolor.wgsl"];
     /// The refresh of the bricks renderer's cell grid after a recolor.
     BRICK_GRID = "brick_grid" ["node_common.wgsl", "grid_cell.wgsl", "brick_grid.wgsl"];
+    /// Planar slices of the dense texture, the brick atlas or the octree.
+    SLICE = "slice" ["node_common.wgsl", "grid_cell.wgsl", "slice.wgsl"];
     /// The measurements of the GPU's own ceilings (`voxscope ceilings`).
     CEILINGS = "ceilings" ["ceilings.wgsl"];
 }

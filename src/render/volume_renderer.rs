@@ -3,12 +3,13 @@
 //! alone; the pipelines that draw and recolor it are the device's
 //! (`pipeline_cache.rs`), built once, whatever the number of volumes and renderers.
 
+use super::slice::{SliceColorCache, SliceSource};
 use super::{
     Camera, DenseVolume, Frame, GpuBricks, GpuContext, GpuVolume, RenderError, RenderSettings,
-    RenderTarget,
+    RenderTarget, SliceSettings,
 };
 use crate::octree::{BrickLayout, Octree, TransferFunction};
-use crate::volume::QuantizedVolume;
+use crate::volume::{Quantization, QuantizedVolume};
 
 /// The renderers voxscope has.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -63,6 +64,10 @@ enum State {
 /// A volume uploaded for one renderer, drawn with the device's pipelines.
 pub struct VolumeRenderer {
     state: State,
+    /// What the value levels mean (for the slices' colors).
+    quantization: Quantization,
+    /// The slices' color tables, made on the first slice of each window and colormap.
+    slice_colors: SliceColorCache,
 }
 
 /// Builds the device's pipelines that `kind` draws and recolors with, where not built yet.
@@ -124,7 +129,11 @@ impl VolumeRenderer {
                 )?))
             }
         };
-        Ok(Self { state })
+        Ok(Self {
+            state,
+            quantization: octree.quantization,
+            slice_colors: SliceColorCache::default(),
+        })
     }
 
     /// Which renderer this is.
@@ -232,8 +241,78 @@ impl VolumeRenderer {
         context.queue.submit([encoder.finish()]);
     }
 
+    /// Records one planar slice of the volume into `target` (see [`super::SliceFrame`]): the
+    /// value at each pixel's point, from what this renderer holds (the dense texture; the
+    /// bricks' cell grid and atlas; the octree's leaves), through `settings`' window and
+    /// colormap, opaque; transparent black outside the volume. The slice pipeline is built on
+    /// the device's first slice. A color table is made once per window and colormap (the
+    /// last four are kept, for views with windows of their own); slices of several windows may
+    /// share an encoder.
+    pub fn encode_slice(
+        &self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &RenderTarget,
+        settings: &SliceSettings,
+    ) {
+        let colors = self.slice_colors.get(
+            context,
+            self.quantization,
+            settings.window,
+            settings.colormap,
+        );
+        context.slicer().encode(
+            context,
+            encoder,
+            &self.slice_source(),
+            &colors,
+            target,
+            settings,
+        );
+    }
+
+    /// Records and submits one slice ([`Self::encode_slice`]).
+    pub fn render_slice(
+        &self,
+        context: &GpuContext,
+        target: &RenderTarget,
+        settings: &SliceSettings,
+    ) {
+        let mut encoder = context
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("voxscope::slice"),
+            });
+        self.encode_slice(context, &mut encoder, target, settings);
+        context.queue.submit([encoder.finish()]);
+    }
+
+    /// Whether slices show every voxel's own value: true unless the octree is on the GPU only
+    /// down to a level above the voxels (a device too small for all of it), where a slice
+    /// shows the middle of each deepest node's value range.
+    pub fn exact_slices(&self) -> bool {
+        self.slice_source().is_exact()
+    }
+
+    fn slice_source(&self) -> SliceSource<'_> {
+        match &self.state {
+            State::Octree(volume) => SliceSource::Octree(volume),
+            State::Dense(volume) => SliceSource::Dense(volume),
+            State::Bricks(volume) => SliceSource::Bricks(volume),
+        }
+    }
+
     /// GPU memory of each of this renderer's buffers and textures, by name.
     pub fn gpu_bytes(&self) -> Vec<(&'static str, u64)> {
+        let mut bytes = self.volume_gpu_bytes();
+        let slice_colors = self.slice_colors.gpu_bytes();
+        if slice_colors > 0 {
+            bytes.push(("slice_colors", slice_colors));
+        }
+        bytes
+    }
+
+    fn volume_gpu_bytes(&self) -> Vec<(&'static str, u64)> {
         match &self.state {
             State::Octree(volume) => vec![
                 ("nodes", volume.nodes.size()),
