@@ -11,9 +11,12 @@ use super::AppGpu;
 use super::pane_header::{grid_strip, pair_strip, pane_label};
 use super::scene::Scene;
 use super::settings::{AppSettings, Layout};
+use super::slice_pane::{self, SlicePane};
 use super::view_state::{MAX_GRID_PANES, ViewState};
 use super::viewport::{self, DrawKey, Pane};
-use crate::render::{FrameProbe, FrameReport, RenderError, RenderSettings, read_image};
+use crate::render::{
+    FrameProbe, FrameReport, RenderError, RenderSettings, SliceSettings, read_image,
+};
 use crate::volume::Orientation;
 
 /// Height of the strip of controls above the panes of the level grid and the transfer pair.
@@ -40,6 +43,8 @@ pub struct CentralView {
     interacting: bool,
     /// The scene serial whose first drawing was logged.
     logged_scene: u64,
+    /// The voxel under the pointer in a slice view, as of the last frame.
+    hovered_voxel: Option<[usize; 3]>,
 }
 
 /// What a frame of the central view reads and edits.
@@ -64,6 +69,7 @@ impl CentralView {
             draw_times: Vec::new(),
             interacting: false,
             logged_scene: 0,
+            hovered_voxel: None,
         }
     }
 
@@ -78,6 +84,11 @@ impl CentralView {
             .iter()
             .filter_map(|p| p.target.as_ref().map(|t| [t.width, t.height]))
             .collect()
+    }
+
+    /// The voxel under the pointer, as of the last frame.
+    pub fn hovered_voxel(&self) -> Option<[usize; 3]> {
+        self.hovered_voxel
     }
 
     /// The last measured frame.
@@ -128,7 +139,8 @@ impl CentralView {
         self.view_rect = view_rect;
         ui.painter()
             .rect_filled(view_rect, 0.0, Color32::from_gray(12));
-        let count = pane_count(settings);
+        let kinds = pane_kinds(settings);
+        let count = kinds.len();
         let mut area = view_rect;
         if matches!(settings.layout, Layout::LevelGrid | Layout::TransferPair) {
             let strip = Rect::from_min_size(area.min, vec2(area.width(), STRIP_HEIGHT - 2.0));
@@ -155,26 +167,38 @@ impl CentralView {
             );
         }
 
-        let extent = scene.map(|s| s.data.volume.extent());
         let was_interacting = self.interacting;
         self.interacting = false;
-        for (index, rect) in rects.iter().enumerate() {
+        self.hovered_voxel = None;
+        for (index, (rect, kind)) in rects.iter().zip(&kinds).enumerate() {
             let response = ui
                 .scope_builder(UiBuilder::new().max_rect(*rect), |ui| {
                     viewport::allocate_pane(ui, rect.size())
                 })
                 .inner;
-            if let Some(scene) = scene {
-                self.panes[index].paint(ui, *rect);
-                let moved = viewport::control_camera(
-                    &mut settings.camera,
-                    &response,
-                    ui,
-                    extent.unwrap_or([1.0; 3]),
-                );
-                self.interacting |= moved || response.dragged();
-                pane_label(ui, scene, settings, view, index, count, *rect);
-                paint_overlays_3d(ui, *rect, scene, settings, view);
+            let Some(scene) = scene else { continue };
+            self.panes[index].paint(ui, *rect);
+            match *kind {
+                PaneKind::Volume => {
+                    let extent = scene.data.volume.extent();
+                    let moved =
+                        viewport::control_camera(&mut settings.camera, &response, ui, extent);
+                    self.interacting |= moved || response.dragged();
+                    pane_label(ui, scene, settings, view, index, count, *rect);
+                    paint_overlays_3d(ui, *rect, scene, settings, view);
+                }
+                PaneKind::Slice(axis) => {
+                    let target = self.panes[index]
+                        .target
+                        .as_ref()
+                        .map_or([1, 1], |t| [t.width, t.height]);
+                    let pane = SlicePane { axis, rect: *rect, target };
+                    if let Some(voxel) =
+                        slice_pane::interact(ui, &response, &pane, scene, settings, view)
+                    {
+                        self.hovered_voxel = Some(voxel);
+                    }
+                }
             }
         }
         if was_interacting && !self.interacting {
@@ -261,33 +285,52 @@ impl CentralView {
         let depth = scene.data.octree.depth;
         let main = settings.transfer.with_window(view.window);
         let compare = settings.compare_transfer.with_window(view.window);
-        let count = self.panes.len();
+        let kinds = pane_kinds(settings);
+        let count = kinds.len();
         let mut drew = false;
-        for (index, pane) in self.panes.iter_mut().enumerate() {
-            let Some(target) = &pane.target else { continue };
-            let (level, transfer) = match settings.layout {
-                Layout::Single | Layout::Slices => (view.max_level.min(depth), main),
-                Layout::LevelGrid => (view.grid_level(index, count, depth), main),
-                Layout::TransferPair => (
-                    view.max_level.min(depth),
-                    if index == 0 { main } else { compare },
-                ),
+        for (index, (pane, kind)) in self.panes.iter_mut().zip(kinds).enumerate() {
+            let (Some(target), Some(rect)) = (&pane.target, self.pane_rects.get(index)) else {
+                continue;
             };
-            let render_settings = RenderSettings {
-                mode: settings.mode,
-                max_level: level,
-                pixel_lod: settings.pixel_lod,
-                opacity_correction: settings.opacity_correction,
-                density: settings.density,
-                heatmap: settings.heatmap,
-                trilinear: settings.trilinear,
-            };
-            let key = DrawKey {
-                size: [target.width, target.height],
-                camera: settings.camera,
-                settings: render_settings,
-                transfer,
-                scene: serial,
+            let size = [target.width, target.height];
+            let key = match kind {
+                PaneKind::Volume => {
+                    let (level, transfer) = match settings.layout {
+                        Layout::LevelGrid => (view.grid_level(index, count, depth), main),
+                        Layout::TransferPair if index == 1 => (view.max_level.min(depth), compare),
+                        _ => (view.max_level.min(depth), main),
+                    };
+                    DrawKey::Volume {
+                        size,
+                        camera: settings.camera,
+                        settings: RenderSettings {
+                            mode: settings.mode,
+                            max_level: level,
+                            pixel_lod: settings.pixel_lod,
+                            opacity_correction: settings.opacity_correction,
+                            density: settings.density,
+                            heatmap: settings.heatmap,
+                            trilinear: settings.trilinear,
+                        },
+                        transfer,
+                        scene: serial,
+                    }
+                }
+                PaneKind::Slice(axis) => {
+                    let mut slice_view = view.slice_views[axis];
+                    slice_view.index = view.cursor_voxel(scene.data.volume.dims)[axis];
+                    let (frame, _) = slice_pane::frame(scene, &slice_view, *rect, size);
+                    DrawKey::Slice {
+                        settings: SliceSettings {
+                            frame,
+                            window: view.window,
+                            colormap: settings.transfer.colormap,
+                            nearest: !settings.slice_linear,
+                        },
+                        size,
+                        scene: serial,
+                    }
+                }
             };
             if pane.drawn == Some(key) && !settings.continuous {
                 continue;
@@ -298,42 +341,64 @@ impl CentralView {
                     .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                         label: Some("voxscope::app_frame"),
                     });
-            if scene.applied_transfer != transfer {
-                scene
-                    .renderer
-                    .set_transfer(&gpu.context, &mut encoder, &transfer, None)?;
-                scene.applied_transfer = transfer;
-            }
-            let measure = !drew && self.probe.as_ref().is_some_and(FrameProbe::is_idle);
-            let probe = self.probe.as_mut().filter(|_| measure);
-            let writes = probe.as_ref().and_then(|p| p.timestamp_writes());
-            scene.renderer.encode(
-                &gpu.context,
-                &mut encoder,
-                target,
-                &key.camera,
-                &render_settings,
-                writes,
-            );
-            if let Some(probe) = probe {
-                probe.record(&gpu.context, &mut encoder, target);
-                gpu.context.queue.submit([encoder.finish()]);
-                probe.submitted();
-            } else {
-                gpu.context.queue.submit([encoder.finish()]);
+            match &key {
+                DrawKey::Volume {
+                    camera,
+                    settings: render_settings,
+                    transfer,
+                    ..
+                } => {
+                    if scene.applied_transfer != *transfer {
+                        scene
+                            .renderer
+                            .set_transfer(&gpu.context, &mut encoder, transfer, None)?;
+                        scene.applied_transfer = *transfer;
+                    }
+                    let measure = !drew && self.probe.as_ref().is_some_and(FrameProbe::is_idle);
+                    let probe = self.probe.as_mut().filter(|_| measure);
+                    let writes = probe.as_ref().and_then(|p| p.timestamp_writes());
+                    scene.renderer.encode(
+                        &gpu.context,
+                        &mut encoder,
+                        target,
+                        camera,
+                        render_settings,
+                        writes,
+                    );
+                    if let Some(probe) = probe {
+                        probe.record(&gpu.context, &mut encoder, target);
+                        gpu.context.queue.submit([encoder.finish()]);
+                        probe.submitted();
+                    } else {
+                        gpu.context.queue.submit([encoder.finish()]);
+                    }
+                    if self.logged_scene != serial {
+                        self.logged_scene = serial;
+                        eprintln!(
+                            "voxscope: drew {} ({}x{} px, {} renderer, level {})",
+                            scene.data.volume.name,
+                            target.width,
+                            target.height,
+                            scene.options.kind.name(),
+                            render_settings.max_level
+                        );
+                    }
+                }
+                DrawKey::Slice {
+                    settings: slice_settings,
+                    ..
+                } => {
+                    scene.renderer.encode_slice(
+                        &gpu.context,
+                        &mut encoder,
+                        target,
+                        slice_settings,
+                    );
+                    gpu.context.queue.submit([encoder.finish()]);
+                }
             }
             pane.drawn = Some(key);
             drew = true;
-            if self.logged_scene != serial {
-                self.logged_scene = serial;
-                eprintln!(
-                    "voxscope: drew {} ({}x{} px, {} renderer, level {level})",
-                    scene.data.volume.name,
-                    target.width,
-                    target.height,
-                    scene.options.kind.name()
-                );
-            }
         }
         let now = Instant::now();
         if drew {
@@ -371,12 +436,30 @@ impl CentralView {
     }
 }
 
-/// Panes of the layout: 1, the level grid's 2–6, or 2.
-fn pane_count(settings: &AppSettings) -> usize {
+/// What a pane of the central view shows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PaneKind {
+    /// The volume in 3D.
+    Volume,
+    /// The slice across this axis (0, 1, 2: x, y, z) through the cursor.
+    Slice(usize),
+}
+
+/// The panes of the layout, in reading order: one 3D view; the level grid's 2–6; the pair's
+/// two; or the 3D view beside the axial, coronal and sagittal slices (3D Slicer's four-up).
+pub fn pane_kinds(settings: &AppSettings) -> Vec<PaneKind> {
     match settings.layout {
-        Layout::Single | Layout::Slices => 1,
-        Layout::LevelGrid => settings.grid_panes.clamp(2, MAX_GRID_PANES),
-        Layout::TransferPair => 2,
+        Layout::Single => vec![PaneKind::Volume],
+        Layout::LevelGrid => {
+            vec![PaneKind::Volume; settings.grid_panes.clamp(2, MAX_GRID_PANES)]
+        }
+        Layout::TransferPair => vec![PaneKind::Volume; 2],
+        Layout::Slices => vec![
+            PaneKind::Volume,
+            PaneKind::Slice(2),
+            PaneKind::Slice(1),
+            PaneKind::Slice(0),
+        ],
     }
 }
 

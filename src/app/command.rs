@@ -8,7 +8,7 @@ use egui::{Key, KeyboardShortcut, Modifiers};
 
 use super::dialogs::DialogKind;
 use super::scene::VolumeSource;
-use super::settings::Layout;
+use super::settings::{Layout, Tool};
 
 /// An action of the app.
 #[derive(Debug, Clone, PartialEq)]
@@ -36,6 +36,14 @@ pub enum Command {
     ResetCamera,
     /// Show or hide a side panel.
     TogglePanel(Panel),
+    /// Choose what a click in a view does.
+    SetTool(Tool),
+    /// Remove every ruler.
+    ClearRulers,
+    /// Slices sample linearly (else the nearest voxel).
+    SetSliceLinear(bool),
+    /// The Slices layout's 3D view shows the slice planes.
+    ShowSlicePlanes(bool),
     /// Hide the error banner.
     DismissError,
     /// Close the window.

@@ -9,7 +9,7 @@ use super::command::{Command, CommandQueue, Panel, ViewPreset, command_button};
 use super::dialogs::DialogKind;
 use super::jobs::Jobs;
 use super::scene::{Scene, VolumeSource};
-use super::settings::{AppSettings, Layout};
+use super::settings::{AppSettings, Layout, Tool};
 
 /// How long a notice (`saved …`) stays in the status bar.
 pub const NOTICE_DURATION: Duration = Duration::from_secs(5);
@@ -33,6 +33,15 @@ pub fn menu_bar(ui: &mut Ui, settings: &AppSettings, has_scene: bool, queue: &mu
             if ui.small_button(preset.name()).clicked() {
                 queue.send(Command::ViewFrom(preset));
             }
+        }
+        ui.separator();
+        let ruler = settings.tool == Tool::Ruler;
+        if ui
+            .selectable_label(ruler, "Ruler")
+            .on_hover_text("Measure: drag in a slice, or click two points in the 3D view")
+            .clicked()
+        {
+            queue.send(Command::SetTool(if ruler { Tool::Navigate } else { Tool::Ruler }));
         }
     });
 }
@@ -107,6 +116,16 @@ fn view_menu(ui: &mut Ui, settings: &AppSettings, queue: &mut CommandQueue) {
     }
     command_button(ui, "Reset camera", Command::ResetCamera, queue);
     ui.separator();
+    let mut linear = settings.slice_linear;
+    if ui.checkbox(&mut linear, "Slices: linear interpolation").changed() {
+        queue.send(Command::SetSliceLinear(linear));
+    }
+    let mut planes = settings.show_slice_planes;
+    if ui.checkbox(&mut planes, "Slices: planes in the 3D view").changed() {
+        queue.send(Command::ShowSlicePlanes(planes));
+    }
+    command_button(ui, "Remove all rulers", Command::ClearRulers, queue);
+    ui.separator();
     for panel in Panel::ALL {
         let mut shown = settings.panel_shown(panel);
         if ui.checkbox(&mut shown, panel.name()).changed() {
@@ -121,6 +140,7 @@ pub fn status_bar(
     ui: &mut Ui,
     jobs: &Jobs,
     scene: Option<&Scene>,
+    hovered: Option<[usize; 3]>,
     notice: Option<&str>,
     queue: &mut CommandQueue,
 ) {
@@ -146,7 +166,9 @@ pub fn status_bar(
             ));
             ui.separator();
         }
-        if let Some(scene) = scene {
+        if let Some(text) = scene.zip(hovered).and_then(|(s, v)| s.data.describe_voxel(v)) {
+            ui.label(text);
+        } else if let Some(scene) = scene {
             let volume = &scene.data.volume;
             ui.label(format!(
                 "{} · {} · {}×{}×{} {} · spacing {:.3}×{:.3}×{:.3} · {}",

@@ -20,6 +20,7 @@ mod octree_panel;
 mod pane_header;
 mod scene;
 mod settings;
+mod slice_pane;
 mod transfer_editor;
 mod transfer_panel;
 mod view_state;

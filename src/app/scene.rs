@@ -68,6 +68,34 @@ pub struct VolumeData {
 pub const HISTOGRAM_BINS: usize = 256;
 
 impl VolumeData {
+    /// The value of `voxel` in the data's units, from the quantized levels the GPU holds
+    /// (exact for integer data spanning up to 65 536 values; within half a level step, a
+    /// 65 535th of the range, otherwise).
+    pub fn value_at(&self, voxel: [usize; 3]) -> Option<f64> {
+        let [x, y, z] = voxel;
+        let dims = self.quantized.dims;
+        if x >= dims[0] || y >= dims[1] || z >= dims[2] {
+            return None;
+        }
+        let level = *self.quantized.levels.get(x + dims[0] * (y + dims[1] * z))?;
+        Some(self.quantized.quantization.value(level))
+    }
+
+    /// What the status bar says of `voxel`: its indices, position and value.
+    pub fn describe_voxel(&self, voxel: [usize; 3]) -> Option<String> {
+        let value = self.value_at(voxel)?;
+        let spacing = self.volume.spacing;
+        let unit = super::octree_panel::unit(&self.volume);
+        let value_unit = if self.kind == DataKind::Ct { " HU" } else { "" };
+        let [i, j, k] = voxel;
+        Some(format!(
+            "voxel ({i}, {j}, {k}) · ({:.1}, {:.1}, {:.1}) {unit} · value {}{value_unit}",
+            i as f64 * spacing[0],
+            j as f64 * spacing[1],
+            k as f64 * spacing[2],
+            super::transfer_editor::format_value(value),
+        ))
+    }
     /// The value at the center of histogram bin `bin`'s left edge.
     pub fn bin_value(&self, bin: f64) -> f64 {
         let [low, high] = self.quantized.value_range;

@@ -4,6 +4,7 @@
 //! next is in [`super::AppSettings`].)
 
 use crate::octree::{Clip, ClipPlane, LevelStatistics, TransferFunction};
+use crate::render::SliceView;
 use crate::volume::ValueWindow;
 
 /// The level grid's largest pane count.
@@ -30,6 +31,8 @@ pub struct ViewState {
     pub clipping: Clipping,
     /// Distances measured, in voxel space (shown in mm).
     pub rulers: Vec<Ruler>,
+    /// The zoom and pan of the slice views across x, y and z (their slice is the cursor's).
+    pub slice_views: [SliceView; 3],
 }
 
 /// The crop box and clip plane as the panel edits them: each kept while switched off, so
@@ -98,6 +101,7 @@ impl Default for ViewState {
             cursor: [0.0; 3],
             clipping: Clipping::default(),
             rulers: Vec::new(),
+            slice_views: std::array::from_fn(|axis| SliceView::new(axis, 0)),
         }
     }
 }
@@ -121,6 +125,7 @@ impl ViewState {
             cursor: dims.map(|d| (d / 2) as f64 + 0.5),
             clipping: Clipping::default(),
             rulers: Vec::new(),
+            slice_views: std::array::from_fn(|axis| SliceView::new(axis, dims[axis] / 2)),
         }
     }
 

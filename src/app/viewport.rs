@@ -6,17 +6,26 @@ use egui::{Color32, PointerButton, Pos2, Rect, Response, Sense, Stroke, Ui, Vec2
 use glam::DVec3;
 
 use crate::octree::TransferFunction;
-use crate::render::{Camera, GpuContext, RenderSettings, RenderTarget};
+use crate::render::{Camera, GpuContext, RenderSettings, RenderTarget, SliceSettings};
 
 /// Everything a pane's image depends on; a pane is drawn again when this changes.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct DrawKey {
-    pub size: [u32; 2],
-    pub camera: Camera,
-    pub settings: RenderSettings,
-    pub transfer: TransferFunction,
-    /// Changes with every new scene (volume or renderer).
-    pub scene: u64,
+pub enum DrawKey {
+    /// A 3D view.
+    Volume {
+        size: [u32; 2],
+        camera: Camera,
+        settings: RenderSettings,
+        transfer: TransferFunction,
+        /// Changes with every new scene (volume or renderer).
+        scene: u64,
+    },
+    /// A slice view.
+    Slice {
+        settings: SliceSettings,
+        size: [u32; 2],
+        scene: u64,
+    },
 }
 
 /// A render target shown as an egui texture.

@@ -138,6 +138,22 @@ impl VoxscopeApp {
                 self.settings.toggle_panel(panel);
                 Ok(None)
             }
+            Command::SetTool(tool) => {
+                self.settings.tool = tool;
+                Ok(None)
+            }
+            Command::SetSliceLinear(linear) => {
+                self.settings.slice_linear = linear;
+                Ok(None)
+            }
+            Command::ShowSlicePlanes(show) => {
+                self.settings.show_slice_planes = show;
+                Ok(None)
+            }
+            Command::ClearRulers => {
+                self.view.rulers.clear();
+                Ok(None)
+            }
             Command::DismissError => {
                 self.error = None;
                 Ok(None)
@@ -482,6 +498,7 @@ impl eframe::App for VoxscopeApp {
                 ui,
                 &self.jobs,
                 self.scene.as_ref(),
+                self.central.hovered_voxel(),
                 notice.as_deref(),
                 &mut self.commands,
             )
