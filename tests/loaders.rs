@@ -535,3 +535,124 @@ fn bad_files_give_one_line_errors_and_stay_untouched() {
     assert_eq!(std::fs::read(path("noise.nii")).unwrap(), noise);
     assert_eq!(std::fs::read(path("truncated.nii")).unwrap(), truncated);
 }
+
+// ---- the format table -------------------------------------------------------------------
+
+/// Rows of the README's Formats table that are not file formats of the table (a folder of
+/// slices, `--raw`, `synthetic:`), and file names the README mentions beside a format's own
+/// (`.img`: the data file of a `.hdr`, opened through it; `.png`: slices).
+const README_ROWS_NOT_IN_THE_TABLE: [&str; 3] = ["slices", "raw", "synthetic"];
+const README_COMPANION_EXTENSIONS: [&str; 2] = [".img", ".png"];
+
+#[test]
+fn the_readme_formats_table_matches_the_format_table() {
+    let readme = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md"))
+        .expect("README.md");
+    let section = readme
+        .split("\n## Formats\n")
+        .nth(1)
+        .and_then(|rest| rest.split("\n## ").next())
+        .expect("a Formats section");
+    // Rows `| format | files | notes |`, after the header and the `|---|` line.
+    let rows: Vec<Vec<&str>> = section
+        .lines()
+        .filter(|line| line.starts_with('|'))
+        .skip(2)
+        .map(|line| line.trim_matches('|').split(" | ").map(str::trim).collect())
+        .collect();
+    assert!(rows.len() >= volume::format::FORMATS.len(), "{rows:?}");
+    let backticked = |cell: &str| -> Vec<String> {
+        cell.split('`')
+            .skip(1)
+            .step_by(2)
+            .filter(|token| token.starts_with('.'))
+            .map(str::to_owned)
+            .collect()
+    };
+    for format in &volume::format::FORMATS {
+        let row = rows
+            .iter()
+            .find(|row| row[0] == format.name || row[0].starts_with(&format!("{} ", format.name)))
+            .unwrap_or_else(|| panic!("README's Formats table has no row for {}", format.name));
+        let listed = backticked(row[1]);
+        for extension in format.extensions {
+            assert!(
+                listed.iter().any(|l| l == extension),
+                "README's {} row lacks `{extension}`",
+                format.name
+            );
+        }
+        for extension in &listed {
+            assert!(
+                format.extensions.contains(&extension.as_str())
+                    || README_COMPANION_EXTENSIONS.contains(&extension.as_str()),
+                "README's {} row lists `{extension}`, which the format table does not read",
+                format.name
+            );
+        }
+    }
+    for row in &rows {
+        let known = volume::format::FORMATS
+            .iter()
+            .any(|f| row[0] == f.name || row[0].starts_with(&format!("{} ", f.name)));
+        assert!(
+            known || README_ROWS_NOT_IN_THE_TABLE.contains(&row[0]),
+            "README's Formats row '{}' is not in the format table",
+            row[0]
+        );
+    }
+}
+
+#[test]
+fn an_unrecognized_file_lists_every_format_of_the_table() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("mystery.bin");
+    std::fs::write(&path, b"neither header nor magic").unwrap();
+    let error = load(&path).unwrap_err();
+    assert!(error.contains("unrecognized format"), "{error}");
+    for format in &volume::format::FORMATS {
+        assert!(error.contains(format.name), "{error} lacks {}", format.name);
+        for extension in format.extensions {
+            assert!(error.contains(extension), "{error} lacks {extension}");
+        }
+    }
+}
+
+#[test]
+fn files_without_an_extension_are_recognized_by_their_magic_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let dims = [3, 2, 2];
+    let spec = NiftiSpec {
+        dims,
+        datatype: 2,
+        spacing: [1.0; 3],
+        slope: 0.0,
+        intercept: 0.0,
+        sform: None,
+        endian: Endian::Little,
+    };
+    let nifti = dir.path().join("nifti-without-extension");
+    std::fs::write(
+        &nifti,
+        gzip(&nifti_bytes(
+            &spec,
+            &pattern_bytes(VoxelType::U8, dims, Endian::Little),
+        )),
+    )
+    .unwrap();
+    assert_eq!(load(&nifti).unwrap().format, "NIfTI-1");
+    let nrrd = dir.path().join("nrrd-without-extension");
+    write_nrrd(
+        &nrrd,
+        &NrrdSpec {
+            type_name: "uchar",
+            sizes: &dims,
+            encoding: NrrdEncoding::Raw,
+            endian: Endian::Little,
+            extra: &[],
+        },
+        &pattern_bytes(VoxelType::U8, dims, Endian::Little),
+        "",
+    );
+    assert_eq!(load(&nrrd).unwrap().format, "NRRD");
+}

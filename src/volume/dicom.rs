@@ -12,8 +12,8 @@ use dicom_dictionary_std::tags;
 use dicom_object::{DefaultDicomObject, OpenFileOptions};
 
 use super::error::Problem;
+use super::io::io_reason;
 use super::orientation::reorient_to_ras;
-use super::source::io_reason;
 use super::{MAX_VOXELS, ValueScale, Volume, VoxelData};
 
 const IMPLICIT_LE: &str = "1.2.840.10008.1.2";
@@ -24,13 +24,18 @@ const RLE_LOSSLESS: &str = "1.2.840.10008.1.2.5";
 /// DICOM files larger than this are refused before parsing (the parser trusts lengths).
 const MAX_FILE_BYTES: u64 = 1 << 32;
 
+/// True when the first bytes of a file are the 128-byte preamble and `DICM`.
+pub(super) fn sniff(head: &[u8]) -> bool {
+    head.get(128..132) == Some(b"DICM")
+}
+
 /// True when `path` starts with the DICOM preamble and `DICM`.
 pub(super) fn is_dicom(path: &Path) -> bool {
     use std::io::Read;
     let mut head = [0u8; 132];
     std::fs::File::open(path)
         .and_then(|mut f| f.read_exact(&mut head))
-        .is_ok_and(|()| &head[128..132] == b"DICM")
+        .is_ok_and(|()| sniff(&head))
 }
 
 /// The DICOM files of `dir` (by their `DICM` marker).

@@ -6,11 +6,16 @@ use std::io::Read;
 use std::path::Path;
 
 use super::error::Problem;
-use super::source::{Storage, checked_payload_bytes, io_reason, open, read_payload, skip_bytes};
+use super::io::{Storage, checked_payload_bytes, io_reason, open, read_payload, skip_bytes};
 use super::{Endian, Scalar, Volume, VoxelData, VoxelType};
 
 /// The fixed header; an extended header of NSYMBT bytes may follow.
 const HEADER_BYTES: usize = 1024;
+
+/// MRC2014 and CCP4 write `MAP ` at byte 208.
+pub(super) fn sniff(head: &[u8]) -> bool {
+    head.get(208..212) == Some(b"MAP ")
+}
 
 /// Reads an MRC or CCP4 map.
 pub(super) fn load(path: &Path) -> Result<Volume, Problem> {

@@ -10,8 +10,8 @@ use std::path::{Path, PathBuf};
 use flate2::read::MultiGzDecoder;
 
 use super::error::Problem;
+use super::io::{Storage, checked_payload_bytes, io_reason, read_payload, skip_bytes};
 use super::orientation::reorient_to_ras;
-use super::source::{Storage, checked_payload_bytes, io_reason, read_payload, skip_bytes};
 use super::{Endian, ValueScale, Volume, VoxelData, VoxelType};
 
 const HEADER_BYTES: usize = 348;
@@ -31,13 +31,10 @@ struct Header {
     single_file: bool,
 }
 
-/// True when the file (maybe gzipped) starts with a NIfTI-1 header size field.
-pub(crate) fn looks_like_nifti(path: &Path) -> bool {
-    let Ok(bytes) = std::fs::read(path) else {
-        return false;
-    };
+/// True when the first bytes of a file (maybe gzipped) are a NIfTI-1 header size field.
+pub(super) fn sniff(head: &[u8]) -> bool {
     let mut first = [0u8; 4];
-    decompressed(&bytes).read_exact(&mut first).is_ok()
+    decompressed(head).read_exact(&mut first).is_ok()
         && (i32::from_le_bytes(first) == HEADER_BYTES as i32
             || i32::from_be_bytes(first) == HEADER_BYTES as i32)
 }

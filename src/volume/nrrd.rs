@@ -8,8 +8,8 @@ use std::path::{Path, PathBuf};
 use flate2::read::MultiGzDecoder;
 
 use super::error::Problem;
+use super::io::{Storage, checked_payload_bytes, io_reason, open, read_payload, skip_bytes};
 use super::orientation::reorient_to_ras;
-use super::source::{Storage, checked_payload_bytes, io_reason, open, read_payload, skip_bytes};
 use super::{Endian, Volume, VoxelData, VoxelType, checked_voxel_count};
 
 /// The header is text; anything longer than this is not a NRRD header.
@@ -37,6 +37,11 @@ struct Header {
     data_file: Option<String>,
     byte_skip: i64,
     line_skip: usize,
+}
+
+/// Every NRRD file starts with `NRRD` (then the version, `0004`).
+pub(super) fn sniff(head: &[u8]) -> bool {
+    head.starts_with(b"NRRD")
 }
 
 pub(crate) fn load(path: &Path) -> Result<Volume, Problem> {

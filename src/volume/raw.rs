@@ -3,7 +3,7 @@
 use std::path::Path;
 
 use super::error::Problem;
-use super::source::{Storage, checked_payload_bytes, open, read_payload};
+use super::io::{Storage, checked_payload_bytes, open, read_payload};
 use super::{Endian, Volume, VoxelData, VoxelType, format_dims};
 
 /// Dimensions, voxel type and byte order of a raw file.

@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use super::error::Problem;
-use super::source::io_reason;
+use super::io::{MAX_DEFLATE_RATIO, io_reason};
 use super::{MAX_VOXELS, Volume, VoxelData};
 
 /// Files of these extensions are slices.
@@ -138,9 +138,9 @@ fn read_slice(path: &Path) -> Result<Volume, Problem> {
         .map_err(|e| format!("cannot open: {}", io_reason(&e)))?
         .with_guessed_format()
         .map_err(|e| format!("cannot read: {}", io_reason(&e)))?;
-    // Deflate cannot expand more than ~1032:1: a larger claim is refused before allocating.
+    // A PNG is deflated: a larger claim is refused before allocating.
     let mut limits = image::Limits::default();
-    limits.max_alloc = Some(file_bytes.saturating_mul(1032).min(1 << 31));
+    limits.max_alloc = Some(file_bytes.saturating_mul(MAX_DEFLATE_RATIO).min(1 << 31));
     reader.limits(limits);
     let image = reader
         .decode()

@@ -8,7 +8,7 @@ use tiff::decoder::{Decoder, DecodingResult, Limits};
 use tiff::tags::Tag;
 
 use super::error::Problem;
-use super::source::{io_reason, open};
+use super::io::{io_reason, open};
 use super::{MAX_VOXELS, Volume, VoxelData};
 
 /// Bytes one decoded page may take at most.
@@ -18,6 +18,13 @@ const MAX_PAGE_BYTES: u64 = 1 << 31;
 /// a page claiming more than the file size times this is false and is refused before any
 /// buffer of that size exists.
 const MAX_EXPANSION: u64 = 4096;
+
+/// TIFF and BigTIFF in either byte order.
+pub(super) fn sniff(head: &[u8]) -> bool {
+    [b"II*\0", b"MM\0*", b"II+\0", b"MM\0+"]
+        .iter()
+        .any(|magic| head.starts_with(*magic))
+}
 
 /// Reads `path` as a stack of TIFF pages (z = page order).
 pub(super) fn load(path: &Path) -> Result<Volume, Problem> {

@@ -10,14 +10,11 @@ use base64::engine::general_purpose::STANDARD;
 use flate2::read::ZlibDecoder;
 
 use super::error::Problem;
-use super::source::io_reason;
+use super::io::{MAX_DEFLATE_RATIO, io_reason};
 use super::{Endian, MAX_VOXELS, Scalar, Volume, VoxelData, VoxelType, checked_voxel_count};
 
 /// Largest file read into memory (the XML and its data are parsed whole).
 const MAX_FILE_BYTES: u64 = 1 << 34;
-
-/// Deflate cannot expand more than about 1032:1.
-const MAX_DEFLATE_RATIO: usize = 1032;
 
 /// Reads a `.vti` file.
 pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
@@ -307,7 +304,9 @@ fn read_blocks(block: &[u8], encoding: ArrayEncoding, needed: usize) -> Result<V
         let chunk = block
             .get(at..at + size)
             .ok_or("truncated: a compressed block runs past the end of the file")?;
-        if size.saturating_mul(MAX_DEFLATE_RATIO) < block_size.min(needed - out.len()) {
+        if (size as u64).saturating_mul(MAX_DEFLATE_RATIO)
+            < block_size.min(needed - out.len()) as u64
+        {
             return Err("a compressed block too small for its size".into());
         }
         let limit = (needed - out.len()).min(block_size) as u64;
