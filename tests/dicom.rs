@@ -141,93 +141,15 @@ fn broken_dicom_files_fail_in_one_line_and_stay_untouched() {
 mod written {
     //! DICOM files written here with dicom-object: multi-frame, RLE, and an unsupported syntax.
 
-    use dicom_core::value::{PixelFragmentSequence, Value};
-    use dicom_core::{DataElement, PrimitiveValue, VR, dicom_value};
-    use dicom_dictionary_std::tags;
-    use dicom_object::{FileMetaTableBuilder, InMemDicomObject};
+    use dicom_core::VR;
 
-    const ROWS: u16 = 6;
-    const COLUMNS: u16 = 8;
-    const FRAMES: usize = 3;
+    use super::support::writers::{
+        DICOM_COLUMNS as COLUMNS, DICOM_FRAMES as FRAMES, DICOM_ROWS as ROWS, dicom_bytes,
+        dicom_native_pixels, dicom_object, dicom_pixel as pixel, dicom_rle_pixels,
+    };
 
-    fn pixel(n: usize) -> i16 {
-        (n as i16 % 300) - 100
-    }
-
-    fn object(samples: Value<InMemDicomObject>, vr: VR) -> InMemDicomObject {
-        let mut object = InMemDicomObject::new_empty();
-        let mut put = |tag, vr, value: PrimitiveValue| object.put(DataElement::new(tag, vr, value));
-        put(
-            tags::SOP_CLASS_UID,
-            VR::UI,
-            dicom_value!(Str, "1.2.840.10008.5.1.4.1.1.4"),
-        );
-        put(
-            tags::SOP_INSTANCE_UID,
-            VR::UI,
-            dicom_value!(Str, "1.2.3.4.5.6"),
-        );
-        put(
-            tags::SERIES_INSTANCE_UID,
-            VR::UI,
-            dicom_value!(Str, "1.2.3.4.5"),
-        );
-        put(tags::MODALITY, VR::CS, dicom_value!(Str, "CT"));
-        put(tags::SAMPLES_PER_PIXEL, VR::US, dicom_value!(U16, [1]));
-        put(
-            tags::PHOTOMETRIC_INTERPRETATION,
-            VR::CS,
-            dicom_value!(Str, "MONOCHROME2"),
-        );
-        put(tags::NUMBER_OF_FRAMES, VR::IS, dicom_value!(Str, "3"));
-        put(tags::ROWS, VR::US, dicom_value!(U16, [ROWS]));
-        put(tags::COLUMNS, VR::US, dicom_value!(U16, [COLUMNS]));
-        put(tags::BITS_ALLOCATED, VR::US, dicom_value!(U16, [16]));
-        put(tags::BITS_STORED, VR::US, dicom_value!(U16, [16]));
-        put(tags::HIGH_BIT, VR::US, dicom_value!(U16, [15]));
-        put(tags::PIXEL_REPRESENTATION, VR::US, dicom_value!(U16, [1]));
-        put(
-            tags::PIXEL_SPACING,
-            VR::DS,
-            dicom_value!(Strs, ["0.5", "0.25"]),
-        );
-        put(tags::SLICE_THICKNESS, VR::DS, dicom_value!(Str, "2.5"));
-        put(tags::RESCALE_SLOPE, VR::DS, dicom_value!(Str, "2"));
-        put(tags::RESCALE_INTERCEPT, VR::DS, dicom_value!(Str, "-1024"));
-        object.put(DataElement::new(tags::PIXEL_DATA, vr, samples));
-        object
-    }
-
-    fn write(object: InMemDicomObject, syntax: &str, path: &std::path::Path) {
-        object
-            .with_meta(FileMetaTableBuilder::new().transfer_syntax(syntax))
-            .unwrap()
-            .write_to_file(path)
-            .unwrap();
-    }
-
-    /// PackBits with literal and replicate runs.
-    fn pack(bytes: &[u8]) -> Vec<u8> {
-        let mut out = Vec::new();
-        let mut i = 0;
-        while i < bytes.len() {
-            let run = bytes[i..]
-                .iter()
-                .take(128)
-                .take_while(|&&b| b == bytes[i])
-                .count();
-            if run >= 3 {
-                out.push((1 - run as i32) as i8 as u8);
-                out.push(bytes[i]);
-                i += run;
-            } else {
-                let count = (bytes.len() - i).min(2);
-                out.push((count - 1) as u8);
-                out.extend(&bytes[i..i + count]);
-                i += count;
-            }
-        }
-        out
+    fn write(object: dicom_object::InMemDicomObject, syntax: &str, path: &std::path::Path) {
+        std::fs::write(path, dicom_bytes(object, syntax)).unwrap();
     }
 
     fn check(path: &std::path::Path) {
@@ -252,44 +174,17 @@ mod written {
     #[test]
     fn multi_frame_files_uncompressed_and_rle() {
         let dir = tempfile::tempdir().unwrap();
-        let count = FRAMES * (ROWS * COLUMNS) as usize;
-        let values: Vec<i16> = (0..count).map(pixel).collect();
-
         let path = dir.path().join("multi.dcm");
         write(
-            object(PrimitiveValue::I16(values.clone().into()).into(), VR::OW),
+            dicom_object(dicom_native_pixels(), VR::OW),
             "1.2.840.10008.1.2.1",
             &path,
         );
         check(&path);
 
-        let per_frame = (ROWS * COLUMNS) as usize;
-        let fragments: Vec<Vec<u8>> = values
-            .chunks(per_frame)
-            .map(|frame| {
-                let high = pack(
-                    &frame
-                        .iter()
-                        .map(|v| (*v as u16 >> 8) as u8)
-                        .collect::<Vec<_>>(),
-                );
-                let low = pack(&frame.iter().map(|v| *v as u16 as u8).collect::<Vec<_>>());
-                let mut fragment = vec![0u8; 64];
-                fragment[0..4].copy_from_slice(&2u32.to_le_bytes());
-                fragment[4..8].copy_from_slice(&64u32.to_le_bytes());
-                fragment[8..12].copy_from_slice(&(64 + high.len() as u32).to_le_bytes());
-                fragment.extend(high);
-                fragment.extend(low);
-                if fragment.len() % 2 == 1 {
-                    fragment.push(0);
-                }
-                fragment
-            })
-            .collect();
         let rle = dir.path().join("rle.dcm");
-        let sequence = PixelFragmentSequence::new(Vec::<u32>::new(), fragments.clone());
         write(
-            object(Value::from(sequence), VR::OB),
+            dicom_object(dicom_rle_pixels(), VR::OB),
             "1.2.840.10008.1.2.5",
             &rle,
         );
@@ -297,9 +192,8 @@ mod written {
 
         // JPEG baseline is named in the error.
         let jpeg = dir.path().join("jpeg.dcm");
-        let sequence = PixelFragmentSequence::new(Vec::<u32>::new(), fragments);
         write(
-            object(Value::from(sequence), VR::OB),
+            dicom_object(dicom_rle_pixels(), VR::OB),
             "1.2.840.10008.1.2.4.50",
             &jpeg,
         );

@@ -5,46 +5,27 @@ mod support;
 
 use std::path::Path;
 
-use tiff::encoder::{Rational, TiffEncoder, colortype};
-use tiff::tags::Tag;
+use tiff::encoder::{TiffEncoder, colortype};
 use voxscope::volume::{self, LoadOptions, VoxelType};
 
 /// Writes `pages` pages of `width`×`height`, voxel (x, y, z) = `value(x, y, z)`.
 fn write_stack<C: colortype::ColorType>(
     path: &Path,
-    [width, height, pages]: [u32; 3],
+    dims: [u32; 3],
     description: Option<&str>,
     resolution: Option<f64>,
     value: impl Fn(u32, u32, u32) -> C::Inner,
 ) where
     [C::Inner]: tiff::encoder::TiffValue,
 {
-    let file = std::fs::File::create(path).expect("create");
-    let mut encoder = TiffEncoder::new(file).expect("encoder");
-    for z in 0..pages {
-        let mut image = encoder.new_image::<C>(width, height).expect("page");
-        if z == 0 {
-            if let Some(text) = description {
-                image
-                    .encoder()
-                    .write_tag(Tag::ImageDescription, text)
-                    .expect("description");
-            }
-            if let Some(per_unit) = resolution {
-                let value = Rational {
-                    n: (per_unit * 1000.0).round() as u32,
-                    d: 1000,
-                };
-                image.x_resolution(value.clone());
-                image.y_resolution(value);
-            }
-        }
-        let data: Vec<C::Inner> = (0..height)
-            .flat_map(|y| (0..width).map(move |x| (x, y)))
-            .map(|(x, y)| value(x, y, z))
-            .collect();
-        image.write_data(&data).expect("write page");
-    }
+    let bytes = support::writers::tiff_stack::<C>(
+        dims,
+        description,
+        resolution,
+        tiff::encoder::Compression::Uncompressed,
+        value,
+    );
+    std::fs::write(path, bytes).expect("write");
 }
 
 fn load(path: &Path) -> Result<volume::Volume, String> {
