@@ -116,7 +116,7 @@ fn broken_dicom_files_fail_in_one_line_and_stay_untouched() {
         (
             "preamble-only.dcm",
             bytes[..132].to_vec(),
-            "not a readable DICOM file",
+            "the meta group ends early (byte 132)",
         ),
     ];
     for (name, content, expected) in cases {
@@ -134,8 +134,83 @@ fn broken_dicom_files_fail_in_one_line_and_stay_untouched() {
             "{error}"
         );
         assert!(error.contains(expected), "{name}: {error}");
+        // The file is named once, at the start.
+        assert_eq!(error.matches(name).count(), 1, "{error}");
         assert_eq!(std::fs::read(&path).unwrap(), content);
     }
+}
+
+/// A file of the written multi-frame kind with an element claiming `length` bytes inserted
+/// before Rows (0028,0010); returns the bytes and the inserted element's offset.
+fn with_a_damaged_length(length: u32) -> (Vec<u8>, usize) {
+    use support::writers::{dicom_bytes, dicom_native_pixels, dicom_object};
+    let mut bytes = dicom_bytes(
+        dicom_object(dicom_native_pixels(), dicom_core::VR::OW),
+        "1.2.840.10008.1.2.1",
+    );
+    let rows = bytes
+        .windows(6)
+        .position(|w| w == [0x28, 0x00, 0x10, 0x00, b'U', b'S'])
+        .expect("Rows");
+    let mut element = vec![0x10, 0x00, 0x10, 0x00, b'U', b'T', 0, 0];
+    element.extend(length.to_le_bytes());
+    bytes.splice(rows..rows, element);
+    (bytes, rows)
+}
+
+#[test]
+fn a_damaged_element_length_is_refused_with_its_tag_and_offset() {
+    let dir = tempfile::tempdir().unwrap();
+    let (bytes, at) = with_a_damaged_length(0xffff_fff0);
+    let path = dir.path().join("damaged.dcm");
+    std::fs::write(&path, &bytes).unwrap();
+    let started = std::time::Instant::now();
+    let error = load(&path).unwrap_err();
+    assert!(started.elapsed().as_secs_f64() < 1.0);
+    let remaining = bytes.len() - at - 12;
+    assert_eq!(
+        error,
+        format!(
+            "{}: element (0010,0010) at byte {at} declares 4294967280 bytes, but only {remaining} remain",
+            path.display()
+        )
+    );
+}
+
+#[test]
+fn a_damaged_file_in_a_series_folder_is_skipped() {
+    use support::writers::{dicom_bytes, dicom_native_pixels, dicom_object};
+    let dir = tempfile::tempdir().unwrap();
+    for (index, position) in [(1, "0"), (2, "2.5")] {
+        let mut object = dicom_object(dicom_native_pixels(), dicom_core::VR::OW);
+        object.put(dicom_core::DataElement::new(
+            dicom_dictionary_std::tags::IMAGE_POSITION_PATIENT,
+            dicom_core::VR::DS,
+            dicom_core::dicom_value!(Strs, ["0", "0", position]),
+        ));
+        object.put(dicom_core::DataElement::new(
+            dicom_dictionary_std::tags::IMAGE_ORIENTATION_PATIENT,
+            dicom_core::VR::DS,
+            dicom_core::dicom_value!(Strs, ["1", "0", "0", "0", "1", "0"]),
+        ));
+        object.put(dicom_core::DataElement::new(
+            dicom_dictionary_std::tags::NUMBER_OF_FRAMES,
+            dicom_core::VR::IS,
+            dicom_core::dicom_value!(Str, "1"),
+        ));
+        let path = dir.path().join(format!("slice-{index}.dcm"));
+        std::fs::write(path, dicom_bytes(object, "1.2.840.10008.1.2.1")).unwrap();
+    }
+    std::fs::write(
+        dir.path().join("slice-3.dcm"),
+        with_a_damaged_length(0x8000_0000).0,
+    )
+    .unwrap();
+    let volume = load(dir.path()).unwrap();
+    assert!(has(&volume, "files", "2"), "{:?}", volume.metadata);
+    // Asked for by name, the damaged file is an error.
+    let error = load(&dir.path().join("slice-3.dcm")).unwrap_err();
+    assert!(error.contains("element (0010,0010) at byte"), "{error}");
 }
 
 mod written {

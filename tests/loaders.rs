@@ -507,7 +507,7 @@ fn bad_files_give_one_line_errors_and_stay_untouched() {
     assert_clean_error(
         &path("lonely.nhdr"),
         load(&path("lonely.nhdr")),
-        "gone.raw does not exist",
+        "NRRD data file 'gone.raw' does not exist",
     );
 
     // A directory, and a path that does not exist.
@@ -655,4 +655,173 @@ fn files_without_an_extension_are_recognized_by_their_magic_bytes() {
         "",
     );
     assert_eq!(load(&nrrd).unwrap().format, "NRRD");
+}
+
+// ---- hostile headers: bounded time, readable messages -----------------------------------
+
+/// A small valid NRRD header (u8, 4×3×2, raw) with `extra` lines, and its payload.
+fn nrrd_with(dir: &Path, name: &str, extra: &[&str]) -> std::path::PathBuf {
+    let path = dir.join(name);
+    write_nrrd(
+        &path,
+        &NrrdSpec {
+            type_name: "uchar",
+            sizes: &[4, 3, 2],
+            encoding: NrrdEncoding::Raw,
+            endian: Endian::Little,
+            extra,
+        },
+        &[7u8; 24],
+        "",
+    );
+    path
+}
+
+#[test]
+fn a_huge_nrrd_line_skip_ends_at_the_end_of_the_file_and_says_line_skip() {
+    let dir = tempfile::tempdir().unwrap();
+    for skip in ["1000000000", "9223372036854775807", "18446744073709551615"] {
+        let line = format!("line skip: {skip}");
+        let path = nrrd_with(dir.path(), "skip.nrrd", &[&line]);
+        let started = std::time::Instant::now();
+        let error = load(&path).unwrap_err();
+        assert!(started.elapsed().as_secs_f64() < 1.0, "{skip}");
+        assert_clean_error(
+            &path,
+            Err(error.clone()),
+            &format!("line skip {skip}: the data ends after"),
+        );
+        assert!(!error.contains("byte skip"), "{error}");
+    }
+    let path = nrrd_with(
+        dir.path(),
+        "skip.nrrd",
+        &["line skip: 99999999999999999999"],
+    );
+    assert_clean_error(
+        &path,
+        load(&path),
+        "NRRD line skip '99999999999999999999' is too large",
+    );
+}
+
+#[test]
+fn control_bytes_from_a_file_are_escaped_and_long_values_shortened() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = nrrd_with(dir.path(), "escape.nrrd", &[]);
+    let text = std::fs::read_to_string(&path)
+        .unwrap()
+        .replace("endian: little", "endian: \u{1b}[31mred\u{7}");
+    std::fs::write(&path, text).unwrap();
+    assert_clean_error(
+        &path,
+        load(&path),
+        "NRRD endian '\\x1b[31mred\\x07' is not little or big",
+    );
+
+    let long = format!("type: {}", "x".repeat(5000));
+    let path = nrrd_with(dir.path(), "long.nrrd", &[&long]);
+    let error = load(&path).unwrap_err();
+    assert!(error.len() < 200, "{error}");
+    assert_clean_error(
+        &path,
+        Err(error),
+        "… (4940 more characters)' is not supported",
+    );
+}
+
+#[test]
+fn overflowing_numbers_are_too_large_not_unreadable() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = nrrd_with(dir.path(), "dimension.nrrd", &[]);
+    let text = std::fs::read_to_string(&path)
+        .unwrap()
+        .replace("dimension: 3", "dimension: 18446744073709551616");
+    std::fs::write(&path, text).unwrap();
+    assert_clean_error(
+        &path,
+        load(&path),
+        "NRRD dimension '18446744073709551616' is too large",
+    );
+
+    let path = nrrd_with(dir.path(), "sizes.nrrd", &[]);
+    let digits = "9".repeat(300);
+    let text = std::fs::read_to_string(&path)
+        .unwrap()
+        .replace("sizes: 4 3 2", &format!("sizes: 4 {digits} 2"));
+    std::fs::write(&path, text).unwrap();
+    assert_clean_error(
+        &path,
+        load(&path),
+        "entry '9999999999999999… (300 digits)' is too large",
+    );
+
+    // NIfTI's vox_offset as f32::MAX: 3.4e38, not 39 digits.
+    let mut bytes = nifti_bytes(
+        &NiftiSpec {
+            dims: [2, 2, 2],
+            datatype: 2,
+            spacing: [1.0; 3],
+            slope: 0.0,
+            intercept: 0.0,
+            sform: None,
+            endian: Endian::Little,
+        },
+        &[0; 8],
+    );
+    bytes[108..112].copy_from_slice(&f32::MAX.to_le_bytes());
+    let path = dir.path().join("offset.nii");
+    std::fs::write(&path, bytes).unwrap();
+    assert_clean_error(
+        &path,
+        load(&path),
+        "NIfTI vox_offset 3.4028234663852886e38 is too large",
+    );
+}
+
+#[test]
+fn folders_and_devices_are_named_as_such_not_as_missing() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = nrrd_with(dir.path(), "folder-data.nhdr", &[]);
+    let text = std::fs::read_to_string(&path).unwrap();
+    let header = text.split("\n\n").next().unwrap();
+    std::fs::write(&path, format!("{header}\ndata file: .\n")).unwrap();
+    assert_clean_error(
+        &path,
+        load(&path),
+        "NRRD data file '.' is a folder, not a file",
+    );
+    std::fs::write(&path, format!("{header}\ndata file: /dev/zero\n")).unwrap();
+    assert_clean_error(
+        &path,
+        load(&path),
+        "NRRD data file '/dev/zero' is a device, not a file",
+    );
+
+    // Opened directly: a device is refused before anything reads it (it would never end).
+    let device = Path::new("/dev/zero");
+    let started = std::time::Instant::now();
+    assert_clean_error(device, load(device), "is a device, not a file");
+    assert!(started.elapsed().as_secs_f64() < 1.0);
+
+    // A NIfTI pair whose .img is a folder.
+    let header = nifti_bytes(
+        &NiftiSpec {
+            dims: [2, 2, 2],
+            datatype: 2,
+            spacing: [1.0; 3],
+            slope: 0.0,
+            intercept: 0.0,
+            sform: None,
+            endian: Endian::Little,
+        },
+        &[],
+    );
+    let mut pair = header[..348].to_vec();
+    pair[108..112].copy_from_slice(&0f32.to_le_bytes());
+    pair[344..348].copy_from_slice(b"ni1\0");
+    let hdr = dir.path().join("pair.hdr");
+    std::fs::write(&hdr, pair).unwrap();
+    std::fs::create_dir(dir.path().join("pair.img")).unwrap();
+    assert_clean_error(&hdr, load(&hdr), "pair.img, which is a folder, not a file");
 }

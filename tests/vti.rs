@@ -158,7 +158,42 @@ fn broken_files_fail_in_one_line_and_stay_untouched() {
         (
             "int64.vti",
             good.replace("type=\"Float32\"", "type=\"Int64\""),
-            "Int64 is not supported",
+            "array 'density': DataArray type 'Int64' is not supported",
+        ),
+        // Number errors name the attribute, overflow is "too large", no debug formatting.
+        (
+            "extent-word.vti",
+            good.replace("WholeExtent=\"0 4 0 3 0 2\"", "WholeExtent=\"0 4 0 x 0 2\""),
+            "WholeExtent value 'x' is not a number",
+        ),
+        (
+            "spacing-word.vti",
+            good.replace("Spacing=\"0.5 0.75 2\"", "Spacing=\"0.5 y 2\""),
+            "Spacing value 'y' is not a number",
+        ),
+        (
+            "extent-overflow.vti",
+            good.replace(
+                "WholeExtent=\"0 4 0 3 0 2\"",
+                "WholeExtent=\"-9223372036854775808 9223372036854775807 0 3 0 2\"",
+            ),
+            "WholeExtent -9223372036854775808, 9223372036854775807, 0, 3 … 2 more is too large",
+        ),
+        (
+            "extent-huge.vti",
+            good.replace(
+                "WholeExtent=\"0 4 0 3 0 2\"",
+                "WholeExtent=\"0 99999999999999999999 0 3 0 2\"",
+            ),
+            "WholeExtent value '99999999999999999999' is too large",
+        ),
+        (
+            "components.vti",
+            good.replace(
+                "Name=\"density\" format",
+                "NumberOfComponents=\"-1\" Name=\"density\" format",
+            ),
+            "array 'density': NumberOfComponents '-1' is not a whole number",
         ),
     ];
     for (name, content, expected) in cases {

@@ -7,7 +7,7 @@ use std::path::Path;
 
 use super::error::Problem;
 use super::format;
-use super::io::io_reason;
+use super::io::{io_reason, not_a_file};
 use super::{LoadError, RawLayout, Volume};
 
 /// What the command line adds to a path.
@@ -47,6 +47,10 @@ fn load_file(path: &Path, options: &LoadOptions) -> Result<Volume, Problem> {
             return super::dicom::load(path);
         }
         return super::slices::load(path);
+    }
+    // Devices and pipes are refused: /dev/zero would be read forever, a pipe would block.
+    if let Some(what) = not_a_file(&metadata) {
+        return Err(what.into());
     }
     if metadata.len() == 0 {
         return Err("file is empty".into());

@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use super::error::Problem;
+use super::error::{Problem, printable};
 use super::io::{MAX_DEFLATE_RATIO, io_reason};
 use super::{MAX_VOXELS, Volume, VoxelData};
 
@@ -76,8 +76,8 @@ pub(super) fn load(dir: &Path) -> Result<Volume, Problem> {
             "first, last".to_owned(),
             format!(
                 "{}, {}",
-                file_name(&files[0]),
-                file_name(&files[files.len() - 1])
+                printable(&file_name(&files[0])),
+                printable(&file_name(&files[files.len() - 1]))
             ),
         ),
     ];
@@ -151,8 +151,9 @@ fn read_slice(path: &Path) -> Result<Volume, Problem> {
         image::DynamicImage::ImageLuma16(buffer) => VoxelData::U16(buffer.into_raw()),
         other => {
             return Err(format!(
-                "is {:?}; only grayscale PNG slices (8 or 16 bit) are supported",
-                other.color()
+                "has {} channels of {} bits; only grayscale PNG slices (8 or 16 bit) are supported",
+                other.color().channel_count(),
+                other.color().bits_per_pixel() / other.color().channel_count().max(1) as u16
             ));
         }
     };

@@ -9,20 +9,28 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use dicom_dictionary_std::tags;
+use dicom_object::file::ReadPreamble;
 use dicom_object::{DefaultDicomObject, OpenFileOptions};
 
-use super::error::Problem;
-use super::io::io_reason;
+use super::error::{Problem, number, printable};
+use super::io::{io_reason, not_a_file};
 use super::orientation::reorient_to_ras;
 use super::{MAX_VOXELS, ValueScale, Volume, VoxelData};
+
+mod walk;
 
 const IMPLICIT_LE: &str = "1.2.840.10008.1.2";
 const EXPLICIT_LE: &str = "1.2.840.10008.1.2.1";
 const EXPLICIT_BE: &str = "1.2.840.10008.1.2.2";
 const RLE_LOSSLESS: &str = "1.2.840.10008.1.2.5";
 
-/// DICOM files larger than this are refused before parsing (the parser trusts lengths).
+/// DICOM files larger than this are refused before they are read.
 const MAX_FILE_BYTES: u64 = 1 << 32;
+
+/// PackBits (RLE Lossless segments) expands at most 64-fold: a replicate run is 2 bytes for
+/// up to 128. A frame claiming more pixels than its segments can hold is refused before its
+/// buffer exists.
+const MAX_RLE_EXPANSION: usize = 64;
 
 /// True when the first bytes of a file are the 128-byte preamble and `DICM`.
 pub(super) fn sniff(head: &[u8]) -> bool {
@@ -63,26 +71,27 @@ struct SliceHeader {
     frames: usize,
 }
 
+/// Reads a file's header (up to the pixel data). Every element length is checked against the
+/// bytes that remain before dicom-object sees the file (see [`walk`]).
 fn open_header(path: &Path) -> Result<DefaultDicomObject, Problem> {
-    let size = std::fs::metadata(path)
-        .map_err(|e| format!("cannot open {}: {}", path.display(), io_reason(&e)))?
-        .len();
-    if size > MAX_FILE_BYTES {
+    let metadata =
+        std::fs::metadata(path).map_err(|e| format!("cannot open: {}", io_reason(&e)))?;
+    if let Some(what) = not_a_file(&metadata) {
+        return Err(what.into());
+    }
+    if metadata.len() > MAX_FILE_BYTES {
         return Err(format!(
-            "{}: {size} bytes is beyond the {MAX_FILE_BYTES}-byte limit",
-            path.display()
+            "{} bytes is beyond the {MAX_FILE_BYTES}-byte limit",
+            metadata.len()
         ));
     }
+    let bytes = std::fs::read(path).map_err(|e| format!("cannot read: {}", io_reason(&e)))?;
+    walk::check_lengths(&bytes)?;
     OpenFileOptions::new()
         .read_until(tags::PIXEL_DATA)
-        .open_file(path)
-        .map_err(|e| {
-            format!(
-                "{}: not a readable DICOM file: {}",
-                file_name(path),
-                first_line(&e.to_string())
-            )
-        })
+        .read_preamble(ReadPreamble::Always)
+        .from_reader(&bytes[..])
+        .map_err(|e| format!("not a readable DICOM file: {}", walk::root_cause(&e)))
 }
 
 fn text(object: &DefaultDicomObject, tag: dicom_core::Tag) -> Option<String> {
@@ -91,7 +100,7 @@ fn text(object: &DefaultDicomObject, tag: dicom_core::Tag) -> Option<String> {
         .ok()
         .flatten()
         .and_then(|e| e.to_str().ok())
-        .map(|s| s.trim().to_owned())
+        .map(|s| printable(s.trim()))
         .filter(|s| !s.is_empty())
 }
 
@@ -130,16 +139,29 @@ pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
     if files.is_empty() {
         return Err("holds no DICOM files".into());
     }
+    // A problem in the file the user named needs no name (the error starts with it); one in
+    // another file of the folder says which.
+    let in_file = |file: &Path, problem: Problem| -> Problem {
+        if chosen_file.as_deref() == Some(file) {
+            problem
+        } else {
+            format!("{}: {problem}", file_name(file))
+        }
+    };
     let mut headers = Vec::with_capacity(files.len());
     for file in &files {
         let object = match open_header(file) {
             Ok(object) => object,
             // A broken file beside a good series is skipped; the one asked for is not.
             Err(problem) if chosen_file.as_deref() != Some(file.as_path()) && files.len() > 1 => {
-                eprintln!("voxscope: skipping {problem}");
+                eprintln!(
+                    "voxscope: skipping {}: {}",
+                    file_name(file),
+                    super::error::escape(&problem)
+                );
                 continue;
             }
-            Err(problem) => return Err(problem),
+            Err(problem) => return Err(in_file(file, problem)),
         };
         headers.push(SliceHeader {
             path: file.clone(),
@@ -149,7 +171,7 @@ pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
             position: floats(&object, tags::IMAGE_POSITION_PATIENT).and_then(|v| v.try_into().ok()),
             orientation: floats(&object, tags::IMAGE_ORIENTATION_PATIENT)
                 .and_then(|v| v.try_into().ok()),
-            frames: integer(&object, tags::NUMBER_OF_FRAMES).unwrap_or(1).max(1) as usize,
+            frames: frame_count(&object),
             object,
         });
     }
@@ -177,7 +199,7 @@ pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
         .map(|(uid, slices)| {
             format!(
                 "{} ({} files{})",
-                uid,
+                printable(uid),
                 slices.len(),
                 describe(&slices[0].description)
             )
@@ -214,39 +236,43 @@ pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
     let mut size = [0usize; 2];
     let mut first_scale: Option<ValueScale> = None;
     for (index, slice) in slices.iter().enumerate() {
-        let (pixels, rows, columns, scale) = decode_pixels(&slice.object, &slice.path)?;
+        let (pixels, rows, columns, scale) = decode_pixels(&slice.object, &slice.path)
+            .map_err(|problem| in_file(&slice.path, problem))?;
         if index == 0 {
             size = [columns, rows];
         } else if size != [columns, rows] {
-            return Err(format!(
-                "{} is {columns}x{rows} but the series starts {}x{}",
-                file_name(&slice.path),
-                size[0],
-                size[1]
+            return Err(in_file(
+                &slice.path,
+                format!(
+                    "is {columns}x{rows} but the series starts {}x{}",
+                    size[0], size[1]
+                ),
             ));
         }
-        if (index + 1).saturating_mul(slice.frames * rows * columns) > MAX_VOXELS {
+        if (index + 1).saturating_mul(slice.frames.saturating_mul(rows * columns)) > MAX_VOXELS {
             return Err(format!("more than {MAX_VOXELS} voxels"));
         }
         match &mut data {
             None => data = Some(pixels),
             Some(data) => data.append(pixels).map_err(|_| {
-                format!(
-                    "{} stores another pixel type than the series' first file",
-                    file_name(&slice.path)
+                in_file(
+                    &slice.path,
+                    "stores another pixel type than the series' first file".into(),
                 )
             })?,
         }
         match first_scale {
             None => first_scale = Some(scale),
             Some(first_scale) if first_scale != scale => {
-                return Err(format!(
-                    "{} rescales by {}·v + {} but the series' first file by {}·v + {}; mixed rescaling is not supported",
-                    file_name(&slice.path),
-                    scale.slope,
-                    scale.intercept,
-                    first_scale.slope,
-                    first_scale.intercept
+                return Err(in_file(
+                    &slice.path,
+                    format!(
+                        "rescales by {}·v + {} but the series' first file by {}·v + {}; mixed rescaling is not supported",
+                        number(scale.slope),
+                        number(scale.intercept),
+                        number(first_scale.slope),
+                        number(first_scale.intercept)
+                    ),
                 ));
             }
             Some(_) => {}
@@ -297,17 +323,13 @@ pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
     }
     metadata.push((
         "transfer syntax".to_owned(),
-        first
-            .meta()
-            .transfer_syntax()
-            .trim_end_matches('\0')
-            .to_owned(),
+        printable(first.meta().transfer_syntax()),
     ));
     metadata.push(("files".to_owned(), slices.len().to_string()));
     if scale != ValueScale::IDENTITY {
         metadata.push((
             "rescale".to_owned(),
-            format!("{} · v + {}", scale.slope, scale.intercept),
+            format!("{} · v + {}", number(scale.slope), number(scale.intercept)),
         ));
     }
     for (n, other) in others.iter().enumerate() {
@@ -334,15 +356,13 @@ fn decode_pixels(
     object: &DefaultDicomObject,
     path: &Path,
 ) -> Result<(VoxelData, usize, usize, ValueScale), Problem> {
-    let name = file_name(path);
-    let rows = integer(object, tags::ROWS).ok_or_else(|| format!("{name}: no Rows"))? as usize;
-    let columns =
-        integer(object, tags::COLUMNS).ok_or_else(|| format!("{name}: no Columns"))? as usize;
-    let frames = integer(object, tags::NUMBER_OF_FRAMES).unwrap_or(1).max(1) as usize;
+    let rows = image_side(object, tags::ROWS, "Rows")?;
+    let columns = image_side(object, tags::COLUMNS, "Columns")?;
+    let frames = frame_count(object);
     let samples = integer(object, tags::SAMPLES_PER_PIXEL).unwrap_or(1);
     if samples != 1 {
         return Err(format!(
-            "{name}: {samples} samples per pixel (color); only grayscale images are supported"
+            "{samples} samples per pixel (color); only grayscale images are supported"
         ));
     }
     let bits = integer(object, tags::BITS_ALLOCATED).unwrap_or(16);
@@ -353,33 +373,24 @@ fn decode_pixels(
         32 => 4,
         other => {
             return Err(format!(
-                "{name}: {other} bits allocated per pixel is not supported (8, 16, 32 are)"
+                "{other} bits allocated per pixel is not supported (8, 16, 32 are)"
             ));
         }
     };
-    if rows == 0 || columns == 0 {
-        return Err(format!("{name}: an image of {columns}x{rows} pixels"));
-    }
     let expected = rows
         .checked_mul(columns)
         .and_then(|n| n.checked_mul(frames))
         .filter(|&n| n <= MAX_VOXELS)
-        .ok_or_else(|| format!("{name}: {columns}x{rows}x{frames} pixels is beyond the limit"))?
+        .ok_or_else(|| format!("{columns}x{rows}x{frames} pixels is beyond the limit"))?
         * bytes_per;
-    let syntax = object
-        .meta()
-        .transfer_syntax()
-        .trim_end_matches('\0')
-        .to_owned();
+    let syntax = object.meta().transfer_syntax().to_owned();
     let bytes: Vec<u8> = match syntax.as_str() {
         IMPLICIT_LE | EXPLICIT_LE | EXPLICIT_BE => {
             let big_endian = syntax == EXPLICIT_BE;
             let mut bytes = match pixel_element(path, big_endian, syntax != IMPLICIT_LE)? {
                 PixelPayload::Native(bytes) => bytes,
                 PixelPayload::Fragments(_) => {
-                    return Err(format!(
-                        "{name}: encapsulated pixel data in an uncompressed transfer syntax"
-                    ));
+                    return Err("encapsulated pixel data in an uncompressed transfer syntax".into());
                 }
             };
             if big_endian && bytes_per > 1 {
@@ -389,25 +400,32 @@ fn decode_pixels(
         }
         RLE_LOSSLESS => {
             let PixelPayload::Fragments(fragments) = pixel_element(path, false, true)? else {
-                return Err(format!("{name}: RLE pixel data is not encapsulated"));
+                return Err("RLE pixel data is not encapsulated".into());
             };
-            let mut out = Vec::with_capacity(expected);
-            for fragment in fragments.iter().take(frames) {
+            // What the fragments can hold, not what the header claims.
+            let most = fragments
+                .iter()
+                .take(frames)
+                .map(|f| f.len().saturating_mul(MAX_RLE_EXPANSION))
+                .fold(0usize, usize::saturating_add);
+            let mut out = Vec::with_capacity(expected.min(most));
+            for (frame, fragment) in fragments.iter().take(frames).enumerate() {
                 decode_rle_frame(fragment, rows * columns, bytes_per, &mut out)
-                    .map_err(|p| format!("{name}: {p}"))?;
+                    .map_err(|p| format!("frame {}: {p}", frame + 1))?;
             }
             out
         }
         other => {
             return Err(format!(
-                "{name}: transfer syntax {other} ({}) is not supported; uncompressed and RLE Lossless are",
+                "transfer syntax {} ({}) is not supported; uncompressed and RLE Lossless are",
+                printable(other),
                 syntax_name(other)
             ));
         }
     };
     if bytes.len() < expected {
         return Err(format!(
-            "{name}: truncated pixel data: {} bytes for {columns}x{rows}x{frames} pixels of {bits} bits ({expected} needed)",
+            "truncated pixel data: {} bytes for {columns}x{rows}x{frames} pixels of {bits} bits ({expected} needed)",
             bytes.len()
         ));
     }
@@ -463,8 +481,7 @@ enum PixelPayload {
 /// header parser stops before it: some files carry bytes after the pixel data that are not
 /// an element, and their pixels are still good.
 fn pixel_element(path: &Path, big_endian: bool, explicit: bool) -> Result<PixelPayload, Problem> {
-    let name = file_name(path);
-    let file = std::fs::read(path).map_err(|e| format!("cannot read {name}: {}", io_reason(&e)))?;
+    let file = std::fs::read(path).map_err(|e| format!("cannot read: {}", io_reason(&e)))?;
     let tag: [u8; 4] = if big_endian {
         [0x7f, 0xe0, 0x00, 0x10]
     } else {
@@ -486,7 +503,7 @@ fn pixel_element(path: &Path, big_endian: bool, explicit: bool) -> Result<PixelP
             .windows(4)
             .position(|w| w == tag)
             .map(|p| p + search)
-            .ok_or_else(|| format!("{name}: no pixel data"))?;
+            .ok_or("no pixel data (7fe0,0010)")?;
         let parsed = if explicit {
             match file.get(found + 4..found + 8) {
                 Some([b'O', b'B' | b'W', 0, 0]) => u32_at(found + 8).map(|len| (found + 12, len)),
@@ -512,11 +529,12 @@ fn pixel_element(path: &Path, big_endian: bool, explicit: bool) -> Result<PixelP
     let mut items = Vec::new();
     loop {
         let (group, element) = (
-            u32_at(at).ok_or_else(|| format!("{name}: encapsulated pixel data ends early"))?,
+            u32_at(at).ok_or_else(|| format!("encapsulated pixel data ends early (byte {at})"))?,
             u32_at(at + 4),
         );
-        let length =
-            element.ok_or_else(|| format!("{name}: encapsulated pixel data ends early"))? as usize;
+        let length = element
+            .ok_or_else(|| format!("encapsulated pixel data ends early (byte {at})"))?
+            as usize;
         let item_tag = if big_endian {
             group
         } else {
@@ -524,16 +542,22 @@ fn pixel_element(path: &Path, big_endian: bool, explicit: bool) -> Result<PixelP
         };
         match item_tag {
             0xfffe_e000 => {
-                let item = file.get(at + 8..at + 8 + length).ok_or_else(|| {
-                    format!("{name}: a pixel data fragment runs past the end of the file")
-                })?;
+                let item = file
+                    .get(at + 8..(at + 8).saturating_add(length))
+                    .ok_or_else(|| {
+                        format!(
+                            "the pixel data fragment at byte {at} declares {length} bytes, past the end of the file"
+                        )
+                    })?;
                 items.push(item.to_vec());
                 at += 8 + length;
             }
             0xfffe_e0dd => break,
             other => {
                 return Err(format!(
-                    "{name}: unexpected element {other:08x} in encapsulated pixel data"
+                    "unexpected element ({:04x},{:04x}) at byte {at} in encapsulated pixel data",
+                    other >> 16,
+                    other & 0xffff
                 ));
             }
         }
@@ -560,6 +584,12 @@ fn decode_rle_frame(
     if segments != bytes_per {
         return Err(format!(
             "RLE frame has {segments} segments for {bytes_per}-byte pixels"
+        ));
+    }
+    if pixels > fragment.len().saturating_mul(MAX_RLE_EXPANSION) {
+        return Err(format!(
+            "an RLE frame of {} bytes cannot hold {pixels} pixels",
+            fragment.len()
         ));
     }
     let start = out.len();
@@ -624,6 +654,36 @@ fn syntax_name(uid: &str) -> &'static str {
     }
 }
 
+/// Rows or Columns: 1 to 65535 (an unsigned 16-bit value); the problem names the tag.
+fn image_side(
+    object: &DefaultDicomObject,
+    tag: dicom_core::Tag,
+    name: &str,
+) -> Result<usize, Problem> {
+    let element = object
+        .element_opt(tag)
+        .ok()
+        .flatten()
+        .ok_or_else(|| format!("no {name} {}", walk::tag_name(tag)))?;
+    let value = element
+        .to_int::<i64>()
+        .map_err(|_| format!("{name} {} is not a number", walk::tag_name(tag)))?;
+    if !(1..=65535).contains(&value) {
+        return Err(format!(
+            "{name} {} is {value}, expected 1 to 65535",
+            walk::tag_name(tag)
+        ));
+    }
+    Ok(value as usize)
+}
+
+/// NumberOfFrames, 1 when absent or not positive.
+fn frame_count(object: &DefaultDicomObject) -> usize {
+    integer(object, tags::NUMBER_OF_FRAMES)
+        .filter(|&n| n >= 1)
+        .map_or(1, |n| usize::try_from(n).unwrap_or(usize::MAX))
+}
+
 fn describe(description: &str) -> String {
     if description.is_empty() {
         String::new()
@@ -636,10 +696,6 @@ fn file_name(path: &Path) -> String {
     path.file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| path.display().to_string())
-}
-
-fn first_line(text: &str) -> String {
-    text.lines().next().unwrap_or_default().to_owned()
 }
 
 fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
