@@ -106,8 +106,34 @@ fn broken_dicom_files_fail_in_one_line_and_stay_untouched() {
         .windows(6)
         .position(|w| w == [0xe0, 0x7f, 0x10, 0x00, b'O', b'W'])
         .expect("pixel data");
+    // Rows (0028,0010) US: an 8-byte header and a 2-byte value.
+    let rows = bytes
+        .windows(6)
+        .position(|w| w == [0x28, 0x00, 0x10, 0x00, b'U', b'S'])
+        .expect("Rows");
+    let cut_in_header =
+        format!("cannot read the data set at byte {rows} (after element (0028,0004) at byte");
+    let cut_in_value =
+        format!("element (0028,0010) at byte {rows} declares 2 bytes, but only 1 remain");
     let cases: Vec<(&str, Vec<u8>, &str)> = vec![
-        ("cut-header.dcm", bytes[..600].to_vec(), "cut-header.dcm: "),
+        // Cut between elements: the data set just ends, without the image's size.
+        (
+            "cut-header.dcm",
+            bytes[..600].to_vec(),
+            "no Rows (0028,0010)",
+        ),
+        // Cut inside an element's header, then inside its value: not "Could not read data set
+        // token", but where, after which element, and why.
+        (
+            "cut-in-a-header.dcm",
+            bytes[..rows + 7].to_vec(),
+            &cut_in_header,
+        ),
+        (
+            "cut-in-a-value.dcm",
+            bytes[..rows + 9].to_vec(),
+            &cut_in_value,
+        ),
         (
             "cut-pixels.dcm",
             bytes[..pixels + 12 + 5000].to_vec(),
