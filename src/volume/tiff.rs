@@ -23,7 +23,8 @@ const MAX_EXPANSION: u64 = 4096;
 /// values for one tag) before limits can be set. So every tag of every page is checked here
 /// first: a tag whose values are stored elsewhere must fit in the file after its offset. A
 /// count that fails this is false, and nothing of its size is allocated. Pages are followed
-/// until the chain ends, loops or leaves the file.
+/// until the chain ends, loops or leaves the file; the directories of a real file never
+/// overlap, so all of them together fit in the file too, which bounds the time.
 fn check_tag_counts(path: &Path, file_bytes: u64) -> Result<(), Problem> {
     use std::io::{Read, Seek, SeekFrom};
     let mut file = open(path)?;
@@ -63,6 +64,7 @@ fn check_tag_counts(path: &Path, file_bytes: u64) -> Result<(), Problem> {
     };
     let mut seen = std::collections::HashSet::new();
     let mut page = 0usize;
+    let mut directory_bytes = 0u64;
     while next != 0 && next < file_bytes && seen.insert(next) {
         page += 1;
         let mut count = [0u8; 8];
@@ -74,6 +76,12 @@ fn check_tag_counts(path: &Path, file_bytes: u64) -> Result<(), Problem> {
         if table > file_bytes - next {
             return Err(format!(
                 "TIFF page {page}: its directory at byte {next} declares {entries} tags, more than the file holds"
+            ));
+        }
+        directory_bytes += table;
+        if directory_bytes > file_bytes {
+            return Err(format!(
+                "TIFF page {page}: the pages' directories overlap (together larger than the file)"
             ));
         }
         let mut directory = vec![0u8; table as usize + word];
