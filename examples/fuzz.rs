@@ -39,7 +39,8 @@ const HANG_SECONDS: f64 = 20.0;
 
 const USAGE: &str = "usage: fuzz [--cases N (per format, default 1000)] [--seed S (default 1)] \
 [--format nifti|nrrd|tiff|dicom|vti|mrc]... [--jobs J (default 1)] [--save DIR] \
-[--seed-file PATH]... [--case N (one case, with --format)] [--hard-cap-mib M (default 4096)]";
+[--seed-file PATH]... [--case N (one case, with --format)] [--hard-cap-mib M (default 4096)] \
+[--stop-after SECONDS (then report what was done)]";
 
 #[derive(Debug, Clone)]
 struct Options {
@@ -51,6 +52,7 @@ struct Options {
     seed_files: Vec<PathBuf>,
     single_case: Option<u64>,
     hard_cap_mib: usize,
+    stop_after: Option<f64>,
     /// Internal: this process is worker `k` of `jobs`, resuming after (format, case).
     worker: Option<usize>,
     resume: Option<(Kind, u64)>,
@@ -66,6 +68,7 @@ fn parse(args: &[String]) -> Result<Options, String> {
         seed_files: Vec::new(),
         single_case: None,
         hard_cap_mib: 4096,
+        stop_after: None,
         worker: None,
         resume: None,
     };
@@ -86,6 +89,7 @@ fn parse(args: &[String]) -> Result<Options, String> {
             "--jobs" => options.jobs = number(value()?)?.max(1) as usize,
             "--case" => options.single_case = Some(number(value()?)?),
             "--hard-cap-mib" => options.hard_cap_mib = number(value()?)? as usize,
+            "--stop-after" => options.stop_after = Some(number(value()?)? as f64),
             "--save" => options.save = Some(PathBuf::from(value()?)),
             "--seed-file" => options.seed_files.push(PathBuf::from(value()?)),
             "--format" => {
@@ -168,44 +172,51 @@ fn run_single(options: &Options, seeds: &[seeds::Seed], index: u64) {
     }
 }
 
-/// A worker: every `jobs`-th case of each format, one line per event on stdout.
+/// A worker: every `jobs`-th case number, of each format in turn (so that a campaign stopped
+/// early has as many cases of each format), one line per event on stdout.
 fn run_worker(options: &Options, seeds: &[seeds::Seed], worker: usize) {
     let work = tempfile::tempdir().expect("a temporary folder");
     let mut out = std::io::stdout().lock();
-    for &kind in &options.kinds {
-        let of_kind = seeds_of(seeds, kind);
-        let mut index = worker as u64;
-        while index < options.cases {
+    let of_kind: Vec<(Kind, Vec<&seeds::Seed>)> = options
+        .kinds
+        .iter()
+        .map(|&kind| (kind, seeds_of(seeds, kind)))
+        .collect();
+    let mut index = worker as u64;
+    while index < options.cases {
+        for (kind, kind_seeds) in &of_kind {
+            let kind = *kind;
             let resumed = options.resume.is_some_and(|(resume_kind, resume_case)| {
-                (kind, index) <= (resume_kind, resume_case)
+                (index, kind) <= (resume_case, resume_kind)
             });
-            if !resumed {
-                // Flushed before the case runs: if it crashes, the parent knows which.
-                writeln!(out, "start {} {index}", kind.name()).expect("stdout");
-                out.flush().expect("stdout");
-                let case = fuzz::make_case(&of_kind, kind, options.seed, index);
-                let outcome = fuzz::run_case(&case, &work.path().join("case"), &Limits::DEFAULT);
-                for failure in &outcome.failures {
-                    writeln!(
-                        out,
-                        "fail {} {index} {}",
-                        kind.name(),
-                        failure.describe().replace('\n', " ")
-                    )
-                    .expect("stdout");
-                }
+            if resumed {
+                continue;
+            }
+            // Flushed before the case runs: if it crashes, the parent knows which.
+            writeln!(out, "start {} {index}", kind.name()).expect("stdout");
+            out.flush().expect("stdout");
+            let case = fuzz::make_case(kind_seeds, kind, options.seed, index);
+            let outcome = fuzz::run_case(&case, &work.path().join("case"), &Limits::DEFAULT);
+            for failure in &outcome.failures {
                 writeln!(
                     out,
-                    "done {} {index} {} {} {}",
+                    "fail {} {index} {}",
                     kind.name(),
-                    outcome.loaded as u8,
-                    outcome.peak_bytes,
-                    (outcome.seconds * 1e6) as u64
+                    failure.describe().replace('\n', " ")
                 )
                 .expect("stdout");
             }
-            index += options.jobs as u64;
+            writeln!(
+                out,
+                "done {} {index} {} {} {}",
+                kind.name(),
+                outcome.loaded as u8,
+                outcome.peak_bytes,
+                (outcome.seconds * 1e6) as u64
+            )
+            .expect("stdout");
         }
+        index += options.jobs as u64;
     }
     writeln!(out, "end").expect("stdout");
 }
@@ -331,6 +342,20 @@ fn supervise(options: &Options, seeds: &[seeds::Seed], args: &[String]) -> i32 {
                 }
                 // The exit event restarts it after this case.
             }
+        }
+        if options
+            .stop_after
+            .is_some_and(|limit| started.elapsed().as_secs_f64() > limit)
+        {
+            eprintln!(
+                "stopping after {:.0} s as asked",
+                started.elapsed().as_secs_f64()
+            );
+            for child in children.iter_mut().flatten() {
+                let _ = child.kill();
+                let _ = child.wait();
+            }
+            break;
         }
         if last_progress.elapsed() > Duration::from_secs(30) {
             eprintln!(
