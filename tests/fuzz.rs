@@ -249,6 +249,10 @@ fn the_oracle_catches_over_allocation_panics_and_bad_messages() {
             format!("{spec}: input.nii is broken"),
             "names the file twice",
         ),
+        (
+            format!("{spec}: 'input.nii' quoted from the file is fine, but input.nii"),
+            "names the file twice",
+        ),
     ] {
         let outcome = fuzz::oracle::check_with(&target, &inputs, &limits, |_| Err(message.clone()));
         assert!(
