@@ -106,8 +106,34 @@ fn broken_dicom_files_fail_in_one_line_and_stay_untouched() {
         .windows(6)
         .position(|w| w == [0xe0, 0x7f, 0x10, 0x00, b'O', b'W'])
         .expect("pixel data");
+    // Rows (0028,0010) US: an 8-byte header and a 2-byte value.
+    let rows = bytes
+        .windows(6)
+        .position(|w| w == [0x28, 0x00, 0x10, 0x00, b'U', b'S'])
+        .expect("Rows");
+    let cut_in_header =
+        format!("cannot read the data set at byte {rows} (after element (0028,0004) at byte");
+    let cut_in_value =
+        format!("element (0028,0010) at byte {rows} declares 2 bytes, but only 1 remain");
     let cases: Vec<(&str, Vec<u8>, &str)> = vec![
-        ("cut-header.dcm", bytes[..600].to_vec(), "cut-header.dcm: "),
+        // Cut between elements: the data set just ends, without the image's size.
+        (
+            "cut-header.dcm",
+            bytes[..600].to_vec(),
+            "no Rows (0028,0010)",
+        ),
+        // Cut inside an element's header, then inside its value: not "Could not read data set
+        // token", but where, after which element, and why.
+        (
+            "cut-in-a-header.dcm",
+            bytes[..rows + 7].to_vec(),
+            &cut_in_header,
+        ),
+        (
+            "cut-in-a-value.dcm",
+            bytes[..rows + 9].to_vec(),
+            &cut_in_value,
+        ),
         (
             "cut-pixels.dcm",
             bytes[..pixels + 12 + 5000].to_vec(),
@@ -116,7 +142,7 @@ fn broken_dicom_files_fail_in_one_line_and_stay_untouched() {
         (
             "preamble-only.dcm",
             bytes[..132].to_vec(),
-            "not a readable DICOM file",
+            "the meta group ends early (byte 132)",
         ),
     ];
     for (name, content, expected) in cases {
@@ -134,100 +160,97 @@ fn broken_dicom_files_fail_in_one_line_and_stay_untouched() {
             "{error}"
         );
         assert!(error.contains(expected), "{name}: {error}");
+        // The file is named once, at the start.
+        assert_eq!(error.matches(name).count(), 1, "{error}");
         assert_eq!(std::fs::read(&path).unwrap(), content);
     }
+}
+
+/// A file of the written multi-frame kind with an element claiming `length` bytes inserted
+/// before Rows (0028,0010); returns the bytes and the inserted element's offset.
+fn with_a_damaged_length(length: u32) -> (Vec<u8>, usize) {
+    use support::writers::{dicom_bytes, dicom_native_pixels, dicom_object};
+    let mut bytes = dicom_bytes(
+        dicom_object(dicom_native_pixels(), dicom_core::VR::OW),
+        "1.2.840.10008.1.2.1",
+    );
+    let rows = bytes
+        .windows(6)
+        .position(|w| w == [0x28, 0x00, 0x10, 0x00, b'U', b'S'])
+        .expect("Rows");
+    let mut element = vec![0x10, 0x00, 0x10, 0x00, b'U', b'T', 0, 0];
+    element.extend(length.to_le_bytes());
+    bytes.splice(rows..rows, element);
+    (bytes, rows)
+}
+
+#[test]
+fn a_damaged_element_length_is_refused_with_its_tag_and_offset() {
+    let dir = tempfile::tempdir().unwrap();
+    let (bytes, at) = with_a_damaged_length(0xffff_fff0);
+    let path = dir.path().join("damaged.dcm");
+    std::fs::write(&path, &bytes).unwrap();
+    let started = std::time::Instant::now();
+    let error = load(&path).unwrap_err();
+    assert!(started.elapsed().as_secs_f64() < 1.0);
+    let remaining = bytes.len() - at - 12;
+    assert_eq!(
+        error,
+        format!(
+            "{}: element (0010,0010) at byte {at} declares 4294967280 bytes, but only {remaining} remain",
+            path.display()
+        )
+    );
+}
+
+#[test]
+fn a_damaged_file_in_a_series_folder_is_skipped() {
+    use support::writers::{dicom_bytes, dicom_native_pixels, dicom_object};
+    let dir = tempfile::tempdir().unwrap();
+    for (index, position) in [(1, "0"), (2, "2.5")] {
+        let mut object = dicom_object(dicom_native_pixels(), dicom_core::VR::OW);
+        object.put(dicom_core::DataElement::new(
+            dicom_dictionary_std::tags::IMAGE_POSITION_PATIENT,
+            dicom_core::VR::DS,
+            dicom_core::dicom_value!(Strs, ["0", "0", position]),
+        ));
+        object.put(dicom_core::DataElement::new(
+            dicom_dictionary_std::tags::IMAGE_ORIENTATION_PATIENT,
+            dicom_core::VR::DS,
+            dicom_core::dicom_value!(Strs, ["1", "0", "0", "0", "1", "0"]),
+        ));
+        object.put(dicom_core::DataElement::new(
+            dicom_dictionary_std::tags::NUMBER_OF_FRAMES,
+            dicom_core::VR::IS,
+            dicom_core::dicom_value!(Str, "1"),
+        ));
+        let path = dir.path().join(format!("slice-{index}.dcm"));
+        std::fs::write(path, dicom_bytes(object, "1.2.840.10008.1.2.1")).unwrap();
+    }
+    std::fs::write(
+        dir.path().join("slice-3.dcm"),
+        with_a_damaged_length(0x8000_0000).0,
+    )
+    .unwrap();
+    let volume = load(dir.path()).unwrap();
+    assert!(has(&volume, "files", "2"), "{:?}", volume.metadata);
+    // Asked for by name, the damaged file is an error.
+    let error = load(&dir.path().join("slice-3.dcm")).unwrap_err();
+    assert!(error.contains("element (0010,0010) at byte"), "{error}");
 }
 
 mod written {
     //! DICOM files written here with dicom-object: multi-frame, RLE, and an unsupported syntax.
 
-    use dicom_core::value::{PixelFragmentSequence, Value};
-    use dicom_core::{DataElement, PrimitiveValue, VR, dicom_value};
-    use dicom_dictionary_std::tags;
-    use dicom_object::{FileMetaTableBuilder, InMemDicomObject};
+    use dicom_core::VR;
 
-    const ROWS: u16 = 6;
-    const COLUMNS: u16 = 8;
-    const FRAMES: usize = 3;
+    use super::support::writers::{
+        DICOM_COLUMNS as COLUMNS, DICOM_FRAMES as FRAMES, DICOM_ROWS as ROWS, dicom_bytes,
+        dicom_native_pixels, dicom_object, dicom_pixel as pixel, dicom_rle_pixels,
+    };
 
-    fn pixel(n: usize) -> i16 {
-        (n as i16 % 300) - 100
-    }
-
-    fn object(samples: Value<InMemDicomObject>, vr: VR) -> InMemDicomObject {
-        let mut object = InMemDicomObject::new_empty();
-        let mut put = |tag, vr, value: PrimitiveValue| object.put(DataElement::new(tag, vr, value));
-        put(
-            tags::SOP_CLASS_UID,
-            VR::UI,
-            dicom_value!(Str, "1.2.840.10008.5.1.4.1.1.4"),
-        );
-        put(
-            tags::SOP_INSTANCE_UID,
-            VR::UI,
-            dicom_value!(Str, "1.2.3.4.5.6"),
-        );
-        put(
-            tags::SERIES_INSTANCE_UID,
-            VR::UI,
-            dicom_value!(Str, "1.2.3.4.5"),
-        );
-        put(tags::MODALITY, VR::CS, dicom_value!(Str, "CT"));
-        put(tags::SAMPLES_PER_PIXEL, VR::US, dicom_value!(U16, [1]));
-        put(
-            tags::PHOTOMETRIC_INTERPRETATION,
-            VR::CS,
-            dicom_value!(Str, "MONOCHROME2"),
-        );
-        put(tags::NUMBER_OF_FRAMES, VR::IS, dicom_value!(Str, "3"));
-        put(tags::ROWS, VR::US, dicom_value!(U16, [ROWS]));
-        put(tags::COLUMNS, VR::US, dicom_value!(U16, [COLUMNS]));
-        put(tags::BITS_ALLOCATED, VR::US, dicom_value!(U16, [16]));
-        put(tags::BITS_STORED, VR::US, dicom_value!(U16, [16]));
-        put(tags::HIGH_BIT, VR::US, dicom_value!(U16, [15]));
-        put(tags::PIXEL_REPRESENTATION, VR::US, dicom_value!(U16, [1]));
-        put(
-            tags::PIXEL_SPACING,
-            VR::DS,
-            dicom_value!(Strs, ["0.5", "0.25"]),
-        );
-        put(tags::SLICE_THICKNESS, VR::DS, dicom_value!(Str, "2.5"));
-        put(tags::RESCALE_SLOPE, VR::DS, dicom_value!(Str, "2"));
-        put(tags::RESCALE_INTERCEPT, VR::DS, dicom_value!(Str, "-1024"));
-        object.put(DataElement::new(tags::PIXEL_DATA, vr, samples));
-        object
-    }
-
-    fn write(object: InMemDicomObject, syntax: &str, path: &std::path::Path) {
-        object
-            .with_meta(FileMetaTableBuilder::new().transfer_syntax(syntax))
-            .unwrap()
-            .write_to_file(path)
-            .unwrap();
-    }
-
-    /// PackBits with literal and replicate runs.
-    fn pack(bytes: &[u8]) -> Vec<u8> {
-        let mut out = Vec::new();
-        let mut i = 0;
-        while i < bytes.len() {
-            let run = bytes[i..]
-                .iter()
-                .take(128)
-                .take_while(|&&b| b == bytes[i])
-                .count();
-            if run >= 3 {
-                out.push((1 - run as i32) as i8 as u8);
-                out.push(bytes[i]);
-                i += run;
-            } else {
-                let count = (bytes.len() - i).min(2);
-                out.push((count - 1) as u8);
-                out.extend(&bytes[i..i + count]);
-                i += count;
-            }
-        }
-        out
+    fn write(object: dicom_object::InMemDicomObject, syntax: &str, path: &std::path::Path) {
+        std::fs::write(path, dicom_bytes(object, syntax)).unwrap();
     }
 
     fn check(path: &std::path::Path) {
@@ -252,44 +275,17 @@ mod written {
     #[test]
     fn multi_frame_files_uncompressed_and_rle() {
         let dir = tempfile::tempdir().unwrap();
-        let count = FRAMES * (ROWS * COLUMNS) as usize;
-        let values: Vec<i16> = (0..count).map(pixel).collect();
-
         let path = dir.path().join("multi.dcm");
         write(
-            object(PrimitiveValue::I16(values.clone().into()).into(), VR::OW),
+            dicom_object(dicom_native_pixels(), VR::OW),
             "1.2.840.10008.1.2.1",
             &path,
         );
         check(&path);
 
-        let per_frame = (ROWS * COLUMNS) as usize;
-        let fragments: Vec<Vec<u8>> = values
-            .chunks(per_frame)
-            .map(|frame| {
-                let high = pack(
-                    &frame
-                        .iter()
-                        .map(|v| (*v as u16 >> 8) as u8)
-                        .collect::<Vec<_>>(),
-                );
-                let low = pack(&frame.iter().map(|v| *v as u16 as u8).collect::<Vec<_>>());
-                let mut fragment = vec![0u8; 64];
-                fragment[0..4].copy_from_slice(&2u32.to_le_bytes());
-                fragment[4..8].copy_from_slice(&64u32.to_le_bytes());
-                fragment[8..12].copy_from_slice(&(64 + high.len() as u32).to_le_bytes());
-                fragment.extend(high);
-                fragment.extend(low);
-                if fragment.len() % 2 == 1 {
-                    fragment.push(0);
-                }
-                fragment
-            })
-            .collect();
         let rle = dir.path().join("rle.dcm");
-        let sequence = PixelFragmentSequence::new(Vec::<u32>::new(), fragments.clone());
         write(
-            object(Value::from(sequence), VR::OB),
+            dicom_object(dicom_rle_pixels(), VR::OB),
             "1.2.840.10008.1.2.5",
             &rle,
         );
@@ -297,9 +293,8 @@ mod written {
 
         // JPEG baseline is named in the error.
         let jpeg = dir.path().join("jpeg.dcm");
-        let sequence = PixelFragmentSequence::new(Vec::<u32>::new(), fragments);
         write(
-            object(Value::from(sequence), VR::OB),
+            dicom_object(dicom_rle_pixels(), VR::OB),
             "1.2.840.10008.1.2.4.50",
             &jpeg,
         );

@@ -507,7 +507,7 @@ fn bad_files_give_one_line_errors_and_stay_untouched() {
     assert_clean_error(
         &path("lonely.nhdr"),
         load(&path("lonely.nhdr")),
-        "gone.raw does not exist",
+        "NRRD data file 'gone.raw' does not exist",
     );
 
     // A directory, and a path that does not exist.
@@ -534,4 +534,294 @@ fn bad_files_give_one_line_errors_and_stay_untouched() {
     // Nothing was changed or deleted.
     assert_eq!(std::fs::read(path("noise.nii")).unwrap(), noise);
     assert_eq!(std::fs::read(path("truncated.nii")).unwrap(), truncated);
+}
+
+// ---- the format table -------------------------------------------------------------------
+
+/// Rows of the README's Formats table that are not file formats of the table (a folder of
+/// slices, `--raw`, `synthetic:`), and file names the README mentions beside a format's own
+/// (`.img`: the data file of a `.hdr`, opened through it; `.png`: slices).
+const README_ROWS_NOT_IN_THE_TABLE: [&str; 3] = ["slices", "raw", "synthetic"];
+const README_COMPANION_EXTENSIONS: [&str; 2] = [".img", ".png"];
+
+#[test]
+fn the_readme_formats_table_matches_the_format_table() {
+    let readme = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md"))
+        .expect("README.md");
+    let section = readme
+        .split("\n## Formats\n")
+        .nth(1)
+        .and_then(|rest| rest.split("\n## ").next())
+        .expect("a Formats section");
+    // Rows `| format | files | notes |`, after the header and the `|---|` line.
+    let rows: Vec<Vec<&str>> = section
+        .lines()
+        .filter(|line| line.starts_with('|'))
+        .skip(2)
+        .map(|line| line.trim_matches('|').split(" | ").map(str::trim).collect())
+        .collect();
+    assert!(rows.len() >= volume::format::FORMATS.len(), "{rows:?}");
+    let backticked = |cell: &str| -> Vec<String> {
+        cell.split('`')
+            .skip(1)
+            .step_by(2)
+            .filter(|token| token.starts_with('.'))
+            .map(str::to_owned)
+            .collect()
+    };
+    for format in &volume::format::FORMATS {
+        let row = rows
+            .iter()
+            .find(|row| row[0] == format.name || row[0].starts_with(&format!("{} ", format.name)))
+            .unwrap_or_else(|| panic!("README's Formats table has no row for {}", format.name));
+        let listed = backticked(row[1]);
+        for extension in format.extensions {
+            assert!(
+                listed.iter().any(|l| l == extension),
+                "README's {} row lacks `{extension}`",
+                format.name
+            );
+        }
+        for extension in &listed {
+            assert!(
+                format.extensions.contains(&extension.as_str())
+                    || README_COMPANION_EXTENSIONS.contains(&extension.as_str()),
+                "README's {} row lists `{extension}`, which the format table does not read",
+                format.name
+            );
+        }
+    }
+    for row in &rows {
+        let known = volume::format::FORMATS
+            .iter()
+            .any(|f| row[0] == f.name || row[0].starts_with(&format!("{} ", f.name)));
+        assert!(
+            known || README_ROWS_NOT_IN_THE_TABLE.contains(&row[0]),
+            "README's Formats row '{}' is not in the format table",
+            row[0]
+        );
+    }
+}
+
+#[test]
+fn an_unrecognized_file_lists_every_format_of_the_table() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("mystery.bin");
+    std::fs::write(&path, b"neither header nor magic").unwrap();
+    let error = load(&path).unwrap_err();
+    assert!(error.contains("unrecognized format"), "{error}");
+    for format in &volume::format::FORMATS {
+        assert!(error.contains(format.name), "{error} lacks {}", format.name);
+        for extension in format.extensions {
+            assert!(error.contains(extension), "{error} lacks {extension}");
+        }
+    }
+}
+
+#[test]
+fn files_without_an_extension_are_recognized_by_their_magic_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let dims = [3, 2, 2];
+    let spec = NiftiSpec {
+        dims,
+        datatype: 2,
+        spacing: [1.0; 3],
+        slope: 0.0,
+        intercept: 0.0,
+        sform: None,
+        endian: Endian::Little,
+    };
+    let nifti = dir.path().join("nifti-without-extension");
+    std::fs::write(
+        &nifti,
+        gzip(&nifti_bytes(
+            &spec,
+            &pattern_bytes(VoxelType::U8, dims, Endian::Little),
+        )),
+    )
+    .unwrap();
+    assert_eq!(load(&nifti).unwrap().format, "NIfTI-1");
+    let nrrd = dir.path().join("nrrd-without-extension");
+    write_nrrd(
+        &nrrd,
+        &NrrdSpec {
+            type_name: "uchar",
+            sizes: &dims,
+            encoding: NrrdEncoding::Raw,
+            endian: Endian::Little,
+            extra: &[],
+        },
+        &pattern_bytes(VoxelType::U8, dims, Endian::Little),
+        "",
+    );
+    assert_eq!(load(&nrrd).unwrap().format, "NRRD");
+}
+
+// ---- hostile headers: bounded time, readable messages -----------------------------------
+
+/// A small valid NRRD header (u8, 4×3×2, raw) with `extra` lines, and its payload.
+fn nrrd_with(dir: &Path, name: &str, extra: &[&str]) -> std::path::PathBuf {
+    let path = dir.join(name);
+    write_nrrd(
+        &path,
+        &NrrdSpec {
+            type_name: "uchar",
+            sizes: &[4, 3, 2],
+            encoding: NrrdEncoding::Raw,
+            endian: Endian::Little,
+            extra,
+        },
+        &[7u8; 24],
+        "",
+    );
+    path
+}
+
+#[test]
+fn a_huge_nrrd_line_skip_ends_at_the_end_of_the_file_and_says_line_skip() {
+    let dir = tempfile::tempdir().unwrap();
+    for skip in ["1000000000", "9223372036854775807", "18446744073709551615"] {
+        let line = format!("line skip: {skip}");
+        let path = nrrd_with(dir.path(), "skip.nrrd", &[&line]);
+        let started = std::time::Instant::now();
+        let error = load(&path).unwrap_err();
+        assert!(started.elapsed().as_secs_f64() < 1.0, "{skip}");
+        assert_clean_error(
+            &path,
+            Err(error.clone()),
+            &format!("line skip {skip}: the data ends after"),
+        );
+        assert!(!error.contains("byte skip"), "{error}");
+    }
+    let path = nrrd_with(
+        dir.path(),
+        "skip.nrrd",
+        &["line skip: 99999999999999999999"],
+    );
+    assert_clean_error(
+        &path,
+        load(&path),
+        "NRRD line skip '99999999999999999999' is too large",
+    );
+}
+
+#[test]
+fn control_bytes_from_a_file_are_escaped_and_long_values_shortened() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = nrrd_with(dir.path(), "escape.nrrd", &[]);
+    let text = std::fs::read_to_string(&path)
+        .unwrap()
+        .replace("endian: little", "endian: \u{1b}[31mred\u{7}");
+    std::fs::write(&path, text).unwrap();
+    assert_clean_error(
+        &path,
+        load(&path),
+        "NRRD endian '\\x1b[31mred\\x07' is not little or big",
+    );
+
+    let long = format!("type: {}", "x".repeat(5000));
+    let path = nrrd_with(dir.path(), "long.nrrd", &[&long]);
+    let error = load(&path).unwrap_err();
+    assert!(error.len() < 200, "{error}");
+    assert_clean_error(
+        &path,
+        Err(error),
+        "… (4940 more characters)' is not supported",
+    );
+}
+
+#[test]
+fn overflowing_numbers_are_too_large_not_unreadable() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = nrrd_with(dir.path(), "dimension.nrrd", &[]);
+    let text = std::fs::read_to_string(&path)
+        .unwrap()
+        .replace("dimension: 3", "dimension: 18446744073709551616");
+    std::fs::write(&path, text).unwrap();
+    assert_clean_error(
+        &path,
+        load(&path),
+        "NRRD dimension '18446744073709551616' is too large",
+    );
+
+    let path = nrrd_with(dir.path(), "sizes.nrrd", &[]);
+    let digits = "9".repeat(300);
+    let text = std::fs::read_to_string(&path)
+        .unwrap()
+        .replace("sizes: 4 3 2", &format!("sizes: 4 {digits} 2"));
+    std::fs::write(&path, text).unwrap();
+    assert_clean_error(
+        &path,
+        load(&path),
+        "entry '9999999999999999… (300 digits)' is too large",
+    );
+
+    // NIfTI's vox_offset as f32::MAX: 3.4e38, not 39 digits.
+    let mut bytes = nifti_bytes(
+        &NiftiSpec {
+            dims: [2, 2, 2],
+            datatype: 2,
+            spacing: [1.0; 3],
+            slope: 0.0,
+            intercept: 0.0,
+            sform: None,
+            endian: Endian::Little,
+        },
+        &[0; 8],
+    );
+    bytes[108..112].copy_from_slice(&f32::MAX.to_le_bytes());
+    let path = dir.path().join("offset.nii");
+    std::fs::write(&path, bytes).unwrap();
+    assert_clean_error(
+        &path,
+        load(&path),
+        "NIfTI vox_offset 3.4028234663852886e38 is too large",
+    );
+}
+
+#[test]
+fn folders_and_devices_are_named_as_such_not_as_missing() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = nrrd_with(dir.path(), "folder-data.nhdr", &[]);
+    let text = std::fs::read_to_string(&path).unwrap();
+    let header = text.split("\n\n").next().unwrap();
+    std::fs::write(&path, format!("{header}\ndata file: .\n")).unwrap();
+    assert_clean_error(
+        &path,
+        load(&path),
+        "NRRD data file '.' is a folder, not a file",
+    );
+    std::fs::write(&path, format!("{header}\ndata file: /dev/zero\n")).unwrap();
+    assert_clean_error(
+        &path,
+        load(&path),
+        "NRRD data file '/dev/zero' is a device, not a file",
+    );
+
+    // Opened directly: a device is refused before anything reads it (it would never end).
+    let device = Path::new("/dev/zero");
+    let started = std::time::Instant::now();
+    assert_clean_error(device, load(device), "is a device, not a file");
+    assert!(started.elapsed().as_secs_f64() < 1.0);
+
+    // A NIfTI pair whose .img is a folder.
+    let header = nifti_bytes(
+        &NiftiSpec {
+            dims: [2, 2, 2],
+            datatype: 2,
+            spacing: [1.0; 3],
+            slope: 0.0,
+            intercept: 0.0,
+            sform: None,
+            endian: Endian::Little,
+        },
+        &[],
+    );
+    let mut pair = header[..348].to_vec();
+    pair[108..112].copy_from_slice(&0f32.to_le_bytes());
+    pair[344..348].copy_from_slice(b"ni1\0");
+    let hdr = dir.path().join("pair.hdr");
+    std::fs::write(&hdr, pair).unwrap();
+    std::fs::create_dir(dir.path().join("pair.img")).unwrap();
+    assert_clean_error(&hdr, load(&hdr), "pair.img, which is a folder, not a file");
 }

@@ -1,87 +1,13 @@
 //! MRC / CCP4 maps: every supported mode in both byte orders, axis order, voxel size from the
 //! cell, and broken files.
 
+mod support;
+
 use std::path::Path;
 
+use support::writers::MrcMap as Map;
+
 use voxscope::volume::{self, LoadOptions, VoxelType};
-
-struct Map {
-    dims: [i32; 3],
-    mode: i32,
-    big_endian: bool,
-    axis_order: [i32; 3],
-    cell: [f32; 3],
-    extended: Vec<u8>,
-}
-
-impl Map {
-    fn new(dims: [i32; 3], mode: i32) -> Self {
-        Self {
-            dims,
-            mode,
-            big_endian: false,
-            axis_order: [1, 2, 3],
-            cell: [
-                dims[0] as f32 * 1.5,
-                dims[1] as f32 * 1.5,
-                dims[2] as f32 * 2.0,
-            ],
-            extended: Vec::new(),
-        }
-    }
-
-    /// The file bytes; the stored value of voxel n (in stored order) is `n % 100`.
-    fn bytes(&self) -> Vec<u8> {
-        let word = |v: [u8; 4]| {
-            if self.big_endian {
-                let mut r = v;
-                r.reverse();
-                r
-            } else {
-                v
-            }
-        };
-        let mut header = vec![0u8; 1024];
-        let mut put = |index: usize, bytes: [u8; 4]| {
-            header[4 * index..4 * index + 4].copy_from_slice(&word(bytes))
-        };
-        for a in 0..3 {
-            put(a, self.dims[a].to_le_bytes());
-            put(7 + a, self.dims[a].to_le_bytes());
-            put(10 + a, self.cell[a].to_le_bytes());
-            put(13 + a, 90f32.to_le_bytes());
-            put(16 + a, self.axis_order[a].to_le_bytes());
-        }
-        put(3, self.mode.to_le_bytes());
-        put(23, (self.extended.len() as i32).to_le_bytes());
-        put(55, 1i32.to_le_bytes());
-        header[208..212].copy_from_slice(b"MAP ");
-        header[212..214].copy_from_slice(if self.big_endian {
-            &[0x11, 0x11]
-        } else {
-            &[0x44, 0x44]
-        });
-        header[224..238].copy_from_slice(b"voxscope test ");
-        header.extend(&self.extended);
-        let count = self.dims.iter().product::<i32>() as usize;
-        for n in 0..count {
-            let value = (n % 100) as f64;
-            let mut bytes = match self.mode {
-                0 => vec![value as i8 as u8],
-                1 => (value as i16).to_le_bytes().to_vec(),
-                2 => (value as f32).to_le_bytes().to_vec(),
-                6 => (value as u16).to_le_bytes().to_vec(),
-                12 => half::f16::from_f64(value).to_le_bytes().to_vec(),
-                _ => vec![0; 8],
-            };
-            if self.big_endian {
-                bytes.reverse();
-            }
-            header.extend(bytes);
-        }
-        header
-    }
-}
 
 fn load(path: &Path) -> Result<volume::Volume, String> {
     volume::load(&path.display().to_string(), &LoadOptions::default()).map_err(|e| e.to_string())

@@ -5,46 +5,27 @@ mod support;
 
 use std::path::Path;
 
-use tiff::encoder::{Rational, TiffEncoder, colortype};
-use tiff::tags::Tag;
+use tiff::encoder::{TiffEncoder, colortype};
 use voxscope::volume::{self, LoadOptions, VoxelType};
 
 /// Writes `pages` pages of `width`×`height`, voxel (x, y, z) = `value(x, y, z)`.
 fn write_stack<C: colortype::ColorType>(
     path: &Path,
-    [width, height, pages]: [u32; 3],
+    dims: [u32; 3],
     description: Option<&str>,
     resolution: Option<f64>,
     value: impl Fn(u32, u32, u32) -> C::Inner,
 ) where
     [C::Inner]: tiff::encoder::TiffValue,
 {
-    let file = std::fs::File::create(path).expect("create");
-    let mut encoder = TiffEncoder::new(file).expect("encoder");
-    for z in 0..pages {
-        let mut image = encoder.new_image::<C>(width, height).expect("page");
-        if z == 0 {
-            if let Some(text) = description {
-                image
-                    .encoder()
-                    .write_tag(Tag::ImageDescription, text)
-                    .expect("description");
-            }
-            if let Some(per_unit) = resolution {
-                let value = Rational {
-                    n: (per_unit * 1000.0).round() as u32,
-                    d: 1000,
-                };
-                image.x_resolution(value.clone());
-                image.y_resolution(value);
-            }
-        }
-        let data: Vec<C::Inner> = (0..height)
-            .flat_map(|y| (0..width).map(move |x| (x, y)))
-            .map(|(x, y)| value(x, y, z))
-            .collect();
-        image.write_data(&data).expect("write page");
-    }
+    let bytes = support::writers::tiff_stack::<C>(
+        dims,
+        description,
+        resolution,
+        tiff::encoder::Compression::Uncompressed,
+        value,
+    );
+    std::fs::write(path, bytes).expect("write");
 }
 
 fn load(path: &Path) -> Result<volume::Volume, String> {
@@ -273,4 +254,112 @@ fn a_folder_of_slices_opens_in_the_order_of_the_numbers_in_their_names() {
     let empty = tempfile::tempdir().unwrap();
     let error = load(empty.path()).unwrap_err();
     assert!(error.contains("without slice images"), "{error}");
+}
+
+/// A one-pixel TIFF page with `bits` as its BitsPerSample list (one value per sample), the
+/// list stored after the directory, photometric BlackIsZero.
+fn many_samples(bits: &[u16]) -> Vec<u8> {
+    let samples = bits.len() as u32;
+    let entries: u16 = 9;
+    let directory_end = 8 + 2 + 12 * entries as u32 + 4;
+    let bits_at = directory_end;
+    let strip_at = bits_at + 2 * samples;
+    let strip_bytes: u32 = bits.iter().map(|&b| b as u32 / 8).sum();
+    let mut file = b"II*\0".to_vec();
+    file.extend(8u32.to_le_bytes());
+    file.extend(entries.to_le_bytes());
+    let mut entry = |tag: u16, kind: u16, count: u32, value: u32| {
+        file.extend(tag.to_le_bytes());
+        file.extend(kind.to_le_bytes());
+        file.extend(count.to_le_bytes());
+        file.extend(value.to_le_bytes());
+    };
+    entry(256, 3, 1, 1); // ImageWidth
+    entry(257, 3, 1, 1); // ImageLength
+    // BitsPerSample: one value fits in the entry, more are stored after the directory.
+    let inline = if samples == 1 {
+        bits[0] as u32
+    } else {
+        bits_at
+    };
+    entry(258, 3, samples, inline);
+    entry(259, 3, 1, 1); // no compression
+    entry(262, 3, 1, 1); // BlackIsZero
+    entry(273, 4, 1, strip_at); // StripOffsets
+    entry(277, 3, 1, samples); // SamplesPerPixel
+    entry(278, 3, 1, 1); // RowsPerStrip
+    entry(279, 4, 1, strip_bytes); // StripByteCounts
+    file.extend(0u32.to_le_bytes());
+    for b in bits {
+        file.extend(b.to_le_bytes());
+    }
+    file.extend(vec![0u8; strip_bytes as usize]);
+    file
+}
+
+#[test]
+fn long_tag_lists_are_shortened_and_color_types_named_in_words() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut bits = vec![8u16; 49000];
+    bits.extend(vec![16u16; 49000]);
+    for (name, content) in [
+        ("mixed-bits.tif", many_samples(&bits)),
+        ("four-samples.tif", many_samples(&[16, 16, 16, 16])),
+    ] {
+        let path = dir.path().join(name);
+        std::fs::write(&path, &content).unwrap();
+        let error = load(&path).unwrap_err();
+        assert!(
+            error.len() < 400,
+            "{name}: {} characters: {error}",
+            error.len()
+        );
+        assert!(!error.contains('{') && !error.contains('\n'), "{error}");
+    }
+    let error = load(&dir.path().join("four-samples.tif")).unwrap_err();
+    assert!(error.contains("4 samples of 16 bits per pixel"), "{error}");
+}
+
+#[test]
+fn library_errors_say_what_pointed_where() {
+    let dir = tempfile::tempdir().unwrap();
+    let bytes = support::writers::tiff_stack::<colortype::Gray16>(
+        [16, 16, 4],
+        None,
+        None,
+        tiff::encoder::Compression::Uncompressed,
+        |x, y, z| (x + y + z) as u16,
+    );
+    // Cut inside the pixel data: the file ends early (not "failed to fill whole buffer").
+    let cut = dir.path().join("cut.tif");
+    std::fs::write(&cut, &bytes[..bytes.len() - 300]).unwrap();
+    let error = load(&cut).unwrap_err();
+    assert!(error.contains("the file ends early"), "{error}");
+    // The first page's directory offset far beyond the file (not "Invalid argument").
+    let mut far = bytes.clone();
+    far[4..8].copy_from_slice(&0xffff_fff0u32.to_le_bytes());
+    let path = dir.path().join("far.tif");
+    std::fs::write(&path, &far).unwrap();
+    let error = load(&path).unwrap_err();
+    assert!(
+        !error.contains("Invalid argument") && !error.contains("failed to fill"),
+        "{error}"
+    );
+    // A page claiming 30000x30000 pixels in a small file (not "decoder limits exceeded").
+    let mut huge = many_samples(&[8]);
+    let entry = |index: usize| 8 + 2 + 12 * index + 8;
+    huge[entry(0)..entry(0) + 4].copy_from_slice(&30000u32.to_le_bytes());
+    huge[entry(1)..entry(1) + 4].copy_from_slice(&30000u32.to_le_bytes());
+    huge[entry(7)..entry(7) + 4].copy_from_slice(&30000u32.to_le_bytes());
+    huge[entry(8)..entry(8) + 4].copy_from_slice(&900_000_000u32.to_le_bytes());
+    let path = dir.path().join("huge.tif");
+    std::fs::write(&path, &huge).unwrap();
+    let started = std::time::Instant::now();
+    let error = load(&path).unwrap_err();
+    assert!(started.elapsed().as_secs_f64() < 1.0);
+    assert!(
+        error.contains("cannot decode page 1: the page would decode to more than")
+            && error.contains("more than a file of this size can hold"),
+        "{error}"
+    );
 }

@@ -1,84 +1,17 @@
 //! VTK XML ImageData: every encoding ParaView writes (ascii, base64 binary, appended raw and
 //! base64; zlib or not; 32- and 64-bit headers; both byte orders), and broken files.
 
-use std::io::Write;
+mod support;
+
 use std::path::Path;
 
 use base64::Engine as _;
 use base64::engine::general_purpose::STANDARD;
+use support::writers::{
+    VTI_DIMS as DIMS, VTI_FOOTER as FOOTER, vti_block as block, vti_header as vtk_header,
+    vti_values as values, vti_word as word,
+};
 use voxscope::volume::{self, LoadOptions, VoxelType};
-
-const DIMS: [usize; 3] = [5, 4, 3];
-
-fn values() -> Vec<f32> {
-    (0..60).map(|i| i as f32 * 0.5 - 3.0).collect()
-}
-
-fn word(value: usize, header64: bool, big: bool) -> Vec<u8> {
-    match (header64, big) {
-        (true, false) => (value as u64).to_le_bytes().to_vec(),
-        (true, true) => (value as u64).to_be_bytes().to_vec(),
-        (false, false) => (value as u32).to_le_bytes().to_vec(),
-        (false, true) => (value as u32).to_be_bytes().to_vec(),
-    }
-}
-
-/// The data block (header + data) of the Float32 values, as VTK lays it out.
-fn block(header64: bool, big: bool, compressed: bool, block_size: usize) -> (Vec<u8>, Vec<u8>) {
-    let data: Vec<u8> = values()
-        .iter()
-        .flat_map(|v| {
-            if big {
-                v.to_be_bytes()
-            } else {
-                v.to_le_bytes()
-            }
-        })
-        .collect();
-    if !compressed {
-        return (word(data.len(), header64, big), data);
-    }
-    let chunks: Vec<Vec<u8>> = data
-        .chunks(block_size)
-        .map(|chunk| {
-            let mut encoder =
-                flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::default());
-            encoder.write_all(chunk).unwrap();
-            encoder.finish().unwrap()
-        })
-        .collect();
-    let mut header = word(chunks.len(), header64, big);
-    header.extend(word(block_size, header64, big));
-    header.extend(word(
-        data.len() - (chunks.len() - 1) * block_size,
-        header64,
-        big,
-    ));
-    for chunk in &chunks {
-        header.extend(word(chunk.len(), header64, big));
-    }
-    (header, chunks.concat())
-}
-
-fn vtk_header(header64: bool, big: bool, compressed: bool) -> String {
-    format!(
-        r#"<?xml version="1.0"?>
-<VTKFile type="ImageData" version="1.0" byte_order="{}" header_type="{}"{}>
-  <ImageData WholeExtent="0 4 0 3 0 2" Origin="0 0 0" Spacing="0.5 0.75 2">
-    <Piece Extent="0 4 0 3 0 2">
-      <PointData Scalars="density">
-"#,
-        if big { "BigEndian" } else { "LittleEndian" },
-        if header64 { "UInt64" } else { "UInt32" },
-        if compressed {
-            r#" compressor="vtkZLibDataCompressor""#
-        } else {
-            ""
-        },
-    )
-}
-
-const FOOTER: &str = "      </PointData>\n    </Piece>\n  </ImageData>\n";
 
 fn check(path: &Path) {
     let volume = volume::load(&path.display().to_string(), &LoadOptions::default())
@@ -225,7 +158,42 @@ fn broken_files_fail_in_one_line_and_stay_untouched() {
         (
             "int64.vti",
             good.replace("type=\"Float32\"", "type=\"Int64\""),
-            "Int64 is not supported",
+            "array 'density': DataArray type 'Int64' is not supported",
+        ),
+        // Number errors name the attribute, overflow is "too large", no debug formatting.
+        (
+            "extent-word.vti",
+            good.replace("WholeExtent=\"0 4 0 3 0 2\"", "WholeExtent=\"0 4 0 x 0 2\""),
+            "WholeExtent value 'x' is not a number",
+        ),
+        (
+            "spacing-word.vti",
+            good.replace("Spacing=\"0.5 0.75 2\"", "Spacing=\"0.5 y 2\""),
+            "Spacing value 'y' is not a number",
+        ),
+        (
+            "extent-overflow.vti",
+            good.replace(
+                "WholeExtent=\"0 4 0 3 0 2\"",
+                "WholeExtent=\"-9223372036854775808 9223372036854775807 0 3 0 2\"",
+            ),
+            "WholeExtent -9223372036854775808, 9223372036854775807, 0, 3 … 2 more is too large",
+        ),
+        (
+            "extent-huge.vti",
+            good.replace(
+                "WholeExtent=\"0 4 0 3 0 2\"",
+                "WholeExtent=\"0 99999999999999999999 0 3 0 2\"",
+            ),
+            "WholeExtent value '99999999999999999999' is too large",
+        ),
+        (
+            "components.vti",
+            good.replace(
+                "Name=\"density\" format",
+                "NumberOfComponents=\"-1\" Name=\"density\" format",
+            ),
+            "array 'density': NumberOfComponents '-1' is not a whole number",
         ),
     ];
     for (name, content, expected) in cases {

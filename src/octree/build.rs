@@ -1,13 +1,13 @@
-//! Building the flat list bottom-up: value bounds for every level from the voxels (using the
-//! paper's sibling arithmetic), then the list top-down, level by level, so that each level's
-//! nodes follow their parents' order and each parent's 8 children sit together.
+//! Building the flat list bottom-up: value bounds for every level from the voxels, kept only
+//! for the cells the volume touches (memory in proportion to the voxels, not to the padded
+//! cube), then the list top-down, level by level, so that each level's nodes follow their
+//! parents' order and each parent's 8 children sit together.
 
 use std::fmt;
 use std::time::Instant;
 
 use rayon::prelude::*;
 
-use super::sibling_index::{next_block_start, sibling_indices};
 use super::{LEAF, Node, Octree, ValueBounds};
 use crate::progress::Progress;
 use crate::volume::QuantizedVolume;
@@ -92,12 +92,14 @@ pub fn build_with_progress(
     let side = 1usize << depth;
 
     // Bounds of a node: from the level grids, or from the voxel itself at the last level.
+    // `cell` indexes the level's cubic grid of side 2^level, x fastest.
     let bounds_of = |level: u32, cell: u32| -> ValueBounds {
-        if level < depth {
-            return grids[level as usize][cell as usize];
-        }
+        let n = 1usize << level;
         let cell = cell as usize;
-        let (x, y, z) = (cell % side, (cell / side) % side, cell / (side * side));
+        let (x, y, z) = (cell % n, (cell / n) % n, cell / (n * n));
+        if level < depth {
+            return grids[level as usize].get(x, y, z);
+        }
         if x < dims[0] && y < dims[1] && z < dims[2] {
             ValueBounds::single(volume.levels[x + dims[0] * (y + dims[1] * z)])
         } else {
@@ -196,62 +198,137 @@ pub fn build_with_progress(
     })
 }
 
-/// Value bounds of every cell of levels `0..depth` (cubic grids of side `2^level`, x fastest).
-/// Level `depth - 1` reads the voxels (padding beyond the volume is empty); each level above
-/// merges the 8 siblings of every block of the level below with the paper's listings 1 and 2.
+/// The value bounds of the cells of one level that the volume touches: a grid of
+/// `dims[a] / cell side` cells per axis (rounded up), x fastest. Cells beyond it hold only
+/// padding and are [`ValueBounds::EMPTY`]; storing only these keeps the build's memory in
+/// proportion to the voxels (a 1024×1×1 volume has 512×1×1 cells at its finest level, not
+/// the 512³ of the padded cube).
+struct LevelGrid {
+    dims: [usize; 3],
+    bounds: Vec<ValueBounds>,
+}
+
+impl LevelGrid {
+    /// Bounds of cell (x, y, z) of the level's cubic grid (padding outside the volume).
+    #[inline]
+    fn get(&self, x: usize, y: usize, z: usize) -> ValueBounds {
+        if x < self.dims[0] && y < self.dims[1] && z < self.dims[2] {
+            self.bounds[x + self.dims[0] * (y + self.dims[1] * z)]
+        } else {
+            ValueBounds::EMPTY
+        }
+    }
+}
+
+/// Value bounds of the cells of levels `0..depth` (level `l` has cells of `2^(depth - l)`
+/// voxels per side), each level holding only the cells the volume touches. Level `depth - 1`
+/// reads 2×2×2 voxel blocks (padding beyond the volume is empty); each level above merges the
+/// 8 children of each of its cells, one z-slab of cells per rayon task.
 fn bounds_per_level(
     volume: &QuantizedVolume,
     depth: u32,
     step_done: &dyn Fn(f32) -> Result<(), BuildError>,
-) -> Result<Vec<Vec<ValueBounds>>, BuildError> {
+) -> Result<Vec<LevelGrid>, BuildError> {
     if depth == 0 {
         return Ok(Vec::new());
     }
     let dims = volume.dims;
-    let mut grids: Vec<Vec<ValueBounds>> = vec![Vec::new(); depth as usize];
-
-    let n = 1usize << (depth - 1);
-    let mut finest = vec![ValueBounds::EMPTY; n * n * n];
-    finest
-        .par_chunks_mut(n * n)
-        .enumerate()
-        .for_each(|(pz, slice)| {
-            for (i, bounds) in slice.iter_mut().enumerate() {
-                let (px, py) = (i % n, i / n);
-                let mut merged = ValueBounds::EMPTY;
-                for child in 0..8 {
-                    let x = 2 * px + (child & 1);
-                    let y = 2 * py + ((child >> 1) & 1);
-                    let z = 2 * pz + (child >> 2);
-                    if x < dims[0] && y < dims[1] && z < dims[2] {
-                        let level = volume.levels[x + dims[0] * (y + dims[1] * z)];
-                        merged = merged.merge(ValueBounds::single(level));
+    let voxel = |x: usize, y: usize, z: usize| -> ValueBounds {
+        if x < dims[0] && y < dims[1] && z < dims[2] {
+            ValueBounds::single(volume.levels[x + dims[0] * (y + dims[1] * z)])
+        } else {
+            ValueBounds::EMPTY
+        }
+    };
+    let merge_children =
+        |grid_dims: [usize; 3], child: &(dyn Fn(usize, usize, usize) -> ValueBounds + Sync)| {
+            let mut bounds = vec![ValueBounds::EMPTY; grid_dims.iter().product()];
+            bounds
+                .par_chunks_mut(grid_dims[0] * grid_dims[1])
+                .enumerate()
+                .for_each(|(pz, slab)| {
+                    for (i, cell) in slab.iter_mut().enumerate() {
+                        let (px, py) = (i % grid_dims[0], i / grid_dims[0]);
+                        *cell = (0..8).fold(ValueBounds::EMPTY, |merged, octant| {
+                            merged.merge(child(
+                                2 * px + (octant & 1),
+                                2 * py + ((octant >> 1) & 1),
+                                2 * pz + (octant >> 2),
+                            ))
+                        });
                     }
-                }
-                *bounds = merged;
+                });
+            LevelGrid {
+                dims: grid_dims,
+                bounds,
             }
-        });
-    grids[depth as usize - 1] = finest;
-    step_done(depth as f32 + 1.0)?;
+        };
 
+    let mut grids: Vec<LevelGrid> = Vec::with_capacity(depth as usize);
+    grids.push(merge_children(dims.map(|d| d.div_ceil(2)), &voxel));
+    step_done(depth as f32 + 1.0)?;
     for level in (0..depth - 1).rev() {
-        let child_grid = &grids[level as usize + 1];
-        let m = 1usize << (level + 1); // side of the child grid
-        let half = m / 2;
-        let mut grid = vec![ValueBounds::EMPTY; half * half * half];
-        grid.par_chunks_mut(half * half)
-            .enumerate()
-            .for_each(|(pz, slice)| {
-                let mut start = 2 * pz * m * m;
-                for bounds in slice.iter_mut() {
-                    *bounds = sibling_indices(start, m)
-                        .iter()
-                        .fold(ValueBounds::EMPTY, |acc, &i| acc.merge(child_grid[i]));
-                    start = next_block_start(start, m);
-                }
-            });
-        grids[level as usize] = grid;
+        let children = grids.last().expect("the finer level was just built");
+        let grid = merge_children(children.dims.map(|d| d.div_ceil(2)), &|x, y, z| {
+            children.get(x, y, z)
+        });
+        grids.push(grid);
         step_done(2.0 * depth as f32 - level as f32)?;
     }
+    // Built finest first; index by level.
+    grids.reverse();
     Ok(grids)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::volume::{Volume, VoxelData};
+
+    /// Every node's bounds are the min and max of the voxels in its box (empty for padding),
+    /// found by brute force, for thin and odd-sized volumes where most of the cube is padding.
+    #[test]
+    fn node_bounds_equal_their_voxels_in_thin_and_odd_volumes() {
+        for dims in [[37, 1, 1], [1, 13, 5], [9, 17, 3], [64, 2, 1], [5, 5, 33]] {
+            let count: usize = dims.iter().product();
+            let values: Vec<u8> = (0..count).map(|i| (i * 37 % 11) as u8).collect();
+            let volume = Volume::new("t", "test", dims, [1.0; 3], VoxelData::U8(values)).unwrap();
+            let quantized = QuantizedVolume::new(&volume);
+            for collapse_uniform in [false, true] {
+                let octree = build(&quantized, BuildOptions { collapse_uniform }).unwrap();
+                // Walk down from the root with each node's corner and side in voxels.
+                let mut stack = vec![(0usize, [0usize; 3], octree.side())];
+                let mut visited = 0;
+                while let Some((index, corner, size)) = stack.pop() {
+                    visited += 1;
+                    let mut expected = ValueBounds::EMPTY;
+                    for z in corner[2]..(corner[2] + size).min(dims[2]) {
+                        for y in corner[1]..(corner[1] + size).min(dims[1]) {
+                            for x in corner[0]..(corner[0] + size).min(dims[0]) {
+                                let level = quantized.levels[x + dims[0] * (y + dims[1] * z)];
+                                expected = expected.merge(ValueBounds::single(level));
+                            }
+                        }
+                    }
+                    assert_eq!(
+                        octree.bounds[index], expected,
+                        "{dims:?} node {index} at {corner:?} size {size}"
+                    );
+                    let node = octree.nodes[index];
+                    if node.first_child != LEAF {
+                        let half = size / 2;
+                        for child in 0..8 {
+                            let offset = [child & 1, (child >> 1) & 1, child >> 2];
+                            stack.push((
+                                node.first_child as usize + child,
+                                std::array::from_fn(|a| corner[a] + offset[a] * half),
+                                half,
+                            ));
+                        }
+                    }
+                }
+                assert_eq!(visited, octree.nodes.len(), "{dims:?}");
+            }
+        }
+    }
 }

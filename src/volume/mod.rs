@@ -4,14 +4,16 @@
 
 mod dicom;
 mod error;
+pub mod format;
+mod io;
 mod mrc;
 mod nifti;
 mod nrrd;
 mod orientation;
 mod raw;
+mod registry;
 mod sample;
 mod slices;
-mod source;
 mod synthetic;
 mod tiff;
 pub(crate) mod values;
@@ -19,11 +21,12 @@ mod voxel_type;
 mod vti;
 
 pub use error::LoadError;
+pub use format::{Format, dialog_extensions, dialog_filter_name};
 pub use nrrd::NrrdEncoding;
 pub use orientation::Orientation;
 pub use raw::RawLayout;
+pub use registry::{LoadOptions, load};
 pub use sample::{SAMPLE_NAME, sample};
-pub use source::{LoadOptions, load};
 pub use synthetic::SyntheticKind;
 pub use values::{Histogram, Quantization, QuantizedVolume, ValueWindow};
 pub(crate) use voxel_type::with_voxel_slice;

@@ -5,12 +5,17 @@
 use std::io::Read;
 use std::path::Path;
 
-use super::error::Problem;
-use super::source::{Storage, checked_payload_bytes, io_reason, open, read_payload, skip_bytes};
+use super::error::{Problem, number, printable};
+use super::io::{Storage, checked_payload_bytes, io_reason, open, read_payload, skip_bytes};
 use super::{Endian, Scalar, Volume, VoxelData, VoxelType};
 
 /// The fixed header; an extended header of NSYMBT bytes may follow.
 const HEADER_BYTES: usize = 1024;
+
+/// MRC2014 and CCP4 write `MAP ` at byte 208.
+pub(super) fn sniff(head: &[u8]) -> bool {
+    head.get(208..212) == Some(b"MAP ")
+}
 
 /// Reads an MRC or CCP4 map.
 pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
@@ -79,7 +84,7 @@ pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
         ));
     }
     skip_bytes(&mut reader, extended as u64)?;
-    let payload = read_payload(reader, needed)?;
+    let payload = read_payload(reader, needed, Storage::Plain)?;
     let stored = if mode == 12 {
         VoxelData::F32(
             payload
@@ -140,14 +145,20 @@ pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
         ),
         (
             "origin".to_owned(),
-            format!("{}, {}, {}", float(49), float(50), float(51)),
+            format!(
+                "{}, {}, {}",
+                number(float(49)),
+                number(float(50)),
+                number(float(51))
+            ),
         ),
     ];
     if let Some(label) = (0..labels)
         .map(|i| {
-            String::from_utf8_lossy(&header[224 + 80 * i..304 + 80 * i])
-                .trim_matches(|c: char| c == '\0' || c.is_whitespace())
-                .to_owned()
+            printable(
+                String::from_utf8_lossy(&header[224 + 80 * i..304 + 80 * i])
+                    .trim_matches(|c: char| c == '\0' || c.is_whitespace()),
+            )
         })
         .find(|l| !l.is_empty())
     {

@@ -9,9 +9,11 @@ use std::path::{Path, PathBuf};
 
 use flate2::read::MultiGzDecoder;
 
-use super::error::Problem;
+use super::error::{Problem, number};
+use super::io::{
+    Storage, checked_payload_bytes, io_reason, read_payload, regular_file_size, skip_bytes,
+};
 use super::orientation::reorient_to_ras;
-use super::source::{Storage, checked_payload_bytes, io_reason, read_payload, skip_bytes};
 use super::{Endian, ValueScale, Volume, VoxelData, VoxelType};
 
 const HEADER_BYTES: usize = 348;
@@ -31,13 +33,10 @@ struct Header {
     single_file: bool,
 }
 
-/// True when the file (maybe gzipped) starts with a NIfTI-1 header size field.
-pub(crate) fn looks_like_nifti(path: &Path) -> bool {
-    let Ok(bytes) = std::fs::read(path) else {
-        return false;
-    };
+/// True when the first bytes of a file (maybe gzipped) are a NIfTI-1 header size field.
+pub(super) fn sniff(head: &[u8]) -> bool {
     let mut first = [0u8; 4];
-    decompressed(&bytes).read_exact(&mut first).is_ok()
+    decompressed(head).read_exact(&mut first).is_ok()
         && (i32::from_le_bytes(first) == HEADER_BYTES as i32
             || i32::from_be_bytes(first) == HEADER_BYTES as i32)
 }
@@ -89,7 +88,7 @@ pub(crate) fn decode(name: &str, bytes: &[u8], path: Option<&Path>) -> Result<Vo
     let available = (data.len() as u64).saturating_sub(before_data);
     let payload_bytes = checked_payload_bytes(header.dims, header.voxel_type, available, storage)?;
     skip_bytes(&mut data_reader, skip)?;
-    let payload = read_payload(data_reader, payload_bytes)?;
+    let payload = read_payload(data_reader, payload_bytes, storage)?;
     let voxels = VoxelData::decode(header.voxel_type, &payload, header.endian);
     drop(payload);
 
@@ -116,18 +115,22 @@ fn decompressed(bytes: &[u8]) -> Box<dyn Read + '_> {
     }
 }
 
-/// The `.img` beside a `.hdr`.
+/// The `.img` (or `.img.gz`) beside a `.hdr`.
 fn image_path(header_path: &Path) -> Result<PathBuf, Problem> {
-    for extension in ["img", "img.gz"] {
-        let candidate = header_path.with_extension(extension);
-        if candidate.is_file() {
-            return Ok(candidate);
-        }
-    }
-    Err(format!(
-        "NIfTI header (ni1) needs its data file {}, which does not exist",
-        header_path.with_extension("img").display()
-    ))
+    let gzipped = header_path.with_extension("img.gz");
+    let image = header_path.with_extension("img");
+    let chosen = if !image.exists() && gzipped.exists() {
+        gzipped
+    } else {
+        image
+    };
+    regular_file_size(&chosen).map_err(|problem| {
+        format!(
+            "NIfTI header (ni1) needs its data file {}, which {problem}",
+            chosen.display()
+        )
+    })?;
+    Ok(chosen)
 }
 
 fn parse_header(bytes: &[u8; HEADER_BYTES]) -> Result<Header, Problem> {
@@ -193,11 +196,22 @@ fn parse_header(bytes: &[u8; HEADER_BYTES]) -> Result<Header, Problem> {
     let pixdim: [f32; 8] = std::array::from_fn(|i| field.f32(76 + 4 * i));
     let vox_offset = field.f32(108);
     if !(vox_offset.is_finite() && vox_offset >= 0.0) {
-        return Err(format!("NIfTI vox_offset {vox_offset} is invalid"));
+        return Err(format!(
+            "NIfTI vox_offset {} is invalid",
+            number(vox_offset as f64)
+        ));
+    }
+    // Beyond 2^53 an offset is no longer a whole number in f32 or f64: no file is that big.
+    if vox_offset > (1u64 << 53) as f32 {
+        return Err(format!(
+            "NIfTI vox_offset {} is too large",
+            number(vox_offset as f64)
+        ));
     }
     if single_file && vox_offset < HEADER_BYTES as f32 {
         return Err(format!(
-            "NIfTI vox_offset {vox_offset} lies inside the 348-byte header"
+            "NIfTI vox_offset {} lies inside the 348-byte header",
+            number(vox_offset as f64)
         ));
     }
     let slope = field.f32(112);

@@ -7,9 +7,12 @@ use std::path::{Path, PathBuf};
 
 use flate2::read::MultiGzDecoder;
 
-use super::error::Problem;
+use super::error::{Problem, quoted, short_list};
+use super::io::{
+    Storage, checked_payload_bytes, io_reason, open, read_payload, regular_file_size, skip_bytes,
+    skip_lines,
+};
 use super::orientation::reorient_to_ras;
-use super::source::{Storage, checked_payload_bytes, io_reason, open, read_payload, skip_bytes};
 use super::{Endian, Volume, VoxelData, VoxelType, checked_voxel_count};
 
 /// The header is text; anything longer than this is not a NRRD header.
@@ -36,7 +39,12 @@ struct Header {
     to_ras: Option<[f64; 3]>,
     data_file: Option<String>,
     byte_skip: i64,
-    line_skip: usize,
+    line_skip: u64,
+}
+
+/// Every NRRD file starts with `NRRD` (then the version, `0004`).
+pub(super) fn sniff(head: &[u8]) -> bool {
+    head.starts_with(b"NRRD")
 }
 
 pub(crate) fn load(path: &Path) -> Result<Volume, Problem> {
@@ -60,41 +68,38 @@ pub(crate) fn load(path: &Path) -> Result<Volume, Problem> {
         None => (path.to_path_buf(), reader, header_bytes),
         Some(name) => {
             let data_path = detached_path(path, name)?;
-            if !data_path.is_file() {
-                return Err(format!(
-                    "NRRD data file {} does not exist",
-                    data_path.display()
-                ));
-            }
-            let reader = open(&data_path)?;
+            let in_data_file =
+                |problem: String| format!("NRRD data file {} {problem}", quoted(name));
+            regular_file_size(&data_path).map_err(in_data_file)?;
+            let reader = std::fs::File::open(&data_path)
+                .map(std::io::BufReader::new)
+                .map_err(|e| in_data_file(format!("cannot be opened: {}", io_reason(&e))))?;
             (data_path, reader, 0)
         }
     };
-    let file_bytes = std::fs::metadata(&data_path)
-        .map_err(|e| format!("cannot open {}: {}", data_path.display(), io_reason(&e)))?
-        .len();
-    for _ in 0..header.line_skip {
-        let mut line = Vec::new();
-        data.read_until(b'\n', &mut line)
-            .map_err(|e| format!("cannot read: {}", io_reason(&e)))?;
-    }
+    let file_bytes =
+        regular_file_size(&data_path).map_err(|problem| format!("the voxel data {problem}"))?;
+    skip_lines(&mut data, header.line_skip)?;
     let available = file_bytes.saturating_sub(data_offset);
     let payload = match encoding {
         NrrdEncoding::Raw => {
             let bytes = checked_payload_bytes(dims, voxel_type, available, Storage::Plain)?;
-            if header.byte_skip == -1 {
+            let skip = if header.byte_skip == -1 {
                 // -1: the data is the last bytes of the file.
-                skip_bytes(&mut data, available - bytes as u64)?;
+                available - bytes as u64
             } else {
-                skip_bytes(&mut data, header.byte_skip as u64)?;
-            }
-            read_payload(data, bytes)?
+                header.byte_skip as u64
+            };
+            skip_bytes(&mut data, skip).map_err(|p| format!("byte skip {skip}: {p}"))?;
+            read_payload(data, bytes, Storage::Plain)?
         }
         NrrdEncoding::Gzip => {
             let bytes = checked_payload_bytes(dims, voxel_type, available, Storage::Gzip)?;
             let mut decoder = MultiGzDecoder::new(data);
-            skip_bytes(&mut decoder, header.byte_skip.max(0) as u64)?;
-            read_payload(decoder, bytes).map_err(|p| format!("gzip data: {p}"))?
+            let skip = header.byte_skip.max(0) as u64;
+            skip_bytes(&mut decoder, skip)
+                .map_err(|p| format!("gzip data, byte skip {skip}: {p}"))?;
+            read_payload(decoder, bytes, Storage::Gzip).map_err(|p| format!("gzip data: {p}"))?
         }
         NrrdEncoding::Ascii => {
             let count = checked_voxel_count(dims)?;
@@ -104,10 +109,16 @@ pub(crate) fn load(path: &Path) -> Result<Volume, Problem> {
                     "truncated: {count} ascii values cannot fit in {available} bytes"
                 ));
             }
-            let mut text = String::new();
+            let mut bytes = Vec::new();
             data.take(available)
-                .read_to_string(&mut text)
+                .read_to_end(&mut bytes)
                 .map_err(|e| format!("ascii data: {}", io_reason(&e)))?;
+            let text = String::from_utf8(bytes).map_err(|e| {
+                format!(
+                    "ascii data holds a byte that is not text at offset {}",
+                    e.utf8_error().valid_up_to()
+                )
+            })?;
             return finish(
                 path,
                 dims,
@@ -181,7 +192,8 @@ fn spatial_axes(header: &Header) -> Result<([usize; 3], [usize; 3]), Problem> {
             }
             None => {
                 return Err(format!(
-                    "NRRD of dimension {dimension} with sizes {sizes:?} is not a scalar 3D volume"
+                    "NRRD of dimension {dimension} with sizes {} is not a scalar 3D volume",
+                    short_list(sizes)
                 ));
             }
         }
@@ -200,6 +212,7 @@ fn read_header(reader: &mut impl BufRead) -> Result<(Header, u64), Problem> {
     let mut offset = 0u64;
     let mut line = Vec::new();
     let mut first = true;
+    let mut line_number = 0usize;
     loop {
         line.clear();
         let read = reader
@@ -215,8 +228,15 @@ fn read_header(reader: &mut impl BufRead) -> Result<(Header, u64), Problem> {
             return Err("NRRD header is longer than 1 MiB (missing blank line?)".into());
         }
         let text = std::str::from_utf8(&line)
-            .map_err(|_| "NRRD header contains bytes that are not text".to_owned())?
+            .map_err(|e| {
+                format!(
+                    "NRRD header line {} holds a byte that is not text (offset {})",
+                    line_number + 1,
+                    offset as usize - line.len() + e.valid_up_to()
+                )
+            })?
             .trim_end_matches(['\n', '\r']);
+        line_number += 1;
         if first {
             if !text.starts_with("NRRD000") {
                 return Err("not a NRRD file (first line is not NRRD000X)".into());
@@ -233,7 +253,12 @@ fn read_header(reader: &mut impl BufRead) -> Result<(Header, u64), Problem> {
         let (key, value) = text
             .split_once(": ")
             .or_else(|| text.split_once(':'))
-            .ok_or_else(|| format!("NRRD header line '{text}' is not 'field: value'"))?;
+            .ok_or_else(|| {
+                format!(
+                    "NRRD header line {line_number} {} is not 'field: value'",
+                    quoted(text)
+                )
+            })?;
         parse_field(&mut header, &key.trim().to_lowercase(), value.trim())?;
     }
     if first {
@@ -248,16 +273,15 @@ fn parse_field(header: &mut Header, key: &str, value: &str) -> Result<(), Proble
             .split_whitespace()
             .map(|n| {
                 n.parse::<f64>()
-                    .map_err(|_| format!("NRRD '{key}' value '{n}' is not a number"))
+                    .map_err(|_| format!("NRRD {key} value {} is not a number", quoted(n)))
             })
             .collect()
     };
     match key {
         "type" => header.voxel_type = Some(parse_type(value)?),
         "dimension" => {
-            let dimension: usize = value
-                .parse()
-                .map_err(|_| format!("NRRD dimension '{value}' is not a number"))?;
+            let dimension: usize =
+                parse_count(value).map_err(|why| format!("NRRD dimension {why}"))?;
             if !(1..=16).contains(&dimension) {
                 return Err(format!("NRRD dimension {dimension} is not 1 to 16"));
             }
@@ -266,9 +290,12 @@ fn parse_field(header: &mut Header, key: &str, value: &str) -> Result<(), Proble
         "sizes" => {
             let sizes = value
                 .split_whitespace()
-                .map(|n| n.parse::<usize>().ok().filter(|&n| n >= 1))
-                .collect::<Option<Vec<_>>>()
-                .ok_or_else(|| format!("NRRD sizes '{value}' are not positive integers"))?;
+                .map(|n| match parse_count(n) {
+                    Ok(0) => Err(format!("NRRD sizes: entry {} is not positive", quoted(n))),
+                    Ok(size) => Ok(size),
+                    Err(why) => Err(format!("NRRD sizes: entry {why}")),
+                })
+                .collect::<Result<Vec<_>, _>>()?;
             header.sizes = Some(sizes);
         }
         "encoding" => {
@@ -278,7 +305,8 @@ fn parse_field(header: &mut Header, key: &str, value: &str) -> Result<(), Proble
                 "ascii" | "text" | "txt" => NrrdEncoding::Ascii,
                 other => {
                     return Err(format!(
-                        "NRRD encoding '{other}' is not supported (raw, gzip, ascii)"
+                        "NRRD encoding {} is not supported (raw, gzip, ascii)",
+                        quoted(other)
                     ));
                 }
             })
@@ -287,7 +315,12 @@ fn parse_field(header: &mut Header, key: &str, value: &str) -> Result<(), Proble
             header.endian = Some(match value {
                 "little" => Endian::Little,
                 "big" => Endian::Big,
-                other => return Err(format!("NRRD endian '{other}' is not little or big")),
+                other => {
+                    return Err(format!(
+                        "NRRD endian {} is not little or big",
+                        quoted(other)
+                    ));
+                }
             })
         }
         "spacings" => {
@@ -305,25 +338,41 @@ fn parse_field(header: &mut Header, key: &str, value: &str) -> Result<(), Proble
         }
         "data file" | "datafile" => {
             if value.starts_with("LIST") || value.contains('%') {
-                return Err(format!("NRRD multi-file data ('{value}') is not supported"));
+                return Err(format!(
+                    "NRRD multi-file data ({}) is not supported",
+                    quoted(value)
+                ));
             }
             header.data_file = Some(value.to_owned());
         }
         "byte skip" | "byteskip" => {
-            header.byte_skip = value
-                .parse()
-                .ok()
-                .filter(|&n: &i64| n >= -1)
-                .ok_or_else(|| format!("NRRD byte skip '{value}' is invalid"))?
+            header.byte_skip = if value == "-1" {
+                -1
+            } else {
+                let skip = parse_count(value)
+                    .map_err(|why| format!("NRRD byte skip {why} (a count, or -1)"))?;
+                i64::try_from(skip)
+                    .map_err(|_| format!("NRRD byte skip {} is too large", quoted(value)))?
+            }
         }
         "line skip" | "lineskip" => {
-            header.line_skip = value
-                .parse()
-                .map_err(|_| format!("NRRD line skip '{value}' is invalid"))?
+            header.line_skip =
+                parse_count(value).map_err(|why| format!("NRRD line skip {why}"))? as u64
         }
         _ => {} // content, kinds, units, space origin, …: not needed to draw
     }
     Ok(())
+}
+
+/// A whole number of a header field: `'x' is not a number`, or `'99…9' is too large`.
+fn parse_count(text: &str) -> Result<usize, String> {
+    text.parse::<usize>().map_err(|_| {
+        if !text.is_empty() && text.bytes().all(|b| b.is_ascii_digit()) {
+            format!("{} is too large", quoted(text))
+        } else {
+            format!("{} is not a whole number", quoted(text))
+        }
+    })
 }
 
 fn parse_type(value: &str) -> Result<VoxelType, Problem> {
@@ -340,7 +389,7 @@ fn parse_type(value: &str) -> Result<VoxelType, Problem> {
         "uint" | "unsigned int" | "uint32" | "uint32_t" => VoxelType::U32,
         "float" => VoxelType::F32,
         "double" => VoxelType::F64,
-        other => return Err(format!("NRRD type '{other}' is not supported")),
+        other => return Err(format!("NRRD type {} is not supported", quoted(other))),
     })
 }
 
@@ -355,16 +404,17 @@ fn parse_directions(value: &str) -> Result<Vec<Option<[f64; 3]>>, Problem> {
             let inner = vector
                 .strip_prefix('(')
                 .and_then(|v| v.strip_suffix(')'))
-                .ok_or_else(|| format!("NRRD space direction '{vector}' is not (x,y,z)"))?;
+                .ok_or_else(|| format!("NRRD space direction {} is not (x,y,z)", quoted(vector)))?;
             let components: Vec<f64> = inner
                 .split(',')
                 .map(|c| c.trim().parse::<f64>())
                 .collect::<Result<_, _>>()
-                .map_err(|_| format!("NRRD space direction '{vector}' is not (x,y,z)"))?;
+                .map_err(|_| format!("NRRD space direction {} is not (x,y,z)", quoted(vector)))?;
             match components[..] {
                 [x, y, z] => Ok(Some([x, y, z])),
                 _ => Err(format!(
-                    "NRRD space direction '{vector}' needs 3 components"
+                    "NRRD space direction {} needs 3 components",
+                    quoted(vector)
                 )),
             }
         })
@@ -387,7 +437,7 @@ fn parse_ascii(text: &str, voxel_type: VoxelType, count: usize) -> Result<VoxelD
         .take(count)
         .map(|t| {
             t.parse::<f64>()
-                .map_err(|_| format!("ascii value '{t}' is not a number"))
+                .map_err(|_| format!("ascii value {} is not a number", quoted(t)))
         })
         .collect::<Result<_, _>>()?;
     if values.len() < count {

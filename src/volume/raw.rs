@@ -3,7 +3,7 @@
 use std::path::Path;
 
 use super::error::Problem;
-use super::source::{Storage, checked_payload_bytes, open, read_payload};
+use super::io::{Storage, checked_payload_bytes, open, read_payload};
 use super::{Endian, Volume, VoxelData, VoxelType, format_dims};
 
 /// Dimensions, voxel type and byte order of a raw file.
@@ -69,7 +69,7 @@ pub(crate) fn load(path: &Path, layout: &RawLayout, file_bytes: u64) -> Result<V
             layout.voxel_type.name()
         ));
     }
-    let payload = read_payload(open(path)?, bytes)?;
+    let payload = read_payload(open(path)?, bytes, Storage::Plain)?;
     let data = VoxelData::decode(layout.voxel_type, &payload, layout.endian);
     Volume::new(
         path.display().to_string(),

@@ -3,8 +3,8 @@
 
 use std::path::{Path, PathBuf};
 
-use super::error::Problem;
-use super::source::io_reason;
+use super::error::{Problem, printable};
+use super::io::{MAX_DEFLATE_RATIO, io_reason};
 use super::{MAX_VOXELS, Volume, VoxelData};
 
 /// Files of these extensions are slices.
@@ -76,8 +76,8 @@ pub(super) fn load(dir: &Path) -> Result<Volume, Problem> {
             "first, last".to_owned(),
             format!(
                 "{}, {}",
-                file_name(&files[0]),
-                file_name(&files[files.len() - 1])
+                printable(&file_name(&files[0])),
+                printable(&file_name(&files[files.len() - 1]))
             ),
         ),
     ];
@@ -138,9 +138,9 @@ fn read_slice(path: &Path) -> Result<Volume, Problem> {
         .map_err(|e| format!("cannot open: {}", io_reason(&e)))?
         .with_guessed_format()
         .map_err(|e| format!("cannot read: {}", io_reason(&e)))?;
-    // Deflate cannot expand more than ~1032:1: a larger claim is refused before allocating.
+    // A PNG is deflated: a larger claim is refused before allocating.
     let mut limits = image::Limits::default();
-    limits.max_alloc = Some(file_bytes.saturating_mul(1032).min(1 << 31));
+    limits.max_alloc = Some(file_bytes.saturating_mul(MAX_DEFLATE_RATIO).min(1 << 31));
     reader.limits(limits);
     let image = reader
         .decode()
@@ -151,8 +151,9 @@ fn read_slice(path: &Path) -> Result<Volume, Problem> {
         image::DynamicImage::ImageLuma16(buffer) => VoxelData::U16(buffer.into_raw()),
         other => {
             return Err(format!(
-                "is {:?}; only grayscale PNG slices (8 or 16 bit) are supported",
-                other.color()
+                "has {} channels of {} bits; only grayscale PNG slices (8 or 16 bit) are supported",
+                other.color().channel_count(),
+                other.color().bits_per_pixel() / other.color().channel_count().max(1) as u16
             ));
         }
     };

@@ -9,15 +9,12 @@ use base64::Engine as _;
 use base64::engine::general_purpose::STANDARD;
 use flate2::read::ZlibDecoder;
 
-use super::error::Problem;
-use super::source::io_reason;
+use super::error::{Problem, printable, quoted, short_list};
+use super::io::{MAX_DEFLATE_RATIO, io_reason};
 use super::{Endian, MAX_VOXELS, Scalar, Volume, VoxelData, VoxelType, checked_voxel_count};
 
 /// Largest file read into memory (the XML and its data are parsed whole).
 const MAX_FILE_BYTES: u64 = 1 << 34;
-
-/// Deflate cannot expand more than about 1032:1.
-const MAX_DEFLATE_RATIO: usize = 1032;
 
 /// Reads a `.vti` file.
 pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
@@ -53,8 +50,8 @@ pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
     let root = document.root_element();
     if root.tag_name().name() != "VTKFile" || root.attribute("type") != Some("ImageData") {
         return Err(format!(
-            "a VTK XML file of type {:?}; only ImageData (.vti) holds a regular grid",
-            root.attribute("type").unwrap_or("?")
+            "a VTK XML file of type {}; only ImageData (.vti) holds a regular grid",
+            quoted(root.attribute("type").unwrap_or("?"))
         ));
     }
     let endian = match root.attribute("byte_order") {
@@ -64,7 +61,12 @@ pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
     let compressed = match root.attribute("compressor") {
         None | Some("") => false,
         Some("vtkZLibDataCompressor") => true,
-        Some(other) => return Err(format!("compressor {other} is not supported (zlib is)")),
+        Some(other) => {
+            return Err(format!(
+                "compressor {} is not supported (zlib is)",
+                quoted(other)
+            ));
+        }
     };
     let encoding = ArrayEncoding {
         header64: root.attribute("header_type") == Some("UInt64"),
@@ -72,10 +74,14 @@ pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
         compressed,
     };
     let image = child(root, "ImageData").ok_or("no <ImageData> element")?;
-    let extent = numbers::<i64>(image.attribute("WholeExtent").ok_or("no WholeExtent")?, 6)?;
+    let extent = numbers::<i64>(
+        "WholeExtent",
+        image.attribute("WholeExtent").ok_or("no WholeExtent")?,
+        6,
+    )?;
     let spacing = image
         .attribute("Spacing")
-        .map(|s| numbers::<f64>(s, 3))
+        .map(|s| numbers::<f64>("Spacing", s, 3))
         .transpose()?
         .unwrap_or(vec![1.0; 3]);
     let pieces: Vec<_> = image
@@ -89,9 +95,15 @@ pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
         ));
     }
     let piece = pieces[0];
-    let point_dims: [i64; 3] = std::array::from_fn(|a| extent[2 * a + 1] - extent[2 * a] + 1);
+    let mut point_dims = [0i64; 3];
+    for (axis, points) in point_dims.iter_mut().enumerate() {
+        *points = extent[2 * axis + 1]
+            .checked_sub(extent[2 * axis])
+            .and_then(|d| d.checked_add(1))
+            .ok_or_else(|| format!("WholeExtent {} is too large", short_list(&extent)))?;
+    }
     if point_dims.iter().any(|&n| n < 1) {
-        return Err(format!("WholeExtent {extent:?} is empty"));
+        return Err(format!("WholeExtent {} is empty", short_list(&extent)));
     }
     // The scalars: PointData's named Scalars, else its first 1-component array, else CellData's.
     let (array, dims) = ["PointData", "CellData"]
@@ -118,15 +130,17 @@ pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
             Some((*array, dims))
         })
         .ok_or("no one-component point or cell data array")?;
-    let components: usize = array
-        .attribute("NumberOfComponents")
-        .unwrap_or("1")
-        .parse()
-        .map_err(|_| "a bad NumberOfComponents")?;
+    let array_name = quoted(array.attribute("Name").unwrap_or(""));
+    let components_text = array.attribute("NumberOfComponents").unwrap_or("1");
+    let components: usize = components_text.parse().map_err(|_| {
+        format!(
+            "array {array_name}: NumberOfComponents {} is not a whole number",
+            quoted(components_text)
+        )
+    })?;
     if components != 1 {
         return Err(format!(
-            "array {:?} has {components} components; only scalars are supported",
-            array.attribute("Name").unwrap_or("")
+            "array {array_name} has {components} components; only scalars are supported"
         ));
     }
     let dims = dims.map(|n| n as usize);
@@ -141,7 +155,12 @@ pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
         "UInt32" => VoxelType::U32,
         "Float32" => VoxelType::F32,
         "Float64" => VoxelType::F64,
-        other => return Err(format!("DataArray type {other} is not supported")),
+        other => {
+            return Err(format!(
+                "array {array_name}: DataArray type {} is not supported",
+                quoted(other)
+            ));
+        }
     };
     let needed = count * voxel_type.size();
     let format = array.attribute("format").unwrap_or("ascii");
@@ -153,8 +172,12 @@ pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
                 .split_ascii_whitespace()
                 .take(count + 1)
                 .map(|v| {
-                    v.parse::<f64>()
-                        .map_err(|_| format!("{v:?} is not a number"))
+                    v.parse::<f64>().map_err(|_| {
+                        format!(
+                            "array {array_name}: ascii value {} is not a number",
+                            quoted(v)
+                        )
+                    })
                 })
                 .collect::<Result<_, _>>()?;
             if values.len() != count {
@@ -178,14 +201,16 @@ pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
         "appended" => {
             let (appended_encoding, appended) =
                 appended.ok_or("an appended array without <AppendedData>")?;
-            let offset: usize = array
-                .attribute("offset")
-                .unwrap_or("0")
-                .parse()
-                .map_err(|_| "a bad appended offset")?;
-            let block = appended
-                .get(offset..)
-                .ok_or("the appended offset is past the end of the file")?;
+            let offset_text = array.attribute("offset").unwrap_or("0");
+            let offset: usize = offset_text.parse().map_err(|_| {
+                format!(
+                    "array {array_name}: offset {} is not a whole number",
+                    quoted(offset_text)
+                )
+            })?;
+            let block = appended.get(offset..).ok_or_else(|| {
+                format!("array {array_name}: offset {offset} is past the end of the appended data")
+            })?;
             let raw = if appended_encoding == "base64" {
                 let end = block
                     .iter()
@@ -201,7 +226,12 @@ pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
             };
             VoxelData::decode(voxel_type, &raw, endian)
         }
-        other => return Err(format!("DataArray format {other} is not supported")),
+        other => {
+            return Err(format!(
+                "array {array_name}: DataArray format {} is not supported",
+                quoted(other)
+            ));
+        }
     };
     if count > MAX_VOXELS {
         return Err(format!("more than {MAX_VOXELS} voxels"));
@@ -218,14 +248,14 @@ pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
         "array".to_owned(),
         format!(
             "{} ({type_name}, {format}{})",
-            array.attribute("Name").unwrap_or("unnamed"),
+            printable(array.attribute("Name").unwrap_or("unnamed")),
             if compressed { ", zlib" } else { "" }
         ),
     )];
     if let Some(origin) = image.attribute("Origin") {
         volume
             .metadata
-            .push(("origin".to_owned(), origin.to_owned()));
+            .push(("origin".to_owned(), printable(origin)));
     }
     Ok(volume)
 }
@@ -301,13 +331,32 @@ fn read_blocks(block: &[u8], encoding: ArrayEncoding, needed: usize) -> Result<V
     if at > block.len() {
         return Err("truncated compression header".into());
     }
+    // Every block inside the data, and all of them able to hold what is needed, before the
+    // output buffer of `needed` bytes exists.
+    let mut compressed_bytes = 0u64;
+    for b in 0..blocks {
+        compressed_bytes = compressed_bytes.saturating_add(encoding.word(block, 3 + b)? as u64);
+    }
+    if compressed_bytes > (block.len() - at) as u64 {
+        return Err(format!(
+            "truncated: {blocks} compressed blocks of {compressed_bytes} bytes, {} bytes in the file",
+            block.len() - at
+        ));
+    }
+    if compressed_bytes.saturating_mul(MAX_DEFLATE_RATIO) < needed as u64 {
+        return Err(format!(
+            "{compressed_bytes} bytes of zlib blocks cannot hold the {needed} bytes needed"
+        ));
+    }
     let mut out = Vec::with_capacity(needed);
     for b in 0..blocks {
         let size = encoding.word(block, 3 + b)?;
         let chunk = block
             .get(at..at + size)
             .ok_or("truncated: a compressed block runs past the end of the file")?;
-        if size.saturating_mul(MAX_DEFLATE_RATIO) < block_size.min(needed - out.len()) {
+        if (size as u64).saturating_mul(MAX_DEFLATE_RATIO)
+            < block_size.min(needed - out.len()) as u64
+        {
             return Err("a compressed block too small for its size".into());
         }
         let limit = (needed - out.len()).min(block_size) as u64;
@@ -366,13 +415,29 @@ fn child<'a, 'input>(
     node.children().find(|n| n.has_tag_name(name))
 }
 
-fn numbers<T: std::str::FromStr>(text: &str, count: usize) -> Result<Vec<T>, Problem> {
+/// The `count` numbers of attribute `name`; the problem names the attribute.
+fn numbers<T: std::str::FromStr>(name: &str, text: &str, count: usize) -> Result<Vec<T>, Problem> {
     let values: Vec<T> = text
         .split_ascii_whitespace()
-        .map(|v| v.parse().map_err(|_| format!("{v:?} is not a number")))
+        .map(|v| {
+            v.parse().map_err(|_| {
+                if v.trim_start_matches('-')
+                    .bytes()
+                    .all(|b| b.is_ascii_digit())
+                {
+                    format!("{name} value {} is too large", quoted(v))
+                } else {
+                    format!("{name} value {} is not a number", quoted(v))
+                }
+            })
+        })
         .collect::<Result<_, _>>()?;
     if values.len() != count {
-        return Err(format!("{text:?} should hold {count} numbers"));
+        return Err(format!(
+            "{name} {} should hold {count} numbers, not {}",
+            quoted(text),
+            values.len()
+        ));
     }
     Ok(values)
 }

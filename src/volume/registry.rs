@@ -1,0 +1,77 @@
+//! The registry: turns what the user typed (a path, a `synthetic:` spec, a raw layout) into a
+//! [`Volume`] by picking the loader from the format table ([`super::format`]).
+
+use std::fs::File;
+use std::io::Read;
+use std::path::Path;
+
+use super::error::Problem;
+use super::format;
+use super::io::{io_reason, not_a_file};
+use super::{LoadError, RawLayout, Volume};
+
+/// What the command line adds to a path.
+#[derive(Debug, Clone, Default)]
+pub struct LoadOptions {
+    /// Read the file as headerless voxels with this layout.
+    pub raw: Option<RawLayout>,
+    /// Override the spacing the file gives (or lacks).
+    pub spacing: Option<[f64; 3]>,
+}
+
+/// Loads the volume named by `spec`: a file path, or `synthetic:KIND:SIZE`.
+///
+/// Files are recognized by extension, then by magic bytes ([`format::FORMATS`]); a folder is a
+/// DICOM series when it holds DICOM files, else a folder of slices. Nothing is ever written to
+/// `spec`.
+pub fn load(spec: &str, options: &LoadOptions) -> Result<Volume, LoadError> {
+    let mut volume = if let Some(rest) = spec.strip_prefix("synthetic:") {
+        super::synthetic::generate(rest).map_err(|p| LoadError::new(spec, p))?
+    } else {
+        load_file(Path::new(spec), options).map_err(|p| LoadError::new(spec, p))?
+    };
+    if let Some(spacing) = options.spacing {
+        if spacing.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
+            return Err(LoadError::new(spec, "--spacing values must be positive"));
+        }
+        volume.spacing = spacing;
+    }
+    Ok(volume)
+}
+
+fn load_file(path: &Path, options: &LoadOptions) -> Result<Volume, Problem> {
+    let metadata =
+        std::fs::metadata(path).map_err(|e| format!("cannot open: {}", io_reason(&e)))?;
+    if metadata.is_dir() {
+        if !super::dicom::dicom_files(path).is_empty() {
+            return super::dicom::load(path);
+        }
+        return super::slices::load(path);
+    }
+    // Devices and pipes are refused: /dev/zero would be read forever, a pipe would block.
+    if let Some(what) = not_a_file(&metadata) {
+        return Err(what.into());
+    }
+    if metadata.len() == 0 {
+        return Err("file is empty".into());
+    }
+    if let Some(layout) = &options.raw {
+        return super::raw::load(path, layout, metadata.len());
+    }
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    if let Some(format) = format::by_extension(&name) {
+        return format.load(path);
+    }
+    // No known extension: look at the first bytes.
+    let mut head = Vec::with_capacity(format::SNIFF_BYTES);
+    File::open(path)
+        .and_then(|f| f.take(format::SNIFF_BYTES as u64).read_to_end(&mut head))
+        .map_err(|e| format!("cannot read: {}", io_reason(&e)))?;
+    match format::by_magic(&head) {
+        Some(format) => format.load(path),
+        None => Err(format::unrecognized_problem()),
+    }
+}
