@@ -192,7 +192,11 @@ impl CentralView {
                         .target
                         .as_ref()
                         .map_or([1, 1], |t| [t.width, t.height]);
-                    let pane = SlicePane { axis, rect: *rect, target };
+                    let pane = SlicePane {
+                        axis,
+                        rect: *rect,
+                        target,
+                    };
                     if let Some(voxel) =
                         slice_pane::interact(ui, &response, &pane, scene, settings, view)
                     {
@@ -388,12 +392,9 @@ impl CentralView {
                     settings: slice_settings,
                     ..
                 } => {
-                    scene.renderer.encode_slice(
-                        &gpu.context,
-                        &mut encoder,
-                        target,
-                        slice_settings,
-                    );
+                    scene
+                        .renderer
+                        .encode_slice(&gpu.context, &mut encoder, target, slice_settings);
                     gpu.context.queue.submit([encoder.finish()]);
                 }
             }

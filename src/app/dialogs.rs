@@ -21,11 +21,6 @@ pub enum DialogKind {
     LoadTransfer,
 }
 
-/// The file extensions File ▸ Open offers.
-pub const OPEN_EXTENSIONS: [&str; 12] = [
-    "nii", "gz", "nrrd", "nhdr", "tif", "tiff", "mrc", "map", "rec", "ccp4", "dcm", "vti",
-];
-
 /// A dialog that closes faster than this was never shown: nobody cancels one so quickly.
 pub const NOT_SHOWN_WITHIN: Duration = Duration::from_millis(300);
 
@@ -56,11 +51,12 @@ fn show(kind: DialogKind, directory: Option<&Path>) -> Option<PathBuf> {
         dialog = dialog.set_directory(directory);
     }
     match kind {
+        // Both from the format table, so the filter offers every format the loaders read.
         DialogKind::Open => dialog
             .set_title("Open a volume")
             .add_filter(
-                "Volumes (NIfTI, NRRD, TIFF, MRC, DICOM, VTI)",
-                &OPEN_EXTENSIONS,
+                crate::volume::dialog_filter_name(),
+                &crate::volume::dialog_extensions(),
             )
             .add_filter("All files", &["*"])
             .pick_file(),

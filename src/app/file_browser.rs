@@ -8,7 +8,7 @@ use std::sync::mpsc::{self, Receiver, TryRecvError};
 
 use egui::{Key, RichText, Ui};
 
-use super::dialogs::{DialogKind, OPEN_EXTENSIONS};
+use super::dialogs::DialogKind;
 use super::octree_panel::format_bytes;
 
 /// Most entries shown of one folder (a folder of a million files stays usable).
@@ -355,7 +355,7 @@ fn has_extension(name: &str, extension: &str) -> bool {
         .is_some_and(|(_, e)| e.eq_ignore_ascii_case(extension))
 }
 
-/// True for the files File > Open offers.
+/// True for the files File > Open offers: those whose extension the format table knows.
 pub fn is_volume_file(name: &str) -> bool {
-    OPEN_EXTENSIONS.iter().any(|e| has_extension(name, e))
+    crate::volume::format::by_extension(name).is_some()
 }

@@ -41,7 +41,11 @@ pub fn menu_bar(ui: &mut Ui, settings: &AppSettings, has_scene: bool, queue: &mu
             .on_hover_text("Measure: drag in a slice, or click two points in the 3D view")
             .clicked()
         {
-            queue.send(Command::SetTool(if ruler { Tool::Navigate } else { Tool::Ruler }));
+            queue.send(Command::SetTool(if ruler {
+                Tool::Navigate
+            } else {
+                Tool::Ruler
+            }));
         }
     });
 }
@@ -117,11 +121,17 @@ fn view_menu(ui: &mut Ui, settings: &AppSettings, queue: &mut CommandQueue) {
     command_button(ui, "Reset camera", Command::ResetCamera, queue);
     ui.separator();
     let mut linear = settings.slice_linear;
-    if ui.checkbox(&mut linear, "Slices: linear interpolation").changed() {
+    if ui
+        .checkbox(&mut linear, "Slices: linear interpolation")
+        .changed()
+    {
         queue.send(Command::SetSliceLinear(linear));
     }
     let mut planes = settings.show_slice_planes;
-    if ui.checkbox(&mut planes, "Slices: planes in the 3D view").changed() {
+    if ui
+        .checkbox(&mut planes, "Slices: planes in the 3D view")
+        .changed()
+    {
         queue.send(Command::ShowSlicePlanes(planes));
     }
     command_button(ui, "Remove all rulers", Command::ClearRulers, queue);
@@ -166,7 +176,10 @@ pub fn status_bar(
             ));
             ui.separator();
         }
-        if let Some(text) = scene.zip(hovered).and_then(|(s, v)| s.data.describe_voxel(v)) {
+        if let Some(text) = scene
+            .zip(hovered)
+            .and_then(|(s, v)| s.data.describe_voxel(v))
+        {
             ui.label(text);
         } else if let Some(scene) = scene {
             let volume = &scene.data.volume;

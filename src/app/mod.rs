@@ -30,7 +30,7 @@ mod voxscope_app;
 use std::sync::Arc;
 
 pub use command::{Command, Panel, ViewPreset};
-pub use dialogs::{DialogKind, OPEN_EXTENSIONS};
+pub use dialogs::DialogKind;
 pub use jobs::{Job, JobError};
 pub use scene::{Scene, VolumeData, VolumeSource};
 pub use settings::{AppSettings, Layout, STORAGE_KEY, TransferChoice, TransferPreset};

@@ -95,8 +95,8 @@ pub fn interact(
     // Wheel and keys: step through the slices; Ctrl+wheel: zoom about the pointer.
     if response.hovered() {
         let (notches, zoom, page) = ui.input(|i| {
-            let page = i.key_pressed(egui::Key::PageUp) as i32
-                - i.key_pressed(egui::Key::PageDown) as i32;
+            let page =
+                i.key_pressed(egui::Key::PageUp) as i32 - i.key_pressed(egui::Key::PageDown) as i32;
             // One slice per wheel event (a notch), whatever its size; Ctrl+wheel is egui's
             // zoom and arrives as `zoom_delta` instead.
             let notches: i32 = i
@@ -123,8 +123,7 @@ pub fn interact(
         view.slice_views[axis].zoom = 1.0;
         view.slice_views[axis].pan = [0.0; 2];
     }
-    if response.dragged_by(PointerButton::Secondary) || response.dragged_by(PointerButton::Middle)
-    {
+    if response.dragged_by(PointerButton::Secondary) || response.dragged_by(PointerButton::Middle) {
         let delta = response.drag_delta();
         let pan = &mut view.slice_views[axis].pan;
         pan[0] += delta.x as f64;
@@ -156,7 +155,10 @@ pub fn interact(
     {
         match drag {
             Drag::Cursor => move_cursor(view, point_at(pos), axis, dims),
-            Drag::Edge { axis: edge_axis, bound } => {
+            Drag::Edge {
+                axis: edge_axis,
+                bound,
+            } => {
                 let fraction = (point_at(pos)[edge_axis] / dims[edge_axis] as f64) as f32;
                 let [low, high] = &mut view.clipping.bounds[edge_axis];
                 if bound == 0 {
@@ -181,7 +183,9 @@ pub fn interact(
         ui.data_mut(|d| d.remove::<Drag>(drag_id));
     }
 
-    paint_overlays(ui, &frame, convention, rect, target, axis, scene, view, pointer);
+    paint_overlays(
+        ui, &frame, convention, rect, target, axis, scene, view, pointer,
+    );
     voxel_under
 }
 
@@ -295,9 +299,8 @@ fn paint_overlays(
             to_screen(frame.pixel_of(point), rect, target)
         };
         let box_rect = Rect::from_two_pos(corner([0, 0, 0]), corner([1, 1, 1]));
-        let hovered_edge = pointer.and_then(|p| {
-            grabbed_edge(frame, view, axis, dims, rect, target, p).map(|_| p)
-        });
+        let hovered_edge =
+            pointer.and_then(|p| grabbed_edge(frame, view, axis, dims, rect, target, p).map(|_| p));
         let stroke = Stroke::new(
             if hovered_edge.is_some() { 2.5 } else { 1.5 },
             Color32::from_rgb(255, 200, 60),
@@ -332,10 +335,26 @@ fn paint_overlays(
             Color32::from_gray(200),
         );
     };
-    label(rect.left_center() + vec2(4.0, 0.0), Align2::LEFT_CENTER, labels.left);
-    label(rect.right_center() - vec2(4.0, 0.0), Align2::RIGHT_CENTER, labels.right);
-    label(rect.center_top() + vec2(0.0, 4.0), Align2::CENTER_TOP, labels.top);
-    label(rect.center_bottom() - vec2(0.0, 4.0), Align2::CENTER_BOTTOM, labels.bottom);
+    label(
+        rect.left_center() + vec2(4.0, 0.0),
+        Align2::LEFT_CENTER,
+        labels.left,
+    );
+    label(
+        rect.right_center() - vec2(4.0, 0.0),
+        Align2::RIGHT_CENTER,
+        labels.right,
+    );
+    label(
+        rect.center_top() + vec2(0.0, 4.0),
+        Align2::CENTER_TOP,
+        labels.top,
+    );
+    label(
+        rect.center_bottom() - vec2(0.0, 4.0),
+        Align2::CENTER_BOTTOM,
+        labels.bottom,
+    );
 }
 
 /// A ruler on the slice, with its length.

@@ -18,10 +18,21 @@ pub enum SyntheticKind {
     Noise,
     /// A linear ramp (u8) from 0 at the origin corner to 255 at the far corner.
     Gradient,
+    /// A CT phantom of a chest (i16, Hounsfield units): a scanner's circular field of view
+    /// (air, −1000) padded with −3024 outside it, a body of fat (−90) around soft tissue (45),
+    /// two lungs (−900…−550), a spine (900), ribs (700) and a contrast-filled aorta (300), with a
+    /// little noise. What a real CT looks like to the transfer function, without a CT file.
+    Ct,
 }
 
 impl SyntheticKind {
-    pub const ALL: [SyntheticKind; 4] = [Self::Sphere, Self::Shells, Self::Noise, Self::Gradient];
+    pub const ALL: [SyntheticKind; 5] = [
+        Self::Sphere,
+        Self::Shells,
+        Self::Noise,
+        Self::Gradient,
+        Self::Ct,
+    ];
 
     /// The name used in specs.
     pub fn name(self) -> &'static str {
@@ -30,6 +41,7 @@ impl SyntheticKind {
             Self::Shells => "shells",
             Self::Noise => "noise",
             Self::Gradient => "gradient",
+            Self::Ct => "ct",
         }
     }
 
@@ -71,6 +83,7 @@ impl SyntheticKind {
                     255.0 * (p[0] + p[1] + p[2]) / span
                 })
             }
+            Self::Ct => fill::<i16>(count, |i| chest_phantom(position(i), dims)),
         };
         Volume::new(
             format!(
@@ -126,6 +139,42 @@ impl RoundForType for f64 {
             self
         }
     }
+}
+
+/// The Hounsfield units of [`SyntheticKind::Ct`] at voxel `p` of a volume of `dims`.
+fn chest_phantom(p: [f64; 3], dims: [usize; 3]) -> f64 {
+    let [width, depth, height] = dims.map(|d| d.max(1) as f64);
+    // Coordinates from the center, in units of the smaller of the two in-plane sides.
+    let scale = width.min(depth);
+    let x = (p[0] + 0.5 - width / 2.0) / scale;
+    let y = (p[1] + 0.5 - depth / 2.0) / scale;
+    let z = (p[2] + 0.5) / height;
+    let ellipse =
+        |cx: f64, cy: f64, rx: f64, ry: f64| ((x - cx) / rx).powi(2) + ((y - cy) / ry).powi(2);
+    if x.hypot(y) > 0.48 {
+        return -3024.0; // outside the scanner's field of view
+    }
+    let noise = 15.0 * hash_to_unit(p.map(|c| c as i64), 7);
+    let body = ellipse(0.0, 0.0, 0.36, 0.26);
+    if body >= 1.0 {
+        return -1000.0 + noise;
+    }
+    let inner = ellipse(0.0, 0.0, 0.33, 0.23);
+    let tissue = if inner >= 1.0 {
+        -90.0 // subcutaneous fat
+    } else if ellipse(0.0, 0.17, 0.05, 0.05) < 1.0 {
+        900.0 // spine
+    } else if ellipse(0.045, 0.10, 0.03, 0.03) < 1.0 {
+        300.0 // aorta, with contrast
+    } else if (inner.sqrt() - 0.93).abs() < 0.035 && (z * 6.0).fract() < 0.3 {
+        700.0 // ribs: bands near the body wall
+    } else if ellipse(-0.15, -0.01, 0.11, 0.15) < 1.0 || ellipse(0.15, -0.01, 0.11, 0.15) < 1.0 {
+        // Lungs: parenchyma about −900…−550, textured like the airways and vessels in it.
+        -720.0 + 240.0 * value_noise(p)
+    } else {
+        45.0 // soft tissue
+    };
+    tissue + noise
 }
 
 /// Two octaves of trilinear value noise on integer lattices (8 and 3 voxels apart).
