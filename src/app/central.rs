@@ -280,6 +280,9 @@ impl CentralView {
                 density: settings.density,
                 heatmap: settings.heatmap,
                 trilinear: settings.trilinear,
+                // TODO(lead): the app's shading and clipping settings (render2 branch).
+                shading: crate::render::Shading::OFF,
+                clip: crate::octree::Clip::NONE,
             };
             let key = DrawKey {
                 size: [target.width, target.height],
