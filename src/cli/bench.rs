@@ -462,7 +462,7 @@ fn print_table(report: &serde_json::Value, results: &[BenchResult]) {
         report["volume"]["file"], report["volume"]["octree_nodes"]
     );
     println!(
-        "{:<8} {:<11} {:<7} {:>10} {:>10} {:>9} {:>12} {:>11} {:>10} {:>6}",
+        "{:<8} {:<15} {:<7} {:>10} {:>10} {:>9} {:>12} {:>11} {:>10} {:>6}",
         "renderer",
         "mode",
         "camera",
@@ -476,7 +476,7 @@ fn print_table(report: &serde_json::Value, results: &[BenchResult]) {
     );
     for r in results {
         println!(
-            "{:<8} {:<11} {:<7} {:>10.3} {:>10.3} {:>9.1} {:>12.1} {:>11.1} {:>10} {:>6.2}",
+            "{:<8} {:<15} {:<7} {:>10.3} {:>10.3} {:>9.1} {:>12.1} {:>11.1} {:>10} {:>6.2}",
             r.renderer,
             r.mode,
             r.camera,
