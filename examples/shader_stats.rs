@@ -33,9 +33,9 @@ const ENTRY_POINTS: [(&str, &str); 3] = [
     ("dense", "main"),
 ];
 
-/// The pipeline variants of each entry point (src/render/pipeline.rs, `Variant`): their
-/// override constants.
-const VARIANTS: [&str; 3] = ["", "SHADING=1", "PROBE=1"];
+/// The pipeline variants of each entry point measured (src/render/pipeline.rs, `Variant`):
+/// their override constants.
+const VARIANTS: [&str; 5] = ["", "SHADING=1", "PROBE=1", "CLIP=1", "SHADING=1,CLIP=1"];
 
 /// One pipeline to measure: a label, WGSL source, entry point and override constants.
 struct Measured {

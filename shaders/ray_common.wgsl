@@ -22,9 +22,9 @@ struct Params {
     atlas_grid: vec4<u32>,  // xyz: bricks along each atlas axis
     brick_grid: vec4<u32>,  // xyz: brick cells along each volume axis (the walked grid)
     atlas_texel: vec4<f32>, // xyz: 1 / the atlas's size in texels (texel to normalized)
-    clip_low: vec4<f32>,    // xyz: the crop box's low corner (voxel space; 0 unclipped)
-    clip_high: vec4<f32>,   // xyz: its high corner (the volume's dims unclipped)
-    clip_plane: vec4<f32>,  // kept where dot(xyz, p) >= w, p in voxel space (FLAG_CLIP_PLANE)
+    clip_low: vec4<f32>,    // xyz: the crop box's low corner (voxel space; CLIP)
+    clip_high: vec4<f32>,   // xyz: its high corner (CLIP)
+    clip_plane: vec4<f32>,  // kept where dot(xyz, p) >= w, p in voxel space (CLIP)
     shading: vec4<f32>,     // ambient, diffuse, specular, shininess (SHADING)
     shading_scale: vec4<f32>, // xyz: smallest spacing / spacing; w: 1 / gradient of full shading
     probe_pixel: vec2<u32>, // the pixel a PROBE pipeline traces
@@ -38,6 +38,8 @@ override SHADING: bool = false;
 // One ray (`params.probe_pixel`) reports where it reached PROBE_ALPHA (DVR) or its maximum
 // (MIP) into `probe_out` instead of drawing.
 override PROBE: bool = false;
+// A crop box or clip plane is set: every ray's interval is cut to them (`volume_interval`).
+override CLIP: bool = false;
 
 // Keep in sync with `ProbeResult` in src/render/gpu_data.rs.
 struct ProbeResult {
@@ -53,7 +55,6 @@ const MODE_MIP: u32 = 1u;
 const FLAG_OPACITY_CORRECTION: u32 = 1u;
 const FLAG_PIXEL_LOD: u32 = 2u;
 const FLAG_HEATMAP: u32 = 4u;
-const FLAG_CLIP_PLANE: u32 = 8u;
 // Keep in sync with `EARLY_TERMINATION_ALPHA` in src/render/settings.rs.
 const EARLY_TERMINATION_ALPHA: f32 = 0.99;
 
@@ -98,17 +99,24 @@ fn pixel_ray(id: vec2<u32>) -> PixelRay {
     return PixelRay(dir, world_length);
 }
 
-// Entry (clamped to the eye) and exit distances of a ray through the volume's box [0, dims],
-// clipped to the crop box (which is that box when nothing is cropped: the same work) and, with
-// FLAG_CLIP_PLANE, to the kept half-space. Every renderer starts and stops its rays here, so
-// clipping costs a ray this and nothing per sample or node, and empty-space skipping is as
-// before inside the interval.
+// Entry (clamped to the eye) and exit distances of a ray through the volume's box [0, dims]
+// or, in a CLIP pipeline, through the crop box and the kept half-space of the clip plane. Every
+// renderer starts and stops its rays here, so clipping costs a ray this and nothing per sample
+// or node, and empty-space skipping is as before inside the interval; unclipped pipelines
+// compile to the code they had before clipping existed.
 fn volume_interval(origin: vec3<f32>, dir: vec3<f32>, inv: vec3<f32>) -> vec2<f32> {
-    let t_low = (params.clip_low.xyz - origin) * inv;
-    let t_high = (params.clip_high.xyz - origin) * inv;
+    var low = vec3<f32>(0.0);
+    var high = params.volume.xyz;
+    if CLIP {
+        low = params.clip_low.xyz;
+        high = params.clip_high.xyz;
+    }
+    let t_low = (low - origin) * inv;
+    let t_high = (high - origin) * inv;
     var t_enter = max(max_component(min(t_low, t_high)), 0.0);
     var t_leave = min_component(max(t_low, t_high));
-    if (params.flags & FLAG_CLIP_PLANE) != 0u {
+    if CLIP {
+        // (Without a plane, clip_plane keeps everything: 0 · p >= -1.)
         // dot(n, origin + t·dir) >= w  ⇔  t·facing >= -height.
         let facing = dot(params.clip_plane.xyz, dir);
         let height = dot(params.clip_plane.xyz, origin) - params.clip_plane.w;

@@ -861,15 +861,23 @@ fn pipelines_are_built_once_per_device() {
         built,
         "opening volumes and switching renderers built pipelines again"
     );
-    // Shading and the probe are variants of their own, each built on its first use: for the
-    // octree (the tree walk), bricks at full detail (the grid walk) and dense, one shaded and
-    // one probe pipeline each.
+    // Shading, the probe and clipping are variants of their own, each built on its first use:
+    // for the octree (the tree walk), bricks at full detail (the grid walk) and dense, one
+    // shaded, one probe and one clipped pipeline each.
     let shaded = RenderSettings {
         shading: voxscope::render::Shading::default(),
         ..full(8)
     };
+    let clipped = RenderSettings {
+        clip: voxscope::octree::Clip {
+            bounds: Some([[0.0, 0.5], [0.0, 1.0], [0.0, 1.0]]),
+            plane: None,
+        },
+        ..full(8)
+    };
     let use_variants = |renderer: &VolumeRenderer| {
         renderer.render(&context, &target, &camera, &shaded);
+        renderer.render(&context, &target, &camera, &clipped);
         let request = voxscope::render::ProbeRequest {
             size: [target.width, target.height],
             pixel: [16, 12],
@@ -885,8 +893,8 @@ fn pipelines_are_built_once_per_device() {
     }
     assert_eq!(
         context.pipelines_built(),
-        built + 6,
-        "shaded and probe pipelines, each built once"
+        built + 9,
+        "shaded, probe and clipped pipelines, each built once"
     );
 }
 

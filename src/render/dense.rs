@@ -9,7 +9,8 @@ use super::pipeline::{
     uniform_entry,
 };
 use super::raycaster::{
-    ProbeTarget, StandIns, VolumeShape, frame_params_buffer, frame_variant, raycast_params,
+    ProbeTarget, StandIns, VolumeShape, frame_params_buffer, frame_variant, probe_variant,
+    raycast_params,
 };
 use super::{Frame, GpuContext, GpuTransferTable, RenderError, RenderSettings, RenderTarget};
 use crate::octree::TransferFunction;
@@ -74,8 +75,8 @@ impl VolumeShape for DenseVolume {
     }
 }
 
-/// The fixed-step ray-marching pipeline (plain, shaded and probe variants: [`Variant`]) and its
-/// samplers, one per device ([`GpuContext::dense_raycaster`]).
+/// The fixed-step ray-marching pipeline (in variants: [`Variant`]) and its samplers, one per
+/// device ([`GpuContext::dense_raycaster`]).
 pub struct DenseRaycaster {
     pipelines: VariantPipelines,
     layout: wgpu::BindGroupLayout,
@@ -177,7 +178,9 @@ impl DenseRaycaster {
             &self.stand_ins.target,
             probe.output,
         );
-        let pipeline = self.pipelines.get(context, 0, Variant::Probe);
+        let pipeline = self
+            .pipelines
+            .get(context, 0, probe_variant(probe.settings));
         dispatch_probe(encoder, "dense_probe", pipeline, &bind_group);
     }
 

@@ -30,12 +30,13 @@ pub(crate) struct RaycastParams {
     /// 1 / the atlas's size in texels along x, y, z (w unused): texel to normalized coordinates,
     /// a uniform so that the grid walk keeps no registers for it.
     pub atlas_texel: [f32; 4],
-    /// The crop box's low corner in voxel space (w unused); `[0, 0, 0]` unclipped.
+    /// The crop box's low corner in voxel space (w unused); `[0, 0, 0]` without a box. Read
+    /// by the clipping pipelines (`CLIP`) alone, as are the next two.
     pub clip_low: [f32; 4],
-    /// The crop box's high corner in voxel space (w unused); the volume's dims unclipped.
+    /// The crop box's high corner in voxel space (w unused); the volume's dims without a box.
     pub clip_high: [f32; 4],
     /// The clip plane in voxel space: xyz the normal (the normalized one divided by the dims),
-    /// w the distance; kept where `xyz · p ≥ w`. Read only with `FLAG_CLIP_PLANE`.
+    /// w the distance; kept where `xyz · p ≥ w`. `[0, 0, 0, -1]` (everything) without a plane.
     pub clip_plane: [f32; 4],
     /// Ambient, diffuse, specular, shininess (the shaded pipelines read it).
     pub shading: [f32; 4],
@@ -129,7 +130,6 @@ const _: () = assert!(std::mem::size_of::<CeilingParams>() == 32);
 pub(crate) const FLAG_OPACITY_CORRECTION: u32 = 1;
 pub(crate) const FLAG_PIXEL_LOD: u32 = 2;
 pub(crate) const FLAG_HEATMAP: u32 = 4;
-pub(crate) const FLAG_CLIP_PLANE: u32 = 8;
 
 #[cfg(test)]
 mod tests {

@@ -129,39 +129,56 @@ pub(crate) fn compute_pipelines(
 
 /// A variant of a ray caster's entry point, chosen by the WGSL `override` constants of
 /// `ray_common.wgsl`: each is its own pipeline, so the code a variant does not use is compiled
-/// out of the others (the plain variant is the ray caster without shading or probe).
+/// out of the others. The plain variant (none of them) is the ray caster as it was before
+/// shading, probing and clipping existed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum Variant {
-    /// Unshaded: what every frame without shading draws (and MIP, and the heat map).
-    Plain,
+pub(crate) struct Variant {
     /// DVR with headlight shading (`SHADING`).
-    Shaded,
+    pub shaded: bool,
     /// One ray that reports its probed point instead of drawing (`PROBE`).
-    Probe,
+    pub probe: bool,
+    /// Rays cut to the crop box and clip plane (`CLIP`).
+    pub clipped: bool,
 }
 
 impl Variant {
-    const COUNT: usize = 3;
+    /// Unshaded, drawing, unclipped.
+    pub const PLAIN: Self = Self {
+        shaded: false,
+        probe: false,
+        clipped: false,
+    };
+
+    const COUNT: usize = 8;
 
     /// The override constants that select this variant (the others keep their defaults).
-    fn constants(self) -> &'static [(&'static str, f64)] {
-        match self {
-            Self::Plain => &[],
-            Self::Shaded => &[("SHADING", 1.0)],
-            Self::Probe => &[("PROBE", 1.0)],
-        }
+    fn constants(self) -> Vec<(&'static str, f64)> {
+        [
+            (self.shaded, "SHADING"),
+            (self.probe, "PROBE"),
+            (self.clipped, "CLIP"),
+        ]
+        .into_iter()
+        .filter(|&(on, _)| on)
+        .map(|(_, name)| (name, 1.0))
+        .collect()
     }
 
     fn index(self) -> usize {
-        self as usize
+        self.shaded as usize | (self.probe as usize) << 1 | (self.clipped as usize) << 2
     }
 
-    fn name(self) -> &'static str {
-        match self {
-            Self::Plain => "plain",
-            Self::Shaded => "shaded",
-            Self::Probe => "probe",
+    /// `plain`, or the constants set, in pipeline labels.
+    fn name(self) -> String {
+        let constants = self.constants();
+        if constants.is_empty() {
+            return "plain".into();
         }
+        let names: Vec<String> = constants
+            .iter()
+            .map(|(name, _)| name.to_lowercase())
+            .collect();
+        names.join("_")
     }
 }
 
@@ -212,7 +229,7 @@ impl VariantPipelines {
             pipelines,
         };
         for entry in 0..entry_points.len() {
-            variants.get(context, entry, Variant::Plain);
+            variants.get(context, entry, Variant::PLAIN);
         }
         (variants, bind_group_layout)
     }
@@ -228,6 +245,7 @@ impl VariantPipelines {
         self.pipelines[entry][variant.index()].get_or_init(|| {
             context.pipelines.count_built(1);
             let entry_point = self.entry_points[entry];
+            let constants = variant.constants();
             context
                 .device
                 .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
@@ -240,7 +258,7 @@ impl VariantPipelines {
                     module: &self.module,
                     entry_point: Some(entry_point),
                     compilation_options: wgpu::PipelineCompilationOptions {
-                        constants: variant.constants(),
+                        constants: &constants,
                         ..Default::default()
                     },
                     cache: None,

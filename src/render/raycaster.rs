@@ -3,8 +3,7 @@
 use glam::DVec3;
 
 use super::gpu_data::{
-    FLAG_CLIP_PLANE, FLAG_HEATMAP, FLAG_OPACITY_CORRECTION, FLAG_PIXEL_LOD, ProbeResult,
-    RaycastParams,
+    FLAG_HEATMAP, FLAG_OPACITY_CORRECTION, FLAG_PIXEL_LOD, ProbeResult, RaycastParams,
 };
 use super::pipeline::{
     Variant, VariantPipelines, atlas_entry, atlas_sampler_entry, clamped_sampler,
@@ -178,8 +177,8 @@ const GRID_WALK: usize = 1;
 
 /// The ray-casting compute pipelines: `main` descends the tree (plain octrees, and bricks when a
 /// level cut or the pixel LOD may stop above them); `main_bricks` walks the brick grid. Each in
-/// three variants ([`Variant`]: plain, shaded, probe), the plain ones built with the ray caster
-/// and the others on first use. One per device ([`GpuContext::raycaster`]), shared by the octree
+/// variants ([`Variant`]: shaded, probe, clipped), the plain ones built with the ray caster and
+/// the others on first use. One per device ([`GpuContext::raycaster`]), shared by the octree
 /// and bricks renderers of every volume.
 pub struct Raycaster {
     pipelines: VariantPipelines,
@@ -216,10 +215,19 @@ impl StandIns {
 
 /// The variant that draws a frame with `settings`.
 pub(crate) fn frame_variant(settings: &RenderSettings) -> Variant {
-    if Shading::applies(settings) {
-        Variant::Shaded
-    } else {
-        Variant::Plain
+    Variant {
+        shaded: Shading::applies(settings),
+        probe: false,
+        clipped: settings.clip.is_active(),
+    }
+}
+
+/// The variant that probes a pixel of a frame with `settings`.
+pub(crate) fn probe_variant(settings: &RenderSettings) -> Variant {
+    Variant {
+        shaded: false,
+        probe: true,
+        clipped: settings.clip.is_active(),
     }
 }
 
@@ -339,9 +347,11 @@ impl Raycaster {
             &self.stand_ins.target,
             probe.output,
         );
-        let pipeline = self
-            .pipelines
-            .get(context, entry_point(volume, &params), Variant::Probe);
+        let pipeline = self.pipelines.get(
+            context,
+            entry_point(volume, &params),
+            probe_variant(probe.settings),
+        );
         dispatch_probe(encoder, "raycast_probe", pipeline, &bind_group);
     }
 
@@ -455,7 +465,6 @@ pub(crate) fn raycast_params(
     };
     let clip_plane = match settings.clip.plane {
         Some(plane) => {
-            flags |= FLAG_CLIP_PLANE;
             let n = plane.normal;
             [
                 (n[0] as f64 / dims.x) as f32,

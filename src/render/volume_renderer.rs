@@ -3,8 +3,7 @@
 //! alone; the pipelines that draw and recolor it are the device's
 //! (`pipeline_cache.rs`), built once, whatever the number of volumes and renderers.
 
-use super::pipeline::Variant;
-use super::raycaster::{ProbeTarget, frame_variant};
+use super::raycaster::{ProbeTarget, frame_variant, probe_variant};
 use super::{
     Camera, DenseVolume, Frame, GpuBricks, GpuContext, GpuVolume, RenderError, RenderSettings,
     RenderTarget,
@@ -218,13 +217,14 @@ impl VolumeRenderer {
     }
 
     /// Builds, where not built yet, the device's pipelines this renderer draws `settings` with
-    /// (the shaded variant when they shade) and, with `probe`, its probe pipelines: so that a
+    /// (the shaded or clipped variants where they shade or clip) and, with `probe`, its probe
+    /// pipelines: so that a
     /// caller that knows its settings compiles them where it likes (the app's loading thread)
     /// rather than at the first frame that needs them.
     pub fn prepare_pipelines(&self, context: &GpuContext, settings: &RenderSettings, probe: bool) {
         let mut variants = vec![frame_variant(settings)];
         if probe {
-            variants.push(Variant::Probe);
+            variants.push(probe_variant(settings));
         }
         for variant in variants {
             match self.state {
