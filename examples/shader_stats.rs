@@ -4,10 +4,12 @@
 //! depend on it (docs/benchmarks.md, "The bound on bricks against dense").
 //!
 //! `cargo run --release --example shader_stats` compiles each compute entry point of `raycast`
-//! and `dense` from WGSL to SPIR-V with naga (bounds checks as wgpu applies them), builds a
-//! pipeline on the first Vulkan device that has the extension, and prints its statistics.
-//! `shader_stats FILE.wgsl:ENTRY …` measures those entry points of those (composed) WGSL files
-//! instead: variants of a shader, compared without rebuilding.
+//! and `dense`, in each pipeline variant (plain, `SHADING`, `PROBE`: the override constants),
+//! from WGSL to SPIR-V with naga as wgpu does (overrides processed, bounds checks as wgpu
+//! applies them), builds a pipeline on the first Vulkan device that has the extension, and
+//! prints its statistics. `shader_stats FILE.wgsl:ENTRY[:NAME=VALUE,…] …` measures those entry
+//! points of those (composed) WGSL files, with those override constants, instead: variants of
+//! a shader (or an older version of it), compared without rebuilding.
 //! (NVIDIA's driver 580 offers statistics but no internal representations; Mesa's lavapipe
 //! in Debian 12 does not offer the extension.)
 
@@ -30,6 +32,18 @@ const ENTRY_POINTS: [(&str, &str); 3] = [
     ("raycast", "main_bricks"),
     ("dense", "main"),
 ];
+
+/// The pipeline variants of each entry point measured (src/render/pipeline.rs, `Variant`):
+/// their override constants.
+const VARIANTS: [&str; 5] = ["", "SHADING=1", "PROBE=1", "CLIP=1", "SHADING=1,CLIP=1"];
+
+/// One pipeline to measure: a label, WGSL source, entry point and override constants.
+struct Measured {
+    label: String,
+    source: String,
+    entry_point: String,
+    constants: naga::back::PipelineConstants,
+}
 
 fn run() -> Result<(), String> {
     let entry = unsafe { ash::Entry::load() }.map_err(|e| format!("no Vulkan loader: {e}"))?;
@@ -87,8 +101,8 @@ fn with_instance(instance: &ash::Instance) -> Result<(), String> {
     let executables = ash::khr::pipeline_executable_properties::Device::new(instance, &device);
 
     let mut result = Ok(());
-    for (label, source, entry_point) in shaders_to_measure()? {
-        result = report(&device, &executables, &label, &source, &entry_point);
+    for measured in shaders_to_measure()? {
+        result = report(&device, &executables, &measured);
         if result.is_err() {
             break;
         }
@@ -97,34 +111,59 @@ fn with_instance(instance: &ash::Instance) -> Result<(), String> {
     result
 }
 
-/// Label, WGSL source and entry point of each shader to measure: the command line's
-/// `FILE.wgsl:ENTRY` arguments, or else [`ENTRY_POINTS`] of voxscope's own shaders.
-fn shaders_to_measure() -> Result<Vec<(String, String, String)>, String> {
+/// Each pipeline to measure: the command line's `FILE.wgsl:ENTRY[:NAME=VALUE,…]` arguments, or
+/// else every [`VARIANTS`] of [`ENTRY_POINTS`] of voxscope's own shaders.
+fn shaders_to_measure() -> Result<Vec<Measured>, String> {
     let arguments: Vec<String> = std::env::args().skip(1).collect();
     if arguments.is_empty() {
-        return ENTRY_POINTS
-            .iter()
-            .map(|&(shader, entry_point)| {
-                let found = voxscope::render::shaders::ALL
-                    .iter()
-                    .find(|s| s.name == shader)
-                    .ok_or_else(|| format!("no shader {shader}"))?;
-                Ok((
-                    shader.to_owned(),
-                    found.source.to_owned(),
-                    entry_point.to_owned(),
-                ))
-            })
-            .collect();
+        let mut measured = Vec::new();
+        for &(shader, entry_point) in &ENTRY_POINTS {
+            let found = voxscope::render::shaders::ALL
+                .iter()
+                .find(|s| s.name == shader)
+                .ok_or_else(|| format!("no shader {shader}"))?;
+            for variant in VARIANTS {
+                measured.push(Measured {
+                    label: shader.to_owned(),
+                    source: found.source.to_owned(),
+                    entry_point: entry_point.to_owned(),
+                    constants: parse_constants(variant)?,
+                });
+            }
+        }
+        return Ok(measured);
     }
     arguments
         .iter()
         .map(|argument| {
-            let (file, entry_point) = argument
-                .rsplit_once(':')
-                .ok_or_else(|| format!("{argument}: expected FILE.wgsl:ENTRY"))?;
-            let source = std::fs::read_to_string(file).map_err(|e| format!("{file}: {e}"))?;
-            Ok((file.to_owned(), source, entry_point.to_owned()))
+            let (file, rest) = argument
+                .split_once(".wgsl:")
+                .ok_or_else(|| format!("{argument}: expected FILE.wgsl:ENTRY[:NAME=VALUE,…]"))?;
+            let file = format!("{file}.wgsl");
+            let (entry_point, constants) = rest.split_once(':').unwrap_or((rest, ""));
+            let source = std::fs::read_to_string(&file).map_err(|e| format!("{file}: {e}"))?;
+            Ok(Measured {
+                label: file,
+                source,
+                entry_point: entry_point.to_owned(),
+                constants: parse_constants(constants)?,
+            })
+        })
+        .collect()
+}
+
+/// `NAME=VALUE,…` (empty: none) as naga's pipeline constants (`true` is 1).
+fn parse_constants(text: &str) -> Result<naga::back::PipelineConstants, String> {
+    text.split(',')
+        .filter(|part| !part.is_empty())
+        .map(|part| {
+            let (name, value) = part
+                .split_once('=')
+                .ok_or_else(|| format!("{part}: expected NAME=VALUE"))?;
+            let value = value
+                .parse::<f64>()
+                .map_err(|_| format!("{part}: the value is not a number"))?;
+            Ok((name.to_owned(), value))
         })
         .collect()
 }
@@ -133,17 +172,36 @@ fn shaders_to_measure() -> Result<Vec<(String, String, String)>, String> {
 fn report(
     device: &ash::Device,
     executables: &ash::khr::pipeline_executable_properties::Device,
-    shader: &str,
-    source: &str,
-    entry_point: &str,
+    measured: &Measured,
 ) -> Result<(), String> {
-    let module = naga::front::wgsl::parse_str(source).map_err(|e| format!("{shader}: {e}"))?;
+    let constants: Vec<String> = measured
+        .constants
+        .iter()
+        .map(|(name, value)| format!("{name}={value}"))
+        .collect();
+    let shader = &if constants.is_empty() {
+        measured.label.clone()
+    } else {
+        format!("{}[{}]", measured.label, constants.join(","))
+    };
+    let entry_point = measured.entry_point.as_str();
+    let module =
+        naga::front::wgsl::parse_str(&measured.source).map_err(|e| format!("{shader}: {e}"))?;
     let info = naga::valid::Validator::new(
         naga::valid::ValidationFlags::all(),
         naga::valid::Capabilities::all(),
     )
     .validate(&module)
     .map_err(|e| format!("{shader}: {e:?}"))?;
+    // As wgpu does before writing SPIR-V: the override constants replaced by their values, and
+    // the module compacted to what the entry point uses.
+    let (module, info) = naga::back::pipeline_constants::process_overrides(
+        &module,
+        &info,
+        Some((naga::ShaderStage::Compute, entry_point)),
+        &measured.constants,
+    )
+    .map_err(|e| format!("{shader}/{entry_point}: overrides: {e}"))?;
     let options = spv::Options {
         // As wgpu compiles shaders unless told they are trusted.
         bounds_check_policies: BoundsCheckPolicies {

@@ -12,10 +12,13 @@
 @group(0) @binding(3) var<storage, read> lookup_table: array<u32>;
 @group(0) @binding(4) var output: texture_storage_2d<rgba8unorm, write>;
 @group(0) @binding(5) var<storage, read_write> visits: array<u32>;
+// What a PROBE pipeline found (ray_common.wgsl).
+@group(0) @binding(6) var<storage, read_write> probe_out: ProbeResult;
 
 struct MarchResult {
     color: vec3<f32>,
     samples: u32,
+    probe_t: f32,
 }
 
 // The value level at a voxel-space point, trilinear (or nearest, by the sampler).
@@ -23,9 +26,24 @@ fn level_at(p: vec3<f32>) -> u32 {
     return value_index(textureSampleLevel(levels, level_sampler, p / params.volume.xyz, 0.0).r);
 }
 
+// The gradient of the filtered value levels at normalized texture coordinates `coords`,
+// central differences `half_texel` (half a voxel) either side: levels per voxel, voxel space.
+fn level_gradient(coords: vec3<f32>, half_texel: vec3<f32>) -> vec3<f32> {
+    let dx = vec3<f32>(half_texel.x, 0.0, 0.0);
+    let dy = vec3<f32>(0.0, half_texel.y, 0.0);
+    let dz = vec3<f32>(0.0, 0.0, half_texel.z);
+    let high = vec3<f32>(textureSampleLevel(levels, level_sampler, coords + dx, 0.0).r,
+                         textureSampleLevel(levels, level_sampler, coords + dy, 0.0).r,
+                         textureSampleLevel(levels, level_sampler, coords + dz, 0.0).r);
+    let low = vec3<f32>(textureSampleLevel(levels, level_sampler, coords - dx, 0.0).r,
+                        textureSampleLevel(levels, level_sampler, coords - dy, 0.0).r,
+                        textureSampleLevel(levels, level_sampler, coords - dz, 0.0).r);
+    return (high - low) * params.atlas_scale;
+}
+
 fn march(origin: vec3<f32>, dir: vec3<f32>) -> MarchResult {
-    var result = MarchResult(vec3<f32>(0.0), 0u);
-    let interval = volume_interval(origin, safe_inverse(dir));
+    var result = MarchResult(vec3<f32>(0.0), 0u, -1.0);
+    let interval = volume_interval(origin, dir, safe_inverse(dir));
     let t_enter = interval.x;
     let t_leave = interval.y;
     if t_enter >= t_leave {
@@ -33,7 +51,10 @@ fn march(origin: vec3<f32>, dir: vec3<f32>) -> MarchResult {
     }
     // One voxel per step.
     let step = 1.0 / length(dir);
-    var acc = Accumulation(vec3<f32>(0.0), 0.0, 0u, false);
+    var acc = new_accumulation();
+    let texel = 1.0 / params.volume.xyz;
+    let frame = SampleFrame(origin * texel, origin * texel, 3.4e38, dir * texel, 0.5 * texel,
+                            headlight(dir));
     // Sample k sits at t_enter + (k + 0.5) · step (as in the bricks renderer, sample for sample),
     // fetched two batches at a time.
     for (var k = 0.0; ; k += f32(BATCH_PAIR)) {
@@ -47,21 +68,27 @@ fn march(origin: vec3<f32>, dir: vec3<f32>) -> MarchResult {
                               level_at(origin + t.z * dir), level_at(origin + t.w * dir));
         let second = vec4<u32>(level_at(origin + t2.x * dir), level_at(origin + t2.y * dir),
                                level_at(origin + t2.z * dir), level_at(origin + t2.w * dir));
-        result.samples += accumulate_pair(&acc, first, second, count);
+        result.samples += accumulate_pair(&acc, first, second, count, t, t2, frame);
         if acc.done || count < BATCH_PAIR {
             break;
         }
     }
     result.color = final_color(acc);
+    result.probe_t = acc.probe_t;
     return result;
 }
 
 @compute @workgroup_size(8, 8, 1)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= params.image_size.x || id.y >= params.image_size.y {
+    let pixel = ray_pixel(id.xy);
+    if pixel.x >= params.image_size.x || pixel.y >= params.image_size.y {
         return;
     }
-    let ray = pixel_ray(id.xy);
+    let ray = pixel_ray(pixel);
     let result = march(params.eye.xyz, ray.dir);
-    write_pixel(id.xy, result.color, result.samples);
+    if PROBE {
+        write_probe(params.eye.xyz, ray.dir, result.probe_t);
+    } else {
+        write_pixel(pixel, result.color, result.samples);
+    }
 }

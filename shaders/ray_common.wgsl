@@ -22,7 +22,33 @@ struct Params {
     atlas_grid: vec4<u32>,  // xyz: bricks along each atlas axis
     brick_grid: vec4<u32>,  // xyz: brick cells along each volume axis (the walked grid)
     atlas_texel: vec4<f32>, // xyz: 1 / the atlas's size in texels (texel to normalized)
+    clip_low: vec4<f32>,    // xyz: the crop box's low corner (voxel space; CLIP)
+    clip_high: vec4<f32>,   // xyz: its high corner (CLIP)
+    clip_plane: vec4<f32>,  // kept where dot(xyz, p) >= w, p in voxel space (CLIP)
+    shading: vec4<f32>,     // ambient, diffuse, specular, shininess (SHADING)
+    shading_scale: vec4<f32>, // xyz: smallest spacing / spacing; w: 1 / gradient of full shading
+    probe_pixel: vec2<u32>, // the pixel a PROBE pipeline traces
 }
+
+// Pipeline variants (src/render/raycaster.rs builds each as its own pipeline, so that a
+// variant's code is compiled out of the others: the plain pipelines are the unshaded ones of
+// before, register for register).
+// Headlight Blinn-Phong shading of DVR (docs/octree.md, "Shading").
+override SHADING: bool = false;
+// One ray (`params.probe_pixel`) reports where it reached PROBE_ALPHA (DVR) or its maximum
+// (MIP) into `probe_out` instead of drawing.
+override PROBE: bool = false;
+// A crop box or clip plane is set: every ray's interval is cut to them (`volume_interval`).
+override CLIP: bool = false;
+
+// Keep in sync with `ProbeResult` in src/render/gpu_data.rs.
+struct ProbeResult {
+    point: vec3<f32>, // voxel space
+    found: u32,       // 1, or 0 where the ray never got there
+}
+
+// Keep in sync with `PROBE_ALPHA` in src/render/probe.rs.
+const PROBE_ALPHA: f32 = 0.5;
 
 const MODE_DVR: u32 = 0u;
 const MODE_MIP: u32 = 1u;
@@ -73,11 +99,36 @@ fn pixel_ray(id: vec2<u32>) -> PixelRay {
     return PixelRay(dir, world_length);
 }
 
-// Entry (clamped to the eye) and exit distances of a ray through the volume's box [0, dims].
-fn volume_interval(origin: vec3<f32>, inv: vec3<f32>) -> vec2<f32> {
-    let t_low = (vec3<f32>(0.0) - origin) * inv;
-    let t_high = (params.volume.xyz - origin) * inv;
-    return vec2<f32>(max(max_component(min(t_low, t_high)), 0.0), min_component(max(t_low, t_high)));
+// Entry (clamped to the eye) and exit distances of a ray through the volume's box [0, dims]
+// or, in a CLIP pipeline, through the crop box and the kept half-space of the clip plane. Every
+// renderer starts and stops its rays here, so clipping costs a ray this and nothing per sample
+// or node, and empty-space skipping is as before inside the interval; unclipped pipelines
+// compile to the code they had before clipping existed.
+fn volume_interval(origin: vec3<f32>, dir: vec3<f32>, inv: vec3<f32>) -> vec2<f32> {
+    var low = vec3<f32>(0.0);
+    var high = params.volume.xyz;
+    if CLIP {
+        low = params.clip_low.xyz;
+        high = params.clip_high.xyz;
+    }
+    let t_low = (low - origin) * inv;
+    let t_high = (high - origin) * inv;
+    var t_enter = max(max_component(min(t_low, t_high)), 0.0);
+    var t_leave = min_component(max(t_low, t_high));
+    if CLIP {
+        // (Without a plane, clip_plane keeps everything: 0 · p >= -1.)
+        // dot(n, origin + t·dir) >= w  ⇔  t·facing >= -height.
+        let facing = dot(params.clip_plane.xyz, dir);
+        let height = dot(params.clip_plane.xyz, origin) - params.clip_plane.w;
+        if facing > 0.0 {
+            t_enter = max(t_enter, -height / facing);
+        } else if facing < 0.0 {
+            t_leave = min(t_leave, -height / facing);
+        } else if height < 0.0 {
+            t_leave = -1.0; // parallel to the plane, on the clipped side
+        }
+    }
+    return vec2<f32>(t_enter, t_leave);
 }
 
 // Samples are fetched in batches of four: their texture reads do not depend on each other, so
@@ -95,14 +146,65 @@ struct Accumulation {
     running_max: u32,
     // Opaque (DVR) or saturated (MIP): nothing behind can change the pixel.
     done: bool,
+    // PROBE: the ray distance where alpha reached PROBE_ALPHA, or of the sample or node that
+    // last raised the MIP maximum; negative until then.
+    probe_t: f32,
 }
 
-// Takes the first `count` of four value levels in order along the ray, as one-voxel samples,
-// and returns how many it took before the ray was done. The four lookups are issued before
-// any is blended, for the same reason as the batched fetches.
-fn accumulate(acc: ptr<function, Accumulation>, levels: vec4<u32>, count: u32) -> u32 {
+fn new_accumulation() -> Accumulation {
+    return Accumulation(vec3<f32>(0.0), 0.0, 0u, false, -1.0);
+}
+
+// Where a batch's samples are in the texture they come from, for the gradient (SHADING): sample
+// j at ray distance t is at `select(next, here, t < split) + t · dir` in normalized texture
+// coordinates (the grid walk's batches may cross into the next brick). `half_texel` is half a
+// voxel along each axis there; `light` the ray's direction scaled for `shade`.
+struct SampleFrame {
+    here: vec3<f32>,
+    next: vec3<f32>,
+    split: f32,
+    dir: vec3<f32>,
+    half_texel: vec3<f32>,
+    light: vec3<f32>,
+}
+
+// The headlight of a ray of voxel-space direction `dir`: |n · l| of a world-space normal n
+// whose voxel-space gradient is g is |dot(g, light)| / |g ⊙ s|, s = shading_scale.xyz
+// (world = voxel ⊘ spacing for gradients and ⊙ spacing for directions; the smallest spacing
+// cancels).
+fn headlight(dir: vec3<f32>) -> vec3<f32> {
+    return dir / length(dir / params.shading_scale.xyz);
+}
+
+// A color under the headlight, the surface's |n · l| being `cosine` and its weight `weight`
+// (0: homogeneous, plain color; 1: an edge, fully lit).
+fn shade_with(rgb: vec3<f32>, cosine: f32, weight: f32) -> vec3<f32> {
+    let k = params.shading;
+    let lit = rgb * (k.x + k.y * cosine) + k.z * pow(max(cosine, 1e-6), k.w);
+    return mix(rgb, lit, weight);
+}
+
+// A sample's color shaded by the volume's gradient there (`level_gradient`, in value levels
+// per voxel, central differences half a voxel either side), weighted by its magnitude in
+// transfer-window widths per voxel of the smallest spacing.
+fn shade_sample(rgb: vec3<f32>, gradient: vec3<f32>, light: vec3<f32>) -> vec3<f32> {
+    let magnitude = length(gradient * params.shading_scale.xyz);
+    let weight = min(magnitude * params.shading_scale.w, 1.0);
+    let cosine = min(abs(dot(gradient, light)) / max(magnitude, 1e-20), 1.0);
+    return shade_with(rgb, cosine, weight);
+}
+
+// Takes the first `count` of four value levels in order along the ray, as one-voxel samples at
+// distances `ts`, and returns how many it took before the ray was done. The four lookups are
+// issued before any is blended, for the same reason as the batched fetches. `frame` places the
+// samples for SHADING's gradient (unused, and compiled out, elsewhere).
+fn accumulate(acc: ptr<function, Accumulation>, levels: vec4<u32>, count: u32, ts: vec4<f32>,
+              frame: SampleFrame) -> u32 {
     if params.mode == MODE_MIP {
         for (var j = 0u; j < count; j++) {
+            if PROBE && levels[j] > (*acc).running_max {
+                (*acc).probe_t = ts[j];
+            }
             (*acc).running_max = max((*acc).running_max, levels[j]);
             if (*acc).running_max >= params.mip_saturation {
                 (*acc).done = true;
@@ -117,8 +219,16 @@ fn accumulate(acc: ptr<function, Accumulation>, levels: vec4<u32>, count: u32) -
         let rgba = unpack4x8unorm(colors[j]);
         // A step is one voxel long, so opacity correction leaves alpha as it is.
         let a = min(rgba.a * params.density, 1.0);
-        (*acc).color += (1.0 - (*acc).alpha) * a * rgba.rgb;
+        var rgb = rgba.rgb;
+        if SHADING && a > 0.0 {
+            let coords = select(frame.next, frame.here, ts[j] < frame.split) + ts[j] * frame.dir;
+            rgb = shade_sample(rgb, level_gradient(coords, frame.half_texel), frame.light);
+        }
+        (*acc).color += (1.0 - (*acc).alpha) * a * rgb;
         (*acc).alpha += (1.0 - (*acc).alpha) * a;
+        if PROBE && (*acc).probe_t < 0.0 && (*acc).alpha >= PROBE_ALPHA {
+            (*acc).probe_t = ts[j];
+        }
         if (*acc).alpha >= EARLY_TERMINATION_ALPHA {
             (*acc).done = true;
             return j + 1u;
@@ -127,11 +237,13 @@ fn accumulate(acc: ptr<function, Accumulation>, levels: vec4<u32>, count: u32) -
     return count;
 }
 
-// `accumulate` for two batches fetched together: the first `count` of their eight levels.
-fn accumulate_pair(acc: ptr<function, Accumulation>, first: vec4<u32>, second: vec4<u32>, count: u32) -> u32 {
-    var taken = accumulate(acc, first, min(count, BATCH));
+// `accumulate` for two batches fetched together (distances `ts`, `ts2`): the first `count` of
+// their eight levels.
+fn accumulate_pair(acc: ptr<function, Accumulation>, first: vec4<u32>, second: vec4<u32>, count: u32,
+                   ts: vec4<f32>, ts2: vec4<f32>, frame: SampleFrame) -> u32 {
+    var taken = accumulate(acc, first, min(count, BATCH), ts, frame);
     if !(*acc).done && count > BATCH {
-        taken += accumulate(acc, second, count - BATCH);
+        taken += accumulate(acc, second, count - BATCH, ts2, frame);
     }
     return taken;
 }
@@ -153,6 +265,20 @@ fn final_color(acc: Accumulation) -> vec3<f32> {
         return unpack4x8unorm(lookup_table[acc.running_max]).rgb;
     }
     return acc.color;
+}
+
+// The pixel an invocation traces: its own, or in a PROBE pipeline (one workgroup) the probed
+// pixel for invocation 0 and, for the others, one past the image (which they leave at once).
+fn ray_pixel(id: vec2<u32>) -> vec2<u32> {
+    if PROBE {
+        return select(params.image_size, params.probe_pixel, all(id == vec2<u32>(0u)));
+    }
+    return id;
+}
+
+// A PROBE pipeline's answer: the point at `probe_t` on the ray, if it got there.
+fn write_probe(origin: vec3<f32>, dir: vec3<f32>, probe_t: f32) {
+    probe_out = ProbeResult(origin + max(probe_t, 0.0) * dir, select(0u, 1u, probe_t >= 0.0));
 }
 
 // Writes a pixel: the color, or the heat map of `work` (nodes or samples) when asked.

@@ -33,6 +33,8 @@ const MAX_STEPS: u32 = 100000u;
 // grid walk ran 1–5 % slower on an H200 with driver 580, the driver's code 128–900 bytes longer
 // (docs/bench runs 40–42).
 @group(0) @binding(8) var<storage, read> brick_grid: array<vec4<u32>>;
+// What a PROBE pipeline found (ray_common.wgsl).
+@group(0) @binding(9) var<storage, read_write> probe_out: ProbeResult;
 
 // A node's corner: integer voxel coordinates below the octree side (≤ 1024, MAX_DEPTH 10),
 // ten bits each.
@@ -58,6 +60,8 @@ var<workgroup> stack_exit: array<array<f32, WORKGROUP>, STACK_SIZE>;
 struct RayResult {
     color: vec3<f32>,
     visited: u32,
+    // PROBE: where the ray reached what it probes (`Accumulation.probe_t`).
+    probe_t: f32,
 }
 
 
@@ -70,6 +74,9 @@ fn march_brick(acc: ptr<function, Accumulation>, origin: vec3<f32>, dir: vec3<f3
                sample_step: f32, t: f32, t_out: f32, to_atlas: vec3<f32>) -> u32 {
     var taken = 0u;
     var k = max(ceil((t - t_enter) / sample_step - 0.5), 0.0);
+    let texel = params.atlas_texel.xyz;
+    let here = (origin + to_atlas) * texel;
+    let frame = SampleFrame(here, here, 3.4e38, dir * texel, 0.5 * texel, headlight(dir));
     loop {
         let ts = t_enter + (vec4<f32>(k) + BATCH_OFFSETS) * sample_step;
         let count = count_before(ts, t_out);
@@ -82,7 +89,7 @@ fn march_brick(acc: ptr<function, Accumulation>, origin: vec3<f32>, dir: vec3<f3
             atlas_level(origin + ts.z * dir + to_atlas),
             atlas_level(origin + ts.w * dir + to_atlas),
         );
-        taken += accumulate(acc, batch_levels, count);
+        taken += accumulate(acc, batch_levels, count, ts, frame);
         if (*acc).done || count < BATCH {
             break;
         }
@@ -109,6 +116,24 @@ fn brick_batch(atlas_dir: vec3<f32>, ts: vec4<f32>, t_out: f32, atlas_here: vec3
 // The value level at normalized atlas coordinates, trilinear.
 fn atlas_level_at(coords: vec3<f32>) -> u32 {
     return value_index(textureSampleLevel(atlas, atlas_sampler, coords, 0.0).r);
+}
+
+// The gradient of the filtered value levels at normalized atlas coordinates `coords` (a sample
+// inside its brick), central differences `half_texel` (half a voxel) either side: levels per
+// voxel, voxel space. Half a voxel, not one: the one-voxel apron makes the atlas equal the
+// volume's own trilinear values up to half a voxel past the brick's faces (the apron's texel
+// centers), and a whole voxel out would blend in the next slot's brick.
+fn level_gradient(coords: vec3<f32>, half_texel: vec3<f32>) -> vec3<f32> {
+    let dx = vec3<f32>(half_texel.x, 0.0, 0.0);
+    let dy = vec3<f32>(0.0, half_texel.y, 0.0);
+    let dz = vec3<f32>(0.0, 0.0, half_texel.z);
+    let high = vec3<f32>(textureSampleLevel(atlas, atlas_sampler, coords + dx, 0.0).r,
+                         textureSampleLevel(atlas, atlas_sampler, coords + dy, 0.0).r,
+                         textureSampleLevel(atlas, atlas_sampler, coords + dz, 0.0).r);
+    let low = vec3<f32>(textureSampleLevel(atlas, atlas_sampler, coords - dx, 0.0).r,
+                        textureSampleLevel(atlas, atlas_sampler, coords - dy, 0.0).r,
+                        textureSampleLevel(atlas, atlas_sampler, coords - dz, 0.0).r);
+    return (high - low) * params.atlas_scale;
 }
 
 // The value level at an atlas texel position (a voxel-space point plus its brick's `to_atlas`).
@@ -147,12 +172,12 @@ struct ClippedRay {
 
 fn clip_ray(origin: vec3<f32>, dir: vec3<f32>) -> ClippedRay {
     let inv = safe_inverse(dir);
-    let interval = volume_interval(origin, inv);
+    let interval = volume_interval(origin, dir, inv);
     return ClippedRay(inv, inv >= vec3<f32>(0.0), interval.x, interval.y);
 }
 
 fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, lane: u32) -> RayResult {
-    var result = RayResult(vec3<f32>(0.0), 0u);
+    var result = RayResult(vec3<f32>(0.0), 0u, -1.0);
     let ray = clip_ray(origin, dir);
     if ray.t_enter >= ray.t_leave {
         return result;
@@ -182,7 +207,11 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, lane: u32) ->
     var level = 0u;
     var t = ray.t_enter;
 
-    var acc = Accumulation(vec3<f32>(0.0), 0.0, 0u, false);
+    var acc = new_accumulation();
+    // SHADING: the value level of the node the ray was in before the current one (negative
+    // until the first), for the step across the face it enters by; and the headlight.
+    var previous_level = -1.0;
+    let light = headlight(dir);
 
     for (var step = 0u; step < MAX_STEPS; step++) {
         let probe = t + max(probe_step, abs(t) * 5e-7);
@@ -204,7 +233,7 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, lane: u32) ->
             let size = side / f32(1u << level);
             let node = nodes[node_index];
             var node_bounds = 0u;
-            if mip {
+            if mip || SHADING {
                 node_bounds = bounds[node_index];
             }
             result.visited += 1u;
@@ -218,6 +247,9 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, lane: u32) ->
                 skip = (node.color >> 24u) == 0u;
             }
             if skip {
+                if SHADING {
+                    previous_level = node_level(node_bounds, previous_level);
+                }
                 t = max(t_out, probe);
                 break;
             }
@@ -227,20 +259,42 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, lane: u32) ->
                 let to_atlas = brick_to_atlas(atlas_cell_of_slot(node.first_child & ~BRICK_FLAG), corner);
                 result.visited += march_brick(&acc, origin, dir, ray.t_enter, sample_step, t, t_out,
                                               to_atlas);
+                if SHADING {
+                    previous_level = node_level(node_bounds, previous_level);
+                }
                 t = max(t_out, probe);
                 break;
             }
             if cut {
                 if mip {
+                    if PROBE && (node_bounds >> 16u) > acc.running_max {
+                        // The middle of the ray's path through the node: inside it.
+                        acc.probe_t = 0.5 * (t + t_out);
+                    }
                     acc.running_max = max(acc.running_max, node_bounds >> 16u);
                 } else {
                     let rgba = unpack4x8unorm(node.color);
-                    var a = min(rgba.a * params.density, 1.0);
+                    let node_alpha = min(rgba.a * params.density, 1.0);
+                    var a = node_alpha;
                     if correct_opacity && a < 1.0 {
                         a = 1.0 - pow(1.0 - a, max(t_out - t, 0.0) * voxels_per_t);
                     }
-                    acc.color += (1.0 - acc.alpha) * a * rgba.rgb;
+                    var rgb = rgba.rgb;
+                    if SHADING {
+                        let level_here = node_level(node_bounds, previous_level);
+                        rgb = shade_face(rgb, corner, size, origin, ray, light,
+                                         abs(level_here - select(previous_level, level_here,
+                                                                 previous_level < 0.0)));
+                        previous_level = level_here;
+                    }
+                    let alpha_before = acc.alpha;
+                    acc.color += (1.0 - acc.alpha) * a * rgb;
                     acc.alpha += (1.0 - acc.alpha) * a;
+                    if PROBE && acc.probe_t < 0.0 && acc.alpha >= PROBE_ALPHA {
+                        acc.probe_t = crossing_in_node(alpha_before, node_alpha,
+                                                       correct_opacity, voxels_per_t, t, t_out,
+                                                       probe_step);
+                    }
                 }
                 t = max(t_out, probe);
                 break;
@@ -267,7 +321,50 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, lane: u32) ->
         }
     }
     result.color = final_color(acc);
+    result.probe_t = acc.probe_t;
     return result;
+}
+
+// A node's value level for the shading step across faces: the middle of its value bounds (a
+// voxel's own level); `otherwise` where it has none (padding).
+fn node_level(node_bounds: u32, otherwise: f32) -> f32 {
+    let low = node_bounds & 0xffffu;
+    let high = node_bounds >> 16u;
+    return select(0.5 * (f32(low) + f32(high)), otherwise, low > high);
+}
+
+// The octree's shading (SHADING): the normal is the face of the node (box `corner`, `size`) the
+// ray enters by, the axis of its latest entry plane; the weight is the step of value levels
+// across that face, `level_step`, per voxel of that axis in transfer-window widths per voxel of
+// the smallest spacing (docs/octree.md, "Shading").
+fn shade_face(rgb: vec3<f32>, corner: vec3<f32>, size: f32, origin: vec3<f32>, ray: ClippedRay,
+              light: vec3<f32>, level_step: f32) -> vec3<f32> {
+    let near = (corner + select(vec3<f32>(size), vec3<f32>(0.0), ray.positive) - origin) * ray.inv;
+    let latest = max_component(near);
+    var face = vec3<f32>(0.0, 0.0, 1.0);
+    if near.x >= latest {
+        face = vec3<f32>(1.0, 0.0, 0.0);
+    } else if near.y >= latest {
+        face = vec3<f32>(0.0, 1.0, 0.0);
+    }
+    let scale = params.shading_scale;
+    let cosine = min(abs(dot(light / scale.xyz, face)), 1.0);
+    let weight = min(level_step * dot(scale.xyz, face) * scale.w, 1.0);
+    return shade_with(rgb, cosine, weight);
+}
+
+// PROBE: where in a node composited over [t, t_out] the ray's alpha reached PROBE_ALPHA, having
+// been `alpha_before` on entering it; with opacity correction alpha grows continuously through
+// the node, `1 − (1 − alpha_before)(1 − a)^(voxels)`, else all at once at its face. At least
+// `nudge` (a thousandth of a voxel) inside, so the point's voxel is the node's.
+fn crossing_in_node(alpha_before: f32, node_alpha: f32, correct_opacity: bool, voxels_per_t: f32,
+                    t: f32, t_out: f32, nudge: f32) -> f32 {
+    var t_cross = t;
+    if correct_opacity && node_alpha < 1.0 {
+        let voxels = log((1.0 - PROBE_ALPHA) / (1.0 - alpha_before)) / log(1.0 - node_alpha);
+        t_cross = t + max(voxels, 0.0) / voxels_per_t;
+    }
+    return min(max(t_cross, t + nudge), t_out);
 }
 
 // A brick cell of the walk and the way out of it: where the ray leaves it, and the cell across
@@ -308,7 +405,7 @@ fn walk_cell(cell: vec3<i32>, exits: vec3<f32>, t_leave: f32, step: vec3<i32>,
 // samples, and nested cell and sample loops would make each wait for the others at every cell.
 // The samples are the dense renderer's (t_enter + (k + ½)·step), as in `march_brick`.
 fn walk_bricks(origin: vec3<f32>, dir: vec3<f32>) -> RayResult {
-    var result = RayResult(vec3<f32>(0.0), 0u);
+    var result = RayResult(vec3<f32>(0.0), 0u, -1.0);
     let ray = clip_ray(origin, dir);
     if ray.t_enter >= ray.t_leave {
         return result;
@@ -333,7 +430,9 @@ fn walk_bricks(origin: vec3<f32>, dir: vec3<f32>) -> RayResult {
     var atlas_here = atlas_origin(origin, entry[CELL_ATLAS_CELL], vec3<f32>(here.cell) * brick);
     var k = 0.0;
     var advance = false;
-    var acc = Accumulation(vec3<f32>(0.0), 0.0, 0u, false);
+    var acc = new_accumulation();
+    let light = headlight(dir);
+    let half_texel = 0.5 * params.atlas_texel.xyz;
     for (var i = 0u; i < MAX_STEPS; i++) {
         if advance {
             if here.last {
@@ -367,7 +466,8 @@ fn walk_bricks(origin: vec3<f32>, dir: vec3<f32>) -> RayResult {
             }
             let first = brick_batch(atlas_dir, ts, here.t_out, atlas_here, atlas_next);
             let second = brick_batch(atlas_dir, ts2, here.t_out, atlas_here, atlas_next);
-            result.visited += accumulate_pair(&acc, first, second, count);
+            let frame = SampleFrame(atlas_here, atlas_next, here.t_out, atlas_dir, half_texel, light);
+            result.visited += accumulate_pair(&acc, first, second, count, ts, ts2, frame);
             k += f32(count);
             advance = count_here < BATCH_PAIR;
             // MIP: once the ray's maximum reaches the brick's (its own voxels' maximum, which
@@ -380,17 +480,30 @@ fn walk_bricks(origin: vec3<f32>, dir: vec3<f32>) -> RayResult {
             // Skipped, or a uniform region (a leaf above the bricks): its samples in one go.
             let end = max(ceil((here.t_out - ray.t_enter) / sample_step - 0.5), k);
             // (Only where a sample falls: a ray can clip a cell's corner between two samples.)
-            if entry[CELL_FIRST_CHILD] == LEAF
-                && (entry[CELL_BOUNDS] & 0xffffu) <= (entry[CELL_BOUNDS] >> 16u) && end > k {
+            // (Unshaded: a uniform region has no gradient.)
+            if entry[CELL_FIRST_CHILD] == LEAF && (entry[CELL_BOUNDS] & 0xffffu) <= (entry[CELL_BOUNDS] >> 16u) && end > k {
                 if mip {
+                    if PROBE && (entry[CELL_BOUNDS] >> 16u) > acc.running_max {
+                        acc.probe_t = ray.t_enter + (k + 0.5) * sample_step; // the run's first sample
+                    }
                     acc.running_max = max(acc.running_max, entry[CELL_BOUNDS] >> 16u);
                     acc.done = acc.running_max >= params.mip_saturation;
                 } else if (entry[CELL_COLOR] >> 24u) != 0u {
                     let rgba = unpack4x8unorm(entry[CELL_COLOR]);
-                    let a = 1.0 - pow(1.0 - min(rgba.a * params.density, 1.0), end - k);
+                    let sample_alpha = min(rgba.a * params.density, 1.0);
+                    let a = 1.0 - pow(1.0 - sample_alpha, end - k);
+                    let alpha_before = acc.alpha;
                     acc.color += (1.0 - acc.alpha) * a * rgba.rgb;
                     acc.alpha += (1.0 - acc.alpha) * a;
                     acc.done = acc.alpha >= EARLY_TERMINATION_ALPHA;
+                    if PROBE && acc.probe_t < 0.0 && acc.alpha >= PROBE_ALPHA {
+                        // The run's sample j where 1 − (1 − alpha_before)(1 − a)^(j + 1) first
+                        // reaches PROBE_ALPHA.
+                        let needed = log((1.0 - PROBE_ALPHA) / (1.0 - alpha_before))
+                            / log(1.0 - sample_alpha);
+                        let j = clamp(ceil(needed) - 1.0, 0.0, end - k - 1.0);
+                        acc.probe_t = ray.t_enter + (k + j + 0.5) * sample_step;
+                    }
                 }
             }
             k = end;
@@ -401,6 +514,7 @@ fn walk_bricks(origin: vec3<f32>, dir: vec3<f32>) -> RayResult {
         }
     }
     result.color = final_color(acc);
+    result.probe_t = acc.probe_t;
     return result;
 }
 
@@ -426,12 +540,17 @@ fn grid_index(cell: vec3<i32>) -> u32 {
 @compute @workgroup_size(8, 8, 1)
 fn main(@builtin(global_invocation_id) id: vec3<u32>,
         @builtin(local_invocation_index) lane: u32) {
-    if id.x >= params.image_size.x || id.y >= params.image_size.y {
+    let pixel = ray_pixel(id.xy);
+    if pixel.x >= params.image_size.x || pixel.y >= params.image_size.y {
         return;
     }
-    let ray = pixel_ray(id.xy);
+    let ray = pixel_ray(pixel);
     let result = trace_ray(params.eye.xyz, ray.dir, ray.world_length, lane);
-    write_pixel(id.xy, result.color, result.visited);
+    if PROBE {
+        write_probe(params.eye.xyz, ray.dir, result.probe_t);
+    } else {
+        write_pixel(pixel, result.color, result.visited);
+    }
 }
 
 // Octrees with brick leaves when nothing may stop above the bricks (full level, no pixel
@@ -439,10 +558,15 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>,
 // workgroup memory for the tree's stack and keeps the whole L1 for texture reads.
 @compute @workgroup_size(8, 8, 1)
 fn main_bricks(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= params.image_size.x || id.y >= params.image_size.y {
+    let pixel = ray_pixel(id.xy);
+    if pixel.x >= params.image_size.x || pixel.y >= params.image_size.y {
         return;
     }
-    let ray = pixel_ray(id.xy);
+    let ray = pixel_ray(pixel);
     let result = walk_bricks(params.eye.xyz, ray.dir);
-    write_pixel(id.xy, result.color, result.visited);
+    if PROBE {
+        write_probe(params.eye.xyz, ray.dir, result.probe_t);
+    } else {
+        write_pixel(pixel, result.color, result.visited);
+    }
 }

@@ -191,11 +191,15 @@ fn bench_runs_briefly_on_any_device_and_reports_every_case() {
         assert!(!json[key].is_null(), "missing {key}");
     }
     let results = json["results"].as_array().unwrap();
-    assert_eq!(results.len(), 27, "3 renderers × 3 modes × 3 cameras");
+    assert_eq!(
+        results.len(),
+        36,
+        "3 renderers × 4 modes (gray, binary, MIP, gray shaded) × 3 cameras"
+    );
     for renderer in ["octree", "dense", "bricks"] {
         assert_eq!(
             results.iter().filter(|r| r["renderer"] == renderer).count(),
-            9,
+            12,
             "{renderer}"
         );
     }

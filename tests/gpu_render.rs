@@ -862,6 +862,41 @@ fn pipelines_are_built_once_per_device() {
         built,
         "opening volumes and switching renderers built pipelines again"
     );
+    // Shading, the probe and clipping are variants of their own, each built on its first use:
+    // for the octree (the tree walk), bricks at full detail (the grid walk) and dense, one
+    // shaded, one probe and one clipped pipeline each.
+    let shaded = RenderSettings {
+        shading: voxscope::render::Shading::default(),
+        ..full(8)
+    };
+    let clipped = RenderSettings {
+        clip: voxscope::octree::Clip {
+            bounds: Some([[0.0, 0.5], [0.0, 1.0], [0.0, 1.0]]),
+            plane: None,
+        },
+        ..full(8)
+    };
+    let use_variants = |renderer: &VolumeRenderer| {
+        renderer.render(&context, &target, &camera, &shaded);
+        renderer.render(&context, &target, &camera, &clipped);
+        let request = voxscope::render::ProbeRequest {
+            size: [target.width, target.height],
+            pixel: [16, 12],
+            camera: &camera,
+            settings: &full(8),
+        };
+        voxscope::render::probe_pixel(&context, renderer, &request).unwrap();
+    };
+    for volume in &volumes {
+        for kind in RendererKind::ALL {
+            use_variants(&volume_renderer(&context, volume, kind));
+        }
+    }
+    assert_eq!(
+        context.pipelines_built(),
+        built + 9,
+        "shaded, probe and clipped pipelines, each built once"
+    );
 }
 
 #[test]

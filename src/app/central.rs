@@ -315,6 +315,8 @@ impl CentralView {
                             density: settings.density,
                             heatmap: settings.heatmap,
                             trilinear: settings.trilinear,
+                            shading: settings.shading,
+                            clip: view.clipping.clip(),
                         },
                         transfer,
                         scene: serial,

@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 
 use super::command::Panel;
 use crate::octree::{Colormap, OpacityMode, TransferFunction};
-use crate::render::{Camera, DEFAULT_BRICK_SIZE, RenderMode, RendererKind};
+use crate::render::{Camera, DEFAULT_BRICK_SIZE, RenderMode, RendererKind, Shading};
 use crate::volume::ValueWindow;
 
 /// The key under which eframe stores [`AppSettings`].
@@ -152,6 +152,8 @@ pub struct AppSettings {
     pub compare_transfer: TransferChoice,
     pub mode: RenderMode,
     pub density: f32,
+    /// Gradient (headlight Blinn-Phong) shading of DVR.
+    pub shading: Shading,
     pub pixel_lod: bool,
     pub opacity_correction: bool,
     pub trilinear: bool,
@@ -202,6 +204,7 @@ impl Default for AppSettings {
             },
             mode: RenderMode::Dvr,
             density: 1.0,
+            shading: Shading::default(),
             pixel_lod: false,
             opacity_correction: true,
             trilinear: true,

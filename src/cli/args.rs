@@ -6,9 +6,10 @@ use clap::{Args, ValueEnum};
 
 use crate::app::TransferPreset;
 use crate::octree::{
-    Colormap, DataKind, OpacityCurve, OpacityMode, Preset, TransferFunction, default_transfer,
+    Clip, ClipPlane, Colormap, DataKind, OpacityCurve, OpacityMode, Preset, TransferFunction,
+    default_transfer,
 };
-use crate::render::{RenderMode, RenderSettings, RendererKind};
+use crate::render::{RenderMode, RenderSettings, RendererKind, Shading};
 use crate::volume::{LoadOptions, QuantizedVolume, RawLayout, ValueWindow};
 
 /// Which volume to open.
@@ -87,6 +88,51 @@ pub struct TransferArgs {
     /// The dense renderer samples the nearest voxel instead of filtering trilinearly.
     #[arg(long)]
     pub nearest: bool,
+    /// Shade DVR with a headlight (Blinn-Phong on the volume's gradient; the octree's voxel
+    /// faces): the default.
+    #[arg(long, overrides_with = "no_shading")]
+    pub shading: bool,
+    /// Draw the transfer function's colors unshaded (the paper's picture).
+    #[arg(long, overrides_with = "shading")]
+    pub no_shading: bool,
+    /// Shading: the share of the color that does not depend on the surface's direction, 0…1
+    /// (default 0.1).
+    #[arg(long, value_parser = parse_unit)]
+    pub ambient: Option<f32>,
+    /// Shading: the share that follows the angle between surface and light, 0…1 (default 0.9).
+    #[arg(long, value_parser = parse_unit)]
+    pub diffuse: Option<f32>,
+    /// Shading: the white highlight's strength, 0…1 (default 0.2).
+    #[arg(long, value_parser = parse_unit)]
+    pub specular: Option<f32>,
+    /// Shading: the highlight's exponent, 1…128 (default 10; larger is sharper).
+    #[arg(long, value_parser = parse_shininess)]
+    pub shininess: Option<f32>,
+}
+
+/// Clipping: a crop box and one clip plane, in normalized volume coordinates (0…1 along each
+/// axis of the displayed volume). A group of its own so that every command that draws (and the
+/// app's command line) can take it.
+#[derive(Debug, Clone, Default, Args)]
+pub struct ClipArgs {
+    /// Crop box: the fractions of each axis that stay drawn, X0:X1,Y0:Y1,Z0:Z1 (each 0…1,
+    /// low below high).
+    #[arg(long, value_name = "X0:X1,Y0:Y1,Z0:Z1", value_parser = Clip::parse_box)]
+    pub clip_box: Option<[[f32; 2]; 3]>,
+    /// Clip plane NX,NY,NZ,D in normalized volume coordinates: the side where
+    /// NX·x + NY·y + NZ·z ≥ D stays drawn (`--clip-plane=-1,0,0,-0.5` keeps x ≤ 0.5).
+    #[arg(long, value_name = "NX,NY,NZ,D", allow_hyphen_values = true, value_parser = Clip::parse_plane)]
+    pub clip_plane: Option<ClipPlane>,
+}
+
+impl ClipArgs {
+    /// The clip these options describe ([`Clip::NONE`] without them).
+    pub fn clip(&self) -> Clip {
+        Clip {
+            bounds: self.clip_box,
+            plane: self.clip_plane,
+        }
+    }
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -192,6 +238,21 @@ impl TransferArgs {
                 .unwrap_or_else(|| saved.map_or(1.0, |s| s.density)),
             heatmap: self.heatmap,
             trilinear: !self.nearest,
+            shading: self.shading(),
+            clip: Clip::NONE,
+        }
+    }
+
+    /// Shading as --shading / --no-shading (on unless the last of them is --no-shading) and
+    /// the parameters given, else [`Shading::default`]'s.
+    pub fn shading(&self) -> Shading {
+        let defaults = Shading::default();
+        Shading {
+            enabled: !self.no_shading,
+            ambient: self.ambient.unwrap_or(defaults.ambient),
+            diffuse: self.diffuse.unwrap_or(defaults.diffuse),
+            specular: self.specular.unwrap_or(defaults.specular),
+            shininess: self.shininess.unwrap_or(defaults.shininess),
         }
     }
 }
@@ -230,9 +291,89 @@ fn parse_preset(text: &str) -> Result<Preset, String> {
     })
 }
 
+fn parse_shininess(text: &str) -> Result<f32, String> {
+    match text.parse::<f32>() {
+        Ok(v) if (1.0..=128.0).contains(&v) => Ok(v),
+        _ => Err(format!("shininess '{text}' is not a number from 1 to 128")),
+    }
+}
+
 fn parse_unit(text: &str) -> Result<f32, String> {
     match text.parse::<f32>() {
         Ok(v) if (0.0..=1.0).contains(&v) => Ok(v),
         _ => Err(format!("'{text}' is not a number from 0 to 1")),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::Parser;
+
+    use super::*;
+
+    /// A command of just these groups, as `render` and `bench` flatten them.
+    #[derive(Debug, Parser)]
+    struct Both {
+        #[command(flatten)]
+        transfer: TransferArgs,
+        #[command(flatten)]
+        clip: ClipArgs,
+    }
+
+    fn parse(args: &[&str]) -> Result<Both, clap::Error> {
+        Both::try_parse_from(std::iter::once("test").chain(args.iter().copied()))
+    }
+
+    #[test]
+    fn shading_is_on_unless_the_last_word_is_no_shading() {
+        let shading = |args: &[&str]| parse(args).expect("parses").transfer.shading();
+        assert_eq!(shading(&[]), Shading::default());
+        assert!(shading(&[]).enabled);
+        assert!(!shading(&["--no-shading"]).enabled);
+        assert!(shading(&["--no-shading", "--shading"]).enabled);
+        assert!(!shading(&["--shading", "--no-shading"]).enabled);
+        let custom = shading(&[
+            "--ambient",
+            "0.3",
+            "--diffuse",
+            "0.6",
+            "--specular",
+            "0",
+            "--shininess",
+            "40",
+        ]);
+        assert_eq!(
+            [
+                custom.ambient,
+                custom.diffuse,
+                custom.specular,
+                custom.shininess
+            ],
+            [0.3, 0.6, 0.0, 40.0]
+        );
+        for bad in [
+            &["--ambient", "2"][..],
+            &["--shininess", "0"],
+            &["--specular", "x"],
+        ] {
+            assert!(parse(bad).is_err(), "{bad:?}");
+        }
+    }
+
+    #[test]
+    fn clip_options_make_a_clip_and_refuse_nonsense() {
+        let clip = |args: &[&str]| parse(args).expect("parses").clip.clip();
+        assert_eq!(clip(&[]), Clip::NONE);
+        let both = clip(&["--clip-box", "0:0.5,0.25:1,0:1", "--clip-plane=-1,0,0,-0.4"]);
+        assert_eq!(both.bounds, Some([[0.0, 0.5], [0.25, 1.0], [0.0, 1.0]]));
+        let plane = both.plane.expect("a plane");
+        assert_eq!((plane.normal, plane.distance), ([-1.0, 0.0, 0.0], -0.4));
+        for bad in [
+            &["--clip-box", "0:1,0:1"][..],
+            &["--clip-box", "0.5:0.2,0:1,0:1"],
+            &["--clip-plane", "0,0,0,1"],
+        ] {
+            assert!(parse(bad).is_err(), "{bad:?}");
+        }
     }
 }

@@ -1,5 +1,5 @@
 //! `voxscope bench`: GPU time per frame for the paper's three camera distances and the three
-//! transfer modes, plus build, recolor and memory figures.
+//! transfer modes (and gray DVR shaded), plus build, recolor and memory figures.
 
 use std::time::{Duration, Instant};
 
@@ -8,11 +8,11 @@ use serde::Serialize;
 use serde_json::json;
 
 use super::args::{OpacityArg, RendererArg, TransferArgs};
-use super::{Prepared, VolumeArgs};
+use super::{ClipArgs, Prepared, VolumeArgs};
 use crate::octree::{OpacityMode, TransferFunction};
 use crate::render::{
     Camera, DEFAULT_BRICK_SIZE, GpuContext, GpuTimer, RenderMode, RenderSettings, RenderTarget,
-    RendererKind, RendererOptions, VolumeRenderer, read_visits, time_passes, timing_name,
+    RendererKind, RendererOptions, Shading, VolumeRenderer, read_visits, time_passes, timing_name,
 };
 use crate::volume::ValueWindow;
 
@@ -44,6 +44,19 @@ pub struct BenchArgs {
     /// Print one JSON object instead of the table.
     #[arg(long)]
     pub json: bool,
+    /// Every case drawn clipped.
+    #[command(flatten)]
+    pub clip: ClipArgs,
+}
+
+/// One transfer setting of the benchmark: its name in the results, transfer function, mode,
+/// shading, and whether its transfer edit is timed (the shaded row's edit is dvr-gray's).
+struct Case {
+    name: &'static str,
+    transfer: TransferFunction,
+    mode: RenderMode,
+    shading: Shading,
+    time_edit: bool,
 }
 
 /// One row of the results.
@@ -97,11 +110,27 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
         opacity: OpacityMode::Binary,
         ..gray
     };
-    let modes: [(&str, TransferFunction, RenderMode); 3] = [
-        ("dvr-gray", gray, RenderMode::Dvr),
-        ("dvr-binary", binary, RenderMode::Dvr),
-        ("mip", gray, RenderMode::Mip),
+    let case = |name, transfer, mode, shading: Shading, time_edit| Case {
+        name,
+        transfer,
+        mode,
+        shading,
+        time_edit,
+    };
+    // The unshaded rows first, in the order of every run before shading existed.
+    let cases = [
+        case("dvr-gray", gray, RenderMode::Dvr, Shading::OFF, true),
+        case("dvr-binary", binary, RenderMode::Dvr, Shading::OFF, true),
+        case("mip", gray, RenderMode::Mip, Shading::OFF, true),
+        case(
+            "dvr-gray-shaded",
+            gray,
+            RenderMode::Dvr,
+            Shading::default(),
+            false,
+        ),
     ];
+    let clip = args.clip.clip();
     let kinds: Vec<RendererKind> = match args.renderer {
         Some(one) => vec![one.into()],
         None => RendererKind::ALL.to_vec(),
@@ -131,15 +160,23 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
             .collect();
         gpu_bytes.insert(kind.name().to_owned(), buffers.into());
         let (mut edit_gpu_ms, mut edit_wall_ms) = (Vec::new(), Vec::new());
-        for (mode_name, transfer, mode) in modes {
-            let edits = time_transfer_edits(&context, &mut renderer, &transfer, timer.as_ref())?;
-            edit_gpu_ms.extend(edits.gpu.unwrap_or_default());
-            edit_wall_ms.extend(edits.wall);
+        for case in &cases {
+            if case.time_edit {
+                let edits =
+                    time_transfer_edits(&context, &mut renderer, &case.transfer, timer.as_ref())?;
+                edit_gpu_ms.extend(edits.gpu.unwrap_or_default());
+                edit_wall_ms.extend(edits.wall);
+            } else {
+                apply_transfer(&context, &mut renderer, &case.transfer)?;
+            }
             let settings = RenderSettings {
-                mode,
+                mode: case.mode,
                 density: args.density,
+                shading: case.shading,
+                clip,
                 ..RenderSettings::full_detail(depth)
             };
+            renderer.prepare_pipelines(&context, &settings, false);
             for (camera_name, distance) in CAMERAS {
                 let camera = Camera {
                     distance,
@@ -156,7 +193,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
                 let median = percentile(&times, 50.0);
                 results.push(BenchResult {
                     renderer: kind.name(),
-                    mode: mode_name,
+                    mode: case.name,
                     camera: camera_name,
                     median_ms: median,
                     p95_ms: percentile(&times, 95.0),
@@ -204,6 +241,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
         "recolor_ms": recolor_ms,
         "recolor_wall_ms": recolor_wall_ms,
         "brick_size": args.brick_size,
+        "clip": clip,
         "recolor_cpu_ms": prepared.recolor_time.as_secs_f64() * 1e3,
         "gpu_bytes": gpu_bytes,
     });
@@ -346,6 +384,24 @@ struct EditTimes {
     wall: Vec<f64>,
 }
 
+/// Applies `transfer` once and waits for it.
+fn apply_transfer(
+    context: &GpuContext,
+    renderer: &mut VolumeRenderer,
+    transfer: &TransferFunction,
+) -> Result<(), String> {
+    let mut encoder = context
+        .device
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("voxscope::bench_transfer"),
+        });
+    renderer
+        .set_transfer(context, &mut encoder, transfer, None)
+        .map_err(|e| e.to_string())?;
+    context.queue.submit([encoder.finish()]);
+    wait(context)
+}
+
 /// Applies `transfer` `RECOLOR_RUNS` times.
 fn time_transfer_edits(
     context: &GpuContext,
@@ -406,7 +462,7 @@ fn print_table(report: &serde_json::Value, results: &[BenchResult]) {
         report["volume"]["file"], report["volume"]["octree_nodes"]
     );
     println!(
-        "{:<8} {:<11} {:<7} {:>10} {:>10} {:>9} {:>12} {:>11} {:>10} {:>6}",
+        "{:<8} {:<15} {:<7} {:>10} {:>10} {:>9} {:>12} {:>11} {:>10} {:>6}",
         "renderer",
         "mode",
         "camera",
@@ -420,7 +476,7 @@ fn print_table(report: &serde_json::Value, results: &[BenchResult]) {
     );
     for r in results {
         println!(
-            "{:<8} {:<11} {:<7} {:>10.3} {:>10.3} {:>9.1} {:>12.1} {:>11.1} {:>10} {:>6.2}",
+            "{:<8} {:<15} {:<7} {:>10.3} {:>10.3} {:>9.1} {:>12.1} {:>11.1} {:>10} {:>6.2}",
             r.renderer,
             r.mode,
             r.camera,

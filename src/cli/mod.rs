@@ -12,7 +12,7 @@ mod slice;
 
 use clap::{Parser, Subcommand};
 
-pub use args::{TransferArgs, VolumeArgs};
+pub use args::{ClipArgs, TransferArgs, VolumeArgs};
 pub use prepare::Prepared;
 
 /// voxscope: look inside volume data. A flat-list sparse octree, ray-cast on the GPU.

@@ -6,7 +6,7 @@ use std::time::Instant;
 use clap::Args;
 
 use super::args::RendererArg;
-use super::{Prepared, TransferArgs, VolumeArgs};
+use super::{ClipArgs, Prepared, TransferArgs, VolumeArgs};
 use crate::render::{
     Camera, DEFAULT_BRICK_SIZE, GpuContext, RenderTarget, RendererKind, RendererOptions,
     VolumeRenderer, read_image,
@@ -18,6 +18,8 @@ pub struct RenderArgs {
     pub volume: VolumeArgs,
     #[command(flatten)]
     pub transfer: TransferArgs,
+    #[command(flatten)]
+    pub clip: ClipArgs,
     /// Which renderer draws the image (default: octree, or bricks, said on stderr, when the
     /// octree does not fit this GPU's storage buffers, as the app does).
     #[arg(long, value_enum)]
@@ -49,9 +51,10 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     check_output(&args.output, args.volume.file.as_deref())?;
     let started = Instant::now();
     let prepared = Prepared::new(&args.volume, &args.transfer)?;
-    let settings = args
+    let mut settings = args
         .transfer
         .render_settings(prepared.octree.depth, prepared.saved.as_ref());
+    settings.clip = args.clip.clip();
     let context = GpuContext::new_headless().map_err(|e| e.to_string())?;
     let kind = match args.renderer {
         Some(renderer) => renderer.into(),

@@ -180,6 +180,9 @@ impl VolumeShape for GpuBricks {
     fn bricks(&self) -> Option<BrickShape> {
         Some(self.shape)
     }
+    fn window_levels(&self) -> f32 {
+        self.transfer.window_levels()
+    }
 }
 
 impl OctreeOnGpu for GpuBricks {

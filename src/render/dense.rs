@@ -4,11 +4,15 @@
 
 use super::level_texture::LevelTexture;
 use super::pipeline::{
-    atlas_entry, atlas_sampler_entry, clamped_sampler, compute_pipeline, dispatch_per_pixel,
-    numbered_bind_group, output_image_entry, storage_entry, uniform_entry,
+    Variant, VariantPipelines, atlas_entry, atlas_sampler_entry, clamped_sampler,
+    dispatch_per_pixel, dispatch_probe, numbered_bind_group, output_image_entry, storage_entry,
+    uniform_entry,
 };
-use super::raycaster::{VolumeShape, frame_params_buffer, raycast_params};
-use super::{Frame, GpuContext, GpuTransferTable, RenderError};
+use super::raycaster::{
+    ProbeTarget, StandIns, VolumeShape, frame_params_buffer, frame_variant, probe_variant,
+    raycast_params,
+};
+use super::{Frame, GpuContext, GpuTransferTable, RenderError, RenderSettings, RenderTarget};
 use crate::octree::TransferFunction;
 use crate::volume::QuantizedVolume;
 
@@ -67,25 +71,30 @@ impl VolumeShape for DenseVolume {
     fn level_scale(&self) -> f32 {
         self.levels.scale
     }
+    fn window_levels(&self) -> f32 {
+        self.transfer.window_levels()
+    }
 }
 
-/// The fixed-step ray-marching pipeline and its samplers, one per device
-/// ([`GpuContext::dense_raycaster`]).
+/// The fixed-step ray-marching pipeline (in variants: [`Variant`]) and its samplers, one per
+/// device ([`GpuContext::dense_raycaster`]).
 pub struct DenseRaycaster {
-    pipeline: wgpu::ComputePipeline,
+    pipelines: VariantPipelines,
     layout: wgpu::BindGroupLayout,
     trilinear: wgpu::Sampler,
     nearest: wgpu::Sampler,
+    stand_ins: StandIns,
 }
 
 impl DenseRaycaster {
-    /// Builds the pipeline; [`GpuContext::dense_raycaster`] does, once per device.
+    /// Builds the plain pipeline; [`GpuContext::dense_raycaster`] does, once per device.
     pub(crate) fn new(context: &GpuContext) -> Self {
         let device = &context.device;
-        let (pipeline, layout) = compute_pipeline(
+        let (pipelines, layout) = VariantPipelines::new(
             context,
             "dense",
             super::shaders::DENSE,
+            &["main"],
             &[
                 uniform_entry(0, false),
                 atlas_entry(1),
@@ -93,10 +102,11 @@ impl DenseRaycaster {
                 storage_entry(3, true),
                 output_image_entry(4),
                 storage_entry(5, false),
+                storage_entry(6, false),
             ],
         );
         Self {
-            pipeline,
+            pipelines,
             layout,
             trilinear: clamped_sampler(
                 device,
@@ -104,7 +114,13 @@ impl DenseRaycaster {
                 "voxscope::dense_trilinear",
             ),
             nearest: clamped_sampler(device, wgpu::FilterMode::Nearest, "voxscope::dense_nearest"),
+            stand_ins: StandIns::new(context),
         }
+    }
+
+    /// Builds the pipeline of `variant` where not built yet (off the frame path).
+    pub(crate) fn prepare(&self, context: &GpuContext, variant: Variant) {
+        self.pipelines.get(context, 0, variant);
     }
 
     /// Records one frame into `encoder`, its parameters in a buffer of its own (so frames of
@@ -116,36 +132,87 @@ impl DenseRaycaster {
         frame: &Frame<'_, DenseVolume>,
         timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
-        let params = frame_params_buffer(
-            context,
-            "voxscope::dense_params",
-            &raycast_params(frame.volume, frame.target, frame.camera, frame.settings),
+        let target = frame.target;
+        let params = raycast_params(
+            frame.volume,
+            [target.width, target.height],
+            frame.camera,
+            frame.settings,
         );
-        let sampler = if frame.settings.trilinear {
+        let bind_group = self.bind_group(
+            context,
+            frame.volume,
+            &params,
+            frame.settings,
+            target,
+            &self.stand_ins.probe,
+        );
+        let pipeline = self
+            .pipelines
+            .get(context, 0, frame_variant(frame.settings));
+        dispatch_per_pixel(
+            encoder,
+            "dense",
+            pipeline,
+            &bind_group,
+            target,
+            timestamp_writes,
+        );
+    }
+
+    /// Records the probe of one pixel (see [`super::Raycaster`]'s): one ray, its answer in
+    /// `probe.output`; draws nothing.
+    pub(crate) fn encode_probe(
+        &self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        volume: &DenseVolume,
+        probe: &ProbeTarget<'_>,
+    ) {
+        let mut params = raycast_params(volume, probe.size, probe.camera, probe.settings);
+        params.probe_pixel = probe.pixel;
+        let bind_group = self.bind_group(
+            context,
+            volume,
+            &params,
+            probe.settings,
+            &self.stand_ins.target,
+            probe.output,
+        );
+        let pipeline = self
+            .pipelines
+            .get(context, 0, probe_variant(probe.settings));
+        dispatch_probe(encoder, "dense_probe", pipeline, &bind_group);
+    }
+
+    fn bind_group(
+        &self,
+        context: &GpuContext,
+        volume: &DenseVolume,
+        params: &super::gpu_data::RaycastParams,
+        settings: &RenderSettings,
+        target: &RenderTarget,
+        probe: &wgpu::Buffer,
+    ) -> wgpu::BindGroup {
+        let params = frame_params_buffer(context, "voxscope::dense_params", params);
+        let sampler = if settings.trilinear {
             &self.trilinear
         } else {
             &self.nearest
         };
-        let bind_group = numbered_bind_group(
+        numbered_bind_group(
             &context.device,
             "voxscope::dense_bind_group",
             &self.layout,
             &[
                 params.as_entire_binding(),
-                wgpu::BindingResource::TextureView(&frame.volume.levels.view),
+                wgpu::BindingResource::TextureView(&volume.levels.view),
                 wgpu::BindingResource::Sampler(sampler),
-                frame.volume.transfer.buffer.as_entire_binding(),
-                wgpu::BindingResource::TextureView(&frame.target.view),
-                frame.target.visits.as_entire_binding(),
+                volume.transfer.buffer.as_entire_binding(),
+                wgpu::BindingResource::TextureView(&target.view),
+                target.visits.as_entire_binding(),
+                probe.as_entire_binding(),
             ],
-        );
-        dispatch_per_pixel(
-            encoder,
-            "dense",
-            &self.pipeline,
-            &bind_group,
-            frame.target,
-            timestamp_writes,
-        );
+        )
     }
 }

@@ -30,9 +30,38 @@ pub(crate) struct RaycastParams {
     /// 1 / the atlas's size in texels along x, y, z (w unused): texel to normalized coordinates,
     /// a uniform so that the grid walk keeps no registers for it.
     pub atlas_texel: [f32; 4],
+    /// The crop box's low corner in voxel space (w unused); `[0, 0, 0]` without a box. Read
+    /// by the clipping pipelines (`CLIP`) alone, as are the next two.
+    pub clip_low: [f32; 4],
+    /// The crop box's high corner in voxel space (w unused); the volume's dims without a box.
+    pub clip_high: [f32; 4],
+    /// The clip plane in voxel space: xyz the normal (the normalized one divided by the dims),
+    /// w the distance; kept where `xyz · p ≥ w`. `[0, 0, 0, -1]` (everything) without a plane.
+    pub clip_plane: [f32; 4],
+    /// Ambient, diffuse, specular, shininess (the shaded pipelines read it).
+    pub shading: [f32; 4],
+    /// xyz: the smallest spacing ÷ each axis's spacing (voxel-space gradients to world ones);
+    /// w: 1 ÷ (the transfer window's width in value levels × `GRADIENT_FOR_FULL_SHADING`).
+    pub shading_scale: [f32; 4],
+    /// The pixel the probe pipelines trace (`GpuProbe`); unused by the others.
+    pub probe_pixel: [u32; 2],
+    pub _probe_pad: [u32; 2],
 }
 
-const _: () = assert!(std::mem::size_of::<RaycastParams>() == 176);
+const _: () = assert!(std::mem::size_of::<RaycastParams>() == 272);
+
+/// What a probe pipeline writes for its one pixel (`GpuProbe`). Keep in sync with
+/// `struct ProbeResult` in `ray_common.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub(crate) struct ProbeResult {
+    /// The probed point in voxel space (voxel (i, j, k) is the cube [i, i + 1) × …).
+    pub point: [f32; 3],
+    /// 1 when the ray reached the probed opacity (DVR) or took a sample (MIP), else 0.
+    pub found: u32,
+}
+
+const _: () = assert!(std::mem::size_of::<ProbeResult>() == 16);
 
 /// One cell of the bricks renderer's grid: a copy of the node covering it and its value
 /// bounds (refreshed by `brick_grid.wgsl` after a recolor), and its brick's atlas cell.
@@ -206,7 +235,18 @@ mod tests {
             atlas_grid,
             brick_grid,
             atlas_texel,
+            clip_low,
+            clip_high,
+            clip_plane,
+            shading,
+            shading_scale,
+            probe_pixel,
+            _probe_pad,
         })
+    }
+
+    fn probe_result() -> Layout {
+        rust_layout!(ProbeResult { point, found })
     }
 
     fn node() -> Layout {
@@ -280,8 +320,12 @@ mod tests {
                 ("Params", raycast_params()),
                 ("Node", node()),
                 ("GridCell", grid_cell()),
+                ("ProbeResult", probe_result()),
             ],
-            "dense" => vec![("Params", raycast_params())],
+            "dense" => vec![
+                ("Params", raycast_params()),
+                ("ProbeResult", probe_result()),
+            ],
             "recolor" => vec![("LevelParams", recolor_params()), ("Node", node())],
             "brick_recolor" => vec![("Params", brick_recolor_params()), ("Node", node())],
             "brick_grid" => vec![

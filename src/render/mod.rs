@@ -13,6 +13,7 @@ mod gpu_volume;
 mod level_texture;
 mod pipeline;
 mod pipeline_cache;
+mod probe;
 mod raycaster;
 mod readback;
 mod recolor;
@@ -30,11 +31,13 @@ pub use context::{GpuContext, RenderError};
 pub use dense::{DenseRaycaster, DenseVolume};
 pub use frame_probe::{FrameProbe, FrameReport};
 pub use gpu_volume::GpuVolume;
+pub use probe::{GpuProbe, PROBE_ALPHA, ProbeHit, ProbeOutcome, ProbeRequest, probe_pixel};
 pub use raycaster::{Frame, OctreeOnGpu, Raycaster, RenderTarget, VolumeShape};
 pub use readback::{read_buffer, read_image, read_visits};
 pub use recolor::GpuRecolor;
 pub use settings::{
-    EARLY_TERMINATION_ALPHA, HEATMAP_SATURATION, RenderMode, RenderSettings, heatmap_color,
+    EARLY_TERMINATION_ALPHA, GRADIENT_FOR_FULL_SHADING, HEATMAP_SATURATION, RenderMode,
+    RenderSettings, Shading, heatmap_color,
 };
 pub use slice::{EdgeLabels, SliceConvention, SliceFrame, SliceSettings, SliceView, Slicer};
 pub use timer::{GpuTimer, time_passes, timing_name};

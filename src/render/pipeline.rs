@@ -1,5 +1,7 @@
 //! Building blocks shared by the compute pipelines: layout entries and pipeline creation.
 
+use std::sync::OnceLock;
+
 use super::GpuContext;
 
 /// A uniform buffer entry visible to compute shaders.
@@ -125,6 +127,146 @@ pub(crate) fn compute_pipelines(
     (pipelines, layout)
 }
 
+/// A variant of a ray caster's entry point, chosen by the WGSL `override` constants of
+/// `ray_common.wgsl`: each is its own pipeline, so the code a variant does not use is compiled
+/// out of the others. The plain variant (none of them) is the ray caster as it was before
+/// shading, probing and clipping existed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct Variant {
+    /// DVR with headlight shading (`SHADING`).
+    pub shaded: bool,
+    /// One ray that reports its probed point instead of drawing (`PROBE`).
+    pub probe: bool,
+    /// Rays cut to the crop box and clip plane (`CLIP`).
+    pub clipped: bool,
+}
+
+impl Variant {
+    /// Unshaded, drawing, unclipped.
+    pub const PLAIN: Self = Self {
+        shaded: false,
+        probe: false,
+        clipped: false,
+    };
+
+    const COUNT: usize = 8;
+
+    /// The override constants that select this variant (the others keep their defaults).
+    fn constants(self) -> Vec<(&'static str, f64)> {
+        [
+            (self.shaded, "SHADING"),
+            (self.probe, "PROBE"),
+            (self.clipped, "CLIP"),
+        ]
+        .into_iter()
+        .filter(|&(on, _)| on)
+        .map(|(_, name)| (name, 1.0))
+        .collect()
+    }
+
+    fn index(self) -> usize {
+        self.shaded as usize | (self.probe as usize) << 1 | (self.clipped as usize) << 2
+    }
+
+    /// `plain`, or the constants set, in pipeline labels.
+    fn name(self) -> String {
+        let constants = self.constants();
+        if constants.is_empty() {
+            return "plain".into();
+        }
+        let names: Vec<String> = constants
+            .iter()
+            .map(|(name, _)| name.to_lowercase())
+            .collect();
+        names.join("_")
+    }
+}
+
+/// The variants of a shader's entry points, sharing one module and layout; each pipeline is
+/// built the first time it is asked for (counted in [`GpuContext::pipelines_built`]).
+pub(crate) struct VariantPipelines {
+    label: &'static str,
+    module: wgpu::ShaderModule,
+    layout: wgpu::PipelineLayout,
+    entry_points: &'static [&'static str],
+    /// Per entry point, per [`Variant`].
+    pipelines: Vec<[OnceLock<wgpu::ComputePipeline>; Variant::COUNT]>,
+}
+
+impl VariantPipelines {
+    /// The module of `source` and a layout of one bind group of `entries`; builds the plain
+    /// variant of every entry point now (the others wait for their first use).
+    pub(crate) fn new(
+        context: &GpuContext,
+        label: &'static str,
+        source: &str,
+        entry_points: &'static [&'static str],
+        entries: &[wgpu::BindGroupLayoutEntry],
+    ) -> (Self, wgpu::BindGroupLayout) {
+        let device = &context.device;
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some(&format!("voxscope::{label}.wgsl")),
+            source: wgpu::ShaderSource::Wgsl(source.into()),
+        });
+        let bind_group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some(&format!("voxscope::{label}_layout")),
+            entries,
+        });
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some(&format!("voxscope::{label}_pipeline_layout")),
+            bind_group_layouts: &[Some(&bind_group_layout)],
+            immediate_size: 0,
+        });
+        let pipelines = entry_points
+            .iter()
+            .map(|_| std::array::from_fn(|_| OnceLock::new()))
+            .collect();
+        let variants = Self {
+            label,
+            module,
+            layout,
+            entry_points,
+            pipelines,
+        };
+        for entry in 0..entry_points.len() {
+            variants.get(context, entry, Variant::PLAIN);
+        }
+        (variants, bind_group_layout)
+    }
+
+    /// The pipeline of entry point number `entry` (in the list given to [`Self::new`]) in
+    /// `variant`, built on first use.
+    pub(crate) fn get(
+        &self,
+        context: &GpuContext,
+        entry: usize,
+        variant: Variant,
+    ) -> &wgpu::ComputePipeline {
+        self.pipelines[entry][variant.index()].get_or_init(|| {
+            context.pipelines.count_built(1);
+            let entry_point = self.entry_points[entry];
+            let constants = variant.constants();
+            context
+                .device
+                .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(&format!(
+                        "voxscope::{}_{entry_point}_{}_pipeline",
+                        self.label,
+                        variant.name()
+                    )),
+                    layout: Some(&self.layout),
+                    module: &self.module,
+                    entry_point: Some(entry_point),
+                    compilation_options: wgpu::PipelineCompilationOptions {
+                        constants: &constants,
+                        ..Default::default()
+                    },
+                    cache: None,
+                })
+        })
+    }
+}
+
 /// Pixels per workgroup side; keep in sync with `@workgroup_size` in `raycast.wgsl` and
 /// `dense.wgsl`.
 const WORKGROUP_SIDE: u32 = 8;
@@ -138,17 +280,45 @@ pub(crate) fn dispatch_per_pixel(
     target: &super::RenderTarget,
     timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
 ) {
+    dispatch(
+        encoder,
+        label,
+        pipeline,
+        bind_group,
+        [
+            target.width.div_ceil(WORKGROUP_SIDE),
+            target.height.div_ceil(WORKGROUP_SIDE),
+        ],
+        timestamp_writes,
+    );
+}
+
+/// Records one compute pass of a probe pipeline: one workgroup, whose first invocation traces
+/// the probed pixel (`ray_pixel` in `ray_common.wgsl`).
+pub(crate) fn dispatch_probe(
+    encoder: &mut wgpu::CommandEncoder,
+    label: &str,
+    pipeline: &wgpu::ComputePipeline,
+    bind_group: &wgpu::BindGroup,
+) {
+    dispatch(encoder, label, pipeline, bind_group, [1, 1], None);
+}
+
+fn dispatch(
+    encoder: &mut wgpu::CommandEncoder,
+    label: &str,
+    pipeline: &wgpu::ComputePipeline,
+    bind_group: &wgpu::BindGroup,
+    workgroups: [u32; 2],
+    timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+) {
     let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
         label: Some(&format!("voxscope::{label}_pass")),
         timestamp_writes,
     });
     pass.set_pipeline(pipeline);
     pass.set_bind_group(0, bind_group, &[]);
-    pass.dispatch_workgroups(
-        target.width.div_ceil(WORKGROUP_SIDE),
-        target.height.div_ceil(WORKGROUP_SIDE),
-        1,
-    );
+    pass.dispatch_workgroups(workgroups[0], workgroups[1], 1);
 }
 
 /// A filterable 3D float texture (the dense volume, the brick atlas).

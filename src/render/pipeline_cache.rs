@@ -28,7 +28,8 @@ pub(crate) struct PipelineCache {
 }
 
 impl PipelineCache {
-    /// Counts `count` more compute pipelines built (`pipeline::compute_pipelines`).
+    /// Counts `count` more compute pipelines built (`pipeline::compute_pipelines` and
+    /// `pipeline::VariantPipelines`).
     pub(crate) fn count_built(&self, count: usize) {
         self.built.fetch_add(count, Ordering::Relaxed);
     }

@@ -2,12 +2,16 @@
 
 use glam::DVec3;
 
-use super::gpu_data::{FLAG_HEATMAP, FLAG_OPACITY_CORRECTION, FLAG_PIXEL_LOD, RaycastParams};
-use super::pipeline::{
-    atlas_entry, atlas_sampler_entry, clamped_sampler, compute_pipelines, dispatch_per_pixel,
-    numbered_bind_group, output_image_entry, storage_entry, uniform_entry,
+use super::gpu_data::{
+    FLAG_HEATMAP, FLAG_OPACITY_CORRECTION, FLAG_PIXEL_LOD, ProbeResult, RaycastParams,
 };
-use super::{Camera, GpuContext, GpuVolume, RenderMode, RenderSettings};
+use super::pipeline::{
+    Variant, VariantPipelines, atlas_entry, atlas_sampler_entry, clamped_sampler,
+    dispatch_per_pixel, dispatch_probe, numbered_bind_group, output_image_entry, storage_entry,
+    uniform_entry,
+};
+use super::settings::GRADIENT_FOR_FULL_SHADING;
+use super::{Camera, GpuContext, GpuVolume, RenderMode, RenderSettings, Shading};
 
 /// Where a frame goes: an RGBA8 storage texture and the per-pixel count of nodes visited.
 pub struct RenderTarget {
@@ -93,6 +97,8 @@ pub trait VolumeShape {
     fn level_cap(&self) -> u32;
     /// Value level at which a MIP ray may stop.
     fn mip_saturation(&self) -> u16;
+    /// The transfer window's width in value levels (shading measures gradients against it).
+    fn window_levels(&self) -> f32;
     /// Where brick leaves are, if any.
     fn bricks(&self) -> Option<BrickShape> {
         None
@@ -160,27 +166,76 @@ impl VolumeShape for GpuVolume {
     fn mip_saturation(&self) -> u16 {
         self.transfer.mip_saturation()
     }
+    fn window_levels(&self) -> f32 {
+        self.transfer.window_levels()
+    }
 }
 
+/// The entry points of `raycast.wgsl`, in the order [`VariantPipelines`] numbers them.
+const TREE_WALK: usize = 0;
+const GRID_WALK: usize = 1;
+
 /// The ray-casting compute pipelines: `main` descends the tree (plain octrees, and bricks when a
-/// level cut or the pixel LOD may stop above them); `main_bricks` walks the brick grid. One per
-/// device ([`GpuContext::raycaster`]), shared by the octree and bricks renderers of every volume.
+/// level cut or the pixel LOD may stop above them); `main_bricks` walks the brick grid. Each in
+/// variants ([`Variant`]: shaded, probe, clipped), the plain ones built with the ray caster and
+/// the others on first use. One per device ([`GpuContext::raycaster`]), shared by the octree
+/// and bricks renderers of every volume.
 pub struct Raycaster {
-    pipeline: wgpu::ComputePipeline,
-    bricks_pipeline: wgpu::ComputePipeline,
+    pipelines: VariantPipelines,
     layout: wgpu::BindGroupLayout,
     /// Bound where a volume has no brick atlas.
     no_atlas: wgpu::TextureView,
     /// Bound where a volume has no brick grid.
     no_grid: wgpu::Buffer,
     atlas_sampler: wgpu::Sampler,
+    /// Bound where nothing is probed, and bound as the image of a probe (which draws nothing).
+    stand_ins: StandIns,
+}
+
+/// Small resources bound where a pass does not use a binding: a probe result where a frame is
+/// drawn, an image where a probe is traced.
+pub(crate) struct StandIns {
+    pub probe: wgpu::Buffer,
+    pub target: RenderTarget,
+}
+
+impl StandIns {
+    pub(crate) fn new(context: &GpuContext) -> Self {
+        Self {
+            probe: context.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("voxscope::no_probe"),
+                size: std::mem::size_of::<ProbeResult>() as u64,
+                usage: wgpu::BufferUsages::STORAGE,
+                mapped_at_creation: false,
+            }),
+            target: RenderTarget::new(context, 1, 1),
+        }
+    }
+}
+
+/// The variant that draws a frame with `settings`.
+pub(crate) fn frame_variant(settings: &RenderSettings) -> Variant {
+    Variant {
+        shaded: Shading::applies(settings),
+        probe: false,
+        clipped: settings.clip.is_active(),
+    }
+}
+
+/// The variant that probes a pixel of a frame with `settings`.
+pub(crate) fn probe_variant(settings: &RenderSettings) -> Variant {
+    Variant {
+        shaded: false,
+        probe: true,
+        clipped: settings.clip.is_active(),
+    }
 }
 
 impl Raycaster {
-    /// Builds the pipelines; [`GpuContext::raycaster`] does, once per device.
+    /// Builds the plain pipelines; [`GpuContext::raycaster`] does, once per device.
     pub(crate) fn new(context: &GpuContext) -> Self {
         let device = &context.device;
-        let (pipelines, layout) = compute_pipelines(
+        let (pipelines, layout) = VariantPipelines::new(
             context,
             "raycast",
             super::shaders::RAYCAST,
@@ -195,9 +250,9 @@ impl Raycaster {
                 atlas_entry(6),
                 atlas_sampler_entry(7),
                 storage_entry(8, true),
+                storage_entry(9, false),
             ],
         );
-        let [pipeline, bricks_pipeline] = <[_; 2]>::try_from(pipelines).expect("two entry points");
         let no_grid = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("voxscope::no_brick_grid"),
             size: std::mem::size_of::<super::gpu_data::GridCell>() as u64,
@@ -223,12 +278,20 @@ impl Raycaster {
         let atlas_sampler =
             clamped_sampler(device, wgpu::FilterMode::Linear, "voxscope::atlas_sampler");
         Self {
-            pipeline,
-            bricks_pipeline,
+            pipelines,
             layout,
             no_atlas,
             no_grid,
             atlas_sampler,
+            stand_ins: StandIns::new(context),
+        }
+    }
+
+    /// Builds, where not built yet, the pipelines of `variant` (both entry points), so that a
+    /// caller can compile them off the frame path (the app's loading thread).
+    pub(crate) fn prepare(&self, context: &GpuContext, variant: Variant) {
+        for entry in [TREE_WALK, GRID_WALK] {
+            self.pipelines.get(context, entry, variant);
         }
     }
 
@@ -248,9 +311,60 @@ impl Raycaster {
             camera,
             settings,
         } = *frame;
-        let params = raycast_params(volume, target, camera, settings);
-        let params_buffer = frame_params_buffer(context, "voxscope::raycast_params", &params);
-        let bind_group = numbered_bind_group(
+        let params = raycast_params(volume, [target.width, target.height], camera, settings);
+        let bind_group = self.bind_group(context, volume, &params, target, &self.stand_ins.probe);
+        let pipeline = self.pipelines.get(
+            context,
+            entry_point(volume, &params),
+            frame_variant(settings),
+        );
+        dispatch_per_pixel(
+            encoder,
+            "raycast",
+            pipeline,
+            &bind_group,
+            target,
+            timestamp_writes,
+        );
+    }
+
+    /// Records the probe of pixel `pixel` of an image of `size` (the frame that `camera` and
+    /// `settings` would draw there) into `encoder`: one ray, whose [`ProbeResult`] goes to
+    /// `probe` (STORAGE, 16 bytes). Draws nothing.
+    pub(crate) fn encode_probe(
+        &self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        volume: &impl OctreeOnGpu,
+        probe: &ProbeTarget<'_>,
+    ) {
+        let mut params = raycast_params(volume, probe.size, probe.camera, probe.settings);
+        params.probe_pixel = probe.pixel;
+        let bind_group = self.bind_group(
+            context,
+            volume,
+            &params,
+            &self.stand_ins.target,
+            probe.output,
+        );
+        let pipeline = self.pipelines.get(
+            context,
+            entry_point(volume, &params),
+            probe_variant(probe.settings),
+        );
+        dispatch_probe(encoder, "raycast_probe", pipeline, &bind_group);
+    }
+
+    fn bind_group(
+        &self,
+        context: &GpuContext,
+        volume: &impl OctreeOnGpu,
+        params: &RaycastParams,
+        target: &RenderTarget,
+        probe: &wgpu::Buffer,
+    ) -> wgpu::BindGroup {
+        let params_buffer = frame_params_buffer(context, "voxscope::raycast_params", params);
+        numbered_bind_group(
             &context.device,
             "voxscope::raycast_bind_group",
             &self.layout,
@@ -267,29 +381,32 @@ impl Raycaster {
                     .brick_grid()
                     .unwrap_or(&self.no_grid)
                     .as_entire_binding(),
+                probe.as_entire_binding(),
             ],
-        );
-        // Mirrors `main_bricks` in raycast.wgsl: the brick grid holds the brick level alone.
-        let walk_bricks = volume.bricks().is_some_and(|b| params.max_level >= b.level)
-            && params.flags & FLAG_PIXEL_LOD == 0;
-        let pipeline = if walk_bricks {
-            &self.bricks_pipeline
-        } else {
-            &self.pipeline
-        };
-        dispatch_per_pixel(
-            encoder,
-            "raycast",
-            pipeline,
-            &bind_group,
-            target,
-            timestamp_writes,
-        );
+        )
     }
 }
 
+/// Where and what a probe traces: pixel `pixel` of an image of `size` drawn with `camera` and
+/// `settings`, its answer written to `output`.
+pub(crate) struct ProbeTarget<'a> {
+    pub size: [u32; 2],
+    pub pixel: [u32; 2],
+    pub camera: &'a Camera,
+    pub settings: &'a RenderSettings,
+    pub output: &'a wgpu::Buffer,
+}
+
+/// The entry point that draws `volume` with `params`: the grid walk for bricks when nothing may
+/// stop above them (it holds the brick level alone), else the tree walk.
+fn entry_point(volume: &impl VolumeShape, params: &RaycastParams) -> usize {
+    let walk_bricks = volume.bricks().is_some_and(|b| params.max_level >= b.level)
+        && params.flags & FLAG_PIXEL_LOD == 0;
+    if walk_bricks { GRID_WALK } else { TREE_WALK }
+}
+
 /// A uniform buffer holding one frame's `params`: one per recorded frame, so nothing shared is
-/// written between frames. (176 bytes, created with its contents: no queue write to order.)
+/// written between frames. (272 bytes, created with its contents: no queue write to order.)
 pub(crate) fn frame_params_buffer(
     context: &GpuContext,
     label: &str,
@@ -305,13 +422,14 @@ pub(crate) fn frame_params_buffer(
     )
 }
 
-/// The camera and settings in the shader's voxel space.
+/// The camera and settings in the shader's voxel space, for an image of `size` pixels.
 pub(crate) fn raycast_params(
     volume: &impl VolumeShape,
-    target: &RenderTarget,
+    size: [u32; 2],
     camera: &Camera,
     settings: &RenderSettings,
 ) -> RaycastParams {
+    let [width, height] = size;
     let spacing = DVec3::from(volume.spacing());
     let dims = DVec3::new(
         volume.dims()[0] as f64,
@@ -319,10 +437,7 @@ pub(crate) fn raycast_params(
         volume.dims()[2] as f64,
     );
     let extent = dims * spacing;
-    let frame = camera.frame(
-        extent.to_array(),
-        target.width as f64 / target.height as f64,
-    );
+    let frame = camera.frame(extent.to_array(), width as f64 / height as f64);
     // World (centered, physical) to voxel space: shift by half the extent, divide by spacing.
     let to_voxel_point = |p: DVec3| (p + extent * 0.5) / spacing;
     let to_voxel_vector = |v: DVec3| v / spacing;
@@ -330,7 +445,7 @@ pub(crate) fn raycast_params(
     let tan_y = frame.tan_half_fov_y;
     let vec4 = |v: DVec3, w: f64| [v.x as f32, v.y as f32, v.z as f32, w as f32];
     let smallest_spacing = spacing.min_element();
-    let pixel_angle = 2.0 * tan_y / target.height as f64;
+    let pixel_angle = 2.0 * tan_y / height as f64;
     let bricks = volume.bricks();
     let mut flags = 0;
     if settings.opacity_correction {
@@ -342,13 +457,33 @@ pub(crate) fn raycast_params(
     if settings.heatmap {
         flags |= FLAG_HEATMAP;
     }
+    // Clipping, from normalized volume coordinates to voxel space (p_voxel = p · dims).
+    let box_fractions = settings.clip.box_fractions();
+    let corner = |side: usize| -> [f32; 4] {
+        let at = |axis: usize| (box_fractions[axis][side] as f64 * dims[axis]) as f32;
+        [at(0), at(1), at(2), 0.0]
+    };
+    let clip_plane = match settings.clip.plane {
+        Some(plane) => {
+            let n = plane.normal;
+            [
+                (n[0] as f64 / dims.x) as f32,
+                (n[1] as f64 / dims.y) as f32,
+                (n[2] as f64 / dims.z) as f32,
+                plane.distance,
+            ]
+        }
+        None => [0.0, 0.0, 0.0, -1.0],
+    };
+    let shading = settings.shading;
+    let to_world = spacing.min_element() / spacing;
     RaycastParams {
         eye: vec4(to_voxel_point(frame.eye), 0.0),
         forward: vec4(to_voxel_vector(frame.forward), 0.0),
         right: vec4(to_voxel_vector(frame.right * tan_x), tan_x),
         up: vec4(to_voxel_vector(frame.up * tan_y), tan_y),
         volume: vec4(dims, (1u64 << volume.depth()) as f64),
-        image_size: [target.width, target.height],
+        image_size: [width, height],
         depth: volume.depth(),
         max_level: settings.max_level.min(volume.level_cap()),
         mode: match settings.mode {
@@ -375,5 +510,22 @@ pub(crate) fn raycast_params(
                 0.0,
             ]
         }),
+        clip_low: corner(0),
+        clip_high: corner(1),
+        clip_plane,
+        shading: [
+            shading.ambient,
+            shading.diffuse,
+            shading.specular,
+            shading.shininess.max(0.0),
+        ],
+        shading_scale: [
+            to_world.x as f32,
+            to_world.y as f32,
+            to_world.z as f32,
+            1.0 / (volume.window_levels() * GRADIENT_FOR_FULL_SHADING),
+        ],
+        probe_pixel: [0, 0],
+        _probe_pad: [0, 0],
     }
 }

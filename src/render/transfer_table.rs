@@ -12,6 +12,18 @@ pub struct GpuTransferTable {
     pub buffer: wgpu::Buffer,
     quantization: Quantization,
     mip_saturation: u16,
+    window_levels: f32,
+}
+
+/// The width of `transfer`'s value window in value levels of `quantization` (at least one
+/// level): what the shading's gradient is measured against.
+fn window_levels(quantization: Quantization, transfer: &TransferFunction) -> f32 {
+    let width = ((transfer.window.high - transfer.window.low) / quantization.step).abs();
+    if width.is_finite() {
+        width.max(1.0) as f32
+    } else {
+        f32::MAX
+    }
 }
 
 impl GpuTransferTable {
@@ -32,6 +44,7 @@ impl GpuTransferTable {
             buffer,
             quantization,
             mip_saturation: transfer.saturation_level(quantization),
+            window_levels: window_levels(quantization, transfer),
         }
     }
 
@@ -42,6 +55,13 @@ impl GpuTransferTable {
             .queue
             .write_buffer(&self.buffer, 0, bytemuck::cast_slice(&table));
         self.mip_saturation = transfer.saturation_level(self.quantization);
+        self.window_levels = window_levels(self.quantization, transfer);
+    }
+
+    /// The transfer window's width in value levels (at least 1): shading measures gradients
+    /// in these widths.
+    pub fn window_levels(&self) -> f32 {
+        self.window_levels
     }
 
     /// The value level at which a MIP ray may stop (the top of the window).

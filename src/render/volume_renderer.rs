@@ -3,6 +3,7 @@
 //! alone; the pipelines that draw and recolor it are the device's
 //! (`pipeline_cache.rs`), built once, whatever the number of volumes and renderers.
 
+use super::raycaster::{ProbeTarget, frame_variant, probe_variant};
 use super::slice::{SliceColorCache, SliceSource};
 use super::{
     Camera, DenseVolume, Frame, GpuBricks, GpuContext, GpuVolume, RenderError, RenderSettings,
@@ -220,6 +221,48 @@ impl VolumeRenderer {
                 context
                     .raycaster()
                     .encode(context, encoder, &frame, timestamp_writes);
+            }
+        }
+    }
+
+    /// Builds, where not built yet, the device's pipelines this renderer draws `settings` with
+    /// (the shaded or clipped variants where they shade or clip) and, with `probe`, its probe
+    /// pipelines: so that a
+    /// caller that knows its settings compiles them where it likes (the app's loading thread)
+    /// rather than at the first frame that needs them.
+    pub fn prepare_pipelines(&self, context: &GpuContext, settings: &RenderSettings, probe: bool) {
+        let mut variants = vec![frame_variant(settings)];
+        if probe {
+            variants.push(probe_variant(settings));
+        }
+        for variant in variants {
+            match self.state {
+                State::Octree(_) | State::Bricks(_) => {
+                    context.raycaster().prepare(context, variant)
+                }
+                State::Dense(_) => context.dense_raycaster().prepare(context, variant),
+            }
+        }
+    }
+
+    /// Records the probe of one pixel ([`super::GpuProbe`]).
+    pub(crate) fn encode_probe(
+        &self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        probe: &ProbeTarget<'_>,
+    ) {
+        match &self.state {
+            State::Octree(volume) => context
+                .raycaster()
+                .encode_probe(context, encoder, volume, probe),
+            State::Dense(volume) => context
+                .dense_raycaster()
+                .encode_probe(context, encoder, volume, probe),
+            State::Bricks(volume) => {
+                context
+                    .raycaster()
+                    .encode_probe(context, encoder, volume.as_ref(), probe)
             }
         }
     }

@@ -81,3 +81,56 @@ pub fn image_dir() -> PathBuf {
     std::fs::create_dir_all(&dir).expect("create target/test-images");
     dir
 }
+
+/// A volume ready for every renderer: quantized, its octree built and colored.
+pub struct Prepared {
+    pub volume: Volume,
+    pub quantized: QuantizedVolume,
+    pub octree: Octree,
+    pub transfer: TransferFunction,
+}
+
+impl Prepared {
+    /// Quantizes, builds and colors `volume` with `transfer` (the robust gray window if `None`).
+    pub fn new(volume: Volume, transfer: Option<TransferFunction>) -> Self {
+        let quantized = QuantizedVolume::new(&volume);
+        let (octree, transfer) = colored_octree(&volume, transfer, BuildOptions::default());
+        Self {
+            volume,
+            quantized,
+            octree,
+            transfer,
+        }
+    }
+
+    /// Uploads this volume for `options` (the whole octree).
+    pub fn renderer(
+        &self,
+        context: &GpuContext,
+        options: impl Into<voxscope::render::RendererOptions>,
+    ) -> voxscope::render::VolumeRenderer {
+        voxscope::render::VolumeRenderer::new(
+            context,
+            options,
+            &self.octree,
+            &self.quantized,
+            self.volume.spacing,
+            self.octree.depth,
+            &self.transfer,
+        )
+        .unwrap_or_else(|e| panic!("{}: {e}", self.volume.name))
+    }
+}
+
+/// Draws one frame with `renderer` and reads it back.
+pub fn draw(
+    context: &GpuContext,
+    renderer: &voxscope::render::VolumeRenderer,
+    camera: &Camera,
+    settings: &RenderSettings,
+    size: (u32, u32),
+) -> image::RgbaImage {
+    let target = RenderTarget::new(context, size.0, size.1);
+    renderer.render(context, &target, camera, settings);
+    read_image(context, &target).expect("readback")
+}
