@@ -10,12 +10,13 @@ use egui::{Align2, Color32, Pos2, Rect, RichText, Ui, UiBuilder, vec2};
 use super::AppGpu;
 use super::pane_header::{grid_strip, pair_strip, pane_label};
 use super::scene::Scene;
-use super::settings::{AppSettings, Layout};
+use super::settings::{AppSettings, Layout, Tool};
 use super::slice_pane::{self, SlicePane};
-use super::view_state::{MAX_GRID_PANES, ViewState};
+use super::view_state::{MAX_GRID_PANES, Ruler, ViewState};
 use super::viewport::{self, DrawKey, Pane};
 use crate::render::{
-    FrameProbe, FrameReport, RenderError, RenderSettings, SliceSettings, read_image,
+    FrameProbe, FrameReport, GpuProbe, ProbeRequest, RenderError, RenderSettings, SliceSettings,
+    read_image,
 };
 use crate::volume::Orientation;
 
@@ -35,7 +36,9 @@ pub struct CentralView {
     pane_rects: Vec<Rect>,
     view_rect: Rect,
     /// Times the first drawn pane of a frame and counts its nodes per ray.
-    probe: Option<FrameProbe>,
+    frame_probe: Option<FrameProbe>,
+    /// Finds the 3D point under the pointer in a 3D pane.
+    picking: Option<Picking>,
     last_report: Option<FrameReport>,
     /// When frames were drawn in the last second (frame rate while drawing continuously).
     draw_times: Vec<Instant>,
@@ -58,13 +61,20 @@ pub struct ViewInputs<'a> {
 }
 
 impl CentralView {
-    /// An empty view; `probe` measures frames where the GPU allows.
-    pub fn new(probe: Option<FrameProbe>) -> Self {
+    /// An empty view on `gpu` (measuring frames and picking points where there is one).
+    pub fn new(gpu: Option<&AppGpu>) -> Self {
         Self {
             panes: Vec::new(),
             pane_rects: Vec::new(),
             view_rect: Rect::NOTHING,
-            probe,
+            frame_probe: gpu.map(|gpu| FrameProbe::new(&gpu.context)),
+            picking: gpu.map(|gpu| Picking {
+                probe: GpuProbe::new(&gpu.context),
+                wanted: None,
+                in_flight: None,
+                hovered: None,
+                ruler_start: None,
+            }),
             last_report: None,
             draw_times: Vec::new(),
             interacting: false,
@@ -86,9 +96,15 @@ impl CentralView {
             .collect()
     }
 
-    /// The voxel under the pointer, as of the last frame.
-    pub fn hovered_voxel(&self) -> Option<[usize; 3]> {
-        self.hovered_voxel
+    /// The voxel under the pointer, as of the last frame: in a slice view, or where a 3D
+    /// view's ray under it reaches half opacity (the maximum, in MIP), as last picked.
+    pub fn hovered_voxel(&self, dims: [usize; 3]) -> Option<[usize; 3]> {
+        self.hovered_voxel.or_else(|| {
+            let point = self.picking.as_ref()?.hovered?;
+            Some(std::array::from_fn(|a| {
+                (point[a].max(0.0) as usize).min(dims[a].saturating_sub(1))
+            }))
+        })
     }
 
     /// The last measured frame.
@@ -105,15 +121,45 @@ impl CentralView {
             .sum()
     }
 
-    /// True while a frame's measurement is on its way back from the GPU.
+    /// True while a frame's measurement or a picked point is on its way back from the GPU.
     pub fn is_measuring(&self) -> bool {
-        self.probe.as_ref().is_some_and(|p| !p.is_idle())
+        self.frame_probe.as_ref().is_some_and(|p| !p.is_idle())
+            || self
+                .picking
+                .as_ref()
+                .is_some_and(|p| p.in_flight.is_some() || p.wanted.is_some())
     }
 
-    /// Takes the measurement of an earlier frame once the GPU has delivered it.
-    pub fn poll_probe(&mut self, gpu: &AppGpu) {
-        if let Some(report) = self.probe.as_mut().and_then(|p| p.poll(&gpu.context)) {
+    /// Takes what the GPU has delivered since the last frame: an earlier frame's measurement,
+    /// and a picked point, which for a click moves the cursor (or, with the Ruler tool, ends
+    /// or starts a ruler in `view`).
+    pub fn poll(&mut self, gpu: &AppGpu, view: &mut ViewState, tool: Tool) {
+        if let Some(report) = self.frame_probe.as_mut().and_then(|p| p.poll(&gpu.context)) {
             self.last_report = Some(report);
+        }
+        let Some(picking) = &mut self.picking else {
+            return;
+        };
+        let Some(outcome) = picking.probe.poll(&gpu.context) else {
+            return;
+        };
+        let Some(request) = picking.in_flight.take() else {
+            return;
+        };
+        let point = outcome.hit.map(|hit| hit.point.map(f64::from));
+        match request.purpose {
+            PickPurpose::Hover => picking.hovered = point,
+            PickPurpose::Click => {
+                picking.hovered = point;
+                let Some(point) = point else { return };
+                match tool {
+                    Tool::Navigate => view.cursor = point,
+                    Tool::Ruler => match picking.ruler_start.take() {
+                        Some(from) => view.rulers.push(Ruler { from, to: point }),
+                        None => picking.ruler_start = Some(point),
+                    },
+                }
+            }
         }
     }
 
@@ -170,6 +216,7 @@ impl CentralView {
         let was_interacting = self.interacting;
         self.interacting = false;
         self.hovered_voxel = None;
+        let mut volume_hovered = false;
         for (index, (rect, kind)) in rects.iter().zip(&kinds).enumerate() {
             let response = ui
                 .scope_builder(UiBuilder::new().max_rect(*rect), |ui| {
@@ -184,6 +231,14 @@ impl CentralView {
                     let moved =
                         viewport::control_camera(&mut settings.camera, &response, ui, extent);
                     self.interacting |= moved || response.dragged();
+                    volume_hovered |= response.hovered();
+                    let target = self.panes[index]
+                        .target
+                        .as_ref()
+                        .map(|t| [t.width, t.height]);
+                    if let (Some(picking), Some(target)) = (&mut self.picking, target) {
+                        picking.want(&response, ui, index, *rect, target);
+                    }
                     pane_label(ui, scene, settings, view, index, count, *rect);
                     paint_overlays_3d(ui, *rect, scene, settings, view);
                 }
@@ -204,6 +259,9 @@ impl CentralView {
                     }
                 }
             }
+        }
+        if !volume_hovered && let Some(picking) = &mut self.picking {
+            picking.hovered = None;
         }
         if was_interacting && !self.interacting {
             // Motion ended: one more frame draws the full-resolution image.
@@ -360,8 +418,9 @@ impl CentralView {
                             .set_transfer(&gpu.context, &mut encoder, transfer, None)?;
                         scene.applied_transfer = *transfer;
                     }
-                    let measure = !drew && self.probe.as_ref().is_some_and(FrameProbe::is_idle);
-                    let probe = self.probe.as_mut().filter(|_| measure);
+                    let measure =
+                        !drew && self.frame_probe.as_ref().is_some_and(FrameProbe::is_idle);
+                    let probe = self.frame_probe.as_mut().filter(|_| measure);
                     let writes = probe.as_ref().and_then(|p| p.timestamp_writes());
                     scene.renderer.encode(
                         &gpu.context,
@@ -403,6 +462,7 @@ impl CentralView {
             pane.drawn = Some(key);
             drew = true;
         }
+        self.record_pick(gpu, scene);
         let now = Instant::now();
         if drew {
             self.draw_times.push(now);
@@ -412,14 +472,72 @@ impl CentralView {
         Ok(())
     }
 
-    /// What is drawn: the panes' images composed as laid out, at full pixel resolution.
-    pub fn image(&self, gpu: &AppGpu, pixels_per_point: f32) -> Result<image::RgbaImage, String> {
+    /// Probes the pixel a pane's pointer asked for, if the GPU probe is free: the pane's last
+    /// frame says what its rays see.
+    fn record_pick(&mut self, gpu: &AppGpu, scene: &Scene) {
+        let Some(picking) = &mut self.picking else {
+            return;
+        };
+        if !picking.probe.is_idle() {
+            return;
+        }
+        let Some(request) = picking.wanted.take() else {
+            return;
+        };
+        let Some(DrawKey::Volume {
+            size,
+            camera,
+            settings,
+            ..
+        }) = self.panes.get(request.pane).and_then(|p| p.drawn)
+        else {
+            return;
+        };
+        let pixel = [
+            request.pixel[0].min(size[0].saturating_sub(1)),
+            request.pixel[1].min(size[1].saturating_sub(1)),
+        ];
+        let mut encoder =
+            gpu.context
+                .device
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                    label: Some("voxscope::app_pick"),
+                });
+        let probe_request = ProbeRequest {
+            size,
+            pixel,
+            camera: &camera,
+            settings: &settings,
+        };
+        match picking
+            .probe
+            .record(&gpu.context, &mut encoder, &scene.renderer, &probe_request)
+        {
+            Ok(true) => {
+                gpu.context.queue.submit([encoder.finish()]);
+                picking.probe.submitted();
+                picking.in_flight = Some(request);
+            }
+            Ok(false) => picking.wanted = Some(request),
+            Err(error) => eprintln!("voxscope: error: {error}"),
+        }
+    }
+
+    /// What is drawn: the panes' images composed as laid out, at full pixel resolution, with
+    /// the rulers (and their lengths) drawn in.
+    pub fn image(
+        &self,
+        gpu: &AppGpu,
+        pixels_per_point: f32,
+        scene: Option<&Scene>,
+        view: &ViewState,
+    ) -> Result<image::RgbaImage, String> {
         let size = viewport::pixel_size(self.view_rect, pixels_per_point);
         let mut canvas =
             image::RgbaImage::from_pixel(size[0], size[1], image::Rgba([0, 0, 0, 255]));
         let mut any = false;
         for (pane, rect) in self.panes.iter().zip(&self.pane_rects) {
-            let (Some(target), Some(_)) = (&pane.target, pane.drawn) else {
+            let (Some(target), Some(drawn)) = (&pane.target, pane.drawn) else {
                 continue;
             };
             let image = read_image(&gpu.context, target).map_err(|e| e.to_string())?;
@@ -430,12 +548,70 @@ impl CentralView {
                 offset.x.round() as i64,
                 offset.y.round() as i64,
             );
+            if let Some(scene) = scene {
+                let in_canvas = Rect::from_min_size(
+                    offset.to_pos2(),
+                    vec2(target.width as f32, target.height as f32),
+                );
+                draw_rulers(&mut canvas, in_canvas, &drawn, scene, view);
+            }
             any = true;
         }
         if !any {
             return Err("nothing is drawn yet".into());
         }
         Ok(canvas)
+    }
+}
+
+/// Draws the rulers a pane shows into its place `rect` (pixels) of a screenshot: projected in
+/// a 3D view, and in a slice those that lie in it.
+fn draw_rulers(
+    canvas: &mut image::RgbaImage,
+    rect: Rect,
+    drawn: &DrawKey,
+    scene: &Scene,
+    view: &ViewState,
+) {
+    let volume = &scene.data.volume;
+    let color = image::Rgba(RULER_COLOR.to_array());
+    let unit = super::octree_panel::unit(volume);
+    for ruler in &view.rulers {
+        let ends = match drawn {
+            DrawKey::Volume { camera, .. } => {
+                let project =
+                    |p| viewport::project(camera, volume.extent(), volume.spacing, rect, p);
+                project(ruler.from).zip(project(ruler.to))
+            }
+            DrawKey::Slice {
+                settings: slice, ..
+            } => {
+                let frame = &slice.frame;
+                let axis = (0..3)
+                    .find(|&a| frame.step_x[a] == 0.0 && frame.step_y[a] == 0.0)
+                    .unwrap_or(2);
+                let on_plane = |p: [f64; 3]| (p[axis] - frame.origin[axis]).abs() <= 0.5 + 1e-9;
+                (on_plane(ruler.from) && on_plane(ruler.to)).then(|| {
+                    let at = |p| {
+                        let [x, y] = frame.pixel_of(p);
+                        egui::pos2(rect.left() + x as f32, rect.top() + y as f32)
+                    };
+                    (at(ruler.from), at(ruler.to))
+                })
+            }
+        };
+        let Some((from, to)) = ends else { continue };
+        super::annotate::line(canvas, [from.x, from.y], [to.x, to.y], 2.0, color);
+        super::annotate::disc(canvas, [from.x, from.y], 3.0, color);
+        super::annotate::disc(canvas, [to.x, to.y], 3.0, color);
+        let middle = from.lerp(to, 0.5);
+        super::annotate::text(
+            canvas,
+            [middle.x + 6.0, middle.y - 16.0],
+            &format!("{:.1} {unit}", ruler.length(volume.spacing)),
+            2,
+            color,
+        );
     }
 }
 
@@ -605,6 +781,71 @@ fn paint_overlays_3d(ui: &Ui, rect: Rect, scene: &Scene, settings: &AppSettings,
         to[axis] += arm / spacing[axis];
         if let (Some(a), Some(b)) = (project(from), project(to)) {
             painter.line_segment([a, b], egui::Stroke::new(2.0, *color));
+        }
+    }
+}
+
+/// Picking points in the 3D view: the GPU probe, and what its answers are for.
+struct Picking {
+    probe: GpuProbe,
+    /// The next pixel to probe (the latest the pointer asked for).
+    wanted: Option<PickRequest>,
+    /// The probe on its way back.
+    in_flight: Option<PickRequest>,
+    /// The voxel-space point under the pointer, as last probed.
+    hovered: Option<[f64; 3]>,
+    /// The first end of a ruler measured in the 3D view.
+    ruler_start: Option<[f64; 3]>,
+}
+
+/// A pixel of a 3D pane to probe, and why.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct PickRequest {
+    pane: usize,
+    pixel: [u32; 2],
+    purpose: PickPurpose,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum PickPurpose {
+    /// The status bar's value under the pointer.
+    Hover,
+    /// A click: move the cursor there, or a ruler's end.
+    Click,
+}
+
+impl Picking {
+    /// Asks for the point under the pointer of pane `index` (`rect`, its image `target`
+    /// pixels): on a click, or when the pointer moved over it.
+    fn want(
+        &mut self,
+        response: &egui::Response,
+        ui: &Ui,
+        index: usize,
+        rect: Rect,
+        target: [u32; 2],
+    ) {
+        let Some(pointer) = response.hover_pos() else {
+            return;
+        };
+        let pixel = [
+            ((pointer.x - rect.left()) / rect.width().max(1.0) * target[0] as f32) as u32,
+            ((pointer.y - rect.top()) / rect.height().max(1.0) * target[1] as f32) as u32,
+        ];
+        let purpose = if response.clicked() {
+            PickPurpose::Click
+        } else if ui.input(|i| i.pointer.delta() != egui::Vec2::ZERO) && !response.dragged() {
+            PickPurpose::Hover
+        } else {
+            return;
+        };
+        // A click is never replaced by a later hover.
+        if self.wanted.is_none_or(|w| w.purpose == PickPurpose::Hover) {
+            self.wanted = Some(PickRequest {
+                pane: index,
+                pixel,
+                purpose,
+            });
         }
     }
 }

@@ -9,6 +9,7 @@
 //!   run in one place;
 //! - background work ends in typed [`jobs::JobEvent`]s, polled once per frame.
 
+mod annotate;
 mod central;
 mod clip_panel;
 mod command;
@@ -76,12 +77,17 @@ pub fn native_options() -> eframe::NativeOptions {
     }
 }
 
-/// Opens the window on `source` (the sample when `None`) and runs until it is closed.
-pub fn run(source: Option<VolumeSource>) -> Result<(), String> {
+/// Opens the window on `source` (the sample when `None`), clipped by `clip`, and runs until
+/// it is closed.
+pub fn run(source: Option<VolumeSource>, clip: crate::octree::Clip) -> Result<(), String> {
     eframe::run_native(
         "voxscope",
         native_options(),
-        Box::new(move |cc| Ok(Box::new(VoxscopeApp::new(cc, source)))),
+        Box::new(move |cc| {
+            let mut app = VoxscopeApp::new(cc, source);
+            app.clip_first_volume(clip);
+            Ok(Box::new(app))
+        }),
     )
     .map_err(|e| format!("cannot open the window: {e}"))
 }

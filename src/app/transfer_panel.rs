@@ -65,6 +65,29 @@ pub fn show(
                 .on_hover_text("Multiplies every alpha: below 1 makes dense volumes see-through");
             ui.end_row();
 
+            let label = ui.label("Shading");
+            ui.checkbox(&mut settings.shading.enabled, "Lit (headlight)")
+                .labelled_by(label.id)
+                .on_hover_text(
+                    "Blinn-Phong lighting from the eye: gradients of the filtered volume (dense, bricks), the voxels' faces (octree); DVR only",
+                );
+            ui.end_row();
+
+            if settings.shading.enabled {
+                let shading = &mut settings.shading;
+                for (name, value, range) in [
+                    ("Ambient", &mut shading.ambient, 0.0..=1.0),
+                    ("Diffuse", &mut shading.diffuse, 0.0..=1.0),
+                    ("Specular", &mut shading.specular, 0.0..=1.0),
+                    ("Shininess", &mut shading.shininess, 1.0..=100.0),
+                ] {
+                    let label = ui.label(name);
+                    ui.add(egui::Slider::new(value, range).fixed_decimals(2))
+                        .labelled_by(label.id);
+                    ui.end_row();
+                }
+            }
+
             let label = ui.label("Colormap");
             egui::ComboBox::from_id_salt("colormap")
                 .selected_text(settings.transfer.colormap.name())

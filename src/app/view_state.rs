@@ -60,6 +60,19 @@ impl Default for Clipping {
     }
 }
 
+impl From<Clip> for Clipping {
+    /// The panel's state for `clip`: what it lacks stays at the defaults, switched off.
+    fn from(clip: Clip) -> Self {
+        let defaults = Self::default();
+        Self {
+            box_on: clip.bounds.is_some(),
+            bounds: clip.bounds.unwrap_or(defaults.bounds),
+            plane_on: clip.plane.is_some(),
+            plane: clip.plane.unwrap_or(defaults.plane),
+        }
+    }
+}
+
 impl Clipping {
     /// The clip the renderers and statistics use.
     pub fn clip(&self) -> Clip {

@@ -9,6 +9,8 @@ use crate::octree::TransferFunction;
 use crate::render::{Camera, GpuContext, RenderSettings, RenderTarget, SliceSettings};
 
 /// Everything a pane's image depends on; a pane is drawn again when this changes.
+// Inline like the transfer function it holds: compared for every pane every frame.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum DrawKey {
     /// A 3D view.

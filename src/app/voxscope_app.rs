@@ -19,10 +19,10 @@ use super::octree_panel::{self, OctreeFacts};
 use super::scene::{self, Scene, VolumeSource, prepare_scene};
 use super::settings::{AppSettings, STORAGE_KEY, TransferChoice, TransferPreset};
 use super::transfer_panel;
-use super::view_state::ViewState;
+use super::view_state::{Clipping, ViewState};
 use super::viewport;
-use crate::octree::{LevelStatistics, TransferFunction};
-use crate::render::{FrameProbe, FrameReport, GpuContext, RendererKind, RendererOptions};
+use crate::octree::{Clip, LevelStatistics, TransferFunction};
+use crate::render::{FrameReport, GpuContext, RendererKind, RendererOptions};
 
 /// The voxscope window.
 pub struct VoxscopeApp {
@@ -45,6 +45,8 @@ pub struct VoxscopeApp {
     browser: Option<FileBrowser>,
     /// The desktop could not show a file dialog: use the app's browser from now on.
     no_desktop_dialogs: bool,
+    /// The clip the first volume opens with (the command line's `--clip-box`, `--clip-plane`).
+    first_clip: Option<Clip>,
 }
 
 impl VoxscopeApp {
@@ -62,7 +64,7 @@ impl VoxscopeApp {
             )),
             render_state: state.clone(),
         });
-        let probe = gpu.as_ref().map(|gpu| FrameProbe::new(&gpu.context));
+        let central = CentralView::new(gpu.as_ref());
         let mut app = Self {
             settings,
             view: ViewState::default(),
@@ -71,11 +73,12 @@ impl VoxscopeApp {
             scene_serial: 0,
             jobs: Jobs::default(),
             commands: CommandQueue::default(),
-            central: CentralView::new(probe),
+            central,
             error: None,
             notice: None,
             browser: None,
             no_desktop_dialogs: false,
+            first_clip: None,
         };
         if app.gpu.is_none() {
             app.fail("voxscope needs the wgpu renderer; no GPU device was handed to the app");
@@ -170,6 +173,11 @@ impl VoxscopeApp {
         }
     }
 
+    /// Opens the first volume clipped by `clip` (the command line's clip options).
+    pub fn clip_first_volume(&mut self, clip: Clip) {
+        self.first_clip = clip.is_active().then_some(clip);
+    }
+
     /// Queues `command` to run after this frame's UI (what menu items do).
     pub fn send(&mut self, command: Command) {
         self.commands.send(command);
@@ -236,7 +244,8 @@ impl VoxscopeApp {
     /// What is drawn: the panes' images composed as laid out, at full pixel resolution.
     pub fn view_image(&self, pixels_per_point: f32) -> Result<image::RgbaImage, String> {
         let gpu = self.gpu.as_ref().ok_or("no GPU device")?;
-        self.central.image(gpu, pixels_per_point)
+        self.central
+            .image(gpu, pixels_per_point, self.scene.as_ref(), &self.view)
     }
 
     /// Saves [`Self::view_image`] as PNG.
@@ -342,7 +351,7 @@ impl VoxscopeApp {
             }
         }
         if let Some(gpu) = &self.gpu {
-            self.central.poll_probe(gpu);
+            self.central.poll(gpu, &mut self.view, self.settings.tool);
         }
         if self.is_busy() {
             ctx.request_repaint_after(Duration::from_millis(50));
@@ -407,6 +416,9 @@ impl VoxscopeApp {
             scene.applied_transfer,
             statistics,
         );
+        if let Some(clip) = self.first_clip.take() {
+            self.view.clipping = Clipping::from(clip);
+        }
         if let VolumeSource::Spec(spec) = &scene.data.source {
             self.settings.remember(spec);
         }
@@ -498,7 +510,9 @@ impl eframe::App for VoxscopeApp {
                 ui,
                 &self.jobs,
                 self.scene.as_ref(),
-                self.central.hovered_voxel(),
+                self.scene
+                    .as_ref()
+                    .and_then(|s| self.central.hovered_voxel(s.data.volume.dims)),
                 notice.as_deref(),
                 &mut self.commands,
             )

@@ -21,9 +21,12 @@ pub use prepare::Prepared;
 pub struct Cli {
     #[command(subcommand)]
     pub command: Option<Command>,
-    /// Volume to open in the app (.nii, .nii.gz, .nrrd, .nhdr, or synthetic:KIND:SIZE).
+    /// Volume to open in the app (any format `info` reads, a folder, or synthetic:KIND:SIZE).
     /// Without a command and a file, the app opens the built-in sample head MRI.
     pub file: Option<String>,
+    /// The app's starting crop box and clip plane.
+    #[command(flatten)]
+    pub clip: ClipArgs,
 }
 
 #[derive(Debug, Subcommand)]
@@ -52,7 +55,10 @@ pub fn run() -> std::process::ExitCode {
         Some(Command::Ceilings(args)) => ceilings::run(&args),
         Some(Command::Probe(args)) => probe::run(&args),
         Some(Command::Slice(args)) => slice::run(&args),
-        None => crate::app::run(cli.file.map(crate::app::VolumeSource::Spec)),
+        None => crate::app::run(
+            cli.file.map(crate::app::VolumeSource::Spec),
+            cli.clip.clip(),
+        ),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
