@@ -88,6 +88,11 @@ impl CentralView {
         self.view_rect
     }
 
+    /// Where the panes were laid out last frame, in points, in reading order.
+    pub fn pane_rects(&self) -> &[Rect] {
+        &self.pane_rects
+    }
+
     /// Pixel sizes of the panes' render targets.
     pub fn pane_sizes(&self) -> Vec<[u32; 2]> {
         self.panes

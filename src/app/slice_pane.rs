@@ -132,8 +132,10 @@ pub fn interact(
 
     // The primary button: the cursor, a crop-box edge, or a ruler.
     let point_at = |pos: Pos2| frame.point_at(to_pixel(pos, rect, target));
+    // Where the button went down (a drag is recognized only once the pointer has moved).
+    let pressed = ui.input(|i| i.pointer.press_origin());
     if response.drag_started_by(PointerButton::Primary)
-        && let Some(start) = response.interact_pointer_pos()
+        && let Some(start) = pressed.or(response.interact_pointer_pos())
     {
         let drag = match settings.tool {
             Tool::Ruler => Drag::Ruler {

@@ -16,7 +16,7 @@ use super::file_browser::{BrowserOutcome, FileBrowser};
 use super::jobs::{DialogAnswer, Job, JobError, JobEvent, Jobs, Opened};
 use super::menu::{self, NOTICE_DURATION};
 use super::octree_panel::{self, OctreeFacts};
-use super::scene::{self, Scene, VolumeSource, prepare_scene};
+use super::scene::{self, Scene, VolumeData, VolumeSource, prepare_scene};
 use super::settings::{AppSettings, STORAGE_KEY, TransferChoice, TransferPreset};
 use super::transfer_panel;
 use super::view_state::{Clipping, ViewState};
@@ -219,6 +219,17 @@ impl VoxscopeApp {
     /// Pixel sizes of the panes' render targets.
     pub fn pane_sizes(&self) -> Vec<[u32; 2]> {
         self.central.pane_sizes()
+    }
+
+    /// Where the central view's panes are, in points, in reading order (the Slices layout:
+    /// 3D, axial, coronal, sagittal).
+    pub fn pane_rects(&self) -> &[egui::Rect] {
+        self.central.pane_rects()
+    }
+
+    /// The data of the volume on screen.
+    pub fn volume_data(&self) -> Option<&VolumeData> {
+        self.scene.as_ref().map(|s| s.data.as_ref())
     }
 
     /// The renderer drawing the volume on screen.
