@@ -437,3 +437,30 @@ fn dragging_orbits_at_half_resolution_on_a_slow_gpu_then_draws_full() {
     settle(&mut harness);
     assert_eq!(harness.state().pane_sizes()[0], full);
 }
+
+#[test]
+fn a_long_error_wraps_inside_the_view() {
+    let mut harness = harness();
+    // A deep path makes a message longer than the view is wide.
+    let folder = scratch("long").join("a-folder-with-a-rather-long-name/".repeat(8));
+    std::fs::create_dir_all(&folder).expect("create the folders");
+    let path = folder.join("not-a-volume.nii");
+    std::fs::write(&path, b"not a volume").expect("write");
+    let ctx = harness.ctx.clone();
+    harness.state_mut().run_command(
+        Command::Open(VolumeSource::Spec(path.display().to_string())),
+        &ctx,
+    );
+    settle(&mut harness);
+    assert!(harness.state().error().is_some_and(|e| e.len() > 250));
+    let view = harness.state().pane_rects()[0];
+    let dismiss = harness.get_by_label("Dismiss").rect();
+    assert!(
+        dismiss.right() <= view.right() && dismiss.left() >= view.left(),
+        "{dismiss:?} inside {view:?}"
+    );
+    snapshot(&mut harness, "error_long_message");
+    harness.get_by_label("Dismiss").click();
+    settle(&mut harness);
+    assert_eq!(harness.state().error(), None);
+}

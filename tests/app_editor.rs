@@ -110,3 +110,55 @@ fn the_app_browser_opens_a_typed_path_and_a_listed_file() {
         head.display().to_string()
     );
 }
+
+#[test]
+fn a_ct_opens_with_a_ct_preset_and_each_preset_draws_its_tissue() {
+    let mut harness = support::app_harness::harness_with(
+        Some(voxscope::app::VolumeSource::Spec(
+            "synthetic:ct:128x128x64".into(),
+        )),
+        egui::vec2(1100.0, 720.0),
+    );
+    // The CT default: a curve in Hounsfield units that leaves air and padding transparent.
+    let curve = points(&harness);
+    assert!(
+        curve
+            .first()
+            .is_some_and(|(value, opacity)| *value > -300.0 && *opacity == 0.0)
+    );
+    let mut lit = Vec::new();
+    for (label, name) in [
+        ("Soft tissue", "ct_preset_soft_tissue"),
+        ("Bone", "ct_preset_bone"),
+        ("Vessels", "ct_preset_vessels"),
+        ("Lung", "ct_preset_lung"),
+        ("Skin", "ct_preset_skin"),
+    ] {
+        harness.get_by_label(label).click();
+        settle(&mut harness);
+        let image = view(&harness);
+        lit.push((label, lit_pixels(&image)));
+        snapshot(&mut harness, name);
+    }
+    // Bone shows less than soft tissue, skin (an opaque surface) the most.
+    let count = |name: &str| lit.iter().find(|(l, _)| *l == name).expect("measured").1;
+    assert!(count("Bone") < count("Soft tissue"), "{lit:?}");
+    assert!(count("Skin") >= count("Soft tissue"), "{lit:?}");
+    assert!(
+        lit.iter().all(|(_, n)| *n > 500),
+        "every preset draws something: {lit:?}"
+    );
+}
+
+#[test]
+fn shading_lights_the_surface_and_can_be_switched_off() {
+    let mut harness = harness();
+    assert!(harness.state().settings.shading.enabled, "on by default");
+    let lit_view = view(&harness);
+    harness.get_by_label("Lit (headlight)").click();
+    settle(&mut harness);
+    assert!(!harness.state().settings.shading.enabled);
+    let flat = view(&harness);
+    assert!(differing_pixels(&lit_view, &flat) > 5000);
+    snapshot(&mut harness, "shading_off");
+}

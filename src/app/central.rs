@@ -5,7 +5,7 @@
 
 use std::time::{Duration, Instant};
 
-use egui::{Align2, Color32, Pos2, Rect, RichText, Ui, UiBuilder, vec2};
+use egui::{Align2, Color32, Pos2, Rect, Ui, UiBuilder, vec2};
 
 use super::AppGpu;
 use super::pane_header::{grid_strip, pair_strip, pane_label};
@@ -690,32 +690,30 @@ fn grid_rects(area: Rect, count: usize, gap: f32) -> Vec<Rect> {
 /// The error banner over the bottom of `view_rect`, as tall as its wrapped message needs;
 /// returns true when Dismiss was clicked.
 pub fn error_banner(ui: &mut Ui, view_rect: Rect, message: &str) -> bool {
+    const MARGIN: f32 = 8.0;
+    const BUTTON_WIDTH: f32 = 70.0;
     let area = view_rect.shrink(12.0);
-    let mut dismissed = false;
-    ui.scope_builder(
-        UiBuilder::new()
-            .max_rect(area)
-            .layout(egui::Layout::bottom_up(egui::Align::Min)),
-        |ui| {
-            egui::Frame::new()
-                .fill(Color32::from_rgb(120, 24, 24))
-                .inner_margin(8.0)
-                .corner_radius(4.0)
-                .show(ui, |ui| {
-                    ui.set_width(area.width() - 16.0);
-                    ui.horizontal_top(|ui| {
-                        dismissed = ui.button("Dismiss").clicked();
-                        ui.add(
-                            egui::Label::new(
-                                RichText::new(format!("Error: {message}")).color(Color32::WHITE),
-                            )
-                            .wrap(),
-                        );
-                    });
-                });
-        },
+    let text_width = (area.width() - 2.0 * MARGIN - BUTTON_WIDTH).max(40.0);
+    let galley = ui.painter().layout(
+        format!("Error: {message}"),
+        egui::TextStyle::Body.resolve(ui.style()),
+        Color32::WHITE,
+        text_width,
     );
-    dismissed
+    let height = (galley.size().y + 2.0 * MARGIN).clamp(36.0, area.height());
+    let banner = Rect::from_min_max(egui::pos2(area.left(), area.bottom() - height), area.max);
+    ui.painter()
+        .rect_filled(banner, 4.0, Color32::from_rgb(120, 24, 24));
+    let text_at = banner.min + vec2(MARGIN, MARGIN);
+    ui.painter().galley(text_at, galley, Color32::WHITE);
+    let button = Rect::from_min_size(
+        egui::pos2(
+            banner.right() - MARGIN - BUTTON_WIDTH,
+            banner.top() + MARGIN,
+        ),
+        vec2(BUTTON_WIDTH, 20.0),
+    );
+    ui.put(button, egui::Button::new("Dismiss")).clicked()
 }
 
 /// The colors of the slice views, as 3D Slicer's: axial red, coronal green, sagittal yellow.

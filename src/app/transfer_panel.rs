@@ -65,9 +65,8 @@ pub fn show(
                 .on_hover_text("Multiplies every alpha: below 1 makes dense volumes see-through");
             ui.end_row();
 
-            let label = ui.label("Shading");
+            ui.label("Shading");
             ui.checkbox(&mut settings.shading.enabled, "Lit (headlight)")
-                .labelled_by(label.id)
                 .on_hover_text(
                     "Blinn-Phong lighting from the eye: gradients of the filtered volume (dense, bricks), the voxels' faces (octree); DVR only",
                 );
@@ -145,7 +144,7 @@ pub fn show(
         if data.kind == DataKind::Ct {
             for (name, level, width) in CT_WINDOWS {
                 if ui
-                    .button(name)
+                    .button(format!("{name} L{level}/W{width}"))
                     .on_hover_text(format!(
                         "2-D window: level {level} HU, width {width} HU (colormap and slices)"
                     ))
