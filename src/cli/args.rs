@@ -9,7 +9,8 @@ use crate::volume::{LoadOptions, RawLayout, ValueWindow};
 /// Which volume to open.
 #[derive(Debug, Clone, Args)]
 pub struct VolumeArgs {
-    /// Volume file (.nii, .nii.gz, .nrrd, .nhdr, raw with --raw) or synthetic:KIND:SIZE
+    /// Volume file (.nii, .nii.gz, .nrrd, .nhdr, raw with --raw), a folder (DICOM series,
+    /// slices, .zarr / .ome.zarr) or synthetic:KIND:SIZE
     /// (kinds: sphere, shells, noise, gradient; SIZE: N or XxYxZ). Default: the built-in
     /// sample head MRI.
     pub file: Option<String>,
@@ -19,6 +20,12 @@ pub struct VolumeArgs {
     /// Voxel size SX,SY,SZ (overrides the file's).
     #[arg(long, value_name = "SX,SY,SZ", value_parser = parse_spacing)]
     pub spacing: Option<[f64; 3]>,
+    /// The channel of a multi-channel OME-Zarr image (0 = the first).
+    #[arg(long, default_value_t = 0)]
+    pub channel: usize,
+    /// The time point of a time-lapse OME-Zarr image (0 = the first).
+    #[arg(long, default_value_t = 0)]
+    pub time: usize,
 }
 
 impl VolumeArgs {
@@ -27,6 +34,10 @@ impl VolumeArgs {
         LoadOptions {
             raw: self.raw,
             spacing: self.spacing,
+            zarr: crate::volume::ome_zarr::PyramidOptions {
+                channel: self.channel,
+                time: self.time,
+            },
         }
     }
 }
@@ -141,7 +152,7 @@ impl TransferArgs {
     }
 }
 
-fn parse_spacing(text: &str) -> Result<[f64; 3], String> {
+pub(super) fn parse_spacing(text: &str) -> Result<[f64; 3], String> {
     let values: Vec<f64> = text
         .split(',')
         .map(|v| v.trim().parse::<f64>())
