@@ -1,9 +1,10 @@
-//! The command line: `voxscope [FILE]` opens the app; `voxscope info`, `render`, `bench` and
-//! `ceilings` work without a window.
+//! The command line: `voxscope [FILE]` opens the app; `voxscope info`, `render`, `bench`,
+//! `ceilings` and `convert` work without a window.
 
 mod args;
 mod bench;
 mod ceilings;
+mod convert;
 mod info;
 mod prepare;
 mod render;
@@ -34,6 +35,8 @@ pub enum Command {
     Bench(bench::BenchArgs),
     /// Measure the GPU's own ceilings: memory bandwidth, filtered samples, fetch latencies, FMA.
     Ceilings(ceilings::CeilingsArgs),
+    /// Write any readable volume as a multiscale OME-Zarr image (0.4, or 0.5 sharded).
+    Convert(convert::ConvertArgs),
 }
 
 /// Runs the command line; returns the process exit code. Errors print as one line.
@@ -44,6 +47,7 @@ pub fn run() -> std::process::ExitCode {
         Some(Command::Render(args)) => render::run(&args),
         Some(Command::Bench(args)) => bench::run(&args),
         Some(Command::Ceilings(args)) => ceilings::run(&args),
+        Some(Command::Convert(args)) => convert::run(&args),
         None => crate::app::run(cli.file.map(crate::app::VolumeSource::Spec)),
     };
     match result {

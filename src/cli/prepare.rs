@@ -30,7 +30,8 @@ impl Prepared {
         let quantized = QuantizedVolume::new(&volume);
         let mut octree =
             build_reporting_progress(&quantized).map_err(|e| format!("{}: {e}", volume.name))?;
-        let transfer = transfer_args.transfer_function(quantized.robust_window());
+        let transfer = transfer_args
+            .transfer_function(volume.default_window.unwrap_or(quantized.robust_window()));
         let recolor_time = octree::recolor(&mut octree, &transfer);
         Ok(Self {
             volume,
