@@ -1185,3 +1185,23 @@ fn volume_facts(pyramid: &Pyramid, level: usize) -> Vec<(String, String)> {
     }
     facts
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_pyramid_can_be_shared_by_loader_threads() {
+        fn shareable<T: Send + Sync>() {}
+        shareable::<Pyramid>();
+    }
+
+    #[test]
+    fn levels_halve_until_one_chunk_holds_the_coarsest() {
+        assert_eq!(
+            level_dims([300, 200, 70], 64),
+            vec![[300, 200, 70], [150, 100, 35], [75, 50, 18], [38, 25, 9]]
+        );
+        assert_eq!(level_dims([64, 64, 64], 64), vec![[64, 64, 64]]);
+    }
+}
