@@ -820,6 +820,62 @@ fn convert_command_streams_raw_input_and_info_describes_the_pyramid() {
 }
 
 #[test]
+fn convert_streams_raw_nrrd_in_place_and_loads_an_oriented_one_whole() {
+    let dir = tempfile::tempdir().unwrap();
+    let dims = [30, 20, 50];
+    let data = pattern(dims, "i16");
+    let VoxelData::I16(values) = &data else {
+        unreachable!()
+    };
+    let voxels: Vec<u8> = values.iter().flat_map(|v| v.to_be_bytes()).collect();
+    for (name, space, streams) in [
+        ("plain.nrrd", "spacings: 0.5 0.5 2\n", true),
+        (
+            "ras.nrrd",
+            "space: right-anterior-superior\nspace directions: (0.5,0,0) (0,0.5,0) (0,0,2)\n",
+            true,
+        ),
+        (
+            "lps.nrrd",
+            "space: left-posterior-superior\nspace directions: (0.5,0,0) (0,0.5,0) (0,0,2)\n",
+            false,
+        ),
+    ] {
+        let header = format!(
+            "NRRD0004\ntype: int16\ndimension: 3\nsizes: 30 20 50\nendian: big\nencoding: raw\n{space}\n"
+        );
+        let input = dir.path().join(name);
+        std::fs::write(&input, [header.as_bytes(), &voxels].concat()).unwrap();
+        let out = dir.path().join(format!("{name}.ome.zarr"));
+        let output = voxscope(&[
+            "convert",
+            input.to_str().unwrap(),
+            out.to_str().unwrap(),
+            "--chunk",
+            "16",
+        ]);
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(output.status.success(), "{stderr}");
+        let how = if streams {
+            "read in slabs"
+        } else {
+            "loaded whole"
+        };
+        assert!(stderr.contains(how), "{name}: {stderr}");
+        // Level 0 holds what voxscope loads from the input (LPS reordered to RAS).
+        let loaded = volume::load(input.to_str().unwrap(), &LoadOptions::default()).unwrap();
+        let pyramid = Pyramid::open(&out, PyramidOptions::default()).unwrap();
+        assert_eq!(pyramid.read_level(0).unwrap(), loaded.data, "{name}");
+        assert_eq!(pyramid.levels[0].spacing, [0.5, 0.5, 2.0], "{name}");
+        assert_eq!(
+            loaded.data == data,
+            streams,
+            "{name}: only LPS is reordered"
+        );
+    }
+}
+
+#[test]
 fn info_lists_levels_channels_and_windows() {
     let path = fixtures().join("tczyx-v04.ome.zarr");
     let output = voxscope(&[

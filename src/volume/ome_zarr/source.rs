@@ -1,5 +1,5 @@
-//! Where `convert` reads its input from, z slab by z slab: raw files and folders of slices
-//! are read a slab at a time (so the output can be larger than memory); every other format
+//! Where `convert` reads its input from, z slab by z slab: raw files, raw-encoded NRRD (whose
+//! axes load as stored) and folders of slices are read a slab at a time (so the output can be larger than memory); every other format
 //! is loaded whole and handed out in slabs.
 
 use std::fs::File;
@@ -32,7 +32,12 @@ pub struct SlabSource {
 #[derive(Debug)]
 enum Input {
     Memory(VoxelData),
-    Raw { file: File, endian: Endian },
+    Raw {
+        file: File,
+        /// Byte offset of the first voxel.
+        offset: u64,
+        endian: Endian,
+    },
     Slices(Vec<PathBuf>),
 }
 
@@ -43,6 +48,16 @@ impl SlabSource {
         let path = Path::new(spec);
         if let Some(layout) = &options.raw {
             return Self::raw(path, layout, options.spacing).map_err(|p| LoadError::new(spec, p));
+        }
+        let is_nrrd = super::super::format::by_extension(&path.to_string_lossy())
+            .is_some_and(|format| format.name == "NRRD");
+        if is_nrrd && path.is_file() {
+            let extent =
+                super::super::nrrd::raw_extent(path).map_err(|p| LoadError::new(spec, p))?;
+            if let Some(extent) = extent {
+                return Self::nrrd(path, extent, options.spacing)
+                    .map_err(|p| LoadError::new(spec, p));
+            }
         }
         if path.is_dir()
             && !super::is_zarr_folder(path)
@@ -110,7 +125,35 @@ impl SlabSource {
             unit: None,
             input: Input::Raw {
                 file,
+                offset: 0,
                 endian: layout.endian,
+            },
+        })
+    }
+
+    fn nrrd(
+        path: &Path,
+        extent: super::super::nrrd::RawExtent,
+        spacing: Option<[f64; 3]>,
+    ) -> Result<Self, Problem> {
+        if extent.dims.iter().any(|&d| d > MAX_AXIS) {
+            return Err(format!(
+                "dimensions {} exceed {MAX_AXIS} voxels per axis",
+                format_dims(extent.dims)
+            ));
+        }
+        let file = File::open(&extent.data)
+            .map_err(|e| format!("cannot open {}: {}", extent.data.display(), io_reason(&e)))?;
+        Ok(Self {
+            name: path.display().to_string(),
+            dims: extent.dims,
+            spacing: spacing.unwrap_or(extent.spacing),
+            voxel_type: extent.voxel_type,
+            unit: None,
+            input: Input::Raw {
+                file,
+                offset: extent.offset,
+                endian: extent.endian,
             },
         })
     }
@@ -157,9 +200,13 @@ impl SlabSource {
                     with_voxel_slice!(&*data, values => part(values, z0 * plane, (z0 + count) * plane)),
                 )
             }
-            Input::Raw { file, endian } => {
+            Input::Raw {
+                file,
+                offset,
+                endian,
+            } => {
                 let size = self.voxel_type.size();
-                let start = (z0 * plane * size) as u64;
+                let start = *offset + (z0 * plane * size) as u64;
                 let mut bytes = vec![0u8; count * plane * size];
                 file.seek(SeekFrom::Start(start))
                     .and_then(|_| file.read_exact(&mut bytes))
