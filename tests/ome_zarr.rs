@@ -876,6 +876,40 @@ fn convert_streams_raw_nrrd_in_place_and_loads_an_oriented_one_whole() {
 }
 
 #[test]
+fn convert_reads_a_folder_of_slices_one_slab_at_a_time() {
+    let dir = tempfile::tempdir().unwrap();
+    let slices = dir.path().join("slices");
+    std::fs::create_dir(&slices).unwrap();
+    let dims = [24, 16, 20];
+    let data = pattern(dims, "u16");
+    let VoxelData::U16(values) = &data else {
+        unreachable!()
+    };
+    let plane = dims[0] * dims[1];
+    for z in 0..dims[2] {
+        let pixels = values[z * plane..(z + 1) * plane].to_vec();
+        let image = image::ImageBuffer::<image::Luma<u16>, _>::from_raw(24, 16, pixels).unwrap();
+        image.save(slices.join(format!("z{z}.png"))).unwrap();
+    }
+    let out = dir.path().join("slices.ome.zarr");
+    let output = voxscope(&[
+        "convert",
+        slices.to_str().unwrap(),
+        out.to_str().unwrap(),
+        "--chunk",
+        "8",
+        "--format",
+        "0.5",
+    ]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{stderr}");
+    assert!(stderr.contains("read in slabs"), "{stderr}");
+    let pyramid = Pyramid::open(&out, PyramidOptions::default()).unwrap();
+    assert_eq!(pyramid.read_level(0).unwrap(), data);
+    assert_eq!(pyramid.levels.len(), 3, "24x16x20 -> 12x8x10 -> 6x4x5");
+}
+
+#[test]
 fn info_lists_levels_channels_and_windows() {
     let path = fixtures().join("tczyx-v04.ome.zarr");
     let output = voxscope(&[
