@@ -21,7 +21,7 @@ fn load(path: &Path) -> Result<Volume, String> {
 fn load_raw(path: &Path, layout: &str) -> Result<Volume, String> {
     let options = LoadOptions {
         raw: Some(RawLayout::parse(layout).unwrap()),
-        spacing: None,
+        ..LoadOptions::default()
     };
     volume::load(path.to_str().unwrap(), &options).map_err(|e| e.to_string())
 }

@@ -55,7 +55,8 @@ pub struct VolumeData {
     pub volume: Volume,
     pub quantized: QuantizedVolume,
     pub octree: Octree,
-    /// The robust (0.5–99.5 %) window, the default.
+    /// The window the volume opened with: the file's own (OME-Zarr's omero) where it has one,
+    /// else the robust (0.5–99.5 %) window.
     pub default_window: ValueWindow,
     /// Histogram of the values in [`HISTOGRAM_BINS`] bins over the value range.
     pub histogram: Vec<u64>,
@@ -147,10 +148,13 @@ pub fn prepare_scene(
     progress.check()?;
     let mut octree = octree::build_with_progress(&quantized, BuildOptions::default(), progress)
         .map_err(|e| JobError::from_build(&volume.name, e))?;
-    let default_window = quantized.robust_window();
+    // The file's own window (OME-Zarr's omero) where it has one, else the percentiles.
+    let default_window = volume
+        .default_window
+        .unwrap_or_else(|| quantized.robust_window());
     let histogram = display_histogram(&quantized);
     let kind = DataKind::of_volume(&volume, &quantized);
-    let transfer = opening_transfer(choice, &quantized, kind);
+    let transfer = opening_transfer(choice, &quantized, kind, default_window);
     progress.begin("coloring");
     octree::recolor(&mut octree, &transfer);
     let statistics = octree::level_statistics(&octree);
@@ -183,13 +187,14 @@ pub fn prepare_scene(
 }
 
 /// The transfer function a volume opens with: its kind's default (a CT preset, labels) where
-/// it has one, else the user's `choice` over the robust window — unless that choice only
-/// makes sense for other data (a curve outside these values, the labels colormap), when a
-/// percentile ramp stands in.
+/// it has one, else the user's `choice` over `window` (the file's, or the robust one) — unless
+/// that choice only makes sense for other data (a curve outside these values, the labels
+/// colormap), when a percentile ramp stands in.
 pub fn opening_transfer(
     choice: TransferChoice,
     quantized: &QuantizedVolume,
     kind: DataKind,
+    window: ValueWindow,
 ) -> TransferFunction {
     if let Some(transfer) = default_transfer(quantized, kind) {
         return transfer;
@@ -206,7 +211,7 @@ pub fn opening_transfer(
         };
         return Preset::Ramp.transfer(quantized, colormap);
     }
-    choice.with_window(quantized.robust_window())
+    choice.with_window(window)
 }
 
 /// Uploads `data` for the renderer `options` names, colored by `transfer`.

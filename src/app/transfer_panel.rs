@@ -130,7 +130,7 @@ pub fn show(
     ui.horizontal_wrapped(|ui| {
         if ui
             .button("Auto")
-            .on_hover_text("0.5–99.5 percentiles")
+            .on_hover_text("The file's own window where it has one, else the 0.5–99.5 percentiles")
             .clicked()
         {
             *window = data.default_window;

@@ -15,7 +15,8 @@ use crate::volume::{LoadOptions, QuantizedVolume, RawLayout, ValueWindow};
 /// Which volume to open.
 #[derive(Debug, Clone, Args)]
 pub struct VolumeArgs {
-    /// Volume file (.nii, .nii.gz, .nrrd, .nhdr, raw with --raw) or synthetic:KIND:SIZE
+    /// Volume file (.nii, .nii.gz, .nrrd, .nhdr, raw with --raw), a folder (DICOM series,
+    /// slices, .zarr / .ome.zarr) or synthetic:KIND:SIZE
     /// (kinds: sphere, shells, noise, gradient; SIZE: N or XxYxZ). Default: the built-in
     /// sample head MRI.
     pub file: Option<String>,
@@ -25,6 +26,12 @@ pub struct VolumeArgs {
     /// Voxel size SX,SY,SZ (overrides the file's).
     #[arg(long, value_name = "SX,SY,SZ", value_parser = parse_spacing)]
     pub spacing: Option<[f64; 3]>,
+    /// The channel of a multi-channel OME-Zarr image (0 = the first).
+    #[arg(long, default_value_t = 0)]
+    pub channel: usize,
+    /// The time point of a time-lapse OME-Zarr image (0 = the first).
+    #[arg(long, default_value_t = 0)]
+    pub time: usize,
 }
 
 impl VolumeArgs {
@@ -33,6 +40,10 @@ impl VolumeArgs {
         LoadOptions {
             raw: self.raw,
             spacing: self.spacing,
+            zarr: crate::volume::ome_zarr::PyramidOptions {
+                channel: self.channel,
+                time: self.time,
+            },
         }
     }
 }
@@ -183,18 +194,20 @@ impl TransferArgs {
     }
 
     /// The transfer function for `volume`, whose values are of `kind`: --tf (`saved`), --preset,
-    /// --opacity-points or --opacity where given, else the kind's default (a CT preset, the
-    /// labels colormap), else alpha = gray; --window and --colormap override any of them.
+    /// --opacity-points or --opacity where given (over `default_window`), else the kind's
+    /// default (a CT preset, the labels colormap), else alpha = gray over `default_window`;
+    /// --window and --colormap override any of them.
     pub fn transfer_function(
         &self,
         volume: &QuantizedVolume,
         kind: DataKind,
         saved: Option<&TransferPreset>,
+        default_window: ValueWindow,
     ) -> TransferFunction {
         let colormap = self.colormap.unwrap_or(Colormap::Grays);
         let gray = |opacity| TransferFunction {
             opacity,
-            window: volume.robust_window(),
+            window: default_window,
             threshold: self.threshold,
             colormap,
         };
@@ -257,7 +270,7 @@ impl TransferArgs {
     }
 }
 
-fn parse_spacing(text: &str) -> Result<[f64; 3], String> {
+pub(super) fn parse_spacing(text: &str) -> Result<[f64; 3], String> {
     let values: Vec<f64> = text
         .split(',')
         .map(|v| v.trim().parse::<f64>())

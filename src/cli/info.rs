@@ -6,6 +6,7 @@ use serde_json::json;
 use super::{Prepared, TransferArgs, VolumeArgs};
 use crate::octree::{Node, full_tree_nodes, level_statistics};
 use crate::volume::format_dims;
+use crate::volume::ome_zarr::{Pyramid, is_zarr_folder};
 
 #[derive(Debug, Args)]
 pub struct InfoArgs {
@@ -20,13 +21,153 @@ pub struct InfoArgs {
 }
 
 pub fn run(args: &InfoArgs) -> Result<(), String> {
+    // A Zarr store's pyramid first: its levels, channels and axes, whichever level opens.
+    let pyramid = match &args.volume.file {
+        Some(spec) if is_zarr_folder(std::path::Path::new(spec)) => Some(
+            Pyramid::open(std::path::Path::new(spec), args.volume.load_options().zarr)
+                .map_err(|e| e.to_string())?,
+        ),
+        _ => None,
+    };
     let prepared = Prepared::new(&args.volume, &args.transfer)?;
     if args.json {
-        println!("{}", info_json(&prepared));
+        let mut json = info_json(&prepared);
+        if let Some(pyramid) = &pyramid {
+            json["pyramid"] = pyramid_json(pyramid);
+        }
+        println!("{json}");
     } else {
+        if let Some(pyramid) = &pyramid {
+            print!("{}", pyramid_table(pyramid));
+        }
         print!("{}", info_table(&prepared));
     }
     Ok(())
+}
+
+fn pyramid_json(p: &Pyramid) -> serde_json::Value {
+    json!({
+        "format": p.format,
+        "ome_version": p.ome_version,
+        "zarr_format": p.zarr_format,
+        "name": p.name,
+        "data_type": p.stored_type,
+        "read_as": p.voxel_type.name(),
+        "axes": p.axes.iter().map(|a| json!({
+            "name": a.name,
+            "type": format!("{:?}", a.kind).to_lowercase(),
+            "unit": a.unit,
+        })).collect::<Vec<_>>(),
+        "channels": p.channels,
+        "time_points": p.time_points,
+        "channel": p.selected.channel,
+        "time": p.selected.time,
+        "omero": p.omero.iter().map(|c| json!({
+            "label": c.label,
+            "color": c.color,
+            "window": c.window.map(|w| [w.low, w.high]),
+            "range": c.range,
+        })).collect::<Vec<_>>(),
+        "downscaling": p.downscaling,
+        "levels": p.levels.iter().map(|l| json!({
+            "path": l.path,
+            "dims": l.dims,
+            "spacing": l.spacing,
+            "origin": l.origin,
+            "chunk": l.chunk,
+            "shard": l.shard,
+            "codec": l.codec,
+            "fill_value": l.fill_value,
+        })).collect::<Vec<_>>(),
+    })
+}
+
+fn pyramid_table(p: &Pyramid) -> String {
+    use std::fmt::Write;
+    let mut out = String::new();
+    let version = p
+        .ome_version
+        .as_ref()
+        .map(|v| format!(" {v}"))
+        .unwrap_or_default();
+    let _ = writeln!(
+        out,
+        "zarr         {}{version} (Zarr v{}){}",
+        p.format,
+        p.zarr_format,
+        p.name
+            .as_ref()
+            .map(|n| format!(", image '{n}'"))
+            .unwrap_or_default()
+    );
+    let axes: Vec<String> = p
+        .axes
+        .iter()
+        .map(|a| match &a.unit {
+            Some(unit) => format!("{} ({unit})", a.name),
+            None => a.name.clone(),
+        })
+        .collect();
+    let _ = writeln!(out, "axes         {}", axes.join(", "));
+    let _ = writeln!(
+        out,
+        "data type    {}{}",
+        p.stored_type,
+        if p.stored_type == p.voxel_type.name() {
+            String::new()
+        } else {
+            format!(" (read as {})", p.voxel_type.name())
+        }
+    );
+    let _ = writeln!(
+        out,
+        "time points  {} (showing {})",
+        p.time_points, p.selected.time
+    );
+    let _ = writeln!(
+        out,
+        "channels     {} (showing {})",
+        p.channels, p.selected.channel
+    );
+    for (index, channel) in p.omero.iter().enumerate() {
+        let window = channel
+            .window
+            .map(|w| format!(", window {} … {}", w.low, w.high))
+            .unwrap_or_default();
+        let _ = writeln!(
+            out,
+            "  channel {index}  {}{}{window}",
+            channel.label.as_deref().unwrap_or("(no label)"),
+            channel
+                .color
+                .as_ref()
+                .map(|c| format!(", color #{c}"))
+                .unwrap_or_default()
+        );
+    }
+    let _ = writeln!(out);
+    let _ = writeln!(
+        out,
+        "{:>5} {:<8} {:>16} {:>12} {:>12} {:>26} {:>26}  codec",
+        "level", "path", "dims", "chunk", "shard", "spacing", "origin"
+    );
+    for (index, l) in p.levels.iter().enumerate() {
+        let triple = |v: [f64; 3]| format!("{} x {} x {}", v[0], v[1], v[2]);
+        let _ = writeln!(
+            out,
+            "{:>5} {:<8} {:>16} {:>12} {:>12} {:>26} {:>26}  {}",
+            index,
+            if l.path.is_empty() { "/" } else { &l.path },
+            format_dims(l.dims),
+            format_dims(l.chunk),
+            l.shard.map(format_dims).unwrap_or_else(|| "-".to_owned()),
+            triple(l.spacing),
+            triple(l.origin),
+            l.codec
+        );
+    }
+    let _ = writeln!(out);
+    out
 }
 
 fn info_json(p: &Prepared) -> serde_json::Value {

@@ -1,9 +1,10 @@
 //! The command line: `voxscope [FILE]` opens the app; `voxscope info`, `render`, `bench`,
-//! `ceilings`, `probe` and `slice` work without a window.
+//! `ceilings`, `probe`, `slice` and `convert` work without a window.
 
 mod args;
 mod bench;
 mod ceilings;
+mod convert;
 mod info;
 mod prepare;
 mod probe;
@@ -43,6 +44,8 @@ pub enum Command {
     Probe(probe::ProbeArgs),
     /// Write one slice of the volume to a PNG at one pixel per voxel, oriented as the app shows it.
     Slice(slice::SliceArgs),
+    /// Write any readable volume as a multiscale OME-Zarr image (0.4, or 0.5 sharded).
+    Convert(convert::ConvertArgs),
 }
 
 /// Runs the command line; returns the process exit code. Errors print as one line.
@@ -55,6 +58,7 @@ pub fn run() -> std::process::ExitCode {
         Some(Command::Ceilings(args)) => ceilings::run(&args),
         Some(Command::Probe(args)) => probe::run(&args),
         Some(Command::Slice(args)) => slice::run(&args),
+        Some(Command::Convert(args)) => convert::run(&args),
         None => crate::app::run(
             cli.file.map(crate::app::VolumeSource::Spec),
             cli.clip.clip(),

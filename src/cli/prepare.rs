@@ -36,7 +36,11 @@ impl Prepared {
         let mut octree =
             build_reporting_progress(&quantized).map_err(|e| format!("{}: {e}", volume.name))?;
         let kind = DataKind::of_volume(&volume, &quantized);
-        let transfer = transfer_args.transfer_function(&quantized, kind, saved.as_ref());
+        // A file's own window (OME-Zarr's omero) where it has one, else the percentiles.
+        let window = volume
+            .default_window
+            .unwrap_or_else(|| quantized.robust_window());
+        let transfer = transfer_args.transfer_function(&quantized, kind, saved.as_ref(), window);
         let recolor_time = octree::recolor(&mut octree, &transfer);
         Ok(Self {
             volume,

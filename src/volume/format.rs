@@ -15,7 +15,8 @@ pub struct Format {
     /// File name endings, lower case with their dot (`.nii.gz`), matched against the end of
     /// the name.
     pub extensions: &'static [&'static str],
-    /// Whether a folder of such files opens as one volume (a DICOM series).
+    /// Whether a folder of such files opens as one volume (a DICOM series), or
+    /// the folder is the volume (a Zarr store).
     pub opens_folders: bool,
     /// The format's magic bytes: true when the first bytes of a file (up to [`SNIFF_BYTES`])
     /// are this format's. Consulted only when no extension matched.
@@ -43,7 +44,7 @@ pub const SNIFF_BYTES: usize = 4096;
 /// strongest first (DICOM's `DICM` at byte 128 and MRC's `MAP ` at byte 208 could occur inside
 /// another format's header fields; NIfTI's 4-byte header size is the weakest, so last).
 /// Extensions never overlap, so their order does not matter.
-pub static FORMATS: [Format; 6] = [
+pub static FORMATS: [Format; 7] = [
     Format {
         name: "DICOM",
         extensions: &[".dcm"],
@@ -80,6 +81,13 @@ pub static FORMATS: [Format; 6] = [
         load: super::nifti::load,
     },
     Format {
+        name: "OME-Zarr",
+        extensions: &[".zarr"],
+        opens_folders: true,
+        sniff: None,
+        load: load_zarr,
+    },
+    Format {
         name: "VTK ImageData",
         extensions: &[".vti"],
         opens_folders: false,
@@ -87,6 +95,12 @@ pub static FORMATS: [Format; 6] = [
         load: super::vti::load,
     },
 ];
+
+/// A Zarr folder through the table (channel 0, time point 0; the registry passes the user's
+/// choice).
+fn load_zarr(path: &Path) -> Result<Volume, Problem> {
+    super::ome_zarr::load(path, super::ome_zarr::PyramidOptions::default())
+}
 
 /// The format whose extension ends `file_name` (any case).
 pub fn by_extension(file_name: &str) -> Option<&'static Format> {

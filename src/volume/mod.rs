@@ -9,6 +9,7 @@ mod io;
 mod mrc;
 mod nifti;
 mod nrrd;
+pub mod ome_zarr;
 mod orientation;
 mod raw;
 mod registry;
@@ -61,6 +62,9 @@ pub struct Volume {
     pub orientation: Orientation,
     /// Format-specific facts worth showing (`unit`, `modality`, `series`…), in order.
     pub metadata: Vec<(String, String)>,
+    /// The window the file advises for display (OME-Zarr's `omero` window), if any; the
+    /// default window where no other is chosen.
+    pub default_window: Option<ValueWindow>,
 }
 
 /// A linear map from stored values to the data's own units (NIfTI `scl_slope`/`scl_inter`).
@@ -114,6 +118,7 @@ impl Volume {
             value_scale: ValueScale::IDENTITY,
             orientation: Orientation::AsStored,
             metadata: Vec::new(),
+            default_window: None,
         })
     }
 

@@ -12,7 +12,7 @@ use super::io::{
     Storage, checked_payload_bytes, io_reason, open, read_payload, regular_file_size, skip_bytes,
     skip_lines,
 };
-use super::orientation::reorient_to_ras;
+use super::orientation::{keeps_stored_order, reorient_to_ras};
 use super::{Endian, Volume, VoxelData, VoxelType, checked_voxel_count};
 
 /// The header is text; anything longer than this is not a NRRD header.
@@ -140,6 +140,18 @@ fn finish(
     header: &Header,
     data: VoxelData,
 ) -> Result<Volume, Problem> {
+    let (directions, spacing) = geometry(axes, header);
+    let volume = Volume::new(path.display().to_string(), "NRRD", dims, spacing, data)
+        .map_err(|e| e.problem)?;
+    // Only a header that names its space says where RAS is.
+    Ok(match (directions, header.to_ras) {
+        (Some(directions), Some(_)) => reorient_to_ras(volume, directions),
+        _ => volume,
+    })
+}
+
+/// The spatial axes' directions in RAS (when the header gives them) and the voxel spacing.
+fn geometry(axes: &[usize; 3], header: &Header) -> (Option<[[f64; 3]; 3]>, [f64; 3]) {
     let directions: Option<[[f64; 3]; 3]> = header.space_directions.as_ref().and_then(|all| {
         let flips = header.to_ras.unwrap_or([1.0; 3]);
         let picked: Option<Vec<[f64; 3]>> = axes
@@ -159,13 +171,76 @@ fn finish(
                 .unwrap_or(1.0)
         }
     });
-    let volume = Volume::new(path.display().to_string(), "NRRD", dims, spacing, data)
-        .map_err(|e| e.problem)?;
-    // Only a header that names its space says where RAS is.
-    Ok(match (directions, header.to_ras) {
-        (Some(directions), Some(_)) => reorient_to_ras(volume, directions),
-        _ => volume,
-    })
+    (directions, spacing)
+}
+
+/// Where a raw-encoded NRRD's voxels lie, for reading them slab by slab in place.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct RawExtent {
+    /// The file holding the voxels (the `.nrrd` itself, or a `.nhdr`'s data file).
+    pub data: PathBuf,
+    /// Byte offset of the first voxel.
+    pub offset: u64,
+    /// Voxels along x, y, z.
+    pub dims: [usize; 3],
+    pub voxel_type: VoxelType,
+    pub endian: Endian,
+    pub spacing: [f64; 3],
+}
+
+/// The voxels of a raw-encoded NRRD as they lie in its data file (`convert` reads them in
+/// slabs), or `None` when they cannot be read in place as x, y, z slices: gzip or ascii
+/// encoding, line skips, or a `space` whose orientation reorders the axes on load. Checks the
+/// voxels fit in the file.
+pub(crate) fn raw_extent(path: &Path) -> Result<Option<RawExtent>, Problem> {
+    let mut reader = open(path)?;
+    let (header, header_bytes) = read_header(&mut reader)?;
+    let voxel_type = header
+        .voxel_type
+        .ok_or("NRRD header lacks the 'type' field")?;
+    let (dims, axes) = spatial_axes(&header)?;
+    if header.encoding != Some(NrrdEncoding::Raw) || header.line_skip != 0 {
+        return Ok(None);
+    }
+    let (directions, spacing) = geometry(&axes, &header);
+    if let (Some(directions), Some(_)) = (directions, header.to_ras)
+        && !keeps_stored_order(directions)
+    {
+        return Ok(None);
+    }
+    let endian = match header.endian {
+        Some(endian) => endian,
+        None if voxel_type.size() == 1 => Endian::Little,
+        None => return Err("NRRD header lacks the 'endian' field for multi-byte voxels".into()),
+    };
+    let (data, start) = match &header.data_file {
+        None => (path.to_path_buf(), header_bytes),
+        Some(name) => (detached_path(path, name)?, 0),
+    };
+    let file_bytes =
+        regular_file_size(&data).map_err(|problem| format!("the voxel data {problem}"))?;
+    let available = file_bytes.saturating_sub(start);
+    let bytes = checked_payload_bytes(dims, voxel_type, available, Storage::Plain)? as u64;
+    let offset = if header.byte_skip == -1 {
+        Some(file_bytes - bytes)
+    } else {
+        start.checked_add(header.byte_skip as u64)
+    };
+    let Some(offset) = offset.filter(|o| o.checked_add(bytes).is_some_and(|end| end <= file_bytes))
+    else {
+        return Err(format!(
+            "byte skip {}: the voxels end after the file's {file_bytes} bytes",
+            header.byte_skip
+        ));
+    };
+    Ok(Some(RawExtent {
+        data,
+        offset,
+        dims,
+        voxel_type,
+        endian,
+        spacing,
+    }))
 }
 
 /// The three spatial axes among the header's `dimension` axes (size-1 axes dropped when there

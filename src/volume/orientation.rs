@@ -81,6 +81,12 @@ pub(crate) fn reorient_to_ras(volume: Volume, directions: [[f64; 3]; 3]) -> Volu
     }
 }
 
+/// Whether [`reorient_to_ras`] leaves a volume of these `directions` as stored (already RAS,
+/// or degenerate), so its voxels can be read in place.
+pub(crate) fn keeps_stored_order(directions: [[f64; 3]; 3]) -> bool {
+    nearest_axes(directions).is_none_or(|axes| axes == [(0, true), (1, true), (2, true)])
+}
+
 /// For each stored axis, the world axis it runs along most and whether in the positive sense;
 /// `None` when two stored axes would share one world axis (degenerate input).
 fn nearest_axes(directions: [[f64; 3]; 3]) -> Option<[(usize, bool); 3]> {

@@ -17,12 +17,15 @@ pub struct LoadOptions {
     pub raw: Option<RawLayout>,
     /// Override the spacing the file gives (or lacks).
     pub spacing: Option<[f64; 3]>,
+    /// The channel and time point of a multi-channel or time-lapse image (OME-Zarr).
+    pub zarr: super::ome_zarr::PyramidOptions,
 }
 
 /// Loads the volume named by `spec`: a file path, or `synthetic:KIND:SIZE`.
 ///
 /// Files are recognized by extension, then by magic bytes ([`format::FORMATS`]); a folder is a
-/// DICOM series when it holds DICOM files, else a folder of slices. Nothing is ever written to
+/// Zarr store (OME-Zarr or a plain array) when it holds `zarr.json`, `.zgroup` or
+/// `.zarray`, a DICOM series when it holds DICOM files, else a folder of slices. Nothing is ever written to
 /// `spec`.
 pub fn load(spec: &str, options: &LoadOptions) -> Result<Volume, LoadError> {
     let mut volume = if let Some(rest) = spec.strip_prefix("synthetic:") {
@@ -43,6 +46,9 @@ fn load_file(path: &Path, options: &LoadOptions) -> Result<Volume, Problem> {
     let metadata =
         std::fs::metadata(path).map_err(|e| format!("cannot open: {}", io_reason(&e)))?;
     if metadata.is_dir() {
+        if super::ome_zarr::is_zarr_folder(path) {
+            return super::ome_zarr::load(path, options.zarr);
+        }
         if !super::dicom::dicom_files(path).is_empty() {
             return super::dicom::load(path);
         }

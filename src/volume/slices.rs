@@ -94,7 +94,7 @@ fn file_name(path: &Path) -> String {
 }
 
 /// The slice files of `dir`, sorted by the last number in the name, then by name.
-fn slice_files(dir: &Path) -> Result<Vec<PathBuf>, Problem> {
+pub(super) fn slice_files(dir: &Path) -> Result<Vec<PathBuf>, Problem> {
     let entries = std::fs::read_dir(dir).map_err(|e| format!("cannot list: {}", io_reason(&e)))?;
     let mut files: Vec<PathBuf> = entries
         .filter_map(Result::ok)
@@ -124,7 +124,7 @@ fn last_number(name: &str) -> Option<u64> {
 }
 
 /// One slice as a volume of depth 1 (TIFF through the stack reader, PNG through `image`).
-fn read_slice(path: &Path) -> Result<Volume, Problem> {
+pub(super) fn read_slice(path: &Path) -> Result<Volume, Problem> {
     let is_png = path
         .extension()
         .is_some_and(|e| e.to_string_lossy().eq_ignore_ascii_case("png"));

@@ -1,0 +1,146 @@
+//! `voxscope convert IN OUT.ome.zarr`: any readable volume to a multiscale OME-Zarr image.
+
+use std::path::Path;
+use std::time::Instant;
+
+use clap::{Args, ValueEnum};
+
+use super::args::parse_spacing;
+use crate::volume::ome_zarr::{
+    Compression, Downsampling, PyramidOptions, PyramidWriter, SlabSource, WriteOptions, ZarrVersion,
+};
+use crate::volume::{LoadOptions, RawLayout, format_dims};
+
+#[derive(Debug, Args)]
+pub struct ConvertArgs {
+    /// The volume to convert: any file or folder voxscope opens (raw with --raw).
+    pub input: String,
+    /// The folder to write (`NAME.ome.zarr`); it must not exist.
+    pub output: String,
+    /// Read INPUT as headerless voxels: XxYxZ:TYPE[:le|:be] (read in slabs, never whole).
+    #[arg(long, value_name = "LAYOUT", value_parser = RawLayout::parse)]
+    pub raw: Option<RawLayout>,
+    /// Voxel size SX,SY,SZ (overrides the input's).
+    #[arg(long, value_name = "SX,SY,SZ", value_parser = parse_spacing)]
+    pub spacing: Option<[f64; 3]>,
+    /// The channel of a multi-channel OME-Zarr input.
+    #[arg(long, default_value_t = 0)]
+    pub channel: usize,
+    /// The time point of a time-lapse OME-Zarr input.
+    #[arg(long, default_value_t = 0)]
+    pub time: usize,
+    /// OME-Zarr 0.4 (Zarr v2, a file per chunk) or 0.5 (Zarr v3, sharded).
+    #[arg(long, value_enum, default_value_t = FormatArg::V04)]
+    pub format: FormatArg,
+    /// Chunk side in voxels: a power of two from 8 to 512.
+    #[arg(long, default_value_t = 64)]
+    pub chunk: usize,
+    /// Chunks per shard side for --format 0.5 (a shard holds N³ chunks).
+    #[arg(long, default_value_t = 2)]
+    pub shard: usize,
+    /// blosc-lz4, blosc-zstd, zstd, gzip or none.
+    #[arg(long, default_value = "blosc-lz4", value_parser = Compression::parse)]
+    pub compression: Compression,
+    /// Label data: coarser levels take the maximum of each 2×2×2 block, not the mean.
+    #[arg(long)]
+    pub labels: bool,
+    /// The spacing's unit in the metadata (millimeter, micrometer, …); default: the input's,
+    /// if it says.
+    #[arg(long)]
+    pub unit: Option<String>,
+}
+
+/// `--format`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum FormatArg {
+    #[value(name = "0.4")]
+    V04,
+    #[value(name = "0.5")]
+    V05,
+}
+
+pub fn run(args: &ConvertArgs) -> Result<(), String> {
+    let spec = args.input.as_str();
+    let output = Path::new(&args.output);
+    if Path::new(spec) == output {
+        return Err(format!("{}: the output is the input", args.output));
+    }
+    let started = Instant::now();
+    let load_options = LoadOptions {
+        raw: args.raw,
+        spacing: args.spacing,
+        zarr: PyramidOptions {
+            channel: args.channel,
+            time: args.time,
+        },
+    };
+    let mut source = SlabSource::open(spec, &load_options).map_err(|e| e.to_string())?;
+    let options = WriteOptions {
+        version: match args.format {
+            FormatArg::V04 => ZarrVersion::V04,
+            FormatArg::V05 => ZarrVersion::V05,
+        },
+        chunk: args.chunk,
+        shard_chunks: args.shard,
+        compression: args.compression,
+        downsampling: if args.labels {
+            Downsampling::Max
+        } else {
+            Downsampling::Mean
+        },
+        name: Path::new(spec)
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|| spec.to_owned()),
+        unit: args.unit.clone().or_else(|| source.unit.clone()),
+    };
+    let mut writer = PyramidWriter::create(
+        output,
+        source.dims,
+        source.voxel_type,
+        source.spacing,
+        &options,
+    )
+    .map_err(|p| format!("{}: {p}", args.output))?;
+    eprintln!(
+        "converting {} ({} {}, {}) to OME-Zarr {} in {}³ chunks",
+        source.name,
+        format_dims(source.dims),
+        source.voxel_type.name(),
+        if source.streams() {
+            "read in slabs"
+        } else {
+            "loaded whole"
+        },
+        match args.format {
+            FormatArg::V04 => "0.4",
+            FormatArg::V05 => "0.5",
+        },
+        args.chunk
+    );
+    let depth = source.dims[2];
+    let slab = writer.slab_depth();
+    let mut z = 0;
+    while z < depth {
+        let count = slab.min(depth - z);
+        let data = source.read(z, count).map_err(|e| e.to_string())?;
+        writer
+            .push(&data)
+            .map_err(|p| format!("{}: {p}", args.output))?;
+        z += count;
+        eprint!("\rconverting: {:3.0} %", 100.0 * z as f64 / depth as f64);
+    }
+    let levels = writer
+        .finish()
+        .map_err(|p| format!("{}: {p}", args.output))?;
+    eprintln!("\rconverting: done ");
+    let shown: Vec<String> = levels.iter().map(|d| format_dims(*d)).collect();
+    println!(
+        "wrote {} ({} levels: {}) in {:.2} s",
+        args.output,
+        levels.len(),
+        shown.join(", "),
+        started.elapsed().as_secs_f64()
+    );
+    Ok(())
+}

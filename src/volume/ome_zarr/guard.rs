@@ -1,0 +1,274 @@
+//! Compressed chunks decode into no more bytes than their chunk holds.
+//!
+//! zarrs trusts what a compressed stream says about itself: its zstd codec reserves a frame's
+//! declared content size (a 20-byte frame can declare petabytes, and the reservation aborts
+//! the process), its gzip codec reads to the end of the stream however far that is, and blosc
+//! reserves the header's size (up to 2 GiB) before checking it. Each decoder here wraps zarrs's
+//! own codec and bounds the output by the size the codec chain expects at that stage (the
+//! chunk's voxels times their size, for numeric data), so a hostile or damaged chunk costs no
+//! more memory than a good one and fails with a message that says what it claimed.
+//!
+//! The wrappers are registered once, as zarrs runtime codec plugins under the same names
+//! (`blosc`, `zstd`, `gzip`, for Zarr v2 and v3); runtime plugins take precedence over the
+//! built-in ones, so every array zarrs opens afterwards, inner chunks of shards included, gets
+//! them. Encoding is zarrs's own, unchanged.
+
+use std::any::Any;
+use std::borrow::Cow;
+use std::io::Read;
+use std::sync::{Arc, Once};
+
+use zarrs::array::codec::api::{
+    CodecRuntimePluginV2, CodecRuntimePluginV3, PartialDecoderCapability, PartialEncoderCapability,
+    register_codec_v2, register_codec_v3,
+};
+use zarrs::array::codec::{BloscCodec, GzipCodec, ZstdCodec};
+use zarrs::array::{
+    ArrayBytesRaw, BytesRepresentation, BytesToBytesCodecTraits, Codec, CodecError,
+    CodecMetadataOptions, CodecOptions, CodecTraits, CodecTraitsV2, CodecTraitsV3,
+    RecommendedConcurrency,
+};
+use zarrs::metadata::Configuration;
+use zarrs::metadata::v2::MetadataV2;
+use zarrs::metadata::v3::MetadataV3;
+use zarrs::plugin::{ExtensionName, PluginCreateError, ZarrVersion};
+
+/// The compressors whose decoding is bounded here.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Compressor {
+    Blosc,
+    Zstd,
+    Gzip,
+}
+
+impl Compressor {
+    const ALL: [Self; 3] = [Self::Blosc, Self::Zstd, Self::Gzip];
+
+    fn name(self) -> &'static str {
+        match self {
+            Self::Blosc => "blosc",
+            Self::Zstd => "zstd",
+            Self::Gzip => "gzip",
+        }
+    }
+
+    /// zarrs's own codec for Zarr v3 metadata.
+    fn create_v3(self, metadata: &MetadataV3) -> Result<Codec, PluginCreateError> {
+        match self {
+            Self::Blosc => <BloscCodec as CodecTraitsV3>::create(metadata),
+            Self::Zstd => <ZstdCodec as CodecTraitsV3>::create(metadata),
+            Self::Gzip => <GzipCodec as CodecTraitsV3>::create(metadata),
+        }
+    }
+
+    /// zarrs's own codec for Zarr v2 metadata (numcodecs' `id`).
+    fn create_v2(self, metadata: &MetadataV2) -> Result<Codec, PluginCreateError> {
+        match self {
+            Self::Blosc => <BloscCodec as CodecTraitsV2>::create(metadata),
+            Self::Zstd => <ZstdCodec as CodecTraitsV2>::create(metadata),
+            Self::Gzip => <GzipCodec as CodecTraitsV2>::create(metadata),
+        }
+    }
+}
+
+/// Registers the bounded decoders (once per process; later calls do nothing).
+pub(crate) fn register() {
+    static REGISTERED: Once = Once::new();
+    REGISTERED.call_once(|| {
+        for compressor in Compressor::ALL {
+            // The handles would unregister the plugins; they stay for the process's life.
+            let _ = register_codec_v3(CodecRuntimePluginV3::new(
+                move |name| name == compressor.name(),
+                move |metadata| wrap(compressor, compressor.create_v3(metadata)?),
+            ));
+            let _ = register_codec_v2(CodecRuntimePluginV2::new(
+                move |name| name == compressor.name(),
+                move |metadata| wrap(compressor, compressor.create_v2(metadata)?),
+            ));
+        }
+    });
+}
+
+fn wrap(compressor: Compressor, codec: Codec) -> Result<Codec, PluginCreateError> {
+    match codec {
+        Codec::BytesToBytes(inner) => Ok(Codec::BytesToBytes(Arc::new(BoundedDecoder {
+            compressor,
+            inner,
+        }))),
+        _ => Err(PluginCreateError::Other(format!(
+            "{} is not a bytes-to-bytes codec",
+            compressor.name()
+        ))),
+    }
+}
+
+/// zarrs's codec for `compressor`, with decoding bounded by the expected size.
+#[derive(Debug)]
+struct BoundedDecoder {
+    compressor: Compressor,
+    inner: Arc<dyn BytesToBytesCodecTraits>,
+}
+
+impl ExtensionName for BoundedDecoder {
+    fn name(&self, version: ZarrVersion) -> Option<Cow<'static, str>> {
+        self.inner.name(version)
+    }
+}
+
+impl CodecTraits for BoundedDecoder {
+    fn as_any(&self) -> &dyn Any {
+        self
+    }
+
+    fn configuration(
+        &self,
+        version: ZarrVersion,
+        options: &CodecMetadataOptions,
+    ) -> Option<Configuration> {
+        self.inner.configuration(version, options)
+    }
+
+    fn partial_decoder_capability(&self) -> PartialDecoderCapability {
+        // Partial reads go through this type's `decode` (the trait's default partial
+        // decoder), so the bound holds there too.
+        PartialDecoderCapability {
+            partial_read: false,
+            partial_decode: false,
+        }
+    }
+
+    fn partial_encoder_capability(&self) -> PartialEncoderCapability {
+        self.inner.partial_encoder_capability()
+    }
+}
+
+impl BytesToBytesCodecTraits for BoundedDecoder {
+    fn into_dyn(self: Arc<Self>) -> Arc<dyn BytesToBytesCodecTraits> {
+        self
+    }
+
+    fn recommended_concurrency(
+        &self,
+        decoded_representation: &BytesRepresentation,
+    ) -> Result<RecommendedConcurrency, CodecError> {
+        self.inner.recommended_concurrency(decoded_representation)
+    }
+
+    fn encoded_representation(
+        &self,
+        decoded_representation: &BytesRepresentation,
+    ) -> BytesRepresentation {
+        self.inner.encoded_representation(decoded_representation)
+    }
+
+    fn encode<'a>(
+        &self,
+        decoded_value: ArrayBytesRaw<'a>,
+        options: &CodecOptions,
+    ) -> Result<ArrayBytesRaw<'a>, CodecError> {
+        self.inner.encode(decoded_value, options)
+    }
+
+    fn decode<'a>(
+        &self,
+        encoded_value: ArrayBytesRaw<'a>,
+        decoded_representation: &BytesRepresentation,
+        options: &CodecOptions,
+    ) -> Result<ArrayBytesRaw<'a>, CodecError> {
+        let expected = match decoded_representation {
+            BytesRepresentation::FixedSize(size) | BytesRepresentation::BoundedSize(size) => *size,
+            // Variable-length data (strings) has no bound to check; voxscope reads none.
+            BytesRepresentation::UnboundedSize => {
+                return self
+                    .inner
+                    .decode(encoded_value, decoded_representation, options);
+            }
+        };
+        match self.compressor {
+            Compressor::Blosc => {
+                check_blosc_header(&encoded_value, expected)?;
+                self.inner
+                    .decode(encoded_value, decoded_representation, options)
+            }
+            Compressor::Zstd => {
+                let decoder = zstd::stream::read::Decoder::with_buffer(&encoded_value[..])
+                    .map_err(|e| CodecError::Other(format!("zstd: {e}")))?;
+                read_bounded(decoder, expected, "zstd").map(Cow::Owned)
+            }
+            Compressor::Gzip => {
+                let decoder = flate2::read::GzDecoder::new(&encoded_value[..]);
+                read_bounded(decoder, expected, "gzip").map(Cow::Owned)
+            }
+        }
+    }
+}
+
+/// A blosc header (16 bytes: version, format version, flags, type size, then the decoded,
+/// block and compressed sizes as little-endian u32) must declare at most `expected` bytes.
+fn check_blosc_header(encoded: &[u8], expected: u64) -> Result<(), CodecError> {
+    if encoded.len() < 16 {
+        return Err(CodecError::Other(format!(
+            "blosc: {} bytes cannot hold the 16-byte header",
+            encoded.len()
+        )));
+    }
+    let declared = u32::from_le_bytes([encoded[4], encoded[5], encoded[6], encoded[7]]) as u64;
+    if declared > expected {
+        return Err(CodecError::Other(format!(
+            "blosc: the header declares {declared} decoded bytes, the chunk holds {expected}"
+        )));
+    }
+    Ok(())
+}
+
+/// Reads `decoder` to its end, refusing more than `expected` bytes. The buffer is reserved
+/// for `expected` bytes (the chunk's size, already checked against the limits) and never grows.
+fn read_bounded(decoder: impl Read, expected: u64, name: &str) -> Result<Vec<u8>, CodecError> {
+    let expected_bytes = usize::try_from(expected)
+        .map_err(|_| CodecError::Other(format!("{name}: {expected} bytes do not fit in memory")))?;
+    let mut decoded = Vec::with_capacity(expected_bytes);
+    let read = decoder
+        .take(expected + 1)
+        .read_to_end(&mut decoded)
+        .map_err(|e| CodecError::Other(format!("{name}: {e}")))?;
+    if read as u64 > expected {
+        return Err(CodecError::Other(format!(
+            "{name}: the stream holds more than the chunk's {expected} bytes"
+        )));
+    }
+    Ok(decoded)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bounded_reads_refuse_more_than_expected() {
+        let data = vec![7u8; 1000];
+        let mut encoder = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
+        std::io::Write::write_all(&mut encoder, &data).unwrap();
+        let gz = encoder.finish().unwrap();
+        let ok = read_bounded(flate2::read::GzDecoder::new(&gz[..]), 1000, "gzip").unwrap();
+        assert_eq!(ok, data);
+        let error = read_bounded(flate2::read::GzDecoder::new(&gz[..]), 999, "gzip").unwrap_err();
+        assert!(
+            error
+                .to_string()
+                .contains("more than the chunk's 999 bytes"),
+            "{error}"
+        );
+
+        let zst = zstd::encode_all(&data[..], 3).unwrap();
+        let decoder = zstd::stream::read::Decoder::with_buffer(&zst[..]).unwrap();
+        assert_eq!(read_bounded(decoder, 1000, "zstd").unwrap(), data);
+
+        let mut blosc = vec![2u8, 1, 0, 1];
+        blosc.extend_from_slice(&5000u32.to_le_bytes());
+        blosc.extend_from_slice(&[0; 8]);
+        assert!(check_blosc_header(&blosc, 5000).is_ok());
+        let error = check_blosc_header(&blosc, 4999).unwrap_err();
+        assert!(error.to_string().contains("declares 5000"), "{error}");
+        assert!(check_blosc_header(&blosc[..10], 5000).is_err());
+    }
+}

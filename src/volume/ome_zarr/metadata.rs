@@ -1,0 +1,439 @@
+//! The OME-Zarr attributes voxscope reads: `multiscales` (axes, datasets and their scale and
+//! translation) and `omero` (channel names, colors, windows), versions 0.1 to 0.5.
+//!
+//! Parsed from JSON by hand rather than with a strict schema: real files carry extra keys,
+//! older versions lack `axes` or transforms, and an error must name the key that is wrong
+//! (`multiscales[0].datasets[1].coordinateTransformations[0]: scale has 2 values for 3 axes`).
+
+use serde_json::{Map, Value};
+
+use super::super::ValueWindow;
+use super::super::error::{Problem, printable, quoted};
+
+/// At most this many levels (2⁶⁴ voxels halve to one in 64 steps).
+pub(crate) const MAX_LEVELS: usize = 64;
+
+/// What an axis is, by its `type` (or, without one, by its name: `t`, `c`, `x`, `y`, `z`).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum AxisKind {
+    Space,
+    Time,
+    Channel,
+    /// A type OME-Zarr allows but voxscope does not interpret (its extent must be 1).
+    Other(String),
+}
+
+/// One axis of the stored array, outermost first.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Axis {
+    /// The axis name (`t`, `c`, `z`, `y`, `x`, or the file's own).
+    pub name: String,
+    /// Space, time, channel or another type.
+    pub kind: AxisKind,
+    /// The unit (`micrometer`, `second`), when the file gives one.
+    pub unit: Option<String>,
+}
+
+/// One resolution level as the metadata describes it.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Dataset {
+    /// The array's path inside the group.
+    pub path: String,
+    /// Scale per axis (voxel size in the axis unit), when given.
+    pub scale: Option<Vec<f64>>,
+    /// Translation per axis (the first voxel's center), when given.
+    pub translation: Option<Vec<f64>>,
+}
+
+/// The first `multiscales` entry of a group.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Multiscale {
+    /// The OME-Zarr version (`0.4`, `0.5`), when given.
+    pub version: Option<String>,
+    /// The image's name, when given.
+    pub name: Option<String>,
+    /// The axes, when given (0.3 and later).
+    pub axes: Option<Vec<Axis>>,
+    /// Finest level first.
+    pub datasets: Vec<Dataset>,
+    /// Transforms applied to every level after its own: scale, translation.
+    pub global_scale: Option<Vec<f64>>,
+    pub global_translation: Option<Vec<f64>>,
+    /// How the levels were computed (`type`: `gaussian`, `mean`, …).
+    pub downscaling: Option<String>,
+}
+
+/// One channel of `omero`.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct OmeroChannel {
+    /// The channel's name (`label`).
+    pub label: Option<String>,
+    /// Its display color, `RRGGBB`.
+    pub color: Option<String>,
+    /// The display window (`window.start` … `window.end`), in the data's values.
+    pub window: Option<ValueWindow>,
+    /// The data range the file states (`window.min` … `window.max`).
+    pub range: Option<[f64; 2]>,
+}
+
+/// Where the OME attributes sit: `attributes.ome` (0.5) or the attributes themselves (≤ 0.4).
+pub(crate) fn ome_attributes(attributes: &Map<String, Value>) -> &Map<String, Value> {
+    match attributes.get("ome") {
+        Some(Value::Object(ome)) => ome,
+        _ => attributes,
+    }
+}
+
+/// The first `multiscales` entry, if the attributes have one.
+pub(crate) fn multiscale(attributes: &Map<String, Value>) -> Result<Option<Multiscale>, Problem> {
+    let ome = ome_attributes(attributes);
+    let Some(list) = ome.get("multiscales") else {
+        return Ok(None);
+    };
+    let list = list.as_array().ok_or("'multiscales' is not a list")?;
+    let first = list
+        .first()
+        .ok_or("'multiscales' is an empty list")?
+        .as_object()
+        .ok_or("multiscales[0] is not an object")?;
+    let at = "multiscales[0]";
+    let version = ome
+        .get("version")
+        .or_else(|| first.get("version"))
+        .and_then(Value::as_str)
+        .map(printable);
+    let name = first.get("name").and_then(Value::as_str).map(printable);
+    let axes = match first.get("axes") {
+        None | Some(Value::Null) => None,
+        Some(value) => Some(parse_axes(value, &format!("{at}.axes"))?),
+    };
+    let datasets_value = first
+        .get("datasets")
+        .ok_or_else(|| format!("{at} lacks 'datasets'"))?
+        .as_array()
+        .ok_or_else(|| format!("{at}.datasets is not a list"))?;
+    if datasets_value.is_empty() {
+        return Err(format!("{at}.datasets is empty"));
+    }
+    if datasets_value.len() > MAX_LEVELS {
+        return Err(format!(
+            "{at}.datasets lists {} levels; at most {MAX_LEVELS} are read",
+            datasets_value.len()
+        ));
+    }
+    let mut datasets = Vec::with_capacity(datasets_value.len());
+    for (index, dataset) in datasets_value.iter().enumerate() {
+        let at = format!("{at}.datasets[{index}]");
+        let object = dataset
+            .as_object()
+            .ok_or_else(|| format!("{at} is not an object"))?;
+        let path = object
+            .get("path")
+            .ok_or_else(|| format!("{at} lacks 'path'"))?
+            .as_str()
+            .ok_or_else(|| format!("{at}.path is not text"))?;
+        check_path(path).map_err(|problem| format!("{at}.path {}: {problem}", quoted(path)))?;
+        let (scale, translation) = match object.get("coordinateTransformations") {
+            None | Some(Value::Null) => (None, None),
+            Some(value) => parse_transforms(value, &format!("{at}.coordinateTransformations"))?,
+        };
+        datasets.push(Dataset {
+            path: path.to_owned(),
+            scale,
+            translation,
+        });
+    }
+    let (global_scale, global_translation) = match first.get("coordinateTransformations") {
+        None | Some(Value::Null) => (None, None),
+        Some(value) => parse_transforms(value, &format!("{at}.coordinateTransformations"))?,
+    };
+    let downscaling = first.get("type").and_then(Value::as_str).map(printable);
+    Ok(Some(Multiscale {
+        version,
+        name,
+        axes,
+        datasets,
+        global_scale,
+        global_translation,
+        downscaling,
+    }))
+}
+
+/// A dataset path is relative and stays inside the group: no `..`, no absolute path, no
+/// empty component (the store would otherwise be asked for keys outside the folder).
+pub(crate) fn check_path(path: &str) -> Result<(), &'static str> {
+    if path.is_empty() {
+        return Err("is empty");
+    }
+    if path.starts_with('/') || path.contains('\\') {
+        return Err("is not a relative path inside the group");
+    }
+    if path
+        .split('/')
+        .any(|part| part.is_empty() || part == "." || part == "..")
+    {
+        return Err("has an empty, '.' or '..' component");
+    }
+    Ok(())
+}
+
+fn parse_axes(value: &Value, at: &str) -> Result<Vec<Axis>, Problem> {
+    let list = value
+        .as_array()
+        .ok_or_else(|| format!("{at} is not a list"))?;
+    if !(2..=5).contains(&list.len()) {
+        return Err(format!(
+            "{at} has {} axes; OME-Zarr allows 2 to 5",
+            list.len()
+        ));
+    }
+    let mut axes = Vec::with_capacity(list.len());
+    for (index, axis) in list.iter().enumerate() {
+        let at = format!("{at}[{index}]");
+        // 0.3 lists names only.
+        let (name, kind, unit) = match axis {
+            Value::String(name) => (name.as_str(), None, None),
+            Value::Object(object) => {
+                let name = object
+                    .get("name")
+                    .and_then(Value::as_str)
+                    .ok_or_else(|| format!("{at} lacks a 'name'"))?;
+                let kind = object.get("type").and_then(Value::as_str);
+                let unit = object.get("unit").and_then(Value::as_str);
+                (name, kind, unit)
+            }
+            _ => return Err(format!("{at} is neither a name nor an object")),
+        };
+        let kind = match kind {
+            Some("space") => AxisKind::Space,
+            Some("time") => AxisKind::Time,
+            Some("channel") => AxisKind::Channel,
+            Some(other) => AxisKind::Other(printable(other)),
+            None => kind_by_name(name),
+        };
+        axes.push(Axis {
+            name: printable(name),
+            kind,
+            unit: unit.map(printable),
+        });
+    }
+    Ok(axes)
+}
+
+/// The kind an untyped axis has by its conventional name.
+pub(crate) fn kind_by_name(name: &str) -> AxisKind {
+    match name {
+        "x" | "y" | "z" => AxisKind::Space,
+        "t" => AxisKind::Time,
+        "c" => AxisKind::Channel,
+        other => AxisKind::Other(printable(other)),
+    }
+}
+
+/// The axes an array of `ndim` dimensions has when the file names none: OME-Zarr's order,
+/// `t c z y x` from the right.
+pub(crate) fn default_axes(ndim: usize) -> Vec<Axis> {
+    let names = ["t", "c", "z", "y", "x"];
+    names[names.len().saturating_sub(ndim)..]
+        .iter()
+        .map(|name| Axis {
+            name: (*name).to_owned(),
+            kind: kind_by_name(name),
+            unit: None,
+        })
+        .collect()
+}
+
+type Transforms = (Option<Vec<f64>>, Option<Vec<f64>>);
+
+fn parse_transforms(value: &Value, at: &str) -> Result<Transforms, Problem> {
+    let list = value
+        .as_array()
+        .ok_or_else(|| format!("{at} is not a list"))?;
+    let mut scale = None;
+    let mut translation = None;
+    for (index, transform) in list.iter().enumerate() {
+        let at = format!("{at}[{index}]");
+        let object = transform
+            .as_object()
+            .ok_or_else(|| format!("{at} is not an object"))?;
+        let kind = object
+            .get("type")
+            .and_then(Value::as_str)
+            .ok_or_else(|| format!("{at} lacks a 'type'"))?;
+        match kind {
+            "identity" => {}
+            "scale" | "translation" => {
+                if object.contains_key("path") && !object.contains_key(kind) {
+                    return Err(format!(
+                        "{at}: a {kind} stored in an array ('path') is not supported"
+                    ));
+                }
+                let values = numbers(object.get(kind), &format!("{at}.{kind}"))?;
+                if kind == "scale" {
+                    if values.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
+                        return Err(format!("{at}.scale has a value that is not positive"));
+                    }
+                    if scale.replace(values).is_some() {
+                        return Err(format!("{at}: a second scale"));
+                    }
+                } else if translation.replace(values).is_some() {
+                    return Err(format!("{at}: a second translation"));
+                }
+            }
+            other => {
+                return Err(format!(
+                    "{at}: transformation type {} is not supported (scale, translation, identity)",
+                    quoted(other)
+                ));
+            }
+        }
+    }
+    Ok((scale, translation))
+}
+
+fn numbers(value: Option<&Value>, at: &str) -> Result<Vec<f64>, Problem> {
+    let list = value
+        .and_then(Value::as_array)
+        .ok_or_else(|| format!("{at} is not a list of numbers"))?;
+    if list.len() > 5 {
+        return Err(format!(
+            "{at} has {} values; at most 5 axes exist",
+            list.len()
+        ));
+    }
+    list.iter()
+        .map(|v| {
+            v.as_f64().filter(|v| v.is_finite()).ok_or_else(|| {
+                format!("{at} holds {}, not a finite number", quoted(&v.to_string()))
+            })
+        })
+        .collect()
+}
+
+/// The `omero` channels, if the attributes have them. Malformed entries are skipped field by
+/// field (`omero` is display advice, transitional in the specification; a wrong color must not
+/// stop a volume from opening).
+pub(crate) fn omero_channels(attributes: &Map<String, Value>) -> Vec<OmeroChannel> {
+    const MAX_CHANNELS: usize = 1 << 16;
+    let Some(channels) = ome_attributes(attributes)
+        .get("omero")
+        .and_then(|omero| omero.get("channels"))
+        .and_then(Value::as_array)
+    else {
+        return Vec::new();
+    };
+    channels
+        .iter()
+        .take(MAX_CHANNELS)
+        .map(|channel| {
+            let label = channel.get("label").and_then(Value::as_str).map(printable);
+            let color = channel
+                .get("color")
+                .and_then(Value::as_str)
+                .filter(|c| c.len() == 6 && c.chars().all(|ch| ch.is_ascii_hexdigit()))
+                .map(|c| c.to_uppercase());
+            let window = channel.get("window");
+            let number = |key: &str| {
+                window
+                    .and_then(|w| w.get(key))
+                    .and_then(Value::as_f64)
+                    .filter(|v| v.is_finite())
+            };
+            let display = match (number("start"), number("end")) {
+                (Some(low), Some(high)) if high > low => Some(ValueWindow { low, high }),
+                _ => None,
+            };
+            let range = match (number("min"), number("max")) {
+                (Some(low), Some(high)) if high >= low => Some([low, high]),
+                _ => None,
+            };
+            OmeroChannel {
+                label,
+                color,
+                window: display,
+                range,
+            }
+        })
+        .collect()
+}
+
+/// A bioformats2raw layout's first image (`0`), when the group is such a container and has no
+/// multiscales of its own.
+pub(crate) fn bioformats2raw_image(attributes: &Map<String, Value>) -> bool {
+    ome_attributes(attributes).contains_key("bioformats2raw.layout")
+        && !ome_attributes(attributes).contains_key("multiscales")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn attributes(text: &str) -> Map<String, Value> {
+        serde_json::from_str(text).unwrap()
+    }
+
+    #[test]
+    fn reads_0_4_and_0_5_and_names_what_is_wrong() {
+        let v04 = attributes(
+            r#"{"multiscales": [{"version": "0.4", "name": "n", "extra": 1,
+                "axes": [{"name": "c", "type": "channel"}, {"name": "z", "type": "space", "unit": "micrometer"}, "y", {"name": "x"}],
+                "datasets": [{"path": "0", "coordinateTransformations": [{"type": "scale", "scale": [1, 0.5, 0.25, 0.25]}]},
+                             {"path": "1", "coordinateTransformations": [{"type": "scale", "scale": [1, 1, 0.5, 0.5]}, {"type": "translation", "translation": [0, 0.25, 0.125, 0.125]}]}]}]}"#,
+        );
+        let m = multiscale(&v04).unwrap().unwrap();
+        assert_eq!(m.version.as_deref(), Some("0.4"));
+        let axes = m.axes.unwrap();
+        assert_eq!(axes[0].kind, AxisKind::Channel);
+        assert_eq!(axes[1].unit.as_deref(), Some("micrometer"));
+        assert_eq!(axes[2].kind, AxisKind::Space);
+        assert_eq!(
+            m.datasets[1].translation.as_deref(),
+            Some(&[0.0, 0.25, 0.125, 0.125][..])
+        );
+
+        let v05 = attributes(
+            r#"{"ome": {"version": "0.5", "multiscales": [{"axes": ["z", "y", "x"], "datasets": [{"path": "s0"}]}]}}"#,
+        );
+        let m = multiscale(&v05).unwrap().unwrap();
+        assert_eq!(m.version.as_deref(), Some("0.5"));
+        assert_eq!(m.datasets[0].path, "s0");
+
+        let bad = |text: &str| multiscale(&attributes(text)).unwrap_err();
+        assert_eq!(
+            bad(r#"{"multiscales": []}"#),
+            "'multiscales' is an empty list"
+        );
+        assert_eq!(
+            bad(r#"{"multiscales": [{"datasets": [{"path": "../x"}]}]}"#),
+            "multiscales[0].datasets[0].path '../x': has an empty, '.' or '..' component"
+        );
+        assert_eq!(
+            bad(
+                r#"{"multiscales": [{"datasets": [{"path": "0", "coordinateTransformations": [{"type": "scale", "scale": [1, -2, 1]}]}]}]}"#
+            ),
+            "multiscales[0].datasets[0].coordinateTransformations[0].scale has a value that is not positive"
+        );
+        assert!(bad(r#"{"multiscales": [{"datasets": [{"path": "0", "coordinateTransformations": [{"type": "affine"}]}]}]}"#).contains("'affine' is not supported"));
+        assert!(multiscale(&attributes("{}")).unwrap().is_none());
+    }
+
+    #[test]
+    fn omero_channels_keep_what_is_valid() {
+        let channels = omero_channels(&attributes(
+            r#"{"omero": {"channels": [{"label": "DAPI", "color": "0000ff", "window": {"start": 10, "end": 200, "min": 0, "max": 255}},
+                                       {"color": "blue", "window": {"start": 5, "end": 5}}]}}"#,
+        ));
+        assert_eq!(channels.len(), 2);
+        assert_eq!(channels[0].color.as_deref(), Some("0000FF"));
+        assert_eq!(
+            channels[0].window,
+            Some(ValueWindow {
+                low: 10.0,
+                high: 200.0
+            })
+        );
+        assert_eq!(channels[0].range, Some([0.0, 255.0]));
+        assert_eq!(channels[1], OmeroChannel::default());
+    }
+}

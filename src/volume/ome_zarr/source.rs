@@ -1,0 +1,272 @@
+//! Where `convert` reads its input from, z slab by z slab: raw files, raw-encoded NRRD (whose
+//! axes load as stored) and folders of slices are read a slab at a time (so the output can be larger than memory); every other format
+//! is loaded whole and handed out in slabs.
+
+use std::fs::File;
+use std::io::{Read, Seek, SeekFrom};
+use std::path::{Path, PathBuf};
+
+use super::super::error::Problem;
+use super::super::io::io_reason;
+use super::super::{
+    Endian, LoadError, LoadOptions, MAX_AXIS, RawLayout, Scalar, Volume, VoxelData, VoxelType,
+    format_dims, with_voxel_slice,
+};
+
+/// An input volume read in z slabs.
+#[derive(Debug)]
+pub struct SlabSource {
+    /// The path or spec it came from.
+    pub name: String,
+    /// Voxels along x, y, z.
+    pub dims: [usize; 3],
+    /// The voxel size along x, y, z.
+    pub spacing: [f64; 3],
+    /// The stored type.
+    pub voxel_type: VoxelType,
+    /// The spacing's unit, when the input says.
+    pub unit: Option<String>,
+    input: Input,
+}
+
+#[derive(Debug)]
+enum Input {
+    Memory(VoxelData),
+    Raw {
+        file: File,
+        /// Byte offset of the first voxel.
+        offset: u64,
+        endian: Endian,
+    },
+    Slices(Vec<PathBuf>),
+}
+
+impl SlabSource {
+    /// Opens `spec` as the loaders would (`options` as for [`super::super::load`]); raw files
+    /// and folders of slices are not read yet.
+    pub fn open(spec: &str, options: &LoadOptions) -> Result<Self, LoadError> {
+        let path = Path::new(spec);
+        if let Some(layout) = &options.raw {
+            return Self::raw(path, layout, options.spacing).map_err(|p| LoadError::new(spec, p));
+        }
+        let is_nrrd = super::super::format::by_extension(&path.to_string_lossy())
+            .is_some_and(|format| format.name == "NRRD");
+        if is_nrrd && path.is_file() {
+            let extent =
+                super::super::nrrd::raw_extent(path).map_err(|p| LoadError::new(spec, p))?;
+            if let Some(extent) = extent {
+                return Self::nrrd(path, extent, options.spacing)
+                    .map_err(|p| LoadError::new(spec, p));
+            }
+        }
+        if path.is_dir()
+            && !super::is_zarr_folder(path)
+            && super::super::dicom::dicom_files(path).is_empty()
+        {
+            return Self::slices(path, options.spacing).map_err(|p| LoadError::new(spec, p));
+        }
+        let volume = super::super::load(spec, options)?;
+        Ok(Self::from_volume(volume))
+    }
+
+    /// A loaded volume, handed out in slabs.
+    pub fn from_volume(volume: Volume) -> Self {
+        let unit = volume
+            .metadata
+            .iter()
+            .find(|(key, _)| key == "unit")
+            .and_then(|(_, unit)| ome_unit(unit));
+        Self {
+            name: volume.name,
+            dims: volume.dims,
+            spacing: volume.spacing,
+            voxel_type: volume.data.voxel_type(),
+            unit,
+            input: Input::Memory(volume.data),
+        }
+    }
+
+    /// Whether slabs are read from the file as they are asked for (not loaded whole first).
+    pub fn streams(&self) -> bool {
+        !matches!(self.input, Input::Memory(_))
+    }
+
+    fn raw(path: &Path, layout: &RawLayout, spacing: Option<[f64; 3]>) -> Result<Self, Problem> {
+        let dims = layout.dims;
+        if dims.contains(&0) || dims.iter().any(|&d| d > MAX_AXIS) {
+            return Err(format!(
+                "raw layout {} needs extents from 1 to {MAX_AXIS}",
+                format_dims(dims)
+            ));
+        }
+        let bytes = dims
+            .iter()
+            .try_fold(layout.voxel_type.size() as u64, |acc, &d| {
+                acc.checked_mul(d as u64)
+            })
+            .ok_or("raw layout: too many voxels")?;
+        let file = File::open(path).map_err(|e| format!("cannot open: {}", io_reason(&e)))?;
+        let length = file
+            .metadata()
+            .map_err(|e| format!("cannot read: {}", io_reason(&e)))?
+            .len();
+        if length != bytes {
+            return Err(format!(
+                "raw layout {}:{} needs {bytes} bytes but the file holds {length}",
+                format_dims(dims),
+                layout.voxel_type.name()
+            ));
+        }
+        Ok(Self {
+            name: path.display().to_string(),
+            dims,
+            spacing: spacing.unwrap_or([1.0; 3]),
+            voxel_type: layout.voxel_type,
+            unit: None,
+            input: Input::Raw {
+                file,
+                offset: 0,
+                endian: layout.endian,
+            },
+        })
+    }
+
+    fn nrrd(
+        path: &Path,
+        extent: super::super::nrrd::RawExtent,
+        spacing: Option<[f64; 3]>,
+    ) -> Result<Self, Problem> {
+        if extent.dims.iter().any(|&d| d > MAX_AXIS) {
+            return Err(format!(
+                "dimensions {} exceed {MAX_AXIS} voxels per axis",
+                format_dims(extent.dims)
+            ));
+        }
+        let file = File::open(&extent.data)
+            .map_err(|e| format!("cannot open {}: {}", extent.data.display(), io_reason(&e)))?;
+        Ok(Self {
+            name: path.display().to_string(),
+            dims: extent.dims,
+            spacing: spacing.unwrap_or(extent.spacing),
+            voxel_type: extent.voxel_type,
+            unit: None,
+            input: Input::Raw {
+                file,
+                offset: extent.offset,
+                endian: extent.endian,
+            },
+        })
+    }
+
+    fn slices(dir: &Path, spacing: Option<[f64; 3]>) -> Result<Self, Problem> {
+        let files = super::super::slices::slice_files(dir)?;
+        let first_file = files.first().ok_or("is a folder without slice images")?;
+        let first = super::super::slices::read_slice(first_file)
+            .map_err(|p| format!("slice {}: {p}", first_file.display()))?;
+        if files.len() > MAX_AXIS {
+            return Err(format!("{} slices exceed {MAX_AXIS}", files.len()));
+        }
+        Ok(Self {
+            name: dir.display().to_string(),
+            dims: [first.dims[0], first.dims[1], files.len()],
+            spacing: spacing.unwrap_or(first.spacing),
+            voxel_type: first.data.voxel_type(),
+            unit: None,
+            input: Input::Slices(files),
+        })
+    }
+
+    /// Slices `z0 .. z0 + count` (within the depth), x fastest.
+    pub fn read(&mut self, z0: usize, count: usize) -> Result<VoxelData, LoadError> {
+        self.read_problem(z0, count)
+            .map_err(|problem| LoadError::new(&self.name, problem))
+    }
+
+    fn read_problem(&mut self, z0: usize, count: usize) -> Result<VoxelData, Problem> {
+        if count == 0 || z0 + count > self.dims[2] {
+            return Err(format!(
+                "slices {z0}..{} lie outside the depth {}",
+                z0 + count,
+                self.dims[2]
+            ));
+        }
+        let plane = self.dims[0] * self.dims[1];
+        match &mut self.input {
+            Input::Memory(data) => {
+                fn part<T: Scalar>(values: &[T], from: usize, to: usize) -> VoxelData {
+                    T::wrap(values[from..to].to_vec())
+                }
+                Ok(
+                    with_voxel_slice!(&*data, values => part(values, z0 * plane, (z0 + count) * plane)),
+                )
+            }
+            Input::Raw {
+                file,
+                offset,
+                endian,
+            } => {
+                let size = self.voxel_type.size();
+                let start = *offset + (z0 * plane * size) as u64;
+                let mut bytes = vec![0u8; count * plane * size];
+                file.seek(SeekFrom::Start(start))
+                    .and_then(|_| file.read_exact(&mut bytes))
+                    .map_err(|e| {
+                        format!("cannot read slices {z0}..{}: {}", z0 + count, io_reason(&e))
+                    })?;
+                Ok(VoxelData::decode(self.voxel_type, &bytes, *endian))
+            }
+            Input::Slices(files) => {
+                let mut data: Option<VoxelData> = None;
+                for file in &files[z0..z0 + count] {
+                    let slice = super::super::slices::read_slice(file)
+                        .map_err(|p| format!("slice {}: {p}", file.display()))?;
+                    if slice.dims != [self.dims[0], self.dims[1], 1] {
+                        return Err(format!(
+                            "slice {} is {} but the first is {}x{}x1",
+                            file.display(),
+                            format_dims(slice.dims),
+                            self.dims[0],
+                            self.dims[1]
+                        ));
+                    }
+                    let slice_type = slice.data.voxel_type();
+                    match &mut data {
+                        None => data = Some(slice.data),
+                        Some(data) => data.append(slice.data).map_err(|_| {
+                            format!(
+                                "slice {} holds {} values but the first holds {}",
+                                file.display(),
+                                slice_type.name(),
+                                self.voxel_type.name()
+                            )
+                        })?,
+                    }
+                }
+                let data = data.ok_or("no slices")?;
+                if data.voxel_type() != self.voxel_type {
+                    return Err(format!(
+                        "slice {} holds {} values but the first holds {}",
+                        files[z0].display(),
+                        data.voxel_type().name(),
+                        self.voxel_type.name()
+                    ));
+                }
+                Ok(data)
+            }
+        }
+    }
+}
+
+/// An OME-Zarr unit name for a unit a loader reports (`mm`, `µm`, `Å`), if it knows one.
+fn ome_unit(unit: &str) -> Option<String> {
+    let name = match unit.trim() {
+        "mm" | "millimeter" | "millimetre" => "millimeter",
+        "um" | "µm" | "μm" | "micron" | "micrometer" | "micrometre" => "micrometer",
+        "nm" | "nanometer" | "nanometre" => "nanometer",
+        "Å" | "angstrom" => "angstrom",
+        "cm" | "centimeter" => "centimeter",
+        "m" | "meter" | "metre" => "meter",
+        _ => return None,
+    };
+    Some(name.to_owned())
+}
