@@ -5,18 +5,19 @@
 
 use std::time::{Duration, Instant};
 
-use egui::{Align2, Color32, Pos2, Rect, Ui, UiBuilder, vec2};
+use egui::{Align2, Color32, Rect, Ui, UiBuilder, vec2};
 
 use super::AppGpu;
+use super::overlays::{draw_rulers, paint_overlays_3d};
 use super::pane_header::{grid_strip, pair_strip, pane_label};
+use super::picking::Picking;
 use super::scene::Scene;
 use super::settings::{AppSettings, Layout, Tool};
 use super::slice_pane::{self, SlicePane};
-use super::view_state::{MAX_GRID_PANES, Ruler, ViewState};
+use super::view_state::{MAX_GRID_PANES, ViewState};
 use super::viewport::{self, DrawKey, Pane};
 use crate::render::{
-    FrameProbe, FrameReport, GpuProbe, ProbeRequest, RenderError, RenderSettings, SliceSettings,
-    read_image,
+    FrameProbe, FrameReport, RenderError, RenderSettings, SliceSettings, read_image,
 };
 use crate::volume::Orientation;
 
@@ -68,13 +69,7 @@ impl CentralView {
             pane_rects: Vec::new(),
             view_rect: Rect::NOTHING,
             frame_probe: gpu.map(|gpu| FrameProbe::new(&gpu.context)),
-            picking: gpu.map(|gpu| Picking {
-                probe: GpuProbe::new(&gpu.context),
-                wanted: None,
-                in_flight: None,
-                hovered: None,
-                ruler_start: None,
-            }),
+            picking: gpu.map(Picking::new),
             last_report: None,
             draw_times: Vec::new(),
             interacting: false,
@@ -105,7 +100,7 @@ impl CentralView {
     /// view's ray under it reaches half opacity (the maximum, in MIP), as last picked.
     pub fn hovered_voxel(&self, dims: [usize; 3]) -> Option<[usize; 3]> {
         self.hovered_voxel.or_else(|| {
-            let point = self.picking.as_ref()?.hovered?;
+            let point = self.picking.as_ref()?.hovered()?;
             Some(std::array::from_fn(|a| {
                 (point[a].max(0.0) as usize).min(dims[a].saturating_sub(1))
             }))
@@ -129,10 +124,7 @@ impl CentralView {
     /// True while a frame's measurement or a picked point is on its way back from the GPU.
     pub fn is_measuring(&self) -> bool {
         self.frame_probe.as_ref().is_some_and(|p| !p.is_idle())
-            || self
-                .picking
-                .as_ref()
-                .is_some_and(|p| p.in_flight.is_some() || p.wanted.is_some())
+            || self.picking.as_ref().is_some_and(Picking::is_busy)
     }
 
     /// Takes what the GPU has delivered since the last frame: an earlier frame's measurement,
@@ -142,29 +134,8 @@ impl CentralView {
         if let Some(report) = self.frame_probe.as_mut().and_then(|p| p.poll(&gpu.context)) {
             self.last_report = Some(report);
         }
-        let Some(picking) = &mut self.picking else {
-            return;
-        };
-        let Some(outcome) = picking.probe.poll(&gpu.context) else {
-            return;
-        };
-        let Some(request) = picking.in_flight.take() else {
-            return;
-        };
-        let point = outcome.hit.map(|hit| hit.point.map(f64::from));
-        match request.purpose {
-            PickPurpose::Hover => picking.hovered = point,
-            PickPurpose::Click => {
-                picking.hovered = point;
-                let Some(point) = point else { return };
-                match tool {
-                    Tool::Navigate => view.cursor = point,
-                    Tool::Ruler => match picking.ruler_start.take() {
-                        Some(from) => view.rulers.push(Ruler { from, to: point }),
-                        None => picking.ruler_start = Some(point),
-                    },
-                }
-            }
+        if let Some(picking) = &mut self.picking {
+            picking.poll(gpu, view, tool);
         }
     }
 
@@ -266,7 +237,7 @@ impl CentralView {
             }
         }
         if !volume_hovered && let Some(picking) = &mut self.picking {
-            picking.hovered = None;
+            picking.clear_hover();
         }
         if was_interacting && !self.interacting {
             // Motion ended: one more frame draws the full-resolution image.
@@ -467,7 +438,10 @@ impl CentralView {
             pane.drawn = Some(key);
             drew = true;
         }
-        self.record_pick(gpu, scene);
+        if let Some(picking) = &mut self.picking {
+            let drawn: Vec<Option<DrawKey>> = self.panes.iter().map(|p| p.drawn).collect();
+            picking.record(gpu, scene, &drawn);
+        }
         let now = Instant::now();
         if drew {
             self.draw_times.push(now);
@@ -475,57 +449,6 @@ impl CentralView {
         self.draw_times
             .retain(|t| now.duration_since(*t) < Duration::from_secs(1));
         Ok(())
-    }
-
-    /// Probes the pixel a pane's pointer asked for, if the GPU probe is free: the pane's last
-    /// frame says what its rays see.
-    fn record_pick(&mut self, gpu: &AppGpu, scene: &Scene) {
-        let Some(picking) = &mut self.picking else {
-            return;
-        };
-        if !picking.probe.is_idle() {
-            return;
-        }
-        let Some(request) = picking.wanted.take() else {
-            return;
-        };
-        let Some(DrawKey::Volume {
-            size,
-            camera,
-            settings,
-            ..
-        }) = self.panes.get(request.pane).and_then(|p| p.drawn)
-        else {
-            return;
-        };
-        let pixel = [
-            request.pixel[0].min(size[0].saturating_sub(1)),
-            request.pixel[1].min(size[1].saturating_sub(1)),
-        ];
-        let mut encoder =
-            gpu.context
-                .device
-                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                    label: Some("voxscope::app_pick"),
-                });
-        let probe_request = ProbeRequest {
-            size,
-            pixel,
-            camera: &camera,
-            settings: &settings,
-        };
-        match picking
-            .probe
-            .record(&gpu.context, &mut encoder, &scene.renderer, &probe_request)
-        {
-            Ok(true) => {
-                gpu.context.queue.submit([encoder.finish()]);
-                picking.probe.submitted();
-                picking.in_flight = Some(request);
-            }
-            Ok(false) => picking.wanted = Some(request),
-            Err(error) => eprintln!("voxscope: error: {error}"),
-        }
     }
 
     /// What is drawn: the panes' images composed as laid out, at full pixel resolution, with
@@ -566,57 +489,6 @@ impl CentralView {
             return Err("nothing is drawn yet".into());
         }
         Ok(canvas)
-    }
-}
-
-/// Draws the rulers a pane shows into its place `rect` (pixels) of a screenshot: projected in
-/// a 3D view, and in a slice those that lie in it.
-fn draw_rulers(
-    canvas: &mut image::RgbaImage,
-    rect: Rect,
-    drawn: &DrawKey,
-    scene: &Scene,
-    view: &ViewState,
-) {
-    let volume = &scene.data.volume;
-    let color = image::Rgba(RULER_COLOR.to_array());
-    let unit = super::octree_panel::unit(volume);
-    for ruler in &view.rulers {
-        let ends = match drawn {
-            DrawKey::Volume { camera, .. } => {
-                let project =
-                    |p| viewport::project(camera, volume.extent(), volume.spacing, rect, p);
-                project(ruler.from).zip(project(ruler.to))
-            }
-            DrawKey::Slice {
-                settings: slice, ..
-            } => {
-                let frame = &slice.frame;
-                let axis = (0..3)
-                    .find(|&a| frame.step_x[a] == 0.0 && frame.step_y[a] == 0.0)
-                    .unwrap_or(2);
-                let on_plane = |p: [f64; 3]| (p[axis] - frame.origin[axis]).abs() <= 0.5 + 1e-9;
-                (on_plane(ruler.from) && on_plane(ruler.to)).then(|| {
-                    let at = |p| {
-                        let [x, y] = frame.pixel_of(p);
-                        egui::pos2(rect.left() + x as f32, rect.top() + y as f32)
-                    };
-                    (at(ruler.from), at(ruler.to))
-                })
-            }
-        };
-        let Some((from, to)) = ends else { continue };
-        super::annotate::line(canvas, [from.x, from.y], [to.x, to.y], 2.0, color);
-        super::annotate::disc(canvas, [from.x, from.y], 3.0, color);
-        super::annotate::disc(canvas, [to.x, to.y], 3.0, color);
-        let middle = from.lerp(to, 0.5);
-        super::annotate::text(
-            canvas,
-            [middle.x + 6.0, middle.y - 16.0],
-            &format!("{:.1} {unit}", ruler.length(volume.spacing)),
-            2,
-            color,
-        );
     }
 }
 
@@ -685,170 +557,4 @@ fn grid_rects(area: Rect, count: usize, gap: f32) -> Vec<Rect> {
             )
         })
         .collect()
-}
-
-/// The error banner over the bottom of `view_rect`, as tall as its wrapped message needs;
-/// returns true when Dismiss was clicked.
-pub fn error_banner(ui: &mut Ui, view_rect: Rect, message: &str) -> bool {
-    const MARGIN: f32 = 8.0;
-    const BUTTON_WIDTH: f32 = 70.0;
-    let area = view_rect.shrink(12.0);
-    let text_width = (area.width() - 2.0 * MARGIN - BUTTON_WIDTH).max(40.0);
-    let galley = ui.painter().layout(
-        format!("Error: {message}"),
-        egui::TextStyle::Body.resolve(ui.style()),
-        Color32::WHITE,
-        text_width,
-    );
-    let height = (galley.size().y + 2.0 * MARGIN).clamp(36.0, area.height());
-    let banner = Rect::from_min_max(egui::pos2(area.left(), area.bottom() - height), area.max);
-    ui.painter()
-        .rect_filled(banner, 4.0, Color32::from_rgb(120, 24, 24));
-    let text_at = banner.min + vec2(MARGIN, MARGIN);
-    ui.painter().galley(text_at, galley, Color32::WHITE);
-    let button = Rect::from_min_size(
-        egui::pos2(
-            banner.right() - MARGIN - BUTTON_WIDTH,
-            banner.top() + MARGIN,
-        ),
-        vec2(BUTTON_WIDTH, 20.0),
-    );
-    ui.put(button, egui::Button::new("Dismiss")).clicked()
-}
-
-/// The colors of the slice views, as 3D Slicer's: axial red, coronal green, sagittal yellow.
-/// Index by the axis a slice is perpendicular to (x: sagittal, y: coronal, z: axial).
-pub const SLICE_COLORS: [Color32; 3] = [
-    Color32::from_rgb(230, 200, 60),
-    Color32::from_rgb(90, 190, 90),
-    Color32::from_rgb(225, 80, 70),
-];
-
-/// The ruler's color on every view.
-pub const RULER_COLOR: Color32 = Color32::from_rgb(80, 220, 255);
-
-/// Draws what the 3D pane `rect` shows over the volume: the rulers with their lengths, and in
-/// the Slices layout the cursor and (as an option) the three slice planes through it.
-fn paint_overlays_3d(ui: &Ui, rect: Rect, scene: &Scene, settings: &AppSettings, view: &ViewState) {
-    let volume = &scene.data.volume;
-    let (extent, spacing, dims) = (volume.extent(), volume.spacing, volume.dims);
-    let project =
-        |voxel: [f64; 3]| viewport::project(&settings.camera, extent, spacing, rect, voxel);
-    let painter = ui.painter_at(rect);
-    let unit = super::octree_panel::unit(volume);
-    for ruler in &view.rulers {
-        let (Some(from), Some(to)) = (project(ruler.from), project(ruler.to)) else {
-            continue;
-        };
-        painter.line_segment([from, to], egui::Stroke::new(2.0, RULER_COLOR));
-        painter.circle_filled(from, 3.0, RULER_COLOR);
-        painter.circle_filled(to, 3.0, RULER_COLOR);
-        painter.text(
-            from.lerp(to, 0.5) + vec2(6.0, -6.0),
-            Align2::LEFT_BOTTOM,
-            format!("{:.1} {unit}", ruler.length(spacing)),
-            egui::FontId::proportional(13.0),
-            RULER_COLOR,
-        );
-    }
-    if settings.layout != Layout::Slices {
-        return;
-    }
-    let cursor = view.cursor;
-    if settings.show_slice_planes {
-        for (axis, color) in SLICE_COLORS.iter().enumerate() {
-            let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
-            let corners: Vec<Pos2> = [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)]
-                .iter()
-                .filter_map(|&(a, b)| {
-                    let mut point = cursor;
-                    point[u] = a * dims[u] as f64;
-                    point[v] = b * dims[v] as f64;
-                    project(point)
-                })
-                .collect();
-            if corners.len() == 4 {
-                painter.add(egui::Shape::closed_line(
-                    corners,
-                    egui::Stroke::new(1.5, color.gamma_multiply(0.8)),
-                ));
-            }
-        }
-    }
-    // Arms 4 % of the volume's largest physical side long.
-    let arm = extent.iter().copied().fold(0.0, f64::max) * 0.04;
-    for (axis, color) in SLICE_COLORS.iter().enumerate() {
-        let mut from = cursor;
-        let mut to = cursor;
-        from[axis] -= arm / spacing[axis];
-        to[axis] += arm / spacing[axis];
-        if let (Some(a), Some(b)) = (project(from), project(to)) {
-            painter.line_segment([a, b], egui::Stroke::new(2.0, *color));
-        }
-    }
-}
-
-/// Picking points in the 3D view: the GPU probe, and what its answers are for.
-struct Picking {
-    probe: GpuProbe,
-    /// The next pixel to probe (the latest the pointer asked for).
-    wanted: Option<PickRequest>,
-    /// The probe on its way back.
-    in_flight: Option<PickRequest>,
-    /// The voxel-space point under the pointer, as last probed.
-    hovered: Option<[f64; 3]>,
-    /// The first end of a ruler measured in the 3D view.
-    ruler_start: Option<[f64; 3]>,
-}
-
-/// A pixel of a 3D pane to probe, and why.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct PickRequest {
-    pane: usize,
-    pixel: [u32; 2],
-    purpose: PickPurpose,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum PickPurpose {
-    /// The status bar's value under the pointer.
-    Hover,
-    /// A click: move the cursor there, or a ruler's end.
-    Click,
-}
-
-impl Picking {
-    /// Asks for the point under the pointer of pane `index` (`rect`, its image `target`
-    /// pixels): on a click, or when the pointer moved over it.
-    fn want(
-        &mut self,
-        response: &egui::Response,
-        ui: &Ui,
-        index: usize,
-        rect: Rect,
-        target: [u32; 2],
-    ) {
-        let Some(pointer) = response.hover_pos() else {
-            return;
-        };
-        let pixel = [
-            ((pointer.x - rect.left()) / rect.width().max(1.0) * target[0] as f32) as u32,
-            ((pointer.y - rect.top()) / rect.height().max(1.0) * target[1] as f32) as u32,
-        ];
-        let purpose = if response.clicked() {
-            PickPurpose::Click
-        } else if ui.input(|i| i.pointer.delta() != egui::Vec2::ZERO) && !response.dragged() {
-            PickPurpose::Hover
-        } else {
-            return;
-        };
-        // A click is never replaced by a later hover.
-        if self.wanted.is_none_or(|w| w.purpose == PickPurpose::Hover) {
-            self.wanted = Some(PickRequest {
-                pane: index,
-                pixel,
-                purpose,
-            });
-        }
-    }
 }

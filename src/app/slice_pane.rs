@@ -6,7 +6,7 @@
 
 use egui::{Align2, Color32, PointerButton, Pos2, Rect, Response, Stroke, Ui, pos2, vec2};
 
-use super::central::{RULER_COLOR, SLICE_COLORS};
+use super::overlays::{RULER_COLOR, SLICE_COLORS};
 use super::scene::Scene;
 use super::settings::{AppSettings, Tool};
 use super::view_state::{Ruler, ViewState};

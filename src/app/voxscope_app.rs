@@ -2,25 +2,25 @@
 //! background jobs, the central view) and the one place where [`Command`]s and finished jobs
 //! change it. The panels, menus and central view draw themselves in their own modules.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use egui::Ui;
 
 use super::AppGpu;
-use super::central::{self, CentralView, ViewInputs};
+use super::central::{CentralView, ViewInputs};
 use super::command::{Command, CommandQueue};
-use super::dialogs::{self, DialogKind, NOT_SHOWN_WITHIN};
+use super::dialogs::DialogKind;
 use super::file_browser::{BrowserOutcome, FileBrowser};
-use super::jobs::{DialogAnswer, Job, JobError, JobEvent, Jobs, Opened};
+use super::jobs::{Job, JobError, JobEvent, Jobs, Opened};
 use super::menu::{self, NOTICE_DURATION};
 use super::octree_panel::{self, OctreeFacts};
-use super::scene::{self, Scene, VolumeData, VolumeSource, prepare_scene};
+use super::overlays;
+use super::scene::{self, Scene, VolumeData, VolumeSource};
 use super::settings::{AppSettings, STORAGE_KEY, TransferChoice, TransferPreset};
 use super::transfer_panel;
 use super::view_state::{Clipping, ViewState};
-use super::viewport;
 use crate::octree::{Clip, LevelStatistics, TransferFunction};
 use crate::render::{FrameReport, GpuContext, RendererKind, RendererOptions};
 
@@ -30,23 +30,23 @@ pub struct VoxscopeApp {
     pub settings: AppSettings,
     /// The view state of the volume on screen (reset when another opens).
     pub view: ViewState,
-    gpu: Option<AppGpu>,
-    scene: Option<Scene>,
+    pub(super) gpu: Option<AppGpu>,
+    pub(super) scene: Option<Scene>,
     /// Bumped for every new scene, so panes redraw.
-    scene_serial: u64,
-    jobs: Jobs,
-    commands: CommandQueue,
-    central: CentralView,
+    pub(super) scene_serial: u64,
+    pub(super) jobs: Jobs,
+    pub(super) commands: CommandQueue,
+    pub(super) central: CentralView,
     /// The last failure, shown until dismissed.
-    error: Option<String>,
+    pub(super) error: Option<String>,
     /// A short confirmation (screenshot saved), shown a few seconds.
-    notice: Option<(String, Instant)>,
+    pub(super) notice: Option<(String, Instant)>,
     /// The app's own file browser, while open.
-    browser: Option<FileBrowser>,
+    pub(super) browser: Option<FileBrowser>,
     /// The desktop could not show a file dialog: use the app's browser from now on.
-    no_desktop_dialogs: bool,
+    pub(super) no_desktop_dialogs: bool,
     /// The clip the first volume opens with (the command line's `--clip-box`, `--clip-plane`).
-    first_clip: Option<Clip>,
+    pub(super) first_clip: Option<Clip>,
 }
 
 impl VoxscopeApp {
@@ -91,86 +91,9 @@ impl VoxscopeApp {
         app
     }
 
-    /// Carries out `command` now. Menus, toolbar and shortcuts queue theirs and the app runs
-    /// them after the frame's UI; tests call this directly.
-    pub fn run_command(&mut self, command: Command, ctx: &egui::Context) {
-        let result = match command {
-            Command::Open(source) => {
-                self.open(source, ctx);
-                Ok(None)
-            }
-            Command::ShowDialog(kind) if self.no_desktop_dialogs => {
-                self.browse(kind, ctx);
-                Ok(None)
-            }
-            Command::ShowDialog(kind) => {
-                self.show_dialog(kind, ctx);
-                Ok(None)
-            }
-            Command::Browse(kind) => {
-                self.browse(kind, ctx);
-                Ok(None)
-            }
-            Command::CancelOpen => {
-                self.jobs.cancel_open();
-                Ok(None)
-            }
-            Command::SaveScreenshot(path) => self
-                .save_screenshot(&path, ctx.pixels_per_point())
-                .map(|()| Some(format!("saved {}", path.display()))),
-            Command::SaveTransfer(path) => self
-                .save_transfer(&path)
-                .map(|()| Some(format!("saved {}", path.display()))),
-            Command::LoadTransfer(path) => self
-                .load_transfer(&path)
-                .map(|()| Some(format!("loaded {}", path.display()))),
-            Command::SetLayout(layout) => {
-                self.settings.layout = layout;
-                Ok(None)
-            }
-            Command::ViewFrom(preset) => {
-                let (azimuth, elevation) = preset.angles();
-                self.settings.camera = viewport::preset(&self.settings.camera, azimuth, elevation);
-                Ok(None)
-            }
-            Command::ResetCamera => {
-                self.settings.camera = Default::default();
-                Ok(None)
-            }
-            Command::TogglePanel(panel) => {
-                self.settings.toggle_panel(panel);
-                Ok(None)
-            }
-            Command::SetTool(tool) => {
-                self.settings.tool = tool;
-                Ok(None)
-            }
-            Command::SetSliceLinear(linear) => {
-                self.settings.slice_linear = linear;
-                Ok(None)
-            }
-            Command::ShowSlicePlanes(show) => {
-                self.settings.show_slice_planes = show;
-                Ok(None)
-            }
-            Command::ClearRulers => {
-                self.view.rulers.clear();
-                Ok(None)
-            }
-            Command::DismissError => {
-                self.error = None;
-                Ok(None)
-            }
-            Command::Quit => {
-                ctx.send_viewport_cmd(egui::ViewportCommand::Close);
-                Ok(None)
-            }
-        };
-        match result {
-            Ok(Some(notice)) => self.notify(notice),
-            Ok(None) => {}
-            Err(message) => self.fail(message),
-        }
+    /// Whether the app's file browser is open, and for what.
+    pub fn browsing(&self) -> Option<DialogKind> {
+        self.browser.as_ref().map(FileBrowser::kind)
     }
 
     /// Opens the first volume clipped by `clip` (the command line's clip options).
@@ -287,55 +210,25 @@ impl VoxscopeApp {
         Ok(())
     }
 
-    fn renderer_options(&self) -> RendererOptions {
+    pub(super) fn renderer_options(&self) -> RendererOptions {
         RendererOptions {
             kind: self.settings.renderer,
             brick_size: self.settings.brick_size,
         }
     }
 
-    fn fail(&mut self, message: impl Into<String>) {
+    pub(super) fn fail(&mut self, message: impl Into<String>) {
         let message = message.into();
         eprintln!("voxscope: error: {message}");
         self.error = Some(message);
     }
 
-    fn notify(&mut self, text: impl Into<String>) {
+    pub(super) fn notify(&mut self, text: impl Into<String>) {
         self.notice = Some((text.into(), Instant::now()));
     }
 
-    /// Opens `source` in the background; the current volume stays until it is ready.
-    fn open(&mut self, source: VolumeSource, ctx: &egui::Context) {
-        let Some(gpu) = &self.gpu else {
-            self.fail("no GPU device");
-            return;
-        };
-        let context = Arc::clone(&gpu.context);
-        let choice = self.settings.transfer;
-        let options = self.renderer_options();
-        let wake = ctx.clone();
-        let title = format!("opening {}", source.spec());
-        self.jobs.open(Job::spawn(
-            title,
-            move || wake.request_repaint(),
-            move |progress| prepare_scene(&source, choice, &context, options, progress),
-        ));
-    }
-
-    /// Starts a native file dialog on its own thread (the UI keeps running).
-    fn show_dialog(&mut self, kind: DialogKind, ctx: &egui::Context) {
-        if self.jobs.dialog.is_some() {
-            return;
-        }
-        let wake = ctx.clone();
-        let receiver = dialogs::spawn(kind, recent_directory(&self.settings), move || {
-            wake.request_repaint()
-        });
-        self.jobs.dialog = Some((kind, receiver));
-    }
-
     /// Applies what finished in the background since the last frame.
-    fn handle_job_events(&mut self, ctx: &egui::Context) {
+    pub(super) fn handle_job_events(&mut self, ctx: &egui::Context) {
         for event in self.jobs.poll() {
             match event {
                 JobEvent::Opened(opened) => self.show_opened(*opened),
@@ -369,47 +262,7 @@ impl VoxscopeApp {
         }
     }
 
-    /// Opens the app's own file browser for `kind`, in the folder of the most recent file.
-    fn browse(&mut self, kind: DialogKind, ctx: &egui::Context) {
-        self.browser = Some(FileBrowser::new(
-            kind,
-            recent_directory(&self.settings),
-            ctx,
-        ));
-    }
-
-    /// Whether the app's file browser is open, and for what.
-    pub fn browsing(&self) -> Option<DialogKind> {
-        self.browser.as_ref().map(FileBrowser::kind)
-    }
-
-    fn dialog_closed(&mut self, kind: DialogKind, answer: DialogAnswer, ctx: &egui::Context) {
-        match answer.path {
-            Some(path) => self.chosen(kind, path, ctx),
-            // Nobody cancels a dialog this fast: the desktop could not show one.
-            None if answer.open_for < NOT_SHOWN_WITHIN => {
-                eprintln!("voxscope: no desktop file dialog; using voxscope's own browser");
-                self.no_desktop_dialogs = true;
-                self.browse(kind, ctx);
-            }
-            None => {}
-        }
-    }
-
-    /// Acts on a path chosen in a file dialog or the app's browser.
-    fn chosen(&mut self, kind: DialogKind, path: PathBuf, ctx: &egui::Context) {
-        let command = match kind {
-            DialogKind::Open | DialogKind::OpenFolder => {
-                Command::Open(VolumeSource::from_spec(&path.display().to_string()))
-            }
-            DialogKind::SaveScreenshot => Command::SaveScreenshot(path),
-            DialogKind::SaveTransfer => Command::SaveTransfer(path),
-            DialogKind::LoadTransfer => Command::LoadTransfer(path),
-        };
-        self.run_command(command, ctx);
-    }
-
-    fn show_opened(&mut self, Opened { scene, statistics }: Opened) {
+    pub(super) fn show_opened(&mut self, Opened { scene, statistics }: Opened) {
         if scene.options.kind != self.settings.renderer {
             self.notify(format!(
                 "the octree does not fit this GPU's buffers; showing it with the {} renderer",
@@ -449,7 +302,7 @@ impl VoxscopeApp {
 
     /// Starts the background work that settings changes call for: another renderer, fresh
     /// statistics.
-    fn follow_settings(&mut self, ctx: &egui::Context) {
+    pub(super) fn follow_settings(&mut self, ctx: &egui::Context) {
         let (Some(scene), Some(gpu)) = (&self.scene, &self.gpu) else {
             return;
         };
@@ -482,26 +335,6 @@ impl VoxscopeApp {
                 self.view.clipping.clip(),
                 move || wake.request_repaint(),
             ));
-        }
-    }
-
-    /// Runs the commands queued this frame, in order.
-    fn run_queued_commands(&mut self, ctx: &egui::Context) {
-        for command in Command::with_shortcuts() {
-            if let Some(shortcut) = command.shortcut()
-                && ctx.input_mut(|i| i.consume_shortcut(&shortcut))
-            {
-                self.commands.send(command);
-            }
-        }
-        let dropped = ctx.input(|i| i.raw.dropped_files.first().map(|f| f.path().to_path_buf()));
-        if let Some(path) = dropped.filter(|p| !p.as_os_str().is_empty()) {
-            self.commands.send(Command::Open(VolumeSource::Spec(
-                path.display().to_string(),
-            )));
-        }
-        for command in self.commands.take() {
-            self.run_command(command, ctx);
         }
     }
 }
@@ -577,7 +410,7 @@ impl eframe::App for VoxscopeApp {
                 },
             );
             if let Some(message) = &self.error
-                && central::error_banner(ui, self.central.rect(), message)
+                && overlays::error_banner(ui, self.central.rect(), message)
             {
                 self.commands.send(Command::DismissError);
             }
@@ -609,12 +442,4 @@ impl eframe::App for VoxscopeApp {
     fn save(&mut self, storage: &mut dyn eframe::Storage) {
         eframe::set_value(storage, STORAGE_KEY, &self.settings);
     }
-}
-
-/// Where a file dialog starts: the folder of the most recent file.
-fn recent_directory(settings: &AppSettings) -> Option<PathBuf> {
-    settings
-        .recent
-        .first()
-        .and_then(|spec| Path::new(spec).parent().map(Path::to_path_buf))
 }

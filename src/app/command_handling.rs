@@ -1,0 +1,197 @@
+//! Where every [`Command`] is carried out, and the file dialogs and browser that end in one:
+//! one place for each action, whichever menu, toolbar button, shortcut, drop or test sent it
+//! (rerun's `command_handling.rs`).
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use super::command::Command;
+use super::dialogs::{self, DialogKind, NOT_SHOWN_WITHIN};
+use super::file_browser::FileBrowser;
+use super::jobs::{DialogAnswer, Job};
+use super::scene::{VolumeSource, prepare_scene};
+use super::settings::AppSettings;
+use super::viewport;
+use super::voxscope_app::VoxscopeApp;
+
+impl VoxscopeApp {
+    /// Carries out `command` now. Menus, toolbar and shortcuts queue theirs and the app runs
+    /// them after the frame's UI; tests call this directly.
+    pub fn run_command(&mut self, command: Command, ctx: &egui::Context) {
+        let result = match command {
+            Command::Open(source) => {
+                self.open(source, ctx);
+                Ok(None)
+            }
+            Command::ShowDialog(kind) if self.no_desktop_dialogs => {
+                self.browse(kind, ctx);
+                Ok(None)
+            }
+            Command::ShowDialog(kind) => {
+                self.show_dialog(kind, ctx);
+                Ok(None)
+            }
+            Command::Browse(kind) => {
+                self.browse(kind, ctx);
+                Ok(None)
+            }
+            Command::CancelOpen => {
+                self.jobs.cancel_open();
+                Ok(None)
+            }
+            Command::SaveScreenshot(path) => self
+                .save_screenshot(&path, ctx.pixels_per_point())
+                .map(|()| Some(format!("saved {}", path.display()))),
+            Command::SaveTransfer(path) => self
+                .save_transfer(&path)
+                .map(|()| Some(format!("saved {}", path.display()))),
+            Command::LoadTransfer(path) => self
+                .load_transfer(&path)
+                .map(|()| Some(format!("loaded {}", path.display()))),
+            Command::SetLayout(layout) => {
+                self.settings.layout = layout;
+                Ok(None)
+            }
+            Command::ViewFrom(preset) => {
+                let (azimuth, elevation) = preset.angles();
+                self.settings.camera = viewport::preset(&self.settings.camera, azimuth, elevation);
+                Ok(None)
+            }
+            Command::ResetCamera => {
+                self.settings.camera = Default::default();
+                Ok(None)
+            }
+            Command::TogglePanel(panel) => {
+                self.settings.toggle_panel(panel);
+                Ok(None)
+            }
+            Command::SetTool(tool) => {
+                self.settings.tool = tool;
+                Ok(None)
+            }
+            Command::SetSliceLinear(linear) => {
+                self.settings.slice_linear = linear;
+                Ok(None)
+            }
+            Command::ShowSlicePlanes(show) => {
+                self.settings.show_slice_planes = show;
+                Ok(None)
+            }
+            Command::ClearRulers => {
+                self.view.rulers.clear();
+                Ok(None)
+            }
+            Command::DismissError => {
+                self.error = None;
+                Ok(None)
+            }
+            Command::Quit => {
+                ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+                Ok(None)
+            }
+        };
+        match result {
+            Ok(Some(notice)) => self.notify(notice),
+            Ok(None) => {}
+            Err(message) => self.fail(message),
+        }
+    }
+
+    /// Opens `source` in the background; the current volume stays until it is ready.
+    pub(super) fn open(&mut self, source: VolumeSource, ctx: &egui::Context) {
+        let Some(gpu) = &self.gpu else {
+            self.fail("no GPU device");
+            return;
+        };
+        let context = Arc::clone(&gpu.context);
+        let choice = self.settings.transfer;
+        let options = self.renderer_options();
+        let wake = ctx.clone();
+        let title = format!("opening {}", source.spec());
+        self.jobs.open(Job::spawn(
+            title,
+            move || wake.request_repaint(),
+            move |progress| prepare_scene(&source, choice, &context, options, progress),
+        ));
+    }
+
+    /// Starts a native file dialog on its own thread (the UI keeps running).
+    pub(super) fn show_dialog(&mut self, kind: DialogKind, ctx: &egui::Context) {
+        if self.jobs.dialog.is_some() {
+            return;
+        }
+        let wake = ctx.clone();
+        let receiver = dialogs::spawn(kind, recent_directory(&self.settings), move || {
+            wake.request_repaint()
+        });
+        self.jobs.dialog = Some((kind, receiver));
+    }
+
+    /// Opens the app's own file browser for `kind`, in the folder of the most recent file.
+    pub(super) fn browse(&mut self, kind: DialogKind, ctx: &egui::Context) {
+        self.browser = Some(FileBrowser::new(
+            kind,
+            recent_directory(&self.settings),
+            ctx,
+        ));
+    }
+
+    pub(super) fn dialog_closed(
+        &mut self,
+        kind: DialogKind,
+        answer: DialogAnswer,
+        ctx: &egui::Context,
+    ) {
+        match answer.path {
+            Some(path) => self.chosen(kind, path, ctx),
+            // Nobody cancels a dialog this fast: the desktop could not show one.
+            None if answer.open_for < NOT_SHOWN_WITHIN => {
+                eprintln!("voxscope: no desktop file dialog; using voxscope's own browser");
+                self.no_desktop_dialogs = true;
+                self.browse(kind, ctx);
+            }
+            None => {}
+        }
+    }
+
+    /// Acts on a path chosen in a file dialog or the app's browser.
+    pub(super) fn chosen(&mut self, kind: DialogKind, path: PathBuf, ctx: &egui::Context) {
+        let command = match kind {
+            DialogKind::Open | DialogKind::OpenFolder => {
+                Command::Open(VolumeSource::from_spec(&path.display().to_string()))
+            }
+            DialogKind::SaveScreenshot => Command::SaveScreenshot(path),
+            DialogKind::SaveTransfer => Command::SaveTransfer(path),
+            DialogKind::LoadTransfer => Command::LoadTransfer(path),
+        };
+        self.run_command(command, ctx);
+    }
+
+    /// Runs the commands queued this frame, in order.
+    pub(super) fn run_queued_commands(&mut self, ctx: &egui::Context) {
+        for command in Command::with_shortcuts() {
+            if let Some(shortcut) = command.shortcut()
+                && ctx.input_mut(|i| i.consume_shortcut(&shortcut))
+            {
+                self.commands.send(command);
+            }
+        }
+        let dropped = ctx.input(|i| i.raw.dropped_files.first().map(|f| f.path().to_path_buf()));
+        if let Some(path) = dropped.filter(|p| !p.as_os_str().is_empty()) {
+            self.commands.send(Command::Open(VolumeSource::Spec(
+                path.display().to_string(),
+            )));
+        }
+        for command in self.commands.take() {
+            self.run_command(command, ctx);
+        }
+    }
+}
+
+/// Where a file dialog starts: the folder of the most recent file.
+pub(super) fn recent_directory(settings: &AppSettings) -> Option<PathBuf> {
+    settings
+        .recent
+        .first()
+        .and_then(|spec| Path::new(spec).parent().map(Path::to_path_buf))
+}
