@@ -18,7 +18,7 @@ struct Params {
     mip_saturation: u32,    // value level at which MIP may stop
     brick_level: u32,       // level of brick leaves (bricks renderer), else beyond the depth
     brick_size: u32,        // voxels along a brick's side
-    atlas_scale: f32,       // atlas texel value × this = value level (255 for unorm8, 1 for f16)
+    atlas_scale: f32,       // atlas texel value × this = value level (255 for unorm8, 65535 for unorm16, 1 for f16)
     atlas_grid: vec4<u32>,  // xyz: bricks along each atlas axis
     brick_grid: vec4<u32>,  // xyz: brick cells along each volume axis (the walked grid)
     atlas_texel: vec4<f32>, // xyz: 1 / the atlas's size in texels (texel to normalized)

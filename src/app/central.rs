@@ -17,9 +17,9 @@ use super::slice_pane::{self, SlicePane};
 use super::view_state::{MAX_GRID_PANES, ViewState};
 use super::viewport::{self, DrawKey, Pane};
 use crate::render::{
-    FrameProbe, FrameReport, RenderError, RenderSettings, SliceSettings, read_image,
+    FrameProbe, FrameReport, RenderError, RenderSettings, SliceConvention, SliceSettings,
+    read_image,
 };
-use crate::volume::Orientation;
 
 /// Height of the strip of controls above the panes of the level grid and the transfer pair.
 const STRIP_HEIGHT: f32 = 30.0;
@@ -519,15 +519,11 @@ pub fn pane_kinds(settings: &AppSettings) -> Vec<PaneKind> {
     }
 }
 
-/// The gizmo's names for +x, +y, +z: `R A S` for patient data.
+/// The gizmo's names for +x, +y, +z: `R A S` for patient data (the slices' rule).
 fn axis_labels(scene: &Scene) -> [&'static str; 3] {
-    let volume = &scene.data.volume;
-    let oriented = matches!(volume.orientation, Orientation::Reoriented { .. })
-        || matches!(volume.format, "NIfTI-1" | "NRRD");
-    if oriented {
-        ["R", "A", "S"]
-    } else {
-        ["x", "y", "z"]
+    match SliceConvention::of_volume(&scene.data.volume) {
+        SliceConvention::Radiological => ["R", "A", "S"],
+        SliceConvention::Image => ["x", "y", "z"],
     }
 }
 

@@ -106,7 +106,7 @@ pub fn show(
             camera: settings.camera,
         };
         clip_panel::show(ui, &mut view.clipping, &context);
-        measurements(ui, view, volume.spacing, &unit(volume));
+        measurements(ui, view, volume.spacing, volume.spatial_unit());
     }
 
     ui.separator();
@@ -346,13 +346,4 @@ fn measurements(ui: &mut Ui, view: &mut ViewState, spacing: [f64; 3], unit: &str
                 view.rulers.clear();
             }
         });
-}
-
-/// The volume's spatial unit: the file's where it names one, else mm.
-pub fn unit(volume: &crate::volume::Volume) -> String {
-    volume
-        .metadata
-        .iter()
-        .find(|(key, _)| key == "unit")
-        .map_or_else(|| "mm".to_owned(), |(_, value)| value.clone())
 }

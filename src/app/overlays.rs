@@ -33,7 +33,7 @@ pub fn paint_overlays_3d(
     let project =
         |voxel: [f64; 3]| viewport::project(&settings.camera, extent, spacing, rect, voxel);
     let painter = ui.painter_at(rect);
-    let unit = super::octree_panel::unit(volume);
+    let unit = volume.spatial_unit();
     for ruler in &view.rulers {
         let (Some(from), Some(to)) = (project(ruler.from), project(ruler.to)) else {
             continue;
@@ -97,7 +97,7 @@ pub fn draw_rulers(
 ) {
     let volume = &scene.data.volume;
     let color = image::Rgba(RULER_COLOR.to_array());
-    let unit = super::octree_panel::unit(volume);
+    let unit = volume.spatial_unit();
     for ruler in &view.rulers {
         let ends = match drawn {
             DrawKey::Volume { camera, .. } => {

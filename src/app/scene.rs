@@ -86,7 +86,7 @@ impl VolumeData {
     pub fn describe_voxel(&self, voxel: [usize; 3]) -> Option<String> {
         let value = self.value_at(voxel)?;
         let spacing = self.volume.spacing;
-        let unit = super::octree_panel::unit(&self.volume);
+        let unit = self.volume.spatial_unit();
         let value_unit = if self.kind == DataKind::Ct { " HU" } else { "" };
         let [i, j, k] = voxel;
         Some(format!(

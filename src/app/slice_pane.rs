@@ -381,7 +381,7 @@ fn paint_ruler(
         format!(
             "{:.1} {}",
             ruler.length(volume.spacing),
-            super::octree_panel::unit(volume)
+            volume.spatial_unit()
         ),
         egui::FontId::proportional(13.0),
         RULER_COLOR,

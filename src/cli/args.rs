@@ -290,7 +290,7 @@ pub(super) fn parse_brick_size(text: &str) -> Result<usize, String> {
     }
 }
 
-fn parse_colormap(text: &str) -> Result<Colormap, String> {
+pub(super) fn parse_colormap(text: &str) -> Result<Colormap, String> {
     Colormap::from_name(text).ok_or_else(|| {
         let names: Vec<&str> = Colormap::ALL.iter().map(|c| c.name()).collect();
         format!("colormap '{text}' is not one of {}", names.join(", "))

@@ -7,6 +7,7 @@ use std::time::Duration;
 use crate::app::TransferPreset;
 use crate::octree::{self, BuildOptions, DataKind, Octree, TransferFunction};
 use crate::progress::Progress;
+use crate::render::{GpuContext, RendererKind};
 use crate::volume::{self, QuantizedVolume, Volume};
 
 use super::{TransferArgs, VolumeArgs};
@@ -82,4 +83,27 @@ fn build_reporting_progress(quantized: &QuantizedVolume) -> Result<Octree, octre
     finished.store(true, Ordering::Relaxed);
     let _ = reporter.join();
     result
+}
+
+/// The renderer for `render` and `slice` when none was asked for, as the app chooses: the
+/// octree, or bricks (said on stderr, before `then`) where the octree's nodes through
+/// `level` exceed one of the device's storage buffers.
+pub(super) fn default_renderer(
+    context: &GpuContext,
+    octree: &Octree,
+    level: u32,
+    then: &str,
+) -> RendererKind {
+    let nodes = octree.nodes_through_level(level);
+    let bytes = (nodes * std::mem::size_of::<octree::Node>()) as u64;
+    if bytes <= context.max_storage_bytes() {
+        return RendererKind::Octree;
+    }
+    eprintln!(
+        "the octree through level {level} needs {} MiB of nodes but this GPU ({}) allows {} MiB per storage buffer; {then} with bricks",
+        bytes.div_ceil(1 << 20),
+        context.adapter_info.name,
+        context.max_storage_bytes() >> 20
+    );
+    RendererKind::Bricks
 }

@@ -49,7 +49,7 @@ pub fn run(args: &ProbeArgs) -> Result<(), String> {
                 "index": probed.index,
                 "stored_index": probed.stored_index,
                 "position": probed.position,
-                "position_unit": spatial_unit(&volume),
+                "position_unit": volume.spatial_unit(),
                 "value": probed.value,
                 "unit": probed.unit,
             })
@@ -61,7 +61,7 @@ pub fn run(args: &ProbeArgs) -> Result<(), String> {
         println!("voxel      ({i}, {j}, {k}) displayed · ({si}, {sj}, {sk}) as stored");
         println!(
             "position   ({x:.3}, {y:.3}, {z:.3}) {} from the first voxel",
-            spatial_unit(&volume)
+            volume.spatial_unit()
         );
         match &probed.unit {
             Some(unit) => println!("value      {} {unit}", probed.value),
@@ -119,26 +119,16 @@ pub fn stored_index(volume: &Volume, index: [usize; 3]) -> [usize; 3] {
 
 /// The unit of the values, where the file gives one.
 fn value_unit(volume: &Volume) -> Option<String> {
-    let metadata = |key: &str| {
-        volume
-            .metadata
-            .iter()
-            .find(|(k, _)| k == key)
-            .map(|(_, v)| v.trim().to_owned())
-    };
-    if metadata("modality").is_some_and(|m| m.eq_ignore_ascii_case("CT")) {
+    if volume
+        .metadata_value("modality")
+        .is_some_and(|m| m.eq_ignore_ascii_case("CT"))
+    {
         return Some("HU".to_owned());
     }
-    metadata("value unit").or_else(|| metadata("units"))
-}
-
-/// The unit of positions: the file's where it names one, else mm.
-fn spatial_unit(volume: &Volume) -> String {
     volume
-        .metadata
-        .iter()
-        .find(|(k, _)| k == "unit")
-        .map_or_else(|| "mm".to_owned(), |(_, v)| v.clone())
+        .metadata_value("value unit")
+        .or_else(|| volume.metadata_value("units"))
+        .map(str::to_owned)
 }
 
 fn parse_index(text: &str) -> Result<[usize; 3], String> {

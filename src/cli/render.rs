@@ -6,10 +6,11 @@ use std::time::Instant;
 use clap::Args;
 
 use super::args::RendererArg;
+use super::prepare::default_renderer;
 use super::{ClipArgs, Prepared, TransferArgs, VolumeArgs};
 use crate::render::{
-    Camera, DEFAULT_BRICK_SIZE, GpuContext, RenderTarget, RendererKind, RendererOptions,
-    VolumeRenderer, read_image,
+    Camera, DEFAULT_BRICK_SIZE, GpuContext, RenderTarget, RendererOptions, VolumeRenderer,
+    read_image,
 };
 
 #[derive(Debug, Args)]
@@ -58,22 +59,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     let context = GpuContext::new_headless().map_err(|e| e.to_string())?;
     let kind = match args.renderer {
         Some(renderer) => renderer.into(),
-        None => {
-            let nodes = prepared.octree.nodes_through_level(settings.max_level);
-            let bytes = (nodes * std::mem::size_of::<crate::octree::Node>()) as u64;
-            if bytes <= context.max_storage_bytes() {
-                RendererKind::Octree
-            } else {
-                eprintln!(
-                    "the octree through level {} needs {} MiB of nodes but this GPU ({}) allows {} MiB per storage buffer; rendering with bricks",
-                    settings.max_level,
-                    bytes.div_ceil(1 << 20),
-                    context.adapter_info.name,
-                    context.max_storage_bytes() >> 20
-                );
-                RendererKind::Bricks
-            }
-        }
+        None => default_renderer(&context, &prepared.octree, settings.max_level, "rendering"),
     };
     let renderer = VolumeRenderer::new(
         &context,
@@ -116,7 +102,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
 }
 
 /// The output must be a .png and never the input volume itself.
-fn check_output(output: &Path, input: Option<&str>) -> Result<(), String> {
+pub(super) fn check_output(output: &Path, input: Option<&str>) -> Result<(), String> {
     let is_png = output
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("png"));

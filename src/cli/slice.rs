@@ -1,17 +1,19 @@
 //! `voxscope slice`: one planar slice at one pixel per voxel, oriented as the app shows it,
 //! drawn on the GPU from the volume a renderer holds.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 use clap::{Args, ValueEnum};
 
-use super::args::RendererArg;
+use super::args::{RendererArg, parse_colormap};
+use super::prepare::default_renderer;
+use super::render::check_output;
 use super::{Prepared, TransferArgs, VolumeArgs};
-use crate::octree::{Colormap, Node, Octree};
+use crate::octree::Colormap;
 use crate::render::{
-    DEFAULT_BRICK_SIZE, GpuContext, RenderTarget, RendererKind, RendererOptions, SliceConvention,
-    SliceFrame, SliceSettings, VolumeRenderer, read_image,
+    DEFAULT_BRICK_SIZE, GpuContext, RenderTarget, RendererOptions, SliceConvention, SliceFrame,
+    SliceSettings, VolumeRenderer, read_image,
 };
 use crate::volume::ValueWindow;
 
@@ -110,7 +112,7 @@ pub fn run(args: &SliceArgs) -> Result<(), String> {
     }
     let kind = match args.renderer {
         Some(renderer) => renderer.into(),
-        None => default_renderer(&context, &prepared.octree),
+        None => default_renderer(&context, &prepared.octree, prepared.octree.depth, "slicing"),
     };
     let renderer = VolumeRenderer::new(
         &context,
@@ -151,54 +153,4 @@ pub fn run(args: &SliceArgs) -> Result<(), String> {
         started.elapsed().as_secs_f64()
     );
     Ok(())
-}
-
-/// The renderer `render` picks: the octree, or bricks where its nodes do not fit one of the
-/// device's storage buffers.
-fn default_renderer(context: &GpuContext, octree: &Octree) -> RendererKind {
-    let bytes = (octree.nodes.len() * std::mem::size_of::<Node>()) as u64;
-    if bytes <= context.max_storage_bytes() {
-        RendererKind::Octree
-    } else {
-        eprintln!(
-            "the octree needs {} MiB of nodes but this GPU ({}) allows {} MiB per storage buffer; slicing the bricks",
-            bytes.div_ceil(1 << 20),
-            context.adapter_info.name,
-            context.max_storage_bytes() >> 20
-        );
-        RendererKind::Bricks
-    }
-}
-
-/// The output must be a .png and never the input volume itself.
-fn check_output(output: &Path, input: Option<&str>) -> Result<(), String> {
-    let is_png = output
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("png"));
-    if !is_png {
-        return Err(format!(
-            "{}: the output must be a .png file",
-            output.display()
-        ));
-    }
-    let same_file = input.is_some_and(|input| {
-        match (std::fs::canonicalize(input), std::fs::canonicalize(output)) {
-            (Ok(a), Ok(b)) => a == b,
-            _ => false,
-        }
-    });
-    if same_file {
-        return Err(format!(
-            "{}: refusing to overwrite the input volume",
-            output.display()
-        ));
-    }
-    Ok(())
-}
-
-fn parse_colormap(text: &str) -> Result<Colormap, String> {
-    Colormap::from_name(text).ok_or_else(|| {
-        let names: Vec<&str> = Colormap::ALL.iter().map(|c| c.name()).collect();
-        format!("colormap '{text}' is not one of {}", names.join(", "))
-    })
 }

@@ -182,12 +182,11 @@ impl DataKind {
     /// The kind of `volume`'s values, quantized as `quantized` (DICOM's modality from its
     /// metadata where it has one).
     pub fn of_volume(volume: &Volume, quantized: &QuantizedVolume) -> Self {
-        let modality = volume
-            .metadata
-            .iter()
-            .find(|(key, _)| key == "modality")
-            .map(|(_, value)| value.as_str());
-        Self::of(quantized, modality, volume.voxel_type().is_integer())
+        Self::of(
+            quantized,
+            volume.metadata_value("modality"),
+            volume.voxel_type().is_integer(),
+        )
     }
 
     /// The kind of `volume`'s values; `modality` is DICOM's, where the file has one, and

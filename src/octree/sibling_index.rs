@@ -1,7 +1,8 @@
 //! The paper's index arithmetic over a cubic voxel list of side `n` (x fastest):
 //! listing 1 finds the 8 siblings of a block from its first voxel, listing 2 steps from one
-//! block's first voxel to the next block's. The octree build uses both for every level above
-//! the voxels.
+//! block's first voxel to the next block's. The octree build, which keeps only the cells a
+//! volume touches, addresses children by coordinates instead; these are the paper's form,
+//! checked against that arithmetic by the tests.
 
 /// Listing 1: the 8 voxels of the 2×2×2 block that starts at `start`, in child order
 /// (bit 0: +x, bit 1: +y, bit 2: +z).

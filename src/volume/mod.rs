@@ -148,6 +148,19 @@ impl Volume {
             .map(|v| self.value_scale.apply(v))
     }
 
+    /// The value of metadata `key` (`modality`, `unit`, …), where the file gave one.
+    pub fn metadata_value(&self, key: &str) -> Option<&str> {
+        self.metadata
+            .iter()
+            .find(|(k, _)| k == key)
+            .map(|(_, value)| value.trim())
+    }
+
+    /// The unit of positions and spacing: the file's where it names one, else mm.
+    pub fn spatial_unit(&self) -> &str {
+        self.metadata_value("unit").unwrap_or("mm")
+    }
+
     /// Physical size of the grid along x, y, z (dims × spacing).
     pub fn extent(&self) -> [f64; 3] {
         std::array::from_fn(|axis| self.dims[axis] as f64 * self.spacing[axis])

@@ -71,11 +71,7 @@ impl SlabSource {
 
     /// A loaded volume, handed out in slabs.
     pub fn from_volume(volume: Volume) -> Self {
-        let unit = volume
-            .metadata
-            .iter()
-            .find(|(key, _)| key == "unit")
-            .and_then(|(_, unit)| ome_unit(unit));
+        let unit = volume.metadata_value("unit").and_then(ome_unit);
         Self {
             name: volume.name,
             dims: volume.dims,
