@@ -1,8 +1,9 @@
 //! The atlas's slots: which brick each holds and the last frame a ray used it (the shader marks
-//! it; the streamer reads the marks back). A new brick takes a free slot, else the least
-//! recently used one, but never one used by the latest frame read back or one of the pinned
-//! coarse levels: so a view that needs more than the atlas holds cannot evict itself frame
-//! after frame.
+//! it; the streamer reads the marks back), told apart by how: a ray that wanted the brick's
+//! level, or one that drew it in place of a missing finer brick. A new brick takes a free slot,
+//! else the least recently used one, but never one a ray wanted in the latest frame read back,
+//! nor one of the pinned coarse levels: so a view that needs more than the atlas holds cannot
+//! evict itself frame after frame, while stand-ins make room for the bricks they stand in for.
 
 use super::pyramid::EMPTY_KEY;
 
@@ -17,8 +18,10 @@ pub struct Allocation {
 pub struct SlotPool {
     /// Per slot: the brick's key, or [`EMPTY_KEY`].
     keys: Vec<u32>,
-    /// Per slot: the last frame it was used or filled.
+    /// Per slot: the last frame a ray wanted it (or it was filled).
     last_used: Vec<u32>,
+    /// Per slot: the last frame a ray drew it in place of a finer brick.
+    last_stand_in: Vec<u32>,
     pinned: Vec<bool>,
     free: Vec<u32>,
     /// This frame's eviction candidates, the oldest last; made on the first eviction of a frame.
@@ -31,6 +34,7 @@ impl SlotPool {
         Self {
             keys: vec![EMPTY_KEY; capacity],
             last_used: vec![0; capacity],
+            last_stand_in: vec![0; capacity],
             pinned: vec![false; capacity],
             free: (0..capacity as u32).rev().collect(),
             victims: None,
@@ -61,8 +65,9 @@ impl SlotPool {
     }
 
     /// A slot for brick `key`, filled at `frame`: a free one, else the least recently used
-    /// one not pinned and last used before `protect_from`. `None` when every slot is pinned
-    /// or in use since `protect_from` (the atlas cannot hold more of this view).
+    /// one not pinned and last wanted before `protect_from` (stand-ins used since go after the
+    /// others). `None` when every slot is pinned or wanted since `protect_from` (the atlas
+    /// cannot hold more of this view).
     pub fn allocate(&mut self, key: u32, frame: u32, protect_from: u32) -> Option<Allocation> {
         let (slot, evicted) = if let Some(slot) = self.free.pop() {
             (slot, None)
@@ -77,7 +82,10 @@ impl SlotPool {
                     })
                     .collect();
                 // Oldest last: popped first.
-                candidates.sort_unstable_by_key(|&s| std::cmp::Reverse(self.last_used[s as usize]));
+                candidates.sort_unstable_by_key(|&s| {
+                    let s = s as usize;
+                    std::cmp::Reverse((self.last_stand_in[s].max(self.last_used[s]), self.last_used[s]))
+                });
                 candidates
             });
             let slot = loop {
@@ -91,6 +99,7 @@ impl SlotPool {
         };
         self.keys[slot as usize] = key;
         self.last_used[slot as usize] = frame;
+        self.last_stand_in[slot as usize] = 0;
         Some(Allocation { slot, evicted })
     }
 
@@ -114,14 +123,20 @@ impl SlotPool {
         self.pinned.iter().filter(|&&p| p).count()
     }
 
-    /// Records that a ray used `slot` in `frame`.
-    pub fn mark_used(&mut self, slot: u32, frame: u32) {
-        if let Some(last) = self.last_used.get_mut(slot as usize) {
+    /// Records that a ray used `slot` in `frame`: `wanted` its level, or in place of a finer
+    /// brick.
+    pub fn mark_used(&mut self, slot: u32, frame: u32, wanted: bool) {
+        let marks = if wanted {
+            &mut self.last_used
+        } else {
+            &mut self.last_stand_in
+        };
+        if let Some(last) = marks.get_mut(slot as usize) {
             *last = (*last).max(frame);
         }
     }
 
-    /// Slots holding a brick used (or filled) at `frame` or later.
+    /// Slots holding a brick wanted (or filled) at `frame` or later.
     pub fn used_since(&self, frame: u32) -> usize {
         self.keys
             .iter()
@@ -148,18 +163,19 @@ mod tests {
             assert_eq!(a.evicted, None);
         }
         pool.pin(0); // key 0 pinned
-        pool.mark_used(1, 5); // key 1 used at frame 5
-        pool.mark_used(2, 3); // key 2 at frame 3; key 3 last at frame 1
+        pool.mark_used(1, 5, true); // key 1 wanted at frame 5
+        pool.mark_used(2, 3, true); // key 2 at frame 3; key 3 last at frame 1
+        pool.mark_used(3, 5, false); // key 3 stood in for a finer brick at frame 5
         pool.new_frame();
-        // Protect what frame 5 used: victims are 3 (frame 1), then 2 (frame 3).
+        // Protect what frame 5 wanted: victims are 2 (frame 3), then 3 (a stand-in at 5).
         let first = pool.allocate(10, 6, 5).expect("a victim");
-        assert_eq!((first.slot, first.evicted), (3, Some(3)));
+        assert_eq!((first.slot, first.evicted), (2, Some(2)));
         let second = pool.allocate(11, 6, 5).expect("a victim");
-        assert_eq!((second.slot, second.evicted), (2, Some(2)));
+        assert_eq!((second.slot, second.evicted), (3, Some(3)));
         // Only the pinned slot and frame 5's (and this frame's) remain: no room.
         assert_eq!(pool.allocate(12, 6, 5), None);
         assert_eq!(pool.occupied(), 4);
         assert_eq!(pool.used_since(5), 3);
-        assert_eq!(pool.key(3), Some(10));
+        assert_eq!(pool.key(2), Some(10));
     }
 }

@@ -81,7 +81,8 @@ pub struct Feedback<'a> {
     pub requests: &'a [u32],
     /// Asks in all, including those beyond the buffer's capacity.
     pub asked: u32,
-    /// Per atlas slot, the last frame a ray used it.
+    /// Per atlas slot, the last frame a ray used it as `2·frame + 1` where the ray wanted the
+    /// brick's level, `2·frame` where it drew it in place of a missing finer brick (0: never).
     pub usage: &'a [u32],
 }
 
@@ -478,11 +479,15 @@ impl Streamer {
         if let Some(feedback) = feedback {
             self.take_feedback(feedback, view);
         }
+        // Whether the latest frame read back was drawn with the table as it is now: only then
+        // does a full atlas say the view does not fit (rather than that bricks just uploaded
+        // have not been drawn yet, and the stand-ins they replace not yet released).
+        let settled = self.feedback_frame.is_some_and(|f| f >= self.changed_frame);
         let (uploads, upload_bytes, overflow) = self.upload_ready();
         if !uploads.is_empty() {
             self.changed_frame = self.frame;
         }
-        self.adjust_bias(overflow);
+        self.adjust_bias(overflow && settled);
         let status = self.status(uploads.len(), upload_bytes);
         (uploads, status)
     }
@@ -532,9 +537,9 @@ impl Streamer {
     }
 
     fn take_feedback(&mut self, feedback: Feedback<'_>, view: Option<ViewPoint>) {
-        for (slot, &used) in feedback.usage.iter().enumerate() {
-            if used != 0 {
-                self.slots.mark_used(slot as u32, used);
+        for (slot, &mark) in feedback.usage.iter().enumerate() {
+            if mark != 0 {
+                self.slots.mark_used(slot as u32, mark >> 1, mark & 1 == 1);
             }
         }
         self.feedback_frame = Some(feedback.frame);
