@@ -13,15 +13,17 @@ use glam::DVec3;
 use image::RgbaImage;
 use support::reference::{coverage, psnr};
 use support::{Prepared, gpu, image_dir};
-use voxscope::octree::{self, BuildOptions, OpacityMode, TransferFunction};
+use voxscope::octree::{self, BuildOptions, TransferFunction};
 use voxscope::render::{
     Camera, GpuContext, RenderSettings, RenderTarget, RendererKind, VolumeRenderer, read_image,
 };
 use voxscope::stream::{
-    BrickData, BrickError, BrickId, BrickSource, Downsampling, MemorySource, PADDED_BRICK_VOXELS,
-    PyramidShape, StreamOptions, StreamStatus,
+    BRICK_SIZE, BrickData, BrickError, BrickId, BrickSource, Downsampling, MemorySource,
+    PADDED_BRICK_VOXELS, PyramidShape, StreamOptions, StreamStatus,
 };
-use voxscope::volume::{Histogram, Quantization, QuantizedVolume, SyntheticKind};
+use voxscope::volume::{
+    Histogram, Quantization, QuantizedVolume, SyntheticKind, ValueWindow, Volume,
+};
 
 /// Image size of every test (small: lavapipe draws every pixel on the CPU).
 const SIZE: (u32, u32) = (192, 160);
@@ -95,6 +97,8 @@ struct Refined {
     most_slots_used: usize,
     /// The most bytes uploaded by one update.
     most_upload_bytes: u64,
+    /// Every update's error lines.
+    errors: Vec<String>,
 }
 
 /// Draws `camera`'s view frame after frame (update, draw, wait) until the streamer says nothing
@@ -109,21 +113,28 @@ fn refine_with(
     let target = RenderTarget::new(context, SIZE.0, SIZE.1);
     let started = Instant::now();
     let (mut most_slots_used, mut most_upload_bytes) = (0, 0);
+    let mut errors = Vec::new();
+    // The first frame drawn with this view: completeness judged on earlier ones is another
+    // view's.
+    let mut first_frame = None;
     for frame in 0.. {
         edit(frame, context, renderer);
         let status = renderer.update(context).expect("a streaming renderer");
+        let first = *first_frame.get_or_insert(status.frame);
+        errors.extend(status.errors.iter().cloned());
         most_slots_used = most_slots_used.max(status.counters.slots_used);
         most_upload_bytes = most_upload_bytes.max(status.upload_bytes);
         assert!(status.counters.slots_used <= status.counters.slots);
         renderer.render(context, &target, camera, settings);
         context.wait_idle().expect("GPU");
-        if status.complete {
+        if status.complete && status.judged_frame.is_some_and(|judged| judged >= first) {
             return Refined {
                 image: read_image(context, &target).expect("readback"),
                 status,
                 frames: frame,
                 most_slots_used,
                 most_upload_bytes,
+                errors,
             };
         }
         assert!(
@@ -219,3 +230,332 @@ fn a_refined_view_equals_the_bricks_render_with_a_quarter_of_the_bricks_in_budge
     assert!(status.errors.is_empty());
 }
 
+
+/// Pyramid level `level` of the noise as a volume of its own (spacing 2^level), ready for the
+/// bricks renderer: what the streaming renderer must draw when it draws that level.
+fn level_volume(level: usize) -> Prepared {
+    let shape = &PYRAMID.shape().levels[level];
+    let levels = PYRAMID.level(level).expect("a level").to_vec();
+    let quantization = NOISE.quantized.quantization;
+    let mut counts = vec![0u64; 1 << 16];
+    for &l in &levels {
+        counts[l as usize] += 1;
+    }
+    let quantized = QuantizedVolume {
+        dims: shape.dims,
+        histogram: Histogram {
+            counts,
+            quantization,
+            total: levels.len() as u64,
+        },
+        levels,
+        quantization,
+        value_range: NOISE.quantized.value_range,
+    };
+    let mut octree = octree::build(&quantized, BuildOptions::default()).expect("octree");
+    octree::recolor(&mut octree, &NOISE.transfer);
+    let scale = shape.scale as f64;
+    // Only its dims and spacing are read (by the renderers' camera): the voxels are the
+    // quantized ones above.
+    let volume = Volume::new(
+        format!("noise level {level}"),
+        "synthetic",
+        [1, 1, 1],
+        [1.0; 3],
+        voxscope::volume::VoxelData::U8(vec![0]),
+    )
+    .expect("a placeholder volume");
+    Prepared {
+        volume: Volume {
+            dims: shape.dims,
+            spacing: NOISE.volume.spacing.map(|s| s * scale),
+            ..volume
+        },
+        quantized,
+        octree,
+        transfer: NOISE.transfer,
+    }
+}
+
+/// Settings without opacity correction: a coarse level's samples then composite as the bricks
+/// renderer's samples of that level as a volume of its own do (one voxel, alpha as it is).
+fn uncorrected(max_level: u32) -> RenderSettings {
+    RenderSettings {
+        opacity_correction: false,
+        ..settings(max_level)
+    }
+}
+
+#[test]
+fn a_budget_that_cannot_hold_the_view_draws_a_coarser_level_correctly_within_it() {
+    let context = gpu();
+    let prepared = &*NOISE;
+    let budget = level0_bytes() / 16;
+    let mut renderer = streaming(&context, PYRAMID.clone(), options(budget), &prepared.transfer);
+    let camera = close_camera(30.0);
+    let refined = refine(
+        &context,
+        &mut renderer,
+        &camera,
+        &uncorrected(prepared.octree.depth),
+    );
+    let status = &refined.status;
+    let level = status.lod_bias as usize;
+    assert!(level >= 1, "the view at level 0 does not fit: {status:?}");
+    assert_eq!(status.counters.levels[0].resident, 0, "no level-0 brick is kept");
+    let coarse = level_volume(level);
+    let expected = bricks_image(
+        &context,
+        &coarse,
+        &coarse.transfer,
+        &camera,
+        &uncorrected(coarse.octree.depth),
+    );
+    save(&refined.image, "coarser");
+    save(&expected, "coarser-bricks");
+    let db = psnr(&refined.image, &expected);
+    eprintln!(
+        "level {level} after {} frames: {db:.1} dB; {} of {} slots at most",
+        refined.frames, refined.most_slots_used, status.counters.slots
+    );
+    assert!(db >= 40.0, "streamed level {level} against its bricks render: {db:.1} dB");
+    assert!(gpu_total(&renderer) <= budget);
+    assert!(refined.most_slots_used <= status.counters.slots);
+}
+
+#[test]
+fn a_max_level_below_the_voxels_draws_that_pyramid_level() {
+    let context = gpu();
+    let prepared = &*NOISE;
+    let mut renderer = streaming(
+        &context,
+        PYRAMID.clone(),
+        options(level0_bytes()),
+        &prepared.transfer,
+    );
+    let camera = close_camera(30.0);
+    // Max level depth − 2 is pyramid level 2 (64³).
+    let settings = uncorrected(prepared.octree.depth - 2);
+    let refined = refine(&context, &mut renderer, &camera, &settings);
+    let levels = &refined.status.counters.levels;
+    assert_eq!((levels[0].resident, levels[1].resident), (0, 0));
+    assert!(levels[2].resident > 0);
+    let coarse = level_volume(2);
+    let expected = bricks_image(
+        &context,
+        &coarse,
+        &coarse.transfer,
+        &camera,
+        &uncorrected(coarse.octree.depth),
+    );
+    let db = psnr(&refined.image, &expected);
+    assert!(db >= 40.0, "max level 6 against level 2's bricks: {db:.1} dB");
+    // And it is not the full-resolution picture.
+    let full = bricks_image(&context, prepared, &prepared.transfer, &camera, &uncorrected(8));
+    assert!(psnr(&refined.image, &full) < 35.0);
+}
+
+#[test]
+fn evicted_bricks_are_asked_for_again_from_ram_and_transfer_edits_apply_while_streaming() {
+    let context = gpu();
+    let prepared = &*NOISE;
+    // A quarter of level 0: one side's view fits, both sides' do not.
+    let mut renderer = streaming(
+        &context,
+        PYRAMID.clone(),
+        options(level0_bytes() / 4),
+        &prepared.transfer,
+    );
+    let settings = settings(prepared.octree.depth);
+    let front = close_camera(30.0);
+    let back = close_camera(210.0);
+    let first = refine(&context, &mut renderer, &front, &settings);
+    let behind = refine(&context, &mut renderer, &back, &settings);
+    assert!(
+        behind.status.counters.evictions > 0,
+        "the other side's view evicted bricks"
+    );
+    let again = refine(&context, &mut renderer, &front, &settings);
+    let (before, after) = (&behind.status.counters, &again.status.counters);
+    // The bricks asked for again come from the RAM cache. (A brick or two more may be read:
+    // rays drawn from stand-ins reach other depths while the view refines.)
+    let (hits, loads) = (after.ram_hits - before.ram_hits, after.loads - before.loads);
+    eprintln!("back to the first view: {hits} bricks from RAM, {loads} read");
+    assert!(hits >= 20, "evicted bricks came back from RAM: {hits}");
+    assert!(loads * 10 <= hits, "{loads} read again against {hits} from RAM");
+    let db = psnr(&first.image, &again.image);
+    assert!(db >= 60.0, "the same view again: {db:.1} dB");
+
+    // A transfer edit two frames into a new view's refinement: the finished picture is the
+    // new transfer function's, and nothing had to be reloaded for it.
+    let side = close_camera(120.0);
+    let edited = TransferFunction {
+        window: ValueWindow {
+            low: prepared.transfer.window.low,
+            high: 0.5 * (prepared.transfer.window.low + prepared.transfer.window.high),
+        },
+        ..prepared.transfer
+    };
+    let refined = refine_with(&context, &mut renderer, &side, &settings, |frame, context, renderer| {
+        if frame == 2 {
+            let mut encoder = context
+                .device
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+            renderer
+                .set_transfer(context, &mut encoder, &edited, None)
+                .expect("edit");
+            context.queue.submit([encoder.finish()]);
+        }
+    });
+    let expected = bricks_image(&context, prepared, &edited, &side, &settings);
+    let db = psnr(&refined.image, &expected);
+    save(&refined.image, "edited");
+    assert!(db >= 40.0, "after the edit: {db:.1} dB");
+    assert!(psnr(&refined.image, &bricks_image(&context, prepared, &prepared.transfer, &side, &settings)) < 35.0);
+}
+
+/// A source whose one brick cannot be read (a damaged chunk).
+struct Failing {
+    inner: Arc<MemorySource>,
+    broken: BrickId,
+}
+
+impl BrickSource for Failing {
+    fn name(&self) -> &str {
+        "damaged"
+    }
+    fn shape(&self) -> &PyramidShape {
+        self.inner.shape()
+    }
+    fn spacing(&self) -> [f64; 3] {
+        self.inner.spacing()
+    }
+    fn quantization(&self) -> Quantization {
+        self.inner.quantization()
+    }
+    fn max_value_level(&self) -> u16 {
+        self.inner.max_value_level()
+    }
+    fn read_brick(&self, id: BrickId) -> Result<BrickData, BrickError> {
+        if id == self.broken {
+            return Err(BrickError(format!("damaged: {id} does not decode")));
+        }
+        self.inner.read_brick(id)
+    }
+}
+
+/// Level-0 voxel space to pixels for `camera` on the noise (a test-side projection).
+fn project(camera: &Camera, voxel: DVec3) -> (f64, f64) {
+    let dims = DVec3::splat(256.0);
+    let frame = camera.frame(dims.to_array(), SIZE.0 as f64 / SIZE.1 as f64);
+    let d = (voxel - dims / 2.0) - frame.eye;
+    let depth = d.dot(frame.forward);
+    let x = d.dot(frame.right) / depth / (frame.tan_half_fov_y * frame.aspect);
+    let y = d.dot(frame.up) / depth / frame.tan_half_fov_y;
+    ((x + 1.0) / 2.0 * SIZE.0 as f64, (1.0 - y) / 2.0 * SIZE.1 as f64)
+}
+
+#[test]
+fn a_brick_that_fails_to_load_leaves_its_region_coarser_and_the_rest_unchanged() {
+    let context = gpu();
+    let prepared = &*NOISE;
+    let camera = close_camera(30.0);
+    let settings = settings(prepared.octree.depth);
+    // The level-0 brick where the view's central ray enters the volume.
+    let frame = camera.frame([256.0; 3], SIZE.0 as f64 / SIZE.1 as f64);
+    let eye = frame.eye + DVec3::splat(128.0);
+    let inv = frame.forward.recip();
+    let t0 = (DVec3::ZERO - eye) * inv;
+    let t1 = (DVec3::splat(256.0) - eye) * inv;
+    let t_enter = t0.min(t1).max_element();
+    let inside = eye + frame.forward * (t_enter + 4.0);
+    let brick = (inside / BRICK_SIZE as f64).floor().as_uvec3().to_array();
+    let broken = BrickId { level: 0, brick };
+
+    let mut good = streaming(&context, PYRAMID.clone(), options(level0_bytes()), &prepared.transfer);
+    let whole = refine(&context, &mut good, &camera, &settings);
+    let damaged = Arc::new(Failing {
+        inner: PYRAMID.clone(),
+        broken,
+    });
+    let mut renderer = streaming(&context, damaged, options(level0_bytes()), &prepared.transfer);
+    let refined = refine(&context, &mut renderer, &camera, &settings);
+    // Later updates report nothing more.
+    let mut errors = refined.errors.clone();
+    for _ in 0..3 {
+        renderer.render(&context, &RenderTarget::new(&context, 8, 8), &camera, &settings);
+        context.wait_idle().expect("GPU");
+        errors.extend(renderer.update(&context).expect("streaming").errors);
+    }
+    assert_eq!(refined.status.counters.failed, 1);
+    save(&refined.image, "damaged");
+    // Every pixel whose ray misses the broken brick (outside its projected box) is as the
+    // whole pyramid's, but for rounding: the same bricks sit in other atlas slots, and the
+    // filter's weights round differently there (at most a level or two of 255).
+    let corners: Vec<(f64, f64)> = (0..8)
+        .map(|c| {
+            let offset = DVec3::new((c & 1) as f64, ((c >> 1) & 1) as f64, (c >> 2) as f64);
+            project(&camera, (DVec3::from(brick.map(f64::from)) + offset) * BRICK_SIZE as f64)
+        })
+        .collect();
+    let (x0, x1) = corners
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), c| (a.min(c.0), b.max(c.0)));
+    let (y0, y1) = corners
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), c| (a.min(c.1), b.max(c.1)));
+    let (mut inside_most, mut outside_most) = (0u8, 0u8);
+    for (x, y, pixel) in refined.image.enumerate_pixels() {
+        let other = whole.image.get_pixel(x, y);
+        let difference = (0..3).map(|c| pixel[c].abs_diff(other[c])).max().unwrap_or(0);
+        let (px, py) = (x as f64 + 0.5, y as f64 + 0.5);
+        if px >= x0 - 1.0 && px <= x1 + 1.0 && py >= y0 - 1.0 && py <= y1 + 1.0 {
+            inside_most = inside_most.max(difference);
+        } else {
+            outside_most = outside_most.max(difference);
+        }
+    }
+    assert!(
+        inside_most >= 10,
+        "the broken brick's region is drawn coarser (differs by {inside_most} at most)"
+    );
+    assert!(
+        outside_most <= 2,
+        "a pixel whose ray misses the broken brick differs by {outside_most}"
+    );
+    let db = psnr(&refined.image, &whole.image);
+    assert!(db >= 25.0, "the rest renders: {db:.1} dB");
+    assert_eq!(errors.len(), 1, "one line for the broken brick: {errors:?}");
+    assert!(
+        errors[0].contains(&broken.to_string()),
+        "the line names the brick: {}",
+        errors[0]
+    );
+}
+
+#[test]
+fn a_far_view_streams_the_levels_its_pixels_resolve() {
+    let context = gpu();
+    let prepared = &*NOISE;
+    let mut renderer = streaming(
+        &context,
+        PYRAMID.clone(),
+        StreamOptions {
+            lod_scale: 1.0,
+            ..options(level0_bytes())
+        },
+        &prepared.transfer,
+    );
+    let camera = Camera {
+        distance: 6.0,
+        ..close_camera(30.0)
+    };
+    let refined = refine(&context, &mut renderer, &camera, &settings(prepared.octree.depth));
+    let levels = &refined.status.counters.levels;
+    eprintln!("far view: {:?}", levels.iter().map(|l| l.resident).collect::<Vec<_>>());
+    assert_eq!(levels[0].resident, 0, "a pixel covers several level-0 voxels");
+    let expected = bricks_image(&context, prepared, &prepared.transfer, &camera, &settings(8));
+    let db = psnr(&refined.image, &expected);
+    save(&refined.image, "far");
+    assert!(db >= 25.0, "the far view at its pixels' levels against full detail: {db:.1} dB");
+}

@@ -127,6 +127,8 @@ pub struct StreamCounters {
     pub bytes_uploaded: u64,
     /// Uploaded over the last second.
     pub upload_bytes_per_s: f64,
+    /// Bricks that lost their atlas slot to another.
+    pub evictions: u64,
     /// Bricks that could not be read.
     pub failed: usize,
 }
@@ -148,9 +150,13 @@ impl StreamCounters {
 pub struct StreamStatus {
     /// The number of the frame about to be drawn.
     pub frame: u32,
-    /// Nothing visible is missing: the latest frame read back was drawn with the current page
-    /// table and its rays lacked nothing (bricks that failed to load excepted).
+    /// Nothing visible is missing: the latest frame read back ([`Self::judged_frame`]) was
+    /// drawn with the current page table and its rays lacked nothing (bricks that failed to
+    /// load excepted). After a change of view, wait for a judged frame drawn with the new view.
     pub complete: bool,
+    /// The frame `complete` and `missing` are judged on (read back a frame or two after it was
+    /// drawn); `None` before the first readback.
+    pub judged_frame: Option<u32>,
     /// Visible bricks wanted and not on the GPU (what the status bar's "refining: N" says).
     pub missing: usize,
     /// Loads waiting and in progress.
@@ -452,6 +458,7 @@ impl Streamer {
             return;
         };
         self.resident[id.level as usize] = self.resident[id.level as usize].saturating_sub(1);
+        self.counters.evictions += 1;
         if let Some(entry) = self.table.get(key) {
             let demoted = TableEntry {
                 cell: 0,
@@ -746,6 +753,7 @@ impl Streamer {
         StreamStatus {
             frame: self.frame,
             complete,
+            judged_frame: self.feedback_frame,
             missing,
             queued,
             loading,
