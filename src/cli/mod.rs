@@ -9,6 +9,7 @@ mod prepare;
 mod probe;
 mod render;
 mod slice;
+mod stream;
 
 use clap::{Parser, Subcommand};
 

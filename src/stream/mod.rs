@@ -13,6 +13,7 @@
 mod loader;
 mod memory;
 mod page_table;
+mod preview;
 mod procedural;
 mod pyramid;
 mod queue;
@@ -26,6 +27,7 @@ pub use memory::MemorySource;
 pub use page_table::{
     ENTRY_FAILED, ENTRY_RESIDENT, MAX_PROBES, PageTable, TableEntry, TableFull, table_hash,
 };
+pub use preview::preview;
 pub use procedural::NoiseSource;
 pub use pyramid::{
     Downsampling, EMPTY_KEY, KEY_LEVEL_SHIFT, LevelShape, MAX_LEVELS, PyramidShape, cut_brick,

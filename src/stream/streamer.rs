@@ -114,6 +114,9 @@ pub struct StreamCounters {
     pub levels: Vec<LevelCounters>,
     pub slots: usize,
     pub slots_used: usize,
+    /// Slots a ray wanted (not as a stand-in) in the latest frame read back: with the uniform
+    /// bricks, what that view needs.
+    pub view_slots: usize,
     pub slots_pinned: usize,
     /// Bytes of one atlas slot.
     pub slot_bytes: u64,
@@ -745,6 +748,7 @@ impl Streamer {
             counters.empty = self.empty[level];
         }
         self.counters.slots_used = self.slots.occupied();
+        self.counters.view_slots = self.feedback_frame.map_or(0, |f| self.slots.used_since(f));
         self.counters.slots_pinned = self.slots.pinned();
         self.counters.ram_bytes = self.ram.bytes();
         self.counters.failed = self.failed.len();
