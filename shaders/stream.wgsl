@@ -304,6 +304,9 @@ fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32) -> RayResult
     var atlas_here = vec3<f32>(0.0);
     var atlas_dir = vec3<f32>(0.0);
     var brick_max = 0u;
+    // The next brick's key and page-table entry, read ahead (`EMPTY_KEY`: none).
+    var next_key = EMPTY_KEY;
+    var next_entry = vec4<u32>(EMPTY_KEY, 0u, 0u, 0u);
     for (var i = 0u; i < MAX_STEPS; i++) {
         if !marching {
             if t >= t_leave {
@@ -314,9 +317,16 @@ fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32) -> RayResult
             let cell = brick_of(wanted, p);
             let side = BRICK * stream.level_scale[wanted].xyz;
             let far = (vec3<f32>(cell) + select(vec3<f32>(0.0), vec3<f32>(1.0), positive)) * side;
-            let t_out = min(min_component((far - origin) * inv), t_leave);
+            let exits = (far - origin) * inv;
+            let t_out = min(min_component(exits), t_leave);
             let key = brick_key(wanted, cell);
-            var entry = table_lookup(key);
+            // The entry read while the last brick was marched, if it is this brick's (its home
+            // slot held it); else the lookup.
+            var entry = next_entry;
+            if next_key != key || entry[TABLE_KEY] != key {
+                entry = table_lookup(key);
+            }
+            next_key = EMPTY_KEY;
             var level = wanted;
             var used_cell = cell;
             var skip = false;
@@ -379,6 +389,23 @@ fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32) -> RayResult
                 segment_out = t_out;
                 brick_max = entry[TABLE_RANGE] >> 16u;
                 marching = true;
+                // Read the next brick's entry now (its home slot), so that its latency hides
+                // behind this brick's samples (the grid walk's prefetch, raycast.wgsl).
+                if t_out < t_leave {
+                    var axis = 2u;
+                    if exits.x <= exits.y && exits.x <= exits.z {
+                        axis = 0u;
+                    } else if exits.y <= exits.z {
+                        axis = 1u;
+                    }
+                    var next = vec3<i32>(cell);
+                    next[axis] += select(-1, 1, positive[axis]);
+                    let grid = vec3<i32>(stream.level_grid[wanted].xyz);
+                    if all(next >= vec3<i32>(0)) && all(next < grid) {
+                        next_key = brick_key(wanted, vec3<u32>(next));
+                        next_entry = page_table[table_hash(next_key) & stream.table_mask];
+                    }
+                }
             }
         }
         if marching {

@@ -10,6 +10,7 @@ mod probe;
 mod render;
 mod slice;
 mod stream;
+mod stream_bench;
 
 use clap::{Parser, Subcommand};
 

@@ -86,8 +86,6 @@ fn parse_lod_scale(text: &str) -> Result<f32, String> {
 /// A pyramid opened for streaming, and the transfer function to draw it with.
 pub struct StreamPrepared {
     pub source: Arc<dyn BrickSource>,
-    /// A coarse level read whole (the source's values, for the transfer function's defaults).
-    pub preview: QuantizedVolume,
     pub transfer: TransferFunction,
     /// The --tf file, whose opacity scale and mode apply too.
     pub saved: Option<TransferPreset>,
@@ -96,7 +94,7 @@ pub struct StreamPrepared {
 }
 
 /// Bricks of the level read whole for the transfer function's defaults.
-const PREVIEW_BRICKS: u64 = 512;
+const PREVIEW_BRICKS: u64 = 64;
 
 impl StreamPrepared {
     /// Opens what `volume_args` names as a pyramid: `synthetic:noise:SIZE` as procedural
@@ -144,7 +142,6 @@ impl StreamPrepared {
         let transfer = transfer_args.transfer_function(&preview, kind, saved.as_ref());
         Ok(Self {
             source,
-            preview,
             transfer,
             saved,
             open_seconds: started.elapsed().as_secs_f64(),

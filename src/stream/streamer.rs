@@ -175,6 +175,9 @@ pub struct StreamStatus {
     pub counters: StreamCounters,
 }
 
+/// Prefetch neighbours only when a frame asked for at most this many bricks.
+const PREFETCH_AROUND: usize = 1024;
+
 /// Bricks of the coarsest levels that stay in the atlas, so every ray has a fallback: every
 /// level of a single brick.
 fn pinned_levels(shape: &PyramidShape) -> Vec<u32> {
@@ -568,6 +571,9 @@ impl Streamer {
         // has (so the picture refines level by level), in priority order.
         let mut wanted: HashMap<u32, Request> = HashMap::new();
         let mut prefetch: HashMap<u32, Request> = HashMap::new();
+        // Prefetch around a few asks only: beyond that the view is far from complete and what
+        // is visible keeps the workers busy (and the frame's CPU time stays small).
+        let prefetch_around = self.options.prefetch && asked.len() <= PREFETCH_AROUND;
         for &key in &asked {
             let Some(mut id) = self.shape.brick_of(key) else {
                 continue;
@@ -587,7 +593,7 @@ impl Streamer {
                         key,
                     },
                 );
-                if self.options.prefetch && id.level == asked_level {
+                if prefetch_around && id.level == asked_level {
                     self.add_neighbours(id, off_center, &mut prefetch);
                 }
                 let Some(parent) = self.shape.parent(id) else {
