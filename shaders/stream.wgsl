@@ -312,13 +312,15 @@ fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32) -> RayResult
             if t >= t_leave {
                 break;
             }
-            let p = origin + (t + max(nudge, abs(t) * 5e-7)) * dir;
+            let ahead = max(nudge, abs(t) * 5e-7);
+            let p = origin + (t + ahead) * dir;
             let wanted = wanted_level(max(t, 0.0), lod_per_t);
             let cell = brick_of(wanted, p);
             let side = BRICK * stream.level_scale[wanted].xyz;
             let far = (vec3<f32>(cell) + select(vec3<f32>(0.0), vec3<f32>(1.0), positive)) * side;
             let exits = (far - origin) * inv;
-            let t_out = min(min_component(exits), t_leave);
+            // (At least `ahead` past t, whatever the rounding: every segment moves the ray on.)
+            let t_out = max(min(min_component(exits), t_leave), t + ahead);
             let key = brick_key(wanted, cell);
             // The entry read while the last brick was marched, if it is this brick's (its home
             // slot held it); else the lookup.

@@ -559,3 +559,55 @@ fn a_far_view_streams_the_levels_its_pixels_resolve() {
     save(&refined.image, "far");
     assert!(db >= 25.0, "the far view at its pixels' levels against full detail: {db:.1} dB");
 }
+
+/// `voxscope render --renderer stream`, run as a user would.
+fn render_stream(args: &[&str]) -> (std::process::ExitStatus, String) {
+    let output = std::process::Command::new(env!("CARGO_BIN_EXE_voxscope"))
+        .args(["render", "--renderer", "stream", "--size", "96x72"])
+        .args(args)
+        .output()
+        .expect("voxscope runs");
+    (output.status, String::from_utf8_lossy(&output.stderr).into_owned())
+}
+
+#[test]
+fn render_waits_until_nothing_is_missing_or_says_what_was_still_coarse() {
+    let dir = tempfile::tempdir().expect("a temporary folder");
+    let out = dir.path().join("noise.png");
+    let out = out.to_str().expect("a UTF-8 path");
+    // 1024³ procedural noise in 32 MiB of GPU memory: waits for the view, then writes it.
+    let (status, stderr) = render_stream(&[
+        "synthetic:noise:1024",
+        "--gpu-memory",
+        "32MiB",
+        "-o",
+        out,
+    ]);
+    assert!(status.success(), "{stderr}");
+    assert!(stderr.contains("stream renderer") && stderr.contains("complete after"), "{stderr}");
+    let image = image::open(out).expect("the PNG").to_rgba8();
+    assert_eq!(image.dimensions(), (96, 72));
+    assert!(coverage(&image) > 0.1, "the volume is drawn");
+    // One brick a frame and 0.3 s: not enough; it says so, and what was missing.
+    let (status, stderr) = render_stream(&[
+        "synthetic:noise:1024",
+        "--gpu-memory",
+        "32MiB",
+        "--upload-budget",
+        "80KiB",
+        "--max-wait",
+        "0.3",
+        "-o",
+        out,
+    ]);
+    assert!(status.success(), "{stderr}");
+    assert!(
+        stderr.contains("still coarse after") && stderr.contains("bricks missing (level"),
+        "{stderr}"
+    );
+    // A budget below what the coarsest levels need is a one-line error.
+    let (status, stderr) = render_stream(&["synthetic:noise:1024", "--gpu-memory", "1MiB", "-o", out]);
+    assert!(!status.success());
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    assert!(stderr.contains("synthetic:noise:1024"), "{stderr}");
+}

@@ -240,8 +240,7 @@ impl Streamer {
         let pinned = pinned_levels(&shape);
         if capacity < pinned.len() + 8 {
             return Err(format!(
-                "{}: an atlas of {capacity} bricks cannot hold the {} always-resident coarse levels and a view; give the renderer more GPU memory",
-                source.name(),
+                "an atlas of {capacity} bricks cannot hold the {} always-resident coarse levels and a view; give the renderer more GPU memory",
                 pinned.len()
             ));
         }
@@ -677,7 +676,8 @@ impl Streamer {
                 continue; // evicted from RAM since: it will be asked for again
             };
             let cost = brick.texels.as_ref().map_or(0, |t| t.len() as u64);
-            if overflow || (cost > 0 && bytes + cost > self.options.upload_bytes_per_frame) {
+            // (At least one brick a frame, whatever the budget.)
+            if overflow || (cost > 0 && bytes > 0 && bytes + cost > self.options.upload_bytes_per_frame) {
                 if cost > 0 {
                     waiting.push(request);
                     continue;
