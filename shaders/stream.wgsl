@@ -32,28 +32,28 @@ struct StreamParams {
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<uniform> stream: StreamParams;
 @group(0) @binding(2) var<storage, read> lookup_table: array<u32>;
-// visible_below[i]: how many value levels below i the transfer function makes visible (alpha
-// > 0): a range [low, high] holds a visible one iff visible_below[high + 1] > visible_below[low].
-@group(0) @binding(3) var<storage, read> visible_below: array<u32>;
-@group(0) @binding(4) var output: texture_storage_2d<rgba8unorm, write>;
-@group(0) @binding(5) var<storage, read_write> visits: array<u32>;
-@group(0) @binding(6) var atlas: texture_3d<f32>;
-@group(0) @binding(7) var atlas_sampler: sampler;
+@group(0) @binding(3) var output: texture_storage_2d<rgba8unorm, write>;
+@group(0) @binding(4) var<storage, read_write> visits: array<u32>;
+@group(0) @binding(5) var atlas: texture_3d<f32>;
+@group(0) @binding(6) var atlas_sampler: sampler;
 // The page table: TABLE_* components of each entry (src/stream/page_table.rs's TableEntry).
-@group(0) @binding(8) var<storage, read> page_table: array<vec4<u32>>;
+// Its ENTRY_VISIBLE bits follow the transfer function (the CPU rewrites them on an edit).
+@group(0) @binding(7) var<storage, read> page_table: array<vec4<u32>>;
 // [0]: requests made; [1, 1 + capacity): their keys; then the deduplicating set (key + 1 per
 // entry, 0 when free), cleared by the CPU before each frame.
-@group(0) @binding(9) var<storage, read_write> requests: array<atomic<u32>>;
+@group(0) @binding(8) var<storage, read_write> requests: array<atomic<u32>>;
 // Per atlas slot: the last frame a ray used it, as 2·frame + 1 where a ray wanted its level,
 // 2·frame where it stood in for a missing finer brick (the LRU's marks; `mark_used`).
-@group(0) @binding(10) var<storage, read_write> usage: array<atomic<u32>>;
+@group(0) @binding(9) var<storage, read_write> usage: array<atomic<u32>>;
 // What a PROBE pipeline found (ray_common.wgsl).
-@group(0) @binding(11) var<storage, read_write> probe_out: ProbeResult;
+@group(0) @binding(10) var<storage, read_write> probe_out: ProbeResult;
 
 // Keep in sync with src/stream (page_table.rs, pyramid.rs, source.rs).
 const MAX_PROBES: u32 = 32u;
 const ENTRY_RESIDENT: u32 = 0x80000000u;
 const ENTRY_FAILED: u32 = 0x40000000u;
+const ENTRY_VISIBLE: u32 = 0x80000000u; // in TABLE_SLOT
+const SLOT_MASK: u32 = 0x3fffffffu;
 const EMPTY_KEY: u32 = 0xffffffffu;
 const KEY_LEVEL_SHIFT: u32 = 28u;
 const BRICK: f32 = 32.0;
@@ -101,15 +101,17 @@ fn request_brick(key: u32) {
     }
 }
 
-// Marks `slot` used this frame: `wanted` if the ray wanted its level, else as a stand-in for a
-// missing finer brick (which the CPU may evict it for: src/stream/slots.rs). The larger mark
-// wins; most rays find it set already and only read.
-fn mark_used(slot: u32, wanted: bool) {
-    if PROBE {
-        return;
-    }
-    let mark = 2u * stream.frame + select(0u, 1u, wanted);
-    if atomicLoad(&usage[slot]) < mark {
+// This frame's usage mark of a slot: 2·frame + 1 if the ray wanted its level, 2·frame as a
+// stand-in for a missing finer brick (which the CPU may evict it for: src/stream/slots.rs).
+fn usage_mark(wanted: bool) -> u32 {
+    return 2u * stream.frame + select(0u, 1u, wanted);
+}
+
+// Marks `slot` with `mark` unless `seen` (its value read when the segment began, so that the
+// read's latency hid behind the segment's samples) is as large: the larger mark wins, and most
+// rays find it set already and write nothing.
+fn mark_used(slot: u32, mark: u32, seen: u32) {
+    if !PROBE && seen < mark {
         atomicMax(&usage[slot], mark);
     }
 }
@@ -133,15 +135,13 @@ fn drawable(entry: vec4<u32>) -> bool {
         || ((entry[TABLE_CELL] & ENTRY_FAILED) == 0u && (range & 0xffffu) == (range >> 16u));
 }
 
-// Whether a brick of value range `range` can change the pixel: DVR, some level in it visible;
-// MIP, its maximum above the ray's so far.
-fn range_visible(range: u32, running_max: u32) -> bool {
-    let low = range & 0xffffu;
-    let high = range >> 16u;
+// Whether a brick can change the pixel: DVR, some value level of its range is visible (the
+// entry's bit); MIP, its maximum is above the ray's so far.
+fn entry_visible(entry: vec4<u32>, running_max: u32) -> bool {
     if params.mode == MODE_MIP {
-        return high > running_max;
+        return (entry[TABLE_RANGE] >> 16u) > running_max;
     }
-    return visible_below[high + 1u] > visible_below[low];
+    return (entry[TABLE_SLOT] & ENTRY_VISIBLE) != 0u;
 }
 
 // The level a segment starting at distance `t` wants: the coarsest whose voxel is no larger
@@ -304,6 +304,11 @@ fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32) -> RayResult
     var atlas_here = vec3<f32>(0.0);
     var atlas_dir = vec3<f32>(0.0);
     var brick_max = 0u;
+    // The slot being marched, the mark it gets when the segment ends, and its mark as read when
+    // the segment began.
+    var usage_slot = 0u;
+    var usage_pending = 0u;
+    var usage_seen = 0xffffffffu;
     // The next brick's key and page-table entry, read ahead (`EMPTY_KEY`: none).
     var next_key = EMPTY_KEY;
     var next_entry = vec4<u32>(EMPTY_KEY, 0u, 0u, 0u);
@@ -336,7 +341,7 @@ fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32) -> RayResult
                 request_brick(key);
             } else if !drawable(entry) && (entry[TABLE_CELL] & ENTRY_FAILED) == 0u {
                 // Its range is known: ask for it only if it can show.
-                if range_visible(entry[TABLE_RANGE], acc.running_max) {
+                if entry_visible(entry, acc.running_max) {
                     request_brick(key);
                 } else {
                     skip = true;
@@ -360,7 +365,7 @@ fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32) -> RayResult
             }
             result.visited += 1u;
             if !skip {
-                skip = !range_visible(entry[TABLE_RANGE], acc.running_max);
+                skip = !entry_visible(entry, acc.running_max);
             }
             // The samples of the level drawn: t_enter + (k + ½)·step, k continuing while the
             // level stays the same.
@@ -381,7 +386,11 @@ fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32) -> RayResult
                 k = end;
                 t = t_out;
             } else {
-                mark_used(entry[TABLE_SLOT], level == wanted);
+                usage_slot = entry[TABLE_SLOT] & SLOT_MASK;
+                usage_pending = usage_mark(level == wanted);
+                if !PROBE {
+                    usage_seen = atomicLoad(&usage[usage_slot]);
+                }
                 let packed = entry[TABLE_CELL];
                 let atlas_cell = vec3<u32>(packed & 0x3ffu, (packed >> 10u) & 0x3ffu,
                                            (packed >> 20u) & 0x3ffu);
@@ -442,6 +451,9 @@ fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32) -> RayResult
                 k = max(ceil((segment_out - t_enter) / step - 0.5), k);
                 marching = false;
                 t = segment_out;
+            }
+            if !marching || acc.done {
+                mark_used(usage_slot, usage_pending, usage_seen);
             }
         }
         if acc.done {

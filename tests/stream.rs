@@ -588,11 +588,14 @@ fn render_waits_until_nothing_is_missing_or_says_what_was_still_coarse() {
     let image = image::open(out).expect("the PNG").to_rgba8();
     assert_eq!(image.dimensions(), (96, 72));
     assert!(coverage(&image) > 0.1, "the volume is drawn");
-    // One brick a frame and 0.3 s: not enough; it says so, and what was missing.
+    // Full resolution (no pixel LOD), one brick a frame and 0.3 s: not enough; it says so,
+    // and what was missing.
     let (status, stderr) = render_stream(&[
         "synthetic:noise:1024",
         "--gpu-memory",
         "32MiB",
+        "--lod-scale",
+        "0",
         "--upload-budget",
         "80KiB",
         "--max-wait",

@@ -64,7 +64,6 @@ pub struct StreamVolume {
     texels: AtlasTexels,
     table: wgpu::Buffer,
     transfer: GpuTransferTable,
-    visible_below: wgpu::Buffer,
     requests: wgpu::Buffer,
     usage: wgpu::Buffer,
     readbacks: Vec<Readback>,
@@ -83,7 +82,7 @@ fn atlas_grid(
     slot_bytes: u64,
     bricks_in_pyramid: u64,
 ) -> Result<[usize; 3], RenderError> {
-    let fixed = 2 * 65537 * 4 + (1 + REQUEST_CAPACITY as u64 + REQUEST_SET as u64) * 4;
+    let fixed = 65536 * 4 + (1 + REQUEST_CAPACITY as u64 + REQUEST_SET as u64) * 4;
     let per_slot = slot_bytes + TABLE_BYTES_PER_SLOT + 4 + READBACKS as u64 * 4;
     let max_side = (context.limits.max_texture_dimension_3d as usize / PADDED_BRICK).min(1024);
     let slots = (budget.saturating_sub(fixed) / per_slot)
@@ -131,8 +130,11 @@ impl StreamVolume {
         let slot_bytes = (PADDED_BRICK_VOXELS * texels.bytes()) as u64;
         let bricks: u64 = source.shape().levels.iter().map(|l| l.brick_count()).sum();
         let grid = atlas_grid(context, options.gpu_memory, slot_bytes, bricks)?;
-        let (streamer, pinned) = Streamer::new(Arc::clone(&source), grid, texels, options)
-            .map_err(RenderError)?;
+        let quantization = source.quantization();
+        let visible = visible_below(&transfer.lookup_table(quantization));
+        let (streamer, pinned) =
+            Streamer::new(Arc::clone(&source), grid, texels, options, visible)
+                .map_err(RenderError)?;
         let device = &context.device;
         let out_of_memory = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let size = wgpu::Extent3d {
@@ -189,13 +191,7 @@ impl StreamVolume {
                 state: Arc::new(AtomicU8::new(IDLE)),
             })
             .collect();
-        let quantization = source.quantization();
         let transfer_table = GpuTransferTable::new(context, quantization, transfer);
-        let visible_below = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("voxscope::stream_visible_below"),
-            contents: bytemuck::cast_slice(&visible_below(&transfer.lookup_table(quantization))),
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-        });
         if let Some(error) = pollster::block_on(out_of_memory.pop()) {
             return Err(RenderError(format!(
                 "the GPU has no room for the streaming atlas: {error}"
@@ -210,7 +206,6 @@ impl StreamVolume {
             texels,
             table,
             transfer: transfer_table,
-            visible_below,
             requests,
             usage,
             readbacks,
@@ -368,16 +363,14 @@ impl StreamVolume {
         }
     }
 
-    /// Applies a new transfer function: the lookup table and the visibility counts. Nothing is
-    /// reloaded (skipping reads each brick's range against the new counts).
+    /// Applies a new transfer function: the lookup table, and each page-table entry's
+    /// visibility bit (written now, so the next frame skips by the new function). Nothing is
+    /// reloaded.
     pub fn set_transfer(&mut self, context: &GpuContext, transfer: &TransferFunction) {
         self.transfer.write(context, transfer);
         let table = transfer.lookup_table(self.streamer.source().quantization());
-        context.queue.write_buffer(
-            &self.visible_below,
-            0,
-            bytemuck::cast_slice(&visible_below(&table)),
-        );
+        self.streamer.set_visibility(visible_below(&table));
+        self.write(context, &[]);
     }
 
     /// The streamer (its counters, options and shape).
@@ -397,7 +390,6 @@ impl StreamVolume {
                 self.readbacks.iter().map(|r| r.buffer.size()).sum(),
             ),
             ("lookup_table", self.transfer.size()),
-            ("visible_below", self.visible_below.size()),
         ]
     }
 
@@ -479,15 +471,14 @@ impl StreamRaycaster {
                 uniform_entry(0, false),
                 uniform_entry(1, false),
                 storage_entry(2, true),
-                storage_entry(3, true),
-                output_image_entry(4),
-                storage_entry(5, false),
-                atlas_entry(6),
-                atlas_sampler_entry(7),
-                storage_entry(8, true),
+                output_image_entry(3),
+                storage_entry(4, false),
+                atlas_entry(5),
+                atlas_sampler_entry(6),
+                storage_entry(7, true),
+                storage_entry(8, false),
                 storage_entry(9, false),
                 storage_entry(10, false),
-                storage_entry(11, false),
             ],
         );
         Self {
@@ -580,7 +571,6 @@ impl StreamRaycaster {
                 params_buffer.as_entire_binding(),
                 stream_params.as_entire_binding(),
                 volume.transfer.buffer.as_entire_binding(),
-                volume.visible_below.as_entire_binding(),
                 wgpu::BindingResource::TextureView(&target.view),
                 target.visits.as_entire_binding(),
                 wgpu::BindingResource::TextureView(&volume.atlas_view),

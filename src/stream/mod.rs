@@ -10,6 +10,7 @@
 //!
 //! Module direction: volume → stream → render. Nothing here touches the GPU.
 
+mod key_hash;
 mod loader;
 mod memory;
 mod page_table;
@@ -22,10 +23,11 @@ mod slots;
 mod source;
 mod streamer;
 
+pub use key_hash::{KeyHasher, KeyMap, KeySet};
 pub use loader::{AtlasTexels, LoadedBrick};
 pub use memory::MemorySource;
 pub use page_table::{
-    ENTRY_FAILED, ENTRY_RESIDENT, MAX_PROBES, PageTable, TableEntry, TableFull, table_hash,
+    ENTRY_FAILED, ENTRY_RESIDENT, ENTRY_VISIBLE, MAX_PROBES, PageTable, TableEntry, TableFull, table_hash,
 };
 pub use preview::preview;
 pub use procedural::NoiseSource;

@@ -25,6 +25,11 @@ pub const ENTRY_RESIDENT: u32 = 1 << 31;
 /// coarser level and do not ask for it again. Keep in sync with `ENTRY_FAILED` in `stream.wgsl`.
 pub const ENTRY_FAILED: u32 = 1 << 30;
 
+/// Set in [`TableEntry::slot`] when some value level in the brick's range is visible under the
+/// current transfer function (DVR skips the brick otherwise, without reading anything more).
+/// Keep in sync with `ENTRY_VISIBLE` in `stream.wgsl`.
+pub const ENTRY_VISIBLE: u32 = 1 << 31;
+
 /// One entry of the table on the GPU. Keep in sync with the `vec4<u32>` entries of
 /// `stream.wgsl` (`TABLE_*` components).
 #[repr(C)]
@@ -37,7 +42,8 @@ pub struct TableEntry {
     pub cell: u32,
     /// The brick's value range, minimum in the low 16 bits.
     pub range: u32,
-    /// The atlas slot (for the usage marks the LRU reads), when resident.
+    /// The atlas slot (for the usage marks the LRU reads), when resident; with
+    /// [`ENTRY_VISIBLE`].
     pub slot: u32,
 }
 
@@ -203,6 +209,21 @@ impl PageTable {
         runs.into_iter()
             .map(|(start, end)| (start, &self.entries[start..end]))
             .collect()
+    }
+
+    /// Replaces each brick's entry by what `change` makes of it (`None`: unchanged); changed
+    /// entries become dirty.
+    pub fn update_each(&mut self, mut change: impl FnMut(&TableEntry) -> Option<TableEntry>) {
+        for index in 0..self.entries.len() {
+            if self.entries[index].key == EMPTY_KEY {
+                continue;
+            }
+            if let Some(changed) = change(&self.entries[index]) {
+                debug_assert_eq!(changed.key, self.entries[index].key);
+                self.entries[index] = changed;
+                self.mark(index);
+            }
+        }
     }
 
     /// Every entry (for tests and the first upload).

@@ -3,9 +3,9 @@
 //! center before the edges. The queue is the latest frame's wants in that order: a new frame's
 //! requests replace it, so bricks the view no longer needs are never loaded.
 
-use std::collections::HashSet;
 use std::sync::{Condvar, Mutex, MutexGuard};
 
+use super::key_hash::KeySet;
 use super::pyramid::MAX_LEVELS;
 use super::source::BrickId;
 
@@ -46,7 +46,7 @@ struct State {
     /// Sorted with the best last (popped first).
     pending: Vec<Request>,
     /// Keys a worker has taken and the streamer has not yet received.
-    in_flight: HashSet<u32>,
+    in_flight: KeySet,
     closed: bool,
 }
 
@@ -61,7 +61,7 @@ impl Default for RequestQueue {
         Self {
             state: Mutex::new(State {
                 pending: Vec::new(),
-                in_flight: HashSet::new(),
+                in_flight: KeySet::default(),
                 closed: false,
             }),
             ready: Condvar::new(),

@@ -2,8 +2,9 @@
 //! used bricks make room, so a brick evicted from the GPU and wanted again is uploaded from here
 //! without reading it again.
 
-use std::collections::{BTreeSet, HashMap};
+use std::collections::BTreeSet;
 
+use super::key_hash::KeyMap;
 use super::loader::LoadedBrick;
 
 struct Cached {
@@ -14,7 +15,7 @@ struct Cached {
 
 /// Loaded bricks by key, least recently used evicted first, within a byte capacity.
 pub struct RamCache {
-    bricks: HashMap<u32, Cached>,
+    bricks: KeyMap<Cached>,
     /// (last use, key), oldest first.
     order: BTreeSet<(u64, u32)>,
     bytes: u64,
@@ -26,7 +27,7 @@ impl RamCache {
     /// An empty cache holding at most `capacity` bytes.
     pub fn new(capacity: u64) -> Self {
         Self {
-            bricks: HashMap::new(),
+            bricks: KeyMap::default(),
             order: BTreeSet::new(),
             bytes: 0,
             capacity,

@@ -4,14 +4,17 @@
 //! table, and count everything. No GPU calls here: `render::StreamVolume` feeds it the frames'
 //! readbacks and carries out its uploads.
 
-use std::collections::{HashMap, HashSet, VecDeque};
+use std::collections::VecDeque;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
 
+use super::key_hash::{KeyMap, KeySet};
 use super::loader::{AtlasTexels, LoadedBrick, Loader, load_brick};
-use super::page_table::{ENTRY_FAILED, ENTRY_RESIDENT, PageTable, TableEntry, TableFull};
+use super::page_table::{
+    ENTRY_FAILED, ENTRY_RESIDENT, ENTRY_VISIBLE, PageTable, TableEntry, TableFull,
+};
 use super::pyramid::PyramidShape;
 use super::queue::{Priority, Request, RequestQueue, Tier};
 use super::ram_cache::RamCache;
@@ -27,7 +30,8 @@ pub struct StreamOptions {
     pub gpu_memory: u64,
     /// Bytes of decoded bricks kept in RAM (`--ram-cache`). Default 2 GiB.
     pub ram_cache: u64,
-    /// Bytes uploaded to the atlas per frame at most. Default 32 MiB (a few ms of copying).
+    /// Bytes uploaded to the atlas per frame at most. Default 16 MiB (about 200 16-bit bricks:
+    /// a few ms of copying, run 46).
     pub upload_bytes_per_frame: u64,
     /// Worker threads loading bricks. Default: the machine's cores less one (at least one).
     pub workers: usize,
@@ -45,7 +49,7 @@ impl Default for StreamOptions {
         Self {
             gpu_memory: 1 << 30,
             ram_cache: 2 << 30,
-            upload_bytes_per_frame: 32 << 20,
+            upload_bytes_per_frame: 16 << 20,
             workers: cores.saturating_sub(1).max(1),
             lod_scale: 1.0,
             prefetch: true,
@@ -207,17 +211,21 @@ pub struct Streamer {
     feedback_missing: usize,
     /// The last frame whose page table differed from the one before.
     changed_frame: u32,
-    /// The latest frame's wanted visible bricks, best first, and their keys.
-    wanted: Vec<Request>,
-    wanted_keys: HashMap<u32, Request>,
+    /// The latest frame's wanted visible bricks, by key.
+    wanted: KeyMap<Request>,
+    /// Of those, how many are not on the GPU yet.
+    missing: usize,
     /// Wanted bricks in RAM and not yet uploaded, best first.
     ready: Vec<Request>,
     /// Table entries that hold no slot, oldest first (dropped when the table is full).
     metadata: VecDeque<u32>,
-    failed: HashSet<u32>,
+    failed: KeySet,
     new_errors: Vec<String>,
     lod_bias: u32,
     bias_changed: u32,
+    /// `visible_below[i]`: value levels below `i` the transfer function makes visible (65 537
+    /// counts): the entries' [`ENTRY_VISIBLE`] bits follow it.
+    visible_below: Vec<u32>,
     counters: StreamCounters,
     /// Per level: bricks in the atlas, and table entries without a slot.
     resident: Vec<usize>,
@@ -227,14 +235,22 @@ pub struct Streamer {
 
 impl Streamer {
     /// A streamer of `source` into an atlas of `atlas_grid` slots (x, y, z) holding texels as
-    /// `texels`. Reads the pinned coarse levels now (on the caller's thread and rayon's); the
-    /// first [`Self::begin_frame`] uploads them.
+    /// `texels`, with the transfer function's visibility counts `visible_below`
+    /// ([`Self::set_visibility`]). Reads the pinned coarse levels now (on the caller's thread
+    /// and rayon's) and returns their uploads.
     pub fn new(
         source: Arc<dyn BrickSource>,
         atlas_grid: [usize; 3],
         texels: AtlasTexels,
         options: StreamOptions,
+        visible_below: Vec<u32>,
     ) -> Result<(Self, Vec<Upload>), String> {
+        if visible_below.len() != (1 << 16) + 1 {
+            return Err(format!(
+                "{} visibility counts, not 65 537",
+                visible_below.len()
+            ));
+        }
         let shape = source.shape().clone();
         let capacity = atlas_grid.iter().product::<usize>();
         let pinned = pinned_levels(&shape);
@@ -264,14 +280,15 @@ impl Streamer {
             feedback_frame: None,
             feedback_missing: 0,
             changed_frame: 0,
-            wanted: Vec::new(),
-            wanted_keys: HashMap::new(),
+            wanted: KeyMap::default(),
+            missing: 0,
             ready: Vec::new(),
             metadata: VecDeque::new(),
-            failed: HashSet::new(),
+            failed: KeySet::default(),
             new_errors: Vec::new(),
             lod_bias: 0,
             bias_changed: 0,
+            visible_below,
             counters: StreamCounters {
                 levels: shape
                     .levels
@@ -436,9 +453,39 @@ impl Streamer {
         }))
     }
 
-    /// Inserts `entry`, first dropping the oldest slotless entries while the table is at its
-    /// limit.
-    fn insert_entry(&mut self, entry: TableEntry) -> Result<(), TableFull> {
+    /// Whether some level of `range` (packed) is visible under the transfer function.
+    fn range_visible(&self, range: u32) -> bool {
+        let (low, high) = ((range & 0xffff) as usize, (range >> 16) as usize);
+        self.visible_below[high + 1] > self.visible_below[low]
+    }
+
+    /// A new transfer function's visibility counts (`visible_below[i]`: how many value levels
+    /// below `i` are visible; 65 537 of them): every entry's [`ENTRY_VISIBLE`] bit follows, the
+    /// changed entries to be copied to the GPU. Nothing is reloaded.
+    pub fn set_visibility(&mut self, visible_below: Vec<u32>) {
+        if visible_below.len() != self.visible_below.len() {
+            return;
+        }
+        self.visible_below = visible_below;
+        let counts = &self.visible_below;
+        self.table.update_each(|entry| {
+            let (low, high) = ((entry.range & 0xffff) as usize, (entry.range >> 16) as usize);
+            let visible = counts[high + 1] > counts[low];
+            ((entry.slot & ENTRY_VISIBLE != 0) != visible).then(|| TableEntry {
+                slot: entry.slot ^ ENTRY_VISIBLE,
+                ..*entry
+            })
+        });
+        self.changed_frame = self.frame;
+    }
+
+    /// Inserts `entry` (its [`ENTRY_VISIBLE`] bit set from its range), first dropping the
+    /// oldest slotless entries while the table is at its limit.
+    fn insert_entry(&mut self, mut entry: TableEntry) -> Result<(), TableFull> {
+        entry.slot &= !ENTRY_VISIBLE;
+        if entry.cell & ENTRY_FAILED == 0 && self.range_visible(entry.range) {
+            entry.slot |= ENTRY_VISIBLE;
+        }
         while self.table.len() >= self.max_entries {
             let Some(oldest) = self.metadata.pop_front() else {
                 break;
@@ -512,11 +559,14 @@ impl Streamer {
                 Ok(brick) => {
                     self.counters.loads += 1;
                     self.ram.insert(result.key, brick);
-                    if let Some(request) = self.wanted_keys.get(&result.key) {
+                    if let Some(request) = self.wanted.get(&result.key) {
                         self.ready.push(*request);
                     }
                 }
                 Err(error) => {
+                    if self.wanted.contains_key(&result.key) {
+                        self.missing = self.missing.saturating_sub(1);
+                    }
                     if self.failed.insert(result.key) {
                         let entry = TableEntry {
                             key: result.key,
@@ -567,9 +617,10 @@ impl Streamer {
             .filter(|&&key| !self.failed.contains(&key) && self.shape.brick_of(key).is_some())
             .count();
         // What was asked for, and the coarser bricks above each down to the first one the GPU
-        // has (so the picture refines level by level), in priority order.
-        let mut wanted: HashMap<u32, Request> = HashMap::new();
-        let mut prefetch: HashMap<u32, Request> = HashMap::new();
+        // has (so the picture refines level by level).
+        let mut wanted: KeyMap<Request> = KeyMap::default();
+        wanted.reserve(asked.len() + asked.len() / 4);
+        let mut prefetch: KeyMap<Request> = KeyMap::default();
         // Prefetch around a few asks only: beyond that the view is far from complete and what
         // is visible keeps the workers busy (and the frame's CPU time stays small).
         let prefetch_around = self.options.prefetch && asked.len() <= PREFETCH_AROUND;
@@ -580,7 +631,7 @@ impl Streamer {
             let mut key = key;
             let asked_level = id.level;
             loop {
-                if self.satisfied(key) || wanted.contains_key(&key) {
+                if wanted.contains_key(&key) || self.satisfied(key) {
                     break;
                 }
                 let off_center = view.off_center(self.shape.brick_center(id));
@@ -602,37 +653,40 @@ impl Streamer {
                 key = self.shape.key(id).expect("a parent is in the pyramid");
             }
         }
-        let mut wanted: Vec<Request> = wanted.into_values().collect();
-        wanted.sort_unstable_by_key(|r| r.priority);
+        // One pass: per-level counts; ready (in RAM: a hit, unless it was ready already) or
+        // to load; then the prefetch after them.
         for level in &mut self.counters.levels {
             level.requested = 0;
         }
-        for request in &wanted {
+        let already: KeySet = self.ready.iter().map(|r| r.key).collect();
+        let (mut ready, mut loads) = (Vec::new(), Vec::new());
+        for request in wanted.values() {
             self.counters.levels[request.id.level as usize].requested += 1;
+            if self.ram.contains(request.key) {
+                if !already.contains(&request.key) {
+                    self.counters.ram_hits += 1;
+                }
+                ready.push(*request);
+            } else {
+                loads.push(*request);
+            }
         }
-        self.wanted_keys = wanted.iter().map(|r| (r.key, *r)).collect();
-        // Ready: in RAM (a hit, unless it was ready already). To load: the rest, with the
-        // prefetch after them.
-        let (ready, to_load): (Vec<Request>, Vec<Request>) =
-            wanted.iter().partition(|r| self.ram.contains(r.key));
-        let already: HashSet<u32> = self.ready.iter().map(|r| r.key).collect();
-        self.counters.ram_hits += ready.iter().filter(|r| !already.contains(&r.key)).count() as u64;
+        ready.sort_unstable_by_key(|r| r.priority);
         self.ready = ready;
-        let mut loads = to_load;
-        let room =
-            self.ram.capacity().saturating_sub(self.ram.bytes()) / self.counters.slot_bytes.max(1);
+        let room = self.ram.capacity().saturating_sub(self.ram.bytes()) / self.counters.slot_bytes.max(1);
         loads.extend(
             prefetch
                 .into_values()
-                .filter(|r| !self.wanted_keys.contains_key(&r.key) && !self.ram.contains(r.key))
+                .filter(|r| !wanted.contains_key(&r.key) && !self.ram.contains(r.key))
                 .take(room as usize),
         );
         self.queue.replace(loads);
+        self.missing = wanted.len();
         self.wanted = wanted;
     }
 
     /// The face neighbours of `id` in its level, as prefetch requests.
-    fn add_neighbours(&self, id: BrickId, off_center: f32, into: &mut HashMap<u32, Request>) {
+    fn add_neighbours(&self, id: BrickId, off_center: f32, into: &mut KeyMap<Request>) {
         let grid = self.shape.levels[id.level as usize].grid;
         for axis in 0..3 {
             for step in [-1i64, 1] {
@@ -687,15 +741,20 @@ impl Streamer {
                 Ok(Some(upload)) => {
                     bytes += cost;
                     uploads.push(upload);
+                    self.missing = self.missing.saturating_sub(1);
                 }
                 Ok(None) if cost > 0 => {
                     overflow = true;
                     waiting.push(request);
                 }
-                Ok(None) => self.changed_frame = self.frame,
+                Ok(None) => {
+                    self.changed_frame = self.frame;
+                    self.missing = self.missing.saturating_sub(1);
+                }
                 Err(message) => {
                     self.failed.insert(request.key);
                     self.new_errors.push(message);
+                    self.missing = self.missing.saturating_sub(1);
                 }
             }
         }
@@ -742,11 +801,7 @@ impl Streamer {
 
     fn status(&mut self, uploads: usize, upload_bytes: u64) -> StreamStatus {
         let (queued, loading) = self.queue.counts();
-        let missing = self
-            .wanted
-            .iter()
-            .filter(|r| !self.satisfied(r.key) && !self.failed.contains(&r.key))
-            .count();
+        let missing = self.missing;
         let complete = self.feedback_frame.is_some_and(|f| f >= self.changed_frame)
             && self.feedback_missing == 0;
         for (level, counters) in self.counters.levels.iter_mut().enumerate() {
