@@ -213,7 +213,7 @@ fn accumulate_level(acc: ptr<function, Accumulation>, levels: vec4<u32>, count: 
         let a = step_alpha(rgba.a, exponent);
         var rgb = rgba.rgb;
         if SHADING && a > 0.0 {
-            let coords = frame.here + ts[j] * frame.dir;
+            let coords = select(frame.next, frame.here, ts[j] < frame.split) + ts[j] * frame.dir;
             rgb = shade_sample(rgb, level_gradient(coords, frame.half_texel) / level_scale,
                                frame.light);
         }
@@ -312,6 +312,8 @@ fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32) -> RayResult
     // The next brick's key and page-table entry, read ahead (`EMPTY_KEY`: none).
     var next_key = EMPTY_KEY;
     var next_entry = vec4<u32>(EMPTY_KEY, 0u, 0u, 0u);
+    var next_cell = vec3<u32>(0u);
+    var next_out = 0.0;
     for (var i = 0u; i < MAX_STEPS; i++) {
         if !marching {
             if t >= t_leave {
@@ -401,8 +403,11 @@ fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32) -> RayResult
                 brick_max = entry[TABLE_RANGE] >> 16u;
                 marching = true;
                 // Read the next brick's entry now (its home slot), so that its latency hides
-                // behind this brick's samples (the grid walk's prefetch, raycast.wgsl).
-                if t_out < t_leave {
+                // behind this brick's samples (the grid walk's prefetch, raycast.wgsl); where
+                // the ray wants the same level there and this brick is the wanted one, the last
+                // batch may go on into it.
+                if t_out < t_leave && level == wanted
+                    && wanted_level(t_out, lod_per_t) == wanted {
                     var axis = 2u;
                     if exits.x <= exits.y && exits.x <= exits.z {
                         axis = 0u;
@@ -413,8 +418,12 @@ fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32) -> RayResult
                     next[axis] += select(-1, 1, positive[axis]);
                     let grid = vec3<i32>(stream.level_grid[wanted].xyz);
                     if all(next >= vec3<i32>(0)) && all(next < grid) {
-                        next_key = brick_key(wanted, vec3<u32>(next));
+                        next_cell = vec3<u32>(next);
+                        next_key = brick_key(wanted, next_cell);
                         next_entry = page_table[table_hash(next_key) & stream.table_mask];
+                        var next_exits = exits;
+                        next_exits[axis] += side[axis] * abs(inv[axis]);
+                        next_out = min(min_component(next_exits), t_leave);
                     }
                 }
             }
@@ -422,18 +431,40 @@ fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32) -> RayResult
         if marching {
             let ts = t_enter + (vec4<f32>(k) + BATCH_OFFSETS) * step;
             let ts2 = t_enter + (vec4<f32>(k + f32(BATCH)) + BATCH_OFFSETS) * step;
-            let count = count_before(ts, segment_out) + count_before(ts2, segment_out);
+            let count_here = count_before(ts, segment_out) + count_before(ts2, segment_out);
+            // A batch that reaches this brick's exit goes on into the next brick when that one
+            // is read ahead, in the atlas and visible (its entry is here already), so a brick
+            // boundary costs no short batch (the grid walk's, raycast.wgsl). (Nested ifs: only
+            // a batch at the exit looks at the next entry.)
+            var count = count_here;
+            var atlas_next = atlas_here;
+            if count_here < BATCH_PAIR && next_key != EMPTY_KEY {
+                if next_entry[TABLE_KEY] == next_key
+                    && (next_entry[TABLE_CELL] & ENTRY_RESIDENT) != 0u
+                    && entry_visible(next_entry, acc.running_max) {
+                    count = count_before(ts, next_out) + count_before(ts2, next_out);
+                    let packed = next_entry[TABLE_CELL];
+                    let next_atlas = vec3<u32>(packed & 0x3ffu, (packed >> 10u) & 0x3ffu,
+                                               (packed >> 20u) & 0x3ffu);
+                    let offset = vec3<f32>(next_atlas * 34u) + 1.0 - vec3<f32>(next_cell) * BRICK;
+                    atlas_next = (origin / scale + offset) * params.atlas_texel.xyz;
+                }
+            }
             if count > 0u {
-                let first = vec4<u32>(atlas_level_at(atlas_here + ts.x * atlas_dir),
-                                      atlas_level_at(atlas_here + ts.y * atlas_dir),
-                                      atlas_level_at(atlas_here + ts.z * atlas_dir),
-                                      atlas_level_at(atlas_here + ts.w * atlas_dir));
-                let second = vec4<u32>(atlas_level_at(atlas_here + ts2.x * atlas_dir),
-                                       atlas_level_at(atlas_here + ts2.y * atlas_dir),
-                                       atlas_level_at(atlas_here + ts2.z * atlas_dir),
-                                       atlas_level_at(atlas_here + ts2.w * atlas_dir));
-                let frame = SampleFrame(atlas_here, atlas_here, 3.4e38, atlas_dir, half_texel,
-                                        light);
+                let here = ts < vec4<f32>(segment_out);
+                let there = ts2 < vec4<f32>(segment_out);
+                let first = vec4<u32>(
+                    atlas_level_at(select(atlas_next, atlas_here, here.x) + ts.x * atlas_dir),
+                    atlas_level_at(select(atlas_next, atlas_here, here.y) + ts.y * atlas_dir),
+                    atlas_level_at(select(atlas_next, atlas_here, here.z) + ts.z * atlas_dir),
+                    atlas_level_at(select(atlas_next, atlas_here, here.w) + ts.w * atlas_dir));
+                let second = vec4<u32>(
+                    atlas_level_at(select(atlas_next, atlas_here, there.x) + ts2.x * atlas_dir),
+                    atlas_level_at(select(atlas_next, atlas_here, there.y) + ts2.y * atlas_dir),
+                    atlas_level_at(select(atlas_next, atlas_here, there.z) + ts2.z * atlas_dir),
+                    atlas_level_at(select(atlas_next, atlas_here, there.w) + ts2.w * atlas_dir));
+                let frame = SampleFrame(atlas_here, atlas_next, segment_out, atlas_dir,
+                                        half_texel, light);
                 var taken = accumulate_level(&acc, first, min(count, BATCH), ts, frame, exponent,
                                              scale);
                 if !acc.done && count > BATCH {
@@ -443,7 +474,7 @@ fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32) -> RayResult
                 result.visited += taken;
                 k += f32(count);
             }
-            if count < BATCH_PAIR {
+            if count_here < BATCH_PAIR {
                 marching = false;
                 t = segment_out;
             } else if mip && acc.running_max >= brick_max {

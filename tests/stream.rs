@@ -228,6 +228,17 @@ fn a_refined_view_equals_the_bricks_render_with_a_quarter_of_the_bricks_in_budge
     assert!(refined.most_upload_bytes <= 8 << 20, "the per-frame upload budget holds");
     assert!(gpu_total(&renderer) <= budget);
     assert!(status.errors.is_empty());
+
+    // Shaded, the same view against the bricks renderer shaded (gradients through the aprons).
+    let shaded = RenderSettings {
+        shading: voxscope::render::Shading::default(),
+        ..settings
+    };
+    let refined = refine(&context, &mut renderer, &camera, &shaded);
+    let expected = bricks_image(&context, prepared, &prepared.transfer, &camera, &shaded);
+    let db = psnr(&refined.image, &expected);
+    save(&refined.image, "refined-shaded");
+    assert!(db >= 40.0, "shaded, streamed against bricks: {db:.1} dB");
 }
 
 
