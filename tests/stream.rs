@@ -202,7 +202,12 @@ fn a_refined_view_equals_the_bricks_render_with_a_quarter_of_the_bricks_in_budge
     let context = gpu();
     let prepared = &*NOISE;
     let budget = level0_bytes() / 4;
-    let mut renderer = streaming(&context, PYRAMID.clone(), options(budget), &prepared.transfer);
+    let mut renderer = streaming(
+        &context,
+        PYRAMID.clone(),
+        options(budget),
+        &prepared.transfer,
+    );
     assert!(
         gpu_total(&renderer) <= budget,
         "{} bytes on the GPU for a budget of {budget}",
@@ -218,14 +223,26 @@ fn a_refined_view_equals_the_bricks_render_with_a_quarter_of_the_bricks_in_budge
     let status = &refined.status;
     eprintln!(
         "refined in {} frames: {db:.1} dB, {} of {} slots at most, lod bias {}, {:?}",
-        refined.frames, refined.most_slots_used, status.counters.slots, status.lod_bias,
+        refined.frames,
+        refined.most_slots_used,
+        status.counters.slots,
+        status.lod_bias,
         status.counters.levels
     );
     assert!(coverage(&expected) > 0.5, "the view shows the volume");
-    assert_eq!(status.lod_bias, 0, "the budget holds this view at full resolution");
-    assert!(status.counters.levels[0].resident > 8, "level 0 was streamed");
+    assert_eq!(
+        status.lod_bias, 0,
+        "the budget holds this view at full resolution"
+    );
+    assert!(
+        status.counters.levels[0].resident > 8,
+        "level 0 was streamed"
+    );
     assert!(db >= 40.0, "streamed against bricks: {db:.1} dB");
-    assert!(refined.most_upload_bytes <= 8 << 20, "the per-frame upload budget holds");
+    assert!(
+        refined.most_upload_bytes <= 8 << 20,
+        "the per-frame upload budget holds"
+    );
     assert!(gpu_total(&renderer) <= budget);
     assert!(status.errors.is_empty());
 
@@ -240,7 +257,6 @@ fn a_refined_view_equals_the_bricks_render_with_a_quarter_of_the_bricks_in_budge
     save(&refined.image, "refined-shaded");
     assert!(db >= 40.0, "shaded, streamed against bricks: {db:.1} dB");
 }
-
 
 /// Pyramid level `level` of the noise as a volume of its own (spacing 2^level), ready for the
 /// bricks renderer: what the streaming renderer must draw when it draws that level.
@@ -302,7 +318,12 @@ fn a_budget_that_cannot_hold_the_view_draws_a_coarser_level_correctly_within_it(
     let context = gpu();
     let prepared = &*NOISE;
     let budget = level0_bytes() / 16;
-    let mut renderer = streaming(&context, PYRAMID.clone(), options(budget), &prepared.transfer);
+    let mut renderer = streaming(
+        &context,
+        PYRAMID.clone(),
+        options(budget),
+        &prepared.transfer,
+    );
     let camera = close_camera(30.0);
     let refined = refine(
         &context,
@@ -313,7 +334,10 @@ fn a_budget_that_cannot_hold_the_view_draws_a_coarser_level_correctly_within_it(
     let status = &refined.status;
     let level = status.lod_bias as usize;
     assert!(level >= 1, "the view at level 0 does not fit: {status:?}");
-    assert_eq!(status.counters.levels[0].resident, 0, "no level-0 brick is kept");
+    assert_eq!(
+        status.counters.levels[0].resident, 0,
+        "no level-0 brick is kept"
+    );
     let coarse = level_volume(level);
     let expected = bricks_image(
         &context,
@@ -329,7 +353,10 @@ fn a_budget_that_cannot_hold_the_view_draws_a_coarser_level_correctly_within_it(
         "level {level} after {} frames: {db:.1} dB; {} of {} slots at most",
         refined.frames, refined.most_slots_used, status.counters.slots
     );
-    assert!(db >= 40.0, "streamed level {level} against its bricks render: {db:.1} dB");
+    assert!(
+        db >= 40.0,
+        "streamed level {level} against its bricks render: {db:.1} dB"
+    );
     assert!(gpu_total(&renderer) <= budget);
     assert!(refined.most_slots_used <= status.counters.slots);
 }
@@ -360,9 +387,18 @@ fn a_max_level_below_the_voxels_draws_that_pyramid_level() {
         &uncorrected(coarse.octree.depth),
     );
     let db = psnr(&refined.image, &expected);
-    assert!(db >= 40.0, "max level 6 against level 2's bricks: {db:.1} dB");
+    assert!(
+        db >= 40.0,
+        "max level 6 against level 2's bricks: {db:.1} dB"
+    );
     // And it is not the full-resolution picture.
-    let full = bricks_image(&context, prepared, &prepared.transfer, &camera, &uncorrected(8));
+    let full = bricks_image(
+        &context,
+        prepared,
+        &prepared.transfer,
+        &camera,
+        &uncorrected(8),
+    );
     assert!(psnr(&refined.image, &full) < 35.0);
 }
 
@@ -393,7 +429,10 @@ fn evicted_bricks_are_asked_for_again_from_ram_and_transfer_edits_apply_while_st
     let (hits, loads) = (after.ram_hits - before.ram_hits, after.loads - before.loads);
     eprintln!("back to the first view: {hits} bricks from RAM, {loads} read");
     assert!(hits >= 20, "evicted bricks came back from RAM: {hits}");
-    assert!(loads * 10 <= hits, "{loads} read again against {hits} from RAM");
+    assert!(
+        loads * 10 <= hits,
+        "{loads} read again against {hits} from RAM"
+    );
     let db = psnr(&first.image, &again.image);
     assert!(db >= 60.0, "the same view again: {db:.1} dB");
 
@@ -407,22 +446,33 @@ fn evicted_bricks_are_asked_for_again_from_ram_and_transfer_edits_apply_while_st
         },
         ..prepared.transfer
     };
-    let refined = refine_with(&context, &mut renderer, &side, &settings, |frame, context, renderer| {
-        if frame == 2 {
-            let mut encoder = context
-                .device
-                .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
-            renderer
-                .set_transfer(context, &mut encoder, &edited, None)
-                .expect("edit");
-            context.queue.submit([encoder.finish()]);
-        }
-    });
+    let refined = refine_with(
+        &context,
+        &mut renderer,
+        &side,
+        &settings,
+        |frame, context, renderer| {
+            if frame == 2 {
+                let mut encoder = context
+                    .device
+                    .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+                renderer
+                    .set_transfer(context, &mut encoder, &edited, None)
+                    .expect("edit");
+                context.queue.submit([encoder.finish()]);
+            }
+        },
+    );
     let expected = bricks_image(&context, prepared, &edited, &side, &settings);
     let db = psnr(&refined.image, &expected);
     save(&refined.image, "edited");
     assert!(db >= 40.0, "after the edit: {db:.1} dB");
-    assert!(psnr(&refined.image, &bricks_image(&context, prepared, &prepared.transfer, &side, &settings)) < 35.0);
+    assert!(
+        psnr(
+            &refined.image,
+            &bricks_image(&context, prepared, &prepared.transfer, &side, &settings)
+        ) < 35.0
+    );
 }
 
 /// A source whose one brick cannot be read (a damaged chunk).
@@ -463,7 +513,10 @@ fn project(camera: &Camera, voxel: DVec3) -> (f64, f64) {
     let depth = d.dot(frame.forward);
     let x = d.dot(frame.right) / depth / (frame.tan_half_fov_y * frame.aspect);
     let y = d.dot(frame.up) / depth / frame.tan_half_fov_y;
-    ((x + 1.0) / 2.0 * SIZE.0 as f64, (1.0 - y) / 2.0 * SIZE.1 as f64)
+    (
+        (x + 1.0) / 2.0 * SIZE.0 as f64,
+        (1.0 - y) / 2.0 * SIZE.1 as f64,
+    )
 }
 
 #[test]
@@ -483,18 +536,33 @@ fn a_brick_that_fails_to_load_leaves_its_region_coarser_and_the_rest_unchanged()
     let brick = (inside / BRICK_SIZE as f64).floor().as_uvec3().to_array();
     let broken = BrickId { level: 0, brick };
 
-    let mut good = streaming(&context, PYRAMID.clone(), options(level0_bytes()), &prepared.transfer);
+    let mut good = streaming(
+        &context,
+        PYRAMID.clone(),
+        options(level0_bytes()),
+        &prepared.transfer,
+    );
     let whole = refine(&context, &mut good, &camera, &settings);
     let damaged = Arc::new(Failing {
         inner: PYRAMID.clone(),
         broken,
     });
-    let mut renderer = streaming(&context, damaged, options(level0_bytes()), &prepared.transfer);
+    let mut renderer = streaming(
+        &context,
+        damaged,
+        options(level0_bytes()),
+        &prepared.transfer,
+    );
     let refined = refine(&context, &mut renderer, &camera, &settings);
     // Later updates report nothing more.
     let mut errors = refined.errors.clone();
     for _ in 0..3 {
-        renderer.render(&context, &RenderTarget::new(&context, 8, 8), &camera, &settings);
+        renderer.render(
+            &context,
+            &RenderTarget::new(&context, 8, 8),
+            &camera,
+            &settings,
+        );
         context.wait_idle().expect("GPU");
         errors.extend(renderer.update(&context).expect("streaming").errors);
     }
@@ -506,7 +574,10 @@ fn a_brick_that_fails_to_load_leaves_its_region_coarser_and_the_rest_unchanged()
     let corners: Vec<(f64, f64)> = (0..8)
         .map(|c| {
             let offset = DVec3::new((c & 1) as f64, ((c >> 1) & 1) as f64, (c >> 2) as f64);
-            project(&camera, (DVec3::from(brick.map(f64::from)) + offset) * BRICK_SIZE as f64)
+            project(
+                &camera,
+                (DVec3::from(brick.map(f64::from)) + offset) * BRICK_SIZE as f64,
+            )
         })
         .collect();
     let (x0, x1) = corners
@@ -518,7 +589,10 @@ fn a_brick_that_fails_to_load_leaves_its_region_coarser_and_the_rest_unchanged()
     let (mut inside_most, mut outside_most) = (0u8, 0u8);
     for (x, y, pixel) in refined.image.enumerate_pixels() {
         let other = whole.image.get_pixel(x, y);
-        let difference = (0..3).map(|c| pixel[c].abs_diff(other[c])).max().unwrap_or(0);
+        let difference = (0..3)
+            .map(|c| pixel[c].abs_diff(other[c]))
+            .max()
+            .unwrap_or(0);
         let (px, py) = (x as f64 + 0.5, y as f64 + 0.5);
         if px >= x0 - 1.0 && px <= x1 + 1.0 && py >= y0 - 1.0 && py <= y1 + 1.0 {
             inside_most = inside_most.max(difference);
@@ -561,14 +635,34 @@ fn a_far_view_streams_the_levels_its_pixels_resolve() {
         distance: 6.0,
         ..close_camera(30.0)
     };
-    let refined = refine(&context, &mut renderer, &camera, &settings(prepared.octree.depth));
+    let refined = refine(
+        &context,
+        &mut renderer,
+        &camera,
+        &settings(prepared.octree.depth),
+    );
     let levels = &refined.status.counters.levels;
-    eprintln!("far view: {:?}", levels.iter().map(|l| l.resident).collect::<Vec<_>>());
-    assert_eq!(levels[0].resident, 0, "a pixel covers several level-0 voxels");
-    let expected = bricks_image(&context, prepared, &prepared.transfer, &camera, &settings(8));
+    eprintln!(
+        "far view: {:?}",
+        levels.iter().map(|l| l.resident).collect::<Vec<_>>()
+    );
+    assert_eq!(
+        levels[0].resident, 0,
+        "a pixel covers several level-0 voxels"
+    );
+    let expected = bricks_image(
+        &context,
+        prepared,
+        &prepared.transfer,
+        &camera,
+        &settings(8),
+    );
     let db = psnr(&refined.image, &expected);
     save(&refined.image, "far");
-    assert!(db >= 25.0, "the far view at its pixels' levels against full detail: {db:.1} dB");
+    assert!(
+        db >= 25.0,
+        "the far view at its pixels' levels against full detail: {db:.1} dB"
+    );
 }
 
 /// `voxscope render --renderer stream`, run as a user would.
@@ -578,7 +672,10 @@ fn render_stream(args: &[&str]) -> (std::process::ExitStatus, String) {
         .args(args)
         .output()
         .expect("voxscope runs");
-    (output.status, String::from_utf8_lossy(&output.stderr).into_owned())
+    (
+        output.status,
+        String::from_utf8_lossy(&output.stderr).into_owned(),
+    )
 }
 
 #[test]
@@ -587,15 +684,13 @@ fn render_waits_until_nothing_is_missing_or_says_what_was_still_coarse() {
     let out = dir.path().join("noise.png");
     let out = out.to_str().expect("a UTF-8 path");
     // 1024³ procedural noise in 32 MiB of GPU memory: waits for the view, then writes it.
-    let (status, stderr) = render_stream(&[
-        "synthetic:noise:1024",
-        "--gpu-memory",
-        "32MiB",
-        "-o",
-        out,
-    ]);
+    let (status, stderr) =
+        render_stream(&["synthetic:noise:1024", "--gpu-memory", "32MiB", "-o", out]);
     assert!(status.success(), "{stderr}");
-    assert!(stderr.contains("stream renderer") && stderr.contains("complete after"), "{stderr}");
+    assert!(
+        stderr.contains("stream renderer") && stderr.contains("complete after"),
+        "{stderr}"
+    );
     let image = image::open(out).expect("the PNG").to_rgba8();
     assert_eq!(image.dimensions(), (96, 72));
     assert!(coverage(&image) > 0.1, "the volume is drawn");
@@ -620,7 +715,8 @@ fn render_waits_until_nothing_is_missing_or_says_what_was_still_coarse() {
         "{stderr}"
     );
     // A budget below what the coarsest levels need is a one-line error.
-    let (status, stderr) = render_stream(&["synthetic:noise:1024", "--gpu-memory", "1MiB", "-o", out]);
+    let (status, stderr) =
+        render_stream(&["synthetic:noise:1024", "--gpu-memory", "1MiB", "-o", out]);
     assert!(!status.success());
     assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
     assert!(stderr.contains("synthetic:noise:1024"), "{stderr}");

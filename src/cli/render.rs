@@ -130,7 +130,10 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
 fn run_stream(args: &RenderArgs) -> Result<(), String> {
     let started = Instant::now();
     if !(args.max_wait.is_finite() && args.max_wait >= 0.0) {
-        return Err(format!("--max-wait {} is not a number of seconds", args.max_wait));
+        return Err(format!(
+            "--max-wait {} is not a number of seconds",
+            args.max_wait
+        ));
     }
     let prepared = StreamPrepared::new(&args.volume, &args.transfer)?;
     let name = prepared.source.name().to_owned();

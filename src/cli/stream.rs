@@ -27,7 +27,7 @@ pub struct StreamArgs {
     #[arg(long, value_name = "SIZE", default_value = "2GiB", value_parser = parse_bytes)]
     pub ram_cache: u64,
     /// Streaming renderer: bricks uploaded to the GPU per frame at most, in bytes.
-    #[arg(long, value_name = "SIZE", default_value = "16MiB", value_parser = parse_bytes)]
+    #[arg(long, value_name = "SIZE", default_value = "8MiB", value_parser = parse_bytes)]
     pub upload_budget: u64,
     /// Streaming renderer: the pixel footprint is multiplied by this to pick each segment's
     /// level (1: no voxel larger than a pixel's footprint; 2: one level coarser; 0: always the
@@ -62,7 +62,11 @@ pub fn parse_bytes(text: &str) -> Result<u64, String> {
         "m" | "mib" => 20,
         "g" | "gib" => 30,
         "t" | "tib" => 40,
-        _ => return Err(format!("size '{text}' has an unknown unit (use K, M, G, T or KiB, MiB, GiB, TiB)")),
+        _ => {
+            return Err(format!(
+                "size '{text}' has an unknown unit (use K, M, G, T or KiB, MiB, GiB, TiB)"
+            ));
+        }
     };
     let value: f64 = number
         .parse()
@@ -104,38 +108,38 @@ impl StreamPrepared {
         let saved = transfer_args.saved()?;
         let started = Instant::now();
         let spec = volume_args.file.as_deref();
-        let (source, kind): (Arc<dyn BrickSource>, Option<DataKind>) =
-            match spec.and_then(|s| s.strip_prefix("synthetic:noise:")) {
-                Some(size) if volume_args.raw.is_none() => {
-                    let dims = parse_dims(size).ok_or_else(|| {
-                        format!("synthetic:noise:{size}: the size is not N or XxYxZ")
-                    })?;
-                    let name = format!("synthetic:noise:{size}");
-                    (Arc::new(NoiseSource::new(&name, dims)?), None)
+        let (source, kind): (Arc<dyn BrickSource>, Option<DataKind>) = match spec
+            .and_then(|s| s.strip_prefix("synthetic:noise:"))
+        {
+            Some(size) if volume_args.raw.is_none() => {
+                let dims = parse_dims(size)
+                    .ok_or_else(|| format!("synthetic:noise:{size}: the size is not N or XxYxZ"))?;
+                let name = format!("synthetic:noise:{size}");
+                (Arc::new(NoiseSource::new(&name, dims)?), None)
+            }
+            _ => {
+                let loaded = match spec {
+                    Some(spec) => volume::load(spec, &volume_args.load_options()),
+                    None => volume::sample(),
                 }
-                _ => {
-                    let loaded = match spec {
-                        Some(spec) => volume::load(spec, &volume_args.load_options()),
-                        None => volume::sample(),
-                    }
-                    .map_err(|e| e.to_string())?;
-                    let quantized = QuantizedVolume::new(&loaded);
-                    let kind = DataKind::of_volume(&loaded, &quantized);
-                    let how = match kind {
-                        DataKind::Labels(_) => Downsampling::Max,
-                        _ => Downsampling::Mean,
-                    };
-                    let source = MemorySource::from_levels(
-                        &loaded.name,
-                        quantized.levels,
-                        quantized.dims,
-                        quantized.quantization,
-                        loaded.spacing,
-                        how,
-                    )?;
-                    (Arc::new(source), Some(kind))
-                }
-            };
+                .map_err(|e| e.to_string())?;
+                let quantized = QuantizedVolume::new(&loaded);
+                let kind = DataKind::of_volume(&loaded, &quantized);
+                let how = match kind {
+                    DataKind::Labels(_) => Downsampling::Max,
+                    _ => Downsampling::Mean,
+                };
+                let source = MemorySource::from_levels(
+                    &loaded.name,
+                    quantized.levels,
+                    quantized.dims,
+                    quantized.quantization,
+                    loaded.spacing,
+                    how,
+                )?;
+                (Arc::new(source), Some(kind))
+            }
+        };
         let (preview, _) =
             preview(&*source, PREVIEW_BRICKS).map_err(|e| format!("{}: {e}", source.name()))?;
         let kind = kind.unwrap_or_else(|| DataKind::of(&preview, None, false));

@@ -140,11 +140,12 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
                 azimuth_deg: medium.azimuth_deg + 360.0 * i as f64 / args.frames as f64,
                 ..medium
             };
-            let mut encoder = context
-                .device
-                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                    label: Some("voxscope::bench_stream_frame"),
-                });
+            let mut encoder =
+                context
+                    .device
+                    .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                        label: Some("voxscope::bench_stream_frame"),
+                    });
             renderer.encode(&context, &mut encoder, &target, &camera, &gray, writes);
             context.queue.submit([encoder.finish()]);
             // As an app that waits for its frame (a presented swap chain): the wall time
@@ -162,13 +163,19 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
             "wall_ms": summary(&wall),
             "update_ms": summary(&update_ms),
             "frames_over_16ms_wall": wall.iter().filter(|&&w| w > 16.0).count(),
+            "slowest_frame": wall
+                .iter()
+                .enumerate()
+                .max_by(|a, b| a.1.total_cmp(b.1))
+                .map(|(index, _)| index),
             "missing_bricks": summary(&missing),
             "uploaded_bytes": uploaded,
             "counters": status.counters,
         }));
     }
 
-    let resident = resident_comparison(&context, args, &prepared, &target, options, timer.as_ref())?;
+    let resident =
+        resident_comparison(&context, args, &prepared, &target, options, timer.as_ref())?;
 
     let report = json!({
         "adapter": context.adapter_info.name,
@@ -201,7 +208,10 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
     if args.json {
         println!("{report}");
     } else {
-        println!("{}", serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?);
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?
+        );
     }
     Ok(())
 }
@@ -271,11 +281,26 @@ fn resident_comparison(
                 ..Camera::default()
             };
             let refinement = refine(context, &mut stream, target, &camera, &settings, MAX_WAIT)?;
-            let (stream_gpu, stream_wall) =
-                time_view(context, &stream, target, &camera, &settings, args.frames, timer)?;
-            let (bricks_gpu, bricks_wall) =
-                time_view(context, &bricks, target, &camera, &settings, args.frames, timer)?;
-            let (stream_ms, bricks_ms) = (percentile(&stream_gpu, 50.0), percentile(&bricks_gpu, 50.0));
+            let (stream_gpu, stream_wall) = time_view(
+                context,
+                &stream,
+                target,
+                &camera,
+                &settings,
+                args.frames,
+                timer,
+            )?;
+            let (bricks_gpu, bricks_wall) = time_view(
+                context,
+                &bricks,
+                target,
+                &camera,
+                &settings,
+                args.frames,
+                timer,
+            )?;
+            let (stream_ms, bricks_ms) =
+                (percentile(&stream_gpu, 50.0), percentile(&bricks_gpu, 50.0));
             rows.push(json!({
                 "mode": mode_name,
                 "camera": camera_name,

@@ -23,7 +23,7 @@ use super::pipeline::{
 use super::raycaster::{
     BrickShape, ProbeTarget, StandIns, VolumeShape, frame_variant, probe_variant, raycast_params,
 };
-use super::{Camera, GpuContext, GpuTransferTable, RenderError, RenderSettings, RenderTarget};
+use super::{Frame, GpuContext, GpuTransferTable, RenderError, RenderTarget};
 use crate::octree::TransferFunction;
 use crate::stream::{
     AtlasTexels, BRICK_SIZE, BrickSource, Feedback, PADDED_BRICK, PADDED_BRICK_VOXELS,
@@ -132,9 +132,8 @@ impl StreamVolume {
         let grid = atlas_grid(context, options.gpu_memory, slot_bytes, bricks)?;
         let quantization = source.quantization();
         let visible = visible_below(&transfer.lookup_table(quantization));
-        let (streamer, pinned) =
-            Streamer::new(Arc::clone(&source), grid, texels, options, visible)
-                .map_err(RenderError)?;
+        let (streamer, pinned) = Streamer::new(Arc::clone(&source), grid, texels, options, visible)
+            .map_err(RenderError)?;
         let device = &context.device;
         let out_of_memory = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let size = wgpu::Extent3d {
@@ -310,7 +309,10 @@ impl StreamVolume {
                 for (merged, &mark) in usage.iter_mut().zip(marks) {
                     *merged = (*merged).max(mark);
                 }
-                if newest.as_ref().is_none_or(|(frame, ..)| readback.frame > *frame) {
+                if newest
+                    .as_ref()
+                    .is_none_or(|(frame, ..)| readback.frame > *frame)
+                {
                     newest = Some((readback.frame, keys.to_vec(), asked, Vec::new()));
                 }
             }
@@ -358,7 +360,10 @@ impl StreamVolume {
                 .buffer
                 .slice(..)
                 .map_async(wgpu::MapMode::Read, move |result| {
-                    state.store(if result.is_ok() { MAPPED } else { FAILED }, Ordering::Release);
+                    state.store(
+                        if result.is_ok() { MAPPED } else { FAILED },
+                        Ordering::Release,
+                    );
                 });
         }
     }
@@ -504,12 +509,15 @@ impl StreamRaycaster {
         &self,
         context: &GpuContext,
         encoder: &mut wgpu::CommandEncoder,
-        volume: &StreamVolume,
-        target: &RenderTarget,
-        camera: &Camera,
-        settings: &RenderSettings,
+        frame: &Frame<'_, StreamVolume>,
         timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
+        let Frame {
+            volume,
+            target,
+            camera,
+            settings,
+        } = *frame;
         let params = raycast_params(volume, [target.width, target.height], camera, settings);
         let forward = glam::Vec3::from_slice(&params.forward[..3]).normalize_or_zero();
         *volume.view.lock().unwrap_or_else(|p| p.into_inner()) = Some(ViewPoint {
@@ -539,8 +547,13 @@ impl StreamRaycaster {
     ) {
         let mut params = raycast_params(volume, probe.size, probe.camera, probe.settings);
         params.probe_pixel = probe.pixel;
-        let bind_group =
-            self.bind_group(context, volume, &params, &self.stand_ins.target, probe.output);
+        let bind_group = self.bind_group(
+            context,
+            volume,
+            &params,
+            &self.stand_ins.target,
+            probe.output,
+        );
         let pipeline = self
             .pipelines
             .get(context, 0, probe_variant(probe.settings));

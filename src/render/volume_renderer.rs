@@ -287,15 +287,17 @@ impl VolumeRenderer {
                     .raycaster()
                     .encode(context, encoder, &frame, timestamp_writes);
             }
-            State::Stream(volume) => context.stream_raycaster().encode(
-                context,
-                encoder,
-                volume,
-                target,
-                camera,
-                settings,
-                timestamp_writes,
-            ),
+            State::Stream(volume) => {
+                let frame = Frame {
+                    volume: volume.as_ref(),
+                    target,
+                    camera,
+                    settings,
+                };
+                context
+                    .stream_raycaster()
+                    .encode(context, encoder, &frame, timestamp_writes);
+            }
         }
     }
 
@@ -339,11 +341,9 @@ impl VolumeRenderer {
                     .raycaster()
                     .encode_probe(context, encoder, volume.as_ref(), probe)
             }
-            State::Stream(volume) => {
-                context
-                    .stream_raycaster()
-                    .encode_probe(context, encoder, volume, probe)
-            }
+            State::Stream(volume) => context
+                .stream_raycaster()
+                .encode_probe(context, encoder, volume, probe),
         }
     }
 

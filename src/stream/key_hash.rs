@@ -49,6 +49,10 @@ mod tests {
             .flat_map(|level| (0..256u32).map(move |i| level << 28 | i))
             .collect();
         let buckets: KeySet = keys.iter().map(|&k| hash(k) as u32).collect();
-        assert!(buckets.len() > 4096 / 2, "{} of 4096 buckets used", buckets.len());
+        assert!(
+            buckets.len() > 4096 / 2,
+            "{} of 4096 buckets used",
+            buckets.len()
+        );
     }
 }

@@ -7,7 +7,7 @@ use std::sync::Arc;
 use std::sync::mpsc::{Receiver, Sender, channel};
 use std::thread::JoinHandle;
 
-use super::queue::RequestQueue;
+use super::queue::{RequestQueue, Tier};
 use super::source::{BrickError, BrickId, BrickSource, PADDED_BRICK_VOXELS, ValueRange};
 
 /// How value levels are stored in the atlas's texels.
@@ -70,6 +70,8 @@ impl LoadedBrick {
 /// What a worker sends back.
 pub struct LoadResult {
     pub key: u32,
+    /// Whether it was loaded as a prefetch (not asked for by a ray).
+    pub prefetch: bool,
     pub brick: Result<LoadedBrick, BrickError>,
     /// Bytes the source produced for it: its padded voxels in the atlas's texel size (what a
     /// view's floor is counted in).
@@ -157,6 +159,7 @@ fn work(
         let (brick, bytes_read) = load_brick(source, request.id, texels);
         let result = LoadResult {
             key: request.key,
+            prefetch: request.priority.tier() == Tier::Prefetch,
             brick,
             bytes_read,
         };

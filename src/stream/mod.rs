@@ -27,7 +27,8 @@ pub use key_hash::{KeyHasher, KeyMap, KeySet};
 pub use loader::{AtlasTexels, LoadedBrick};
 pub use memory::MemorySource;
 pub use page_table::{
-    ENTRY_FAILED, ENTRY_RESIDENT, ENTRY_VISIBLE, MAX_PROBES, PageTable, TableEntry, TableFull, table_hash,
+    ENTRY_FAILED, ENTRY_RESIDENT, ENTRY_VISIBLE, MAX_PROBES, PageTable, TableEntry, TableFull,
+    table_hash,
 };
 pub use preview::preview;
 pub use procedural::NoiseSource;

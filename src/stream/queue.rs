@@ -32,6 +32,15 @@ impl Priority {
         let distance = off_center.max(0.0).to_bits() as u64;
         Self(tier << 40 | coarse_first << 32 | distance)
     }
+
+    /// The tier it was made with.
+    pub fn tier(self) -> Tier {
+        if self.0 >> 40 == 0 {
+            Tier::Visible
+        } else {
+            Tier::Prefetch
+        }
+    }
 }
 
 /// A brick to load, with its key.
@@ -82,7 +91,7 @@ impl RequestQueue {
     pub fn replace(&self, mut requests: Vec<Request>) -> usize {
         let mut state = self.lock();
         requests.retain(|r| !state.in_flight.contains(&r.key));
-        requests.sort_unstable_by(|a, b| b.priority.cmp(&a.priority));
+        requests.sort_unstable_by_key(|r| std::cmp::Reverse(r.priority));
         requests.dedup_by_key(|r| r.key);
         state.pending = requests;
         let queued = state.pending.len();

@@ -84,7 +84,10 @@ impl SlotPool {
                 // Oldest last: popped first.
                 candidates.sort_unstable_by_key(|&s| {
                     let s = s as usize;
-                    std::cmp::Reverse((self.last_stand_in[s].max(self.last_used[s]), self.last_used[s]))
+                    std::cmp::Reverse((
+                        self.last_stand_in[s].max(self.last_used[s]),
+                        self.last_used[s],
+                    ))
                 });
                 candidates
             });

@@ -30,8 +30,9 @@ pub struct StreamOptions {
     pub gpu_memory: u64,
     /// Bytes of decoded bricks kept in RAM (`--ram-cache`). Default 2 GiB.
     pub ram_cache: u64,
-    /// Bytes uploaded to the atlas per frame at most. Default 16 MiB (about 200 16-bit bricks:
-    /// a few ms of copying, run 46).
+    /// Bytes uploaded to the atlas per frame at most. Default 8 MiB (about 100 16-bit bricks):
+    /// on an H200, 8 MiB kept 199 of 200 streaming frames under 16 ms of wall time, 16 MiB
+    /// 151–193 of 200, 32 MiB up to 60 ms a frame (runs 46–47, docs/benchmarks.md).
     pub upload_bytes_per_frame: u64,
     /// Worker threads loading bricks. Default: the machine's cores less one (at least one).
     pub workers: usize,
@@ -49,7 +50,7 @@ impl Default for StreamOptions {
         Self {
             gpu_memory: 1 << 30,
             ram_cache: 2 << 30,
-            upload_bytes_per_frame: 16 << 20,
+            upload_bytes_per_frame: 8 << 20,
             workers: cores.saturating_sub(1).max(1),
             lod_scale: 1.0,
             prefetch: true,
@@ -129,6 +130,8 @@ pub struct StreamCounters {
     /// Wanted bricks found in the RAM cache / loaded from the source.
     pub ram_hits: u64,
     pub loads: u64,
+    /// Of the loads, those of prefetched bricks (neighbours of wanted ones).
+    pub prefetch_loads: u64,
     /// Bytes the source produced (padded bricks in texel size).
     pub bytes_read: u64,
     pub bytes_uploaded: u64,
@@ -469,9 +472,12 @@ impl Streamer {
         self.visible_below = visible_below;
         let counts = &self.visible_below;
         self.table.update_each(|entry| {
-            let (low, high) = ((entry.range & 0xffff) as usize, (entry.range >> 16) as usize);
+            let (low, high) = (
+                (entry.range & 0xffff) as usize,
+                (entry.range >> 16) as usize,
+            );
             let visible = counts[high + 1] > counts[low];
-            ((entry.slot & ENTRY_VISIBLE != 0) != visible).then(|| TableEntry {
+            ((entry.slot & ENTRY_VISIBLE != 0) != visible).then_some(TableEntry {
                 slot: entry.slot ^ ENTRY_VISIBLE,
                 ..*entry
             })
@@ -558,6 +564,7 @@ impl Streamer {
             match result.brick {
                 Ok(brick) => {
                     self.counters.loads += 1;
+                    self.counters.prefetch_loads += result.prefetch as u64;
                     self.ram.insert(result.key, brick);
                     if let Some(request) = self.wanted.get(&result.key) {
                         self.ready.push(*request);
@@ -673,7 +680,8 @@ impl Streamer {
         }
         ready.sort_unstable_by_key(|r| r.priority);
         self.ready = ready;
-        let room = self.ram.capacity().saturating_sub(self.ram.bytes()) / self.counters.slot_bytes.max(1);
+        let room =
+            self.ram.capacity().saturating_sub(self.ram.bytes()) / self.counters.slot_bytes.max(1);
         loads.extend(
             prefetch
                 .into_values()
@@ -730,12 +738,12 @@ impl Streamer {
                 continue; // evicted from RAM since: it will be asked for again
             };
             let cost = brick.texels.as_ref().map_or(0, |t| t.len() as u64);
-            // (At least one brick a frame, whatever the budget.)
-            if overflow || (cost > 0 && bytes > 0 && bytes + cost > self.options.upload_bytes_per_frame) {
-                if cost > 0 {
-                    waiting.push(request);
-                    continue;
-                }
+            // Past the budget (at least one brick a frame, whatever the budget) or once the
+            // atlas is full, bricks with texels wait; uniform ones cost nothing to place.
+            let over_budget = bytes > 0 && bytes + cost > self.options.upload_bytes_per_frame;
+            if cost > 0 && (overflow || over_budget) {
+                waiting.push(request);
+                continue;
             }
             match self.place(request.key, request.id, &brick, Some(protect_from)) {
                 Ok(Some(upload)) => {
