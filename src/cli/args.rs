@@ -161,6 +161,9 @@ pub enum RendererArg {
     Dense,
     /// The octree down to bricks (default 32³), marched in a 3D texture atlas.
     Bricks,
+    /// A pyramid of 32³ bricks streamed into a fixed GPU budget (--gpu-memory, --ram-cache):
+    /// volumes of any size.
+    Stream,
 }
 
 impl From<RendererArg> for RendererKind {
@@ -169,6 +172,7 @@ impl From<RendererArg> for RendererKind {
             RendererArg::Octree => RendererKind::Octree,
             RendererArg::Dense => RendererKind::Dense,
             RendererArg::Bricks => RendererKind::Bricks,
+            RendererArg::Stream => RendererKind::Stream,
         }
     }
 }

@@ -8,6 +8,7 @@ use serde::Serialize;
 use serde_json::json;
 
 use super::args::{OpacityArg, RendererArg, TransferArgs};
+use super::stream::StreamArgs;
 use super::{ClipArgs, Prepared, VolumeArgs};
 use crate::octree::{OpacityMode, TransferFunction};
 use crate::render::{
@@ -47,6 +48,13 @@ pub struct BenchArgs {
     /// Every case drawn clipped.
     #[command(flatten)]
     pub clip: ClipArgs,
+    /// Measure the streaming renderer instead (`--renderer stream` too): first image, frame
+    /// times while streaming during orbits, time to complete a stopped view, bytes read against
+    /// the view's floor, and resident frame time against the bricks renderer.
+    #[arg(long)]
+    pub stream: bool,
+    #[command(flatten)]
+    pub stream_options: StreamArgs,
 }
 
 /// One transfer setting of the benchmark: its name in the results, transfer function, mode,
@@ -93,6 +101,9 @@ const RECOLOR_RUNS: u32 = 20;
 pub fn run(args: &BenchArgs) -> Result<(), String> {
     if args.frames == 0 {
         return Err("--frames must be at least 1".into());
+    }
+    if args.stream || args.renderer == Some(RendererArg::Stream) {
+        return super::stream_bench::run(args);
     }
     let mut transfer_args = TransferArgs::defaults();
     transfer_args.window = args.window;

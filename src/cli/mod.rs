@@ -10,6 +10,8 @@ mod prepare;
 mod probe;
 mod render;
 mod slice;
+mod stream;
+mod stream_bench;
 
 use clap::{Parser, Subcommand};
 

@@ -1,12 +1,13 @@
 //! `voxscope render`: one image, no window.
 
 use std::path::{Path, PathBuf};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use clap::Args;
 
 use super::args::RendererArg;
 use super::prepare::default_renderer;
+use super::stream::{StreamArgs, StreamPrepared, describe_missing, refine};
 use super::{ClipArgs, Prepared, TransferArgs, VolumeArgs};
 use crate::render::{
     Camera, DEFAULT_BRICK_SIZE, GpuContext, RenderTarget, RendererOptions, VolumeRenderer,
@@ -28,6 +29,12 @@ pub struct RenderArgs {
     /// Voxels along a brick's side (bricks renderer): 4, 8, 16 or 32.
     #[arg(long, default_value_t = DEFAULT_BRICK_SIZE, value_parser = super::args::parse_brick_size)]
     pub brick_size: usize,
+    #[command(flatten)]
+    pub stream: StreamArgs,
+    /// Streaming renderer: draw until nothing visible is missing, at most this long (then the
+    /// image is written as it is, and what was still coarse is said).
+    #[arg(long, value_name = "SECONDS", default_value_t = 30.0)]
+    pub max_wait: f64,
     /// Output PNG.
     #[arg(short, long, value_name = "FILE.png")]
     pub output: PathBuf,
@@ -50,6 +57,9 @@ pub struct RenderArgs {
 
 pub fn run(args: &RenderArgs) -> Result<(), String> {
     check_output(&args.output, args.volume.file.as_deref())?;
+    if args.renderer == Some(RendererArg::Stream) {
+        return run_stream(args);
+    }
     let started = Instant::now();
     let prepared = Prepared::new(&args.volume, &args.transfer)?;
     let mut settings = args
@@ -97,6 +107,80 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         prepared.octree.depth,
         context.describe(),
         started.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+/// `render --renderer stream`: opens the pyramid, draws until nothing visible is missing (or
+/// `--max-wait`), writes the image.
+fn run_stream(args: &RenderArgs) -> Result<(), String> {
+    let started = Instant::now();
+    if !(args.max_wait.is_finite() && args.max_wait >= 0.0) {
+        return Err(format!(
+            "--max-wait {} is not a number of seconds",
+            args.max_wait
+        ));
+    }
+    let prepared = StreamPrepared::new(&args.volume, &args.transfer)?;
+    let name = prepared.source.name().to_owned();
+    let mut settings = args
+        .transfer
+        .render_settings(prepared.depth(), prepared.saved.as_ref());
+    settings.clip = args.clip.clip();
+    let context = GpuContext::new_headless().map_err(|e| e.to_string())?;
+    let mut renderer = VolumeRenderer::new_stream(
+        &context,
+        prepared.source.clone(),
+        args.stream.options(),
+        &prepared.transfer,
+    )
+    .map_err(|e| format!("{name}: {e}"))?;
+    let target = RenderTarget::new(&context, args.size.0, args.size.1);
+    let camera = Camera {
+        azimuth_deg: args.azimuth,
+        elevation_deg: args.elevation,
+        distance: args.distance,
+        fov_y_deg: args.fov,
+        pan: [0.0; 3],
+    };
+    let refinement = refine(
+        &context,
+        &mut renderer,
+        &target,
+        &camera,
+        &settings,
+        Duration::from_secs_f64(args.max_wait),
+    )?;
+    for error in &refinement.errors {
+        eprintln!("{error}");
+    }
+    let image = read_image(&context, &target).map_err(|e| e.to_string())?;
+    image
+        .save(&args.output)
+        .map_err(|e| format!("cannot write {}: {e}", args.output.display()))?;
+    let counters = &refinement.status.counters;
+    let state = if refinement.complete {
+        format!("complete after {} frames", refinement.frames)
+    } else {
+        format!(
+            "still coarse after {:.1} s (--max-wait): {}",
+            refinement.seconds,
+            describe_missing(&refinement.status)
+        )
+    };
+    eprintln!(
+        "wrote {} ({}x{}, stream renderer, level {}/{}) on {} in {:.2} s: {state}; {} bricks read ({:.1} MiB), {} of {} atlas slots used",
+        args.output.display(),
+        target.width,
+        target.height,
+        settings.max_level,
+        prepared.depth(),
+        context.describe(),
+        started.elapsed().as_secs_f64(),
+        counters.loads,
+        counters.bytes_read as f64 / (1 << 20) as f64,
+        counters.slots_used,
+        counters.slots,
     );
     Ok(())
 }

@@ -111,6 +111,12 @@ pub fn run(args: &SliceArgs) -> Result<(), String> {
         ));
     }
     let kind = match args.renderer {
+        Some(super::args::RendererArg::Stream) => {
+            return Err(format!(
+                "{}: the stream renderer draws no slices yet; use --renderer bricks or dense",
+                volume.name
+            ));
+        }
         Some(renderer) => renderer.into(),
         None => default_renderer(&context, &prepared.octree, prepared.octree.depth, "slicing"),
     };

@@ -157,6 +157,38 @@ pub(crate) struct SliceParams {
 
 const _: () = assert!(std::mem::size_of::<SliceParams>() == 112);
 
+/// Levels a [`StreamParams`] describes at most (the WGSL arrays' length; a pyramid has at most
+/// `stream::MAX_LEVELS`).
+pub(crate) const STREAM_LEVELS: usize = 16;
+
+/// The streaming renderer's own uniforms, beside [`RaycastParams`]. Keep in sync with
+/// `struct StreamParams` in `stream.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub(crate) struct StreamParams {
+    /// Per level: bricks along x, y, z (w unused).
+    pub level_grid: [[u32; 4]; STREAM_LEVELS],
+    /// Per level: its voxel's size in level-0 voxels along x, y, z; w their minimum.
+    pub level_scale: [[f32; 4]; STREAM_LEVELS],
+    pub level_count: u32,
+    /// The level the max-level slider allows at finest (depth − max level).
+    pub finest_level: u32,
+    /// The frame number rays mark the slots they use with.
+    pub frame: u32,
+    /// Page table entries − 1.
+    pub table_mask: u32,
+    /// Keys the request buffer holds.
+    pub request_capacity: u32,
+    /// Entries of the request buffer's deduplicating set − 1.
+    pub request_set_mask: u32,
+    /// The pixel footprint's multiplier (0: always the finest allowed level).
+    pub lod_scale: f32,
+    /// Levels added to every choice (the atlas cannot hold the view).
+    pub lod_bias: u32,
+}
+
+const _: () = assert!(std::mem::size_of::<StreamParams>() == 544);
+
 pub(crate) const FLAG_OPACITY_CORRECTION: u32 = 1;
 pub(crate) const FLAG_PIXEL_LOD: u32 = 2;
 pub(crate) const FLAG_HEATMAP: u32 = 4;
@@ -245,6 +277,21 @@ mod tests {
         })
     }
 
+    fn stream_params() -> Layout {
+        rust_layout!(StreamParams {
+            level_grid,
+            level_scale,
+            level_count,
+            finest_level,
+            frame,
+            table_mask,
+            request_capacity,
+            request_set_mask,
+            lod_scale,
+            lod_bias,
+        })
+    }
+
     fn probe_result() -> Layout {
         rust_layout!(ProbeResult { point, found })
     }
@@ -324,6 +371,11 @@ mod tests {
             ],
             "dense" => vec![
                 ("Params", raycast_params()),
+                ("ProbeResult", probe_result()),
+            ],
+            "stream" => vec![
+                ("Params", raycast_params()),
+                ("StreamParams", stream_params()),
                 ("ProbeResult", probe_result()),
             ],
             "recolor" => vec![("LevelParams", recolor_params()), ("Node", node())],

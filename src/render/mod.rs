@@ -20,6 +20,7 @@ mod recolor;
 mod settings;
 pub mod shaders;
 mod slice;
+mod stream;
 mod timer;
 mod transfer_table;
 mod volume_renderer;
@@ -40,6 +41,7 @@ pub use settings::{
     RenderSettings, Shading, heatmap_color,
 };
 pub use slice::{EdgeLabels, SliceConvention, SliceFrame, SliceSettings, SliceView, Slicer};
+pub use stream::{StreamRaycaster, StreamVolume};
 pub use timer::{GpuTimer, time_passes, timing_name};
 pub use transfer_table::GpuTransferTable;
 pub use volume_renderer::{DEFAULT_BRICK_SIZE, RendererKind, RendererOptions, VolumeRenderer};

@@ -13,7 +13,9 @@
 use std::sync::OnceLock;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use super::{DenseRaycaster, GpuBrickRecolor, GpuContext, GpuRecolor, Raycaster, Slicer};
+use super::{
+    DenseRaycaster, GpuBrickRecolor, GpuContext, GpuRecolor, Raycaster, Slicer, StreamRaycaster,
+};
 
 /// The pipeline families of one device, each built on first use.
 #[derive(Default)]
@@ -23,6 +25,7 @@ pub(crate) struct PipelineCache {
     recolor: OnceLock<GpuRecolor>,
     brick_recolor: OnceLock<GpuBrickRecolor>,
     slicer: OnceLock<Slicer>,
+    stream_raycaster: OnceLock<StreamRaycaster>,
     /// Compute pipelines built with this device so far.
     built: AtomicUsize,
 }
@@ -61,6 +64,13 @@ impl GpuContext {
         self.pipelines
             .brick_recolor
             .get_or_init(|| GpuBrickRecolor::new(self))
+    }
+
+    /// The streaming ray caster of this device, built on first use.
+    pub fn stream_raycaster(&self) -> &StreamRaycaster {
+        self.pipelines
+            .stream_raycaster
+            .get_or_init(|| StreamRaycaster::new(self))
     }
 
     /// The slice pipeline of this device (every renderer's slices), built on first use.

@@ -41,6 +41,8 @@ shaders! {
     RAYCAST = "raycast" ["ray_common.wgsl", "node_common.wgsl", "grid_cell.wgsl", "raycast.wgsl"];
     /// The dense baseline.
     DENSE = "dense" ["ray_common.wgsl", "dense.wgsl"];
+    /// The streaming renderer (a pyramid of bricks through a page table).
+    STREAM = "stream" ["ray_common.wgsl", "stream.wgsl"];
     /// Per-level recolor of octree nodes.
     RECOLOR = "recolor" ["node_common.wgsl", "recolor.wgsl"];
     /// Recolor of the brick level.

@@ -7,10 +7,12 @@ use super::raycaster::{ProbeTarget, frame_variant, probe_variant};
 use super::slice::{SliceColorCache, SliceSource};
 use super::{
     Camera, DenseVolume, Frame, GpuBricks, GpuContext, GpuVolume, RenderError, RenderSettings,
-    RenderTarget, SliceSettings,
+    RenderTarget, SliceSettings, StreamVolume,
 };
 use crate::octree::{BrickLayout, Octree, TransferFunction};
+use crate::stream::{BrickSource, Downsampling, MemorySource, StreamOptions, StreamStatus};
 use crate::volume::{Quantization, QuantizedVolume};
+use std::sync::Arc;
 
 /// The renderers voxscope has.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -21,6 +23,9 @@ pub enum RendererKind {
     Dense,
     /// The octree down to bricks (32³ voxels unless chosen otherwise), marched in a 3D atlas.
     Bricks,
+    /// A pyramid of 32³ bricks streamed into an atlas of a fixed GPU budget through a page
+    /// table: volumes of any size ([`VolumeRenderer::new_stream`], [`VolumeRenderer::update`]).
+    Stream,
 }
 
 /// Voxels along a brick's side in the bricks renderer, unless chosen otherwise.
@@ -44,14 +49,17 @@ impl From<RendererKind> for RendererOptions {
 }
 
 impl RendererKind {
+    /// The renderers of a volume held whole in memory, which draw without being driven: the
+    /// ones the app lists. [`Self::Stream`] needs [`VolumeRenderer::update`] every frame.
     pub const ALL: [RendererKind; 3] = [Self::Octree, Self::Dense, Self::Bricks];
 
-    /// `octree`, `dense`.
+    /// `octree`, `dense`, `bricks`, `stream`.
     pub fn name(self) -> &'static str {
         match self {
             Self::Octree => "octree",
             Self::Dense => "dense",
             Self::Bricks => "bricks",
+            Self::Stream => "stream",
         }
     }
 }
@@ -60,6 +68,7 @@ enum State {
     Octree(GpuVolume),
     Dense(DenseVolume),
     Bricks(Box<GpuBricks>),
+    Stream(Box<StreamVolume>),
 }
 
 /// A volume uploaded for one renderer, drawn with the device's pipelines.
@@ -85,6 +94,9 @@ fn build_pipelines(context: &GpuContext, kind: RendererKind) {
             context.raycaster();
             context.recolor();
             context.brick_recolor();
+        }
+        RendererKind::Stream => {
+            context.stream_raycaster();
         }
     }
 }
@@ -129,6 +141,16 @@ impl VolumeRenderer {
                     transfer,
                 )?))
             }
+            RendererKind::Stream => {
+                let source = MemorySource::new("volume", quantized, spacing, Downsampling::Mean)
+                    .map_err(RenderError)?;
+                State::Stream(Box::new(StreamVolume::new(
+                    context,
+                    Arc::new(source),
+                    StreamOptions::default(),
+                    transfer,
+                )?))
+            }
         };
         Ok(Self {
             state,
@@ -137,12 +159,51 @@ impl VolumeRenderer {
         })
     }
 
+    /// The streaming renderer of `source` (an in-memory volume's pyramid, a procedural one, a
+    /// file's), within `options`' GPU and RAM budgets: the coarsest levels are read now, the
+    /// rest as rays ask for them. Drive it with [`Self::update`] once per frame.
+    pub fn new_stream(
+        context: &GpuContext,
+        source: Arc<dyn BrickSource>,
+        options: StreamOptions,
+        transfer: &TransferFunction,
+    ) -> Result<Self, RenderError> {
+        build_pipelines(context, RendererKind::Stream);
+        let quantization = source.quantization();
+        let volume = StreamVolume::new(context, source, options, transfer)?;
+        Ok(Self {
+            state: State::Stream(Box::new(volume)),
+            quantization,
+            slice_colors: SliceColorCache::default(),
+        })
+    }
+
+    /// The per-frame step of the streaming renderer, before drawing: takes in what earlier
+    /// frames' rays asked for and used (read back without waiting), loads on worker threads,
+    /// uploads within the frame's budget. `None` for the other renderers (nothing to stream).
+    /// Never waits on I/O or the GPU.
+    pub fn update(&mut self, context: &GpuContext) -> Option<StreamStatus> {
+        match &mut self.state {
+            State::Stream(volume) => Some(volume.update(context)),
+            _ => None,
+        }
+    }
+
+    /// The streaming renderer's GPU side (its streamer and counters), if this is one.
+    pub fn stream(&self) -> Option<&StreamVolume> {
+        match &self.state {
+            State::Stream(volume) => Some(volume),
+            _ => None,
+        }
+    }
+
     /// Which renderer this is.
     pub fn kind(&self) -> RendererKind {
         match self.state {
             State::Octree(_) => RendererKind::Octree,
             State::Dense(_) => RendererKind::Dense,
             State::Bricks(_) => RendererKind::Bricks,
+            State::Stream(_) => RendererKind::Stream,
         }
     }
 
@@ -171,6 +232,10 @@ impl VolumeRenderer {
                 context
                     .brick_recolor()
                     .encode(context, encoder, volume, timestamp_writes);
+                Ok(())
+            }
+            State::Stream(volume) => {
+                volume.set_transfer(context, transfer);
                 Ok(())
             }
         }
@@ -222,6 +287,17 @@ impl VolumeRenderer {
                     .raycaster()
                     .encode(context, encoder, &frame, timestamp_writes);
             }
+            State::Stream(volume) => {
+                let frame = Frame {
+                    volume: volume.as_ref(),
+                    target,
+                    camera,
+                    settings,
+                };
+                context
+                    .stream_raycaster()
+                    .encode(context, encoder, &frame, timestamp_writes);
+            }
         }
     }
 
@@ -241,6 +317,7 @@ impl VolumeRenderer {
                     context.raycaster().prepare(context, variant)
                 }
                 State::Dense(_) => context.dense_raycaster().prepare(context, variant),
+                State::Stream(_) => context.stream_raycaster().prepare(context, variant),
             }
         }
     }
@@ -264,6 +341,9 @@ impl VolumeRenderer {
                     .raycaster()
                     .encode_probe(context, encoder, volume.as_ref(), probe)
             }
+            State::Stream(volume) => context
+                .stream_raycaster()
+                .encode_probe(context, encoder, volume, probe),
         }
     }
 
@@ -290,7 +370,7 @@ impl VolumeRenderer {
     /// colormap, opaque; transparent black outside the volume. The slice pipeline is built on
     /// the device's first slice. A color table is made once per window and colormap (the
     /// last four are kept, for views with windows of their own); slices of several windows may
-    /// share an encoder.
+    /// share an encoder. The streaming renderer records nothing ([`Self::has_slices`]).
     pub fn encode_slice(
         &self,
         context: &GpuContext,
@@ -298,20 +378,24 @@ impl VolumeRenderer {
         target: &RenderTarget,
         settings: &SliceSettings,
     ) {
+        let Some(source) = self.slice_source() else {
+            return;
+        };
         let colors = self.slice_colors.get(
             context,
             self.quantization,
             settings.window,
             settings.colormap,
         );
-        context.slicer().encode(
-            context,
-            encoder,
-            &self.slice_source(),
-            &colors,
-            target,
-            settings,
-        );
+        context
+            .slicer()
+            .encode(context, encoder, &source, &colors, target, settings);
+    }
+
+    /// Whether [`Self::encode_slice`] draws: every renderer of an in-memory volume; not the
+    /// streaming renderer yet (its slices would need the slice shader to read the page table).
+    pub fn has_slices(&self) -> bool {
+        self.slice_source().is_some()
     }
 
     /// Records and submits one slice ([`Self::encode_slice`]).
@@ -334,14 +418,15 @@ impl VolumeRenderer {
     /// down to a level above the voxels (a device too small for all of it), where a slice
     /// shows the middle of each deepest node's value range.
     pub fn exact_slices(&self) -> bool {
-        self.slice_source().is_exact()
+        self.slice_source().is_some_and(|source| source.is_exact())
     }
 
-    fn slice_source(&self) -> SliceSource<'_> {
+    fn slice_source(&self) -> Option<SliceSource<'_>> {
         match &self.state {
-            State::Octree(volume) => SliceSource::Octree(volume),
-            State::Dense(volume) => SliceSource::Dense(volume),
-            State::Bricks(volume) => SliceSource::Bricks(volume),
+            State::Octree(volume) => Some(SliceSource::Octree(volume)),
+            State::Dense(volume) => Some(SliceSource::Dense(volume)),
+            State::Bricks(volume) => Some(SliceSource::Bricks(volume)),
+            State::Stream(_) => None,
         }
     }
 
@@ -367,6 +452,7 @@ impl VolumeRenderer {
                 ("lookup_table", volume.transfer.size()),
             ],
             State::Bricks(volume) => volume.gpu_bytes(),
+            State::Stream(volume) => volume.gpu_bytes(),
         }
     }
 }

@@ -1,0 +1,512 @@
+// The streaming renderer: a pyramid of bricks of which the GPU holds a few in an atlas, found
+// through a page table (src/stream/page_table.rs). One invocation per pixel, in level-0 voxel
+// space (raycast.wgsl's: voxel (x, y, z) of level 0 is the unit cube at (x, y, z)); a voxel of
+// level l covers `level_scale[l]` level-0 voxels per axis.
+//
+// A ray goes segment by segment. At the start of each it picks the level it wants there (the
+// finest allowed by the max-level slider, coarser where a pixel's footprint covers several
+// voxels, as the octree's pixel LOD does, plus the streamer's bias when the atlas cannot hold
+// the view), and the segment is that level's brick the ray is in, up to where the ray leaves it.
+// If the page table has that brick in the atlas, the ray marches it; if the brick is uniform it
+// composites a run of its value; if the table says its range is invisible under the transfer
+// function it skips it. Otherwise it asks for the brick (the request buffer, read back by the
+// CPU a frame or two later) and draws the segment from the finest coarser level the table has
+// there (the coarsest level is always resident). Samples sit where the dense renderer's sit for
+// the level marched, t_enter + (k + ½)·step with step one voxel of that level, so a fully
+// resident level 0 gives the bricks renderer's image. Prepended with ray_common.wgsl.
+
+// Keep in sync with `StreamParams` in src/render/gpu_data.rs.
+struct StreamParams {
+    level_grid: array<vec4<u32>, 16>,  // per level: bricks along x, y, z
+    level_scale: array<vec4<f32>, 16>, // per level: xyz its voxel in level-0 voxels; w their minimum
+    level_count: u32,
+    finest_level: u32,      // the level of the max-level slider (depth − max level)
+    frame: u32,             // what rays mark the slots they use with
+    table_mask: u32,        // page table entries − 1 (a power of two)
+    request_capacity: u32,  // keys the request buffer holds
+    request_set_mask: u32,  // entries of its deduplicating set − 1
+    lod_scale: f32,         // footprint multiplier (0: no pixel LOD)
+    lod_bias: u32,          // levels added where the atlas cannot hold the view
+}
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<uniform> stream: StreamParams;
+@group(0) @binding(2) var<storage, read> lookup_table: array<u32>;
+@group(0) @binding(3) var output: texture_storage_2d<rgba8unorm, write>;
+@group(0) @binding(4) var<storage, read_write> visits: array<u32>;
+@group(0) @binding(5) var atlas: texture_3d<f32>;
+@group(0) @binding(6) var atlas_sampler: sampler;
+// The page table: TABLE_* components of each entry (src/stream/page_table.rs's TableEntry).
+// Its ENTRY_VISIBLE bits follow the transfer function (the CPU rewrites them on an edit).
+@group(0) @binding(7) var<storage, read> page_table: array<vec4<u32>>;
+// [0]: requests made; [1, 1 + capacity): their keys; then the deduplicating set (key + 1 per
+// entry, 0 when free), cleared by the CPU before each frame.
+@group(0) @binding(8) var<storage, read_write> requests: array<atomic<u32>>;
+// Per atlas slot: the last frame a ray used it, as 2·frame + 1 where a ray wanted its level,
+// 2·frame where it stood in for a missing finer brick (the LRU's marks; `mark_used`).
+@group(0) @binding(9) var<storage, read_write> usage: array<atomic<u32>>;
+// What a PROBE pipeline found (ray_common.wgsl).
+@group(0) @binding(10) var<storage, read_write> probe_out: ProbeResult;
+
+// Keep in sync with src/stream (page_table.rs, pyramid.rs, source.rs).
+const MAX_PROBES: u32 = 32u;
+const ENTRY_RESIDENT: u32 = 0x80000000u;
+const ENTRY_FAILED: u32 = 0x40000000u;
+const ENTRY_VISIBLE: u32 = 0x80000000u; // in TABLE_SLOT
+const SLOT_MASK: u32 = 0x3fffffffu;
+const EMPTY_KEY: u32 = 0xffffffffu;
+const KEY_LEVEL_SHIFT: u32 = 28u;
+const BRICK: f32 = 32.0;
+const TABLE_KEY = 0;
+const TABLE_CELL = 1;
+const TABLE_RANGE = 2;
+const TABLE_SLOT = 3;
+const MAX_STEPS: u32 = 1000000u;
+
+// Keep in sync with `table_hash` in src/stream/page_table.rs.
+fn table_hash(key: u32) -> u32 {
+    let h = key * 0x9E3779B1u;
+    return h ^ (h >> 16u);
+}
+
+// The entry of `key`, or one whose key differs (not in the table): linear probing from its
+// hash until the key or an empty entry.
+fn table_lookup(key: u32) -> vec4<u32> {
+    let home = table_hash(key);
+    for (var probe = 0u; probe < MAX_PROBES; probe++) {
+        let entry = page_table[(home + probe) & stream.table_mask];
+        if entry[TABLE_KEY] == key || entry[TABLE_KEY] == EMPTY_KEY {
+            return entry;
+        }
+    }
+    return vec4<u32>(EMPTY_KEY, 0u, 0u, 0u);
+}
+
+// Asks the CPU for brick `key`: appended once per entry of the set it hashes to (a collision
+// may append a key twice; the CPU deduplicates).
+fn request_brick(key: u32) {
+    if PROBE {
+        return;
+    }
+    let set_index = 1u + stream.request_capacity + (table_hash(key) & stream.request_set_mask);
+    let tag = key + 1u;
+    if atomicLoad(&requests[set_index]) == tag {
+        return;
+    }
+    if atomicExchange(&requests[set_index], tag) != tag {
+        let index = atomicAdd(&requests[0], 1u);
+        if index < stream.request_capacity {
+            atomicStore(&requests[1u + index], key);
+        }
+    }
+}
+
+// This frame's usage mark of a slot: 2·frame + 1 if the ray wanted its level, 2·frame as a
+// stand-in for a missing finer brick (which the CPU may evict it for: src/stream/slots.rs).
+fn usage_mark(wanted: bool) -> u32 {
+    return 2u * stream.frame + select(0u, 1u, wanted);
+}
+
+// Marks `slot` with `mark` unless `seen` (its value read when the segment began, so that the
+// read's latency hid behind the segment's samples) is as large: the larger mark wins, and most
+// rays find it set already and write nothing.
+fn mark_used(slot: u32, mark: u32, seen: u32) {
+    if !PROBE && seen < mark {
+        atomicMax(&usage[slot], mark);
+    }
+}
+
+// The brick of `level` holding level-0 point `p` (clamped into the level's grid).
+fn brick_of(level: u32, p: vec3<f32>) -> vec3<u32> {
+    let side = BRICK * stream.level_scale[level].xyz;
+    let cell = vec3<u32>(max(floor(p / side), vec3<f32>(0.0)));
+    return min(cell, stream.level_grid[level].xyz - 1u);
+}
+
+fn brick_key(level: u32, cell: vec3<u32>) -> u32 {
+    let grid = stream.level_grid[level].xyz;
+    return (level << KEY_LEVEL_SHIFT) | (cell.x + grid.x * (cell.y + grid.y * cell.z));
+}
+
+// Whether a table entry can be drawn: in the atlas, or uniform (drawn from its value).
+fn drawable(entry: vec4<u32>) -> bool {
+    let range = entry[TABLE_RANGE];
+    return (entry[TABLE_CELL] & ENTRY_RESIDENT) != 0u
+        || ((entry[TABLE_CELL] & ENTRY_FAILED) == 0u && (range & 0xffffu) == (range >> 16u));
+}
+
+// Whether a brick can change the pixel: DVR, some value level of its range is visible (the
+// entry's bit); MIP, its maximum is above the ray's so far.
+fn entry_visible(entry: vec4<u32>, running_max: u32) -> bool {
+    if params.mode == MODE_MIP {
+        return (entry[TABLE_RANGE] >> 16u) > running_max;
+    }
+    return (entry[TABLE_SLOT] & ENTRY_VISIBLE) != 0u;
+}
+
+// The level a segment starting at distance `t` wants: the coarsest whose voxel is no larger
+// than the pixel's footprint there (`lod_per_t` · t level-0 voxels), never finer than the
+// slider's, then the streamer's bias.
+fn wanted_level(t: f32, lod_per_t: f32) -> u32 {
+    let footprint = t * lod_per_t;
+    var level = stream.finest_level;
+    loop {
+        if level + 1u >= stream.level_count || stream.level_scale[level + 1u].w > footprint {
+            break;
+        }
+        level += 1u;
+    }
+    return min(level + stream.lod_bias, stream.level_count - 1u);
+}
+
+// The value level at normalized atlas coordinates, trilinear.
+fn atlas_level_at(coords: vec3<f32>) -> u32 {
+    return value_index(textureSampleLevel(atlas, atlas_sampler, coords, 0.0).r);
+}
+
+// The gradient of the filtered levels at normalized atlas coordinates (raycast.wgsl's): levels
+// per voxel of the level marched.
+fn level_gradient(coords: vec3<f32>, half_texel: vec3<f32>) -> vec3<f32> {
+    let dx = vec3<f32>(half_texel.x, 0.0, 0.0);
+    let dy = vec3<f32>(0.0, half_texel.y, 0.0);
+    let dz = vec3<f32>(0.0, 0.0, half_texel.z);
+    let high = vec3<f32>(textureSampleLevel(atlas, atlas_sampler, coords + dx, 0.0).r,
+                         textureSampleLevel(atlas, atlas_sampler, coords + dy, 0.0).r,
+                         textureSampleLevel(atlas, atlas_sampler, coords + dz, 0.0).r);
+    let low = vec3<f32>(textureSampleLevel(atlas, atlas_sampler, coords - dx, 0.0).r,
+                        textureSampleLevel(atlas, atlas_sampler, coords - dy, 0.0).r,
+                        textureSampleLevel(atlas, atlas_sampler, coords - dz, 0.0).r);
+    return (high - low) * params.atlas_scale;
+}
+
+// A sample's opacity for a step of `exponent` level-0 voxels (opacity correction; 1 leaves it).
+fn step_alpha(alpha: f32, exponent: f32) -> f32 {
+    let a = min(alpha * params.density, 1.0);
+    if exponent != 1.0 && a > 0.0 && a < 1.0 {
+        return 1.0 - pow(1.0 - a, exponent);
+    }
+    return a;
+}
+
+// `accumulate` of ray_common.wgsl for a level whose samples are `exponent` level-0 voxels
+// apart, and whose gradients (SHADING) are per voxel of a level `level_scale` coarser.
+fn accumulate_level(acc: ptr<function, Accumulation>, levels: vec4<u32>, count: u32,
+                    ts: vec4<f32>, frame: SampleFrame, exponent: f32,
+                    level_scale: vec3<f32>) -> u32 {
+    if params.mode == MODE_MIP {
+        for (var j = 0u; j < count; j++) {
+            if PROBE && levels[j] > (*acc).running_max {
+                (*acc).probe_t = ts[j];
+            }
+            (*acc).running_max = max((*acc).running_max, levels[j]);
+            if (*acc).running_max >= params.mip_saturation {
+                (*acc).done = true;
+                return j + 1u;
+            }
+        }
+        return count;
+    }
+    let colors = vec4<u32>(lookup_table[levels.x], lookup_table[levels.y],
+                           lookup_table[levels.z], lookup_table[levels.w]);
+    for (var j = 0u; j < count; j++) {
+        let rgba = unpack4x8unorm(colors[j]);
+        let a = step_alpha(rgba.a, exponent);
+        var rgb = rgba.rgb;
+        if SHADING && a > 0.0 {
+            let coords = select(frame.next, frame.here, ts[j] < frame.split) + ts[j] * frame.dir;
+            rgb = shade_sample(rgb, level_gradient(coords, frame.half_texel) / level_scale,
+                               frame.light);
+        }
+        (*acc).color += (1.0 - (*acc).alpha) * a * rgb;
+        (*acc).alpha += (1.0 - (*acc).alpha) * a;
+        if PROBE && (*acc).probe_t < 0.0 && (*acc).alpha >= PROBE_ALPHA {
+            (*acc).probe_t = ts[j];
+        }
+        if (*acc).alpha >= EARLY_TERMINATION_ALPHA {
+            (*acc).done = true;
+            return j + 1u;
+        }
+    }
+    return count;
+}
+
+// `samples` equal samples of value level `level` (a uniform brick), the first at `first_t`,
+// `step` apart: composited in one go (unshaded: a uniform region has no gradient).
+fn accumulate_run(acc: ptr<function, Accumulation>, level: u32, samples: f32, first_t: f32,
+                  step: f32, exponent: f32) {
+    if samples <= 0.0 {
+        return;
+    }
+    if params.mode == MODE_MIP {
+        if PROBE && level > (*acc).running_max {
+            (*acc).probe_t = first_t;
+        }
+        (*acc).running_max = max((*acc).running_max, level);
+        (*acc).done = (*acc).running_max >= params.mip_saturation;
+        return;
+    }
+    let rgba = unpack4x8unorm(lookup_table[level]);
+    let sample_alpha = step_alpha(rgba.a, exponent);
+    if sample_alpha <= 0.0 {
+        return;
+    }
+    let a = 1.0 - pow(1.0 - sample_alpha, samples);
+    let alpha_before = (*acc).alpha;
+    (*acc).color += (1.0 - (*acc).alpha) * a * rgba.rgb;
+    (*acc).alpha += (1.0 - (*acc).alpha) * a;
+    (*acc).done = (*acc).alpha >= EARLY_TERMINATION_ALPHA;
+    if PROBE && (*acc).probe_t < 0.0 && (*acc).alpha >= PROBE_ALPHA {
+        let needed = log((1.0 - PROBE_ALPHA) / (1.0 - alpha_before)) / log(1.0 - sample_alpha);
+        let j = clamp(ceil(needed) - 1.0, 0.0, samples - 1.0);
+        (*acc).probe_t = first_t + j * step;
+    }
+}
+
+struct RayResult {
+    color: vec3<f32>,
+    visited: u32,
+    probe_t: f32,
+}
+
+// One ray through the pyramid. One flat loop: each iteration starts a segment where the last
+// one ended (looking its brick up and skipping or compositing what needs no marching at once),
+// then marches a batch pair of the current segment's samples, so a warp's lanes never wait for
+// each other at nested loops' ends (the grid walk's lesson, raycast.wgsl).
+fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32) -> RayResult {
+    var result = RayResult(vec3<f32>(0.0), 0u, -1.0);
+    let inv = safe_inverse(dir);
+    let interval = volume_interval(origin, dir, inv);
+    let t_enter = interval.x;
+    let t_leave = interval.y;
+    if t_enter >= t_leave {
+        return result;
+    }
+    let positive = inv >= vec3<f32>(0.0);
+    let mip = params.mode == MODE_MIP;
+    let voxels_per_t = length(dir);
+    let lod_per_t = world_length * params.lod_factor * stream.lod_scale;
+    let correct = (params.flags & FLAG_OPACITY_CORRECTION) != 0u;
+    let nudge = 1e-3 / max(voxels_per_t, 1e-20);
+    let light = headlight(dir);
+    let half_texel = 0.5 * params.atlas_texel.xyz;
+    var acc = new_accumulation();
+
+    var t = t_enter;
+    // The segment being marched: its exit, sample step and index, where its samples are in
+    // the atlas, the level's scale, and the brick's maximum (MIP).
+    var marching = false;
+    var segment_out = 0.0;
+    var step = 1.0;
+    var k = 0.0;
+    var k_level = 0xffffffffu;
+    var exponent = 1.0;
+    var scale = vec3<f32>(1.0);
+    var atlas_here = vec3<f32>(0.0);
+    var atlas_dir = vec3<f32>(0.0);
+    var brick_max = 0u;
+    // The slot being marched, the mark it gets when the segment ends, and its mark as read when
+    // the segment began.
+    var usage_slot = 0u;
+    var usage_pending = 0u;
+    var usage_seen = 0xffffffffu;
+    // The next brick's key and page-table entry, read ahead (`EMPTY_KEY`: none).
+    var next_key = EMPTY_KEY;
+    var next_entry = vec4<u32>(EMPTY_KEY, 0u, 0u, 0u);
+    var next_cell = vec3<u32>(0u);
+    var next_out = 0.0;
+    for (var i = 0u; i < MAX_STEPS; i++) {
+        if !marching {
+            if t >= t_leave {
+                break;
+            }
+            let ahead = max(nudge, abs(t) * 5e-7);
+            let p = origin + (t + ahead) * dir;
+            let wanted = wanted_level(max(t, 0.0), lod_per_t);
+            let cell = brick_of(wanted, p);
+            let side = BRICK * stream.level_scale[wanted].xyz;
+            let far = (vec3<f32>(cell) + select(vec3<f32>(0.0), vec3<f32>(1.0), positive)) * side;
+            let exits = (far - origin) * inv;
+            // (At least `ahead` past t, whatever the rounding: every segment moves the ray on.)
+            let t_out = max(min(min_component(exits), t_leave), t + ahead);
+            let key = brick_key(wanted, cell);
+            // The entry read while the last brick was marched, if it is this brick's (its home
+            // slot held it); else the lookup.
+            var entry = next_entry;
+            if next_key != key || entry[TABLE_KEY] != key {
+                entry = table_lookup(key);
+            }
+            next_key = EMPTY_KEY;
+            var level = wanted;
+            var used_cell = cell;
+            var skip = false;
+            if entry[TABLE_KEY] != key {
+                request_brick(key);
+            } else if !drawable(entry) && (entry[TABLE_CELL] & ENTRY_FAILED) == 0u {
+                // Its range is known: ask for it only if it can show.
+                if entry_visible(entry, acc.running_max) {
+                    request_brick(key);
+                } else {
+                    skip = true;
+                }
+            }
+            if !skip && (entry[TABLE_KEY] != key || !drawable(entry)) {
+                // The finest coarser level the table has here.
+                skip = true;
+                for (var l = wanted + 1u; l < stream.level_count; l++) {
+                    let c = brick_of(l, p);
+                    let k2 = brick_key(l, c);
+                    let e = table_lookup(k2);
+                    if e[TABLE_KEY] == k2 && drawable(e) {
+                        entry = e;
+                        level = l;
+                        used_cell = c;
+                        skip = false;
+                        break;
+                    }
+                }
+            }
+            result.visited += 1u;
+            if !skip {
+                skip = !entry_visible(entry, acc.running_max);
+            }
+            // The samples of the level drawn: t_enter + (k + ½)·step, k continuing while the
+            // level stays the same.
+            scale = stream.level_scale[level].xyz;
+            step = 1.0 / max(length(dir / scale), 1e-20);
+            if level != k_level {
+                k = max(ceil((t - t_enter) / step - 0.5), 0.0);
+                k_level = level;
+            }
+            let end = max(ceil((t_out - t_enter) / step - 0.5), k);
+            exponent = select(1.0, step * voxels_per_t, correct);
+            if skip {
+                k = end;
+                t = t_out;
+            } else if (entry[TABLE_CELL] & ENTRY_RESIDENT) == 0u {
+                accumulate_run(&acc, entry[TABLE_RANGE] & 0xffffu, end - k,
+                               t_enter + (k + 0.5) * step, step, exponent);
+                k = end;
+                t = t_out;
+            } else {
+                usage_slot = entry[TABLE_SLOT] & SLOT_MASK;
+                usage_pending = usage_mark(level == wanted);
+                if !PROBE {
+                    usage_seen = atomicLoad(&usage[usage_slot]);
+                }
+                let packed = entry[TABLE_CELL];
+                let atlas_cell = vec3<u32>(packed & 0x3ffu, (packed >> 10u) & 0x3ffu,
+                                           (packed >> 20u) & 0x3ffu);
+                let offset = vec3<f32>(atlas_cell * 34u) + 1.0 - vec3<f32>(used_cell) * BRICK;
+                atlas_here = (origin / scale + offset) * params.atlas_texel.xyz;
+                atlas_dir = dir / scale * params.atlas_texel.xyz;
+                segment_out = t_out;
+                brick_max = entry[TABLE_RANGE] >> 16u;
+                marching = true;
+                // Read the next brick's entry now (its home slot), so that its latency hides
+                // behind this brick's samples (the grid walk's prefetch, raycast.wgsl); where
+                // the ray wants the same level there and this brick is the wanted one, the last
+                // batch may go on into it.
+                if t_out < t_leave && level == wanted
+                    && wanted_level(t_out, lod_per_t) == wanted {
+                    var axis = 2u;
+                    if exits.x <= exits.y && exits.x <= exits.z {
+                        axis = 0u;
+                    } else if exits.y <= exits.z {
+                        axis = 1u;
+                    }
+                    var next = vec3<i32>(cell);
+                    next[axis] += select(-1, 1, positive[axis]);
+                    let grid = vec3<i32>(stream.level_grid[wanted].xyz);
+                    if all(next >= vec3<i32>(0)) && all(next < grid) {
+                        next_cell = vec3<u32>(next);
+                        next_key = brick_key(wanted, next_cell);
+                        next_entry = page_table[table_hash(next_key) & stream.table_mask];
+                        var next_exits = exits;
+                        next_exits[axis] += side[axis] * abs(inv[axis]);
+                        next_out = min(min_component(next_exits), t_leave);
+                    }
+                }
+            }
+        }
+        if marching {
+            let ts = t_enter + (vec4<f32>(k) + BATCH_OFFSETS) * step;
+            let ts2 = t_enter + (vec4<f32>(k + f32(BATCH)) + BATCH_OFFSETS) * step;
+            let count_here = count_before(ts, segment_out) + count_before(ts2, segment_out);
+            // A batch that reaches this brick's exit goes on into the next brick when that one
+            // is read ahead, in the atlas and visible (its entry is here already), so a brick
+            // boundary costs no short batch (the grid walk's, raycast.wgsl). (Nested ifs: only
+            // a batch at the exit looks at the next entry.)
+            var count = count_here;
+            var atlas_next = atlas_here;
+            if count_here < BATCH_PAIR && next_key != EMPTY_KEY {
+                if next_entry[TABLE_KEY] == next_key
+                    && (next_entry[TABLE_CELL] & ENTRY_RESIDENT) != 0u
+                    && entry_visible(next_entry, acc.running_max) {
+                    count = count_before(ts, next_out) + count_before(ts2, next_out);
+                    let packed = next_entry[TABLE_CELL];
+                    let next_atlas = vec3<u32>(packed & 0x3ffu, (packed >> 10u) & 0x3ffu,
+                                               (packed >> 20u) & 0x3ffu);
+                    let offset = vec3<f32>(next_atlas * 34u) + 1.0 - vec3<f32>(next_cell) * BRICK;
+                    atlas_next = (origin / scale + offset) * params.atlas_texel.xyz;
+                }
+            }
+            if count > 0u {
+                let here = ts < vec4<f32>(segment_out);
+                let there = ts2 < vec4<f32>(segment_out);
+                let first = vec4<u32>(
+                    atlas_level_at(select(atlas_next, atlas_here, here.x) + ts.x * atlas_dir),
+                    atlas_level_at(select(atlas_next, atlas_here, here.y) + ts.y * atlas_dir),
+                    atlas_level_at(select(atlas_next, atlas_here, here.z) + ts.z * atlas_dir),
+                    atlas_level_at(select(atlas_next, atlas_here, here.w) + ts.w * atlas_dir));
+                let second = vec4<u32>(
+                    atlas_level_at(select(atlas_next, atlas_here, there.x) + ts2.x * atlas_dir),
+                    atlas_level_at(select(atlas_next, atlas_here, there.y) + ts2.y * atlas_dir),
+                    atlas_level_at(select(atlas_next, atlas_here, there.z) + ts2.z * atlas_dir),
+                    atlas_level_at(select(atlas_next, atlas_here, there.w) + ts2.w * atlas_dir));
+                let frame = SampleFrame(atlas_here, atlas_next, segment_out, atlas_dir,
+                                        half_texel, light);
+                var taken = accumulate_level(&acc, first, min(count, BATCH), ts, frame, exponent,
+                                             scale);
+                if !acc.done && count > BATCH {
+                    taken += accumulate_level(&acc, second, count - BATCH, ts2, frame, exponent,
+                                              scale);
+                }
+                result.visited += taken;
+                k += f32(count);
+            }
+            if count_here < BATCH_PAIR {
+                marching = false;
+                t = segment_out;
+            } else if mip && acc.running_max >= brick_max {
+                // Nothing further in this brick can raise the maximum.
+                k = max(ceil((segment_out - t_enter) / step - 0.5), k);
+                marching = false;
+                t = segment_out;
+            }
+            if !marching || acc.done {
+                mark_used(usage_slot, usage_pending, usage_seen);
+            }
+        }
+        if acc.done {
+            break;
+        }
+    }
+    result.color = final_color(acc);
+    result.probe_t = acc.probe_t;
+    return result;
+}
+
+@compute @workgroup_size(8, 8, 1)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    let pixel = ray_pixel(id.xy);
+    if pixel.x >= params.image_size.x || pixel.y >= params.image_size.y {
+        return;
+    }
+    let ray = pixel_ray(pixel);
+    let result = stream_ray(params.eye.xyz, ray.dir, ray.world_length);
+    if PROBE {
+        write_probe(params.eye.xyz, ray.dir, result.probe_t);
+    } else {
+        write_pixel(pixel, result.color, result.visited);
+    }
+}

@@ -1,0 +1,361 @@
+//! `voxscope bench --stream`: the streaming renderer's figures (issue 18): time to the first
+//! image after open, frame times while detail streams in during a camera orbit (GPU time and
+//! the wall time an app sees, each frame waited for), time until a stopped view is complete,
+//! bytes read against the bytes the view needs, and the frame time once resident against the
+//! in-memory bricks renderer on the same view.
+
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use serde_json::json;
+
+use super::args::{OpacityArg, TransferArgs};
+use super::bench::BenchArgs;
+use super::stream::{StreamPrepared, refine};
+use crate::octree::{self, BuildOptions, TransferFunction};
+use crate::render::{
+    Camera, GpuContext, GpuTimer, RenderMode, RenderSettings, RenderTarget, RendererKind,
+    RendererOptions, Shading, VolumeRenderer, time_passes, timing_name,
+};
+use crate::stream::{Downsampling, MemorySource, StreamOptions, preview};
+
+/// The paper's cameras, in bounding-sphere radii.
+const CAMERAS: [(&str, f64); 3] = [("near", 1.5), ("medium", 3.0), ("far", 6.0)];
+/// Bricks of the level read into memory for the comparison with the bricks renderer when the
+/// pyramid is not in memory (512³ voxels).
+const RESIDENT_BRICKS: u64 = 4096;
+/// How long a stopped view may take to complete before the benchmark says it did not.
+const MAX_WAIT: Duration = Duration::from_secs(20);
+
+/// Nearest-rank percentile.
+fn percentile(values: &[f64], p: f64) -> f64 {
+    if values.is_empty() {
+        return f64::NAN;
+    }
+    let mut sorted = values.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    let rank = ((p / 100.0) * sorted.len() as f64).ceil().max(1.0) as usize;
+    sorted[rank.min(sorted.len()) - 1]
+}
+
+fn summary(values: &[f64]) -> serde_json::Value {
+    json!({
+        "median": percentile(values, 50.0),
+        "p99": percentile(values, 99.0),
+        "max": values.iter().copied().fold(f64::NAN, f64::max),
+    })
+}
+
+pub fn run(args: &BenchArgs) -> Result<(), String> {
+    let mut transfer_args = TransferArgs::defaults();
+    transfer_args.window = args.window;
+    transfer_args.threshold = args.threshold;
+    transfer_args.opacity = Some(OpacityArg::Gray);
+    let options = args.stream_options.options();
+    // The device first: an app has one before it opens anything.
+    let context = GpuContext::new_headless().map_err(|e| e.to_string())?;
+    let target = RenderTarget::new(&context, args.size.0, args.size.1);
+    let settings = |depth: u32, mode: RenderMode| RenderSettings {
+        mode,
+        density: args.density,
+        shading: Shading::OFF,
+        clip: args.clip.clip(),
+        ..RenderSettings::full_detail(depth)
+    };
+    let medium = Camera::default();
+
+    // The pipeline, as an app has it once it has drawn any volume (its build is reported
+    // apart).
+    let building = Instant::now();
+    context.stream_raycaster();
+    let pipeline_build_s = building.elapsed().as_secs_f64();
+    // Open, and the first image: the pyramid opened (a coarse level read for the transfer
+    // function's defaults), the renderer made (the always-resident levels read), one frame
+    // drawn and finished.
+    let opened = Instant::now();
+    let prepared = StreamPrepared::new(&args.volume, &transfer_args)?;
+    let name = prepared.source.name().to_owned();
+    let depth = prepared.depth();
+    let gray = settings(depth, RenderMode::Dvr);
+    let mut renderer = VolumeRenderer::new_stream(
+        &context,
+        prepared.source.clone(),
+        options,
+        &prepared.transfer,
+    )
+    .map_err(|e| format!("{name}: {e}"))?;
+    renderer.update(&context);
+    renderer.render(&context, &target, &medium, &gray);
+    context.wait_idle().map_err(|e| e.to_string())?;
+    let first_image_s = opened.elapsed().as_secs_f64();
+
+    // The stopped view, from that first image to complete.
+    let refinement = refine(&context, &mut renderer, &target, &medium, &gray, MAX_WAIT)?;
+    let complete_s = opened.elapsed().as_secs_f64();
+    let counters = &refinement.status.counters;
+    let floor_bytes = counters.view_slots as u64 * counters.slot_bytes;
+    let stopped = json!({
+        "camera": "medium",
+        "complete": refinement.complete,
+        "seconds_from_open": complete_s,
+        "seconds_after_first_image": complete_s - first_image_s,
+        "frames": refinement.frames,
+        "bricks_read": counters.loads,
+        "bytes_read": counters.bytes_read,
+        "view_bricks": counters.view_slots,
+        "floor_bytes": floor_bytes,
+        "read_over_floor": counters.bytes_read as f64 / floor_bytes.max(1) as f64,
+        "counters": counters,
+    });
+    let gpu_bytes: serde_json::Map<String, serde_json::Value> = renderer
+        .gpu_bytes()
+        .into_iter()
+        .map(|(name, bytes)| (name.to_owned(), bytes.into()))
+        .collect();
+    drop(renderer);
+
+    // Orbits while detail streams in, each from a cold start (a new renderer, empty caches).
+    let timer = GpuTimer::new(&context, args.frames);
+    let mut orbits = Vec::new();
+    for (camera_name, distance) in [("medium", 3.0), ("near", 1.5)] {
+        let mut renderer = VolumeRenderer::new_stream(
+            &context,
+            prepared.source.clone(),
+            options,
+            &prepared.transfer,
+        )
+        .map_err(|e| format!("{name}: {e}"))?;
+        let mut wall = Vec::new();
+        let mut update_ms = Vec::new();
+        let mut missing = Vec::new();
+        let mut uploaded = 0u64;
+        let gpu = time_passes(&context, timer.as_ref(), args.frames, |i, writes| {
+            let started = Instant::now();
+            let status = renderer.update(&context).expect("a streaming renderer");
+            update_ms.push(started.elapsed().as_secs_f64() * 1e3);
+            uploaded += status.upload_bytes;
+            missing.push(status.missing as f64);
+            let camera = Camera {
+                distance,
+                azimuth_deg: medium.azimuth_deg + 360.0 * i as f64 / args.frames as f64,
+                ..medium
+            };
+            let mut encoder =
+                context
+                    .device
+                    .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                        label: Some("voxscope::bench_stream_frame"),
+                    });
+            renderer.encode(&context, &mut encoder, &target, &camera, &gray, writes);
+            context.queue.submit([encoder.finish()]);
+            // As an app that waits for its frame (a presented swap chain): the wall time
+            // includes the GPU's completion.
+            let _ = context.wait_idle();
+            wall.push(started.elapsed().as_secs_f64() * 1e3);
+        })
+        .map_err(|e| e.to_string())?;
+        let status = renderer.update(&context).expect("a streaming renderer");
+        orbits.push(json!({
+            "camera": camera_name,
+            "frames": args.frames,
+            "turn_degrees": 360,
+            "gpu_ms": summary(&gpu),
+            "wall_ms": summary(&wall),
+            "update_ms": summary(&update_ms),
+            "frames_over_16ms_wall": wall.iter().filter(|&&w| w > 16.0).count(),
+            "slowest_frame": wall
+                .iter()
+                .enumerate()
+                .max_by(|a, b| a.1.total_cmp(b.1))
+                .map(|(index, _)| index),
+            "missing_bricks": summary(&missing),
+            "uploaded_bytes": uploaded,
+            "counters": status.counters,
+        }));
+    }
+
+    let resident =
+        resident_comparison(&context, args, &prepared, &target, options, timer.as_ref())?;
+
+    let report = json!({
+        "adapter": context.adapter_info.name,
+        "backend": format!("{:?}", context.adapter_info.backend),
+        "driver": format!("{} {}", context.adapter_info.driver, context.adapter_info.driver_info),
+        "timing": timing_name(timer.as_ref()),
+        "size": [target.width, target.height],
+        "frames": args.frames,
+        "volume": {
+            "name": name,
+            "dims": prepared.source.shape().dims(),
+            "levels": prepared.source.shape().levels.len(),
+            "open_seconds": prepared.open_seconds,
+        },
+        "options": {
+            "gpu_memory": options.gpu_memory,
+            "ram_cache": options.ram_cache,
+            "upload_bytes_per_frame": options.upload_bytes_per_frame,
+            "lod_scale": options.lod_scale,
+            "workers": options.workers,
+            "prefetch": options.prefetch,
+        },
+        "gpu_bytes": gpu_bytes,
+        "first_image_s": first_image_s,
+        "pipeline_build_s": pipeline_build_s,
+        "stopped_view": stopped,
+        "orbits": orbits,
+        "resident": resident,
+    });
+    if args.json {
+        println!("{report}");
+    } else {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?
+        );
+    }
+    Ok(())
+}
+
+/// The streaming renderer, once everything a view needs is resident, against the bricks
+/// renderer of the same volume in memory on the same views: the pyramid's finest level of at
+/// most 512³ voxels (the whole volume when it is that small), both at full detail.
+fn resident_comparison(
+    context: &GpuContext,
+    args: &BenchArgs,
+    prepared: &StreamPrepared,
+    target: &RenderTarget,
+    options: StreamOptions,
+    timer: Option<&GpuTimer>,
+) -> Result<serde_json::Value, String> {
+    let (volume, level) = preview(&*prepared.source, RESIDENT_BRICKS)
+        .map_err(|e| format!("{}: {e}", prepared.source.name()))?;
+    let scale = prepared.source.shape().levels[level].scale as f64;
+    let spacing = prepared.source.spacing().map(|s| s * scale);
+    let mut octree = octree::build(&volume, BuildOptions::default())
+        .map_err(|e| format!("{}: {e}", prepared.source.name()))?;
+    let transfer: TransferFunction = prepared.transfer;
+    octree::recolor(&mut octree, &transfer);
+    let bricks = VolumeRenderer::new(
+        context,
+        RendererOptions {
+            kind: RendererKind::Bricks,
+            brick_size: 32,
+        },
+        &octree,
+        &volume,
+        spacing,
+        octree.depth,
+        &transfer,
+    )
+    .map_err(|e| e.to_string())?;
+    let source = MemorySource::from_levels(
+        "resident",
+        volume.levels.clone(),
+        volume.dims,
+        volume.quantization,
+        spacing,
+        Downsampling::Mean,
+    )?;
+    let mut stream = VolumeRenderer::new_stream(
+        context,
+        Arc::new(source),
+        StreamOptions {
+            lod_scale: 0.0,
+            ..options
+        },
+        &transfer,
+    )
+    .map_err(|e| e.to_string())?;
+    let depth = octree.depth;
+    let mut rows = Vec::new();
+    for (mode_name, mode) in [("dvr-gray", RenderMode::Dvr), ("mip", RenderMode::Mip)] {
+        let settings = RenderSettings {
+            mode,
+            density: args.density,
+            shading: Shading::OFF,
+            ..RenderSettings::full_detail(depth)
+        };
+        for (camera_name, distance) in CAMERAS {
+            let camera = Camera {
+                distance,
+                ..Camera::default()
+            };
+            let refinement = refine(context, &mut stream, target, &camera, &settings, MAX_WAIT)?;
+            let (stream_gpu, stream_wall) = time_view(
+                context,
+                &stream,
+                target,
+                &camera,
+                &settings,
+                args.frames,
+                timer,
+            )?;
+            let (bricks_gpu, bricks_wall) = time_view(
+                context,
+                &bricks,
+                target,
+                &camera,
+                &settings,
+                args.frames,
+                timer,
+            )?;
+            let (stream_ms, bricks_ms) =
+                (percentile(&stream_gpu, 50.0), percentile(&bricks_gpu, 50.0));
+            rows.push(json!({
+                "mode": mode_name,
+                "camera": camera_name,
+                "complete": refinement.complete,
+                "stream_gpu_ms": stream_ms,
+                "stream_gpu_p95_ms": percentile(&stream_gpu, 95.0),
+                "bricks_gpu_ms": bricks_ms,
+                "bricks_gpu_p95_ms": percentile(&bricks_gpu, 95.0),
+                "stream_over_bricks": stream_ms / bricks_ms,
+                "stream_wall_ms_per_frame": stream_wall,
+                "bricks_wall_ms_per_frame": bricks_wall,
+            }));
+        }
+    }
+    Ok(json!({
+        "dims": volume.dims,
+        "pyramid_level": level,
+        "rows": rows,
+    }))
+}
+
+/// GPU milliseconds of `frames` frames of one fixed view (after a warm-up), and the wall time
+/// per frame of a batch of them as an app sees it (encode, submit, and the GPU's completion).
+fn time_view(
+    context: &GpuContext,
+    renderer: &VolumeRenderer,
+    target: &RenderTarget,
+    camera: &Camera,
+    settings: &RenderSettings,
+    frames: u32,
+    timer: Option<&GpuTimer>,
+) -> Result<(Vec<f64>, f64), String> {
+    let submit = |writes| {
+        let mut encoder = context
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("voxscope::bench_resident_frame"),
+            });
+        renderer.encode(context, &mut encoder, target, camera, settings, writes);
+        context.queue.submit([encoder.finish()]);
+    };
+    let warming = Instant::now();
+    while warming.elapsed() < Duration::from_millis(200) {
+        for _ in 0..5 {
+            submit(None);
+        }
+        context.wait_idle().map_err(|e| e.to_string())?;
+    }
+    let started = Instant::now();
+    for _ in 0..frames {
+        submit(None);
+    }
+    context.wait_idle().map_err(|e| e.to_string())?;
+    let wall = started.elapsed().as_secs_f64() * 1e3 / frames.max(1) as f64;
+    let gpu = time_passes(context, timer, frames, |_, writes| submit(writes))
+        .map_err(|e| e.to_string())?;
+    Ok((gpu, wall))
+}

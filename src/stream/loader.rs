@@ -1,0 +1,179 @@
+//! Worker threads that load bricks: they take the best request from the queue, read it from
+//! the source (I/O and decode), convert it to the atlas's texel format, and send it to the
+//! streamer, which picks results up once per frame without waiting. No frame ever waits on a
+//! worker.
+
+use std::sync::Arc;
+use std::sync::mpsc::{Receiver, Sender, channel};
+use std::thread::JoinHandle;
+
+use super::queue::{RequestQueue, Tier};
+use super::source::{BrickError, BrickId, BrickSource, PADDED_BRICK_VOXELS, ValueRange};
+
+/// How value levels are stored in the atlas's texels.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AtlasTexels {
+    /// One byte: every level ≤ 255.
+    Unorm8,
+    /// Two bytes, normalized: every level exact.
+    Unorm16,
+    /// Two bytes, half float (devices without 16-bit normalized textures): exact to 2048.
+    Float16,
+}
+
+impl AtlasTexels {
+    /// Bytes per texel.
+    pub fn bytes(self) -> usize {
+        match self {
+            Self::Unorm8 => 1,
+            Self::Unorm16 | Self::Float16 => 2,
+        }
+    }
+
+    /// Texel value × this = value level (the shader's `atlas_scale`).
+    pub fn scale(self) -> f32 {
+        match self {
+            Self::Unorm8 => 255.0,
+            Self::Unorm16 => 65535.0,
+            Self::Float16 => 1.0,
+        }
+    }
+
+    /// `levels` as texel bytes.
+    pub fn encode(self, levels: &[u16]) -> Vec<u8> {
+        match self {
+            Self::Unorm8 => levels.iter().map(|&l| l.min(255) as u8).collect(),
+            Self::Unorm16 => bytemuck::cast_slice(levels).to_vec(),
+            Self::Float16 => levels
+                .iter()
+                .flat_map(|&l| half::f16::from_f32(l as f32).to_le_bytes())
+                .collect(),
+        }
+    }
+}
+
+/// A loaded brick as the streamer keeps it.
+#[derive(Debug, Clone)]
+pub struct LoadedBrick {
+    pub range: ValueRange,
+    /// The padded brick's texels, or `None` for a uniform brick (drawn from its value alone).
+    pub texels: Option<Arc<[u8]>>,
+}
+
+impl LoadedBrick {
+    /// Bytes this brick takes in the RAM cache.
+    pub fn bytes(&self) -> u64 {
+        self.texels.as_ref().map_or(0, |t| t.len() as u64) + 32
+    }
+}
+
+/// What a worker sends back.
+pub struct LoadResult {
+    pub key: u32,
+    /// Whether it was loaded as a prefetch (not asked for by a ray).
+    pub prefetch: bool,
+    pub brick: Result<LoadedBrick, BrickError>,
+    /// Bytes the source produced for it: its padded voxels in the atlas's texel size (what a
+    /// view's floor is counted in).
+    pub bytes_read: u64,
+}
+
+/// The worker threads and the channel their results arrive on.
+pub struct Loader {
+    queue: Arc<RequestQueue>,
+    results: Receiver<LoadResult>,
+    workers: Vec<JoinHandle<()>>,
+}
+
+impl Loader {
+    /// Starts `workers` threads (at least one) loading from `source` what `queue` holds.
+    pub fn start(
+        source: Arc<dyn BrickSource>,
+        queue: Arc<RequestQueue>,
+        texels: AtlasTexels,
+        workers: usize,
+    ) -> Self {
+        let (sender, results) = channel();
+        let workers = (0..workers.max(1))
+            .map(|index| {
+                let (source, queue, sender) =
+                    (Arc::clone(&source), Arc::clone(&queue), sender.clone());
+                std::thread::Builder::new()
+                    .name(format!("voxscope-brick-loader-{index}"))
+                    .spawn(move || work(&*source, &queue, texels, &sender))
+                    .expect("the system starts a thread")
+            })
+            .collect();
+        Self {
+            queue,
+            results,
+            workers,
+        }
+    }
+
+    /// Every result that has arrived, without waiting.
+    pub fn received(&self) -> Vec<LoadResult> {
+        self.results.try_iter().collect()
+    }
+}
+
+/// Reads one brick as the loader does (also used for the pinned levels, on the caller's thread).
+pub fn load_brick(
+    source: &dyn BrickSource,
+    id: BrickId,
+    texels: AtlasTexels,
+) -> (Result<LoadedBrick, BrickError>, u64) {
+    match source.read_brick(id) {
+        Ok(data) => {
+            let bytes_read = (data.levels.len() * texels.bytes()) as u64;
+            if data.levels.len() != PADDED_BRICK_VOXELS {
+                return (
+                    Err(BrickError(format!(
+                        "{}: {id} has {} value levels, not {PADDED_BRICK_VOXELS}",
+                        source.name(),
+                        data.levels.len()
+                    ))),
+                    bytes_read,
+                );
+            }
+            let texels = (!data.range.is_uniform()).then(|| Arc::from(texels.encode(&data.levels)));
+            (
+                Ok(LoadedBrick {
+                    range: data.range,
+                    texels,
+                }),
+                bytes_read,
+            )
+        }
+        Err(error) => (Err(error), 0),
+    }
+}
+
+fn work(
+    source: &dyn BrickSource,
+    queue: &RequestQueue,
+    texels: AtlasTexels,
+    results: &Sender<LoadResult>,
+) {
+    while let Some(request) = queue.take() {
+        let (brick, bytes_read) = load_brick(source, request.id, texels);
+        let result = LoadResult {
+            key: request.key,
+            prefetch: request.priority.tier() == Tier::Prefetch,
+            brick,
+            bytes_read,
+        };
+        if results.send(result).is_err() {
+            return; // the streamer is gone
+        }
+    }
+}
+
+impl Drop for Loader {
+    fn drop(&mut self) {
+        self.queue.close();
+        for worker in self.workers.drain(..) {
+            let _ = worker.join();
+        }
+    }
+}

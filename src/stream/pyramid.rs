@@ -1,0 +1,296 @@
+//! The shape of a pyramid of bricks: each level's dimensions and brick grid, and the 32-bit key
+//! that names a brick in the page table and in the GPU's requests. Also the CPU operations on a
+//! whole level held in memory: the 2× reduction to the next level and cutting out one brick.
+
+use rayon::prelude::*;
+
+use super::source::{BRICK_SIZE, BrickData, BrickId, PADDED_BRICK, PADDED_BRICK_VOXELS};
+
+/// The most levels a pyramid may have. Level 15 is left out: its keys are reserved for the
+/// page table's empty entries ([`EMPTY_KEY`]), so levels 0…14 (2¹⁴ voxels per level-14 voxel).
+pub const MAX_LEVELS: usize = 15;
+
+/// A key's level sits above this many bits of brick index.
+pub const KEY_LEVEL_SHIFT: u32 = 28;
+
+/// The most bricks one level may have: its bricks' indices fit below [`KEY_LEVEL_SHIFT`] (at
+/// 32³ voxels a brick, 2²⁸ bricks is a level of 20 000³ voxels or so).
+pub const MAX_LEVEL_BRICKS: u64 = 1 << KEY_LEVEL_SHIFT;
+
+/// The key no brick has: level 15, every index bit set.
+pub const EMPTY_KEY: u32 = u32::MAX;
+
+/// One level of a pyramid.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct LevelShape {
+    /// Voxels along x, y, z.
+    pub dims: [usize; 3],
+    /// Bricks along x, y, z (`dims / BRICK_SIZE`, rounded up).
+    pub grid: [usize; 3],
+    /// Level-0 voxels along each axis that one voxel of this level covers (2^level).
+    pub scale: usize,
+}
+
+impl LevelShape {
+    /// Bricks in the level.
+    pub fn brick_count(&self) -> u64 {
+        self.grid.iter().map(|&g| g as u64).product()
+    }
+}
+
+/// The levels of a pyramid, finest first.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct PyramidShape {
+    pub levels: Vec<LevelShape>,
+}
+
+impl PyramidShape {
+    /// Level 0 of `dims` and every coarser level, each halving the voxels per axis (rounded
+    /// up) down to a single voxel: `ceil(log2(max(dims))) + 1` levels, the octree's depth + 1,
+    /// so max level `m` of the octree's slider is pyramid level `depth − m`.
+    pub fn new(dims: [usize; 3]) -> Result<Self, String> {
+        if dims.contains(&0) {
+            return Err(format!(
+                "dimensions {}x{}x{} contain a zero extent",
+                dims[0], dims[1], dims[2]
+            ));
+        }
+        let mut levels = Vec::new();
+        let mut level_dims = dims;
+        loop {
+            let scale = 1usize << levels.len();
+            let grid = level_dims.map(|d| d.div_ceil(BRICK_SIZE));
+            levels.push(LevelShape {
+                dims: level_dims,
+                grid,
+                scale,
+            });
+            if level_dims.iter().all(|&d| d == 1) {
+                break;
+            }
+            if levels.len() == MAX_LEVELS {
+                return Err(format!(
+                    "dimensions {}x{}x{} need more than {MAX_LEVELS} pyramid levels",
+                    dims[0], dims[1], dims[2]
+                ));
+            }
+            level_dims = level_dims.map(|d| d.div_ceil(2));
+        }
+        let finest = levels[0].brick_count();
+        if finest > MAX_LEVEL_BRICKS {
+            return Err(format!(
+                "dimensions {}x{}x{} make {finest} bricks of {BRICK_SIZE}³ at full resolution; the streaming renderer holds at most {MAX_LEVEL_BRICKS}",
+                dims[0], dims[1], dims[2]
+            ));
+        }
+        Ok(Self { levels })
+    }
+
+    /// Voxels along x, y, z at full resolution.
+    pub fn dims(&self) -> [usize; 3] {
+        self.levels[0].dims
+    }
+
+    /// The octree depth of these dimensions (levels − 1): the max-level slider's range.
+    pub fn depth(&self) -> u32 {
+        self.levels.len() as u32 - 1
+    }
+
+    /// The page-table key of `id` (`level << 28 | x + gx·(y + gy·z)`), if `id` is in the
+    /// pyramid.
+    pub fn key(&self, id: BrickId) -> Option<u32> {
+        let level = self.levels.get(id.level as usize)?;
+        let [x, y, z] = id.brick.map(|c| c as usize);
+        let [gx, gy, gz] = level.grid;
+        if x >= gx || y >= gy || z >= gz {
+            return None;
+        }
+        Some(id.level << KEY_LEVEL_SHIFT | (x + gx * (y + gy * z)) as u32)
+    }
+
+    /// The brick a key names, if it is one of this pyramid's.
+    pub fn brick_of(&self, key: u32) -> Option<BrickId> {
+        let level = key >> KEY_LEVEL_SHIFT;
+        let shape = self.levels.get(level as usize)?;
+        let index = (key & ((1 << KEY_LEVEL_SHIFT) - 1)) as usize;
+        let [gx, gy, gz] = shape.grid;
+        if index >= gx * gy * gz {
+            return None;
+        }
+        Some(BrickId {
+            level,
+            brick: [index % gx, (index / gx) % gy, index / (gx * gy)].map(|c| c as u32),
+        })
+    }
+
+    /// The brick of the next coarser level that covers `id`, if there is a coarser level.
+    pub fn parent(&self, id: BrickId) -> Option<BrickId> {
+        (id.level as usize + 1 < self.levels.len()).then(|| BrickId {
+            level: id.level + 1,
+            brick: id.brick.map(|c| c / 2),
+        })
+    }
+
+    /// The center of brick `id` in level-0 voxel space.
+    pub fn brick_center(&self, id: BrickId) -> [f64; 3] {
+        let side = (BRICK_SIZE * self.levels[id.level as usize].scale) as f64;
+        id.brick.map(|c| (c as f64 + 0.5) * side)
+    }
+}
+
+/// How a level is reduced to the next coarser one: each voxel from the 2×2×2 it covers.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Downsampling {
+    /// Their mean, rounded (intensities).
+    Mean,
+    /// Their largest level (label volumes, whose values are names, not amounts).
+    Max,
+}
+
+/// The next coarser level of `levels` (`dims`, x fastest): `ceil(dims / 2)` voxels, each the
+/// mean (rounded) or the maximum of the 2×2×2 voxels it covers; at an odd edge the last voxel
+/// stands in for the missing one (as a clamped texture would).
+pub fn downsample(levels: &[u16], dims: [usize; 3], how: Downsampling) -> (Vec<u16>, [usize; 3]) {
+    let half = dims.map(|d| d.div_ceil(2));
+    let [dx, dy, _] = dims;
+    let at = |x: usize, y: usize, z: usize| levels[x + dx * (y + dy * z)] as u32;
+    let mut out = vec![0u16; half[0] * half[1] * half[2]];
+    out.par_chunks_mut(half[0] * half[1])
+        .enumerate()
+        .for_each(|(z, plane)| {
+            let zs = [2 * z, (2 * z + 1).min(dims[2] - 1)];
+            for y in 0..half[1] {
+                let ys = [2 * y, (2 * y + 1).min(dims[1] - 1)];
+                for x in 0..half[0] {
+                    let xs = [2 * x, (2 * x + 1).min(dims[0] - 1)];
+                    let (mut sum, mut max) = (0u32, 0u32);
+                    for &z in &zs {
+                        for &y in &ys {
+                            for &x in &xs {
+                                let v = at(x, y, z);
+                                sum += v;
+                                max = max.max(v);
+                            }
+                        }
+                    }
+                    plane[x + half[0] * y] = match how {
+                        Downsampling::Mean => (sum + 4) / 8,
+                        Downsampling::Max => max,
+                    } as u16;
+                }
+            }
+        });
+    (out, half)
+}
+
+/// Brick `brick` of a level held whole in memory (`levels`, `dims`, x fastest), with its
+/// one-voxel apron clamped to the level's edges.
+pub fn cut_brick(levels: &[u16], dims: [usize; 3], brick: [u32; 3]) -> BrickData {
+    let first = brick.map(|c| c as usize * BRICK_SIZE);
+    // The level's voxel at offset `i` − 1 from the brick's first along `axis`, clamped.
+    let clamped = |axis: usize, i: usize| (first[axis] + i).saturating_sub(1).min(dims[axis] - 1);
+    let xs: Vec<usize> = (0..PADDED_BRICK).map(|i| clamped(0, i)).collect();
+    let mut out = Vec::with_capacity(PADDED_BRICK_VOXELS);
+    for k in 0..PADDED_BRICK {
+        let z = clamped(2, k);
+        for j in 0..PADDED_BRICK {
+            let row = dims[0] * (clamped(1, j) + dims[1] * z);
+            out.extend(xs.iter().map(|&x| levels[row + x]));
+        }
+    }
+    let inside = std::array::from_fn(|a| dims[a].saturating_sub(first[a]));
+    BrickData::new(out, inside)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn levels_halve_down_to_one_voxel_as_the_octree_depth_says() {
+        let shape = PyramidShape::new([197, 233, 189]).expect("shape");
+        assert_eq!(shape.depth(), 8); // ceil(log2(233))
+        let dims: Vec<[usize; 3]> = shape.levels.iter().map(|l| l.dims).collect();
+        assert_eq!(dims[1], [99, 117, 95]);
+        assert_eq!(*dims.last().expect("a level"), [1, 1, 1]);
+        assert_eq!(shape.levels[0].grid, [7, 8, 6]);
+        assert_eq!(shape.levels[3].scale, 8);
+        // 16384³: 2²⁷ bricks at level 0, fifteen levels.
+        let big = PyramidShape::new([16384; 3]).expect("16384³ fits");
+        assert_eq!(big.levels.len(), 15);
+        assert_eq!(big.levels[0].brick_count(), 1 << 27);
+        assert!(PyramidShape::new([32768; 3]).is_err());
+        assert!(PyramidShape::new([0, 4, 4]).is_err());
+    }
+
+    #[test]
+    fn keys_name_bricks_one_to_one() {
+        let shape = PyramidShape::new([100, 70, 40]).expect("shape");
+        let mut seen = std::collections::HashSet::new();
+        for (level, info) in shape.levels.iter().enumerate() {
+            for z in 0..info.grid[2] as u32 {
+                for y in 0..info.grid[1] as u32 {
+                    for x in 0..info.grid[0] as u32 {
+                        let id = BrickId {
+                            level: level as u32,
+                            brick: [x, y, z],
+                        };
+                        let key = shape.key(id).expect("in the pyramid");
+                        assert_ne!(key, EMPTY_KEY);
+                        assert!(seen.insert(key));
+                        assert_eq!(shape.brick_of(key), Some(id));
+                    }
+                }
+            }
+        }
+        let outside = BrickId {
+            level: 0,
+            brick: [4, 0, 0],
+        };
+        assert_eq!(shape.key(outside), None);
+        assert_eq!(shape.brick_of(EMPTY_KEY), None);
+        let parent = shape.parent(BrickId {
+            level: 0,
+            brick: [3, 2, 1],
+        });
+        assert_eq!(
+            parent,
+            Some(BrickId {
+                level: 1,
+                brick: [1, 1, 0]
+            })
+        );
+    }
+
+    #[test]
+    fn downsampling_means_or_maxes_each_block_and_clamps_odd_edges() {
+        // 3×1×1: [0, 10, 20] → [5, 20] (the last voxel pairs with itself).
+        let (mean, dims) = downsample(&[0, 10, 20], [3, 1, 1], Downsampling::Mean);
+        assert_eq!((mean, dims), (vec![5, 20], [2, 1, 1]));
+        let (max, _) = downsample(&[0, 10, 20], [3, 1, 1], Downsampling::Max);
+        assert_eq!(max, vec![10, 20]);
+        // A 2×2×2 block of 1…8 averages to 4.5, rounded to 5.
+        let (mean, _) = downsample(&[1, 2, 3, 4, 5, 6, 7, 8], [2, 2, 2], Downsampling::Mean);
+        assert_eq!(mean, vec![5]);
+    }
+
+    #[test]
+    fn a_cut_brick_has_a_clamped_apron_and_its_own_range() {
+        let dims = [40, 3, 2];
+        let levels: Vec<u16> = (0..40 * 3 * 2).map(|i| (i % 40) as u16).collect();
+        let first = cut_brick(&levels, dims, [0, 0, 0]);
+        // Apron before x = 0 repeats voxel 0; after x = 31 comes voxel 32 of the next brick.
+        let row = PADDED_BRICK * (1 + PADDED_BRICK);
+        assert_eq!(first.levels[row], 0);
+        assert_eq!(first.levels[row + 1], 0);
+        assert_eq!(first.levels[row + 32], 31);
+        assert_eq!(first.levels[row + 33], 32);
+        assert_eq!((first.range.min, first.range.max), (0, 31));
+        // The second brick holds x = 32…39; beyond, the edge voxel repeats; its range is its own.
+        let second = cut_brick(&levels, dims, [1, 0, 0]);
+        assert_eq!(second.levels[row], 31);
+        assert_eq!(second.levels[row + 8], 39);
+        assert_eq!(second.levels[row + 20], 39);
+        assert_eq!((second.range.min, second.range.max), (32, 39));
+    }
+}

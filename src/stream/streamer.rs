@@ -1,0 +1,845 @@
+//! The CPU half of streaming, one call per frame: read what the last frames' rays lacked and
+//! used, decide what to load (in priority order, on worker threads) and what to upload into
+//! which atlas slot (within a per-frame budget, evicting the least recently used), keep the page
+//! table, and count everything. No GPU calls here: `render::StreamVolume` feeds it the frames'
+//! readbacks and carries out its uploads.
+
+use std::collections::VecDeque;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use rayon::prelude::*;
+
+use super::key_hash::{KeyMap, KeySet};
+use super::loader::{AtlasTexels, LoadedBrick, Loader, load_brick};
+use super::page_table::{
+    ENTRY_FAILED, ENTRY_RESIDENT, ENTRY_VISIBLE, PageTable, TableEntry, TableFull,
+};
+use super::pyramid::PyramidShape;
+use super::queue::{Priority, Request, RequestQueue, Tier};
+use super::ram_cache::RamCache;
+use super::slots::SlotPool;
+use super::source::{BrickId, BrickSource, PADDED_BRICK_VOXELS};
+
+/// Choices that size the streamer.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StreamOptions {
+    /// GPU memory for everything the streaming renderer holds (atlas, page table, request and
+    /// usage buffers, lookup tables), in bytes (`--gpu-memory`). Default 1 GiB; never more
+    /// than the device allows (its largest 3D texture bounds the atlas).
+    pub gpu_memory: u64,
+    /// Bytes of decoded bricks kept in RAM (`--ram-cache`). Default 2 GiB.
+    pub ram_cache: u64,
+    /// Bytes uploaded to the atlas per frame at most. Default 8 MiB (about 100 16-bit bricks):
+    /// on an H200, 8 MiB kept 199 of 200 streaming frames under 16 ms of wall time, 16 MiB
+    /// 151–193 of 200, 32 MiB up to 60 ms a frame (runs 46–47, docs/benchmarks.md).
+    pub upload_bytes_per_frame: u64,
+    /// Worker threads loading bricks. Default: the machine's cores less one (at least one).
+    pub workers: usize,
+    /// The pixel footprint is multiplied by this before it picks a level: 1 takes the level
+    /// whose voxel is no larger than a pixel's footprint, 2 one level coarser, 0 always the
+    /// max level (no pixel LOD).
+    pub lod_scale: f32,
+    /// Load the neighbours of wanted bricks into RAM while nothing visible waits.
+    pub prefetch: bool,
+}
+
+impl Default for StreamOptions {
+    fn default() -> Self {
+        let cores = std::thread::available_parallelism().map_or(2, |n| n.get());
+        Self {
+            gpu_memory: 1 << 30,
+            ram_cache: 2 << 30,
+            upload_bytes_per_frame: 8 << 20,
+            workers: cores.saturating_sub(1).max(1),
+            lod_scale: 1.0,
+            prefetch: true,
+        }
+    }
+}
+
+/// Where the camera is, in level-0 voxel space, for "near the view's center first".
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ViewPoint {
+    pub eye: [f64; 3],
+    /// Unit direction of the image's center.
+    pub forward: [f64; 3],
+}
+
+impl ViewPoint {
+    /// 1 − cos of the angle between the view's center and `point`: 0 straight ahead.
+    fn off_center(&self, point: [f64; 3]) -> f32 {
+        let d: [f64; 3] = std::array::from_fn(|a| point[a] - self.eye[a]);
+        let length = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt().max(1e-9);
+        let cos =
+            (d[0] * self.forward[0] + d[1] * self.forward[1] + d[2] * self.forward[2]) / length;
+        (1.0 - cos) as f32
+    }
+}
+
+/// What one drawn frame reported: the bricks its rays asked for and each slot's last use.
+#[derive(Debug, Clone, Copy)]
+pub struct Feedback<'a> {
+    /// The frame's number ([`Streamer::frame`] when it was drawn).
+    pub frame: u32,
+    /// Keys the rays asked for (deduplicated on the GPU where cheap; repeats are fine).
+    pub requests: &'a [u32],
+    /// Asks in all, including those beyond the buffer's capacity.
+    pub asked: u32,
+    /// Per atlas slot, the last frame a ray used it as `2·frame + 1` where the ray wanted the
+    /// brick's level, `2·frame` where it drew it in place of a missing finer brick (0: never).
+    pub usage: &'a [u32],
+}
+
+/// A brick to copy into the atlas this frame.
+#[derive(Debug, Clone)]
+pub struct Upload {
+    pub slot: u32,
+    /// The padded brick's texels ([`AtlasTexels`]).
+    pub texels: Arc<[u8]>,
+}
+
+/// Per level, what the streamer knows (the app's Octree panel).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+pub struct LevelCounters {
+    /// Bricks in the level.
+    pub total: u64,
+    /// In the atlas.
+    pub resident: usize,
+    /// Known to need no slot (uniform, or skipped under the transfer function when evicted).
+    pub empty: usize,
+    /// Wanted by the latest frame read back and not on the GPU yet.
+    pub requested: usize,
+}
+
+/// Everything counted, for the app's panel and `bench --stream --json`.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+pub struct StreamCounters {
+    /// Finest first.
+    pub levels: Vec<LevelCounters>,
+    pub slots: usize,
+    pub slots_used: usize,
+    /// Slots a ray wanted (not as a stand-in) in the latest frame read back: with the uniform
+    /// bricks, what that view needs.
+    pub view_slots: usize,
+    pub slots_pinned: usize,
+    /// Bytes of one atlas slot.
+    pub slot_bytes: u64,
+    pub ram_bytes: u64,
+    pub ram_capacity: u64,
+    /// Wanted bricks found in the RAM cache / loaded from the source.
+    pub ram_hits: u64,
+    pub loads: u64,
+    /// Of the loads, those of prefetched bricks (neighbours of wanted ones).
+    pub prefetch_loads: u64,
+    /// Bytes the source produced (padded bricks in texel size).
+    pub bytes_read: u64,
+    pub bytes_uploaded: u64,
+    /// Uploaded over the last second.
+    pub upload_bytes_per_s: f64,
+    /// Bricks that lost their atlas slot to another.
+    pub evictions: u64,
+    /// Bricks that could not be read.
+    pub failed: usize,
+}
+
+impl StreamCounters {
+    /// Hits ÷ (hits + loads), 0 before anything was wanted.
+    pub fn ram_hit_rate(&self) -> f64 {
+        let total = self.ram_hits + self.loads;
+        if total == 0 {
+            0.0
+        } else {
+            self.ram_hits as f64 / total as f64
+        }
+    }
+}
+
+/// Where streaming stands after a frame's update.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+pub struct StreamStatus {
+    /// The number of the frame about to be drawn.
+    pub frame: u32,
+    /// Nothing visible is missing: the latest frame read back ([`Self::judged_frame`]) was
+    /// drawn with the current page table and its rays lacked nothing (bricks that failed to
+    /// load excepted). After a change of view, wait for a judged frame drawn with the new view.
+    pub complete: bool,
+    /// The frame `complete` and `missing` are judged on (read back a frame or two after it was
+    /// drawn); `None` before the first readback.
+    pub judged_frame: Option<u32>,
+    /// Visible bricks wanted and not on the GPU (what the status bar's "refining: N" says).
+    pub missing: usize,
+    /// Loads waiting and in progress.
+    pub queued: usize,
+    pub loading: usize,
+    /// Levels added to every ray's choice because the atlas cannot hold the view at its own.
+    pub lod_bias: u32,
+    /// Uploaded in this update.
+    pub uploads: usize,
+    pub upload_bytes: u64,
+    /// Bricks that failed since the last update, one line each.
+    pub errors: Vec<String>,
+    pub counters: StreamCounters,
+}
+
+/// Prefetch neighbours only when a frame asked for at most this many bricks.
+const PREFETCH_AROUND: usize = 1024;
+
+/// Bricks of the coarsest levels that stay in the atlas, so every ray has a fallback: every
+/// level of a single brick.
+fn pinned_levels(shape: &PyramidShape) -> Vec<u32> {
+    (0..shape.levels.len() as u32)
+        .filter(|&l| shape.levels[l as usize].brick_count() == 1)
+        .collect()
+}
+
+/// The CPU state of one streamed pyramid.
+pub struct Streamer {
+    source: Arc<dyn BrickSource>,
+    shape: PyramidShape,
+    texels: AtlasTexels,
+    options: StreamOptions,
+    atlas_grid: [usize; 3],
+    table: PageTable,
+    /// Most entries the table is let hold (a quarter of its capacity: short probes).
+    max_entries: usize,
+    slots: SlotPool,
+    ram: RamCache,
+    queue: Arc<RequestQueue>,
+    loader: Loader,
+    /// The frame about to be drawn.
+    frame: u32,
+    /// The latest frame read back, and whether its rays lacked anything (failed bricks aside).
+    feedback_frame: Option<u32>,
+    feedback_missing: usize,
+    /// The last frame whose page table differed from the one before.
+    changed_frame: u32,
+    /// The latest frame's wanted visible bricks, by key.
+    wanted: KeyMap<Request>,
+    /// Of those, how many are not on the GPU yet.
+    missing: usize,
+    /// Wanted bricks in RAM and not yet uploaded, best first.
+    ready: Vec<Request>,
+    /// Table entries that hold no slot, oldest first (dropped when the table is full).
+    metadata: VecDeque<u32>,
+    failed: KeySet,
+    new_errors: Vec<String>,
+    lod_bias: u32,
+    bias_changed: u32,
+    /// `visible_below[i]`: value levels below `i` the transfer function makes visible (65 537
+    /// counts): the entries' [`ENTRY_VISIBLE`] bits follow it.
+    visible_below: Vec<u32>,
+    counters: StreamCounters,
+    /// Per level: bricks in the atlas, and table entries without a slot.
+    resident: Vec<usize>,
+    empty: Vec<usize>,
+    uploads_recent: VecDeque<(Instant, u64)>,
+}
+
+impl Streamer {
+    /// A streamer of `source` into an atlas of `atlas_grid` slots (x, y, z) holding texels as
+    /// `texels`, with the transfer function's visibility counts `visible_below`
+    /// ([`Self::set_visibility`]). Reads the pinned coarse levels now (on the caller's thread
+    /// and rayon's) and returns their uploads.
+    pub fn new(
+        source: Arc<dyn BrickSource>,
+        atlas_grid: [usize; 3],
+        texels: AtlasTexels,
+        options: StreamOptions,
+        visible_below: Vec<u32>,
+    ) -> Result<(Self, Vec<Upload>), String> {
+        if visible_below.len() != (1 << 16) + 1 {
+            return Err(format!(
+                "{} visibility counts, not 65 537",
+                visible_below.len()
+            ));
+        }
+        let shape = source.shape().clone();
+        let capacity = atlas_grid.iter().product::<usize>();
+        let pinned = pinned_levels(&shape);
+        if capacity < pinned.len() + 8 {
+            return Err(format!(
+                "an atlas of {capacity} bricks cannot hold the {} always-resident coarse levels and a view; give the renderer more GPU memory",
+                pinned.len()
+            ));
+        }
+        let max_entries = capacity * 4;
+        let queue = Arc::new(RequestQueue::default());
+        let loader = Loader::start(
+            Arc::clone(&source),
+            Arc::clone(&queue),
+            texels,
+            options.workers,
+        );
+        let levels = shape.levels.len();
+        let mut streamer = Self {
+            table: PageTable::new(max_entries * 4),
+            max_entries,
+            slots: SlotPool::new(capacity),
+            ram: RamCache::new(options.ram_cache),
+            queue,
+            loader,
+            frame: 0,
+            feedback_frame: None,
+            feedback_missing: 0,
+            changed_frame: 0,
+            wanted: KeyMap::default(),
+            missing: 0,
+            ready: Vec::new(),
+            metadata: VecDeque::new(),
+            failed: KeySet::default(),
+            new_errors: Vec::new(),
+            lod_bias: 0,
+            bias_changed: 0,
+            visible_below,
+            counters: StreamCounters {
+                levels: shape
+                    .levels
+                    .iter()
+                    .map(|l| LevelCounters {
+                        total: l.brick_count(),
+                        ..Default::default()
+                    })
+                    .collect(),
+                slots: capacity,
+                slot_bytes: (PADDED_BRICK_VOXELS * texels.bytes()) as u64,
+                ram_capacity: options.ram_cache,
+                ..Default::default()
+            },
+            resident: vec![0; levels],
+            empty: vec![0; levels],
+            uploads_recent: VecDeque::new(),
+            source,
+            shape,
+            texels,
+            options,
+            atlas_grid,
+        };
+        let uploads = streamer.load_pinned(&pinned)?;
+        Ok((streamer, uploads))
+    }
+
+    /// Reads every brick of the `pinned` levels and gives each a pinned slot.
+    fn load_pinned(&mut self, pinned: &[u32]) -> Result<Vec<Upload>, String> {
+        let ids: Vec<BrickId> = pinned
+            .iter()
+            .map(|&level| BrickId {
+                level,
+                brick: [0; 3],
+            })
+            .collect();
+        let source = &*self.source;
+        let texels = self.texels;
+        let loaded: Vec<_> = ids
+            .par_iter()
+            .map(|&id| (id, load_brick(source, id, texels)))
+            .collect();
+        let mut uploads = Vec::new();
+        for (id, (brick, bytes_read)) in loaded {
+            let brick =
+                brick.map_err(|e| format!("the always-resident {id} cannot be read: {e}"))?;
+            self.counters.bytes_read += bytes_read;
+            self.counters.loads += 1;
+            let key = self.shape.key(id).expect("a pinned level's brick");
+            if let Some(upload) = self.place(key, id, &brick, None)? {
+                self.slots.pin(upload.slot);
+                uploads.push(upload);
+            } else {
+                // Uniform: drawn from its value, nothing to pin.
+            }
+        }
+        self.changed_frame = self.frame;
+        Ok(uploads)
+    }
+
+    /// The pyramid's shape.
+    pub fn shape(&self) -> &PyramidShape {
+        &self.shape
+    }
+
+    /// The source.
+    pub fn source(&self) -> &Arc<dyn BrickSource> {
+        &self.source
+    }
+
+    /// How the atlas stores texels.
+    pub fn texels(&self) -> AtlasTexels {
+        self.texels
+    }
+
+    /// The options it was made with.
+    pub fn options(&self) -> &StreamOptions {
+        &self.options
+    }
+
+    /// The frame about to be drawn (what rays mark the slots they use with).
+    pub fn frame(&self) -> u32 {
+        self.frame
+    }
+
+    /// Levels every ray's choice is made coarser by (the atlas cannot hold the view).
+    pub fn lod_bias(&self) -> u32 {
+        self.lod_bias
+    }
+
+    /// The page table (its changed entries go to the GPU with [`PageTable::take_dirty`]).
+    pub fn table_mut(&mut self) -> &mut PageTable {
+        &mut self.table
+    }
+
+    /// The page table.
+    pub fn table(&self) -> &PageTable {
+        &self.table
+    }
+
+    /// Atlas cell of `slot`, packed ten bits per axis (x lowest), as the shader reads it.
+    fn packed_cell(&self, slot: u32) -> u32 {
+        let [gx, gy, _] = self.atlas_grid.map(|g| g as u32);
+        (slot % gx) | ((slot / gx) % gy) << 10 | (slot / (gx * gy)) << 20
+    }
+
+    /// Puts a loaded brick on the GPU side: a uniform one as a table entry alone, another in
+    /// a slot (`protect_from`: slots used since that frame are not evicted; `None` for the
+    /// first, pinned levels). `Ok(None)` for a uniform brick; `Err` only if the table is full
+    /// for a pinned brick.
+    fn place(
+        &mut self,
+        key: u32,
+        id: BrickId,
+        brick: &LoadedBrick,
+        protect_from: Option<u32>,
+    ) -> Result<Option<Upload>, String> {
+        let level = id.level as usize;
+        let was = self.table.get(key);
+        let Some(texels) = &brick.texels else {
+            let entry = TableEntry {
+                key,
+                cell: 0,
+                range: brick.range.packed(),
+                slot: 0,
+            };
+            if self.insert_entry(entry).is_ok() && was.is_none() {
+                self.empty[level] += 1;
+                self.metadata.push_back(key);
+            }
+            return Ok(None);
+        };
+        let protect_from = protect_from.unwrap_or(u32::MAX);
+        let Some(allocation) = self.slots.allocate(key, self.frame, protect_from) else {
+            return Ok(None);
+        };
+        if let Some(evicted) = allocation.evicted {
+            self.demote(evicted);
+        }
+        let entry = TableEntry {
+            key,
+            cell: ENTRY_RESIDENT | self.packed_cell(allocation.slot),
+            range: brick.range.packed(),
+            slot: allocation.slot,
+        };
+        if self.insert_entry(entry).is_err() {
+            // Found no room within the probe limit: leave the brick out (its region stays
+            // coarser) and free the slot again.
+            self.slots.release(allocation.slot);
+            return Err(format!(
+                "{}: the page table has no room for {id}",
+                self.source.name()
+            ));
+        }
+        if was.is_some_and(|e| !e.is_resident() && e.cell & ENTRY_FAILED == 0) {
+            self.empty[level] = self.empty[level].saturating_sub(1);
+        }
+        self.resident[level] += 1;
+        Ok(Some(Upload {
+            slot: allocation.slot,
+            texels: Arc::clone(texels),
+        }))
+    }
+
+    /// Whether some level of `range` (packed) is visible under the transfer function.
+    fn range_visible(&self, range: u32) -> bool {
+        let (low, high) = ((range & 0xffff) as usize, (range >> 16) as usize);
+        self.visible_below[high + 1] > self.visible_below[low]
+    }
+
+    /// A new transfer function's visibility counts (`visible_below[i]`: how many value levels
+    /// below `i` are visible; 65 537 of them): every entry's [`ENTRY_VISIBLE`] bit follows, the
+    /// changed entries to be copied to the GPU. Nothing is reloaded.
+    pub fn set_visibility(&mut self, visible_below: Vec<u32>) {
+        if visible_below.len() != self.visible_below.len() {
+            return;
+        }
+        self.visible_below = visible_below;
+        let counts = &self.visible_below;
+        self.table.update_each(|entry| {
+            let (low, high) = (
+                (entry.range & 0xffff) as usize,
+                (entry.range >> 16) as usize,
+            );
+            let visible = counts[high + 1] > counts[low];
+            ((entry.slot & ENTRY_VISIBLE != 0) != visible).then_some(TableEntry {
+                slot: entry.slot ^ ENTRY_VISIBLE,
+                ..*entry
+            })
+        });
+        self.changed_frame = self.frame;
+    }
+
+    /// Inserts `entry` (its [`ENTRY_VISIBLE`] bit set from its range), first dropping the
+    /// oldest slotless entries while the table is at its limit.
+    fn insert_entry(&mut self, mut entry: TableEntry) -> Result<(), TableFull> {
+        entry.slot &= !ENTRY_VISIBLE;
+        if entry.cell & ENTRY_FAILED == 0 && self.range_visible(entry.range) {
+            entry.slot |= ENTRY_VISIBLE;
+        }
+        while self.table.len() >= self.max_entries {
+            let Some(oldest) = self.metadata.pop_front() else {
+                break;
+            };
+            if let Some(old) = self.table.get(oldest)
+                && !old.is_resident()
+                && old.cell & ENTRY_FAILED == 0
+            {
+                self.table.remove(oldest);
+                if let Some(id) = self.shape.brick_of(oldest) {
+                    self.empty[id.level as usize] = self.empty[id.level as usize].saturating_sub(1);
+                }
+            }
+        }
+        self.table.insert(entry)
+    }
+
+    /// The brick `key` lost its slot: it stays in the table without one (its range still lets
+    /// rays skip it) while the table has room.
+    fn demote(&mut self, key: u32) {
+        let Some(id) = self.shape.brick_of(key) else {
+            return;
+        };
+        self.resident[id.level as usize] = self.resident[id.level as usize].saturating_sub(1);
+        self.counters.evictions += 1;
+        if let Some(entry) = self.table.get(key) {
+            let demoted = TableEntry {
+                cell: 0,
+                slot: 0,
+                ..entry
+            };
+            if self.insert_entry(demoted).is_ok() {
+                self.empty[id.level as usize] += 1;
+                self.metadata.push_back(key);
+            }
+        }
+    }
+
+    /// Starts frame `frame() + 1`: takes in the workers' results and, if a frame was read back,
+    /// its requests and usage marks; decides loads and this frame's uploads. `view` orders the
+    /// loads (near its center first). The table's changes are then in [`Self::table_mut`].
+    pub fn begin_frame(
+        &mut self,
+        feedback: Option<Feedback<'_>>,
+        view: Option<ViewPoint>,
+    ) -> (Vec<Upload>, StreamStatus) {
+        self.frame += 1;
+        self.slots.new_frame();
+        self.receive_results();
+        if let Some(feedback) = feedback {
+            self.take_feedback(feedback, view);
+        }
+        // Whether the latest frame read back was drawn with the table as it is now: only then
+        // does a full atlas say the view does not fit (rather than that bricks just uploaded
+        // have not been drawn yet, and the stand-ins they replace not yet released).
+        let settled = self.feedback_frame.is_some_and(|f| f >= self.changed_frame);
+        let (uploads, upload_bytes, overflow) = self.upload_ready();
+        if !uploads.is_empty() {
+            self.changed_frame = self.frame;
+        }
+        self.adjust_bias(overflow && settled);
+        let status = self.status(uploads.len(), upload_bytes);
+        (uploads, status)
+    }
+
+    fn receive_results(&mut self) {
+        for result in self.loader.received() {
+            self.queue.done(result.key);
+            self.counters.bytes_read += result.bytes_read;
+            match result.brick {
+                Ok(brick) => {
+                    self.counters.loads += 1;
+                    self.counters.prefetch_loads += result.prefetch as u64;
+                    self.ram.insert(result.key, brick);
+                    if let Some(request) = self.wanted.get(&result.key) {
+                        self.ready.push(*request);
+                    }
+                }
+                Err(error) => {
+                    if self.wanted.contains_key(&result.key) {
+                        self.missing = self.missing.saturating_sub(1);
+                    }
+                    if self.failed.insert(result.key) {
+                        let entry = TableEntry {
+                            key: result.key,
+                            cell: ENTRY_FAILED,
+                            range: 0,
+                            slot: 0,
+                        };
+                        let _ = self.insert_entry(entry);
+                        self.changed_frame = self.frame;
+                        self.new_errors
+                            .push(format!("{error} (drawn from a coarser level)"));
+                    }
+                }
+            }
+        }
+        self.ready.sort_unstable_by_key(|r| r.priority);
+        self.ready.dedup_by_key(|r| r.key);
+    }
+
+    /// Whether `key` needs nothing more: in the atlas, uniform (drawn from its value) or failed.
+    fn satisfied(&self, key: u32) -> bool {
+        match self.table.get(key) {
+            Some(entry) => {
+                entry.is_resident()
+                    || entry.cell & ENTRY_FAILED != 0
+                    || (entry.range & 0xffff) == (entry.range >> 16)
+            }
+            None => false,
+        }
+    }
+
+    fn take_feedback(&mut self, feedback: Feedback<'_>, view: Option<ViewPoint>) {
+        for (slot, &mark) in feedback.usage.iter().enumerate() {
+            if mark != 0 {
+                self.slots.mark_used(slot as u32, mark >> 1, mark & 1 == 1);
+            }
+        }
+        self.feedback_frame = Some(feedback.frame);
+        let view = view.unwrap_or(ViewPoint {
+            eye: [0.0; 3],
+            forward: [0.0, 0.0, 1.0],
+        });
+        let mut asked: Vec<u32> = feedback.requests.to_vec();
+        asked.sort_unstable();
+        asked.dedup();
+        self.feedback_missing = asked
+            .iter()
+            .filter(|&&key| !self.failed.contains(&key) && self.shape.brick_of(key).is_some())
+            .count();
+        // What was asked for, and the coarser bricks above each down to the first one the GPU
+        // has (so the picture refines level by level).
+        let mut wanted: KeyMap<Request> = KeyMap::default();
+        wanted.reserve(asked.len() + asked.len() / 4);
+        let mut prefetch: KeyMap<Request> = KeyMap::default();
+        // Prefetch around a few asks only: beyond that the view is far from complete and what
+        // is visible keeps the workers busy (and the frame's CPU time stays small).
+        let prefetch_around = self.options.prefetch && asked.len() <= PREFETCH_AROUND;
+        for &key in &asked {
+            let Some(mut id) = self.shape.brick_of(key) else {
+                continue;
+            };
+            let mut key = key;
+            let asked_level = id.level;
+            loop {
+                if wanted.contains_key(&key) || self.satisfied(key) {
+                    break;
+                }
+                let off_center = view.off_center(self.shape.brick_center(id));
+                wanted.insert(
+                    key,
+                    Request {
+                        priority: Priority::new(Tier::Visible, id.level, off_center),
+                        id,
+                        key,
+                    },
+                );
+                if prefetch_around && id.level == asked_level {
+                    self.add_neighbours(id, off_center, &mut prefetch);
+                }
+                let Some(parent) = self.shape.parent(id) else {
+                    break;
+                };
+                id = parent;
+                key = self.shape.key(id).expect("a parent is in the pyramid");
+            }
+        }
+        // One pass: per-level counts; ready (in RAM: a hit, unless it was ready already) or
+        // to load; then the prefetch after them.
+        for level in &mut self.counters.levels {
+            level.requested = 0;
+        }
+        let already: KeySet = self.ready.iter().map(|r| r.key).collect();
+        let (mut ready, mut loads) = (Vec::new(), Vec::new());
+        for request in wanted.values() {
+            self.counters.levels[request.id.level as usize].requested += 1;
+            if self.ram.contains(request.key) {
+                if !already.contains(&request.key) {
+                    self.counters.ram_hits += 1;
+                }
+                ready.push(*request);
+            } else {
+                loads.push(*request);
+            }
+        }
+        ready.sort_unstable_by_key(|r| r.priority);
+        self.ready = ready;
+        let room =
+            self.ram.capacity().saturating_sub(self.ram.bytes()) / self.counters.slot_bytes.max(1);
+        loads.extend(
+            prefetch
+                .into_values()
+                .filter(|r| !wanted.contains_key(&r.key) && !self.ram.contains(r.key))
+                .take(room as usize),
+        );
+        self.queue.replace(loads);
+        self.missing = wanted.len();
+        self.wanted = wanted;
+    }
+
+    /// The face neighbours of `id` in its level, as prefetch requests.
+    fn add_neighbours(&self, id: BrickId, off_center: f32, into: &mut KeyMap<Request>) {
+        let grid = self.shape.levels[id.level as usize].grid;
+        for axis in 0..3 {
+            for step in [-1i64, 1] {
+                let c = id.brick[axis] as i64 + step;
+                if c < 0 || c >= grid[axis] as i64 {
+                    continue;
+                }
+                let mut brick = id.brick;
+                brick[axis] = c as u32;
+                let neighbour = BrickId {
+                    level: id.level,
+                    brick,
+                };
+                let key = self.shape.key(neighbour).expect("inside the grid");
+                if self.satisfied(key) || self.failed.contains(&key) {
+                    continue;
+                }
+                into.entry(key).or_insert(Request {
+                    priority: Priority::new(Tier::Prefetch, id.level, off_center),
+                    id: neighbour,
+                    key,
+                });
+            }
+        }
+    }
+
+    /// Uploads ready bricks in priority order within the frame's byte budget. Returns the
+    /// uploads, their bytes, and whether a brick found no slot (the atlas cannot hold the view).
+    fn upload_ready(&mut self) -> (Vec<Upload>, u64, bool) {
+        let mut uploads = Vec::new();
+        let mut bytes = 0u64;
+        let mut overflow = false;
+        let protect_from = self.feedback_frame.map_or(u32::MAX, |f| f.max(1));
+        let mut waiting = Vec::new();
+        let ready = std::mem::take(&mut self.ready);
+        for request in ready {
+            if self.satisfied(request.key) || self.failed.contains(&request.key) {
+                continue;
+            }
+            let Some(brick) = self.ram.get(request.key) else {
+                continue; // evicted from RAM since: it will be asked for again
+            };
+            let cost = brick.texels.as_ref().map_or(0, |t| t.len() as u64);
+            // Past the budget (at least one brick a frame, whatever the budget) or once the
+            // atlas is full, bricks with texels wait; uniform ones cost nothing to place.
+            let over_budget = bytes > 0 && bytes + cost > self.options.upload_bytes_per_frame;
+            if cost > 0 && (overflow || over_budget) {
+                waiting.push(request);
+                continue;
+            }
+            match self.place(request.key, request.id, &brick, Some(protect_from)) {
+                Ok(Some(upload)) => {
+                    bytes += cost;
+                    uploads.push(upload);
+                    self.missing = self.missing.saturating_sub(1);
+                }
+                Ok(None) if cost > 0 => {
+                    overflow = true;
+                    waiting.push(request);
+                }
+                Ok(None) => {
+                    self.changed_frame = self.frame;
+                    self.missing = self.missing.saturating_sub(1);
+                }
+                Err(message) => {
+                    self.failed.insert(request.key);
+                    self.new_errors.push(message);
+                    self.missing = self.missing.saturating_sub(1);
+                }
+            }
+        }
+        self.ready = waiting;
+        self.counters.bytes_uploaded += bytes;
+        let now = Instant::now();
+        self.uploads_recent.push_back((now, bytes));
+        while self
+            .uploads_recent
+            .front()
+            .is_some_and(|&(at, _)| now.duration_since(at) > Duration::from_secs(1))
+        {
+            self.uploads_recent.pop_front();
+        }
+        (uploads, bytes, overflow)
+    }
+
+    /// Coarser everywhere when the atlas cannot hold the view; finer again once the view uses
+    /// an eighth of the unpinned slots or less (so the finer view, at most eight bricks for
+    /// each, fits). Each change waits for a frame drawn with the previous one.
+    fn adjust_bias(&mut self, overflow: bool) {
+        let Some(seen) = self.feedback_frame else {
+            return;
+        };
+        if seen <= self.bias_changed {
+            return;
+        }
+        let coarsest = self.shape.depth();
+        if overflow && self.lod_bias < coarsest {
+            self.lod_bias += 1;
+        } else if !overflow
+            && self.lod_bias > 0
+            && self.feedback_missing == 0
+            && self.ready.is_empty()
+            && self.slots.used_since(seen) * 8 <= self.slots.capacity() - self.slots.pinned()
+        {
+            self.lod_bias -= 1;
+        } else {
+            return;
+        }
+        self.bias_changed = self.frame;
+        self.changed_frame = self.frame;
+    }
+
+    fn status(&mut self, uploads: usize, upload_bytes: u64) -> StreamStatus {
+        let (queued, loading) = self.queue.counts();
+        let missing = self.missing;
+        let complete = self.feedback_frame.is_some_and(|f| f >= self.changed_frame)
+            && self.feedback_missing == 0;
+        for (level, counters) in self.counters.levels.iter_mut().enumerate() {
+            counters.resident = self.resident[level];
+            counters.empty = self.empty[level];
+        }
+        self.counters.slots_used = self.slots.occupied();
+        self.counters.view_slots = self.feedback_frame.map_or(0, |f| self.slots.used_since(f));
+        self.counters.slots_pinned = self.slots.pinned();
+        self.counters.ram_bytes = self.ram.bytes();
+        self.counters.failed = self.failed.len();
+        self.counters.upload_bytes_per_s =
+            self.uploads_recent.iter().map(|&(_, b)| b).sum::<u64>() as f64;
+        StreamStatus {
+            frame: self.frame,
+            complete,
+            judged_frame: self.feedback_frame,
+            missing,
+            queued,
+            loading,
+            lod_bias: self.lod_bias,
+            uploads,
+            upload_bytes,
+            errors: std::mem::take(&mut self.new_errors),
+            counters: self.counters.clone(),
+        }
+    }
+
+    /// Keys of the bricks in the atlas.
+    pub fn resident_keys(&self) -> impl Iterator<Item = u32> + '_ {
+        self.slots.keys()
+    }
+}

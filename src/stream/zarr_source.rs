@@ -1,0 +1,303 @@
+//! An OME-Zarr (or plain Zarr) image as a brick source: bricks are read region by region from
+//! the file's own levels, never the whole volume. Each pyramid level is drawn from the
+//! coarsest stored level that is at least as fine along every axis; where the file's levels
+//! are coarser by other steps than the pyramid's (no levels at all, or xy-only downscaling as
+//! many microscopy files have), the stored voxels a brick covers are reduced here (mean, or
+//! max for label images), so one brick never reads more than [`MAX_BRICK_READ`] voxels.
+
+use std::sync::Arc;
+
+use super::pyramid::{Downsampling, PyramidShape};
+use super::source::{
+    BRICK_SIZE, BrickData, BrickError, BrickId, BrickSource, PADDED_BRICK, PADDED_BRICK_VOXELS,
+};
+use crate::volume::ome_zarr::Pyramid;
+use crate::volume::{Quantization, Scalar, VoxelData, VoxelType, with_voxel_slice};
+
+/// The most stored voxels one brick may read (64 Mi: 128 MiB of 16-bit data); a file whose
+/// coarsest level is larger cannot give the pyramid's coarse levels without reading that much,
+/// and is refused at open with the advice to convert it.
+pub const MAX_BRICK_READ: u64 = 1 << 26;
+
+/// Where one pyramid level's bricks come from: a stored level, and how many of its voxels one
+/// pyramid voxel covers along x, y, z.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct LevelSource {
+    stored: usize,
+    ratio: [usize; 3],
+}
+
+/// A Zarr image read brick by brick.
+pub struct ZarrSource {
+    name: String,
+    pyramid: Arc<Pyramid>,
+    shape: PyramidShape,
+    sources: Vec<LevelSource>,
+    quantization: Quantization,
+    max_value_level: u16,
+    how: Downsampling,
+}
+
+/// How many level-0 voxels one voxel of the stored level `level` covers along each axis, if
+/// that is a power of two per axis (from the `scale` transforms; from the dimensions where
+/// those are missing).
+fn stored_factor(pyramid: &Pyramid, level: usize) -> Option<[usize; 3]> {
+    let finest = &pyramid.levels[0];
+    let info = &pyramid.levels[level];
+    let mut factor = [1usize; 3];
+    for a in 0..3 {
+        let by_spacing = info.spacing[a] / finest.spacing[a];
+        let ratio = if by_spacing.is_finite() && by_spacing > 0.0 {
+            by_spacing
+        } else {
+            finest.dims[a] as f64 / info.dims[a] as f64
+        };
+        let power = ratio.log2().round();
+        if !(0.0..=14.0).contains(&power) || (ratio / power.exp2() - 1.0).abs() > 0.1 {
+            return None;
+        }
+        factor[a] = power.exp2() as usize;
+    }
+    Some(factor)
+}
+
+impl ZarrSource {
+    /// The pyramid of `pyramid`'s selected channel and time point. Reads nothing but, for
+    /// floating-point and 32-bit data without stored chunk ranges or an `omero` range, the
+    /// coarsest level (to fix the quantization).
+    pub fn new(pyramid: Arc<Pyramid>) -> Result<Self, String> {
+        let name = pyramid.source.clone();
+        let dims = pyramid.levels[0].dims;
+        let shape = PyramidShape::new(dims).map_err(|problem| format!("{name}: {problem}"))?;
+        let factors: Vec<Option<[usize; 3]>> = (0..pyramid.levels.len())
+            .map(|level| stored_factor(&pyramid, level))
+            .collect();
+        let mut sources = Vec::with_capacity(shape.levels.len());
+        for (level, info) in shape.levels.iter().enumerate() {
+            let step = 1usize << level;
+            // The coarsest stored level whose voxels are no larger than this level's.
+            let stored = factors
+                .iter()
+                .enumerate()
+                .filter_map(|(i, f)| f.map(|f| (i, f)))
+                .filter(|(_, f)| f.iter().all(|&f| f <= step))
+                .max_by_key(|(_, f)| f.iter().product::<usize>())
+                .map_or(0, |(i, _)| i);
+            let factor = factors[stored].unwrap_or([1; 3]);
+            let ratio = factor.map(|f| step / f);
+            let read: u64 = (0..3)
+                .map(|a| ((PADDED_BRICK * ratio[a]).min(pyramid.levels[stored].dims[a])) as u64)
+                .product();
+            if read > MAX_BRICK_READ {
+                let coarsest = pyramid.levels.last().map_or(dims, |l| l.dims);
+                return Err(format!(
+                    "{name}: its coarsest level ({}x{}x{}) is too large to stream from: a {}x{}x{}-voxel level would read {read} voxels a brick (at most {MAX_BRICK_READ}); `voxscope convert` writes the coarser levels",
+                    coarsest[0], coarsest[1], coarsest[2], info.dims[0], info.dims[1], info.dims[2],
+                ));
+            }
+            sources.push(LevelSource { stored, ratio });
+        }
+        let (quantization, max_value_level) = quantization_of(&pyramid)?;
+        let how = match pyramid.downscaling.as_deref() {
+            Some(kind) if kind.contains("max") || kind.contains("nearest") => Downsampling::Max,
+            _ => Downsampling::Mean,
+        };
+        Ok(Self {
+            name,
+            pyramid,
+            shape,
+            sources,
+            quantization,
+            max_value_level,
+            how,
+        })
+    }
+
+    /// The stored level pyramid level `level` reads, and its reduction per axis.
+    pub fn stored_level(&self, level: usize) -> Option<(usize, [usize; 3])> {
+        self.sources.get(level).map(|s| (s.stored, s.ratio))
+    }
+}
+
+/// A quantization for every brick of the pyramid: 8- and 16-bit integers keep their values
+/// (one level each); wider and floating-point data spread the range that the stored chunk
+/// ranges, the `omero` window's range or the coarsest level give over 65 536 levels (values
+/// outside it clamp).
+fn quantization_of(pyramid: &Pyramid) -> Result<(Quantization, u16), String> {
+    let exact = |offset: f64, max: u16| Ok((Quantization { offset, step: 1.0 }, max));
+    match pyramid.voxel_type {
+        VoxelType::U8 => return exact(0.0, u8::MAX as u16),
+        VoxelType::I8 => return exact(i8::MIN as f64, u8::MAX as u16),
+        VoxelType::U16 => return exact(0.0, u16::MAX),
+        VoxelType::I16 => return exact(i16::MIN as f64, u16::MAX),
+        _ => {}
+    }
+    let from_chunks = pyramid
+        .chunk_ranges(0)
+        .map_err(|e| e.to_string())?
+        .and_then(|ranges| {
+            let finite = ranges
+                .iter()
+                .filter(|r| r[0].is_finite() && r[1].is_finite());
+            finite.fold(None, |acc: Option<[f64; 2]>, r| {
+                Some(acc.map_or(*r, |a| [a[0].min(r[0]), a[1].max(r[1])]))
+            })
+        });
+    let from_omero = || {
+        pyramid
+            .omero
+            .get(pyramid.selected.channel)
+            .and_then(|c| c.range)
+    };
+    let range = match from_chunks.or_else(from_omero) {
+        Some(range) => range,
+        None => {
+            let coarsest = pyramid.levels.len() - 1;
+            if pyramid.levels[coarsest].voxel_count() > MAX_BRICK_READ {
+                return Err(format!(
+                    "{}: no stored value range, and the coarsest level is too large to read for one",
+                    pyramid.source
+                ));
+            }
+            let data = pyramid.read_level(coarsest).map_err(|e| e.to_string())?;
+            with_voxel_slice!(&data, values => values.iter().fold([f64::INFINITY, f64::NEG_INFINITY], |r, v| {
+                let v = v.to_f64();
+                if v.is_finite() { [r[0].min(v), r[1].max(v)] } else { r }
+            }))
+        }
+    };
+    let [min, max] = if range[0] <= range[1] {
+        range
+    } else {
+        [0.0, 0.0]
+    };
+    let span = max - min;
+    let step = if span <= 0.0 {
+        1.0
+    } else if pyramid.voxel_type.is_integer() && span <= u16::MAX as f64 {
+        1.0
+    } else {
+        span / u16::MAX as f64
+    };
+    Ok((Quantization { offset: min, step }, u16::MAX))
+}
+
+/// The stored voxels `[first, last]` along one axis that the pyramid voxels `[c0, c1]` cover,
+/// `ratio` stored voxels each, within `dims`.
+fn covered(c0: usize, c1: usize, ratio: usize, dims: usize) -> (usize, usize) {
+    let first = (c0 * ratio).min(dims - 1);
+    let last = ((c1 + 1) * ratio - 1).min(dims - 1).max(first);
+    (first, last)
+}
+
+impl BrickSource for ZarrSource {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn shape(&self) -> &PyramidShape {
+        &self.shape
+    }
+
+    fn spacing(&self) -> [f64; 3] {
+        self.pyramid.levels[0].spacing
+    }
+
+    fn quantization(&self) -> Quantization {
+        self.quantization
+    }
+
+    fn max_value_level(&self) -> u16 {
+        self.max_value_level
+    }
+
+    fn read_brick(&self, id: BrickId) -> Result<BrickData, BrickError> {
+        let (Some(level), Some(source), Some(_)) = (
+            self.shape.levels.get(id.level as usize),
+            self.sources.get(id.level as usize),
+            self.shape.key(id),
+        ) else {
+            return Err(BrickError(format!("{}: no {id}", self.name)));
+        };
+        let stored_dims = self.pyramid.levels[source.stored].dims;
+        let first = id.brick.map(|c| c as usize * BRICK_SIZE);
+        // The pyramid voxels of the padded brick, clamped to the level, per axis.
+        let voxels: [Vec<usize>; 3] = std::array::from_fn(|a| {
+            (0..PADDED_BRICK)
+                .map(|i| (first[a] + i).saturating_sub(1).min(level.dims[a] - 1))
+                .collect()
+        });
+        let spans: [(usize, usize); 3] = std::array::from_fn(|a| {
+            let (c0, c1) = (voxels[a][0], voxels[a][PADDED_BRICK - 1]);
+            covered(c0, c1, source.ratio[a], stored_dims[a])
+        });
+        let origin = spans.map(|(first, _)| first);
+        let size: [usize; 3] = std::array::from_fn(|a| spans[a].1 - spans[a].0 + 1);
+        let region = self
+            .pyramid
+            .read_region(source.stored, origin, size)
+            .map_err(|e| BrickError(format!("{id}: {e}")))?;
+        let quantization = self.quantization;
+        let stored: Vec<u16> = to_levels(&region, quantization);
+        let mut levels = Vec::with_capacity(PADDED_BRICK_VOXELS);
+        // Each pyramid voxel: the mean (or max) of the stored voxels it covers.
+        let boxes: [Vec<(usize, usize)>; 3] = std::array::from_fn(|a| {
+            voxels[a]
+                .iter()
+                .map(|&c| {
+                    let (lo, hi) = covered(c, c, source.ratio[a], stored_dims[a]);
+                    (lo - origin[a], hi - origin[a])
+                })
+                .collect()
+        });
+        let [sx, sy, _] = size;
+        for &(z0, z1) in &boxes[2] {
+            for &(y0, y1) in &boxes[1] {
+                for &(x0, x1) in &boxes[0] {
+                    let (mut sum, mut max, mut count) = (0u64, 0u16, 0u64);
+                    for z in z0..=z1 {
+                        for y in y0..=y1 {
+                            let row = sx * (y + sy * z);
+                            for &v in &stored[row + x0..=row + x1] {
+                                sum += v as u64;
+                                max = max.max(v);
+                                count += 1;
+                            }
+                        }
+                    }
+                    levels.push(match self.how {
+                        Downsampling::Mean => ((sum + count / 2) / count) as u16,
+                        Downsampling::Max => max,
+                    });
+                }
+            }
+        }
+        let inside = std::array::from_fn(|a| level.dims[a].saturating_sub(first[a]));
+        Ok(BrickData::new(levels, inside))
+    }
+}
+
+/// Each stored value's level (non-finite values as level 0).
+fn to_levels(data: &VoxelData, quantization: Quantization) -> Vec<u16> {
+    with_voxel_slice!(data, values => values
+        .iter()
+        .map(|v| {
+            let value = v.to_f64();
+            if value.is_finite() { quantization.level(value) } else { 0 }
+        })
+        .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn covered_voxels_stay_inside_the_stored_level() {
+        assert_eq!(covered(0, 0, 1, 10), (0, 0));
+        assert_eq!(covered(2, 3, 4, 100), (8, 15));
+        // A pyramid voxel past a floored stored level's end repeats its last voxel.
+        assert_eq!(covered(5, 5, 2, 10), (9, 9));
+        assert_eq!(covered(4, 4, 2, 9), (8, 8));
+    }
+}

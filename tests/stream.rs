@@ -1,0 +1,816 @@
+//! The streaming renderer on the software Vulkan device: after refinement it draws what the
+//! in-memory bricks renderer draws, at full resolution when the budget holds the view and at a
+//! coarser level (correctly) when it does not, never beyond its GPU budget; it evicts, asks
+//! again and takes transfer edits while streaming; a brick that fails to load leaves its
+//! region coarser and the rest as it was.
+
+mod support;
+
+use std::sync::{Arc, LazyLock};
+use std::time::{Duration, Instant};
+
+use glam::DVec3;
+use image::RgbaImage;
+use support::reference::{coverage, psnr};
+use support::{Prepared, gpu, image_dir};
+use voxscope::octree::{self, BuildOptions, TransferFunction};
+use voxscope::render::{
+    Camera, GpuContext, RenderSettings, RenderTarget, RendererKind, VolumeRenderer, read_image,
+};
+use voxscope::stream::{
+    BRICK_SIZE, BrickData, BrickError, BrickId, BrickSource, Downsampling, MemorySource,
+    PADDED_BRICK_VOXELS, PyramidShape, StreamOptions, StreamStatus, ZarrSource,
+};
+use voxscope::volume::ome_zarr::{Pyramid, PyramidOptions};
+use voxscope::volume::{
+    Histogram, Quantization, QuantizedVolume, SyntheticKind, ValueWindow, Volume,
+};
+
+/// Image size of every test (small: lavapipe draws every pixel on the CPU).
+const SIZE: (u32, u32) = (192, 160);
+
+/// A 256³ noise volume: 512 bricks at level 0, none uniform, none transparent, so every brick
+/// a ray reaches is marched. Shared by the tests of this binary (made once).
+static NOISE: LazyLock<Prepared> = LazyLock::new(|| {
+    let volume = SyntheticKind::Noise
+        .generate([256; 3])
+        .expect("synthetic noise");
+    Prepared::new(volume, None)
+});
+
+/// Its pyramid, computed once.
+static PYRAMID: LazyLock<Arc<MemorySource>> = LazyLock::new(|| {
+    let prepared = &*NOISE;
+    Arc::new(
+        MemorySource::new(
+            "noise",
+            &prepared.quantized,
+            prepared.volume.spacing,
+            Downsampling::Mean,
+        )
+        .expect("pyramid"),
+    )
+});
+
+/// Bytes of level 0's bricks in the atlas (16-bit texels: the noise is f32).
+fn level0_bytes() -> u64 {
+    PYRAMID.shape().levels[0].brick_count() * (PADDED_BRICK_VOXELS * 2) as u64
+}
+
+/// A camera close to one face, so a view needs a part of the volume.
+fn close_camera(azimuth: f64) -> Camera {
+    Camera {
+        azimuth_deg: azimuth,
+        elevation_deg: 15.0,
+        distance: 1.6,
+        fov_y_deg: 30.0,
+        pan: [0.0; 3],
+    }
+}
+
+/// Full detail, see-through (rays go a few bricks deep).
+fn settings(depth: u32) -> RenderSettings {
+    RenderSettings {
+        density: 0.25,
+        ..RenderSettings::full_detail(depth)
+    }
+}
+
+/// Options of a streaming renderer with `gpu_memory` bytes, no pixel LOD (so level 0 is
+/// what a view wants, as the bricks renderer draws), two workers.
+fn options(gpu_memory: u64) -> StreamOptions {
+    StreamOptions {
+        gpu_memory,
+        ram_cache: 256 << 20,
+        upload_bytes_per_frame: 8 << 20,
+        workers: 2,
+        lod_scale: 0.0,
+        prefetch: false,
+    }
+}
+
+/// What a refinement loop saw.
+struct Refined {
+    image: RgbaImage,
+    status: StreamStatus,
+    frames: u32,
+    /// The most atlas slots in use after any update.
+    most_slots_used: usize,
+    /// The most bytes uploaded by one update.
+    most_upload_bytes: u64,
+    /// Every update's error lines.
+    errors: Vec<String>,
+}
+
+/// Draws `camera`'s view frame after frame (update, draw, wait) until the streamer says nothing
+/// visible is missing, then returns the last image. `edit` runs before frame `at`.
+fn refine_with(
+    context: &GpuContext,
+    renderer: &mut VolumeRenderer,
+    camera: &Camera,
+    settings: &RenderSettings,
+    mut edit: impl FnMut(u32, &GpuContext, &mut VolumeRenderer),
+) -> Refined {
+    let target = RenderTarget::new(context, SIZE.0, SIZE.1);
+    let started = Instant::now();
+    let (mut most_slots_used, mut most_upload_bytes) = (0, 0);
+    let mut errors = Vec::new();
+    // The first frame drawn with this view: completeness judged on earlier ones is another
+    // view's.
+    let mut first_frame = None;
+    for frame in 0.. {
+        edit(frame, context, renderer);
+        let status = renderer.update(context).expect("a streaming renderer");
+        let first = *first_frame.get_or_insert(status.frame);
+        errors.extend(status.errors.iter().cloned());
+        most_slots_used = most_slots_used.max(status.counters.slots_used);
+        most_upload_bytes = most_upload_bytes.max(status.upload_bytes);
+        assert!(status.counters.slots_used <= status.counters.slots);
+        renderer.render(context, &target, camera, settings);
+        context.wait_idle().expect("GPU");
+        if status.complete && status.judged_frame.is_some_and(|judged| judged >= first) {
+            return Refined {
+                image: read_image(context, &target).expect("readback"),
+                status,
+                frames: frame,
+                most_slots_used,
+                most_upload_bytes,
+                errors,
+            };
+        }
+        assert!(
+            started.elapsed() < Duration::from_secs(120),
+            "not complete after {frame} frames: {status:?}"
+        );
+        if status.queued + status.loading > 0 && status.uploads == 0 {
+            std::thread::sleep(Duration::from_millis(5));
+        }
+    }
+    unreachable!()
+}
+
+fn refine(
+    context: &GpuContext,
+    renderer: &mut VolumeRenderer,
+    camera: &Camera,
+    settings: &RenderSettings,
+) -> Refined {
+    refine_with(context, renderer, camera, settings, |_, _, _| {})
+}
+
+fn streaming(
+    context: &GpuContext,
+    source: Arc<dyn BrickSource>,
+    options: StreamOptions,
+    transfer: &TransferFunction,
+) -> VolumeRenderer {
+    VolumeRenderer::new_stream(context, source, options, transfer).expect("streaming renderer")
+}
+
+fn gpu_total(renderer: &VolumeRenderer) -> u64 {
+    renderer.gpu_bytes().iter().map(|(_, bytes)| bytes).sum()
+}
+
+/// The bricks renderer's image of `prepared` under `transfer`.
+fn bricks_image(
+    context: &GpuContext,
+    prepared: &Prepared,
+    transfer: &TransferFunction,
+    camera: &Camera,
+    settings: &RenderSettings,
+) -> RgbaImage {
+    let renderer = VolumeRenderer::new(
+        context,
+        RendererKind::Bricks,
+        &prepared.octree,
+        &prepared.quantized,
+        prepared.volume.spacing,
+        prepared.octree.depth,
+        transfer,
+    )
+    .expect("bricks");
+    support::draw(context, &renderer, camera, settings, SIZE)
+}
+
+fn save(image: &RgbaImage, name: &str) {
+    image
+        .save(image_dir().join(format!("stream-{name}.png")))
+        .expect("write test image");
+}
+
+#[test]
+fn a_refined_view_equals_the_bricks_render_with_a_quarter_of_the_bricks_in_budget() {
+    let context = gpu();
+    let prepared = &*NOISE;
+    let budget = level0_bytes() / 4;
+    let mut renderer = streaming(
+        &context,
+        PYRAMID.clone(),
+        options(budget),
+        &prepared.transfer,
+    );
+    assert!(
+        gpu_total(&renderer) <= budget,
+        "{} bytes on the GPU for a budget of {budget}",
+        gpu_total(&renderer)
+    );
+    let camera = close_camera(30.0);
+    let settings = settings(prepared.octree.depth);
+    let refined = refine(&context, &mut renderer, &camera, &settings);
+    let expected = bricks_image(&context, prepared, &prepared.transfer, &camera, &settings);
+    save(&refined.image, "refined");
+    save(&expected, "refined-bricks");
+    let db = psnr(&refined.image, &expected);
+    let status = &refined.status;
+    eprintln!(
+        "refined in {} frames: {db:.1} dB, {} of {} slots at most, lod bias {}, {:?}",
+        refined.frames,
+        refined.most_slots_used,
+        status.counters.slots,
+        status.lod_bias,
+        status.counters.levels
+    );
+    assert!(coverage(&expected) > 0.5, "the view shows the volume");
+    assert_eq!(
+        status.lod_bias, 0,
+        "the budget holds this view at full resolution"
+    );
+    assert!(
+        status.counters.levels[0].resident > 8,
+        "level 0 was streamed"
+    );
+    assert!(db >= 40.0, "streamed against bricks: {db:.1} dB");
+    assert!(
+        refined.most_upload_bytes <= 8 << 20,
+        "the per-frame upload budget holds"
+    );
+    assert!(gpu_total(&renderer) <= budget);
+    assert!(status.errors.is_empty());
+
+    // Shaded, the same view against the bricks renderer shaded (gradients through the aprons).
+    let shaded = RenderSettings {
+        shading: voxscope::render::Shading::default(),
+        ..settings
+    };
+    let refined = refine(&context, &mut renderer, &camera, &shaded);
+    let expected = bricks_image(&context, prepared, &prepared.transfer, &camera, &shaded);
+    let db = psnr(&refined.image, &expected);
+    save(&refined.image, "refined-shaded");
+    assert!(db >= 40.0, "shaded, streamed against bricks: {db:.1} dB");
+}
+
+/// Pyramid level `level` of the noise as a volume of its own (spacing 2^level), ready for the
+/// bricks renderer: what the streaming renderer must draw when it draws that level.
+fn level_volume(level: usize) -> Prepared {
+    let shape = &PYRAMID.shape().levels[level];
+    let levels = PYRAMID.level(level).expect("a level").to_vec();
+    let quantization = NOISE.quantized.quantization;
+    let mut counts = vec![0u64; 1 << 16];
+    for &l in &levels {
+        counts[l as usize] += 1;
+    }
+    let quantized = QuantizedVolume {
+        dims: shape.dims,
+        histogram: Histogram {
+            counts,
+            quantization,
+            total: levels.len() as u64,
+        },
+        levels,
+        quantization,
+        value_range: NOISE.quantized.value_range,
+    };
+    let mut octree = octree::build(&quantized, BuildOptions::default()).expect("octree");
+    octree::recolor(&mut octree, &NOISE.transfer);
+    let scale = shape.scale as f64;
+    // Only its dims and spacing are read (by the renderers' camera): the voxels are the
+    // quantized ones above.
+    let volume = Volume::new(
+        format!("noise level {level}"),
+        "synthetic",
+        [1, 1, 1],
+        [1.0; 3],
+        voxscope::volume::VoxelData::U8(vec![0]),
+    )
+    .expect("a placeholder volume");
+    Prepared {
+        volume: Volume {
+            dims: shape.dims,
+            spacing: NOISE.volume.spacing.map(|s| s * scale),
+            ..volume
+        },
+        quantized,
+        octree,
+        transfer: NOISE.transfer,
+    }
+}
+
+/// Settings without opacity correction: a coarse level's samples then composite as the bricks
+/// renderer's samples of that level as a volume of its own do (one voxel, alpha as it is).
+fn uncorrected(max_level: u32) -> RenderSettings {
+    RenderSettings {
+        opacity_correction: false,
+        ..settings(max_level)
+    }
+}
+
+#[test]
+fn a_budget_that_cannot_hold_the_view_draws_a_coarser_level_correctly_within_it() {
+    let context = gpu();
+    let prepared = &*NOISE;
+    let budget = level0_bytes() / 16;
+    let mut renderer = streaming(
+        &context,
+        PYRAMID.clone(),
+        options(budget),
+        &prepared.transfer,
+    );
+    let camera = close_camera(30.0);
+    let refined = refine(
+        &context,
+        &mut renderer,
+        &camera,
+        &uncorrected(prepared.octree.depth),
+    );
+    let status = &refined.status;
+    let level = status.lod_bias as usize;
+    assert!(level >= 1, "the view at level 0 does not fit: {status:?}");
+    assert_eq!(
+        status.counters.levels[0].resident, 0,
+        "no level-0 brick is kept"
+    );
+    let coarse = level_volume(level);
+    let expected = bricks_image(
+        &context,
+        &coarse,
+        &coarse.transfer,
+        &camera,
+        &uncorrected(coarse.octree.depth),
+    );
+    save(&refined.image, "coarser");
+    save(&expected, "coarser-bricks");
+    let db = psnr(&refined.image, &expected);
+    eprintln!(
+        "level {level} after {} frames: {db:.1} dB; {} of {} slots at most",
+        refined.frames, refined.most_slots_used, status.counters.slots
+    );
+    assert!(
+        db >= 40.0,
+        "streamed level {level} against its bricks render: {db:.1} dB"
+    );
+    assert!(gpu_total(&renderer) <= budget);
+    assert!(refined.most_slots_used <= status.counters.slots);
+}
+
+#[test]
+fn a_max_level_below_the_voxels_draws_that_pyramid_level() {
+    let context = gpu();
+    let prepared = &*NOISE;
+    let mut renderer = streaming(
+        &context,
+        PYRAMID.clone(),
+        options(level0_bytes()),
+        &prepared.transfer,
+    );
+    let camera = close_camera(30.0);
+    // Max level depth − 2 is pyramid level 2 (64³).
+    let settings = uncorrected(prepared.octree.depth - 2);
+    let refined = refine(&context, &mut renderer, &camera, &settings);
+    let levels = &refined.status.counters.levels;
+    assert_eq!((levels[0].resident, levels[1].resident), (0, 0));
+    assert!(levels[2].resident > 0);
+    let coarse = level_volume(2);
+    let expected = bricks_image(
+        &context,
+        &coarse,
+        &coarse.transfer,
+        &camera,
+        &uncorrected(coarse.octree.depth),
+    );
+    let db = psnr(&refined.image, &expected);
+    assert!(
+        db >= 40.0,
+        "max level 6 against level 2's bricks: {db:.1} dB"
+    );
+    // And it is not the full-resolution picture.
+    let full = bricks_image(
+        &context,
+        prepared,
+        &prepared.transfer,
+        &camera,
+        &uncorrected(8),
+    );
+    assert!(psnr(&refined.image, &full) < 35.0);
+}
+
+#[test]
+fn evicted_bricks_are_asked_for_again_from_ram_and_transfer_edits_apply_while_streaming() {
+    let context = gpu();
+    let prepared = &*NOISE;
+    // A quarter of level 0: one side's view fits, both sides' do not.
+    let mut renderer = streaming(
+        &context,
+        PYRAMID.clone(),
+        options(level0_bytes() / 4),
+        &prepared.transfer,
+    );
+    let settings = settings(prepared.octree.depth);
+    let front = close_camera(30.0);
+    let back = close_camera(210.0);
+    let first = refine(&context, &mut renderer, &front, &settings);
+    let behind = refine(&context, &mut renderer, &back, &settings);
+    assert!(
+        behind.status.counters.evictions > 0,
+        "the other side's view evicted bricks"
+    );
+    let again = refine(&context, &mut renderer, &front, &settings);
+    let (before, after) = (&behind.status.counters, &again.status.counters);
+    // The bricks asked for again come from the RAM cache. (A brick or two more may be read:
+    // rays drawn from stand-ins reach other depths while the view refines.)
+    let (hits, loads) = (after.ram_hits - before.ram_hits, after.loads - before.loads);
+    eprintln!("back to the first view: {hits} bricks from RAM, {loads} read");
+    assert!(hits >= 20, "evicted bricks came back from RAM: {hits}");
+    assert!(
+        loads * 10 <= hits,
+        "{loads} read again against {hits} from RAM"
+    );
+    let db = psnr(&first.image, &again.image);
+    assert!(db >= 60.0, "the same view again: {db:.1} dB");
+
+    // A transfer edit two frames into a new view's refinement: the finished picture is the
+    // new transfer function's, and nothing had to be reloaded for it.
+    let side = close_camera(120.0);
+    let edited = TransferFunction {
+        window: ValueWindow {
+            low: prepared.transfer.window.low,
+            high: 0.5 * (prepared.transfer.window.low + prepared.transfer.window.high),
+        },
+        ..prepared.transfer
+    };
+    let refined = refine_with(
+        &context,
+        &mut renderer,
+        &side,
+        &settings,
+        |frame, context, renderer| {
+            if frame == 2 {
+                let mut encoder = context
+                    .device
+                    .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+                renderer
+                    .set_transfer(context, &mut encoder, &edited, None)
+                    .expect("edit");
+                context.queue.submit([encoder.finish()]);
+            }
+        },
+    );
+    let expected = bricks_image(&context, prepared, &edited, &side, &settings);
+    let db = psnr(&refined.image, &expected);
+    save(&refined.image, "edited");
+    assert!(db >= 40.0, "after the edit: {db:.1} dB");
+    assert!(
+        psnr(
+            &refined.image,
+            &bricks_image(&context, prepared, &prepared.transfer, &side, &settings)
+        ) < 35.0
+    );
+}
+
+/// A source whose one brick cannot be read (a damaged chunk).
+struct Failing {
+    inner: Arc<MemorySource>,
+    broken: BrickId,
+}
+
+impl BrickSource for Failing {
+    fn name(&self) -> &str {
+        "damaged"
+    }
+    fn shape(&self) -> &PyramidShape {
+        self.inner.shape()
+    }
+    fn spacing(&self) -> [f64; 3] {
+        self.inner.spacing()
+    }
+    fn quantization(&self) -> Quantization {
+        self.inner.quantization()
+    }
+    fn max_value_level(&self) -> u16 {
+        self.inner.max_value_level()
+    }
+    fn read_brick(&self, id: BrickId) -> Result<BrickData, BrickError> {
+        if id == self.broken {
+            return Err(BrickError(format!("damaged: {id} does not decode")));
+        }
+        self.inner.read_brick(id)
+    }
+}
+
+/// Level-0 voxel space to pixels for `camera` on the noise (a test-side projection).
+fn project(camera: &Camera, voxel: DVec3) -> (f64, f64) {
+    let dims = DVec3::splat(256.0);
+    let frame = camera.frame(dims.to_array(), SIZE.0 as f64 / SIZE.1 as f64);
+    let d = (voxel - dims / 2.0) - frame.eye;
+    let depth = d.dot(frame.forward);
+    let x = d.dot(frame.right) / depth / (frame.tan_half_fov_y * frame.aspect);
+    let y = d.dot(frame.up) / depth / frame.tan_half_fov_y;
+    (
+        (x + 1.0) / 2.0 * SIZE.0 as f64,
+        (1.0 - y) / 2.0 * SIZE.1 as f64,
+    )
+}
+
+#[test]
+fn a_brick_that_fails_to_load_leaves_its_region_coarser_and_the_rest_unchanged() {
+    let context = gpu();
+    let prepared = &*NOISE;
+    let camera = close_camera(30.0);
+    let settings = settings(prepared.octree.depth);
+    // The level-0 brick where the view's central ray enters the volume.
+    let frame = camera.frame([256.0; 3], SIZE.0 as f64 / SIZE.1 as f64);
+    let eye = frame.eye + DVec3::splat(128.0);
+    let inv = frame.forward.recip();
+    let t0 = (DVec3::ZERO - eye) * inv;
+    let t1 = (DVec3::splat(256.0) - eye) * inv;
+    let t_enter = t0.min(t1).max_element();
+    let inside = eye + frame.forward * (t_enter + 4.0);
+    let brick = (inside / BRICK_SIZE as f64).floor().as_uvec3().to_array();
+    let broken = BrickId { level: 0, brick };
+
+    let mut good = streaming(
+        &context,
+        PYRAMID.clone(),
+        options(level0_bytes()),
+        &prepared.transfer,
+    );
+    let whole = refine(&context, &mut good, &camera, &settings);
+    let damaged = Arc::new(Failing {
+        inner: PYRAMID.clone(),
+        broken,
+    });
+    let mut renderer = streaming(
+        &context,
+        damaged,
+        options(level0_bytes()),
+        &prepared.transfer,
+    );
+    let refined = refine(&context, &mut renderer, &camera, &settings);
+    // Later updates report nothing more.
+    let mut errors = refined.errors.clone();
+    for _ in 0..3 {
+        renderer.render(
+            &context,
+            &RenderTarget::new(&context, 8, 8),
+            &camera,
+            &settings,
+        );
+        context.wait_idle().expect("GPU");
+        errors.extend(renderer.update(&context).expect("streaming").errors);
+    }
+    assert_eq!(refined.status.counters.failed, 1);
+    save(&refined.image, "damaged");
+    // Every pixel whose ray misses the broken brick (outside its projected box) is as the
+    // whole pyramid's, but for rounding: the same bricks sit in other atlas slots, and the
+    // filter's weights round differently there (at most a level or two of 255).
+    let corners: Vec<(f64, f64)> = (0..8)
+        .map(|c| {
+            let offset = DVec3::new((c & 1) as f64, ((c >> 1) & 1) as f64, (c >> 2) as f64);
+            project(
+                &camera,
+                (DVec3::from(brick.map(f64::from)) + offset) * BRICK_SIZE as f64,
+            )
+        })
+        .collect();
+    let (x0, x1) = corners
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), c| (a.min(c.0), b.max(c.0)));
+    let (y0, y1) = corners
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), c| (a.min(c.1), b.max(c.1)));
+    let (mut inside_most, mut outside_most) = (0u8, 0u8);
+    for (x, y, pixel) in refined.image.enumerate_pixels() {
+        let other = whole.image.get_pixel(x, y);
+        let difference = (0..3)
+            .map(|c| pixel[c].abs_diff(other[c]))
+            .max()
+            .unwrap_or(0);
+        let (px, py) = (x as f64 + 0.5, y as f64 + 0.5);
+        if px >= x0 - 1.0 && px <= x1 + 1.0 && py >= y0 - 1.0 && py <= y1 + 1.0 {
+            inside_most = inside_most.max(difference);
+        } else {
+            outside_most = outside_most.max(difference);
+        }
+    }
+    assert!(
+        inside_most >= 10,
+        "the broken brick's region is drawn coarser (differs by {inside_most} at most)"
+    );
+    assert!(
+        outside_most <= 2,
+        "a pixel whose ray misses the broken brick differs by {outside_most}"
+    );
+    let db = psnr(&refined.image, &whole.image);
+    assert!(db >= 25.0, "the rest renders: {db:.1} dB");
+    assert_eq!(errors.len(), 1, "one line for the broken brick: {errors:?}");
+    assert!(
+        errors[0].contains(&broken.to_string()),
+        "the line names the brick: {}",
+        errors[0]
+    );
+}
+
+#[test]
+fn a_far_view_streams_the_levels_its_pixels_resolve() {
+    let context = gpu();
+    let prepared = &*NOISE;
+    let mut renderer = streaming(
+        &context,
+        PYRAMID.clone(),
+        StreamOptions {
+            lod_scale: 1.0,
+            ..options(level0_bytes())
+        },
+        &prepared.transfer,
+    );
+    let camera = Camera {
+        distance: 6.0,
+        ..close_camera(30.0)
+    };
+    let refined = refine(
+        &context,
+        &mut renderer,
+        &camera,
+        &settings(prepared.octree.depth),
+    );
+    let levels = &refined.status.counters.levels;
+    eprintln!(
+        "far view: {:?}",
+        levels.iter().map(|l| l.resident).collect::<Vec<_>>()
+    );
+    assert_eq!(
+        levels[0].resident, 0,
+        "a pixel covers several level-0 voxels"
+    );
+    let expected = bricks_image(
+        &context,
+        prepared,
+        &prepared.transfer,
+        &camera,
+        &settings(8),
+    );
+    let db = psnr(&refined.image, &expected);
+    save(&refined.image, "far");
+    assert!(
+        db >= 25.0,
+        "the far view at its pixels' levels against full detail: {db:.1} dB"
+    );
+}
+
+/// `voxscope render --renderer stream`, run as a user would.
+fn render_stream(args: &[&str]) -> (std::process::ExitStatus, String) {
+    let output = std::process::Command::new(env!("CARGO_BIN_EXE_voxscope"))
+        .args(["render", "--renderer", "stream", "--size", "96x72"])
+        .args(args)
+        .output()
+        .expect("voxscope runs");
+    (
+        output.status,
+        String::from_utf8_lossy(&output.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn render_waits_until_nothing_is_missing_or_says_what_was_still_coarse() {
+    let dir = tempfile::tempdir().expect("a temporary folder");
+    let out = dir.path().join("noise.png");
+    let out = out.to_str().expect("a UTF-8 path");
+    // 1024³ procedural noise in 32 MiB of GPU memory: waits for the view, then writes it.
+    let (status, stderr) =
+        render_stream(&["synthetic:noise:1024", "--gpu-memory", "32MiB", "-o", out]);
+    assert!(status.success(), "{stderr}");
+    assert!(
+        stderr.contains("stream renderer") && stderr.contains("complete after"),
+        "{stderr}"
+    );
+    let image = image::open(out).expect("the PNG").to_rgba8();
+    assert_eq!(image.dimensions(), (96, 72));
+    assert!(coverage(&image) > 0.1, "the volume is drawn");
+    // Full resolution (no pixel LOD), one brick a frame and 0.3 s: not enough; it says so,
+    // and what was missing.
+    let (status, stderr) = render_stream(&[
+        "synthetic:noise:1024",
+        "--gpu-memory",
+        "32MiB",
+        "--lod-scale",
+        "0",
+        "--upload-budget",
+        "80KiB",
+        "--max-wait",
+        "0.3",
+        "-o",
+        out,
+    ]);
+    assert!(status.success(), "{stderr}");
+    assert!(
+        stderr.contains("still coarse after") && stderr.contains("bricks missing (level"),
+        "{stderr}"
+    );
+    // A budget below what the coarsest levels need is a one-line error.
+    let (status, stderr) =
+        render_stream(&["synthetic:noise:1024", "--gpu-memory", "1MiB", "-o", out]);
+    assert!(!status.success());
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    assert!(stderr.contains("synthetic:noise:1024"), "{stderr}");
+}
+
+/// The OME-Zarr fixtures, as their own folder.
+fn ome_zarr_fixture(name: &str) -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("tests/data/ome-zarr/{name}"))
+}
+
+#[test]
+fn an_ome_zarr_streams_from_its_own_levels_brick_for_brick() {
+    // The head as ome-zarr-py wrote it: three stored levels (64×64×31, 32×32×16, 16×16×8),
+    // each its finer one's 2× mean. Pyramid levels 0-2 read them; coarser ones reduce level 2.
+    let path = ome_zarr_fixture("head-v04-zstd.ome.zarr");
+    let pyramid = Pyramid::open(&path, PyramidOptions::default()).expect("the fixture opens");
+    let source = ZarrSource::new(Arc::new(pyramid)).expect("a brick source");
+    assert_eq!(source.shape().dims(), [64, 64, 31]);
+    assert_eq!(source.stored_level(0), Some((0, [1, 1, 1])));
+    assert_eq!(source.stored_level(2), Some((2, [1, 1, 1])));
+    assert_eq!(source.stored_level(4), Some((2, [4, 4, 4])));
+    // The same voxels in memory, their levels computed by voxscope: equal bricks (within the
+    // one unit that rounding a mean may differ by).
+    let volume = voxscope::volume::load(path.to_str().expect("UTF-8"), &Default::default())
+        .expect("the fixture loads");
+    let quantized = QuantizedVolume::new(&volume);
+    let memory =
+        MemorySource::new("head", &quantized, volume.spacing, Downsampling::Mean).expect("pyramid");
+    assert_eq!(memory.shape(), source.shape());
+    let (zq, mq) = (source.quantization(), memory.quantization());
+    for (level, info) in source.shape().levels.iter().enumerate() {
+        for z in 0..info.grid[2] as u32 {
+            for y in 0..info.grid[1] as u32 {
+                for x in 0..info.grid[0] as u32 {
+                    let id = BrickId {
+                        level: level as u32,
+                        brick: [x, y, z],
+                    };
+                    let streamed = source.read_brick(id).expect("a brick");
+                    let computed = memory.read_brick(id).expect("a brick");
+                    let worst = streamed
+                        .levels
+                        .iter()
+                        .zip(&computed.levels)
+                        .map(|(&a, &b)| (zq.value(a) - mq.value(b)).abs())
+                        .fold(0.0, f64::max);
+                    let allowed = if level == 0 { 0.0 } else { 1.0 };
+                    assert!(worst <= allowed, "{id}: values differ by {worst}");
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn a_converted_volume_streams_from_disk_equal_to_the_bricks_render() {
+    // 128³ noise written by `voxscope convert` (chunks of 32³, its own levels and chunk ranges),
+    // streamed region by region in a budget below the whole pyramid.
+    let dir = tempfile::tempdir().expect("a temporary folder");
+    let store = dir.path().join("noise.ome.zarr");
+    let output = std::process::Command::new(env!("CARGO_BIN_EXE_voxscope"))
+        .args(["convert", "synthetic:noise:128"])
+        .arg(&store)
+        .args(["--chunk", "32"])
+        .output()
+        .expect("voxscope runs");
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let pyramid = Pyramid::open(&store, PyramidOptions::default()).expect("the store opens");
+    assert!(pyramid.levels.len() > 1, "convert wrote levels");
+    let source = Arc::new(ZarrSource::new(Arc::new(pyramid)).expect("a brick source"));
+    let volume = voxscope::volume::load(store.to_str().expect("UTF-8"), &Default::default())
+        .expect("the store loads");
+    let prepared = Prepared::new(volume, None);
+    let context = gpu();
+    let budget = source.shape().levels[0].brick_count() * (PADDED_BRICK_VOXELS * 2) as u64;
+    let mut renderer = streaming(&context, source, options(budget), &prepared.transfer);
+    let camera = close_camera(30.0);
+    let settings = settings(prepared.octree.depth);
+    let refined = refine(&context, &mut renderer, &camera, &settings);
+    let expected = bricks_image(&context, &prepared, &prepared.transfer, &camera, &settings);
+    save(&refined.image, "zarr-refined");
+    let db = psnr(&refined.image, &expected);
+    assert!(coverage(&expected) > 0.5, "the view shows the volume");
+    assert_eq!(refined.status.lod_bias, 0, "the budget holds the view");
+    assert!(
+        refined.status.counters.levels[0].resident > 4,
+        "level 0 streamed"
+    );
+    assert!(db >= 40.0, "streamed from disk against bricks: {db:.1} dB");
+    assert!(gpu_total(&renderer) <= budget);
+    assert!(refined.errors.is_empty(), "{:?}", refined.errors);
+}
