@@ -45,7 +45,7 @@ fn stored_factor(pyramid: &Pyramid, level: usize) -> Option<[usize; 3]> {
     let finest = &pyramid.levels[0];
     let info = &pyramid.levels[level];
     let mut factor = [1usize; 3];
-    for a in 0..3 {
+    for (a, factor) in factor.iter_mut().enumerate() {
         let by_spacing = info.spacing[a] / finest.spacing[a];
         let ratio = if by_spacing.is_finite() && by_spacing > 0.0 {
             by_spacing
@@ -56,7 +56,7 @@ fn stored_factor(pyramid: &Pyramid, level: usize) -> Option<[usize; 3]> {
         if !(0.0..=14.0).contains(&power) || (ratio / power.exp2() - 1.0).abs() > 0.1 {
             return None;
         }
-        factor[a] = power.exp2() as usize;
+        *factor = power.exp2() as usize;
     }
     Some(factor)
 }
@@ -172,9 +172,7 @@ fn quantization_of(pyramid: &Pyramid) -> Result<(Quantization, u16), String> {
         [0.0, 0.0]
     };
     let span = max - min;
-    let step = if span <= 0.0 {
-        1.0
-    } else if pyramid.voxel_type.is_integer() && span <= u16::MAX as f64 {
+    let step = if span <= 0.0 || (pyramid.voxel_type.is_integer() && span <= u16::MAX as f64) {
         1.0
     } else {
         span / u16::MAX as f64
