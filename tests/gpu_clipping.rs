@@ -148,6 +148,7 @@ fn clipped_dense_matches_the_marcher_and_clipped_bricks_match_dense() {
             RendererOptions {
                 kind: RendererKind::Bricks,
                 brick_size: 8,
+                ..Default::default()
             },
         );
         for mode in [RenderMode::Dvr, RenderMode::Mip] {

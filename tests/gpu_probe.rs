@@ -186,6 +186,7 @@ fn the_dense_and_bricks_probes_equal_the_marcher() {
                     RendererOptions {
                         kind: RendererKind::Bricks,
                         brick_size: 8,
+                        ..Default::default()
                     },
                 ),
             ),

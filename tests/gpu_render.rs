@@ -571,6 +571,7 @@ fn bricks_match_dense_sample_for_sample() {
             let bricks = render(RendererOptions {
                 kind: RendererKind::Bricks,
                 brick_size,
+                ..Default::default()
             });
             let name = format!(
                 "{}-{mode:?}-{opacity:?}-b{brick_size}",
@@ -853,6 +854,7 @@ fn pipelines_are_built_once_per_device() {
                 RendererOptions {
                     kind,
                     brick_size: 8,
+                    ..Default::default()
                 },
             ));
         }

@@ -193,6 +193,7 @@ fn shaded_bricks_match_shaded_dense_in_the_grid_walk_and_the_tree_walk() {
                 RendererOptions {
                     kind: RendererKind::Bricks,
                     brick_size,
+                    ..Default::default()
                 },
             );
             let image = draw(

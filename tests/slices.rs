@@ -35,6 +35,7 @@ fn sources() -> [RendererOptions; 4] {
         RendererOptions {
             kind: RendererKind::Bricks,
             brick_size: 4,
+            ..Default::default()
         },
     ]
 }

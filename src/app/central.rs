@@ -49,6 +49,11 @@ pub struct CentralView {
     logged_scene: u64,
     /// The voxel under the pointer in a slice view, as of the last frame.
     hovered_voxel: Option<[usize; 3]>,
+    /// The streaming renderer's frame that first drew the current view: its completeness is
+    /// judged on a frame read back from then on.
+    stream_view_frame: u32,
+    /// The streaming renderer wanted another frame, as of the last draw.
+    refining: bool,
 }
 
 /// What a frame of the central view reads and edits.
@@ -75,6 +80,8 @@ impl CentralView {
             interacting: false,
             logged_scene: 0,
             hovered_voxel: None,
+            stream_view_frame: 0,
+            refining: false,
         }
     }
 
@@ -127,15 +134,21 @@ impl CentralView {
             || self.picking.as_ref().is_some_and(Picking::is_busy)
     }
 
+    /// Whether the streaming renderer was still refining the view at the last draw.
+    pub fn is_refining(&self) -> bool {
+        self.refining
+    }
+
     /// Takes what the GPU has delivered since the last frame: an earlier frame's measurement,
     /// and a picked point, which for a click moves the cursor (or, with the Ruler tool, ends
-    /// or starts a ruler in `view`).
-    pub fn poll(&mut self, gpu: &AppGpu, view: &mut ViewState, tool: Tool) {
+    /// or starts a ruler in `view`). `scale` takes the renderer's voxel space to the view's
+    /// ([`Scene::voxel_scale`]).
+    pub fn poll(&mut self, gpu: &AppGpu, view: &mut ViewState, tool: Tool, scale: [f64; 3]) {
         if let Some(report) = self.frame_probe.as_mut().and_then(|p| p.poll(&gpu.context)) {
             self.last_report = Some(report);
         }
         if let Some(picking) = &mut self.picking {
-            picking.poll(gpu, view, tool);
+            picking.poll(gpu, view, tool, scale);
         }
     }
 
@@ -233,6 +246,15 @@ impl CentralView {
                     {
                         self.hovered_voxel = Some(voxel);
                     }
+                    if !scene.renderer.has_slices() {
+                        ui.painter().text(
+                            rect.center(),
+                            egui::Align2::CENTER_CENTER,
+                            "Slices come from the in-memory renderers:\nchoose octree, dense or bricks",
+                            egui::FontId::proportional(13.0),
+                            egui::Color32::from_gray(200),
+                        );
+                    }
                 }
             }
         }
@@ -310,8 +332,10 @@ impl CentralView {
         }
     }
 
-    /// Draws every pane whose image is out of date (or all, when drawing continuously).
-    /// `serial` changes with every new scene.
+    /// Draws every pane whose image is out of date (or all, when drawing continuously, or
+    /// while the streaming renderer refines). `serial` changes with every new scene. Returns
+    /// whether another frame is wanted: the streaming renderer has bricks to load or upload,
+    /// or has not yet judged the current view complete.
     pub fn draw(
         &mut self,
         gpu: &AppGpu,
@@ -319,8 +343,23 @@ impl CentralView {
         serial: u64,
         settings: &AppSettings,
         view: &ViewState,
-    ) -> Result<(), RenderError> {
-        let depth = scene.data.octree.depth;
+    ) -> Result<bool, RenderError> {
+        let depth = scene.depth();
+        // The streaming renderer takes in what earlier frames' rays asked for and uploads
+        // within its budget; it never waits on I/O or the GPU.
+        let stream = scene.renderer.update(&gpu.context);
+        let stream_frame = stream.as_ref().map(|s| s.frame);
+        let mut refining = stream.as_ref().is_some_and(|s| {
+            !s.complete
+                || s.uploads > 0
+                || s.judged_frame
+                    .is_none_or(|judged| judged < self.stream_view_frame)
+        });
+        if let Some(status) = &stream {
+            for error in &status.errors {
+                eprintln!("voxscope: {error}");
+            }
+        }
         let main = settings.transfer.with_window(view.window);
         let compare = settings.compare_transfer.with_window(view.window);
         let kinds = pane_kinds(settings);
@@ -372,8 +411,17 @@ impl CentralView {
                     }
                 }
             };
-            if pane.drawn == Some(key) && !settings.continuous {
+            let volume_pane = matches!(key, DrawKey::Volume { .. });
+            if pane.drawn == Some(key) && !settings.continuous && !(refining && volume_pane) {
                 continue;
+            }
+            if volume_pane
+                && pane.drawn != Some(key)
+                && let Some(frame) = stream_frame
+            {
+                // A new view: wait for a frame drawn with it to be judged.
+                self.stream_view_frame = frame;
+                refining = true;
             }
             let mut encoder =
                 gpu.context
@@ -448,7 +496,11 @@ impl CentralView {
         }
         self.draw_times
             .retain(|t| now.duration_since(*t) < Duration::from_secs(1));
-        Ok(())
+        if stream.is_some() {
+            scene.stream_status = stream;
+        }
+        self.refining = refining;
+        Ok(refining)
     }
 
     /// What is drawn: the panes' images composed as laid out, at full pixel resolution, with

@@ -176,6 +176,11 @@ pub fn status_bar(
             ));
             ui.separator();
         }
+        if let Some(refining) = scene.and_then(super::stream_panel::refining_text) {
+            ui.spinner();
+            ui.label(refining);
+            ui.separator();
+        }
         if let Some(text) = scene
             .zip(hovered)
             .and_then(|(s, v)| s.data.describe_voxel(v))

@@ -25,6 +25,7 @@ mod picking;
 mod scene;
 mod settings;
 mod slice_pane;
+mod stream_panel;
 mod transfer_editor;
 mod transfer_panel;
 mod view_state;

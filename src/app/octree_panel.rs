@@ -7,6 +7,7 @@ use egui_plot::{Bar, BarChart, Legend, Plot};
 use super::clip_panel::{self, ClipContext};
 use super::scene::Scene;
 use super::settings::AppSettings;
+use super::stream_panel;
 use super::view_state::ViewState;
 use crate::octree::LevelStatistics;
 use crate::render::{FrameReport, HEATMAP_SATURATION, RendererKind, heatmap_color};
@@ -35,7 +36,7 @@ pub fn show(
     let max_level = &mut view.max_level;
     ui.heading("Octree");
     ui.add_space(4.0);
-    let depth = facts.scene.map_or(0, |s| s.data.octree.depth);
+    let depth = facts.scene.map_or(0, Scene::depth);
     egui::Grid::new("octree_grid")
         .num_columns(2)
         .spacing([8.0, 6.0])
@@ -50,14 +51,18 @@ pub fn show(
             egui::ComboBox::from_id_salt("renderer")
                 .selected_text(settings.renderer.name())
                 .show_ui(ui, |ui| {
-                    for kind in RendererKind::ALL {
+                    for kind in RendererKind::ALL.into_iter().chain([RendererKind::Stream]) {
                         ui.selectable_value(&mut settings.renderer, kind, kind.name());
                     }
                 })
                 .response
                 .labelled_by(label.id)
-                .on_hover_text("octree: the paper's voxel octree · dense: one 3D texture (the usual way) · bricks: octree down to bricks in a 3D atlas");
+                .on_hover_text("octree: the paper's voxel octree · dense: one 3D texture (the usual way) · bricks: octree down to bricks in a 3D atlas · stream: a pyramid of 32³ bricks streamed into a fixed GPU budget (OME-Zarr stores from the file, at full resolution)");
             ui.end_row();
+
+            if settings.renderer == RendererKind::Stream {
+                stream_panel::budget_row(ui, settings);
+            }
 
             if settings.renderer == RendererKind::Bricks {
                 let label = ui.label("Brick size");
@@ -113,6 +118,10 @@ pub fn show(
     frame_numbers(ui, facts);
 
     let Some(scene) = facts.scene else { return };
+    if scene.stream_status.is_some() {
+        ui.separator();
+        stream_panel::show(ui, scene);
+    }
     ui.separator();
     ui.strong("Nodes per level");
     if facts.statistics_pending {

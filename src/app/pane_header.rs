@@ -56,9 +56,24 @@ pub fn pane_label(
     rect: Rect,
 ) {
     let octree = &scene.data.octree;
-    let depth = octree.depth;
+    let depth = scene.depth();
     let header = Rect::from_min_size(rect.min + vec2(6.0, 4.0), vec2(rect.width() - 12.0, 22.0));
-    let nodes = |level: u32| group_digits(octree.nodes_through_level(level) as u64);
+    // What a level holds: the octree's nodes through it, or the streamed pyramid level's
+    // voxels (max level m is pyramid level depth − m).
+    let nodes = |level: u32| match scene.renderer.stream() {
+        Some(stream) => {
+            let shape = stream.streamer().shape();
+            let pyramid_level = (depth - level.min(depth)) as usize;
+            format!(
+                "{} voxels",
+                crate::volume::format_dims(shape.levels[pyramid_level].dims)
+            )
+        }
+        None => format!(
+            "{} nodes",
+            group_digits(octree.nodes_through_level(level) as u64)
+        ),
+    };
     let paint = |ui: &Ui, text: String| {
         ui.painter().text(
             header.left_top(),
@@ -71,10 +86,10 @@ pub fn pane_label(
     match settings.layout {
         Layout::Single | Layout::Slices => {
             let level = view.max_level.min(depth);
-            paint(ui, format!("level {level} · {} nodes", nodes(level)));
+            paint(ui, format!("level {level} · {}", nodes(level)));
         }
         Layout::LevelGrid => {
-            let nodes = format!("{} nodes", nodes(view.grid_level(index, count, depth)));
+            let nodes = nodes(view.grid_level(index, count, depth));
             let Some(level) = view.grid_level_mut(index, count) else {
                 return;
             };

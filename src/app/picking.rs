@@ -70,14 +70,17 @@ impl Picking {
 
     /// Takes the GPU's answer once it is there: for a click, the cursor moves to the point,
     /// or with the Ruler tool the point ends (or starts) a ruler in `view`.
-    pub fn poll(&mut self, gpu: &AppGpu, view: &mut ViewState, tool: Tool) {
+    /// `scale` takes the renderer's voxel space to the view's.
+    pub fn poll(&mut self, gpu: &AppGpu, view: &mut ViewState, tool: Tool, scale: [f64; 3]) {
         let Some(outcome) = self.probe.poll(&gpu.context) else {
             return;
         };
         let Some(request) = self.in_flight.take() else {
             return;
         };
-        let point = outcome.hit.map(|hit| hit.point.map(f64::from));
+        let point = outcome
+            .hit
+            .map(|hit| std::array::from_fn(|a| f64::from(hit.point[a]) * scale[a]));
         self.hovered = point;
         let (PickPurpose::Click, Some(point)) = (request.purpose, point) else {
             return;

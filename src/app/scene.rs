@@ -1,6 +1,7 @@
 //! A volume ready to look at, and the background jobs that make one: load, quantize, build
 //! the octree, color it, upload it. Nothing here blocks the UI thread.
 
+use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -12,6 +13,8 @@ use crate::octree::{
 };
 use crate::progress::Progress;
 use crate::render::{GpuContext, RendererKind, RendererOptions, VolumeRenderer};
+use crate::stream::{StreamOptions, StreamStatus, ZarrSource};
+use crate::volume::ome_zarr::{self, Pyramid, PyramidOptions, VOLUME_VOXEL_BUDGET};
 use crate::volume::{self, LoadOptions, QuantizedVolume, ValueWindow, Volume};
 
 /// What to open: the embedded sample or a file path / synthetic spec.
@@ -36,6 +39,14 @@ impl VolumeSource {
             Self::Sample
         } else {
             Self::Spec(spec.to_owned())
+        }
+    }
+
+    /// The Zarr store this source names, if it names one.
+    pub fn zarr_path(&self) -> Option<&Path> {
+        match self {
+            Self::Sample => None,
+            Self::Spec(spec) => Some(Path::new(spec)).filter(|p| ome_zarr::is_zarr_folder(p)),
         }
     }
 
@@ -127,7 +138,33 @@ pub struct Scene {
     pub applied_transfer: TransferFunction,
     /// Wall time of the last upload.
     pub upload_seconds: f64,
+    /// The streaming renderer's latest update (`None` for the other renderers).
+    pub stream_status: Option<StreamStatus>,
 }
+
+impl Scene {
+    /// The deepest max level: the octree's depth, or the streamed pyramid's (a streamed
+    /// OME-Zarr store is finer than the level held in memory for the panels).
+    pub fn depth(&self) -> u32 {
+        self.renderer
+            .stream()
+            .map_or(self.data.octree.depth, |s| s.streamer().shape().depth())
+    }
+
+    /// Per axis, the view's voxels (the volume in memory) per voxel of the renderer: 1 but for
+    /// a streamed OME-Zarr store, whose full resolution is finer than the level in memory.
+    pub fn voxel_scale(&self) -> [f64; 3] {
+        let Some(stream) = self.renderer.stream() else {
+            return [1.0; 3];
+        };
+        let streamed = stream.streamer().shape().dims();
+        std::array::from_fn(|a| self.data.volume.dims[a] as f64 / streamed[a] as f64)
+    }
+}
+
+/// Voxels of the level the app reads whole beside a streamed OME-Zarr store, for what the
+/// panels show (histogram, statistics, slices, probe values): 256³.
+pub const PANEL_LEVEL_VOXELS: u64 = 1 << 24;
 
 /// Loads `source` and prepares everything to draw it with `options`: the job behind
 /// File ▸ Open, drops, recent files and the command line.
@@ -140,7 +177,27 @@ pub fn prepare_scene(
 ) -> Result<Opened, JobError> {
     let started = Instant::now();
     progress.begin("reading");
-    let mut volume = source.load()?;
+    // An OME-Zarr store larger than the in-memory budget streams at full resolution; the panels
+    // read a coarse level whole. (Opening the store twice costs its metadata alone.)
+    let mut options = options;
+    let streamed = match source.zarr_path() {
+        Some(path) => {
+            let pyramid = Pyramid::open(path, PyramidOptions::default())
+                .map_err(|e| JobError::Failed(e.to_string()))?;
+            let large = pyramid.levels[0].voxel_count() > VOLUME_VOXEL_BUDGET as u64;
+            (large || options.kind == RendererKind::Stream).then_some(pyramid)
+        }
+        None => None,
+    };
+    let mut volume = match &streamed {
+        Some(pyramid) => {
+            options.kind = RendererKind::Stream;
+            pyramid
+                .level_volume(pyramid.finest_within(PANEL_LEVEL_VOXELS))
+                .map_err(|e| JobError::Failed(e.to_string()))?
+        }
+        None => source.load()?,
+    };
     progress.check()?;
     progress.begin("quantizing");
     let quantized = QuantizedVolume::new(&volume);
@@ -224,16 +281,31 @@ pub fn upload(
 ) -> Result<Scene, JobError> {
     progress.begin("uploading to the GPU");
     let started = Instant::now();
-    let mut renderer = VolumeRenderer::new(
-        gpu,
-        options,
-        &data.octree,
-        &data.quantized,
-        data.volume.spacing,
-        data.octree.depth,
-        &transfer,
-    )
-    .map_err(|e| JobError::Failed(format!("{}: {e}", data.volume.name)))?;
+    let failed = |e: String| JobError::Failed(format!("{}: {e}", data.volume.name));
+    let mut renderer = match data.source.zarr_path() {
+        // A Zarr store streams from the file, at its own full resolution.
+        Some(path) if options.kind == RendererKind::Stream => {
+            let pyramid = Pyramid::open(path, PyramidOptions::default())
+                .map_err(|e| JobError::Failed(e.to_string()))?;
+            let source = ZarrSource::new(Arc::new(pyramid)).map_err(JobError::Failed)?;
+            let stream = StreamOptions {
+                gpu_memory: options.gpu_memory,
+                ..StreamOptions::default()
+            };
+            VolumeRenderer::new_stream(gpu, Arc::new(source), stream, &transfer)
+                .map_err(|e| failed(e.to_string()))?
+        }
+        _ => VolumeRenderer::new(
+            gpu,
+            options,
+            &data.octree,
+            &data.quantized,
+            data.volume.spacing,
+            data.octree.depth,
+            &transfer,
+        )
+        .map_err(|e| failed(e.to_string()))?,
+    };
     // The CPU colors of `data.octree` follow the transfer function of the load, which may not
     // be `transfer` (after a renderer switch): recolor on the GPU so the scene matches it.
     let mut encoder = gpu
@@ -243,7 +315,7 @@ pub fn upload(
         });
     renderer
         .set_transfer(gpu, &mut encoder, &transfer, None)
-        .map_err(|e| JobError::Failed(format!("{}: {e}", data.volume.name)))?;
+        .map_err(|e| failed(e.to_string()))?;
     gpu.queue.submit([encoder.finish()]);
     Ok(Scene {
         data,
@@ -251,6 +323,7 @@ pub fn upload(
         options,
         applied_transfer: transfer,
         upload_seconds: started.elapsed().as_secs_f64(),
+        stream_status: None,
     })
 }
 

@@ -7,7 +7,9 @@ use serde::{Deserialize, Serialize};
 
 use super::command::Panel;
 use crate::octree::{Colormap, OpacityMode, TransferFunction};
-use crate::render::{Camera, DEFAULT_BRICK_SIZE, RenderMode, RendererKind, Shading};
+use crate::render::{
+    Camera, DEFAULT_BRICK_SIZE, RenderMode, RendererKind, RendererOptions, Shading,
+};
 use crate::volume::ValueWindow;
 
 /// The key under which eframe stores [`AppSettings`].
@@ -160,6 +162,8 @@ pub struct AppSettings {
     pub heatmap: bool,
     pub renderer: RendererKind,
     pub brick_size: usize,
+    /// GPU memory the streaming renderer may hold, in bytes (its atlas, page table, buffers).
+    pub stream_gpu_memory: u64,
     pub camera: Camera,
     pub layout: Layout,
     /// Panes of the level grid, 2…6.
@@ -211,6 +215,7 @@ impl Default for AppSettings {
             heatmap: false,
             renderer: RendererKind::Octree,
             brick_size: DEFAULT_BRICK_SIZE,
+            stream_gpu_memory: RendererOptions::default().gpu_memory,
             camera: Camera::default(),
             layout: Layout::Single,
             grid_panes: 4,

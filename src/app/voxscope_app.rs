@@ -111,7 +111,13 @@ impl VoxscopeApp {
     pub fn is_busy(&self) -> bool {
         self.jobs.is_busy()
             || self.central.is_measuring()
+            || (self.scene.is_some() && self.central.is_refining())
             || self.browser.as_ref().is_some_and(FileBrowser::is_listing)
+    }
+
+    /// The streaming renderer's latest status, if it draws the volume on screen.
+    pub fn stream_status(&self) -> Option<&crate::stream::StreamStatus> {
+        self.scene.as_ref()?.stream_status.as_ref()
     }
 
     /// The error shown in the window, if any.
@@ -136,7 +142,7 @@ impl VoxscopeApp {
     pub fn volume(&self) -> Option<(&str, u32)> {
         self.scene
             .as_ref()
-            .map(|s| (s.data.volume.name.as_str(), s.data.octree.depth))
+            .map(|s| (s.data.volume.name.as_str(), s.depth()))
     }
 
     /// Pixel sizes of the panes' render targets.
@@ -214,6 +220,7 @@ impl VoxscopeApp {
         RendererOptions {
             kind: self.settings.renderer,
             brick_size: self.settings.brick_size,
+            gpu_memory: self.settings.stream_gpu_memory,
         }
     }
 
@@ -255,7 +262,9 @@ impl VoxscopeApp {
             }
         }
         if let Some(gpu) = &self.gpu {
-            self.central.poll(gpu, &mut self.view, self.settings.tool);
+            let scale = self.scene.as_ref().map_or([1.0; 3], Scene::voxel_scale);
+            self.central
+                .poll(gpu, &mut self.view, self.settings.tool, scale);
         }
         if self.is_busy() {
             ctx.request_repaint_after(Duration::from_millis(50));
@@ -264,13 +273,24 @@ impl VoxscopeApp {
 
     pub(super) fn show_opened(&mut self, Opened { scene, statistics }: Opened) {
         if scene.options.kind != self.settings.renderer {
-            self.notify(format!(
-                "the octree does not fit this GPU's buffers; showing it with the {} renderer",
-                scene.options.kind.name()
-            ));
+            let why = if scene.options.kind == RendererKind::Stream {
+                let dims = scene.renderer.stream().map(|s| s.streamer().shape().dims());
+                format!(
+                    "{} is larger than memory allows: streaming it at full resolution ({}); the panels read a coarser level ({})",
+                    scene.data.volume.name,
+                    dims.map_or_else(String::new, crate::volume::format_dims),
+                    crate::volume::format_dims(scene.data.volume.dims),
+                )
+            } else {
+                format!(
+                    "the octree does not fit this GPU's buffers; showing it with the {} renderer",
+                    scene.options.kind.name()
+                )
+            };
+            self.notify(why);
             self.settings.renderer = scene.options.kind;
         }
-        let depth = scene.data.octree.depth;
+        let depth = scene.depth();
         // The volume may open with its own transfer function (a CT preset, labels): the
         // panel shows and edits that one.
         self.settings.transfer = TransferChoice::from(scene.applied_transfer);
@@ -427,12 +447,16 @@ impl eframe::App for VoxscopeApp {
         }
         self.run_queued_commands(&ctx);
         self.follow_settings(&ctx);
-        if let (Some(gpu), Some(scene)) = (&self.gpu, &mut self.scene)
-            && let Err(error) =
-                self.central
-                    .draw(gpu, scene, self.scene_serial, &self.settings, &self.view)
-        {
-            self.fail(error.to_string());
+        if let (Some(gpu), Some(scene)) = (&self.gpu, &mut self.scene) {
+            match self
+                .central
+                .draw(gpu, scene, self.scene_serial, &self.settings, &self.view)
+            {
+                // Streaming: the next frame takes in what this one asked for.
+                Ok(true) => ctx.request_repaint(),
+                Ok(false) => {}
+                Err(error) => self.fail(error.to_string()),
+            }
         }
         if self.settings.continuous {
             ctx.request_repaint();

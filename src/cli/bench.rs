@@ -156,6 +156,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
             RendererOptions {
                 kind,
                 brick_size: args.brick_size,
+                ..Default::default()
             },
             &prepared.octree,
             &prepared.quantized,

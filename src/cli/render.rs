@@ -76,6 +76,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         RendererOptions {
             kind,
             brick_size: args.brick_size,
+            ..Default::default()
         },
         &prepared.octree,
         &prepared.quantized,

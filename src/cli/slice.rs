@@ -125,6 +125,7 @@ pub fn run(args: &SliceArgs) -> Result<(), String> {
         RendererOptions {
             kind,
             brick_size: args.brick_size,
+            ..Default::default()
         },
         &prepared.octree,
         &prepared.quantized,

@@ -240,6 +240,7 @@ fn resident_comparison(
         RendererOptions {
             kind: RendererKind::Bricks,
             brick_size: 32,
+            ..Default::default()
         },
         &octree,
         &volume,

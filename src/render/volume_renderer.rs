@@ -37,6 +37,15 @@ pub struct RendererOptions {
     pub kind: RendererKind,
     /// Voxels along a brick's side (bricks renderer; a power of two).
     pub brick_size: usize,
+    /// GPU memory the streaming renderer may hold, in bytes ([`StreamOptions::gpu_memory`]).
+    pub gpu_memory: u64,
+}
+
+impl Default for RendererOptions {
+    /// The paper's octree; 32³ bricks and the streaming renderer's default budget if chosen.
+    fn default() -> Self {
+        RendererKind::Octree.into()
+    }
 }
 
 impl From<RendererKind> for RendererOptions {
@@ -44,6 +53,7 @@ impl From<RendererKind> for RendererOptions {
         Self {
             kind,
             brick_size: DEFAULT_BRICK_SIZE,
+            gpu_memory: StreamOptions::default().gpu_memory,
         }
     }
 }
@@ -144,10 +154,14 @@ impl VolumeRenderer {
             RendererKind::Stream => {
                 let source = MemorySource::new("volume", quantized, spacing, Downsampling::Mean)
                     .map_err(RenderError)?;
+                let stream = StreamOptions {
+                    gpu_memory: options.gpu_memory,
+                    ..StreamOptions::default()
+                };
                 State::Stream(Box::new(StreamVolume::new(
                     context,
                     Arc::new(source),
-                    StreamOptions::default(),
+                    stream,
                     transfer,
                 )?))
             }

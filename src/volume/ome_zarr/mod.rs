@@ -1102,34 +1102,48 @@ fn describe_codecs(metadata: &ArrayMetadata) -> String {
 pub(crate) fn load(path: &Path, options: PyramidOptions) -> Result<Volume, Problem> {
     let pyramid = Pyramid::open(path, options).map_err(|e| e.problem)?;
     let level = pyramid.finest_within(VOLUME_VOXEL_BUDGET as u64);
-    let info = &pyramid.levels[level];
-    if info.voxel_count() > MAX_VOXELS as u64 {
-        return Err(format!(
-            "even the coarsest level ({}) exceeds {MAX_VOXELS} voxels; `voxscope convert` writes one with more levels",
-            format_dims(info.dims)
-        ));
-    }
     if level > 0 {
         eprintln!(
             "note: {}: opened level {level} ({}), the finest within {} voxels; level 0 is {}",
             path.display(),
-            format_dims(info.dims),
+            format_dims(pyramid.levels[level].dims),
             VOLUME_VOXEL_BUDGET,
             format_dims(pyramid.levels[0].dims)
         );
     }
-    let data = pyramid.read_level(level).map_err(|e| e.problem)?;
-    let mut volume = Volume::new(
-        path.display().to_string(),
-        pyramid.format,
-        info.dims,
-        info.spacing,
-        data,
-    )
-    .map_err(|e| e.problem)?;
-    volume.metadata = volume_facts(&pyramid, level);
-    volume.default_window = pyramid.omero_window();
-    Ok(volume)
+    pyramid.level_volume(level).map_err(|e| e.problem)
+}
+
+impl Pyramid {
+    /// Level `level` read whole as a volume, with the file's facts and window: what the
+    /// in-memory renderers draw, and what the app's panels (histogram, statistics, slices) read
+    /// while the streaming renderer draws the full resolution.
+    pub fn level_volume(&self, level: usize) -> Result<Volume, LoadError> {
+        let Some(info) = self.levels.get(level) else {
+            return Err(LoadError::new(&self.source, format!("no level {level}")));
+        };
+        if info.voxel_count() > MAX_VOXELS as u64 {
+            return Err(LoadError::new(
+                &self.source,
+                format!(
+                    "even the coarsest level ({}) exceeds {MAX_VOXELS} voxels; `voxscope convert` writes one with more levels",
+                    format_dims(info.dims)
+                ),
+            ));
+        }
+        let data = self.read_level(level)?;
+        let mut volume = Volume::new(
+            self.source.clone(),
+            self.format,
+            info.dims,
+            info.spacing,
+            data,
+        )
+        .map_err(|e| LoadError::new(&self.source, e.problem))?;
+        volume.metadata = volume_facts(self, level);
+        volume.default_window = self.omero_window();
+        Ok(volume)
+    }
 }
 
 /// The lines `info` shows for a volume read from `pyramid`'s `level`.

@@ -1,0 +1,155 @@
+//! The streaming renderer's part of the Octree panel: its GPU budget, and what it holds and
+//! does (per level: bricks total, resident, empty, requested; the atlas and RAM cache's fill,
+//! hit rate, bytes read, upload rate, failures).
+
+use egui::Ui;
+
+use super::octree_panel::{format_bytes, group_digits};
+use super::scene::Scene;
+use super::settings::AppSettings;
+use crate::stream::StreamStatus;
+
+/// The GPU budgets offered, in MiB (the device's largest 3D texture bounds the atlas anyway).
+const GPU_BUDGETS_MIB: [u64; 7] = [64, 128, 256, 512, 1024, 2048, 4096];
+
+/// The budget row of the renderer grid (shown when the streaming renderer is chosen).
+pub fn budget_row(ui: &mut Ui, settings: &mut AppSettings) {
+    let label = ui.label("GPU budget");
+    egui::ComboBox::from_id_salt("stream_gpu_memory")
+        .selected_text(format_bytes(settings.stream_gpu_memory))
+        .show_ui(ui, |ui| {
+            for mib in GPU_BUDGETS_MIB {
+                ui.selectable_value(
+                    &mut settings.stream_gpu_memory,
+                    mib << 20,
+                    format_bytes(mib << 20),
+                );
+            }
+        })
+        .response
+        .labelled_by(label.id)
+        .on_hover_text("GPU memory the streaming renderer holds: its brick atlas, page table and buffers (applied by uploading again)");
+    ui.end_row();
+}
+
+/// The status bar's word on streaming: `refining: N bricks` while visible detail is missing.
+pub fn refining_text(scene: &Scene) -> Option<String> {
+    let status = scene.stream_status.as_ref()?;
+    (status.missing > 0).then(|| {
+        format!(
+            "refining: {} brick{}",
+            group_digits(status.missing as u64),
+            if status.missing == 1 { "" } else { "s" }
+        )
+    })
+}
+
+/// The numbers of the streaming renderer: state, atlas, RAM cache, reads and uploads, and
+/// the per-level brick table (max level m draws pyramid level depth − m).
+pub fn show(ui: &mut Ui, scene: &Scene) {
+    let (Some(status), Some(stream)) = (&scene.stream_status, scene.renderer.stream()) else {
+        return;
+    };
+    let shape = stream.streamer().shape();
+    let depth = shape.depth();
+    let counters = &status.counters;
+    ui.strong("Streaming");
+    egui::Grid::new("stream_grid")
+        .num_columns(2)
+        .spacing([8.0, 3.0])
+        .show(ui, |ui| {
+            ui.label("State");
+            ui.label(state_text(status));
+            ui.end_row();
+            ui.label("Atlas");
+            ui.label(format!(
+                "{} of {} slots ({} pinned), {} each",
+                group_digits(counters.slots_used as u64),
+                group_digits(counters.slots as u64),
+                counters.slots_pinned,
+                format_bytes(counters.slot_bytes),
+            ));
+            ui.end_row();
+            ui.label("RAM cache");
+            ui.label(format!(
+                "{} of {}, hit rate {:.0} %",
+                format_bytes(counters.ram_bytes),
+                format_bytes(counters.ram_capacity),
+                100.0 * counters.ram_hit_rate(),
+            ));
+            ui.end_row();
+            ui.label("Read");
+            ui.label(format!(
+                "{} bricks ({} prefetched), {}",
+                group_digits(counters.loads),
+                group_digits(counters.prefetch_loads),
+                format_bytes(counters.bytes_read),
+            ));
+            ui.end_row();
+            ui.label("Uploaded");
+            ui.label(format!(
+                "{}, {}/s now; {} evicted",
+                format_bytes(counters.bytes_uploaded),
+                format_bytes(counters.upload_bytes_per_s as u64),
+                group_digits(counters.evictions),
+            ));
+            ui.end_row();
+            if counters.failed > 0 {
+                ui.label("Failed");
+                ui.colored_label(
+                    ui.visuals().warn_fg_color,
+                    format!(
+                        "{} bricks could not be read (drawn coarser; see the log)",
+                        counters.failed
+                    ),
+                );
+                ui.end_row();
+            }
+        });
+    egui::ScrollArea::horizontal()
+        .id_salt("stream_levels_scroll")
+        .show(ui, |ui| {
+            egui::Grid::new("stream_levels")
+                .striped(true)
+                .num_columns(6)
+                .spacing([10.0, 2.0])
+                .show(ui, |ui| {
+                    for header in ["level", "voxels", "bricks", "resident", "empty", "wanted"] {
+                        ui.strong(header);
+                    }
+                    ui.end_row();
+                    // Coarse first, as the max-level slider counts.
+                    for (pyramid_level, (level, shape)) in
+                        counters.levels.iter().zip(&shape.levels).enumerate().rev()
+                    {
+                        ui.label((depth as usize - pyramid_level).to_string());
+                        ui.monospace(crate::volume::format_dims(shape.dims));
+                        ui.monospace(group_digits(level.total));
+                        ui.monospace(group_digits(level.resident as u64));
+                        ui.monospace(group_digits(level.empty as u64));
+                        ui.monospace(group_digits(level.requested as u64));
+                        ui.end_row();
+                    }
+                });
+        });
+}
+
+fn state_text(status: &StreamStatus) -> String {
+    if status.missing > 0 {
+        format!(
+            "refining: {} bricks missing, {} queued, {} loading{}",
+            group_digits(status.missing as u64),
+            status.queued,
+            status.loading,
+            if status.lod_bias > 0 {
+                format!("; {} level(s) coarser to fit the budget", status.lod_bias)
+            } else {
+                String::new()
+            }
+        )
+    } else if status.complete {
+        "complete: nothing visible is missing".to_owned()
+    } else {
+        "checking the view…".to_owned()
+    }
+}

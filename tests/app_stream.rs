@@ -1,0 +1,82 @@
+//! The streaming renderer in the app, driven through egui_kittest on the software Vulkan
+//! device: chosen in the Octree panel it refines the view without blocking (the app keeps
+//! stepping while bricks load), ends equal to the in-memory bricks renderer, reports its state
+//! in the panel and the status bar; an OME-Zarr store streams from the file.
+
+mod support;
+
+use support::app_harness::{harness, settle, view};
+use support::reference::psnr;
+
+use egui_kittest::kittest::Queryable;
+use voxscope::app::{Command, VolumeSource};
+use voxscope::render::RendererKind;
+
+fn choose_renderer(
+    harness: &mut egui_kittest::Harness<'_, voxscope::app::VoxscopeApp>,
+    name: &str,
+) {
+    harness.get_by_label("Renderer").click();
+    harness.run_steps(2);
+    harness.get_by_label(name).click();
+    settle(harness);
+}
+
+#[test]
+fn the_streaming_renderer_refines_the_head_to_the_bricks_picture() {
+    let mut harness = harness();
+    choose_renderer(&mut harness, "bricks");
+    let bricks = view(&harness);
+    choose_renderer(&mut harness, "stream");
+    assert_eq!(harness.state().renderer_kind(), Some(RendererKind::Stream));
+    let status = harness.state().stream_status().expect("a streaming status");
+    assert!(status.complete, "settled means refined: {status:?}");
+    assert_eq!(status.missing, 0);
+    assert!(
+        status.counters.levels[0].resident > 0,
+        "level 0 was streamed"
+    );
+    let streamed = view(&harness);
+    let db = psnr(&streamed, &bricks);
+    assert!(db >= 35.0, "streamed against bricks: {db:.1} dB");
+    // The panel says what the renderer holds; the GPU budget is offered.
+    harness.get_by_label("Streaming");
+    harness.get_by_label("GPU budget");
+    harness.get_by_label("complete: nothing visible is missing");
+    // Measured times and what the loads raced to (prefetches, slots, upload rate) vary: masked.
+    let right = harness.ctx.content_rect().right();
+    let values = harness.get_by_label("RAM cache").rect().right() + 4.0;
+    let top = harness.get_by_label("Atlas").rect().top();
+    let bottom = harness.get_by_label("Uploaded").rect().bottom();
+    harness.mask(egui::Rect::from_min_max(
+        egui::pos2(values, top),
+        egui::pos2(right, bottom),
+    ));
+    let resident = harness.get_by_label("resident").rect();
+    harness.mask(egui::Rect::from_min_max(
+        egui::pos2(resident.left(), resident.bottom()),
+        egui::pos2(right, harness.ctx.content_rect().bottom()),
+    ));
+    support::app_harness::snapshot(&mut harness, "stream_panel");
+}
+
+#[test]
+fn an_ome_zarr_store_streams_from_the_file() {
+    let mut harness = harness();
+    choose_renderer(&mut harness, "stream");
+    let store = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/ome-zarr/nuclei-v04-blosc-lz4.ome.zarr");
+    let ctx = harness.ctx.clone();
+    harness.state_mut().run_command(
+        Command::Open(VolumeSource::Spec(store.display().to_string())),
+        &ctx,
+    );
+    settle(&mut harness);
+    assert_eq!(harness.state().error(), None);
+    assert_eq!(harness.state().renderer_kind(), Some(RendererKind::Stream));
+    let status = harness.state().stream_status().expect("a streaming status");
+    assert!(status.complete && status.errors.is_empty(), "{status:?}");
+    // The store's level 0 (48×48×20) is what streams: 2×2×1 bricks.
+    assert_eq!(status.counters.levels[0].total, 4);
+    assert!(support::app_harness::lit_pixels(&view(&harness)) > 1000);
+}
