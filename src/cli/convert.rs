@@ -48,6 +48,10 @@ pub struct ConvertArgs {
     /// if it says.
     #[arg(long)]
     pub unit: Option<String>,
+    /// Repeat the input N times along each axis, or X, Y and Z times (large test volumes from
+    /// real data; the input is held in memory, the output written slab by slab).
+    #[arg(long, value_name = "N|X,Y,Z", value_parser = parse_copies)]
+    pub tile: Option<[usize; 3]>,
 }
 
 /// `--format`.
@@ -75,6 +79,9 @@ pub fn run(args: &ConvertArgs) -> Result<(), String> {
         },
     };
     let mut source = SlabSource::open(spec, &load_options).map_err(|e| e.to_string())?;
+    if let Some(copies) = args.tile {
+        source = source.tiled(copies).map_err(|e| e.to_string())?;
+    }
     let options = WriteOptions {
         version: match args.format {
             FormatArg::V04 => ZarrVersion::V04,
@@ -143,4 +150,18 @@ pub fn run(args: &ConvertArgs) -> Result<(), String> {
         started.elapsed().as_secs_f64()
     );
     Ok(())
+}
+
+/// `--tile N` or `--tile X,Y,Z`.
+fn parse_copies(text: &str) -> Result<[usize; 3], String> {
+    let numbers: Vec<usize> = text
+        .split(',')
+        .map(|n| n.trim().parse::<usize>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("'{text}' is not N or X,Y,Z"))?;
+    match numbers[..] {
+        [n] => Ok([n; 3]),
+        [x, y, z] => Ok([x, y, z]),
+        _ => Err(format!("'{text}' is not N or X,Y,Z")),
+    }
 }

@@ -39,6 +39,11 @@ enum Input {
         endian: Endian,
     },
     Slices(Vec<PathBuf>),
+    /// A loaded volume repeated along every axis (`tile`: the volume's own dimensions).
+    Tiled {
+        data: VoxelData,
+        tile: [usize; 3],
+    },
 }
 
 impl SlabSource {
@@ -84,7 +89,37 @@ impl SlabSource {
 
     /// Whether slabs are read from the file as they are asked for (not loaded whole first).
     pub fn streams(&self) -> bool {
-        !matches!(self.input, Input::Memory(_))
+        matches!(self.input, Input::Raw { .. } | Input::Slices(_))
+    }
+
+    /// The input repeated `copies` times along x, y and z (`convert --tile`): large test
+    /// volumes with the structure of real data, written slab by slab (only the input is held
+    /// in memory). Refused for inputs read slab by slab from the file.
+    pub fn tiled(self, copies: [usize; 3]) -> Result<Self, LoadError> {
+        let Input::Memory(data) = self.input else {
+            return Err(LoadError::new(
+                &self.name,
+                "--tile needs an input that is loaded whole (not raw, raw NRRD or slices)",
+            ));
+        };
+        let dims: [usize; 3] = std::array::from_fn(|a| self.dims[a].saturating_mul(copies[a]));
+        if copies.contains(&0) || dims.iter().any(|&d| d > MAX_AXIS) {
+            return Err(LoadError::new(
+                &self.name,
+                format!(
+                    "--tile {}: copies from 1 up to {MAX_AXIS} voxels per axis",
+                    format_dims(copies)
+                ),
+            ));
+        }
+        Ok(Self {
+            dims,
+            input: Input::Tiled {
+                data,
+                tile: self.dims,
+            },
+            ..self
+        })
     }
 
     fn raw(path: &Path, layout: &RawLayout, spacing: Option<[f64; 3]>) -> Result<Self, Problem> {
@@ -210,6 +245,29 @@ impl SlabSource {
                         format!("cannot read slices {z0}..{}: {}", z0 + count, io_reason(&e))
                     })?;
                 Ok(VoxelData::decode(self.voxel_type, &bytes, *endian))
+            }
+            Input::Tiled { data, tile } => {
+                fn repeat<T: Scalar>(
+                    values: &[T],
+                    tile: [usize; 3],
+                    dims: [usize; 3],
+                    z0: usize,
+                    count: usize,
+                ) -> VoxelData {
+                    let mut out = Vec::with_capacity(dims[0] * dims[1] * count);
+                    for z in z0..z0 + count {
+                        for y in 0..dims[1] {
+                            let row = tile[0] * ((y % tile[1]) + tile[1] * (z % tile[2]));
+                            let row = &values[row..row + tile[0]];
+                            for _ in 0..dims[0] / tile[0] {
+                                out.extend_from_slice(row);
+                            }
+                        }
+                    }
+                    T::wrap(out)
+                }
+                let (tile, dims) = (*tile, self.dims);
+                Ok(with_voxel_slice!(&*data, values => repeat(values, tile, dims, z0, count)))
             }
             Input::Slices(files) => {
                 let mut data: Option<VoxelData> = None;
