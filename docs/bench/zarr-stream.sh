@@ -1,14 +1,15 @@
 #!/usr/bin/env bash
 # Streaming an OME-Zarr store from local disk (issue 18, docs/benchmarks.md "Streaming"): a
 # real volume, the 256x256x20 proton-density MRI DICOM series (i16, ../shared/data), tiled
-# 16x16x205 by `voxscope convert` into a 4096x4096x4100 OME-Zarr (64³ chunks, blosc zstd) on
+# 16x16x205 by `voxscope convert` into a 4096x4096x4100 OME-Zarr (64³ chunks, blosc zstd, spacing
+# set to 1 so that the volume is a cube: the series has 5 mm slices) on
 # the lent machine's disk; then `bench --stream` on the store and one streamed render to look
 # at. It builds nothing: it expects, carried in out/zarr-bench (git-ignored), voxscope.gz and
 # brain-pd-dicom/, and the Vulkan loader's .deb files in .gl.
 # Usage: bash docs/bench/zarr-stream.sh RUN_NAME   (files RUN_NAME-… go to $OUT)
 set -uo pipefail
 D=out/zarr-bench
-RUN=${1:-run48}
+RUN=${1:-run51}
 for deb in .gl/*.deb; do dpkg -x "$deb" /; done
 ldconfig
 export WGPU_BACKEND=vulkan
@@ -22,7 +23,7 @@ nvidia-smi --query-gpu=name,driver_version --format=csv,noheader; nproc; free -g
 df -h "$PWD" | tail -1
 started=$SECONDS
 if [ ! -e "$STORE/.zattrs" ]; then
-    timeout "${CONVERT_LIMIT:-360}" $D/voxscope convert $D/brain-pd-dicom "$STORE" --tile 16,16,205 \
+    timeout "${CONVERT_LIMIT:-360}" $D/voxscope convert $D/brain-pd-dicom "$STORE" --tile 16,16,205 --spacing 1,1,1 \
         --chunk 64 --compression blosc-zstd 2>"$OUTDIR/$RUN-convert.err"
     echo "convert exit $? after $((SECONDS - started)) s"
     tr '\r' '\n' <"$OUTDIR/$RUN-convert.err" | grep -v '%$' | tail -3

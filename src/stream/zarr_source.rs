@@ -5,7 +5,8 @@
 //! many microscopy files have), the stored voxels a brick covers are reduced here (mean, or
 //! max for label images), so one brick never reads more than [`MAX_BRICK_READ`] voxels.
 
-use std::sync::Arc;
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
 
 use super::pyramid::{Downsampling, PyramidShape};
 use super::source::{
@@ -36,6 +37,48 @@ pub struct ZarrSource {
     quantization: Quantization,
     max_value_level: u16,
     how: Downsampling,
+    /// Decoded chunks as value levels: neighbouring bricks share a chunk (and every brick's
+    /// apron reaches into its neighbours'), so each chunk is decoded once while it is used.
+    chunks: Mutex<ChunkCache>,
+}
+
+/// Bytes of decoded chunks a [`ZarrSource`] keeps (value levels, 2 bytes a voxel).
+pub const CHUNK_CACHE_BYTES: usize = 512 << 20;
+
+/// The least recently used decoded chunks, by stored level and chunk index.
+#[derive(Default)]
+struct ChunkCache {
+    chunks: HashMap<(usize, [usize; 3]), (Arc<Vec<u16>>, u64)>,
+    bytes: usize,
+    clock: u64,
+}
+
+impl ChunkCache {
+    fn get(&mut self, key: (usize, [usize; 3])) -> Option<Arc<Vec<u16>>> {
+        self.clock += 1;
+        let clock = self.clock;
+        self.chunks.get_mut(&key).map(|(chunk, used)| {
+            *used = clock;
+            Arc::clone(chunk)
+        })
+    }
+
+    fn insert(&mut self, key: (usize, [usize; 3]), chunk: Arc<Vec<u16>>) {
+        self.clock += 1;
+        self.bytes += chunk.len() * 2;
+        if let Some((old, _)) = self.chunks.insert(key, (chunk, self.clock)) {
+            self.bytes -= old.len() * 2;
+        }
+        while self.bytes > CHUNK_CACHE_BYTES && self.chunks.len() > 1 {
+            // Evict the least recently used (a scan: the cache holds about a thousand chunks).
+            let Some((&oldest, _)) = self.chunks.iter().min_by_key(|(_, (_, used))| *used) else {
+                break;
+            };
+            if let Some((old, _)) = self.chunks.remove(&oldest) {
+                self.bytes -= old.len() * 2;
+            }
+        }
+    }
 }
 
 /// How many level-0 voxels one voxel of the stored level `level` covers along each axis, if
@@ -110,7 +153,64 @@ impl ZarrSource {
             quantization,
             max_value_level,
             how,
+            chunks: Mutex::default(),
         })
+    }
+
+    /// The value levels of the stored level's voxels `[origin, origin + size)`, x fastest,
+    /// assembled from whole decoded chunks (cached).
+    fn read_levels(
+        &self,
+        stored: usize,
+        origin: [usize; 3],
+        size: [usize; 3],
+    ) -> Result<Vec<u16>, crate::volume::LoadError> {
+        let info = &self.pyramid.levels[stored];
+        let chunk = info.chunk;
+        let first: [usize; 3] = std::array::from_fn(|a| origin[a] / chunk[a]);
+        let last: [usize; 3] = std::array::from_fn(|a| (origin[a] + size[a] - 1) / chunk[a]);
+        let mut out = vec![0u16; size.iter().product()];
+        for cz in first[2]..=last[2] {
+            for cy in first[1]..=last[1] {
+                for cx in first[0]..=last[0] {
+                    let index = [cx, cy, cz];
+                    let start: [usize; 3] = std::array::from_fn(|a| index[a] * chunk[a]);
+                    let extent: [usize; 3] =
+                        std::array::from_fn(|a| chunk[a].min(info.dims[a] - start[a]));
+                    let cached = self
+                        .chunks
+                        .lock()
+                        .ok()
+                        .and_then(|mut c| c.get((stored, index)));
+                    let levels = match cached {
+                        Some(levels) => levels,
+                        None => {
+                            let data = self.pyramid.read_region(stored, start, extent)?;
+                            let levels = Arc::new(to_levels(&data, self.quantization));
+                            if let Ok(mut cache) = self.chunks.lock() {
+                                cache.insert((stored, index), Arc::clone(&levels));
+                            }
+                            levels
+                        }
+                    };
+                    // The part of the chunk inside the region.
+                    let lo: [usize; 3] = std::array::from_fn(|a| origin[a].max(start[a]));
+                    let hi: [usize; 3] =
+                        std::array::from_fn(|a| (origin[a] + size[a]).min(start[a] + extent[a]));
+                    let run = hi[0] - lo[0];
+                    for z in lo[2]..hi[2] {
+                        for y in lo[1]..hi[1] {
+                            let from = (lo[0] - start[0])
+                                + extent[0] * ((y - start[1]) + extent[1] * (z - start[2]));
+                            let to = (lo[0] - origin[0])
+                                + size[0] * ((y - origin[1]) + size[1] * (z - origin[2]));
+                            out[to..to + run].copy_from_slice(&levels[from..from + run]);
+                        }
+                    }
+                }
+            }
+        }
+        Ok(out)
     }
 
     /// The stored level pyramid level `level` reads, and its reduction per axis.
@@ -231,16 +331,18 @@ impl BrickSource for ZarrSource {
         });
         let origin = spans.map(|(first, _)| first);
         let size: [usize; 3] = std::array::from_fn(|a| spans[a].1 - spans[a].0 + 1);
-        let region = self
-            .pyramid
-            .read_region(source.stored, origin, size)
+        let stored = self
+            .read_levels(source.stored, origin, size)
             .map_err(|e| BrickError(format!("{id}: {e}")))?;
-        let quantization = self.quantization;
-        let stored: Vec<u16> = to_levels(&region, quantization);
-        let mut levels = Vec::with_capacity(PADDED_BRICK_VOXELS);
-        // Each pyramid voxel: the mean (or max) of the stored voxels it covers.
+        // Each distinct pyramid voxel (the apron and the part past the level's end repeat the
+        // edge ones): the mean (or max) of the stored voxels it covers, computed once.
+        let distinct: [Vec<usize>; 3] = std::array::from_fn(|a| {
+            let mut values = voxels[a].clone();
+            values.dedup();
+            values
+        });
         let boxes: [Vec<(usize, usize)>; 3] = std::array::from_fn(|a| {
-            voxels[a]
+            distinct[a]
                 .iter()
                 .map(|&c| {
                     let (lo, hi) = covered(c, c, source.ratio[a], stored_dims[a]);
@@ -249,6 +351,7 @@ impl BrickSource for ZarrSource {
                 .collect()
         });
         let [sx, sy, _] = size;
+        let mut reduced = Vec::with_capacity(boxes.iter().map(Vec::len).product());
         for &(z0, z1) in &boxes[2] {
             for &(y0, y1) in &boxes[1] {
                 for &(x0, x1) in &boxes[0] {
@@ -263,10 +366,26 @@ impl BrickSource for ZarrSource {
                             }
                         }
                     }
-                    levels.push(match self.how {
+                    reduced.push(match self.how {
                         Downsampling::Mean => ((sum + count / 2) / count) as u16,
                         Downsampling::Max => max,
                     });
+                }
+            }
+        }
+        // Where each padded voxel's pyramid voxel sits among the distinct ones.
+        let index: [Vec<usize>; 3] = std::array::from_fn(|a| {
+            voxels[a]
+                .iter()
+                .map(|c| distinct[a].partition_point(|d| d < c))
+                .collect()
+        });
+        let [dx, dy] = [distinct[0].len(), distinct[1].len()];
+        let mut levels = Vec::with_capacity(PADDED_BRICK_VOXELS);
+        for &k in &index[2] {
+            for &j in &index[1] {
+                for &i in &index[0] {
+                    levels.push(reduced[i + dx * (j + dy * k)]);
                 }
             }
         }
