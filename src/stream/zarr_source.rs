@@ -45,16 +45,19 @@ pub struct ZarrSource {
 /// Bytes of decoded chunks a [`ZarrSource`] keeps (value levels, 2 bytes a voxel).
 pub const CHUNK_CACHE_BYTES: usize = 512 << 20;
 
-/// The least recently used decoded chunks, by stored level and chunk index.
+/// A decoded chunk: stored level and chunk index.
+type ChunkKey = (usize, [usize; 3]);
+
+/// The least recently used decoded chunks, each with the clock of its last use.
 #[derive(Default)]
 struct ChunkCache {
-    chunks: HashMap<(usize, [usize; 3]), (Arc<Vec<u16>>, u64)>,
+    chunks: HashMap<ChunkKey, (Arc<Vec<u16>>, u64)>,
     bytes: usize,
     clock: u64,
 }
 
 impl ChunkCache {
-    fn get(&mut self, key: (usize, [usize; 3])) -> Option<Arc<Vec<u16>>> {
+    fn get(&mut self, key: ChunkKey) -> Option<Arc<Vec<u16>>> {
         self.clock += 1;
         let clock = self.clock;
         self.chunks.get_mut(&key).map(|(chunk, used)| {
@@ -63,7 +66,7 @@ impl ChunkCache {
         })
     }
 
-    fn insert(&mut self, key: (usize, [usize; 3]), chunk: Arc<Vec<u16>>) {
+    fn insert(&mut self, key: ChunkKey, chunk: Arc<Vec<u16>>) {
         self.clock += 1;
         self.bytes += chunk.len() * 2;
         if let Some((old, _)) = self.chunks.insert(key, (chunk, self.clock)) {
