@@ -1133,3 +1133,55 @@ fn mutated_fixtures_fail_cleanly_never_panic() {
         "{opened} opened, {failed} failed"
     );
 }
+
+#[test]
+fn convert_tile_repeats_the_input_along_each_axis() {
+    let dir = tempfile::tempdir().expect("a temporary folder");
+    let input = fixtures().join("plain-v3-none.zarr");
+    let output = dir.path().join("tiled.ome.zarr");
+    let run = Command::new(env!("CARGO_BIN_EXE_voxscope"))
+        .arg("convert")
+        .arg(&input)
+        .arg(&output)
+        .args(["--tile", "2,1,3", "--chunk", "8"])
+        .output()
+        .expect("voxscope runs");
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let original = volume::load(input.to_str().expect("UTF-8"), &LoadOptions::default())
+        .expect("the fixture loads");
+    let tiled = Pyramid::open(&output, PyramidOptions::default()).expect("the output opens");
+    let [dx, dy, dz] = original.dims;
+    assert_eq!(tiled.levels[0].dims, [2 * dx, dy, 3 * dz]);
+    let (VoxelData::I32(original), VoxelData::I32(tiled)) =
+        (original.data, tiled.read_level(0).expect("level 0 reads"))
+    else {
+        panic!("the fixture is i32");
+    };
+    for z in 0..3 * dz {
+        for y in 0..dy {
+            for x in 0..2 * dx {
+                assert_eq!(
+                    tiled[x + 2 * dx * (y + dy * z)],
+                    original[x % dx + dx * (y + dy * (z % dz))],
+                    "voxel ({x}, {y}, {z})"
+                );
+            }
+        }
+    }
+    // Not for inputs read slab by slab, and never zero copies.
+    let refused = Command::new(env!("CARGO_BIN_EXE_voxscope"))
+        .arg("convert")
+        .arg(&input)
+        .arg(dir.path().join("none.ome.zarr"))
+        .args(["--tile", "0"])
+        .output()
+        .expect("voxscope runs");
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert!(!refused.status.success());
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    assert!(stderr.contains("--tile"), "{stderr}");
+}
