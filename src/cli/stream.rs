@@ -17,7 +17,7 @@ use crate::stream::{
     preview,
 };
 use crate::volume::ome_zarr::{self, Pyramid};
-use crate::volume::{self, QuantizedVolume, ValueWindow};
+use crate::volume::{self, QuantizedVolume, ValueWindow, parse_dims};
 
 /// The streaming renderer's budgets (`--renderer stream`, `bench --stream`).
 #[derive(Debug, Clone, Args)]
@@ -172,18 +172,6 @@ impl StreamPrepared {
     /// The octree depth of the pyramid (levels − 1): the max level's range.
     pub fn depth(&self) -> u32 {
         self.source.shape().depth()
-    }
-}
-
-fn parse_dims(text: &str) -> Option<[usize; 3]> {
-    let numbers: Vec<usize> = text
-        .split('x')
-        .map(|n| n.trim().parse().ok())
-        .collect::<Option<_>>()?;
-    match numbers[..] {
-        [n] => Some([n; 3]),
-        [x, y, z] => Some([x, y, z]),
-        _ => None,
     }
 }
 

@@ -26,6 +26,7 @@ pub use format::{Format, dialog_extensions, dialog_filter_name};
 pub use nrrd::NrrdEncoding;
 pub use orientation::Orientation;
 pub use raw::RawLayout;
+pub(crate) use raw::parse_dims;
 pub use registry::{LoadOptions, load};
 pub use sample::{SAMPLE_NAME, sample};
 pub use synthetic::SyntheticKind;
