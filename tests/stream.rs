@@ -814,3 +814,92 @@ fn a_converted_volume_streams_from_disk_equal_to_the_bricks_render() {
     assert!(gpu_total(&renderer) <= budget);
     assert!(refined.errors.is_empty(), "{:?}", refined.errors);
 }
+
+#[test]
+fn bricks_a_store_knows_to_be_invisible_are_never_read() {
+    // A 128³ ball (1000 inside, 0 outside) written as OME-Zarr with its chunk ranges: under a
+    // transfer function that makes 0 transparent, the empty bricks are skipped from the stored
+    // ranges alone, while the same voxels in memory are read to find them empty.
+    use voxscope::volume::VoxelData;
+    use voxscope::volume::ome_zarr::{
+        Compression, Downsampling as ZarrDownsampling, PyramidWriter, WriteOptions, ZarrVersion,
+    };
+    let n = 128usize;
+    let values: Vec<u16> = (0..n * n * n)
+        .map(|i| {
+            let (x, y, z) = (i % n, (i / n) % n, i / (n * n));
+            let d2 = [x, y, z]
+                .map(|c| (c as f64 + 0.5 - n as f64 / 2.0).powi(2))
+                .iter()
+                .sum::<f64>();
+            if d2 < 24.0f64.powi(2) { 1000 } else { 0 }
+        })
+        .collect();
+    let dir = tempfile::tempdir().expect("a temporary folder");
+    let store = dir.path().join("ball.ome.zarr");
+    let write_options = WriteOptions {
+        version: ZarrVersion::V04,
+        chunk: 32,
+        shard_chunks: 2,
+        compression: Compression::parse("zstd").expect("a codec"),
+        downsampling: ZarrDownsampling::Mean,
+        name: "ball".into(),
+        unit: None,
+    };
+    let mut writer = PyramidWriter::create(
+        &store,
+        [n; 3],
+        voxscope::volume::VoxelType::U16,
+        [1.0; 3],
+        &write_options,
+    )
+    .expect("a writer");
+    writer
+        .push(&VoxelData::U16(values.clone()))
+        .expect("written");
+    writer.finish().expect("finished");
+    let pyramid = Pyramid::open(&store, PyramidOptions::default()).expect("the store opens");
+    let zarr = Arc::new(ZarrSource::new(Arc::new(pyramid)).expect("a brick source"));
+    let volume = voxscope::volume::load(store.to_str().expect("UTF-8"), &Default::default())
+        .expect("the store loads");
+    let transfer = TransferFunction {
+        window: ValueWindow {
+            low: 0.0,
+            high: 1000.0,
+        },
+        ..TransferFunction::gray(ValueWindow {
+            low: 0.0,
+            high: 1000.0,
+        })
+    };
+    let prepared = Prepared::new(volume, Some(transfer));
+    let memory = Arc::new(
+        MemorySource::new("ball", &prepared.quantized, [1.0; 3], Downsampling::Mean)
+            .expect("pyramid"),
+    );
+    let context = gpu();
+    let camera = close_camera(30.0);
+    let settings = settings(prepared.octree.depth);
+    let mut from_store = streaming(&context, zarr, options(64 << 20), &prepared.transfer);
+    let stored = refine(&context, &mut from_store, &camera, &settings);
+    let mut from_memory = streaming(&context, memory, options(64 << 20), &prepared.transfer);
+    let loaded = refine(&context, &mut from_memory, &camera, &settings);
+    let (stored_counters, loaded_counters) = (&stored.status.counters, &loaded.status.counters);
+    eprintln!(
+        "store: {} read, {} skipped unread; memory: {} read",
+        stored_counters.loads, stored_counters.skipped_unread, loaded_counters.loads
+    );
+    assert!(coverage(&loaded.image) > 0.05, "the ball is drawn");
+    let db = psnr(&stored.image, &loaded.image);
+    assert!(db >= 60.0, "the same picture: {db:.1} dB");
+    assert!(
+        stored_counters.skipped_unread > 0,
+        "empty bricks skipped from the ranges"
+    );
+    assert!(
+        stored_counters.loads < loaded_counters.loads,
+        "fewer bricks read: {} against {}",
+        stored_counters.loads,
+        loaded_counters.loads
+    );
+}

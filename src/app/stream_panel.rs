@@ -80,10 +80,11 @@ pub fn show(ui: &mut Ui, scene: &Scene) {
             ui.end_row();
             ui.label("Read");
             ui.label(format!(
-                "{} bricks ({} prefetched), {}",
+                "{} bricks ({} prefetched), {}; {} known empty, not read",
                 group_digits(counters.loads),
                 group_digits(counters.prefetch_loads),
                 format_bytes(counters.bytes_read),
+                group_digits(counters.skipped_unread),
             ));
             ui.end_row();
             ui.label("Uploaded");

@@ -119,4 +119,12 @@ pub trait BrickSource: Send + Sync {
     /// Reads brick `id`: its value levels with the apron, and their range. Called from worker
     /// threads, several at once.
     fn read_brick(&self, id: BrickId) -> Result<BrickData, BrickError>;
+
+    /// A range that holds every value level of brick `id`'s own voxels, if the source knows one
+    /// without reading the brick (a store's per-chunk minima and maxima): a brick whose range
+    /// the transfer function makes invisible is then never read. Called on the frame's thread:
+    /// it must be cheap.
+    fn known_range(&self, _id: BrickId) -> Option<ValueRange> {
+        None
+    }
 }

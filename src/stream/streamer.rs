@@ -141,6 +141,9 @@ pub struct StreamCounters {
     pub evictions: u64,
     /// Bricks that could not be read.
     pub failed: usize,
+    /// Bricks never read because their known range ([`BrickSource::known_range`]) is
+    /// invisible under the transfer function.
+    pub skipped_unread: u64,
 }
 
 impl StreamCounters {
@@ -593,6 +596,31 @@ impl Streamer {
         self.ready.dedup_by_key(|r| r.key);
     }
 
+    /// Whether the source knows brick `id`'s range without reading it and the transfer
+    /// function makes that range invisible; if so the brick enters the table without a slot
+    /// (as an evicted one would), so that rays skip it and nothing is loaded.
+    fn known_invisible(&mut self, key: u32, id: BrickId) -> bool {
+        let Some(range) = self.source.known_range(id) else {
+            return false;
+        };
+        if self.range_visible(range.packed()) {
+            return false;
+        }
+        let entry = TableEntry {
+            key,
+            cell: 0,
+            range: range.packed(),
+            slot: 0,
+        };
+        if self.insert_entry(entry).is_ok() {
+            self.empty[id.level as usize] += 1;
+            self.metadata.push_back(key);
+            self.changed_frame = self.frame;
+            self.counters.skipped_unread += 1;
+        }
+        true
+    }
+
     /// Whether `key` needs nothing more: in the atlas, uniform (drawn from its value) or failed.
     fn satisfied(&self, key: u32) -> bool {
         match self.table.get(key) {
@@ -639,6 +667,10 @@ impl Streamer {
             let asked_level = id.level;
             loop {
                 if wanted.contains_key(&key) || self.satisfied(key) {
+                    break;
+                }
+                if self.known_invisible(key, id) {
+                    // Its range, known without reading it, cannot show: the rays skip it.
                     break;
                 }
                 let off_center = view.off_center(self.shape.brick_center(id));

@@ -11,6 +11,7 @@ use std::sync::{Arc, Mutex};
 use super::pyramid::{Downsampling, PyramidShape};
 use super::source::{
     BRICK_SIZE, BrickData, BrickError, BrickId, BrickSource, PADDED_BRICK, PADDED_BRICK_VOXELS,
+    ValueRange,
 };
 use crate::volume::ome_zarr::Pyramid;
 use crate::volume::{Quantization, Scalar, VoxelData, VoxelType, with_voxel_slice};
@@ -40,6 +41,10 @@ pub struct ZarrSource {
     /// Decoded chunks as value levels: neighbouring bricks share a chunk (and every brick's
     /// apron reaches into its neighbours'), so each chunk is decoded once while it is used.
     chunks: Mutex<ChunkCache>,
+    /// Per stored level, every chunk's smallest and largest value where the store has them
+    /// (`voxscope convert` writes them), x fastest: what [`BrickSource::known_range`] answers
+    /// from.
+    chunk_ranges: Vec<Option<Vec<[f64; 2]>>>,
 }
 
 /// Bytes of decoded chunks a [`ZarrSource`] keeps (value levels, 2 bytes a voxel).
@@ -144,6 +149,14 @@ impl ZarrSource {
             sources.push(LevelSource { stored, ratio });
         }
         let (quantization, max_value_level) = quantization_of(&pyramid)?;
+        // The stored levels' chunk ranges, for the levels bricks are read from (a store
+        // without them, or with damaged ones, is read brick by brick as any other).
+        let mut chunk_ranges = vec![None; pyramid.levels.len()];
+        for source in &sources {
+            if chunk_ranges[source.stored].is_none() {
+                chunk_ranges[source.stored] = pyramid.chunk_ranges(source.stored).ok().flatten();
+            }
+        }
         let how = match pyramid.downscaling.as_deref() {
             Some(kind) if kind.contains("max") || kind.contains("nearest") => Downsampling::Max,
             _ => Downsampling::Mean,
@@ -157,6 +170,7 @@ impl ZarrSource {
             max_value_level,
             how,
             chunks: Mutex::default(),
+            chunk_ranges,
         })
     }
 
@@ -310,6 +324,45 @@ impl BrickSource for ZarrSource {
 
     fn max_value_level(&self) -> u16 {
         self.max_value_level
+    }
+
+    fn known_range(&self, id: BrickId) -> Option<ValueRange> {
+        let level = self.shape.levels.get(id.level as usize)?;
+        let source = self.sources.get(id.level as usize)?;
+        let ranges = self.chunk_ranges.get(source.stored)?.as_ref()?;
+        let info = &self.pyramid.levels[source.stored];
+        let grid = info.chunk_grid();
+        // The stored voxels the brick's own voxels cover, and the chunks holding them.
+        let first: [usize; 3] = std::array::from_fn(|a| {
+            let c0 = (id.brick[a] as usize * BRICK_SIZE).min(level.dims[a] - 1);
+            covered(c0, c0, source.ratio[a], info.dims[a]).0 / info.chunk[a]
+        });
+        let last: [usize; 3] = std::array::from_fn(|a| {
+            let c1 = ((id.brick[a] as usize + 1) * BRICK_SIZE - 1).min(level.dims[a] - 1);
+            covered(c1, c1, source.ratio[a], info.dims[a]).1 / info.chunk[a]
+        });
+        let (mut low, mut high) = (f64::INFINITY, f64::NEG_INFINITY);
+        for z in first[2]..=last[2] {
+            for y in first[1]..=last[1] {
+                for x in first[0]..=last[0] {
+                    let [min, max] = *ranges.get(x + grid[0] * (y + grid[1] * z))?;
+                    if !(min.is_finite() && max.is_finite()) {
+                        return None;
+                    }
+                    low = low.min(min);
+                    high = high.max(max);
+                }
+            }
+        }
+        // Widened to whole levels, so that rounding never hides a visible voxel.
+        let q = self.quantization;
+        let level_of = |value: f64, round: fn(f64) -> f64| {
+            round((value - q.offset) / q.step).clamp(0.0, u16::MAX as f64) as u16
+        };
+        (low <= high).then(|| ValueRange {
+            min: level_of(low, f64::floor),
+            max: level_of(high, f64::ceil),
+        })
     }
 
     fn read_brick(&self, id: BrickId) -> Result<BrickData, BrickError> {
