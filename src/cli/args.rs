@@ -26,10 +26,12 @@ pub struct VolumeArgs {
     /// Voxel size SX,SY,SZ (overrides the file's).
     #[arg(long, value_name = "SX,SY,SZ", value_parser = parse_spacing)]
     pub spacing: Option<[f64; 3]>,
-    /// The channel of a multi-channel OME-Zarr image (0 = the first).
+    /// The channel of a multi-channel image (0 = the first): OME-Zarr, OME-TIFF, ImageJ
+    /// hyperstacks, NIfTI (dim 5), NRRD (a list, vector or color axis).
     #[arg(long, default_value_t = 0)]
     pub channel: usize,
-    /// The time point of a time-lapse OME-Zarr image (0 = the first).
+    /// The time point of a time series (0 = the first): OME-Zarr, OME-TIFF, ImageJ
+    /// hyperstacks, 4-D NIfTI and NRRD.
     #[arg(long, default_value_t = 0)]
     pub time: usize,
 }
@@ -40,7 +42,7 @@ impl VolumeArgs {
         LoadOptions {
             raw: self.raw,
             spacing: self.spacing,
-            zarr: crate::volume::ome_zarr::PyramidOptions {
+            select: crate::volume::Selection {
                 channel: self.channel,
                 time: self.time,
             },

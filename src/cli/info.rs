@@ -24,8 +24,11 @@ pub fn run(args: &InfoArgs) -> Result<(), String> {
     // A Zarr store's pyramid first: its levels, channels and axes, whichever level opens.
     let pyramid = match &args.volume.file {
         Some(spec) if is_zarr_folder(std::path::Path::new(spec)) => Some(
-            Pyramid::open(std::path::Path::new(spec), args.volume.load_options().zarr)
-                .map_err(|e| e.to_string())?,
+            Pyramid::open(
+                std::path::Path::new(spec),
+                args.volume.load_options().select,
+            )
+            .map_err(|e| e.to_string())?,
         ),
         _ => None,
     };
@@ -40,7 +43,8 @@ pub fn run(args: &InfoArgs) -> Result<(), String> {
         if let Some(pyramid) = &pyramid {
             print!("{}", pyramid_table(pyramid));
         }
-        print!("{}", info_table(&prepared));
+        // A pyramid's table lists its channels and time points already.
+        print!("{}", info_table(&prepared, pyramid.is_none()));
     }
     Ok(())
 }
@@ -186,6 +190,15 @@ fn info_json(p: &Prepared) -> serde_json::Value {
             "orientation": volume.orientation.describe(),
             "voxels": volume.voxel_count(),
             "metadata": volume.metadata.iter().map(|(k, v)| (k.clone(), json!(v))).collect::<serde_json::Map<String, serde_json::Value>>(),
+            "channels": volume.series.channels.iter().enumerate().map(|(index, c)| json!({
+                "index": index,
+                "name": c.name,
+                "color": c.color.map(hex_color),
+                "window": c.window.map(|w| [w.low, w.high]),
+            })).collect::<Vec<_>>(),
+            "time_points": volume.series.time_points,
+            "channel": volume.series.selected.channel,
+            "time": volume.series.selected.time,
         },
         "octree": {
             "depth": p.octree.depth,
@@ -204,7 +217,45 @@ fn info_json(p: &Prepared) -> serde_json::Value {
     })
 }
 
-fn info_table(p: &Prepared) -> String {
+/// `#rrggbb`.
+fn hex_color([r, g, b]: [u8; 3]) -> String {
+    format!("#{r:02x}{g:02x}{b:02x}")
+}
+
+/// The `channels` and `time points` lines: how many, which is shown, the channels' names and
+/// colors where the file gives them.
+fn series_lines(series: &crate::volume::Series) -> String {
+    let described = series
+        .channels
+        .iter()
+        .any(|c| c.name.is_some() || c.color.is_some());
+    let mut channels = format!(
+        "channels     {} (showing {})",
+        series.channel_count(),
+        series.selected.channel
+    );
+    if described {
+        let listed: Vec<String> = series
+            .channels
+            .iter()
+            .enumerate()
+            .map(|(index, c)| {
+                let name = c.name.as_deref().unwrap_or("(no name)");
+                match c.color {
+                    Some(color) => format!("{index} {name} {}", hex_color(color)),
+                    None => format!("{index} {name}"),
+                }
+            })
+            .collect();
+        channels.push_str(&format!(": {}", listed.join(", ")));
+    }
+    format!(
+        "{channels}\ntime points  {} (showing {})\n",
+        series.time_points, series.selected.time
+    )
+}
+
+fn info_table(p: &Prepared, with_series: bool) -> String {
     use std::fmt::Write;
     let volume = &p.volume;
     let octree = &p.octree;
@@ -230,6 +281,9 @@ fn info_table(p: &Prepared) -> String {
     let _ = writeln!(out, "value range  {low} … {high}");
     for (key, value) in &volume.metadata {
         let _ = writeln!(out, "{key:<12} {value}");
+    }
+    if with_series {
+        out.push_str(&series_lines(&volume.series));
     }
     let _ = writeln!(out, "window       {} … {}", window.low, window.high);
     let _ = writeln!(

@@ -14,6 +14,7 @@ mod orientation;
 mod raw;
 mod registry;
 mod sample;
+mod series;
 mod slices;
 mod synthetic;
 mod tiff;
@@ -28,6 +29,7 @@ pub use orientation::Orientation;
 pub use raw::RawLayout;
 pub use registry::{LoadOptions, load};
 pub use sample::{SAMPLE_NAME, sample};
+pub use series::{ChannelInfo, Selection, Series};
 pub use synthetic::SyntheticKind;
 pub use values::{Histogram, Quantization, QuantizedVolume, ValueWindow};
 pub(crate) use voxel_type::with_voxel_slice;
@@ -65,6 +67,9 @@ pub struct Volume {
     /// The window the file advises for display (OME-Zarr's `omero` window), if any; the
     /// default window where no other is chosen.
     pub default_window: Option<ValueWindow>,
+    /// The file's channels and time points and which frame this volume is (one of each for
+    /// plain 3-D files).
+    pub series: Series,
 }
 
 /// A linear map from stored values to the data's own units (NIfTI `scl_slope`/`scl_inter`).
@@ -119,6 +124,7 @@ impl Volume {
             orientation: Orientation::AsStored,
             metadata: Vec::new(),
             default_window: None,
+            series: Series::default(),
         })
     }
 
