@@ -2,6 +2,7 @@
 //! spec, and the value statistics that the transfer function needs. Pure CPU; knows nothing of
 //! octrees or GPUs.
 
+mod channels;
 mod dicom;
 mod error;
 pub mod format;
@@ -22,6 +23,7 @@ pub(crate) mod values;
 mod voxel_type;
 mod vti;
 
+pub use channels::{MAX_CHANNELS, load_all_channels, load_as_channels};
 pub use error::LoadError;
 pub use format::{Format, dialog_extensions, dialog_filter_name};
 pub use nrrd::NrrdEncoding;

@@ -1,0 +1,294 @@
+//! The composite of channels (`shaders/composite.wgsl`): MIP equals the clamped sum of the
+//! channels' colored MIPs, DVR and MIP equal the CPU reference composite, one white channel
+//! equals the dense renderer, and the CLI's composite options and their errors.
+
+mod support;
+
+use std::process::{Command, Output};
+
+use image::RgbaImage;
+use support::gpu;
+use support::reference::{CompositeChannel, MarchVolume, psnr, reference_composite};
+use voxscope::octree::TransferFunction;
+use voxscope::render::{
+    Camera, ChannelLayer, CompositeRaycaster, CompositeVolume, GpuContext, RenderMode,
+    RenderSettings, RenderTarget, RendererKind, read_image, tinted_lookup_table,
+};
+use voxscope::volume::{self, LoadOptions, QuantizedVolume, ValueWindow};
+
+const SIZE: (u32, u32) = (96, 72);
+
+/// Five channels (so the second texture, channels 4–7, is read too) on one 24³ grid, their
+/// colors dim enough that their sum rarely saturates (so each one shows in the composite).
+fn channels() -> Vec<(QuantizedVolume, TransferFunction, [f32; 3])> {
+    let specs = [
+        ("synthetic:sphere:24", [0.0, 1.0, 0.0]),
+        ("synthetic:shells:24", [1.0, 0.0, 1.0]),
+        ("synthetic:noise:24", [0.0, 1.0, 1.0]),
+        ("synthetic:gradient:24", [1.0, 1.0, 0.0]),
+        ("synthetic:shells:24", [1.0, 0.3, 0.0]),
+    ];
+    specs
+        .iter()
+        .enumerate()
+        .map(|(index, (spec, color))| {
+            let volume = volume::load(spec, &LoadOptions::default()).unwrap();
+            let quantized = QuantizedVolume::new(&volume);
+            let mut window = quantized.robust_window();
+            if index == 4 {
+                // The same shells as channel 1, windowed apart, so channel 4 differs.
+                window = ValueWindow {
+                    low: window.low,
+                    high: (window.low + window.high) / 2.0,
+                };
+            }
+            let dim = color.map(|c: f32| c * 0.45);
+            (quantized, TransferFunction::gray(window), dim)
+        })
+        .collect()
+}
+
+fn layers(channels: &[(QuantizedVolume, TransferFunction, [f32; 3])]) -> Vec<ChannelLayer<'_>> {
+    channels
+        .iter()
+        .map(|(quantized, transfer, color)| ChannelLayer {
+            quantized,
+            transfer,
+            color: *color,
+        })
+        .collect()
+}
+
+fn camera() -> Camera {
+    Camera {
+        azimuth_deg: 35.0,
+        elevation_deg: 25.0,
+        distance: 2.2,
+        ..Camera::default()
+    }
+}
+
+fn settings(mode: RenderMode, density: f32) -> RenderSettings {
+    RenderSettings {
+        mode,
+        density,
+        ..RenderSettings::full_detail(0)
+    }
+}
+
+fn composite(
+    context: &GpuContext,
+    layers: &[ChannelLayer<'_>],
+    settings: &RenderSettings,
+) -> RgbaImage {
+    let volume = CompositeVolume::upload(context, layers, [1.0; 3]).expect("upload");
+    let target = RenderTarget::new(context, SIZE.0, SIZE.1);
+    CompositeRaycaster::new(context).render(context, &volume, &target, &camera(), settings);
+    read_image(context, &target).expect("readback")
+}
+
+fn reference(
+    channels: &[(QuantizedVolume, TransferFunction, [f32; 3])],
+    settings: &RenderSettings,
+) -> RgbaImage {
+    let volumes: Vec<MarchVolume> = channels
+        .iter()
+        .map(|(q, _, _)| MarchVolume::new(q))
+        .collect();
+    let composite: Vec<CompositeChannel<'_>> = channels
+        .iter()
+        .zip(&volumes)
+        .map(|((quantized, transfer, color), volume)| CompositeChannel {
+            volume,
+            table: tinted_lookup_table(transfer, quantized.quantization, *color),
+        })
+        .collect();
+    reference_composite(&composite, [1.0; 3], &camera(), settings, SIZE.0, SIZE.1)
+}
+
+fn save(image: &RgbaImage, name: &str) {
+    image
+        .save(support::image_dir().join(format!("composite-{name}.png")))
+        .expect("save");
+}
+
+fn lit(image: &RgbaImage) -> f64 {
+    support::reference::coverage(image)
+}
+
+#[test]
+fn composite_mip_is_the_clamped_sum_of_the_channels_colored_mips() {
+    let context = gpu();
+    let channels = channels();
+    let layers = layers(&channels);
+    let mip = settings(RenderMode::Mip, 1.0);
+    let together = composite(&context, &layers, &mip);
+    let mut sum = vec![0u32; (SIZE.0 * SIZE.1 * 3) as usize];
+    for layer in &layers {
+        let alone = composite(&context, std::slice::from_ref(layer), &mip);
+        assert!(lit(&alone) > 0.1, "every channel shows");
+        for (i, pixel) in alone.pixels().enumerate() {
+            for c in 0..3 {
+                sum[i * 3 + c] += pixel[c] as u32;
+            }
+        }
+    }
+    let summed = RgbaImage::from_fn(SIZE.0, SIZE.1, |x, y| {
+        let i = ((y * SIZE.0 + x) * 3) as usize;
+        let [r, g, b] = [0, 1, 2].map(|c| sum[i + c].min(255) as u8);
+        image::Rgba([r, g, b, 255])
+    });
+    save(&together, "mip");
+    save(&summed, "mip-summed");
+    let db = psnr(&together, &summed);
+    eprintln!("composite MIP against the sum of 5 single-channel MIPs: {db:.1} dB");
+    assert!(db >= 40.0, "{db:.1} dB");
+    // Dropping a channel changes the picture: each counts.
+    let four = composite(&context, &layers[..4], &mip);
+    assert!(psnr(&together, &four) < 40.0);
+
+    let cpu = reference(&channels, &mip);
+    let db = psnr(&together, &cpu);
+    eprintln!("composite MIP against the CPU reference: {db:.1} dB");
+    assert!(db >= 40.0, "{db:.1} dB");
+}
+
+#[test]
+fn composite_dvr_matches_the_cpu_reference() {
+    let context = gpu();
+    let channels = channels();
+    for (count, density) in [(2usize, 0.4f32), (5, 0.15)] {
+        let dvr = settings(RenderMode::Dvr, density);
+        let gpu_image = composite(&context, &layers(&channels[..count]), &dvr);
+        let cpu_image = reference(&channels[..count], &dvr);
+        save(&gpu_image, &format!("dvr-{count}"));
+        save(&cpu_image, &format!("dvr-{count}-cpu"));
+        assert!(lit(&gpu_image) > 0.1);
+        let db = psnr(&gpu_image, &cpu_image);
+        eprintln!("composite DVR of {count} channels against the CPU reference: {db:.1} dB");
+        assert!(db >= 40.0, "{count} channels: {db:.1} dB");
+    }
+}
+
+/// One white channel is the dense renderer's unshaded picture.
+#[test]
+fn one_white_channel_draws_what_the_dense_renderer_draws() {
+    let context = gpu();
+    let volume = volume::load("synthetic:shells:24", &LoadOptions::default()).unwrap();
+    let prepared = support::Prepared::new(volume, None);
+    for mode in [RenderMode::Dvr, RenderMode::Mip] {
+        let settings = settings(mode, 0.3);
+        let dense = support::draw(
+            &context,
+            &prepared.renderer(&context, RendererKind::Dense),
+            &camera(),
+            &settings,
+            SIZE,
+        );
+        let layer = ChannelLayer {
+            quantized: &prepared.quantized,
+            transfer: &prepared.transfer,
+            color: [1.0; 3],
+        };
+        let white = composite(&context, &[layer], &settings);
+        let db = psnr(&dense, &white);
+        eprintln!("{mode:?}: one white channel against dense: {db:.1} dB");
+        assert!(db >= 40.0, "{mode:?}: {db:.1} dB");
+    }
+}
+
+fn voxscope(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_voxscope"))
+        .args(args)
+        .output()
+        .expect("the binary runs")
+}
+
+fn fixture(name: &str) -> String {
+    format!("{}/tests/data/channels/{name}", env!("CARGO_MANIFEST_DIR"))
+}
+
+#[test]
+fn render_composites_multi_channel_files_by_default_and_checks_its_options() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("composite.png");
+    let out = out.to_str().unwrap();
+    let ome = fixture("two-channels.ome.tif");
+    let run = |extra: &[&str]| {
+        let mut args = vec!["render", ome.as_str(), "-o", out, "--size", "64x48"];
+        args.extend_from_slice(extra);
+        voxscope(&args)
+    };
+    let output = run(&[]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("composite of 2 channels (#00ff00, #ff00ff), dense renderer"),
+        "{stderr}"
+    );
+    let output = run(&[
+        "--channel-colors",
+        "red,#0000ff",
+        "--channel-window",
+        "1:3800:5000",
+    ]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{stderr}");
+    assert!(stderr.contains("(#ff0000, #0000ff)"), "{stderr}");
+    let image = image::open(out).unwrap().to_rgba8();
+    assert!(lit(&image) > 0.05);
+    // Only red and blue: no green anywhere.
+    assert!(image.pixels().all(|p| p[1] == 0));
+
+    for (extra, problem) in [
+        (
+            &["--channel-colors", "chartreuse"][..],
+            "color 'chartreuse' is not one of green, magenta",
+        ),
+        (
+            &["--channel-window", "2:0:10"][..],
+            "--channel-window 2: there are 2 channels (0 to 1)",
+        ),
+        (
+            &["--renderer", "octree"][..],
+            "the composite of 2 channels is drawn by the dense renderer",
+        ),
+    ] {
+        let output = run(extra);
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(
+            !output.status.success() && stderr.contains(problem),
+            "{stderr}"
+        );
+    }
+    // One channel chosen: the usual renderers.
+    let output = run(&["--channel", "1", "--renderer", "octree"]);
+    assert!(output.status.success());
+
+    // Files as channels: same dimensions, else an error naming both.
+    let stack = fixture("hyperstack-c1-t1.tif");
+    let both = format!("{stack},{stack}");
+    let output = voxscope(&[
+        "render",
+        "--channels-from",
+        &both,
+        "-o",
+        out,
+        "--size",
+        "64x48",
+    ]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        output.status.success() && stderr.contains("composite of 2 channels"),
+        "{stderr}"
+    );
+    let mixed = format!("{stack},{}", fixture("series-t1.nii.gz"));
+    let output = voxscope(&["render", "--channels-from", &mixed, "-o", out]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        !output.status.success()
+            && stderr.contains("dimensions 10x8x6 differ from")
+            && stderr.contains("16x12x5; channels need one grid"),
+        "{stderr}"
+    );
+}
