@@ -292,3 +292,51 @@ fn render_composites_multi_channel_files_by_default_and_checks_its_options() {
         "{stderr}"
     );
 }
+
+#[test]
+fn bench_times_the_composite_for_each_channel_count() {
+    let output = voxscope(&[
+        "bench",
+        "synthetic:sphere:24",
+        "--renderer",
+        "dense",
+        "--size",
+        "48x32",
+        "--frames",
+        "2",
+        "--composite-channels",
+        "1,2,4",
+        "--json",
+    ]);
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let json: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    let rows: Vec<&serde_json::Value> = json["results"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|row| row["renderer"] == "composite")
+        .collect();
+    // 3 channel counts × (DVR, MIP) × 3 cameras.
+    assert_eq!(rows.len(), 18);
+    for mode in ["dvr-gray-1ch", "mip-2ch", "dvr-gray-4ch"] {
+        assert_eq!(
+            rows.iter().filter(|r| r["mode"] == mode).count(),
+            3,
+            "{mode}"
+        );
+    }
+    assert!(rows.iter().all(|r| r["median_ms"].as_f64().unwrap() > 0.0));
+    assert!(
+        json["gpu_bytes"]["composite-4"]["textures_and_tables"]
+            .as_u64()
+            .unwrap()
+            > 0
+    );
+    let refused = voxscope(&["bench", "synthetic:sphere:8", "--composite-channels", "9"]);
+    assert!(!refused.status.success());
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("channel count '9' is not 1 to 8"));
+}

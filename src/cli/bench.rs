@@ -12,8 +12,9 @@ use super::stream::StreamArgs;
 use super::{ClipArgs, Prepared, VolumeArgs};
 use crate::octree::{OpacityMode, TransferFunction};
 use crate::render::{
-    Camera, DEFAULT_BRICK_SIZE, GpuContext, GpuTimer, RenderMode, RenderSettings, RenderTarget,
-    RendererKind, RendererOptions, Shading, VolumeRenderer, read_visits, time_passes, timing_name,
+    Camera, ChannelLayer, CompositeRaycaster, CompositeVolume, DEFAULT_BRICK_SIZE, Frame,
+    GpuContext, GpuTimer, RenderMode, RenderSettings, RenderTarget, RendererKind, RendererOptions,
+    Shading, VolumeRenderer, read_visits, time_passes, timing_name,
 };
 use crate::volume::ValueWindow;
 
@@ -55,6 +56,21 @@ pub struct BenchArgs {
     pub stream: bool,
     #[command(flatten)]
     pub stream_options: StreamArgs,
+    /// Also time the composite of channels: the volume as N channels (each a copy, its own
+    /// table and color) for each N listed (1 to 8), DVR and MIP, renderer `composite`.
+    #[arg(long, value_name = "N,…", value_delimiter = ',', value_parser = parse_channel_count)]
+    pub composite_channels: Option<Vec<usize>>,
+}
+
+/// A channel count for --composite-channels: 1 to [`crate::volume::MAX_CHANNELS`].
+fn parse_channel_count(text: &str) -> Result<usize, String> {
+    match text.trim().parse::<usize>() {
+        Ok(n) if (1..=crate::volume::MAX_CHANNELS).contains(&n) => Ok(n),
+        _ => Err(format!(
+            "channel count '{text}' is not 1 to {}",
+            crate::volume::MAX_CHANNELS
+        )),
+    }
 }
 
 /// One transfer setting of the benchmark: its name in the results, transfer function, mode,
@@ -194,7 +210,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
                     ..Camera::default()
                 };
                 let view = View {
-                    renderer: &renderer,
+                    renderer: Drawer::Volume(&renderer),
                     target: &target,
                     camera,
                     settings: &settings,
@@ -228,6 +244,60 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
             kind.name().to_owned(),
             percentile(&edit_wall_ms, 50.0).into(),
         );
+    }
+    for &count in args.composite_channels.as_deref().unwrap_or_default() {
+        let layers: Vec<ChannelLayer<'_>> = (0..count)
+            .map(|index| ChannelLayer {
+                quantized: &prepared.quantized,
+                transfer: &gray,
+                color: super::composite::DEFAULT_CHANNEL_COLORS[index]
+                    .1
+                    .map(|c| c as f32 / 255.0),
+            })
+            .collect();
+        let volume = CompositeVolume::upload(&context, &layers, prepared.volume.spacing)
+            .map_err(|e| format!("{}: {e}", prepared.volume.name))?;
+        let raycaster = CompositeRaycaster::new(&context);
+        gpu_bytes.insert(
+            format!("composite-{count}"),
+            json!({"textures_and_tables": volume.gpu_bytes()}),
+        );
+        for (mode_name, mode) in [("dvr-gray", RenderMode::Dvr), ("mip", RenderMode::Mip)] {
+            let settings = RenderSettings {
+                mode,
+                density: args.density,
+                shading: Shading::OFF,
+                clip,
+                ..RenderSettings::full_detail(depth)
+            };
+            for (camera_name, distance) in CAMERAS {
+                let view = View {
+                    renderer: Drawer::Composite(&raycaster, &volume),
+                    target: &target,
+                    camera: Camera {
+                        distance,
+                        ..Camera::default()
+                    },
+                    settings: &settings,
+                };
+                let times = time_frames(&context, &view, args.frames, timer.as_ref())?;
+                let work = sample_visits(&context, &view)?;
+                let median = percentile(&times, 50.0);
+                results.push(BenchResult {
+                    renderer: "composite",
+                    mode: composite_mode_name(mode_name, count),
+                    camera: camera_name,
+                    median_ms: median,
+                    p95_ms: percentile(&times, 95.0),
+                    fps: 1000.0 / median,
+                    rays_per_s: (target.width as f64 * target.height as f64) / (median * 1e-3),
+                    nodes_per_ray_avg: work.average,
+                    nodes_per_ray_max: work.max,
+                    rays_in_volume: work.rays,
+                    simd_efficiency: work.simd_efficiency,
+                });
+            }
+        }
     }
     gpu_bytes.insert(
         "target".into(),
@@ -264,9 +334,78 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
     Ok(())
 }
 
+/// What draws a timed frame: one of the volume renderers, or the composite of channels.
+#[derive(Clone, Copy)]
+enum Drawer<'a> {
+    Volume(&'a VolumeRenderer),
+    Composite(&'a CompositeRaycaster, &'a CompositeVolume),
+}
+
+impl Drawer<'_> {
+    fn encode(
+        self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &RenderTarget,
+        camera: &Camera,
+        settings: &RenderSettings,
+        writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
+        match self {
+            Self::Volume(renderer) => {
+                renderer.encode(context, encoder, target, camera, settings, writes)
+            }
+            Self::Composite(raycaster, volume) => {
+                let frame = Frame {
+                    volume,
+                    target,
+                    camera,
+                    settings,
+                };
+                raycaster.encode(context, encoder, &frame, writes);
+            }
+        }
+    }
+
+    fn render(
+        self,
+        context: &GpuContext,
+        target: &RenderTarget,
+        camera: &Camera,
+        settings: &RenderSettings,
+    ) {
+        let mut encoder = context
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("voxscope::bench_frame"),
+            });
+        self.encode(context, &mut encoder, target, camera, settings, None);
+        context.queue.submit([encoder.finish()]);
+    }
+}
+
+/// `dvr-gray-2ch`: the name of a composite row (static, as the other rows' modes).
+fn composite_mode_name(mode: &str, channels: usize) -> &'static str {
+    const DVR: [&str; 8] = [
+        "dvr-gray-1ch",
+        "dvr-gray-2ch",
+        "dvr-gray-3ch",
+        "dvr-gray-4ch",
+        "dvr-gray-5ch",
+        "dvr-gray-6ch",
+        "dvr-gray-7ch",
+        "dvr-gray-8ch",
+    ];
+    const MIP: [&str; 8] = [
+        "mip-1ch", "mip-2ch", "mip-3ch", "mip-4ch", "mip-5ch", "mip-6ch", "mip-7ch", "mip-8ch",
+    ];
+    let names = if mode == "mip" { &MIP } else { &DVR };
+    names[channels.clamp(1, 8) - 1]
+}
+
 /// One renderer, target, camera and settings: what a timed frame draws.
 struct View<'a> {
-    renderer: &'a VolumeRenderer,
+    renderer: Drawer<'a>,
     target: &'a RenderTarget,
     camera: Camera,
     settings: &'a RenderSettings,
