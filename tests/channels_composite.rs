@@ -340,3 +340,33 @@ fn bench_times_the_composite_for_each_channel_count() {
     assert!(!refused.status.success());
     assert!(String::from_utf8_lossy(&refused.stderr).contains("channel count '9' is not 1 to 8"));
 }
+
+#[test]
+fn info_lists_each_channels_name_color_range_and_window() {
+    let ome = fixture("two-channels.ome.tif");
+    let output = voxscope(&["info", &ome, "--channel-window", "1:4000:5000"]);
+    assert!(output.status.success());
+    let text = String::from_utf8_lossy(&output.stdout);
+    assert!(text.contains("composite of 2 channels"), "{text}");
+    for (channel, name, color) in [(0, "DAPI", "#00ff00"), (1, "GFP", "#ff00ff")] {
+        let options = LoadOptions {
+            select: volume::Selection { channel, time: 0 },
+            ..LoadOptions::default()
+        };
+        let volume = volume::load(&ome, &options).unwrap();
+        let values: Vec<f64> = (0..volume.voxel_count())
+            .map(|i| volume.data.get(i).unwrap())
+            .collect();
+        let low = values.iter().copied().fold(f64::INFINITY, f64::min);
+        let high = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let line = format!("  channel {channel}  {name}  {color}  range {low} … {high}  window ");
+        assert!(text.contains(&line), "{line} in {text}");
+    }
+    assert!(
+        text.contains("range 3737 … 5686  window 4000 … 5000"),
+        "{text}"
+    );
+    // One channel chosen: no composite.
+    let output = voxscope(&["info", &ome, "--channel", "0"]);
+    assert!(!String::from_utf8_lossy(&output.stdout).contains("composite of"));
+}

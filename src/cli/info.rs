@@ -15,6 +15,9 @@ pub struct InfoArgs {
     /// Transparent/opaque counts follow this transfer function.
     #[command(flatten)]
     pub transfer: TransferArgs,
+    /// The channels' colors and windows, as `render` composites them.
+    #[command(flatten)]
+    pub channels: super::composite::ChannelArgs,
     /// Print one JSON object instead of the table.
     #[arg(long)]
     pub json: bool,
@@ -32,9 +35,24 @@ pub fn run(args: &InfoArgs) -> Result<(), String> {
         ),
         _ => None,
     };
-    let prepared = Prepared::new(&args.volume, &args.transfer)?;
+    // Several channels: each one's range, window and color; the table below is channel 0's.
+    let (prepared, channels) = match args.volume.composite_channels()? {
+        Some(channels) if channels.len() > 1 => {
+            let first = channels[0].clone();
+            let channels = args.channels.prepare(channels, &args.transfer)?;
+            (Prepared::from_volume(first, &args.transfer)?, channels)
+        }
+        Some(mut channels) => {
+            let volume = channels.pop().ok_or("no channel was read")?;
+            (Prepared::from_volume(volume, &args.transfer)?, Vec::new())
+        }
+        None => (Prepared::new(&args.volume, &args.transfer)?, Vec::new()),
+    };
     if args.json {
         let mut json = info_json(&prepared);
+        if !channels.is_empty() {
+            json["composite"] = composite_json(&channels);
+        }
         if let Some(pyramid) = &pyramid {
             json["pyramid"] = pyramid_json(pyramid);
         }
@@ -45,6 +63,9 @@ pub fn run(args: &InfoArgs) -> Result<(), String> {
         }
         // A pyramid's table lists its channels and time points already.
         print!("{}", info_table(&prepared, pyramid.is_none()));
+        if !channels.is_empty() {
+            print!("{}", composite_table(&channels));
+        }
     }
     Ok(())
 }
@@ -215,6 +236,53 @@ fn info_json(p: &Prepared) -> serde_json::Value {
         },
         "transfer": p.transfer,
     })
+}
+
+/// Each channel of a composite: name, color, value range and window.
+fn composite_json(channels: &[super::composite::PreparedChannel]) -> serde_json::Value {
+    json!(
+        channels
+            .iter()
+            .enumerate()
+            .map(|(index, c)| {
+                let series = &c.volume.series;
+                json!({
+                    "index": index,
+                    "file": c.volume.name,
+                    "name": series.channels.get(series.selected.channel).and_then(|i| i.name.clone()),
+                    "color": hex_color(c.color),
+                    "value_range": c.quantized.value_range,
+                    "window": [c.transfer.window.low, c.transfer.window.high],
+                })
+            })
+            .collect::<Vec<_>>()
+    )
+}
+
+/// The composite's channels, one line each, after the table of channel 0.
+fn composite_table(channels: &[super::composite::PreparedChannel]) -> String {
+    use std::fmt::Write;
+    let mut out = format!(
+        "\ncomposite of {} channels (render draws them together)\n",
+        channels.len()
+    );
+    for (index, c) in channels.iter().enumerate() {
+        let series = &c.volume.series;
+        let name = series
+            .channels
+            .get(series.selected.channel)
+            .and_then(|i| i.name.as_deref())
+            .unwrap_or("(no name)");
+        let [low, high] = c.quantized.value_range;
+        let _ = writeln!(
+            out,
+            "  channel {index}  {name}  {}  range {low} … {high}  window {} … {}",
+            hex_color(c.color),
+            c.transfer.window.low,
+            c.transfer.window.high
+        );
+    }
+    out
 }
 
 /// `#rrggbb`.
