@@ -370,3 +370,50 @@ fn info_lists_each_channels_name_color_range_and_window() {
     let output = voxscope(&["info", &ome, "--channel", "0"]);
     assert!(!String::from_utf8_lossy(&output.stdout).contains("composite of"));
 }
+
+fn copy_folder(from: &std::path::Path, to: &std::path::Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for entry in std::fs::read_dir(from).unwrap() {
+        let entry = entry.unwrap();
+        let target = to.join(entry.file_name());
+        if entry.file_type().unwrap().is_dir() {
+            copy_folder(&entry.path(), &target);
+        } else {
+            std::fs::copy(entry.path(), target).unwrap();
+        }
+    }
+}
+
+/// OME-Zarr's `omero` channels give the composite its colors and windows.
+#[test]
+fn omero_colors_and_windows_are_the_composites_defaults() {
+    let dir = tempfile::tempdir().unwrap();
+    let store = dir.path().join("recolored.ome.zarr");
+    copy_folder(
+        &std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/data/ome-zarr/tczyx-v04.ome.zarr"),
+        &store,
+    );
+    let attributes = store.join(".zattrs");
+    let text = std::fs::read_to_string(&attributes).unwrap();
+    // The fixture's colors are the defaults' (green, magenta): make them red and blue.
+    let text = text.replace("00FF00", "FF0000").replace("FF00FF", "0000FF");
+    std::fs::write(&attributes, text).unwrap();
+    let output = voxscope(&["info", store.to_str().unwrap(), "--time", "1"]);
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    assert!(
+        stdout.contains("channel 0  nuclei  #ff0000  range"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("window 2000 … 30000"), "{stdout}");
+    assert!(
+        stdout.contains("channel 1  head  #0000ff  range"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("window 10 … 200"), "{stdout}");
+}
