@@ -109,8 +109,23 @@ fn channel_names_and_spacing_come_from_the_files() {
     assert_eq!(names, [Some("DAPI"), Some("GFP")]);
     assert_eq!(ome.spacing, [0.25, 0.25, 1.0]);
 
+    // ImageJ: the LUTs' colors, and each channel's first page's label.
     let hyperstack = load(&fixture("hyperstack.tif"), 0, 1).unwrap();
     assert_eq!(hyperstack.spacing, [0.5, 0.5, 2.0]);
+    let expected = expected();
+    let facts = &expected["hyperstack.tif"];
+    for (channel, info) in hyperstack.series.channels.iter().enumerate() {
+        assert_eq!(
+            info.name.as_deref(),
+            facts["names"][channel].as_str(),
+            "channel {channel}"
+        );
+        let [r, g, b] = info.color.expect("a LUT color");
+        assert_eq!(
+            format!("#{r:02x}{g:02x}{b:02x}"),
+            facts["colors"][channel].as_str().unwrap()
+        );
+    }
     let nifti = load(&fixture("series-4d.nii.gz"), 0, 2).unwrap();
     assert_eq!(nifti.spacing, [1.5, 1.5, 2.0]);
     let nrrd = load(&fixture("vector.nrrd"), 2, 0).unwrap();

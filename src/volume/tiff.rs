@@ -2,7 +2,8 @@
 //! 16/32/64-bit float samples; spacing from ImageJ's or OME-TIFF's metadata when present.
 //! ImageJ hyperstacks (`channels`, `slices`, `frames`; pages XYCZT) and OME-TIFF (`SizeC`,
 //! `SizeZ`, `SizeT`, `DimensionOrder`) give one channel and time point; samples of a pixel
-//! (RGB, or channels stored as samples) are channels too.
+//! (RGB, or channels stored as samples) are channels too. ImageJ's LUTs and slice labels
+//! (IJMetadata) give the channels' colors and names.
 
 use std::path::Path;
 
@@ -245,6 +246,15 @@ pub(super) fn load(path: &Path, select: Selection) -> Result<Volume, Problem> {
     for (channel, info) in series.channels.iter_mut().enumerate() {
         if let Some(named) = metadata.channel_info.get(channel) {
             *info = named.clone();
+        } else if samples == 1 {
+            // ImageJ: the channel's LUT color, and the label of its first page.
+            let imagej = &metadata.imagej;
+            info.color = imagej.lut_colors.get(channel).copied();
+            info.name = imagej
+                .labels
+                .get(layout.page(channel, 0, 0))
+                .filter(|label| !label.is_empty())
+                .cloned();
         }
     }
     volume.series = series;
@@ -493,6 +503,85 @@ struct StackMetadata {
     dimension_order: Option<String>,
     /// Names and colors of the channels (OME `Channel` elements), in order.
     channel_info: Vec<ChannelInfo>,
+    /// ImageJ's slice labels (`Labels`, one per page) and channels' LUTs, from IJMetadata.
+    imagej: ImageJExtras,
+}
+
+/// What ImageJ keeps in its IJMetadata tag (50839, item sizes in 50838) that voxscope shows:
+/// the pages' labels and each channel's LUT (its color: the LUT's brightest entry).
+#[derive(Debug, Clone, Default, PartialEq)]
+struct ImageJExtras {
+    labels: Vec<String>,
+    lut_colors: Vec<[u8; 3]>,
+}
+
+impl ImageJExtras {
+    /// Parses IJMetadata `data` with item sizes `counts` (the first: the header's). A
+    /// malformed block gives nothing: it is display advice.
+    fn parse(data: &[u8], counts: &[u32]) -> Self {
+        let mut extras = Self::default();
+        let little = match data.get(..4) {
+            Some(b"IJIJ") => false,
+            Some(b"JIJI") => true,
+            _ => return extras,
+        };
+        let word = |bytes: &[u8]| -> u32 {
+            let b: [u8; 4] = bytes.try_into().unwrap_or_default();
+            if little {
+                u32::from_le_bytes(b)
+            } else {
+                u32::from_be_bytes(b)
+            }
+        };
+        let Some((&header_bytes, sizes)) = counts.split_first() else {
+            return extras;
+        };
+        let header_bytes = header_bytes as usize;
+        if header_bytes < 4 || header_bytes > data.len() || !(header_bytes - 4).is_multiple_of(8) {
+            return extras;
+        }
+        // The items follow the header, as many of each type as its count says.
+        let mut types = Vec::new();
+        for entry in data[4..header_bytes].chunks_exact(8) {
+            let (kind, count) = (word(&entry[..4]), word(&entry[4..]) as usize);
+            if types.len() + count > sizes.len() {
+                return extras;
+            }
+            types.extend(std::iter::repeat_n(kind, count));
+        }
+        let mut offset = header_bytes;
+        for (&kind, &size) in types.iter().zip(sizes) {
+            let Some(item) = data.get(offset..offset.saturating_add(size as usize)) else {
+                return extras;
+            };
+            offset += size as usize;
+            match &kind.to_be_bytes() {
+                b"labl" => {
+                    let units: Vec<u16> = item
+                        .chunks_exact(2)
+                        .map(|pair| {
+                            let pair = [pair[0], pair[1]];
+                            if little {
+                                u16::from_le_bytes(pair)
+                            } else {
+                                u16::from_be_bytes(pair)
+                            }
+                        })
+                        .collect();
+                    extras
+                        .labels
+                        .push(printable(&String::from_utf16_lossy(&units)));
+                }
+                b"luts" if item.len() == 768 => {
+                    extras
+                        .lut_colors
+                        .push([item[255], item[256 + 255], item[512 + 255]]);
+                }
+                _ => {}
+            }
+        }
+        extras
+    }
 }
 
 impl StackMetadata {
@@ -509,10 +598,18 @@ impl StackMetadata {
             slices: None,
             dimension_order: None,
             channel_info: Vec::new(),
+            imagej: ImageJExtras::default(),
         };
         let description = description.unwrap_or_default();
         if description.starts_with("ImageJ=") {
             metadata.source = Some("ImageJ");
+            // Sizes already checked against the file (`check_tag_counts`).
+            if let (Ok(data), Ok(counts)) = (
+                decoder.get_tag_u8_vec(Tag::Unknown(50839)),
+                decoder.get_tag_u32_vec(Tag::Unknown(50838)),
+            ) {
+                metadata.imagej = ImageJExtras::parse(&data, &counts);
+            }
             // XResolution / YResolution are pixels per unit.
             for (axis, tag) in [(0, Tag::XResolution), (1, Tag::YResolution)] {
                 if let Some(per_unit) = rational(decoder, tag).filter(|r| *r > 0.0) {

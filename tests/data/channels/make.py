@@ -56,16 +56,21 @@ stack = numpy.stack([
     numpy.stack([pattern((Z, Y, X), 10 * t + c) for c in range(C)], axis=1)
     for t in range(T)
 ])  # TZCYX
+# Channel 0's LUT black to cyan, channel 1's black to orange; each page labeled "name z t".
+ramp = numpy.arange(256, dtype=numpy.uint8)
+luts = [numpy.stack([0 * ramp, ramp, ramp]), numpy.stack([ramp, ramp // 2, 0 * ramp])]
+labels = [f"{['nuclei', 'actin'][c]} z{z} t{t}" for t in range(T) for z in range(Z) for c in range(C)]
 tifffile.imwrite(
     path("hyperstack.tif"), stack, imagej=True,
     resolution=(1 / 0.5, 1 / 0.5),
-    metadata={"axes": "TZCYX", "spacing": 2.0, "unit": "um"},
+    metadata={"axes": "TZCYX", "spacing": 2.0, "unit": "um", "LUTs": luts, "Labels": labels},
 )
 # Channel 1 at time point 1 as a plain 3-D stack.
 tifffile.imwrite(path("hyperstack-c1-t1.tif"), stack[1, :, 1], imagej=True,
                  resolution=(1 / 0.5, 1 / 0.5), metadata={"axes": "ZYX", "spacing": 2.0, "unit": "um"})
 expected["hyperstack.tif"] = {
     "channels": C, "time_points": T, "dims": [X, Y, Z],
+    "names": ["nuclei z0 t0", "actin z0 t0"], "colors": ["#00ffff", "#ff7f00"],
     "frames": {f"c{c}t{t}": frame_facts(stack[t, :, c]) for c in range(C) for t in range(T)},
 }
 
