@@ -371,3 +371,24 @@ fn a_chosen_frame_renders_as_the_same_frame_written_alone() {
         );
     }
 }
+
+/// A channel axis is listed channel by channel: one of more entries than an axis may have
+/// voxels is refused before anything of that size exists.
+#[test]
+fn a_huge_nrrd_channel_axis_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("many.nrrd");
+    let mut bytes =
+        b"NRRD0004\ntype: uint8\ndimension: 4\nsizes: 70000 1 1 1\nkinds: list domain domain domain\nencoding: raw\n\n"
+            .to_vec();
+    bytes.extend(vec![7u8; 70000]);
+    std::fs::write(&path, &bytes).unwrap();
+    let error = load(&path, 0, 0).unwrap_err();
+    assert_eq!(
+        error,
+        format!(
+            "{}: NRRD channel axis 0 has 70000 entries, more than 65536",
+            path.display()
+        )
+    );
+}

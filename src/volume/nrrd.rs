@@ -14,7 +14,9 @@ use super::io::{
     regular_file_size, skip_bytes, skip_lines,
 };
 use super::orientation::{keeps_stored_order, reorient_to_ras};
-use super::{Endian, Selection, Series, Volume, VoxelData, VoxelType, checked_voxel_count};
+use super::{
+    Endian, MAX_AXIS, Selection, Series, Volume, VoxelData, VoxelType, checked_voxel_count,
+};
 
 /// The header is text; anything longer than this is not a NRRD header.
 const MAX_HEADER_BYTES: u64 = 1 << 20;
@@ -285,6 +287,15 @@ impl Layout {
         }
         if channel_axes.len() > 1 || time_axes.len() > 1 {
             return Err(not_3d());
+        }
+        // Each channel is listed (`Volume::series`): as many as an axis may have voxels.
+        if let Some(&axis) = channel_axes.first()
+            && sizes[axis] > MAX_AXIS
+        {
+            return Err(format!(
+                "NRRD channel axis {axis} has {} entries, more than {MAX_AXIS}",
+                sizes[axis]
+            ));
         }
         let axis = |i: usize| spatial.get(i).copied();
         let dims = std::array::from_fn(|i| axis(i).map_or(1, |a| sizes[a]));

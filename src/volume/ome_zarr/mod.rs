@@ -1119,6 +1119,14 @@ fn describe_codecs(metadata: &ArrayMetadata) -> String {
 /// Says on stderr when a finer level exists.
 pub(crate) fn load(path: &Path, options: PyramidOptions) -> Result<Volume, Problem> {
     let pyramid = Pyramid::open(path, options).map_err(|e| e.problem)?;
+    // Each channel is listed (`Volume::series`): as many as an axis may have voxels.
+    if pyramid.channels > super::MAX_AXIS {
+        return Err(format!(
+            "the channel axis has {} entries, more than {}",
+            pyramid.channels,
+            super::MAX_AXIS
+        ));
+    }
     let level = pyramid.finest_within(VOLUME_VOXEL_BUDGET as u64);
     let info = &pyramid.levels[level];
     if info.voxel_count() > MAX_VOXELS as u64 {
