@@ -392,3 +392,30 @@ fn a_huge_nrrd_channel_axis_is_refused() {
         )
     );
 }
+
+/// A 4-D header/image pair (`.hdr` + `.img`, magic `ni1`): the frame is read from the `.img`.
+#[test]
+fn a_nifti_pair_reads_its_frames_from_the_image_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let single = std::fs::read(fixture("series-4d.nii")).unwrap();
+    let vox_offset = f32::from_le_bytes(single[108..112].try_into().unwrap()) as usize;
+    let mut header = single[..348].to_vec();
+    header[344..348].copy_from_slice(b"ni1\0");
+    header[108..112].copy_from_slice(&0f32.to_le_bytes());
+    std::fs::write(dir.path().join("pair.hdr"), &header).unwrap();
+    std::fs::write(dir.path().join("pair.img"), &single[vox_offset..]).unwrap();
+    for time in 0..3 {
+        let pair = load(&dir.path().join("pair.hdr"), 0, time).unwrap();
+        let gzipped = load(&fixture("series-4d.nii.gz"), 0, time).unwrap();
+        assert_eq!(pair.data, gzipped.data, "time point {time}");
+    }
+    // The .img cut inside frame 2: that frame fails, naming the .img.
+    let image = dir.path().join("pair.img");
+    let cut = &single[vox_offset..single.len() - 10];
+    std::fs::write(&image, cut).unwrap();
+    let error = load(&dir.path().join("pair.hdr"), 0, 2).unwrap_err();
+    assert!(
+        error.contains("pair.img") && error.contains("frame 2 of 3"),
+        "{error}"
+    );
+}
