@@ -336,6 +336,53 @@ fn bench_times_the_composite_for_each_channel_count() {
             .unwrap()
             > 0
     );
+    // A multi-channel file: channel 0's rows, and its own channels' composite.
+    let ome = fixture("two-channels.ome.tif");
+    let output = voxscope(&[
+        "bench",
+        &ome,
+        "--renderer",
+        "dense",
+        "--size",
+        "32x24",
+        "--frames",
+        "2",
+        "--json",
+    ]);
+    assert!(output.status.success());
+    let json: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    let results = json["results"].as_array().unwrap();
+    let file_rows: Vec<_> = results
+        .iter()
+        .filter(|r| r["renderer"] == "composite-file")
+        .collect();
+    assert_eq!(file_rows.len(), 6);
+    assert!(
+        file_rows
+            .iter()
+            .all(|r| r["mode"] == "dvr-gray-2ch" || r["mode"] == "mip-2ch")
+    );
+    assert_eq!(
+        results.iter().filter(|r| r["renderer"] == "dense").count(),
+        12
+    );
+    // One channel chosen: no composite.
+    let output = voxscope(&[
+        "bench",
+        &ome,
+        "--channel",
+        "1",
+        "--renderer",
+        "dense",
+        "--size",
+        "32x24",
+        "--frames",
+        "2",
+        "--json",
+    ]);
+    let json: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    assert_eq!(json["results"].as_array().unwrap().len(), 12);
+
     let refused = voxscope(&["bench", "synthetic:sphere:8", "--composite-channels", "9"]);
     assert!(!refused.status.success());
     assert!(String::from_utf8_lossy(&refused.stderr).contains("channel count '9' is not 1 to 8"));

@@ -125,7 +125,26 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
     transfer_args.window = args.window;
     transfer_args.threshold = args.threshold;
     transfer_args.opacity = Some(OpacityArg::Gray);
-    let prepared = Prepared::new(&args.volume, &transfer_args)?;
+    // A multi-channel file (unless --channel N): channel 0's rows, then the composite's.
+    let (prepared, file_channels) = match args.volume.composite_channels()? {
+        Some(channels) if channels.len() > 1 => {
+            let first = channels[0].clone();
+            let channel_args = super::composite::ChannelArgs {
+                channel_colors: None,
+                channel_window: Vec::new(),
+            };
+            let channels = channel_args.prepare(channels, &transfer_args)?;
+            (
+                Prepared::from_volume(first, &transfer_args)?,
+                Some(channels),
+            )
+        }
+        Some(mut channels) => {
+            let volume = channels.pop().ok_or("no channel was read")?;
+            (Prepared::from_volume(volume, &transfer_args)?, None)
+        }
+        None => (Prepared::new(&args.volume, &transfer_args)?, None),
+    };
     let context = GpuContext::new_headless().map_err(|e| e.to_string())?;
     let depth = prepared.octree.depth;
     let target = RenderTarget::new(&context, args.size.0, args.size.1);
@@ -245,6 +264,16 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
             percentile(&edit_wall_ms, 50.0).into(),
         );
     }
+    let composite = CompositeBench {
+        context: &context,
+        target: &target,
+        timer: timer.as_ref(),
+        frames: args.frames,
+        density: args.density,
+        clip,
+        depth,
+        spacing: prepared.volume.spacing,
+    };
     for &count in args.composite_channels.as_deref().unwrap_or_default() {
         let layers: Vec<ChannelLayer<'_>> = (0..count)
             .map(|index| ChannelLayer {
@@ -257,47 +286,22 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
             .collect();
         let volume = CompositeVolume::upload(&context, &layers, prepared.volume.spacing)
             .map_err(|e| format!("{}: {e}", prepared.volume.name))?;
-        let raycaster = CompositeRaycaster::new(&context);
         gpu_bytes.insert(
             format!("composite-{count}"),
             json!({"textures_and_tables": volume.gpu_bytes()}),
         );
-        for (mode_name, mode) in [("dvr-gray", RenderMode::Dvr), ("mip", RenderMode::Mip)] {
-            let settings = RenderSettings {
-                mode,
-                density: args.density,
-                shading: Shading::OFF,
-                clip,
-                ..RenderSettings::full_detail(depth)
-            };
-            for (camera_name, distance) in CAMERAS {
-                let view = View {
-                    renderer: Drawer::Composite(&raycaster, &volume),
-                    target: &target,
-                    camera: Camera {
-                        distance,
-                        ..Camera::default()
-                    },
-                    settings: &settings,
-                };
-                let times = time_frames(&context, &view, args.frames, timer.as_ref())?;
-                let work = sample_visits(&context, &view)?;
-                let median = percentile(&times, 50.0);
-                results.push(BenchResult {
-                    renderer: "composite",
-                    mode: composite_mode_name(mode_name, count),
-                    camera: camera_name,
-                    median_ms: median,
-                    p95_ms: percentile(&times, 95.0),
-                    fps: 1000.0 / median,
-                    rays_per_s: (target.width as f64 * target.height as f64) / (median * 1e-3),
-                    nodes_per_ray_avg: work.average,
-                    nodes_per_ray_max: work.max,
-                    rays_in_volume: work.rays,
-                    simd_efficiency: work.simd_efficiency,
-                });
-            }
-        }
+        composite.rows(&volume, "composite", &mut results)?;
+    }
+    // A multi-channel file: the composite of its own channels too (`--channel all`).
+    if let Some(channels) = &file_channels {
+        let layers: Vec<ChannelLayer<'_>> = channels.iter().map(|c| c.layer()).collect();
+        let volume = CompositeVolume::upload(&context, &layers, prepared.volume.spacing)
+            .map_err(|e| format!("{}: {e}", prepared.volume.name))?;
+        gpu_bytes.insert(
+            "composite-file".into(),
+            json!({"textures_and_tables": volume.gpu_bytes()}),
+        );
+        composite.rows(&volume, "composite-file", &mut results)?;
     }
     gpu_bytes.insert(
         "target".into(),
@@ -381,6 +385,69 @@ impl Drawer<'_> {
             });
         self.encode(context, &mut encoder, target, camera, settings, None);
         context.queue.submit([encoder.finish()]);
+    }
+}
+
+/// What every composite row shares: device, target, timing and settings.
+struct CompositeBench<'a> {
+    context: &'a GpuContext,
+    target: &'a RenderTarget,
+    timer: Option<&'a GpuTimer>,
+    frames: u32,
+    density: f32,
+    clip: crate::octree::Clip,
+    depth: u32,
+    spacing: [f64; 3],
+}
+
+impl CompositeBench<'_> {
+    /// Times `volume`'s composite, DVR and MIP, from the three cameras, as rows of `renderer`.
+    fn rows(
+        &self,
+        volume: &CompositeVolume,
+        renderer: &'static str,
+        results: &mut Vec<BenchResult>,
+    ) -> Result<(), String> {
+        debug_assert_eq!(volume.spacing, self.spacing);
+        let raycaster = CompositeRaycaster::new(self.context);
+        for (mode_name, mode) in [("dvr-gray", RenderMode::Dvr), ("mip", RenderMode::Mip)] {
+            let settings = RenderSettings {
+                mode,
+                density: self.density,
+                shading: Shading::OFF,
+                clip: self.clip,
+                ..RenderSettings::full_detail(self.depth)
+            };
+            for (camera_name, distance) in CAMERAS {
+                let view = View {
+                    renderer: Drawer::Composite(&raycaster, volume),
+                    target: self.target,
+                    camera: Camera {
+                        distance,
+                        ..Camera::default()
+                    },
+                    settings: &settings,
+                };
+                let times = time_frames(self.context, &view, self.frames, self.timer)?;
+                let work = sample_visits(self.context, &view)?;
+                let median = percentile(&times, 50.0);
+                let pixels = self.target.width as f64 * self.target.height as f64;
+                results.push(BenchResult {
+                    renderer,
+                    mode: composite_mode_name(mode_name, volume.channels),
+                    camera: camera_name,
+                    median_ms: median,
+                    p95_ms: percentile(&times, 95.0),
+                    fps: 1000.0 / median,
+                    rays_per_s: pixels / (median * 1e-3),
+                    nodes_per_ray_avg: work.average,
+                    nodes_per_ray_max: work.max,
+                    rays_in_volume: work.rays,
+                    simd_efficiency: work.simd_efficiency,
+                });
+            }
+        }
+        Ok(())
     }
 }
 
