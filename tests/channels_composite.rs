@@ -464,3 +464,40 @@ fn omero_colors_and_windows_are_the_composites_defaults() {
     );
     assert!(stdout.contains("window 10 … 200"), "{stdout}");
 }
+
+/// An edit of a channel's transfer function or color rewrites the tables only, and draws what
+/// a fresh upload with the new layers draws.
+#[test]
+fn new_layers_on_an_uploaded_composite_draw_as_a_fresh_upload() {
+    let context = gpu();
+    let channels = channels();
+    let before = layers(&channels[..3]);
+    let narrower: Vec<TransferFunction> = channels[..3]
+        .iter()
+        .map(|(quantized, _, _)| {
+            let window = quantized.robust_window();
+            TransferFunction::gray(ValueWindow {
+                low: (window.low + window.high) / 2.0,
+                high: window.high,
+            })
+        })
+        .collect();
+    let after: Vec<ChannelLayer<'_>> = channels[..3]
+        .iter()
+        .zip(&narrower)
+        .map(|((quantized, _, _), transfer)| ChannelLayer {
+            quantized,
+            transfer,
+            color: [0.2, 0.4, 0.9],
+        })
+        .collect();
+    let dvr = settings(RenderMode::Dvr, 0.3);
+    let volume = CompositeVolume::upload(&context, &before, [1.0; 3]).unwrap();
+    volume.set_layers(&context, &after);
+    let target = RenderTarget::new(&context, SIZE.0, SIZE.1);
+    CompositeRaycaster::new(&context).render(&context, &volume, &target, &camera(), &dvr);
+    let edited = read_image(&context, &target).unwrap();
+    let fresh = composite(&context, &after, &dvr);
+    assert_eq!(edited, fresh);
+    assert!(psnr(&edited, &composite(&context, &before, &dvr)) < 40.0);
+}
