@@ -501,3 +501,33 @@ fn new_layers_on_an_uploaded_composite_draw_as_a_fresh_upload() {
     assert_eq!(edited, fresh);
     assert!(psnr(&edited, &composite(&context, &before, &dvr)) < 40.0);
 }
+
+/// A crop box and a clip plane cut the composite's rays as they cut one channel's.
+#[test]
+fn a_clipped_composite_matches_the_cpu_reference() {
+    let context = gpu();
+    let channels = channels();
+    let clip = voxscope::octree::Clip {
+        bounds: Some([[0.1, 0.8], [0.0, 0.7], [0.2, 1.0]]),
+        plane: Some(voxscope::octree::ClipPlane {
+            normal: [0.3, -1.0, 0.2],
+            distance: -0.4,
+        }),
+    };
+    for mode in [RenderMode::Dvr, RenderMode::Mip] {
+        let clipped = RenderSettings {
+            clip,
+            ..settings(mode, 0.3)
+        };
+        let gpu_image = composite(&context, &layers(&channels[..3]), &clipped);
+        let unclipped = composite(&context, &layers(&channels[..3]), &settings(mode, 0.3));
+        let cpu_image = reference(&channels[..3], &clipped);
+        let db = psnr(&gpu_image, &cpu_image);
+        eprintln!("{mode:?}: clipped composite against the CPU reference: {db:.1} dB");
+        assert!(db >= 40.0, "{mode:?}: {db:.1} dB");
+        assert!(
+            psnr(&gpu_image, &unclipped) < 40.0,
+            "{mode:?}: the clip cuts"
+        );
+    }
+}
