@@ -419,3 +419,53 @@ fn a_nifti_pair_reads_its_frames_from_the_image_file() {
         "{error}"
     );
 }
+
+/// `convert` writes the frame asked for; a source read in slabs (raw NRRD) refuses a frame it
+/// lacks instead of writing its only one.
+#[test]
+fn convert_writes_the_chosen_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("t1.ome.zarr");
+    let series = fixture("series-4d.nii.gz");
+    let output = voxscope(&[
+        "convert",
+        series.to_str().unwrap(),
+        out.to_str().unwrap(),
+        "--time",
+        "1",
+    ]);
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let converted = load(&out, 0, 0).unwrap();
+    let alone = load(&fixture("series-t1.nii.gz"), 0, 0).unwrap();
+    assert_eq!(converted.dims, alone.dims);
+    let values = |v: &Volume| -> Vec<f64> {
+        (0..v.voxel_count())
+            .map(|i| v.data.get(i).unwrap())
+            .collect()
+    };
+    assert_eq!(values(&converted), values(&alone));
+
+    let raw = dir.path().join("raw.nrrd");
+    let mut bytes =
+        b"NRRD0004\ntype: uint8\ndimension: 3\nsizes: 4 3 2\nencoding: raw\n\n".to_vec();
+    bytes.extend([1u8; 24]);
+    std::fs::write(&raw, bytes).unwrap();
+    let output = voxscope(&[
+        "convert",
+        raw.to_str().unwrap(),
+        dir.path().join("raw.ome.zarr").to_str().unwrap(),
+        "--channel",
+        "1",
+    ]);
+    assert!(!output.status.success());
+    assert!(
+        String::from_utf8_lossy(&output.stderr)
+            .contains("raw.nrrd: channel 1 does not exist (the image has 1)"),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+}
