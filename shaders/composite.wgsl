@@ -17,8 +17,29 @@
 @group(0) @binding(5) var<storage, read_write> visits: array<u32>;
 @group(0) @binding(6) var<storage, read_write> probe_out: ProbeResult;
 @group(0) @binding(7) var channels_high: texture_3d<f32>;
+// Empty-space skipping (DVR): per block of SKIP_BLOCK³ voxels, 1 where some channel's opacity
+// is above 0 for some level its samples there can take (the union of the channels' visible
+// ranges), else 0; x fastest. Rebuilt with the tables.
+@group(0) @binding(8) var<storage, read> visible_blocks: array<u32>;
 
 const TABLE_LEVELS: u32 = 65536u;
+// Keep in sync with `SKIP_BLOCK` in src/render/composite.rs.
+const SKIP_BLOCK: f32 = 8.0;
+
+// Where the ray leaves the block holding voxel-space point `p`, if no channel is visible
+// anywhere in it; else -1.
+fn empty_block_exit(p: vec3<f32>, origin: vec3<f32>, inv: vec3<f32>) -> f32 {
+    let blocks = vec3<u32>(ceil(params.volume.xyz / SKIP_BLOCK));
+    let block = min(vec3<u32>(max(floor(p / SKIP_BLOCK), vec3<f32>(0.0))), blocks - 1u);
+    if visible_blocks[block.x + blocks.x * (block.y + blocks.y * block.z)] != 0u {
+        return -1.0;
+    }
+    let low = vec3<f32>(block) * SKIP_BLOCK;
+    let high = low + SKIP_BLOCK;
+    let t_low = (low - origin) * inv;
+    let t_high = (high - origin) * inv;
+    return min_component(max(t_low, t_high));
+}
 
 // ray_common.wgsl's `accumulate` (not used here) samples a gradient: channel 0's.
 fn level_gradient(coords: vec3<f32>, half_texel: vec3<f32>) -> vec3<f32> {
@@ -62,11 +83,21 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let t_leave = interval.y;
     let step = 1.0 / length(dir);
     let texel = 1.0 / params.volume.xyz;
+    let inv = safe_inverse(dir);
     if t_enter < t_leave {
         for (var k = 0.0; ; k += 1.0) {
             let t = t_enter + (k + 0.5) * step;
             if t >= t_leave {
                 break;
+            }
+            if params.mode == MODE_DVR {
+                // Samples in a block where every channel is transparent add nothing: go on
+                // from the first sample past the block (on the same lattice of samples).
+                let exit = empty_block_exit(origin + t * dir, origin, inv);
+                if exit >= 0.0 {
+                    k = max(k + 1.0, ceil((exit - t_enter) / step - 0.5)) - 1.0;
+                    continue;
+                }
             }
             samples += 1u;
             let coords = (origin + t * dir) * texel;

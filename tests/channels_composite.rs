@@ -531,3 +531,72 @@ fn a_clipped_composite_matches_the_cpu_reference() {
         );
     }
 }
+
+/// DVR skips blocks where every channel is transparent: fewer samples, the same picture.
+#[test]
+fn transparent_blocks_are_skipped_without_changing_the_picture() {
+    let context = gpu();
+    // A ball of radius 8 (values 100…200) in the middle of an empty 48³ cube.
+    let side = 48usize;
+    let voxels: Vec<u8> = (0..side * side * side)
+        .map(|i| {
+            let [x, y, z] = [i % side, (i / side) % side, i / (side * side)]
+                .map(|c| c as f64 + 0.5 - side as f64 / 2.0);
+            let r = (x * x + y * y + z * z).sqrt();
+            if r < 8.0 { (200.0 - 12.0 * r) as u8 } else { 0 }
+        })
+        .collect();
+    let volume = volume::Volume::new(
+        "ball",
+        "synthetic",
+        [side; 3],
+        [1.0; 3],
+        volume::VoxelData::U8(voxels),
+    )
+    .unwrap();
+    let quantized = QuantizedVolume::new(&volume);
+    // Outside the ball the value is 0: transparent under a window from 0, visible under
+    // one that starts below 0.
+    let transparent_outside = TransferFunction::gray(ValueWindow {
+        low: 0.0,
+        high: 200.0,
+    });
+    let visible_everywhere = TransferFunction::gray(ValueWindow {
+        low: -1.0,
+        high: 200.0,
+    });
+    let dvr = settings(RenderMode::Dvr, 0.3);
+    let mut samples = Vec::new();
+    for transfer in [&transparent_outside, &visible_everywhere] {
+        let layer = ChannelLayer {
+            quantized: &quantized,
+            transfer,
+            color: [1.0, 0.5, 0.2],
+        };
+        let gpu_volume = CompositeVolume::upload(&context, &[layer], [1.0; 3]).unwrap();
+        let target = RenderTarget::new(&context, SIZE.0, SIZE.1);
+        CompositeRaycaster::new(&context).render(&context, &gpu_volume, &target, &camera(), &dvr);
+        let image = read_image(&context, &target).unwrap();
+        let visits = voxscope::render::read_visits(&context, &target).unwrap();
+        samples.push(visits.iter().map(|&v| v as u64).sum::<u64>());
+        let march = MarchVolume::new(&quantized);
+        let cpu = reference_composite(
+            &[CompositeChannel {
+                volume: &march,
+                table: tinted_lookup_table(transfer, quantized.quantization, layer.color),
+            }],
+            [1.0; 3],
+            &camera(),
+            &dvr,
+            SIZE.0,
+            SIZE.1,
+        );
+        let db = psnr(&image, &cpu);
+        assert!(db >= 40.0, "{db:.1} dB");
+    }
+    eprintln!(
+        "samples: {} skipping, {} with every block visible",
+        samples[0], samples[1]
+    );
+    assert!((samples[0] as f64) < 0.8 * samples[1] as f64, "{samples:?}");
+}

@@ -5,7 +5,9 @@
 //! is the transfer function's, its color channels multiplied by the channel's color (napari's
 //! additive colormaps: black to the color over the window). DVR sums the channels'
 //! premultiplied colors at each sample and takes 1 − Π(1 − αc) as the sample's opacity; MIP
-//! adds the colors of the channels' maxima. The composite is unshaded and has no probe: those
+//! adds the colors of the channels' maxima. DVR skips blocks of 8³ voxels where every channel
+//! is transparent (the union of the channels' visible ranges). The composite is unshaded and
+//! has no probe: those
 //! follow one channel's gradient or opacity, and which one is a choice the app makes.
 
 use wgpu::util::DeviceExt;
@@ -47,12 +49,80 @@ pub fn tinted_lookup_table(
         .collect()
 }
 
+/// Voxels along a side of an empty-space-skipping block (keep in sync with composite.wgsl).
+const SKIP_BLOCK: usize = 8;
+
+/// Per block of [`SKIP_BLOCK`]³ voxels, the smallest and largest value level a filtered sample
+/// there can round to: the block's and its neighbours' voxels (a trilinear sample reads one
+/// voxel beyond its block), as the 16-bit float texture holds them.
+fn block_ranges(quantized: &QuantizedVolume) -> Vec<[u16; 2]> {
+    let dims = quantized.dims;
+    let grid = dims.map(|d| d.div_ceil(SKIP_BLOCK));
+    let mut own = vec![[u16::MAX, 0u16]; grid.iter().product()];
+    let cell = |x: usize, y: usize, z: usize| x + grid[0] * (y + grid[1] * z);
+    for z in 0..dims[2] {
+        for y in 0..dims[1] {
+            let row = dims[0] * (y + dims[1] * z);
+            for x in 0..dims[0] {
+                let stored = half::f16::from_f32(quantized.levels[row + x] as f32).to_f32();
+                let range = &mut own[cell(x / SKIP_BLOCK, y / SKIP_BLOCK, z / SKIP_BLOCK)];
+                range[0] = range[0].min(stored.floor() as u16);
+                range[1] = range[1].max(stored.ceil().min(65535.0) as u16);
+            }
+        }
+    }
+    let mut ranges = own.clone();
+    for z in 0..grid[2] {
+        for y in 0..grid[1] {
+            for x in 0..grid[0] {
+                let range = &mut ranges[cell(x, y, z)];
+                for nz in z.saturating_sub(1)..(z + 2).min(grid[2]) {
+                    for ny in y.saturating_sub(1)..(y + 2).min(grid[1]) {
+                        for nx in x.saturating_sub(1)..(x + 2).min(grid[0]) {
+                            let [low, high] = own[cell(nx, ny, nz)];
+                            range[0] = range[0].min(low);
+                            range[1] = range[1].max(high);
+                        }
+                    }
+                }
+            }
+        }
+    }
+    ranges
+}
+
+/// Per block, 1 where some layer's table has an opacity above 0 within the block's range of
+/// that layer's levels (`ranges[layer]`), else 0.
+fn visible_blocks(layers: &[ChannelLayer<'_>], ranges: &[Vec<[u16; 2]>]) -> Vec<u32> {
+    let blocks = ranges.first().map_or(0, Vec::len);
+    let mut visible = vec![0u32; blocks];
+    for (layer, ranges) in layers.iter().zip(ranges) {
+        // How many levels below each level are visible: a range's count in O(1).
+        let table = layer.transfer.lookup_table(layer.quantized.quantization);
+        let mut below = Vec::with_capacity(table.len() + 1);
+        below.push(0u32);
+        for &packed in &table {
+            let last = *below.last().expect("starts with 0");
+            below.push(last + (unpack_rgba(packed)[3] > 0) as u32);
+        }
+        for (flag, &[low, high]) in visible.iter_mut().zip(ranges) {
+            if low <= high && below[high as usize + 1] > below[low as usize] {
+                *flag = 1;
+            }
+        }
+    }
+    visible
+}
+
 /// Up to 8 channels' value levels in two RGBA 3D textures (16-bit floats: exact up to level
 /// 2048, 11 significant bits above) and their tinted tables one after another.
 pub struct CompositeVolume {
     low: wgpu::TextureView,
     high: wgpu::TextureView,
     tables: wgpu::Buffer,
+    /// Each channel's level range per skipping block, and the blocks' visibility.
+    block_ranges: Vec<Vec<[u16; 2]>>,
+    visible: wgpu::Buffer,
     pub dims: [usize; 3],
     pub spacing: [f64; 3],
     pub channels: usize,
@@ -101,6 +171,17 @@ impl CompositeVolume {
             // Bound but never read (the shader reads it only for channels 4–7).
             Self::texture(context, "composite_high_unused", [1, 1, 1], &[])
         };
+        let block_ranges: Vec<Vec<[u16; 2]>> = layers
+            .iter()
+            .map(|layer| block_ranges(layer.quantized))
+            .collect();
+        let visible = context
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("voxscope::composite_visible_blocks"),
+                contents: bytemuck::cast_slice(&visible_blocks(layers, &block_ranges)),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            });
         let tables = Self::tables(layers);
         let tables = context
             .device
@@ -117,8 +198,10 @@ impl CompositeVolume {
         Ok(Self {
             low,
             high,
-            bytes: low_bytes + high_bytes + tables.size(),
+            bytes: low_bytes + high_bytes + tables.size() + visible.size(),
             tables,
+            block_ranges,
+            visible,
             dims,
             spacing,
             channels: layers.len(),
@@ -126,12 +209,16 @@ impl CompositeVolume {
     }
 
     /// Writes new transfer functions and colors (as many layers as at upload; their levels
-    /// are not read again).
+    /// are not read again) and the blocks the ray may skip.
     pub fn set_layers(&self, context: &GpuContext, layers: &[ChannelLayer<'_>]) {
         debug_assert_eq!(layers.len(), self.channels);
         context
             .queue
             .write_buffer(&self.tables, 0, bytemuck::cast_slice(&Self::tables(layers)));
+        let visible = visible_blocks(layers, &self.block_ranges);
+        context
+            .queue
+            .write_buffer(&self.visible, 0, bytemuck::cast_slice(&visible));
     }
 
     /// Bytes on the GPU: textures and tables.
@@ -252,6 +339,7 @@ impl CompositeRaycaster {
                 storage_entry(5, false),
                 storage_entry(6, false),
                 atlas_entry(7),
+                storage_entry(8, true),
             ],
         );
         Self {
@@ -306,6 +394,7 @@ impl CompositeRaycaster {
                 target.visits.as_entire_binding(),
                 self.stand_ins.probe.as_entire_binding(),
                 wgpu::BindingResource::TextureView(&volume.high),
+                volume.visible.as_entire_binding(),
             ],
         );
         let variant = Variant {
