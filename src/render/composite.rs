@@ -7,8 +7,8 @@
 //! premultiplied colors at each sample and takes 1 − Π(1 − αc) as the sample's opacity; MIP
 //! adds the colors of the channels' maxima. DVR skips blocks of 8³ voxels where every channel
 //! is transparent (the union of the channels' visible ranges). The composite is unshaded and
-//! has no probe: those
-//! follow one channel's gradient or opacity, and which one is a choice the app makes.
+//! has no probe: those follow one channel's gradient or opacity, and which one is a choice
+//! the app makes.
 
 use wgpu::util::DeviceExt;
 
