@@ -266,7 +266,7 @@ fn channel_and_time_select_one_volume_and_omero_gives_its_window() {
 
     // Through the loader: the channel's window is the volume's default window.
     let options = LoadOptions {
-        zarr: PyramidOptions {
+        select: PyramidOptions {
             channel: 1,
             time: 1,
         },

@@ -106,10 +106,25 @@ fn imagej_and_ome_metadata_give_the_spacing() {
         None,
         |_, _, _| 1,
     );
-    let error = load(&hyperstack).unwrap_err();
+    // Pages c0z0, c1z0, c0z1, c1z1 (XYCZT): channel 0 is pages 1 and 3.
+    let volume = load(&hyperstack).unwrap();
+    assert_eq!(volume.dims, [4, 4, 2]);
+    assert_eq!(volume.series.channel_count(), 2);
+    let beyond = volume::load(
+        &hyperstack.display().to_string(),
+        &LoadOptions {
+            select: volume::Selection {
+                channel: 2,
+                time: 0,
+            },
+            ..LoadOptions::default()
+        },
+    )
+    .unwrap_err()
+    .to_string();
     assert!(
-        error.contains("2 channels") && !error.contains('\n'),
-        "{error}"
+        beyond.ends_with("hyper.tif: channel 2 does not exist (the image has 2)"),
+        "{beyond}"
     );
 }
 
@@ -157,18 +172,19 @@ fn broken_stacks_fail_in_one_line_and_stay_untouched() {
         std::fs::read(&mixed).unwrap(),
         "page 2 is 5x4 but page 1 is 4x4",
     ));
-    let rgb = dir.path().join("rgb-src.tif");
+    // RGB pages are three channels (tests/channels.rs); CMYK is no set of channels.
+    let cmyk = dir.path().join("cmyk-src.tif");
     {
-        let file = std::fs::File::create(&rgb).unwrap();
+        let file = std::fs::File::create(&cmyk).unwrap();
         let mut encoder = TiffEncoder::new(file).unwrap();
         encoder
-            .write_image::<colortype::RGB8>(4, 4, &[0; 48])
+            .write_image::<colortype::CMYK8>(4, 4, &[0; 64])
             .unwrap();
     }
     cases.push((
-        "rgb.tif",
-        std::fs::read(&rgb).unwrap(),
-        "only grayscale pages",
+        "cmyk.tif",
+        std::fs::read(&cmyk).unwrap(),
+        "page 1 is CMYK, 8 bits per sample; only grayscale pages",
     ));
 
     for (name, content, expected) in cases {
@@ -302,22 +318,19 @@ fn long_tag_lists_are_shortened_and_color_types_named_in_words() {
     let dir = tempfile::tempdir().unwrap();
     let mut bits = vec![8u16; 49000];
     bits.extend(vec![16u16; 49000]);
-    for (name, content) in [
-        ("mixed-bits.tif", many_samples(&bits)),
-        ("four-samples.tif", many_samples(&[16, 16, 16, 16])),
-    ] {
-        let path = dir.path().join(name);
-        std::fs::write(&path, &content).unwrap();
-        let error = load(&path).unwrap_err();
-        assert!(
-            error.len() < 400,
-            "{name}: {} characters: {error}",
-            error.len()
-        );
-        assert!(!error.contains('{') && !error.contains('\n'), "{error}");
-    }
-    let error = load(&dir.path().join("four-samples.tif")).unwrap_err();
-    assert!(error.contains("4 samples of 16 bits per pixel"), "{error}");
+    std::fs::write(
+        dir.path().join("four-samples.tif"),
+        many_samples(&[16, 16, 16, 16]),
+    )
+    .unwrap();
+    let path = dir.path().join("mixed-bits.tif");
+    std::fs::write(&path, many_samples(&bits)).unwrap();
+    let error = load(&path).unwrap_err();
+    assert!(error.len() < 400, "{} characters: {error}", error.len());
+    assert!(!error.contains('{') && !error.contains('\n'), "{error}");
+    // Samples of one width are channels, one read at a time.
+    let four = load(&dir.path().join("four-samples.tif")).unwrap();
+    assert_eq!(four.series.channel_count(), 4);
 }
 
 #[test]

@@ -26,10 +26,22 @@ pub struct VolumeArgs {
     /// Voxel size SX,SY,SZ (overrides the file's).
     #[arg(long, value_name = "SX,SY,SZ", value_parser = parse_spacing)]
     pub spacing: Option<[f64; 3]>,
-    /// The channel of a multi-channel OME-Zarr image (0 = the first).
-    #[arg(long, default_value_t = 0)]
-    pub channel: usize,
-    /// The time point of a time-lapse OME-Zarr image (0 = the first).
+    /// The channel of a multi-channel image (0 = the first), or `all`: OME-Zarr, OME-TIFF,
+    /// ImageJ hyperstacks, NIfTI (dim 5), NRRD (a list, vector or color axis). `render`,
+    /// `bench` and `info` show all channels of a multi-channel file unless one is chosen;
+    /// other commands read channel 0.
+    #[arg(long, value_name = "N|all", value_parser = ChannelArg::parse)]
+    pub channel: Option<ChannelArg>,
+    /// Files opened together as the channels of one volume (same dimensions), instead of FILE.
+    #[arg(
+        long,
+        value_name = "A,B,…",
+        value_delimiter = ',',
+        conflicts_with = "file"
+    )]
+    pub channels_from: Option<Vec<String>>,
+    /// The time point of a time series (0 = the first): OME-Zarr, OME-TIFF, ImageJ
+    /// hyperstacks, 4-D NIfTI and NRRD.
     #[arg(long, default_value_t = 0)]
     pub time: usize,
 }
@@ -40,10 +52,51 @@ impl VolumeArgs {
         LoadOptions {
             raw: self.raw,
             spacing: self.spacing,
-            zarr: crate::volume::ome_zarr::PyramidOptions {
-                channel: self.channel,
+            select: crate::volume::Selection {
+                channel: match self.channel {
+                    Some(ChannelArg::Index(channel)) => channel,
+                    Some(ChannelArg::All) | None => 0,
+                },
                 time: self.time,
             },
+        }
+    }
+}
+
+/// `--channel`: one channel, or all of them composited.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ChannelArg {
+    Index(usize),
+    All,
+}
+
+impl ChannelArg {
+    fn parse(text: &str) -> Result<Self, String> {
+        if text.eq_ignore_ascii_case("all") {
+            return Ok(Self::All);
+        }
+        text.parse()
+            .map(Self::Index)
+            .map_err(|_| format!("channel '{text}' is not a number or 'all'"))
+    }
+}
+
+impl VolumeArgs {
+    /// The channels to composite, when these options ask for a composite or leave it to the
+    /// file (`--channel` not a number): every channel of FILE at `--time`, or the
+    /// `--channels-from` files. `None` when one channel was chosen.
+    pub fn composite_channels(&self) -> Result<Option<Vec<crate::volume::Volume>>, String> {
+        let options = self.load_options();
+        if let Some(specs) = &self.channels_from {
+            return crate::volume::load_as_channels(specs, &options)
+                .map(Some)
+                .map_err(|e| e.to_string());
+        }
+        match (&self.file, self.channel) {
+            (_, Some(ChannelArg::Index(_))) | (None, _) => Ok(None),
+            (Some(spec), _) => crate::volume::load_all_channels(spec, &options)
+                .map(Some)
+                .map_err(|e| e.to_string()),
         }
     }
 }

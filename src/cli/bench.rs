@@ -12,8 +12,9 @@ use super::stream::StreamArgs;
 use super::{ClipArgs, Prepared, VolumeArgs};
 use crate::octree::{OpacityMode, TransferFunction};
 use crate::render::{
-    Camera, DEFAULT_BRICK_SIZE, GpuContext, GpuTimer, RenderMode, RenderSettings, RenderTarget,
-    RendererKind, RendererOptions, Shading, VolumeRenderer, read_visits, time_passes, timing_name,
+    Camera, ChannelLayer, CompositeRaycaster, CompositeVolume, DEFAULT_BRICK_SIZE, Frame,
+    GpuContext, GpuTimer, RenderMode, RenderSettings, RenderTarget, RendererKind, RendererOptions,
+    Shading, VolumeRenderer, read_visits, time_passes, timing_name,
 };
 use crate::volume::ValueWindow;
 
@@ -55,6 +56,21 @@ pub struct BenchArgs {
     pub stream: bool,
     #[command(flatten)]
     pub stream_options: StreamArgs,
+    /// Also time the composite of channels: the volume as N channels (each a copy, its own
+    /// table and color) for each N listed (1 to 8), DVR and MIP, renderer `composite`.
+    #[arg(long, value_name = "N,…", value_delimiter = ',', value_parser = parse_channel_count)]
+    pub composite_channels: Option<Vec<usize>>,
+}
+
+/// A channel count for --composite-channels: 1 to [`crate::volume::MAX_CHANNELS`].
+fn parse_channel_count(text: &str) -> Result<usize, String> {
+    match text.trim().parse::<usize>() {
+        Ok(n) if (1..=crate::volume::MAX_CHANNELS).contains(&n) => Ok(n),
+        _ => Err(format!(
+            "channel count '{text}' is not 1 to {}",
+            crate::volume::MAX_CHANNELS
+        )),
+    }
 }
 
 /// One transfer setting of the benchmark: its name in the results, transfer function, mode,
@@ -109,7 +125,26 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
     transfer_args.window = args.window;
     transfer_args.threshold = args.threshold;
     transfer_args.opacity = Some(OpacityArg::Gray);
-    let prepared = Prepared::new(&args.volume, &transfer_args)?;
+    // A multi-channel file (unless --channel N): channel 0's rows, then the composite's.
+    let (prepared, file_channels) = match args.volume.composite_channels()? {
+        Some(channels) if channels.len() > 1 => {
+            let first = channels[0].clone();
+            let channel_args = super::composite::ChannelArgs {
+                channel_colors: None,
+                channel_window: Vec::new(),
+            };
+            let channels = channel_args.prepare(channels, &transfer_args)?;
+            (
+                Prepared::from_volume(first, &transfer_args)?,
+                Some(channels),
+            )
+        }
+        Some(mut channels) => {
+            let volume = channels.pop().ok_or("no channel was read")?;
+            (Prepared::from_volume(volume, &transfer_args)?, None)
+        }
+        None => (Prepared::new(&args.volume, &transfer_args)?, None),
+    };
     let context = GpuContext::new_headless().map_err(|e| e.to_string())?;
     let depth = prepared.octree.depth;
     let target = RenderTarget::new(&context, args.size.0, args.size.1);
@@ -195,7 +230,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
                     ..Camera::default()
                 };
                 let view = View {
-                    renderer: &renderer,
+                    renderer: Drawer::Volume(&renderer),
                     target: &target,
                     camera,
                     settings: &settings,
@@ -229,6 +264,45 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
             kind.name().to_owned(),
             percentile(&edit_wall_ms, 50.0).into(),
         );
+    }
+    let composite = CompositeBench {
+        context: &context,
+        target: &target,
+        timer: timer.as_ref(),
+        frames: args.frames,
+        density: args.density,
+        clip,
+        depth,
+        spacing: prepared.volume.spacing,
+    };
+    for &count in args.composite_channels.as_deref().unwrap_or_default() {
+        let layers: Vec<ChannelLayer<'_>> = (0..count)
+            .map(|index| ChannelLayer {
+                quantized: &prepared.quantized,
+                transfer: &gray,
+                color: super::composite::DEFAULT_CHANNEL_COLORS[index]
+                    .1
+                    .map(|c| c as f32 / 255.0),
+            })
+            .collect();
+        let volume = CompositeVolume::upload(&context, &layers, prepared.volume.spacing)
+            .map_err(|e| format!("{}: {e}", prepared.volume.name))?;
+        gpu_bytes.insert(
+            format!("composite-{count}"),
+            json!({"textures_and_tables": volume.gpu_bytes()}),
+        );
+        composite.rows(&volume, "composite", &mut results)?;
+    }
+    // A multi-channel file: the composite of its own channels too (`--channel all`).
+    if let Some(channels) = &file_channels {
+        let layers: Vec<ChannelLayer<'_>> = channels.iter().map(|c| c.layer()).collect();
+        let volume = CompositeVolume::upload(&context, &layers, prepared.volume.spacing)
+            .map_err(|e| format!("{}: {e}", prepared.volume.name))?;
+        gpu_bytes.insert(
+            "composite-file".into(),
+            json!({"textures_and_tables": volume.gpu_bytes()}),
+        );
+        composite.rows(&volume, "composite-file", &mut results)?;
     }
     gpu_bytes.insert(
         "target".into(),
@@ -265,9 +339,141 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
     Ok(())
 }
 
+/// What draws a timed frame: one of the volume renderers, or the composite of channels.
+#[derive(Clone, Copy)]
+enum Drawer<'a> {
+    Volume(&'a VolumeRenderer),
+    Composite(&'a CompositeRaycaster, &'a CompositeVolume),
+}
+
+impl Drawer<'_> {
+    fn encode(
+        self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &RenderTarget,
+        camera: &Camera,
+        settings: &RenderSettings,
+        writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
+        match self {
+            Self::Volume(renderer) => {
+                renderer.encode(context, encoder, target, camera, settings, writes)
+            }
+            Self::Composite(raycaster, volume) => {
+                let frame = Frame {
+                    volume,
+                    target,
+                    camera,
+                    settings,
+                };
+                raycaster.encode(context, encoder, &frame, writes);
+            }
+        }
+    }
+
+    fn render(
+        self,
+        context: &GpuContext,
+        target: &RenderTarget,
+        camera: &Camera,
+        settings: &RenderSettings,
+    ) {
+        let mut encoder = context
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("voxscope::bench_frame"),
+            });
+        self.encode(context, &mut encoder, target, camera, settings, None);
+        context.queue.submit([encoder.finish()]);
+    }
+}
+
+/// What every composite row shares: device, target, timing and settings.
+struct CompositeBench<'a> {
+    context: &'a GpuContext,
+    target: &'a RenderTarget,
+    timer: Option<&'a GpuTimer>,
+    frames: u32,
+    density: f32,
+    clip: crate::octree::Clip,
+    depth: u32,
+    spacing: [f64; 3],
+}
+
+impl CompositeBench<'_> {
+    /// Times `volume`'s composite, DVR and MIP, from the three cameras, as rows of `renderer`.
+    fn rows(
+        &self,
+        volume: &CompositeVolume,
+        renderer: &'static str,
+        results: &mut Vec<BenchResult>,
+    ) -> Result<(), String> {
+        debug_assert_eq!(volume.spacing, self.spacing);
+        let raycaster = CompositeRaycaster::new(self.context);
+        for (mode_name, mode) in [("dvr-gray", RenderMode::Dvr), ("mip", RenderMode::Mip)] {
+            let settings = RenderSettings {
+                mode,
+                density: self.density,
+                shading: Shading::OFF,
+                clip: self.clip,
+                ..RenderSettings::full_detail(self.depth)
+            };
+            for (camera_name, distance) in CAMERAS {
+                let view = View {
+                    renderer: Drawer::Composite(&raycaster, volume),
+                    target: self.target,
+                    camera: Camera {
+                        distance,
+                        ..Camera::default()
+                    },
+                    settings: &settings,
+                };
+                let times = time_frames(self.context, &view, self.frames, self.timer)?;
+                let work = sample_visits(self.context, &view)?;
+                let median = percentile(&times, 50.0);
+                let pixels = self.target.width as f64 * self.target.height as f64;
+                results.push(BenchResult {
+                    renderer,
+                    mode: composite_mode_name(mode_name, volume.channels),
+                    camera: camera_name,
+                    median_ms: median,
+                    p95_ms: percentile(&times, 95.0),
+                    fps: 1000.0 / median,
+                    rays_per_s: pixels / (median * 1e-3),
+                    nodes_per_ray_avg: work.average,
+                    nodes_per_ray_max: work.max,
+                    rays_in_volume: work.rays,
+                    simd_efficiency: work.simd_efficiency,
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// `dvr-gray-2ch`: the name of a composite row (static, as the other rows' modes).
+fn composite_mode_name(mode: &str, channels: usize) -> &'static str {
+    const DVR: [&str; 8] = [
+        "dvr-gray-1ch",
+        "dvr-gray-2ch",
+        "dvr-gray-3ch",
+        "dvr-gray-4ch",
+        "dvr-gray-5ch",
+        "dvr-gray-6ch",
+        "dvr-gray-7ch",
+        "dvr-gray-8ch",
+    ];
+    const MIP: [&str; 8] = [
+        "mip-1ch", "mip-2ch", "mip-3ch", "mip-4ch", "mip-5ch", "mip-6ch", "mip-7ch", "mip-8ch",
+    ];
+    let names = if mode == "mip" { &MIP } else { &DVR };
+    names[channels.clamp(1, 8) - 1]
+}
+
 /// One renderer, target, camera and settings: what a timed frame draws.
 struct View<'a> {
-    renderer: &'a VolumeRenderer,
+    renderer: Drawer<'a>,
     target: &'a RenderTarget,
     camera: Camera,
     settings: &'a RenderSettings,

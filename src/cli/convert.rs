@@ -73,7 +73,7 @@ pub fn run(args: &ConvertArgs) -> Result<(), String> {
     let load_options = LoadOptions {
         raw: args.raw,
         spacing: args.spacing,
-        zarr: PyramidOptions {
+        select: PyramidOptions {
             channel: args.channel,
             time: args.time,
         },

@@ -15,6 +15,9 @@ pub struct InfoArgs {
     /// Transparent/opaque counts follow this transfer function.
     #[command(flatten)]
     pub transfer: TransferArgs,
+    /// The channels' colors and windows, as `render` composites them.
+    #[command(flatten)]
+    pub channels: super::composite::ChannelArgs,
     /// Print one JSON object instead of the table.
     #[arg(long)]
     pub json: bool,
@@ -24,14 +27,32 @@ pub fn run(args: &InfoArgs) -> Result<(), String> {
     // A Zarr store's pyramid first: its levels, channels and axes, whichever level opens.
     let pyramid = match &args.volume.file {
         Some(spec) if is_zarr_folder(std::path::Path::new(spec)) => Some(
-            Pyramid::open(std::path::Path::new(spec), args.volume.load_options().zarr)
-                .map_err(|e| e.to_string())?,
+            Pyramid::open(
+                std::path::Path::new(spec),
+                args.volume.load_options().select,
+            )
+            .map_err(|e| e.to_string())?,
         ),
         _ => None,
     };
-    let prepared = Prepared::new(&args.volume, &args.transfer)?;
+    // Several channels: each one's range, window and color; the table below is channel 0's.
+    let (prepared, channels) = match args.volume.composite_channels()? {
+        Some(channels) if channels.len() > 1 => {
+            let first = channels[0].clone();
+            let channels = args.channels.prepare(channels, &args.transfer)?;
+            (Prepared::from_volume(first, &args.transfer)?, channels)
+        }
+        Some(mut channels) => {
+            let volume = channels.pop().ok_or("no channel was read")?;
+            (Prepared::from_volume(volume, &args.transfer)?, Vec::new())
+        }
+        None => (Prepared::new(&args.volume, &args.transfer)?, Vec::new()),
+    };
     if args.json {
         let mut json = info_json(&prepared);
+        if !channels.is_empty() {
+            json["composite"] = composite_json(&channels);
+        }
         if let Some(pyramid) = &pyramid {
             json["pyramid"] = pyramid_json(pyramid);
         }
@@ -40,7 +61,11 @@ pub fn run(args: &InfoArgs) -> Result<(), String> {
         if let Some(pyramid) = &pyramid {
             print!("{}", pyramid_table(pyramid));
         }
-        print!("{}", info_table(&prepared));
+        // A pyramid's table lists its channels and time points already.
+        print!("{}", info_table(&prepared, pyramid.is_none()));
+        if !channels.is_empty() {
+            print!("{}", composite_table(&channels));
+        }
     }
     Ok(())
 }
@@ -186,6 +211,15 @@ fn info_json(p: &Prepared) -> serde_json::Value {
             "orientation": volume.orientation.describe(),
             "voxels": volume.voxel_count(),
             "metadata": volume.metadata.iter().map(|(k, v)| (k.clone(), json!(v))).collect::<serde_json::Map<String, serde_json::Value>>(),
+            "channels": volume.series.channels.iter().enumerate().map(|(index, c)| json!({
+                "index": index,
+                "name": c.name,
+                "color": c.color.map(hex_color),
+                "window": c.window.map(|w| [w.low, w.high]),
+            })).collect::<Vec<_>>(),
+            "time_points": volume.series.time_points,
+            "channel": volume.series.selected.channel,
+            "time": volume.series.selected.time,
         },
         "octree": {
             "depth": p.octree.depth,
@@ -204,7 +238,92 @@ fn info_json(p: &Prepared) -> serde_json::Value {
     })
 }
 
-fn info_table(p: &Prepared) -> String {
+/// Each channel of a composite: name, color, value range and window.
+fn composite_json(channels: &[super::composite::PreparedChannel]) -> serde_json::Value {
+    json!(
+        channels
+            .iter()
+            .enumerate()
+            .map(|(index, c)| {
+                let series = &c.volume.series;
+                json!({
+                    "index": index,
+                    "file": c.volume.name,
+                    "name": series.channels.get(series.selected.channel).and_then(|i| i.name.clone()),
+                    "color": hex_color(c.color),
+                    "value_range": c.quantized.value_range,
+                    "window": [c.transfer.window.low, c.transfer.window.high],
+                })
+            })
+            .collect::<Vec<_>>()
+    )
+}
+
+/// The composite's channels, one line each, after the table of channel 0.
+fn composite_table(channels: &[super::composite::PreparedChannel]) -> String {
+    use std::fmt::Write;
+    let mut out = format!(
+        "\ncomposite of {} channels (render draws them together)\n",
+        channels.len()
+    );
+    for (index, c) in channels.iter().enumerate() {
+        let series = &c.volume.series;
+        let name = series
+            .channels
+            .get(series.selected.channel)
+            .and_then(|i| i.name.as_deref())
+            .unwrap_or("(no name)");
+        let [low, high] = c.quantized.value_range;
+        let _ = writeln!(
+            out,
+            "  channel {index}  {name}  {}  range {low} … {high}  window {} … {}",
+            hex_color(c.color),
+            c.transfer.window.low,
+            c.transfer.window.high
+        );
+    }
+    out
+}
+
+/// `#rrggbb`.
+fn hex_color([r, g, b]: [u8; 3]) -> String {
+    format!("#{r:02x}{g:02x}{b:02x}")
+}
+
+/// The `channels` and `time points` lines: how many, which is shown, the channels' names and
+/// colors where the file gives them.
+fn series_lines(series: &crate::volume::Series) -> String {
+    let described = series
+        .channels
+        .iter()
+        .any(|c| c.name.is_some() || c.color.is_some());
+    let mut channels = format!(
+        "channels     {} (showing {})",
+        series.channel_count(),
+        series.selected.channel
+    );
+    if described {
+        let listed: Vec<String> = series
+            .channels
+            .iter()
+            .enumerate()
+            .map(|(index, c)| {
+                let name = c.name.as_deref().unwrap_or("(no name)");
+                match c.color {
+                    Some(color) => format!("{index} {name} {}", hex_color(color)),
+                    None => format!("{index} {name}"),
+                }
+            })
+            .collect();
+        channels.push_str(&format!(": {}", listed.join(", ")));
+    }
+    format!(
+        "{channels}\ntime points  {} (showing {})\n",
+        series.time_points, series.selected.time
+    )
+}
+
+fn info_table(p: &Prepared, with_series: bool) -> String {
     use std::fmt::Write;
     let volume = &p.volume;
     let octree = &p.octree;
@@ -230,6 +349,9 @@ fn info_table(p: &Prepared) -> String {
     let _ = writeln!(out, "value range  {low} … {high}");
     for (key, value) in &volume.metadata {
         let _ = writeln!(out, "{key:<12} {value}");
+    }
+    if with_series {
+        out.push_str(&series_lines(&volume.series));
     }
     let _ = writeln!(out, "window       {} … {}", window.low, window.high);
     let _ = writeln!(

@@ -4,6 +4,7 @@
 mod args;
 mod bench;
 mod ceilings;
+mod composite;
 mod convert;
 mod info;
 mod prepare;
@@ -35,9 +36,9 @@ pub struct Cli {
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Print the volume (dimensions, type, spacing, values) and its octree, level by level.
-    Info(info::InfoArgs),
+    Info(Box<info::InfoArgs>),
     /// Render the volume to a PNG without a window.
-    Render(render::RenderArgs),
+    Render(Box<render::RenderArgs>),
     /// Measure GPU time per frame (near, medium, far; gray, binary, MIP), build and recolor.
     Bench(bench::BenchArgs),
     /// Measure the GPU's own ceilings: memory bandwidth, filtered samples, fetch latencies, FMA.

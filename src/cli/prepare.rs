@@ -27,12 +27,18 @@ impl Prepared {
     /// Loads and prepares what `volume_args` and `transfer_args` name.
     pub fn new(volume_args: &VolumeArgs, transfer_args: &TransferArgs) -> Result<Self, String> {
         // A bad --tf file fails before the volume is read.
-        let saved = transfer_args.saved()?;
+        transfer_args.saved()?;
         let volume = match &volume_args.file {
             Some(spec) => volume::load(spec, &volume_args.load_options()),
             None => volume::sample(),
         }
         .map_err(|e| e.to_string())?;
+        Self::from_volume(volume, transfer_args)
+    }
+
+    /// Prepares `volume`, loaded already (a channel of a composite that has only one).
+    pub fn from_volume(volume: Volume, transfer_args: &TransferArgs) -> Result<Self, String> {
+        let saved = transfer_args.saved()?;
         let quantized = QuantizedVolume::new(&volume);
         let mut octree =
             build_reporting_progress(&quantized).map_err(|e| format!("{}: {e}", volume.name))?;

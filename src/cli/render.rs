@@ -22,6 +22,8 @@ pub struct RenderArgs {
     pub transfer: TransferArgs,
     #[command(flatten)]
     pub clip: ClipArgs,
+    #[command(flatten)]
+    pub channels: super::composite::ChannelArgs,
     /// Which renderer draws the image (default: octree, or bricks, said on stderr, when the
     /// octree does not fit this GPU's storage buffers, as the app does).
     #[arg(long, value_enum)]
@@ -61,7 +63,16 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         return run_stream(args);
     }
     let started = Instant::now();
-    let prepared = Prepared::new(&args.volume, &args.transfer)?;
+    let prepared = match args.volume.composite_channels()? {
+        Some(channels) if channels.len() > 1 => {
+            return super::composite::render(args, channels);
+        }
+        Some(mut channels) => {
+            let volume = channels.pop().ok_or("no channel was read")?;
+            Prepared::from_volume(volume, &args.transfer)?
+        }
+        None => Prepared::new(&args.volume, &args.transfer)?,
+    };
     let mut settings = args
         .transfer
         .render_settings(prepared.octree.depth, prepared.saved.as_ref());

@@ -126,7 +126,7 @@ impl StreamPrepared {
                 {
                     // Read region by region from the file's own levels, never whole.
                     let path = Path::new(spec.unwrap_or_default());
-                    let pyramid = Pyramid::open(path, volume_args.load_options().zarr)
+                    let pyramid = Pyramid::open(path, volume_args.load_options().select)
                         .map_err(|e| e.to_string())?;
                     let window = pyramid.omero_window();
                     let source = ZarrSource::new(Arc::new(pyramid))?;

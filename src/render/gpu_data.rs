@@ -369,7 +369,7 @@ mod tests {
                 ("GridCell", grid_cell()),
                 ("ProbeResult", probe_result()),
             ],
-            "dense" => vec![
+            "dense" | "composite" => vec![
                 ("Params", raycast_params()),
                 ("ProbeResult", probe_result()),
             ],

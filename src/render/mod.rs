@@ -5,6 +5,7 @@
 mod bricks;
 mod camera;
 mod ceilings;
+mod composite;
 mod context;
 mod dense;
 mod frame_probe;
@@ -28,6 +29,7 @@ mod volume_renderer;
 pub use bricks::{GpuBrickRecolor, GpuBricks};
 pub use camera::{Camera, ViewFrame};
 pub use ceilings::{CeilingSizes, Ceilings, measure_ceilings};
+pub use composite::{ChannelLayer, CompositeRaycaster, CompositeVolume, tinted_lookup_table};
 pub use context::{GpuContext, RenderError};
 pub use dense::{DenseRaycaster, DenseVolume};
 pub use frame_probe::{FrameProbe, FrameReport};

@@ -41,6 +41,8 @@ shaders! {
     RAYCAST = "raycast" ["ray_common.wgsl", "node_common.wgsl", "grid_cell.wgsl", "raycast.wgsl"];
     /// The dense baseline.
     DENSE = "dense" ["ray_common.wgsl", "dense.wgsl"];
+    /// The dense renderer for up to 8 channels composited.
+    COMPOSITE = "composite" ["ray_common.wgsl", "composite.wgsl"];
     /// The streaming renderer (a pyramid of bricks through a page table).
     STREAM = "stream" ["ray_common.wgsl", "stream.wgsl"];
     /// Per-level recolor of octree nodes.

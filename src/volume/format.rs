@@ -5,8 +5,8 @@
 
 use std::path::Path;
 
-use super::Volume;
 use super::error::Problem;
+use super::{Selection, Volume};
 
 /// One file format: how it is recognized and which loader reads it.
 pub struct Format {
@@ -21,14 +21,15 @@ pub struct Format {
     /// The format's magic bytes: true when the first bytes of a file (up to [`SNIFF_BYTES`])
     /// are this format's. Consulted only when no extension matched.
     pub sniff: Option<fn(&[u8]) -> bool>,
-    /// Reads a file of this format.
-    load: fn(&Path) -> Result<Volume, Problem>,
+    /// Reads the chosen frame of a file of this format (formats without channels or time
+    /// points read their one frame and leave the check to the registry).
+    load: fn(&Path, Selection) -> Result<Volume, Problem>,
 }
 
 impl Format {
-    /// Reads `path` with this format's loader.
-    pub(crate) fn load(&self, path: &Path) -> Result<Volume, Problem> {
-        (self.load)(path)
+    /// Reads frame `select` of `path` with this format's loader.
+    pub(crate) fn load(&self, path: &Path, select: Selection) -> Result<Volume, Problem> {
+        (self.load)(path, select)
     }
 
     /// Whether the lower-cased file name `name` ends with one of the format's extensions.
@@ -50,14 +51,14 @@ pub static FORMATS: [Format; 7] = [
         extensions: &[".dcm"],
         opens_folders: true,
         sniff: Some(super::dicom::sniff),
-        load: super::dicom::load,
+        load: |path, _| super::dicom::load(path),
     },
     Format {
         name: "MRC",
         extensions: &[".mrc", ".map", ".rec", ".ccp4", ".mrcs", ".st", ".ali"],
         opens_folders: false,
         sniff: Some(super::mrc::sniff),
-        load: super::mrc::load,
+        load: |path, _| super::mrc::load(path),
     },
     Format {
         name: "NRRD",
@@ -85,22 +86,16 @@ pub static FORMATS: [Format; 7] = [
         extensions: &[".zarr"],
         opens_folders: true,
         sniff: None,
-        load: load_zarr,
+        load: super::ome_zarr::load,
     },
     Format {
         name: "VTK ImageData",
         extensions: &[".vti"],
         opens_folders: false,
         sniff: None,
-        load: super::vti::load,
+        load: |path, _| super::vti::load(path),
     },
 ];
-
-/// A Zarr folder through the table (channel 0, time point 0; the registry passes the user's
-/// choice).
-fn load_zarr(path: &Path) -> Result<Volume, Problem> {
-    super::ome_zarr::load(path, super::ome_zarr::PyramidOptions::default())
-}
 
 /// The format whose extension ends `file_name` (any case).
 pub fn by_extension(file_name: &str) -> Option<&'static Format> {

@@ -2,6 +2,7 @@
 //! spec, and the value statistics that the transfer function needs. Pure CPU; knows nothing of
 //! octrees or GPUs.
 
+mod channels;
 mod dicom;
 mod error;
 pub mod format;
@@ -14,6 +15,7 @@ mod orientation;
 mod raw;
 mod registry;
 mod sample;
+mod series;
 mod slices;
 mod synthetic;
 mod tiff;
@@ -21,6 +23,7 @@ pub(crate) mod values;
 mod voxel_type;
 mod vti;
 
+pub use channels::{MAX_CHANNELS, load_all_channels, load_as_channels};
 pub use error::LoadError;
 pub use format::{Format, dialog_extensions, dialog_filter_name};
 pub use nrrd::NrrdEncoding;
@@ -29,6 +32,7 @@ pub use raw::RawLayout;
 pub(crate) use raw::parse_dims;
 pub use registry::{LoadOptions, load};
 pub use sample::{SAMPLE_NAME, sample};
+pub use series::{ChannelInfo, Selection, Series};
 pub use synthetic::SyntheticKind;
 pub use values::{Histogram, Quantization, QuantizedVolume, ValueWindow};
 pub(crate) use voxel_type::with_voxel_slice;
@@ -66,6 +70,9 @@ pub struct Volume {
     /// The window the file advises for display (OME-Zarr's `omero` window), if any; the
     /// default window where no other is chosen.
     pub default_window: Option<ValueWindow>,
+    /// The file's channels and time points and which frame this volume is (one of each for
+    /// plain 3-D files).
+    pub series: Series,
 }
 
 /// A linear map from stored values to the data's own units (NIfTI `scl_slope`/`scl_inter`).
@@ -120,6 +127,7 @@ impl Volume {
             orientation: Orientation::AsStored,
             metadata: Vec::new(),
             default_window: None,
+            series: Series::default(),
         })
     }
 

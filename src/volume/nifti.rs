@@ -4,17 +4,20 @@
 //! Our own reader rather than the `nifti` crate: it is ~200 lines, and it lets every size be
 //! validated against the file before anything is allocated.
 
-use std::io::Read;
+use std::io::{BufRead, Cursor, Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
 use flate2::read::MultiGzDecoder;
 
 use super::error::{Problem, number};
 use super::io::{
-    Storage, checked_payload_bytes, io_reason, read_payload, regular_file_size, skip_bytes,
+    MAX_DEFLATE_RATIO, Storage, checked_payload_bytes, io_reason, open, read_payload,
+    regular_file_size, skip_bytes,
 };
 use super::orientation::reorient_to_ras;
-use super::{Endian, ValueScale, Volume, VoxelData, VoxelType};
+use super::{
+    Endian, Selection, Series, ValueScale, Volume, VoxelData, VoxelType, checked_voxel_count,
+};
 
 const HEADER_BYTES: usize = 348;
 
@@ -23,6 +26,10 @@ const HEADER_BYTES: usize = 348;
 struct Header {
     endian: Endian,
     dims: [usize; 3],
+    /// 3-D frames along dim 4 (time).
+    frames: usize,
+    /// Components along dim 5 (a vector intent's elements, channels).
+    components: usize,
     voxel_type: VoxelType,
     pixdim: [f32; 8],
     vox_offset: u64,
@@ -41,17 +48,31 @@ pub(super) fn sniff(head: &[u8]) -> bool {
             || i32::from_be_bytes(first) == HEADER_BYTES as i32)
 }
 
-pub(crate) fn load(path: &Path) -> Result<Volume, Problem> {
-    let bytes = std::fs::read(path).map_err(|e| format!("cannot read: {}", io_reason(&e)))?;
-    decode(&path.display().to_string(), &bytes, Some(path))
+/// Reads frame `select` of the NIfTI file at `path`: only that frame's bytes are read (a
+/// plain file seeks to it, a gzip stream is decompressed up to it and no further).
+pub(crate) fn load(path: &Path, select: Selection) -> Result<Volume, Problem> {
+    let file = open(path)?;
+    read(&path.display().to_string(), file, Some(path), select)
 }
 
-/// Decodes a NIfTI-1 file held in memory (`bytes` is the file, maybe gzipped). `path` locates
-/// the `.img` of a header/image pair; without it only single files (`n+1`) decode.
+/// Decodes a NIfTI-1 file held in memory (`bytes` is the file, maybe gzipped): its first
+/// frame. `path` locates the `.img` of a header/image pair; without it only single files
+/// (`n+1`) decode.
 pub(crate) fn decode(name: &str, bytes: &[u8], path: Option<&Path>) -> Result<Volume, Problem> {
-    let mut reader = decompressed(bytes);
+    read(name, Cursor::new(bytes), path, Selection::default())
+}
+
+/// Reads the header from `file` (maybe gzipped), then the voxels of frame `select` from it
+/// or from the `.img` beside `path`.
+fn read(
+    name: &str,
+    file: impl BufRead + Seek,
+    path: Option<&Path>,
+    select: Selection,
+) -> Result<Volume, Problem> {
+    let mut content = Content::new(file)?;
     let mut raw_header = [0u8; HEADER_BYTES];
-    reader.read_exact(&mut raw_header).map_err(|e| {
+    content.read_exact(&mut raw_header).map_err(|e| {
         if e.kind() == std::io::ErrorKind::UnexpectedEof {
             format!("too short for a NIfTI-1 header ({HEADER_BYTES} bytes)")
         } else {
@@ -59,36 +80,21 @@ pub(crate) fn decode(name: &str, bytes: &[u8], path: Option<&Path>) -> Result<Vo
         }
     })?;
     let header = parse_header(&raw_header)?;
+    select.check(header.components, header.frames)?;
 
-    let image_bytes;
-    let (data, mut data_reader, skip) = if header.single_file {
-        let skip = header.vox_offset.saturating_sub(HEADER_BYTES as u64);
-        (bytes, reader, skip)
+    // The frame's place among the 3-D frames: time (dim 4) varies fastest, then the
+    // component (dim 5).
+    let frame_index = (select.channel as u64) * header.frames as u64 + select.time as u64;
+    let payload = if header.single_file {
+        content.read_frame(&header, header.vox_offset, frame_index)?
     } else {
         let path = path.ok_or("a NIfTI header/image pair needs its .img file")?;
         let image = image_path(path)?;
-        image_bytes = std::fs::read(&image)
-            .map_err(|e| format!("cannot read {}: {}", image.display(), io_reason(&e)))?;
-        (
-            &image_bytes[..],
-            decompressed(&image_bytes),
-            header.vox_offset,
-        )
+        let file = open(&image)?;
+        Content::new(file)?
+            .read_frame(&header, header.vox_offset, frame_index)
+            .map_err(|p| format!("{}: {p}", image.display()))?
     };
-    let gzip = is_gzip_bytes(data);
-    let storage = if gzip { Storage::Gzip } else { Storage::Plain };
-    // In a plain single file the voxels start at vox_offset; a gzip stream hides offsets.
-    let before_data = if gzip {
-        0
-    } else if header.single_file {
-        header.vox_offset
-    } else {
-        skip
-    };
-    let available = (data.len() as u64).saturating_sub(before_data);
-    let payload_bytes = checked_payload_bytes(header.dims, header.voxel_type, available, storage)?;
-    skip_bytes(&mut data_reader, skip)?;
-    let payload = read_payload(data_reader, payload_bytes, storage)?;
     let voxels = VoxelData::decode(header.voxel_type, &payload, header.endian);
     drop(payload);
 
@@ -96,17 +102,136 @@ pub(crate) fn decode(name: &str, bytes: &[u8], path: Option<&Path>) -> Result<Vo
     let mut volume =
         Volume::new(name, "NIfTI-1", header.dims, spacing, voxels).map_err(|e| e.problem)?;
     volume.value_scale = header.scale;
+    volume.series = Series::plain(header.components, header.frames, select);
     Ok(match header.directions {
         Some(directions) => reorient_to_ras(volume, directions),
         None => volume,
     })
 }
 
+/// A file's content: as stored, or through a gzip decoder. Tracks how far it has been read.
+enum Content<R: BufRead + Seek> {
+    Plain(R),
+    Gzip {
+        decoder: Box<MultiGzDecoder<R>>,
+        /// Decompressed bytes read so far.
+        position: u64,
+        /// The compressed stream's size.
+        stored_bytes: u64,
+    },
+}
+
+impl<R: BufRead + Seek> Content<R> {
+    fn new(mut file: R) -> Result<Self, Problem> {
+        let stored_bytes = file
+            .seek(SeekFrom::End(0))
+            .and_then(|end| file.rewind().map(|()| end))
+            .map_err(|e| format!("cannot read: {}", io_reason(&e)))?;
+        let gzip = is_gzip_bytes(
+            file.fill_buf()
+                .map_err(|e| format!("cannot read: {}", io_reason(&e)))?,
+        );
+        Ok(if gzip {
+            Self::Gzip {
+                decoder: Box::new(MultiGzDecoder::new(file)),
+                position: 0,
+                stored_bytes,
+            }
+        } else {
+            Self::Plain(file)
+        })
+    }
+
+    fn read_exact(&mut self, buffer: &mut [u8]) -> std::io::Result<()> {
+        match self {
+            Self::Plain(file) => file.read_exact(buffer),
+            Self::Gzip {
+                decoder, position, ..
+            } => {
+                decoder.read_exact(buffer)?;
+                *position += buffer.len() as u64;
+                Ok(())
+            }
+        }
+    }
+
+    /// The bytes of 3-D frame `frame_index` of `header`'s voxels, which start `data_offset`
+    /// bytes into the content. Sizes are checked against the stored bytes first.
+    fn read_frame(
+        self,
+        header: &Header,
+        data_offset: u64,
+        frame_index: u64,
+    ) -> Result<Vec<u8>, Problem> {
+        let frame_bytes =
+            checked_voxel_count(header.dims)? as u64 * header.voxel_type.size() as u64;
+        let start = frame_index
+            .checked_mul(frame_bytes)
+            .and_then(|offset| offset.checked_add(data_offset))
+            .ok_or("NIfTI frame offset overflows")?;
+        let frame_name = if header.frames * header.components > 1 {
+            format!(
+                "frame {frame_index} of {}",
+                header.frames * header.components
+            )
+        } else {
+            "the voxel data".to_owned()
+        };
+        match self {
+            Self::Plain(mut file) => {
+                let stored_bytes = file
+                    .seek(SeekFrom::End(0))
+                    .map_err(|e| format!("cannot read: {}", io_reason(&e)))?;
+                let available = stored_bytes.saturating_sub(start);
+                let bytes = checked_payload_bytes(
+                    header.dims,
+                    header.voxel_type,
+                    available,
+                    Storage::Plain,
+                )
+                .map_err(|p| format!("{frame_name}: {p}"))?;
+                file.seek(SeekFrom::Start(start))
+                    .map_err(|e| format!("cannot read: {}", io_reason(&e)))?;
+                read_payload(file, bytes, Storage::Plain)
+            }
+            Self::Gzip {
+                mut decoder,
+                position,
+                stored_bytes,
+            } => {
+                let bytes = checked_payload_bytes(
+                    header.dims,
+                    header.voxel_type,
+                    stored_bytes,
+                    Storage::Gzip,
+                )
+                .map_err(|p| format!("{frame_name}: {p}"))?;
+                if start.saturating_add(bytes as u64)
+                    > stored_bytes.saturating_mul(MAX_DEFLATE_RATIO)
+                {
+                    return Err(format!(
+                        "truncated or inconsistent: {frame_name} ends at byte {} of the content, more than a {stored_bytes}-byte gzip stream can hold",
+                        start + bytes as u64
+                    ));
+                }
+                if start < position {
+                    return Err(format!(
+                        "NIfTI vox_offset {data_offset} lies inside the header"
+                    ));
+                }
+                skip_bytes(&mut decoder, start - position)
+                    .map_err(|p| format!("{frame_name}: {p}"))?;
+                read_payload(decoder, bytes, Storage::Gzip)
+            }
+        }
+    }
+}
+
 fn is_gzip_bytes(bytes: &[u8]) -> bool {
     bytes.starts_with(&[0x1f, 0x8b])
 }
 
-/// A reader over the decompressed content of a file held in memory.
+/// A reader over the decompressed content of bytes held in memory.
 fn decompressed(bytes: &[u8]) -> Box<dyn Read + '_> {
     if is_gzip_bytes(bytes) {
         Box::new(MultiGzDecoder::new(bytes))
@@ -168,11 +293,13 @@ fn parse_header(bytes: &[u8; HEADER_BYTES]) -> Result<Header, Problem> {
         Ok(n as usize)
     };
     let dims = [extent(1)?, extent(2)?, extent(3)?];
-    for axis in 4..=rank as usize {
+    let frames = extent(4)?;
+    let components = extent(5)?;
+    for axis in 6..=rank as usize {
         let n = extent(axis)?;
         if n != 1 {
             return Err(format!(
-                "NIfTI image has {n} volumes along dimension {axis}; only single 3D volumes are supported"
+                "NIfTI image has {n} volumes along dimension {axis}; only time (dimension 4) and components (dimension 5) are read"
             ));
         }
     }
@@ -270,6 +397,8 @@ fn parse_header(bytes: &[u8; HEADER_BYTES]) -> Result<Header, Problem> {
     Ok(Header {
         endian,
         dims,
+        frames,
+        components,
         voxel_type,
         pixdim,
         vox_offset: vox_offset as u64,

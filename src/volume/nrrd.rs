@@ -1,5 +1,6 @@
 //! NRRD (`.nrrd` with an attached header, `.nhdr` with a detached data file): raw, gzip and
-//! ascii encodings, little and big endian, `sizes`, `spacings` or `space directions`.
+//! ascii encodings, little and big endian, `sizes`, `spacings` or `space directions`; a
+//! channel axis (`kinds` list, vector, color…) and a time axis (`time`), one frame read.
 //! Written here because no maintained crate reads NRRD.
 
 use std::io::{BufRead, Read};
@@ -9,11 +10,13 @@ use flate2::read::MultiGzDecoder;
 
 use super::error::{Problem, quoted, short_list};
 use super::io::{
-    Storage, checked_payload_bytes, io_reason, open, read_payload, regular_file_size, skip_bytes,
-    skip_lines,
+    MAX_DEFLATE_RATIO, Storage, checked_payload_bytes, io_reason, open, read_payload,
+    regular_file_size, skip_bytes, skip_lines,
 };
 use super::orientation::{keeps_stored_order, reorient_to_ras};
-use super::{Endian, Volume, VoxelData, VoxelType, checked_voxel_count};
+use super::{
+    Endian, MAX_AXIS, Selection, Series, Volume, VoxelData, VoxelType, checked_voxel_count,
+};
 
 /// The header is text; anything longer than this is not a NRRD header.
 const MAX_HEADER_BYTES: u64 = 1 << 20;
@@ -35,6 +38,8 @@ struct Header {
     endian: Option<Endian>,
     spacings: Option<Vec<f64>>,
     space_directions: Option<Vec<Option<[f64; 3]>>>,
+    /// Each axis's `kinds` entry, lower case (`domain`, `space`, `time`, `list`, `rgb-color`…).
+    kinds: Option<Vec<String>>,
     /// Sign flips that take the header's space to RAS (LPS flips x and y).
     to_ras: Option<[f64; 3]>,
     data_file: Option<String>,
@@ -47,7 +52,9 @@ pub(super) fn sniff(head: &[u8]) -> bool {
     head.starts_with(b"NRRD")
 }
 
-pub(crate) fn load(path: &Path) -> Result<Volume, Problem> {
+/// Reads frame `select` of the NRRD at `path`: the span of the data file that holds the
+/// frame, no more (all of it only when a channel axis is interleaved).
+pub(crate) fn load(path: &Path, select: Selection) -> Result<Volume, Problem> {
     let mut reader = open(path)?;
     let (header, header_bytes) = read_header(&mut reader)?;
     let voxel_type = header
@@ -56,7 +63,9 @@ pub(crate) fn load(path: &Path) -> Result<Volume, Problem> {
     let encoding = header
         .encoding
         .ok_or("NRRD header lacks the 'encoding' field")?;
-    let (dims, axes) = spatial_axes(&header)?;
+    let layout = Layout::of(&header)?;
+    select.check(layout.channels(), layout.time_points())?;
+    let frame = layout.frame(select);
     let endian = match header.endian {
         Some(endian) => endian,
         None if voxel_type.size() == 1 || encoding == NrrdEncoding::Ascii => Endian::Little,
@@ -81,28 +90,42 @@ pub(crate) fn load(path: &Path) -> Result<Volume, Problem> {
         regular_file_size(&data_path).map_err(|problem| format!("the voxel data {problem}"))?;
     skip_lines(&mut data, header.line_skip)?;
     let available = file_bytes.saturating_sub(data_offset);
-    let payload = match encoding {
+    let size = voxel_type.size();
+    let span_bytes = frame.span * size;
+    let span_start = (frame.first * size) as u64;
+    let span = match encoding {
         NrrdEncoding::Raw => {
-            let bytes = checked_payload_bytes(dims, voxel_type, available, Storage::Plain)?;
+            let bytes = layout.checked_bytes(voxel_type, available, Storage::Plain)?;
             let skip = if header.byte_skip == -1 {
                 // -1: the data is the last bytes of the file.
                 available - bytes as u64
             } else {
                 header.byte_skip as u64
             };
-            skip_bytes(&mut data, skip).map_err(|p| format!("byte skip {skip}: {p}"))?;
-            read_payload(data, bytes, Storage::Plain)?
+            let start = skip.saturating_add(span_start);
+            let within = i64::try_from(start)
+                .ok()
+                .filter(|&s| (s as u64).saturating_add(span_bytes as u64) <= available);
+            let Some(start) = within else {
+                return Err(format!(
+                    "byte skip {skip}: the voxels end after the file's {file_bytes} bytes"
+                ));
+            };
+            data.seek_relative(start)
+                .map_err(|e| format!("cannot read: {}", io_reason(&e)))?;
+            read_payload(data, span_bytes, Storage::Plain)?
         }
         NrrdEncoding::Gzip => {
-            let bytes = checked_payload_bytes(dims, voxel_type, available, Storage::Gzip)?;
+            layout.checked_bytes(voxel_type, available, Storage::Gzip)?;
             let mut decoder = MultiGzDecoder::new(data);
             let skip = header.byte_skip.max(0) as u64;
-            skip_bytes(&mut decoder, skip)
+            skip_bytes(&mut decoder, skip.saturating_add(span_start))
                 .map_err(|p| format!("gzip data, byte skip {skip}: {p}"))?;
-            read_payload(decoder, bytes, Storage::Gzip).map_err(|p| format!("gzip data: {p}"))?
+            read_payload(decoder, span_bytes, Storage::Gzip)
+                .map_err(|p| format!("gzip data: {p}"))?
         }
         NrrdEncoding::Ascii => {
-            let count = checked_voxel_count(dims)?;
+            let count = layout.total;
             // Each ascii value takes at least 2 bytes (digit and separator), bar the last.
             if (count as u64) > available / 2 + 1 {
                 return Err(format!(
@@ -119,30 +142,264 @@ pub(crate) fn load(path: &Path) -> Result<Volume, Problem> {
                     e.utf8_error().valid_up_to()
                 )
             })?;
-            return finish(
-                path,
-                dims,
-                &axes,
-                &header,
-                parse_ascii(&text, voxel_type, count)?,
-            );
+            let values = parse_ascii(&text, voxel_type, frame.first + frame.span)?;
+            let data = if frame.first == 0 && frame.contiguous() {
+                values
+            } else {
+                values.gather(frame.voxels(), |i| frame.first + frame.offset(i))
+            };
+            return finish(path, &layout, &header, data, select);
         }
     };
-    let data = VoxelData::decode(voxel_type, &payload, endian);
-    finish(path, dims, &axes, &header, data)
+    let data = if frame.contiguous() {
+        VoxelData::decode(voxel_type, &span, endian)
+    } else {
+        let frame_bytes = gather_bytes(&span, size, &frame);
+        drop(span);
+        VoxelData::decode(voxel_type, &frame_bytes, endian)
+    };
+    finish(path, &layout, &header, data, select)
+}
+
+/// The voxels of `frame` (of `size` bytes each) picked from the span read.
+fn gather_bytes(span: &[u8], size: usize, frame: &Frame) -> Vec<u8> {
+    let mut out = Vec::with_capacity(frame.voxels() * size);
+    for i in 0..frame.voxels() {
+        out.extend_from_slice(&span[frame.offset(i) * size..][..size]);
+    }
+    out
+}
+
+/// How a header's axes divide into the three spatial ones, a channel axis and a time axis.
+#[derive(Debug, Clone, PartialEq)]
+struct Layout {
+    /// Voxels along x, y, z.
+    dims: [usize; 3],
+    /// The header axes of x, y, z (`usize::MAX` for an axis the file lacks).
+    axes: [usize; 3],
+    /// The channel axis (a `list`, `vector`, color… kind, or no space direction).
+    channel_axis: Option<usize>,
+    /// The time axis (kind `time`, or the fourth axis of a 4-D file without kinds).
+    time_axis: Option<usize>,
+    /// Every axis's size.
+    sizes: Vec<usize>,
+    /// Values in the whole file.
+    total: usize,
+}
+
+/// Where one 3-D frame's voxels lie among a file's values.
+#[derive(Debug, Clone, PartialEq)]
+struct Frame {
+    /// The frame's first value.
+    first: usize,
+    /// Values from the first to the last of the frame's, both included.
+    span: usize,
+    /// Voxels along x, y, z.
+    dims: [usize; 3],
+    /// Values between neighbours along x, y, z.
+    strides: [usize; 3],
+}
+
+impl Frame {
+    fn voxels(&self) -> usize {
+        self.dims.iter().product()
+    }
+
+    /// Whether the frame's voxels are the span itself, in order.
+    fn contiguous(&self) -> bool {
+        self.span == self.voxels() && self.strides == [1, self.dims[0], self.dims[0] * self.dims[1]]
+    }
+
+    /// The offset within the span of the frame's voxel `index` (x fastest).
+    fn offset(&self, index: usize) -> usize {
+        let [dx, dy, _] = self.dims;
+        let (x, y, z) = (index % dx, (index / dx) % dy, index / (dx * dy));
+        x * self.strides[0] + y * self.strides[1] + z * self.strides[2]
+    }
+}
+
+impl Layout {
+    /// The axes of `header`: spatial (`domain`, `space`, or no kind), time (`time`), channel
+    /// (any other kind, or `none` in `space directions`). More than three spatial axes lose
+    /// their size-1 ones, then the last becomes the time axis (a 4-D file without kinds).
+    fn of(header: &Header) -> Result<Self, Problem> {
+        let sizes = header
+            .sizes
+            .as_ref()
+            .ok_or("NRRD header lacks the 'sizes' field")?;
+        let dimension = header
+            .dimension
+            .ok_or("NRRD header lacks the 'dimension' field")?;
+        if sizes.len() != dimension {
+            return Err(format!(
+                "NRRD 'sizes' has {} entries but 'dimension' is {dimension}",
+                sizes.len()
+            ));
+        }
+        // Every byte count below (up to 8 bytes a value) is then without overflow.
+        let total = sizes
+            .iter()
+            .try_fold(1usize, |acc, &n| acc.checked_mul(n))
+            .filter(|total| total.checked_mul(8).is_some())
+            .ok_or_else(|| format!("NRRD sizes {} overflow", short_list(sizes)))?;
+        let mut spatial = Vec::new();
+        let mut channel_axes = Vec::new();
+        let mut time_axes = Vec::new();
+        for axis in 0..dimension {
+            let kind = header
+                .kinds
+                .as_ref()
+                .and_then(|kinds| kinds.get(axis))
+                .map(String::as_str);
+            let no_direction = header
+                .space_directions
+                .as_ref()
+                .is_some_and(|all| all.get(axis).is_some_and(Option::is_none));
+            match kind {
+                Some("time") => time_axes.push(axis),
+                Some("domain" | "space") => spatial.push(axis),
+                None | Some("none" | "???") if !no_direction => spatial.push(axis),
+                _ => channel_axes.push(axis),
+            }
+        }
+        let not_3d = || {
+            format!(
+                "NRRD of dimension {dimension} with sizes {} is not a 3D volume with at most one channel and one time axis",
+                short_list(sizes)
+            )
+        };
+        // Size-1 axes of any role carry nothing: drop them first.
+        for axes in [&mut channel_axes, &mut time_axes] {
+            if axes.len() > 1 {
+                axes.retain(|&a| sizes[a] > 1);
+            }
+        }
+        while spatial.len() > 3 {
+            match spatial.iter().position(|&a| sizes[a] == 1) {
+                Some(unit) => {
+                    spatial.remove(unit);
+                }
+                None if time_axes.is_empty() && spatial.len() == 4 => {
+                    time_axes.push(spatial.pop().expect("four axes"));
+                }
+                None => return Err(not_3d()),
+            }
+        }
+        if channel_axes.len() > 1 || time_axes.len() > 1 {
+            return Err(not_3d());
+        }
+        // Each channel is listed (`Volume::series`): as many as an axis may have voxels.
+        if let Some(&axis) = channel_axes.first()
+            && sizes[axis] > MAX_AXIS
+        {
+            return Err(format!(
+                "NRRD channel axis {axis} has {} entries, more than {MAX_AXIS}",
+                sizes[axis]
+            ));
+        }
+        let axis = |i: usize| spatial.get(i).copied();
+        let dims = std::array::from_fn(|i| axis(i).map_or(1, |a| sizes[a]));
+        checked_voxel_count(dims)?;
+        // Missing axes (dimension < 3) have size 1; point them at a non-existent field index.
+        let axes = std::array::from_fn(|i| axis(i).unwrap_or(usize::MAX));
+        Ok(Self {
+            dims,
+            axes,
+            channel_axis: channel_axes.first().copied(),
+            time_axis: time_axes.first().copied(),
+            sizes: sizes.clone(),
+            total,
+        })
+    }
+
+    fn channels(&self) -> usize {
+        self.channel_axis.map_or(1, |a| self.sizes[a])
+    }
+
+    fn time_points(&self) -> usize {
+        self.time_axis.map_or(1, |a| self.sizes[a])
+    }
+
+    /// Whether the file is one 3-D frame.
+    fn is_single_frame(&self) -> bool {
+        self.channels() == 1 && self.time_points() == 1
+    }
+
+    /// Validates the whole file's data against the limits and the `available` bytes; its
+    /// byte count.
+    fn checked_bytes(
+        &self,
+        voxel_type: VoxelType,
+        available: u64,
+        storage: Storage,
+    ) -> Result<usize, Problem> {
+        let frames = self.total / self.dims.iter().product::<usize>().max(1);
+        if frames == 1 {
+            return checked_payload_bytes(self.dims, voxel_type, available, storage);
+        }
+        let bytes = self
+            .total
+            .checked_mul(voxel_type.size())
+            .ok_or("NRRD data size overflows")?;
+        let fits = match storage {
+            Storage::Plain => bytes as u64 <= available,
+            Storage::Gzip => bytes as u64 <= available.saturating_mul(MAX_DEFLATE_RATIO),
+        };
+        if !fits {
+            return Err(format!(
+                "truncated or inconsistent: sizes {} of {} need {bytes} bytes of voxel data but {}",
+                short_list(&self.sizes),
+                voxel_type.name(),
+                match storage {
+                    Storage::Plain => format!("the file holds only {available} bytes"),
+                    Storage::Gzip =>
+                        format!("a {available}-byte gzip stream cannot hold that much"),
+                }
+            ));
+        }
+        Ok(bytes)
+    }
+
+    /// Where frame `select` (within range) lies among the file's values.
+    fn frame(&self, select: Selection) -> Frame {
+        let mut strides = Vec::with_capacity(self.sizes.len());
+        let mut stride = 1usize;
+        for &size in &self.sizes {
+            strides.push(stride);
+            stride *= size;
+        }
+        let stride_of = |axis: usize| strides.get(axis).copied().unwrap_or(0);
+        let first = self.channel_axis.map_or(0, |a| select.channel * strides[a])
+            + self.time_axis.map_or(0, |a| select.time * strides[a]);
+        let frame_strides = self.axes.map(stride_of);
+        let last: usize = (0..3).map(|i| (self.dims[i] - 1) * frame_strides[i]).sum();
+        Frame {
+            first,
+            span: last + 1,
+            dims: self.dims,
+            strides: frame_strides,
+        }
+    }
 }
 
 /// Builds the volume and applies the header's spacing and orientation.
 fn finish(
     path: &Path,
-    dims: [usize; 3],
-    axes: &[usize; 3],
+    layout: &Layout,
     header: &Header,
     data: VoxelData,
+    select: Selection,
 ) -> Result<Volume, Problem> {
-    let (directions, spacing) = geometry(axes, header);
-    let volume = Volume::new(path.display().to_string(), "NRRD", dims, spacing, data)
-        .map_err(|e| e.problem)?;
+    let (directions, spacing) = geometry(&layout.axes, header);
+    let mut volume = Volume::new(
+        path.display().to_string(),
+        "NRRD",
+        layout.dims,
+        spacing,
+        data,
+    )
+    .map_err(|e| e.problem)?;
+    volume.series = Series::plain(layout.channels(), layout.time_points(), select);
     // Only a header that names its space says where RAS is.
     Ok(match (directions, header.to_ras) {
         (Some(directions), Some(_)) => reorient_to_ras(volume, directions),
@@ -198,8 +455,12 @@ pub(crate) fn raw_extent(path: &Path) -> Result<Option<RawExtent>, Problem> {
     let voxel_type = header
         .voxel_type
         .ok_or("NRRD header lacks the 'type' field")?;
-    let (dims, axes) = spatial_axes(&header)?;
-    if header.encoding != Some(NrrdEncoding::Raw) || header.line_skip != 0 {
+    let layout = Layout::of(&header)?;
+    let (dims, axes) = (layout.dims, layout.axes);
+    if header.encoding != Some(NrrdEncoding::Raw)
+        || header.line_skip != 0
+        || !layout.is_single_frame()
+    {
         return Ok(None);
     }
     let (directions, spacing) = geometry(&axes, &header);
@@ -241,43 +502,6 @@ pub(crate) fn raw_extent(path: &Path) -> Result<Option<RawExtent>, Problem> {
         endian,
         spacing,
     }))
-}
-
-/// The three spatial axes among the header's `dimension` axes (size-1 axes dropped when there
-/// are more than three), as dims and as indices into the per-axis fields.
-fn spatial_axes(header: &Header) -> Result<([usize; 3], [usize; 3]), Problem> {
-    let sizes = header
-        .sizes
-        .as_ref()
-        .ok_or("NRRD header lacks the 'sizes' field")?;
-    let dimension = header
-        .dimension
-        .ok_or("NRRD header lacks the 'dimension' field")?;
-    if sizes.len() != dimension {
-        return Err(format!(
-            "NRRD 'sizes' has {} entries but 'dimension' is {dimension}",
-            sizes.len()
-        ));
-    }
-    let mut axes: Vec<usize> = (0..dimension).collect();
-    while axes.len() > 3 {
-        match axes.iter().position(|&a| sizes[a] == 1) {
-            Some(unit) => {
-                axes.remove(unit);
-            }
-            None => {
-                return Err(format!(
-                    "NRRD of dimension {dimension} with sizes {} is not a scalar 3D volume",
-                    short_list(sizes)
-                ));
-            }
-        }
-    }
-    let axis = |i: usize| axes.get(i).copied();
-    let dims = std::array::from_fn(|i| axis(i).map_or(1, |a| sizes[a]));
-    // Missing axes (dimension < 3) have size 1; point them at a non-existent field index.
-    let indices = std::array::from_fn(|i| axis(i).unwrap_or(usize::MAX));
-    Ok((dims, indices))
 }
 
 /// Reads header lines up to the blank line (or the end, in a detached `.nhdr`).
@@ -403,6 +627,14 @@ fn parse_field(header: &mut Header, key: &str, value: &str) -> Result<(), Proble
             header.spacings = Some(numbers(value)?);
         }
         "space directions" => header.space_directions = Some(parse_directions(value)?),
+        "kinds" => {
+            header.kinds = Some(
+                value
+                    .split_whitespace()
+                    .map(|kind| kind.trim_matches('"').to_lowercase())
+                    .collect(),
+            )
+        }
         "space" => {
             header.to_ras = match value.to_lowercase().as_str() {
                 "right-anterior-superior" | "ras" => Some([1.0, 1.0, 1.0]),

@@ -8,7 +8,7 @@ use std::path::Path;
 use super::error::Problem;
 use super::format;
 use super::io::{io_reason, not_a_file};
-use super::{LoadError, RawLayout, Volume};
+use super::{LoadError, RawLayout, Selection, Volume};
 
 /// What the command line adds to a path.
 #[derive(Debug, Clone, Default)]
@@ -17,8 +17,8 @@ pub struct LoadOptions {
     pub raw: Option<RawLayout>,
     /// Override the spacing the file gives (or lacks).
     pub spacing: Option<[f64; 3]>,
-    /// The channel and time point of a multi-channel or time-lapse image (OME-Zarr).
-    pub zarr: super::ome_zarr::PyramidOptions,
+    /// The channel and time point of a multi-channel or time-lapse image (every format).
+    pub select: Selection,
 }
 
 /// Loads the volume named by `spec`: a file path, or `synthetic:KIND:SIZE`.
@@ -33,6 +33,15 @@ pub fn load(spec: &str, options: &LoadOptions) -> Result<Volume, LoadError> {
     } else {
         load_file(Path::new(spec), options).map_err(|p| LoadError::new(spec, p))?
     };
+    // Loaders of 4-D formats refuse a frame they lack before reading and record the one they
+    // read; the others read the only one there is, which must be the one asked for.
+    let series = &volume.series;
+    if series.selected != options.select {
+        options
+            .select
+            .check(series.channel_count(), series.time_points)
+            .map_err(|p| LoadError::new(spec, p))?;
+    }
     if let Some(spacing) = options.spacing {
         if spacing.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
             return Err(LoadError::new(spec, "--spacing values must be positive"));
@@ -47,7 +56,7 @@ fn load_file(path: &Path, options: &LoadOptions) -> Result<Volume, Problem> {
         std::fs::metadata(path).map_err(|e| format!("cannot open: {}", io_reason(&e)))?;
     if metadata.is_dir() {
         if super::ome_zarr::is_zarr_folder(path) {
-            return super::ome_zarr::load(path, options.zarr);
+            return super::ome_zarr::load(path, options.select);
         }
         if !super::dicom::dicom_files(path).is_empty() {
             return super::dicom::load(path);
@@ -69,7 +78,7 @@ fn load_file(path: &Path, options: &LoadOptions) -> Result<Volume, Problem> {
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
     if let Some(format) = format::by_extension(&name) {
-        return format.load(path);
+        return format.load(path, options.select);
     }
     // No known extension: look at the first bytes.
     let mut head = Vec::with_capacity(format::SNIFF_BYTES);
@@ -77,7 +86,7 @@ fn load_file(path: &Path, options: &LoadOptions) -> Result<Volume, Problem> {
         .and_then(|f| f.take(format::SNIFF_BYTES as u64).read_to_end(&mut head))
         .map_err(|e| format!("cannot read: {}", io_reason(&e)))?;
     match format::by_magic(&head) {
-        Some(format) => format.load(path),
+        Some(format) => format.load(path, options.select),
         None => Err(format::unrecognized_problem()),
     }
 }

@@ -129,7 +129,15 @@ pub(super) fn read_slice(path: &Path) -> Result<Volume, Problem> {
         .extension()
         .is_some_and(|e| e.to_string_lossy().eq_ignore_ascii_case("png"));
     if !is_png {
-        return super::tiff::load(path);
+        let slice = super::tiff::load(path, super::Selection::default())?;
+        if slice.series.is_multi_frame() {
+            return Err(format!(
+                "holds {} channels and {} time points; a folder of slices needs one grayscale image each",
+                slice.series.channel_count(),
+                slice.series.time_points
+            ));
+        }
+        return Ok(slice);
     }
     let file_bytes = std::fs::metadata(path)
         .map_err(|e| format!("cannot open: {}", io_reason(&e)))?

@@ -685,3 +685,74 @@ pub fn coverage(image: &RgbaImage) -> f64 {
         .count();
     lit as f64 / (image.width() * image.height()) as f64
 }
+
+/// One channel of [`reference_composite`]: its levels and its (tinted) lookup table.
+pub struct CompositeChannel<'a> {
+    pub volume: &'a MarchVolume,
+    pub table: Vec<u32>,
+}
+
+/// The composite of channels as `composite.wgsl` draws it, on the CPU: the dense march's
+/// samples; DVR sums the channels' premultiplied colors at each sample, opacity
+/// 1 − Π(1 − αc), front to back; MIP adds the colors of each channel's maximum; clamped.
+pub fn reference_composite(
+    channels: &[CompositeChannel<'_>],
+    spacing: [f64; 3],
+    camera: &Camera,
+    settings: &RenderSettings,
+    width: u32,
+    height: u32,
+) -> RgbaImage {
+    let view = View::new(channels[0].volume.dims, spacing, camera, width, height);
+    let trilinear = settings.trilinear;
+    view.image(|origin, dir, _| {
+        let (enter, leave) = view.interval(origin, dir, settings);
+        let mut maxima = vec![0u16; channels.len()];
+        let (mut color, mut alpha) = (DVec3::ZERO, 0.0);
+        if enter < leave {
+            let step = 1.0 / dir.length();
+            let mut k = 0.0;
+            loop {
+                let t = enter + (k + 0.5) * step;
+                if t >= leave {
+                    break;
+                }
+                let p = origin + t * dir;
+                let mut premultiplied = DVec3::ZERO;
+                let mut transparency = 1.0;
+                for (c, channel) in channels.iter().enumerate() {
+                    let level = channel
+                        .volume
+                        .sample(p, trilinear)
+                        .round()
+                        .clamp(0.0, 65535.0) as u16;
+                    maxima[c] = maxima[c].max(level);
+                    let [r, g, b, a] =
+                        unpack_rgba(channel.table[level as usize]).map(|v| v as f64 / 255.0);
+                    let a = (a * settings.density as f64).min(1.0);
+                    premultiplied += a * DVec3::new(r, g, b);
+                    transparency *= 1.0 - a;
+                }
+                if settings.mode == RenderMode::Dvr {
+                    color += (1.0 - alpha) * premultiplied;
+                    alpha += (1.0 - alpha) * (1.0 - transparency);
+                    if alpha >= EARLY_TERMINATION_ALPHA as f64 {
+                        break;
+                    }
+                }
+                k += 1.0;
+            }
+        }
+        if settings.mode == RenderMode::Mip {
+            color = channels
+                .iter()
+                .zip(&maxima)
+                .map(|(channel, &level)| {
+                    let [r, g, b, _] = unpack_rgba(channel.table[level as usize]);
+                    DVec3::new(r as f64, g as f64, b as f64) / 255.0
+                })
+                .sum();
+        }
+        color.min(DVec3::ONE)
+    })
+}

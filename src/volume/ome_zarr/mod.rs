@@ -30,7 +30,10 @@ use zarrs::array::{Array, ArrayMetadata, ArrayShardedExt, ArraySubset, DataType}
 use zarrs::storage::{ReadableStorageTraits, StoreKey};
 
 use super::error::{Problem, printable, quoted};
-use super::{LoadError, MAX_VOXELS, ValueWindow, Volume, VoxelData, VoxelType, format_dims};
+use super::series::{ChannelInfo, Series, parse_hex_color};
+use super::{
+    LoadError, MAX_VOXELS, Selection, ValueWindow, Volume, VoxelData, VoxelType, format_dims,
+};
 
 pub use metadata::{Axis, AxisKind, OmeroChannel};
 pub use source::SlabSource;
@@ -53,14 +56,8 @@ const MAX_METADATA_BYTES: u64 = 16 << 20;
 /// finest level within it is opened; finer levels wait for the streaming renderer.
 pub const VOLUME_VOXEL_BUDGET: usize = 512 * 512 * 512;
 
-/// Which 3D volume of a multi-channel, time-lapse image is read (both default to 0).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct PyramidOptions {
-    /// The channel (`c` axis) index.
-    pub channel: usize,
-    /// The time point (`t` axis) index.
-    pub time: usize,
-}
+/// Which 3D volume of a multi-channel, time-lapse image is read: the loaders' [`Selection`].
+pub type PyramidOptions = Selection;
 
 /// One resolution level: its grid, its place in space and how it is stored.
 #[derive(Debug, Clone, PartialEq)]
@@ -305,6 +302,27 @@ impl Pyramid {
                 ))
             })?;
         Ok(Some(values.chunks_exact(2).map(|p| [p[0], p[1]]).collect()))
+    }
+
+    /// The channels (named, colored and windowed by `omero` where it says) and time points.
+    pub fn series(&self) -> Series {
+        let channels = (0..self.channels)
+            .map(|index| {
+                let omero = self.omero.get(index);
+                ChannelInfo {
+                    name: omero.and_then(|c| c.label.clone()),
+                    color: omero
+                        .and_then(|c| c.color.as_deref())
+                        .and_then(parse_hex_color),
+                    window: omero.and_then(|c| c.window),
+                }
+            })
+            .collect();
+        Series {
+            channels,
+            time_points: self.time_points,
+            selected: self.selected,
+        }
     }
 
     /// The `omero` window of the selected channel, if the file gives one.
@@ -1101,6 +1119,14 @@ fn describe_codecs(metadata: &ArrayMetadata) -> String {
 /// Says on stderr when a finer level exists.
 pub(crate) fn load(path: &Path, options: PyramidOptions) -> Result<Volume, Problem> {
     let pyramid = Pyramid::open(path, options).map_err(|e| e.problem)?;
+    // Each channel is listed (`Volume::series`): as many as an axis may have voxels.
+    if pyramid.channels > super::MAX_AXIS {
+        return Err(format!(
+            "the channel axis has {} entries, more than {}",
+            pyramid.channels,
+            super::MAX_AXIS
+        ));
+    }
     let level = pyramid.finest_within(VOLUME_VOXEL_BUDGET as u64);
     if level > 0 {
         eprintln!(
@@ -1142,6 +1168,7 @@ impl Pyramid {
         .map_err(|e| LoadError::new(&self.source, e.problem))?;
         volume.metadata = volume_facts(self, level);
         volume.default_window = self.omero_window();
+        volume.series = self.series();
         Ok(volume)
     }
 }

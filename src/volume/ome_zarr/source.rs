@@ -51,6 +51,11 @@ impl SlabSource {
     /// and folders of slices are not read yet.
     pub fn open(spec: &str, options: &LoadOptions) -> Result<Self, LoadError> {
         let path = Path::new(spec);
+        // The fast paths below read one-frame sources; another frame goes through the loaders,
+        // which read it from a 4-D file or say it does not exist.
+        if options.select != super::super::Selection::default() {
+            return super::super::load(spec, options).map(Self::from_volume);
+        }
         if let Some(layout) = &options.raw {
             return Self::raw(path, layout, options.spacing).map_err(|p| LoadError::new(spec, p));
         }

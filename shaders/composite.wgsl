@@ -1,0 +1,138 @@
+// The dense renderer for up to 8 channels on one grid (docs/octree.md, "Composite of
+// channels"): each channel's value levels in one component of two RGBA 3D textures (channels
+// 0–3, 4–7), each channel's transfer function as its own 65536-entry table, one after another
+// in `lookup_table` (its length says how many channels there are). Marched like dense.wgsl,
+// one voxel a step.
+//
+// DVR: at each sample, every channel's color·opacity from its own table; the sample's color is
+// their sum (additive, premultiplied) and its opacity 1 − Π(1 − αc); then front-to-back.
+// MIP: each channel's maximum along the ray, its color from its table, the colors added.
+// Unshaded, no probe (the composite's options; src/render/composite.rs says why).
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var channels_low: texture_3d<f32>;
+@group(0) @binding(2) var level_sampler: sampler;
+@group(0) @binding(3) var<storage, read> lookup_table: array<u32>;
+@group(0) @binding(4) var output: texture_storage_2d<rgba8unorm, write>;
+@group(0) @binding(5) var<storage, read_write> visits: array<u32>;
+@group(0) @binding(6) var<storage, read_write> probe_out: ProbeResult;
+@group(0) @binding(7) var channels_high: texture_3d<f32>;
+// Empty-space skipping (DVR): per block of SKIP_BLOCK³ voxels, 1 where some channel's opacity
+// is above 0 for some level its samples there can take (the union of the channels' visible
+// ranges), else 0; x fastest. Rebuilt with the tables.
+@group(0) @binding(8) var<storage, read> visible_blocks: array<u32>;
+
+const TABLE_LEVELS: u32 = 65536u;
+// Keep in sync with `SKIP_BLOCK` in src/render/composite.rs.
+const SKIP_BLOCK: f32 = 8.0;
+
+// Where the ray leaves the block holding voxel-space point `p`, if no channel is visible
+// anywhere in it; else -1.
+fn empty_block_exit(p: vec3<f32>, origin: vec3<f32>, inv: vec3<f32>) -> f32 {
+    let blocks = vec3<u32>(ceil(params.volume.xyz / SKIP_BLOCK));
+    let block = min(vec3<u32>(max(floor(p / SKIP_BLOCK), vec3<f32>(0.0))), blocks - 1u);
+    if visible_blocks[block.x + blocks.x * (block.y + blocks.y * block.z)] != 0u {
+        return -1.0;
+    }
+    let low = vec3<f32>(block) * SKIP_BLOCK;
+    let high = low + SKIP_BLOCK;
+    let t_low = (low - origin) * inv;
+    let t_high = (high - origin) * inv;
+    return min_component(max(t_low, t_high));
+}
+
+// ray_common.wgsl's `accumulate` (not used here) samples a gradient: channel 0's.
+fn level_gradient(coords: vec3<f32>, half_texel: vec3<f32>) -> vec3<f32> {
+    let dx = vec3<f32>(half_texel.x, 0.0, 0.0);
+    let dy = vec3<f32>(0.0, half_texel.y, 0.0);
+    let dz = vec3<f32>(0.0, 0.0, half_texel.z);
+    let high = vec3<f32>(textureSampleLevel(channels_low, level_sampler, coords + dx, 0.0).r,
+                         textureSampleLevel(channels_low, level_sampler, coords + dy, 0.0).r,
+                         textureSampleLevel(channels_low, level_sampler, coords + dz, 0.0).r);
+    let low = vec3<f32>(textureSampleLevel(channels_low, level_sampler, coords - dx, 0.0).r,
+                        textureSampleLevel(channels_low, level_sampler, coords - dy, 0.0).r,
+                        textureSampleLevel(channels_low, level_sampler, coords - dz, 0.0).r);
+    return (high - low) * params.atlas_scale;
+}
+
+fn channel_count() -> u32 {
+    return arrayLength(&lookup_table) / TABLE_LEVELS;
+}
+
+// Channel c's color and opacity at value level `level`.
+fn channel_rgba(c: u32, level: u32) -> vec4<f32> {
+    return unpack4x8unorm(lookup_table[c * TABLE_LEVELS + level]);
+}
+
+@compute @workgroup_size(8, 8, 1)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    let pixel = ray_pixel(id.xy);
+    if pixel.x >= params.image_size.x || pixel.y >= params.image_size.y {
+        return;
+    }
+    let ray = pixel_ray(pixel);
+    let origin = params.eye.xyz;
+    let dir = ray.dir;
+    let count = channel_count();
+    var color = vec3<f32>(0.0);
+    var alpha = 0.0;
+    var maxima = array<u32, 8>(0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u);
+    var samples = 0u;
+    let interval = volume_interval(origin, dir, safe_inverse(dir));
+    let t_enter = interval.x;
+    let t_leave = interval.y;
+    let step = 1.0 / length(dir);
+    let texel = 1.0 / params.volume.xyz;
+    let inv = safe_inverse(dir);
+    if t_enter < t_leave {
+        for (var k = 0.0; ; k += 1.0) {
+            let t = t_enter + (k + 0.5) * step;
+            if t >= t_leave {
+                break;
+            }
+            if params.mode == MODE_DVR {
+                // Samples in a block where every channel is transparent add nothing: go on
+                // from the first sample past the block (on the same lattice of samples).
+                let exit = empty_block_exit(origin + t * dir, origin, inv);
+                if exit >= 0.0 {
+                    k = max(k + 1.0, ceil((exit - t_enter) / step - 0.5)) - 1.0;
+                    continue;
+                }
+            }
+            samples += 1u;
+            let coords = (origin + t * dir) * texel;
+            let low = textureSampleLevel(channels_low, level_sampler, coords, 0.0);
+            var high = vec4<f32>(0.0);
+            if count > 4u {
+                high = textureSampleLevel(channels_high, level_sampler, coords, 0.0);
+            }
+            if params.mode == MODE_MIP {
+                for (var c = 0u; c < count; c++) {
+                    let level = value_index(select(high, low, c < 4u)[c & 3u]);
+                    maxima[c] = max(maxima[c], level);
+                }
+                continue;
+            }
+            var premultiplied = vec3<f32>(0.0);
+            var transparency = 1.0;
+            for (var c = 0u; c < count; c++) {
+                let level = value_index(select(high, low, c < 4u)[c & 3u]);
+                let rgba = channel_rgba(c, level);
+                let a = min(rgba.a * params.density, 1.0);
+                premultiplied += a * rgba.rgb;
+                transparency *= 1.0 - a;
+            }
+            color += (1.0 - alpha) * premultiplied;
+            alpha += (1.0 - alpha) * (1.0 - transparency);
+            if alpha >= EARLY_TERMINATION_ALPHA {
+                break;
+            }
+        }
+    }
+    if params.mode == MODE_MIP {
+        for (var c = 0u; c < count; c++) {
+            color += channel_rgba(c, maxima[c]).rgb;
+        }
+    }
+    write_pixel(pixel, min(color, vec3<f32>(1.0)), samples);
+}

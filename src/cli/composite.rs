@@ -1,0 +1,209 @@
+//! Several channels drawn together (`--channel all`, the default for a multi-channel file, or
+//! `--channels-from`): each channel's color and window, and `render`'s composite.
+
+use std::time::Instant;
+
+use clap::Args;
+
+use super::TransferArgs;
+use super::args::RendererArg;
+use super::render::RenderArgs;
+use crate::octree::{Colormap, DataKind, TransferFunction};
+use crate::render::{
+    Camera, ChannelLayer, CompositeRaycaster, CompositeVolume, GpuContext, RenderTarget, read_image,
+};
+use crate::volume::{QuantizedVolume, ValueWindow, Volume};
+
+/// Colors and windows of the channels of a composite.
+#[derive(Debug, Clone, Args)]
+pub struct ChannelArgs {
+    /// Colors of channels 0, 1, …: green, magenta, cyan, yellow, red, blue, orange, gray or
+    /// #rrggbb (default: the file's channel colors, else green, magenta, cyan, yellow, red,
+    /// blue, orange, gray).
+    #[arg(long, value_name = "C0,C1,…", value_delimiter = ',', value_parser = parse_color)]
+    pub channel_colors: Option<Vec<[u8; 3]>>,
+    /// The window of channel N in its data units (repeatable; default: the file's window for
+    /// the channel, else its 0.5–99.5 percentiles).
+    #[arg(long, value_name = "N:LOW:HIGH", allow_hyphen_values = true, value_parser = parse_channel_window)]
+    pub channel_window: Vec<(usize, ValueWindow)>,
+}
+
+/// The colors channels take where neither the command line nor the file names one (napari's
+/// order for additive channels).
+pub const DEFAULT_CHANNEL_COLORS: [(&str, [u8; 3]); 8] = [
+    ("green", [0, 255, 0]),
+    ("magenta", [255, 0, 255]),
+    ("cyan", [0, 255, 255]),
+    ("yellow", [255, 255, 0]),
+    ("red", [255, 0, 0]),
+    ("blue", [0, 0, 255]),
+    ("orange", [255, 165, 0]),
+    ("gray", [255, 255, 255]),
+];
+
+/// A color name of [`DEFAULT_CHANNEL_COLORS`] (`grey` too) or `#rrggbb`.
+pub fn parse_color(text: &str) -> Result<[u8; 3], String> {
+    let name = text.trim().to_lowercase();
+    let name = if name == "grey" { "gray".into() } else { name };
+    if let Some((_, rgb)) = DEFAULT_CHANNEL_COLORS.iter().find(|(n, _)| *n == name) {
+        return Ok(*rgb);
+    }
+    if let Some(hex) = name.strip_prefix('#')
+        && hex.len() == 6
+        && let Ok(value) = u32::from_str_radix(hex, 16)
+    {
+        let [_, r, g, b] = value.to_be_bytes();
+        return Ok([r, g, b]);
+    }
+    let names: Vec<&str> = DEFAULT_CHANNEL_COLORS.iter().map(|(n, _)| *n).collect();
+    Err(format!(
+        "color '{text}' is not one of {} or #rrggbb",
+        names.join(", ")
+    ))
+}
+
+/// `N:LOW:HIGH`.
+fn parse_channel_window(text: &str) -> Result<(usize, ValueWindow), String> {
+    let (channel, window) = text
+        .split_once(':')
+        .ok_or_else(|| format!("channel window '{text}' is not N:LOW:HIGH"))?;
+    let channel = channel
+        .trim()
+        .parse::<usize>()
+        .map_err(|_| format!("channel window '{text}': '{channel}' is not a channel number"))?;
+    let window = ValueWindow::parse(window).map_err(|e| format!("channel window '{text}': {e}"))?;
+    Ok((channel, window))
+}
+
+/// One channel ready to draw: its levels, transfer function and color.
+pub struct PreparedChannel {
+    pub volume: Volume,
+    pub quantized: QuantizedVolume,
+    pub transfer: TransferFunction,
+    pub color: [u8; 3],
+}
+
+impl PreparedChannel {
+    /// The layer the renderer takes.
+    pub fn layer(&self) -> ChannelLayer<'_> {
+        ChannelLayer {
+            quantized: &self.quantized,
+            transfer: &self.transfer,
+            color: self.color.map(|c| c as f32 / 255.0),
+        }
+    }
+}
+
+impl ChannelArgs {
+    /// Quantizes `channels` and gives each its transfer function (`transfer`'s opacity
+    /// over the channel's window, grays, to be tinted) and color. A channel number in
+    /// --channel-window or --channel-colors beyond the channels is an error.
+    pub fn prepare(
+        &self,
+        channels: Vec<Volume>,
+        transfer: &TransferArgs,
+    ) -> Result<Vec<PreparedChannel>, String> {
+        let count = channels.len();
+        if let Some((channel, _)) = self.channel_window.iter().find(|(c, _)| *c >= count) {
+            return Err(format!(
+                "--channel-window {channel}: there are {count} channels (0 to {})",
+                count - 1
+            ));
+        }
+        if let Some(colors) = &self.channel_colors
+            && colors.len() > count
+        {
+            return Err(format!(
+                "--channel-colors gives {} colors for {count} channels",
+                colors.len()
+            ));
+        }
+        let saved = transfer.saved()?;
+        Ok(channels
+            .into_iter()
+            .enumerate()
+            .map(|(index, volume)| {
+                let quantized = QuantizedVolume::new(&volume);
+                let file_channel = volume.series.channels.get(volume.series.selected.channel);
+                let window = self
+                    .channel_window
+                    .iter()
+                    .rev()
+                    .find(|(c, _)| *c == index)
+                    .map(|(_, w)| *w)
+                    .or_else(|| file_channel.and_then(|c| c.window))
+                    .or(volume.default_window)
+                    .unwrap_or_else(|| quantized.robust_window());
+                let kind = DataKind::of_volume(&volume, &quantized);
+                let mut function =
+                    transfer.transfer_function(&quantized, kind, saved.as_ref(), window);
+                function.window = window;
+                function.colormap = Colormap::Grays;
+                let color = self
+                    .channel_colors
+                    .as_ref()
+                    .and_then(|colors| colors.get(index).copied())
+                    .or_else(|| file_channel.and_then(|c| c.color))
+                    .unwrap_or(DEFAULT_CHANNEL_COLORS[index % DEFAULT_CHANNEL_COLORS.len()].1);
+                PreparedChannel {
+                    volume,
+                    quantized,
+                    transfer: function,
+                    color,
+                }
+            })
+            .collect())
+    }
+}
+
+/// `render` of several channels: the dense renderer's composite.
+pub(super) fn render(args: &RenderArgs, channels: Vec<Volume>) -> Result<(), String> {
+    let started = Instant::now();
+    if let Some(renderer) = args.renderer
+        && renderer != RendererArg::Dense
+    {
+        return Err(format!(
+            "the composite of {} channels is drawn by the dense renderer; --renderer {} draws one channel (--channel N)",
+            channels.len(),
+            crate::render::RendererKind::from(renderer).name()
+        ));
+    }
+    let prepared = args.channels.prepare(channels, &args.transfer)?;
+    let saved = args.transfer.saved()?;
+    let mut settings = args.transfer.render_settings(0, saved.as_ref());
+    settings.clip = args.clip.clip();
+    let context = GpuContext::new_headless().map_err(|e| e.to_string())?;
+    let layers: Vec<ChannelLayer<'_>> = prepared.iter().map(PreparedChannel::layer).collect();
+    let name = &prepared[0].volume.name;
+    let volume = CompositeVolume::upload(&context, &layers, prepared[0].volume.spacing)
+        .map_err(|e| format!("{name}: {e}"))?;
+    let raycaster = CompositeRaycaster::new(&context);
+    let target = RenderTarget::new(&context, args.size.0, args.size.1);
+    let camera = Camera {
+        azimuth_deg: args.azimuth,
+        elevation_deg: args.elevation,
+        distance: args.distance,
+        fov_y_deg: args.fov,
+        pan: [0.0; 3],
+    };
+    raycaster.render(&context, &volume, &target, &camera, &settings);
+    let image = read_image(&context, &target).map_err(|e| e.to_string())?;
+    image
+        .save(&args.output)
+        .map_err(|e| format!("cannot write {}: {e}", args.output.display()))?;
+    let colors: Vec<String> = prepared
+        .iter()
+        .map(|c| format!("#{:02x}{:02x}{:02x}", c.color[0], c.color[1], c.color[2]))
+        .collect();
+    eprintln!(
+        "wrote {} ({}x{}, composite of {} channels ({}), dense renderer) on {} in {:.2} s",
+        args.output.display(),
+        target.width,
+        target.height,
+        prepared.len(),
+        colors.join(", "),
+        context.describe(),
+        started.elapsed().as_secs_f64()
+    );
+    Ok(())
+}

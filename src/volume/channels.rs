@@ -1,0 +1,67 @@
+//! Several channels of one time point as volumes on one grid: every channel of a
+//! multi-channel file, or several single-channel files opened together.
+
+use super::{LoadError, LoadOptions, Selection, Volume, format_dims, load};
+
+/// The most channels shown together (the composite renderer's textures hold 8).
+pub const MAX_CHANNELS: usize = 8;
+
+/// Every channel of `spec` at `options.select.time` (one volume for a one-channel file).
+/// A file of more than [`MAX_CHANNELS`] channels is an error that says to pick one.
+pub fn load_all_channels(spec: &str, options: &LoadOptions) -> Result<Vec<Volume>, LoadError> {
+    let at = |channel| LoadOptions {
+        select: Selection {
+            channel,
+            time: options.select.time,
+        },
+        ..options.clone()
+    };
+    let first = load(spec, &at(0))?;
+    let count = first.series.channel_count();
+    if count > MAX_CHANNELS {
+        return Err(LoadError::new(
+            spec,
+            format!(
+                "has {count} channels; at most {MAX_CHANNELS} are shown together (choose one with --channel N)"
+            ),
+        ));
+    }
+    let mut channels = vec![first];
+    for channel in 1..count {
+        channels.push(load(spec, &at(channel))?);
+    }
+    Ok(channels)
+}
+
+/// The files `specs` (each its frame `options.select`) as the channels of one volume: they
+/// must share their dimensions; the first one's spacing and orientation are the volume's.
+pub fn load_as_channels(specs: &[String], options: &LoadOptions) -> Result<Vec<Volume>, LoadError> {
+    if specs.is_empty() || specs.len() > MAX_CHANNELS {
+        return Err(LoadError::new(
+            specs.join(","),
+            format!(
+                "{} files given as channels; 1 to {MAX_CHANNELS} are shown together",
+                specs.len()
+            ),
+        ));
+    }
+    let mut channels: Vec<Volume> = Vec::with_capacity(specs.len());
+    for spec in specs {
+        let volume = load(spec, options)?;
+        if let Some(first) = channels.first()
+            && first.dims != volume.dims
+        {
+            return Err(LoadError::new(
+                spec,
+                format!(
+                    "dimensions {} differ from {}'s {}; channels need one grid",
+                    format_dims(volume.dims),
+                    first.name,
+                    format_dims(first.dims)
+                ),
+            ));
+        }
+        channels.push(volume);
+    }
+    Ok(channels)
+}

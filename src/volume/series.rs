@@ -1,0 +1,135 @@
+//! Channels and time points: which 3-D frame of a multi-channel or time-lapse file a loader
+//! reads ([`Selection`]), and what the file holds besides it ([`Series`]), so that `info` can
+//! list the channels and the app can offer the others.
+
+use super::ValueWindow;
+use super::error::Problem;
+
+/// Which 3-D frame of a multi-channel, time-lapse file is read (both default to 0). Every
+/// loader honours it; a file without such axes has one channel and one time point.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Selection {
+    /// The channel index (OME-Zarr's `c` axis, a TIFF hyperstack's channels, NIfTI's
+    /// dim\[5\], a NRRD list/vector/color axis).
+    pub channel: usize,
+    /// The time point index (OME-Zarr's `t`, TIFF frames, NIfTI's dim\[4\], a NRRD time axis).
+    pub time: usize,
+}
+
+impl Selection {
+    /// The one-line problem when this selection lies outside `channels` × `time_points`
+    /// (the loader adds the file's name).
+    pub(crate) fn check(self, channels: usize, time_points: usize) -> Result<(), Problem> {
+        if self.channel >= channels {
+            return Err(format!(
+                "channel {} does not exist (the image has {channels})",
+                self.channel
+            ));
+        }
+        if self.time >= time_points {
+            return Err(format!(
+                "time point {} does not exist (the image has {time_points})",
+                self.time
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// What the file says about one channel, where it says anything.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ChannelInfo {
+    /// Its name (OME-XML `Channel Name`, OME-Zarr `omero` label, ImageJ `Labels`).
+    pub name: Option<String>,
+    /// Its display color as RGB (OME-XML `Color`, `omero` color).
+    pub color: Option<[u8; 3]>,
+    /// The display window the file advises, in the data's units.
+    pub window: Option<ValueWindow>,
+}
+
+/// The channels and time points of the file a [`super::Volume`] came from, and which frame
+/// the volume holds.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Series {
+    /// One entry per channel of the file (at least one).
+    pub channels: Vec<ChannelInfo>,
+    /// Time points in the file (at least one).
+    pub time_points: usize,
+    /// The frame the volume holds.
+    pub selected: Selection,
+}
+
+impl Default for Series {
+    /// A plain 3-D file: one unnamed channel, one time point.
+    fn default() -> Self {
+        Self::plain(1, 1, Selection::default())
+    }
+}
+
+impl Series {
+    /// `channels` unnamed channels and `time_points` time points, frame `selected` held.
+    pub fn plain(channels: usize, time_points: usize, selected: Selection) -> Self {
+        Self {
+            channels: vec![ChannelInfo::default(); channels.max(1)],
+            time_points: time_points.max(1),
+            selected,
+        }
+    }
+
+    /// Channels in the file.
+    pub fn channel_count(&self) -> usize {
+        self.channels.len()
+    }
+
+    /// Whether the file holds more than the one frame read.
+    pub fn is_multi_frame(&self) -> bool {
+        self.channels.len() > 1 || self.time_points > 1
+    }
+}
+
+/// `RRGGBB` (OME-Zarr `omero`, a CLI color) as RGB.
+pub(crate) fn parse_hex_color(text: &str) -> Option<[u8; 3]> {
+    let hex = text.trim().trim_start_matches('#');
+    if hex.len() != 6 || !hex.bytes().all(|b| b.is_ascii_hexdigit()) {
+        return None;
+    }
+    let byte = |i: usize| u8::from_str_radix(&hex[i..i + 2], 16).ok();
+    Some([byte(0)?, byte(2)?, byte(4)?])
+}
+
+/// OME-XML's `Color`: a signed 32-bit RGBA integer (`-16776961` is opaque red).
+pub(crate) fn parse_ome_color(text: &str) -> Option<[u8; 3]> {
+    let value = text.trim().parse::<i64>().ok()?;
+    let rgba = u32::try_from(value & 0xffff_ffff).ok()?;
+    let [r, g, b, _] = rgba.to_be_bytes();
+    Some([r, g, b])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn selections_out_of_range_name_the_axis_and_its_extent() {
+        let pick = |channel, time| Selection { channel, time };
+        assert!(pick(1, 2).check(2, 3).is_ok());
+        assert_eq!(
+            pick(2, 0).check(2, 3).unwrap_err(),
+            "channel 2 does not exist (the image has 2)"
+        );
+        assert_eq!(
+            pick(0, 3).check(2, 3).unwrap_err(),
+            "time point 3 does not exist (the image has 3)"
+        );
+    }
+
+    #[test]
+    fn colors_parse_from_hex_and_ome_integers() {
+        assert_eq!(parse_hex_color("00FF00"), Some([0, 255, 0]));
+        assert_eq!(parse_hex_color("#ff00ff"), Some([255, 0, 255]));
+        assert_eq!(parse_hex_color("green"), None);
+        assert_eq!(parse_ome_color("-16776961"), Some([255, 0, 0]));
+        assert_eq!(parse_ome_color("16711935"), Some([0, 255, 0]));
+        assert_eq!(parse_ome_color("x"), None);
+    }
+}
