@@ -20,6 +20,8 @@ pub enum Command {
     ShowDialog(DialogKind),
     /// Show the app's own file browser (File > Open path…).
     Browse(DialogKind),
+    /// Ask for the URL of a remote store (File > Open URL…).
+    AskUrl,
     /// Stop the open in progress.
     CancelOpen,
     /// Save what the central view shows as PNG.

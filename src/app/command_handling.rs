@@ -11,6 +11,7 @@ use super::file_browser::FileBrowser;
 use super::jobs::{DialogAnswer, Job};
 use super::scene::{VolumeSource, prepare_scene};
 use super::settings::AppSettings;
+use super::url_dialog::UrlDialog;
 use super::viewport;
 use super::voxscope_app::VoxscopeApp;
 
@@ -33,6 +34,10 @@ impl VoxscopeApp {
             }
             Command::Browse(kind) => {
                 self.browse(kind, ctx);
+                Ok(None)
+            }
+            Command::AskUrl => {
+                self.url_dialog = Some(UrlDialog::default());
                 Ok(None)
             }
             Command::CancelOpen => {

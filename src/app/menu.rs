@@ -74,6 +74,8 @@ fn file_menu(ui: &mut Ui, settings: &AppSettings, has_scene: bool, queue: &mut C
     });
     command_button(ui, "Open path…", Command::Browse(DialogKind::Open), queue)
         .on_hover_text("Type a path or a synthetic: spec, or browse folders");
+    command_button(ui, "Open URL…", Command::AskUrl, queue)
+        .on_hover_text("An OME-Zarr store on an HTTP server or in S3-compatible object storage");
     command_button(
         ui,
         "Open sample",

@@ -28,6 +28,7 @@ mod slice_pane;
 mod stream_panel;
 mod transfer_editor;
 mod transfer_panel;
+mod url_dialog;
 mod view_state;
 mod viewport;
 mod voxscope_app;

@@ -80,12 +80,18 @@ pub fn show(ui: &mut Ui, scene: &Scene) {
             ui.end_row();
             ui.label("Read");
             ui.label(format!(
-                "{} bricks ({} prefetched), {}; {} known empty, not read",
+                "{} bricks ({} prefetched), {}",
                 group_digits(counters.loads),
                 group_digits(counters.prefetch_loads),
                 format_bytes(counters.bytes_read),
-                group_digits(counters.skipped_unread),
             ));
+            ui.end_row();
+            ui.label("Not read");
+            ui.label(format!(
+                "{} bricks known empty from the store",
+                group_digits(counters.skipped_unread),
+            ))
+            .on_hover_text("The store's chunk ranges (voxscope convert writes them) showed these bricks invisible under the transfer function");
             ui.end_row();
             ui.label("Uploaded");
             ui.label(format!(

@@ -20,6 +20,7 @@ use super::overlays;
 use super::scene::{self, Scene, VolumeData, VolumeSource};
 use super::settings::{AppSettings, STORAGE_KEY, TransferChoice, TransferPreset};
 use super::transfer_panel;
+use super::url_dialog::{UrlDialog, UrlOutcome};
 use super::view_state::{Clipping, ViewState};
 use crate::octree::{Clip, LevelStatistics, TransferFunction};
 use crate::render::{FrameReport, GpuContext, RendererKind, RendererOptions};
@@ -43,6 +44,8 @@ pub struct VoxscopeApp {
     pub(super) notice: Option<(String, Instant)>,
     /// The app's own file browser, while open.
     pub(super) browser: Option<FileBrowser>,
+    /// File ▸ Open URL…'s window, while it is open.
+    pub(super) url_dialog: Option<UrlDialog>,
     /// The desktop could not show a file dialog: use the app's browser from now on.
     pub(super) no_desktop_dialogs: bool,
     /// The clip the first volume opens with (the command line's `--clip-box`, `--clip-plane`).
@@ -77,6 +80,7 @@ impl VoxscopeApp {
             error: None,
             notice: None,
             browser: None,
+            url_dialog: None,
             no_desktop_dialogs: false,
             first_clip: None,
         };
@@ -443,6 +447,16 @@ impl eframe::App for VoxscopeApp {
             self.browser = None;
             if let BrowserOutcome::Chosen(path) = outcome {
                 self.chosen(kind, path, &ctx);
+            }
+        }
+        if let Some(dialog) = &mut self.url_dialog {
+            match dialog.show(&ctx, &self.settings.recent) {
+                UrlOutcome::Open => {}
+                UrlOutcome::Cancelled => self.url_dialog = None,
+                UrlOutcome::Chosen(url) => {
+                    self.url_dialog = None;
+                    self.commands.send(Command::Open(VolumeSource::Spec(url)));
+                }
             }
         }
         self.run_queued_commands(&ctx);

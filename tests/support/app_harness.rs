@@ -49,10 +49,11 @@ pub fn settle(harness: &mut Harness<'_, VoxscopeApp>) {
     harness.run_steps(1);
 }
 
-/// A snapshot with the measured times (which vary from run to run) masked.
+/// A snapshot with the measured figures masked: times vary from run to run, and which frame
+/// the nodes per ray were counted on depends on the machine's load.
 pub fn snapshot(harness: &mut Harness<'_, VoxscopeApp>, name: &str) {
     let right = harness.ctx.content_rect().right();
-    let rows: Vec<egui::Rect> = ["Load + build", "GPU time"]
+    let rows: Vec<egui::Rect> = ["Load + build", "GPU time", "Nodes per ray"]
         .iter()
         .map(|label| harness.get_by_label(label).rect())
         .collect();

@@ -1,0 +1,99 @@
+//! File ▸ Open URL…: a window to type (or pick from the recent ones) the URL of an OME-Zarr
+//! store on an HTTP server or in S3-compatible object storage. The store opens like a file, on
+//! a background thread: the window never waits on the network.
+
+use egui::{Context, Key};
+
+/// What a URL must start with to be opened as one.
+pub const URL_SCHEMES: [&str; 3] = ["http://", "https://", "s3://"];
+
+/// Whether `spec` names a remote store (not a path or a `synthetic:` spec).
+pub fn is_url(spec: &str) -> bool {
+    URL_SCHEMES.iter().any(|scheme| spec.starts_with(scheme))
+}
+
+/// The text being typed, kept while the window is open.
+#[derive(Debug, Default, Clone, PartialEq, Eq)]
+pub struct UrlDialog {
+    pub text: String,
+}
+
+/// What the window's user did this frame.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum UrlOutcome {
+    /// Still typing.
+    Open,
+    /// Open this URL.
+    Chosen(String),
+    /// Closed without choosing.
+    Cancelled,
+}
+
+impl UrlDialog {
+    /// Shows the window; `recent` are the recent files, of which the URLs are offered.
+    pub fn show(&mut self, ctx: &Context, recent: &[String]) -> UrlOutcome {
+        let mut outcome = UrlOutcome::Open;
+        let mut open = true;
+        egui::Window::new("Open URL")
+            .open(&mut open)
+            .collapsible(false)
+            .resizable(false)
+            .default_width(460.0)
+            .show(ctx, |ui| {
+                ui.label("An OME-Zarr store on an HTTP server or in S3 (credentials, region and endpoint from the AWS environment and config files):");
+                let response = ui.add(
+                    egui::TextEdit::singleline(&mut self.text)
+                        .hint_text("https://host/path/image.ome.zarr or s3://bucket/image.ome.zarr")
+                        .desired_width(440.0),
+                );
+                response.request_focus();
+                let text = self.text.trim();
+                let valid = is_url(text);
+                if !text.is_empty() && !valid {
+                    ui.colored_label(
+                        ui.visuals().warn_fg_color,
+                        "a URL starts with http://, https:// or s3://",
+                    );
+                }
+                ui.horizontal(|ui| {
+                    let enter = response.lost_focus() && ui.input(|i| i.key_pressed(Key::Enter));
+                    if ui.add_enabled(valid, egui::Button::new("Open")).clicked()
+                        || (enter && valid)
+                    {
+                        outcome = UrlOutcome::Chosen(text.to_owned());
+                    }
+                    if ui.button("Cancel").clicked() {
+                        outcome = UrlOutcome::Cancelled;
+                    }
+                });
+                let urls: Vec<&String> = recent.iter().filter(|s| is_url(s)).collect();
+                if !urls.is_empty() {
+                    ui.separator();
+                    ui.label("Recent");
+                    for url in urls {
+                        if ui.link(url.as_str()).clicked() {
+                            outcome = UrlOutcome::Chosen(url.clone());
+                        }
+                    }
+                }
+            });
+        if !open {
+            outcome = UrlOutcome::Cancelled;
+        }
+        outcome
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn urls_are_told_from_paths_and_specs() {
+        assert!(is_url("https://example.org/a.ome.zarr"));
+        assert!(is_url("s3://bucket/a.ome.zarr"));
+        assert!(!is_url("/data/a.ome.zarr"));
+        assert!(!is_url("synthetic:noise:64"));
+        assert!(!is_url("http:/missing-slash"));
+    }
+}
