@@ -9,12 +9,15 @@ use egui::{Key, KeyboardShortcut, Modifiers};
 use super::dialogs::DialogKind;
 use super::scene::VolumeSource;
 use super::settings::{Layout, Tool};
+use crate::volume::Selection;
 
 /// An action of the app.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Command {
     /// Open a volume in the background; the one on screen stays until it is ready.
     Open(VolumeSource),
+    /// Show another channel or time point of the volume on screen, keeping the view.
+    ShowFrame(Selection),
     /// Show the desktop's file dialog (the app's own browser where the desktop has none);
     /// its answer becomes another command.
     ShowDialog(DialogKind),

@@ -9,19 +9,24 @@ use super::command::Command;
 use super::dialogs::{self, DialogKind, NOT_SHOWN_WITHIN};
 use super::file_browser::FileBrowser;
 use super::jobs::{DialogAnswer, Job};
-use super::scene::{VolumeSource, prepare_scene};
+use super::scene::{FrameChange, VolumeSource, prepare_scene};
 use super::settings::AppSettings;
 use super::url_dialog::UrlDialog;
 use super::viewport;
 use super::voxscope_app::VoxscopeApp;
+use crate::volume::Selection;
 
 impl VoxscopeApp {
     /// Carries out `command` now. Menus, toolbar and shortcuts queue theirs and the app runs
     /// them after the frame's UI; tests call this directly.
     pub fn run_command(&mut self, command: Command, ctx: &egui::Context) {
         let result = match command {
+            Command::ShowFrame(selection) => {
+                self.show_frame(selection, ctx);
+                Ok(None)
+            }
             Command::Open(source) => {
-                self.open(source, ctx);
+                self.open(source, None, ctx);
                 Ok(None)
             }
             Command::ShowDialog(kind) if self.no_desktop_dialogs => {
@@ -102,8 +107,31 @@ impl VoxscopeApp {
         }
     }
 
-    /// Opens `source` in the background; the current volume stays until it is ready.
-    pub(super) fn open(&mut self, source: VolumeSource, ctx: &egui::Context) {
+    /// Loads frame `selection` of the volume on screen in the background, to be shown with the
+    /// transfer function and view it has now.
+    fn show_frame(&mut self, selection: Selection, ctx: &egui::Context) {
+        let Some(scene) = &self.scene else {
+            return;
+        };
+        if scene.data.volume.series.selected == selection {
+            return;
+        }
+        let frame = FrameChange {
+            selection,
+            transfer: self.transfer(),
+        };
+        let source = scene.data.source.clone();
+        self.open(source, Some(frame), ctx);
+    }
+
+    /// Opens `source` (frame `frame` of it, else the first) in the background; the current
+    /// volume stays until it is ready.
+    pub(super) fn open(
+        &mut self,
+        source: VolumeSource,
+        frame: Option<FrameChange>,
+        ctx: &egui::Context,
+    ) {
         let Some(gpu) = &self.gpu else {
             self.fail("no GPU device");
             return;
@@ -112,11 +140,19 @@ impl VoxscopeApp {
         let choice = self.settings.transfer;
         let options = self.renderer_options();
         let wake = ctx.clone();
-        let title = format!("opening {}", source.spec());
+        let title = match frame {
+            Some(frame) => format!(
+                "channel {}, time point {} of {}",
+                frame.selection.channel,
+                frame.selection.time,
+                source.spec()
+            ),
+            None => format!("opening {}", source.spec()),
+        };
         self.jobs.open(Job::spawn(
             title,
             move || wake.request_repaint(),
-            move |progress| prepare_scene(&source, choice, &context, options, progress),
+            move |progress| prepare_scene(&source, frame, choice, &context, options, progress),
         ));
     }
 

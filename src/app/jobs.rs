@@ -113,6 +113,8 @@ impl<T: Send + 'static> Job<T> {
 pub struct Opened {
     pub scene: Scene,
     pub statistics: Vec<LevelStatistics>,
+    /// Another frame of the volume on screen: the view stays as it is.
+    pub frame_change: bool,
 }
 
 /// Per-level statistics counted under a transfer function, within a clip.

@@ -16,6 +16,7 @@ mod command;
 mod command_handling;
 mod dialogs;
 mod file_browser;
+mod frame_controls;
 mod jobs;
 mod menu;
 mod octree_panel;

@@ -14,8 +14,8 @@ use crate::octree::{
 use crate::progress::Progress;
 use crate::render::{GpuContext, RendererKind, RendererOptions, VolumeRenderer};
 use crate::stream::{StreamOptions, StreamStatus, ZarrSource};
-use crate::volume::ome_zarr::{self, Pyramid, PyramidOptions, VOLUME_VOXEL_BUDGET};
-use crate::volume::{self, LoadOptions, QuantizedVolume, ValueWindow, Volume};
+use crate::volume::ome_zarr::{self, Pyramid, VOLUME_VOXEL_BUDGET};
+use crate::volume::{self, LoadOptions, QuantizedVolume, Selection, ValueWindow, Volume};
 
 /// What to open: the embedded sample or a file path / synthetic spec.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -50,10 +50,16 @@ impl VolumeSource {
         }
     }
 
-    fn load(&self) -> Result<Volume, JobError> {
+    fn load(&self, select: Selection) -> Result<Volume, JobError> {
         match self {
             Self::Sample => volume::sample(),
-            Self::Spec(spec) => volume::load(spec, &LoadOptions::default()),
+            Self::Spec(spec) => volume::load(
+                spec,
+                &LoadOptions {
+                    select,
+                    ..LoadOptions::default()
+                },
+            ),
         }
         .map_err(|e| JobError::Failed(e.to_string()))
     }
@@ -166,15 +172,26 @@ impl Scene {
 /// panels show (histogram, statistics, slices, probe values): 256³.
 pub const PANEL_LEVEL_VOXELS: u64 = 1 << 24;
 
-/// Loads `source` and prepares everything to draw it with `options`: the job behind
-/// File ▸ Open, drops, recent files and the command line.
+/// Another frame (channel and time point) of the volume on screen, shown with the transfer
+/// function it has now (the camera, level and clipping stay as they are).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FrameChange {
+    pub selection: Selection,
+    pub transfer: TransferFunction,
+}
+
+/// Loads `source` (the frame `frame` names, else the first) and prepares everything to draw
+/// it with `options`: the job behind File ▸ Open, drops, recent files, the command line and
+/// the channel and time controls.
 pub fn prepare_scene(
     source: &VolumeSource,
+    frame: Option<FrameChange>,
     choice: TransferChoice,
     gpu: &GpuContext,
     options: RendererOptions,
     progress: &Progress,
 ) -> Result<Opened, JobError> {
+    let select = frame.map_or_else(Selection::default, |f| f.selection);
     let started = Instant::now();
     progress.begin("reading");
     // An OME-Zarr store larger than the in-memory budget streams at full resolution; the panels
@@ -182,8 +199,8 @@ pub fn prepare_scene(
     let mut options = options;
     let streamed = match source.zarr_path() {
         Some(path) => {
-            let pyramid = Pyramid::open(path, PyramidOptions::default())
-                .map_err(|e| JobError::Failed(e.to_string()))?;
+            let pyramid =
+                Pyramid::open(path, select).map_err(|e| JobError::Failed(e.to_string()))?;
             let large = pyramid.levels[0].voxel_count() > VOLUME_VOXEL_BUDGET as u64;
             (large || options.kind == RendererKind::Stream).then_some(pyramid)
         }
@@ -196,7 +213,7 @@ pub fn prepare_scene(
                 .level_volume(pyramid.finest_within(PANEL_LEVEL_VOXELS))
                 .map_err(|e| JobError::Failed(e.to_string()))?
         }
-        None => source.load()?,
+        None => source.load(select)?,
     };
     progress.check()?;
     progress.begin("quantizing");
@@ -211,7 +228,10 @@ pub fn prepare_scene(
         .unwrap_or_else(|| quantized.robust_window());
     let histogram = display_histogram(&quantized);
     let kind = DataKind::of_volume(&volume, &quantized);
-    let transfer = opening_transfer(choice, &quantized, kind, default_window);
+    let transfer = match frame {
+        Some(frame) => frame.transfer,
+        None => opening_transfer(choice, &quantized, kind, default_window),
+    };
     progress.begin("coloring");
     octree::recolor(&mut octree, &transfer);
     let statistics = octree::level_statistics(&octree);
@@ -240,7 +260,11 @@ pub fn prepare_scene(
         }
         Err(error) => return Err(error),
     };
-    Ok(Opened { scene, statistics })
+    Ok(Opened {
+        scene,
+        statistics,
+        frame_change: frame.is_some(),
+    })
 }
 
 /// The transfer function a volume opens with: its kind's default (a CT preset, labels) where
@@ -285,7 +309,7 @@ pub fn upload(
     let mut renderer = match data.source.zarr_path() {
         // A Zarr store streams from the file, at its own full resolution.
         Some(path) if options.kind == RendererKind::Stream => {
-            let pyramid = Pyramid::open(path, PyramidOptions::default())
+            let pyramid = Pyramid::open(path, data.volume.series.selected)
                 .map_err(|e| JobError::Failed(e.to_string()))?;
             let source = ZarrSource::new(Arc::new(pyramid)).map_err(JobError::Failed)?;
             let stream = StreamOptions {

@@ -180,6 +180,8 @@ pub struct AppSettings {
     pub slice_linear: bool,
     /// The 3D view of the Slices layout shows the three slice planes in place.
     pub show_slice_planes: bool,
+    /// Frames a second when playing a time series.
+    pub frame_rate: f32,
     /// Most recent first.
     pub recent: Vec<String>,
 }
@@ -226,6 +228,7 @@ impl Default for AppSettings {
             tool: Tool::Navigate,
             slice_linear: false,
             show_slice_planes: true,
+            frame_rate: 4.0,
             recent: Vec::new(),
         }
     }

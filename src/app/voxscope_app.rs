@@ -13,6 +13,7 @@ use super::central::{CentralView, ViewInputs};
 use super::command::{Command, CommandQueue};
 use super::dialogs::DialogKind;
 use super::file_browser::{BrowserOutcome, FileBrowser};
+use super::frame_controls::{self, Playback};
 use super::jobs::{Job, JobError, JobEvent, Jobs, Opened};
 use super::menu::{self, NOTICE_DURATION};
 use super::octree_panel::{self, OctreeFacts};
@@ -46,6 +47,8 @@ pub struct VoxscopeApp {
     pub(super) browser: Option<FileBrowser>,
     /// File ▸ Open URL…'s window, while it is open.
     pub(super) url_dialog: Option<UrlDialog>,
+    /// Playing a time series.
+    pub(super) playback: Playback,
     /// The desktop could not show a file dialog: use the app's browser from now on.
     pub(super) no_desktop_dialogs: bool,
     /// The clip the first volume opens with (the command line's `--clip-box`, `--clip-plane`).
@@ -81,6 +84,7 @@ impl VoxscopeApp {
             notice: None,
             browser: None,
             url_dialog: None,
+            playback: Playback::default(),
             no_desktop_dialogs: false,
             first_clip: None,
         };
@@ -275,7 +279,25 @@ impl VoxscopeApp {
         }
     }
 
-    pub(super) fn show_opened(&mut self, Opened { scene, statistics }: Opened) {
+    pub(super) fn show_opened(
+        &mut self,
+        Opened {
+            scene,
+            statistics,
+            frame_change,
+        }: Opened,
+    ) {
+        if frame_change && self.scene.is_some() {
+            // Another channel or time point: the camera, transfer function, level, cursor,
+            // clipping and rulers stay; the statistics are the new frame's (the clip's count
+            // follows, as after any clip edit).
+            self.view.statistics = statistics;
+            self.view.statistics_for = Some((scene.applied_transfer, Clip::NONE));
+            self.scene = Some(scene);
+            self.scene_serial += 1;
+            self.error = None;
+            return;
+        }
         if scene.options.kind != self.settings.renderer {
             let why = if scene.options.kind == RendererKind::Stream {
                 let dims = scene.renderer.stream().map(|s| s.streamer().shape().dims());
@@ -391,6 +413,15 @@ impl eframe::App for VoxscopeApp {
                 .show(ui, |ui| {
                     egui::ScrollArea::vertical().show(ui, |ui| {
                         let data = self.scene.as_ref().map(|s| s.data.as_ref());
+                        if let Some(data) = data {
+                            frame_controls::show(
+                                ui,
+                                &data.volume.series,
+                                &mut self.playback,
+                                &mut self.settings.frame_rate,
+                                &mut self.commands,
+                            );
+                        }
                         transfer_panel::show(ui, &mut self.settings, &mut self.view.window, data);
                     });
                 });
@@ -457,6 +488,19 @@ impl eframe::App for VoxscopeApp {
                     self.url_dialog = None;
                     self.commands.send(Command::Open(VolumeSource::Spec(url)));
                 }
+            }
+        }
+        if let Some(scene) = &self.scene {
+            let series = &scene.data.volume.series;
+            let loading = self.jobs.open_progress().is_some();
+            if let Some(next) = self
+                .playback
+                .next(series, self.settings.frame_rate, loading)
+            {
+                self.commands.send(Command::ShowFrame(next));
+            }
+            if self.playback.playing {
+                ctx.request_repaint_after(self.playback.wait(self.settings.frame_rate));
             }
         }
         self.run_queued_commands(&ctx);
