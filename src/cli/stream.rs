@@ -2,7 +2,6 @@
 //! …), opening a pyramid (a procedural one, or any readable volume's, whose coarser levels are
 //! computed in memory), and drawing one view until nothing visible is missing.
 
-use std::path::Path;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -121,13 +120,13 @@ impl StreamPrepared {
                     let name = format!("synthetic:noise:{size}");
                     (Arc::new(NoiseSource::new(&name, dims)?), None, None)
                 }
-                _ if spec.is_some_and(|s| ome_zarr::is_zarr_folder(Path::new(s)))
-                    && volume_args.raw.is_none() =>
-                {
-                    // Read region by region from the file's own levels, never whole.
-                    let path = Path::new(spec.unwrap_or_default());
-                    let pyramid = Pyramid::open(path, volume_args.load_options().zarr)
-                        .map_err(|e| e.to_string())?;
+                _ if spec.is_some_and(ome_zarr::is_zarr_spec) && volume_args.raw.is_none() => {
+                    // Read region by region from the file's own levels (a folder's or a
+                    // URL's), never whole.
+                    let options = volume_args.load_options();
+                    let pyramid =
+                        Pyramid::open_spec(spec.unwrap_or_default(), options.zarr, options.remote)
+                            .map_err(|e| e.to_string())?;
                     let window = pyramid.omero_window();
                     let source = ZarrSource::new(Arc::new(pyramid))?;
                     (Arc::new(source), None, window)

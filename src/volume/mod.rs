@@ -13,6 +13,7 @@ pub mod ome_zarr;
 mod orientation;
 mod raw;
 mod registry;
+pub mod remote;
 mod sample;
 mod slices;
 mod synthetic;

@@ -3,8 +3,8 @@
 //! that fits [`VOLUME_VOXEL_BUDGET`] for the in-memory renderers.
 //!
 //! Chunks are read and decoded by zarrs (blosc, zstd, gzip, uncompressed; `.` or `/` chunk
-//! keys; sharding) from any zarrs `ReadableStorageTraits` store: a folder today, HTTP or an
-//! object store later. What a file declares is checked before anything of that size exists:
+//! keys; sharding) from any zarrs `ReadableStorageTraits` store: a folder, or a URL
+//! (`http://`, `https://`, `s3://`: [`super::remote`]). What a file declares is checked before anything of that size exists:
 //! the region a caller asks for bounds the output, a chunk holds at most [`MAX_CHUNK_BYTES`]
 //! decoded, a shard at most [`MAX_SHARD_CHUNKS`] chunks, a metadata document at most 16 MiB,
 //! and a compressed chunk never decodes into more than its chunk's bytes ([`guard`]).
@@ -30,6 +30,7 @@ use zarrs::array::{Array, ArrayMetadata, ArrayShardedExt, ArraySubset, DataType}
 use zarrs::storage::{ReadableStorageTraits, StoreKey};
 
 use super::error::{Problem, printable, quoted};
+use super::remote::{RemoteOptions, RemoteStats, RemoteStore};
 use super::{LoadError, MAX_VOXELS, ValueWindow, Volume, VoxelData, VoxelType, format_dims};
 
 pub use metadata::{Axis, AxisKind, OmeroChannel};
@@ -187,6 +188,8 @@ pub struct Pyramid {
     store: ReadableStorage,
     /// Where the levels' chunk ranges are (`voxscope.chunk_ranges.paths`), full store paths.
     range_paths: Vec<String>,
+    /// The store again, where it is remote: a region's chunks are fetched together.
+    remote: Option<Arc<RemoteStore>>,
 }
 
 impl std::fmt::Debug for Pyramid {
@@ -197,6 +200,12 @@ impl std::fmt::Debug for Pyramid {
             .field("voxel_type", &self.voxel_type)
             .finish_non_exhaustive()
     }
+}
+
+/// Whether `spec` names something [`Pyramid::open_spec`] opens: a URL
+/// ([`super::remote::is_url`]) or a Zarr folder.
+pub fn is_zarr_spec(spec: &str) -> bool {
+    super::remote::is_url(spec) || is_zarr_folder(Path::new(spec))
 }
 
 /// Whether `path` is a Zarr folder: `.zgroup`, `.zarray` or `zarr.json` in it.
@@ -221,6 +230,41 @@ impl Pyramid {
         let store = zarrs::filesystem::FilesystemStore::new(path)
             .map_err(|e| LoadError::new(&source, format!("cannot open: {e}")))?;
         Self::open_store(Arc::new(store), &source, options)
+    }
+
+    /// Opens the Zarr store at `url` (`http://`, `https://`, `s3://BUCKET/PATH`; see
+    /// [`super::remote`]) as [`Self::open`] opens a folder. The source it names in messages is
+    /// the URL without user name, password or query.
+    pub fn open_url(
+        url: &str,
+        options: PyramidOptions,
+        remote: RemoteOptions,
+    ) -> Result<Self, LoadError> {
+        let source = super::remote::display_url(url);
+        let store =
+            RemoteStore::open(url, remote).map_err(|problem| LoadError::new(&source, problem))?;
+        let mut pyramid = Self::open_store(store.clone(), &source, options)?;
+        store.mark_opened();
+        pyramid.remote = Some(store);
+        Ok(pyramid)
+    }
+
+    /// Opens a URL ([`Self::open_url`]) or a folder ([`Self::open`]).
+    pub fn open_spec(
+        spec: &str,
+        options: PyramidOptions,
+        remote: RemoteOptions,
+    ) -> Result<Self, LoadError> {
+        if super::remote::is_url(spec) {
+            Self::open_url(spec, options, remote)
+        } else {
+            Self::open(Path::new(spec), options)
+        }
+    }
+
+    /// Requests, bytes and errors of a remote store so far (`None` for a folder).
+    pub fn remote_stats(&self) -> Option<RemoteStats> {
+        self.remote.as_ref().map(|store| store.stats())
     }
 
     /// Opens the Zarr hierarchy at the root of `store`; `source` names it in messages.
@@ -364,6 +408,20 @@ impl Pyramid {
         }
         let subset = self.subset(origin, size);
         let array = &self.arrays[level];
+        if let Some(remote) = &self.remote
+            && info.shard.is_none()
+        {
+            // zarrs asks for one chunk per reading thread at a time: over a network all of
+            // the region's chunks are asked for at once first.
+            if let Ok(Some(chunks)) = array.chunks_in_array_subset(&subset) {
+                let keys: Vec<StoreKey> = chunks
+                    .indices()
+                    .into_iter()
+                    .map(|indices| array.chunk_key(&indices))
+                    .collect();
+                remote.prefetch(&keys);
+            }
+        }
         let read = match self.stored {
             Stored::Native(VoxelType::U8) => {
                 array.retrieve_array_subset(&subset).map(VoxelData::U8)
@@ -770,6 +828,7 @@ fn open_levels(
         arrays: arrays.into_iter().map(|(_, _, array)| array).collect(),
         range_paths: range_paths(&attributes, prefix, levels_len),
         store,
+        remote: None,
     })
 }
 
@@ -1101,6 +1160,20 @@ fn describe_codecs(metadata: &ArrayMetadata) -> String {
 /// Says on stderr when a finer level exists.
 pub(crate) fn load(path: &Path, options: PyramidOptions) -> Result<Volume, Problem> {
     let pyramid = Pyramid::open(path, options).map_err(|e| e.problem)?;
+    load_pyramid(&pyramid)
+}
+
+/// [`load`] for a URL ([`Pyramid::open_url`]).
+pub(crate) fn load_url(
+    url: &str,
+    options: PyramidOptions,
+    remote: RemoteOptions,
+) -> Result<Volume, Problem> {
+    let pyramid = Pyramid::open_url(url, options, remote).map_err(|e| e.problem)?;
+    load_pyramid(&pyramid)
+}
+
+fn load_pyramid(pyramid: &Pyramid) -> Result<Volume, Problem> {
     let level = pyramid.finest_within(VOLUME_VOXEL_BUDGET as u64);
     let info = &pyramid.levels[level];
     if info.voxel_count() > MAX_VOXELS as u64 {
@@ -1112,7 +1185,7 @@ pub(crate) fn load(path: &Path, options: PyramidOptions) -> Result<Volume, Probl
     if level > 0 {
         eprintln!(
             "note: {}: opened level {level} ({}), the finest within {} voxels; level 0 is {}",
-            path.display(),
+            pyramid.source,
             format_dims(info.dims),
             VOLUME_VOXEL_BUDGET,
             format_dims(pyramid.levels[0].dims)
@@ -1120,14 +1193,14 @@ pub(crate) fn load(path: &Path, options: PyramidOptions) -> Result<Volume, Probl
     }
     let data = pyramid.read_level(level).map_err(|e| e.problem)?;
     let mut volume = Volume::new(
-        path.display().to_string(),
+        pyramid.source.clone(),
         pyramid.format,
         info.dims,
         info.spacing,
         data,
     )
     .map_err(|e| e.problem)?;
-    volume.metadata = volume_facts(&pyramid, level);
+    volume.metadata = volume_facts(pyramid, level);
     volume.default_window = pyramid.omero_window();
     Ok(volume)
 }
