@@ -565,7 +565,8 @@ mod aws {
         secrets: Vec<String>,
     }
 
-    fn env(name: &str) -> Option<String> {
+    /// A variable of the process's environment, if set and not blank.
+    fn process_env(name: &str) -> Option<String> {
         std::env::var(name).ok().filter(|v| !v.trim().is_empty())
     }
 
@@ -592,15 +593,22 @@ mod aws {
         sections
     }
 
-    fn home_file(variable: &str, name: &str) -> Option<PathBuf> {
-        env(variable)
-            .map(PathBuf::from)
-            .or_else(|| std::env::home_dir().map(|home| home.join(".aws").join(name)))
-    }
-
     impl Credentials {
         /// Looks at the environment, then at the profile of the shared files.
         pub(super) fn find() -> Self {
+            Self::find_with(&process_env, std::env::home_dir())
+        }
+
+        /// [`Self::find`] with the environment `env` and the home folder `home`.
+        pub(super) fn find_with(
+            env: &dyn Fn(&str) -> Option<String>,
+            home: Option<PathBuf>,
+        ) -> Self {
+            let home_file = |variable: &str, name: &str| {
+                env(variable)
+                    .map(PathBuf::from)
+                    .or_else(|| home.as_ref().map(|home| home.join(".aws").join(name)))
+            };
             let profile = env("AWS_PROFILE").unwrap_or_else(|| "default".to_owned());
             let credentials = home_file("AWS_SHARED_CREDENTIALS_FILE", "credentials")
                 .map(|p| ini(&p))
@@ -613,7 +621,7 @@ mod aws {
             } else {
                 format!("profile {profile}")
             };
-            let empty = HashMap::new();
+            let empty: HashMap<String, String> = HashMap::new();
             let keys = credentials.get(&profile).unwrap_or(&empty);
             let settings = config.get(&config_section).unwrap_or(&empty);
             let mut from_files = Vec::new();
@@ -678,6 +686,21 @@ mod aws {
             }
         }
 
+        /// Whether requests go unsigned.
+        #[cfg(test)]
+        pub(super) fn anonymous(&self) -> bool {
+            self.anonymous
+        }
+
+        /// The value of `key` the files give (where the environment gives none).
+        #[cfg(test)]
+        pub(super) fn setting(&self, key: AmazonS3ConfigKey) -> Option<&str> {
+            self.from_files
+                .iter()
+                .find(|(k, _)| *k == key)
+                .map(|(_, v)| v.as_str())
+        }
+
         /// The secret strings found (to blank out of messages).
         pub(super) fn secrets(&self) -> Vec<String> {
             self.secrets.clone()
@@ -698,6 +721,8 @@ mod aws {
 
 #[cfg(test)]
 mod tests {
+    use std::path::PathBuf;
+
     use super::*;
 
     #[test]
@@ -727,6 +752,70 @@ mod tests {
             &["hunter22".to_owned()],
         );
         assert_eq!(text, "bad signature for *** at x");
+    }
+
+    #[test]
+    fn credentials_come_from_the_environment_then_the_profile_else_none() {
+        use object_store::aws::AmazonS3ConfigKey as Key;
+        let home = tempfile::tempdir().expect("a temporary folder");
+        let aws = home.path().join(".aws");
+        std::fs::create_dir_all(&aws).expect("~/.aws");
+        std::fs::write(
+            aws.join("credentials"),
+            "[default]\naws_access_key_id = AKIDEFAULT\naws_secret_access_key = defaultsecret\n\n\
+             [lab]\naws_access_key_id=AKILAB\naws_secret_access_key=labsecret\n",
+        )
+        .expect("credentials");
+        std::fs::write(
+            aws.join("config"),
+            "[profile lab]\nregion = eu-west-3\nendpoint_url = http://127.0.0.1:9000\n",
+        )
+        .expect("config");
+        let found = |vars: &[(&str, &str)], home: Option<PathBuf>| {
+            let vars: Vec<(String, String)> = vars
+                .iter()
+                .map(|(k, v)| (k.to_string(), v.to_string()))
+                .collect();
+            aws::Credentials::find_with(
+                &move |name: &str| vars.iter().find(|(k, _)| k == name).map(|(_, v)| v.clone()),
+                home,
+            )
+        };
+        let home_path = Some(home.path().to_path_buf());
+        let lab = found(&[("AWS_PROFILE", "lab")], home_path.clone());
+        assert!(!lab.anonymous());
+        assert_eq!(lab.setting(Key::AccessKeyId), Some("AKILAB"));
+        assert_eq!(lab.setting(Key::Region), Some("eu-west-3"));
+        assert_eq!(lab.setting(Key::Endpoint), Some("http://127.0.0.1:9000"));
+        assert_eq!(lab.secrets(), vec!["labsecret".to_owned()]);
+        let default = found(&[], home_path.clone());
+        assert_eq!(default.setting(Key::AccessKeyId), Some("AKIDEFAULT"));
+        assert_eq!(default.setting(Key::Region), None);
+        // The environment's keys win over the files'; its region and endpoint too.
+        let env = found(
+            &[
+                ("AWS_ACCESS_KEY_ID", "AKIENV"),
+                ("AWS_SECRET_ACCESS_KEY", "envsecret"),
+                ("AWS_PROFILE", "lab"),
+                ("AWS_REGION", "us-west-2"),
+            ],
+            home_path,
+        );
+        assert!(!env.anonymous());
+        assert_eq!(env.setting(Key::AccessKeyId), None);
+        assert_eq!(env.setting(Key::Region), None);
+        assert_eq!(env.secrets(), vec!["envsecret".to_owned()]);
+        // Nothing anywhere: anonymous.
+        assert!(found(&[], None).anonymous());
+        let shared = tempfile::NamedTempFile::new().expect("a file");
+        let nowhere = found(
+            &[(
+                "AWS_SHARED_CREDENTIALS_FILE",
+                shared.path().to_str().unwrap_or_default(),
+            )],
+            None,
+        );
+        assert!(nowhere.anonymous());
     }
 
     #[test]

@@ -6,17 +6,17 @@
 use std::io::{BufRead, BufReader, Write};
 use std::net::{Shutdown, TcpListener, TcpStream};
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 /// What goes wrong, and how slowly. Every field 0 / `None`: a fast, faultless server.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Faults {
     /// Added before each answer.
     pub latency: Duration,
-    /// Bytes per second of each answer's body, at most.
+    /// Bytes per second of all answers' bodies together, at most (one link's bandwidth).
     pub bandwidth: Option<u64>,
     /// Every Nth request (N > 0) is dropped: the connection closes without an answer.
     pub drop_every: u64,
@@ -35,6 +35,8 @@ pub struct ServerCounters {
     /// Body bytes sent.
     pub bytes: AtomicU64,
     pub faults: AtomicU64,
+    /// When the shared link is free again (the bandwidth bound's clock).
+    link_free_at: Mutex<Option<Instant>>,
 }
 
 /// A running server; stops when dropped.
@@ -235,7 +237,7 @@ fn serve(stream: TcpStream, root: &Path, faults: Faults, counters: &ServerCounte
         } else {
             body
         };
-        if send(&mut out, body, faults.bandwidth).is_err() {
+        if send(&mut out, body, faults.bandwidth, counters).is_err() {
             return;
         }
         counters
@@ -248,16 +250,30 @@ fn serve(stream: TcpStream, root: &Path, faults: Faults, counters: &ServerCounte
     }
 }
 
-/// Writes `body`, at most `bandwidth` bytes a second.
-fn send(out: &mut TcpStream, body: &[u8], bandwidth: Option<u64>) -> std::io::Result<()> {
+/// Writes `body`; with a `bandwidth`, in 16 KiB pieces, each waiting for its turn on one
+/// link shared by all connections.
+fn send(
+    out: &mut TcpStream,
+    body: &[u8],
+    bandwidth: Option<u64>,
+    counters: &ServerCounters,
+) -> std::io::Result<()> {
     let Some(rate) = bandwidth.filter(|&r| r > 0) else {
         return out.write_all(body);
     };
-    // 10 ms slices.
-    let slice = (rate / 100).max(1) as usize;
-    for piece in body.chunks(slice) {
+    for piece in body.chunks(16 << 10) {
+        let done = {
+            let mut free = counters
+                .link_free_at
+                .lock()
+                .unwrap_or_else(|poisoned| poisoned.into_inner());
+            let start = free.map_or(Instant::now(), |f| f.max(Instant::now()));
+            let done = start + Duration::from_secs_f64(piece.len() as f64 / rate as f64);
+            *free = Some(done);
+            done
+        };
+        std::thread::sleep(done.saturating_duration_since(Instant::now()));
         out.write_all(piece)?;
-        std::thread::sleep(Duration::from_millis(10));
     }
     Ok(())
 }

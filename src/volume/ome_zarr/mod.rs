@@ -190,6 +190,10 @@ pub struct Pyramid {
     range_paths: Vec<String>,
     /// The store again, where it is remote: a region's chunks are fetched together.
     remote: Option<Arc<RemoteStore>>,
+    /// Where a remote store's reads run: zarrs reads a region's chunks (a sharded array's
+    /// shards) on rayon threads, each blocked on the network while it waits, so they get a
+    /// pool of their own as large as the request limit, not the cores' global pool.
+    reader_pool: Option<Arc<rayon::ThreadPool>>,
 }
 
 impl std::fmt::Debug for Pyramid {
@@ -246,6 +250,13 @@ impl Pyramid {
         let mut pyramid = Self::open_store(store.clone(), &source, options)?;
         store.mark_opened();
         pyramid.remote = Some(store);
+        let threads = remote.max_requests.clamp(4, 64);
+        pyramid.reader_pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .thread_name(|i| format!("voxscope-remote-{i}"))
+            .build()
+            .ok()
+            .map(Arc::new);
         Ok(pyramid)
     }
 
@@ -422,7 +433,7 @@ impl Pyramid {
                 remote.prefetch(&keys);
             }
         }
-        let read = match self.stored {
+        let read = || match self.stored {
             Stored::Native(VoxelType::U8) => {
                 array.retrieve_array_subset(&subset).map(VoxelData::U8)
             }
@@ -453,6 +464,10 @@ impl Pyramid {
             Stored::I64 => array
                 .retrieve_array_subset::<Vec<i64>>(&subset)
                 .map(|v| VoxelData::F64(v.into_iter().map(|x| x as f64).collect())),
+        };
+        let read = match &self.reader_pool {
+            Some(pool) => pool.install(read),
+            None => read(),
         };
         read.map_err(|error| self.failing_chunk(level, &subset, &error.to_string()))
     }
@@ -829,6 +844,7 @@ fn open_levels(
         range_paths: range_paths(&attributes, prefix, levels_len),
         store,
         remote: None,
+        reader_pool: None,
     })
 }
 
