@@ -130,6 +130,21 @@ fn a_region_of_a_sharded_level_reads_only_its_inner_chunks() {
         fetched < shard_bytes,
         "read {fetched} bytes for one inner chunk of a {shard_bytes}-byte shard"
     );
+    // The next inner chunk of the same shard: one request (its bytes; the index is kept).
+    let requests = server.counters.requests.load(Ordering::SeqCst);
+    let next = [info.chunk[0], 0, 0];
+    assert!(
+        next[0] + info.chunk[0] <= shard[0].min(info.dims[0]),
+        "{info:?}"
+    );
+    let region = pyramid
+        .read_region(0, next, info.chunk)
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert!(region == local.read_region(0, next, info.chunk).unwrap());
+    assert_eq!(
+        server.counters.requests.load(Ordering::SeqCst) - requests,
+        1
+    );
 }
 
 #[test]

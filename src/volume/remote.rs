@@ -81,6 +81,13 @@ const MAX_OBJECT_BYTES: u64 = 2 << 30;
 /// Prefetched chunks waiting for their decode, at most (more are fetched when they are asked).
 const MAX_STAGED_BYTES: u64 = 512 << 20;
 
+/// The largest read of an object's last bytes that is kept ([`RemoteStore::tails`]): a shard
+/// index of up to 4096 chunks.
+const MAX_TAIL_BYTES: u64 = 64 << 10;
+
+/// Object tails kept, at most (then the map starts over): 256 MiB at the largest.
+const MAX_TAILS: usize = 4096;
+
 /// How a remote store is read.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct RemoteOptions {
@@ -173,6 +180,9 @@ pub struct RemoteStore {
     opened: AtomicBool,
     counters: Counters,
     staged: Mutex<Staged>,
+    /// Objects' last bytes read before (key, length): a sharded array's shard indexes, which
+    /// zarrs reads again for every region in the shard; objects do not change while open.
+    tails: Mutex<HashMap<(String, u64), Bytes>>,
     /// Strings that must never appear in a message (passwords, AWS secrets).
     secrets: Vec<String>,
 }
@@ -276,6 +286,7 @@ impl RemoteStore {
             opened: AtomicBool::new(false),
             counters: Counters::default(),
             staged: Mutex::new(Staged::default()),
+            tails: Mutex::new(HashMap::new()),
             secrets,
         }))
     }
@@ -508,6 +519,18 @@ impl ReadableStorageTraits for RemoteStore {
         if ranges.is_empty() {
             return Ok(Some(Box::new(std::iter::empty())));
         }
+        // A shard index: its last bytes, read again for every region in the shard.
+        let tail = match ranges[..] {
+            [ByteRange::Suffix(length)] if length <= MAX_TAIL_BYTES => {
+                Some((key.as_str().to_owned(), length))
+            }
+            _ => None,
+        };
+        if let Some(tail) = &tail
+            && let Some(bytes) = self.tails.lock().ok().and_then(|t| t.get(tail).cloned())
+        {
+            return Ok(Some(Box::new(std::iter::once(Ok(bytes)))));
+        }
         // Every range in flight at once (up to the request limit); a missing object is
         // missing for all of them.
         let fetches = ranges
@@ -521,6 +544,14 @@ impl ReadableStorageTraits for RemoteStore {
         })?;
         if parts.iter().any(Option::is_none) {
             return Ok(None);
+        }
+        if let (Some(tail), [Some(bytes)]) = (tail, &parts[..])
+            && let Ok(mut tails) = self.tails.lock()
+        {
+            if tails.len() >= MAX_TAILS {
+                tails.clear();
+            }
+            tails.insert(tail, bytes.clone());
         }
         let parts: Vec<Result<Bytes, StorageError>> = parts.into_iter().flatten().map(Ok).collect();
         Ok(Some(Box::new(parts.into_iter())))
