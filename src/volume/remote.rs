@@ -5,10 +5,11 @@
 //!
 //! - **Concurrency**: at most [`RemoteOptions::max_requests`] requests in flight (default
 //!   [`DEFAULT_MAX_REQUESTS`]). zarrs asks for one chunk at a time per reading thread, so a
-//!   region read first fetches all its chunks at once ([`RemoteStore::prefetch`]); the bytes
-//!   wait in a small staging map that the decode takes them from. Sharded arrays are read by
-//!   byte ranges (the shard index, then only the inner chunks a region needs), all of one
-//!   shard's ranges in flight together.
+//!   region read first fetches all its chunks at once ([`RemoteStore::prefetch`]). Sharded
+//!   arrays are read by byte ranges (the shard index, then only the inner chunks a region
+//!   needs), all of one shard's ranges in flight together.
+//! - **Cache**: fetched bytes stay in RAM up to [`FETCH_CACHE_BYTES`] (a padded brick reads
+//!   the edges of its neighbours' chunks; zarrs reads a shard's index for every region).
 //! - **Time bounds**: connecting takes at most [`CONNECT_TIMEOUT`], one request at most
 //!   [`REQUEST_TIMEOUT`]; 5xx answers, 429, resets, timeouts and cut bodies are retried with
 //!   exponential backoff ([`MAX_RETRIES`]); one store operation with its retries ends within
@@ -78,15 +79,11 @@ pub const READ_DEADLINE: Duration = Duration::from_secs(120);
 /// checked against it before the bytes are collected.
 const MAX_OBJECT_BYTES: u64 = 2 << 30;
 
-/// Prefetched chunks waiting for their decode, at most (more are fetched when they are asked).
-const MAX_STAGED_BYTES: u64 = 512 << 20;
-
-/// The largest read of an object's last bytes that is kept ([`RemoteStore::tails`]): a shard
-/// index of up to 4096 chunks.
-const MAX_TAIL_BYTES: u64 = 64 << 10;
-
-/// Object tails kept, at most (then the map starts over): 256 MiB at the largest.
-const MAX_TAILS: usize = 4096;
+/// Fetched bytes (whole chunks, inner-chunk ranges, shard indexes) kept in RAM, at most:
+/// a padded brick reads the edges of its neighbours' chunks, and zarrs reads a shard's index
+/// again for every region in the shard, so without it most bytes would cross the network
+/// several times. Objects are taken not to change while a store is open.
+pub const FETCH_CACHE_BYTES: u64 = 256 << 20;
 
 /// How a remote store is read.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -162,11 +159,59 @@ struct Counters {
     errors: AtomicU64,
 }
 
-/// Chunks fetched ahead of their decode.
+/// Which bytes of an object a cached piece is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+enum Piece {
+    Whole,
+    Range(u64, u64),
+    From(u64),
+    Suffix(u64),
+}
+
+impl Piece {
+    fn of(range: Option<&GetRange>) -> Self {
+        match range {
+            None => Self::Whole,
+            Some(GetRange::Bounded(r)) => Self::Range(r.start, r.end),
+            Some(GetRange::Offset(o)) => Self::From(*o),
+            Some(GetRange::Suffix(n)) => Self::Suffix(*n),
+        }
+    }
+}
+
+/// Fetched bytes by object and piece, the oldest dropped first beyond [`FETCH_CACHE_BYTES`].
 #[derive(Default)]
-struct Staged {
-    chunks: HashMap<String, Bytes>,
+struct FetchCache {
+    pieces: HashMap<(String, Piece), Bytes>,
+    order: std::collections::VecDeque<(String, Piece)>,
     bytes: u64,
+}
+
+impl FetchCache {
+    fn get(&self, key: &str, piece: Piece) -> Option<Bytes> {
+        self.pieces.get(&(key.to_owned(), piece)).cloned()
+    }
+
+    fn insert(&mut self, key: &str, piece: Piece, bytes: &Bytes) {
+        let size = bytes.len() as u64;
+        if size > FETCH_CACHE_BYTES / 4 {
+            return;
+        }
+        let entry = (key.to_owned(), piece);
+        if self.pieces.insert(entry.clone(), bytes.clone()).is_some() {
+            return;
+        }
+        self.order.push_back(entry);
+        self.bytes += size;
+        while self.bytes > FETCH_CACHE_BYTES {
+            let Some(oldest) = self.order.pop_front() else {
+                break;
+            };
+            if let Some(dropped) = self.pieces.remove(&oldest) {
+                self.bytes -= dropped.len() as u64;
+            }
+        }
+    }
 }
 
 /// A Zarr store at a URL, read through `object_store` (see the module's documentation).
@@ -179,10 +224,7 @@ pub struct RemoteStore {
     limit: Arc<Semaphore>,
     opened: AtomicBool,
     counters: Counters,
-    staged: Mutex<Staged>,
-    /// Objects' last bytes read before (key, length): a sharded array's shard indexes, which
-    /// zarrs reads again for every region in the shard; objects do not change while open.
-    tails: Mutex<HashMap<(String, u64), Bytes>>,
+    cache: Mutex<FetchCache>,
     /// Strings that must never appear in a message (passwords, AWS secrets).
     secrets: Vec<String>,
 }
@@ -285,8 +327,7 @@ impl RemoteStore {
             limit: Arc::new(Semaphore::new(max_requests)),
             opened: AtomicBool::new(false),
             counters: Counters::default(),
-            staged: Mutex::new(Staged::default()),
-            tails: Mutex::new(HashMap::new()),
+            cache: Mutex::new(FetchCache::default()),
             secrets,
         }))
     }
@@ -314,44 +355,28 @@ impl RemoteStore {
     }
 
     /// Fetches `keys` (whole objects: unsharded chunks) all at once, up to the request limit,
-    /// into the staging map that [`ReadableStorageTraits::get`] takes them from. Missing
-    /// objects and failures are left for `get` to meet (and report) again; at most
-    /// [`MAX_STAGED_BYTES`] wait at once.
+    /// into the fetch cache that [`ReadableStorageTraits::get`] reads first. Missing objects
+    /// and failures are left for `get` to meet (and report) again.
     pub fn prefetch(&self, keys: &[StoreKey]) {
-        if keys.len() < 2 {
+        let wanted: Vec<&StoreKey> = match self.cache.lock() {
+            Ok(cache) => keys
+                .iter()
+                .filter(|key| cache.get(key.as_str(), Piece::Whole).is_none())
+                .collect(),
+            Err(_) => return,
+        };
+        if wanted.len() < 2 {
             return;
         }
         let Ok(runtime) = runtime() else { return };
-        let fetches = keys.iter().map(|key| async move {
-            let bytes = self.fetch(key, None).await.ok().flatten();
-            (key.as_str().to_owned(), bytes)
-        });
+        let fetches = wanted
+            .iter()
+            .map(|key| async move { self.fetch(key, None).await.ok().flatten() });
         let deadline = self.deadline();
-        let fetched = runtime.block_on(async {
+        // The fetches fill the cache themselves.
+        let _ = runtime.block_on(async {
             tokio::time::timeout(deadline, futures::future::join_all(fetches)).await
         });
-        let Ok(fetched) = fetched else { return };
-        let Ok(mut staged) = self.staged.lock() else {
-            return;
-        };
-        for (key, bytes) in fetched {
-            let Some(bytes) = bytes else { continue };
-            let size = bytes.len() as u64;
-            if staged.bytes + size > MAX_STAGED_BYTES {
-                break;
-            }
-            staged.bytes += size;
-            if let Some(old) = staged.chunks.insert(key, bytes) {
-                staged.bytes -= old.len() as u64;
-            }
-        }
-    }
-
-    fn take_staged(&self, key: &StoreKey) -> Option<Bytes> {
-        let mut staged = self.staged.lock().ok()?;
-        let bytes = staged.chunks.remove(key.as_str())?;
-        staged.bytes -= bytes.len() as u64;
-        Some(bytes)
     }
 
     fn deadline(&self) -> Duration {
@@ -424,6 +449,15 @@ impl RemoteStore {
         key: &StoreKey,
         range: Option<GetRange>,
     ) -> Result<Option<Bytes>, object_store::Error> {
+        let piece = Piece::of(range.as_ref());
+        if let Some(bytes) = self
+            .cache
+            .lock()
+            .ok()
+            .and_then(|c| c.get(key.as_str(), piece))
+        {
+            return Ok(Some(bytes));
+        }
         let location = self.location(key);
         let _permit = self
             .limit
@@ -439,6 +473,9 @@ impl RemoteStore {
                 self.counters
                     .bytes
                     .fetch_add(bytes.len() as u64, Ordering::Relaxed);
+                if let Ok(mut cache) = self.cache.lock() {
+                    cache.insert(key.as_str(), piece, &bytes);
+                }
                 Ok(Some(bytes))
             }
             Err(object_store::Error::NotFound { .. }) => Ok(None),
@@ -504,9 +541,6 @@ fn to_get_range(range: ByteRange) -> GetRange {
 
 impl ReadableStorageTraits for RemoteStore {
     fn get(&self, key: &StoreKey) -> Result<MaybeBytes, StorageError> {
-        if let Some(bytes) = self.take_staged(key) {
-            return Ok(Some(bytes));
-        }
         self.block_on(key, self.fetch(key, None))
     }
 
@@ -518,18 +552,6 @@ impl ReadableStorageTraits for RemoteStore {
         let ranges: Vec<ByteRange> = byte_ranges.collect();
         if ranges.is_empty() {
             return Ok(Some(Box::new(std::iter::empty())));
-        }
-        // A shard index: its last bytes, read again for every region in the shard.
-        let tail = match ranges[..] {
-            [ByteRange::Suffix(length)] if length <= MAX_TAIL_BYTES => {
-                Some((key.as_str().to_owned(), length))
-            }
-            _ => None,
-        };
-        if let Some(tail) = &tail
-            && let Some(bytes) = self.tails.lock().ok().and_then(|t| t.get(tail).cloned())
-        {
-            return Ok(Some(Box::new(std::iter::once(Ok(bytes)))));
         }
         // Every range in flight at once (up to the request limit); a missing object is
         // missing for all of them.
@@ -544,14 +566,6 @@ impl ReadableStorageTraits for RemoteStore {
         })?;
         if parts.iter().any(Option::is_none) {
             return Ok(None);
-        }
-        if let (Some(tail), [Some(bytes)]) = (tail, &parts[..])
-            && let Ok(mut tails) = self.tails.lock()
-        {
-            if tails.len() >= MAX_TAILS {
-                tails.clear();
-            }
-            tails.insert(tail, bytes.clone());
         }
         let parts: Vec<Result<Bytes, StorageError>> = parts.into_iter().flatten().map(Ok).collect();
         Ok(Some(Box::new(parts.into_iter())))
