@@ -6,6 +6,7 @@
 mod support;
 
 use support::app_harness::{harness, settle, view};
+use support::http_server::{Faults, FileServer};
 use support::reference::psnr;
 
 use egui_kittest::kittest::Queryable;
@@ -79,4 +80,46 @@ fn an_ome_zarr_store_streams_from_the_file() {
     // The store's level 0 (48×48×20) is what streams: 2×2×1 bricks.
     assert_eq!(status.counters.levels[0].total, 4);
     assert!(support::app_harness::lit_pixels(&view(&harness)) > 1000);
+}
+
+#[test]
+fn a_url_streams_over_a_slow_server_and_the_panel_shows_the_network() {
+    // The fixtures served on 127.0.0.1 with 30 ms a request; the store is opened from a URL
+    // typed with a user name and password, which must never be saved.
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/ome-zarr");
+    let server = FileServer::start(
+        &root,
+        Faults {
+            latency: std::time::Duration::from_millis(30),
+            ..Faults::default()
+        },
+    );
+    let mut harness = harness();
+    choose_renderer(&mut harness, "stream");
+    let url = server.url("head-v05-sharded-blosc-zstd.ome.zarr");
+    let with_secret = url.replacen("http://", "http://user:secret@", 1);
+    let ctx = harness.ctx.clone();
+    harness
+        .state_mut()
+        .run_command(Command::Open(VolumeSource::Spec(with_secret)), &ctx);
+    settle(&mut harness);
+    assert_eq!(harness.state().error(), None);
+    assert_eq!(harness.state().renderer_kind(), Some(RendererKind::Stream));
+    let status = harness.state().stream_status().expect("a streaming status");
+    assert!(status.complete && status.errors.is_empty(), "{status:?}");
+    assert!(support::app_harness::lit_pixels(&view(&harness)) > 1000);
+    harness.get_by_label("Network");
+    assert!(
+        server
+            .counters
+            .requests
+            .load(std::sync::atomic::Ordering::SeqCst)
+            > 0
+    );
+    let recent = &harness.state().settings.recent;
+    assert_eq!(
+        recent[0], url,
+        "remembered without the user name and password"
+    );
+    assert!(recent.iter().all(|spec| !spec.contains("secret")));
 }

@@ -11,7 +11,7 @@ use super::AppGpu;
 use super::overlays::{draw_rulers, paint_overlays_3d};
 use super::pane_header::{grid_strip, pair_strip, pane_label};
 use super::picking::Picking;
-use super::scene::Scene;
+use super::scene::{NetworkState, Scene};
 use super::settings::{AppSettings, Layout, Tool};
 use super::slice_pane::{self, SlicePane};
 use super::view_state::{MAX_GRID_PANES, ViewState};
@@ -498,6 +498,13 @@ impl CentralView {
             .retain(|t| now.duration_since(*t) < Duration::from_secs(1));
         if stream.is_some() {
             scene.stream_status = stream;
+        }
+        if let Some(stats) = scene
+            .renderer
+            .stream()
+            .and_then(|s| s.streamer().source().remote_stats())
+        {
+            scene.network = Some(NetworkState::follow(scene.network, stats));
         }
         self.refining = refining;
         Ok(refining)

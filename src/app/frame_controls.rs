@@ -120,11 +120,7 @@ pub fn show(
                 ui.end_row();
                 ui.label("");
                 ui.horizontal(|ui| {
-                    let text = if playback.playing {
-                        "Pause"
-                    } else {
-                        "Play"
-                    };
+                    let text = if playback.playing { "Pause" } else { "Play" };
                     if ui.button(text).clicked() {
                         playback.playing ^= true;
                         playback.last_step = Instant::now();

@@ -1,7 +1,6 @@
 //! A volume ready to look at, and the background jobs that make one: load, quantize, build
 //! the octree, color it, upload it. Nothing here blocks the UI thread.
 
-use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -15,6 +14,7 @@ use crate::progress::Progress;
 use crate::render::{GpuContext, RendererKind, RendererOptions, VolumeRenderer};
 use crate::stream::{StreamOptions, StreamStatus, ZarrSource};
 use crate::volume::ome_zarr::{self, Pyramid, VOLUME_VOXEL_BUDGET};
+use crate::volume::remote::{RemoteOptions, RemoteStats};
 use crate::volume::{self, LoadOptions, QuantizedVolume, Selection, ValueWindow, Volume};
 
 /// What to open: the embedded sample or a file path / synthetic spec.
@@ -42,11 +42,11 @@ impl VolumeSource {
         }
     }
 
-    /// The Zarr store this source names, if it names one.
-    pub fn zarr_path(&self) -> Option<&Path> {
+    /// The Zarr store this source names (a folder or a URL), if it names one.
+    pub fn zarr_spec(&self) -> Option<&str> {
         match self {
             Self::Sample => None,
-            Self::Spec(spec) => Some(Path::new(spec)).filter(|p| ome_zarr::is_zarr_folder(p)),
+            Self::Spec(spec) => Some(spec.as_str()).filter(|s| ome_zarr::is_zarr_spec(s)),
         }
     }
 
@@ -146,6 +146,46 @@ pub struct Scene {
     pub upload_seconds: f64,
     /// The streaming renderer's latest update (`None` for the other renderers).
     pub stream_status: Option<StreamStatus>,
+    /// The network store a streamed URL reads from, as last sampled.
+    pub network: Option<NetworkState>,
+}
+
+/// What a streamed URL's store has done, and its recent rate.
+#[derive(Debug, Clone, Copy)]
+pub struct NetworkState {
+    pub stats: RemoteStats,
+    /// Bytes received a second over the last half second or more.
+    pub bytes_per_s: f64,
+    sampled_at: Instant,
+    sampled_bytes: u64,
+}
+
+impl NetworkState {
+    /// The state after `stats`, read now, following `previous`.
+    pub fn follow(previous: Option<NetworkState>, stats: RemoteStats) -> Self {
+        let now = Instant::now();
+        match previous {
+            Some(previous) if now.duration_since(previous.sampled_at).as_secs_f64() < 0.5 => {
+                Self { stats, ..previous }
+            }
+            Some(previous) => {
+                let seconds = now.duration_since(previous.sampled_at).as_secs_f64();
+                Self {
+                    stats,
+                    bytes_per_s: stats.bytes.saturating_sub(previous.sampled_bytes) as f64
+                        / seconds,
+                    sampled_at: now,
+                    sampled_bytes: stats.bytes,
+                }
+            }
+            None => Self {
+                stats,
+                bytes_per_s: 0.0,
+                sampled_at: now,
+                sampled_bytes: stats.bytes,
+            },
+        }
+    }
 }
 
 impl Scene {
@@ -197,10 +237,10 @@ pub fn prepare_scene(
     // An OME-Zarr store larger than the in-memory budget streams at full resolution; the panels
     // read a coarse level whole. (Opening the store twice costs its metadata alone.)
     let mut options = options;
-    let streamed = match source.zarr_path() {
-        Some(path) => {
-            let pyramid =
-                Pyramid::open(path, select).map_err(|e| JobError::Failed(e.to_string()))?;
+    let streamed = match source.zarr_spec() {
+        Some(spec) => {
+            let pyramid = Pyramid::open_spec(spec, select, RemoteOptions::default())
+                .map_err(|e| JobError::Failed(e.to_string()))?;
             let large = pyramid.levels[0].voxel_count() > VOLUME_VOXEL_BUDGET as u64;
             (large || options.kind == RendererKind::Stream).then_some(pyramid)
         }
@@ -306,11 +346,12 @@ pub fn upload(
     progress.begin("uploading to the GPU");
     let started = Instant::now();
     let failed = |e: String| JobError::Failed(format!("{}: {e}", data.volume.name));
-    let mut renderer = match data.source.zarr_path() {
-        // A Zarr store streams from the file, at its own full resolution.
-        Some(path) if options.kind == RendererKind::Stream => {
-            let pyramid = Pyramid::open(path, data.volume.series.selected)
-                .map_err(|e| JobError::Failed(e.to_string()))?;
+    let mut renderer = match data.source.zarr_spec() {
+        // A Zarr store streams from the file (or the URL), at its own full resolution.
+        Some(spec) if options.kind == RendererKind::Stream => {
+            let pyramid =
+                Pyramid::open_spec(spec, data.volume.series.selected, RemoteOptions::default())
+                    .map_err(|e| JobError::Failed(e.to_string()))?;
             let source = ZarrSource::new(Arc::new(pyramid)).map_err(JobError::Failed)?;
             let stream = StreamOptions {
                 gpu_memory: options.gpu_memory,
@@ -348,6 +389,7 @@ pub fn upload(
         applied_transfer: transfer,
         upload_seconds: started.elapsed().as_secs_f64(),
         stream_status: None,
+        network: None,
     })
 }
 

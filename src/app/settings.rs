@@ -251,8 +251,16 @@ impl AppSettings {
         }
     }
 
-    /// Puts `source` first in the recent list (once), keeping at most [`RECENT_LIMIT`].
+    /// Puts `source` first in the recent list (once), keeping at most [`RECENT_LIMIT`]. A
+    /// URL is kept without user name, password or query (nothing secret is saved).
     pub fn remember(&mut self, source: &str) {
+        let shown;
+        let source = if crate::volume::remote::is_url(source) {
+            shown = crate::volume::remote::display_url(source);
+            shown.as_str()
+        } else {
+            source
+        };
         self.recent.retain(|s| s != source);
         self.recent.insert(0, source.to_owned());
         self.recent.truncate(RECENT_LIMIT);

@@ -101,6 +101,30 @@ pub fn show(ui: &mut Ui, scene: &Scene) {
                 group_digits(counters.evictions),
             ));
             ui.end_row();
+            if let Some(network) = &scene.network {
+                let stats = network.stats;
+                ui.label("Network");
+                ui.label(format!(
+                    "{} in flight, {} done, {} ({}/s)",
+                    stats.in_flight,
+                    group_digits(stats.requests),
+                    format_bytes(stats.bytes),
+                    format_bytes(network.bytes_per_s as u64),
+                ))
+                .on_hover_text("Requests to the store (a shard's range is one), bytes received, and the rate over the last half second");
+                ui.end_row();
+                if stats.errors > 0 {
+                    ui.label("");
+                    ui.colored_label(
+                        ui.visuals().warn_fg_color,
+                        format!(
+                            "{} requests failed after their retries (those bricks drawn coarser; see the log)",
+                            stats.errors
+                        ),
+                    );
+                    ui.end_row();
+                }
+            }
             if counters.failed > 0 {
                 ui.label("Failed");
                 ui.colored_label(

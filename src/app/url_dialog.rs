@@ -4,13 +4,7 @@
 
 use egui::{Context, Key};
 
-/// What a URL must start with to be opened as one.
-pub const URL_SCHEMES: [&str; 3] = ["http://", "https://", "s3://"];
-
-/// Whether `spec` names a remote store (not a path or a `synthetic:` spec).
-pub fn is_url(spec: &str) -> bool {
-    URL_SCHEMES.iter().any(|scheme| spec.starts_with(scheme))
-}
+use crate::volume::remote::is_url;
 
 /// The text being typed, kept while the window is open.
 #[derive(Debug, Default, Clone, PartialEq, Eq)]
@@ -81,19 +75,5 @@ impl UrlDialog {
             outcome = UrlOutcome::Cancelled;
         }
         outcome
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn urls_are_told_from_paths_and_specs() {
-        assert!(is_url("https://example.org/a.ome.zarr"));
-        assert!(is_url("s3://bucket/a.ome.zarr"));
-        assert!(!is_url("/data/a.ome.zarr"));
-        assert!(!is_url("synthetic:noise:64"));
-        assert!(!is_url("http:/missing-slash"));
     }
 }

@@ -16,7 +16,8 @@ use crate::volume::{LoadOptions, QuantizedVolume, RawLayout, ValueWindow};
 #[derive(Debug, Clone, Args)]
 pub struct VolumeArgs {
     /// Volume file (.nii, .nii.gz, .nrrd, .nhdr, raw with --raw), a folder (DICOM series,
-    /// slices, .zarr / .ome.zarr) or synthetic:KIND:SIZE
+    /// slices, .zarr / .ome.zarr), a Zarr store's URL (http://, https://, s3://BUCKET/PATH)
+    /// or synthetic:KIND:SIZE
     /// (kinds: sphere, shells, noise, gradient; SIZE: N or XxYxZ). Default: the built-in
     /// sample head MRI.
     pub file: Option<String>,
@@ -44,6 +45,20 @@ pub struct VolumeArgs {
     /// hyperstacks, 4-D NIfTI and NRRD.
     #[arg(long, default_value_t = 0)]
     pub time: usize,
+    /// A URL's store: requests in flight at once, at most (1 to 1024).
+    #[arg(long, value_name = "N", default_value_t = crate::volume::remote::DEFAULT_MAX_REQUESTS, value_parser = parse_max_requests)]
+    pub max_requests: usize,
+}
+
+/// `--max-requests`: 1 to [`crate::volume::remote::MAX_MAX_REQUESTS`].
+pub fn parse_max_requests(text: &str) -> Result<usize, String> {
+    use crate::volume::remote::MAX_MAX_REQUESTS;
+    match text.trim().parse::<usize>() {
+        Ok(n) if (1..=MAX_MAX_REQUESTS).contains(&n) => Ok(n),
+        _ => Err(format!(
+            "'{text}' is not a number of requests from 1 to {MAX_MAX_REQUESTS}"
+        )),
+    }
 }
 
 impl VolumeArgs {
@@ -58,6 +73,9 @@ impl VolumeArgs {
                     Some(ChannelArg::All) | None => 0,
                 },
                 time: self.time,
+            },
+            remote: crate::volume::remote::RemoteOptions {
+                max_requests: self.max_requests,
             },
         }
     }

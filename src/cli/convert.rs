@@ -5,15 +5,17 @@ use std::time::Instant;
 
 use clap::{Args, ValueEnum};
 
-use super::args::parse_spacing;
+use super::args::{parse_max_requests, parse_spacing};
 use crate::volume::ome_zarr::{
     Compression, Downsampling, PyramidOptions, PyramidWriter, SlabSource, WriteOptions, ZarrVersion,
 };
+use crate::volume::remote::RemoteOptions;
 use crate::volume::{LoadOptions, RawLayout, format_dims};
 
 #[derive(Debug, Args)]
 pub struct ConvertArgs {
-    /// The volume to convert: any file or folder voxscope opens (raw with --raw).
+    /// The volume to convert: any file or folder voxscope opens (raw with --raw), or a Zarr
+    /// store's URL (http://, https://, s3://BUCKET/PATH).
     pub input: String,
     /// The folder to write (`NAME.ome.zarr`); it must not exist.
     pub output: String,
@@ -29,6 +31,9 @@ pub struct ConvertArgs {
     /// The time point of a time-lapse OME-Zarr input.
     #[arg(long, default_value_t = 0)]
     pub time: usize,
+    /// A URL input: requests in flight at once, at most (1 to 1024).
+    #[arg(long, value_name = "N", default_value_t = crate::volume::remote::DEFAULT_MAX_REQUESTS, value_parser = parse_max_requests)]
+    pub max_requests: usize,
     /// OME-Zarr 0.4 (Zarr v2, a file per chunk) or 0.5 (Zarr v3, sharded).
     #[arg(long, value_enum, default_value_t = FormatArg::V04)]
     pub format: FormatArg,
@@ -76,6 +81,9 @@ pub fn run(args: &ConvertArgs) -> Result<(), String> {
         select: PyramidOptions {
             channel: args.channel,
             time: args.time,
+        },
+        remote: RemoteOptions {
+            max_requests: args.max_requests,
         },
     };
     let mut source = SlabSource::open(spec, &load_options).map_err(|e| e.to_string())?;

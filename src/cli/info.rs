@@ -6,7 +6,7 @@ use serde_json::json;
 use super::{Prepared, TransferArgs, VolumeArgs};
 use crate::octree::{Node, full_tree_nodes, level_statistics};
 use crate::volume::format_dims;
-use crate::volume::ome_zarr::{Pyramid, is_zarr_folder};
+use crate::volume::ome_zarr::{Pyramid, is_zarr_spec};
 
 #[derive(Debug, Args)]
 pub struct InfoArgs {
@@ -26,13 +26,13 @@ pub struct InfoArgs {
 pub fn run(args: &InfoArgs) -> Result<(), String> {
     // A Zarr store's pyramid first: its levels, channels and axes, whichever level opens.
     let pyramid = match &args.volume.file {
-        Some(spec) if is_zarr_folder(std::path::Path::new(spec)) => Some(
-            Pyramid::open(
-                std::path::Path::new(spec),
-                args.volume.load_options().select,
+        Some(spec) if is_zarr_spec(spec) => {
+            let options = args.volume.load_options();
+            Some(
+                Pyramid::open_spec(spec, options.select, options.remote)
+                    .map_err(|e| e.to_string())?,
             )
-            .map_err(|e| e.to_string())?,
-        ),
+        }
         _ => None,
     };
     // Several channels: each one's range, window and color; the table below is channel 0's.

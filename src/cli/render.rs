@@ -143,7 +143,7 @@ fn run_stream(args: &RenderArgs) -> Result<(), String> {
     let mut renderer = VolumeRenderer::new_stream(
         &context,
         prepared.source.clone(),
-        args.stream.options(),
+        prepared.stream_options(args.stream.options()),
         &prepared.transfer,
     )
     .map_err(|e| format!("{name}: {e}"))?;

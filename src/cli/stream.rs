@@ -2,7 +2,6 @@
 //! …), opening a pyramid (a procedural one, or any readable volume's, whose coarser levels are
 //! computed in memory), and drawing one view until nothing visible is missing.
 
-use std::path::Path;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -90,9 +89,15 @@ fn parse_lod_scale(text: &str) -> Result<f32, String> {
     }
 }
 
+/// Loader threads for a URL's pyramid, at least: each waits on the network most of its time
+/// (a region's requests are in flight together, up to `--max-requests`), not on a core.
+pub const REMOTE_WORKERS: usize = 8;
+
 /// A pyramid opened for streaming, and the transfer function to draw it with.
 pub struct StreamPrepared {
     pub source: Arc<dyn BrickSource>,
+    /// The Zarr pyramid the source reads, where it reads one (its remote counters).
+    pub pyramid: Option<Arc<Pyramid>>,
     pub transfer: TransferFunction,
     /// The --tf file, whose opacity scale and mode apply too.
     pub saved: Option<TransferPreset>,
@@ -112,6 +117,7 @@ impl StreamPrepared {
         let saved = transfer_args.saved()?;
         let started = Instant::now();
         let spec = volume_args.file.as_deref();
+        let mut pyramid_read = None;
         let (source, kind, window): (Arc<dyn BrickSource>, Option<DataKind>, Option<ValueWindow>) =
             match spec.and_then(|s| s.strip_prefix("synthetic:noise:")) {
                 Some(size) if volume_args.raw.is_none() => {
@@ -121,15 +127,20 @@ impl StreamPrepared {
                     let name = format!("synthetic:noise:{size}");
                     (Arc::new(NoiseSource::new(&name, dims)?), None, None)
                 }
-                _ if spec.is_some_and(|s| ome_zarr::is_zarr_folder(Path::new(s)))
-                    && volume_args.raw.is_none() =>
-                {
-                    // Read region by region from the file's own levels, never whole.
-                    let path = Path::new(spec.unwrap_or_default());
-                    let pyramid = Pyramid::open(path, volume_args.load_options().select)
-                        .map_err(|e| e.to_string())?;
+                _ if spec.is_some_and(ome_zarr::is_zarr_spec) && volume_args.raw.is_none() => {
+                    // Read region by region from the file's own levels (a folder's or a
+                    // URL's), never whole.
+                    let options = volume_args.load_options();
+                    let pyramid = Pyramid::open_spec(
+                        spec.unwrap_or_default(),
+                        options.select,
+                        options.remote,
+                    )
+                    .map_err(|e| e.to_string())?;
                     let window = pyramid.omero_window();
-                    let source = ZarrSource::new(Arc::new(pyramid))?;
+                    let pyramid = Arc::new(pyramid);
+                    pyramid_read = Some(pyramid.clone());
+                    let source = ZarrSource::new(pyramid)?;
                     (Arc::new(source), None, window)
                 }
                 _ => {
@@ -163,10 +174,27 @@ impl StreamPrepared {
         let transfer = transfer_args.transfer_function(&preview, kind, saved.as_ref(), window);
         Ok(Self {
             source,
+            pyramid: pyramid_read,
             transfer,
             saved,
             open_seconds: started.elapsed().as_secs_f64(),
         })
+    }
+
+    /// `options` for this source: a URL's pyramid gets at least [`REMOTE_WORKERS`] loaders.
+    pub fn stream_options(&self, options: StreamOptions) -> StreamOptions {
+        let remote = self
+            .pyramid
+            .as_ref()
+            .is_some_and(|p| p.remote_stats().is_some());
+        StreamOptions {
+            workers: if remote {
+                options.workers.max(REMOTE_WORKERS)
+            } else {
+                options.workers
+            },
+            ..options
+        }
     }
 
     /// The octree depth of the pyramid (levels − 1): the max level's range.

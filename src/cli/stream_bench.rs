@@ -74,6 +74,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
     // drawn and finished.
     let opened = Instant::now();
     let prepared = StreamPrepared::new(&args.volume, &transfer_args)?;
+    let options = prepared.stream_options(options);
     let name = prepared.source.name().to_owned();
     let depth = prepared.depth();
     let gray = settings(depth, RenderMode::Dvr);
@@ -94,6 +95,12 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
     let complete_s = opened.elapsed().as_secs_f64();
     let counters = &refinement.status.counters;
     let floor_bytes = counters.view_slots as u64 * counters.slot_bytes;
+    // A URL's store: what crossed the network by then (metadata, indexes and chunks).
+    let remote = prepared
+        .pyramid
+        .as_ref()
+        .and_then(|p| p.remote_stats())
+        .map(|stats| json!({ "requests": stats.requests, "bytes": stats.bytes, "errors": stats.errors }));
     let stopped = json!({
         "camera": "medium",
         "complete": refinement.complete,
@@ -105,6 +112,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
         "view_bricks": counters.view_slots,
         "floor_bytes": floor_bytes,
         "read_over_floor": counters.bytes_read as f64 / floor_bytes.max(1) as f64,
+        "fetched": remote,
         "counters": counters,
     });
     let gpu_bytes: serde_json::Map<String, serde_json::Value> = renderer

@@ -8,6 +8,7 @@ use std::fmt;
 
 use super::pyramid::PyramidShape;
 use crate::volume::Quantization;
+use crate::volume::remote::RemoteStats;
 
 /// Voxels along a brick's side. Fixed: the atlas, the page table and the shader agree on it.
 pub const BRICK_SIZE: usize = 32;
@@ -125,6 +126,12 @@ pub trait BrickSource: Send + Sync {
     /// the transfer function makes invisible is then never read. Called on the frame's thread:
     /// it must be cheap.
     fn known_range(&self, _id: BrickId) -> Option<ValueRange> {
+        None
+    }
+
+    /// Requests, bytes and errors of the network store behind the source, if it reads from
+    /// one (what the app shows while a URL streams).
+    fn remote_stats(&self) -> Option<RemoteStats> {
         None
     }
 }

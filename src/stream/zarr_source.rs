@@ -14,6 +14,7 @@ use super::source::{
     ValueRange,
 };
 use crate::volume::ome_zarr::Pyramid;
+use crate::volume::remote::RemoteStats;
 use crate::volume::{Quantization, Scalar, VoxelData, VoxelType, with_voxel_slice};
 
 /// The most stored voxels one brick may read (64 Mi: 128 MiB of 16-bit data); a file whose
@@ -324,6 +325,10 @@ impl BrickSource for ZarrSource {
 
     fn max_value_level(&self) -> u16 {
         self.max_value_level
+    }
+
+    fn remote_stats(&self) -> Option<RemoteStats> {
+        self.pyramid.remote_stats()
     }
 
     fn known_range(&self, id: BrickId) -> Option<ValueRange> {

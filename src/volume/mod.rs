@@ -14,6 +14,7 @@ pub mod ome_zarr;
 mod orientation;
 mod raw;
 mod registry;
+pub mod remote;
 mod sample;
 mod series;
 mod slices;

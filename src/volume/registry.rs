@@ -19,9 +19,12 @@ pub struct LoadOptions {
     pub spacing: Option<[f64; 3]>,
     /// The channel and time point of a multi-channel or time-lapse image (every format).
     pub select: Selection,
+    /// How a URL's store is read (requests in flight).
+    pub remote: super::remote::RemoteOptions,
 }
 
-/// Loads the volume named by `spec`: a file path, or `synthetic:KIND:SIZE`.
+/// Loads the volume named by `spec`: a file path, a URL of a Zarr store (`http://`,
+/// `https://`, `s3://`: [`super::remote`]), or `synthetic:KIND:SIZE`.
 ///
 /// Files are recognized by extension, then by magic bytes ([`format::FORMATS`]); a folder is a
 /// Zarr store (OME-Zarr or a plain array) when it holds `zarr.json`, `.zgroup` or
@@ -30,6 +33,15 @@ pub struct LoadOptions {
 pub fn load(spec: &str, options: &LoadOptions) -> Result<Volume, LoadError> {
     let mut volume = if let Some(rest) = spec.strip_prefix("synthetic:") {
         super::synthetic::generate(rest).map_err(|p| LoadError::new(spec, p))?
+    } else if super::remote::is_url(spec) {
+        if options.raw.is_some() {
+            return Err(LoadError::new(
+                super::remote::display_url(spec),
+                "--raw reads files; a URL must be a Zarr store",
+            ));
+        }
+        super::ome_zarr::load_url(spec, options.select, options.remote)
+            .map_err(|p| LoadError::new(super::remote::display_url(spec), p))?
     } else {
         load_file(Path::new(spec), options).map_err(|p| LoadError::new(spec, p))?
     };
@@ -40,11 +52,14 @@ pub fn load(spec: &str, options: &LoadOptions) -> Result<Volume, LoadError> {
         options
             .select
             .check(series.channel_count(), series.time_points)
-            .map_err(|p| LoadError::new(spec, p))?;
+            .map_err(|p| LoadError::new(super::remote::display_url(spec), p))?;
     }
     if let Some(spacing) = options.spacing {
         if spacing.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
-            return Err(LoadError::new(spec, "--spacing values must be positive"));
+            return Err(LoadError::new(
+                super::remote::display_url(spec),
+                "--spacing values must be positive",
+            ));
         }
         volume.spacing = spacing;
     }

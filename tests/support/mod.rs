@@ -3,6 +3,7 @@
 #![allow(dead_code)] // each test binary uses a different part
 
 pub mod app_harness;
+pub mod http_server;
 pub mod reference;
 pub mod writers;
 

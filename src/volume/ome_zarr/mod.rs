@@ -3,8 +3,8 @@
 //! that fits [`VOLUME_VOXEL_BUDGET`] for the in-memory renderers.
 //!
 //! Chunks are read and decoded by zarrs (blosc, zstd, gzip, uncompressed; `.` or `/` chunk
-//! keys; sharding) from any zarrs `ReadableStorageTraits` store: a folder today, HTTP or an
-//! object store later. What a file declares is checked before anything of that size exists:
+//! keys; sharding) from any zarrs `ReadableStorageTraits` store: a folder, or a URL
+//! (`http://`, `https://`, `s3://`: [`super::remote`]). What a file declares is checked before anything of that size exists:
 //! the region a caller asks for bounds the output, a chunk holds at most [`MAX_CHUNK_BYTES`]
 //! decoded, a shard at most [`MAX_SHARD_CHUNKS`] chunks, a metadata document at most 16 MiB,
 //! and a compressed chunk never decodes into more than its chunk's bytes ([`guard`]).
@@ -30,6 +30,7 @@ use zarrs::array::{Array, ArrayMetadata, ArrayShardedExt, ArraySubset, DataType}
 use zarrs::storage::{ReadableStorageTraits, StoreKey};
 
 use super::error::{Problem, printable, quoted};
+use super::remote::{RemoteOptions, RemoteStats, RemoteStore};
 use super::series::{ChannelInfo, Series, parse_hex_color};
 use super::{
     LoadError, MAX_VOXELS, Selection, ValueWindow, Volume, VoxelData, VoxelType, format_dims,
@@ -184,6 +185,12 @@ pub struct Pyramid {
     store: ReadableStorage,
     /// Where the levels' chunk ranges are (`voxscope.chunk_ranges.paths`), full store paths.
     range_paths: Vec<String>,
+    /// The store again, where it is remote: a region's chunks are fetched together.
+    remote: Option<Arc<RemoteStore>>,
+    /// Where a remote store's reads run: zarrs reads a region's chunks (a sharded array's
+    /// shards) on rayon threads, each blocked on the network while it waits, so they get a
+    /// pool of their own as large as the request limit, not the cores' global pool.
+    reader_pool: Option<Arc<rayon::ThreadPool>>,
 }
 
 impl std::fmt::Debug for Pyramid {
@@ -194,6 +201,12 @@ impl std::fmt::Debug for Pyramid {
             .field("voxel_type", &self.voxel_type)
             .finish_non_exhaustive()
     }
+}
+
+/// Whether `spec` names something [`Pyramid::open_spec`] opens: a URL
+/// ([`super::remote::is_url`]) or a Zarr folder.
+pub fn is_zarr_spec(spec: &str) -> bool {
+    super::remote::is_url(spec) || is_zarr_folder(Path::new(spec))
 }
 
 /// Whether `path` is a Zarr folder: `.zgroup`, `.zarray` or `zarr.json` in it.
@@ -218,6 +231,48 @@ impl Pyramid {
         let store = zarrs::filesystem::FilesystemStore::new(path)
             .map_err(|e| LoadError::new(&source, format!("cannot open: {e}")))?;
         Self::open_store(Arc::new(store), &source, options)
+    }
+
+    /// Opens the Zarr store at `url` (`http://`, `https://`, `s3://BUCKET/PATH`; see
+    /// [`super::remote`]) as [`Self::open`] opens a folder. The source it names in messages is
+    /// the URL without user name, password or query.
+    pub fn open_url(
+        url: &str,
+        options: PyramidOptions,
+        remote: RemoteOptions,
+    ) -> Result<Self, LoadError> {
+        let source = super::remote::display_url(url);
+        let store =
+            RemoteStore::open(url, remote).map_err(|problem| LoadError::new(&source, problem))?;
+        let mut pyramid = Self::open_store(store.clone(), &source, options)?;
+        store.mark_opened();
+        pyramid.remote = Some(store);
+        let threads = remote.max_requests.clamp(4, 64);
+        pyramid.reader_pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .thread_name(|i| format!("voxscope-remote-{i}"))
+            .build()
+            .ok()
+            .map(Arc::new);
+        Ok(pyramid)
+    }
+
+    /// Opens a URL ([`Self::open_url`]) or a folder ([`Self::open`]).
+    pub fn open_spec(
+        spec: &str,
+        options: PyramidOptions,
+        remote: RemoteOptions,
+    ) -> Result<Self, LoadError> {
+        if super::remote::is_url(spec) {
+            Self::open_url(spec, options, remote)
+        } else {
+            Self::open(Path::new(spec), options)
+        }
+    }
+
+    /// Requests, bytes and errors of a remote store so far (`None` for a folder).
+    pub fn remote_stats(&self) -> Option<RemoteStats> {
+        self.remote.as_ref().map(|store| store.stats())
     }
 
     /// Opens the Zarr hierarchy at the root of `store`; `source` names it in messages.
@@ -382,7 +437,21 @@ impl Pyramid {
         }
         let subset = self.subset(origin, size);
         let array = &self.arrays[level];
-        let read = match self.stored {
+        if let Some(remote) = &self.remote
+            && info.shard.is_none()
+        {
+            // zarrs asks for one chunk per reading thread at a time: over a network all of
+            // the region's chunks are asked for at once first.
+            if let Ok(Some(chunks)) = array.chunks_in_array_subset(&subset) {
+                let keys: Vec<StoreKey> = chunks
+                    .indices()
+                    .into_iter()
+                    .map(|indices| array.chunk_key(&indices))
+                    .collect();
+                remote.prefetch(&keys);
+            }
+        }
+        let read = || match self.stored {
             Stored::Native(VoxelType::U8) => {
                 array.retrieve_array_subset(&subset).map(VoxelData::U8)
             }
@@ -413,6 +482,10 @@ impl Pyramid {
             Stored::I64 => array
                 .retrieve_array_subset::<Vec<i64>>(&subset)
                 .map(|v| VoxelData::F64(v.into_iter().map(|x| x as f64).collect())),
+        };
+        let read = match &self.reader_pool {
+            Some(pool) => pool.install(read),
+            None => read(),
         };
         read.map_err(|error| self.failing_chunk(level, &subset, &error.to_string()))
     }
@@ -788,6 +861,8 @@ fn open_levels(
         arrays: arrays.into_iter().map(|(_, _, array)| array).collect(),
         range_paths: range_paths(&attributes, prefix, levels_len),
         store,
+        remote: None,
+        reader_pool: None,
     })
 }
 
@@ -1119,6 +1194,20 @@ fn describe_codecs(metadata: &ArrayMetadata) -> String {
 /// Says on stderr when a finer level exists.
 pub(crate) fn load(path: &Path, options: PyramidOptions) -> Result<Volume, Problem> {
     let pyramid = Pyramid::open(path, options).map_err(|e| e.problem)?;
+    load_pyramid(&pyramid)
+}
+
+/// [`load`] for a URL ([`Pyramid::open_url`]).
+pub(crate) fn load_url(
+    url: &str,
+    options: PyramidOptions,
+    remote: RemoteOptions,
+) -> Result<Volume, Problem> {
+    let pyramid = Pyramid::open_url(url, options, remote).map_err(|e| e.problem)?;
+    load_pyramid(&pyramid)
+}
+
+fn load_pyramid(pyramid: &Pyramid) -> Result<Volume, Problem> {
     // Each channel is listed (`Volume::series`): as many as an axis may have voxels.
     if pyramid.channels > super::MAX_AXIS {
         return Err(format!(
@@ -1131,7 +1220,7 @@ pub(crate) fn load(path: &Path, options: PyramidOptions) -> Result<Volume, Probl
     if level > 0 {
         eprintln!(
             "note: {}: opened level {level} ({}), the finest within {} voxels; level 0 is {}",
-            path.display(),
+            pyramid.source,
             format_dims(pyramid.levels[level].dims),
             VOLUME_VOXEL_BUDGET,
             format_dims(pyramid.levels[0].dims)

@@ -1,0 +1,646 @@
+//! Zarr stores behind URLs, on loopback only: a small HTTP server of the test's own
+//! (tests/support/http_server.rs) serves the OME-Zarr fixtures, faultless and with latency,
+//! drops, 500s and cut bodies; an S3-compatible server (moto, started by `.ci/run`) holds a
+//! converted volume. What is read and rendered from a URL equals what is read and rendered
+//! from the folder.
+
+mod support;
+
+use std::io::Write;
+use std::net::TcpListener;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::atomic::Ordering;
+use std::time::{Duration, Instant};
+
+use support::http_server::{Faults, FileServer};
+use voxscope::volume::ome_zarr::{Pyramid, PyramidOptions};
+use voxscope::volume::remote::{OPEN_DEADLINE, RemoteOptions, is_url};
+use voxscope::volume::{LoadOptions, load};
+
+const FIXTURES: [&str; 6] = [
+    "head-v04-zstd.ome.zarr",
+    "head-v05-sharded-blosc-zstd.ome.zarr",
+    "nuclei-v04-blosc-lz4.ome.zarr",
+    "plain-v2-gzip.zarr",
+    "plain-v3-none.zarr",
+    "tczyx-v04.ome.zarr",
+];
+
+fn fixtures() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/ome-zarr")
+}
+
+fn voxscope(args: &[&str], env: &[(&str, &str)]) -> Output {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_voxscope"));
+    command.args(args);
+    for (name, value) in env {
+        command.env(name, value);
+    }
+    command.output().expect("the binary runs")
+}
+
+fn stderr(output: &Output) -> String {
+    String::from_utf8_lossy(&output.stderr).into_owned()
+}
+
+/// Panics (with the count of differing pixels, not the images) unless `a` and `b` are equal.
+fn assert_same_image(a: &image::RgbaImage, b: &image::RgbaImage, what: &str) {
+    assert_eq!(a.dimensions(), b.dimensions(), "{what}: sizes differ");
+    let differing = a.pixels().zip(b.pixels()).filter(|(p, q)| p != q).count();
+    assert_eq!(differing, 0, "{what}: {differing} pixels differ");
+}
+
+/// Every level of `name` read over `server` equals the same level read from the folder.
+fn assert_reads_equal(server: &FileServer, name: &str, options: PyramidOptions) {
+    let local = Pyramid::open(&fixtures().join(name), options).unwrap_or_else(|e| panic!("{e}"));
+    let remote = Pyramid::open_url(&server.url(name), options, RemoteOptions::default())
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(remote.levels, local.levels, "{name}: levels");
+    assert_eq!(remote.axes, local.axes, "{name}: axes");
+    assert_eq!(remote.channels, local.channels, "{name}: channels");
+    assert_eq!(remote.omero, local.omero, "{name}: omero");
+    for level in 0..local.levels.len() {
+        let a = local.read_level(level).unwrap_or_else(|e| panic!("{e}"));
+        let b = remote.read_level(level).unwrap_or_else(|e| panic!("{e}"));
+        assert!(a == b, "{name}: level {level} differs over HTTP");
+    }
+    let stats = remote
+        .remote_stats()
+        .expect("a remote pyramid counts requests");
+    assert!(stats.requests > 0 && stats.bytes > 0, "{stats:?}");
+    assert_eq!(stats.in_flight, 0);
+    assert!(local.remote_stats().is_none());
+}
+
+#[test]
+fn urls_are_told_from_paths() {
+    assert!(is_url("http://127.0.0.1:9000/x.zarr"));
+    assert!(is_url("s3://bucket/x.ome.zarr"));
+    assert!(!is_url(fixtures().join(FIXTURES[0]).to_str().unwrap()));
+}
+
+#[test]
+fn every_fixture_reads_over_http_equal_to_its_folder() {
+    let server = FileServer::start(&fixtures(), Faults::default());
+    for name in FIXTURES {
+        assert_reads_equal(&server, name, PyramidOptions::default());
+    }
+    // Another channel and time point of the 5D image.
+    assert_reads_equal(
+        &server,
+        "tczyx-v04.ome.zarr",
+        PyramidOptions {
+            channel: 1,
+            time: 1,
+        },
+    );
+}
+
+#[test]
+fn a_region_of_a_sharded_level_reads_only_its_inner_chunks() {
+    let name = "head-v05-sharded-blosc-zstd.ome.zarr";
+    let server = FileServer::start(&fixtures(), Faults::default());
+    let pyramid = Pyramid::open_url(
+        &server.url(name),
+        PyramidOptions::default(),
+        RemoteOptions::default(),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let info = pyramid.levels[0].clone();
+    let shard = info.shard.expect("level 0 is sharded");
+    assert!(
+        shard.iter().zip(info.chunk).any(|(s, c)| *s > c),
+        "{info:?}"
+    );
+    let before = server.counters.bytes.load(Ordering::SeqCst);
+    // One inner chunk at the origin.
+    let region = pyramid
+        .read_region(0, [0; 3], info.chunk)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let fetched = server.counters.bytes.load(Ordering::SeqCst) - before;
+    let local = Pyramid::open(&fixtures().join(name), PyramidOptions::default())
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert!(region == local.read_region(0, [0; 3], info.chunk).unwrap());
+    let key = pyramid.chunk_key(0, [0; 3]).expect("a shard key");
+    let shard_bytes = std::fs::metadata(fixtures().join(name).join(&key))
+        .unwrap_or_else(|e| panic!("{key}: {e}"))
+        .len();
+    assert!(
+        fetched < shard_bytes,
+        "read {fetched} bytes for one inner chunk of a {shard_bytes}-byte shard"
+    );
+    // The next inner chunk of the same shard: one request (its bytes; the index is kept).
+    let requests = server.counters.requests.load(Ordering::SeqCst);
+    let next = [info.chunk[0], 0, 0];
+    assert!(
+        next[0] + info.chunk[0] <= shard[0].min(info.dims[0]),
+        "{info:?}"
+    );
+    let region = pyramid
+        .read_region(0, next, info.chunk)
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert!(region == local.read_region(0, next, info.chunk).unwrap());
+    assert_eq!(
+        server.counters.requests.load(Ordering::SeqCst) - requests,
+        1
+    );
+}
+
+#[test]
+fn a_url_loads_as_a_volume_through_the_registry_and_renders_as_the_folder_does() {
+    let name = "head-v04-zstd.ome.zarr";
+    let server = FileServer::start(&fixtures(), Faults::default());
+    let url = server.url(name);
+    let local_path = fixtures().join(name);
+    let local = load(local_path.to_str().unwrap(), &LoadOptions::default()).unwrap();
+    let remote = load(&url, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(remote.dims, local.dims);
+    assert_eq!(remote.spacing, local.spacing);
+    assert_eq!(remote.data, local.data);
+    assert_eq!(remote.metadata, local.metadata);
+    assert_eq!(remote.name, url.trim_end_matches('/'));
+
+    let dir = tempfile::tempdir().unwrap();
+    for renderer in ["octree", "stream"] {
+        let a = dir.path().join(format!("local-{renderer}.png"));
+        let b = dir.path().join(format!("remote-{renderer}.png"));
+        for (input, output) in [(local_path.to_str().unwrap(), &a), (url.as_str(), &b)] {
+            let out = voxscope(
+                &[
+                    "render",
+                    input,
+                    "--renderer",
+                    renderer,
+                    "--size",
+                    "160x120",
+                    "-o",
+                    output.to_str().unwrap(),
+                ],
+                &[],
+            );
+            assert!(out.status.success(), "{renderer} {input}: {}", stderr(&out));
+        }
+        let a = image::open(&a).unwrap().to_rgba8();
+        let b = image::open(&b).unwrap().to_rgba8();
+        assert!(support::reference::coverage(&a) > 0.02, "{renderer}: empty");
+        if renderer == "octree" {
+            assert_same_image(&a, &b, "the URL's render against the folder's");
+        } else {
+            // Streamed images may differ in a few pixels with the order bricks arrive in.
+            let psnr = support::reference::psnr(&a, &b);
+            assert!(psnr >= 40.0, "streamed from the URL: PSNR {psnr:.1} dB");
+        }
+    }
+    let info = voxscope(&["info", "--json", &url], &[]);
+    assert!(info.status.success(), "{}", stderr(&info));
+    let json: serde_json::Value = serde_json::from_slice(&info.stdout).expect("JSON");
+    assert_eq!(json["pyramid"]["levels"].as_array().map(Vec::len), Some(3));
+}
+
+#[test]
+fn latency_drops_500s_and_cut_bodies_are_retried_to_the_same_voxels_and_image() {
+    // About a quarter of all requests fail: every 13th is dropped unanswered, every 11th
+    // answered 500, every 9th GET's body cut in half.
+    let faults = Faults {
+        latency: Duration::from_millis(20),
+        drop_every: 13,
+        error_every: 11,
+        truncate_every: 9,
+        ..Faults::default()
+    };
+    let server = FileServer::start(&fixtures(), faults);
+    for name in [
+        "head-v04-zstd.ome.zarr",
+        "head-v05-sharded-blosc-zstd.ome.zarr",
+    ] {
+        assert_reads_equal(&server, name, PyramidOptions::default());
+    }
+    assert!(
+        server.counters.faults.load(Ordering::SeqCst) >= 10,
+        "too few faults were injected to test anything"
+    );
+    let name = "head-v05-sharded-blosc-zstd.ome.zarr";
+    let dir = tempfile::tempdir().unwrap();
+    let local = fixtures().join(name);
+    let url = server.url(name);
+    for renderer in ["octree", "stream"] {
+        let a = dir.path().join(format!("local-{renderer}.png"));
+        let b = dir.path().join(format!("remote-{renderer}.png"));
+        let mut log = String::new();
+        for (input, output) in [(local.to_str().unwrap(), &a), (url.as_str(), &b)] {
+            let args = [
+                "render",
+                input,
+                "--renderer",
+                renderer,
+                "--size",
+                "160x120",
+                "-o",
+                output.to_str().unwrap(),
+            ];
+            let out = voxscope(&args, &[]);
+            assert!(out.status.success(), "{input}: {}", stderr(&out));
+            log = stderr(&out);
+        }
+        let (a, b) = (
+            image::open(&a).unwrap().to_rgba8(),
+            image::open(&b).unwrap().to_rgba8(),
+        );
+        if renderer == "octree" {
+            assert_same_image(&a, &b, "the octree render through faults");
+        } else {
+            // Every brick arrived (no error line), the view completed; the streamed image
+            // may differ from the folder's in a few pixels where bricks arrived in another
+            // order (as two streamed renders of one folder may).
+            assert!(log.contains("complete after"), "{log}");
+            assert!(!log.contains("error"), "a brick failed: {log}");
+            let psnr = support::reference::psnr(&a, &b);
+            assert!(
+                psnr >= 40.0,
+                "streamed through faults: PSNR {psnr:.1} dB; {log}"
+            );
+        }
+    }
+}
+
+/// The one line of a failed command, checked for the URL and against `secret`.
+fn one_line_error(out: &Output, url_shown: &str, secret: &str) -> String {
+    assert!(!out.status.success(), "it should have failed");
+    let text = stderr(out);
+    let lines: Vec<&str> = text.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert_eq!(lines.len(), 1, "not one line: {text}");
+    assert!(lines[0].contains(url_shown), "the URL is not named: {text}");
+    assert!(!text.contains(secret), "a secret is shown: {text}");
+    lines[0].to_owned()
+}
+
+#[test]
+fn forbidden_and_missing_stores_are_one_line_errors_naming_the_url_without_secrets() {
+    let forbidden = FileServer::start(
+        &fixtures(),
+        Faults {
+            forbid: true,
+            ..Faults::default()
+        },
+    );
+    let port = forbidden.port();
+    let url = format!(
+        "http://alice:hunter2secret@127.0.0.1:{port}/head-v04-zstd.ome.zarr?sig=s3cr3tQuery"
+    );
+    let shown = format!("http://127.0.0.1:{port}/head-v04-zstd.ome.zarr");
+    let line = one_line_error(&voxscope(&["info", &url], &[]), &shown, "hunter2secret");
+    assert!(
+        line.contains("403") && line.contains("access denied"),
+        "{line}"
+    );
+    assert!(!line.contains("s3cr3tQuery"), "{line}");
+
+    let server = FileServer::start(&fixtures(), Faults::default());
+    let url = server.url("no-such.ome.zarr");
+    let line = one_line_error(&voxscope(&["info", &url], &[]), &url, "\u{0}");
+    assert!(line.contains("is not a Zarr store"), "{line}");
+    // A URL names a Zarr store: --raw is refused.
+    let out = voxscope(&["info", &url, "--raw", "4x4x4:u8"], &[]);
+    assert!(!out.status.success());
+}
+
+#[test]
+fn a_server_that_never_answers_fails_within_the_bounded_time() {
+    // Accepts connections, never answers.
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = listener.local_addr().unwrap().port();
+    let held = std::thread::spawn(move || {
+        let mut open = Vec::new();
+        for stream in listener.incoming().take(64) {
+            match stream {
+                Ok(stream) => open.push(stream),
+                Err(_) => break,
+            }
+        }
+    });
+    let url = format!("http://127.0.0.1:{port}/cells.ome.zarr");
+    let started = Instant::now();
+    let out = voxscope(&["info", &url], &[]);
+    let seconds = started.elapsed().as_secs_f64();
+    let line = one_line_error(&out, &url, "\u{0}");
+    assert!(line.contains("no answer within"), "{line}");
+    let bound = OPEN_DEADLINE.as_secs_f64() + 3.0;
+    assert!(seconds < bound, "took {seconds:.1} s (bound {bound} s)");
+    drop(held);
+
+    // Nothing listens at all: refused connections are retried, then fail in the same time.
+    let closed = TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = closed.local_addr().unwrap().port();
+    drop(closed);
+    let url = format!("http://127.0.0.1:{port}/cells.ome.zarr");
+    let started = Instant::now();
+    let out = voxscope(&["info", &url], &[]);
+    let seconds = started.elapsed().as_secs_f64();
+    one_line_error(&out, &url, "\u{0}");
+    assert!(seconds < bound, "took {seconds:.1} s (bound {bound} s)");
+}
+
+// ---- S3 (moto) ----
+
+/// The S3 endpoint to test against: `VOXSCOPE_TEST_S3` (set by `.ci/run`, which starts moto
+/// on 127.0.0.1). Outside CI, a `moto_server` on PATH is started here; without either the
+/// test fails with what to do (it never skips).
+fn s3_endpoint() -> (String, Option<Moto>) {
+    if let Ok(endpoint) = std::env::var("VOXSCOPE_TEST_S3") {
+        return (endpoint, None);
+    }
+    assert!(
+        std::env::var("CI").as_deref() != Ok("true"),
+        "VOXSCOPE_TEST_S3 is not set under CI: .ci/run must start the S3 server (moto) and export it"
+    );
+    let port = {
+        let probe = TcpListener::bind("127.0.0.1:0").unwrap();
+        probe.local_addr().unwrap().port()
+    };
+    let child = Command::new("moto_server")
+        .args(["-H", "127.0.0.1", "-p", &port.to_string()])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap_or_else(|e| {
+            panic!(
+                "no S3 server: set VOXSCOPE_TEST_S3=http://HOST:PORT or install moto \
+                 (pip install 'moto[server]'): {e}"
+            )
+        });
+    let child = Moto(child);
+    let started = Instant::now();
+    while std::net::TcpStream::connect(("127.0.0.1", port)).is_err() {
+        assert!(
+            started.elapsed() < Duration::from_secs(30),
+            "moto_server did not start"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    (format!("http://127.0.0.1:{port}"), Some(child))
+}
+
+/// A moto server this test started; stopped when dropped (also when the test fails).
+struct Moto(std::process::Child);
+
+impl Drop for Moto {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// A raw request to the S3 server (moto accepts unsigned ones): bucket creation.
+fn s3_request(endpoint: &str, method: &str, path: &str) -> String {
+    let address = endpoint.trim_start_matches("http://");
+    let mut stream = std::net::TcpStream::connect(address).expect("the S3 server answers");
+    write!(
+        stream,
+        "{method} {path} HTTP/1.1\r\nHost: {address}\r\nContent-Length: 0\r\nConnection: close\r\n\r\n"
+    )
+    .unwrap();
+    let mut answer = String::new();
+    std::io::Read::read_to_string(&mut stream, &mut answer).unwrap();
+    answer
+}
+
+/// Uploads the files under `root` to `bucket` under `prefix`, readable by anyone if `public`.
+fn upload(endpoint: &str, bucket: &str, root: &Path, prefix: &str, public: bool) {
+    let acl = if public {
+        "x-amz-acl: public-read\r\n"
+    } else {
+        ""
+    };
+    let mut files = Vec::new();
+    let mut stack = vec![root.to_path_buf()];
+    while let Some(dir) = stack.pop() {
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                stack.push(path);
+            } else {
+                files.push(path);
+            }
+        }
+    }
+    for file in files {
+        let key = file
+            .strip_prefix(root)
+            .unwrap()
+            .to_str()
+            .unwrap()
+            .replace('\\', "/");
+        let body = std::fs::read(&file).unwrap();
+        let address = endpoint.trim_start_matches("http://");
+        let mut stream = std::net::TcpStream::connect(address).unwrap();
+        write!(
+            stream,
+            "PUT /{bucket}/{prefix}/{key} HTTP/1.1\r\nHost: {address}\r\n{acl}Content-Length: {}\r\nConnection: close\r\n\r\n",
+            body.len()
+        )
+        .unwrap();
+        stream.write_all(&body).unwrap();
+        let mut answer = String::new();
+        std::io::Read::read_to_string(&mut stream, &mut answer).unwrap();
+        assert!(
+            answer.starts_with("HTTP/1.1 200"),
+            "uploading {key}: {answer}"
+        );
+    }
+}
+
+#[test]
+fn a_converted_volume_renders_from_s3_equal_to_its_folder() {
+    let (endpoint, _moto) = s3_endpoint();
+    let dir = tempfile::tempdir().unwrap();
+    let converted = dir.path().join("shells.ome.zarr");
+    let out = voxscope(
+        &[
+            "convert",
+            "synthetic:shells:80",
+            converted.to_str().unwrap(),
+            "--format",
+            "0.5",
+            "--chunk",
+            "16",
+        ],
+        &[],
+    );
+    assert!(out.status.success(), "convert: {}", stderr(&out));
+    let bucket = format!("voxscope-{}", std::process::id());
+    let answer = s3_request(&endpoint, "PUT", &format!("/{bucket}"));
+    assert!(
+        answer.starts_with("HTTP/1.1 200"),
+        "creating the bucket: {answer}"
+    );
+    upload(
+        &endpoint,
+        &bucket,
+        &converted,
+        "data/shells.ome.zarr",
+        false,
+    );
+    upload(
+        &endpoint,
+        &bucket,
+        &converted,
+        "public/shells.ome.zarr",
+        true,
+    );
+    let url = format!("s3://{bucket}/data/shells.ome.zarr");
+    let public_url = format!("s3://{bucket}/public/shells.ome.zarr");
+    let secret = "wJalrXUtnFEMI-K7MDENG-voxscope-test";
+    let signed = [
+        ("AWS_ENDPOINT_URL", endpoint.as_str()),
+        ("AWS_ACCESS_KEY_ID", "testing"),
+        ("AWS_SECRET_ACCESS_KEY", secret),
+        ("AWS_REGION", "us-east-1"),
+        // No shared files of the machine's user.
+        ("AWS_SHARED_CREDENTIALS_FILE", "/nonexistent"),
+        ("AWS_CONFIG_FILE", "/nonexistent"),
+    ];
+    let anonymous = [
+        ("AWS_ENDPOINT_URL", endpoint.as_str()),
+        ("AWS_SHARED_CREDENTIALS_FILE", "/nonexistent"),
+        ("AWS_CONFIG_FILE", "/nonexistent"),
+    ];
+    let local_png = dir.path().join("local.png");
+    let out = voxscope(
+        &[
+            "render",
+            converted.to_str().unwrap(),
+            "--size",
+            "160x120",
+            "-o",
+            local_png.to_str().unwrap(),
+        ],
+        &[],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let local = image::open(&local_png).unwrap().to_rgba8();
+    assert!(support::reference::coverage(&local) > 0.02);
+    for (what, url, env) in [
+        ("signed", &url, &signed[..]),
+        ("anonymous", &public_url, &anonymous[..]),
+    ] {
+        for renderer in ["octree", "stream"] {
+            let png = dir.path().join(format!("s3-{what}-{renderer}.png"));
+            let out = voxscope(
+                &[
+                    "render",
+                    url,
+                    "--renderer",
+                    renderer,
+                    "--size",
+                    "160x120",
+                    "-o",
+                    png.to_str().unwrap(),
+                ],
+                env,
+            );
+            assert!(out.status.success(), "{what} {renderer}: {}", stderr(&out));
+            assert!(!stderr(&out).contains(secret));
+            let image = image::open(&png).unwrap().to_rgba8();
+            if renderer == "octree" {
+                assert_same_image(&image, &local, &format!("{what}: S3 against the folder"));
+            } else {
+                assert!(support::reference::coverage(&image) > 0.02, "{what}: empty");
+            }
+        }
+    }
+    let info = voxscope(&["info", "--json", &url], &signed);
+    assert!(info.status.success(), "{}", stderr(&info));
+    assert!(!String::from_utf8_lossy(&info.stdout).contains(secret));
+    // Without credentials the private copy is refused, in one line that says so.
+    let line = one_line_error(&voxscope(&["info", &url], &anonymous), &url, secret);
+    assert!(line.contains("access denied (HTTP 403)"), "{line}");
+    let missing = format!("s3://{bucket}/data/missing.ome.zarr");
+    let line = one_line_error(&voxscope(&["info", &missing], &signed), &missing, secret);
+    assert!(line.contains("is not a Zarr store"), "{line}");
+}
+
+// ---- Figures for docs/benchmarks.md (run by hand) ----
+
+/// `bench --stream` of a converted real volume from its folder and over a loopback link with
+/// 50 ms latency a request and a bounded bandwidth; prints one JSON line per case. Run with
+/// `cargo test --release --test remote -- --ignored --nocapture streaming_figures`.
+#[test]
+#[ignore = "a benchmark: minutes of software rendering; its figures are in docs/benchmarks.md"]
+fn streaming_figures_over_a_slow_link() {
+    let dir = tempfile::tempdir().unwrap();
+    let head = support::shared_data("mri-head-256.nii.gz");
+    let zarr = dir.path().join("head.ome.zarr");
+    let out = voxscope(
+        &[
+            "convert",
+            head.to_str().unwrap(),
+            zarr.to_str().unwrap(),
+            "--format",
+            "0.5",
+            "--chunk",
+            "32",
+            "--shard",
+            "4",
+        ],
+        &[],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let bench = |input: &str| -> serde_json::Value {
+        let out = voxscope(
+            &[
+                "bench", input, "--stream", "--json", "--size", "256x192", "--frames", "20",
+            ],
+            &[],
+        );
+        assert!(out.status.success(), "{input}: {}", stderr(&out));
+        serde_json::from_slice(&out.stdout).expect("bench JSON")
+    };
+    let summary = |case: &str, report: &serde_json::Value, server: Option<&FileServer>| {
+        let stopped = &report["stopped_view"];
+        let orbits: Vec<serde_json::Value> = report["orbits"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|o| {
+                serde_json::json!({
+                    "camera": o["camera"],
+                    "wall_ms": o["wall_ms"],
+                    "update_ms": o["update_ms"],
+                })
+            })
+            .collect();
+        let line = serde_json::json!({
+            "case": case,
+            "first_image_s": report["first_image_s"],
+            "open_s": report["volume"]["open_seconds"],
+            "complete": stopped["complete"],
+            "complete_s": stopped["seconds_from_open"],
+            "bricks_read": stopped["bricks_read"],
+            "bytes_decoded": stopped["bytes_read"],
+            "floor_bytes": stopped["floor_bytes"],
+            "fetched": stopped["fetched"],
+            "server_requests": server.map(|s| s.counters.requests.load(Ordering::SeqCst)),
+            "server_bytes": server.map(|s| s.counters.bytes.load(Ordering::SeqCst)),
+            "workers": report["options"]["workers"],
+            "orbits": orbits,
+        });
+        println!("{line}");
+    };
+    summary("folder", &bench(zarr.to_str().unwrap()), None);
+    for (case, bandwidth) in [
+        ("50 ms, 100 MB/s", 100_000_000u64),
+        ("50 ms, 12.5 MB/s", 12_500_000),
+    ] {
+        let server = FileServer::start(
+            dir.path(),
+            Faults {
+                latency: Duration::from_millis(50),
+                bandwidth: Some(bandwidth),
+                ..Faults::default()
+            },
+        );
+        let report = bench(&server.url("head.ome.zarr"));
+        summary(case, &report, Some(&server));
+    }
+}
