@@ -86,6 +86,7 @@ fn options(gpu_memory: u64) -> StreamOptions {
         workers: 2,
         lod_scale: 0.0,
         prefetch: false,
+        retry_after: Duration::from_secs(3600),
     }
 }
 
@@ -902,4 +903,83 @@ fn bricks_a_store_knows_to_be_invisible_are_never_read() {
         stored_counters.loads,
         loaded_counters.loads
     );
+}
+
+/// Level 0 unreadable while `down` is set (a server that is away), the rest as `inner`.
+struct Flaky {
+    inner: Arc<MemorySource>,
+    down: std::sync::atomic::AtomicBool,
+}
+
+impl BrickSource for Flaky {
+    fn name(&self) -> &str {
+        "flaky"
+    }
+    fn shape(&self) -> &PyramidShape {
+        self.inner.shape()
+    }
+    fn spacing(&self) -> [f64; 3] {
+        self.inner.spacing()
+    }
+    fn quantization(&self) -> Quantization {
+        self.inner.quantization()
+    }
+    fn max_value_level(&self) -> u16 {
+        self.inner.max_value_level()
+    }
+    fn read_brick(&self, id: BrickId) -> Result<BrickData, BrickError> {
+        if id.level == 0 && self.down.load(std::sync::atomic::Ordering::SeqCst) {
+            return Err(BrickError(format!("flaky: {id}: no answer")));
+        }
+        self.inner.read_brick(id)
+    }
+}
+
+#[test]
+fn bricks_that_failed_are_asked_for_again_and_the_view_recovers() {
+    let context = gpu();
+    let prepared = &*NOISE;
+    let camera = close_camera(30.0);
+    let settings = settings(prepared.octree.depth);
+    let source = Arc::new(Flaky {
+        inner: PYRAMID.clone(),
+        down: std::sync::atomic::AtomicBool::new(true),
+    });
+    let mut renderer = streaming(
+        &context,
+        source.clone(),
+        StreamOptions {
+            retry_after: Duration::from_millis(50),
+            ..options(level0_bytes())
+        },
+        &prepared.transfer,
+    );
+    // The server is away: level 0 fails, the view settles coarser, with errors.
+    let away = refine(&context, &mut renderer, &camera, &settings);
+    assert!(away.status.counters.failed > 0 && !away.errors.is_empty());
+    assert_eq!(away.status.counters.levels[0].resident, 0);
+    // It returns: the failed bricks are asked for again and the full view comes back.
+    source
+        .down
+        .store(false, std::sync::atomic::Ordering::SeqCst);
+    let started = Instant::now();
+    let back = loop {
+        std::thread::sleep(Duration::from_millis(60));
+        let refined = refine(&context, &mut renderer, &camera, &settings);
+        if refined.status.counters.failed == 0 {
+            break refined;
+        }
+        assert!(
+            started.elapsed() < Duration::from_secs(60),
+            "still failed: {:?}",
+            refined.status.counters
+        );
+    };
+    let expected = bricks_image(&context, prepared, &prepared.transfer, &camera, &settings);
+    let db = psnr(&back.image, &expected);
+    assert!(
+        back.status.counters.levels[0].resident > 8,
+        "level 0 streamed after all"
+    );
+    assert!(db >= 40.0, "recovered against bricks: {db:.1} dB");
 }

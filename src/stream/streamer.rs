@@ -42,6 +42,10 @@ pub struct StreamOptions {
     pub lod_scale: f32,
     /// Load the neighbours of wanted bricks into RAM while nothing visible waits.
     pub prefetch: bool,
+    /// A brick that failed to load (a dead server, a damaged chunk) is asked for again after
+    /// this long, then after twice as long each time it fails again (at most 5 minutes): a
+    /// view recovers when the server returns. Default 5 s.
+    pub retry_after: Duration,
 }
 
 impl Default for StreamOptions {
@@ -54,6 +58,7 @@ impl Default for StreamOptions {
             workers: cores.saturating_sub(1).max(1),
             lod_scale: 1.0,
             prefetch: true,
+            retry_after: Duration::from_secs(5),
         }
     }
 }
@@ -185,6 +190,9 @@ pub struct StreamStatus {
     pub counters: StreamCounters,
 }
 
+/// The longest wait before a failed brick is asked for again.
+const MAX_RETRY_DELAY: Duration = Duration::from_secs(300);
+
 /// Prefetch neighbours only when a frame asked for at most this many bricks.
 const PREFETCH_AROUND: usize = 1024;
 
@@ -226,6 +234,9 @@ pub struct Streamer {
     /// Table entries that hold no slot, oldest first (dropped when the table is full).
     metadata: VecDeque<u32>,
     failed: KeySet,
+    /// When each failed brick is asked for again, and how often it has failed.
+    retries: Vec<(Instant, u32)>,
+    attempts: KeyMap<u32>,
     new_errors: Vec<String>,
     lod_bias: u32,
     bias_changed: u32,
@@ -291,6 +302,8 @@ impl Streamer {
             ready: Vec::new(),
             metadata: VecDeque::new(),
             failed: KeySet::default(),
+            retries: Vec::new(),
+            attempts: KeyMap::default(),
             new_errors: Vec::new(),
             lod_bias: 0,
             bias_changed: 0,
@@ -543,6 +556,7 @@ impl Streamer {
     ) -> (Vec<Upload>, StreamStatus) {
         self.frame += 1;
         self.slots.new_frame();
+        self.retry_failed();
         self.receive_results();
         if let Some(feedback) = feedback {
             self.take_feedback(feedback, view);
@@ -560,12 +574,39 @@ impl Streamer {
         (uploads, status)
     }
 
+    /// Forgets the failures whose retry time has come: the rays ask for those bricks again.
+    fn retry_failed(&mut self) {
+        let now = Instant::now();
+        let due: Vec<u32> = self
+            .retries
+            .iter()
+            .filter(|(at, _)| *at <= now)
+            .map(|&(_, key)| key)
+            .collect();
+        if due.is_empty() {
+            return;
+        }
+        self.retries.retain(|(at, _)| *at > now);
+        for key in due {
+            self.failed.remove(&key);
+            if self
+                .table
+                .get(key)
+                .is_some_and(|entry| entry.cell & ENTRY_FAILED != 0)
+            {
+                self.table.remove(key);
+            }
+        }
+        self.changed_frame = self.frame;
+    }
+
     fn receive_results(&mut self) {
         for result in self.loader.received() {
             self.queue.done(result.key);
             self.counters.bytes_read += result.bytes_read;
             match result.brick {
                 Ok(brick) => {
+                    self.attempts.remove(&result.key);
                     self.counters.loads += 1;
                     self.counters.prefetch_loads += result.prefetch as u64;
                     self.ram.insert(result.key, brick);
@@ -578,6 +619,14 @@ impl Streamer {
                         self.missing = self.missing.saturating_sub(1);
                     }
                     if self.failed.insert(result.key) {
+                        let attempts = self.attempts.entry(result.key).or_insert(0);
+                        *attempts += 1;
+                        let delay = self
+                            .options
+                            .retry_after
+                            .saturating_mul(1 << (*attempts - 1).min(16))
+                            .min(MAX_RETRY_DELAY);
+                        self.retries.push((Instant::now() + delay, result.key));
                         let entry = TableEntry {
                             key: result.key,
                             cell: ENTRY_FAILED,
