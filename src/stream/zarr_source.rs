@@ -151,9 +151,12 @@ impl ZarrSource {
         }
         let (quantization, max_value_level) = quantization_of(&pyramid)?;
         // The stored levels' chunk ranges, for the levels bricks are read from (a store
-        // without them, or with damaged ones, is read brick by brick as any other).
+        // without them, or with damaged ones, is read brick by brick as any other). Not for a
+        // URL's store: reading them before the first image costs round trips (8.2 s to open a
+        // 2048³ store at 50 ms a request, against 0.02 s from its folder: run 52).
         let mut chunk_ranges = vec![None; pyramid.levels.len()];
-        for source in &sources {
+        let local = pyramid.remote_stats().is_none();
+        for source in sources.iter().filter(|_| local) {
             if chunk_ranges[source.stored].is_none() {
                 chunk_ranges[source.stored] = pyramid.chunk_ranges(source.stored).ok().flatten();
             }

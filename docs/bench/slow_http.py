@@ -1,0 +1,88 @@
+#!/usr/bin/env python3
+"""A slow static HTTP server for benchmarks of remote stores (docs/benchmarks.md): serves a
+folder on 127.0.0.1 with LATENCY seconds added to every request and all bodies sharing one link
+of BANDWIDTH bytes a second. Serves single byte ranges (`Range: bytes=A-B`, `bytes=A-`,
+`bytes=-N`), as object stores do. Counts requests and bytes, printed when stopped.
+
+Usage: slow_http.py ROOT PORT LATENCY_S BANDWIDTH_BYTES_PER_S
+"""
+import http.server
+import os
+import sys
+import threading
+import time
+
+root, port, latency, bandwidth = sys.argv[1], int(sys.argv[2]), float(sys.argv[3]), float(sys.argv[4])
+lock = threading.Lock()
+link_free_at = [0.0]
+counts = {"requests": 0, "bytes": 0}
+
+
+def reserve(nbytes):
+    """When the shared link has sent `nbytes` more (a token bucket of one link)."""
+    with lock:
+        start = max(time.monotonic(), link_free_at[0])
+        link_free_at[0] = start + nbytes / bandwidth
+        return link_free_at[0]
+
+
+class Handler(http.server.SimpleHTTPRequestHandler):
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, directory=root, **kwargs)
+
+    def log_message(self, *args):
+        pass
+
+    def do_GET(self):
+        time.sleep(latency)
+        path = self.translate_path(self.path)
+        if not os.path.isfile(path):
+            self.send_error(404)
+            return
+        with open(path, "rb") as f:
+            body = f.read()
+        size = len(body)
+        status, extra = 200, {}
+        wanted = self.headers.get("Range", "")
+        if wanted.startswith("bytes=") and "," not in wanted:
+            first, _, last = wanted[6:].partition("-")
+            if first == "":
+                start, end = max(size - int(last), 0), size - 1
+            else:
+                start = int(first)
+                end = min(int(last), size - 1) if last else size - 1
+            if start >= size or start > end:
+                self.send_response(416)
+                self.send_header("Content-Range", f"bytes */{size}")
+                self.send_header("Content-Length", "0")
+                self.end_headers()
+                return
+            body = body[start:end + 1]
+            status, extra = 206, {"Content-Range": f"bytes {start}-{end}/{size}"}
+        with lock:
+            counts["requests"] += 1
+            counts["bytes"] += len(body)
+        self.send_response(status)
+        for key, value in extra.items():
+            self.send_header(key, value)
+        self.send_header("Accept-Ranges", "bytes")
+        self.send_header("Content-Length", str(len(body)))
+        self.end_headers()
+        for i in range(0, len(body), 65536):
+            piece = body[i:i + 65536]
+            wait = reserve(len(piece)) - time.monotonic()
+            if wait > 0:
+                time.sleep(wait)
+            self.wfile.write(piece)
+
+    def do_HEAD(self):
+        time.sleep(latency)
+        super().do_HEAD()
+
+
+server = http.server.ThreadingHTTPServer(("127.0.0.1", port), Handler)
+server.daemon_threads = True
+try:
+    server.serve_forever()
+finally:
+    print("served", counts, file=sys.stderr)
