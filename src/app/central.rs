@@ -3,7 +3,7 @@
 //! count, the transfer pair's B), the pane labels, the orientation gizmo, and the measured
 //! cost of the last frame.
 
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use egui::{Align2, Color32, Rect, Ui, UiBuilder, vec2};
 
@@ -11,15 +11,14 @@ use super::AppGpu;
 use super::overlays::{draw_rulers, paint_overlays_3d};
 use super::pane_header::{grid_strip, pair_strip, pane_label};
 use super::picking::Picking;
-use super::scene::{NetworkState, Scene};
+use super::scene::Scene;
 use super::settings::{AppSettings, Layout, Tool};
 use super::slice_pane::{self, SlicePane};
 use super::view_state::{MAX_GRID_PANES, ViewState};
-use super::viewport::{self, DrawKey, Pane};
-use crate::render::{
-    FrameProbe, FrameReport, RenderError, RenderSettings, SliceConvention, SliceSettings,
-    read_image,
-};
+use super::viewport::{self, Pane};
+
+mod draw;
+use crate::render::{FrameProbe, FrameReport, SliceConvention, read_image};
 
 /// Height of the strip of controls above the panes of the level grid and the transfer pair.
 const STRIP_HEIGHT: f32 = 30.0;
@@ -330,184 +329,6 @@ impl CentralView {
                 );
             }
         }
-    }
-
-    /// Draws every pane whose image is out of date (or all, when drawing continuously, or
-    /// while the streaming renderer refines). `serial` changes with every new scene. Returns
-    /// whether another frame is wanted: the streaming renderer has bricks to load or upload,
-    /// or has not yet judged the current view complete.
-    pub fn draw(
-        &mut self,
-        gpu: &AppGpu,
-        scene: &mut Scene,
-        serial: u64,
-        settings: &AppSettings,
-        view: &ViewState,
-    ) -> Result<bool, RenderError> {
-        let depth = scene.depth();
-        // The streaming renderer takes in what earlier frames' rays asked for and uploads
-        // within its budget; it never waits on I/O or the GPU.
-        let stream = scene.renderer.update(&gpu.context);
-        let stream_frame = stream.as_ref().map(|s| s.frame);
-        let mut refining = stream.as_ref().is_some_and(|s| {
-            !s.complete
-                || s.uploads > 0
-                || s.judged_frame
-                    .is_none_or(|judged| judged < self.stream_view_frame)
-        });
-        if let Some(status) = &stream {
-            for error in &status.errors {
-                eprintln!("voxscope: {error}");
-            }
-        }
-        let main = settings.transfer.with_window(view.window);
-        let compare = settings.compare_transfer.with_window(view.window);
-        let kinds = pane_kinds(settings);
-        let count = kinds.len();
-        let mut drew = false;
-        for (index, (pane, kind)) in self.panes.iter_mut().zip(kinds).enumerate() {
-            let (Some(target), Some(rect)) = (&pane.target, self.pane_rects.get(index)) else {
-                continue;
-            };
-            let size = [target.width, target.height];
-            let key = match kind {
-                PaneKind::Volume => {
-                    let (level, transfer) = match settings.layout {
-                        Layout::LevelGrid => (view.grid_level(index, count, depth), main),
-                        Layout::TransferPair if index == 1 => (view.max_level.min(depth), compare),
-                        _ => (view.max_level.min(depth), main),
-                    };
-                    DrawKey::Volume {
-                        size,
-                        camera: settings.camera,
-                        settings: RenderSettings {
-                            mode: settings.mode,
-                            max_level: level,
-                            pixel_lod: settings.pixel_lod,
-                            opacity_correction: settings.opacity_correction,
-                            density: settings.density,
-                            heatmap: settings.heatmap,
-                            trilinear: settings.trilinear,
-                            shading: settings.shading,
-                            clip: view.clipping.clip(),
-                        },
-                        transfer,
-                        scene: serial,
-                    }
-                }
-                PaneKind::Slice(axis) => {
-                    let mut slice_view = view.slice_views[axis];
-                    slice_view.index = view.cursor_voxel(scene.data.volume.dims)[axis];
-                    let (frame, _) = slice_pane::frame(scene, &slice_view, *rect, size);
-                    DrawKey::Slice {
-                        settings: SliceSettings {
-                            frame,
-                            window: view.window,
-                            colormap: settings.transfer.colormap,
-                            nearest: !settings.slice_linear,
-                        },
-                        size,
-                        scene: serial,
-                    }
-                }
-            };
-            let volume_pane = matches!(key, DrawKey::Volume { .. });
-            if pane.drawn == Some(key) && !settings.continuous && !(refining && volume_pane) {
-                continue;
-            }
-            if volume_pane
-                && pane.drawn != Some(key)
-                && let Some(frame) = stream_frame
-            {
-                // A new view: wait for a frame drawn with it to be judged.
-                self.stream_view_frame = frame;
-                refining = true;
-            }
-            let mut encoder =
-                gpu.context
-                    .device
-                    .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                        label: Some("voxscope::app_frame"),
-                    });
-            match &key {
-                DrawKey::Volume {
-                    camera,
-                    settings: render_settings,
-                    transfer,
-                    ..
-                } => {
-                    if scene.applied_transfer != *transfer {
-                        scene
-                            .renderer
-                            .set_transfer(&gpu.context, &mut encoder, transfer, None)?;
-                        scene.applied_transfer = *transfer;
-                    }
-                    let measure =
-                        !drew && self.frame_probe.as_ref().is_some_and(FrameProbe::is_idle);
-                    let probe = self.frame_probe.as_mut().filter(|_| measure);
-                    let writes = probe.as_ref().and_then(|p| p.timestamp_writes());
-                    scene.renderer.encode(
-                        &gpu.context,
-                        &mut encoder,
-                        target,
-                        camera,
-                        render_settings,
-                        writes,
-                    );
-                    if let Some(probe) = probe {
-                        probe.record(&gpu.context, &mut encoder, target);
-                        gpu.context.queue.submit([encoder.finish()]);
-                        probe.submitted();
-                    } else {
-                        gpu.context.queue.submit([encoder.finish()]);
-                    }
-                    if self.logged_scene != serial {
-                        self.logged_scene = serial;
-                        eprintln!(
-                            "voxscope: drew {} ({}x{} px, {} renderer, level {})",
-                            scene.data.volume.name,
-                            target.width,
-                            target.height,
-                            scene.options.kind.name(),
-                            render_settings.max_level
-                        );
-                    }
-                }
-                DrawKey::Slice {
-                    settings: slice_settings,
-                    ..
-                } => {
-                    scene
-                        .renderer
-                        .encode_slice(&gpu.context, &mut encoder, target, slice_settings);
-                    gpu.context.queue.submit([encoder.finish()]);
-                }
-            }
-            pane.drawn = Some(key);
-            drew = true;
-        }
-        if let Some(picking) = &mut self.picking {
-            let drawn: Vec<Option<DrawKey>> = self.panes.iter().map(|p| p.drawn).collect();
-            picking.record(gpu, scene, &drawn);
-        }
-        let now = Instant::now();
-        if drew {
-            self.draw_times.push(now);
-        }
-        self.draw_times
-            .retain(|t| now.duration_since(*t) < Duration::from_secs(1));
-        if stream.is_some() {
-            scene.stream_status = stream;
-        }
-        if let Some(stats) = scene
-            .renderer
-            .stream()
-            .and_then(|s| s.streamer().source().remote_stats())
-        {
-            scene.network = Some(NetworkState::follow(scene.network, stats));
-        }
-        self.refining = refining;
-        Ok(refining)
     }
 
     /// What is drawn: the panes' images composed as laid out, at full pixel resolution, with
