@@ -477,10 +477,11 @@ fn evicted_bricks_are_asked_for_again_from_ram_and_transfer_edits_apply_while_st
     );
 }
 
-/// A source whose one brick cannot be read (a damaged chunk).
+/// The noise's pyramid with the bricks `fails` names unreadable (a damaged chunk, a server
+/// that is away).
 struct Failing {
     inner: Arc<MemorySource>,
-    broken: BrickId,
+    fails: Box<dyn Fn(BrickId) -> bool + Send + Sync>,
 }
 
 impl BrickSource for Failing {
@@ -500,7 +501,7 @@ impl BrickSource for Failing {
         self.inner.max_value_level()
     }
     fn read_brick(&self, id: BrickId) -> Result<BrickData, BrickError> {
-        if id == self.broken {
+        if (self.fails)(id) {
             return Err(BrickError(format!("damaged: {id} does not decode")));
         }
         self.inner.read_brick(id)
@@ -547,7 +548,7 @@ fn a_brick_that_fails_to_load_leaves_its_region_coarser_and_the_rest_unchanged()
     let whole = refine(&context, &mut good, &camera, &settings);
     let damaged = Arc::new(Failing {
         inner: PYRAMID.clone(),
-        broken,
+        fails: Box::new(move |id| id == broken),
     });
     let mut renderer = streaming(
         &context,
@@ -905,45 +906,20 @@ fn bricks_a_store_knows_to_be_invisible_are_never_read() {
     );
 }
 
-/// Level 0 unreadable while `down` is set (a server that is away), the rest as `inner`.
-struct Flaky {
-    inner: Arc<MemorySource>,
-    down: std::sync::atomic::AtomicBool,
-}
-
-impl BrickSource for Flaky {
-    fn name(&self) -> &str {
-        "flaky"
-    }
-    fn shape(&self) -> &PyramidShape {
-        self.inner.shape()
-    }
-    fn spacing(&self) -> [f64; 3] {
-        self.inner.spacing()
-    }
-    fn quantization(&self) -> Quantization {
-        self.inner.quantization()
-    }
-    fn max_value_level(&self) -> u16 {
-        self.inner.max_value_level()
-    }
-    fn read_brick(&self, id: BrickId) -> Result<BrickData, BrickError> {
-        if id.level == 0 && self.down.load(std::sync::atomic::Ordering::SeqCst) {
-            return Err(BrickError(format!("flaky: {id}: no answer")));
-        }
-        self.inner.read_brick(id)
-    }
-}
-
 #[test]
 fn bricks_that_failed_are_asked_for_again_and_the_view_recovers() {
     let context = gpu();
     let prepared = &*NOISE;
     let camera = close_camera(30.0);
     let settings = settings(prepared.octree.depth);
-    let source = Arc::new(Flaky {
+    // Level 0 unreadable while the server is down.
+    let down = Arc::new(std::sync::atomic::AtomicBool::new(true));
+    let source = Arc::new(Failing {
         inner: PYRAMID.clone(),
-        down: std::sync::atomic::AtomicBool::new(true),
+        fails: Box::new({
+            let down = down.clone();
+            move |id| id.level == 0 && down.load(std::sync::atomic::Ordering::SeqCst)
+        }),
     });
     let mut renderer = streaming(
         &context,
@@ -959,9 +935,7 @@ fn bricks_that_failed_are_asked_for_again_and_the_view_recovers() {
     assert!(away.status.counters.failed > 0 && !away.errors.is_empty());
     assert_eq!(away.status.counters.levels[0].resident, 0);
     // It returns: the failed bricks are asked for again and the full view comes back.
-    source
-        .down
-        .store(false, std::sync::atomic::Ordering::SeqCst);
+    down.store(false, std::sync::atomic::Ordering::SeqCst);
     let started = Instant::now();
     let back = loop {
         std::thread::sleep(Duration::from_millis(60));

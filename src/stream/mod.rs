@@ -10,9 +10,11 @@
 //!
 //! Module direction: volume → stream → render. Nothing here touches the GPU.
 
+mod frame;
 mod key_hash;
 mod loader;
 mod memory;
+mod options;
 mod page_table;
 mod preview;
 mod procedural;
@@ -21,12 +23,15 @@ mod queue;
 mod ram_cache;
 mod slots;
 mod source;
+mod status;
 mod streamer;
 mod zarr_source;
 
+pub use frame::{Feedback, Upload, ViewPoint};
 pub use key_hash::{KeyHasher, KeyMap, KeySet};
 pub use loader::{AtlasTexels, LoadedBrick};
 pub use memory::MemorySource;
+pub use options::StreamOptions;
 pub use page_table::{
     ENTRY_FAILED, ENTRY_RESIDENT, ENTRY_VISIBLE, MAX_PROBES, PageTable, TableEntry, TableFull,
     table_hash,
@@ -44,8 +49,6 @@ pub use source::{
     BRICK_SIZE, BrickData, BrickError, BrickId, BrickSource, PADDED_BRICK, PADDED_BRICK_VOXELS,
     ValueRange,
 };
-pub use streamer::{
-    Feedback, LevelCounters, StreamCounters, StreamOptions, StreamStatus, Streamer, Upload,
-    ViewPoint,
-};
+pub use status::{LevelCounters, StreamCounters, StreamStatus};
+pub use streamer::Streamer;
 pub use zarr_source::{MAX_BRICK_READ, ZarrSource};

@@ -10,8 +10,10 @@ use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
 
+use super::frame::{Feedback, Upload, ViewPoint};
 use super::key_hash::{KeyMap, KeySet};
 use super::loader::{AtlasTexels, LoadedBrick, Loader, load_brick};
+use super::options::StreamOptions;
 use super::page_table::{
     ENTRY_FAILED, ENTRY_RESIDENT, ENTRY_VISIBLE, PageTable, TableEntry, TableFull,
 };
@@ -20,175 +22,7 @@ use super::queue::{Priority, Request, RequestQueue, Tier};
 use super::ram_cache::RamCache;
 use super::slots::SlotPool;
 use super::source::{BrickId, BrickSource, PADDED_BRICK_VOXELS};
-
-/// Choices that size the streamer.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct StreamOptions {
-    /// GPU memory for everything the streaming renderer holds (atlas, page table, request and
-    /// usage buffers, lookup tables), in bytes (`--gpu-memory`). Default 1 GiB; never more
-    /// than the device allows (its largest 3D texture bounds the atlas).
-    pub gpu_memory: u64,
-    /// Bytes of decoded bricks kept in RAM (`--ram-cache`). Default 2 GiB.
-    pub ram_cache: u64,
-    /// Bytes uploaded to the atlas per frame at most. Default 8 MiB (about 100 16-bit bricks):
-    /// on an H200, 8 MiB kept 199 of 200 streaming frames under 16 ms of wall time, 16 MiB
-    /// 151–193 of 200, 32 MiB up to 60 ms a frame (runs 46–47, docs/benchmarks.md).
-    pub upload_bytes_per_frame: u64,
-    /// Worker threads loading bricks. Default: the machine's cores less one (at least one).
-    pub workers: usize,
-    /// The pixel footprint is multiplied by this before it picks a level: 1 takes the level
-    /// whose voxel is no larger than a pixel's footprint, 2 one level coarser, 0 always the
-    /// max level (no pixel LOD).
-    pub lod_scale: f32,
-    /// Load the neighbours of wanted bricks into RAM while nothing visible waits.
-    pub prefetch: bool,
-    /// A brick that failed to load (a dead server, a damaged chunk) is asked for again after
-    /// this long, then after twice as long each time it fails again (at most 5 minutes): a
-    /// view recovers when the server returns. Default 5 s.
-    pub retry_after: Duration,
-}
-
-impl Default for StreamOptions {
-    fn default() -> Self {
-        let cores = std::thread::available_parallelism().map_or(2, |n| n.get());
-        Self {
-            gpu_memory: 1 << 30,
-            ram_cache: 2 << 30,
-            upload_bytes_per_frame: 8 << 20,
-            workers: cores.saturating_sub(1).max(1),
-            lod_scale: 1.0,
-            prefetch: true,
-            retry_after: Duration::from_secs(5),
-        }
-    }
-}
-
-/// Where the camera is, in level-0 voxel space, for "near the view's center first".
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ViewPoint {
-    pub eye: [f64; 3],
-    /// Unit direction of the image's center.
-    pub forward: [f64; 3],
-}
-
-impl ViewPoint {
-    /// 1 − cos of the angle between the view's center and `point`: 0 straight ahead.
-    fn off_center(&self, point: [f64; 3]) -> f32 {
-        let d: [f64; 3] = std::array::from_fn(|a| point[a] - self.eye[a]);
-        let length = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt().max(1e-9);
-        let cos =
-            (d[0] * self.forward[0] + d[1] * self.forward[1] + d[2] * self.forward[2]) / length;
-        (1.0 - cos) as f32
-    }
-}
-
-/// What one drawn frame reported: the bricks its rays asked for and each slot's last use.
-#[derive(Debug, Clone, Copy)]
-pub struct Feedback<'a> {
-    /// The frame's number ([`Streamer::frame`] when it was drawn).
-    pub frame: u32,
-    /// Keys the rays asked for (deduplicated on the GPU where cheap; repeats are fine).
-    pub requests: &'a [u32],
-    /// Asks in all, including those beyond the buffer's capacity.
-    pub asked: u32,
-    /// Per atlas slot, the last frame a ray used it as `2·frame + 1` where the ray wanted the
-    /// brick's level, `2·frame` where it drew it in place of a missing finer brick (0: never).
-    pub usage: &'a [u32],
-}
-
-/// A brick to copy into the atlas this frame.
-#[derive(Debug, Clone)]
-pub struct Upload {
-    pub slot: u32,
-    /// The padded brick's texels ([`AtlasTexels`]).
-    pub texels: Arc<[u8]>,
-}
-
-/// Per level, what the streamer knows (the app's Octree panel).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
-pub struct LevelCounters {
-    /// Bricks in the level.
-    pub total: u64,
-    /// In the atlas.
-    pub resident: usize,
-    /// Known to need no slot (uniform, or skipped under the transfer function when evicted).
-    pub empty: usize,
-    /// Wanted by the latest frame read back and not on the GPU yet.
-    pub requested: usize,
-}
-
-/// Everything counted, for the app's panel and `bench --stream --json`.
-#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
-pub struct StreamCounters {
-    /// Finest first.
-    pub levels: Vec<LevelCounters>,
-    pub slots: usize,
-    pub slots_used: usize,
-    /// Slots a ray wanted (not as a stand-in) in the latest frame read back: with the uniform
-    /// bricks, what that view needs.
-    pub view_slots: usize,
-    pub slots_pinned: usize,
-    /// Bytes of one atlas slot.
-    pub slot_bytes: u64,
-    pub ram_bytes: u64,
-    pub ram_capacity: u64,
-    /// Wanted bricks found in the RAM cache / loaded from the source.
-    pub ram_hits: u64,
-    pub loads: u64,
-    /// Of the loads, those of prefetched bricks (neighbours of wanted ones).
-    pub prefetch_loads: u64,
-    /// Bytes the source produced (padded bricks in texel size).
-    pub bytes_read: u64,
-    pub bytes_uploaded: u64,
-    /// Uploaded over the last second.
-    pub upload_bytes_per_s: f64,
-    /// Bricks that lost their atlas slot to another.
-    pub evictions: u64,
-    /// Bricks that could not be read.
-    pub failed: usize,
-    /// Bricks never read because their known range ([`BrickSource::known_range`]) is
-    /// invisible under the transfer function.
-    pub skipped_unread: u64,
-}
-
-impl StreamCounters {
-    /// Hits ÷ (hits + loads), 0 before anything was wanted.
-    pub fn ram_hit_rate(&self) -> f64 {
-        let total = self.ram_hits + self.loads;
-        if total == 0 {
-            0.0
-        } else {
-            self.ram_hits as f64 / total as f64
-        }
-    }
-}
-
-/// Where streaming stands after a frame's update.
-#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
-pub struct StreamStatus {
-    /// The number of the frame about to be drawn.
-    pub frame: u32,
-    /// Nothing visible is missing: the latest frame read back ([`Self::judged_frame`]) was
-    /// drawn with the current page table and its rays lacked nothing (bricks that failed to
-    /// load excepted). After a change of view, wait for a judged frame drawn with the new view.
-    pub complete: bool,
-    /// The frame `complete` and `missing` are judged on (read back a frame or two after it was
-    /// drawn); `None` before the first readback.
-    pub judged_frame: Option<u32>,
-    /// Visible bricks wanted and not on the GPU (what the status bar's "refining: N" says).
-    pub missing: usize,
-    /// Loads waiting and in progress.
-    pub queued: usize,
-    pub loading: usize,
-    /// Levels added to every ray's choice because the atlas cannot hold the view at its own.
-    pub lod_bias: u32,
-    /// Uploaded in this update.
-    pub uploads: usize,
-    pub upload_bytes: u64,
-    /// Bricks that failed since the last update, one line each.
-    pub errors: Vec<String>,
-    pub counters: StreamCounters,
-}
+use super::status::{LevelCounters, StreamCounters, StreamStatus};
 
 /// The longest wait before a failed brick is asked for again.
 const MAX_RETRY_DELAY: Duration = Duration::from_secs(300);

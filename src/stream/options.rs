@@ -1,0 +1,46 @@
+//! The choices that size a streamer: GPU and RAM budgets, upload budget, loader threads, the
+//! pixel LOD, prefetch and how failed bricks are retried.
+
+use std::time::Duration;
+
+/// Choices that size the streamer.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StreamOptions {
+    /// GPU memory for everything the streaming renderer holds (atlas, page table, request and
+    /// usage buffers, lookup tables), in bytes (`--gpu-memory`). Default 1 GiB; never more
+    /// than the device allows (its largest 3D texture bounds the atlas).
+    pub gpu_memory: u64,
+    /// Bytes of decoded bricks kept in RAM (`--ram-cache`). Default 2 GiB.
+    pub ram_cache: u64,
+    /// Bytes uploaded to the atlas per frame at most. Default 8 MiB (about 100 16-bit bricks):
+    /// on an H200, 8 MiB kept 199 of 200 streaming frames under 16 ms of wall time, 16 MiB
+    /// 151–193 of 200, 32 MiB up to 60 ms a frame (runs 46–47, docs/benchmarks.md).
+    pub upload_bytes_per_frame: u64,
+    /// Worker threads loading bricks. Default: the machine's cores less one (at least one).
+    pub workers: usize,
+    /// The pixel footprint is multiplied by this before it picks a level: 1 takes the level
+    /// whose voxel is no larger than a pixel's footprint, 2 one level coarser, 0 always the
+    /// max level (no pixel LOD).
+    pub lod_scale: f32,
+    /// Load the neighbours of wanted bricks into RAM while nothing visible waits.
+    pub prefetch: bool,
+    /// A brick that failed to load (a dead server, a damaged chunk) is asked for again after
+    /// this long, then after twice as long each time it fails again (at most 5 minutes): a
+    /// view recovers when the server returns. Default 5 s.
+    pub retry_after: Duration,
+}
+
+impl Default for StreamOptions {
+    fn default() -> Self {
+        let cores = std::thread::available_parallelism().map_or(2, |n| n.get());
+        Self {
+            gpu_memory: 1 << 30,
+            ram_cache: 2 << 30,
+            upload_bytes_per_frame: 8 << 20,
+            workers: cores.saturating_sub(1).max(1),
+            lod_scale: 1.0,
+            prefetch: true,
+            retry_after: Duration::from_secs(5),
+        }
+    }
+}
