@@ -1,7 +1,9 @@
-// The dense baseline: one 3D texture of value levels (8-bit when they fit), marched at fixed steps of one voxel
-// with hardware filtering (trilinear, or nearest), the same transfer lookup table, early ray
-// termination and MIP as the octree ray caster. This is what napari/vispy, pygfx and ParaView
-// do; voxscope keeps it to measure against and to cross-check the octree.
+// The dense baseline: one 3D texture of value levels (8-bit when they fit), marched at fixed
+// steps of one voxel with hardware filtering (trilinear, or nearest), the same transfer lookup
+// table, early ray termination and MIP as the octree ray caster. This is what napari/vispy,
+// pygfx and ParaView do; voxscope keeps it to measure against and to cross-check the octree.
+// Below full detail it marches the max level's own pyramid level (a texture of its own, one
+// step per voxel of that level), as the streaming renderer does.
 //
 // Space and parameters are those of raycast.wgsl (voxel space, camera vectors in voxels);
 // both start with ray_common.wgsl.
@@ -21,13 +23,16 @@ struct MarchResult {
     probe_t: f32,
 }
 
-// The value level at a voxel-space point, trilinear (or nearest, by the sampler).
+// The value level at a voxel-space point, trilinear (or nearest, by the sampler). The texture
+// bound is the pyramid level of the max level: `atlas_texel` is 1 / (its texels × the level-0
+// voxels each covers), so a level's voxel i covers level-0 voxels [i, i + 1) · sample_voxels.
 fn level_at(p: vec3<f32>) -> u32 {
-    return value_index(textureSampleLevel(levels, level_sampler, p / params.volume.xyz, 0.0).r);
+    return value_index(textureSampleLevel(levels, level_sampler, p * params.atlas_texel.xyz, 0.0).r);
 }
 
 // The gradient of the filtered value levels at normalized texture coordinates `coords`,
-// central differences `half_texel` (half a voxel) either side: levels per voxel, voxel space.
+// central differences `half_texel` (half a voxel of the level) either side: levels per
+// level-0 voxel, voxel space.
 fn level_gradient(coords: vec3<f32>, half_texel: vec3<f32>) -> vec3<f32> {
     let dx = vec3<f32>(half_texel.x, 0.0, 0.0);
     let dy = vec3<f32>(0.0, half_texel.y, 0.0);
@@ -38,7 +43,7 @@ fn level_gradient(coords: vec3<f32>, half_texel: vec3<f32>) -> vec3<f32> {
     let low = vec3<f32>(textureSampleLevel(levels, level_sampler, coords - dx, 0.0).r,
                         textureSampleLevel(levels, level_sampler, coords - dy, 0.0).r,
                         textureSampleLevel(levels, level_sampler, coords - dz, 0.0).r);
-    return (high - low) * params.atlas_scale;
+    return (high - low) * (params.atlas_scale / params.sample_voxels);
 }
 
 fn march(origin: vec3<f32>, dir: vec3<f32>) -> MarchResult {
@@ -49,12 +54,12 @@ fn march(origin: vec3<f32>, dir: vec3<f32>) -> MarchResult {
     if t_enter >= t_leave {
         return result;
     }
-    // One voxel per step.
-    let step = 1.0 / length(dir);
+    // One voxel of the level drawn per step.
+    let step = params.sample_voxels / length(dir);
     var acc = new_accumulation();
-    let texel = 1.0 / params.volume.xyz;
-    let frame = SampleFrame(origin * texel, origin * texel, 3.4e38, dir * texel, 0.5 * texel,
-                            headlight(dir));
+    let texel = params.atlas_texel.xyz;
+    let frame = SampleFrame(origin * texel, origin * texel, 3.4e38, dir * texel,
+                            0.5 * params.sample_voxels * texel, headlight(dir));
     // Sample k sits at t_enter + (k + 0.5) · step (as in the bricks renderer, sample for sample),
     // fetched two batches at a time.
     for (var k = 0.0; ; k += f32(BATCH_PAIR)) {

@@ -28,6 +28,10 @@ struct Params {
     shading: vec4<f32>,     // ambient, diffuse, specular, shininess (SHADING)
     shading_scale: vec4<f32>, // xyz: smallest spacing / spacing; w: 1 / gradient of full shading
     probe_pixel: vec2<u32>, // the pixel a PROBE pipeline traces
+    // Level-0 voxels per voxel of the texture bound and per sample step: 2^(depth − max level)
+    // where dense or bricks draw a pyramid level finer than the nodes but not full detail; 1.
+    sample_voxels: f32,
+    atlas_brick: u32,       // voxels along a brick's side in the atlas bound (bricks)
 }
 
 // Pipeline variants (src/render/raycaster.rs builds each as its own pipeline, so that a
@@ -215,10 +219,15 @@ fn accumulate(acc: ptr<function, Accumulation>, levels: vec4<u32>, count: u32, t
     }
     let colors = vec4<u32>(lookup_table[levels.x], lookup_table[levels.y],
                            lookup_table[levels.z], lookup_table[levels.w]);
+    let exponent = sample_exponent();
     for (var j = 0u; j < count; j++) {
         let rgba = unpack4x8unorm(colors[j]);
-        // A step is one voxel long, so opacity correction leaves alpha as it is.
-        let a = min(rgba.a * params.density, 1.0);
+        var a = min(rgba.a * params.density, 1.0);
+        // A step is one voxel of the level sampled; opacity correction to it (at full detail a
+        // step is one voxel, and alpha stays as it is).
+        if exponent != 1.0 && a < 1.0 {
+            a = 1.0 - pow(1.0 - a, exponent);
+        }
         var rgb = rgba.rgb;
         if SHADING && a > 0.0 {
             let coords = select(frame.next, frame.here, ts[j] < frame.split) + ts[j] * frame.dir;
@@ -235,6 +244,12 @@ fn accumulate(acc: ptr<function, Accumulation>, levels: vec4<u32>, count: u32, t
         }
     }
     return count;
+}
+
+// The opacity-correction exponent of one sample step: its length in level-0 voxels where
+// opacity correction is on (a sample of a coarser level stands for that many voxels), else 1.
+fn sample_exponent() -> f32 {
+    return select(1.0, params.sample_voxels, (params.flags & FLAG_OPACITY_CORRECTION) != 0u);
 }
 
 // `accumulate` for two batches fetched together (distances `ts`, `ts2`): the first `count` of

@@ -76,7 +76,8 @@ fn march_brick(acc: ptr<function, Accumulation>, origin: vec3<f32>, dir: vec3<f3
     var k = max(ceil((t - t_enter) / sample_step - 0.5), 0.0);
     let texel = params.atlas_texel.xyz;
     let here = (origin + to_atlas) * texel;
-    let frame = SampleFrame(here, here, 3.4e38, dir * texel, 0.5 * texel, headlight(dir));
+    let frame = SampleFrame(here, here, 3.4e38, dir * texel, 0.5 * params.sample_voxels * texel,
+                            headlight(dir));
     loop {
         let ts = t_enter + (vec4<f32>(k) + BATCH_OFFSETS) * sample_step;
         let count = count_before(ts, t_out);
@@ -119,8 +120,8 @@ fn atlas_level_at(coords: vec3<f32>) -> u32 {
 }
 
 // The gradient of the filtered value levels at normalized atlas coordinates `coords` (a sample
-// inside its brick), central differences `half_texel` (half a voxel) either side: levels per
-// voxel, voxel space. Half a voxel, not one: the one-voxel apron makes the atlas equal the
+// inside its brick), central differences `half_texel` (half a voxel of the level sampled) either
+// side: levels per level-0 voxel, voxel space. Half a voxel, not one: the one-voxel apron makes the atlas equal the
 // volume's own trilinear values up to half a voxel past the brick's faces (the apron's texel
 // centers), and a whole voxel out would blend in the next slot's brick.
 fn level_gradient(coords: vec3<f32>, half_texel: vec3<f32>) -> vec3<f32> {
@@ -133,7 +134,7 @@ fn level_gradient(coords: vec3<f32>, half_texel: vec3<f32>) -> vec3<f32> {
     let low = vec3<f32>(textureSampleLevel(atlas, atlas_sampler, coords - dx, 0.0).r,
                         textureSampleLevel(atlas, atlas_sampler, coords - dy, 0.0).r,
                         textureSampleLevel(atlas, atlas_sampler, coords - dz, 0.0).r);
-    return (high - low) * params.atlas_scale;
+    return (high - low) * (params.atlas_scale / params.sample_voxels);
 }
 
 // The value level at an atlas texel position (a voxel-space point plus its brick's `to_atlas`).
@@ -148,11 +149,15 @@ fn atlas_origin(origin: vec3<f32>, atlas_cell: u32, corner: vec3<f32>) -> vec3<f
     return (origin + brick_to_atlas(atlas_cell, corner)) * params.atlas_texel.xyz;
 }
 
-// The offset from voxel space to atlas texels of the brick whose first voxel is `corner` and
-// whose atlas cell is packed in `atlas_cell` (ten bits per axis).
+// The offset from voxel space to the atlas of the brick whose first voxel is `corner` and whose
+// atlas cell is packed in `atlas_cell` (ten bits per axis): (p + offset) · atlas_texel is the
+// normalized atlas place of voxel-space point p. The atlas bound holds a brick in
+// `atlas_brick` texels a side (plus the apron), one texel per `sample_voxels` voxels: texel
+// cell · (atlas_brick + 2) + 1 + (p − corner) / sample_voxels, and `atlas_texel` carries the
+// division.
 fn brick_to_atlas(atlas_cell: u32, corner: vec3<f32>) -> vec3<f32> {
     let cell = vec3<u32>(atlas_cell & 0x3ffu, (atlas_cell >> 10u) & 0x3ffu, atlas_cell >> 20u);
-    return vec3<f32>(cell * (params.brick_size + 2u)) + 1.0 - corner;
+    return (vec3<f32>(cell * (params.atlas_brick + 2u)) + 1.0) * params.sample_voxels - corner;
 }
 
 // A brick slot's atlas cell, packed as `brick_to_atlas` reads it.
@@ -190,8 +195,9 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, lane: u32) ->
     let correct_opacity = (params.flags & FLAG_OPACITY_CORRECTION) != 0u;
     let mip = params.mode == MODE_MIP;
     let probe_step = 1e-3 / max(voxels_per_t, 1e-20);
-    // Bricks are sampled once per voxel of path, at the same places as the dense renderer.
-    let sample_step = 1.0 / max(voxels_per_t, 1e-20);
+    // Bricks are sampled once per voxel of path (of the level sampled), at the same places as
+    // the dense renderer.
+    let sample_step = params.sample_voxels / max(voxels_per_t, 1e-20);
 
     // The path from the root; entry `level` is the current node, also kept in registers
     // (`node_index`, `corner`, `t_out`) so that a descent step waits on one node read alone.
@@ -411,7 +417,7 @@ fn walk_bricks(origin: vec3<f32>, dir: vec3<f32>) -> RayResult {
         return result;
     }
     let mip = params.mode == MODE_MIP;
-    let sample_step = 1.0 / max(length(dir), 1e-20);
+    let sample_step = params.sample_voxels / max(length(dir), 1e-20);
     let brick = f32(params.brick_size);
     let grid = vec3<i32>(params.brick_grid.xyz);
     let step = select(vec3<i32>(-1), vec3<i32>(1), ray.positive);
@@ -432,7 +438,7 @@ fn walk_bricks(origin: vec3<f32>, dir: vec3<f32>) -> RayResult {
     var advance = false;
     var acc = new_accumulation();
     let light = headlight(dir);
-    let half_texel = 0.5 * params.atlas_texel.xyz;
+    let half_texel = 0.5 * params.sample_voxels * params.atlas_texel.xyz;
     for (var i = 0u; i < MAX_STEPS; i++) {
         if advance {
             if here.last {
@@ -491,17 +497,18 @@ fn walk_bricks(origin: vec3<f32>, dir: vec3<f32>) -> RayResult {
                 } else if (entry[CELL_COLOR] >> 24u) != 0u {
                     let rgba = unpack4x8unorm(entry[CELL_COLOR]);
                     let sample_alpha = min(rgba.a * params.density, 1.0);
-                    let a = 1.0 - pow(1.0 - sample_alpha, end - k);
+                    let exponent = sample_exponent();
+                    let a = 1.0 - pow(1.0 - sample_alpha, (end - k) * exponent);
                     let alpha_before = acc.alpha;
                     acc.color += (1.0 - acc.alpha) * a * rgba.rgb;
                     acc.alpha += (1.0 - acc.alpha) * a;
                     acc.done = acc.alpha >= EARLY_TERMINATION_ALPHA;
                     if PROBE && acc.probe_t < 0.0 && acc.alpha >= PROBE_ALPHA {
-                        // The run's sample j where 1 − (1 − alpha_before)(1 − a)^(j + 1) first
-                        // reaches PROBE_ALPHA.
+                        // The run's sample j where 1 − (1 − alpha_before)(1 − a)^(e(j + 1))
+                        // first reaches PROBE_ALPHA (e: the exponent of a step).
                         let needed = log((1.0 - PROBE_ALPHA) / (1.0 - alpha_before))
                             / log(1.0 - sample_alpha);
-                        let j = clamp(ceil(needed) - 1.0, 0.0, end - k - 1.0);
+                        let j = clamp(ceil(needed / exponent) - 1.0, 0.0, end - k - 1.0);
                         acc.probe_t = ray.t_enter + (k + j + 0.5) * sample_step;
                     }
                 }

@@ -668,10 +668,9 @@ fn gpu_brick_recolor_equals_the_cpu_rule_bit_for_bit() {
         let mut bricks = GpuBricks::upload(
             &context,
             &layout,
-            octree.dims,
+            &quantized,
             volume.spacing,
             octree.depth,
-            octree.quantization,
             &first,
         )
         .unwrap();

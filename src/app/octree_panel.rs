@@ -10,7 +10,7 @@ use super::settings::AppSettings;
 use super::stream_panel;
 use super::view_state::ViewState;
 use crate::octree::LevelStatistics;
-use crate::render::{FrameReport, HEATMAP_SATURATION, RendererKind, heatmap_color};
+use crate::render::{FrameReport, HEATMAP_SATURATION, LevelDetail, RendererKind, heatmap_color};
 
 /// What the panel shows besides the settings it edits.
 pub struct OctreeFacts<'a> {
@@ -46,6 +46,13 @@ pub fn show(
                 .labelled_by(label.id)
                 .on_hover_text("Deepest level rays descend to: 0 is the root alone, the last level the voxels");
             ui.end_row();
+
+            if let Some(scene) = facts.scene {
+                ui.label("Drawn");
+                ui.label(level_detail_text(scene.renderer.level_detail(*max_level)))
+                    .on_hover_text("What this max level draws with this renderer: the octree's nodes (one color each, as in the paper), or a level of the volume's pyramid (the volume averaged 2× per level), filtered, one sample per voxel of that level");
+                ui.end_row();
+            }
 
             let label = ui.label("Renderer");
             egui::ComboBox::from_id_salt("renderer")
@@ -219,6 +226,21 @@ fn heatmap_legend(ui: &mut Ui) {
         ui.small("· 31 ·");
         ui.small(format!("{HEATMAP_SATURATION}+ nodes per ray (log scale)"));
     });
+}
+
+/// The "Drawn" row: what a max level draws.
+fn level_detail_text(detail: LevelDetail) -> String {
+    match detail {
+        LevelDetail::Full => "every voxel".to_owned(),
+        LevelDetail::Nodes { level } => format!("nodes to level {level}, one color each"),
+        LevelDetail::Pyramid { level, dims } => format!(
+            "{}×{}×{} voxels of {}³, filtered",
+            dims[0],
+            dims[1],
+            dims[2],
+            1u64 << level
+        ),
+    }
 }
 
 fn statistics_table(ui: &mut Ui, statistics: &[LevelStatistics]) {

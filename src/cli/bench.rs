@@ -37,6 +37,10 @@ pub struct BenchArgs {
     /// Global opacity scale.
     #[arg(long, default_value_t = 1.0)]
     pub density: f32,
+    /// Max level of every case (default: the voxels): what each renderer draws there, the
+    /// octree's nodes or a pyramid level (docs/octree.md, "Which renderer draws what").
+    #[arg(long)]
+    pub level: Option<u32>,
     /// Only this renderer (default: all).
     #[arg(long, value_enum)]
     pub renderer: Option<RendererArg>,
@@ -147,6 +151,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
     };
     let context = GpuContext::new_headless().map_err(|e| e.to_string())?;
     let depth = prepared.octree.depth;
+    let max_level = args.level.unwrap_or(depth).min(depth);
     let target = RenderTarget::new(&context, args.size.0, args.size.1);
     let timer = GpuTimer::new(&context, args.frames.max(RECOLOR_RUNS));
     let timing = timing_name(timer.as_ref());
@@ -221,7 +226,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
                 density: args.density,
                 shading: case.shading,
                 clip,
-                ..RenderSettings::full_detail(depth)
+                ..RenderSettings::full_detail(max_level)
             };
             renderer.prepare_pipelines(&context, &settings, false);
             for (camera_name, distance) in CAMERAS {
@@ -320,6 +325,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
             "dims": prepared.volume.dims,
             "voxel_type": prepared.volume.voxel_type().name(),
             "octree_depth": depth,
+            "max_level": max_level,
             "octree_nodes": prepared.octree.nodes.len(),
         },
         "results": results,

@@ -1,5 +1,10 @@
 //! The bricks renderer's GPU side: the octree prefix with brick leaves, the 3D brick atlas,
 //! and the recolor of the brick level. Drawn by the same [`super::Raycaster`] as the octree.
+//!
+//! Max levels between the brick level and full detail draw pyramid levels of their own: for
+//! each, an atlas of the same slots holding every brick at that level's resolution (the
+//! volume reduced 2× per level by the mean, as the streaming renderer's pyramid), so each
+//! level shows its own resolution, filtered, at one sample per voxel of the level.
 
 use wgpu::util::DeviceExt;
 
@@ -12,7 +17,8 @@ use super::raycaster::{BrickShape, OctreeOnGpu, VolumeShape};
 use super::recolor::RecolorLevels;
 use super::{GpuContext, GpuTransferTable, RenderError};
 use crate::octree::{BRICK_FLAG, BrickLayout, TransferFunction, ValueBounds};
-use crate::volume::Quantization;
+use crate::stream::{Downsampling, coarser_levels, cut_padded_block};
+use crate::volume::QuantizedVolume;
 
 /// An octree with brick leaves on the GPU.
 pub struct GpuBricks {
@@ -20,6 +26,9 @@ pub struct GpuBricks {
     bounds: wgpu::Buffer,
     transfer: GpuTransferTable,
     atlas: LevelTexture,
+    /// Entry `k − 1`: the atlas of pyramid level `k` (bricks `brick_size / 2^k` voxels a side),
+    /// for every level between the brick level and full detail.
+    level_atlases: Vec<LevelTexture>,
     brick_origins: wgpu::Buffer,
     /// Per brick cell: the index of the node covering it (static).
     grid_leaves: wgpu::Buffer,
@@ -34,21 +43,45 @@ pub struct GpuBricks {
 }
 
 impl GpuBricks {
-    /// Uploads `layout` (nodes colored as they are). The atlas is 8-bit when every value level
-    /// fits (≤ 255), 16-bit otherwise (`LevelTexture`).
+    /// Uploads `layout` (nodes colored as they are), cut from `volume` (whose octree has
+    /// `depth` levels), and the atlases of the levels between its brick level and full detail.
+    /// The atlases are 8-bit when every value level fits (≤ 255), 16-bit otherwise
+    /// (`LevelTexture`).
     pub fn upload(
         context: &GpuContext,
         layout: &BrickLayout,
-        dims: [usize; 3],
+        volume: &QuantizedVolume,
         spacing: [f64; 3],
         depth: u32,
-        quantization: Quantization,
         transfer: &TransferFunction,
     ) -> Result<Self, RenderError> {
         let device = &context.device;
+        let (dims, quantization) = (volume.dims, volume.quantization);
         let atlas =
             LevelTexture::upload(context, "brick_atlas", layout.atlas_dims(), &layout.atlas)?;
         let atlas_scale = atlas.scale;
+        let sub_brick_levels = depth
+            .saturating_sub(layout.brick_level + 1)
+            .min(layout.brick_size.trailing_zeros().saturating_sub(1));
+        let level_atlases = coarser_levels(
+            &volume.levels,
+            dims,
+            Downsampling::Mean,
+            sub_brick_levels as usize,
+        )
+        .iter()
+        .enumerate()
+        .map(|(index, (levels, level_dims))| {
+            let texels = level_atlas(layout, levels, *level_dims, index as u32 + 1);
+            LevelTexture::upload_as(
+                context,
+                "brick_level_atlas",
+                texels.dims,
+                &texels.levels,
+                atlas.format,
+            )
+        })
+        .collect::<Result<Vec<_>, _>>()?;
         let out_of_memory = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let buffer = |label: &str, contents: &[u8], usage: wgpu::BufferUsages| {
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -122,6 +155,7 @@ impl GpuBricks {
         }
         Ok(Self {
             atlas,
+            level_atlases,
             nodes,
             bounds,
             transfer,
@@ -152,6 +186,10 @@ impl GpuBricks {
     pub fn gpu_bytes(&self) -> Vec<(&'static str, u64)> {
         vec![
             ("atlas", self.atlas.bytes),
+            (
+                "level_atlases",
+                self.level_atlases.iter().map(|atlas| atlas.bytes).sum(),
+            ),
             ("nodes", self.nodes.size()),
             ("bounds", self.bounds.size()),
             ("brick_origins", self.brick_origins.size()),
@@ -183,6 +221,17 @@ impl VolumeShape for GpuBricks {
     fn window_levels(&self) -> f32 {
         self.transfer.window_levels()
     }
+    fn sampled_level(&self, max_level: u32) -> u32 {
+        if max_level > self.shape.level && max_level < self.depth {
+            (self.depth - max_level).min(self.level_atlases.len() as u32)
+        } else {
+            0
+        }
+    }
+    fn level_texels(&self, level: u32) -> Option<[usize; 3]> {
+        let brick = (self.shape.size >> level) as usize;
+        Some(self.shape.atlas_grid.map(|g| g as usize * (brick + 2)))
+    }
 }
 
 impl OctreeOnGpu for GpuBricks {
@@ -197,6 +246,15 @@ impl OctreeOnGpu for GpuBricks {
     }
     fn atlas(&self) -> Option<&wgpu::TextureView> {
         Some(&self.atlas.view)
+    }
+    fn level_atlas(&self, level: u32) -> Option<&wgpu::TextureView> {
+        match level {
+            0 => Some(&self.atlas.view),
+            _ => self
+                .level_atlases
+                .get(level as usize - 1)
+                .map(|atlas| &atlas.view),
+        }
     }
     fn brick_grid(&self) -> Option<&wgpu::Buffer> {
         Some(&self.grid)
@@ -382,5 +440,43 @@ impl GpuBrickRecolor {
         pass.set_pipeline(&self.grid_pipeline);
         pass.set_bind_group(0, &bind_group, &[]);
         pass.dispatch_workgroups(groups_x, groups.div_ceil(groups_x), 1);
+    }
+}
+
+/// The value levels of an atlas and its size in texels.
+struct AtlasTexels {
+    levels: Vec<u16>,
+    dims: [usize; 3],
+}
+
+/// The atlas of pyramid level `level` (`levels`, `level_dims`: the volume reduced `level`
+/// times): `layout`'s slots in the same cells, each holding its brick's `brick_size / 2^level`
+/// voxels a side of that level, with the one-voxel apron clamped to the level's edges (as the
+/// streaming renderer cuts its bricks).
+fn level_atlas(
+    layout: &BrickLayout,
+    levels: &[u16],
+    level_dims: [usize; 3],
+    level: u32,
+) -> AtlasTexels {
+    let side = layout.brick_size >> level;
+    let pitch = side + 2;
+    let dims = layout.atlas_grid.map(|g| g * pitch);
+    let mut atlas = vec![0u16; dims.iter().product()];
+    let mut block = Vec::with_capacity(pitch * pitch * pitch);
+    for (slot, origin) in layout.brick_origins.iter().enumerate() {
+        block.clear();
+        let first = origin.map(|o| o >> level);
+        cut_padded_block(levels, level_dims, first, side, &mut block);
+        let cell = layout.atlas_cell(slot).map(|c| c * pitch);
+        for (row_index, row) in block.chunks_exact(pitch).enumerate() {
+            let (y, z) = (row_index % pitch, row_index / pitch);
+            let start = cell[0] + dims[0] * (cell[1] + y + dims[1] * (cell[2] + z));
+            atlas[start..start + pitch].copy_from_slice(row);
+        }
+    }
+    AtlasTexels {
+        levels: atlas,
+        dims,
     }
 }

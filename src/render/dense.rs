@@ -1,6 +1,8 @@
 //! The dense baseline renderer: the volume's value levels in one 3D texture, marched at fixed
 //! one-voxel steps with hardware filtering. What napari/vispy, pygfx and ParaView do; voxscope
-//! keeps it to measure the octree against, and as a cross-check.
+//! keeps it to measure the octree against, and as a cross-check. Below full detail, a max
+//! level draws its own pyramid level (the volume reduced 2× per level by the mean, a texture
+//! each, as the streaming renderer's pyramid), one step per voxel of that level.
 
 use super::level_texture::LevelTexture;
 use super::pipeline::{
@@ -14,31 +16,58 @@ use super::raycaster::{
 };
 use super::{Frame, GpuContext, GpuTransferTable, RenderError, RenderSettings, RenderTarget};
 use crate::octree::TransferFunction;
+use crate::stream::{Downsampling, coarser_levels};
 use crate::volume::QuantizedVolume;
 
-/// A volume as one 3D texture of value levels (8 or 16 bits, `LevelTexture`).
+/// A volume as one 3D texture of value levels (8 or 16 bits, `LevelTexture`), and one per
+/// coarser pyramid level.
 pub struct DenseVolume {
     /// The value levels (read by the slices too).
     pub(crate) levels: LevelTexture,
+    /// Entry `k − 1`: pyramid level `k` and its dims, down to one voxel.
+    coarser: Vec<(LevelTexture, [usize; 3])>,
     pub transfer: GpuTransferTable,
     pub dims: [usize; 3],
     pub spacing: [f64; 3],
 }
 
 impl DenseVolume {
-    /// Uploads `volume`'s value levels; fails when a side exceeds the device's 3D texture limit.
+    /// Uploads `volume`'s value levels and its coarser pyramid levels; fails when a side
+    /// exceeds the device's 3D texture limit.
     pub fn upload(
         context: &GpuContext,
         volume: &QuantizedVolume,
         spacing: [f64; 3],
         transfer: &TransferFunction,
     ) -> Result<Self, RenderError> {
+        let levels = LevelTexture::upload(context, "dense_texture", volume.dims, &volume.levels)?;
+        let coarser = coarser_levels(
+            &volume.levels,
+            volume.dims,
+            Downsampling::Mean,
+            depth_of(volume.dims) as usize,
+        )
+        .iter()
+        .map(|(coarse, dims)| {
+            LevelTexture::upload_as(context, "dense_level", *dims, coarse, levels.format)
+                .map(|texture| (texture, *dims))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
         Ok(Self {
-            levels: LevelTexture::upload(context, "dense_texture", volume.dims, &volume.levels)?,
+            levels,
+            coarser,
             transfer: GpuTransferTable::new(context, volume.quantization, transfer),
             dims: volume.dims,
             spacing,
         })
+    }
+
+    /// The texture of pyramid level `level` (0: full detail).
+    fn level_view(&self, level: u32) -> &wgpu::TextureView {
+        match level {
+            0 => &self.levels.view,
+            _ => &self.coarser[level as usize - 1].0.view,
+        }
     }
 
     /// Writes a new transfer function (no other work: the texture holds values, not colors).
@@ -46,10 +75,18 @@ impl DenseVolume {
         self.transfer.write(context, transfer);
     }
 
-    /// Bytes on the GPU: the texture and the lookup table.
+    /// Bytes on the GPU: the textures and the lookup table.
     pub fn gpu_bytes(&self) -> u64 {
-        self.levels.bytes + self.transfer.size()
+        let coarser: u64 = self.coarser.iter().map(|(texture, _)| texture.bytes).sum();
+        self.levels.bytes + coarser + self.transfer.size()
     }
+}
+
+/// The octree depth of `dims` (`ceil(log2(largest side))`): the levels of the max-level slider
+/// below full detail, each a pyramid level here.
+fn depth_of(dims: [usize; 3]) -> u32 {
+    let largest = dims.into_iter().max().unwrap_or(1).max(1);
+    largest.next_power_of_two().trailing_zeros()
 }
 
 impl VolumeShape for DenseVolume {
@@ -60,10 +97,10 @@ impl VolumeShape for DenseVolume {
         self.spacing
     }
     fn depth(&self) -> u32 {
-        0
+        self.coarser.len() as u32
     }
     fn level_cap(&self) -> u32 {
-        0
+        self.coarser.len() as u32
     }
     fn mip_saturation(&self) -> u16 {
         self.transfer.mip_saturation()
@@ -73,6 +110,15 @@ impl VolumeShape for DenseVolume {
     }
     fn window_levels(&self) -> f32 {
         self.transfer.window_levels()
+    }
+    fn sampled_level(&self, max_level: u32) -> u32 {
+        (self.coarser.len() as u32).saturating_sub(max_level)
+    }
+    fn level_texels(&self, level: u32) -> Option<[usize; 3]> {
+        match level {
+            0 => Some(self.dims),
+            _ => self.coarser.get(level as usize - 1).map(|(_, dims)| *dims),
+        }
     }
 }
 
@@ -194,6 +240,7 @@ impl DenseRaycaster {
         target: &RenderTarget,
         probe: &wgpu::Buffer,
     ) -> wgpu::BindGroup {
+        let level = volume.level_view(volume.sampled_level(params.max_level));
         let params = frame_params_buffer(context, "voxscope::dense_params", params);
         let sampler = if settings.trilinear {
             &self.trilinear
@@ -206,7 +253,7 @@ impl DenseRaycaster {
             &self.layout,
             &[
                 params.as_entire_binding(),
-                wgpu::BindingResource::TextureView(&volume.levels.view),
+                wgpu::BindingResource::TextureView(level),
                 wgpu::BindingResource::Sampler(sampler),
                 volume.transfer.buffer.as_entire_binding(),
                 wgpu::BindingResource::TextureView(&target.view),

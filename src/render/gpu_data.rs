@@ -45,7 +45,12 @@ pub(crate) struct RaycastParams {
     pub shading_scale: [f32; 4],
     /// The pixel the probe pipelines trace (`GpuProbe`); unused by the others.
     pub probe_pixel: [u32; 2],
-    pub _probe_pad: [u32; 2],
+    /// Level-0 voxels per voxel of the data sampled, and per sample step: 2^(depth − max
+    /// level) where the dense or bricks renderer draws a pyramid level finer than the octree's
+    /// nodes but coarser than full detail (the texture bound is that level's), else 1.
+    pub sample_voxels: f32,
+    /// Voxels along a brick's side in the atlas bound: the brick size ÷ `sample_voxels`.
+    pub atlas_brick: u32,
 }
 
 const _: () = assert!(std::mem::size_of::<RaycastParams>() == 272);
@@ -273,7 +278,8 @@ mod tests {
             shading,
             shading_scale,
             probe_pixel,
-            _probe_pad,
+            sample_voxels,
+            atlas_brick,
         })
     }
 

@@ -14,6 +14,8 @@ pub(crate) struct LevelTexture {
     pub scale: f32,
     /// Bytes on the GPU.
     pub bytes: u64,
+    /// How the levels are stored.
+    pub format: LevelFormat,
 }
 
 impl LevelTexture {
@@ -25,6 +27,19 @@ impl LevelTexture {
         dims: [usize; 3],
         levels: &[u16],
     ) -> Result<Self, RenderError> {
+        let format = LevelFormat::for_levels(context, levels);
+        Self::upload_as(context, label, dims, levels, format)
+    }
+
+    /// [`Self::upload`] in a given format: a pyramid's coarser levels take their finest
+    /// level's, so that one `scale` reads them all (their levels are that level's means).
+    pub fn upload_as(
+        context: &GpuContext,
+        label: &str,
+        dims: [usize; 3],
+        levels: &[u16],
+        format: LevelFormat,
+    ) -> Result<Self, RenderError> {
         let limit = context.limits.max_texture_dimension_3d as usize;
         if dims.iter().any(|&d| d > limit) {
             return Err(RenderError(format!(
@@ -32,7 +47,6 @@ impl LevelTexture {
                 dims[0], dims[1], dims[2]
             )));
         }
-        let format = LevelFormat::for_levels(context, levels);
         let data: Vec<u8> = match format {
             LevelFormat::Unorm8 => levels.iter().map(|&level| level as u8).collect(),
             LevelFormat::Unorm16 => bytemuck::cast_slice(levels).to_vec(),
@@ -44,6 +58,7 @@ impl LevelTexture {
                 bytemuck::cast_slice(&halves).to_vec()
             }
         };
+        let level_format = format;
         let texel_bytes = format.texel_bytes();
         let scale = format.scale();
         let format = format.texture_format();
@@ -84,6 +99,7 @@ impl LevelTexture {
             view: texture.create_view(&wgpu::TextureViewDescriptor::default()),
             scale,
             bytes: data.len() as u64,
+            format: level_format,
         })
     }
 }

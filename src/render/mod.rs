@@ -46,7 +46,9 @@ pub use slice::{EdgeLabels, SliceConvention, SliceFrame, SliceSettings, SliceVie
 pub use stream::{StreamRaycaster, StreamVolume};
 pub use timer::{GpuTimer, time_passes, timing_name};
 pub use transfer_table::GpuTransferTable;
-pub use volume_renderer::{DEFAULT_BRICK_SIZE, RendererKind, RendererOptions, VolumeRenderer};
+pub use volume_renderer::{
+    DEFAULT_BRICK_SIZE, LevelDetail, RendererKind, RendererOptions, VolumeRenderer,
+};
 
 /// Renders one frame of an octree with the device's [`Raycaster`] and submits it.
 pub fn render_frame(context: &GpuContext, frame: &Frame<'_>) {

@@ -107,6 +107,23 @@ pub trait VolumeShape {
     fn level_scale(&self) -> f32 {
         self.bricks().map_or(1.0, |b| b.atlas_scale)
     }
+    /// The pyramid level that frames of max level `max_level` sample (each of its voxels
+    /// 2^level level-0 voxels a side): `depth − max_level` where the renderer draws a level
+    /// finer than its nodes from a pyramid of its own (dense, and bricks below the brick
+    /// level), 0 for full detail or where the octree's nodes are drawn.
+    fn sampled_level(&self, _max_level: u32) -> u32 {
+        0
+    }
+    /// The size in texels of the texture of values bound for pyramid level `level` (the dense
+    /// volume's texture of that level, the bricks' atlas of it), if the volume has one.
+    fn level_texels(&self, level: u32) -> Option<[usize; 3]> {
+        let bricks = self.bricks().filter(|_| level == 0)?;
+        Some(
+            bricks
+                .atlas_grid
+                .map(|g| g as usize * (bricks.size as usize + 2)),
+        )
+    }
 }
 
 /// Brick leaves of a volume on the GPU, as the shader needs them.
@@ -129,6 +146,11 @@ pub trait OctreeOnGpu: VolumeShape {
     fn lookup_table(&self) -> &wgpu::Buffer;
     /// The brick atlas, if there are bricks.
     fn atlas(&self) -> Option<&wgpu::TextureView>;
+    /// The atlas that frames sampling pyramid level `level` bind ([`VolumeShape::sampled_level`]):
+    /// the brick atlas at full detail.
+    fn level_atlas(&self, level: u32) -> Option<&wgpu::TextureView> {
+        self.atlas().filter(|_| level == 0)
+    }
     /// The grid of brick cells (`GridCell`s), if there are bricks.
     fn brick_grid(&self) -> Option<&wgpu::Buffer> {
         None
@@ -375,7 +397,11 @@ impl Raycaster {
                 volume.lookup_table().as_entire_binding(),
                 wgpu::BindingResource::TextureView(&target.view),
                 target.visits.as_entire_binding(),
-                wgpu::BindingResource::TextureView(volume.atlas().unwrap_or(&self.no_atlas)),
+                wgpu::BindingResource::TextureView(
+                    volume
+                        .level_atlas(volume.sampled_level(params.max_level))
+                        .unwrap_or(&self.no_atlas),
+                ),
                 wgpu::BindingResource::Sampler(&self.atlas_sampler),
                 volume
                     .brick_grid()
@@ -398,9 +424,10 @@ pub(crate) struct ProbeTarget<'a> {
 }
 
 /// The entry point that draws `volume` with `params`: the grid walk for bricks when nothing may
-/// stop above them (it holds the brick level alone), else the tree walk.
+/// stop above them (it holds the brick level alone; at the brick level itself the bricks' nodes
+/// are drawn, a voxel a brick), else the tree walk.
 fn entry_point(volume: &impl VolumeShape, params: &RaycastParams) -> usize {
-    let walk_bricks = volume.bricks().is_some_and(|b| params.max_level >= b.level)
+    let walk_bricks = volume.bricks().is_some_and(|b| params.max_level > b.level)
         && params.flags & FLAG_PIXEL_LOD == 0;
     if walk_bricks { GRID_WALK } else { TREE_WALK }
 }
@@ -477,6 +504,9 @@ pub(crate) fn raycast_params(
     };
     let shading = settings.shading;
     let to_world = spacing.min_element() / spacing;
+    let max_level = settings.max_level.min(volume.level_cap());
+    let sampled_level = volume.sampled_level(max_level);
+    let sample_voxels = (1u64 << sampled_level) as f32;
     RaycastParams {
         eye: vec4(to_voxel_point(frame.eye), 0.0),
         forward: vec4(to_voxel_vector(frame.forward), 0.0),
@@ -485,7 +515,7 @@ pub(crate) fn raycast_params(
         volume: vec4(dims, (1u64 << volume.depth()) as f64),
         image_size: [width, height],
         depth: volume.depth(),
-        max_level: settings.max_level.min(volume.level_cap()),
+        max_level,
         mode: match settings.mode {
             RenderMode::Dvr => 0,
             RenderMode::Mip => 1,
@@ -501,15 +531,12 @@ pub(crate) fn raycast_params(
             [b.atlas_grid[0], b.atlas_grid[1], b.atlas_grid[2], 0]
         }),
         brick_grid: bricks.map_or([1, 1, 1, 0], |b| [b.grid[0], b.grid[1], b.grid[2], 0]),
-        atlas_texel: bricks.map_or([1.0, 1.0, 1.0, 0.0], |b| {
-            let texels = |g: u32| 1.0 / (g * (b.size + 2)) as f32;
-            [
-                texels(b.atlas_grid[0]),
-                texels(b.atlas_grid[1]),
-                texels(b.atlas_grid[2]),
-                0.0,
-            ]
-        }),
+        atlas_texel: volume
+            .level_texels(sampled_level)
+            .map_or([1.0, 1.0, 1.0, 0.0], |texels| {
+                let texel = |axis: usize| 1.0 / (texels[axis] as f32 * sample_voxels);
+                [texel(0), texel(1), texel(2), 0.0]
+            }),
         clip_low: corner(0),
         clip_high: corner(1),
         clip_plane,
@@ -526,6 +553,7 @@ pub(crate) fn raycast_params(
             1.0 / (volume.window_levels() * GRADIENT_FOR_FULL_SHADING),
         ],
         probe_pixel: [0, 0],
-        _probe_pad: [0, 0],
+        sample_voxels,
+        atlas_brick: bricks.map_or(1, |b| b.size >> sampled_level),
     }
 }

@@ -3,7 +3,7 @@
 //! alone; the pipelines that draw and recolor it are the device's
 //! (`pipeline_cache.rs`), built once, whatever the number of volumes and renderers.
 
-use super::raycaster::{ProbeTarget, frame_variant, probe_variant};
+use super::raycaster::{ProbeTarget, VolumeShape, frame_variant, probe_variant};
 use super::slice::{SliceColorCache, SliceSource};
 use super::{
     Camera, DenseVolume, Frame, GpuBricks, GpuContext, GpuVolume, RenderError, RenderSettings,
@@ -72,6 +72,19 @@ impl RendererKind {
             Self::Stream => "stream",
         }
     }
+}
+
+/// What frames of a max level draw: the octree's nodes, a pyramid level, or every voxel (what
+/// the app's Octree panel says under the max-level slider).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LevelDetail {
+    /// The octree's nodes down to this level, each one color (the paper's level of detail).
+    Nodes { level: u32 },
+    /// Pyramid level `level`: the volume reduced 2^level times per axis by the mean (`dims`
+    /// voxels), filtered, one sample per voxel of that level.
+    Pyramid { level: u32, dims: [usize; 3] },
+    /// Every voxel.
+    Full,
 }
 
 enum State {
@@ -144,10 +157,9 @@ impl VolumeRenderer {
                 State::Bricks(Box::new(GpuBricks::upload(
                     context,
                     &layout,
-                    octree.dims,
+                    quantized,
                     spacing,
                     octree.depth,
-                    octree.quantization,
                     transfer,
                 )?))
             }
@@ -208,6 +220,43 @@ impl VolumeRenderer {
         match &self.state {
             State::Stream(volume) => Some(volume),
             _ => None,
+        }
+    }
+
+    /// What frames of max level `max_level` draw with this renderer.
+    pub fn level_detail(&self, max_level: u32) -> LevelDetail {
+        let (depth, sampled, bricks, dims) = match &self.state {
+            State::Octree(volume) => (volume.depth(), 0, None, volume.dims()),
+            State::Dense(volume) => (
+                volume.depth(),
+                volume.sampled_level(max_level),
+                None,
+                volume.dims(),
+            ),
+            State::Bricks(volume) => (
+                volume.depth(),
+                volume.sampled_level(max_level),
+                volume.bricks(),
+                volume.dims(),
+            ),
+            State::Stream(volume) => {
+                let depth = volume.depth();
+                (depth, depth.saturating_sub(max_level), None, volume.dims())
+            }
+        };
+        if max_level >= depth {
+            LevelDetail::Full
+        } else if sampled > 0 {
+            LevelDetail::Pyramid {
+                level: sampled,
+                dims: dims.map(|d| d.div_ceil(1 << sampled)),
+            }
+        } else {
+            debug_assert!(
+                matches!(self.state, State::Octree(_))
+                    || bricks.is_some_and(|b| max_level <= b.level)
+            );
+            LevelDetail::Nodes { level: max_level }
         }
     }
 

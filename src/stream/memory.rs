@@ -3,7 +3,7 @@
 //! volume larger than the GPU budget streams like any other pyramid, and the octree's 1024 per
 //! axis does not bound it.
 
-use super::pyramid::{Downsampling, PyramidShape, cut_brick, downsample};
+use super::pyramid::{Downsampling, PyramidShape, coarser_levels, cut_brick};
 use super::source::{BrickData, BrickError, BrickId, BrickSource};
 use crate::volume::{Quantization, QuantizedVolume};
 
@@ -57,11 +57,10 @@ impl MemorySource {
             ));
         }
         let max_value_level = levels.iter().copied().max().unwrap_or(0);
+        let coarser = coarser_levels(&levels, dims, how, shape.levels.len() - 1);
         let mut all = vec![levels];
-        for level in 1..shape.levels.len() {
-            let finer = &all[level - 1];
-            let (coarser, coarser_dims) = downsample(finer, shape.levels[level - 1].dims, how);
-            debug_assert_eq!(coarser_dims, shape.levels[level].dims);
+        for (level, (coarser, coarser_dims)) in coarser.into_iter().enumerate() {
+            debug_assert_eq!(coarser_dims, shape.levels[level + 1].dims);
             all.push(coarser);
         }
         Ok(Self {

@@ -39,8 +39,8 @@ pub use page_table::{
 pub use preview::preview;
 pub use procedural::NoiseSource;
 pub use pyramid::{
-    Downsampling, EMPTY_KEY, KEY_LEVEL_SHIFT, LevelShape, MAX_LEVELS, PyramidShape, cut_brick,
-    downsample,
+    Downsampling, EMPTY_KEY, KEY_LEVEL_SHIFT, LevelShape, MAX_LEVELS, PyramidShape, coarser_levels,
+    cut_brick, cut_padded_block, downsample,
 };
 pub use queue::{Priority, Request, RequestQueue, Tier};
 pub use ram_cache::RamCache;

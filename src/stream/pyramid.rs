@@ -4,7 +4,7 @@
 
 use rayon::prelude::*;
 
-use super::source::{BRICK_SIZE, BrickData, BrickId, PADDED_BRICK, PADDED_BRICK_VOXELS};
+use super::source::{BRICK_SIZE, BrickData, BrickId, PADDED_BRICK_VOXELS};
 
 /// The most levels a pyramid may have. Level 15 is left out: its keys are reserved for the
 /// page table's empty entries ([`EMPTY_KEY`]), so levels 0…14 (2¹⁴ voxels per level-14 voxel).
@@ -183,27 +183,62 @@ pub fn downsample(levels: &[u16], dims: [usize; 3], how: Downsampling) -> (Vec<u
     (out, half)
 }
 
-/// Brick `brick` of a level held whole in memory (`levels`, `dims`, x fastest), with its
-/// one-voxel apron clamped to the level's edges.
-pub fn cut_brick(levels: &[u16], dims: [usize; 3], brick: [u32; 3]) -> BrickData {
-    let first = brick.map(|c| c as usize * BRICK_SIZE);
-    // The level's voxel at offset `i` − 1 from the brick's first along `axis`, clamped.
+/// Levels 1 to `count` of the pyramid whose level 0 is `levels` (`dims`, x fastest), each
+/// reduced from the one before by `how` ([`downsample`]), with their dims: what the dense and
+/// bricks renderers draw at max levels finer than their nodes, and a [`super::MemorySource`]'s
+/// levels.
+pub fn coarser_levels(
+    levels: &[u16],
+    dims: [usize; 3],
+    how: Downsampling,
+    count: usize,
+) -> Vec<(Vec<u16>, [usize; 3])> {
+    let mut coarser: Vec<(Vec<u16>, [usize; 3])> = Vec::with_capacity(count);
+    for _ in 0..count {
+        let (finer, finer_dims) = coarser
+            .last()
+            .map_or((levels, dims), |(l, d)| (l.as_slice(), *d));
+        coarser.push(downsample(finer, finer_dims, how));
+    }
+    coarser
+}
+
+/// The `side`³ block of a level held whole in memory (`levels`, `dims`, x fastest) whose first
+/// voxel is `first`, with a one-voxel apron, every voxel clamped to the level's edges (as a
+/// clamped texture reads them): `(side + 2)³` value levels, x fastest, appended to `out`.
+pub fn cut_padded_block(
+    levels: &[u16],
+    dims: [usize; 3],
+    first: [usize; 3],
+    side: usize,
+    out: &mut Vec<u16>,
+) {
+    // The level's voxel at offset `i` − 1 from the block's first along `axis`, clamped.
     let clamped = |axis: usize, i: usize| (first[axis] + i).saturating_sub(1).min(dims[axis] - 1);
-    let xs: Vec<usize> = (0..PADDED_BRICK).map(|i| clamped(0, i)).collect();
-    let mut out = Vec::with_capacity(PADDED_BRICK_VOXELS);
-    for k in 0..PADDED_BRICK {
+    let xs: Vec<usize> = (0..side + 2).map(|i| clamped(0, i)).collect();
+    for k in 0..side + 2 {
         let z = clamped(2, k);
-        for j in 0..PADDED_BRICK {
+        for j in 0..side + 2 {
             let row = dims[0] * (clamped(1, j) + dims[1] * z);
             out.extend(xs.iter().map(|&x| levels[row + x]));
         }
     }
+}
+
+/// Brick `brick` of a level held whole in memory (`levels`, `dims`, x fastest), with its
+/// one-voxel apron clamped to the level's edges.
+pub fn cut_brick(levels: &[u16], dims: [usize; 3], brick: [u32; 3]) -> BrickData {
+    let first = brick.map(|c| c as usize * BRICK_SIZE);
+    let mut out = Vec::with_capacity(PADDED_BRICK_VOXELS);
+    cut_padded_block(levels, dims, first, BRICK_SIZE, &mut out);
+    debug_assert_eq!(out.len(), PADDED_BRICK_VOXELS);
     let inside = std::array::from_fn(|a| dims[a].saturating_sub(first[a]));
     BrickData::new(out, inside)
 }
 
 #[cfg(test)]
 mod tests {
+    use super::super::source::PADDED_BRICK;
     use super::*;
 
     #[test]
