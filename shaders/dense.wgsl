@@ -27,7 +27,12 @@ struct MarchResult {
 // bound is the pyramid level of the max level: `atlas_texel` is 1 / (its texels × the level-0
 // voxels each covers), so a level's voxel i covers level-0 voxels [i, i + 1) · sample_voxels.
 fn level_at(p: vec3<f32>) -> u32 {
-    return value_index(textureSampleLevel(levels, level_sampler, p * params.atlas_texel.xyz, 0.0).r);
+    if COARSE {
+        return value_index(textureSampleLevel(levels, level_sampler, p * params.atlas_texel.xyz, 0.0).r);
+    }
+    // (At full detail the texture is the volume's: the expression of before, which ran 5 %
+    // faster than the product on an H200, runs 54–55.)
+    return value_index(textureSampleLevel(levels, level_sampler, p / params.volume.xyz, 0.0).r);
 }
 
 // The gradient of the filtered value levels at normalized texture coordinates `coords`,
@@ -43,7 +48,7 @@ fn level_gradient(coords: vec3<f32>, half_texel: vec3<f32>) -> vec3<f32> {
     let low = vec3<f32>(textureSampleLevel(levels, level_sampler, coords - dx, 0.0).r,
                         textureSampleLevel(levels, level_sampler, coords - dy, 0.0).r,
                         textureSampleLevel(levels, level_sampler, coords - dz, 0.0).r);
-    return (high - low) * (params.atlas_scale / params.sample_voxels);
+    return (high - low) * (params.atlas_scale / sample_voxels());
 }
 
 fn march(origin: vec3<f32>, dir: vec3<f32>) -> MarchResult {
@@ -55,11 +60,11 @@ fn march(origin: vec3<f32>, dir: vec3<f32>) -> MarchResult {
         return result;
     }
     // One voxel of the level drawn per step.
-    let step = params.sample_voxels / length(dir);
+    let step = sample_voxels() / length(dir);
     var acc = new_accumulation();
-    let texel = params.atlas_texel.xyz;
+    let texel = select(1.0 / params.volume.xyz, params.atlas_texel.xyz, COARSE);
     let frame = SampleFrame(origin * texel, origin * texel, 3.4e38, dir * texel,
-                            0.5 * params.sample_voxels * texel, headlight(dir));
+                            0.5 * sample_voxels() * texel, headlight(dir));
     // Sample k sits at t_enter + (k + 0.5) · step (as in the bricks renderer, sample for sample),
     // fetched two batches at a time.
     for (var k = 0.0; ; k += f32(BATCH_PAIR)) {

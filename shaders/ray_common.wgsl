@@ -44,6 +44,10 @@ override SHADING: bool = false;
 override PROBE: bool = false;
 // A crop box or clip plane is set: every ray's interval is cut to them (`volume_interval`).
 override CLIP: bool = false;
+// A pyramid level coarser than full detail is sampled (dense and bricks below full detail):
+// `params.sample_voxels` > 1. Elsewhere `sample_voxels()` is the constant 1, and the full-detail
+// pipelines are the code of before (an opacity correction per sample cost them 7–15 %, run 54).
+override COARSE: bool = false;
 
 // Keep in sync with `ProbeResult` in src/render/gpu_data.rs.
 struct ProbeResult {
@@ -225,7 +229,7 @@ fn accumulate(acc: ptr<function, Accumulation>, levels: vec4<u32>, count: u32, t
         var a = min(rgba.a * params.density, 1.0);
         // A step is one voxel of the level sampled; opacity correction to it (at full detail a
         // step is one voxel, and alpha stays as it is).
-        if exponent != 1.0 && a < 1.0 {
+        if COARSE && a < 1.0 {
             a = 1.0 - pow(1.0 - a, exponent);
         }
         var rgb = rgba.rgb;
@@ -249,7 +253,13 @@ fn accumulate(acc: ptr<function, Accumulation>, levels: vec4<u32>, count: u32, t
 // The opacity-correction exponent of one sample step: its length in level-0 voxels where
 // opacity correction is on (a sample of a coarser level stands for that many voxels), else 1.
 fn sample_exponent() -> f32 {
-    return select(1.0, params.sample_voxels, (params.flags & FLAG_OPACITY_CORRECTION) != 0u);
+    return select(1.0, sample_voxels(), (params.flags & FLAG_OPACITY_CORRECTION) != 0u);
+}
+
+// Level-0 voxels per voxel of the level sampled and per sample step (`params.sample_voxels`);
+// 1 outside COARSE pipelines.
+fn sample_voxels() -> f32 {
+    return select(1.0, params.sample_voxels, COARSE);
 }
 
 // `accumulate` for two batches fetched together (distances `ts`, `ts2`): the first `count` of

@@ -76,7 +76,7 @@ fn march_brick(acc: ptr<function, Accumulation>, origin: vec3<f32>, dir: vec3<f3
     var k = max(ceil((t - t_enter) / sample_step - 0.5), 0.0);
     let texel = params.atlas_texel.xyz;
     let here = (origin + to_atlas) * texel;
-    let frame = SampleFrame(here, here, 3.4e38, dir * texel, 0.5 * params.sample_voxels * texel,
+    let frame = SampleFrame(here, here, 3.4e38, dir * texel, 0.5 * sample_voxels() * texel,
                             headlight(dir));
     loop {
         let ts = t_enter + (vec4<f32>(k) + BATCH_OFFSETS) * sample_step;
@@ -134,7 +134,7 @@ fn level_gradient(coords: vec3<f32>, half_texel: vec3<f32>) -> vec3<f32> {
     let low = vec3<f32>(textureSampleLevel(atlas, atlas_sampler, coords - dx, 0.0).r,
                         textureSampleLevel(atlas, atlas_sampler, coords - dy, 0.0).r,
                         textureSampleLevel(atlas, atlas_sampler, coords - dz, 0.0).r);
-    return (high - low) * (params.atlas_scale / params.sample_voxels);
+    return (high - low) * (params.atlas_scale / sample_voxels());
 }
 
 // The value level at an atlas texel position (a voxel-space point plus its brick's `to_atlas`).
@@ -157,7 +157,8 @@ fn atlas_origin(origin: vec3<f32>, atlas_cell: u32, corner: vec3<f32>) -> vec3<f
 // division.
 fn brick_to_atlas(atlas_cell: u32, corner: vec3<f32>) -> vec3<f32> {
     let cell = vec3<u32>(atlas_cell & 0x3ffu, (atlas_cell >> 10u) & 0x3ffu, atlas_cell >> 20u);
-    return (vec3<f32>(cell * (params.atlas_brick + 2u)) + 1.0) * params.sample_voxels - corner;
+    let atlas_brick = select(params.brick_size, params.atlas_brick, COARSE);
+    return (vec3<f32>(cell * (atlas_brick + 2u)) + 1.0) * sample_voxels() - corner;
 }
 
 // A brick slot's atlas cell, packed as `brick_to_atlas` reads it.
@@ -197,7 +198,7 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, lane: u32) ->
     let probe_step = 1e-3 / max(voxels_per_t, 1e-20);
     // Bricks are sampled once per voxel of path (of the level sampled), at the same places as
     // the dense renderer.
-    let sample_step = params.sample_voxels / max(voxels_per_t, 1e-20);
+    let sample_step = sample_voxels() / max(voxels_per_t, 1e-20);
 
     // The path from the root; entry `level` is the current node, also kept in registers
     // (`node_index`, `corner`, `t_out`) so that a descent step waits on one node read alone.
@@ -417,7 +418,7 @@ fn walk_bricks(origin: vec3<f32>, dir: vec3<f32>) -> RayResult {
         return result;
     }
     let mip = params.mode == MODE_MIP;
-    let sample_step = params.sample_voxels / max(length(dir), 1e-20);
+    let sample_step = sample_voxels() / max(length(dir), 1e-20);
     let brick = f32(params.brick_size);
     let grid = vec3<i32>(params.brick_grid.xyz);
     let step = select(vec3<i32>(-1), vec3<i32>(1), ray.positive);
@@ -438,7 +439,7 @@ fn walk_bricks(origin: vec3<f32>, dir: vec3<f32>) -> RayResult {
     var advance = false;
     var acc = new_accumulation();
     let light = headlight(dir);
-    let half_texel = 0.5 * params.sample_voxels * params.atlas_texel.xyz;
+    let half_texel = 0.5 * sample_voxels() * params.atlas_texel.xyz;
     for (var i = 0u; i < MAX_STEPS; i++) {
         if advance {
             if here.last {

@@ -13,6 +13,8 @@
 #   head64    the same at 64x48 pixels      bricks  the head's bricks at brick sizes 16 and 8
 #   mni       the MNI152 template           grad    1024³ gradient, bricks and dense
 #   noise     512³ noise, each renderer     ceilings-end  the ceilings again
+#   levels    the head's bricks and dense at max levels 7, 6, 5 (pyramid levels 1–3)
+#   channels  the head as a composite of 1, 2 and 4 channels (dense march)
 #   stats     shader_stats: the driver's registers for voxscope's shaders and, for each
 #             NAME.wgsl in $BENCH_DIR, its main and main_bricks
 set -uo pipefail
@@ -108,6 +110,18 @@ for job in "${jobs[@]}"; do
             for renderer in octree dense bricks; do
                 bench noise512-$renderer "$dir/voxscope" synthetic:noise:512 --renderer $renderer --frames 50
             done
+            ;;
+        # Each max level's own resolution: bricks between their brick level (3 for the head's
+        # 32³ bricks) and full detail, dense below full detail, a pyramid level each.
+        levels)
+            for level in 7 6 5; do
+                bench head256-bricks-l$level "$dir/voxscope" "$head" --renderer bricks --level $level
+                bench head256-dense-l$level "$dir/voxscope" "$head" --renderer dense --level $level
+            done
+            ;;
+        # The composite of 1, 2 and 4 channels (copies of the head, each its own table).
+        channels)
+            bench head256-composite "$dir/voxscope" "$head" --renderer dense --composite-channels 1,2,4
             ;;
         stats) shader_stats ;;
         *) echo "unknown job $job" ;;

@@ -398,9 +398,8 @@ impl CompositeRaycaster {
             ],
         );
         let variant = Variant {
-            shaded: false,
-            probe: false,
             clipped: settings.clip.is_active(),
+            ..Variant::PLAIN
         };
         let pipeline = self.pipelines.get(context, 0, variant);
         dispatch_per_pixel(

@@ -11,7 +11,7 @@ use super::pipeline::{
     uniform_entry,
 };
 use super::raycaster::{
-    ProbeTarget, StandIns, VolumeShape, frame_params_buffer, frame_variant, probe_variant,
+    ProbeTarget, StandIns, VolumeShape, frame_params_buffer, frame_variant, level_variant, probe_variant,
     raycast_params,
 };
 use super::{Frame, GpuContext, GpuTransferTable, RenderError, RenderSettings, RenderTarget};
@@ -195,7 +195,7 @@ impl DenseRaycaster {
         );
         let pipeline = self
             .pipelines
-            .get(context, 0, frame_variant(frame.settings));
+            .get(context, 0, level_variant(frame_variant(frame.settings), &params));
         dispatch_per_pixel(
             encoder,
             "dense",
@@ -227,7 +227,7 @@ impl DenseRaycaster {
         );
         let pipeline = self
             .pipelines
-            .get(context, 0, probe_variant(probe.settings));
+            .get(context, 0, level_variant(probe_variant(probe.settings), &params));
         dispatch_probe(encoder, "dense_probe", pipeline, &bind_group);
     }
 

@@ -139,6 +139,9 @@ pub(crate) struct Variant {
     pub probe: bool,
     /// Rays cut to the crop box and clip plane (`CLIP`).
     pub clipped: bool,
+    /// A pyramid level coarser than full detail is sampled (`COARSE`: dense and bricks below
+    /// full detail; `sample_voxels` > 1).
+    pub coarse: bool,
 }
 
 impl Variant {
@@ -147,9 +150,10 @@ impl Variant {
         shaded: false,
         probe: false,
         clipped: false,
+        coarse: false,
     };
 
-    const COUNT: usize = 8;
+    const COUNT: usize = 16;
 
     /// The override constants that select this variant (the others keep their defaults).
     fn constants(self) -> Vec<(&'static str, f64)> {
@@ -157,6 +161,7 @@ impl Variant {
             (self.shaded, "SHADING"),
             (self.probe, "PROBE"),
             (self.clipped, "CLIP"),
+            (self.coarse, "COARSE"),
         ]
         .into_iter()
         .filter(|&(on, _)| on)
@@ -165,7 +170,10 @@ impl Variant {
     }
 
     fn index(self) -> usize {
-        self.shaded as usize | (self.probe as usize) << 1 | (self.clipped as usize) << 2
+        self.shaded as usize
+            | (self.probe as usize) << 1
+            | (self.clipped as usize) << 2
+            | (self.coarse as usize) << 3
     }
 
     /// `plain`, or the constants set, in pipeline labels.

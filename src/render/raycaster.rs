@@ -239,17 +239,26 @@ impl StandIns {
 pub(crate) fn frame_variant(settings: &RenderSettings) -> Variant {
     Variant {
         shaded: Shading::applies(settings),
-        probe: false,
         clipped: settings.clip.is_active(),
+        ..Variant::PLAIN
+    }
+}
+
+/// `variant` for a frame of `params`: the `COARSE` one where it samples a coarser pyramid
+/// level (so a full-detail frame runs the code of before levels had pyramids, pow for pow).
+pub(crate) fn level_variant(variant: Variant, params: &RaycastParams) -> Variant {
+    Variant {
+        coarse: params.sample_voxels > 1.0,
+        ..variant
     }
 }
 
 /// The variant that probes a pixel of a frame with `settings`.
 pub(crate) fn probe_variant(settings: &RenderSettings) -> Variant {
     Variant {
-        shaded: false,
         probe: true,
         clipped: settings.clip.is_active(),
+        ..Variant::PLAIN
     }
 }
 
@@ -338,7 +347,7 @@ impl Raycaster {
         let pipeline = self.pipelines.get(
             context,
             entry_point(volume, &params),
-            frame_variant(settings),
+            level_variant(frame_variant(settings), &params),
         );
         dispatch_per_pixel(
             encoder,
@@ -372,7 +381,7 @@ impl Raycaster {
         let pipeline = self.pipelines.get(
             context,
             entry_point(volume, &params),
-            probe_variant(probe.settings),
+            level_variant(probe_variant(probe.settings), &params),
         );
         dispatch_probe(encoder, "raycast_probe", pipeline, &bind_group);
     }

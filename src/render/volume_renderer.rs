@@ -374,6 +374,15 @@ impl VolumeRenderer {
         if probe {
             variants.push(probe_variant(settings));
         }
+        // Dense and bricks below full detail sample a coarser pyramid level: their own variant.
+        let coarse = matches!(self.state, State::Dense(_) | State::Bricks(_))
+            && matches!(
+                self.level_detail(settings.max_level),
+                LevelDetail::Pyramid { .. }
+            );
+        for variant in &mut variants {
+            variant.coarse = coarse;
+        }
         for variant in variants {
             match self.state {
                 State::Octree(_) | State::Bricks(_) => {
