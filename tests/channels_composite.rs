@@ -72,7 +72,8 @@ fn settings(mode: RenderMode, density: f32) -> RenderSettings {
     RenderSettings {
         mode,
         density,
-        ..RenderSettings::full_detail(0)
+        // Full detail whatever the depth (each renderer clamps the level to its own).
+        ..RenderSettings::full_detail(u32::MAX)
     }
 }
 
