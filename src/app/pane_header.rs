@@ -8,6 +8,7 @@ use super::scene::Scene;
 use super::settings::{AppSettings, Layout, TransferChoice};
 use super::view_state::{MAX_GRID_PANES, ViewState};
 use crate::octree::OpacityMode;
+use crate::render::{LevelDetail, RendererKind};
 
 /// The level grid's strip: how many panes.
 pub fn grid_strip(ui: &mut Ui, settings: &mut AppSettings) {
@@ -58,8 +59,9 @@ pub fn pane_label(
     let octree = &scene.data.octree;
     let depth = scene.depth();
     let header = Rect::from_min_size(rect.min + vec2(6.0, 4.0), vec2(rect.width() - 12.0, 22.0));
-    // What a level holds: the octree's nodes through it, or the streamed pyramid level's
-    // voxels (max level m is pyramid level depth − m).
+    // What a level draws: the octree's nodes through it, or a pyramid level's voxels (max level
+    // m is pyramid level depth − m: the streamed one's, or dense's and bricks' own below their
+    // nodes).
     let nodes = |level: u32| match scene.renderer.stream() {
         Some(stream) => {
             let shape = stream.streamer().shape();
@@ -69,10 +71,18 @@ pub fn pane_label(
                 crate::volume::format_dims(shape.levels[pyramid_level].dims)
             )
         }
-        None => format!(
-            "{} nodes",
-            group_digits(octree.nodes_through_level(level) as u64)
-        ),
+        None => match scene.renderer.level_detail(level) {
+            LevelDetail::Pyramid { dims, .. } => {
+                format!("{} voxels", crate::volume::format_dims(dims))
+            }
+            LevelDetail::Full if scene.renderer.kind() == RendererKind::Dense => {
+                format!("{} voxels", crate::volume::format_dims(octree.dims))
+            }
+            LevelDetail::Nodes { .. } | LevelDetail::Full => format!(
+                "{} nodes",
+                group_digits(octree.nodes_through_level(level) as u64)
+            ),
+        },
     };
     let paint = |ui: &Ui, text: String| {
         ui.painter().text(

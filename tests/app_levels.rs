@@ -1,0 +1,80 @@
+//! Each max level draws its own resolution in the app with every renderer (egui_kittest on the
+//! software Vulkan device): with `bricks`, the levels between the brick level and the voxels
+//! are pyramid levels, so the level grid's panes differ, and the Octree panel says what each
+//! level draws.
+
+mod support;
+
+use egui_kittest::kittest::Queryable;
+use support::app_harness::{differing_pixels, harness, settle, snapshot, view};
+use voxscope::render::RendererKind;
+
+/// Switches the renderer through the Octree panel's combo box.
+fn choose_renderer(
+    harness: &mut egui_kittest::Harness<'_, voxscope::app::VoxscopeApp>,
+    name: &str,
+) {
+    harness.get_by_label("Renderer").click();
+    harness.run_steps(2);
+    harness.get_by_label(name).click();
+    settle(harness);
+}
+
+fn set_max_level(harness: &mut egui_kittest::Harness<'_, voxscope::app::VoxscopeApp>, level: u32) {
+    harness
+        .get_by_role_and_label(egui::accesskit::Role::Slider, "Max level")
+        .set_value_accesskit(level as f64);
+    settle(harness);
+    assert_eq!(harness.state().view.max_level, level);
+}
+
+#[test]
+fn every_level_below_the_voxels_is_a_picture_of_its_own_with_bricks_and_dense() {
+    let mut harness = harness();
+    // The sample head: 128×62×128, depth 7; 32³ bricks sit at level 2.
+    for (name, kind, levels) in [
+        ("bricks", RendererKind::Bricks, 3..=7),
+        ("dense", RendererKind::Dense, 1..=7),
+    ] {
+        choose_renderer(&mut harness, name);
+        assert_eq!(harness.state().renderer_kind(), Some(kind));
+        let mut finer = None;
+        for level in levels.rev() {
+            set_max_level(&mut harness, level);
+            let drawn = if level == 7 {
+                "every voxel".to_owned()
+            } else {
+                let side = 1 << (7 - level);
+                let dims = [128, 62, 128].map(|d: u32| d.div_ceil(side));
+                format!(
+                    "{}×{}×{} voxels of {side}³, filtered",
+                    dims[0], dims[1], dims[2]
+                )
+            };
+            harness.get_by_label(&drawn);
+            let image = view(&harness);
+            if let Some(finer) = &finer {
+                let changed = differing_pixels(finer, &image);
+                assert!(
+                    changed > 1000,
+                    "{name}: level {level} draws level {}'s picture ({changed} pixels differ)",
+                    level + 1
+                );
+            }
+            finer = Some(image);
+        }
+    }
+}
+
+#[test]
+fn the_level_grid_with_bricks_shows_each_levels_resolution() {
+    let mut harness = harness();
+    choose_renderer(&mut harness, "bricks");
+    harness.get_by_label("Level grid").click();
+    settle(&mut harness);
+    // At the brick level the bricks' nodes are drawn, one color each.
+    set_max_level(&mut harness, 2);
+    harness.get_by_label("nodes to level 2, one color each");
+    set_max_level(&mut harness, 7);
+    snapshot(&mut harness, "level_grid_bricks");
+}
