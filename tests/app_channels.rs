@@ -55,10 +55,7 @@ fn a_two_channel_file_opens_as_the_composite_and_its_edits_stay_live() {
     assert!(channels.iter().all(|c| c.visible));
     let both = view(&harness);
     assert!(lit_pixels(&both) > 1000, "the composite is drawn");
-    assert!(
-        max_component(&both, 0) > 100,
-        "the orange channel adds red"
-    );
+    assert!(max_component(&both, 0) > 100, "the orange channel adds red");
     both.save(support::app_harness::scratch("composite.png"))
         .expect("write the view");
     let channel_combo = harness
@@ -69,7 +66,10 @@ fn a_two_channel_file_opens_as_the_composite_and_its_edits_stay_live() {
     harness.get_by_label("0: nuclei z0 t0");
     harness.get_by_label("1: actin z0 t0");
     assert!(
-        harness.get_by_label("Lit (headlight)").accesskit_node().is_disabled(),
+        harness
+            .get_by_label("Lit (headlight)")
+            .accesskit_node()
+            .is_disabled(),
         "the composite is unshaded: its shading control is disabled"
     );
     assert!(
@@ -110,7 +110,10 @@ fn a_two_channel_file_opens_as_the_composite_and_its_edits_stay_live() {
     assert!(!harness.state().is_loading(), "window edits need no load");
     let after = harness.state().composite_channels().expect("composite");
     assert_eq!(after[1].transfer.window, narrow);
-    assert_eq!(after[0].transfer, before[0].transfer, "channel 0 is untouched");
+    assert_eq!(
+        after[0].transfer, before[0].transfer,
+        "channel 0 is untouched"
+    );
     let narrowed = view(&harness);
     assert!(
         differing_pixels(&both, &narrowed) > 100,
@@ -135,10 +138,20 @@ fn a_two_channel_file_opens_as_the_composite_and_its_edits_stay_live() {
         })
     );
     assert!(harness.state().composite_channels().is_none());
-    assert!(!harness.get_by_label("Lit (headlight)").accesskit_node().is_disabled());
-    harness.state_mut().run_command(Command::ShowComposite, &ctx);
+    assert!(
+        !harness
+            .get_by_label("Lit (headlight)")
+            .accesskit_node()
+            .is_disabled()
+    );
+    harness
+        .state_mut()
+        .run_command(Command::ShowComposite, &ctx);
     settle(&mut harness);
-    let back = harness.state().composite_channels().expect("composite again");
+    let back = harness
+        .state()
+        .composite_channels()
+        .expect("composite again");
     assert_eq!(back[1].transfer.window, narrow, "the user's window stays");
     assert_eq!(back[1].color, [255, 127, 0]);
 }

@@ -78,7 +78,10 @@ fn switch_to(harness: &mut Harness<'_, VoxscopeApp>, time: usize) -> Duration {
         if harness.state().frame() == Some(at(time)) && !harness.state().is_loading() {
             break;
         }
-        assert!(started.elapsed() < Duration::from_secs(60), "frame {time} never showed");
+        assert!(
+            started.elapsed() < Duration::from_secs(60),
+            "frame {time} never showed"
+        );
         std::thread::sleep(Duration::from_millis(1));
     }
     // The step that took the frame in drew it.
@@ -100,13 +103,17 @@ fn prefetched_frames_show_without_a_load_and_the_window_moves_on() {
     let first = view(&harness);
 
     // A prefetched frame: on screen in the same call, no load job.
-    harness
-        .state_mut()
-        .run_command(Command::ShowTime(1), &ctx);
-    assert!(!harness.state().is_loading(), "no load job for a prefetched frame");
+    harness.state_mut().run_command(Command::ShowTime(1), &ctx);
+    assert!(
+        !harness.state().is_loading(),
+        "no load job for a prefetched frame"
+    );
     assert_eq!(harness.state().frame(), Some(at(1)));
     settle(&mut harness);
-    assert!(differing_pixels(&first, &view(&harness)) > 100, "frame 1 is drawn");
+    assert!(
+        differing_pixels(&first, &view(&harness)) > 100,
+        "frame 1 is drawn"
+    );
     // The window moved on: 2 kept, 3 loaded; 1 is on screen and 0 was dropped.
     assert_eq!(harness.state().prefetched(), [at(2), at(3)]);
 
@@ -121,7 +128,10 @@ fn prefetched_frames_show_without_a_load_and_the_window_moves_on() {
     // Without prefetch every frame loads on demand.
     harness.state_mut().settings.prefetch_frames = 0;
     settle(&mut harness);
-    assert!(harness.state().prefetched().is_empty(), "frames outside the window are dropped");
+    assert!(
+        harness.state().prefetched().is_empty(),
+        "frames outside the window are dropped"
+    );
     let mut without = Vec::new();
     for time in [0, 1] {
         without.push(switch_to(&mut harness, time));

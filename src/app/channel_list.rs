@@ -12,7 +12,12 @@ use super::view_state::ViewState;
 
 /// Draws the list; edits the channels' colors and visibility in `view` and asks for another
 /// channel to edit through `queue`.
-pub fn show(ui: &mut Ui, composite: &CompositeScene, view: &mut ViewState, queue: &mut CommandQueue) {
+pub fn show(
+    ui: &mut Ui,
+    composite: &CompositeScene,
+    view: &mut ViewState,
+    queue: &mut CommandQueue,
+) {
     ui.heading("Channels");
     ui.small("Drawn together by the dense march: colors added, unshaded. Click a row to edit its transfer function.");
     ui.add_space(4.0);

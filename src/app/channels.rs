@@ -35,7 +35,8 @@ impl ChannelState {
     /// the robust window; `choice`'s opacity over grays.
     pub fn opening(data: &VolumeData, index: usize, choice: TransferChoice) -> Self {
         let info = data.volume.series.channels.get(index);
-        let mut transfer = opening_transfer(choice, &data.quantized, data.kind, data.default_window);
+        let mut transfer =
+            opening_transfer(choice, &data.quantized, data.kind, data.default_window);
         // The tint is the channel's color; a colormap under it would mix two color schemes.
         transfer.colormap = Colormap::Grays;
         Self {

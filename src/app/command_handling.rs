@@ -34,7 +34,13 @@ impl VoxscopeApp {
             Command::ShowComposite => {
                 if let Some(scene) = &self.scene {
                     let time = scene.data.volume.series.selected.time;
-                    self.show_frame(FrameKey { time, channel: None }, ctx);
+                    self.show_frame(
+                        FrameKey {
+                            time,
+                            channel: None,
+                        },
+                        ctx,
+                    );
                 }
                 Ok(None)
             }

@@ -35,7 +35,12 @@ impl Default for Playback {
 impl Playback {
     /// The next time point to ask for, if playing, `frames_per_second` allows one now and no
     /// frame is still loading (a slow load slows playback rather than queueing frames).
-    pub fn next(&mut self, series: &Series, frames_per_second: f32, loading: bool) -> Option<usize> {
+    pub fn next(
+        &mut self,
+        series: &Series,
+        frames_per_second: f32,
+        loading: bool,
+    ) -> Option<usize> {
         if !self.playing || loading || series.time_points < 2 {
             return None;
         }

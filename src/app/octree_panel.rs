@@ -105,7 +105,14 @@ pub fn show(
     ui.checkbox(&mut settings.heatmap, "Nodes-visited heat map")
         .on_hover_text("Show per pixel how many nodes its ray visited (the composite: how many samples it took)");
     if settings.heatmap {
-        heatmap_legend(ui, if composite.is_some() { "samples" } else { "nodes" });
+        heatmap_legend(
+            ui,
+            if composite.is_some() {
+                "samples"
+            } else {
+                "nodes"
+            },
+        );
     }
     ui.checkbox(
         &mut settings.fast_interaction,
@@ -189,10 +196,11 @@ fn composite_facts(ui: &mut Ui, composite: &CompositeScene) {
             ui.end_row();
             ui.label("Memory");
             ui.label(format!(
-                "{} GPU (two RGBA16F textures, tables), {} RAM",
+                "{} GPU, {} RAM",
                 format_bytes(composite.volume.gpu_bytes()),
                 format_bytes(composite.cpu_bytes())
-            ));
+            ))
+            .on_hover_text("GPU: the channels' levels in two RGBA 16-bit float 3D textures, their tables and the skipping blocks. RAM: every channel's levels and octree");
             ui.end_row();
         });
     ui.small("Per-level node counts describe one channel's octree and have no meaning for the composite: its rays march the voxels (samples per ray above, and in the heat map).");
@@ -214,7 +222,10 @@ fn frame_numbers(ui: &mut Ui, facts: &OctreeFacts<'_>) {
                     scene.data.load_seconds, scene.data.octree.build_seconds, scene.upload_seconds
                 ));
                 ui.end_row();
-                let buffers = scene.renderer.gpu_bytes();
+                let mut buffers = scene.renderer.gpu_bytes();
+                if let Some(composite) = &scene.composite {
+                    buffers.push(("composite", composite.volume.gpu_bytes()));
+                }
                 let total: u64 = buffers.iter().map(|(_, b)| b).sum::<u64>() + facts.target_bytes;
                 ui.label("GPU memory");
                 ui.label(format_bytes(total)).on_hover_text(

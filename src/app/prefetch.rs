@@ -150,9 +150,10 @@ impl Prefetch {
         if self.loading.is_some() {
             return;
         }
-        let next = wanted.iter().copied().find(|key| {
-            !self.failed.contains(key) && !self.ready.iter().any(|(k, _, _)| k == key)
-        });
+        let next = wanted
+            .iter()
+            .copied()
+            .find(|key| !self.failed.contains(key) && !self.ready.iter().any(|(k, _, _)| k == key));
         if let Some(key) = next {
             self.loading = Some((key, options, start(key)));
         }

@@ -203,10 +203,9 @@ impl Scene {
     /// Bytes this scene holds on the GPU and in memory (what a prefetched frame costs).
     pub fn bytes(&self) -> u64 {
         let gpu: u64 = self.renderer.gpu_bytes().iter().map(|(_, b)| b).sum();
-        let composite = self
-            .composite
-            .as_ref()
-            .map_or(self.data.cpu_bytes(), |c| c.volume.gpu_bytes() + c.cpu_bytes());
+        let composite = self.composite.as_ref().map_or(self.data.cpu_bytes(), |c| {
+            c.volume.gpu_bytes() + c.cpu_bytes()
+        });
         gpu + composite
     }
 
@@ -256,7 +255,9 @@ pub fn prepare_scene(
     options: RendererOptions,
     progress: &Progress,
 ) -> Result<Opened, JobError> {
-    let select = frame.as_ref().map_or_else(Selection::default, |f| f.selection);
+    let select = frame
+        .as_ref()
+        .map_or_else(Selection::default, |f| f.selection);
     // A multi-channel file opens as the composite of its channels.
     let composite_wanted = frame.as_ref().is_none_or(|f| f.composite);
     let started = Instant::now();
@@ -284,9 +285,8 @@ pub fn prepare_scene(
     };
     progress.check()?;
     let channel_count = volume.series.channel_count();
-    let composite = streamed.is_none()
-        && composite_wanted
-        && (2..=MAX_CHANNELS).contains(&channel_count);
+    let composite =
+        streamed.is_none() && composite_wanted && (2..=MAX_CHANNELS).contains(&channel_count);
     let mut data = prepare_data(source, volume, started, progress)?;
     // The other channels of a composite: read, quantized, built like the first.
     let mut channels = Vec::new();
@@ -300,9 +300,7 @@ pub fn prepare_scene(
         )?));
     }
     let states: Vec<ChannelState> = match &frame {
-        Some(frame) if composite && frame.channels.len() == channel_count => {
-            frame.channels.clone()
-        }
+        Some(frame) if composite && frame.channels.len() == channel_count => frame.channels.clone(),
         _ if composite => std::iter::once(&data)
             .chain(channels.iter().map(Arc::as_ref))
             .enumerate()

@@ -10,6 +10,7 @@ use egui::Ui;
 
 use super::AppGpu;
 use super::central::{CentralView, ViewInputs};
+use super::channel_list;
 use super::command::{Command, CommandQueue};
 use super::dialogs::DialogKind;
 use super::file_browser::{BrowserOutcome, FileBrowser};
@@ -21,7 +22,6 @@ use super::overlays;
 use super::prefetch::{self, FrameKey, Prefetch};
 use super::scene::{self, FrameChange, Scene, VolumeData, VolumeSource};
 use super::settings::{AppSettings, STORAGE_KEY, TransferChoice, TransferPreset};
-use super::channel_list;
 use super::transfer_panel;
 use super::url_dialog::{UrlDialog, UrlOutcome};
 use super::view_state::{Clipping, ViewState};

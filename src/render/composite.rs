@@ -278,11 +278,7 @@ impl CompositeVolume {
             .flat_map(|(layer, &shown)| {
                 let table =
                     tinted_lookup_table(layer.transfer, layer.quantized.quantization, layer.color);
-                if shown {
-                    table
-                } else {
-                    vec![0; table.len()]
-                }
+                if shown { table } else { vec![0; table.len()] }
             })
             .collect()
     }
