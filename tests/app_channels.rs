@@ -94,12 +94,40 @@ fn a_two_channel_file_opens_as_the_composite_and_its_edits_stay_live() {
     );
     harness.state_mut().view.channels[1].visible = true;
 
+    // The heat map and the per-ray figures count the composite's samples: with every channel
+    // hidden, every block is skipped and no ray samples anything.
+    harness.state_mut().settings.heatmap = true;
+    settle(&mut harness);
+    let samples = harness.state().frame_report().expect("measured");
+    let heat = view(&harness);
+    heat.save(support::app_harness::scratch("composite-heat.png"))
+        .expect("write the view");
+    assert!(
+        differing_pixels(&both, &heat) > 1000,
+        "the heat map is drawn"
+    );
+    assert!(samples.nodes_per_ray_avg > 1.0, "{samples:?}");
+    for channel in &mut harness.state_mut().view.channels {
+        channel.visible = false;
+    }
+    settle(&mut harness);
+    let none = harness.state().frame_report().expect("measured");
+    assert_eq!(none.nodes_per_ray_max, 0, "every block skipped: {none:?}");
+    for channel in &mut harness.state_mut().view.channels {
+        channel.visible = true;
+    }
+    harness.state_mut().settings.heatmap = false;
+
     // Editing channel 1: the panel takes its transfer function; its window changes alone.
     let ctx = harness.ctx.clone();
     let before = harness.state().composite_channels().expect("composite");
-    harness
-        .state_mut()
-        .run_command(Command::SelectChannel(1), &ctx);
+    harness.get_by_label("1: actin z0 t0").click();
+    harness.run_steps(2);
+    assert_eq!(
+        harness.state().view.active_channel,
+        1,
+        "a click on the row selects it"
+    );
     assert_eq!(harness.state().transfer(), before[1].transfer);
     let narrow = ValueWindow {
         low: before[1].transfer.window.high * 0.9,

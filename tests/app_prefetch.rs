@@ -12,6 +12,7 @@ use support::app_harness::{differing_pixels, harness, scratch, settle, view};
 use support::writers::{NiftiSpec, encode, nifti_bytes, nifti_datatype};
 
 use egui_kittest::Harness;
+use egui_kittest::kittest::Queryable;
 use voxscope::app::{Command, FrameKey, VolumeSource, VoxscopeApp};
 use voxscope::render::RendererKind;
 use voxscope::volume::{Endian, VoxelType};
@@ -153,6 +154,32 @@ fn prefetched_frames_show_without_a_load_and_the_window_moves_on() {
         slowest_prefetched < fastest_loaded,
         "a prefetched frame shows faster ({slowest_prefetched:?}) than one loaded ({fastest_loaded:?})"
     );
+
+    // Play at 2 frames a second switches from memory: no frame is loaded on demand.
+    harness.state_mut().settings.prefetch_frames = 2;
+    harness.state_mut().settings.frame_rate = 2.0;
+    settle(&mut harness);
+    harness.get_by_label("Play").click();
+    let started = Instant::now();
+    let mut shown = vec![harness.state().frame()];
+    let mut loaded = false;
+    while shown.len() < 4 {
+        harness.step();
+        loaded |= harness.state().is_loading();
+        let frame = harness.state().frame();
+        if shown.last() != Some(&frame) {
+            shown.push(frame);
+        }
+        assert!(
+            started.elapsed() < Duration::from_secs(30),
+            "playback stalled at {shown:?}"
+        );
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    harness.get_by_label("Pause").click();
+    settle(&mut harness);
+    assert_eq!(shown, [Some(at(1)), Some(at(2)), Some(at(3)), Some(at(0))]);
+    assert!(!loaded, "every frame played came from the prefetch");
 }
 
 #[test]
