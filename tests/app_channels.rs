@@ -149,6 +149,22 @@ fn a_two_channel_file_opens_as_the_composite_and_its_edits_stay_live() {
     );
     harness.get_by_label("Transfer function: channel 1");
 
+    // The Slices layout: the composite in 3D beside channel 0's slices.
+    harness
+        .state_mut()
+        .run_command(Command::SetLayout(voxscope::app::Layout::Slices), &ctx);
+    settle(&mut harness);
+    assert_eq!(harness.state().pane_sizes().len(), 4);
+    let slices = view(&harness);
+    slices
+        .save(support::app_harness::scratch("composite-slices.png"))
+        .expect("write the view");
+    assert!(lit_pixels(&slices) > 4000);
+    harness
+        .state_mut()
+        .run_command(Command::SetLayout(voxscope::app::Layout::Single), &ctx);
+    settle(&mut harness);
+
     // One channel with any renderer, then back to the composite as it was left.
     harness.state_mut().run_command(
         Command::ShowFrame(Selection {
