@@ -224,7 +224,10 @@ impl CentralView {
                         .target
                         .as_ref()
                         .map(|t| [t.width, t.height]);
-                    if let (Some(picking), Some(target)) = (&mut self.picking, target) {
+                    // The composite has no probe: nothing to pick in its 3D view.
+                    if let (Some(picking), Some(target), None) =
+                        (&mut self.picking, target, &scene.composite)
+                    {
                         picking.want(&response, ui, index, *rect, target);
                     }
                     pane_label(ui, scene, settings, view, index, count, *rect);

@@ -16,8 +16,15 @@ use crate::volume::Selection;
 pub enum Command {
     /// Open a volume in the background; the one on screen stays until it is ready.
     Open(VolumeSource),
-    /// Show another channel or time point of the volume on screen, keeping the view.
+    /// Show one channel at a time point of the volume on screen, keeping the view.
     ShowFrame(Selection),
+    /// Show every channel of the time point on screen as the composite, keeping the view.
+    ShowComposite,
+    /// Show another time point as the one on screen is shown (the composite, or the same
+    /// channel): the time slider and playback.
+    ShowTime(usize),
+    /// Make the composite's channel `0` the one the transfer function editor edits.
+    SelectChannel(usize),
     /// Show the desktop's file dialog (the app's own browser where the desktop has none);
     /// its answer becomes another command.
     ShowDialog(DialogKind),

@@ -9,12 +9,12 @@ use super::command::Command;
 use super::dialogs::{self, DialogKind, NOT_SHOWN_WITHIN};
 use super::file_browser::FileBrowser;
 use super::jobs::{DialogAnswer, Job};
+use super::prefetch::FrameKey;
 use super::scene::{FrameChange, VolumeSource, prepare_scene};
 use super::settings::AppSettings;
 use super::url_dialog::UrlDialog;
 use super::viewport;
 use super::voxscope_app::VoxscopeApp;
-use crate::volume::Selection;
 
 impl VoxscopeApp {
     /// Carries out `command` now. Menus, toolbar and shortcuts queue theirs and the app runs
@@ -22,7 +22,40 @@ impl VoxscopeApp {
     pub fn run_command(&mut self, command: Command, ctx: &egui::Context) {
         let result = match command {
             Command::ShowFrame(selection) => {
-                self.show_frame(selection, ctx);
+                self.show_frame(
+                    FrameKey {
+                        time: selection.time,
+                        channel: Some(selection.channel),
+                    },
+                    ctx,
+                );
+                Ok(None)
+            }
+            Command::ShowComposite => {
+                if let Some(scene) = &self.scene {
+                    let time = scene.data.volume.series.selected.time;
+                    self.show_frame(
+                        FrameKey {
+                            time,
+                            channel: None,
+                        },
+                        ctx,
+                    );
+                }
+                Ok(None)
+            }
+            Command::ShowTime(time) => {
+                if let Some(scene) = &self.scene {
+                    let key = FrameKey {
+                        time,
+                        ..FrameKey::of_scene(scene)
+                    };
+                    self.show_frame(key, ctx);
+                }
+                Ok(None)
+            }
+            Command::SelectChannel(index) => {
+                self.select_channel(index);
                 Ok(None)
             }
             Command::Open(source) => {
@@ -107,21 +140,56 @@ impl VoxscopeApp {
         }
     }
 
-    /// Loads frame `selection` of the volume on screen in the background, to be shown with the
-    /// transfer function and view it has now.
-    fn show_frame(&mut self, selection: Selection, ctx: &egui::Context) {
+    /// Shows frame `key` of the volume on screen with the transfer functions and view it has
+    /// now: at once where it was prefetched, else when the background load ends (the
+    /// prefetch's own job, where it is loading that frame).
+    fn show_frame(&mut self, key: FrameKey, ctx: &egui::Context) {
         let Some(scene) = &self.scene else {
             return;
         };
-        if scene.data.volume.series.selected == selection {
+        if FrameKey::of_scene(scene) == key {
             return;
         }
-        let frame = FrameChange {
-            selection,
-            transfer: self.transfer(),
-        };
+        let options = scene.options;
+        if let Some(opened) = self.prefetch.take(key, options) {
+            self.show_opened(opened);
+            return;
+        }
+        if let Some(job) = self.prefetch.take_job(key, options) {
+            self.jobs.open(job);
+            return;
+        }
+        let frame = self.frame_change(key);
         let source = scene.data.source.clone();
         self.open(source, Some(frame), ctx);
+    }
+
+    /// What loading frame `key` needs to be shown as the view is now.
+    pub(super) fn frame_change(&self, key: FrameKey) -> FrameChange {
+        let transfer = self.transfer();
+        FrameChange {
+            selection: key.selection(),
+            transfer,
+            composite: key.channel.is_none(),
+            channels: self.view.composite_channels(transfer),
+        }
+    }
+
+    /// Makes the composite's channel `index` the one the panel edits: the live transfer
+    /// function goes back to the channel it belongs to, and `index`'s comes to the panel.
+    pub(super) fn select_channel(&mut self, index: usize) {
+        if index >= self.view.channels.len() || index == self.view.active_channel {
+            return;
+        }
+        let live = self.transfer();
+        let active = self.view.active_channel;
+        if let Some(state) = self.view.channels.get_mut(active) {
+            state.transfer = live;
+        }
+        self.view.active_channel = index;
+        let transfer = self.view.channels[index].transfer;
+        self.settings.transfer = transfer.into();
+        self.view.window = transfer.window;
     }
 
     /// Opens `source` (frame `frame` of it, else the first) in the background; the current
@@ -140,7 +208,12 @@ impl VoxscopeApp {
         let choice = self.settings.transfer;
         let options = self.renderer_options();
         let wake = ctx.clone();
-        let title = match frame {
+        let title = match &frame {
+            Some(frame) if frame.composite => format!(
+                "all channels, time point {} of {}",
+                frame.selection.time,
+                source.spec()
+            ),
             Some(frame) => format!(
                 "channel {}, time point {} of {}",
                 frame.selection.channel,

@@ -1,13 +1,16 @@
 //! Channels and time points of the volume on screen (a multi-channel or time-lapse file):
-//! which channel is shown, a time slider, and play / pause at a chosen frame rate. A change
-//! loads that frame in the background and shows it with the view as it is.
+//! the composite of all channels or one channel, a time slider, play / pause at a chosen
+//! frame rate, and how many frames to prefetch. A change shows that frame with the view as it
+//! is: from the prefetch at once, else once loaded in the background.
 
 use std::time::{Duration, Instant};
 
 use egui::Ui;
 
 use super::command::{Command, CommandQueue};
-use crate::volume::{Selection, Series};
+use super::prefetch::MAX_PREFETCH_FRAMES;
+use super::settings::AppSettings;
+use crate::volume::{MAX_CHANNELS, Selection, Series};
 
 /// Frames a second that playback may ask for.
 pub const FRAME_RATES: std::ops::RangeInclusive<f32> = 0.5..=30.0;
@@ -30,14 +33,14 @@ impl Default for Playback {
 }
 
 impl Playback {
-    /// The next frame to ask for, if playing, `frames_per_second` allows one now and no frame
-    /// is still loading (a slow load slows playback rather than queueing frames).
+    /// The next time point to ask for, if playing, `frames_per_second` allows one now and no
+    /// frame is still loading (a slow load slows playback rather than queueing frames).
     pub fn next(
         &mut self,
         series: &Series,
         frames_per_second: f32,
         loading: bool,
-    ) -> Option<Selection> {
+    ) -> Option<usize> {
         if !self.playing || loading || series.time_points < 2 {
             return None;
         }
@@ -48,10 +51,7 @@ impl Playback {
             return None;
         }
         self.last_step = Instant::now();
-        Some(Selection {
-            time: (series.selected.time + 1) % series.time_points,
-            ..series.selected
-        })
+        Some((series.selected.time + 1) % series.time_points)
     }
 
     /// How long until [`Self::next`] may give a frame (for the repaint timer).
@@ -63,14 +63,26 @@ impl Playback {
     }
 }
 
+/// What the controls show of the frame on screen.
+pub struct Shown<'a> {
+    pub series: &'a Series,
+    /// Every channel is shown as the composite.
+    pub composite: bool,
+    /// Frames held ready ahead.
+    pub prefetched: usize,
+    /// The volume is streamed (nothing is prefetched).
+    pub streamed: bool,
+}
+
 /// The channel and time controls, shown where the file has more than one of either.
 pub fn show(
     ui: &mut Ui,
-    series: &Series,
+    shown: &Shown<'_>,
     playback: &mut Playback,
-    frames_per_second: &mut f32,
+    settings: &mut AppSettings,
     queue: &mut CommandQueue,
 ) {
+    let series = shown.series;
     if series.channels.len() < 2 && series.time_points < 2 {
         return;
     }
@@ -87,14 +99,21 @@ pub fn show(
                     Some(name) => format!("{index}: {name}"),
                     None => index.to_string(),
                 };
+                const ALL: &str = "All (composite)";
+                let can_composite = series.channels.len() <= MAX_CHANNELS && !shown.streamed;
                 egui::ComboBox::from_id_salt("channel")
-                    .selected_text(name(selected.channel))
+                    .selected_text(if shown.composite {
+                        ALL.to_owned()
+                    } else {
+                        name(selected.channel)
+                    })
                     .show_ui(ui, |ui| {
+                        if can_composite && ui.selectable_label(shown.composite, ALL).clicked() {
+                            queue.send(Command::ShowComposite);
+                        }
                         for index in 0..series.channels.len() {
-                            if ui
-                                .selectable_label(index == selected.channel, name(index))
-                                .clicked()
-                            {
+                            let this = !shown.composite && index == selected.channel;
+                            if ui.selectable_label(this, name(index)).clicked() {
                                 queue.send(Command::ShowFrame(Selection {
                                     channel: index,
                                     ..selected
@@ -104,7 +123,9 @@ pub fn show(
                     })
                     .response
                     .labelled_by(label.id)
-                    .on_hover_text("The channel shown (the file's name where it has one)");
+                    .on_hover_text(
+                        "All channels as the additive composite (drawn by the dense march, unshaded), or one channel with any renderer",
+                    );
                 ui.end_row();
             }
             if series.time_points > 1 {
@@ -115,7 +136,7 @@ pub fn show(
                     .add(egui::Slider::new(&mut time, 0..=last).suffix(format!(" / {last}")))
                     .labelled_by(label.id);
                 if response.changed() && time != selected.time {
-                    queue.send(Command::ShowFrame(Selection { time, ..selected }));
+                    queue.send(Command::ShowTime(time));
                 }
                 ui.end_row();
                 ui.label("");
@@ -126,7 +147,7 @@ pub fn show(
                         playback.last_step = Instant::now();
                     }
                     ui.add(
-                        egui::DragValue::new(frames_per_second)
+                        egui::DragValue::new(&mut settings.frame_rate)
                             .range(FRAME_RATES)
                             .speed(0.1)
                             .suffix(" fps"),
@@ -134,6 +155,26 @@ pub fn show(
                     .on_hover_text(
                         "Frames a second while playing (slower where a frame takes longer to load)",
                     );
+                });
+                ui.end_row();
+                let label = ui.label("Prefetch");
+                ui.horizontal(|ui| {
+                    ui.add_enabled(
+                        !shown.streamed,
+                        egui::DragValue::new(&mut settings.prefetch_frames)
+                            .range(0..=MAX_PREFETCH_FRAMES)
+                            .suffix(" frames"),
+                    )
+                    .labelled_by(label.id)
+                    .on_hover_text(
+                        "Frames after this one kept loaded (within 1 GiB), so playing shows them from memory",
+                    )
+                    .on_disabled_hover_text(
+                        "A streamed store is not prefetched: its bricks are fetched for the view",
+                    );
+                    if !shown.streamed {
+                        ui.small(format!("{} ready", shown.prefetched));
+                    }
                 });
                 ui.end_row();
             }

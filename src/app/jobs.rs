@@ -115,6 +115,11 @@ pub struct Opened {
     pub statistics: Vec<LevelStatistics>,
     /// Another frame of the volume on screen: the view stays as it is.
     pub frame_change: bool,
+    /// The composite's channel settings as the scene was drawn with them (empty for one
+    /// channel): a new volume's defaults, or the ones the frame change carried.
+    pub channels: Vec<super::channels::ChannelState>,
+    /// What the user should know (the composite did not fit and one channel is shown).
+    pub notice: Option<String>,
 }
 
 /// Per-level statistics counted under a transfer function, within a clip.

@@ -11,6 +11,8 @@
 
 mod annotate;
 mod central;
+mod channel_list;
+mod channels;
 mod clip_panel;
 mod command;
 mod command_handling;
@@ -23,6 +25,7 @@ mod octree_panel;
 mod overlays;
 mod pane_header;
 mod picking;
+mod prefetch;
 mod scene;
 mod settings;
 mod slice_pane;
@@ -36,9 +39,11 @@ mod voxscope_app;
 
 use std::sync::Arc;
 
+pub use channels::ChannelState;
 pub use command::{Command, Panel, ViewPreset};
 pub use dialogs::DialogKind;
 pub use jobs::{Job, JobError};
+pub use prefetch::FrameKey;
 pub use scene::{Scene, VolumeData, VolumeSource};
 pub use settings::{AppSettings, Layout, STORAGE_KEY, TransferChoice, TransferPreset};
 pub use view_state::ViewState;

@@ -4,6 +4,7 @@
 use egui::Ui;
 use egui_plot::{Bar, BarChart, Legend, Plot};
 
+use super::channels::CompositeScene;
 use super::clip_panel::{self, ClipContext};
 use super::scene::Scene;
 use super::settings::AppSettings;
@@ -37,14 +38,16 @@ pub fn show(
     ui.heading("Octree");
     ui.add_space(4.0);
     let depth = facts.scene.map_or(0, Scene::depth);
+    let composite = facts.scene.and_then(|s| s.composite.as_ref());
     egui::Grid::new("octree_grid")
         .num_columns(2)
         .spacing([8.0, 6.0])
         .show(ui, |ui| {
             let label = ui.label("Max level");
-            ui.add_enabled(depth > 0, egui::Slider::new(max_level, 0..=depth))
+            ui.add_enabled(depth > 0 && composite.is_none(), egui::Slider::new(max_level, 0..=depth))
                 .labelled_by(label.id)
-                .on_hover_text("Deepest level rays descend to: 0 is the root alone, the last level the voxels");
+                .on_hover_text("Deepest level rays descend to: 0 is the root alone, the last level the voxels")
+                .on_disabled_hover_text("The composite is marched through the voxels by the dense renderer: it has no levels");
             ui.end_row();
 
             if let Some(scene) = facts.scene {
@@ -85,19 +88,38 @@ pub fn show(
                 ui.end_row();
             }
         });
-    ui.checkbox(&mut settings.pixel_lod, "Pixel-footprint LOD")
-        .on_hover_text("Also stop where a node projects to less than a pixel");
-    ui.checkbox(&mut settings.opacity_correction, "Opacity correction")
-        .on_hover_text("Correct alpha for the distance a ray travels in a node; off is the paper's plain compositing");
+    if composite.is_some() {
+        ui.small("The composite is drawn by the dense march; the renderer above draws one channel (choose it under Channels and time) and the slices.");
+    }
+    const NO_NODES: &str = "The composite samples the voxels one step apart: it has no nodes to stop at or to correct for";
     ui.add_enabled(
-        settings.renderer != RendererKind::Octree,
+        composite.is_none(),
+        egui::Checkbox::new(&mut settings.pixel_lod, "Pixel-footprint LOD"),
+    )
+    .on_hover_text("Also stop where a node projects to less than a pixel")
+    .on_disabled_hover_text(NO_NODES);
+    ui.add_enabled(
+        composite.is_none(),
+        egui::Checkbox::new(&mut settings.opacity_correction, "Opacity correction"),
+    )
+    .on_hover_text("Correct alpha for the distance a ray travels in a node; off is the paper's plain compositing")
+    .on_disabled_hover_text(NO_NODES);
+    ui.add_enabled(
+        settings.renderer != RendererKind::Octree || composite.is_some(),
         egui::Checkbox::new(&mut settings.trilinear, "Trilinear filtering"),
     )
-    .on_hover_text("Dense and bricks sample textures; the octree draws whole nodes");
+    .on_hover_text("Dense, bricks and the composite sample textures; the octree draws whole nodes");
     ui.checkbox(&mut settings.heatmap, "Nodes-visited heat map")
-        .on_hover_text("Show per pixel how many nodes its ray visited");
+        .on_hover_text("Show per pixel how many nodes its ray visited (the composite: how many samples it took)");
     if settings.heatmap {
-        heatmap_legend(ui);
+        heatmap_legend(
+            ui,
+            if composite.is_some() {
+                "samples"
+            } else {
+                "nodes"
+            },
+        );
     }
     ui.checkbox(
         &mut settings.fast_interaction,
@@ -130,6 +152,10 @@ pub fn show(
         stream_panel::show(ui, scene);
     }
     ui.separator();
+    if let Some(composite) = composite {
+        composite_facts(ui, composite);
+        return;
+    }
     ui.strong("Nodes per level");
     if facts.statistics_pending {
         ui.small("recounting for the new transfer function…");
@@ -149,7 +175,46 @@ pub fn show(
     ));
 }
 
+/// What the statistics can honestly say of the composite: it is no octree, so the per-level
+/// table does not apply; empty-space skipping's reach and the memory do.
+fn composite_facts(ui: &mut Ui, composite: &CompositeScene) {
+    ui.strong("Composite");
+    let (visible, total) = composite.volume.block_counts();
+    let dims = composite.volume.dims;
+    egui::Grid::new("composite_facts")
+        .num_columns(2)
+        .spacing([8.0, 3.0])
+        .show(ui, |ui| {
+            ui.label("Channels");
+            ui.label(format!(
+                "{} of {}",
+                composite.channels.len(),
+                crate::volume::format_dims(dims)
+            ));
+            ui.end_row();
+            ui.label("Visible blocks");
+            ui.label(format!(
+                "{} of {} ({:.0} %)",
+                group_digits(visible as u64),
+                group_digits(total as u64),
+                100.0 * visible as f64 / total.max(1) as f64
+            ))
+            .on_hover_text("Blocks of 8³ voxels where some shown channel is visible under its transfer function: the rest are skipped");
+            ui.end_row();
+            ui.label("Memory");
+            ui.label(format!(
+                "{} GPU, {} RAM",
+                format_bytes(composite.volume.gpu_bytes()),
+                format_bytes(composite.cpu_bytes())
+            ))
+            .on_hover_text("GPU: the channels' levels in two RGBA 16-bit float 3D textures, their tables and the skipping blocks. RAM: every channel's levels and octree");
+            ui.end_row();
+        });
+    ui.small("Per-level node counts describe one channel's octree and have no meaning for the composite: its rays march the voxels (samples per ray above, and in the heat map).");
+}
+
 fn frame_numbers(ui: &mut Ui, facts: &OctreeFacts<'_>) {
+    let composite = facts.scene.is_some_and(|s| s.composite.is_some());
     egui::Grid::new("frame_grid")
         .num_columns(2)
         .spacing([8.0, 3.0])
@@ -164,7 +229,10 @@ fn frame_numbers(ui: &mut Ui, facts: &OctreeFacts<'_>) {
                     scene.data.load_seconds, scene.data.octree.build_seconds, scene.upload_seconds
                 ));
                 ui.end_row();
-                let buffers = scene.renderer.gpu_bytes();
+                let mut buffers = scene.renderer.gpu_bytes();
+                if let Some(composite) = &scene.composite {
+                    buffers.push(("composite", composite.volume.gpu_bytes()));
+                }
                 let total: u64 = buffers.iter().map(|(_, b)| b).sum::<u64>() + facts.target_bytes;
                 ui.label("GPU memory");
                 ui.label(format_bytes(total)).on_hover_text(
@@ -187,7 +255,11 @@ fn frame_numbers(ui: &mut Ui, facts: &OctreeFacts<'_>) {
                     None => "no timestamp queries on this GPU".to_owned(),
                 });
                 ui.end_row();
-                ui.label("Nodes per ray");
+                ui.label(if composite {
+                    "Samples per ray"
+                } else {
+                    "Nodes per ray"
+                });
                 ui.label(format!(
                     "{:.1} average, {} max",
                     frame.nodes_per_ray_avg, frame.nodes_per_ray_max
@@ -203,7 +275,7 @@ fn frame_numbers(ui: &mut Ui, facts: &OctreeFacts<'_>) {
         });
 }
 
-fn heatmap_legend(ui: &mut Ui) {
+fn heatmap_legend(ui: &mut Ui, what: &str) {
     let (rect, _) = ui.allocate_exact_size(
         egui::vec2(ui.available_width().min(220.0), 12.0),
         egui::Sense::hover(),
@@ -224,7 +296,7 @@ fn heatmap_legend(ui: &mut Ui) {
     ui.horizontal(|ui| {
         ui.small("0");
         ui.small("· 31 ·");
-        ui.small(format!("{HEATMAP_SATURATION}+ nodes per ray (log scale)"));
+        ui.small(format!("{HEATMAP_SATURATION}+ {what} per ray (log scale)"));
     });
 }
 

@@ -93,6 +93,18 @@ pub fn pane_label(
             Color32::from_gray(220),
         );
     };
+    if let Some(composite) = &scene.composite {
+        // The composite has neither levels nor a second transfer function: every 3D pane
+        // shows the same.
+        paint(
+            ui,
+            format!(
+                "composite of {} channels · dense march, unshaded",
+                composite.channels.len()
+            ),
+        );
+        return;
+    }
     match settings.layout {
         Layout::Single | Layout::Slices => {
             let level = view.max_level.min(depth);

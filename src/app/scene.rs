@@ -4,6 +4,7 @@
 use std::sync::Arc;
 use std::time::Instant;
 
+use super::channels::{ChannelState, CompositeScene};
 use super::jobs::{Counted, Job, JobError, Opened};
 use super::settings::TransferChoice;
 use crate::octree::{
@@ -15,7 +16,9 @@ use crate::render::{GpuContext, RendererKind, RendererOptions, VolumeRenderer};
 use crate::stream::{StreamOptions, StreamStatus, ZarrSource};
 use crate::volume::ome_zarr::{self, Pyramid, VOLUME_VOXEL_BUDGET};
 use crate::volume::remote::{RemoteOptions, RemoteStats};
-use crate::volume::{self, LoadOptions, QuantizedVolume, Selection, ValueWindow, Volume};
+use crate::volume::{
+    self, LoadOptions, MAX_CHANNELS, QuantizedVolume, Selection, ValueWindow, Volume,
+};
 
 /// What to open: the embedded sample or a file path / synthetic spec.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -114,6 +117,11 @@ impl VolumeData {
             super::transfer_editor::format_value(value),
         ))
     }
+    /// Bytes it holds in memory: the value levels and the octree's nodes.
+    pub fn cpu_bytes(&self) -> u64 {
+        (self.quantized.levels.len() * 2 + self.octree.nodes.len() * 8) as u64
+    }
+
     /// The value at the center of histogram bin `bin`'s left edge.
     pub fn bin_value(&self, bin: f64) -> f64 {
         let [low, high] = self.quantized.value_range;
@@ -148,6 +156,9 @@ pub struct Scene {
     pub stream_status: Option<StreamStatus>,
     /// The network store a streamed URL reads from, as last sampled.
     pub network: Option<NetworkState>,
+    /// The composite of every channel, which the 3D views draw (a multi-channel file shown
+    /// as "All (composite)"); `None` when one channel is shown.
+    pub composite: Option<CompositeScene>,
 }
 
 /// What a streamed URL's store has done, and its recent rate.
@@ -189,6 +200,15 @@ impl NetworkState {
 }
 
 impl Scene {
+    /// Bytes this scene holds on the GPU and in memory (what a prefetched frame costs).
+    pub fn bytes(&self) -> u64 {
+        let gpu: u64 = self.renderer.gpu_bytes().iter().map(|(_, b)| b).sum();
+        let composite = self.composite.as_ref().map_or(self.data.cpu_bytes(), |c| {
+            c.volume.gpu_bytes() + c.cpu_bytes()
+        });
+        gpu + composite
+    }
+
     /// The deepest max level: the octree's depth, or the streamed pyramid's (a streamed
     /// OME-Zarr store is finer than the level held in memory for the panels).
     pub fn depth(&self) -> u32 {
@@ -214,10 +234,14 @@ pub const PANEL_LEVEL_VOXELS: u64 = 1 << 24;
 
 /// Another frame (channel and time point) of the volume on screen, shown with the transfer
 /// function it has now (the camera, level and clipping stay as they are).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct FrameChange {
     pub selection: Selection,
     pub transfer: TransferFunction,
+    /// Every channel of the time point as the composite (`selection.channel` is then 0).
+    pub composite: bool,
+    /// The composite's channel settings as they are now (empty for one channel).
+    pub channels: Vec<ChannelState>,
 }
 
 /// Loads `source` (the frame `frame` names, else the first) and prepares everything to draw
@@ -231,7 +255,11 @@ pub fn prepare_scene(
     options: RendererOptions,
     progress: &Progress,
 ) -> Result<Opened, JobError> {
-    let select = frame.map_or_else(Selection::default, |f| f.selection);
+    let select = frame
+        .as_ref()
+        .map_or_else(Selection::default, |f| f.selection);
+    // A multi-channel file opens as the composite of its channels.
+    let composite_wanted = frame.as_ref().is_none_or(|f| f.composite);
     let started = Instant::now();
     progress.begin("reading");
     // An OME-Zarr store larger than the in-memory budget streams at full resolution; the panels
@@ -246,7 +274,7 @@ pub fn prepare_scene(
         }
         None => None,
     };
-    let mut volume = match &streamed {
+    let volume = match &streamed {
         Some(pyramid) => {
             options.kind = RendererKind::Stream;
             pyramid
@@ -256,38 +284,42 @@ pub fn prepare_scene(
         None => source.load(select)?,
     };
     progress.check()?;
-    progress.begin("quantizing");
-    let quantized = QuantizedVolume::new(&volume);
-    volume.data = volume.data.emptied();
-    progress.check()?;
-    let mut octree = octree::build_with_progress(&quantized, BuildOptions::default(), progress)
-        .map_err(|e| JobError::from_build(&volume.name, e))?;
-    // The file's own window (OME-Zarr's omero) where it has one, else the percentiles.
-    let default_window = volume
-        .default_window
-        .unwrap_or_else(|| quantized.robust_window());
-    let histogram = display_histogram(&quantized);
-    let kind = DataKind::of_volume(&volume, &quantized);
-    let transfer = match frame {
-        Some(frame) => frame.transfer,
-        None => opening_transfer(choice, &quantized, kind, default_window),
+    let channel_count = volume.series.channel_count();
+    let composite =
+        streamed.is_none() && composite_wanted && (2..=MAX_CHANNELS).contains(&channel_count);
+    let mut data = prepare_data(source, volume, started, progress)?;
+    // The other channels of a composite: read, quantized, built like the first.
+    let mut channels = Vec::new();
+    for channel in 1..if composite { channel_count } else { 0 } {
+        let other = source.load(Selection { channel, ..select })?;
+        channels.push(Arc::new(prepare_data(
+            source,
+            other,
+            Instant::now(),
+            progress,
+        )?));
+    }
+    let states: Vec<ChannelState> = match &frame {
+        Some(frame) if composite && frame.channels.len() == channel_count => frame.channels.clone(),
+        _ if composite => std::iter::once(&data)
+            .chain(channels.iter().map(Arc::as_ref))
+            .enumerate()
+            .map(|(index, data)| ChannelState::opening(data, index, choice))
+            .collect(),
+        _ => Vec::new(),
+    };
+    let transfer = match (&frame, states.first()) {
+        (_, Some(first)) => first.transfer,
+        (Some(frame), None) => frame.transfer,
+        (None, None) => opening_transfer(choice, &data.quantized, data.kind, data.default_window),
     };
     progress.begin("coloring");
-    octree::recolor(&mut octree, &transfer);
-    let statistics = octree::level_statistics(&octree);
-    let data = VolumeData {
-        source: source.clone(),
-        volume,
-        quantized,
-        octree,
-        default_window,
-        histogram,
-        kind,
-        load_seconds: started.elapsed().as_secs_f64(),
-    };
+    octree::recolor(&mut data.octree, &transfer);
+    let statistics = octree::level_statistics(&data.octree);
+    data.load_seconds = started.elapsed().as_secs_f64();
     progress.check()?;
     let data = Arc::new(data);
-    let scene = match upload(Arc::clone(&data), gpu, options, transfer, progress) {
+    let mut scene = match upload(Arc::clone(&data), gpu, options, transfer, progress) {
         Ok(scene) => scene,
         // The voxel octree of a large volume can exceed a storage buffer; bricks store the
         // same volume in a fraction of the memory.
@@ -300,10 +332,65 @@ pub fn prepare_scene(
         }
         Err(error) => return Err(error),
     };
+    let mut notice = None;
+    if composite {
+        progress.begin("uploading the composite");
+        channels.insert(0, Arc::clone(&scene.data));
+        match CompositeScene::new(gpu, channels, &states) {
+            Ok(composite) => scene.composite = Some(composite),
+            Err(error) => {
+                notice = Some(format!(
+                    "{}: the composite of {channel_count} channels does not fit this GPU ({error}); showing channel 0",
+                    scene.data.volume.name
+                ))
+            }
+        }
+    }
+    progress.check()?;
     Ok(Opened {
         scene,
         statistics,
         frame_change: frame.is_some(),
+        channels: states,
+        notice,
+    })
+}
+
+/// Quantizes `volume`, builds its octree (colored later) and histogram: what the panels and
+/// every renderer read. `started` is when its reading began.
+fn prepare_data(
+    source: &VolumeSource,
+    mut volume: Volume,
+    started: Instant,
+    progress: &Progress,
+) -> Result<VolumeData, JobError> {
+    progress.begin("quantizing");
+    let quantized = QuantizedVolume::new(&volume);
+    volume.data = volume.data.emptied();
+    progress.check()?;
+    let octree = octree::build_with_progress(&quantized, BuildOptions::default(), progress)
+        .map_err(|e| JobError::from_build(&volume.name, e))?;
+    // The file's own window (the channel's in OME metadata, OME-Zarr's omero) where it has
+    // one, else the percentiles.
+    let channel_window = volume
+        .series
+        .channels
+        .get(volume.series.selected.channel)
+        .and_then(|c| c.window);
+    let default_window = channel_window
+        .or(volume.default_window)
+        .unwrap_or_else(|| quantized.robust_window());
+    let histogram = display_histogram(&quantized);
+    let kind = DataKind::of_volume(&volume, &quantized);
+    Ok(VolumeData {
+        source: source.clone(),
+        volume,
+        quantized,
+        octree,
+        default_window,
+        histogram,
+        kind,
+        load_seconds: started.elapsed().as_secs_f64(),
     })
 }
 
@@ -390,6 +477,7 @@ pub fn upload(
         upload_seconds: started.elapsed().as_secs_f64(),
         stream_status: None,
         network: None,
+        composite: None,
     })
 }
 

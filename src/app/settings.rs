@@ -182,6 +182,9 @@ pub struct AppSettings {
     pub show_slice_planes: bool,
     /// Frames a second when playing a time series.
     pub frame_rate: f32,
+    /// Frames of an in-memory time series kept loaded ahead of the one on screen (0 to
+    /// [`super::prefetch::MAX_PREFETCH_FRAMES`]; 0 loads each frame when it is asked for).
+    pub prefetch_frames: usize,
     /// Most recent first.
     pub recent: Vec<String>,
 }
@@ -229,6 +232,7 @@ impl Default for AppSettings {
             slice_linear: false,
             show_slice_planes: true,
             frame_rate: 4.0,
+            prefetch_frames: super::prefetch::DEFAULT_PREFETCH_FRAMES,
             recent: Vec::new(),
         }
     }

@@ -323,7 +323,15 @@ fn paint_overlays(
     painter.text(
         rect.left_top() + vec2(6.0, 4.0),
         Align2::LEFT_TOP,
-        format!("{} {index} / {}", convention.view_name(axis), dims[axis]),
+        match &scene.composite {
+            // The slices come from the renderer of one channel: say which.
+            Some(_) => format!(
+                "{} {index} / {} · channel 0",
+                convention.view_name(axis),
+                dims[axis]
+            ),
+            None => format!("{} {index} / {}", convention.view_name(axis), dims[axis]),
+        },
         egui::FontId::proportional(13.0),
         SLICE_COLORS[axis],
     );

@@ -22,14 +22,22 @@ const CT_WINDOWS: [(&str, f64, f64); 4] = [
     ("Bone", 400.0, 1800.0),
 ];
 
-/// Draws the panel; edits `settings` and `window` in place.
+/// Draws the panel; edits `settings` and `window` in place. `data` is the volume's, or with
+/// the `composite` shown, the channel being edited.
 pub fn show(
     ui: &mut Ui,
     settings: &mut AppSettings,
     window: &mut ValueWindow,
     data: Option<&VolumeData>,
+    composite: bool,
 ) {
-    ui.heading("Transfer function");
+    match data.filter(|_| composite) {
+        Some(data) => ui.heading(format!(
+            "Transfer function: channel {}",
+            data.volume.series.selected.channel
+        )),
+        None => ui.heading("Transfer function"),
+    };
     ui.add_space(4.0);
 
     egui::Grid::new("transfer_grid")
@@ -66,13 +74,19 @@ pub fn show(
             ui.end_row();
 
             ui.label("Shading");
-            ui.checkbox(&mut settings.shading.enabled, "Lit (headlight)")
-                .on_hover_text(
-                    "Blinn-Phong lighting from the eye: gradients of the filtered volume (dense, bricks), the voxels' faces (octree); DVR only",
-                );
+            ui.add_enabled(
+                !composite,
+                egui::Checkbox::new(&mut settings.shading.enabled, "Lit (headlight)"),
+            )
+            .on_hover_text(
+                "Blinn-Phong lighting from the eye: gradients of the filtered volume (dense, bricks), the voxels' faces (octree); DVR only",
+            )
+            .on_disabled_hover_text(
+                "The composite is unshaded: light would follow one channel's gradient, and which one is a choice it does not make. Choose one channel (Channels and time) to shade it.",
+            );
             ui.end_row();
 
-            if settings.shading.enabled {
+            if settings.shading.enabled && !composite {
                 let shading = &mut settings.shading;
                 for (name, value, range) in [
                     ("Ambient", &mut shading.ambient, 0.0..=1.0),

@@ -3,6 +3,7 @@
 //! statistics under the live transfer function. (What carries over from one volume to the
 //! next is in [`super::AppSettings`].)
 
+use super::channels::ChannelState;
 use crate::octree::{Clip, ClipPlane, LevelStatistics, TransferFunction};
 use crate::render::SliceView;
 use crate::volume::ValueWindow;
@@ -33,6 +34,11 @@ pub struct ViewState {
     pub rulers: Vec<Ruler>,
     /// The zoom and pan of the slice views across x, y and z (their slice is the cursor's).
     pub slice_views: [SliceView; 3],
+    /// Each channel's color, visibility and transfer function, for the composite (empty for
+    /// a one-channel file); the active one's transfer function is the panel's, live.
+    pub channels: Vec<ChannelState>,
+    /// The channel the transfer function editor edits.
+    pub active_channel: usize,
 }
 
 /// The crop box and clip plane as the panel edits them: each kept while switched off, so
@@ -115,6 +121,8 @@ impl Default for ViewState {
             clipping: Clipping::default(),
             rulers: Vec::new(),
             slice_views: std::array::from_fn(|axis| SliceView::new(axis, 0)),
+            channels: Vec::new(),
+            active_channel: 0,
         }
     }
 }
@@ -139,7 +147,19 @@ impl ViewState {
             clipping: Clipping::default(),
             rulers: Vec::new(),
             slice_views: std::array::from_fn(|axis| SliceView::new(axis, dims[axis] / 2)),
+            channels: Vec::new(),
+            active_channel: 0,
         }
+    }
+
+    /// The composite's channels as drawn now: the stored states, the active one with `live`
+    /// (the panel's transfer function) as its transfer function.
+    pub fn composite_channels(&self, live: TransferFunction) -> Vec<ChannelState> {
+        let mut channels = self.channels.clone();
+        if let Some(active) = channels.get_mut(self.active_channel) {
+            active.transfer = live;
+        }
+        channels
     }
 
     /// The voxel under the cursor.

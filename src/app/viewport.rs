@@ -21,6 +21,8 @@ pub enum DrawKey {
         transfer: TransferFunction,
         /// Changes with every new scene (volume or renderer).
         scene: u64,
+        /// The composite's table generation (0 when one channel is drawn).
+        layers: u64,
     },
     /// A slice view.
     Slice {

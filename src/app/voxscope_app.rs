@@ -10,6 +10,7 @@ use egui::Ui;
 
 use super::AppGpu;
 use super::central::{CentralView, ViewInputs};
+use super::channel_list;
 use super::command::{Command, CommandQueue};
 use super::dialogs::DialogKind;
 use super::file_browser::{BrowserOutcome, FileBrowser};
@@ -18,7 +19,8 @@ use super::jobs::{Job, JobError, JobEvent, Jobs, Opened};
 use super::menu::{self, NOTICE_DURATION};
 use super::octree_panel::{self, OctreeFacts};
 use super::overlays;
-use super::scene::{self, Scene, VolumeData, VolumeSource};
+use super::prefetch::{self, FrameKey, Prefetch};
+use super::scene::{self, FrameChange, Scene, VolumeData, VolumeSource};
 use super::settings::{AppSettings, STORAGE_KEY, TransferChoice, TransferPreset};
 use super::transfer_panel;
 use super::url_dialog::{UrlDialog, UrlOutcome};
@@ -49,6 +51,8 @@ pub struct VoxscopeApp {
     pub(super) url_dialog: Option<UrlDialog>,
     /// Playing a time series.
     pub(super) playback: Playback,
+    /// The next frames of an in-memory time series, loaded ahead.
+    pub(super) prefetch: Prefetch,
     /// The desktop could not show a file dialog: use the app's browser from now on.
     pub(super) no_desktop_dialogs: bool,
     /// The clip the first volume opens with (the command line's `--clip-box`, `--clip-plane`).
@@ -85,6 +89,7 @@ impl VoxscopeApp {
             browser: None,
             url_dialog: None,
             playback: Playback::default(),
+            prefetch: Prefetch::default(),
             no_desktop_dialogs: false,
             first_clip: None,
         };
@@ -118,9 +123,31 @@ impl VoxscopeApp {
     /// open or a frame's measurement is on its way back.
     pub fn is_busy(&self) -> bool {
         self.jobs.is_busy()
+            || self.prefetch.is_busy()
             || self.central.is_measuring()
             || (self.scene.is_some() && self.central.is_refining())
             || self.browser.as_ref().is_some_and(FileBrowser::is_listing)
+    }
+
+    /// Whether a frame or volume is loading (a frame shown from the prefetch is not).
+    pub fn is_loading(&self) -> bool {
+        self.jobs.opening.is_some()
+    }
+
+    /// The frames of the time series held ready ahead of the one on screen.
+    pub fn prefetched(&self) -> Vec<FrameKey> {
+        self.prefetch.ready()
+    }
+
+    /// The frame on screen.
+    pub fn frame(&self) -> Option<FrameKey> {
+        self.scene.as_ref().map(FrameKey::of_scene)
+    }
+
+    /// The composite's channels as the 3D views draw them, when the composite is shown.
+    pub fn composite_channels(&self) -> Option<Vec<super::ChannelState>> {
+        self.scene.as_ref()?.composite.as_ref()?;
+        Some(self.view.composite_channels(self.transfer()))
     }
 
     /// The streaming renderer's latest status, if it draws the volume on screen.
@@ -249,7 +276,13 @@ impl VoxscopeApp {
                 JobEvent::Opened(opened) => self.show_opened(*opened),
                 JobEvent::OpenEnded(JobError::Cancelled) => self.notify("opening cancelled"),
                 JobEvent::OpenEnded(JobError::Failed(message)) => self.fail(message),
-                JobEvent::Uploaded(scene) => {
+                JobEvent::Uploaded(mut scene) => {
+                    // The composite does not depend on the renderer of one channel: it stays.
+                    if let Some(old) = self.scene.take()
+                        && Arc::ptr_eq(&old.data, &scene.data)
+                    {
+                        scene.composite = old.composite;
+                    }
                     self.scene = Some(*scene);
                     self.scene_serial += 1;
                 }
@@ -269,6 +302,7 @@ impl VoxscopeApp {
                 JobEvent::DialogClosed(kind, answer) => self.dialog_closed(kind, answer, ctx),
             }
         }
+        self.prefetch.poll();
         if let Some(gpu) = &self.gpu {
             let scale = self.scene.as_ref().map_or([1.0; 3], Scene::voxel_scale);
             self.central
@@ -285,9 +319,20 @@ impl VoxscopeApp {
             scene,
             statistics,
             frame_change,
+            channels,
+            notice,
         }: Opened,
     ) {
+        if let Some(notice) = notice {
+            self.notify(notice);
+        }
         if frame_change && self.scene.is_some() {
+            // The user's channel settings stay; a composite seen for the first time takes
+            // the file's.
+            if scene.composite.is_some() && self.view.channels.len() != channels.len() {
+                self.view.channels = channels;
+                self.view.active_channel = 0;
+            }
             // Another channel or time point: the camera, transfer function, level, cursor,
             // clipping and rulers stay; the statistics are the new frame's (the clip's count
             // follows, as after any clip edit).
@@ -326,6 +371,8 @@ impl VoxscopeApp {
             scene.applied_transfer,
             statistics,
         );
+        self.view.channels = channels;
+        self.prefetch.clear();
         if let Some(clip) = self.first_clip.take() {
             self.view.clipping = Clipping::from(clip);
         }
@@ -373,7 +420,11 @@ impl VoxscopeApp {
             ));
         }
         let transfer = self.transfer();
-        if !self.view.statistics_current(&transfer) && self.jobs.counting.is_none() {
+        // The composite has no octree to count (the panel says what it can of it).
+        if scene.composite.is_none()
+            && !self.view.statistics_current(&transfer)
+            && self.jobs.counting.is_none()
+        {
             let wake = ctx.clone();
             self.jobs.counting = Some(scene::statistics_job(
                 Arc::clone(&scene.data),
@@ -382,6 +433,51 @@ impl VoxscopeApp {
                 move || wake.request_repaint(),
             ));
         }
+        self.follow_prefetch(ctx);
+    }
+
+    /// Keeps the frames after the one on screen prefetched (an in-memory time series only;
+    /// see [`super::prefetch`]).
+    fn follow_prefetch(&mut self, ctx: &egui::Context) {
+        let (Some(scene), Some(gpu)) = (&self.scene, &self.gpu) else {
+            return;
+        };
+        if self.jobs.opening.is_some() {
+            // The window moves once the frame being opened is on screen.
+            return;
+        }
+        let series = &scene.data.volume.series;
+        let count = if scene.renderer.stream().is_some() || series.time_points < 2 {
+            0
+        } else {
+            prefetch::frames_within_cap(
+                scene.bytes(),
+                self.settings
+                    .prefetch_frames
+                    .min(prefetch::MAX_PREFETCH_FRAMES),
+            )
+        };
+        let wanted = prefetch::window(FrameKey::of_scene(scene), series.time_points, count);
+        let options = scene.options;
+        let source = scene.data.source.clone();
+        let context = Arc::clone(&gpu.context);
+        let choice = self.settings.transfer;
+        let current = self.frame_change(FrameKey::of_scene(scene));
+        self.prefetch.plan(&wanted, options, |key| {
+            let frame = FrameChange {
+                selection: key.selection(),
+                composite: key.channel.is_none(),
+                ..current
+            };
+            let wake = ctx.clone();
+            Job::spawn(
+                format!("time point {} of {} (prefetched)", key.time, source.spec()),
+                move || wake.request_repaint(),
+                move |progress| {
+                    scene::prepare_scene(&source, Some(frame), choice, &context, options, progress)
+                },
+            )
+        });
     }
 }
 
@@ -412,17 +508,39 @@ impl eframe::App for VoxscopeApp {
                 .default_size(300.0)
                 .show(ui, |ui| {
                     egui::ScrollArea::vertical().show(ui, |ui| {
-                        let data = self.scene.as_ref().map(|s| s.data.as_ref());
-                        if let Some(data) = data {
+                        if let Some(scene) = &self.scene {
+                            let shown = frame_controls::Shown {
+                                series: &scene.data.volume.series,
+                                composite: scene.composite.is_some(),
+                                prefetched: self.prefetch.ready().len(),
+                                streamed: scene.renderer.stream().is_some(),
+                            };
                             frame_controls::show(
                                 ui,
-                                &data.volume.series,
+                                &shown,
                                 &mut self.playback,
-                                &mut self.settings.frame_rate,
+                                &mut self.settings,
                                 &mut self.commands,
                             );
                         }
-                        transfer_panel::show(ui, &mut self.settings, &mut self.view.window, data);
+                        let composite = self.scene.as_ref().and_then(|s| s.composite.as_ref());
+                        if let Some(composite) = composite {
+                            channel_list::show(ui, composite, &mut self.view, &mut self.commands);
+                        }
+                        let data = match composite {
+                            Some(composite) => composite
+                                .channels
+                                .get(self.view.active_channel)
+                                .map(Arc::as_ref),
+                            None => self.scene.as_ref().map(|s| s.data.as_ref()),
+                        };
+                        transfer_panel::show(
+                            ui,
+                            &mut self.settings,
+                            &mut self.view.window,
+                            data,
+                            composite.is_some(),
+                        );
                     });
                 });
         }
@@ -497,7 +615,7 @@ impl eframe::App for VoxscopeApp {
                 .playback
                 .next(series, self.settings.frame_rate, loading)
             {
-                self.commands.send(Command::ShowFrame(next));
+                self.commands.send(Command::ShowTime(next));
             }
             if self.playback.playing {
                 ctx.request_repaint_after(self.playback.wait(self.settings.frame_rate));

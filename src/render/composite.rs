@@ -10,6 +10,8 @@
 //! has no probe: those follow one channel's gradient or opacity, and which one is a choice
 //! the app makes.
 
+use std::sync::atomic::{AtomicUsize, Ordering};
+
 use wgpu::util::DeviceExt;
 
 use super::pipeline::{
@@ -91,12 +93,21 @@ fn block_ranges(quantized: &QuantizedVolume) -> Vec<[u16; 2]> {
     ranges
 }
 
-/// Per block, 1 where some layer's table has an opacity above 0 within the block's range of
-/// that layer's levels (`ranges[layer]`), else 0.
-fn visible_blocks(layers: &[ChannelLayer<'_>], ranges: &[Vec<[u16; 2]>]) -> Vec<u32> {
+/// Per block, 1 where some shown layer's table has an opacity above 0 within the block's range
+/// of that layer's levels (`ranges[layer]`), else 0.
+fn visible_blocks(
+    layers: &[ChannelLayer<'_>],
+    ranges: &[Vec<[u16; 2]>],
+    shown: &[bool],
+) -> Vec<u32> {
     let blocks = ranges.first().map_or(0, Vec::len);
     let mut visible = vec![0u32; blocks];
-    for (layer, ranges) in layers.iter().zip(ranges) {
+    for ((layer, ranges), _) in layers
+        .iter()
+        .zip(ranges)
+        .zip(shown)
+        .filter(|(_, shown)| **shown)
+    {
         // How many levels below each level are visible: a range's count in O(1).
         let table = layer.transfer.lookup_table(layer.quantized.quantization);
         let mut below = Vec::with_capacity(table.len() + 1);
@@ -123,6 +134,8 @@ pub struct CompositeVolume {
     /// Each channel's level range per skipping block, and the blocks' visibility.
     block_ranges: Vec<Vec<[u16; 2]>>,
     visible: wgpu::Buffer,
+    /// Blocks with something visible under the layers last written (the skipping's reach).
+    visible_count: AtomicUsize,
     pub dims: [usize; 3],
     pub spacing: [f64; 3],
     pub channels: usize,
@@ -175,14 +188,17 @@ impl CompositeVolume {
             .iter()
             .map(|layer| block_ranges(layer.quantized))
             .collect();
+        let shown = vec![true; layers.len()];
+        let flags = visible_blocks(layers, &block_ranges, &shown);
+        let visible_count = AtomicUsize::new(flags.iter().filter(|&&f| f != 0).count());
         let visible = context
             .device
             .create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some("voxscope::composite_visible_blocks"),
-                contents: bytemuck::cast_slice(&visible_blocks(layers, &block_ranges)),
+                contents: bytemuck::cast_slice(&flags),
                 usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             });
-        let tables = Self::tables(layers);
+        let tables = Self::tables(layers, &shown);
         let tables = context
             .device
             .create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -202,6 +218,7 @@ impl CompositeVolume {
             tables,
             block_ranges,
             visible,
+            visible_count,
             dims,
             spacing,
             channels: layers.len(),
@@ -211,14 +228,42 @@ impl CompositeVolume {
     /// Writes new transfer functions and colors (as many layers as at upload; their levels
     /// are not read again) and the blocks the ray may skip.
     pub fn set_layers(&self, context: &GpuContext, layers: &[ChannelLayer<'_>]) {
+        self.set_shown_layers(context, layers, &vec![true; layers.len()]);
+    }
+
+    /// [`Self::set_layers`] with some layers hidden (`shown[i]` false): a hidden layer's
+    /// table is transparent black, so it adds no color, hides nothing behind it and keeps
+    /// no block from being skipped (the app's eye toggle).
+    pub fn set_shown_layers(
+        &self,
+        context: &GpuContext,
+        layers: &[ChannelLayer<'_>],
+        shown: &[bool],
+    ) {
         debug_assert_eq!(layers.len(), self.channels);
-        context
-            .queue
-            .write_buffer(&self.tables, 0, bytemuck::cast_slice(&Self::tables(layers)));
-        let visible = visible_blocks(layers, &self.block_ranges);
+        debug_assert_eq!(shown.len(), self.channels);
+        context.queue.write_buffer(
+            &self.tables,
+            0,
+            bytemuck::cast_slice(&Self::tables(layers, shown)),
+        );
+        let visible = visible_blocks(layers, &self.block_ranges, shown);
+        self.visible_count.store(
+            visible.iter().filter(|&&f| f != 0).count(),
+            Ordering::Relaxed,
+        );
         context
             .queue
             .write_buffer(&self.visible, 0, bytemuck::cast_slice(&visible));
+    }
+
+    /// Blocks of 8³ voxels where some shown channel is visible under the layers last
+    /// written, and all blocks: what empty-space skipping leaves to march.
+    pub fn block_counts(&self) -> (usize, usize) {
+        (
+            self.visible_count.load(Ordering::Relaxed),
+            self.block_ranges.first().map_or(0, Vec::len),
+        )
     }
 
     /// Bytes on the GPU: textures and tables.
@@ -226,11 +271,14 @@ impl CompositeVolume {
         self.bytes
     }
 
-    fn tables(layers: &[ChannelLayer<'_>]) -> Vec<u32> {
+    fn tables(layers: &[ChannelLayer<'_>], shown: &[bool]) -> Vec<u32> {
         layers
             .iter()
-            .flat_map(|layer| {
-                tinted_lookup_table(layer.transfer, layer.quantized.quantization, layer.color)
+            .zip(shown)
+            .flat_map(|(layer, &shown)| {
+                let table =
+                    tinted_lookup_table(layer.transfer, layer.quantized.quantization, layer.color);
+                if shown { table } else { vec![0; table.len()] }
             })
             .collect()
     }

@@ -6,6 +6,27 @@ use super::{LoadError, LoadOptions, Selection, Volume, format_dims, load};
 /// The most channels shown together (the composite renderer's textures hold 8).
 pub const MAX_CHANNELS: usize = 8;
 
+/// The colors channels take where the file names none, in napari's order for additive
+/// channels: green, magenta, cyan, yellow, red, blue, orange, gray (the command line's
+/// `--channel-colors` names them).
+pub const DEFAULT_CHANNEL_COLORS: [[u8; 3]; MAX_CHANNELS] = [
+    [0, 255, 0],
+    [255, 0, 255],
+    [0, 255, 255],
+    [255, 255, 0],
+    [255, 0, 0],
+    [0, 0, 255],
+    [255, 165, 0],
+    [255, 255, 255],
+];
+
+/// Channel `index`'s color: the file's (`info`, OME or omero) where it names one, else
+/// [`DEFAULT_CHANNEL_COLORS`] in turn.
+pub fn channel_color(info: Option<&super::ChannelInfo>, index: usize) -> [u8; 3] {
+    info.and_then(|c| c.color)
+        .unwrap_or(DEFAULT_CHANNEL_COLORS[index % DEFAULT_CHANNEL_COLORS.len()])
+}
+
 /// Every channel of `spec` at `options.select.time` (one volume for a one-channel file).
 /// A file of more than [`MAX_CHANNELS`] channels is an error that says to pick one.
 pub fn load_all_channels(spec: &str, options: &LoadOptions) -> Result<Vec<Volume>, LoadError> {

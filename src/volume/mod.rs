@@ -24,7 +24,9 @@ pub(crate) mod values;
 mod voxel_type;
 mod vti;
 
-pub use channels::{MAX_CHANNELS, load_all_channels, load_as_channels};
+pub use channels::{
+    DEFAULT_CHANNEL_COLORS, MAX_CHANNELS, channel_color, load_all_channels, load_as_channels,
+};
 pub use error::LoadError;
 pub use format::{Format, dialog_extensions, dialog_filter_name};
 pub use nrrd::NrrdEncoding;

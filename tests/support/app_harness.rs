@@ -53,11 +53,16 @@ pub fn settle(harness: &mut Harness<'_, VoxscopeApp>) {
 /// the nodes per ray were counted on depends on the machine's load.
 pub fn snapshot(harness: &mut Harness<'_, VoxscopeApp>, name: &str) {
     let right = harness.ctx.content_rect().right();
-    let rows: Vec<egui::Rect> = ["Load + build", "GPU time", "Nodes per ray"]
+    // The composite counts samples per ray where the renderers of one channel count nodes.
+    let per_ray = ["Nodes per ray", "Samples per ray"]
+        .into_iter()
+        .find(|label| harness.query_by_label(label).is_some())
+        .expect("the panel shows nodes or samples per ray");
+    let rows: Vec<egui::Rect> = ["Load + build", "GPU time", per_ray]
         .iter()
         .map(|label| harness.get_by_label(label).rect())
         .collect();
-    let values_left = harness.get_by_label("Nodes per ray").rect().right() + 4.0;
+    let values_left = harness.get_by_label(per_ray).rect().right() + 4.0;
     for row in rows {
         harness.mask(egui::Rect::from_min_max(
             egui::pos2(values_left, row.top()),

@@ -11,7 +11,7 @@ use super::super::slice_pane;
 use super::super::view_state::ViewState;
 use super::super::viewport::DrawKey;
 use super::{CentralView, PaneKind, pane_kinds};
-use crate::render::{FrameProbe, RenderError, RenderSettings, SliceSettings};
+use crate::render::{Frame, FrameProbe, RenderError, RenderSettings, SliceSettings};
 
 impl CentralView {
     /// Draws every pane whose image is out of date (or all, when drawing continuously, or
@@ -44,6 +44,18 @@ impl CentralView {
         }
         let main = settings.transfer.with_window(view.window);
         let compare = settings.compare_transfer.with_window(view.window);
+        // The composite's tables follow the channel list's edits (no reload); its generation
+        // tells the panes drawn with older tables.
+        let composite_channels = view.composite_channels(main);
+        let layers = match &mut scene.composite {
+            Some(composite) => composite.apply(&gpu.context, &composite_channels),
+            None => 0,
+        };
+        // With the composite shown the slices are channel 0's (the renderer of one channel).
+        let slice_transfer = match (&scene.composite, composite_channels.first()) {
+            (Some(_), Some(first)) => first.transfer,
+            _ => main,
+        };
         let kinds = pane_kinds(settings);
         let count = kinds.len();
         let mut drew = false;
@@ -75,6 +87,7 @@ impl CentralView {
                         },
                         transfer,
                         scene: serial,
+                        layers,
                     }
                 }
                 PaneKind::Slice(axis) => {
@@ -84,8 +97,8 @@ impl CentralView {
                     DrawKey::Slice {
                         settings: SliceSettings {
                             frame,
-                            window: view.window,
-                            colormap: settings.transfer.colormap,
+                            window: slice_transfer.window,
+                            colormap: slice_transfer.colormap,
                             nearest: !settings.slice_linear,
                         },
                         size,
@@ -118,7 +131,7 @@ impl CentralView {
                     transfer,
                     ..
                 } => {
-                    if scene.applied_transfer != *transfer {
+                    if scene.composite.is_none() && scene.applied_transfer != *transfer {
                         scene
                             .renderer
                             .set_transfer(&gpu.context, &mut encoder, transfer, None)?;
@@ -128,14 +141,27 @@ impl CentralView {
                         !drew && self.frame_probe.as_ref().is_some_and(FrameProbe::is_idle);
                     let probe = self.frame_probe.as_mut().filter(|_| measure);
                     let writes = probe.as_ref().and_then(|p| p.timestamp_writes());
-                    scene.renderer.encode(
-                        &gpu.context,
-                        &mut encoder,
-                        target,
-                        camera,
-                        render_settings,
-                        writes,
-                    );
+                    match &scene.composite {
+                        Some(composite) => composite.raycaster.encode(
+                            &gpu.context,
+                            &mut encoder,
+                            &Frame {
+                                volume: &composite.volume,
+                                target,
+                                camera,
+                                settings: render_settings,
+                            },
+                            writes,
+                        ),
+                        None => scene.renderer.encode(
+                            &gpu.context,
+                            &mut encoder,
+                            target,
+                            camera,
+                            render_settings,
+                            writes,
+                        ),
+                    }
                     if let Some(probe) = probe {
                         probe.record(&gpu.context, &mut encoder, target);
                         gpu.context.queue.submit([encoder.finish()]);
@@ -145,13 +171,20 @@ impl CentralView {
                     }
                     if self.logged_scene != serial {
                         self.logged_scene = serial;
+                        let how = match &scene.composite {
+                            Some(composite) => format!(
+                                "composite of {} channels, dense march",
+                                composite.channels.len()
+                            ),
+                            None => format!(
+                                "{} renderer, level {}",
+                                scene.options.kind.name(),
+                                render_settings.max_level
+                            ),
+                        };
                         eprintln!(
-                            "voxscope: drew {} ({}x{} px, {} renderer, level {})",
-                            scene.data.volume.name,
-                            target.width,
-                            target.height,
-                            scene.options.kind.name(),
-                            render_settings.max_level
+                            "voxscope: drew {} ({}x{} px, {how})",
+                            scene.data.volume.name, target.width, target.height,
                         );
                     }
                 }
@@ -168,7 +201,8 @@ impl CentralView {
             pane.drawn = Some(key);
             drew = true;
         }
-        if let Some(picking) = &mut self.picking {
+        // The composite has no probe (render/composite.rs says why).
+        if let Some(picking) = self.picking.as_mut().filter(|_| scene.composite.is_none()) {
             let drawn: Vec<Option<DrawKey>> = self.panes.iter().map(|p| p.drawn).collect();
             picking.record(gpu, scene, &drawn);
         }

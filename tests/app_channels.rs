@@ -1,0 +1,240 @@
+//! Multi-channel volumes in the app, driven through egui_kittest on the software Vulkan
+//! device: a multi-channel file opens as the composite of its channels with the file's colors
+//! and windows; the channel list's edits (visibility, the channel being edited, its window)
+//! stay live, with no load; shading and the level slider say why the composite has none;
+//! one channel is a click away in the channel combo, and the composite comes back as the
+//! user left it.
+
+mod support;
+
+use support::app_harness::{differing_pixels, harness, lit_pixels, settle, snapshot, view};
+
+use egui_kittest::kittest::{NodeT, Queryable};
+use voxscope::app::{Command, FrameKey, VolumeSource};
+use voxscope::volume::{Selection, ValueWindow};
+
+/// Relative (tests run in the package's folder), so the snapshot's status bar is the same in
+/// every checkout: 2 channels (LUTs black to cyan and to orange) × 2 time points.
+const HYPERSTACK: &str = "tests/data/channels/hyperstack.tif";
+
+/// t = 2, c = 2 with `omero` labels, colors (green, magenta) and windows.
+const OME_ZARR: &str = "tests/data/ome-zarr/tczyx-v04.ome.zarr";
+
+fn open(harness: &mut egui_kittest::Harness<'_, voxscope::app::VoxscopeApp>, spec: &str) {
+    let ctx = harness.ctx.clone();
+    harness
+        .state_mut()
+        .run_command(Command::Open(VolumeSource::Spec(spec.into())), &ctx);
+    settle(harness);
+    assert_eq!(harness.state().error(), None);
+}
+
+/// The largest value of color component `component` over the image.
+fn max_component(image: &image::RgbaImage, component: usize) -> u8 {
+    image.pixels().map(|p| p.0[component]).max().unwrap_or(0)
+}
+
+#[test]
+fn a_two_channel_file_opens_as_the_composite_and_its_edits_stay_live() {
+    let mut harness = harness();
+    open(&mut harness, HYPERSTACK);
+    let state = harness.state();
+    assert_eq!(
+        state.frame(),
+        Some(FrameKey {
+            time: 0,
+            channel: None
+        })
+    );
+    let channels = state.composite_channels().expect("the composite is shown");
+    assert_eq!(channels.len(), 2);
+    // The ImageJ LUTs' end colors, and the pages' labels as names.
+    assert_eq!(channels[0].color, [0, 255, 255]);
+    assert_eq!(channels[1].color, [255, 127, 0]);
+    assert_eq!(channels[0].name, "nuclei z0 t0");
+    assert!(channels.iter().all(|c| c.visible));
+    let both = view(&harness);
+    assert!(lit_pixels(&both) > 1000, "the composite is drawn");
+    assert!(max_component(&both, 0) > 100, "the orange channel adds red");
+    both.save(support::app_harness::scratch("composite.png"))
+        .expect("write the view");
+    let channel_combo = harness
+        .query_all_by_label("Channel")
+        .filter_map(|node| node.accesskit_node().value())
+        .collect::<Vec<_>>();
+    assert_eq!(channel_combo, ["All (composite)"]);
+    harness.get_by_label("0: nuclei z0 t0");
+    harness.get_by_label("1: actin z0 t0");
+    assert!(
+        harness
+            .get_by_label("Lit (headlight)")
+            .accesskit_node()
+            .is_disabled(),
+        "the composite is unshaded: its shading control is disabled"
+    );
+    assert!(
+        harness
+            .query_all_by_label("Max level")
+            .any(|node| node.accesskit_node().is_disabled()),
+        "the composite has no levels"
+    );
+    harness.get_by_label("Samples per ray");
+    snapshot(&mut harness, "channels_composite");
+
+    // Hiding the orange channel: live, no load; what is left is cyan (no red).
+    harness.state_mut().view.channels[1].visible = false;
+    settle(&mut harness);
+    assert!(!harness.state().is_loading());
+    let cyan = view(&harness);
+    assert!(lit_pixels(&cyan) > 1000);
+    assert!(
+        max_component(&cyan, 0) <= 2,
+        "a hidden channel adds no color (red up to {})",
+        max_component(&cyan, 0)
+    );
+    harness.state_mut().view.channels[1].visible = true;
+
+    // The heat map and the per-ray figures count the composite's samples: with every channel
+    // hidden, every block is skipped and no ray samples anything.
+    harness.state_mut().settings.heatmap = true;
+    settle(&mut harness);
+    let samples = harness.state().frame_report().expect("measured");
+    let heat = view(&harness);
+    heat.save(support::app_harness::scratch("composite-heat.png"))
+        .expect("write the view");
+    assert!(
+        differing_pixels(&both, &heat) > 1000,
+        "the heat map is drawn"
+    );
+    assert!(samples.nodes_per_ray_avg > 1.0, "{samples:?}");
+    for channel in &mut harness.state_mut().view.channels {
+        channel.visible = false;
+    }
+    settle(&mut harness);
+    let none = harness.state().frame_report().expect("measured");
+    assert_eq!(none.nodes_per_ray_max, 0, "every block skipped: {none:?}");
+    for channel in &mut harness.state_mut().view.channels {
+        channel.visible = true;
+    }
+    harness.state_mut().settings.heatmap = false;
+
+    // Editing channel 1: the panel takes its transfer function; its window changes alone.
+    let ctx = harness.ctx.clone();
+    let before = harness.state().composite_channels().expect("composite");
+    harness.get_by_label("1: actin z0 t0").click();
+    harness.run_steps(2);
+    assert_eq!(
+        harness.state().view.active_channel,
+        1,
+        "a click on the row selects it"
+    );
+    assert_eq!(harness.state().transfer(), before[1].transfer);
+    let narrow = ValueWindow {
+        low: before[1].transfer.window.high * 0.9,
+        high: before[1].transfer.window.high,
+    };
+    harness.state_mut().view.window = narrow;
+    settle(&mut harness);
+    assert!(!harness.state().is_loading(), "window edits need no load");
+    let after = harness.state().composite_channels().expect("composite");
+    assert_eq!(after[1].transfer.window, narrow);
+    assert_eq!(
+        after[0].transfer, before[0].transfer,
+        "channel 0 is untouched"
+    );
+    let narrowed = view(&harness);
+    assert!(
+        differing_pixels(&both, &narrowed) > 100,
+        "channel 1's window shows at once"
+    );
+    harness.get_by_label("Transfer function: channel 1");
+
+    // The Slices layout: the composite in 3D beside channel 0's slices.
+    harness
+        .state_mut()
+        .run_command(Command::SetLayout(voxscope::app::Layout::Slices), &ctx);
+    settle(&mut harness);
+    assert_eq!(harness.state().pane_sizes().len(), 4);
+    let slices = view(&harness);
+    slices
+        .save(support::app_harness::scratch("composite-slices.png"))
+        .expect("write the view");
+    assert!(lit_pixels(&slices) > 4000);
+    harness
+        .state_mut()
+        .run_command(Command::SetLayout(voxscope::app::Layout::Single), &ctx);
+    settle(&mut harness);
+
+    // One channel with any renderer, then back to the composite as it was left.
+    harness.state_mut().run_command(
+        Command::ShowFrame(Selection {
+            channel: 0,
+            time: 0,
+        }),
+        &ctx,
+    );
+    settle(&mut harness);
+    assert_eq!(
+        harness.state().frame(),
+        Some(FrameKey {
+            time: 0,
+            channel: Some(0)
+        })
+    );
+    assert!(harness.state().composite_channels().is_none());
+    assert!(
+        !harness
+            .get_by_label("Lit (headlight)")
+            .accesskit_node()
+            .is_disabled()
+    );
+    harness
+        .state_mut()
+        .run_command(Command::ShowComposite, &ctx);
+    settle(&mut harness);
+    let back = harness
+        .state()
+        .composite_channels()
+        .expect("composite again");
+    assert_eq!(back[1].transfer.window, narrow, "the user's window stays");
+    assert_eq!(back[1].color, [255, 127, 0]);
+}
+
+#[test]
+fn ome_zarr_channels_take_their_omero_colors_and_windows() {
+    let mut harness = harness();
+    open(&mut harness, OME_ZARR);
+    let channels = harness.state().composite_channels().expect("composite");
+    let summary: Vec<(&str, [u8; 3], [f64; 2])> = channels
+        .iter()
+        .map(|c| {
+            (
+                c.name.as_str(),
+                c.color,
+                [c.transfer.window.low, c.transfer.window.high],
+            )
+        })
+        .collect();
+    assert_eq!(
+        summary,
+        [
+            ("nuclei", [0, 255, 0], [2000.0, 30000.0]),
+            ("head", [255, 0, 255], [10.0, 200.0]),
+        ]
+    );
+    // Another time point keeps the channels' settings.
+    let ctx = harness.ctx.clone();
+    harness.state_mut().view.channels[0].color = [255, 255, 0];
+    harness.state_mut().run_command(Command::ShowTime(1), &ctx);
+    settle(&mut harness);
+    assert_eq!(
+        harness.state().frame(),
+        Some(FrameKey {
+            time: 1,
+            channel: None
+        })
+    );
+    let channels = harness.state().composite_channels().expect("composite");
+    assert_eq!(channels[0].color, [255, 255, 0]);
+    assert_eq!(channels[1].transfer.window.high, 200.0);
+}
