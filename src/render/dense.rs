@@ -11,8 +11,8 @@ use super::pipeline::{
     uniform_entry,
 };
 use super::raycaster::{
-    ProbeTarget, StandIns, VolumeShape, frame_params_buffer, frame_variant, level_variant, probe_variant,
-    raycast_params,
+    ProbeTarget, StandIns, VolumeShape, frame_params_buffer, frame_variant, level_variant,
+    probe_variant, raycast_params,
 };
 use super::{Frame, GpuContext, GpuTransferTable, RenderError, RenderSettings, RenderTarget};
 use crate::octree::TransferFunction;
@@ -193,9 +193,11 @@ impl DenseRaycaster {
             target,
             &self.stand_ins.probe,
         );
-        let pipeline = self
-            .pipelines
-            .get(context, 0, level_variant(frame_variant(frame.settings), &params));
+        let pipeline = self.pipelines.get(
+            context,
+            0,
+            level_variant(frame_variant(frame.settings), &params),
+        );
         dispatch_per_pixel(
             encoder,
             "dense",
@@ -225,9 +227,11 @@ impl DenseRaycaster {
             &self.stand_ins.target,
             probe.output,
         );
-        let pipeline = self
-            .pipelines
-            .get(context, 0, level_variant(probe_variant(probe.settings), &params));
+        let pipeline = self.pipelines.get(
+            context,
+            0,
+            level_variant(probe_variant(probe.settings), &params),
+        );
         dispatch_probe(encoder, "dense_probe", pipeline, &bind_group);
     }
 
