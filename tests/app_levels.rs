@@ -6,19 +6,8 @@
 mod support;
 
 use egui_kittest::kittest::Queryable;
-use support::app_harness::{differing_pixels, harness, settle, snapshot, view};
+use support::app_harness::{choose_renderer, differing_pixels, harness, settle, snapshot, view};
 use voxscope::render::RendererKind;
-
-/// Switches the renderer through the Octree panel's combo box.
-fn choose_renderer(
-    harness: &mut egui_kittest::Harness<'_, voxscope::app::VoxscopeApp>,
-    name: &str,
-) {
-    harness.get_by_label("Renderer").click();
-    harness.run_steps(2);
-    harness.get_by_label(name).click();
-    settle(harness);
-}
 
 fn set_max_level(harness: &mut egui_kittest::Harness<'_, voxscope::app::VoxscopeApp>, level: u32) {
     harness

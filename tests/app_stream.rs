@@ -5,23 +5,13 @@
 
 mod support;
 
-use support::app_harness::{harness, settle, view};
+use support::app_harness::{choose_renderer, harness, settle, view};
 use support::http_server::{Faults, FileServer};
 use support::reference::psnr;
 
 use egui_kittest::kittest::Queryable;
 use voxscope::app::{Command, VolumeSource};
 use voxscope::render::RendererKind;
-
-fn choose_renderer(
-    harness: &mut egui_kittest::Harness<'_, voxscope::app::VoxscopeApp>,
-    name: &str,
-) {
-    harness.get_by_label("Renderer").click();
-    harness.run_steps(2);
-    harness.get_by_label(name).click();
-    settle(harness);
-}
 
 #[test]
 fn the_streaming_renderer_refines_the_head_to_the_bricks_picture() {
@@ -80,6 +70,32 @@ fn an_ome_zarr_store_streams_from_the_file() {
     // The store's level 0 (48×48×20) is what streams: 2×2×1 bricks.
     assert_eq!(status.counters.levels[0].total, 4);
     assert!(support::app_harness::lit_pixels(&view(&harness)) > 1000);
+}
+
+#[test]
+fn a_volume_longer_than_the_octree_streams_from_memory_at_full_resolution() {
+    let mut harness = harness();
+    let ctx = harness.ctx.clone();
+    // 1 040 voxels along x: beyond the voxel octree's 1 024.
+    harness.state_mut().run_command(
+        Command::Open(VolumeSource::Spec("synthetic:gradient:1040x40x36".into())),
+        &ctx,
+    );
+    settle(&mut harness);
+    assert_eq!(harness.state().error(), None);
+    assert_eq!(harness.state().renderer_kind(), Some(RendererKind::Stream));
+    let status = harness.state().stream_status().expect("a streaming status");
+    assert!(status.complete && status.errors.is_empty(), "{status:?}");
+    // The full resolution streams: level 0 is 33×2×2 bricks of 32³, and the max level is the
+    // pyramid's depth (11), past the octree's 10.
+    assert_eq!(status.counters.levels[0].total, 33 * 2 * 2);
+    assert!(status.counters.levels[0].resident > 0);
+    assert_eq!(harness.state().view.max_level, 11);
+    let image = view(&harness);
+    image
+        .save(support::image_dir().join("app-stream-1040.png"))
+        .expect("write the view");
+    assert!(support::app_harness::lit_pixels(&image) > 1000);
 }
 
 #[test]

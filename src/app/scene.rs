@@ -8,16 +8,19 @@ use super::channels::{ChannelState, CompositeScene};
 use super::jobs::{Counted, Job, JobError, Opened};
 use super::settings::TransferChoice;
 use crate::octree::{
-    self, BuildOptions, Clip, Colormap, DataKind, Octree, Preset, TransferFunction,
+    self, BuildOptions, Clip, Colormap, DataKind, MAX_DEPTH, Octree, Preset, TransferFunction,
     default_transfer,
 };
 use crate::progress::Progress;
 use crate::render::{GpuContext, RendererKind, RendererOptions, VolumeRenderer};
-use crate::stream::{StreamOptions, StreamStatus, ZarrSource};
+use crate::stream::{
+    BrickSource, Downsampling, MemorySource, StreamOptions, StreamStatus, ZarrSource,
+};
 use crate::volume::ome_zarr::{self, Pyramid, VOLUME_VOXEL_BUDGET};
 use crate::volume::remote::{RemoteOptions, RemoteStats};
 use crate::volume::{
-    self, LoadOptions, MAX_CHANNELS, QuantizedVolume, Selection, ValueWindow, Volume,
+    self, LoadOptions, MAX_CHANNELS, QuantizedVolume, Selection, ValueScale, ValueWindow, Volume,
+    VoxelData,
 };
 
 /// What to open: the embedded sample or a file path / synthetic spec.
@@ -83,6 +86,11 @@ pub struct VolumeData {
     /// CT, labels, or other: what the presets and defaults follow.
     pub kind: DataKind,
     pub load_seconds: f64,
+    /// The full-resolution pyramid of a volume in memory longer than the voxel octree holds
+    /// (1024 voxels a side): the streaming renderer draws it, and `volume`, `quantized` and
+    /// `octree` are its finest level within [`PANEL_LEVEL_VOXELS`], as for a large OME-Zarr
+    /// store.
+    pub pyramid: Option<Arc<MemorySource>>,
 }
 
 /// Bins of the histogram the transfer panel draws.
@@ -284,10 +292,21 @@ pub fn prepare_scene(
         None => source.load(select)?,
     };
     progress.check()?;
+    // A volume in memory longer than the voxel octree holds streams from a pyramid of its own.
+    let (volume, pyramid) = if volume.dims.iter().any(|&d| d > 1 << MAX_DEPTH) {
+        let (panel, pyramid) = in_memory_pyramid(volume, progress)?;
+        options.kind = RendererKind::Stream;
+        (panel, Some(pyramid))
+    } else {
+        (volume, None)
+    };
     let channel_count = volume.series.channel_count();
-    let composite =
-        streamed.is_none() && composite_wanted && (2..=MAX_CHANNELS).contains(&channel_count);
+    let composite = streamed.is_none()
+        && pyramid.is_none()
+        && composite_wanted
+        && (2..=MAX_CHANNELS).contains(&channel_count);
     let mut data = prepare_data(source, volume, started, progress)?;
+    data.pyramid = pyramid;
     // The other channels of a composite: read, quantized, built like the first.
     let mut channels = Vec::new();
     for channel in 1..if composite { channel_count } else { 0 } {
@@ -356,6 +375,59 @@ pub fn prepare_scene(
     })
 }
 
+/// The pyramid of `volume` (quantized, each level 2× coarser, by the mean or for labels the
+/// maximum), and its finest level within [`PANEL_LEVEL_VOXELS`] as a volume of its own (its
+/// voxels the levels, mapped back to the data's units by the value scale) for the panels.
+fn in_memory_pyramid(
+    volume: Volume,
+    progress: &Progress,
+) -> Result<(Volume, Arc<MemorySource>), JobError> {
+    progress.begin("quantizing");
+    let quantized = QuantizedVolume::new(&volume);
+    let how = match DataKind::of_volume(&volume, &quantized) {
+        DataKind::Labels(_) => Downsampling::Max,
+        _ => Downsampling::Mean,
+    };
+    progress.check()?;
+    progress.begin("building the pyramid");
+    let quantization = quantized.quantization;
+    let pyramid = MemorySource::from_levels(
+        &volume.name,
+        quantized.levels,
+        quantized.dims,
+        quantization,
+        volume.spacing,
+        how,
+    )
+    .map_err(JobError::Failed)?;
+    let levels = &pyramid.shape().levels;
+    let panel_level = levels
+        .iter()
+        .position(|level| {
+            level.dims.iter().map(|&d| d as u64).product::<u64>() <= PANEL_LEVEL_VOXELS
+                && level.dims.iter().all(|&d| d <= 1 << MAX_DEPTH)
+        })
+        .unwrap_or(levels.len() - 1);
+    let shape = levels[panel_level];
+    let voxels = pyramid
+        .level(panel_level)
+        .ok_or_else(|| {
+            JobError::Failed(format!("{}: no pyramid level {panel_level}", volume.name))
+        })?
+        .to_vec();
+    let panel = Volume {
+        dims: shape.dims,
+        spacing: volume.spacing.map(|s| s * shape.scale as f64),
+        data: VoxelData::U16(voxels),
+        value_scale: ValueScale {
+            slope: quantization.step,
+            intercept: quantization.offset,
+        },
+        ..volume
+    };
+    Ok((panel, Arc::new(pyramid)))
+}
+
 /// Quantizes `volume`, builds its octree (colored later) and histogram: what the panels and
 /// every renderer read. `started` is when its reading began.
 fn prepare_data(
@@ -391,6 +463,7 @@ fn prepare_data(
         histogram,
         kind,
         load_seconds: started.elapsed().as_secs_f64(),
+        pyramid: None,
     })
 }
 
@@ -433,17 +506,23 @@ pub fn upload(
     progress.begin("uploading to the GPU");
     let started = Instant::now();
     let failed = |e: String| JobError::Failed(format!("{}: {e}", data.volume.name));
-    let mut renderer = match data.source.zarr_spec() {
+    let stream = StreamOptions {
+        gpu_memory: options.gpu_memory,
+        ..StreamOptions::default()
+    };
+    let mut renderer = match (&data.pyramid, data.source.zarr_spec()) {
+        // A volume longer than the octree holds streams from its pyramid in memory.
+        (Some(pyramid), _) if options.kind == RendererKind::Stream => {
+            let pyramid: Arc<dyn BrickSource> = pyramid.clone();
+            VolumeRenderer::new_stream(gpu, pyramid, stream, &transfer)
+                .map_err(|e| failed(e.to_string()))?
+        }
         // A Zarr store streams from the file (or the URL), at its own full resolution.
-        Some(spec) if options.kind == RendererKind::Stream => {
+        (_, Some(spec)) if options.kind == RendererKind::Stream => {
             let pyramid =
                 Pyramid::open_spec(spec, data.volume.series.selected, RemoteOptions::default())
                     .map_err(|e| JobError::Failed(e.to_string()))?;
             let source = ZarrSource::new(Arc::new(pyramid)).map_err(JobError::Failed)?;
-            let stream = StreamOptions {
-                gpu_memory: options.gpu_memory,
-                ..StreamOptions::default()
-            };
             VolumeRenderer::new_stream(gpu, Arc::new(source), stream, &transfer)
                 .map_err(|e| failed(e.to_string()))?
         }

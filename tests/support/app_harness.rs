@@ -124,3 +124,11 @@ pub fn drag(harness: &mut Harness<'_, VoxscopeApp>, from: egui::Pos2, to: egui::
     harness.drop_at(to);
     harness.step();
 }
+
+/// Switches the renderer through the Octree panel's combo box, and waits for the upload.
+pub fn choose_renderer(harness: &mut Harness<'_, VoxscopeApp>, name: &str) {
+    harness.get_by_label("Renderer").click();
+    harness.run_steps(2);
+    harness.get_by_label(name).click();
+    settle(harness);
+}
