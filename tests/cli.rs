@@ -111,6 +111,61 @@ fn render_without_a_file_draws_the_embedded_sample() {
 }
 
 #[test]
+fn a_volume_longer_than_the_octree_renders_streamed_and_the_octree_says_its_limit() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("long.png");
+    let spec = "synthetic:gradient:1100x40x36";
+    // The default renderer and bricks stream it from memory at full resolution.
+    for renderer in [None, Some("bricks")] {
+        let mut args = vec![
+            "render",
+            spec,
+            "-o",
+            out.to_str().unwrap(),
+            "--size",
+            "96x64",
+        ];
+        args.extend(renderer.map(|r| ["--renderer", r]).into_iter().flatten());
+        let output = voxscope(&args);
+        let err = stderr(&output);
+        assert!(output.status.success(), "{err}");
+        assert!(
+            err.contains("beyond the voxel octree's 1024 a side"),
+            "{err}"
+        );
+        assert!(err.contains("stream renderer, level 11/11"), "{err}");
+        // A thin rod across the image.
+        assert!(support::reference::coverage(&image::open(&out).unwrap().to_rgba8()) > 0.01);
+    }
+    // The paper's octree keeps its limit and says so, in one line.
+    let output = voxscope(&[
+        "render",
+        spec,
+        "--renderer",
+        "octree",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    let err = stderr(&output);
+    assert!(!output.status.success());
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(
+        err.contains("supports up to 1024 voxels per axis")
+            && err.contains("--renderer bricks or stream"),
+        "{err}"
+    );
+    // info describes the volume and says why there is no octree.
+    let output = voxscope(&["info", spec]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let table = String::from_utf8_lossy(&output.stdout);
+    assert!(table.contains("dimensions   1100x40x36"), "{table}");
+    assert!(
+        table.contains("octree       none: 1100x40x36 is beyond"),
+        "{table}"
+    );
+}
+
+#[test]
 fn bad_input_exits_non_zero_with_one_line_naming_the_file() {
     let dir = tempfile::tempdir().unwrap();
     let empty = dir.path().join("empty.nrrd");

@@ -62,6 +62,15 @@ pub fn parse_max_requests(text: &str) -> Result<usize, String> {
 }
 
 impl VolumeArgs {
+    /// Reads FILE (the channel and time point chosen), or the built-in sample without one.
+    pub fn load(&self) -> Result<crate::volume::Volume, String> {
+        match &self.file {
+            Some(spec) => crate::volume::load(spec, &self.load_options()),
+            None => crate::volume::sample(),
+        }
+        .map_err(|e| e.to_string())
+    }
+
     /// The options for [`crate::volume::load`].
     pub fn load_options(&self) -> LoadOptions {
         LoadOptions {

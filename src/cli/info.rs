@@ -3,10 +3,11 @@
 use clap::Args;
 use serde_json::json;
 
+use super::prepare::beyond_octree;
 use super::{Prepared, TransferArgs, VolumeArgs};
-use crate::octree::{Node, full_tree_nodes, level_statistics};
-use crate::volume::format_dims;
+use crate::octree::{MAX_DEPTH, Node, full_tree_nodes, level_statistics};
 use crate::volume::ome_zarr::{Pyramid, is_zarr_spec};
+use crate::volume::{QuantizedVolume, ValueWindow, Volume, format_dims};
 
 #[derive(Debug, Args)]
 pub struct InfoArgs {
@@ -36,18 +37,23 @@ pub fn run(args: &InfoArgs) -> Result<(), String> {
         _ => None,
     };
     // Several channels: each one's range, window and color; the table below is channel 0's.
-    let (prepared, channels) = match args.volume.composite_channels()? {
+    let (volume, channels) = match args.volume.composite_channels()? {
         Some(channels) if channels.len() > 1 => {
             let first = channels[0].clone();
-            let channels = args.channels.prepare(channels, &args.transfer)?;
-            (Prepared::from_volume(first, &args.transfer)?, channels)
+            (first, args.channels.prepare(channels, &args.transfer)?)
         }
-        Some(mut channels) => {
-            let volume = channels.pop().ok_or("no channel was read")?;
-            (Prepared::from_volume(volume, &args.transfer)?, Vec::new())
+        Some(mut channels) => (channels.pop().ok_or("no channel was read")?, Vec::new()),
+        None => {
+            // A bad --tf file fails before the volume is read.
+            args.transfer.saved()?;
+            (args.volume.load()?, Vec::new())
         }
-        None => (Prepared::new(&args.volume, &args.transfer)?, Vec::new()),
     };
+    if beyond_octree(volume.dims) {
+        print_beyond_octree(&volume, pyramid.as_ref(), args.json);
+        return Ok(());
+    }
+    let prepared = Prepared::from_volume(volume, &args.transfer)?;
     if args.json {
         let mut json = info_json(&prepared);
         if !channels.is_empty() {
@@ -195,32 +201,43 @@ fn pyramid_table(p: &Pyramid) -> String {
     out
 }
 
+/// `info` of a volume longer than the voxel octree holds: the volume, and that it streams.
+fn print_beyond_octree(volume: &Volume, pyramid: Option<&Pyramid>, as_json: bool) {
+    let quantized = QuantizedVolume::new(volume);
+    let window = volume
+        .default_window
+        .unwrap_or_else(|| quantized.robust_window());
+    let streamed = format!(
+        "none: {} is beyond the voxel octree's {} a side; render draws it with the streaming renderer, from memory",
+        format_dims(volume.dims),
+        1u32 << MAX_DEPTH
+    );
+    if as_json {
+        let mut json = json!({
+            "volume": volume_json(volume, &quantized),
+            "octree": null,
+            "octree_note": streamed,
+        });
+        if let Some(pyramid) = pyramid {
+            json["pyramid"] = pyramid_json(pyramid);
+        }
+        println!("{json}");
+    } else {
+        if let Some(pyramid) = pyramid {
+            print!("{}", pyramid_table(pyramid));
+        }
+        print!(
+            "{}",
+            volume_lines(volume, &quantized, window, pyramid.is_none())
+        );
+        println!("octree       {streamed}");
+    }
+}
+
 fn info_json(p: &Prepared) -> serde_json::Value {
     let levels = level_statistics(&p.octree);
-    let volume = &p.volume;
     json!({
-        "volume": {
-            "file": volume.name,
-            "format": volume.format,
-            "dims": volume.dims,
-            "voxel_type": volume.voxel_type().name(),
-            "spacing": volume.spacing,
-            "value_range": p.quantized.value_range,
-            "value_scale": {"slope": volume.value_scale.slope, "intercept": volume.value_scale.intercept},
-            "robust_window": [p.quantized.robust_window().low, p.quantized.robust_window().high],
-            "orientation": volume.orientation.describe(),
-            "voxels": volume.voxel_count(),
-            "metadata": volume.metadata.iter().map(|(k, v)| (k.clone(), json!(v))).collect::<serde_json::Map<String, serde_json::Value>>(),
-            "channels": volume.series.channels.iter().enumerate().map(|(index, c)| json!({
-                "index": index,
-                "name": c.name,
-                "color": c.color.map(hex_color),
-                "window": c.window.map(|w| [w.low, w.high]),
-            })).collect::<Vec<_>>(),
-            "time_points": volume.series.time_points,
-            "channel": volume.series.selected.channel,
-            "time": volume.series.selected.time,
-        },
+        "volume": volume_json(&p.volume, &p.quantized),
         "octree": {
             "depth": p.octree.depth,
             "side": p.octree.side(),
@@ -235,6 +252,31 @@ fn info_json(p: &Prepared) -> serde_json::Value {
             "levels": levels,
         },
         "transfer": p.transfer,
+    })
+}
+
+fn volume_json(volume: &Volume, quantized: &QuantizedVolume) -> serde_json::Value {
+    json!({
+            "file": volume.name,
+            "format": volume.format,
+            "dims": volume.dims,
+            "voxel_type": volume.voxel_type().name(),
+            "spacing": volume.spacing,
+            "value_range": quantized.value_range,
+            "value_scale": {"slope": volume.value_scale.slope, "intercept": volume.value_scale.intercept},
+            "robust_window": [quantized.robust_window().low, quantized.robust_window().high],
+            "orientation": volume.orientation.describe(),
+            "voxels": volume.voxel_count(),
+            "metadata": volume.metadata.iter().map(|(k, v)| (k.clone(), json!(v))).collect::<serde_json::Map<String, serde_json::Value>>(),
+            "channels": volume.series.channels.iter().enumerate().map(|(index, c)| json!({
+                "index": index,
+                "name": c.name,
+                "color": c.color.map(hex_color),
+                "window": c.window.map(|w| [w.low, w.high]),
+            })).collect::<Vec<_>>(),
+            "time_points": volume.series.time_points,
+            "channel": volume.series.selected.channel,
+            "time": volume.series.selected.time,
     })
 }
 
@@ -323,12 +365,16 @@ fn series_lines(series: &crate::volume::Series) -> String {
     )
 }
 
-fn info_table(p: &Prepared, with_series: bool) -> String {
+/// The volume's lines of the table: file, format, dims, type, spacing, values, metadata, the
+/// series (unless a pyramid's table listed it) and the window.
+fn volume_lines(
+    volume: &Volume,
+    quantized: &QuantizedVolume,
+    window: ValueWindow,
+    with_series: bool,
+) -> String {
     use std::fmt::Write;
-    let volume = &p.volume;
-    let octree = &p.octree;
-    let window = p.transfer.window;
-    let [low, high] = p.quantized.value_range;
+    let [low, high] = quantized.value_range;
     let mut out = String::new();
     let _ = writeln!(out, "file         {}", volume.name);
     let _ = writeln!(
@@ -354,6 +400,13 @@ fn info_table(p: &Prepared, with_series: bool) -> String {
         out.push_str(&series_lines(&volume.series));
     }
     let _ = writeln!(out, "window       {} … {}", window.low, window.high);
+    out
+}
+
+fn info_table(p: &Prepared, with_series: bool) -> String {
+    use std::fmt::Write;
+    let octree = &p.octree;
+    let mut out = volume_lines(&p.volume, &p.quantized, p.transfer.window, with_series);
     let _ = writeln!(
         out,
         "octree       depth {}, cube {}³, 8-byte nodes{}",

@@ -8,7 +8,7 @@ use crate::app::TransferPreset;
 use crate::octree::{self, BuildOptions, DataKind, Octree, TransferFunction};
 use crate::progress::Progress;
 use crate::render::{GpuContext, RendererKind};
-use crate::volume::{self, QuantizedVolume, Volume};
+use crate::volume::{QuantizedVolume, Volume};
 
 use super::{TransferArgs, VolumeArgs};
 
@@ -28,20 +28,22 @@ impl Prepared {
     pub fn new(volume_args: &VolumeArgs, transfer_args: &TransferArgs) -> Result<Self, String> {
         // A bad --tf file fails before the volume is read.
         transfer_args.saved()?;
-        let volume = match &volume_args.file {
-            Some(spec) => volume::load(spec, &volume_args.load_options()),
-            None => volume::sample(),
-        }
-        .map_err(|e| e.to_string())?;
-        Self::from_volume(volume, transfer_args)
+        Self::from_volume(volume_args.load()?, transfer_args)
     }
 
     /// Prepares `volume`, loaded already (a channel of a composite that has only one).
     pub fn from_volume(volume: Volume, transfer_args: &TransferArgs) -> Result<Self, String> {
         let saved = transfer_args.saved()?;
         let quantized = QuantizedVolume::new(&volume);
-        let mut octree =
-            build_reporting_progress(&quantized).map_err(|e| format!("{}: {e}", volume.name))?;
+        let mut octree = build_reporting_progress(&quantized).map_err(|e| {
+            // The paper's octree keeps its limit; the streamed bricks have none.
+            let hint = if beyond_octree(volume.dims) {
+                " (render draws it with --renderer bricks or stream, bench with --stream)"
+            } else {
+                ""
+            };
+            format!("{}: {e}{hint}", volume.name)
+        })?;
         let kind = DataKind::of_volume(&volume, &quantized);
         // A file's own window (OME-Zarr's omero) where it has one, else the percentiles.
         let window = volume
@@ -89,6 +91,13 @@ fn build_reporting_progress(quantized: &QuantizedVolume) -> Result<Octree, octre
     finished.store(true, Ordering::Relaxed);
     let _ = reporter.join();
     result
+}
+
+/// Whether a volume of `dims` is longer than the voxel octree holds (1024 voxels a side, depth
+/// [`octree::MAX_DEPTH`]): `render` then draws it with the streaming renderer from memory
+/// unless `octree` or `dense` is asked for.
+pub(super) fn beyond_octree(dims: [usize; 3]) -> bool {
+    dims.iter().any(|&d| d > 1 << octree::MAX_DEPTH)
 }
 
 /// The renderer for `render` and `slice` when none was asked for, as the app chooses: the

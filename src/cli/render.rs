@@ -6,13 +6,15 @@ use std::time::{Duration, Instant};
 use clap::Args;
 
 use super::args::RendererArg;
-use super::prepare::default_renderer;
+use super::prepare::{beyond_octree, default_renderer};
 use super::stream::{StreamArgs, StreamPrepared, describe_missing, refine};
 use super::{ClipArgs, Prepared, TransferArgs, VolumeArgs};
+use crate::octree::MAX_DEPTH;
 use crate::render::{
     Camera, DEFAULT_BRICK_SIZE, GpuContext, RenderTarget, RendererOptions, VolumeRenderer,
     read_image,
 };
+use crate::volume::format_dims;
 
 #[derive(Debug, Args)]
 pub struct RenderArgs {
@@ -59,20 +61,31 @@ pub struct RenderArgs {
 
 pub fn run(args: &RenderArgs) -> Result<(), String> {
     check_output(&args.output, args.volume.file.as_deref())?;
+    check_max_wait(args.max_wait)?;
     if args.renderer == Some(RendererArg::Stream) {
-        return run_stream(args);
+        let prepared = StreamPrepared::new(&args.volume, &args.transfer)?;
+        return run_stream(args, prepared, Instant::now());
     }
     let started = Instant::now();
-    let prepared = match args.volume.composite_channels()? {
+    let volume = match args.volume.composite_channels()? {
         Some(channels) if channels.len() > 1 => {
             return super::composite::render(args, channels);
         }
-        Some(mut channels) => {
-            let volume = channels.pop().ok_or("no channel was read")?;
-            Prepared::from_volume(volume, &args.transfer)?
-        }
-        None => Prepared::new(&args.volume, &args.transfer)?,
+        Some(mut channels) => channels.pop().ok_or("no channel was read")?,
+        None => args.volume.load()?,
     };
+    // Longer than the voxel octree holds: bricks are streamed from memory.
+    if beyond_octree(volume.dims) && matches!(args.renderer, None | Some(RendererArg::Bricks)) {
+        eprintln!(
+            "{}: {} voxels are beyond the voxel octree's {} a side: drawn by the streaming renderer, from memory",
+            volume.name,
+            format_dims(volume.dims),
+            1u32 << MAX_DEPTH
+        );
+        let prepared = StreamPrepared::from_volume(volume, &args.transfer, started)?;
+        return run_stream(args, prepared, started);
+    }
+    let prepared = Prepared::from_volume(volume, &args.transfer)?;
     let mut settings = args
         .transfer
         .render_settings(prepared.octree.depth, prepared.saved.as_ref());
@@ -123,17 +136,19 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     Ok(())
 }
 
-/// `render --renderer stream`: opens the pyramid, draws until nothing visible is missing (or
-/// `--max-wait`), writes the image.
-fn run_stream(args: &RenderArgs) -> Result<(), String> {
-    let started = Instant::now();
-    if !(args.max_wait.is_finite() && args.max_wait >= 0.0) {
-        return Err(format!(
-            "--max-wait {} is not a number of seconds",
-            args.max_wait
-        ));
+/// `--max-wait` is a number of seconds.
+fn check_max_wait(max_wait: f64) -> Result<(), String> {
+    if max_wait.is_finite() && max_wait >= 0.0 {
+        Ok(())
+    } else {
+        Err(format!("--max-wait {max_wait} is not a number of seconds"))
     }
-    let prepared = StreamPrepared::new(&args.volume, &args.transfer)?;
+}
+
+/// `render --renderer stream` (and `bricks` beyond the octree): draws `prepared`'s pyramid,
+/// opened since `started`, until nothing visible is missing (or `--max-wait`), writes the
+/// image.
+fn run_stream(args: &RenderArgs, prepared: StreamPrepared, started: Instant) -> Result<(), String> {
     let name = prepared.source.name().to_owned();
     let mut settings = args
         .transfer

@@ -16,7 +16,7 @@ use crate::stream::{
     preview,
 };
 use crate::volume::ome_zarr::{self, Pyramid};
-use crate::volume::{self, QuantizedVolume, ValueWindow, parse_dims};
+use crate::volume::{self, QuantizedVolume, ValueWindow, Volume, parse_dims};
 
 /// The streaming renderer's budgets (`--renderer stream`, `bench --stream`).
 #[derive(Debug, Clone, Args)]
@@ -111,61 +111,86 @@ const PREVIEW_BRICKS: u64 = 64;
 impl StreamPrepared {
     /// Opens what `volume_args` names as a pyramid: `synthetic:noise:SIZE` as procedural
     /// noise generated brick by brick (any size: 16384 is 8 TB of voxels), a Zarr store brick by
-    /// brick from its own levels, anything else read into memory and its coarser levels
-    /// computed (2× mean; max for label volumes).
+    /// brick from its own levels, anything else read into memory ([`Self::from_volume`]).
     pub fn new(volume_args: &VolumeArgs, transfer_args: &TransferArgs) -> Result<Self, String> {
-        let saved = transfer_args.saved()?;
+        // A bad --tf file fails before the volume is read.
+        transfer_args.saved()?;
         let started = Instant::now();
         let spec = volume_args.file.as_deref();
-        let mut pyramid_read = None;
-        let (source, kind, window): (Arc<dyn BrickSource>, Option<DataKind>, Option<ValueWindow>) =
-            match spec.and_then(|s| s.strip_prefix("synthetic:noise:")) {
-                Some(size) if volume_args.raw.is_none() => {
-                    let dims = parse_dims(size).ok_or_else(|| {
-                        format!("synthetic:noise:{size}: the size is not N or XxYxZ")
-                    })?;
-                    let name = format!("synthetic:noise:{size}");
-                    (Arc::new(NoiseSource::new(&name, dims)?), None, None)
+        match spec.and_then(|s| s.strip_prefix("synthetic:noise:")) {
+            Some(size) if volume_args.raw.is_none() => {
+                let dims = parse_dims(size)
+                    .ok_or_else(|| format!("synthetic:noise:{size}: the size is not N or XxYxZ"))?;
+                let name = format!("synthetic:noise:{size}");
+                let source = Arc::new(NoiseSource::new(&name, dims)?);
+                Self::finish(source, None, None, None, transfer_args, started)
+            }
+            _ if spec.is_some_and(ome_zarr::is_zarr_spec) && volume_args.raw.is_none() => {
+                // Read region by region from the file's own levels (a folder's or a URL's),
+                // never whole.
+                let options = volume_args.load_options();
+                let pyramid =
+                    Pyramid::open_spec(spec.unwrap_or_default(), options.select, options.remote)
+                        .map_err(|e| e.to_string())?;
+                let window = pyramid.omero_window();
+                let pyramid = Arc::new(pyramid);
+                let source = Arc::new(ZarrSource::new(pyramid.clone())?);
+                Self::finish(source, None, window, Some(pyramid), transfer_args, started)
+            }
+            _ => {
+                let loaded = match spec {
+                    Some(spec) => volume::load(spec, &volume_args.load_options()),
+                    None => volume::sample(),
                 }
-                _ if spec.is_some_and(ome_zarr::is_zarr_spec) && volume_args.raw.is_none() => {
-                    // Read region by region from the file's own levels (a folder's or a
-                    // URL's), never whole.
-                    let options = volume_args.load_options();
-                    let pyramid = Pyramid::open_spec(
-                        spec.unwrap_or_default(),
-                        options.select,
-                        options.remote,
-                    )
-                    .map_err(|e| e.to_string())?;
-                    let window = pyramid.omero_window();
-                    let pyramid = Arc::new(pyramid);
-                    pyramid_read = Some(pyramid.clone());
-                    let source = ZarrSource::new(pyramid)?;
-                    (Arc::new(source), None, window)
-                }
-                _ => {
-                    let loaded = match spec {
-                        Some(spec) => volume::load(spec, &volume_args.load_options()),
-                        None => volume::sample(),
-                    }
-                    .map_err(|e| e.to_string())?;
-                    let quantized = QuantizedVolume::new(&loaded);
-                    let kind = DataKind::of_volume(&loaded, &quantized);
-                    let how = match kind {
-                        DataKind::Labels(_) => Downsampling::Max,
-                        _ => Downsampling::Mean,
-                    };
-                    let source = MemorySource::from_levels(
-                        &loaded.name,
-                        quantized.levels,
-                        quantized.dims,
-                        quantized.quantization,
-                        loaded.spacing,
-                        how,
-                    )?;
-                    (Arc::new(source), Some(kind), loaded.default_window)
-                }
-            };
+                .map_err(|e| e.to_string())?;
+                Self::from_volume(loaded, transfer_args, started)
+            }
+        }
+    }
+
+    /// A volume read whole already (since `started`), its coarser levels computed in memory
+    /// (2× mean; max for label volumes): any loader's volume, of any size the RAM holds.
+    pub fn from_volume(
+        loaded: Volume,
+        transfer_args: &TransferArgs,
+        started: Instant,
+    ) -> Result<Self, String> {
+        let quantized = QuantizedVolume::new(&loaded);
+        let kind = DataKind::of_volume(&loaded, &quantized);
+        let how = match kind {
+            DataKind::Labels(_) => Downsampling::Max,
+            _ => Downsampling::Mean,
+        };
+        let source = MemorySource::from_levels(
+            &loaded.name,
+            quantized.levels,
+            quantized.dims,
+            quantized.quantization,
+            loaded.spacing,
+            how,
+        )?;
+        let window = loaded.default_window;
+        Self::finish(
+            Arc::new(source),
+            Some(kind),
+            window,
+            None,
+            transfer_args,
+            started,
+        )
+    }
+
+    /// The transfer function of `source` (its kind and window where known, else its preview's)
+    /// and the rest of a prepared pyramid.
+    fn finish(
+        source: Arc<dyn BrickSource>,
+        kind: Option<DataKind>,
+        window: Option<ValueWindow>,
+        pyramid: Option<Arc<Pyramid>>,
+        transfer_args: &TransferArgs,
+        started: Instant,
+    ) -> Result<Self, String> {
+        let saved = transfer_args.saved()?;
         let (preview, _) =
             preview(&*source, PREVIEW_BRICKS).map_err(|e| format!("{}: {e}", source.name()))?;
         let kind = kind.unwrap_or_else(|| DataKind::of(&preview, None, false));
@@ -174,7 +199,7 @@ impl StreamPrepared {
         let transfer = transfer_args.transfer_function(&preview, kind, saved.as_ref(), window);
         Ok(Self {
             source,
-            pyramid: pyramid_read,
+            pyramid,
             transfer,
             saved,
             open_seconds: started.elapsed().as_secs_f64(),
