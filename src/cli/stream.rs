@@ -141,6 +141,9 @@ impl StreamPrepared {
                     let pyramid = Arc::new(pyramid);
                     pyramid_read = Some(pyramid.clone());
                     let source = ZarrSource::new(pyramid)?;
+                    // The preview's and the pinned levels' chunks in one batch, not a chunk at
+                    // a time (a URL's round trips).
+                    source.warm_first_image(PREVIEW_BRICKS);
                     (Arc::new(source), None, window)
                 }
                 _ => {

@@ -9,7 +9,11 @@
 //!   arrays are read by byte ranges (the shard index, then only the inner chunks a region
 //!   needs), all of one shard's ranges in flight together.
 //! - **Cache**: fetched bytes stay in RAM up to [`FETCH_CACHE_BYTES`] (a padded brick reads
-//!   the edges of its neighbours' chunks; zarrs reads a shard's index for every region).
+//!   the edges of its neighbours' chunks; zarrs reads a shard's index for every region), and
+//!   so does which objects are missing (a store's skipped chunks).
+//! - **Opening in a few round trips**: the metadata documents of each step of a hierarchy (the
+//!   root's, then every level's) are fetched together ([`RemoteStore::prefetch_documents`]),
+//!   and what that learned answers the reader's size checks and reads.
 //! - **Time bounds**: connecting takes at most [`CONNECT_TIMEOUT`], one request at most
 //!   [`REQUEST_TIMEOUT`]; 5xx answers, 429, resets, timeouts and cut bodies are retried with
 //!   exponential backoff ([`MAX_RETRIES`]); one store operation with its retries ends within
@@ -30,6 +34,7 @@
 //! small process-wide tokio runtime. A read nobody waits for any more is not started, so the
 //! streaming renderer's queue, which drops bricks the view no longer wants, is what cancels.
 
+use std::collections::HashMap;
 use std::future::Future;
 use std::ops::Range;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -50,9 +55,11 @@ use zarrs::storage::{
 
 use super::error::{Problem, printable};
 use cache::{FetchCache, Piece};
+use documents::Known;
 
 mod aws;
 mod cache;
+mod documents;
 
 /// Requests in flight at once by default: enough to fill a fast link at 50–100 ms of latency
 /// with chunks of ~1 MiB, few enough for a small lab server.
@@ -173,6 +180,8 @@ pub struct RemoteStore {
     opened: AtomicBool,
     counters: Counters,
     cache: Mutex<FetchCache>,
+    /// What document batches learned besides bytes ([`Self::prefetch_documents`]).
+    known: Mutex<HashMap<String, Known>>,
     /// Strings that must never appear in a message (passwords, AWS secrets).
     secrets: Vec<String>,
 }
@@ -276,6 +285,7 @@ impl RemoteStore {
             opened: AtomicBool::new(false),
             counters: Counters::default(),
             cache: Mutex::new(FetchCache::default()),
+            known: Mutex::default(),
             secrets,
         }))
     }
@@ -289,6 +299,7 @@ impl RemoteStore {
     /// [`OPEN_DEADLINE`].
     pub fn mark_opened(&self) {
         self.opened.store(true, Ordering::Relaxed);
+        self.forget_failures();
     }
 
     /// The counters so far.
@@ -309,7 +320,10 @@ impl RemoteStore {
         let wanted: Vec<&StoreKey> = match self.cache.lock() {
             Ok(cache) => keys
                 .iter()
-                .filter(|key| cache.get(key.as_str(), Piece::Whole).is_none())
+                .filter(|key| {
+                    cache.get(key.as_str(), Piece::Whole).is_none()
+                        && !cache.is_missing(key.as_str())
+                })
                 .collect(),
             Err(_) => return,
         };
@@ -398,13 +412,13 @@ impl RemoteStore {
         range: Option<GetRange>,
     ) -> Result<Option<Bytes>, object_store::Error> {
         let piece = Piece::of(range.as_ref());
-        if let Some(bytes) = self
-            .cache
-            .lock()
-            .ok()
-            .and_then(|c| c.get(key.as_str(), piece))
-        {
-            return Ok(Some(bytes));
+        if let Ok(cache) = self.cache.lock() {
+            if cache.is_missing(key.as_str()) {
+                return Ok(None);
+            }
+            if let Some(bytes) = cache.get(key.as_str(), piece) {
+                return Ok(Some(bytes));
+            }
         }
         let location = self.location(key);
         let _permit = self
@@ -426,7 +440,12 @@ impl RemoteStore {
                 }
                 Ok(Some(bytes))
             }
-            Err(object_store::Error::NotFound { .. }) => Ok(None),
+            Err(object_store::Error::NotFound { .. }) => {
+                if let Ok(mut cache) = self.cache.lock() {
+                    cache.insert_missing(key.as_str());
+                }
+                Ok(None)
+            }
             Err(error) => Err(error),
         }
     }
@@ -489,6 +508,11 @@ fn to_get_range(range: ByteRange) -> GetRange {
 
 impl ReadableStorageTraits for RemoteStore {
     fn get(&self, key: &StoreKey) -> Result<MaybeBytes, StorageError> {
+        match self.known(key) {
+            Some(Known::Missing) => return Ok(None),
+            Some(Known::Failed(message)) => return Err(StorageError::Other(message)),
+            Some(Known::TooLarge(_)) | None => {}
+        }
         self.block_on(key, self.fetch(key, None))
     }
 
@@ -520,6 +544,9 @@ impl ReadableStorageTraits for RemoteStore {
     }
 
     fn size_key(&self, key: &StoreKey) -> Result<Option<u64>, StorageError> {
+        if let Some(answer) = self.known_size(key) {
+            return answer;
+        }
         let location = self.location(key);
         let head = async {
             let _permit = self

@@ -29,7 +29,7 @@ use zarrs::array::data_type::{
     UInt8DataType, UInt16DataType, UInt32DataType, UInt64DataType,
 };
 use zarrs::array::{Array, DataType};
-use zarrs::storage::ReadableStorageTraits;
+use zarrs::storage::{ReadableStorageTraits, StoreKey};
 
 use super::error::Problem;
 use super::remote::{RemoteOptions, RemoteStats, RemoteStore};
@@ -37,6 +37,7 @@ use super::{LoadError, MAX_VOXELS, Selection, Volume, VoxelType, format_dims};
 
 pub use metadata::{Axis, AxisKind, OmeroChannel};
 use open::open_root;
+pub use read::MAX_PREFETCH_CHUNKS;
 pub use source::SlabSource;
 pub use write::{Compression, Downsampling, PyramidWriter, WriteOptions, ZarrVersion, level_dims};
 /// A store the pyramid reads from: a folder ([`zarrs::filesystem::FilesystemStore`]) or any
@@ -244,7 +245,14 @@ impl Pyramid {
         let source = super::remote::display_url(url);
         let store =
             RemoteStore::open(url, remote).map_err(|problem| LoadError::new(&source, problem))?;
-        let mut pyramid = Self::open_store(store.clone(), &source, options)?;
+        // Each step of the walk (the root's documents, then every level's) in one round trip.
+        let warm = |keys: &[String]| {
+            let keys: Vec<StoreKey> = keys.iter().filter_map(|k| StoreKey::new(k).ok()).collect();
+            store.prefetch_documents(&keys, MAX_METADATA_BYTES);
+        };
+        guard::register();
+        let mut pyramid = open_root(store.clone(), &source, options, &warm)
+            .map_err(|problem| LoadError::new(&source, problem))?;
         store.mark_opened();
         pyramid.remote = Some(store);
         let threads = remote.max_requests.clamp(4, 64);
@@ -282,7 +290,8 @@ impl Pyramid {
         options: PyramidOptions,
     ) -> Result<Self, LoadError> {
         guard::register();
-        open_root(store, source, options).map_err(|problem| LoadError::new(source, problem))
+        open_root(store, source, options, &|_| {})
+            .map_err(|problem| LoadError::new(source, problem))
     }
 }
 

@@ -89,11 +89,46 @@ fn key(text: &str) -> Result<StoreKey, Problem> {
     StoreKey::new(text).map_err(|e| format!("store key {}: {e}", quoted(text)))
 }
 
+/// Asks a store to fetch the metadata documents at these keys together, ahead of their reads
+/// (a URL's store: one round trip for all of them); a folder's does nothing.
+pub(super) type Warm<'a> = &'a dyn Fn(&[String]);
+
+/// The documents that tell what sits at the node `prefix` (`""` or `"0/"`).
+fn node_documents(prefix: &str) -> Vec<String> {
+    ["zarr.json", ".zgroup", ".zattrs", ".zarray"]
+        .iter()
+        .map(|name| format!("{prefix}{name}"))
+        .collect()
+}
+
+/// The documents zarrs reads to open the array at `full` (a path in the store, `""` for the
+/// root): `zarr.json`, and for Zarr v2 (where that is missing) `.zarray` and `.zattrs`.
+fn array_documents(full: &str, zarr_format: u8) -> Vec<String> {
+    let names: &[&str] = if zarr_format == 3 {
+        &["zarr.json"]
+    } else {
+        &["zarr.json", ".zarray", ".zattrs"]
+    };
+    names.iter().map(|name| document_key(full, name)).collect()
+}
+
+fn document_key(full: &str, name: &str) -> String {
+    if full.is_empty() {
+        name.to_owned()
+    } else {
+        format!("{full}/{name}")
+    }
+}
+
+/// Opens the hierarchy at the root of `store`: its root node, then every level's array, each
+/// step's documents handed to `warm` before they are read.
 pub(super) fn open_root(
     store: ReadableStorage,
     source: &str,
     options: PyramidOptions,
+    warm: Warm,
 ) -> Result<Pyramid, Problem> {
+    warm(&node_documents(""));
     let (attributes, zarr_format, prefix) = match node(&store, "")? {
         Node::Missing => {
             return Err(
@@ -101,7 +136,14 @@ pub(super) fn open_root(
             );
         }
         Node::Array { zarr_format } => {
-            return open_levels(store, source, options, None, Map::new(), zarr_format, "");
+            let opening = Opening {
+                source,
+                options,
+                zarr_format,
+                prefix: "",
+                warm,
+            };
+            return open_levels(store, &opening, None, Map::new());
         }
         Node::Group {
             attributes,
@@ -109,6 +151,7 @@ pub(super) fn open_root(
         } => {
             if metadata::bioformats2raw_image(&attributes) {
                 // bioformats2raw.layout 3: the images are groups 0, 1, …; the first is read.
+                warm(&node_documents("0/"));
                 match node(&store, "0/")? {
                     Node::Group {
                         attributes,
@@ -128,30 +171,50 @@ pub(super) fn open_root(
     let multiscale = metadata::multiscale(&attributes)?.ok_or(
         "is a Zarr group without OME-Zarr 'multiscales' metadata (open an array inside it, or an OME-Zarr image)",
     )?;
-    open_levels(
-        store,
+    let opening = Opening {
         source,
         options,
-        Some(multiscale),
-        attributes,
         zarr_format,
         prefix,
-    )
+        warm,
+    };
+    open_levels(store, &opening, Some(multiscale), attributes)
+}
+
+/// What [`open_levels`] knows from the root: where the image is, and how it was asked for.
+struct Opening<'a> {
+    source: &'a str,
+    options: PyramidOptions,
+    /// The Zarr version of the image's group (or root array).
+    zarr_format: u8,
+    /// The image group's path in the store (`""`, `"0/"`).
+    prefix: &'a str,
+    warm: Warm<'a>,
 }
 
 fn open_levels(
     store: ReadableStorage,
-    source: &str,
-    options: PyramidOptions,
+    opening: &Opening,
     multiscale: Option<metadata::Multiscale>,
     attributes: Map<String, Value>,
-    zarr_format: u8,
-    prefix: &str,
 ) -> Result<Pyramid, Problem> {
+    let Opening {
+        source,
+        options,
+        zarr_format,
+        prefix,
+        warm,
+    } = *opening;
     let paths: Vec<String> = match &multiscale {
         Some(m) => m.datasets.iter().map(|d| d.path.clone()).collect(),
         None => vec![String::new()],
     };
+    // Every level's documents at once: each level's array is then opened from them.
+    let documents: Vec<String> = paths
+        .iter()
+        .flat_map(|path| array_documents(&format!("{prefix}{path}"), zarr_format))
+        .collect();
+    warm(&documents);
     let mut arrays = Vec::with_capacity(paths.len());
     for path in &paths {
         let full = format!("{prefix}{path}");
@@ -160,14 +223,12 @@ fn open_levels(
         } else {
             format!("array {}", quoted(&full))
         };
-        // The documents zarrs reads whole are bounded first.
-        for name in ["zarr.json", ".zarray", ".zattrs"] {
-            let key = if full.is_empty() {
-                name.to_owned()
-            } else {
-                format!("{full}/{name}")
-            };
-            read_size_checked(&store, &key)?;
+        // The documents zarrs reads whole are bounded first: zarr.json, else (Zarr v2)
+        // .zarray and .zattrs.
+        if !read_size_checked(&store, &document_key(&full, "zarr.json"))? {
+            for name in [".zarray", ".zattrs"] {
+                read_size_checked(&store, &document_key(&full, name))?;
+            }
         }
         let array = Array::open(store.clone(), &format!("/{full}"))
             .map_err(|e| format!("{shown}: {}", printable(&e.to_string())))?;
@@ -361,12 +422,13 @@ fn range_paths(attributes: &Map<String, Value>, prefix: &str, levels: usize) -> 
     }
 }
 
-fn read_size_checked(store: &ReadableStorage, key: &str) -> Result<(), Problem> {
+/// Whether the document at `key` is there, after checking that it is small enough to read.
+fn read_size_checked(store: &ReadableStorage, key: &str) -> Result<bool, Problem> {
     match store.size_key(&self::key(key)?) {
         Ok(Some(size)) if size > MAX_METADATA_BYTES => Err(format!(
             "{key} is {size} bytes; metadata of more than {MAX_METADATA_BYTES} bytes is not read"
         )),
-        Ok(_) => Ok(()),
+        Ok(size) => Ok(size.is_some()),
         Err(e) => Err(format!("cannot read {key}: {}", printable(&e.to_string()))),
     }
 }

@@ -10,6 +10,9 @@ use super::super::series::{ChannelInfo, Series, parse_hex_color};
 use super::super::{LoadError, MAX_VOXELS, ValueWindow, VoxelData, VoxelType, format_dims};
 use super::{Pyramid, Stored};
 
+/// The most chunks [`Pyramid::prefetch_regions`] asks for at once.
+pub const MAX_PREFETCH_CHUNKS: usize = 4096;
+
 impl Pyramid {
     /// The voxels `[origin, origin + size)` of `level` (x, y, z; within the level's
     /// dimensions, else an error), of the channel and time point chosen at open, x fastest,
@@ -111,6 +114,45 @@ impl Pyramid {
         self.omero
             .get(self.selected.channel)
             .and_then(|channel| channel.window)
+    }
+
+    /// Fetches the chunks of every region (`level`, `origin`, `size`, as [`Self::read_region`]
+    /// takes them) of a URL's store together, ahead of their reads: one round trip for all of
+    /// them, not one a reading thread at a time. A sharded level's are left to its reads
+    /// (zarrs reads a shard's index, then its inner chunks, all in flight together). Regions
+    /// outside their level, and anything beyond [`MAX_PREFETCH_CHUNKS`] chunks, are skipped;
+    /// a folder's store does nothing.
+    pub fn prefetch_regions(&self, regions: &[(usize, [usize; 3], [usize; 3])]) {
+        let Some(remote) = &self.remote else { return };
+        let mut keys = Vec::new();
+        for &(level, origin, size) in regions {
+            let (Some(info), Some(array)) = (self.levels.get(level), self.arrays.get(level)) else {
+                continue;
+            };
+            let inside = (0..3).all(|a| {
+                size[a] > 0
+                    && origin[a]
+                        .checked_add(size[a])
+                        .is_some_and(|end| end <= info.dims[a])
+            });
+            if info.shard.is_some() || !inside {
+                continue;
+            }
+            let subset = self.subset(origin, size);
+            if let Ok(Some(chunks)) = array.chunks_in_array_subset(&subset) {
+                if chunks.num_elements() > MAX_PREFETCH_CHUNKS as u64 {
+                    continue;
+                }
+                keys.extend(
+                    chunks
+                        .indices()
+                        .into_iter()
+                        .map(|indices| array.chunk_key(&indices)),
+                );
+            }
+        }
+        keys.truncate(MAX_PREFETCH_CHUNKS);
+        remote.prefetch(&keys);
     }
 
     /// The store key of the chunk of `level` holding voxel `(x, y, z)` (for messages and tests).

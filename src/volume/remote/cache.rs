@@ -1,6 +1,6 @@
 //! Fetched bytes kept in RAM by object and piece ([`super::FETCH_CACHE_BYTES`]).
 
-use std::collections::{HashMap, VecDeque};
+use std::collections::{HashMap, HashSet, VecDeque};
 
 use object_store::GetRange;
 use zarrs::storage::Bytes;
@@ -19,7 +19,9 @@ pub(super) enum Piece {
 impl Piece {
     pub(super) fn of(range: Option<&GetRange>) -> Self {
         match range {
-            None => Self::Whole,
+            // zarrs reads a whole chunk as the range from its start: the same bytes as a
+            // whole object's, which a prefetch asked for.
+            None | Some(GetRange::Offset(0)) => Self::Whole,
             Some(GetRange::Bounded(r)) => Self::Range(r.start, r.end),
             Some(GetRange::Offset(o)) => Self::From(*o),
             Some(GetRange::Suffix(n)) => Self::Suffix(*n),
@@ -27,17 +29,35 @@ impl Piece {
     }
 }
 
-/// Fetched bytes by object and piece, the oldest dropped first beyond [`FETCH_CACHE_BYTES`].
+/// Objects found missing that a [`FetchCache`] remembers, at most (a sparse store's skipped
+/// chunks: a brick's reads and a prefetch's would each ask again).
+const MAX_MISSING: usize = 1 << 20;
+
+/// Fetched bytes by object and piece, the oldest dropped first beyond [`FETCH_CACHE_BYTES`];
+/// and objects found missing.
 #[derive(Default)]
 pub(super) struct FetchCache {
     pieces: HashMap<(String, Piece), Bytes>,
     order: VecDeque<(String, Piece)>,
     bytes: u64,
+    missing: HashSet<String>,
 }
 
 impl FetchCache {
     pub(super) fn get(&self, key: &str, piece: Piece) -> Option<Bytes> {
         self.pieces.get(&(key.to_owned(), piece)).cloned()
+    }
+
+    /// Whether the object `key` was found missing.
+    pub(super) fn is_missing(&self, key: &str) -> bool {
+        self.missing.contains(key)
+    }
+
+    /// Remembers that there is no object `key` (up to [`MAX_MISSING`] of them).
+    pub(super) fn insert_missing(&mut self, key: &str) {
+        if self.missing.len() < MAX_MISSING {
+            self.missing.insert(key.to_owned());
+        }
     }
 
     pub(super) fn insert(&mut self, key: &str, piece: Piece, bytes: &Bytes) {
