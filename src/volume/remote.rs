@@ -314,8 +314,8 @@ impl RemoteStore {
     }
 
     /// Fetches `keys` (whole objects: unsharded chunks) all at once, up to the request limit,
-    /// into the fetch cache that [`ReadableStorageTraits::get`] reads first. Missing objects
-    /// and failures are left for `get` to meet (and report) again.
+    /// into the fetch cache that [`ReadableStorageTraits::get`] reads first; missing objects
+    /// are remembered as missing. Failures are left for `get` to meet (and report) again.
     pub fn prefetch(&self, keys: &[StoreKey]) {
         let wanted: Vec<&StoreKey> = match self.cache.lock() {
             Ok(cache) => keys
