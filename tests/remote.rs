@@ -10,10 +10,12 @@ use std::io::Write;
 use std::net::TcpListener;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+use std::sync::Arc;
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 use support::http_server::{Faults, FileServer};
+use voxscope::stream::{BrickId, BrickSource, ZarrSource, preview};
 use voxscope::volume::ome_zarr::{Pyramid, PyramidOptions};
 use voxscope::volume::remote::{OPEN_DEADLINE, RemoteOptions, is_url};
 use voxscope::volume::{LoadOptions, load};
@@ -259,6 +261,125 @@ fn latency_drops_500s_and_cut_bodies_are_retried_to_the_same_voxels_and_image() 
             assert!(
                 psnr >= 40.0,
                 "streamed through faults: PSNR {psnr:.1} dB; {log}"
+            );
+        }
+    }
+}
+
+/// `voxscope convert` of a 1000×60×50 CT phantom (i16) in 64³ chunks into `folder/NAME`:
+/// five levels (the coarsest 63×4×4), none a whole number of chunks; OME-Zarr `format` (0.5:
+/// shards of 2³ chunks).
+fn converted_phantom(folder: &Path, name: &str, format: &str) {
+    let output = folder.join(name);
+    let out = voxscope(
+        &[
+            "convert",
+            "synthetic:ct:1000x60x50",
+            output.to_str().expect("a UTF-8 path"),
+            "--chunk",
+            "64",
+            "--format",
+            format,
+            "--shard",
+            "2",
+        ],
+        &[],
+    );
+    assert!(out.status.success(), "convert: {}", stderr(&out));
+}
+
+#[test]
+fn opening_and_the_first_image_take_a_few_round_trips_whatever_the_levels() {
+    const PREVIEW_BRICKS: u64 = 64;
+    let latency = Duration::from_millis(100);
+    let folder = tempfile::tempdir().expect("a temporary folder");
+    for format in ["0.4", "0.5"] {
+        let name = format!("phantom-{format}.ome.zarr");
+        converted_phantom(folder.path(), &name, format);
+        let server = FileServer::start(
+            folder.path(),
+            Faults {
+                latency,
+                ..Faults::default()
+            },
+        );
+        let started = Instant::now();
+        let pyramid = Pyramid::open_url(
+            &server.url(&name),
+            PyramidOptions::default(),
+            RemoteOptions::default(),
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        let levels = pyramid.levels.len();
+        assert_eq!(levels, 5, "{format}: {:?}", pyramid.levels);
+        let counters = &server.counters;
+        let open_trips = counters.sequential_round_trips();
+        let peak = counters.peak_in_flight.load(Ordering::SeqCst);
+        // The root's documents together, then every level's together.
+        assert!(
+            open_trips <= 2,
+            "{format}: opening made {open_trips} round trips one after another ({} requests)",
+            counters.requests.load(Ordering::SeqCst)
+        );
+        assert!(
+            peak >= levels as u64,
+            "{format}: at most {peak} requests were in flight at once for {levels} levels"
+        );
+
+        // What the first image reads: the preview's level and the pinned levels, warmed as
+        // `StreamPrepared` does, then read brick by brick as the preview and the streamer do.
+        let source = ZarrSource::new(Arc::new(pyramid)).unwrap_or_else(|e| panic!("{e}"));
+        source.warm_first_image(PREVIEW_BRICKS);
+        let (remote_preview, level) =
+            preview(&source, PREVIEW_BRICKS).unwrap_or_else(|e| panic!("{e}"));
+        let shape = source.shape().clone();
+        let pinned: Vec<BrickId> = (0..shape.levels.len() as u32)
+            .filter(|&l| shape.levels[l as usize].brick_count() == 1)
+            .map(|level| BrickId {
+                level,
+                brick: [0; 3],
+            })
+            .collect();
+        assert!(!pinned.is_empty());
+        let remote_pinned: Vec<_> = pinned
+            .iter()
+            .map(|&id| source.read_brick(id).unwrap_or_else(|e| panic!("{e}")))
+            .collect();
+        let seconds = started.elapsed().as_secs_f64();
+        let trips = counters.sequential_round_trips();
+        let requests = counters.requests.load(Ordering::SeqCst);
+        // Unsharded: the chunks of every warmed level in one batch (3 in all, measured).
+        // Sharded: the shards' indexes, then their inner chunks (4). One more for a loaded
+        // machine; reading the chunks a brick at a time took 6 and more.
+        let most = if format == "0.4" { 4 } else { 5 };
+        eprintln!("{format}: {trips} round trips, {requests} requests, {seconds:.2} s");
+        assert!(
+            trips <= most,
+            "{format}: open and first image made {trips} round trips one after another ({requests} requests)"
+        );
+        // Before, each level's documents were asked for one after another, then each chunk.
+        let bound = levels as f64 * latency.as_secs_f64() * 2.0;
+        assert!(
+            seconds < bound,
+            "{format}: open and first image took {seconds:.2} s (bound {bound:.2} s)"
+        );
+
+        // The same voxels as from the folder, read brick by brick without warming.
+        let local = Pyramid::open(&folder.path().join(&name), PyramidOptions::default())
+            .unwrap_or_else(|e| panic!("{e}"));
+        let local = ZarrSource::new(Arc::new(local)).unwrap_or_else(|e| panic!("{e}"));
+        let (local_preview, local_level) =
+            preview(&local, PREVIEW_BRICKS).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(level, local_level);
+        assert!(
+            remote_preview.levels == local_preview.levels,
+            "{format}: the warmed preview differs from the folder's"
+        );
+        for (id, remote) in pinned.iter().zip(&remote_pinned) {
+            let local = local.read_brick(*id).unwrap_or_else(|e| panic!("{e}"));
+            assert!(
+                remote.levels == local.levels,
+                "{format}: the warmed {id} differs from the folder's"
             );
         }
     }

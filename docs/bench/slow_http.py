@@ -8,6 +8,7 @@ Usage: slow_http.py ROOT PORT LATENCY_S BANDWIDTH_BYTES_PER_S
 """
 import http.server
 import os
+import signal
 import sys
 import threading
 import time
@@ -27,6 +28,9 @@ def reserve(nbytes):
 
 
 class Handler(http.server.SimpleHTTPRequestHandler):
+    # Connections kept alive, as object stores and web servers keep them.
+    protocol_version = "HTTP/1.1"
+
     def __init__(self, *args, **kwargs):
         super().__init__(*args, directory=root, **kwargs)
 
@@ -80,8 +84,16 @@ class Handler(http.server.SimpleHTTPRequestHandler):
         super().do_HEAD()
 
 
-server = http.server.ThreadingHTTPServer(("127.0.0.1", port), Handler)
-server.daemon_threads = True
+class Server(http.server.ThreadingHTTPServer):
+    # socketserver's default backlog is 5: a client opening 32 connections at once had the
+    # rest of its SYNs dropped and resent after 1 s (runs 52-53 waited on that too).
+    request_queue_size = 1024
+    daemon_threads = True
+
+
+server = Server(("127.0.0.1", port), Handler)
+# `kill` (SIGTERM) stops it through the `finally` below, so the counts are printed.
+signal.signal(signal.SIGTERM, lambda *_: sys.exit(0))
 try:
     server.serve_forever()
 finally:

@@ -236,6 +236,10 @@ impl Scene {
     }
 }
 
+/// Bricks of the finest coarse level a streamed store's first frames draw, read before they
+/// are asked for (`ZarrSource::warm_first_image`; the CLI's preview reads as many).
+const FIRST_IMAGE_BRICKS: u64 = 64;
+
 /// Voxels of the level the app reads whole beside a streamed OME-Zarr store, for what the
 /// panels show (histogram, statistics, slices, probe values): 256³.
 pub const PANEL_LEVEL_VOXELS: u64 = 1 << 24;
@@ -523,6 +527,9 @@ pub fn upload(
                 Pyramid::open_spec(spec, data.volume.series.selected, RemoteOptions::default())
                     .map_err(|e| JobError::Failed(e.to_string()))?;
             let source = ZarrSource::new(Arc::new(pyramid)).map_err(JobError::Failed)?;
+            // The coarse levels the first frames draw, their chunks fetched together (a URL's
+            // round trips), on this loading thread.
+            source.warm_first_image(FIRST_IMAGE_BRICKS);
             VolumeRenderer::new_stream(gpu, Arc::new(source), stream, &transfer)
                 .map_err(|e| failed(e.to_string()))?
         }

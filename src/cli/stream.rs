@@ -134,8 +134,18 @@ impl StreamPrepared {
                         .map_err(|e| e.to_string())?;
                 let window = pyramid.omero_window();
                 let pyramid = Arc::new(pyramid);
-                let source = Arc::new(ZarrSource::new(pyramid.clone())?);
-                Self::finish(source, None, window, Some(pyramid), transfer_args, started)
+                let source = ZarrSource::new(pyramid.clone())?;
+                // The preview's and the pinned levels' chunks in one batch, not a chunk at a
+                // time (a URL's round trips).
+                source.warm_first_image(PREVIEW_BRICKS);
+                Self::finish(
+                    Arc::new(source),
+                    None,
+                    window,
+                    Some(pyramid),
+                    transfer_args,
+                    started,
+                )
             }
             _ => {
                 let loaded = match spec {

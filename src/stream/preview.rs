@@ -4,8 +4,19 @@
 
 use rayon::prelude::*;
 
+use super::pyramid::PyramidShape;
 use super::source::{BRICK_SIZE, BrickError, BrickId, BrickSource, PADDED_BRICK};
 use crate::volume::{Histogram, QuantizedVolume};
+
+/// The level [`preview`] reads: the finest with at most `max_bricks` bricks (the coarsest if
+/// none is that small).
+pub(crate) fn preview_level(shape: &PyramidShape, max_bricks: u64) -> usize {
+    shape
+        .levels
+        .iter()
+        .position(|l| l.brick_count() <= max_bricks)
+        .unwrap_or(shape.levels.len() - 1)
+}
 
 /// The finest level of `source` with at most `max_bricks` bricks (the coarsest if none is
 /// that small), read whole: its voxels' levels and histogram; and which level it is.
@@ -14,11 +25,7 @@ pub fn preview(
     max_bricks: u64,
 ) -> Result<(QuantizedVolume, usize), BrickError> {
     let shape = source.shape();
-    let level = shape
-        .levels
-        .iter()
-        .position(|l| l.brick_count() <= max_bricks)
-        .unwrap_or(shape.levels.len() - 1);
+    let level = preview_level(shape, max_bricks);
     let info = shape.levels[level];
     let [gx, gy, gz] = info.grid;
     let ids: Vec<BrickId> = (0..gz)

@@ -9,7 +9,11 @@
 //!   arrays are read by byte ranges (the shard index, then only the inner chunks a region
 //!   needs), all of one shard's ranges in flight together.
 //! - **Cache**: fetched bytes stay in RAM up to [`FETCH_CACHE_BYTES`] (a padded brick reads
-//!   the edges of its neighbours' chunks; zarrs reads a shard's index for every region).
+//!   the edges of its neighbours' chunks; zarrs reads a shard's index for every region), and
+//!   so does which objects are missing (a store's skipped chunks).
+//! - **Opening in a few round trips**: the metadata documents of each step of a hierarchy (the
+//!   root's, then every level's) are fetched together ([`RemoteStore::prefetch_documents`]),
+//!   and what that learned answers the reader's size checks and reads.
 //! - **Time bounds**: connecting takes at most [`CONNECT_TIMEOUT`], one request at most
 //!   [`REQUEST_TIMEOUT`]; 5xx answers, 429, resets, timeouts and cut bodies are retried with
 //!   exponential backoff ([`MAX_RETRIES`]); one store operation with its retries ends within
@@ -50,6 +54,12 @@ use zarrs::storage::{
 };
 
 use super::error::{Problem, printable};
+use cache::{FetchCache, Piece};
+use documents::Known;
+
+mod aws;
+mod cache;
+mod documents;
 
 /// Requests in flight at once by default: enough to fill a fast link at 50–100 ms of latency
 /// with chunks of ~1 MiB, few enough for a small lab server.
@@ -159,61 +169,6 @@ struct Counters {
     errors: AtomicU64,
 }
 
-/// Which bytes of an object a cached piece is.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-enum Piece {
-    Whole,
-    Range(u64, u64),
-    From(u64),
-    Suffix(u64),
-}
-
-impl Piece {
-    fn of(range: Option<&GetRange>) -> Self {
-        match range {
-            None => Self::Whole,
-            Some(GetRange::Bounded(r)) => Self::Range(r.start, r.end),
-            Some(GetRange::Offset(o)) => Self::From(*o),
-            Some(GetRange::Suffix(n)) => Self::Suffix(*n),
-        }
-    }
-}
-
-/// Fetched bytes by object and piece, the oldest dropped first beyond [`FETCH_CACHE_BYTES`].
-#[derive(Default)]
-struct FetchCache {
-    pieces: HashMap<(String, Piece), Bytes>,
-    order: std::collections::VecDeque<(String, Piece)>,
-    bytes: u64,
-}
-
-impl FetchCache {
-    fn get(&self, key: &str, piece: Piece) -> Option<Bytes> {
-        self.pieces.get(&(key.to_owned(), piece)).cloned()
-    }
-
-    fn insert(&mut self, key: &str, piece: Piece, bytes: &Bytes) {
-        let size = bytes.len() as u64;
-        if size > FETCH_CACHE_BYTES / 4 {
-            return;
-        }
-        let entry = (key.to_owned(), piece);
-        if self.pieces.insert(entry.clone(), bytes.clone()).is_some() {
-            return;
-        }
-        self.order.push_back(entry);
-        self.bytes += size;
-        while self.bytes > FETCH_CACHE_BYTES {
-            let Some(oldest) = self.order.pop_front() else {
-                break;
-            };
-            if let Some(dropped) = self.pieces.remove(&oldest) {
-                self.bytes -= dropped.len() as u64;
-            }
-        }
-    }
-}
-
 /// A Zarr store at a URL, read through `object_store` (see the module's documentation).
 pub struct RemoteStore {
     store: Arc<dyn ObjectStore>,
@@ -225,6 +180,8 @@ pub struct RemoteStore {
     opened: AtomicBool,
     counters: Counters,
     cache: Mutex<FetchCache>,
+    /// What document batches learned besides bytes ([`Self::prefetch_documents`]).
+    known: Mutex<HashMap<String, Known>>,
     /// Strings that must never appear in a message (passwords, AWS secrets).
     secrets: Vec<String>,
 }
@@ -328,6 +285,7 @@ impl RemoteStore {
             opened: AtomicBool::new(false),
             counters: Counters::default(),
             cache: Mutex::new(FetchCache::default()),
+            known: Mutex::default(),
             secrets,
         }))
     }
@@ -341,6 +299,7 @@ impl RemoteStore {
     /// [`OPEN_DEADLINE`].
     pub fn mark_opened(&self) {
         self.opened.store(true, Ordering::Relaxed);
+        self.forget_failures();
     }
 
     /// The counters so far.
@@ -355,13 +314,16 @@ impl RemoteStore {
     }
 
     /// Fetches `keys` (whole objects: unsharded chunks) all at once, up to the request limit,
-    /// into the fetch cache that [`ReadableStorageTraits::get`] reads first. Missing objects
-    /// and failures are left for `get` to meet (and report) again.
+    /// into the fetch cache that [`ReadableStorageTraits::get`] reads first; missing objects
+    /// are remembered as missing. Failures are left for `get` to meet (and report) again.
     pub fn prefetch(&self, keys: &[StoreKey]) {
         let wanted: Vec<&StoreKey> = match self.cache.lock() {
             Ok(cache) => keys
                 .iter()
-                .filter(|key| cache.get(key.as_str(), Piece::Whole).is_none())
+                .filter(|key| {
+                    cache.get(key.as_str(), Piece::Whole).is_none()
+                        && !cache.is_missing(key.as_str())
+                })
                 .collect(),
             Err(_) => return,
         };
@@ -450,13 +412,13 @@ impl RemoteStore {
         range: Option<GetRange>,
     ) -> Result<Option<Bytes>, object_store::Error> {
         let piece = Piece::of(range.as_ref());
-        if let Some(bytes) = self
-            .cache
-            .lock()
-            .ok()
-            .and_then(|c| c.get(key.as_str(), piece))
-        {
-            return Ok(Some(bytes));
+        if let Ok(cache) = self.cache.lock() {
+            if cache.is_missing(key.as_str()) {
+                return Ok(None);
+            }
+            if let Some(bytes) = cache.get(key.as_str(), piece) {
+                return Ok(Some(bytes));
+            }
         }
         let location = self.location(key);
         let _permit = self
@@ -478,7 +440,12 @@ impl RemoteStore {
                 }
                 Ok(Some(bytes))
             }
-            Err(object_store::Error::NotFound { .. }) => Ok(None),
+            Err(object_store::Error::NotFound { .. }) => {
+                if let Ok(mut cache) = self.cache.lock() {
+                    cache.insert_missing(key.as_str());
+                }
+                Ok(None)
+            }
             Err(error) => Err(error),
         }
     }
@@ -541,6 +508,11 @@ fn to_get_range(range: ByteRange) -> GetRange {
 
 impl ReadableStorageTraits for RemoteStore {
     fn get(&self, key: &StoreKey) -> Result<MaybeBytes, StorageError> {
+        match self.known(key) {
+            Some(Known::Missing) => return Ok(None),
+            Some(Known::Failed(message)) => return Err(StorageError::Other(message)),
+            Some(Known::TooLarge(_)) | None => {}
+        }
         self.block_on(key, self.fetch(key, None))
     }
 
@@ -572,6 +544,9 @@ impl ReadableStorageTraits for RemoteStore {
     }
 
     fn size_key(&self, key: &StoreKey) -> Result<Option<u64>, StorageError> {
+        if let Some(answer) = self.known_size(key) {
+            return answer;
+        }
         let location = self.location(key);
         let head = async {
             let _permit = self
@@ -591,176 +566,6 @@ impl ReadableStorageTraits for RemoteStore {
 
     fn supports_get_partial(&self) -> bool {
         true
-    }
-}
-
-/// AWS credentials and settings from the shared files, where the environment gives none.
-mod aws {
-    use std::collections::HashMap;
-    use std::path::PathBuf;
-
-    use object_store::aws::{AmazonS3Builder, AmazonS3ConfigKey};
-
-    /// What the environment and `~/.aws` give.
-    pub(super) struct Credentials {
-        /// Settings from the profile, to apply where the environment has none.
-        from_files: Vec<(AmazonS3ConfigKey, String)>,
-        /// No credentials anywhere: requests go unsigned (public buckets).
-        anonymous: bool,
-        secrets: Vec<String>,
-    }
-
-    /// A variable of the process's environment, if set and not blank.
-    fn process_env(name: &str) -> Option<String> {
-        std::env::var(name).ok().filter(|v| !v.trim().is_empty())
-    }
-
-    /// `[section]` → key → value of an INI file (the AWS shared files' format).
-    fn ini(path: &PathBuf) -> HashMap<String, HashMap<String, String>> {
-        let mut sections: HashMap<String, HashMap<String, String>> = HashMap::new();
-        let Ok(text) = std::fs::read_to_string(path) else {
-            return sections;
-        };
-        let mut current = String::new();
-        for line in text.lines().map(str::trim) {
-            if line.starts_with('#') || line.starts_with(';') || line.is_empty() {
-                continue;
-            }
-            if let Some(name) = line.strip_prefix('[').and_then(|l| l.strip_suffix(']')) {
-                current = name.trim().to_owned();
-            } else if let Some((key, value)) = line.split_once('=') {
-                sections
-                    .entry(current.clone())
-                    .or_default()
-                    .insert(key.trim().to_ascii_lowercase(), value.trim().to_owned());
-            }
-        }
-        sections
-    }
-
-    impl Credentials {
-        /// Looks at the environment, then at the profile of the shared files.
-        pub(super) fn find() -> Self {
-            Self::find_with(&process_env, std::env::home_dir())
-        }
-
-        /// [`Self::find`] with the environment `env` and the home folder `home`.
-        pub(super) fn find_with(
-            env: &dyn Fn(&str) -> Option<String>,
-            home: Option<PathBuf>,
-        ) -> Self {
-            let home_file = |variable: &str, name: &str| {
-                env(variable)
-                    .map(PathBuf::from)
-                    .or_else(|| home.as_ref().map(|home| home.join(".aws").join(name)))
-            };
-            let profile = env("AWS_PROFILE").unwrap_or_else(|| "default".to_owned());
-            let credentials = home_file("AWS_SHARED_CREDENTIALS_FILE", "credentials")
-                .map(|p| ini(&p))
-                .unwrap_or_default();
-            let config = home_file("AWS_CONFIG_FILE", "config")
-                .map(|p| ini(&p))
-                .unwrap_or_default();
-            let config_section = if profile == "default" {
-                "default".to_owned()
-            } else {
-                format!("profile {profile}")
-            };
-            let empty: HashMap<String, String> = HashMap::new();
-            let keys = credentials.get(&profile).unwrap_or(&empty);
-            let settings = config.get(&config_section).unwrap_or(&empty);
-            let mut from_files = Vec::new();
-            let env_keys = env("AWS_ACCESS_KEY_ID").is_some();
-            if !env_keys {
-                for (name, key) in [
-                    ("aws_access_key_id", AmazonS3ConfigKey::AccessKeyId),
-                    ("aws_secret_access_key", AmazonS3ConfigKey::SecretAccessKey),
-                    ("aws_session_token", AmazonS3ConfigKey::Token),
-                ] {
-                    if let Some(value) = keys.get(name).or_else(|| settings.get(name)) {
-                        from_files.push((key, value.clone()));
-                    }
-                }
-            }
-            if env("AWS_REGION").is_none()
-                && env("AWS_DEFAULT_REGION").is_none()
-                && let Some(region) = settings.get("region")
-            {
-                from_files.push((AmazonS3ConfigKey::Region, region.clone()));
-            }
-            if env("AWS_ENDPOINT_URL").is_none()
-                && env("AWS_ENDPOINT").is_none()
-                && let Some(endpoint) = settings.get("endpoint_url")
-            {
-                from_files.push((AmazonS3ConfigKey::Endpoint, endpoint.clone()));
-            }
-            let file_keys = from_files
-                .iter()
-                .any(|(key, _)| matches!(key, AmazonS3ConfigKey::AccessKeyId));
-            // Web identity and container credentials are object_store's own providers; with
-            // none of them, no keys means anonymous (never the EC2 metadata service, which
-            // does not answer off EC2 and would hold every open for seconds).
-            let provider = [
-                "AWS_WEB_IDENTITY_TOKEN_FILE",
-                "AWS_CONTAINER_CREDENTIALS_RELATIVE_URI",
-                "AWS_CONTAINER_CREDENTIALS_FULL_URI",
-            ]
-            .iter()
-            .any(|name| env(name).is_some());
-            let anonymous = !env_keys && !file_keys && !provider;
-            let secrets = ["AWS_SECRET_ACCESS_KEY", "AWS_SESSION_TOKEN"]
-                .iter()
-                .filter_map(|name| env(name))
-                .chain(
-                    from_files
-                        .iter()
-                        .filter(|(key, _)| {
-                            matches!(
-                                key,
-                                AmazonS3ConfigKey::SecretAccessKey | AmazonS3ConfigKey::Token
-                            )
-                        })
-                        .map(|(_, value)| value.clone()),
-                )
-                .filter(|s| s.len() >= 3)
-                .collect();
-            Self {
-                from_files,
-                anonymous,
-                secrets,
-            }
-        }
-
-        /// Whether requests go unsigned.
-        #[cfg(test)]
-        pub(super) fn anonymous(&self) -> bool {
-            self.anonymous
-        }
-
-        /// The value of `key` the files give (where the environment gives none).
-        #[cfg(test)]
-        pub(super) fn setting(&self, key: AmazonS3ConfigKey) -> Option<&str> {
-            self.from_files
-                .iter()
-                .find(|(k, _)| *k == key)
-                .map(|(_, v)| v.as_str())
-        }
-
-        /// The secret strings found (to blank out of messages).
-        pub(super) fn secrets(&self) -> Vec<String> {
-            self.secrets.clone()
-        }
-
-        /// `builder` with the files' settings, and unsigned requests without credentials.
-        pub(super) fn apply(&self, mut builder: AmazonS3Builder) -> AmazonS3Builder {
-            for (key, value) in &self.from_files {
-                builder = builder.with_config(*key, value);
-            }
-            if self.anonymous {
-                builder = builder.with_skip_signature(true);
-            }
-            builder
-        }
     }
 }
 

@@ -35,8 +35,57 @@ pub struct ServerCounters {
     /// Body bytes sent.
     pub bytes: AtomicU64,
     pub faults: AtomicU64,
+    /// Requests being answered now, and the most at once so far.
+    pub in_flight: AtomicU64,
+    pub peak_in_flight: AtomicU64,
     /// When the shared link is free again (the bandwidth bound's clock).
     link_free_at: Mutex<Option<Instant>>,
+    /// When each answered request arrived and was answered, in the order they ended.
+    spans: Mutex<Vec<(Instant, Instant)>>,
+}
+
+impl ServerCounters {
+    /// Counts a request that arrives now; its arrival.
+    fn began(&self) -> Instant {
+        let now = self.in_flight.fetch_add(1, Ordering::SeqCst) + 1;
+        self.peak_in_flight.fetch_max(now, Ordering::SeqCst);
+        Instant::now()
+    }
+
+    /// Counts the end of the request that arrived at `started`.
+    fn ended(&self, started: Instant) {
+        self.in_flight.fetch_sub(1, Ordering::SeqCst);
+        self.spans
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner())
+            .push((started, Instant::now()));
+    }
+
+    /// Round trips one after another so far: the longest chain of requests each of which
+    /// arrived after the one before it had been answered. Requests in flight together are one
+    /// round trip; a client that waits for each answer before its next request makes as many
+    /// round trips as requests. With latency added to every request, a loaded machine can only
+    /// make requests that were concurrent look later (never the reverse), so this is an upper
+    /// bound on what the client did, read from what the server saw.
+    pub fn sequential_round_trips(&self) -> usize {
+        let mut spans = self
+            .spans
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner())
+            .clone();
+        spans.sort_by_key(|&(start, _)| start);
+        // depth[i]: the longest chain ending with request i.
+        let mut depth: Vec<usize> = Vec::with_capacity(spans.len());
+        for (i, &(start, _)) in spans.iter().enumerate() {
+            let before = (0..i)
+                .filter(|&j| spans[j].1 <= start)
+                .map(|j| depth[j])
+                .max()
+                .unwrap_or(0);
+            depth.push(before + 1);
+        }
+        depth.into_iter().max().unwrap_or(0)
+    }
 }
 
 /// A running server; stops when dropped.
@@ -163,91 +212,108 @@ fn serve(stream: TcpStream, root: &Path, faults: Faults, counters: &ServerCounte
     let mut reader = BufReader::new(reader_stream);
     let mut out = stream;
     while let Some(request) = read_request(&mut reader) {
-        let n = counters.requests.fetch_add(1, Ordering::SeqCst) + 1;
-        std::thread::sleep(faults.latency);
-        let every = |k: u64| k > 0 && n.is_multiple_of(k);
-        if every(faults.drop_every) {
-            counters.faults.fetch_add(1, Ordering::SeqCst);
-            let _ = out.shutdown(Shutdown::Both);
-            return;
-        }
-        if faults.forbid {
-            let _ = write!(out, "HTTP/1.1 403 Forbidden\r\nContent-Length: 0\r\n\r\n");
-            continue;
-        }
-        if every(faults.error_every) {
-            counters.faults.fetch_add(1, Ordering::SeqCst);
-            let body = "injected failure";
-            let _ = write!(
-                out,
-                "HTTP/1.1 500 Internal Server Error\r\nContent-Length: {}\r\n\r\n{body}",
-                body.len()
-            );
-            continue;
-        }
-        let relative = request.path.split('?').next().unwrap_or_default();
-        let file: PathBuf = root.join(relative.trim_start_matches('/'));
-        let escapes = relative.split('/').any(|part| part == "..");
-        let data = if escapes || !file.is_file() {
-            None
-        } else {
-            std::fs::read(&file).ok()
-        };
-        let Some(data) = data else {
-            let _ = write!(out, "HTTP/1.1 404 Not Found\r\nContent-Length: 0\r\n\r\n");
-            continue;
-        };
-        let len = data.len() as u64;
-        let etag = format!("\"{len:x}-{}\"", relative.len());
-        let (status, start, end) = match request.range.as_deref() {
-            Some(range) => match parse_range(range, len) {
-                Some((start, end)) => ("206 Partial Content", start, end),
-                None => {
-                    let _ = write!(
-                        out,
-                        "HTTP/1.1 416 Range Not Satisfiable\r\nContent-Range: bytes */{len}\r\nContent-Length: 0\r\n\r\n"
-                    );
-                    continue;
-                }
-            },
-            None => ("200 OK", 0, len),
-        };
-        let mut head = format!(
-            "HTTP/1.1 {status}\r\nContent-Length: {}\r\nETag: {etag}\r\nAccept-Ranges: bytes\r\n",
-            end - start
-        );
-        if status.starts_with("206") {
-            head.push_str(&format!(
-                "Content-Range: bytes {start}-{}/{len}\r\n",
-                end - 1
-            ));
-        }
-        head.push_str("\r\n");
-        if out.write_all(head.as_bytes()).is_err() {
-            return;
-        }
-        if request.method == "HEAD" {
-            continue;
-        }
-        let body = &data[start as usize..end as usize];
-        let cut = request.method == "GET" && every(faults.truncate_every) && body.len() > 1;
-        let body = if cut {
-            counters.faults.fetch_add(1, Ordering::SeqCst);
-            &body[..body.len() / 2]
-        } else {
-            body
-        };
-        if send(&mut out, body, faults.bandwidth, counters).is_err() {
-            return;
-        }
-        counters
-            .bytes
-            .fetch_add(body.len() as u64, Ordering::SeqCst);
-        if cut {
-            let _ = out.shutdown(Shutdown::Both);
+        let started = counters.began();
+        let keep_open = answer(&mut out, &request, root, faults, counters);
+        counters.ended(started);
+        if !keep_open {
             return;
         }
     }
+}
+
+/// Answers one request; whether the connection stays open.
+fn answer(
+    out: &mut TcpStream,
+    request: &Request,
+    root: &Path,
+    faults: Faults,
+    counters: &ServerCounters,
+) -> bool {
+    let n = counters.requests.fetch_add(1, Ordering::SeqCst) + 1;
+    std::thread::sleep(faults.latency);
+    let every = |k: u64| k > 0 && n.is_multiple_of(k);
+    if every(faults.drop_every) {
+        counters.faults.fetch_add(1, Ordering::SeqCst);
+        let _ = out.shutdown(Shutdown::Both);
+        return false;
+    }
+    if faults.forbid {
+        let _ = write!(out, "HTTP/1.1 403 Forbidden\r\nContent-Length: 0\r\n\r\n");
+        return true;
+    }
+    if every(faults.error_every) {
+        counters.faults.fetch_add(1, Ordering::SeqCst);
+        let body = "injected failure";
+        let _ = write!(
+            out,
+            "HTTP/1.1 500 Internal Server Error\r\nContent-Length: {}\r\n\r\n{body}",
+            body.len()
+        );
+        return true;
+    }
+    let relative = request.path.split('?').next().unwrap_or_default();
+    let file: PathBuf = root.join(relative.trim_start_matches('/'));
+    let escapes = relative.split('/').any(|part| part == "..");
+    let data = if escapes || !file.is_file() {
+        None
+    } else {
+        std::fs::read(&file).ok()
+    };
+    let Some(data) = data else {
+        let _ = write!(out, "HTTP/1.1 404 Not Found\r\nContent-Length: 0\r\n\r\n");
+        return true;
+    };
+    let len = data.len() as u64;
+    let etag = format!("\"{len:x}-{}\"", relative.len());
+    let (status, start, end) = match request.range.as_deref() {
+        Some(range) => match parse_range(range, len) {
+            Some((start, end)) => ("206 Partial Content", start, end),
+            None => {
+                let _ = write!(
+                    out,
+                    "HTTP/1.1 416 Range Not Satisfiable\r\nContent-Range: bytes */{len}\r\nContent-Length: 0\r\n\r\n"
+                );
+                return true;
+            }
+        },
+        None => ("200 OK", 0, len),
+    };
+    let mut head = format!(
+        "HTTP/1.1 {status}\r\nContent-Length: {}\r\nETag: {etag}\r\nAccept-Ranges: bytes\r\n",
+        end - start
+    );
+    if status.starts_with("206") {
+        head.push_str(&format!(
+            "Content-Range: bytes {start}-{}/{len}\r\n",
+            end - 1
+        ));
+    }
+    head.push_str("\r\n");
+    if out.write_all(head.as_bytes()).is_err() {
+        return false;
+    }
+    if request.method == "HEAD" {
+        return true;
+    }
+    let body = &data[start as usize..end as usize];
+    let cut = request.method == "GET" && every(faults.truncate_every) && body.len() > 1;
+    let body = if cut {
+        counters.faults.fetch_add(1, Ordering::SeqCst);
+        &body[..body.len() / 2]
+    } else {
+        body
+    };
+    if send(out, body, faults.bandwidth, counters).is_err() {
+        return false;
+    }
+    counters
+        .bytes
+        .fetch_add(body.len() as u64, Ordering::SeqCst);
+    if cut {
+        let _ = out.shutdown(Shutdown::Both);
+        return false;
+    }
+    true
 }
 
 /// Writes `body`; with a `bandwidth`, in 16 KiB pieces, each waiting for its turn on one

@@ -6,6 +6,8 @@ use std::fs::File;
 use std::io::{Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
+use rayon::prelude::*;
+
 use super::super::error::Problem;
 use super::super::io::io_reason;
 use super::super::{
@@ -252,23 +254,29 @@ impl SlabSource {
                 Ok(VoxelData::decode(self.voxel_type, &bytes, *endian))
             }
             Input::Tiled { data, tile } => {
-                fn repeat<T: Scalar>(
+                fn repeat<T: Scalar + Default + Send + Sync>(
                     values: &[T],
                     tile: [usize; 3],
                     dims: [usize; 3],
                     z0: usize,
                     count: usize,
                 ) -> VoxelData {
-                    let mut out = Vec::with_capacity(dims[0] * dims[1] * count);
-                    for z in z0..z0 + count {
-                        for y in 0..dims[1] {
-                            let row = tile[0] * ((y % tile[1]) + tile[1] * (z % tile[2]));
-                            let row = &values[row..row + tile[0]];
-                            for _ in 0..dims[0] / tile[0] {
-                                out.extend_from_slice(row);
+                    // Slice by slice in parallel: a 4096² slab is gigabytes, which one
+                    // thread copied (and faulted in) while the others waited.
+                    let plane = dims[0] * dims[1];
+                    let mut out = vec![T::default(); plane * count];
+                    out.par_chunks_mut(plane)
+                        .enumerate()
+                        .for_each(|(i, slice)| {
+                            let z = z0 + i;
+                            for (y, line) in slice.chunks_exact_mut(dims[0]).enumerate() {
+                                let row = tile[0] * ((y % tile[1]) + tile[1] * (z % tile[2]));
+                                let row = &values[row..row + tile[0]];
+                                for copy in line.chunks_exact_mut(tile[0]) {
+                                    copy.copy_from_slice(row);
+                                }
                             }
-                        }
-                    }
+                        });
                     T::wrap(out)
                 }
                 let (tile, dims) = (*tile, self.dims);

@@ -1,0 +1,434 @@
+//! Walking a Zarr hierarchy to a [`Pyramid`]: the root node (an OME-Zarr group, a
+//! bioformats2raw container, a plain array), each level's array, their agreement.
+
+use serde_json::{Map, Value};
+use zarrs::array::{Array, ArrayMetadata};
+use zarrs::storage::{ReadableStorageTraits, StoreKey};
+
+use super::super::error::{Problem, printable, quoted};
+use super::levels::{layout_of, level_info, type_name};
+use super::metadata::{self, Axis, AxisKind};
+use super::{MAX_METADATA_BYTES, Pyramid, PyramidOptions, ReadableStorage, Stored};
+
+/// Reads a metadata document (JSON object) at `key`, if present, after checking its size.
+fn read_json(store: &ReadableStorage, key: &str) -> Result<Option<Map<String, Value>>, Problem> {
+    let store_key = StoreKey::new(key).map_err(|e| format!("store key {}: {e}", quoted(key)))?;
+    match store.size_key(&store_key) {
+        Ok(Some(size)) if size > MAX_METADATA_BYTES => {
+            return Err(format!(
+                "{key} is {size} bytes; metadata of more than {MAX_METADATA_BYTES} bytes is not read"
+            ));
+        }
+        Ok(Some(_)) => {}
+        Ok(None) => return Ok(None),
+        Err(e) => return Err(format!("cannot read {key}: {}", printable(&e.to_string()))),
+    }
+    let bytes = match store.get(&store_key) {
+        Ok(Some(bytes)) => bytes,
+        Ok(None) => return Ok(None),
+        Err(e) => return Err(format!("cannot read {key}: {}", printable(&e.to_string()))),
+    };
+    let value: Value =
+        serde_json::from_slice(&bytes).map_err(|e| format!("{key} is not valid JSON: {e}"))?;
+    match value {
+        Value::Object(map) => Ok(Some(map)),
+        _ => Err(format!("{key} is not a JSON object")),
+    }
+}
+
+/// What sits at a node: a group with its attributes, an array, or nothing.
+enum Node {
+    Group {
+        attributes: Map<String, Value>,
+        zarr_format: u8,
+    },
+    Array {
+        zarr_format: u8,
+    },
+    Missing,
+}
+
+fn node(store: &ReadableStorage, prefix: &str) -> Result<Node, Problem> {
+    if let Some(json) = read_json(store, &format!("{prefix}zarr.json"))? {
+        return match json.get("node_type").and_then(Value::as_str) {
+            Some("group") => Ok(Node::Group {
+                attributes: match json.get("attributes") {
+                    Some(Value::Object(map)) => map.clone(),
+                    _ => Map::new(),
+                },
+                zarr_format: 3,
+            }),
+            Some("array") => Ok(Node::Array { zarr_format: 3 }),
+            _ => Err(format!(
+                "{prefix}zarr.json has no node_type 'group' or 'array'"
+            )),
+        };
+    }
+    if store
+        .size_key(&key(&format!("{prefix}.zarray"))?)
+        .map_err(|e| e.to_string())?
+        .is_some()
+    {
+        return Ok(Node::Array { zarr_format: 2 });
+    }
+    if store
+        .size_key(&key(&format!("{prefix}.zgroup"))?)
+        .map_err(|e| e.to_string())?
+        .is_some()
+    {
+        let attributes = read_json(store, &format!("{prefix}.zattrs"))?.unwrap_or_default();
+        return Ok(Node::Group {
+            attributes,
+            zarr_format: 2,
+        });
+    }
+    Ok(Node::Missing)
+}
+
+fn key(text: &str) -> Result<StoreKey, Problem> {
+    StoreKey::new(text).map_err(|e| format!("store key {}: {e}", quoted(text)))
+}
+
+/// Asks a store to fetch the metadata documents at these keys together, ahead of their reads
+/// (a URL's store: one round trip for all of them); a folder's does nothing.
+pub(super) type Warm<'a> = &'a dyn Fn(&[String]);
+
+/// The documents that tell what sits at the node `prefix` (`""` or `"0/"`).
+fn node_documents(prefix: &str) -> Vec<String> {
+    ["zarr.json", ".zgroup", ".zattrs", ".zarray"]
+        .iter()
+        .map(|name| format!("{prefix}{name}"))
+        .collect()
+}
+
+/// The documents zarrs reads to open the array at `full` (a path in the store, `""` for the
+/// root): `zarr.json`, and for Zarr v2 (where that is missing) `.zarray` and `.zattrs`.
+fn array_documents(full: &str, zarr_format: u8) -> Vec<String> {
+    let names: &[&str] = if zarr_format == 3 {
+        &["zarr.json"]
+    } else {
+        &["zarr.json", ".zarray", ".zattrs"]
+    };
+    names.iter().map(|name| document_key(full, name)).collect()
+}
+
+fn document_key(full: &str, name: &str) -> String {
+    if full.is_empty() {
+        name.to_owned()
+    } else {
+        format!("{full}/{name}")
+    }
+}
+
+/// Opens the hierarchy at the root of `store`: its root node, then every level's array, each
+/// step's documents handed to `warm` before they are read.
+pub(super) fn open_root(
+    store: ReadableStorage,
+    source: &str,
+    options: PyramidOptions,
+    warm: Warm,
+) -> Result<Pyramid, Problem> {
+    warm(&node_documents(""));
+    let (attributes, zarr_format, prefix) = match node(&store, "")? {
+        Node::Missing => {
+            return Err(
+                "is not a Zarr store: no zarr.json, .zgroup or .zarray at its root".to_owned(),
+            );
+        }
+        Node::Array { zarr_format } => {
+            let opening = Opening {
+                source,
+                options,
+                zarr_format,
+                prefix: "",
+                warm,
+            };
+            return open_levels(store, &opening, None, Map::new());
+        }
+        Node::Group {
+            attributes,
+            zarr_format,
+        } => {
+            if metadata::bioformats2raw_image(&attributes) {
+                // bioformats2raw.layout 3: the images are groups 0, 1, …; the first is read.
+                warm(&node_documents("0/"));
+                match node(&store, "0/")? {
+                    Node::Group {
+                        attributes,
+                        zarr_format,
+                    } => (attributes, zarr_format, "0/"),
+                    _ => {
+                        return Err(
+                            "is a bioformats2raw container without an image group '0'".to_owned()
+                        );
+                    }
+                }
+            } else {
+                (attributes, zarr_format, "")
+            }
+        }
+    };
+    let multiscale = metadata::multiscale(&attributes)?.ok_or(
+        "is a Zarr group without OME-Zarr 'multiscales' metadata (open an array inside it, or an OME-Zarr image)",
+    )?;
+    let opening = Opening {
+        source,
+        options,
+        zarr_format,
+        prefix,
+        warm,
+    };
+    open_levels(store, &opening, Some(multiscale), attributes)
+}
+
+/// What [`open_levels`] knows from the root: where the image is, and how it was asked for.
+struct Opening<'a> {
+    source: &'a str,
+    options: PyramidOptions,
+    /// The Zarr version of the image's group (or root array).
+    zarr_format: u8,
+    /// The image group's path in the store (`""`, `"0/"`).
+    prefix: &'a str,
+    warm: Warm<'a>,
+}
+
+fn open_levels(
+    store: ReadableStorage,
+    opening: &Opening,
+    multiscale: Option<metadata::Multiscale>,
+    attributes: Map<String, Value>,
+) -> Result<Pyramid, Problem> {
+    let Opening {
+        source,
+        options,
+        zarr_format,
+        prefix,
+        warm,
+    } = *opening;
+    let paths: Vec<String> = match &multiscale {
+        Some(m) => m.datasets.iter().map(|d| d.path.clone()).collect(),
+        None => vec![String::new()],
+    };
+    // Every level's documents at once: each level's array is then opened from them.
+    let documents: Vec<String> = paths
+        .iter()
+        .flat_map(|path| array_documents(&format!("{prefix}{path}"), zarr_format))
+        .collect();
+    warm(&documents);
+    let mut arrays = Vec::with_capacity(paths.len());
+    for path in &paths {
+        let full = format!("{prefix}{path}");
+        let shown = if full.is_empty() {
+            "the root array".to_owned()
+        } else {
+            format!("array {}", quoted(&full))
+        };
+        // The documents zarrs reads whole are bounded first: zarr.json, else (Zarr v2)
+        // .zarray and .zattrs.
+        if !read_size_checked(&store, &document_key(&full, "zarr.json"))? {
+            for name in [".zarray", ".zattrs"] {
+                read_size_checked(&store, &document_key(&full, name))?;
+            }
+        }
+        let array = Array::open(store.clone(), &format!("/{full}"))
+            .map_err(|e| format!("{shown}: {}", printable(&e.to_string())))?;
+        let array = through_codec_plugins(array, &store, &full);
+        arrays.push((full, shown, array));
+    }
+
+    let first = &arrays[0].2;
+    let ndim = first.dimensionality();
+    let axes = match multiscale.as_ref().and_then(|m| m.axes.clone()) {
+        Some(axes) => axes,
+        None => match first.dimension_names() {
+            Some(names) if names.iter().all(Option::is_some) && names.len() == ndim => names
+                .iter()
+                .flatten()
+                .map(|name| Axis {
+                    name: printable(name),
+                    kind: metadata::kind_by_name(name),
+                    unit: None,
+                })
+                .collect(),
+            _ => {
+                if !(2..=5).contains(&ndim) {
+                    return Err(format!(
+                        "{} has {ndim} dimensions; a volume has 2 to 5 (t, c, z, y, x)",
+                        arrays[0].1
+                    ));
+                }
+                metadata::default_axes(ndim)
+            }
+        },
+    };
+    if axes.len() != ndim {
+        return Err(format!(
+            "the metadata names {} axes but {} has {ndim} dimensions",
+            axes.len(),
+            arrays[0].1
+        ));
+    }
+    let layout = layout_of(&axes)?;
+    let stored = Stored::of(first.data_type()).ok_or_else(|| {
+        format!(
+            "{} holds {} values; voxscope reads uint8/16/32/64, int8/16/32/64, float32 and float64",
+            arrays[0].1,
+            printable(&type_name(first.data_type()))
+        )
+    })?;
+    let stored_type = type_name(first.data_type());
+    let leading = |array: &Array<dyn ReadableStorageTraits>, dim: Option<usize>| {
+        dim.map_or(1, |d| array.shape()[d])
+    };
+    let time_points = leading(first, layout.time);
+    let channels = leading(first, layout.channel);
+    for (dim, axis) in axes.iter().enumerate() {
+        if let AxisKind::Other(kind) = &axis.kind
+            && first.shape()[dim] != 1
+        {
+            return Err(format!(
+                "axis {} (type {}) has extent {}; voxscope reads space, time and channel axes",
+                quoted(&axis.name),
+                quoted(kind),
+                first.shape()[dim]
+            ));
+        }
+    }
+    if options.time as u64 >= time_points {
+        return Err(format!(
+            "time point {} does not exist (the image has {time_points})",
+            options.time
+        ));
+    }
+    if options.channel as u64 >= channels {
+        return Err(format!(
+            "channel {} does not exist (the image has {channels})",
+            options.channel
+        ));
+    }
+
+    let mut levels = Vec::with_capacity(arrays.len());
+    for (index, (path, shown, array)) in arrays.iter().enumerate() {
+        if array.dimensionality() != ndim {
+            return Err(format!(
+                "{shown} has {} dimensions but level 0 has {ndim}",
+                array.dimensionality()
+            ));
+        }
+        if Stored::of(array.data_type()) != Some(stored) {
+            return Err(format!(
+                "{shown} holds {} but level 0 holds {stored_type}",
+                printable(&type_name(array.data_type()))
+            ));
+        }
+        if leading(array, layout.time) != time_points || leading(array, layout.channel) != channels
+        {
+            return Err(format!(
+                "{shown} has other channel or time extents than level 0"
+            ));
+        }
+        levels.push(level_info(
+            path,
+            shown,
+            array,
+            &layout,
+            stored,
+            multiscale.as_ref().map(|m| (m, index)),
+        )?);
+    }
+    // Levels without a scale are spaced by their size relative to level 0.
+    if multiscale
+        .as_ref()
+        .is_none_or(|m| m.datasets.iter().all(|d| d.scale.is_none()))
+    {
+        let finest = levels[0].dims;
+        for level in &mut levels {
+            level.spacing = std::array::from_fn(|a| finest[a] as f64 / level.dims[a] as f64);
+        }
+    }
+
+    let levels_len = levels.len();
+    let units = std::array::from_fn(|a| layout.space[a].and_then(|d| axes[d].unit.clone()));
+    let version = multiscale.as_ref().and_then(|m| m.version.clone());
+    Ok(Pyramid {
+        source: source.to_owned(),
+        format: if multiscale.is_some() {
+            "OME-Zarr"
+        } else {
+            "Zarr"
+        },
+        ome_version: version,
+        zarr_format,
+        name: multiscale.as_ref().and_then(|m| m.name.clone()),
+        levels,
+        axes,
+        units,
+        channels: channels as usize,
+        time_points: time_points as usize,
+        selected: options,
+        omero: metadata::omero_channels(&attributes),
+        voxel_type: stored.voxel_type(),
+        stored_type,
+        downscaling: multiscale.as_ref().and_then(|m| m.downscaling.clone()),
+        stored,
+        layout,
+        arrays: arrays.into_iter().map(|(_, _, array)| array).collect(),
+        range_paths: range_paths(&attributes, prefix, levels_len),
+        store,
+        remote: None,
+        reader_pool: None,
+    })
+}
+
+/// A Zarr v2 array rebuilt from its Zarr v3 form, so that its codecs come from zarrs's plugin
+/// registry (where [`guard`]'s bounded decoders are): zarrs builds a v2 `blosc` compressor
+/// directly, bypassing the registry. The chunk keys stay v2's. An array whose metadata has no
+/// v3 form is kept as opened.
+fn through_codec_plugins(
+    array: Array<dyn ReadableStorageTraits>,
+    store: &ReadableStorage,
+    path: &str,
+) -> Array<dyn ReadableStorageTraits> {
+    let ArrayMetadata::V2(v2) = array.metadata() else {
+        return array;
+    };
+    match zarrs::convert::array_metadata_v2_to_v3(v2) {
+        Ok(v3) => {
+            Array::new_with_metadata(store.clone(), &format!("/{path}"), ArrayMetadata::V3(v3))
+                .unwrap_or(array)
+        }
+        Err(_) => array,
+    }
+}
+
+/// `voxscope.chunk_ranges.paths`, one per level, when present and valid paths.
+fn range_paths(attributes: &Map<String, Value>, prefix: &str, levels: usize) -> Vec<String> {
+    let paths: Vec<String> = attributes
+        .get("voxscope")
+        .and_then(|v| v.pointer("/chunk_ranges/paths"))
+        .and_then(Value::as_array)
+        .map(|list| {
+            list.iter()
+                .filter_map(Value::as_str)
+                .filter(|p| metadata::check_path(p).is_ok())
+                .map(|p| format!("{prefix}{p}"))
+                .collect()
+        })
+        .unwrap_or_default();
+    if paths.len() == levels {
+        paths
+    } else {
+        Vec::new()
+    }
+}
+
+/// Whether the document at `key` is there, after checking that it is small enough to read.
+fn read_size_checked(store: &ReadableStorage, key: &str) -> Result<bool, Problem> {
+    match store.size_key(&self::key(key)?) {
+        Ok(Some(size)) if size > MAX_METADATA_BYTES => Err(format!(
+            "{key} is {size} bytes; metadata of more than {MAX_METADATA_BYTES} bytes is not read"
+        )),
+        Ok(size) => Ok(size.is_some()),
+        Err(e) => Err(format!("cannot read {key}: {}", printable(&e.to_string()))),
+    }
+}

@@ -1,0 +1,326 @@
+//! Reading regions of a [`Pyramid`]'s levels: bounds checked, the selected channel and time
+//! point, a remote store's chunks fetched together, and the failing chunk named.
+
+use zarrs::array::data_type::Float64DataType;
+use zarrs::array::{Array, ArraySubset};
+use zarrs::storage::{ReadableStorageTraits, StoreKey};
+
+use super::super::error::{Problem, printable, quoted};
+use super::super::series::{ChannelInfo, Series, parse_hex_color};
+use super::super::{LoadError, MAX_VOXELS, ValueWindow, VoxelData, VoxelType, format_dims};
+use super::{Pyramid, Stored};
+
+/// The most chunks [`Pyramid::prefetch_regions`] asks for at once.
+pub const MAX_PREFETCH_CHUNKS: usize = 4096;
+
+impl Pyramid {
+    /// The voxels `[origin, origin + size)` of `level` (x, y, z; within the level's
+    /// dimensions, else an error), of the channel and time point chosen at open, x fastest,
+    /// in [`Self::voxel_type`]. Memory: the region, plus one decoded chunk per reading thread.
+    pub fn read_region(
+        &self,
+        level: usize,
+        origin: [usize; 3],
+        size: [usize; 3],
+    ) -> Result<VoxelData, LoadError> {
+        self.read_region_problem(level, origin, size)
+            .map_err(|problem| LoadError::new(&self.source, problem))
+    }
+
+    /// A whole level (or what [`load`] reads).
+    pub fn read_level(&self, level: usize) -> Result<VoxelData, LoadError> {
+        let dims = self
+            .levels
+            .get(level)
+            .map(|l| l.dims)
+            .ok_or_else(|| LoadError::new(&self.source, format!("no level {level}")))?;
+        self.read_region(level, [0; 3], dims)
+    }
+
+    /// The finest level with at most `budget` voxels (the coarsest when none is).
+    pub fn finest_within(&self, budget: u64) -> usize {
+        self.levels
+            .iter()
+            .position(|l| l.voxel_count() <= budget)
+            .unwrap_or(self.levels.len() - 1)
+    }
+
+    /// Every chunk's smallest and largest value at `level`, if the image has them (`voxscope
+    /// convert` writes them): grid z, y, x order (x fastest, [`LevelInfo::chunk_grid`]); NaN
+    /// for a chunk without a finite value. Lets a reader skip chunks a transfer function makes
+    /// empty before it reads them. Costs 16 bytes per chunk; refused beyond 2²⁴ chunks.
+    pub fn chunk_ranges(&self, level: usize) -> Result<Option<Vec<[f64; 2]>>, LoadError> {
+        const MAX_CHUNKS: u64 = 1 << 24;
+        let (Some(path), Some(info)) = (self.range_paths.get(level), self.levels.get(level)) else {
+            return Ok(None);
+        };
+        let fail = |problem: String| LoadError::new(&self.source, problem);
+        let array = Array::open(self.store.clone(), &format!("/{path}")).map_err(|e| {
+            fail(format!(
+                "chunk ranges {}: {}",
+                quoted(path),
+                printable(&e.to_string())
+            ))
+        })?;
+        let [gx, gy, gz] = info.chunk_grid().map(|n| n as u64);
+        if array.shape() != [gz, gy, gx, 2] || !array.data_type().is::<Float64DataType>() {
+            return Err(fail(format!(
+                "chunk ranges {} are not float64 [{gz}, {gy}, {gx}, 2] (level {level}'s chunk grid)",
+                quoted(path)
+            )));
+        }
+        if gz * gy * gx > MAX_CHUNKS {
+            return Err(fail(format!(
+                "chunk ranges {}: {} chunks exceed {MAX_CHUNKS}",
+                quoted(path),
+                gz * gy * gx
+            )));
+        }
+        let values: Vec<f64> = array
+            .retrieve_array_subset(&array.subset_all())
+            .map_err(|e| {
+                fail(format!(
+                    "chunk ranges {}: {}",
+                    quoted(path),
+                    printable(&e.to_string())
+                ))
+            })?;
+        Ok(Some(values.chunks_exact(2).map(|p| [p[0], p[1]]).collect()))
+    }
+
+    /// The channels (named, colored and windowed by `omero` where it says) and time points.
+    pub fn series(&self) -> Series {
+        let channels = (0..self.channels)
+            .map(|index| {
+                let omero = self.omero.get(index);
+                ChannelInfo {
+                    name: omero.and_then(|c| c.label.clone()),
+                    color: omero
+                        .and_then(|c| c.color.as_deref())
+                        .and_then(parse_hex_color),
+                    window: omero.and_then(|c| c.window),
+                }
+            })
+            .collect();
+        Series {
+            channels,
+            time_points: self.time_points,
+            selected: self.selected,
+        }
+    }
+
+    /// The `omero` window of the selected channel, if the file gives one.
+    pub fn omero_window(&self) -> Option<ValueWindow> {
+        self.omero
+            .get(self.selected.channel)
+            .and_then(|channel| channel.window)
+    }
+
+    /// Fetches the chunks of every region (`level`, `origin`, `size`, as [`Self::read_region`]
+    /// takes them) of a URL's store together, ahead of their reads: one round trip for all of
+    /// them, not one a reading thread at a time. A sharded level's are left to its reads
+    /// (zarrs reads a shard's index, then its inner chunks, all in flight together). Regions
+    /// outside their level, and anything beyond [`MAX_PREFETCH_CHUNKS`] chunks, are skipped;
+    /// a folder's store does nothing.
+    pub fn prefetch_regions(&self, regions: &[(usize, [usize; 3], [usize; 3])]) {
+        let Some(remote) = &self.remote else { return };
+        let mut keys = Vec::new();
+        for &(level, origin, size) in regions {
+            let (Some(info), Some(array)) = (self.levels.get(level), self.arrays.get(level)) else {
+                continue;
+            };
+            let inside = (0..3).all(|a| {
+                size[a] > 0
+                    && origin[a]
+                        .checked_add(size[a])
+                        .is_some_and(|end| end <= info.dims[a])
+            });
+            if info.shard.is_some() || !inside {
+                continue;
+            }
+            let subset = self.subset(origin, size);
+            if let Ok(Some(chunks)) = array.chunks_in_array_subset(&subset) {
+                if chunks.num_elements() > MAX_PREFETCH_CHUNKS as u64 {
+                    continue;
+                }
+                keys.extend(
+                    chunks
+                        .indices()
+                        .into_iter()
+                        .map(|indices| array.chunk_key(&indices)),
+                );
+            }
+        }
+        keys.truncate(MAX_PREFETCH_CHUNKS);
+        remote.prefetch(&keys);
+    }
+
+    /// The store key of the chunk of `level` holding voxel `(x, y, z)` (for messages and tests).
+    pub fn chunk_key(&self, level: usize, voxel: [usize; 3]) -> Option<String> {
+        let array = self.arrays.get(level)?;
+        let info = &self.levels[level];
+        let chunk = info.shard.unwrap_or(info.chunk);
+        let mut indices = vec![0u64; self.layout.ndim];
+        if let Some(t) = self.layout.time {
+            indices[t] = self.selected.time as u64 / array_chunk(array, t);
+        }
+        if let Some(c) = self.layout.channel {
+            indices[c] = self.selected.channel as u64 / array_chunk(array, c);
+        }
+        for (axis, dim) in self.layout.space.iter().enumerate() {
+            if let Some(dim) = dim {
+                indices[*dim] = (voxel[axis] / chunk[axis]) as u64;
+            }
+        }
+        Some(array.chunk_key(&indices).to_string())
+    }
+
+    fn read_region_problem(
+        &self,
+        level: usize,
+        origin: [usize; 3],
+        size: [usize; 3],
+    ) -> Result<VoxelData, Problem> {
+        let info = self
+            .levels
+            .get(level)
+            .ok_or_else(|| format!("no level {level} (the pyramid has {})", self.levels.len()))?;
+        for axis in 0..3 {
+            let end = origin[axis].checked_add(size[axis]);
+            if size[axis] == 0 || end.is_none_or(|end| end > info.dims[axis]) {
+                return Err(format!(
+                    "region {} at {} lies outside level {level} ({})",
+                    format_dims(size),
+                    format_dims(origin),
+                    format_dims(info.dims)
+                ));
+            }
+        }
+        let count = size.iter().try_fold(1usize, |acc, &d| acc.checked_mul(d));
+        if count.is_none_or(|count| count > MAX_VOXELS) {
+            return Err(format!(
+                "region {} exceeds the limit of {MAX_VOXELS} voxels",
+                format_dims(size)
+            ));
+        }
+        let subset = self.subset(origin, size);
+        let array = &self.arrays[level];
+        if let Some(remote) = &self.remote
+            && info.shard.is_none()
+        {
+            // zarrs asks for one chunk per reading thread at a time: over a network all of
+            // the region's chunks are asked for at once first.
+            if let Ok(Some(chunks)) = array.chunks_in_array_subset(&subset) {
+                let keys: Vec<StoreKey> = chunks
+                    .indices()
+                    .into_iter()
+                    .map(|indices| array.chunk_key(&indices))
+                    .collect();
+                remote.prefetch(&keys);
+            }
+        }
+        let read = || match self.stored {
+            Stored::Native(VoxelType::U8) => {
+                array.retrieve_array_subset(&subset).map(VoxelData::U8)
+            }
+            Stored::Native(VoxelType::I8) => {
+                array.retrieve_array_subset(&subset).map(VoxelData::I8)
+            }
+            Stored::Native(VoxelType::U16) => {
+                array.retrieve_array_subset(&subset).map(VoxelData::U16)
+            }
+            Stored::Native(VoxelType::I16) => {
+                array.retrieve_array_subset(&subset).map(VoxelData::I16)
+            }
+            Stored::Native(VoxelType::U32) => {
+                array.retrieve_array_subset(&subset).map(VoxelData::U32)
+            }
+            Stored::Native(VoxelType::I32) => {
+                array.retrieve_array_subset(&subset).map(VoxelData::I32)
+            }
+            Stored::Native(VoxelType::F32) => {
+                array.retrieve_array_subset(&subset).map(VoxelData::F32)
+            }
+            Stored::Native(VoxelType::F64) => {
+                array.retrieve_array_subset(&subset).map(VoxelData::F64)
+            }
+            Stored::U64 => array
+                .retrieve_array_subset::<Vec<u64>>(&subset)
+                .map(|v| VoxelData::F64(v.into_iter().map(|x| x as f64).collect())),
+            Stored::I64 => array
+                .retrieve_array_subset::<Vec<i64>>(&subset)
+                .map(|v| VoxelData::F64(v.into_iter().map(|x| x as f64).collect())),
+        };
+        let read = match &self.reader_pool {
+            Some(pool) => pool.install(read),
+            None => read(),
+        };
+        read.map_err(|error| self.failing_chunk(level, &subset, &error.to_string()))
+    }
+
+    /// The region `origin`/`size` (x, y, z) as a subset of the stored array.
+    fn subset(&self, origin: [usize; 3], size: [usize; 3]) -> ArraySubset {
+        let mut ranges = vec![0u64..1; self.layout.ndim];
+        if let Some(t) = self.layout.time {
+            let t0 = self.selected.time as u64;
+            ranges[t] = t0..t0 + 1;
+        }
+        if let Some(c) = self.layout.channel {
+            let c0 = self.selected.channel as u64;
+            ranges[c] = c0..c0 + 1;
+        }
+        for (axis, dim) in self.layout.space.iter().enumerate() {
+            if let Some(dim) = dim {
+                ranges[*dim] = origin[axis] as u64..(origin[axis] + size[axis]) as u64;
+            }
+        }
+        ArraySubset::new_with_ranges(&ranges)
+    }
+
+    /// Why reading `subset` failed, naming the first chunk (in storage order) that fails
+    /// alone; zarrs's own message when none does (a store failing intermittently).
+    fn failing_chunk(&self, level: usize, subset: &ArraySubset, error: &str) -> Problem {
+        /// Chunks retried one by one; the first failure is usually among the first.
+        const MAX_RETRIED: usize = 4096;
+        let array = &self.arrays[level];
+        let path = &self.levels[level].path;
+        let at = if path.is_empty() {
+            format!("level {level}")
+        } else {
+            format!("level {level} ({})", quoted(path))
+        };
+        if let Ok(Some(chunks)) = array.chunks_in_array_subset(subset) {
+            for indices in chunks.indices().into_iter().take(MAX_RETRIED) {
+                let indices: Vec<u64> = indices.to_vec();
+                let Ok(chunk) = array.chunk_subset_bounded(&indices) else {
+                    continue;
+                };
+                let Ok(overlap) = chunk.overlap(subset) else {
+                    continue;
+                };
+                let Ok(relative) = overlap.relative_to(chunk.start()) else {
+                    continue;
+                };
+                if let Err(e) = array
+                    .retrieve_chunk_subset::<zarrs::array::ArrayBytes<'static>>(&indices, &relative)
+                {
+                    return format!(
+                        "{at}, chunk {}: {}",
+                        quoted(&array.chunk_key(&indices).to_string()),
+                        printable(&e.to_string())
+                    );
+                }
+            }
+        }
+        format!("{at}: {}", printable(error))
+    }
+}
+
+fn array_chunk(array: &Array<dyn ReadableStorageTraits>, dim: usize) -> u64 {
+    let zeros = vec![0u64; array.dimensionality()];
+    array
+        .chunk_shape(&zeros)
+        .ok()
+        .and_then(|shape| shape.get(dim).map(|n| n.get()))
+        .unwrap_or(1)
+}
