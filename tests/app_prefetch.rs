@@ -1,8 +1,8 @@
 //! Frame prefetch of an in-memory time series in the app, driven through egui_kittest on the
 //! software Vulkan device: the next frames in play direction are loaded ahead, a prefetched
 //! frame shows without a load job (and faster than one loaded on demand: the test prints both
-//! times), the window moves on and is bounded; a streamed OME-Zarr store changes time point
-//! with the camera and transfer function kept and is not prefetched.
+//! times), the window moves on and is bounded; a streamed OME-Zarr store prefetches the next
+//! time point with the bricks of the view on screen, and shows it with the view kept.
 
 mod support;
 
@@ -183,37 +183,72 @@ fn prefetched_frames_show_without_a_load_and_the_window_moves_on() {
 }
 
 #[test]
-fn a_streamed_store_changes_time_point_keeping_the_view_and_is_not_prefetched() {
+fn a_streamed_store_prefetches_the_next_time_point_with_this_views_bricks() {
     let mut harness = harness();
     harness.state_mut().settings.renderer = RendererKind::Stream;
     let ctx = harness.ctx.clone();
     harness.state_mut().run_command(
         Command::Open(VolumeSource::Spec(
-            "tests/data/ome-zarr/tczyx-v04.ome.zarr".into(),
+            "tests/data/ome-zarr/tzyx-head-v04.ome.zarr".into(),
         )),
         &ctx,
     );
     settle(&mut harness);
     assert_eq!(harness.state().error(), None);
     assert_eq!(harness.state().renderer_kind(), Some(RendererKind::Stream));
-    // Streamed: one channel (the composite is in-memory), nothing prefetched.
+    // The head moving over three time points, streamed: the next time point alone is
+    // prefetched, its own streaming renderer.
     assert_eq!(harness.state().frame(), Some(at(0)));
-    assert!(harness.state().prefetched().is_empty());
     harness.state_mut().settings.camera.azimuth_deg = 60.0;
     settle(&mut harness);
+    assert_eq!(harness.state().prefetched(), [at(1)]);
     let (transfer, camera) = (harness.state().transfer(), harness.state().settings.camera);
     let first = view(&harness);
+    // Its loaders read this view's bricks ahead (the warm runs once the view is complete).
+    harness.run_steps(2);
+    std::thread::sleep(Duration::from_millis(200));
+    let started = Instant::now();
     harness.state_mut().run_command(Command::ShowTime(1), &ctx);
+    assert!(
+        !harness.state().is_loading(),
+        "time point 1 came from the prefetch"
+    );
     settle(&mut harness);
+    let prefetched = started.elapsed();
     let state = harness.state();
     assert_eq!(state.error(), None);
     assert_eq!(state.frame(), Some(at(1)));
     assert_eq!(state.renderer_kind(), Some(RendererKind::Stream));
     assert_eq!(state.transfer(), transfer);
     assert_eq!(state.settings.camera, camera);
-    assert!(state.prefetched().is_empty());
+    let status = state.stream_status().expect("a streaming status");
+    assert!(status.complete, "{status:?}");
+    let counters = &status.counters;
+    assert!(
+        counters.prefetch_loads > 0 && counters.ram_hits > 0,
+        "the rays found the view's bricks loaded ahead: {} prefetched, {} RAM hits",
+        counters.prefetch_loads,
+        counters.ram_hits
+    );
     assert!(
         differing_pixels(&first, &view(&harness)) > 100,
-        "time point 1 (mirrored) is drawn"
+        "time point 1 (shifted) is drawn"
+    );
+    // Without the prefetch, the same switch opens the store's frame and fetches its bricks.
+    harness.state_mut().settings.prefetch_frames = 0;
+    settle(&mut harness);
+    let started = Instant::now();
+    harness.state_mut().run_command(Command::ShowTime(2), &ctx);
+    assert!(
+        harness.state().is_loading(),
+        "time point 2 is loaded on demand"
+    );
+    settle(&mut harness);
+    let on_demand = started.elapsed();
+    assert_eq!(harness.state().frame(), Some(at(2)));
+    eprintln!(
+        "streamed switch to a complete view: prefetched {:.1} ms, on demand {:.1} ms",
+        prefetched.as_secs_f64() * 1e3,
+        on_demand.as_secs_f64() * 1e3
     );
 }

@@ -48,7 +48,7 @@ fn range(data: &VoxelData) -> (i64, i64, i64) {
 fn fixtures_read_equal_to_the_arrays_they_were_written_from() {
     let expected = expected();
     let fixtures = expected["fixtures"].as_object().unwrap();
-    assert_eq!(fixtures.len(), 6);
+    assert_eq!(fixtures.len(), 7);
     for (name, fixture) in fixtures {
         let levels = fixture["levels"].as_array().unwrap();
         for volume in levels[0]["volumes"].as_array().unwrap() {
@@ -60,6 +60,7 @@ fn fixtures_read_equal_to_the_arrays_they_were_written_from() {
                 .collect();
             let options = match index[..] {
                 [] => PyramidOptions::default(),
+                [time] => PyramidOptions { channel: 0, time },
                 [time, channel] => PyramidOptions { channel, time },
                 _ => panic!("{name}: index {index:?}"),
             };

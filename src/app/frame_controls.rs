@@ -70,7 +70,7 @@ pub struct Shown<'a> {
     pub composite: bool,
     /// Frames held ready ahead.
     pub prefetched: usize,
-    /// The volume is streamed (nothing is prefetched).
+    /// The volume is streamed (the next time point alone is prefetched).
     pub streamed: bool,
 }
 
@@ -159,22 +159,19 @@ pub fn show(
                 ui.end_row();
                 let label = ui.label("Prefetch");
                 ui.horizontal(|ui| {
-                    ui.add_enabled(
-                        !shown.streamed,
+                    let hover = if shown.streamed {
+                        "A streamed store prefetches the next time point alone (any number above 0): its streaming renderer, another atlas of the GPU budget, reads this view's bricks into RAM ahead"
+                    } else {
+                        "Frames after this one kept loaded (within 1 GiB), so playing shows them from memory"
+                    };
+                    ui.add(
                         egui::DragValue::new(&mut settings.prefetch_frames)
                             .range(0..=MAX_PREFETCH_FRAMES)
                             .suffix(" frames"),
                     )
                     .labelled_by(label.id)
-                    .on_hover_text(
-                        "Frames after this one kept loaded (within 1 GiB), so playing shows them from memory",
-                    )
-                    .on_disabled_hover_text(
-                        "A streamed store is not prefetched: its bricks are fetched for the view",
-                    );
-                    if !shown.streamed {
-                        ui.small(format!("{} ready", shown.prefetched));
-                    }
+                    .on_hover_text(hover);
+                    ui.small(format!("{} ready", shown.prefetched));
                 });
                 ui.end_row();
             }

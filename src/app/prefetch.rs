@@ -2,13 +2,15 @@
 //! the next few frames in play direction (a bounded count within a byte cap) loaded,
 //! quantized, built and uploaded by background jobs, so the time slider and Play switch to
 //! them from memory, without a load. Frames outside the window are dropped (a job loading one
-//! is cancelled). A streamed OME-Zarr store is not prefetched: its frames are bricks fetched
-//! for the view, and a fresh stream renderer for the next time point holds nothing until a
-//! view asks for its bricks.
+//! is cancelled). A streamed OME-Zarr store prefetches the next time point alone (a streaming
+//! renderer of its own: another atlas of the GPU budget): opened like any frame, then its
+//! loaders read the bricks of the view on screen into its RAM cache (`warm`), so the frame
+//! shows refined from memory instead of fetching its bricks again.
 
 use super::jobs::{Job, JobError, Opened};
 use super::scene::Scene;
 use crate::render::RendererOptions;
+use crate::stream::PyramidShape;
 use crate::volume::Selection;
 
 /// Frames ahead kept by default.
@@ -71,6 +73,8 @@ pub struct Prefetch {
     loading: Option<(FrameKey, RendererOptions, Job<Opened>)>,
     /// Frames whose load failed: not tried again for this volume (showing one reports why).
     failed: Vec<FrameKey>,
+    /// Ready streamed frames whose loaders were given the view's bricks ([`Self::warm`]).
+    warmed: Vec<FrameKey>,
 }
 
 impl Prefetch {
@@ -91,6 +95,27 @@ impl Prefetch {
         }
         self.ready.clear();
         self.failed.clear();
+        self.warmed.clear();
+    }
+
+    /// Gives each ready streamed frame not given them yet the bricks `keys` of the view on
+    /// screen (a pyramid of `shape`) to load ahead ([`crate::stream::Streamer::prefetch`]);
+    /// frames of another shape are left alone. Returns the loads queued.
+    pub fn warm(&mut self, shape: &PyramidShape, keys: &[u32]) -> usize {
+        let mut queued = 0;
+        for (key, _, opened) in &mut self.ready {
+            if self.warmed.contains(key) {
+                continue;
+            }
+            let Some(stream) = opened.scene.renderer.stream_mut() else {
+                continue;
+            };
+            self.warmed.push(*key);
+            if stream.streamer().shape() == shape {
+                queued += stream.streamer_mut().prefetch(keys.iter().copied());
+            }
+        }
+        queued
     }
 
     /// Takes frame `key` if it is ready for `options`.
@@ -99,7 +124,9 @@ impl Prefetch {
             .ready
             .iter()
             .position(|(k, o, _)| *k == key && *o == options)?;
-        Some(self.ready.remove(index).2)
+        let (key, _, opened) = self.ready.remove(index);
+        self.warmed.retain(|k| *k != key);
+        Some(opened)
     }
 
     /// Takes the job loading frame `key` for `options`, if one is (to show its frame when
@@ -141,6 +168,9 @@ impl Prefetch {
     ) {
         self.ready
             .retain(|(key, o, _)| *o == options && wanted.contains(key));
+        let ready = &self.ready;
+        self.warmed
+            .retain(|k| ready.iter().any(|(key, _, _)| key == k));
         if let Some((key, o, job)) = &self.loading
             && (*o != options || !wanted.contains(key))
         {

@@ -303,6 +303,15 @@ impl VoxscopeApp {
             }
         }
         self.prefetch.poll();
+        // The next time point of a streamed series loads this view's bricks once it is drawn.
+        if let Some(scene) = &self.scene
+            && let Some(stream) = scene.renderer.stream()
+            && scene.stream_status.as_ref().is_some_and(|s| s.complete)
+        {
+            let streamer = stream.streamer();
+            let keys: Vec<u32> = streamer.resident_keys().collect();
+            self.prefetch.warm(streamer.shape(), &keys);
+        }
         if let Some(gpu) = &self.gpu {
             let scale = self.scene.as_ref().map_or([1.0; 3], Scene::voxel_scale);
             self.central
@@ -447,8 +456,11 @@ impl VoxscopeApp {
             return;
         }
         let series = &scene.data.volume.series;
-        let count = if scene.renderer.stream().is_some() || series.time_points < 2 {
+        let count = if series.time_points < 2 {
             0
+        } else if scene.renderer.stream().is_some() {
+            // The next time point alone: another streaming renderer, its own GPU budget.
+            self.settings.prefetch_frames.min(1)
         } else {
             prefetch::frames_within_cap(
                 scene.bytes(),

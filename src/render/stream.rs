@@ -389,6 +389,11 @@ impl StreamVolume {
         &self.streamer
     }
 
+    /// The streamer, to prefetch into ([`Streamer::prefetch`]).
+    pub fn streamer_mut(&mut self) -> &mut Streamer {
+        &mut self.streamer
+    }
+
     /// GPU memory by buffer and texture: together within the budget given.
     pub fn gpu_bytes(&self) -> Vec<(&'static str, u64)> {
         vec![

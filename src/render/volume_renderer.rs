@@ -223,6 +223,14 @@ impl VolumeRenderer {
         }
     }
 
+    /// The streaming renderer's GPU side, to prefetch into, if this is one.
+    pub fn stream_mut(&mut self) -> Option<&mut StreamVolume> {
+        match &mut self.state {
+            State::Stream(volume) => Some(volume),
+            _ => None,
+        }
+    }
+
     /// What frames of max level `max_level` draw with this renderer.
     pub fn level_detail(&self, max_level: u32) -> LevelDetail {
         let (depth, sampled, bricks, dims) = match &self.state {

@@ -757,4 +757,29 @@ impl Streamer {
     pub fn resident_keys(&self) -> impl Iterator<Item = u32> + '_ {
         self.slots.keys()
     }
+
+    /// Loads the bricks `keys` name into RAM before any ray asks for them, at prefetch
+    /// priority, as far as the RAM cache has room: another view's bricks (the time point on
+    /// screen's, for the next one of a series). They are uploaded once a frame of this streamer
+    /// asks for them, without waiting on I/O then. Returns how many loads were queued. (The
+    /// queue is the loaders': they start at once, whether this streamer draws or not; the
+    /// first feedback of a frame it draws replaces what is left of them.)
+    pub fn prefetch(&mut self, keys: impl IntoIterator<Item = u32>) -> usize {
+        let room =
+            self.ram.capacity().saturating_sub(self.ram.bytes()) / self.counters.slot_bytes.max(1);
+        let requests: Vec<Request> = keys
+            .into_iter()
+            .filter(|&key| !self.satisfied(key) && !self.ram.contains(key))
+            .filter_map(|key| {
+                let id = self.shape.brick_of(key)?;
+                Some(Request {
+                    priority: Priority::new(Tier::Prefetch, id.level, 0.0),
+                    id,
+                    key,
+                })
+            })
+            .take(room as usize)
+            .collect();
+        self.queue.replace(requests)
+    }
 }

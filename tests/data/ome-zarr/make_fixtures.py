@@ -230,6 +230,26 @@ def main():
     array[...] = small
     record(expected, name, [small], "zyx")
 
+    # 7. tzyx: 3 time points of the head (i16), each shifted 4 voxels further along x: a time
+    #    series whose level 0 is several 32^3 bricks (the app's streamed prefetch test).
+    name = "tzyx-head-v04.ome.zarr"
+    frames = [np.roll(head(), 4 * t, axis=2) for t in range(3)]
+    level0 = np.ascontiguousarray(np.stack(frames))  # t, z, y, x
+    levels = pyramid(level0, 3)
+    group = zarr.open_group(str(fresh(name)), mode="w", zarr_format=2)
+    write_multiscale(
+        levels, group, fmt=FormatV04(), axes=[
+            {"name": "t", "type": "time", "unit": "second"},
+            {"name": "z", "type": "space", "unit": "millimeter"},
+            {"name": "y", "type": "space", "unit": "millimeter"},
+            {"name": "x", "type": "space", "unit": "millimeter"},
+        ],
+        coordinate_transformations=transforms((6.0, 4.0, 4.0), 3, leading=(1,)),
+        storage_options={"chunks": (1, 16, 16, 16), "compressor": numcodecs.Zstd(level=3)},
+        name="moving head",
+    )
+    record(expected, name, levels, "tzyx")
+
     (HERE / "expected.json").write_text(json.dumps({"versions": versions, "fixtures": expected}, indent=1) + "\n")
     print(json.dumps(versions))
 
