@@ -9,6 +9,7 @@ mod support;
 use std::time::{Duration, Instant};
 
 use support::app_harness::{differing_pixels, harness, scratch, settle, view};
+use support::http_server::{Faults, FileServer};
 use support::writers::{NiftiSpec, encode, nifti_bytes, nifti_datatype};
 
 use egui_kittest::Harness;
@@ -182,17 +183,15 @@ fn prefetched_frames_show_without_a_load_and_the_window_moves_on() {
     assert!(!loaded, "every frame played came from the prefetch");
 }
 
-#[test]
-fn a_streamed_store_prefetches_the_next_time_point_with_this_views_bricks() {
+/// Opens the time series `spec` streamed and switches to time point 1 (prefetched) and 2 (the
+/// prefetch switched off); the wall times to a complete view of each.
+fn streamed_switches(spec: String) -> (Duration, Duration) {
     let mut harness = harness();
     harness.state_mut().settings.renderer = RendererKind::Stream;
     let ctx = harness.ctx.clone();
-    harness.state_mut().run_command(
-        Command::Open(VolumeSource::Spec(
-            "tests/data/ome-zarr/tzyx-head-v04.ome.zarr".into(),
-        )),
-        &ctx,
-    );
+    harness
+        .state_mut()
+        .run_command(Command::Open(VolumeSource::Spec(spec)), &ctx);
     settle(&mut harness);
     assert_eq!(harness.state().error(), None);
     assert_eq!(harness.state().renderer_kind(), Some(RendererKind::Stream));
@@ -246,9 +245,34 @@ fn a_streamed_store_prefetches_the_next_time_point_with_this_views_bricks() {
     settle(&mut harness);
     let on_demand = started.elapsed();
     assert_eq!(harness.state().frame(), Some(at(2)));
+    (prefetched, on_demand)
+}
+
+fn print_switches(what: &str, (prefetched, on_demand): (Duration, Duration)) {
     eprintln!(
-        "streamed switch to a complete view: prefetched {:.1} ms, on demand {:.1} ms",
+        "streamed switch to a complete view ({what}): prefetched {:.1} ms, on demand {:.1} ms",
         prefetched.as_secs_f64() * 1e3,
         on_demand.as_secs_f64() * 1e3
     );
+}
+
+#[test]
+fn a_streamed_store_prefetches_the_next_time_point_with_this_views_bricks() {
+    let spec = "tests/data/ome-zarr/tzyx-head-v04.ome.zarr".to_owned();
+    print_switches("folder", streamed_switches(spec));
+}
+
+#[test]
+fn a_streamed_url_prefetches_the_next_time_point_over_a_slow_link() {
+    // The fixtures on 127.0.0.1 with 50 ms a request.
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/ome-zarr");
+    let server = FileServer::start(
+        &root,
+        Faults {
+            latency: Duration::from_millis(50),
+            ..Faults::default()
+        },
+    );
+    let url = server.url("tzyx-head-v04.ome.zarr");
+    print_switches("50 ms a request", streamed_switches(url));
 }
