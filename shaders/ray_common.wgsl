@@ -31,7 +31,7 @@ struct Params {
     // Level-0 voxels per voxel of the texture bound and per sample step: 2^(depth − max level)
     // where dense or bricks draw a pyramid level finer than the nodes but not full detail; 1.
     sample_voxels: f32,
-    atlas_brick: u32,       // voxels along a brick's side in the atlas bound (bricks)
+    _sample_pad: u32,
 }
 
 // Pipeline variants (src/render/raycaster.rs builds each as its own pipeline, so that a

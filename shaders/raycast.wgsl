@@ -149,16 +149,16 @@ fn atlas_origin(origin: vec3<f32>, atlas_cell: u32, corner: vec3<f32>) -> vec3<f
     return (origin + brick_to_atlas(atlas_cell, corner)) * params.atlas_texel.xyz;
 }
 
-// The offset from voxel space to the atlas of the brick whose first voxel is `corner` and whose
-// atlas cell is packed in `atlas_cell` (ten bits per axis): (p + offset) · atlas_texel is the
-// normalized atlas place of voxel-space point p. The atlas bound holds a brick in
-// `atlas_brick` texels a side (plus the apron), one texel per `sample_voxels` voxels: texel
-// cell · (atlas_brick + 2) + 1 + (p − corner) / sample_voxels, and `atlas_texel` carries the
-// division.
+// The offset from voxel space to atlas texels of the brick whose first voxel is `corner` and
+// whose atlas cell is packed in `atlas_cell` (ten bits per axis): (p + offset) · atlas_texel is
+// the normalized atlas place of voxel-space point p. COARSE: the texture bound is a whole
+// pyramid level (`atlas_texel` = 1 / (its texels × sample_voxels)), the same for every brick.
 fn brick_to_atlas(atlas_cell: u32, corner: vec3<f32>) -> vec3<f32> {
+    if COARSE {
+        return vec3<f32>(0.0);
+    }
     let cell = vec3<u32>(atlas_cell & 0x3ffu, (atlas_cell >> 10u) & 0x3ffu, atlas_cell >> 20u);
-    let atlas_brick = select(params.brick_size, params.atlas_brick, COARSE);
-    return (vec3<f32>(cell * (atlas_brick + 2u)) + 1.0) * sample_voxels() - corner;
+    return vec3<f32>(cell * (params.brick_size + 2u)) + 1.0 - corner;
 }
 
 // A brick slot's atlas cell, packed as `brick_to_atlas` reads it.
@@ -479,7 +479,7 @@ fn walk_bricks(origin: vec3<f32>, dir: vec3<f32>) -> RayResult {
             advance = count_here < BATCH_PAIR;
             // MIP: once the ray's maximum reaches the brick's (its own voxels' maximum, which
             // the cell skip trusts too), the rest of the brick cannot raise it.
-            if mip && !advance && acc.running_max >= (entry[CELL_BOUNDS] >> 16u) {
+            if mip && !COARSE && !advance && acc.running_max >= (entry[CELL_BOUNDS] >> 16u) {
                 k = max(ceil((here.t_out - ray.t_enter) / sample_step - 0.5), k);
                 advance = true;
             }
@@ -527,8 +527,15 @@ fn walk_bricks(origin: vec3<f32>, dir: vec3<f32>) -> RayResult {
 }
 
 // Whether a grid cell is a brick that can change the pixel: DVR, not transparent; MIP, its
-// maximum above the ray's so far.
+// maximum above the ray's so far. COARSE: every cell but padding, uniform regions (leaves above
+// the bricks) included: a coarser level blurs each cell into its neighbours (half a voxel of
+// that level, up to 16 voxels), so its samples there are not bounded by the cell's own values,
+// and skipping by them let light through where the level has none (a bright wedge in the 256³
+// head at level 4). A coarser level has few samples to take anyway (one per 2^k voxels).
 fn draws_brick(cell: vec4<u32>, running_max: u32) -> bool {
+    if COARSE {
+        return (cell[CELL_BOUNDS] & 0xffffu) <= (cell[CELL_BOUNDS] >> 16u);
+    }
     if cell[CELL_FIRST_CHILD] == LEAF {
         return false;
     }

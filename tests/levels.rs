@@ -132,6 +132,32 @@ fn each_level_below_the_bricks_draws_its_own_pyramid_level_in_dense_bricks_and_s
 }
 
 #[test]
+fn on_a_head_with_empty_and_uniform_regions_bricks_draw_each_level_as_dense_does() {
+    // The sample head (128×62×128, depth 7): background cells are transparent or uniform, the
+    // cells a coarser level blurs across; bricks sample them as dense does, skipping none.
+    let context = gpu();
+    let head = Prepared::new(voxscope::volume::sample().expect("the sample"), None);
+    let dense = head.renderer(&context, RendererKind::Dense);
+    let bricks = head.renderer(&context, RendererKind::Bricks);
+    for max_level in 3..head.octree.depth {
+        for mode in [RenderMode::Dvr, RenderMode::Mip] {
+            let settings = RenderSettings {
+                mode,
+                ..RenderSettings::full_detail(max_level)
+            };
+            let expected = draw(&context, &dense, &camera(), &settings, SIZE);
+            let image = draw(&context, &bricks, &camera(), &settings, SIZE);
+            save(&image, &format!("head-bricks-{mode:?}-{max_level}"));
+            let db = psnr(&image, &expected);
+            assert!(
+                db >= 60.0,
+                "{mode:?} at max level {max_level}: {db:.1} dB against dense"
+            );
+        }
+    }
+}
+
+#[test]
 fn shaded_and_mip_frames_of_a_pyramid_level_agree_across_renderers() {
     let context = gpu();
     let dense = renderer(&context, RendererKind::Dense);

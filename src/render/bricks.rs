@@ -1,10 +1,11 @@
 //! The bricks renderer's GPU side: the octree prefix with brick leaves, the 3D brick atlas,
 //! and the recolor of the brick level. Drawn by the same [`super::Raycaster`] as the octree.
 //!
-//! Max levels between the brick level and full detail draw pyramid levels of their own: for
-//! each, an atlas of the same slots holding every brick at that level's resolution (the
-//! volume reduced 2× per level by the mean, as the streaming renderer's pyramid), so each
-//! level shows its own resolution, filtered, at one sample per voxel of the level.
+//! Max levels between the brick level and full detail draw pyramid levels of their own: each
+//! level of the volume reduced 2× per level by the mean (the streaming renderer's pyramid) in
+//! a texture of its own, sampled where the cell grid says a ray must look (bricks, and
+//! uniform regions, which a coarser level blurs into their neighbours), so each level shows its
+//! own resolution, filtered, at one sample per voxel of the level.
 
 use wgpu::util::DeviceExt;
 
@@ -17,7 +18,7 @@ use super::raycaster::{BrickShape, OctreeOnGpu, VolumeShape};
 use super::recolor::RecolorLevels;
 use super::{GpuContext, GpuTransferTable, RenderError};
 use crate::octree::{BRICK_FLAG, BrickLayout, TransferFunction, ValueBounds};
-use crate::stream::{Downsampling, coarser_levels, cut_padded_block};
+use crate::stream::{Downsampling, coarser_levels};
 use crate::volume::QuantizedVolume;
 
 /// An octree with brick leaves on the GPU.
@@ -26,9 +27,9 @@ pub struct GpuBricks {
     bounds: wgpu::Buffer,
     transfer: GpuTransferTable,
     atlas: LevelTexture,
-    /// Entry `k − 1`: the atlas of pyramid level `k` (bricks `brick_size / 2^k` voxels a side),
-    /// for every level between the brick level and full detail.
-    level_atlases: Vec<LevelTexture>,
+    /// Entry `k − 1`: pyramid level `k` and its dims, for every level between the brick level
+    /// and full detail.
+    levels: Vec<(LevelTexture, [usize; 3])>,
     brick_origins: wgpu::Buffer,
     /// Per brick cell: the index of the node covering it (static).
     grid_leaves: wgpu::Buffer,
@@ -63,23 +64,16 @@ impl GpuBricks {
         let sub_brick_levels = depth
             .saturating_sub(layout.brick_level + 1)
             .min(layout.brick_size.trailing_zeros().saturating_sub(1));
-        let level_atlases = coarser_levels(
+        let levels = coarser_levels(
             &volume.levels,
             dims,
             Downsampling::Mean,
             sub_brick_levels as usize,
         )
         .iter()
-        .enumerate()
-        .map(|(index, (levels, level_dims))| {
-            let texels = level_atlas(layout, levels, *level_dims, index as u32 + 1);
-            LevelTexture::upload_as(
-                context,
-                "brick_level_atlas",
-                texels.dims,
-                &texels.levels,
-                atlas.format,
-            )
+        .map(|(coarse, level_dims)| {
+            LevelTexture::upload_as(context, "brick_level", *level_dims, coarse, atlas.format)
+                .map(|texture| (texture, *level_dims))
         })
         .collect::<Result<Vec<_>, _>>()?;
         let out_of_memory = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
@@ -155,7 +149,7 @@ impl GpuBricks {
         }
         Ok(Self {
             atlas,
-            level_atlases,
+            levels,
             nodes,
             bounds,
             transfer,
@@ -187,8 +181,8 @@ impl GpuBricks {
         vec![
             ("atlas", self.atlas.bytes),
             (
-                "level_atlases",
-                self.level_atlases.iter().map(|atlas| atlas.bytes).sum(),
+                "pyramid_levels",
+                self.levels.iter().map(|(texture, _)| texture.bytes).sum(),
             ),
             ("nodes", self.nodes.size()),
             ("bounds", self.bounds.size()),
@@ -223,14 +217,20 @@ impl VolumeShape for GpuBricks {
     }
     fn sampled_level(&self, max_level: u32) -> u32 {
         if max_level > self.shape.level && max_level < self.depth {
-            (self.depth - max_level).min(self.level_atlases.len() as u32)
+            (self.depth - max_level).min(self.levels.len() as u32)
         } else {
             0
         }
     }
     fn level_texels(&self, level: u32) -> Option<[usize; 3]> {
-        let brick = (self.shape.size >> level) as usize;
-        Some(self.shape.atlas_grid.map(|g| g as usize * (brick + 2)))
+        match level {
+            0 => Some(
+                self.shape
+                    .atlas_grid
+                    .map(|g| g as usize * (self.shape.size as usize + 2)),
+            ),
+            _ => self.levels.get(level as usize - 1).map(|(_, dims)| *dims),
+        }
     }
 }
 
@@ -251,9 +251,9 @@ impl OctreeOnGpu for GpuBricks {
         match level {
             0 => Some(&self.atlas.view),
             _ => self
-                .level_atlases
+                .levels
                 .get(level as usize - 1)
-                .map(|atlas| &atlas.view),
+                .map(|(texture, _)| &texture.view),
         }
     }
     fn brick_grid(&self) -> Option<&wgpu::Buffer> {
@@ -440,43 +440,5 @@ impl GpuBrickRecolor {
         pass.set_pipeline(&self.grid_pipeline);
         pass.set_bind_group(0, &bind_group, &[]);
         pass.dispatch_workgroups(groups_x, groups.div_ceil(groups_x), 1);
-    }
-}
-
-/// The value levels of an atlas and its size in texels.
-struct AtlasTexels {
-    levels: Vec<u16>,
-    dims: [usize; 3],
-}
-
-/// The atlas of pyramid level `level` (`levels`, `level_dims`: the volume reduced `level`
-/// times): `layout`'s slots in the same cells, each holding its brick's `brick_size / 2^level`
-/// voxels a side of that level, with the one-voxel apron clamped to the level's edges (as the
-/// streaming renderer cuts its bricks).
-fn level_atlas(
-    layout: &BrickLayout,
-    levels: &[u16],
-    level_dims: [usize; 3],
-    level: u32,
-) -> AtlasTexels {
-    let side = layout.brick_size >> level;
-    let pitch = side + 2;
-    let dims = layout.atlas_grid.map(|g| g * pitch);
-    let mut atlas = vec![0u16; dims.iter().product()];
-    let mut block = Vec::with_capacity(pitch * pitch * pitch);
-    for (slot, origin) in layout.brick_origins.iter().enumerate() {
-        block.clear();
-        let first = origin.map(|o| o >> level);
-        cut_padded_block(levels, level_dims, first, side, &mut block);
-        let cell = layout.atlas_cell(slot).map(|c| c * pitch);
-        for (row_index, row) in block.chunks_exact(pitch).enumerate() {
-            let (y, z) = (row_index % pitch, row_index / pitch);
-            let start = cell[0] + dims[0] * (cell[1] + y + dims[1] * (cell[2] + z));
-            atlas[start..start + pitch].copy_from_slice(row);
-        }
-    }
-    AtlasTexels {
-        levels: atlas,
-        dims,
     }
 }

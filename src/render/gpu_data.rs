@@ -49,8 +49,7 @@ pub(crate) struct RaycastParams {
     /// level) where the dense or bricks renderer draws a pyramid level finer than the octree's
     /// nodes but coarser than full detail (the texture bound is that level's), else 1.
     pub sample_voxels: f32,
-    /// Voxels along a brick's side in the atlas bound: the brick size ÷ `sample_voxels`.
-    pub atlas_brick: u32,
+    pub _sample_pad: u32,
 }
 
 const _: () = assert!(std::mem::size_of::<RaycastParams>() == 272);
@@ -279,7 +278,7 @@ mod tests {
             shading_scale,
             probe_pixel,
             sample_voxels,
-            atlas_brick,
+            _sample_pad,
         })
     }
 

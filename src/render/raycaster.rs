@@ -563,6 +563,6 @@ pub(crate) fn raycast_params(
         ],
         probe_pixel: [0, 0],
         sample_voxels,
-        atlas_brick: bricks.map_or(1, |b| b.size >> sampled_level),
+        _sample_pad: 0,
     }
 }
