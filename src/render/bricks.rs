@@ -247,7 +247,7 @@ impl OctreeOnGpu for GpuBricks {
     fn atlas(&self) -> Option<&wgpu::TextureView> {
         Some(&self.atlas.view)
     }
-    fn level_atlas(&self, level: u32) -> Option<&wgpu::TextureView> {
+    fn sampled_texture(&self, level: u32) -> Option<&wgpu::TextureView> {
         match level {
             0 => Some(&self.atlas.view),
             _ => self

@@ -146,9 +146,10 @@ pub trait OctreeOnGpu: VolumeShape {
     fn lookup_table(&self) -> &wgpu::Buffer;
     /// The brick atlas, if there are bricks.
     fn atlas(&self) -> Option<&wgpu::TextureView>;
-    /// The atlas that frames sampling pyramid level `level` bind ([`VolumeShape::sampled_level`]):
-    /// the brick atlas at full detail.
-    fn level_atlas(&self, level: u32) -> Option<&wgpu::TextureView> {
+    /// The texture that frames sampling pyramid level `level` bind
+    /// ([`VolumeShape::sampled_level`]): the brick atlas at full detail, the level's own
+    /// texture below the bricks.
+    fn sampled_texture(&self, level: u32) -> Option<&wgpu::TextureView> {
         self.atlas().filter(|_| level == 0)
     }
     /// The grid of brick cells (`GridCell`s), if there are bricks.
@@ -408,7 +409,7 @@ impl Raycaster {
                 target.visits.as_entire_binding(),
                 wgpu::BindingResource::TextureView(
                     volume
-                        .level_atlas(volume.sampled_level(params.max_level))
+                        .sampled_texture(volume.sampled_level(params.max_level))
                         .unwrap_or(&self.no_atlas),
                 ),
                 wgpu::BindingResource::Sampler(&self.atlas_sampler),
