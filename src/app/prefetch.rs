@@ -7,8 +7,11 @@
 //! loaders read the bricks of the view on screen into its RAM cache (`warm`), so the frame
 //! shows refined from memory instead of fetching its bricks again.
 
+use std::sync::Arc;
+
 use super::jobs::{Job, JobError, Opened};
-use super::scene::Scene;
+use super::scene::{self, FrameChange, Scene};
+use super::voxscope_app::VoxscopeApp;
 use crate::render::RendererOptions;
 use crate::stream::PyramidShape;
 use crate::volume::Selection;
@@ -186,6 +189,66 @@ impl Prefetch {
             .find(|key| !self.failed.contains(key) && !self.ready.iter().any(|(k, _, _)| k == key));
         if let Some(key) = next {
             self.loading = Some((key, options, start(key)));
+        }
+    }
+}
+
+impl VoxscopeApp {
+    /// Keeps the frames after the one on screen prefetched (an in-memory time series only;
+    /// see [`super::prefetch`]).
+    pub(super) fn follow_prefetch(&mut self, ctx: &egui::Context) {
+        let (Some(scene), Some(gpu)) = (&self.scene, &self.gpu) else {
+            return;
+        };
+        if self.jobs.opening.is_some() {
+            // The window moves once the frame being opened is on screen.
+            return;
+        }
+        let series = &scene.data.volume.series;
+        let count = if series.time_points < 2 {
+            0
+        } else if scene.renderer.stream().is_some() {
+            // The next time point alone: another streaming renderer, its own GPU budget.
+            self.settings.prefetch_frames.min(1)
+        } else {
+            frames_within_cap(
+                scene.bytes(),
+                self.settings.prefetch_frames.min(MAX_PREFETCH_FRAMES),
+            )
+        };
+        let wanted = window(FrameKey::of_scene(scene), series.time_points, count);
+        let options = scene.options;
+        let source = scene.data.source.clone();
+        let context = Arc::clone(&gpu.context);
+        let choice = self.settings.transfer;
+        let current = self.frame_change(FrameKey::of_scene(scene));
+        self.prefetch.plan(&wanted, options, |key| {
+            let frame = FrameChange {
+                selection: key.selection(),
+                composite: key.channel.is_none(),
+                ..current
+            };
+            let wake = ctx.clone();
+            Job::spawn(
+                format!("time point {} of {} (prefetched)", key.time, source.spec()),
+                move || wake.request_repaint(),
+                move |progress| {
+                    scene::prepare_scene(&source, Some(frame), choice, &context, options, progress)
+                },
+            )
+        });
+    }
+
+    /// The next time point of a streamed series loads the bricks of the view on screen once
+    /// that view is complete ([`Prefetch::warm`]).
+    pub(super) fn warm_prefetch(&mut self) {
+        if let Some(scene) = &self.scene
+            && let Some(stream) = scene.renderer.stream()
+            && scene.stream_status.as_ref().is_some_and(|s| s.complete)
+        {
+            let streamer = stream.streamer();
+            let keys: Vec<u32> = streamer.resident_keys().collect();
+            self.prefetch.warm(streamer.shape(), &keys);
         }
     }
 }

@@ -19,8 +19,8 @@ use super::jobs::{Job, JobError, JobEvent, Jobs, Opened};
 use super::menu::{self, NOTICE_DURATION};
 use super::octree_panel::{self, OctreeFacts};
 use super::overlays;
-use super::prefetch::{self, FrameKey, Prefetch};
-use super::scene::{self, FrameChange, Scene, VolumeData, VolumeSource};
+use super::prefetch::{FrameKey, Prefetch};
+use super::scene::{self, Scene, VolumeData, VolumeSource};
 use super::settings::{AppSettings, STORAGE_KEY, TransferChoice, TransferPreset};
 use super::transfer_panel;
 use super::url_dialog::{UrlDialog, UrlOutcome};
@@ -303,15 +303,7 @@ impl VoxscopeApp {
             }
         }
         self.prefetch.poll();
-        // The next time point of a streamed series loads this view's bricks once it is drawn.
-        if let Some(scene) = &self.scene
-            && let Some(stream) = scene.renderer.stream()
-            && scene.stream_status.as_ref().is_some_and(|s| s.complete)
-        {
-            let streamer = stream.streamer();
-            let keys: Vec<u32> = streamer.resident_keys().collect();
-            self.prefetch.warm(streamer.shape(), &keys);
-        }
+        self.warm_prefetch();
         if let Some(gpu) = &self.gpu {
             let scale = self.scene.as_ref().map_or([1.0; 3], Scene::voxel_scale);
             self.central
@@ -443,53 +435,6 @@ impl VoxscopeApp {
             ));
         }
         self.follow_prefetch(ctx);
-    }
-
-    /// Keeps the frames after the one on screen prefetched (an in-memory time series only;
-    /// see [`super::prefetch`]).
-    fn follow_prefetch(&mut self, ctx: &egui::Context) {
-        let (Some(scene), Some(gpu)) = (&self.scene, &self.gpu) else {
-            return;
-        };
-        if self.jobs.opening.is_some() {
-            // The window moves once the frame being opened is on screen.
-            return;
-        }
-        let series = &scene.data.volume.series;
-        let count = if series.time_points < 2 {
-            0
-        } else if scene.renderer.stream().is_some() {
-            // The next time point alone: another streaming renderer, its own GPU budget.
-            self.settings.prefetch_frames.min(1)
-        } else {
-            prefetch::frames_within_cap(
-                scene.bytes(),
-                self.settings
-                    .prefetch_frames
-                    .min(prefetch::MAX_PREFETCH_FRAMES),
-            )
-        };
-        let wanted = prefetch::window(FrameKey::of_scene(scene), series.time_points, count);
-        let options = scene.options;
-        let source = scene.data.source.clone();
-        let context = Arc::clone(&gpu.context);
-        let choice = self.settings.transfer;
-        let current = self.frame_change(FrameKey::of_scene(scene));
-        self.prefetch.plan(&wanted, options, |key| {
-            let frame = FrameChange {
-                selection: key.selection(),
-                composite: key.channel.is_none(),
-                ..current
-            };
-            let wake = ctx.clone();
-            Job::spawn(
-                format!("time point {} of {} (prefetched)", key.time, source.spec()),
-                move || wake.request_repaint(),
-                move |progress| {
-                    scene::prepare_scene(&source, Some(frame), choice, &context, options, progress)
-                },
-            )
-        });
     }
 }
 
