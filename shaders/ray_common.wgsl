@@ -141,8 +141,8 @@ fn volume_interval(origin: vec3<f32>, dir: vec3<f32>, inv: vec3<f32>) -> vec2<f3
 
 // Samples are fetched in batches of four: their texture reads do not depend on each other, so
 // a ray waits for one memory latency per batch instead of one per sample (the frame is bound by
-// its longest rays' chains of dependent reads: docs/benchmarks.md, attempt 7). The dense march
-// and the bricks' grid walk fetch two batches per loop iteration (attempt 17).
+// its longest rays' chains of dependent reads: docs/performance-log.md, attempt 7). The dense
+// march and the bricks' grid walk fetch two batches per loop iteration (attempt 17).
 const BATCH: u32 = 4u;
 const BATCH_OFFSETS: vec4<f32> = vec4<f32>(0.5, 1.5, 2.5, 3.5);
 const BATCH_PAIR: u32 = 2u * BATCH;

@@ -31,7 +31,7 @@ const MAX_STEPS: u32 = 100000u;
 // vectors whose components the CELL_* constants there name: `cell[CELL_BOUNDS]`. As GridCell
 // values (read from an array<GridCell>, or built from the vector at the read or at each use) the
 // grid walk ran 1–5 % slower on an H200 with driver 580, the driver's code 128–900 bytes longer
-// (docs/bench runs 40–42).
+// (runs 40–42: docs/performance-log.md, attempt 25).
 @group(0) @binding(8) var<storage, read> brick_grid: array<vec4<u32>>;
 // What a PROBE pipeline found (ray_common.wgsl).
 @group(0) @binding(9) var<storage, read_write> probe_out: ProbeResult;
@@ -203,7 +203,8 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, lane: u32) ->
     // The path from the root; entry `level` is the current node, also kept in registers
     // (`node_index`, `corner`, `t_out`) so that a descent step waits on one node read alone.
     // Three words a level, the corner packed, in this invocation's slice of workgroup memory:
-    // stack traffic, more than node reads, bounds this loop (docs/benchmarks.md, attempts 8–12).
+    // stack traffic, more than node reads, bounds this loop (docs/performance-log.md,
+    // attempts 8–12).
     var node_index = 0u;
     var corner = vec3<f32>(0.0);
     let root_exits = (select(vec3<f32>(0.0), vec3<f32>(side), ray.positive) - origin) * ray.inv;

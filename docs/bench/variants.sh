@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Shader variants side by side on the lent GPU (docs/benchmarks.md, attempt 17; runs 23-24).
+# Shader variants side by side on the lent GPU (docs/performance-log.md, attempt 17; runs 23-24).
 # Each variant is a release binary built from one version of the shaders, stripped and gzipped
 # into .bench/voxscope-NAME.gz (three or four fit the device tool's 64 MiB carry), beside
 # .bench/mri-head-256.nii.gz and the Vulkan loader debs in .gl/ (see run.sh).
