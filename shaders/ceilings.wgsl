@@ -2,7 +2,8 @@
 // src/render/ceilings.rs): memory bandwidth, the rate of filtered 3D texture samples, the latency
 // of a fetch that waits on the previous one (texture and storage buffer), the FMA rate, and the
 // rate at which invocations that only store a result run.
-// docs/benchmarks.md sets the renderers' times against these.
+// docs/benchmarks.md lists them; docs/performance-log.md (run 38) sets the renderers' times
+// against them.
 
 // Keep in sync with `CeilingParams` in src/render/ceilings.rs.
 struct CeilingParams {
