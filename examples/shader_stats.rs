@@ -26,7 +26,7 @@ fn main() {
     }
 }
 
-/// The entry points measured: shader name in `voxscope::render::shaders::ALL`, entry point.
+/// The entry points measured: shader name in `voxscope_render::shaders::ALL`, entry point.
 const ENTRY_POINTS: [(&str, &str); 3] = [
     ("raycast", "main"),
     ("raycast", "main_bricks"),
@@ -118,7 +118,7 @@ fn shaders_to_measure() -> Result<Vec<Measured>, String> {
     if arguments.is_empty() {
         let mut measured = Vec::new();
         for &(shader, entry_point) in &ENTRY_POINTS {
-            let found = voxscope::render::shaders::ALL
+            let found = voxscope_render::shaders::ALL
                 .iter()
                 .find(|s| s.name == shader)
                 .ok_or_else(|| format!("no shader {shader}"))?;

@@ -16,8 +16,8 @@ use egui_kittest::kittest::Queryable;
 use voxscope::app::{
     AppSettings, Command, Layout, STORAGE_KEY, VolumeSource, VoxscopeApp, wgpu_setup,
 };
-use voxscope::octree::{self, OpacityMode};
-use voxscope::volume::SAMPLE_NAME;
+use voxscope_octree::OpacityMode;
+use voxscope_volume::SAMPLE_NAME;
 
 #[test]
 fn main_window_opens_the_sample_and_draws_it() {
@@ -151,11 +151,12 @@ fn statistics_panel_counts_under_the_live_transfer_function() {
     harness.get_by_label("Binary").click();
     settle(&mut harness);
     let app = harness.state();
-    let data = voxscope::volume::sample().expect("sample");
-    let quantized = voxscope::volume::QuantizedVolume::new(&data);
-    let mut tree = octree::build(&quantized, octree::BuildOptions::default()).expect("build");
-    octree::recolor(&mut tree, &app.transfer());
-    let expected = octree::level_statistics(&tree);
+    let data = voxscope_volume::sample().expect("sample");
+    let quantized = voxscope_volume::QuantizedVolume::new(&data);
+    let mut tree = voxscope_octree::build(&quantized, voxscope_octree::BuildOptions::default())
+        .expect("build");
+    voxscope_octree::recolor(&mut tree, &app.transfer());
+    let expected = voxscope_octree::level_statistics(&tree);
     assert_eq!(app.statistics(), expected.as_slice());
 }
 
@@ -313,8 +314,8 @@ fn switching_the_renderer_uploads_in_the_background_and_draws_the_same_head() {
     let mut harness = harness();
     let octree_view = view(&harness);
     for (name, kind) in [
-        ("bricks", voxscope::render::RendererKind::Bricks),
-        ("dense", voxscope::render::RendererKind::Dense),
+        ("bricks", voxscope_render::RendererKind::Bricks),
+        ("dense", voxscope_render::RendererKind::Dense),
     ] {
         harness.get_by_label("Renderer").click();
         harness.run_steps(2);
@@ -398,12 +399,9 @@ fn a_volume_too_large_for_the_octree_buffers_opens_with_bricks() {
     );
     assert_eq!(
         app.renderer_kind(),
-        Some(voxscope::render::RendererKind::Bricks)
+        Some(voxscope_render::RendererKind::Bricks)
     );
-    assert_eq!(
-        app.settings.renderer,
-        voxscope::render::RendererKind::Bricks
-    );
+    assert_eq!(app.settings.renderer, voxscope_render::RendererKind::Bricks);
     assert!(lit_pixels(&view(&harness)) > 10_000);
 }
 

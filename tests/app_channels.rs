@@ -11,7 +11,7 @@ use support::app_harness::{differing_pixels, harness, lit_pixels, settle, snapsh
 
 use egui_kittest::kittest::{NodeT, Queryable};
 use voxscope::app::{Command, FrameKey, VolumeSource};
-use voxscope::volume::{Selection, ValueWindow};
+use voxscope_volume::{Selection, ValueWindow};
 
 /// Relative (tests run in the package's folder), so the snapshot's status bar is the same in
 /// every checkout: 2 channels (LUTs black to cyan and to orange) × 2 time points.

@@ -8,7 +8,7 @@ use support::app_harness::{
     click_at, differing_pixels, drag, harness, lit_pixels, settle, snapshot, view,
 };
 use voxscope::app::{Command, DialogKind};
-use voxscope::octree::OpacityMode;
+use voxscope_octree::OpacityMode;
 
 /// The control points of the main transfer function (panics if it is not a curve).
 fn points(harness: &egui_kittest::Harness<'_, voxscope::app::VoxscopeApp>) -> Vec<(f64, f32)> {

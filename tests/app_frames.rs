@@ -11,7 +11,7 @@ use support::app_harness::{differing_pixels, harness, settle, view};
 
 use egui_kittest::kittest::Queryable;
 use voxscope::app::{Command, VolumeSource};
-use voxscope::volume::{Selection, ValueWindow};
+use voxscope_volume::{Selection, ValueWindow};
 
 /// Relative (tests run in the package's folder), so the snapshot's status bar is the same in
 /// every checkout.

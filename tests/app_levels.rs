@@ -7,7 +7,7 @@ mod support;
 
 use egui_kittest::kittest::Queryable;
 use support::app_harness::{choose_renderer, differing_pixels, harness, settle, snapshot, view};
-use voxscope::render::RendererKind;
+use voxscope_render::RendererKind;
 
 fn set_max_level(harness: &mut egui_kittest::Harness<'_, voxscope::app::VoxscopeApp>, level: u32) {
     harness

@@ -15,8 +15,8 @@ use support::writers::{NiftiSpec, encode, nifti_bytes, nifti_datatype};
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
 use voxscope::app::{Command, FrameKey, VolumeSource, VoxscopeApp};
-use voxscope::render::RendererKind;
-use voxscope::volume::{Endian, VoxelType};
+use voxscope_render::RendererKind;
+use voxscope_volume::{Endian, VoxelType};
 
 /// Voxels along each side of the written series: large enough that loading a frame costs
 /// more than showing one.

@@ -10,7 +10,7 @@ use support::app_harness::{
     click_at, differing_pixels, drag, harness, lit_pixels, scratch, settle, snapshot, view,
 };
 use voxscope::app::{Layout, VoxscopeApp};
-use voxscope::render::{SliceConvention, SliceFrame, SliceView};
+use voxscope_render::{SliceConvention, SliceFrame, SliceView};
 
 /// Opens the Slices layout on the sample.
 fn slices() -> Harness<'static, VoxscopeApp> {

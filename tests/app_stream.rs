@@ -11,7 +11,7 @@ use support::reference::psnr;
 
 use egui_kittest::kittest::Queryable;
 use voxscope::app::{Command, VolumeSource};
-use voxscope::render::RendererKind;
+use voxscope_render::RendererKind;
 
 #[test]
 fn the_streaming_renderer_refines_the_head_to_the_bricks_picture() {

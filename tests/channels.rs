@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 use serde_json::Value;
-use voxscope::volume::{self, LoadOptions, Selection, Volume};
+use voxscope_volume::{LoadOptions, Selection, Volume};
 
 fn fixture(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -27,7 +27,7 @@ fn load(path: &Path, channel: usize, time: usize) -> Result<Volume, String> {
         select: Selection { channel, time },
         ..LoadOptions::default()
     };
-    volume::load(&path.display().to_string(), &options).map_err(|e| e.to_string())
+    voxscope_volume::load(&path.display().to_string(), &options).map_err(|e| e.to_string())
 }
 
 fn voxscope(args: &[&str]) -> Output {
@@ -207,7 +207,7 @@ fn frames_out_of_range_are_one_line_errors_naming_file_axis_and_extent() {
         let error = load(&path, channel, time).unwrap_err();
         assert_eq!(error, format!("{}: {problem}", path.display()));
     }
-    let synthetic = volume::load(
+    let synthetic = voxscope_volume::load(
         "synthetic:sphere:8",
         &LoadOptions {
             select: Selection {

@@ -9,12 +9,12 @@ use std::process::{Command, Output};
 use image::RgbaImage;
 use support::gpu;
 use support::reference::{CompositeChannel, MarchVolume, psnr, reference_composite};
-use voxscope::octree::TransferFunction;
-use voxscope::render::{
+use voxscope_octree::TransferFunction;
+use voxscope_render::{
     Camera, ChannelLayer, CompositeRaycaster, CompositeVolume, GpuContext, RenderMode,
     RenderSettings, RenderTarget, RendererKind, read_image, tinted_lookup_table,
 };
-use voxscope::volume::{self, LoadOptions, QuantizedVolume, ValueWindow};
+use voxscope_volume::{LoadOptions, QuantizedVolume, ValueWindow};
 
 const SIZE: (u32, u32) = (96, 72);
 
@@ -32,7 +32,7 @@ fn channels() -> Vec<(QuantizedVolume, TransferFunction, [f32; 3])> {
         .iter()
         .enumerate()
         .map(|(index, (spec, color))| {
-            let volume = volume::load(spec, &LoadOptions::default()).unwrap();
+            let volume = voxscope_volume::load(spec, &LoadOptions::default()).unwrap();
             let quantized = QuantizedVolume::new(&volume);
             let mut window = quantized.robust_window();
             if index == 4 {
@@ -175,7 +175,7 @@ fn composite_dvr_matches_the_cpu_reference() {
 #[test]
 fn one_white_channel_draws_what_the_dense_renderer_draws() {
     let context = gpu();
-    let volume = volume::load("synthetic:shells:24", &LoadOptions::default()).unwrap();
+    let volume = voxscope_volume::load("synthetic:shells:24", &LoadOptions::default()).unwrap();
     let prepared = support::Prepared::new(volume, None);
     for mode in [RenderMode::Dvr, RenderMode::Mip] {
         let settings = settings(mode, 0.3);
@@ -398,10 +398,10 @@ fn info_lists_each_channels_name_color_range_and_window() {
     assert!(text.contains("composite of 2 channels"), "{text}");
     for (channel, name, color) in [(0, "DAPI", "#00ff00"), (1, "GFP", "#ff00ff")] {
         let options = LoadOptions {
-            select: volume::Selection { channel, time: 0 },
+            select: voxscope_volume::Selection { channel, time: 0 },
             ..LoadOptions::default()
         };
-        let volume = volume::load(&ome, &options).unwrap();
+        let volume = voxscope_volume::load(&ome, &options).unwrap();
         let values: Vec<f64> = (0..volume.voxel_count())
             .map(|i| volume.data.get(i).unwrap())
             .collect();
@@ -508,9 +508,9 @@ fn new_layers_on_an_uploaded_composite_draw_as_a_fresh_upload() {
 fn a_clipped_composite_matches_the_cpu_reference() {
     let context = gpu();
     let channels = channels();
-    let clip = voxscope::octree::Clip {
+    let clip = voxscope_octree::Clip {
         bounds: Some([[0.1, 0.8], [0.0, 0.7], [0.2, 1.0]]),
-        plane: Some(voxscope::octree::ClipPlane {
+        plane: Some(voxscope_octree::ClipPlane {
             normal: [0.3, -1.0, 0.2],
             distance: -0.4,
         }),
@@ -547,12 +547,12 @@ fn transparent_blocks_are_skipped_without_changing_the_picture() {
             if r < 8.0 { (200.0 - 12.0 * r) as u8 } else { 0 }
         })
         .collect();
-    let volume = volume::Volume::new(
+    let volume = voxscope_volume::Volume::new(
         "ball",
         "synthetic",
         [side; 3],
         [1.0; 3],
-        volume::VoxelData::U8(voxels),
+        voxscope_volume::VoxelData::U8(voxels),
     )
     .unwrap();
     let quantized = QuantizedVolume::new(&volume);
@@ -578,7 +578,7 @@ fn transparent_blocks_are_skipped_without_changing_the_picture() {
         let target = RenderTarget::new(&context, SIZE.0, SIZE.1);
         CompositeRaycaster::new(&context).render(&context, &gpu_volume, &target, &camera(), &dvr);
         let image = read_image(&context, &target).unwrap();
-        let visits = voxscope::render::read_visits(&context, &target).unwrap();
+        let visits = voxscope_render::read_visits(&context, &target).unwrap();
         samples.push(visits.iter().map(|&v| v as u64).sum::<u64>());
         let march = MarchVolume::new(&quantized);
         let cpu = reference_composite(

@@ -8,9 +8,9 @@ use std::path::Path;
 use std::process::{Command, Output};
 
 use voxscope::app::TransferPreset;
-use voxscope::octree::{Colormap, OpacityMode, TransferFunction};
-use voxscope::render::RenderMode;
-use voxscope::volume::{LoadOptions, ValueWindow};
+use voxscope_octree::{Colormap, OpacityMode, TransferFunction};
+use voxscope_render::RenderMode;
+use voxscope_volume::{LoadOptions, ValueWindow};
 
 fn voxscope(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_voxscope"))
@@ -215,7 +215,7 @@ fn render_uses_bricks_when_the_octree_does_not_fit_and_says_so() {
 fn probe_prints_the_loaders_value_at_displayed_indices() {
     let path = support::shared_data("mri-head-128x128x62.nii.gz");
     let spec = path.to_str().unwrap();
-    let volume = voxscope::volume::load(spec, &LoadOptions::default()).expect("loads");
+    let volume = voxscope_volume::load(spec, &LoadOptions::default()).expect("loads");
     let [nx, ny, nz] = volume.dims;
     // A few voxels spread through the volume (deterministic).
     for (n, i) in [(0usize, 0usize), (1, 37), (2, 91), (3, 127)] {
@@ -238,7 +238,7 @@ fn probe_prints_the_loaders_value_at_displayed_indices() {
     let beyond = format!("0,0,{nz}");
     let outside = voxscope(&["probe", spec, "--at", &beyond]);
     assert!(!outside.status.success());
-    let dims = voxscope::volume::format_dims(volume.dims);
+    let dims = voxscope_volume::format_dims(volume.dims);
     assert!(
         stderr(&outside).contains(&format!("outside its {dims} voxels")),
         "{}",

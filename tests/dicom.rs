@@ -5,13 +5,14 @@ mod support;
 
 use std::path::Path;
 
-use voxscope::volume::{self, LoadOptions, VoxelType};
+use voxscope_volume::{LoadOptions, VoxelType};
 
-fn load(path: &Path) -> Result<volume::Volume, String> {
-    volume::load(&path.display().to_string(), &LoadOptions::default()).map_err(|e| e.to_string())
+fn load(path: &Path) -> Result<voxscope_volume::Volume, String> {
+    voxscope_volume::load(&path.display().to_string(), &LoadOptions::default())
+        .map_err(|e| e.to_string())
 }
 
-fn has(volume: &volume::Volume, key: &str, value: &str) -> bool {
+fn has(volume: &voxscope_volume::Volume, key: &str, value: &str) -> bool {
     volume.metadata.iter().any(|(k, v)| k == key && v == value)
 }
 

@@ -11,8 +11,8 @@ use std::sync::Mutex;
 
 use fuzz::oracle::{Failure, Limits};
 use fuzz::{Kind, Recipe, seeds};
-use voxscope::octree::{self, BrickLayout, BuildOptions};
-use voxscope::volume::{self, LoadOptions, QuantizedVolume};
+use voxscope_octree::{BrickLayout, BuildOptions};
+use voxscope_volume::{LoadOptions, QuantizedVolume};
 
 #[global_allocator]
 static ALLOCATOR: fuzz::alloc::CountingAllocator = fuzz::alloc::CountingAllocator;
@@ -282,10 +282,10 @@ fn thin_volumes_build_their_octree_and_bricks_in_little_memory() {
         ("synthetic:noise:1x1024x1", 1 << 20),
         ("synthetic:noise:1024x1024x1", 64 << 20),
     ] {
-        let volume = volume::load(spec, &LoadOptions::default()).unwrap();
+        let volume = voxscope_volume::load(spec, &LoadOptions::default()).unwrap();
         let quantized = QuantizedVolume::new(&volume);
         let baseline = fuzz::alloc::begin_case();
-        let octree = octree::build(&quantized, BuildOptions::default()).unwrap();
+        let octree = voxscope_octree::build(&quantized, BuildOptions::default()).unwrap();
         let octree_peak = fuzz::alloc::peak_since(baseline);
         let bricks = BrickLayout::new(&octree, &quantized, 8, 2048).unwrap();
         let total_peak = fuzz::alloc::peak_since(baseline);

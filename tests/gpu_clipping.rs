@@ -6,16 +6,14 @@ mod support;
 
 use support::reference::{MarchVolume, coverage, psnr, reference_march, reference_render};
 use support::{Prepared, draw, gpu, image_dir};
-use voxscope::octree::{Clip, ClipPlane};
-use voxscope::render::{
-    Camera, RenderMode, RenderSettings, RendererKind, RendererOptions, Shading,
-};
-use voxscope::volume::{self, LoadOptions, Volume};
+use voxscope_octree::{Clip, ClipPlane};
+use voxscope_render::{Camera, RenderMode, RenderSettings, RendererKind, RendererOptions, Shading};
+use voxscope_volume::{LoadOptions, Volume};
 
 const SIZE: (u32, u32) = (96, 72);
 
 fn load(spec: &str) -> Volume {
-    volume::load(spec, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"))
+    voxscope_volume::load(spec, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// The clips every renderer is tested with, by name.

@@ -7,17 +7,17 @@ mod support;
 use glam::DVec3;
 use support::reference::{MarchVolume, ReferenceProbe, reference_march_probe, reference_probe};
 use support::{Prepared, gpu};
-use voxscope::octree::{Clip, ClipPlane, TransferFunction};
-use voxscope::render::{
+use voxscope_octree::{Clip, ClipPlane, TransferFunction};
+use voxscope_render::{
     Camera, GpuContext, GpuProbe, ProbeRequest, RenderMode, RenderSettings, RendererKind,
     RendererOptions, VolumeRenderer, probe_pixel,
 };
-use voxscope::volume::{self, LoadOptions, ValueWindow, Volume};
+use voxscope_volume::{LoadOptions, ValueWindow, Volume};
 
 const SIZE: (u32, u32) = (64, 48);
 
 fn load(spec: &str) -> Volume {
-    volume::load(spec, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"))
+    voxscope_volume::load(spec, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"))
 }
 
 fn camera() -> Camera {
@@ -239,7 +239,7 @@ fn the_frame_probe_answers_later_without_waiting_as_the_blocking_one_does() {
     let renderer = prepared.renderer(&context, RendererKind::Bricks);
     let settings = settings(&prepared, RenderMode::Dvr, Clip::NONE);
     let mut probe = GpuProbe::new(&context);
-    let target = voxscope::render::RenderTarget::new(&context, SIZE.0, SIZE.1);
+    let target = voxscope_render::RenderTarget::new(&context, SIZE.0, SIZE.1);
     let mut answers = Vec::new();
     for pixel in [(32, 24), (3, 3), (40, 30)] {
         let request = ProbeRequest {

@@ -5,17 +5,17 @@ mod support;
 
 use support::reference::{coverage, psnr, reference_render};
 use support::{colored_octree, gpu, gpu_render, image_dir, shared_data};
-use voxscope::octree::{self, BuildOptions, OpacityMode, TransferFunction};
-use voxscope::render::{
+use voxscope_octree::{BuildOptions, OpacityMode, TransferFunction};
+use voxscope_render::{
     Camera, DEFAULT_BRICK_SIZE, GpuContext, GpuVolume, RenderMode, RenderSettings, RendererKind,
     RendererOptions, VolumeRenderer, read_buffer,
 };
-use voxscope::volume::{self, LoadOptions, Volume};
+use voxscope_volume::{LoadOptions, Volume};
 
 const SIZE: (u32, u32) = (96, 72);
 
 fn load(spec: &str) -> Volume {
-    volume::load(spec, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"))
+    voxscope_volume::load(spec, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"))
 }
 
 fn cameras() -> [Camera; 4] {
@@ -151,7 +151,7 @@ fn non_cubic_float_volume_matches_reference_at_every_level() {
 fn binary_opacity_and_plain_compositing_match_reference() {
     let context = gpu();
     let volume = load("synthetic:shells:40x30x24");
-    let window = volume::QuantizedVolume::new(&volume).robust_window();
+    let window = voxscope_volume::QuantizedVolume::new(&volume).robust_window();
     let binary = TransferFunction {
         opacity: OpacityMode::Binary,
         window,
@@ -244,7 +244,7 @@ fn pixel_footprint_lod_matches_reference() {
 fn real_mri_heads_match_reference() {
     let context = gpu();
     // Anisotropic (2×2×3 mm), reoriented, i16: the embedded sample.
-    let sample = volume::sample().unwrap();
+    let sample = voxscope_volume::sample().unwrap();
     let camera = Camera {
         azimuth_deg: 20.0,
         elevation_deg: 10.0,
@@ -270,7 +270,7 @@ fn real_mri_heads_match_reference() {
             .to_str()
             .unwrap(),
     );
-    let window = volume::QuantizedVolume::new(&mni).robust_window();
+    let window = voxscope_volume::QuantizedVolume::new(&mni).robust_window();
     let binary = TransferFunction {
         opacity: OpacityMode::Binary,
         window,
@@ -292,7 +292,7 @@ fn gpu_recolor_equals_cpu_recolor_bit_for_bit() {
         // A different transfer function, applied on both sides.
         let second = TransferFunction {
             opacity: OpacityMode::Binary,
-            window: voxscope::volume::ValueWindow {
+            window: voxscope_volume::ValueWindow {
                 low: first.window.low,
                 high: first.window.high * 0.8,
             },
@@ -306,8 +306,8 @@ fn gpu_recolor_equals_cpu_recolor_bit_for_bit() {
             .unwrap();
         context.queue.submit([encoder.finish()]);
         let bytes = read_buffer(&context, &gpu_volume.nodes, gpu_volume.nodes.size()).unwrap();
-        let gpu_nodes: &[voxscope::octree::Node] = bytemuck::cast_slice(&bytes);
-        octree::recolor(&mut octree, &second);
+        let gpu_nodes: &[voxscope_octree::Node] = bytemuck::cast_slice(&bytes);
+        voxscope_octree::recolor(&mut octree, &second);
         assert_eq!(gpu_nodes.len(), octree.nodes.len());
         let differing = gpu_nodes
             .iter()
@@ -359,7 +359,7 @@ fn rays_visit_a_bounded_number_of_nodes_from_every_direction() {
     let bound = 3 * octree.side() as u32 * (octree.depth + 1);
     let gpu_volume =
         GpuVolume::upload(&context, &octree, volume.spacing, octree.depth, &transfer).unwrap();
-    let target = voxscope::render::RenderTarget::new(&context, 64, 48);
+    let target = voxscope_render::RenderTarget::new(&context, 64, 48);
     let settings = full(octree.depth);
     for distance in [0.4, 1.5, 3.0] {
         for elevation in [-50.0, 20.0, 70.0] {
@@ -370,14 +370,14 @@ fn rays_visit_a_bounded_number_of_nodes_from_every_direction() {
                     distance,
                     ..Camera::default()
                 };
-                let frame = voxscope::render::Frame {
+                let frame = voxscope_render::Frame {
                     volume: &gpu_volume,
                     target: &target,
                     camera: &camera,
                     settings: &settings,
                 };
-                voxscope::render::render_frame(&context, &frame);
-                let visits = voxscope::render::read_visits(&context, &target).unwrap();
+                voxscope_render::render_frame(&context, &frame);
+                let visits = voxscope_render::read_visits(&context, &target).unwrap();
                 let max = visits.iter().copied().max().unwrap();
                 assert!(
                     max <= bound,
@@ -399,7 +399,7 @@ fn dense_with_nearest_sampling_agrees_with_the_octree_at_full_level() {
         ("synthetic:noise:40x32x24", RenderMode::Mip),
     ] {
         let volume = load(spec);
-        let quantized = volume::QuantizedVolume::new(&volume);
+        let quantized = voxscope_volume::QuantizedVolume::new(&volume);
         let (octree, transfer) = colored_octree(&volume, None, BuildOptions::default());
         let settings = RenderSettings {
             mode,
@@ -424,9 +424,9 @@ fn dense_with_nearest_sampling_agrees_with_the_octree_at_full_level() {
                     &transfer,
                 )
                 .unwrap();
-                let target = voxscope::render::RenderTarget::new(&context, SIZE.0, SIZE.1);
+                let target = voxscope_render::RenderTarget::new(&context, SIZE.0, SIZE.1);
                 renderer.render(&context, &target, &camera, &settings);
-                voxscope::render::read_image(&context, &target).unwrap()
+                voxscope_render::read_image(&context, &target).unwrap()
             })
             .collect();
         let db = psnr(&images[0], &images[1]);
@@ -485,7 +485,7 @@ fn uniform_block_volume() -> Volume {
         "test",
         dims,
         [1.0; 3],
-        volume::VoxelData::U8(values),
+        voxscope_volume::VoxelData::U8(values),
     )
     .unwrap()
 }
@@ -495,7 +495,7 @@ fn bricks_match_dense_sample_for_sample() {
     // Same sample positions and, thanks to the one-voxel apron, the same trilinear values: the
     // bricks renderer differs from dense only where it skips what is transparent anyway.
     let context = gpu();
-    let sample = volume::sample().unwrap();
+    let sample = voxscope_volume::sample().unwrap();
     let cases: Vec<(Volume, RenderMode, OpacityMode)> = vec![
         (
             load("synthetic:noise:45x30x21"),
@@ -520,7 +520,7 @@ fn bricks_match_dense_sample_for_sample() {
         (sample, RenderMode::Mip, OpacityMode::Gray),
     ];
     for (volume, mode, opacity) in cases {
-        let quantized = volume::QuantizedVolume::new(&volume);
+        let quantized = voxscope_volume::QuantizedVolume::new(&volume);
         let transfer = TransferFunction {
             opacity,
             ..TransferFunction::gray(quantized.robust_window())
@@ -528,10 +528,10 @@ fn bricks_match_dense_sample_for_sample() {
         let (octree, transfer) = colored_octree(&volume, Some(transfer), BuildOptions::default());
         if volume.name == "uniform-block" {
             // The premise of the shells cases: cells the walk meets as uniform, visible leaves.
-            let layout = voxscope::octree::BrickLayout::new(&octree, &quantized, 4, 2048).unwrap();
+            let layout = voxscope_octree::BrickLayout::new(&octree, &quantized, 4, 2048).unwrap();
             let uniform_visible = layout.grid_leaves.iter().any(|&index| {
                 let node = layout.nodes[index as usize];
-                node.first_child == voxscope::octree::LEAF && node.color >> 24 != 0
+                node.first_child == voxscope_octree::LEAF && node.color >> 24 != 0
             });
             assert!(
                 uniform_visible,
@@ -561,9 +561,9 @@ fn bricks_match_dense_sample_for_sample() {
                 &transfer,
             )
             .unwrap();
-            let target = voxscope::render::RenderTarget::new(&context, SIZE.0, SIZE.1);
+            let target = voxscope_render::RenderTarget::new(&context, SIZE.0, SIZE.1);
             renderer.render(&context, &target, &camera, &settings);
-            voxscope::render::read_image(&context, &target).unwrap()
+            voxscope_render::read_image(&context, &target).unwrap()
         };
         let dense = render(RendererKind::Dense.into());
         // Small bricks test the apron seams; the default size is what users get.
@@ -603,7 +603,7 @@ fn bricks_recolor_on_the_gpu_keeps_empty_bricks_transparent() {
     // rendering with a binary threshold above every value of a region leaves it black.
     let context = gpu();
     let volume = load("synthetic:sphere:48");
-    let quantized = volume::QuantizedVolume::new(&volume);
+    let quantized = voxscope_volume::QuantizedVolume::new(&volume);
     let (octree, gray) = colored_octree(&volume, None, BuildOptions::default());
     let mut renderer = VolumeRenderer::new(
         &context,
@@ -620,7 +620,7 @@ fn bricks_recolor_on_the_gpu_keeps_empty_bricks_transparent() {
         distance: 1.8,
         ..Camera::default()
     };
-    let target = voxscope::render::RenderTarget::new(&context, SIZE.0, SIZE.1);
+    let target = voxscope_render::RenderTarget::new(&context, SIZE.0, SIZE.1);
     let mut frame_after = |transfer: &TransferFunction| {
         let mut encoder = context.device.create_command_encoder(&Default::default());
         renderer
@@ -628,7 +628,7 @@ fn bricks_recolor_on_the_gpu_keeps_empty_bricks_transparent() {
             .unwrap();
         context.queue.submit([encoder.finish()]);
         renderer.render(&context, &target, &camera, &settings);
-        voxscope::render::read_image(&context, &target).unwrap()
+        voxscope_render::read_image(&context, &target).unwrap()
     };
     let visible = frame_after(&gray);
     assert!(coverage(&visible) > 0.1);
@@ -636,7 +636,7 @@ fn bricks_recolor_on_the_gpu_keeps_empty_bricks_transparent() {
         opacity: OpacityMode::Binary,
         threshold: 1.0,
         colormap: Default::default(),
-        window: voxscope::volume::ValueWindow {
+        window: voxscope_volume::ValueWindow {
             low: 0.0,
             high: 1000.0,
         },
@@ -651,8 +651,8 @@ fn bricks_recolor_on_the_gpu_keeps_empty_bricks_transparent() {
 
 #[test]
 fn gpu_brick_recolor_equals_the_cpu_rule_bit_for_bit() {
-    use voxscope::octree::{BRICK_FLAG, BrickLayout, LEAF, average_color};
-    use voxscope::render::{GpuBricks, OctreeOnGpu};
+    use voxscope_octree::{BRICK_FLAG, BrickLayout, LEAF, average_color};
+    use voxscope_render::{GpuBricks, OctreeOnGpu};
     let context = gpu();
     let recolor = context.brick_recolor();
     // u8 data (8-bit atlas), u16 and f32 data (16-bit atlas), bricks of 4 and 8, non-cubic.
@@ -662,7 +662,7 @@ fn gpu_brick_recolor_equals_the_cpu_rule_bit_for_bit() {
         ("synthetic:shells:36x30x28", 8),
     ] {
         let volume = load(spec);
-        let quantized = volume::QuantizedVolume::new(&volume);
+        let quantized = voxscope_volume::QuantizedVolume::new(&volume);
         let (octree, first) = colored_octree(&volume, None, BuildOptions::default());
         let layout = BrickLayout::new(&octree, &quantized, brick_size, 2048).unwrap();
         let mut bricks = GpuBricks::upload(
@@ -685,7 +685,7 @@ fn gpu_brick_recolor_equals_the_cpu_rule_bit_for_bit() {
         recolor.encode(&context, &mut encoder, &bricks, None);
         context.queue.submit([encoder.finish()]);
         let bytes = read_buffer(&context, bricks.nodes(), bricks.nodes().size()).unwrap();
-        let gpu_nodes: &[voxscope::octree::Node] = bytemuck::cast_slice(&bytes);
+        let gpu_nodes: &[voxscope_octree::Node] = bytemuck::cast_slice(&bytes);
 
         // The rule on the CPU: a brick is the opacity-weighted mean of its voxels (alpha: the
         // mean rounded up), a leaf its table color, an inner node the average of its children.
@@ -720,7 +720,7 @@ fn gpu_brick_recolor_equals_the_cpu_rule_bit_for_bit() {
                     for z in origin[2]..(origin[2] + brick_size).min(dims[2]) {
                         for y in origin[1]..(origin[1] + brick_size).min(dims[1]) {
                             for x in origin[0]..(origin[0] + brick_size).min(dims[0]) {
-                                let [r, g, b, a] = voxscope::octree::unpack_rgba(
+                                let [r, g, b, a] = voxscope_octree::unpack_rgba(
                                     table[stored(quantized.levels[x + dims[0] * (y + dims[1] * z)])
                                         as usize],
                                 )
@@ -739,7 +739,7 @@ fn gpu_brick_recolor_equals_the_cpu_rule_bit_for_bit() {
                         0
                     } else {
                         let channel = |w: u64| ((w + sums[0] / 2) / sums[0]) as u8;
-                        voxscope::octree::pack_rgba([
+                        voxscope_octree::pack_rgba([
                             channel(sums[1]),
                             channel(sums[2]),
                             channel(sums[3]),
@@ -776,7 +776,7 @@ fn volume_renderer(
     volume: &Volume,
     options: impl Into<RendererOptions>,
 ) -> VolumeRenderer {
-    let quantized = volume::QuantizedVolume::new(volume);
+    let quantized = voxscope_volume::QuantizedVolume::new(volume);
     let (octree, transfer) = colored_octree(volume, None, BuildOptions::default());
     VolumeRenderer::new(
         context,
@@ -804,9 +804,10 @@ fn pipelines_are_built_once_per_device() {
         load("synthetic:sphere:40"),
         load("synthetic:noise:37x20x29"),
     ];
-    let target = voxscope::render::RenderTarget::new(&context, 32, 24);
+    let target = voxscope_render::RenderTarget::new(&context, 32, 24);
     let camera = Camera::default();
-    let gray = TransferFunction::gray(volume::QuantizedVolume::new(&volumes[0]).robust_window());
+    let gray =
+        TransferFunction::gray(voxscope_volume::QuantizedVolume::new(&volumes[0]).robust_window());
     let binary = TransferFunction {
         opacity: OpacityMode::Binary,
         ..gray
@@ -867,11 +868,11 @@ fn pipelines_are_built_once_per_device() {
     // for the octree (the tree walk), bricks at full detail (the grid walk) and dense, one
     // shaded, one probe and one clipped pipeline each.
     let shaded = RenderSettings {
-        shading: voxscope::render::Shading::default(),
+        shading: voxscope_render::Shading::default(),
         ..full(8)
     };
     let clipped = RenderSettings {
-        clip: voxscope::octree::Clip {
+        clip: voxscope_octree::Clip {
             bounds: Some([[0.0, 0.5], [0.0, 1.0], [0.0, 1.0]]),
             plane: None,
         },
@@ -880,13 +881,13 @@ fn pipelines_are_built_once_per_device() {
     let use_variants = |renderer: &VolumeRenderer| {
         renderer.render(&context, &target, &camera, &shaded);
         renderer.render(&context, &target, &camera, &clipped);
-        let request = voxscope::render::ProbeRequest {
+        let request = voxscope_render::ProbeRequest {
             size: [target.width, target.height],
             pixel: [16, 12],
             camera: &camera,
             settings: &full(8),
         };
-        voxscope::render::probe_pixel(&context, renderer, &request).unwrap();
+        voxscope_render::probe_pixel(&context, renderer, &request).unwrap();
     };
     for volume in &volumes {
         for kind in RendererKind::ALL {
@@ -943,20 +944,20 @@ fn panes_of_several_volumes_recorded_into_one_encoder_draw_as_if_alone() {
     ];
     let targets: Vec<_> = panes
         .iter()
-        .map(|&(_, _, _, (w, h))| voxscope::render::RenderTarget::new(&context, w, h))
+        .map(|&(_, _, _, (w, h))| voxscope_render::RenderTarget::new(&context, w, h))
         .collect();
     let alone: Vec<image::RgbaImage> = panes
         .iter()
         .zip(&targets)
         .map(|(&(renderer, camera, settings, _), target)| {
             renderers[renderer].render(&context, target, camera, &settings);
-            voxscope::render::read_image(&context, target).unwrap()
+            voxscope_render::read_image(&context, target).unwrap()
         })
         .collect();
     // Fresh targets (zeroed): a pane left undrawn cannot pass.
     let targets: Vec<_> = panes
         .iter()
-        .map(|&(_, _, _, (w, h))| voxscope::render::RenderTarget::new(&context, w, h))
+        .map(|&(_, _, _, (w, h))| voxscope_render::RenderTarget::new(&context, w, h))
         .collect();
     let mut encoder = context.device.create_command_encoder(&Default::default());
     for (&(renderer, camera, settings, _), target) in panes.iter().zip(&targets) {
@@ -964,7 +965,7 @@ fn panes_of_several_volumes_recorded_into_one_encoder_draw_as_if_alone() {
     }
     context.queue.submit([encoder.finish()]);
     for (index, (target, expected)) in targets.iter().zip(&alone).enumerate() {
-        let together = voxscope::render::read_image(&context, target).unwrap();
+        let together = voxscope_render::read_image(&context, target).unwrap();
         assert!(
             coverage(expected) > 0.02,
             "pane {index} draws something ({})",

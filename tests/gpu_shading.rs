@@ -6,16 +6,16 @@ mod support;
 
 use support::reference::{MarchVolume, coverage, psnr, reference_march, reference_render};
 use support::{Prepared, draw, gpu, image_dir};
-use voxscope::octree::{OpacityMode, TransferFunction};
-use voxscope::render::{
+use voxscope_octree::{OpacityMode, TransferFunction};
+use voxscope_render::{
     Camera, DEFAULT_BRICK_SIZE, RenderMode, RenderSettings, RendererKind, RendererOptions, Shading,
 };
-use voxscope::volume::{self, LoadOptions, Volume};
+use voxscope_volume::{LoadOptions, Volume};
 
 const SIZE: (u32, u32) = (96, 72);
 
 fn load(spec: &str) -> Volume {
-    volume::load(spec, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"))
+    voxscope_volume::load(spec, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"))
 }
 
 fn shaded(depth: u32) -> RenderSettings {
@@ -71,7 +71,7 @@ fn cases() -> Vec<(&'static str, Volume, Option<OpacityMode>, f32, Camera)> {
         // Anisotropic (2×2×3 mm), i16: normals go through the spacing.
         (
             "sample",
-            volume::sample().unwrap(),
+            voxscope_volume::sample().unwrap(),
             None,
             1.0,
             camera(20.0, 10.0, 1.6),
@@ -80,7 +80,7 @@ fn cases() -> Vec<(&'static str, Volume, Option<OpacityMode>, f32, Camera)> {
 }
 
 fn prepare(volume: Volume, opacity: Option<OpacityMode>) -> Prepared {
-    let window = volume::QuantizedVolume::new(&volume).robust_window();
+    let window = voxscope_volume::QuantizedVolume::new(&volume).robust_window();
     let transfer = TransferFunction {
         opacity: opacity.unwrap_or(OpacityMode::Gray),
         threshold: 0.5,

@@ -12,11 +12,11 @@ use std::time::{Duration, Instant};
 use image::RgbaImage;
 use support::reference::psnr;
 use support::{Prepared, draw, gpu, image_dir};
-use voxscope::render::{
+use voxscope_render::{
     Camera, GpuContext, RenderMode, RenderSettings, RenderTarget, RendererKind, RendererOptions,
     Shading, VolumeRenderer, read_image,
 };
-use voxscope::volume::SyntheticKind;
+use voxscope_volume::SyntheticKind;
 
 /// Image size of every test (small: lavapipe draws every pixel on the CPU).
 const SIZE: (u32, u32) = (192, 160);
@@ -136,7 +136,7 @@ fn on_a_head_with_empty_and_uniform_regions_bricks_draw_each_level_as_dense_does
     // The sample head (128×62×128, depth 7): background cells are transparent or uniform, the
     // cells a coarser level blurs across; bricks sample them as dense does, skipping none.
     let context = gpu();
-    let head = Prepared::new(voxscope::volume::sample().expect("the sample"), None);
+    let head = Prepared::new(voxscope_volume::sample().expect("the sample"), None);
     let dense = head.renderer(&context, RendererKind::Dense);
     let bricks = head.renderer(&context, RendererKind::Bricks);
     for max_level in 3..head.octree.depth {

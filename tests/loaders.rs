@@ -9,13 +9,14 @@ use support::shared_data;
 use support::writers::{
     NiftiSpec, NrrdSpec, encode, gzip, nifti_bytes, nifti_datatype, write_nhdr, write_nrrd,
 };
-use voxscope::volume::{
+use voxscope_volume::{
     self, Endian, LoadOptions, NrrdEncoding, Orientation, QuantizedVolume, RawLayout, Scalar,
     Volume, VoxelType,
 };
 
 fn load(path: &Path) -> Result<Volume, String> {
-    volume::load(path.to_str().unwrap(), &LoadOptions::default()).map_err(|e| e.to_string())
+    voxscope_volume::load(path.to_str().unwrap(), &LoadOptions::default())
+        .map_err(|e| e.to_string())
 }
 
 fn load_raw(path: &Path, layout: &str) -> Result<Volume, String> {
@@ -23,7 +24,7 @@ fn load_raw(path: &Path, layout: &str) -> Result<Volume, String> {
         raw: Some(RawLayout::parse(layout).unwrap()),
         ..LoadOptions::default()
     };
-    volume::load(path.to_str().unwrap(), &options).map_err(|e| e.to_string())
+    voxscope_volume::load(path.to_str().unwrap(), &options).map_err(|e| e.to_string())
 }
 
 /// A test pattern: value depends on (x, y, z) so axis mix-ups show.
@@ -107,7 +108,7 @@ fn real_nifti_files_load_with_their_headers() {
     // scl_slope = NaN means no scaling; 2×2×3 mm stored LSA, shown RAS.
     let small = load(&shared_data("mri-head-128x128x62.nii.gz")).unwrap();
     assert_eq!(small.voxel_type(), VoxelType::I16);
-    assert_eq!(small.value_scale, volume::ValueScale::IDENTITY);
+    assert_eq!(small.value_scale, voxscope_volume::ValueScale::IDENTITY);
     assert_eq!(small.dims, [128, 62, 128]);
     assert_eq!(small.spacing, [2.0, 3.0, 2.0]);
     let quantized = QuantizedVolume::new(&small);
@@ -117,7 +118,7 @@ fn real_nifti_files_load_with_their_headers() {
     assert_eq!(mni.dims, [197, 233, 189]);
     assert_eq!(mni.voxel_type(), VoxelType::U8);
     // The embedded sample is the same file.
-    let sample = volume::sample().unwrap();
+    let sample = voxscope_volume::sample().unwrap();
     assert_eq!(sample.dims, small.dims);
     assert_eq!(sample.data, small.data);
 }
@@ -304,15 +305,15 @@ fn raw_files_with_a_given_layout() {
 
 #[test]
 fn synthetic_volumes_of_every_kind() {
-    for kind in volume::SyntheticKind::ALL {
+    for kind in voxscope_volume::SyntheticKind::ALL {
         let spec = format!("synthetic:{}:9x5x7", kind.name());
-        let volume = volume::load(&spec, &LoadOptions::default()).unwrap();
+        let volume = voxscope_volume::load(&spec, &LoadOptions::default()).unwrap();
         assert_eq!(volume.dims, [9, 5, 7]);
         let range = QuantizedVolume::new(&volume).value_range;
         assert!(range[1] > range[0], "{spec} is not constant");
     }
     assert!(
-        volume::load("synthetic:plasma:8", &LoadOptions::default())
+        voxscope_volume::load("synthetic:plasma:8", &LoadOptions::default())
             .unwrap_err()
             .to_string()
             .contains("unknown synthetic kind")
@@ -560,7 +561,10 @@ fn the_readme_formats_table_matches_the_format_table() {
         .skip(2)
         .map(|line| line.trim_matches('|').split(" | ").map(str::trim).collect())
         .collect();
-    assert!(rows.len() >= volume::format::FORMATS.len(), "{rows:?}");
+    assert!(
+        rows.len() >= voxscope_volume::format::FORMATS.len(),
+        "{rows:?}"
+    );
     let backticked = |cell: &str| -> Vec<String> {
         cell.split('`')
             .skip(1)
@@ -569,7 +573,7 @@ fn the_readme_formats_table_matches_the_format_table() {
             .map(str::to_owned)
             .collect()
     };
-    for format in &volume::format::FORMATS {
+    for format in &voxscope_volume::format::FORMATS {
         let row = rows
             .iter()
             .find(|row| row[0] == format.name || row[0].starts_with(&format!("{} ", format.name)))
@@ -592,7 +596,7 @@ fn the_readme_formats_table_matches_the_format_table() {
         }
     }
     for row in &rows {
-        let known = volume::format::FORMATS
+        let known = voxscope_volume::format::FORMATS
             .iter()
             .any(|f| row[0] == f.name || row[0].starts_with(&format!("{} ", f.name)));
         assert!(
@@ -610,7 +614,7 @@ fn an_unrecognized_file_lists_every_format_of_the_table() {
     std::fs::write(&path, b"neither header nor magic").unwrap();
     let error = load(&path).unwrap_err();
     assert!(error.contains("unrecognized format"), "{error}");
-    for format in &volume::format::FORMATS {
+    for format in &voxscope_volume::format::FORMATS {
         assert!(error.contains(format.name), "{error} lacks {}", format.name);
         for extension in format.extensions {
             assert!(error.contains(extension), "{error} lacks {extension}");

@@ -7,10 +7,11 @@ use std::path::Path;
 
 use support::writers::MrcMap as Map;
 
-use voxscope::volume::{self, LoadOptions, VoxelType};
+use voxscope_volume::{LoadOptions, VoxelType};
 
-fn load(path: &Path) -> Result<volume::Volume, String> {
-    volume::load(&path.display().to_string(), &LoadOptions::default()).map_err(|e| e.to_string())
+fn load(path: &Path) -> Result<voxscope_volume::Volume, String> {
+    voxscope_volume::load(&path.display().to_string(), &LoadOptions::default())
+        .map_err(|e| e.to_string())
 }
 
 #[test]

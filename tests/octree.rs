@@ -3,11 +3,11 @@
 mod support;
 
 use proptest::prelude::*;
-use voxscope::octree::{
+use voxscope_octree::{
     self, BuildOptions, LEAF, Octree, OpacityMode, TransferFunction, ValueBounds, average_color,
     full_tree_nodes, level_statistics, unpack_rgba,
 };
-use voxscope::volume::{QuantizedVolume, ValueWindow, Volume, VoxelData};
+use voxscope_volume::{QuantizedVolume, ValueWindow, Volume, VoxelData};
 
 const FULL: BuildOptions = BuildOptions {
     collapse_uniform: false,
@@ -233,7 +233,7 @@ fn recolor_changes_colors_but_never_the_topology() {
         low: 100.0,
         high: 200.0,
     };
-    octree::recolor(
+    voxscope_octree::recolor(
         &mut octree,
         &TransferFunction {
             opacity: OpacityMode::Binary,
@@ -259,7 +259,7 @@ fn recolor_changes_colors_but_never_the_topology() {
 
 #[test]
 fn mri_head_256_builds_a_valid_paper_sized_octree() {
-    let volume = voxscope::volume::load(
+    let volume = voxscope_volume::load(
         support::shared_data("mri-head-256.nii.gz")
             .to_str()
             .unwrap(),
@@ -267,7 +267,7 @@ fn mri_head_256_builds_a_valid_paper_sized_octree() {
     )
     .unwrap();
     let quantized = QuantizedVolume::new(&volume);
-    let octree = octree::build(&quantized, COLLAPSED).unwrap();
+    let octree = voxscope_octree::build(&quantized, COLLAPSED).unwrap();
     assert_eq!(octree.depth, 8);
     check_layout(&octree);
     // Correctness only here; build speed is measured by `voxscope info` and the benchmark.

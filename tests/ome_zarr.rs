@@ -8,11 +8,11 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 use serde_json::Value;
-use voxscope::volume::ome_zarr::{
+use voxscope_volume::ome_zarr::{
     Compression, Downsampling, Pyramid, PyramidOptions, PyramidWriter, WriteOptions, ZarrVersion,
     level_dims,
 };
-use voxscope::volume::{self, LoadOptions, ValueWindow, VoxelData};
+use voxscope_volume::{LoadOptions, ValueWindow, VoxelData};
 
 fn fixtures() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/ome-zarr")
@@ -274,7 +274,7 @@ fn channel_and_time_select_one_volume_and_omero_gives_its_window() {
         ..LoadOptions::default()
     };
     let path = fixtures().join("tczyx-v04.ome.zarr");
-    let volume = volume::load(path.to_str().unwrap(), &options).unwrap();
+    let volume = voxscope_volume::load(path.to_str().unwrap(), &options).unwrap();
     assert_eq!(
         volume.default_window,
         Some(ValueWindow {
@@ -864,7 +864,8 @@ fn convert_streams_raw_nrrd_in_place_and_loads_an_oriented_one_whole() {
         };
         assert!(stderr.contains(how), "{name}: {stderr}");
         // Level 0 holds what voxscope loads from the input (LPS reordered to RAS).
-        let loaded = volume::load(input.to_str().unwrap(), &LoadOptions::default()).unwrap();
+        let loaded =
+            voxscope_volume::load(input.to_str().unwrap(), &LoadOptions::default()).unwrap();
         let pyramid = Pyramid::open(&out, PyramidOptions::default()).unwrap();
         assert_eq!(pyramid.read_level(0).unwrap(), loaded.data, "{name}");
         assert_eq!(pyramid.levels[0].spacing, [0.5, 0.5, 2.0], "{name}");
@@ -961,7 +962,7 @@ fn info_lists_levels_channels_and_windows() {
 #[test]
 fn a_zarr_folder_loads_as_a_volume_through_the_registry() {
     let path = fixtures().join("head-v04-zstd.ome.zarr");
-    let volume = volume::load(path.to_str().unwrap(), &LoadOptions::default()).unwrap();
+    let volume = voxscope_volume::load(path.to_str().unwrap(), &LoadOptions::default()).unwrap();
     assert_eq!(volume.format, "OME-Zarr");
     assert_eq!(volume.dims, [64, 64, 31]);
     assert_eq!(volume.spacing, [4.0, 4.0, 6.0]);
@@ -972,7 +973,7 @@ fn a_zarr_folder_loads_as_a_volume_through_the_registry() {
             .iter()
             .any(|(k, v)| k == "zarr" && v == "OME-Zarr 0.4 (Zarr v2)")
     );
-    let format = volume::format::by_extension("cells.ome.zarr").unwrap();
+    let format = voxscope_volume::format::by_extension("cells.ome.zarr").unwrap();
     assert_eq!((format.name, format.opens_folders), ("OME-Zarr", true));
 }
 
@@ -1113,7 +1114,7 @@ fn mutated_fixtures_fail_cleanly_never_panic() {
             for level in 0..pyramid.levels.len() {
                 pyramid.read_level(level)?;
             }
-            Ok::<(), volume::LoadError>(())
+            Ok::<(), voxscope_volume::LoadError>(())
         });
         match outcome {
             Ok(Ok(())) => opened += 1,
@@ -1152,7 +1153,7 @@ fn convert_tile_repeats_the_input_along_each_axis() {
         "{}",
         String::from_utf8_lossy(&run.stderr)
     );
-    let original = volume::load(input.to_str().expect("UTF-8"), &LoadOptions::default())
+    let original = voxscope_volume::load(input.to_str().expect("UTF-8"), &LoadOptions::default())
         .expect("the fixture loads");
     let tiled = Pyramid::open(&output, PyramidOptions::default()).expect("the output opens");
     let [dx, dy, dz] = original.dims;

@@ -15,10 +15,10 @@ use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 use support::http_server::{Faults, FileServer};
-use voxscope::stream::{BrickId, BrickSource, ZarrSource, preview};
-use voxscope::volume::ome_zarr::{Pyramid, PyramidOptions};
-use voxscope::volume::remote::{OPEN_DEADLINE, RemoteOptions, is_url};
-use voxscope::volume::{LoadOptions, load};
+use voxscope_stream::{BrickId, BrickSource, ZarrSource, preview};
+use voxscope_volume::ome_zarr::{Pyramid, PyramidOptions};
+use voxscope_volume::remote::{OPEN_DEADLINE, RemoteOptions, is_url};
+use voxscope_volume::{LoadOptions, load};
 
 const FIXTURES: [&str; 6] = [
     "head-v04-zstd.ome.zarr",

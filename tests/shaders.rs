@@ -8,7 +8,7 @@ use std::path::PathBuf;
 #[test]
 fn every_shader_validates_and_every_file_is_used() {
     let mut used = BTreeSet::new();
-    for shader in voxscope::render::shaders::ALL {
+    for shader in voxscope_render::shaders::ALL {
         let (name, source) = (shader.name, shader.source);
         let module = naga::front::wgsl::parse_str(source)
             .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(source)));

@@ -12,18 +12,18 @@ use std::process::{Command, Output};
 
 use support::writers::{NiftiSpec, NrrdSpec, encode, nifti_bytes, write_nrrd};
 use support::{colored_octree, gpu, image_dir, shared_data};
-use voxscope::octree::{BuildOptions, Colormap};
-use voxscope::render::{
+use voxscope_octree::{BuildOptions, Colormap};
+use voxscope_render::{
     GpuContext, RenderTarget, RendererKind, RendererOptions, SliceConvention, SliceFrame,
     SliceSettings, SliceView, VolumeRenderer, read_image,
 };
-use voxscope::volume::{
+use voxscope_volume::{
     self, Endian, LoadOptions, NrrdEncoding, Orientation, QuantizedVolume, ValueWindow, Volume,
     VoxelData,
 };
 
 fn load(spec: &str) -> Volume {
-    volume::load(spec, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"))
+    voxscope_volume::load(spec, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// The renderers a slice can read from: each kind, and bricks small enough to have many.

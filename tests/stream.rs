@@ -13,16 +13,16 @@ use glam::DVec3;
 use image::RgbaImage;
 use support::reference::{coverage, psnr};
 use support::{Prepared, gpu, image_dir};
-use voxscope::octree::{self, BuildOptions, TransferFunction};
-use voxscope::render::{
+use voxscope_octree::{BuildOptions, TransferFunction};
+use voxscope_render::{
     Camera, GpuContext, RenderSettings, RenderTarget, RendererKind, VolumeRenderer, read_image,
 };
-use voxscope::stream::{
+use voxscope_stream::{
     BRICK_SIZE, BrickData, BrickError, BrickId, BrickSource, Downsampling, MemorySource,
     PADDED_BRICK_VOXELS, PyramidShape, StreamOptions, StreamStatus, ZarrSource,
 };
-use voxscope::volume::ome_zarr::{Pyramid, PyramidOptions};
-use voxscope::volume::{
+use voxscope_volume::ome_zarr::{Pyramid, PyramidOptions};
+use voxscope_volume::{
     Histogram, Quantization, QuantizedVolume, SyntheticKind, ValueWindow, Volume,
 };
 
@@ -250,7 +250,7 @@ fn a_refined_view_equals_the_bricks_render_with_a_quarter_of_the_bricks_in_budge
 
     // Shaded, the same view against the bricks renderer shaded (gradients through the aprons).
     let shaded = RenderSettings {
-        shading: voxscope::render::Shading::default(),
+        shading: voxscope_render::Shading::default(),
         ..settings
     };
     let refined = refine(&context, &mut renderer, &camera, &shaded);
@@ -281,8 +281,8 @@ fn level_volume(level: usize) -> Prepared {
         quantization,
         value_range: NOISE.quantized.value_range,
     };
-    let mut octree = octree::build(&quantized, BuildOptions::default()).expect("octree");
-    octree::recolor(&mut octree, &NOISE.transfer);
+    let mut octree = voxscope_octree::build(&quantized, BuildOptions::default()).expect("octree");
+    voxscope_octree::recolor(&mut octree, &NOISE.transfer);
     let scale = shape.scale as f64;
     // Only its dims and spacing are read (by the renderers' camera): the voxels are the
     // quantized ones above.
@@ -291,7 +291,7 @@ fn level_volume(level: usize) -> Prepared {
         "synthetic",
         [1, 1, 1],
         [1.0; 3],
-        voxscope::volume::VoxelData::U8(vec![0]),
+        voxscope_volume::VoxelData::U8(vec![0]),
     )
     .expect("a placeholder volume");
     Prepared {
@@ -743,7 +743,7 @@ fn an_ome_zarr_streams_from_its_own_levels_brick_for_brick() {
     assert_eq!(source.stored_level(4), Some((2, [4, 4, 4])));
     // The same voxels in memory, their levels computed by voxscope: equal bricks (within the
     // one unit that rounding a mean may differ by).
-    let volume = voxscope::volume::load(path.to_str().expect("UTF-8"), &Default::default())
+    let volume = voxscope_volume::load(path.to_str().expect("UTF-8"), &Default::default())
         .expect("the fixture loads");
     let quantized = QuantizedVolume::new(&volume);
     let memory =
@@ -794,7 +794,7 @@ fn a_converted_volume_streams_from_disk_equal_to_the_bricks_render() {
     let pyramid = Pyramid::open(&store, PyramidOptions::default()).expect("the store opens");
     assert!(pyramid.levels.len() > 1, "convert wrote levels");
     let source = Arc::new(ZarrSource::new(Arc::new(pyramid)).expect("a brick source"));
-    let volume = voxscope::volume::load(store.to_str().expect("UTF-8"), &Default::default())
+    let volume = voxscope_volume::load(store.to_str().expect("UTF-8"), &Default::default())
         .expect("the store loads");
     let prepared = Prepared::new(volume, None);
     let context = gpu();
@@ -822,8 +822,8 @@ fn bricks_a_store_knows_to_be_invisible_are_never_read() {
     // A 128³ ball (1000 inside, 0 outside) written as OME-Zarr with its chunk ranges: under a
     // transfer function that makes 0 transparent, the empty bricks are skipped from the stored
     // ranges alone, while the same voxels in memory are read to find them empty.
-    use voxscope::volume::VoxelData;
-    use voxscope::volume::ome_zarr::{
+    use voxscope_volume::VoxelData;
+    use voxscope_volume::ome_zarr::{
         Compression, Downsampling as ZarrDownsampling, PyramidWriter, WriteOptions, ZarrVersion,
     };
     let n = 128usize;
@@ -851,7 +851,7 @@ fn bricks_a_store_knows_to_be_invisible_are_never_read() {
     let mut writer = PyramidWriter::create(
         &store,
         [n; 3],
-        voxscope::volume::VoxelType::U16,
+        voxscope_volume::VoxelType::U16,
         [1.0; 3],
         &write_options,
     )
@@ -862,7 +862,7 @@ fn bricks_a_store_knows_to_be_invisible_are_never_read() {
     writer.finish().expect("finished");
     let pyramid = Pyramid::open(&store, PyramidOptions::default()).expect("the store opens");
     let zarr = Arc::new(ZarrSource::new(Arc::new(pyramid)).expect("a brick source"));
-    let volume = voxscope::volume::load(store.to_str().expect("UTF-8"), &Default::default())
+    let volume = voxscope_volume::load(store.to_str().expect("UTF-8"), &Default::default())
         .expect("the store loads");
     let transfer = TransferFunction {
         window: ValueWindow {

@@ -6,7 +6,7 @@ mod support;
 use std::path::Path;
 
 use tiff::encoder::{TiffEncoder, colortype};
-use voxscope::volume::{self, LoadOptions, VoxelType};
+use voxscope_volume::{LoadOptions, VoxelType};
 
 /// Writes `pages` pages of `width`×`height`, voxel (x, y, z) = `value(x, y, z)`.
 fn write_stack<C: colortype::ColorType>(
@@ -28,8 +28,9 @@ fn write_stack<C: colortype::ColorType>(
     std::fs::write(path, bytes).expect("write");
 }
 
-fn load(path: &Path) -> Result<volume::Volume, String> {
-    volume::load(&path.display().to_string(), &LoadOptions::default()).map_err(|e| e.to_string())
+fn load(path: &Path) -> Result<voxscope_volume::Volume, String> {
+    voxscope_volume::load(&path.display().to_string(), &LoadOptions::default())
+        .map_err(|e| e.to_string())
 }
 
 #[test]
@@ -110,10 +111,10 @@ fn imagej_and_ome_metadata_give_the_spacing() {
     let volume = load(&hyperstack).unwrap();
     assert_eq!(volume.dims, [4, 4, 2]);
     assert_eq!(volume.series.channel_count(), 2);
-    let beyond = volume::load(
+    let beyond = voxscope_volume::load(
         &hyperstack.display().to_string(),
         &LoadOptions {
-            select: volume::Selection {
+            select: voxscope_volume::Selection {
                 channel: 2,
                 time: 0,
             },
@@ -135,7 +136,7 @@ fn the_real_nuclei_stack_opens() {
     assert_eq!(volume.dims, [256, 256, 60]);
     assert_eq!(volume.voxel_type(), VoxelType::U16);
     assert!(volume.metadata.contains(&("pages".into(), "60".into())));
-    let quantized = volume::QuantizedVolume::new(&volume);
+    let quantized = voxscope_volume::QuantizedVolume::new(&volume);
     assert_eq!(quantized.value_range, [0.0, 65535.0]);
 }
 

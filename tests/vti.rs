@@ -11,10 +11,10 @@ use support::writers::{
     VTI_DIMS as DIMS, VTI_FOOTER as FOOTER, vti_block as block, vti_header as vtk_header,
     vti_values as values, vti_word as word,
 };
-use voxscope::volume::{self, LoadOptions, VoxelType};
+use voxscope_volume::{LoadOptions, VoxelType};
 
 fn check(path: &Path) {
-    let volume = volume::load(&path.display().to_string(), &LoadOptions::default())
+    let volume = voxscope_volume::load(&path.display().to_string(), &LoadOptions::default())
         .unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(volume.format, "VTK ImageData");
     assert_eq!(volume.dims, DIMS);
@@ -199,7 +199,9 @@ fn broken_files_fail_in_one_line_and_stay_untouched() {
     for (name, content, expected) in cases {
         let path = dir.path().join(name);
         std::fs::write(&path, &content).unwrap();
-        let Err(error) = volume::load(&path.display().to_string(), &LoadOptions::default()) else {
+        let Err(error) =
+            voxscope_volume::load(&path.display().to_string(), &LoadOptions::default())
+        else {
             panic!("{name} loaded");
         };
         let error = error.to_string();

@@ -18,7 +18,7 @@ use super::view_state::{MAX_GRID_PANES, ViewState};
 use super::viewport::{self, Pane};
 
 mod draw;
-use crate::render::{FrameProbe, FrameReport, SliceConvention, read_image};
+use voxscope_render::{FrameProbe, FrameReport, SliceConvention, read_image};
 
 /// Height of the strip of controls above the panes of the level grid and the transfer pair.
 const STRIP_HEIGHT: f32 = 30.0;

@@ -1,7 +1,7 @@
 //! A multi-channel volume in the app: every channel's own color, visibility and transfer
 //! function ([`ChannelState`], edited in the Transfer function panel's channel list), and the
 //! composite the central view draws ([`CompositeScene`]: the dense march of
-//! [`crate::render::CompositeRaycaster`], additive DVR and MIP over up to eight channels).
+//! [`voxscope_render::CompositeRaycaster`], additive DVR and MIP over up to eight channels).
 //!
 //! The composite is unshaded and has no probe (src/render/composite.rs says why): the panels
 //! say so where those controls are. The other renderers draw one channel; the channel combo
@@ -11,9 +11,9 @@ use std::sync::Arc;
 
 use super::scene::{VolumeData, opening_transfer};
 use super::settings::TransferChoice;
-use crate::octree::{Colormap, TransferFunction};
-use crate::render::{ChannelLayer, CompositeRaycaster, CompositeVolume, GpuContext, RenderError};
-use crate::volume::channel_color;
+use voxscope_octree::{Colormap, TransferFunction};
+use voxscope_render::{ChannelLayer, CompositeRaycaster, CompositeVolume, GpuContext, RenderError};
+use voxscope_volume::channel_color;
 
 /// What the user set for one channel of the composite.
 #[derive(Debug, Clone, PartialEq)]

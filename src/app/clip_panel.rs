@@ -5,8 +5,8 @@ use egui::Ui;
 use glam::DVec3;
 
 use super::view_state::Clipping;
-use crate::octree::ClipPlane;
-use crate::render::Camera;
+use voxscope_octree::ClipPlane;
+use voxscope_render::Camera;
 
 /// What the plane's quick settings need of the volume and the view.
 pub struct ClipContext {

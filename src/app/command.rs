@@ -9,7 +9,7 @@ use egui::{Key, KeyboardShortcut, Modifiers};
 use super::dialogs::DialogKind;
 use super::scene::VolumeSource;
 use super::settings::{Layout, Tool};
-use crate::volume::Selection;
+use voxscope_volume::Selection;
 
 /// An action of the app.
 #[derive(Debug, Clone, PartialEq)]

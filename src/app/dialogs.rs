@@ -55,8 +55,8 @@ fn show(kind: DialogKind, directory: Option<&Path>) -> Option<PathBuf> {
         DialogKind::Open => dialog
             .set_title("Open a volume")
             .add_filter(
-                crate::volume::dialog_filter_name(),
-                &crate::volume::dialog_extensions(),
+                voxscope_volume::dialog_filter_name(),
+                &voxscope_volume::dialog_extensions(),
             )
             .add_filter("All files", &["*"])
             .pick_file(),

@@ -357,5 +357,5 @@ fn has_extension(name: &str, extension: &str) -> bool {
 
 /// True for the files File > Open offers: those whose extension the format table knows.
 pub fn is_volume_file(name: &str) -> bool {
-    crate::volume::format::by_extension(name).is_some()
+    voxscope_volume::format::by_extension(name).is_some()
 }

@@ -10,7 +10,7 @@ use egui::Ui;
 use super::command::{Command, CommandQueue};
 use super::prefetch::MAX_PREFETCH_FRAMES;
 use super::settings::AppSettings;
-use crate::volume::{MAX_CHANNELS, Selection, Series};
+use voxscope_volume::{MAX_CHANNELS, Selection, Series};
 
 /// Frames a second that playback may ask for.
 pub const FRAME_RATES: std::ops::RangeInclusive<f32> = 0.5..=30.0;

@@ -10,9 +10,9 @@ use std::time::Duration;
 
 use super::dialogs::DialogKind;
 use super::scene::Scene;
-use crate::octree::{BuildError, Clip, LevelStatistics, TransferFunction};
-use crate::progress::{Cancelled, Progress};
-use crate::render::RendererOptions;
+use voxscope_octree::{BuildError, Clip, LevelStatistics, TransferFunction};
+use voxscope_render::RendererOptions;
+use voxscope_volume::progress::{Cancelled, Progress};
 
 /// Why a job ended without a result. The UI branches on the variant, never on message text.
 #[derive(Debug, Clone, PartialEq, Eq)]

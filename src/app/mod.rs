@@ -1,6 +1,6 @@
 //! The desktop app (eframe/egui): the ray caster's image in the central panel, the transfer
 //! function on the left, the octree and its numbers on the right, level and transfer
-//! comparisons, background loading. Builds on [`crate::render`]; nothing below imports egui.
+//! comparisons, background loading. Builds on [`voxscope_render`]; nothing below imports egui.
 //!
 //! How it is put together (docs/architecture.md has the whole picture):
 //! - [`VoxscopeApp`] holds [`AppSettings`] (persisted), the volume on screen ([`Scene`]) and
@@ -49,7 +49,7 @@ pub use settings::{AppSettings, Layout, STORAGE_KEY, TransferChoice, TransferPre
 pub use view_state::ViewState;
 pub use voxscope_app::VoxscopeApp;
 
-use crate::render::GpuContext;
+use voxscope_render::GpuContext;
 
 /// The GPU as the app shares it with egui-wgpu: the ray casters' context on egui's device,
 /// and egui-wgpu's renderer, which shows the render targets as textures.
@@ -90,7 +90,7 @@ pub fn native_options() -> eframe::NativeOptions {
 
 /// Opens the window on `source` (the sample when `None`), clipped by `clip`, and runs until
 /// it is closed.
-pub fn run(source: Option<VolumeSource>, clip: crate::octree::Clip) -> Result<(), String> {
+pub fn run(source: Option<VolumeSource>, clip: voxscope_octree::Clip) -> Result<(), String> {
     eframe::run_native(
         "voxscope",
         native_options(),

@@ -10,8 +10,8 @@ use super::scene::Scene;
 use super::settings::AppSettings;
 use super::stream_panel;
 use super::view_state::ViewState;
-use crate::octree::LevelStatistics;
-use crate::render::{FrameReport, HEATMAP_SATURATION, LevelDetail, RendererKind, heatmap_color};
+use voxscope_octree::LevelStatistics;
+use voxscope_render::{FrameReport, HEATMAP_SATURATION, LevelDetail, RendererKind, heatmap_color};
 
 /// What the panel shows besides the settings it edits.
 pub struct OctreeFacts<'a> {
@@ -166,7 +166,7 @@ pub fn show(
     ui.small(format!(
         "{} nodes stored of {} in the full tree (eq. 1){}",
         group_digits(octree.nodes.len() as u64),
-        group_digits(crate::octree::full_tree_nodes(octree.depth)),
+        group_digits(voxscope_octree::full_tree_nodes(octree.depth)),
         if octree.collapsed {
             ", uniform subtrees collapsed"
         } else {
@@ -189,7 +189,7 @@ fn composite_facts(ui: &mut Ui, composite: &CompositeScene) {
             ui.label(format!(
                 "{} of {}",
                 composite.channels.len(),
-                crate::volume::format_dims(dims)
+                voxscope_volume::format_dims(dims)
             ));
             ui.end_row();
             ui.label("Visible blocks");

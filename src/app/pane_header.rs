@@ -7,8 +7,8 @@ use super::octree_panel::group_digits;
 use super::scene::Scene;
 use super::settings::{AppSettings, Layout, TransferChoice};
 use super::view_state::{MAX_GRID_PANES, ViewState};
-use crate::octree::OpacityMode;
-use crate::render::{LevelDetail, RendererKind};
+use voxscope_octree::OpacityMode;
+use voxscope_render::{LevelDetail, RendererKind};
 
 /// The level grid's strip: how many panes.
 pub fn grid_strip(ui: &mut Ui, settings: &mut AppSettings) {
@@ -34,7 +34,7 @@ pub fn pair_strip(ui: &mut Ui, settings: &mut AppSettings) {
     egui::ComboBox::from_id_salt("compare_colormap")
         .selected_text(b.colormap.name())
         .show_ui(ui, |ui| {
-            for colormap in crate::octree::Colormap::ALL {
+            for colormap in voxscope_octree::Colormap::ALL {
                 ui.selectable_value(&mut b.colormap, colormap, colormap.name());
             }
         })
@@ -68,15 +68,15 @@ pub fn pane_label(
             let pyramid_level = (depth - level.min(depth)) as usize;
             format!(
                 "{} voxels",
-                crate::volume::format_dims(shape.levels[pyramid_level].dims)
+                voxscope_volume::format_dims(shape.levels[pyramid_level].dims)
             )
         }
         None => match scene.renderer.level_detail(level) {
             LevelDetail::Pyramid { dims, .. } => {
-                format!("{} voxels", crate::volume::format_dims(dims))
+                format!("{} voxels", voxscope_volume::format_dims(dims))
             }
             LevelDetail::Full if scene.renderer.kind() == RendererKind::Dense => {
-                format!("{} voxels", crate::volume::format_dims(octree.dims))
+                format!("{} voxels", voxscope_volume::format_dims(octree.dims))
             }
             LevelDetail::Nodes { .. } | LevelDetail::Full => format!(
                 "{} nodes",

@@ -10,7 +10,7 @@ use super::scene::Scene;
 use super::settings::Tool;
 use super::view_state::{Ruler, ViewState};
 use super::viewport::DrawKey;
-use crate::render::{GpuProbe, ProbeRequest};
+use voxscope_render::{GpuProbe, ProbeRequest};
 
 /// Picking points in the 3D view: the GPU probe, and what its answers are for.
 pub struct Picking {

@@ -12,9 +12,9 @@ use std::sync::Arc;
 use super::jobs::{Job, JobError, Opened};
 use super::scene::{self, FrameChange, Scene};
 use super::voxscope_app::VoxscopeApp;
-use crate::render::RendererOptions;
-use crate::stream::PyramidShape;
-use crate::volume::Selection;
+use voxscope_render::RendererOptions;
+use voxscope_stream::PyramidShape;
+use voxscope_volume::Selection;
 
 /// Frames ahead kept by default.
 pub const DEFAULT_PREFETCH_FRAMES: usize = 2;
@@ -102,7 +102,7 @@ impl Prefetch {
     }
 
     /// Gives each ready streamed frame not given them yet the bricks `keys` of the view on
-    /// screen (a pyramid of `shape`) to load ahead ([`crate::stream::Streamer::prefetch`]);
+    /// screen (a pyramid of `shape`) to load ahead ([`voxscope_stream::Streamer::prefetch`]);
     /// frames of another shape are left alone. Returns the loads queued.
     pub fn warm(&mut self, shape: &PyramidShape, keys: &[u32]) -> usize {
         let mut queued = 0;

@@ -7,18 +7,18 @@ use std::time::Instant;
 use super::channels::{ChannelState, CompositeScene};
 use super::jobs::{Counted, Job, JobError, Opened};
 use super::settings::TransferChoice;
-use crate::octree::{
+use voxscope_octree::{
     self, BuildOptions, Clip, Colormap, DataKind, MAX_DEPTH, Octree, Preset, TransferFunction,
     default_transfer,
 };
-use crate::progress::Progress;
-use crate::render::{GpuContext, RendererKind, RendererOptions, VolumeRenderer};
-use crate::stream::{
+use voxscope_render::{GpuContext, RendererKind, RendererOptions, VolumeRenderer};
+use voxscope_stream::{
     BrickSource, Downsampling, MemorySource, StreamOptions, StreamStatus, ZarrSource,
 };
-use crate::volume::ome_zarr::{self, Pyramid, VOLUME_VOXEL_BUDGET};
-use crate::volume::remote::{RemoteOptions, RemoteStats};
-use crate::volume::{
+use voxscope_volume::ome_zarr::{self, Pyramid, VOLUME_VOXEL_BUDGET};
+use voxscope_volume::progress::Progress;
+use voxscope_volume::remote::{RemoteOptions, RemoteStats};
+use voxscope_volume::{
     self, LoadOptions, MAX_CHANNELS, QuantizedVolume, Selection, ValueScale, ValueWindow, Volume,
     VoxelData,
 };
@@ -58,8 +58,8 @@ impl VolumeSource {
 
     fn load(&self, select: Selection) -> Result<Volume, JobError> {
         match self {
-            Self::Sample => volume::sample(),
-            Self::Spec(spec) => volume::load(
+            Self::Sample => voxscope_volume::sample(),
+            Self::Spec(spec) => voxscope_volume::load(
                 spec,
                 &LoadOptions {
                     select,
@@ -337,8 +337,8 @@ pub fn prepare_scene(
         (None, None) => opening_transfer(choice, &data.quantized, data.kind, data.default_window),
     };
     progress.begin("coloring");
-    octree::recolor(&mut data.octree, &transfer);
-    let statistics = octree::level_statistics(&data.octree);
+    voxscope_octree::recolor(&mut data.octree, &transfer);
+    let statistics = voxscope_octree::level_statistics(&data.octree);
     data.load_seconds = started.elapsed().as_secs_f64();
     progress.check()?;
     let data = Arc::new(data);
@@ -444,8 +444,9 @@ fn prepare_data(
     let quantized = QuantizedVolume::new(&volume);
     volume.data = volume.data.emptied();
     progress.check()?;
-    let octree = octree::build_with_progress(&quantized, BuildOptions::default(), progress)
-        .map_err(|e| JobError::from_build(&volume.name, e))?;
+    let octree =
+        voxscope_octree::build_with_progress(&quantized, BuildOptions::default(), progress)
+            .map_err(|e| JobError::from_build(&volume.name, e))?;
     // The file's own window (the channel's in OME metadata, OME-Zarr's omero) where it has
     // one, else the percentiles.
     let channel_window = volume
@@ -578,7 +579,7 @@ pub fn statistics_job(
         Ok((
             transfer,
             clip,
-            octree::level_statistics_within(&data.octree, &transfer, &clip),
+            voxscope_octree::level_statistics_within(&data.octree, &transfer, &clip),
         ))
     })
 }

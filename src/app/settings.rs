@@ -6,11 +6,11 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use super::command::Panel;
-use crate::octree::{Colormap, OpacityMode, TransferFunction};
-use crate::render::{
+use voxscope_octree::{Colormap, OpacityMode, TransferFunction};
+use voxscope_render::{
     Camera, DEFAULT_BRICK_SIZE, RenderMode, RendererKind, RendererOptions, Shading,
 };
-use crate::volume::ValueWindow;
+use voxscope_volume::ValueWindow;
 
 /// The key under which eframe stores [`AppSettings`].
 pub const STORAGE_KEY: &str = "voxscope.settings";
@@ -259,8 +259,8 @@ impl AppSettings {
     /// URL is kept without user name, password or query (nothing secret is saved).
     pub fn remember(&mut self, source: &str) {
         let shown;
-        let source = if crate::volume::remote::is_url(source) {
-            shown = crate::volume::remote::display_url(source);
+        let source = if voxscope_volume::remote::is_url(source) {
+            shown = voxscope_volume::remote::display_url(source);
             shown.as_str()
         } else {
             source

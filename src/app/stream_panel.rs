@@ -7,7 +7,7 @@ use egui::Ui;
 use super::octree_panel::{format_bytes, group_digits};
 use super::scene::Scene;
 use super::settings::AppSettings;
-use crate::stream::StreamStatus;
+use voxscope_stream::StreamStatus;
 
 /// The GPU budgets offered, in MiB (the device's largest 3D texture bounds the atlas anyway).
 const GPU_BUDGETS_MIB: [u64; 7] = [64, 128, 256, 512, 1024, 2048, 4096];
@@ -154,7 +154,7 @@ pub fn show(ui: &mut Ui, scene: &Scene) {
                         counters.levels.iter().zip(&shape.levels).enumerate().rev()
                     {
                         ui.label((depth as usize - pyramid_level).to_string());
-                        ui.monospace(crate::volume::format_dims(shape.dims));
+                        ui.monospace(voxscope_volume::format_dims(shape.dims));
                         ui.monospace(group_digits(level.total));
                         ui.monospace(group_digits(level.resident as u64));
                         ui.monospace(group_digits(level.empty as u64));

@@ -8,8 +8,8 @@ use egui::{Color32, CornerRadius, Pos2, Rect, Response, Sense, Shape, Stroke, Ui
 
 use super::scene::{HISTOGRAM_BINS, VolumeData};
 use super::settings::AppSettings;
-use crate::octree::{ControlPoint, OpacityMode, TransferFunction};
-use crate::volume::ValueWindow;
+use voxscope_octree::{ControlPoint, OpacityMode, TransferFunction};
+use voxscope_volume::ValueWindow;
 
 /// Radius of a control point, in points.
 const POINT_RADIUS: f32 = 4.5;
@@ -233,7 +233,7 @@ fn selected_point(ui: &Ui) -> Option<usize> {
 fn edit_points(
     ui: &mut Ui,
     axes: &Axes,
-    curve: &mut crate::octree::OpacityCurve,
+    curve: &mut voxscope_octree::OpacityCurve,
     background: &Response,
 ) {
     let selection = selection_id(ui);
@@ -306,7 +306,7 @@ fn edit_points(
 }
 
 /// The selected point's value, opacity and own color, as numbers to type.
-fn selected_point_fields(ui: &mut Ui, curve: &mut crate::octree::OpacityCurve) {
+fn selected_point_fields(ui: &mut Ui, curve: &mut voxscope_octree::OpacityCurve) {
     let Some(index) = selected_point(ui).filter(|&i| i < curve.points().len()) else {
         return;
     };

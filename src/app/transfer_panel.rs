@@ -7,11 +7,11 @@ use egui::Ui;
 use super::scene::VolumeData;
 use super::settings::AppSettings;
 use super::transfer_editor;
-use crate::octree::{
+use voxscope_octree::{
     Colormap, ControlPoint, DataKind, OpacityCurve, OpacityMode, Preset, labels_transfer,
 };
-use crate::render::RenderMode;
-use crate::volume::ValueWindow;
+use voxscope_render::RenderMode;
+use voxscope_volume::ValueWindow;
 
 /// 2-D windows for CT data (Hounsfield units) as level/width pairs radiologists use: they set
 /// the colormap's range (and the slices'), not what is transparent.

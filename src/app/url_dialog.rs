@@ -4,7 +4,7 @@
 
 use egui::{Context, Key};
 
-use crate::volume::remote::is_url;
+use voxscope_volume::remote::is_url;
 
 /// The text being typed, kept while the window is open.
 #[derive(Debug, Default, Clone, PartialEq, Eq)]

@@ -4,9 +4,9 @@
 //! next is in [`super::AppSettings`].)
 
 use super::channels::ChannelState;
-use crate::octree::{Clip, ClipPlane, LevelStatistics, TransferFunction};
-use crate::render::SliceView;
-use crate::volume::ValueWindow;
+use voxscope_octree::{Clip, ClipPlane, LevelStatistics, TransferFunction};
+use voxscope_render::SliceView;
+use voxscope_volume::ValueWindow;
 
 /// The level grid's largest pane count.
 pub const MAX_GRID_PANES: usize = 6;

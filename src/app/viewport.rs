@@ -5,8 +5,8 @@
 use egui::{Color32, PointerButton, Pos2, Rect, Response, Sense, Stroke, Ui, Vec2, pos2, vec2};
 use glam::DVec3;
 
-use crate::octree::TransferFunction;
-use crate::render::{Camera, GpuContext, RenderSettings, RenderTarget, SliceSettings};
+use voxscope_octree::TransferFunction;
+use voxscope_render::{Camera, GpuContext, RenderSettings, RenderTarget, SliceSettings};
 
 /// Everything a pane's image depends on; a pane is drawn again when this changes.
 // Inline like the transfer function it holds: compared for every pane every frame.

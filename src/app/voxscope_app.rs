@@ -25,8 +25,8 @@ use super::settings::{AppSettings, STORAGE_KEY, TransferChoice, TransferPreset};
 use super::transfer_panel;
 use super::url_dialog::{UrlDialog, UrlOutcome};
 use super::view_state::{Clipping, ViewState};
-use crate::octree::{Clip, LevelStatistics, TransferFunction};
-use crate::render::{FrameReport, GpuContext, RendererKind, RendererOptions};
+use voxscope_octree::{Clip, LevelStatistics, TransferFunction};
+use voxscope_render::{FrameReport, GpuContext, RendererKind, RendererOptions};
 
 /// The voxscope window.
 pub struct VoxscopeApp {
@@ -151,7 +151,7 @@ impl VoxscopeApp {
     }
 
     /// The streaming renderer's latest status, if it draws the volume on screen.
-    pub fn stream_status(&self) -> Option<&crate::stream::StreamStatus> {
+    pub fn stream_status(&self) -> Option<&voxscope_stream::StreamStatus> {
         self.scene.as_ref()?.stream_status.as_ref()
     }
 
@@ -350,8 +350,8 @@ impl VoxscopeApp {
                 format!(
                     "{} is larger than memory allows: streaming it at full resolution ({}); the panels read a coarser level ({})",
                     scene.data.volume.name,
-                    dims.map_or_else(String::new, crate::volume::format_dims),
-                    crate::volume::format_dims(scene.data.volume.dims),
+                    dims.map_or_else(String::new, voxscope_volume::format_dims),
+                    voxscope_volume::format_dims(scene.data.volume.dims),
                 )
             } else {
                 format!(
@@ -385,7 +385,7 @@ impl VoxscopeApp {
         eprintln!(
             "voxscope: opened {} ({}, octree depth {depth}, {} nodes) in {:.2} s",
             volume.name,
-            crate::volume::format_dims(volume.dims),
+            voxscope_volume::format_dims(volume.dims),
             scene.data.octree.nodes.len(),
             scene.data.load_seconds + scene.upload_seconds,
         );

@@ -5,12 +5,12 @@ use std::path::PathBuf;
 use clap::{Args, ValueEnum};
 
 use crate::app::TransferPreset;
-use crate::octree::{
+use voxscope_octree::{
     Clip, ClipPlane, Colormap, DataKind, OpacityCurve, OpacityMode, Preset, TransferFunction,
     default_transfer,
 };
-use crate::render::{RenderMode, RenderSettings, RendererKind, Shading};
-use crate::volume::{LoadOptions, QuantizedVolume, RawLayout, ValueWindow};
+use voxscope_render::{RenderMode, RenderSettings, RendererKind, Shading};
+use voxscope_volume::{LoadOptions, QuantizedVolume, RawLayout, ValueWindow};
 
 /// Which volume to open.
 #[derive(Debug, Clone, Args)]
@@ -46,13 +46,13 @@ pub struct VolumeArgs {
     #[arg(long, default_value_t = 0)]
     pub time: usize,
     /// A URL's store: requests in flight at once, at most (1 to 1024).
-    #[arg(long, value_name = "N", default_value_t = crate::volume::remote::DEFAULT_MAX_REQUESTS, value_parser = parse_max_requests)]
+    #[arg(long, value_name = "N", default_value_t = voxscope_volume::remote::DEFAULT_MAX_REQUESTS, value_parser = parse_max_requests)]
     pub max_requests: usize,
 }
 
-/// `--max-requests`: 1 to [`crate::volume::remote::MAX_MAX_REQUESTS`].
+/// `--max-requests`: 1 to [`voxscope_volume::remote::MAX_MAX_REQUESTS`].
 pub fn parse_max_requests(text: &str) -> Result<usize, String> {
-    use crate::volume::remote::MAX_MAX_REQUESTS;
+    use voxscope_volume::remote::MAX_MAX_REQUESTS;
     match text.trim().parse::<usize>() {
         Ok(n) if (1..=MAX_MAX_REQUESTS).contains(&n) => Ok(n),
         _ => Err(format!(
@@ -63,27 +63,27 @@ pub fn parse_max_requests(text: &str) -> Result<usize, String> {
 
 impl VolumeArgs {
     /// Reads FILE (the channel and time point chosen), or the built-in sample without one.
-    pub fn load(&self) -> Result<crate::volume::Volume, String> {
+    pub fn load(&self) -> Result<voxscope_volume::Volume, String> {
         match &self.file {
-            Some(spec) => crate::volume::load(spec, &self.load_options()),
-            None => crate::volume::sample(),
+            Some(spec) => voxscope_volume::load(spec, &self.load_options()),
+            None => voxscope_volume::sample(),
         }
         .map_err(|e| e.to_string())
     }
 
-    /// The options for [`crate::volume::load`].
+    /// The options for [`voxscope_volume::load`].
     pub fn load_options(&self) -> LoadOptions {
         LoadOptions {
             raw: self.raw,
             spacing: self.spacing,
-            select: crate::volume::Selection {
+            select: voxscope_volume::Selection {
                 channel: match self.channel {
                     Some(ChannelArg::Index(channel)) => channel,
                     Some(ChannelArg::All) | None => 0,
                 },
                 time: self.time,
             },
-            remote: crate::volume::remote::RemoteOptions {
+            remote: voxscope_volume::remote::RemoteOptions {
                 max_requests: self.max_requests,
             },
         }
@@ -112,16 +112,16 @@ impl VolumeArgs {
     /// The channels to composite, when these options ask for a composite or leave it to the
     /// file (`--channel` not a number): every channel of FILE at `--time`, or the
     /// `--channels-from` files. `None` when one channel was chosen.
-    pub fn composite_channels(&self) -> Result<Option<Vec<crate::volume::Volume>>, String> {
+    pub fn composite_channels(&self) -> Result<Option<Vec<voxscope_volume::Volume>>, String> {
         let options = self.load_options();
         if let Some(specs) = &self.channels_from {
-            return crate::volume::load_as_channels(specs, &options)
+            return voxscope_volume::load_as_channels(specs, &options)
                 .map(Some)
                 .map_err(|e| e.to_string());
         }
         match (&self.file, self.channel) {
             (_, Some(ChannelArg::Index(_))) | (None, _) => Ok(None),
-            (Some(spec), _) => crate::volume::load_all_channels(spec, &options)
+            (Some(spec), _) => voxscope_volume::load_all_channels(spec, &options)
                 .map(Some)
                 .map_err(|e| e.to_string()),
         }

@@ -10,13 +10,13 @@ use serde_json::json;
 use super::args::{OpacityArg, RendererArg, TransferArgs};
 use super::stream::StreamArgs;
 use super::{ClipArgs, Prepared, VolumeArgs};
-use crate::octree::{OpacityMode, TransferFunction};
-use crate::render::{
+use voxscope_octree::{OpacityMode, TransferFunction};
+use voxscope_render::{
     Camera, ChannelLayer, CompositeRaycaster, CompositeVolume, DEFAULT_BRICK_SIZE, Frame,
     GpuContext, GpuTimer, RenderMode, RenderSettings, RenderTarget, RendererKind, RendererOptions,
     Shading, VolumeRenderer, read_visits, time_passes, timing_name,
 };
-use crate::volume::ValueWindow;
+use voxscope_volume::ValueWindow;
 
 #[derive(Debug, Args)]
 pub struct BenchArgs {
@@ -66,13 +66,13 @@ pub struct BenchArgs {
     pub composite_channels: Option<Vec<usize>>,
 }
 
-/// A channel count for --composite-channels: 1 to [`crate::volume::MAX_CHANNELS`].
+/// A channel count for --composite-channels: 1 to [`voxscope_volume::MAX_CHANNELS`].
 fn parse_channel_count(text: &str) -> Result<usize, String> {
     match text.trim().parse::<usize>() {
-        Ok(n) if (1..=crate::volume::MAX_CHANNELS).contains(&n) => Ok(n),
+        Ok(n) if (1..=voxscope_volume::MAX_CHANNELS).contains(&n) => Ok(n),
         _ => Err(format!(
             "channel count '{text}' is not 1 to {}",
-            crate::volume::MAX_CHANNELS
+            voxscope_volume::MAX_CHANNELS
         )),
     }
 }
@@ -402,7 +402,7 @@ struct CompositeBench<'a> {
     timer: Option<&'a GpuTimer>,
     frames: u32,
     density: f32,
-    clip: crate::octree::Clip,
+    clip: voxscope_octree::Clip,
     depth: u32,
     spacing: [f64; 3],
 }

@@ -4,7 +4,7 @@
 use clap::Args;
 use serde_json::json;
 
-use crate::render::{CeilingSizes, GpuContext, measure_ceilings};
+use voxscope_render::{CeilingSizes, GpuContext, measure_ceilings};
 
 #[derive(Debug, Args)]
 pub struct CeilingsArgs {

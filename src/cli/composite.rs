@@ -8,11 +8,11 @@ use clap::Args;
 use super::TransferArgs;
 use super::args::RendererArg;
 use super::render::RenderArgs;
-use crate::octree::{Colormap, DataKind, TransferFunction};
-use crate::render::{
+use voxscope_octree::{Colormap, DataKind, TransferFunction};
+use voxscope_render::{
     Camera, ChannelLayer, CompositeRaycaster, CompositeVolume, GpuContext, RenderTarget, read_image,
 };
-use crate::volume::{QuantizedVolume, ValueWindow, Volume};
+use voxscope_volume::{QuantizedVolume, ValueWindow, Volume};
 
 /// Colors and windows of the channels of a composite.
 #[derive(Debug, Clone, Args)]
@@ -165,7 +165,7 @@ pub(super) fn render(args: &RenderArgs, channels: Vec<Volume>) -> Result<(), Str
         return Err(format!(
             "the composite of {} channels is drawn by the dense renderer; --renderer {} draws one channel (--channel N)",
             channels.len(),
-            crate::render::RendererKind::from(renderer).name()
+            voxscope_render::RendererKind::from(renderer).name()
         ));
     }
     let prepared = args.channels.prepare(channels, &args.transfer)?;

@@ -6,11 +6,11 @@ use std::time::Instant;
 use clap::{Args, ValueEnum};
 
 use super::args::{parse_max_requests, parse_spacing};
-use crate::volume::ome_zarr::{
+use voxscope_volume::ome_zarr::{
     Compression, Downsampling, PyramidOptions, PyramidWriter, SlabSource, WriteOptions, ZarrVersion,
 };
-use crate::volume::remote::RemoteOptions;
-use crate::volume::{LoadOptions, RawLayout, format_dims};
+use voxscope_volume::remote::RemoteOptions;
+use voxscope_volume::{LoadOptions, RawLayout, format_dims};
 
 #[derive(Debug, Args)]
 pub struct ConvertArgs {
@@ -32,7 +32,7 @@ pub struct ConvertArgs {
     #[arg(long, default_value_t = 0)]
     pub time: usize,
     /// A URL input: requests in flight at once, at most (1 to 1024).
-    #[arg(long, value_name = "N", default_value_t = crate::volume::remote::DEFAULT_MAX_REQUESTS, value_parser = parse_max_requests)]
+    #[arg(long, value_name = "N", default_value_t = voxscope_volume::remote::DEFAULT_MAX_REQUESTS, value_parser = parse_max_requests)]
     pub max_requests: usize,
     /// OME-Zarr 0.4 (Zarr v2, a file per chunk) or 0.5 (Zarr v3, sharded).
     #[arg(long, value_enum, default_value_t = FormatArg::V04)]

@@ -5,9 +5,9 @@ use serde_json::json;
 
 use super::prepare::beyond_octree;
 use super::{Prepared, TransferArgs, VolumeArgs};
-use crate::octree::{MAX_DEPTH, Node, full_tree_nodes, level_statistics};
-use crate::volume::ome_zarr::{Pyramid, is_zarr_spec};
-use crate::volume::{QuantizedVolume, ValueWindow, Volume, format_dims};
+use voxscope_octree::{MAX_DEPTH, Node, full_tree_nodes, level_statistics};
+use voxscope_volume::ome_zarr::{Pyramid, is_zarr_spec};
+use voxscope_volume::{QuantizedVolume, ValueWindow, Volume, format_dims};
 
 #[derive(Debug, Args)]
 pub struct InfoArgs {
@@ -334,7 +334,7 @@ fn hex_color([r, g, b]: [u8; 3]) -> String {
 
 /// The `channels` and `time points` lines: how many, which is shown, the channels' names and
 /// colors where the file gives them.
-fn series_lines(series: &crate::volume::Series) -> String {
+fn series_lines(series: &voxscope_volume::Series) -> String {
     let described = series
         .channels
         .iter()
@@ -432,7 +432,7 @@ fn info_table(p: &Prepared, with_series: bool) -> String {
             s.level, s.nodes, s.leaves, s.transparent, s.opaque, s.bytes, s.full_tree_nodes
         );
     }
-    let sum = |f: fn(&crate::octree::LevelStatistics) -> u64| levels.iter().map(f).sum::<u64>();
+    let sum = |f: fn(&voxscope_octree::LevelStatistics) -> u64| levels.iter().map(f).sum::<u64>();
     let _ = writeln!(
         out,
         "{:>5} {:>12} {:>12} {:>12} {:>12} {:>14} {:>14}",

@@ -5,10 +5,10 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use crate::app::TransferPreset;
-use crate::octree::{self, BuildOptions, DataKind, Octree, TransferFunction};
-use crate::progress::Progress;
-use crate::render::{GpuContext, RendererKind};
-use crate::volume::{QuantizedVolume, Volume};
+use voxscope_octree::{BuildOptions, DataKind, Octree, TransferFunction};
+use voxscope_render::{GpuContext, RendererKind};
+use voxscope_volume::progress::Progress;
+use voxscope_volume::{QuantizedVolume, Volume};
 
 use super::{TransferArgs, VolumeArgs};
 
@@ -50,7 +50,7 @@ impl Prepared {
             .default_window
             .unwrap_or_else(|| quantized.robust_window());
         let transfer = transfer_args.transfer_function(&quantized, kind, saved.as_ref(), window);
-        let recolor_time = octree::recolor(&mut octree, &transfer);
+        let recolor_time = voxscope_octree::recolor(&mut octree, &transfer);
         Ok(Self {
             volume,
             quantized,
@@ -64,7 +64,9 @@ impl Prepared {
 
 /// Builds the octree; a build still running after a second prints its progress to stderr
 /// once a second (`building octree: 42 %`), so large volumes do not look hung.
-fn build_reporting_progress(quantized: &QuantizedVolume) -> Result<Octree, octree::BuildError> {
+fn build_reporting_progress(
+    quantized: &QuantizedVolume,
+) -> Result<Octree, voxscope_octree::BuildError> {
     let progress = Arc::new(Progress::new());
     let finished = Arc::new(AtomicBool::new(false));
     let reporter = {
@@ -87,17 +89,18 @@ fn build_reporting_progress(quantized: &QuantizedVolume) -> Result<Octree, octre
             }
         })
     };
-    let result = octree::build_with_progress(quantized, BuildOptions::default(), &progress);
+    let result =
+        voxscope_octree::build_with_progress(quantized, BuildOptions::default(), &progress);
     finished.store(true, Ordering::Relaxed);
     let _ = reporter.join();
     result
 }
 
 /// Whether a volume of `dims` is longer than the voxel octree holds (1024 voxels a side, depth
-/// [`octree::MAX_DEPTH`]): `render` then draws it with the streaming renderer from memory
+/// [`voxscope_octree::MAX_DEPTH`]): `render` then draws it with the streaming renderer from memory
 /// unless `octree` or `dense` is asked for.
 pub(super) fn beyond_octree(dims: [usize; 3]) -> bool {
-    dims.iter().any(|&d| d > 1 << octree::MAX_DEPTH)
+    dims.iter().any(|&d| d > 1 << voxscope_octree::MAX_DEPTH)
 }
 
 /// The renderer for `render` and `slice` when none was asked for, as the app chooses: the
@@ -110,7 +113,7 @@ pub(super) fn default_renderer(
     then: &str,
 ) -> RendererKind {
     let nodes = octree.nodes_through_level(level);
-    let bytes = (nodes * std::mem::size_of::<octree::Node>()) as u64;
+    let bytes = (nodes * std::mem::size_of::<voxscope_octree::Node>()) as u64;
     if bytes <= context.max_storage_bytes() {
         return RendererKind::Octree;
     }

@@ -4,7 +4,7 @@ use clap::Args;
 use serde_json::json;
 
 use super::VolumeArgs;
-use crate::volume::{self, Orientation, Volume, format_dims};
+use voxscope_volume::{Orientation, Volume, format_dims};
 
 #[derive(Debug, Args)]
 pub struct ProbeArgs {
@@ -35,8 +35,8 @@ pub struct Probed {
 
 pub fn run(args: &ProbeArgs) -> Result<(), String> {
     let volume = match &args.volume.file {
-        Some(spec) => volume::load(spec, &args.volume.load_options()),
-        None => volume::sample(),
+        Some(spec) => voxscope_volume::load(spec, &args.volume.load_options()),
+        None => voxscope_volume::sample(),
     }
     .map_err(|e| e.to_string())?;
     let probed = probe(&volume, args.at)?;

@@ -9,12 +9,12 @@ use super::args::RendererArg;
 use super::prepare::{beyond_octree, default_renderer};
 use super::stream::{StreamArgs, StreamPrepared, describe_missing, refine};
 use super::{ClipArgs, Prepared, TransferArgs, VolumeArgs};
-use crate::octree::MAX_DEPTH;
-use crate::render::{
+use voxscope_octree::MAX_DEPTH;
+use voxscope_render::{
     Camera, DEFAULT_BRICK_SIZE, GpuContext, RenderTarget, RendererOptions, VolumeRenderer,
     read_image,
 };
-use crate::volume::format_dims;
+use voxscope_volume::format_dims;
 
 #[derive(Debug, Args)]
 pub struct RenderArgs {

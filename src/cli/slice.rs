@@ -10,12 +10,12 @@ use super::args::{RendererArg, parse_colormap};
 use super::prepare::default_renderer;
 use super::render::check_output;
 use super::{Prepared, TransferArgs, VolumeArgs};
-use crate::octree::Colormap;
-use crate::render::{
+use voxscope_octree::Colormap;
+use voxscope_render::{
     DEFAULT_BRICK_SIZE, GpuContext, RenderTarget, RendererOptions, SliceConvention, SliceFrame,
     SliceSettings, VolumeRenderer, read_image,
 };
-use crate::volume::ValueWindow;
+use voxscope_volume::ValueWindow;
 
 #[derive(Debug, Args)]
 pub struct SliceArgs {

@@ -9,14 +9,14 @@ use clap::Args;
 
 use super::{TransferArgs, VolumeArgs};
 use crate::app::TransferPreset;
-use crate::octree::{DataKind, TransferFunction};
-use crate::render::{Camera, GpuContext, RenderSettings, RenderTarget, VolumeRenderer};
-use crate::stream::{
+use voxscope_octree::{DataKind, TransferFunction};
+use voxscope_render::{Camera, GpuContext, RenderSettings, RenderTarget, VolumeRenderer};
+use voxscope_stream::{
     BrickSource, Downsampling, MemorySource, NoiseSource, StreamOptions, StreamStatus, ZarrSource,
     preview,
 };
-use crate::volume::ome_zarr::{self, Pyramid};
-use crate::volume::{self, QuantizedVolume, ValueWindow, Volume, parse_dims};
+use voxscope_volume::ome_zarr::{self, Pyramid};
+use voxscope_volume::{QuantizedVolume, ValueWindow, Volume, parse_dims};
 
 /// The streaming renderer's budgets (`--renderer stream`, `bench --stream`).
 #[derive(Debug, Clone, Args)]
@@ -149,8 +149,8 @@ impl StreamPrepared {
             }
             _ => {
                 let loaded = match spec {
-                    Some(spec) => volume::load(spec, &volume_args.load_options()),
-                    None => volume::sample(),
+                    Some(spec) => voxscope_volume::load(spec, &volume_args.load_options()),
+                    None => voxscope_volume::sample(),
                 }
                 .map_err(|e| e.to_string())?;
                 Self::from_volume(loaded, transfer_args, started)

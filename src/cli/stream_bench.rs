@@ -12,12 +12,12 @@ use serde_json::json;
 use super::args::{OpacityArg, TransferArgs};
 use super::bench::BenchArgs;
 use super::stream::{StreamPrepared, refine};
-use crate::octree::{self, BuildOptions, TransferFunction};
-use crate::render::{
+use voxscope_octree::{BuildOptions, TransferFunction};
+use voxscope_render::{
     Camera, GpuContext, GpuTimer, RenderMode, RenderSettings, RenderTarget, RendererKind,
     RendererOptions, Shading, VolumeRenderer, time_passes, timing_name,
 };
-use crate::stream::{Downsampling, MemorySource, StreamOptions, preview};
+use voxscope_stream::{Downsampling, MemorySource, StreamOptions, preview};
 
 /// The paper's cameras, in bounding-sphere radii.
 const CAMERAS: [(&str, f64); 3] = [("near", 1.5), ("medium", 3.0), ("far", 6.0)];
@@ -239,10 +239,10 @@ fn resident_comparison(
         .map_err(|e| format!("{}: {e}", prepared.source.name()))?;
     let scale = prepared.source.shape().levels[level].scale as f64;
     let spacing = prepared.source.spacing().map(|s| s * scale);
-    let mut octree = octree::build(&volume, BuildOptions::default())
+    let mut octree = voxscope_octree::build(&volume, BuildOptions::default())
         .map_err(|e| format!("{}: {e}", prepared.source.name()))?;
     let transfer: TransferFunction = prepared.transfer;
-    octree::recolor(&mut octree, &transfer);
+    voxscope_octree::recolor(&mut octree, &transfer);
     let bricks = VolumeRenderer::new(
         context,
         RendererOptions {

@@ -10,11 +10,11 @@ pub mod writers;
 use std::path::PathBuf;
 use std::sync::LazyLock;
 
-use voxscope::octree::{self, BuildOptions, Octree, TransferFunction};
-use voxscope::render::{
+use voxscope_octree::{BuildOptions, Octree, TransferFunction};
+use voxscope_render::{
     Camera, Frame, GpuContext, GpuVolume, RenderSettings, RenderTarget, read_image, render_frame,
 };
-use voxscope::volume::{QuantizedVolume, Volume};
+use voxscope_volume::{QuantizedVolume, Volume};
 
 /// A file of the shared real data set (`../shared/data`, beside the checkout).
 pub fn shared_data(name: &str) -> PathBuf {
@@ -47,9 +47,9 @@ pub fn colored_octree(
     options: BuildOptions,
 ) -> (Octree, TransferFunction) {
     let quantized = QuantizedVolume::new(volume);
-    let mut octree = octree::build(&quantized, options).expect("octree builds");
+    let mut octree = voxscope_octree::build(&quantized, options).expect("octree builds");
     let transfer = transfer.unwrap_or_else(|| TransferFunction::gray(quantized.robust_window()));
-    octree::recolor(&mut octree, &transfer);
+    voxscope_octree::recolor(&mut octree, &transfer);
     (octree, transfer)
 }
 
@@ -108,9 +108,9 @@ impl Prepared {
     pub fn renderer(
         &self,
         context: &GpuContext,
-        options: impl Into<voxscope::render::RendererOptions>,
-    ) -> voxscope::render::VolumeRenderer {
-        voxscope::render::VolumeRenderer::new(
+        options: impl Into<voxscope_render::RendererOptions>,
+    ) -> voxscope_render::VolumeRenderer {
+        voxscope_render::VolumeRenderer::new(
             context,
             options,
             &self.octree,
@@ -126,7 +126,7 @@ impl Prepared {
 /// Draws one frame with `renderer` and reads it back.
 pub fn draw(
     context: &GpuContext,
-    renderer: &voxscope::render::VolumeRenderer,
+    renderer: &voxscope_render::VolumeRenderer,
     camera: &Camera,
     settings: &RenderSettings,
     size: (u32, u32),

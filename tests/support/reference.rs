@@ -13,12 +13,12 @@
 
 use glam::DVec3;
 use image::RgbaImage;
-use voxscope::octree::{Octree, TransferFunction, unpack_rgba};
-use voxscope::render::{
+use voxscope_octree::{Octree, TransferFunction, unpack_rgba};
+use voxscope_render::{
     Camera, EARLY_TERMINATION_ALPHA, GRADIENT_FOR_FULL_SHADING, PROBE_ALPHA, RenderMode,
     RenderSettings, Shading, ViewFrame,
 };
-use voxscope::volume::{Quantization, QuantizedVolume};
+use voxscope_volume::{Quantization, QuantizedVolume};
 
 /// The probe of one pixel as a CPU reference renderer finds it.
 #[derive(Debug, Clone, Copy)]
@@ -220,7 +220,7 @@ fn box_interval(origin: DVec3, dir: DVec3, low: DVec3, high: DVec3) -> (f64, f64
 }
 
 /// A node's value level for the shading step: the middle of its bounds, `otherwise` if empty.
-fn node_level(bounds: voxscope::octree::ValueBounds, otherwise: Option<f64>) -> Option<f64> {
+fn node_level(bounds: voxscope_octree::ValueBounds, otherwise: Option<f64>) -> Option<f64> {
     if bounds.is_empty() {
         otherwise
     } else {

@@ -12,7 +12,7 @@ use flate2::Compression;
 use flate2::write::{GzEncoder, ZlibEncoder};
 use tiff::encoder::{Rational, TiffEncoder, TiffValue, colortype};
 use tiff::tags::Tag;
-use voxscope::volume::{Endian, NrrdEncoding, Scalar, VoxelType};
+use voxscope_volume::{Endian, NrrdEncoding, Scalar, VoxelType};
 
 /// Encodes `values` of type `T` in `endian`.
 pub fn encode<T: Scalar>(values: &[T], endian: Endian) -> Vec<u8> {

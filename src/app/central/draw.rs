@@ -11,7 +11,7 @@ use super::super::slice_pane;
 use super::super::view_state::ViewState;
 use super::super::viewport::DrawKey;
 use super::{CentralView, PaneKind, pane_kinds};
-use crate::render::{Frame, FrameProbe, RenderError, RenderSettings, SliceSettings};
+use voxscope_render::{Frame, FrameProbe, RenderError, RenderSettings, SliceSettings};
 
 impl CentralView {
     /// Draws every pane whose image is out of date (or all, when drawing continuously, or

@@ -61,7 +61,7 @@ impl Kind {
 
     /// The format of a file, by its extension (the format table's).
     pub fn of_file_name(name: &str) -> Option<Kind> {
-        let format = voxscope::volume::format::by_extension(name)?;
+        let format = voxscope_volume::format::by_extension(name)?;
         Some(match format.name {
             "NIfTI-1" => Kind::Nifti,
             "NRRD" => Kind::Nrrd,

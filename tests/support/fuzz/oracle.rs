@@ -8,8 +8,8 @@ use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
-use voxscope::octree::{self, BrickLayout, BuildOptions};
-use voxscope::volume::{self, LoadOptions, QuantizedVolume};
+use voxscope_octree::{BrickLayout, BuildOptions};
+use voxscope_volume::{LoadOptions, QuantizedVolume};
 
 use super::alloc;
 
@@ -134,11 +134,12 @@ pub fn install_panic_hook() {
 /// Opens `target` (a file, or a folder) as the app and `info` would: load, then quantize and
 /// build the octree and bricks. The load error's text, or `None`.
 fn exercise(target: &str) -> Result<(), String> {
-    let volume = volume::load(target, &LoadOptions::default()).map_err(|e| e.to_string())?;
+    let volume =
+        voxscope_volume::load(target, &LoadOptions::default()).map_err(|e| e.to_string())?;
     let quantized = QuantizedVolume::new(&volume);
     drop(volume);
     // The build may refuse a volume (too deep, too many nodes); that is an answer too.
-    if let Ok(octree) = octree::build(&quantized, BuildOptions::default()) {
+    if let Ok(octree) = voxscope_octree::build(&quantized, BuildOptions::default()) {
         let _bricks = BrickLayout::new(&octree, &quantized, 32, 2048);
     }
     Ok(())

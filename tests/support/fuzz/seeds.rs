@@ -6,7 +6,7 @@ use std::path::Path;
 use dicom_core::{DataElement, PrimitiveValue, VR, dicom_value};
 use dicom_dictionary_std::tags;
 use tiff::encoder::{Compression as TiffCompression, DeflateLevel, colortype};
-use voxscope::volume::{Endian, NrrdEncoding};
+use voxscope_volume::{Endian, NrrdEncoding};
 
 use super::Kind;
 use super::writers::{

@@ -1,0 +1,486 @@
+//! The composite of up to [`MAX_CHANNELS`] channels on one grid, drawn by the dense renderer's
+//! march (`shaders/composite.wgsl`; docs/octree.md, "Composite of channels").
+//!
+//! Each channel has its own transfer function (window, opacity curve) and a color: its table
+//! is the transfer function's, its color channels multiplied by the channel's color (napari's
+//! additive colormaps: black to the color over the window). DVR sums the channels'
+//! premultiplied colors at each sample and takes 1 − Π(1 − αc) as the sample's opacity; MIP
+//! adds the colors of the channels' maxima. DVR skips blocks of 8³ voxels where every channel
+//! is transparent (the union of the channels' visible ranges). The composite is unshaded and
+//! has no probe: those follow one channel's gradient or opacity, and which one is a choice
+//! the app makes.
+
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use wgpu::util::DeviceExt;
+
+use super::pipeline::{
+    Variant, VariantPipelines, atlas_entry, atlas_sampler_entry, clamped_sampler,
+    dispatch_per_pixel, numbered_bind_group, output_image_entry, storage_entry, uniform_entry,
+};
+use super::raycaster::{StandIns, VolumeShape, frame_params_buffer, raycast_params};
+use super::{Camera, Frame, GpuContext, RenderError, RenderSettings, RenderTarget};
+use voxscope_octree::{TransferFunction, pack_rgba, unpack_rgba};
+use voxscope_volume::{MAX_CHANNELS, Quantization, QuantizedVolume};
+
+/// One channel of a composite: its value levels, transfer function and color.
+#[derive(Debug, Clone, Copy)]
+pub struct ChannelLayer<'a> {
+    pub quantized: &'a QuantizedVolume,
+    pub transfer: &'a TransferFunction,
+    /// RGB, 0…1.
+    pub color: [f32; 3],
+}
+
+/// `transfer`'s lookup table over `quantization` with its colors multiplied by `color`
+/// (opacity as it is): a channel's table in the composite.
+pub fn tinted_lookup_table(
+    transfer: &TransferFunction,
+    quantization: Quantization,
+    color: [f32; 3],
+) -> Vec<u32> {
+    transfer
+        .lookup_table(quantization)
+        .into_iter()
+        .map(|packed| {
+            let [r, g, b, a] = unpack_rgba(packed);
+            let tint =
+                |value: u8, factor: f32| (value as f32 * factor.clamp(0.0, 1.0)).round() as u8;
+            pack_rgba([tint(r, color[0]), tint(g, color[1]), tint(b, color[2]), a])
+        })
+        .collect()
+}
+
+/// Voxels along a side of an empty-space-skipping block (keep in sync with composite.wgsl).
+const SKIP_BLOCK: usize = 8;
+
+/// Per block of [`SKIP_BLOCK`]³ voxels, the smallest and largest value level a filtered sample
+/// there can round to: the block's and its neighbours' voxels (a trilinear sample reads one
+/// voxel beyond its block), as the 16-bit float texture holds them.
+fn block_ranges(quantized: &QuantizedVolume) -> Vec<[u16; 2]> {
+    let dims = quantized.dims;
+    let grid = dims.map(|d| d.div_ceil(SKIP_BLOCK));
+    let mut own = vec![[u16::MAX, 0u16]; grid.iter().product()];
+    let cell = |x: usize, y: usize, z: usize| x + grid[0] * (y + grid[1] * z);
+    for z in 0..dims[2] {
+        for y in 0..dims[1] {
+            let row = dims[0] * (y + dims[1] * z);
+            for x in 0..dims[0] {
+                let stored = half::f16::from_f32(quantized.levels[row + x] as f32).to_f32();
+                let range = &mut own[cell(x / SKIP_BLOCK, y / SKIP_BLOCK, z / SKIP_BLOCK)];
+                range[0] = range[0].min(stored.floor() as u16);
+                range[1] = range[1].max(stored.ceil().min(65535.0) as u16);
+            }
+        }
+    }
+    let mut ranges = own.clone();
+    for z in 0..grid[2] {
+        for y in 0..grid[1] {
+            for x in 0..grid[0] {
+                let range = &mut ranges[cell(x, y, z)];
+                for nz in z.saturating_sub(1)..(z + 2).min(grid[2]) {
+                    for ny in y.saturating_sub(1)..(y + 2).min(grid[1]) {
+                        for nx in x.saturating_sub(1)..(x + 2).min(grid[0]) {
+                            let [low, high] = own[cell(nx, ny, nz)];
+                            range[0] = range[0].min(low);
+                            range[1] = range[1].max(high);
+                        }
+                    }
+                }
+            }
+        }
+    }
+    ranges
+}
+
+/// Per block, 1 where some shown layer's table has an opacity above 0 within the block's range
+/// of that layer's levels (`ranges[layer]`), else 0.
+fn visible_blocks(
+    layers: &[ChannelLayer<'_>],
+    ranges: &[Vec<[u16; 2]>],
+    shown: &[bool],
+) -> Vec<u32> {
+    let blocks = ranges.first().map_or(0, Vec::len);
+    let mut visible = vec![0u32; blocks];
+    for ((layer, ranges), _) in layers
+        .iter()
+        .zip(ranges)
+        .zip(shown)
+        .filter(|(_, shown)| **shown)
+    {
+        // How many levels below each level are visible: a range's count in O(1).
+        let table = layer.transfer.lookup_table(layer.quantized.quantization);
+        let mut below = Vec::with_capacity(table.len() + 1);
+        below.push(0u32);
+        for &packed in &table {
+            let last = *below.last().expect("starts with 0");
+            below.push(last + (unpack_rgba(packed)[3] > 0) as u32);
+        }
+        for (flag, &[low, high]) in visible.iter_mut().zip(ranges) {
+            if low <= high && below[high as usize + 1] > below[low as usize] {
+                *flag = 1;
+            }
+        }
+    }
+    visible
+}
+
+/// Up to 8 channels' value levels in two RGBA 3D textures (16-bit floats: exact up to level
+/// 2048, 11 significant bits above) and their tinted tables one after another.
+pub struct CompositeVolume {
+    low: wgpu::TextureView,
+    high: wgpu::TextureView,
+    tables: wgpu::Buffer,
+    /// Each channel's level range per skipping block, and the blocks' visibility.
+    block_ranges: Vec<Vec<[u16; 2]>>,
+    visible: wgpu::Buffer,
+    /// Blocks with something visible under the layers last written (the skipping's reach).
+    visible_count: AtomicUsize,
+    pub dims: [usize; 3],
+    pub spacing: [f64; 3],
+    pub channels: usize,
+    bytes: u64,
+}
+
+impl CompositeVolume {
+    /// Uploads `layers` (1 to [`MAX_CHANNELS`], one grid) with the voxel size `spacing`.
+    pub fn upload(
+        context: &GpuContext,
+        layers: &[ChannelLayer<'_>],
+        spacing: [f64; 3],
+    ) -> Result<Self, RenderError> {
+        let Some(first) = layers.first() else {
+            return Err(RenderError("a composite needs at least one channel".into()));
+        };
+        if layers.len() > MAX_CHANNELS {
+            return Err(RenderError(format!(
+                "{} channels; a composite shows at most {MAX_CHANNELS}",
+                layers.len()
+            )));
+        }
+        let dims = first.quantized.dims;
+        if layers.iter().any(|layer| layer.quantized.dims != dims) {
+            return Err(RenderError("the channels' dimensions differ".into()));
+        }
+        let limit = context.limits.max_texture_dimension_3d as usize;
+        if dims.iter().any(|&d| d > limit) {
+            return Err(RenderError(format!(
+                "the composite needs a {}x{}x{} 3D texture but this GPU allows {limit} per side",
+                dims[0], dims[1], dims[2]
+            )));
+        }
+        let out_of_memory = context
+            .device
+            .push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let (low, low_bytes) = Self::texture(
+            context,
+            "composite_low",
+            dims,
+            &layers[..layers.len().min(4)],
+        );
+        let (high, high_bytes) = if layers.len() > 4 {
+            Self::texture(context, "composite_high", dims, &layers[4..])
+        } else {
+            // Bound but never read (the shader reads it only for channels 4–7).
+            Self::texture(context, "composite_high_unused", [1, 1, 1], &[])
+        };
+        let block_ranges: Vec<Vec<[u16; 2]>> = layers
+            .iter()
+            .map(|layer| block_ranges(layer.quantized))
+            .collect();
+        let shown = vec![true; layers.len()];
+        let flags = visible_blocks(layers, &block_ranges, &shown);
+        let visible_count = AtomicUsize::new(flags.iter().filter(|&&f| f != 0).count());
+        let visible = context
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("voxscope::composite_visible_blocks"),
+                contents: bytemuck::cast_slice(&flags),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            });
+        let tables = Self::tables(layers, &shown);
+        let tables = context
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("voxscope::composite_tables"),
+                contents: bytemuck::cast_slice(&tables),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            });
+        if let Some(error) = pollster::block_on(out_of_memory.pop()) {
+            return Err(RenderError(format!(
+                "the GPU has no room for the composite: {error}"
+            )));
+        }
+        Ok(Self {
+            low,
+            high,
+            bytes: low_bytes + high_bytes + tables.size() + visible.size(),
+            tables,
+            block_ranges,
+            visible,
+            visible_count,
+            dims,
+            spacing,
+            channels: layers.len(),
+        })
+    }
+
+    /// Writes new transfer functions and colors (as many layers as at upload; their levels
+    /// are not read again) and the blocks the ray may skip.
+    pub fn set_layers(&self, context: &GpuContext, layers: &[ChannelLayer<'_>]) {
+        self.set_shown_layers(context, layers, &vec![true; layers.len()]);
+    }
+
+    /// [`Self::set_layers`] with some layers hidden (`shown[i]` false): a hidden layer's
+    /// table is transparent black, so it adds no color, hides nothing behind it and keeps
+    /// no block from being skipped (the app's eye toggle).
+    pub fn set_shown_layers(
+        &self,
+        context: &GpuContext,
+        layers: &[ChannelLayer<'_>],
+        shown: &[bool],
+    ) {
+        debug_assert_eq!(layers.len(), self.channels);
+        debug_assert_eq!(shown.len(), self.channels);
+        context.queue.write_buffer(
+            &self.tables,
+            0,
+            bytemuck::cast_slice(&Self::tables(layers, shown)),
+        );
+        let visible = visible_blocks(layers, &self.block_ranges, shown);
+        self.visible_count.store(
+            visible.iter().filter(|&&f| f != 0).count(),
+            Ordering::Relaxed,
+        );
+        context
+            .queue
+            .write_buffer(&self.visible, 0, bytemuck::cast_slice(&visible));
+    }
+
+    /// Blocks of 8³ voxels where some shown channel is visible under the layers last
+    /// written, and all blocks: what empty-space skipping leaves to march.
+    pub fn block_counts(&self) -> (usize, usize) {
+        (
+            self.visible_count.load(Ordering::Relaxed),
+            self.block_ranges.first().map_or(0, Vec::len),
+        )
+    }
+
+    /// Bytes on the GPU: textures and tables.
+    pub fn gpu_bytes(&self) -> u64 {
+        self.bytes
+    }
+
+    fn tables(layers: &[ChannelLayer<'_>], shown: &[bool]) -> Vec<u32> {
+        layers
+            .iter()
+            .zip(shown)
+            .flat_map(|(layer, &shown)| {
+                let table =
+                    tinted_lookup_table(layer.transfer, layer.quantized.quantization, layer.color);
+                if shown { table } else { vec![0; table.len()] }
+            })
+            .collect()
+    }
+
+    /// An RGBA16 float 3D texture of up to four channels' levels (unused components 0).
+    fn texture(
+        context: &GpuContext,
+        label: &str,
+        dims: [usize; 3],
+        layers: &[ChannelLayer<'_>],
+    ) -> (wgpu::TextureView, u64) {
+        let voxels = dims.iter().product::<usize>();
+        let mut texels = vec![half::f16::ZERO; voxels * 4];
+        for (component, layer) in layers.iter().enumerate() {
+            for (texel, &level) in texels[component..]
+                .iter_mut()
+                .step_by(4)
+                .zip(&layer.quantized.levels)
+            {
+                *texel = half::f16::from_f32(level as f32);
+            }
+        }
+        let size = wgpu::Extent3d {
+            width: dims[0] as u32,
+            height: dims[1] as u32,
+            depth_or_array_layers: dims[2] as u32,
+        };
+        let texture = context.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some(&format!("voxscope::{label}")),
+            size,
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D3,
+            format: wgpu::TextureFormat::Rgba16Float,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+            view_formats: &[],
+        });
+        let bytes: &[u8] = bytemuck::cast_slice(&texels);
+        context.queue.write_texture(
+            texture.as_image_copy(),
+            bytes,
+            wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(size.width * 8),
+                rows_per_image: Some(size.height),
+            },
+            size,
+        );
+        (
+            texture.create_view(&wgpu::TextureViewDescriptor::default()),
+            bytes.len() as u64,
+        )
+    }
+}
+
+impl VolumeShape for CompositeVolume {
+    fn dims(&self) -> [usize; 3] {
+        self.dims
+    }
+    fn spacing(&self) -> [f64; 3] {
+        self.spacing
+    }
+    fn depth(&self) -> u32 {
+        0
+    }
+    fn level_cap(&self) -> u32 {
+        0
+    }
+    fn mip_saturation(&self) -> u16 {
+        // Each channel's maximum is needed to the end of the ray.
+        u16::MAX
+    }
+    fn window_levels(&self) -> f32 {
+        1.0
+    }
+    fn level_scale(&self) -> f32 {
+        // 16-bit float texels hold the levels themselves.
+        1.0
+    }
+}
+
+/// The composite's pipeline and samplers.
+pub struct CompositeRaycaster {
+    pipelines: VariantPipelines,
+    layout: wgpu::BindGroupLayout,
+    trilinear: wgpu::Sampler,
+    nearest: wgpu::Sampler,
+    stand_ins: StandIns,
+}
+
+impl CompositeRaycaster {
+    /// Builds the pipeline (its clipped variant on first use).
+    pub fn new(context: &GpuContext) -> Self {
+        let device = &context.device;
+        let (pipelines, layout) = VariantPipelines::new(
+            context,
+            "composite",
+            super::shaders::COMPOSITE,
+            &["main"],
+            &[
+                uniform_entry(0, false),
+                atlas_entry(1),
+                atlas_sampler_entry(2),
+                storage_entry(3, true),
+                output_image_entry(4),
+                storage_entry(5, false),
+                storage_entry(6, false),
+                atlas_entry(7),
+                storage_entry(8, true),
+            ],
+        );
+        Self {
+            pipelines,
+            layout,
+            trilinear: clamped_sampler(
+                device,
+                wgpu::FilterMode::Linear,
+                "voxscope::composite_trilinear",
+            ),
+            nearest: clamped_sampler(
+                device,
+                wgpu::FilterMode::Nearest,
+                "voxscope::composite_nearest",
+            ),
+            stand_ins: StandIns::new(context),
+        }
+    }
+
+    /// Records one frame into `encoder` (settings' shading aside: the composite is
+    /// unshaded).
+    pub fn encode(
+        &self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        frame: &Frame<'_, CompositeVolume>,
+        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
+        let (volume, target, settings) = (frame.volume, frame.target, frame.settings);
+        let params = raycast_params(
+            volume,
+            [target.width, target.height],
+            frame.camera,
+            settings,
+        );
+        let params = frame_params_buffer(context, "voxscope::composite_params", &params);
+        let sampler = if settings.trilinear {
+            &self.trilinear
+        } else {
+            &self.nearest
+        };
+        let bind_group = numbered_bind_group(
+            &context.device,
+            "voxscope::composite_bind_group",
+            &self.layout,
+            &[
+                params.as_entire_binding(),
+                wgpu::BindingResource::TextureView(&volume.low),
+                wgpu::BindingResource::Sampler(sampler),
+                volume.tables.as_entire_binding(),
+                wgpu::BindingResource::TextureView(&target.view),
+                target.visits.as_entire_binding(),
+                self.stand_ins.probe.as_entire_binding(),
+                wgpu::BindingResource::TextureView(&volume.high),
+                volume.visible.as_entire_binding(),
+            ],
+        );
+        let variant = Variant {
+            clipped: settings.clip.is_active(),
+            ..Variant::PLAIN
+        };
+        let pipeline = self.pipelines.get(context, 0, variant);
+        dispatch_per_pixel(
+            encoder,
+            "composite",
+            pipeline,
+            &bind_group,
+            target,
+            timestamp_writes,
+        );
+    }
+
+    /// Draws one frame of `volume` into `target` and submits it.
+    pub fn render(
+        &self,
+        context: &GpuContext,
+        volume: &CompositeVolume,
+        target: &RenderTarget,
+        camera: &Camera,
+        settings: &RenderSettings,
+    ) {
+        let mut encoder = context
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("voxscope::composite_frame"),
+            });
+        let frame = Frame {
+            volume,
+            target,
+            camera,
+            settings,
+        };
+        self.encode(context, &mut encoder, &frame, None);
+        context.queue.submit([encoder.finish()]);
+    }
+}

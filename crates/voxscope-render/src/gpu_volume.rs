@@ -1,0 +1,109 @@
+//! An octree on the GPU: node list, value bounds and the transfer function's lookup table,
+//! with the sizes checked against the device before anything is allocated there.
+
+use wgpu::util::DeviceExt;
+
+use super::{GpuContext, GpuTransferTable, RenderError};
+use voxscope_octree::{Node, Octree, TransferFunction, ValueBounds};
+
+/// GPU buffers of one octree, uploaded through `levels` (a prefix of the flat list).
+pub struct GpuVolume {
+    pub nodes: wgpu::Buffer,
+    pub bounds: wgpu::Buffer,
+    pub transfer: GpuTransferTable,
+    /// Voxels along x, y, z.
+    pub dims: [usize; 3],
+    /// Physical voxel size along x, y, z.
+    pub spacing: [f64; 3],
+    /// Depth of the whole octree.
+    pub depth: u32,
+    /// Deepest level on the GPU (`depth` unless a prefix was uploaded).
+    pub uploaded_level: u32,
+    /// `level_starts` of the octree, through `uploaded_level + 1`.
+    pub level_starts: Vec<usize>,
+}
+
+impl GpuVolume {
+    /// Uploads `octree` (colors as they are) through level `max_level`. Fails with a message
+    /// naming both sizes, and the deepest level that would fit, when the device cannot hold it.
+    pub fn upload(
+        context: &GpuContext,
+        octree: &Octree,
+        spacing: [f64; 3],
+        max_level: u32,
+        transfer: &TransferFunction,
+    ) -> Result<Self, RenderError> {
+        let uploaded_level = max_level.min(octree.depth);
+        let count = octree.nodes_through_level(uploaded_level);
+        let limit = context.max_storage_bytes();
+        let bytes = (count * std::mem::size_of::<Node>()) as u64;
+        if bytes > limit {
+            let fitting = (0..=octree.depth).rev().find(|&l| {
+                (octree.nodes_through_level(l) * std::mem::size_of::<Node>()) as u64 <= limit
+            });
+            let advice = match fitting {
+                Some(level) => format!("; try --level {level} or lower"),
+                None => String::new(),
+            };
+            return Err(RenderError(format!(
+                "the octree through level {uploaded_level} needs {} MiB of nodes but this GPU ({}) allows {} MiB per storage buffer{advice}",
+                bytes.div_ceil(1 << 20),
+                context.adapter_info.name,
+                limit >> 20,
+            )));
+        }
+        let device = &context.device;
+        // Allocation failures become errors, not the default handler's panic.
+        let out_of_memory = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let nodes = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("voxscope::octree_nodes"),
+            contents: bytemuck::cast_slice(&octree.nodes[..count]),
+            usage: wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::COPY_DST
+                | wgpu::BufferUsages::COPY_SRC,
+        });
+        let bounds = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("voxscope::octree_bounds"),
+            contents: bytemuck::cast_slice::<ValueBounds, u8>(&octree.bounds[..count]),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        let transfer = GpuTransferTable::new(context, octree.quantization, transfer);
+        if let Some(error) = pollster::block_on(out_of_memory.pop()) {
+            return Err(RenderError(format!(
+                "the GPU ({}) has no room for the octree's {} MiB: {error}; try a lower --level",
+                context.adapter_info.name,
+                bytes.div_ceil(1 << 20)
+            )));
+        }
+        Ok(Self {
+            nodes,
+            bounds,
+            transfer,
+            dims: octree.dims,
+            spacing,
+            depth: octree.depth,
+            uploaded_level,
+            level_starts: octree.level_starts[..uploaded_level as usize + 2].to_vec(),
+        })
+    }
+
+    /// True when every level is on the GPU, so [`super::GpuRecolor`] can recolor it.
+    pub fn is_complete(&self) -> bool {
+        self.uploaded_level == self.depth
+    }
+
+    /// Nodes on the GPU.
+    pub fn node_count(&self) -> usize {
+        self.level_starts[self.uploaded_level as usize + 1]
+    }
+
+    /// Writes a new transfer function's lookup table (recolor afterwards).
+    pub fn set_transfer(&mut self, context: &GpuContext, transfer: &TransferFunction) {
+        self.transfer.write(context, transfer);
+    }
+
+    /// Bytes of every buffer on the GPU.
+    pub fn gpu_bytes(&self) -> u64 {
+        self.nodes.size() + self.bounds.size() + self.transfer.size()
+    }
+}

@@ -1,0 +1,609 @@
+//! The streaming renderer's GPU side: a brick atlas of a fixed byte budget, the page table the
+//! rays look bricks up in, the request and usage buffers they write, and their asynchronous
+//! readback; the pipeline that draws it (`stream.wgsl`). The CPU side, which decides what to
+//! load and upload, is [`voxscope_stream::Streamer`].
+//!
+//! Per frame: [`StreamVolume::update`] (the app calls it once before drawing; it never waits)
+//! copies the last drawn frame's requests and usage marks to a staging buffer and maps it,
+//! clears the requests for the next frame, takes in whatever readback has arrived, and lets the
+//! streamer decide; it then writes the uploads into their atlas slots and the changed page-table
+//! entries. Then any number of [`StreamRaycaster::encode`]s draw with what is resident.
+
+use std::sync::atomic::{AtomicBool, AtomicU8, Ordering};
+use std::sync::{Arc, Mutex};
+
+use wgpu::util::DeviceExt;
+
+use super::gpu_data::{STREAM_LEVELS, StreamParams};
+use super::pipeline::{
+    Variant, VariantPipelines, atlas_entry, atlas_sampler_entry, clamped_sampler,
+    dispatch_per_pixel, dispatch_probe, numbered_bind_group, output_image_entry, storage_entry,
+    uniform_entry,
+};
+use super::raycaster::{
+    BrickShape, ProbeTarget, StandIns, VolumeShape, frame_variant, probe_variant, raycast_params,
+};
+use super::{Frame, GpuContext, GpuTransferTable, RenderError, RenderTarget};
+use voxscope_octree::TransferFunction;
+use voxscope_stream::{
+    AtlasTexels, BRICK_SIZE, BrickSource, Feedback, PADDED_BRICK, PADDED_BRICK_VOXELS,
+    StreamOptions, StreamStatus, Streamer, TableEntry, Upload, ViewPoint,
+};
+
+/// Keys the request buffer holds per frame: more asks than this in one frame are counted but
+/// their keys lost (they are asked again next frame).
+const REQUEST_CAPACITY: u32 = 1 << 14;
+/// Entries of the request buffer's deduplicating set.
+const REQUEST_SET: u32 = 1 << 14;
+/// Readbacks in flight at most.
+const READBACKS: usize = 3;
+/// Page-table bytes counted per atlas slot when sizing the atlas: the table has up to 16
+/// entries of 16 bytes per slot, rounded up to a power of two (so at most twice that).
+const TABLE_BYTES_PER_SLOT: u64 = 2 * 16 * 16;
+
+const IDLE: u8 = 0;
+const RECORDED: u8 = 1;
+const MAPPING: u8 = 2;
+const MAPPED: u8 = 3;
+const FAILED: u8 = 4;
+
+/// One staging buffer for a frame's requests and usage marks.
+struct Readback {
+    buffer: wgpu::Buffer,
+    frame: u32,
+    state: Arc<AtomicU8>,
+}
+
+/// A streamed pyramid on the GPU.
+pub struct StreamVolume {
+    streamer: Streamer,
+    atlas: wgpu::Texture,
+    atlas_view: wgpu::TextureView,
+    atlas_bytes: u64,
+    atlas_grid: [usize; 3],
+    texels: AtlasTexels,
+    table: wgpu::Buffer,
+    transfer: GpuTransferTable,
+    requests: wgpu::Buffer,
+    usage: wgpu::Buffer,
+    readbacks: Vec<Readback>,
+    /// Whether a frame was drawn since the last update (its requests are then read back).
+    drawn: AtomicBool,
+    /// The camera of the latest frame drawn, for the load order.
+    view: Mutex<Option<ViewPoint>>,
+    spacing: [f64; 3],
+}
+
+/// Slots an atlas of `budget` bytes holds (after the renderer's other buffers), bounded by
+/// what the pyramid can use and the device's 3D texture size; as a grid of slots.
+fn atlas_grid(
+    context: &GpuContext,
+    budget: u64,
+    slot_bytes: u64,
+    bricks_in_pyramid: u64,
+) -> Result<[usize; 3], RenderError> {
+    let fixed = 65536 * 4 + (1 + REQUEST_CAPACITY as u64 + REQUEST_SET as u64) * 4;
+    let per_slot = slot_bytes + TABLE_BYTES_PER_SLOT + 4 + READBACKS as u64 * 4;
+    let max_side = (context.limits.max_texture_dimension_3d as usize / PADDED_BRICK).min(1024);
+    let slots = (budget.saturating_sub(fixed) / per_slot)
+        .min((max_side * max_side * max_side) as u64) as usize;
+    // Every brick of the pyramid and the streamer's margin where the budget allows, in whole
+    // layers of a square grid.
+    let wanted = slots.min(bricks_in_pyramid.saturating_add(8).min(usize::MAX as u64) as usize);
+    let side = ((wanted as f64).cbrt().floor() as usize).clamp(1, max_side);
+    let mut depth = wanted.div_ceil(side * side);
+    if side * side * depth > slots {
+        depth = slots / (side * side);
+    }
+    let depth = depth.clamp(1, max_side);
+    let grid = [side, side, depth];
+    if side * side * depth > slots {
+        return Err(RenderError(format!(
+            "a GPU budget of {budget} bytes holds no atlas (a brick takes {slot_bytes} bytes)"
+        )));
+    }
+    Ok(grid)
+}
+
+/// `visible_below[i]`: how many value levels below `i` the lookup table makes visible.
+fn visible_below(table: &[u32]) -> Vec<u32> {
+    let mut counts = Vec::with_capacity(table.len() + 1);
+    let mut count = 0u32;
+    counts.push(0);
+    for &color in table {
+        count += (color >> 24 != 0) as u32;
+        counts.push(count);
+    }
+    counts
+}
+
+impl StreamVolume {
+    /// Allocates the atlas and buffers within `options.gpu_memory` and reads the coarsest
+    /// levels (always resident) into it.
+    pub fn new(
+        context: &GpuContext,
+        source: Arc<dyn BrickSource>,
+        options: StreamOptions,
+        transfer: &TransferFunction,
+    ) -> Result<Self, RenderError> {
+        let texels = if source.max_value_level() <= 255 {
+            AtlasTexels::Unorm8
+        } else if context.has_norm16_textures {
+            AtlasTexels::Unorm16
+        } else {
+            AtlasTexels::Float16
+        };
+        let slot_bytes = (PADDED_BRICK_VOXELS * texels.bytes()) as u64;
+        let bricks: u64 = source.shape().levels.iter().map(|l| l.brick_count()).sum();
+        let grid = atlas_grid(context, options.gpu_memory, slot_bytes, bricks)?;
+        let quantization = source.quantization();
+        let visible = visible_below(&transfer.lookup_table(quantization));
+        let (streamer, pinned) = Streamer::new(Arc::clone(&source), grid, texels, options, visible)
+            .map_err(RenderError)?;
+        let device = &context.device;
+        let out_of_memory = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let size = wgpu::Extent3d {
+            width: (grid[0] * PADDED_BRICK) as u32,
+            height: (grid[1] * PADDED_BRICK) as u32,
+            depth_or_array_layers: (grid[2] * PADDED_BRICK) as u32,
+        };
+        let atlas = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("voxscope::stream_atlas"),
+            size,
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D3,
+            format: match texels {
+                AtlasTexels::Unorm8 => wgpu::TextureFormat::R8Unorm,
+                AtlasTexels::Unorm16 => wgpu::TextureFormat::R16Unorm,
+                AtlasTexels::Float16 => wgpu::TextureFormat::R16Float,
+            },
+            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+            view_formats: &[],
+        });
+        let atlas_view = atlas.create_view(&wgpu::TextureViewDescriptor::default());
+        let slots = grid.iter().product::<usize>();
+        let table = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("voxscope::stream_page_table"),
+            size: (streamer.table().capacity() * std::mem::size_of::<TableEntry>()) as u64,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let requests = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("voxscope::stream_requests"),
+            size: (1 + REQUEST_CAPACITY as u64 + REQUEST_SET as u64) * 4,
+            usage: wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::COPY_SRC
+                | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let usage = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("voxscope::stream_usage"),
+            size: slots as u64 * 4,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let readback_bytes = (1 + REQUEST_CAPACITY as u64 + slots as u64) * 4;
+        let readbacks = (0..READBACKS)
+            .map(|_| Readback {
+                buffer: device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("voxscope::stream_readback"),
+                    size: readback_bytes,
+                    usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                }),
+                frame: 0,
+                state: Arc::new(AtomicU8::new(IDLE)),
+            })
+            .collect();
+        let transfer_table = GpuTransferTable::new(context, quantization, transfer);
+        if let Some(error) = pollster::block_on(out_of_memory.pop()) {
+            return Err(RenderError(format!(
+                "the GPU has no room for the streaming atlas: {error}"
+            )));
+        }
+        let mut volume = Self {
+            streamer,
+            atlas,
+            atlas_view,
+            atlas_bytes: slots as u64 * slot_bytes,
+            atlas_grid: grid,
+            texels,
+            table,
+            transfer: transfer_table,
+            requests,
+            usage,
+            readbacks,
+            drawn: AtomicBool::new(false),
+            view: Mutex::new(None),
+            spacing: source.spacing(),
+        };
+        volume.write(context, &pinned);
+        Ok(volume)
+    }
+
+    /// Writes `uploads` into their atlas slots and the page table's changed entries.
+    fn write(&mut self, context: &GpuContext, uploads: &[Upload]) {
+        let side = PADDED_BRICK as u32;
+        let [gx, gy, _] = self.atlas_grid.map(|g| g as u32);
+        for upload in uploads {
+            let slot = upload.slot;
+            let origin = wgpu::Origin3d {
+                x: (slot % gx) * side,
+                y: ((slot / gx) % gy) * side,
+                z: (slot / (gx * gy)) * side,
+            };
+            context.queue.write_texture(
+                wgpu::TexelCopyTextureInfo {
+                    texture: &self.atlas,
+                    mip_level: 0,
+                    origin,
+                    aspect: wgpu::TextureAspect::All,
+                },
+                &upload.texels,
+                wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(side * self.texels.bytes() as u32),
+                    rows_per_image: Some(side),
+                },
+                wgpu::Extent3d {
+                    width: side,
+                    height: side,
+                    depth_or_array_layers: side,
+                },
+            );
+        }
+        let entry_bytes = std::mem::size_of::<TableEntry>() as u64;
+        for (start, entries) in self.streamer.table_mut().take_dirty() {
+            context.queue.write_buffer(
+                &self.table,
+                start as u64 * entry_bytes,
+                bytemuck::cast_slice(entries),
+            );
+        }
+    }
+
+    /// The per-frame step: reads back what earlier frames asked for and used (without
+    /// waiting), loads and uploads within the budgets, and readies the request buffer for the
+    /// next frame. Call once per displayed frame, before drawing it.
+    pub fn update(&mut self, context: &GpuContext) -> StreamStatus {
+        let _ = context.device.poll(wgpu::PollType::Poll);
+        let feedback = self.take_readbacks();
+        if self.drawn.swap(false, Ordering::AcqRel) {
+            self.record_readback(context);
+        }
+        let view = *self.view.lock().unwrap_or_else(|p| p.into_inner());
+        let (uploads, status) = match &feedback {
+            Some((frame, requests, asked, usage)) => self.streamer.begin_frame(
+                Some(Feedback {
+                    frame: *frame,
+                    requests,
+                    asked: *asked,
+                    usage,
+                }),
+                view,
+            ),
+            None => self.streamer.begin_frame(None, view),
+        };
+        self.write(context, &uploads);
+        status
+    }
+
+    /// The newest mapped readback's requests, with every mapped one's usage marks merged.
+    #[allow(clippy::type_complexity)]
+    fn take_readbacks(&mut self) -> Option<(u32, Vec<u32>, u32, Vec<u32>)> {
+        let slots = self.atlas_grid.iter().product::<usize>();
+        let mut newest: Option<(u32, Vec<u32>, u32, Vec<u32>)> = None;
+        let mut usage = vec![0u32; slots];
+        for readback in &self.readbacks {
+            match readback.state.load(Ordering::Acquire) {
+                MAPPED => {}
+                FAILED => {
+                    readback.state.store(IDLE, Ordering::Release);
+                    continue;
+                }
+                _ => continue,
+            }
+            {
+                let Ok(bytes) = readback.buffer.slice(..).get_mapped_range() else {
+                    continue;
+                };
+                let words: &[u32] = bytemuck::cast_slice(&bytes);
+                let asked = words[0];
+                let keys = &words[1..1 + (asked.min(REQUEST_CAPACITY)) as usize];
+                let marks = &words[1 + REQUEST_CAPACITY as usize..];
+                for (merged, &mark) in usage.iter_mut().zip(marks) {
+                    *merged = (*merged).max(mark);
+                }
+                if newest
+                    .as_ref()
+                    .is_none_or(|(frame, ..)| readback.frame > *frame)
+                {
+                    newest = Some((readback.frame, keys.to_vec(), asked, Vec::new()));
+                }
+            }
+            readback.buffer.unmap();
+            readback.state.store(IDLE, Ordering::Release);
+        }
+        newest.map(|(frame, keys, asked, _)| (frame, keys, asked, usage))
+    }
+
+    /// Copies the last frame's requests and marks to a free staging buffer (if one is free),
+    /// clears the requests for the next frame, and starts mapping the copy.
+    fn record_readback(&mut self, context: &GpuContext) {
+        let mut encoder = context
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("voxscope::stream_readback"),
+            });
+        let frame = self.streamer.frame();
+        let free = self
+            .readbacks
+            .iter_mut()
+            .find(|r| r.state.load(Ordering::Acquire) == IDLE);
+        let requests_bytes = (1 + REQUEST_CAPACITY as u64) * 4;
+        let mut recorded = None;
+        if let Some(readback) = free {
+            encoder.copy_buffer_to_buffer(&self.requests, 0, &readback.buffer, 0, requests_bytes);
+            encoder.copy_buffer_to_buffer(
+                &self.usage,
+                0,
+                &readback.buffer,
+                requests_bytes,
+                self.usage.size(),
+            );
+            readback.frame = frame;
+            readback.state.store(RECORDED, Ordering::Release);
+            recorded = Some(readback);
+        }
+        encoder.clear_buffer(&self.requests, 0, Some(4));
+        encoder.clear_buffer(&self.requests, requests_bytes, Some(REQUEST_SET as u64 * 4));
+        context.queue.submit([encoder.finish()]);
+        if let Some(readback) = recorded {
+            readback.state.store(MAPPING, Ordering::Release);
+            let state = Arc::clone(&readback.state);
+            readback
+                .buffer
+                .slice(..)
+                .map_async(wgpu::MapMode::Read, move |result| {
+                    state.store(
+                        if result.is_ok() { MAPPED } else { FAILED },
+                        Ordering::Release,
+                    );
+                });
+        }
+    }
+
+    /// Applies a new transfer function: the lookup table, and each page-table entry's
+    /// visibility bit (written now, so the next frame skips by the new function). Nothing is
+    /// reloaded.
+    pub fn set_transfer(&mut self, context: &GpuContext, transfer: &TransferFunction) {
+        self.transfer.write(context, transfer);
+        let table = transfer.lookup_table(self.streamer.source().quantization());
+        self.streamer.set_visibility(visible_below(&table));
+        self.write(context, &[]);
+    }
+
+    /// The streamer (its counters, options and shape).
+    pub fn streamer(&self) -> &Streamer {
+        &self.streamer
+    }
+
+    /// The streamer, to prefetch into ([`Streamer::prefetch`]).
+    pub fn streamer_mut(&mut self) -> &mut Streamer {
+        &mut self.streamer
+    }
+
+    /// GPU memory by buffer and texture: together within the budget given.
+    pub fn gpu_bytes(&self) -> Vec<(&'static str, u64)> {
+        vec![
+            ("atlas", self.atlas_bytes),
+            ("page_table", self.table.size()),
+            ("requests", self.requests.size()),
+            ("usage", self.usage.size()),
+            (
+                "readback",
+                self.readbacks.iter().map(|r| r.buffer.size()).sum(),
+            ),
+            ("lookup_table", self.transfer.size()),
+        ]
+    }
+
+    /// The uniforms of a frame drawn with `params`.
+    fn stream_params(&self, max_level: u32) -> StreamParams {
+        let shape = self.streamer.shape();
+        let mut level_grid = [[0u32; 4]; STREAM_LEVELS];
+        let mut level_scale = [[1f32; 4]; STREAM_LEVELS];
+        for (level, info) in shape.levels.iter().enumerate() {
+            let [x, y, z] = info.grid.map(|g| g as u32);
+            level_grid[level] = [x, y, z, 0];
+            let s = info.scale as f32;
+            level_scale[level] = [s, s, s, s];
+        }
+        StreamParams {
+            level_grid,
+            level_scale,
+            level_count: shape.levels.len() as u32,
+            finest_level: shape.depth().saturating_sub(max_level),
+            frame: self.streamer.frame(),
+            table_mask: self.streamer.table().mask(),
+            request_capacity: REQUEST_CAPACITY,
+            request_set_mask: REQUEST_SET - 1,
+            lod_scale: self.streamer.options().lod_scale.max(0.0),
+            lod_bias: self.streamer.lod_bias(),
+        }
+    }
+}
+
+impl VolumeShape for StreamVolume {
+    fn dims(&self) -> [usize; 3] {
+        self.streamer.shape().dims()
+    }
+    fn spacing(&self) -> [f64; 3] {
+        self.spacing
+    }
+    fn depth(&self) -> u32 {
+        self.streamer.shape().depth()
+    }
+    fn level_cap(&self) -> u32 {
+        self.streamer.shape().depth()
+    }
+    fn mip_saturation(&self) -> u16 {
+        self.transfer.mip_saturation()
+    }
+    fn window_levels(&self) -> f32 {
+        self.transfer.window_levels()
+    }
+    fn bricks(&self) -> Option<BrickShape> {
+        let grid = self.streamer.shape().levels[0].grid.map(|g| g as u32);
+        Some(BrickShape {
+            level: 0,
+            size: BRICK_SIZE as u32,
+            atlas_scale: self.texels.scale(),
+            atlas_grid: self.atlas_grid.map(|g| g as u32),
+            grid,
+        })
+    }
+}
+
+/// The streaming ray caster's pipelines (plain, shaded, probe, clipped variants), one per
+/// device ([`GpuContext::stream_raycaster`]).
+pub struct StreamRaycaster {
+    pipelines: VariantPipelines,
+    layout: wgpu::BindGroupLayout,
+    sampler: wgpu::Sampler,
+    stand_ins: StandIns,
+}
+
+impl StreamRaycaster {
+    /// Builds the plain pipeline; [`GpuContext::stream_raycaster`] does, once per device.
+    pub(crate) fn new(context: &GpuContext) -> Self {
+        let (pipelines, layout) = VariantPipelines::new(
+            context,
+            "stream",
+            super::shaders::STREAM,
+            &["main"],
+            &[
+                uniform_entry(0, false),
+                uniform_entry(1, false),
+                storage_entry(2, true),
+                output_image_entry(3),
+                storage_entry(4, false),
+                atlas_entry(5),
+                atlas_sampler_entry(6),
+                storage_entry(7, true),
+                storage_entry(8, false),
+                storage_entry(9, false),
+                storage_entry(10, false),
+            ],
+        );
+        Self {
+            pipelines,
+            layout,
+            sampler: clamped_sampler(
+                &context.device,
+                wgpu::FilterMode::Linear,
+                "voxscope::stream_sampler",
+            ),
+            stand_ins: StandIns::new(context),
+        }
+    }
+
+    /// Builds, where not built yet, the pipeline of `variant`.
+    pub(crate) fn prepare(&self, context: &GpuContext, variant: Variant) {
+        self.pipelines.get(context, 0, variant);
+    }
+
+    /// Records one frame of `volume` into `encoder` with what is resident now; its rays'
+    /// requests and usage marks are read back by the next [`StreamVolume::update`].
+    pub fn encode(
+        &self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        frame: &Frame<'_, StreamVolume>,
+        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
+        let Frame {
+            volume,
+            target,
+            camera,
+            settings,
+        } = *frame;
+        let params = raycast_params(volume, [target.width, target.height], camera, settings);
+        let forward = glam::Vec3::from_slice(&params.forward[..3]).normalize_or_zero();
+        *volume.view.lock().unwrap_or_else(|p| p.into_inner()) = Some(ViewPoint {
+            eye: [params.eye[0], params.eye[1], params.eye[2]].map(f64::from),
+            forward: forward.to_array().map(f64::from),
+        });
+        volume.drawn.store(true, Ordering::Release);
+        let bind_group = self.bind_group(context, volume, &params, target, &self.stand_ins.probe);
+        let pipeline = self.pipelines.get(context, 0, frame_variant(settings));
+        dispatch_per_pixel(
+            encoder,
+            "stream",
+            pipeline,
+            &bind_group,
+            target,
+            timestamp_writes,
+        );
+    }
+
+    /// Records the probe of one pixel (draws nothing, asks for nothing).
+    pub(crate) fn encode_probe(
+        &self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        volume: &StreamVolume,
+        probe: &ProbeTarget<'_>,
+    ) {
+        let mut params = raycast_params(volume, probe.size, probe.camera, probe.settings);
+        params.probe_pixel = probe.pixel;
+        let bind_group = self.bind_group(
+            context,
+            volume,
+            &params,
+            &self.stand_ins.target,
+            probe.output,
+        );
+        let pipeline = self
+            .pipelines
+            .get(context, 0, probe_variant(probe.settings));
+        dispatch_probe(encoder, "stream_probe", pipeline, &bind_group);
+    }
+
+    fn bind_group(
+        &self,
+        context: &GpuContext,
+        volume: &StreamVolume,
+        params: &super::gpu_data::RaycastParams,
+        target: &RenderTarget,
+        probe: &wgpu::Buffer,
+    ) -> wgpu::BindGroup {
+        let device = &context.device;
+        let params_buffer =
+            super::raycaster::frame_params_buffer(context, "voxscope::stream_params", params);
+        let stream_params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("voxscope::stream_level_params"),
+            contents: bytemuck::bytes_of(&volume.stream_params(params.max_level)),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        numbered_bind_group(
+            device,
+            "voxscope::stream_bind_group",
+            &self.layout,
+            &[
+                params_buffer.as_entire_binding(),
+                stream_params.as_entire_binding(),
+                volume.transfer.buffer.as_entire_binding(),
+                wgpu::BindingResource::TextureView(&target.view),
+                target.visits.as_entire_binding(),
+                wgpu::BindingResource::TextureView(&volume.atlas_view),
+                wgpu::BindingResource::Sampler(&self.sampler),
+                volume.table.as_entire_binding(),
+                volume.requests.as_entire_binding(),
+                volume.usage.as_entire_binding(),
+                probe.as_entire_binding(),
+            ],
+        )
+    }
+}

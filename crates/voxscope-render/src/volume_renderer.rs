@@ -1,0 +1,538 @@
+//! One volume on the GPU drawn by one of the renderers, behind one interface: what the command
+//! line, the benchmark and the app switch between. It holds the volume's buffers and textures
+//! alone; the pipelines that draw and recolor it are the device's
+//! (`pipeline_cache.rs`), built once, whatever the number of volumes and renderers.
+
+use super::raycaster::{ProbeTarget, VolumeShape, frame_variant, probe_variant};
+use super::slice::{SliceColorCache, SliceSource};
+use super::{
+    Camera, DenseVolume, Frame, GpuBricks, GpuContext, GpuVolume, RenderError, RenderSettings,
+    RenderTarget, SliceSettings, StreamVolume,
+};
+use std::sync::Arc;
+use voxscope_octree::{BrickLayout, Octree, TransferFunction};
+use voxscope_stream::{BrickSource, Downsampling, MemorySource, StreamOptions, StreamStatus};
+use voxscope_volume::{Quantization, QuantizedVolume};
+
+/// The renderers voxscope has.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum RendererKind {
+    /// The paper's octree: 8-byte nodes, voxel leaves, empty-space skipping, LOD cut.
+    Octree,
+    /// One 3D texture, fixed one-voxel steps, hardware filtering (the peers' baseline).
+    Dense,
+    /// The octree down to bricks (32³ voxels unless chosen otherwise), marched in a 3D atlas.
+    Bricks,
+    /// A pyramid of 32³ bricks streamed into an atlas of a fixed GPU budget through a page
+    /// table: volumes of any size ([`VolumeRenderer::new_stream`], [`VolumeRenderer::update`]).
+    Stream,
+}
+
+/// Voxels along a brick's side in the bricks renderer, unless chosen otherwise.
+pub const DEFAULT_BRICK_SIZE: usize = 32;
+
+/// The structural choices of a renderer (changing them means uploading again).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RendererOptions {
+    pub kind: RendererKind,
+    /// Voxels along a brick's side (bricks renderer; a power of two).
+    pub brick_size: usize,
+    /// GPU memory the streaming renderer may hold, in bytes ([`StreamOptions::gpu_memory`]).
+    pub gpu_memory: u64,
+}
+
+impl Default for RendererOptions {
+    /// The paper's octree; 32³ bricks and the streaming renderer's default budget if chosen.
+    fn default() -> Self {
+        RendererKind::Octree.into()
+    }
+}
+
+impl From<RendererKind> for RendererOptions {
+    fn from(kind: RendererKind) -> Self {
+        Self {
+            kind,
+            brick_size: DEFAULT_BRICK_SIZE,
+            gpu_memory: StreamOptions::default().gpu_memory,
+        }
+    }
+}
+
+impl RendererKind {
+    /// The renderers of a volume held whole in memory, which draw without being driven: the
+    /// ones the app lists. [`Self::Stream`] needs [`VolumeRenderer::update`] every frame.
+    pub const ALL: [RendererKind; 3] = [Self::Octree, Self::Dense, Self::Bricks];
+
+    /// `octree`, `dense`, `bricks`, `stream`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Octree => "octree",
+            Self::Dense => "dense",
+            Self::Bricks => "bricks",
+            Self::Stream => "stream",
+        }
+    }
+}
+
+/// What frames of a max level draw: the octree's nodes, a pyramid level, or every voxel (what
+/// the app's Octree panel says under the max-level slider).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LevelDetail {
+    /// The octree's nodes down to this level, each one color (the paper's level of detail).
+    Nodes { level: u32 },
+    /// Pyramid level `level`: the volume reduced 2^level times per axis by the mean (`dims`
+    /// voxels), filtered, one sample per voxel of that level.
+    Pyramid { level: u32, dims: [usize; 3] },
+    /// Every voxel.
+    Full,
+}
+
+enum State {
+    Octree(GpuVolume),
+    Dense(DenseVolume),
+    Bricks(Box<GpuBricks>),
+    Stream(Box<StreamVolume>),
+}
+
+/// A volume uploaded for one renderer, drawn with the device's pipelines.
+pub struct VolumeRenderer {
+    state: State,
+    /// What the value levels mean (for the slices' colors).
+    quantization: Quantization,
+    /// The slices' color tables, made on the first slice of each window and colormap.
+    slice_colors: SliceColorCache,
+}
+
+/// Builds the device's pipelines that `kind` draws and recolors with, where not built yet.
+fn build_pipelines(context: &GpuContext, kind: RendererKind) {
+    match kind {
+        RendererKind::Octree => {
+            context.raycaster();
+            context.recolor();
+        }
+        RendererKind::Dense => {
+            context.dense_raycaster();
+        }
+        RendererKind::Bricks => {
+            context.raycaster();
+            context.recolor();
+            context.brick_recolor();
+        }
+        RendererKind::Stream => {
+            context.stream_raycaster();
+        }
+    }
+}
+
+impl VolumeRenderer {
+    /// Uploads what `kind` needs: the octree (colored as it is, through `max_level`) or the
+    /// quantized voxels. Builds the device's pipelines for `kind` if this is its first use, so
+    /// that the compile happens here (the app's loading thread) and not at the first frame.
+    pub fn new(
+        context: &GpuContext,
+        options: impl Into<RendererOptions>,
+        octree: &Octree,
+        quantized: &QuantizedVolume,
+        spacing: [f64; 3],
+        max_level: u32,
+        transfer: &TransferFunction,
+    ) -> Result<Self, RenderError> {
+        let options = options.into();
+        build_pipelines(context, options.kind);
+        let state = match options.kind {
+            RendererKind::Octree => State::Octree(GpuVolume::upload(
+                context, octree, spacing, max_level, transfer,
+            )?),
+            RendererKind::Dense => {
+                State::Dense(DenseVolume::upload(context, quantized, spacing, transfer)?)
+            }
+            RendererKind::Bricks => {
+                let layout = BrickLayout::new(
+                    octree,
+                    quantized,
+                    options.brick_size,
+                    context.limits.max_texture_dimension_3d as usize,
+                )
+                .map_err(RenderError)?;
+                State::Bricks(Box::new(GpuBricks::upload(
+                    context,
+                    &layout,
+                    quantized,
+                    spacing,
+                    octree.depth,
+                    transfer,
+                )?))
+            }
+            RendererKind::Stream => {
+                let source = MemorySource::new("volume", quantized, spacing, Downsampling::Mean)
+                    .map_err(RenderError)?;
+                let stream = StreamOptions {
+                    gpu_memory: options.gpu_memory,
+                    ..StreamOptions::default()
+                };
+                State::Stream(Box::new(StreamVolume::new(
+                    context,
+                    Arc::new(source),
+                    stream,
+                    transfer,
+                )?))
+            }
+        };
+        Ok(Self {
+            state,
+            quantization: octree.quantization,
+            slice_colors: SliceColorCache::default(),
+        })
+    }
+
+    /// The streaming renderer of `source` (an in-memory volume's pyramid, a procedural one, a
+    /// file's), within `options`' GPU and RAM budgets: the coarsest levels are read now, the
+    /// rest as rays ask for them. Drive it with [`Self::update`] once per frame.
+    pub fn new_stream(
+        context: &GpuContext,
+        source: Arc<dyn BrickSource>,
+        options: StreamOptions,
+        transfer: &TransferFunction,
+    ) -> Result<Self, RenderError> {
+        build_pipelines(context, RendererKind::Stream);
+        let quantization = source.quantization();
+        let volume = StreamVolume::new(context, source, options, transfer)?;
+        Ok(Self {
+            state: State::Stream(Box::new(volume)),
+            quantization,
+            slice_colors: SliceColorCache::default(),
+        })
+    }
+
+    /// The per-frame step of the streaming renderer, before drawing: takes in what earlier
+    /// frames' rays asked for and used (read back without waiting), loads on worker threads,
+    /// uploads within the frame's budget. `None` for the other renderers (nothing to stream).
+    /// Never waits on I/O or the GPU.
+    pub fn update(&mut self, context: &GpuContext) -> Option<StreamStatus> {
+        match &mut self.state {
+            State::Stream(volume) => Some(volume.update(context)),
+            _ => None,
+        }
+    }
+
+    /// The streaming renderer's GPU side (its streamer and counters), if this is one.
+    pub fn stream(&self) -> Option<&StreamVolume> {
+        match &self.state {
+            State::Stream(volume) => Some(volume),
+            _ => None,
+        }
+    }
+
+    /// The streaming renderer's GPU side, to prefetch into, if this is one.
+    pub fn stream_mut(&mut self) -> Option<&mut StreamVolume> {
+        match &mut self.state {
+            State::Stream(volume) => Some(volume),
+            _ => None,
+        }
+    }
+
+    /// What frames of max level `max_level` draw with this renderer.
+    pub fn level_detail(&self, max_level: u32) -> LevelDetail {
+        let (depth, sampled, bricks, dims) = match &self.state {
+            State::Octree(volume) => (volume.depth(), 0, None, volume.dims()),
+            State::Dense(volume) => (
+                volume.depth(),
+                volume.sampled_level(max_level),
+                None,
+                volume.dims(),
+            ),
+            State::Bricks(volume) => (
+                volume.depth(),
+                volume.sampled_level(max_level),
+                volume.bricks(),
+                volume.dims(),
+            ),
+            State::Stream(volume) => {
+                let depth = volume.depth();
+                (depth, depth.saturating_sub(max_level), None, volume.dims())
+            }
+        };
+        if max_level >= depth {
+            LevelDetail::Full
+        } else if sampled > 0 {
+            LevelDetail::Pyramid {
+                level: sampled,
+                dims: dims.map(|d| d.div_ceil(1 << sampled)),
+            }
+        } else {
+            debug_assert!(
+                matches!(self.state, State::Octree(_))
+                    || bricks.is_some_and(|b| max_level <= b.level)
+            );
+            LevelDetail::Nodes { level: max_level }
+        }
+    }
+
+    /// Which renderer this is.
+    pub fn kind(&self) -> RendererKind {
+        match self.state {
+            State::Octree(_) => RendererKind::Octree,
+            State::Dense(_) => RendererKind::Dense,
+            State::Bricks(_) => RendererKind::Bricks,
+            State::Stream(_) => RendererKind::Stream,
+        }
+    }
+
+    /// Applies a new transfer function: writes the lookup table and, for the octree, records
+    /// the GPU recolor of every level into `encoder` (topology untouched).
+    pub fn set_transfer(
+        &mut self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        transfer: &TransferFunction,
+        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) -> Result<(), RenderError> {
+        match &mut self.state {
+            State::Octree(volume) => {
+                volume.set_transfer(context, transfer);
+                context
+                    .recolor()
+                    .encode(context, encoder, volume, timestamp_writes)
+            }
+            State::Dense(volume) => {
+                volume.set_transfer(context, transfer);
+                Ok(())
+            }
+            State::Bricks(volume) => {
+                volume.set_transfer(context, transfer);
+                context
+                    .brick_recolor()
+                    .encode(context, encoder, volume, timestamp_writes);
+                Ok(())
+            }
+            State::Stream(volume) => {
+                volume.set_transfer(context, transfer);
+                Ok(())
+            }
+        }
+    }
+
+    /// Records one frame into `encoder`. Frames of several renderers and targets may share an
+    /// encoder: each carries its own parameters. (The lookup table is the volume's: a
+    /// [`Self::set_transfer`] between two frames of one encoder applies to both.)
+    pub fn encode(
+        &self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &RenderTarget,
+        camera: &Camera,
+        settings: &RenderSettings,
+        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
+        match &self.state {
+            State::Octree(volume) => {
+                let frame = Frame {
+                    volume,
+                    target,
+                    camera,
+                    settings,
+                };
+                context
+                    .raycaster()
+                    .encode(context, encoder, &frame, timestamp_writes);
+            }
+            State::Dense(volume) => {
+                let frame = Frame {
+                    volume,
+                    target,
+                    camera,
+                    settings,
+                };
+                context
+                    .dense_raycaster()
+                    .encode(context, encoder, &frame, timestamp_writes);
+            }
+            State::Bricks(volume) => {
+                let frame = Frame {
+                    volume: volume.as_ref(),
+                    target,
+                    camera,
+                    settings,
+                };
+                context
+                    .raycaster()
+                    .encode(context, encoder, &frame, timestamp_writes);
+            }
+            State::Stream(volume) => {
+                let frame = Frame {
+                    volume: volume.as_ref(),
+                    target,
+                    camera,
+                    settings,
+                };
+                context
+                    .stream_raycaster()
+                    .encode(context, encoder, &frame, timestamp_writes);
+            }
+        }
+    }
+
+    /// Builds, where not built yet, the device's pipelines this renderer draws `settings` with
+    /// (the shaded or clipped variants where they shade or clip) and, with `probe`, its probe
+    /// pipelines: so that a
+    /// caller that knows its settings compiles them where it likes (the app's loading thread)
+    /// rather than at the first frame that needs them.
+    pub fn prepare_pipelines(&self, context: &GpuContext, settings: &RenderSettings, probe: bool) {
+        let mut variants = vec![frame_variant(settings)];
+        if probe {
+            variants.push(probe_variant(settings));
+        }
+        // Dense and bricks below full detail sample a coarser pyramid level: their own variant.
+        let coarse = matches!(self.state, State::Dense(_) | State::Bricks(_))
+            && matches!(
+                self.level_detail(settings.max_level),
+                LevelDetail::Pyramid { .. }
+            );
+        for variant in &mut variants {
+            variant.coarse = coarse;
+        }
+        for variant in variants {
+            match self.state {
+                State::Octree(_) | State::Bricks(_) => {
+                    context.raycaster().prepare(context, variant)
+                }
+                State::Dense(_) => context.dense_raycaster().prepare(context, variant),
+                State::Stream(_) => context.stream_raycaster().prepare(context, variant),
+            }
+        }
+    }
+
+    /// Records the probe of one pixel ([`super::GpuProbe`]).
+    pub(crate) fn encode_probe(
+        &self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        probe: &ProbeTarget<'_>,
+    ) {
+        match &self.state {
+            State::Octree(volume) => context
+                .raycaster()
+                .encode_probe(context, encoder, volume, probe),
+            State::Dense(volume) => context
+                .dense_raycaster()
+                .encode_probe(context, encoder, volume, probe),
+            State::Bricks(volume) => {
+                context
+                    .raycaster()
+                    .encode_probe(context, encoder, volume.as_ref(), probe)
+            }
+            State::Stream(volume) => context
+                .stream_raycaster()
+                .encode_probe(context, encoder, volume, probe),
+        }
+    }
+
+    /// Records and submits one frame.
+    pub fn render(
+        &self,
+        context: &GpuContext,
+        target: &RenderTarget,
+        camera: &Camera,
+        settings: &RenderSettings,
+    ) {
+        let mut encoder = context
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("voxscope::frame"),
+            });
+        self.encode(context, &mut encoder, target, camera, settings, None);
+        context.queue.submit([encoder.finish()]);
+    }
+
+    /// Records one planar slice of the volume into `target` (see [`super::SliceFrame`]): the
+    /// value at each pixel's point, from what this renderer holds (the dense texture; the
+    /// bricks' cell grid and atlas; the octree's leaves), through `settings`' window and
+    /// colormap, opaque; transparent black outside the volume. The slice pipeline is built on
+    /// the device's first slice. A color table is made once per window and colormap (the
+    /// last four are kept, for views with windows of their own); slices of several windows may
+    /// share an encoder. The streaming renderer records nothing ([`Self::has_slices`]).
+    pub fn encode_slice(
+        &self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &RenderTarget,
+        settings: &SliceSettings,
+    ) {
+        let Some(source) = self.slice_source() else {
+            return;
+        };
+        let colors = self.slice_colors.get(
+            context,
+            self.quantization,
+            settings.window,
+            settings.colormap,
+        );
+        context
+            .slicer()
+            .encode(context, encoder, &source, &colors, target, settings);
+    }
+
+    /// Whether [`Self::encode_slice`] draws: every renderer of an in-memory volume; not the
+    /// streaming renderer yet (its slices would need the slice shader to read the page table).
+    pub fn has_slices(&self) -> bool {
+        self.slice_source().is_some()
+    }
+
+    /// Records and submits one slice ([`Self::encode_slice`]).
+    pub fn render_slice(
+        &self,
+        context: &GpuContext,
+        target: &RenderTarget,
+        settings: &SliceSettings,
+    ) {
+        let mut encoder = context
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("voxscope::slice"),
+            });
+        self.encode_slice(context, &mut encoder, target, settings);
+        context.queue.submit([encoder.finish()]);
+    }
+
+    /// Whether slices show every voxel's own value: true unless the octree is on the GPU only
+    /// down to a level above the voxels (a device too small for all of it), where a slice
+    /// shows the middle of each deepest node's value range.
+    pub fn exact_slices(&self) -> bool {
+        self.slice_source().is_some_and(|source| source.is_exact())
+    }
+
+    fn slice_source(&self) -> Option<SliceSource<'_>> {
+        match &self.state {
+            State::Octree(volume) => Some(SliceSource::Octree(volume)),
+            State::Dense(volume) => Some(SliceSource::Dense(volume)),
+            State::Bricks(volume) => Some(SliceSource::Bricks(volume)),
+            State::Stream(_) => None,
+        }
+    }
+
+    /// GPU memory of each of this renderer's buffers and textures, by name.
+    pub fn gpu_bytes(&self) -> Vec<(&'static str, u64)> {
+        let mut bytes = self.volume_gpu_bytes();
+        let slice_colors = self.slice_colors.gpu_bytes();
+        if slice_colors > 0 {
+            bytes.push(("slice_colors", slice_colors));
+        }
+        bytes
+    }
+
+    fn volume_gpu_bytes(&self) -> Vec<(&'static str, u64)> {
+        match &self.state {
+            State::Octree(volume) => vec![
+                ("nodes", volume.nodes.size()),
+                ("bounds", volume.bounds.size()),
+                ("lookup_table", volume.transfer.size()),
+            ],
+            State::Dense(volume) => vec![
+                ("texture", volume.gpu_bytes() - volume.transfer.size()),
+                ("lookup_table", volume.transfer.size()),
+            ],
+            State::Bricks(volume) => volume.gpu_bytes(),
+            State::Stream(volume) => volume.gpu_bytes(),
+        }
+    }
+}

@@ -1,0 +1,114 @@
+//! A coarse level of a pyramid read whole, as a [`QuantizedVolume`]: what the transfer
+//! function's defaults (the robust window, the data kind) are taken from when the volume
+//! itself is never in memory.
+
+use rayon::prelude::*;
+
+use super::pyramid::PyramidShape;
+use super::source::{BRICK_SIZE, BrickError, BrickId, BrickSource, PADDED_BRICK};
+use voxscope_volume::{Histogram, QuantizedVolume};
+
+/// The level [`preview`] reads: the finest with at most `max_bricks` bricks (the coarsest if
+/// none is that small).
+pub(crate) fn preview_level(shape: &PyramidShape, max_bricks: u64) -> usize {
+    shape
+        .levels
+        .iter()
+        .position(|l| l.brick_count() <= max_bricks)
+        .unwrap_or(shape.levels.len() - 1)
+}
+
+/// The finest level of `source` with at most `max_bricks` bricks (the coarsest if none is
+/// that small), read whole: its voxels' levels and histogram; and which level it is.
+pub fn preview(
+    source: &dyn BrickSource,
+    max_bricks: u64,
+) -> Result<(QuantizedVolume, usize), BrickError> {
+    let shape = source.shape();
+    let level = preview_level(shape, max_bricks);
+    let info = shape.levels[level];
+    let [gx, gy, gz] = info.grid;
+    let ids: Vec<BrickId> = (0..gz)
+        .flat_map(|z| (0..gy).flat_map(move |y| (0..gx).map(move |x| [x, y, z])))
+        .map(|brick| BrickId {
+            level: level as u32,
+            brick: brick.map(|c| c as u32),
+        })
+        .collect();
+    let bricks = ids
+        .par_iter()
+        .map(|&id| source.read_brick(id).map(|data| (id, data)))
+        .collect::<Result<Vec<_>, _>>()?;
+    let [dx, dy, dz] = info.dims;
+    let mut levels = vec![0u16; dx * dy * dz];
+    for (id, data) in bricks {
+        let first = id.brick.map(|c| c as usize * BRICK_SIZE);
+        for z in 0..BRICK_SIZE.min(dz - first[2]) {
+            for y in 0..BRICK_SIZE.min(dy - first[1]) {
+                let row = 1 + PADDED_BRICK * ((y + 1) + PADDED_BRICK * (z + 1));
+                let count = BRICK_SIZE.min(dx - first[0]);
+                let out = first[0] + dx * ((first[1] + y) + dy * (first[2] + z));
+                levels[out..out + count].copy_from_slice(&data.levels[row..row + count]);
+            }
+        }
+    }
+    let quantization = source.quantization();
+    let mut counts = vec![0u64; 1 << 16];
+    for &l in &levels {
+        counts[l as usize] += 1;
+    }
+    let (low, high) = (
+        levels.iter().copied().min().unwrap_or(0),
+        levels.iter().copied().max().unwrap_or(0),
+    );
+    Ok((
+        QuantizedVolume {
+            dims: info.dims,
+            histogram: Histogram {
+                counts,
+                quantization,
+                total: levels.len() as u64,
+            },
+            levels,
+            quantization,
+            value_range: [quantization.value(low), quantization.value(high)],
+        },
+        level,
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{Downsampling, MemorySource};
+    use voxscope_volume::Quantization;
+
+    #[test]
+    fn the_preview_is_the_finest_level_that_small_voxel_for_voxel() {
+        let dims = [70, 40, 33];
+        let levels: Vec<u16> = (0..dims.iter().product::<usize>())
+            .map(|i| (i % 997) as u16)
+            .collect();
+        let quantization = Quantization {
+            offset: 0.0,
+            step: 1.0,
+        };
+        let source = MemorySource::from_levels(
+            "test",
+            levels.clone(),
+            dims,
+            quantization,
+            [1.0; 3],
+            Downsampling::Mean,
+        )
+        .expect("source");
+        // Level 0 has 3×2×2 = 12 bricks.
+        let (whole, level) = preview(&source, 12).expect("preview");
+        assert_eq!((level, whole.dims), (0, dims));
+        assert_eq!(whole.levels, levels);
+        assert_eq!(whole.histogram.total, levels.len() as u64);
+        let (coarse, level) = preview(&source, 11).expect("preview");
+        assert_eq!((level, coarse.dims), (1, [35, 20, 17]));
+        assert_eq!(coarse.levels, source.level(1).expect("level 1"));
+    }
+}

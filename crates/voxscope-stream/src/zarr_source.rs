@@ -1,0 +1,561 @@
+//! An OME-Zarr (or plain Zarr) image as a brick source: bricks are read region by region from
+//! the file's own levels, never the whole volume. Each pyramid level is drawn from the
+//! coarsest stored level that is at least as fine along every axis; where the file's levels
+//! are coarser by other steps than the pyramid's (no levels at all, or xy-only downscaling as
+//! many microscopy files have), the stored voxels a brick covers are reduced here (mean, or
+//! max for label images), so one brick never reads more than [`MAX_BRICK_READ`] voxels.
+
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
+
+use rayon::prelude::*;
+
+use super::preview::preview_level;
+use super::pyramid::{Downsampling, PyramidShape};
+use super::source::{
+    BRICK_SIZE, BrickData, BrickError, BrickId, BrickSource, PADDED_BRICK, PADDED_BRICK_VOXELS,
+    ValueRange,
+};
+use voxscope_volume::ome_zarr::Pyramid;
+use voxscope_volume::remote::RemoteStats;
+use voxscope_volume::{Quantization, Scalar, VoxelData, VoxelType, with_voxel_slice};
+
+/// The most stored voxels one brick may read (64 Mi: 128 MiB of 16-bit data); a file whose
+/// coarsest level is larger cannot give the pyramid's coarse levels without reading that much,
+/// and is refused at open with the advice to convert it.
+pub const MAX_BRICK_READ: u64 = 1 << 26;
+
+/// Where one pyramid level's bricks come from: a stored level, and how many of its voxels one
+/// pyramid voxel covers along x, y, z.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct LevelSource {
+    stored: usize,
+    ratio: [usize; 3],
+}
+
+/// A Zarr image read brick by brick.
+pub struct ZarrSource {
+    name: String,
+    pyramid: Arc<Pyramid>,
+    shape: PyramidShape,
+    sources: Vec<LevelSource>,
+    quantization: Quantization,
+    max_value_level: u16,
+    how: Downsampling,
+    /// Decoded chunks as value levels: neighbouring bricks share a chunk (and every brick's
+    /// apron reaches into its neighbours'), so each chunk is decoded once while it is used.
+    chunks: Mutex<ChunkCache>,
+    /// Per stored level, every chunk's smallest and largest value where the store has them
+    /// (`voxscope convert` writes them), x fastest: what [`BrickSource::known_range`] answers
+    /// from.
+    chunk_ranges: Vec<Option<Vec<[f64; 2]>>>,
+}
+
+/// The most stored voxels [`ZarrSource::warm_first_image`] reads as one region (16 Mi: 32 MiB
+/// as value levels, 128 MiB while a 64-bit type is converted).
+pub const WARM_VOXELS: u64 = 1 << 24;
+
+/// Bytes of decoded chunks a [`ZarrSource`] keeps (value levels, 2 bytes a voxel).
+pub const CHUNK_CACHE_BYTES: usize = 512 << 20;
+
+/// A decoded chunk: stored level and chunk index.
+type ChunkKey = (usize, [usize; 3]);
+
+/// The least recently used decoded chunks, each with the clock of its last use.
+#[derive(Default)]
+struct ChunkCache {
+    chunks: HashMap<ChunkKey, (Arc<Vec<u16>>, u64)>,
+    bytes: usize,
+    clock: u64,
+}
+
+impl ChunkCache {
+    fn get(&mut self, key: ChunkKey) -> Option<Arc<Vec<u16>>> {
+        self.clock += 1;
+        let clock = self.clock;
+        self.chunks.get_mut(&key).map(|(chunk, used)| {
+            *used = clock;
+            Arc::clone(chunk)
+        })
+    }
+
+    fn insert(&mut self, key: ChunkKey, chunk: Arc<Vec<u16>>) {
+        self.clock += 1;
+        self.bytes += chunk.len() * 2;
+        if let Some((old, _)) = self.chunks.insert(key, (chunk, self.clock)) {
+            self.bytes -= old.len() * 2;
+        }
+        while self.bytes > CHUNK_CACHE_BYTES && self.chunks.len() > 1 {
+            // Evict the least recently used (a scan: the cache holds about a thousand chunks).
+            let Some((&oldest, _)) = self.chunks.iter().min_by_key(|(_, (_, used))| *used) else {
+                break;
+            };
+            if let Some((old, _)) = self.chunks.remove(&oldest) {
+                self.bytes -= old.len() * 2;
+            }
+        }
+    }
+}
+
+/// How many level-0 voxels one voxel of the stored level `level` covers along each axis, if
+/// that is a power of two per axis (from the `scale` transforms; from the dimensions where
+/// those are missing).
+fn stored_factor(pyramid: &Pyramid, level: usize) -> Option<[usize; 3]> {
+    let finest = &pyramid.levels[0];
+    let info = &pyramid.levels[level];
+    let mut factor = [1usize; 3];
+    for (a, factor) in factor.iter_mut().enumerate() {
+        let by_spacing = info.spacing[a] / finest.spacing[a];
+        let ratio = if by_spacing.is_finite() && by_spacing > 0.0 {
+            by_spacing
+        } else {
+            finest.dims[a] as f64 / info.dims[a] as f64
+        };
+        let power = ratio.log2().round();
+        if !(0.0..=14.0).contains(&power) || (ratio / power.exp2() - 1.0).abs() > 0.1 {
+            return None;
+        }
+        *factor = power.exp2() as usize;
+    }
+    Some(factor)
+}
+
+impl ZarrSource {
+    /// The pyramid of `pyramid`'s selected channel and time point. Reads nothing but, for
+    /// floating-point and 32-bit data without stored chunk ranges or an `omero` range, the
+    /// coarsest level (to fix the quantization).
+    pub fn new(pyramid: Arc<Pyramid>) -> Result<Self, String> {
+        let name = pyramid.source.clone();
+        let dims = pyramid.levels[0].dims;
+        let shape = PyramidShape::new(dims).map_err(|problem| format!("{name}: {problem}"))?;
+        let factors: Vec<Option<[usize; 3]>> = (0..pyramid.levels.len())
+            .map(|level| stored_factor(&pyramid, level))
+            .collect();
+        let mut sources = Vec::with_capacity(shape.levels.len());
+        for (level, info) in shape.levels.iter().enumerate() {
+            let step = 1usize << level;
+            // The coarsest stored level whose voxels are no larger than this level's.
+            let stored = factors
+                .iter()
+                .enumerate()
+                .filter_map(|(i, f)| f.map(|f| (i, f)))
+                .filter(|(_, f)| f.iter().all(|&f| f <= step))
+                .max_by_key(|(_, f)| f.iter().product::<usize>())
+                .map_or(0, |(i, _)| i);
+            let factor = factors[stored].unwrap_or([1; 3]);
+            let ratio = factor.map(|f| step / f);
+            let read: u64 = (0..3)
+                .map(|a| ((PADDED_BRICK * ratio[a]).min(pyramid.levels[stored].dims[a])) as u64)
+                .product();
+            if read > MAX_BRICK_READ {
+                let coarsest = pyramid.levels.last().map_or(dims, |l| l.dims);
+                return Err(format!(
+                    "{name}: its coarsest level ({}x{}x{}) is too large to stream from: a {}x{}x{}-voxel level would read {read} voxels a brick (at most {MAX_BRICK_READ}); `voxscope convert` writes the coarser levels",
+                    coarsest[0], coarsest[1], coarsest[2], info.dims[0], info.dims[1], info.dims[2],
+                ));
+            }
+            sources.push(LevelSource { stored, ratio });
+        }
+        let (quantization, max_value_level) = quantization_of(&pyramid)?;
+        // The stored levels' chunk ranges, for the levels bricks are read from (a store
+        // without them, or with damaged ones, is read brick by brick as any other). Not for a
+        // URL's store: reading them before the first image costs round trips (8.2 s to open a
+        // 2048³ store at 50 ms a request, against 0.02 s from its folder: run 52).
+        let mut chunk_ranges = vec![None; pyramid.levels.len()];
+        let local = pyramid.remote_stats().is_none();
+        for source in sources.iter().filter(|_| local) {
+            if chunk_ranges[source.stored].is_none() {
+                chunk_ranges[source.stored] = pyramid.chunk_ranges(source.stored).ok().flatten();
+            }
+        }
+        let how = match pyramid.downscaling.as_deref() {
+            Some(kind) if kind.contains("max") || kind.contains("nearest") => Downsampling::Max,
+            _ => Downsampling::Mean,
+        };
+        Ok(Self {
+            name,
+            pyramid,
+            shape,
+            sources,
+            quantization,
+            max_value_level,
+            how,
+            chunks: Mutex::default(),
+            chunk_ranges,
+        })
+    }
+
+    /// The value levels of the stored level's voxels `[origin, origin + size)`, x fastest,
+    /// assembled from whole decoded chunks (cached).
+    fn read_levels(
+        &self,
+        stored: usize,
+        origin: [usize; 3],
+        size: [usize; 3],
+    ) -> Result<Vec<u16>, voxscope_volume::LoadError> {
+        let info = &self.pyramid.levels[stored];
+        let chunk = info.chunk;
+        let first: [usize; 3] = std::array::from_fn(|a| origin[a] / chunk[a]);
+        let last: [usize; 3] = std::array::from_fn(|a| (origin[a] + size[a] - 1) / chunk[a]);
+        let mut out = vec![0u16; size.iter().product()];
+        for cz in first[2]..=last[2] {
+            for cy in first[1]..=last[1] {
+                for cx in first[0]..=last[0] {
+                    let index = [cx, cy, cz];
+                    let start: [usize; 3] = std::array::from_fn(|a| index[a] * chunk[a]);
+                    let extent: [usize; 3] =
+                        std::array::from_fn(|a| chunk[a].min(info.dims[a] - start[a]));
+                    let cached = self
+                        .chunks
+                        .lock()
+                        .ok()
+                        .and_then(|mut c| c.get((stored, index)));
+                    let levels = match cached {
+                        Some(levels) => levels,
+                        None => {
+                            let data = self.pyramid.read_region(stored, start, extent)?;
+                            let levels = Arc::new(to_levels(&data, self.quantization));
+                            if let Ok(mut cache) = self.chunks.lock() {
+                                cache.insert((stored, index), Arc::clone(&levels));
+                            }
+                            levels
+                        }
+                    };
+                    // The part of the chunk inside the region.
+                    let lo: [usize; 3] = std::array::from_fn(|a| origin[a].max(start[a]));
+                    let hi: [usize; 3] =
+                        std::array::from_fn(|a| (origin[a] + size[a]).min(start[a] + extent[a]));
+                    let run = hi[0] - lo[0];
+                    for z in lo[2]..hi[2] {
+                        for y in lo[1]..hi[1] {
+                            let from = (lo[0] - start[0])
+                                + extent[0] * ((y - start[1]) + extent[1] * (z - start[2]));
+                            let to = (lo[0] - origin[0])
+                                + size[0] * ((y - origin[1]) + size[1] * (z - origin[2]));
+                            out[to..to + run].copy_from_slice(&levels[from..from + run]);
+                        }
+                    }
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    /// Reads, before the first image, what it needs from the store: the stored voxels of the
+    /// level [`preview`](super::preview()) reads with `preview_bricks` and of the levels the
+    /// streamer pins (every level of a single brick), each stored level as one region whose
+    /// chunks are all fetched together ([`Pyramid::prefetch_regions`]), split into the chunk
+    /// cache. Those bricks then read no chunk one by one: over a network, a few round trips in
+    /// all instead of one a chunk. A region of more than [`WARM_VOXELS`] is left to its bricks;
+    /// a read that fails is too (they report it, naming the chunk).
+    pub fn warm_first_image(&self, preview_bricks: u64) {
+        let mut levels = vec![preview_level(&self.shape, preview_bricks)];
+        levels.extend(
+            (0..self.shape.levels.len()).filter(|&l| self.shape.levels[l].brick_count() == 1),
+        );
+        // Per stored level, the end (exclusive, whole chunks) of what the levels' bricks read.
+        let mut ends: HashMap<usize, [usize; 3]> = HashMap::new();
+        for level in levels {
+            let (Some(shape), Some(source)) =
+                (self.shape.levels.get(level), self.sources.get(level))
+            else {
+                continue;
+            };
+            let info = &self.pyramid.levels[source.stored];
+            let end: [usize; 3] = std::array::from_fn(|a| {
+                let last = covered(0, shape.dims[a] - 1, source.ratio[a], info.dims[a]).1;
+                (last + 1).next_multiple_of(info.chunk[a]).min(info.dims[a])
+            });
+            let merged = ends.entry(source.stored).or_insert([0; 3]);
+            *merged = std::array::from_fn(|a| merged[a].max(end[a]));
+        }
+        let regions: Vec<(usize, [usize; 3], [usize; 3])> = ends
+            .into_iter()
+            .filter(|(_, end)| end.iter().map(|&e| e as u64).product::<u64>() <= WARM_VOXELS)
+            .map(|(stored, end)| (stored, [0; 3], end))
+            .collect();
+        self.pyramid.prefetch_regions(&regions);
+        regions.par_iter().for_each(|&(stored, _, end)| {
+            if let Ok(data) = self.pyramid.read_region(stored, [0; 3], end) {
+                self.cache_chunks(stored, end, &to_levels(&data, self.quantization));
+            }
+        });
+    }
+
+    /// Puts the stored level's region `[0, end)` (whole chunks, x fastest, as value levels)
+    /// into the chunk cache, chunk by chunk as [`Self::read_levels`] would have read them.
+    fn cache_chunks(&self, stored: usize, end: [usize; 3], levels: &[u16]) {
+        let info = &self.pyramid.levels[stored];
+        let chunk = info.chunk;
+        let grid: [usize; 3] = std::array::from_fn(|a| end[a].div_ceil(chunk[a]));
+        for cz in 0..grid[2] {
+            for cy in 0..grid[1] {
+                for cx in 0..grid[0] {
+                    let index = [cx, cy, cz];
+                    let start: [usize; 3] = std::array::from_fn(|a| index[a] * chunk[a]);
+                    let extent: [usize; 3] =
+                        std::array::from_fn(|a| chunk[a].min(info.dims[a] - start[a]));
+                    let mut out = Vec::with_capacity(extent.iter().product());
+                    for z in 0..extent[2] {
+                        for y in 0..extent[1] {
+                            let from =
+                                start[0] + end[0] * ((start[1] + y) + end[1] * (start[2] + z));
+                            out.extend_from_slice(&levels[from..from + extent[0]]);
+                        }
+                    }
+                    if let Ok(mut cache) = self.chunks.lock() {
+                        cache.insert((stored, index), Arc::new(out));
+                    }
+                }
+            }
+        }
+    }
+
+    /// The stored level pyramid level `level` reads, and its reduction per axis.
+    pub fn stored_level(&self, level: usize) -> Option<(usize, [usize; 3])> {
+        self.sources.get(level).map(|s| (s.stored, s.ratio))
+    }
+}
+
+/// A quantization for every brick of the pyramid: 8- and 16-bit integers keep their values
+/// (one level each); wider and floating-point data spread the range that the stored chunk
+/// ranges, the `omero` window's range or the coarsest level give over 65 536 levels (values
+/// outside it clamp).
+fn quantization_of(pyramid: &Pyramid) -> Result<(Quantization, u16), String> {
+    let exact = |offset: f64, max: u16| Ok((Quantization { offset, step: 1.0 }, max));
+    match pyramid.voxel_type {
+        VoxelType::U8 => return exact(0.0, u8::MAX as u16),
+        VoxelType::I8 => return exact(i8::MIN as f64, u8::MAX as u16),
+        VoxelType::U16 => return exact(0.0, u16::MAX),
+        VoxelType::I16 => return exact(i16::MIN as f64, u16::MAX),
+        _ => {}
+    }
+    let from_chunks = pyramid
+        .chunk_ranges(0)
+        .map_err(|e| e.to_string())?
+        .and_then(|ranges| {
+            let finite = ranges
+                .iter()
+                .filter(|r| r[0].is_finite() && r[1].is_finite());
+            finite.fold(None, |acc: Option<[f64; 2]>, r| {
+                Some(acc.map_or(*r, |a| [a[0].min(r[0]), a[1].max(r[1])]))
+            })
+        });
+    let from_omero = || {
+        pyramid
+            .omero
+            .get(pyramid.selected.channel)
+            .and_then(|c| c.range)
+    };
+    let range = match from_chunks.or_else(from_omero) {
+        Some(range) => range,
+        None => {
+            let coarsest = pyramid.levels.len() - 1;
+            if pyramid.levels[coarsest].voxel_count() > MAX_BRICK_READ {
+                return Err(format!(
+                    "{}: no stored value range, and the coarsest level is too large to read for one",
+                    pyramid.source
+                ));
+            }
+            let data = pyramid.read_level(coarsest).map_err(|e| e.to_string())?;
+            with_voxel_slice!(&data, values => values.iter().fold([f64::INFINITY, f64::NEG_INFINITY], |r, v| {
+                let v = v.to_f64();
+                if v.is_finite() { [r[0].min(v), r[1].max(v)] } else { r }
+            }))
+        }
+    };
+    let [min, max] = if range[0] <= range[1] {
+        range
+    } else {
+        [0.0, 0.0]
+    };
+    let span = max - min;
+    let step = if span <= 0.0 || (pyramid.voxel_type.is_integer() && span <= u16::MAX as f64) {
+        1.0
+    } else {
+        span / u16::MAX as f64
+    };
+    Ok((Quantization { offset: min, step }, u16::MAX))
+}
+
+/// The stored voxels `[first, last]` along one axis that the pyramid voxels `[c0, c1]` cover,
+/// `ratio` stored voxels each, within `dims`.
+fn covered(c0: usize, c1: usize, ratio: usize, dims: usize) -> (usize, usize) {
+    let first = (c0 * ratio).min(dims - 1);
+    let last = ((c1 + 1) * ratio - 1).min(dims - 1).max(first);
+    (first, last)
+}
+
+impl BrickSource for ZarrSource {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn shape(&self) -> &PyramidShape {
+        &self.shape
+    }
+
+    fn spacing(&self) -> [f64; 3] {
+        self.pyramid.levels[0].spacing
+    }
+
+    fn quantization(&self) -> Quantization {
+        self.quantization
+    }
+
+    fn max_value_level(&self) -> u16 {
+        self.max_value_level
+    }
+
+    fn remote_stats(&self) -> Option<RemoteStats> {
+        self.pyramid.remote_stats()
+    }
+
+    fn known_range(&self, id: BrickId) -> Option<ValueRange> {
+        let level = self.shape.levels.get(id.level as usize)?;
+        let source = self.sources.get(id.level as usize)?;
+        let ranges = self.chunk_ranges.get(source.stored)?.as_ref()?;
+        let info = &self.pyramid.levels[source.stored];
+        let grid = info.chunk_grid();
+        // The stored voxels the brick's own voxels cover, and the chunks holding them.
+        let first: [usize; 3] = std::array::from_fn(|a| {
+            let c0 = (id.brick[a] as usize * BRICK_SIZE).min(level.dims[a] - 1);
+            covered(c0, c0, source.ratio[a], info.dims[a]).0 / info.chunk[a]
+        });
+        let last: [usize; 3] = std::array::from_fn(|a| {
+            let c1 = ((id.brick[a] as usize + 1) * BRICK_SIZE - 1).min(level.dims[a] - 1);
+            covered(c1, c1, source.ratio[a], info.dims[a]).1 / info.chunk[a]
+        });
+        let (mut low, mut high) = (f64::INFINITY, f64::NEG_INFINITY);
+        for z in first[2]..=last[2] {
+            for y in first[1]..=last[1] {
+                for x in first[0]..=last[0] {
+                    let [min, max] = *ranges.get(x + grid[0] * (y + grid[1] * z))?;
+                    if !(min.is_finite() && max.is_finite()) {
+                        return None;
+                    }
+                    low = low.min(min);
+                    high = high.max(max);
+                }
+            }
+        }
+        // Widened to whole levels, so that rounding never hides a visible voxel.
+        let q = self.quantization;
+        let level_of = |value: f64, round: fn(f64) -> f64| {
+            round((value - q.offset) / q.step).clamp(0.0, u16::MAX as f64) as u16
+        };
+        (low <= high).then(|| ValueRange {
+            min: level_of(low, f64::floor),
+            max: level_of(high, f64::ceil),
+        })
+    }
+
+    fn read_brick(&self, id: BrickId) -> Result<BrickData, BrickError> {
+        let (Some(level), Some(source), Some(_)) = (
+            self.shape.levels.get(id.level as usize),
+            self.sources.get(id.level as usize),
+            self.shape.key(id),
+        ) else {
+            return Err(BrickError(format!("{}: no {id}", self.name)));
+        };
+        let stored_dims = self.pyramid.levels[source.stored].dims;
+        let first = id.brick.map(|c| c as usize * BRICK_SIZE);
+        // The pyramid voxels of the padded brick, clamped to the level, per axis.
+        let voxels: [Vec<usize>; 3] = std::array::from_fn(|a| {
+            (0..PADDED_BRICK)
+                .map(|i| (first[a] + i).saturating_sub(1).min(level.dims[a] - 1))
+                .collect()
+        });
+        let spans: [(usize, usize); 3] = std::array::from_fn(|a| {
+            let (c0, c1) = (voxels[a][0], voxels[a][PADDED_BRICK - 1]);
+            covered(c0, c1, source.ratio[a], stored_dims[a])
+        });
+        let origin = spans.map(|(first, _)| first);
+        let size: [usize; 3] = std::array::from_fn(|a| spans[a].1 - spans[a].0 + 1);
+        let stored = self
+            .read_levels(source.stored, origin, size)
+            .map_err(|e| BrickError(format!("{id}: {e}")))?;
+        // Each distinct pyramid voxel (the apron and the part past the level's end repeat the
+        // edge ones): the mean (or max) of the stored voxels it covers, computed once.
+        let distinct: [Vec<usize>; 3] = std::array::from_fn(|a| {
+            let mut values = voxels[a].clone();
+            values.dedup();
+            values
+        });
+        let boxes: [Vec<(usize, usize)>; 3] = std::array::from_fn(|a| {
+            distinct[a]
+                .iter()
+                .map(|&c| {
+                    let (lo, hi) = covered(c, c, source.ratio[a], stored_dims[a]);
+                    (lo - origin[a], hi - origin[a])
+                })
+                .collect()
+        });
+        let [sx, sy, _] = size;
+        let mut reduced = Vec::with_capacity(boxes.iter().map(Vec::len).product());
+        for &(z0, z1) in &boxes[2] {
+            for &(y0, y1) in &boxes[1] {
+                for &(x0, x1) in &boxes[0] {
+                    let (mut sum, mut max, mut count) = (0u64, 0u16, 0u64);
+                    for z in z0..=z1 {
+                        for y in y0..=y1 {
+                            let row = sx * (y + sy * z);
+                            for &v in &stored[row + x0..=row + x1] {
+                                sum += v as u64;
+                                max = max.max(v);
+                                count += 1;
+                            }
+                        }
+                    }
+                    reduced.push(match self.how {
+                        Downsampling::Mean => ((sum + count / 2) / count) as u16,
+                        Downsampling::Max => max,
+                    });
+                }
+            }
+        }
+        // Where each padded voxel's pyramid voxel sits among the distinct ones.
+        let index: [Vec<usize>; 3] = std::array::from_fn(|a| {
+            voxels[a]
+                .iter()
+                .map(|c| distinct[a].partition_point(|d| d < c))
+                .collect()
+        });
+        let [dx, dy] = [distinct[0].len(), distinct[1].len()];
+        let mut levels = Vec::with_capacity(PADDED_BRICK_VOXELS);
+        for &k in &index[2] {
+            for &j in &index[1] {
+                for &i in &index[0] {
+                    levels.push(reduced[i + dx * (j + dy * k)]);
+                }
+            }
+        }
+        let inside = std::array::from_fn(|a| level.dims[a].saturating_sub(first[a]));
+        Ok(BrickData::new(levels, inside))
+    }
+}
+
+/// Each stored value's level (non-finite values as level 0).
+fn to_levels(data: &VoxelData, quantization: Quantization) -> Vec<u16> {
+    with_voxel_slice!(data, values => values
+        .iter()
+        .map(|v| {
+            let value = v.to_f64();
+            if value.is_finite() { quantization.level(value) } else { 0 }
+        })
+        .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn covered_voxels_stay_inside_the_stored_level() {
+        assert_eq!(covered(0, 0, 1, 10), (0, 0));
+        assert_eq!(covered(2, 3, 4, 100), (8, 15));
+        // A pyramid voxel past a floored stored level's end repeats its last voxel.
+        assert_eq!(covered(5, 5, 2, 10), (9, 9));
+        assert_eq!(covered(4, 4, 2, 9), (8, 8));
+    }
+}
