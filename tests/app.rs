@@ -13,10 +13,9 @@ use std::time::{Duration, Instant};
 
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
-use voxscope::app::{
-    AppSettings, Command, Layout, STORAGE_KEY, VolumeSource, VoxscopeApp, wgpu_setup,
-};
+use voxscope::app::{AppSettings, Command, Layout, STORAGE_KEY, VoxscopeApp, wgpu_setup};
 use voxscope_octree::OpacityMode;
+use voxscope_scene::VolumeSource;
 use voxscope_volume::SAMPLE_NAME;
 
 #[test]

@@ -10,7 +10,8 @@ mod support;
 use support::app_harness::{differing_pixels, harness, lit_pixels, settle, snapshot, view};
 
 use egui_kittest::kittest::{NodeT, Queryable};
-use voxscope::app::{Command, FrameKey, VolumeSource};
+use voxscope::app::Command;
+use voxscope_scene::{FrameKey, VolumeSource};
 use voxscope_volume::{Selection, ValueWindow};
 
 /// Relative (tests run in the package's folder), so the snapshot's status bar is the same in

@@ -114,7 +114,7 @@ fn the_app_browser_opens_a_typed_path_and_a_listed_file() {
 #[test]
 fn a_ct_opens_with_a_ct_preset_and_each_preset_draws_its_tissue() {
     let mut harness = support::app_harness::harness_with(
-        Some(voxscope::app::VolumeSource::Spec(
+        Some(voxscope_scene::VolumeSource::Spec(
             "synthetic:ct:128x128x64".into(),
         )),
         egui::vec2(1100.0, 720.0),

@@ -10,7 +10,8 @@ use std::time::{Duration, Instant};
 use support::app_harness::{differing_pixels, harness, settle, view};
 
 use egui_kittest::kittest::Queryable;
-use voxscope::app::{Command, VolumeSource};
+use voxscope::app::Command;
+use voxscope_scene::VolumeSource;
 use voxscope_volume::{Selection, ValueWindow};
 
 /// Relative (tests run in the package's folder), so the snapshot's status bar is the same in

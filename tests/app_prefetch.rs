@@ -14,8 +14,9 @@ use support::writers::{NiftiSpec, encode, nifti_bytes, nifti_datatype};
 
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
-use voxscope::app::{Command, FrameKey, VolumeSource, VoxscopeApp};
+use voxscope::app::{Command, VoxscopeApp};
 use voxscope_render::RendererKind;
+use voxscope_scene::{FrameKey, VolumeSource};
 use voxscope_volume::{Endian, VoxelType};
 
 /// Voxels along each side of the written series: large enough that loading a frame costs

@@ -10,8 +10,9 @@ use support::http_server::{Faults, FileServer};
 use support::reference::psnr;
 
 use egui_kittest::kittest::Queryable;
-use voxscope::app::{Command, VolumeSource};
+use voxscope::app::Command;
 use voxscope_render::RendererKind;
+use voxscope_scene::VolumeSource;
 
 #[test]
 fn the_streaming_renderer_refines_the_head_to_the_bricks_picture() {

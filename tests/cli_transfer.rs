@@ -7,9 +7,9 @@ mod support;
 use std::path::Path;
 use std::process::{Command, Output};
 
-use voxscope::app::TransferPreset;
 use voxscope_octree::{Colormap, OpacityMode, TransferFunction};
 use voxscope_render::RenderMode;
+use voxscope_scene::SavedTransfer;
 use voxscope_volume::{LoadOptions, ValueWindow};
 
 fn voxscope(args: &[&str]) -> Output {
@@ -104,7 +104,7 @@ fn presets_and_saved_transfer_functions_draw_what_their_flags_draw() {
     assert!(stderr(&unknown).contains("ct-bone"), "{}", stderr(&unknown));
 
     // A file saved by the app: the same picture as the flags it stands for.
-    let saved = TransferPreset {
+    let saved = SavedTransfer {
         transfer: TransferFunction {
             opacity: OpacityMode::Binary,
             window: ValueWindow {

@@ -11,11 +11,11 @@ use super::AppGpu;
 use super::overlays::{draw_rulers, paint_overlays_3d};
 use super::pane_header::{grid_strip, pair_strip, pane_label};
 use super::picking::Picking;
-use super::scene::Scene;
 use super::settings::{AppSettings, Layout, Tool};
 use super::slice_pane::{self, SlicePane};
 use super::view_state::{MAX_GRID_PANES, ViewState};
 use super::viewport::{self, Pane};
+use voxscope_scene::Scene;
 
 mod draw;
 use voxscope_render::{FrameProbe, FrameReport, SliceConvention, read_image};

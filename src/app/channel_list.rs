@@ -5,10 +5,10 @@
 
 use egui::{Color32, RichText, Ui};
 
-use super::channels::CompositeScene;
 use super::command::{Command, CommandQueue};
-use super::transfer_editor::format_value;
 use super::view_state::ViewState;
+use voxscope_scene::CompositeScene;
+use voxscope_volume::format_value;
 
 /// Draws the list; edits the channels' colors and visibility in `view` and asks for another
 /// channel to edit through `queue`.

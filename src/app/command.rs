@@ -7,8 +7,8 @@ use std::path::PathBuf;
 use egui::{Key, KeyboardShortcut, Modifiers};
 
 use super::dialogs::DialogKind;
-use super::scene::VolumeSource;
 use super::settings::{Layout, Tool};
+use voxscope_scene::VolumeSource;
 use voxscope_volume::Selection;
 
 /// An action of the app.

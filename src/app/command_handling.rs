@@ -8,13 +8,14 @@ use std::sync::Arc;
 use super::command::Command;
 use super::dialogs::{self, DialogKind, NOT_SHOWN_WITHIN};
 use super::file_browser::FileBrowser;
-use super::jobs::{DialogAnswer, Job};
-use super::prefetch::FrameKey;
-use super::scene::{FrameChange, VolumeSource, prepare_scene};
+use super::jobs::DialogAnswer;
 use super::settings::AppSettings;
 use super::url_dialog::UrlDialog;
 use super::viewport;
 use super::voxscope_app::VoxscopeApp;
+use voxscope_scene::FrameKey;
+use voxscope_scene::Job;
+use voxscope_scene::{FrameChange, VolumeSource, prepare_scene};
 
 impl VoxscopeApp {
     /// Carries out `command` now. Menus, toolbar and shortcuts queue theirs and the app runs

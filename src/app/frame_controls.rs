@@ -8,8 +8,8 @@ use std::time::{Duration, Instant};
 use egui::Ui;
 
 use super::command::{Command, CommandQueue};
-use super::prefetch::MAX_PREFETCH_FRAMES;
 use super::settings::AppSettings;
+use voxscope_scene::MAX_PREFETCH_FRAMES;
 use voxscope_volume::{MAX_CHANNELS, Selection, Series};
 
 /// Frames a second that playback may ask for.

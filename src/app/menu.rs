@@ -8,8 +8,8 @@ use egui::Ui;
 use super::command::{Command, CommandQueue, Panel, ViewPreset, command_button};
 use super::dialogs::DialogKind;
 use super::jobs::Jobs;
-use super::scene::{Scene, VolumeSource};
 use super::settings::{AppSettings, Layout, Tool};
+use voxscope_scene::{Scene, VolumeSource};
 
 /// How long a notice (`saved …`) stays in the status bar.
 pub const NOTICE_DURATION: Duration = Duration::from_secs(5);

@@ -12,7 +12,6 @@
 mod annotate;
 mod central;
 mod channel_list;
-mod channels;
 mod clip_panel;
 mod command;
 mod command_handling;
@@ -26,7 +25,6 @@ mod overlays;
 mod pane_header;
 mod picking;
 mod prefetch;
-mod scene;
 mod settings;
 mod slice_pane;
 mod stream_panel;
@@ -39,17 +37,14 @@ mod voxscope_app;
 
 use std::sync::Arc;
 
-pub use channels::ChannelState;
 pub use command::{Command, Panel, ViewPreset};
 pub use dialogs::DialogKind;
-pub use jobs::{Job, JobError};
-pub use prefetch::FrameKey;
-pub use scene::{Scene, VolumeData, VolumeSource};
-pub use settings::{AppSettings, Layout, STORAGE_KEY, TransferChoice, TransferPreset};
+pub use settings::{AppSettings, Layout, STORAGE_KEY};
 pub use view_state::ViewState;
 pub use voxscope_app::VoxscopeApp;
 
 use voxscope_render::GpuContext;
+use voxscope_scene::VolumeSource;
 
 /// The GPU as the app shares it with egui-wgpu: the ray casters' context on egui's device,
 /// and egui-wgpu's renderer, which shows the render targets as textures.

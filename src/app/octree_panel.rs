@@ -4,14 +4,14 @@
 use egui::Ui;
 use egui_plot::{Bar, BarChart, Legend, Plot};
 
-use super::channels::CompositeScene;
 use super::clip_panel::{self, ClipContext};
-use super::scene::Scene;
 use super::settings::AppSettings;
 use super::stream_panel;
 use super::view_state::ViewState;
 use voxscope_octree::LevelStatistics;
 use voxscope_render::{FrameReport, HEATMAP_SATURATION, LevelDetail, RendererKind, heatmap_color};
+use voxscope_scene::CompositeScene;
+use voxscope_scene::Scene;
 
 /// What the panel shows besides the settings it edits.
 pub struct OctreeFacts<'a> {

@@ -3,10 +3,10 @@
 
 use egui::{Align2, Color32, Pos2, Rect, Ui, vec2};
 
-use super::scene::Scene;
 use super::settings::{AppSettings, Layout};
 use super::view_state::ViewState;
 use super::viewport::{self, DrawKey};
+use voxscope_scene::Scene;
 
 /// The colors of the slice views, as 3D Slicer's: axial red, coronal green, sagittal yellow.
 /// Index by the axis a slice is perpendicular to (x: sagittal, y: coronal, z: axial).

@@ -4,11 +4,12 @@
 use egui::{Align2, Color32, Rect, RichText, Ui, UiBuilder, vec2};
 
 use super::octree_panel::group_digits;
-use super::scene::Scene;
-use super::settings::{AppSettings, Layout, TransferChoice};
+use super::settings::{AppSettings, Layout};
 use super::view_state::{MAX_GRID_PANES, ViewState};
 use voxscope_octree::OpacityMode;
 use voxscope_render::{LevelDetail, RendererKind};
+use voxscope_scene::Scene;
+use voxscope_scene::TransferChoice;
 
 /// The level grid's strip: how many panes.
 pub fn grid_strip(ui: &mut Ui, settings: &mut AppSettings) {

@@ -6,11 +6,11 @@
 use egui::{Rect, Ui};
 
 use super::AppGpu;
-use super::scene::Scene;
 use super::settings::Tool;
 use super::view_state::{Ruler, ViewState};
 use super::viewport::DrawKey;
 use voxscope_render::{GpuProbe, ProbeRequest};
+use voxscope_scene::Scene;
 
 /// Picking points in the 3D view: the GPU probe, and what its answers are for.
 pub struct Picking {

@@ -1,16 +1,14 @@
 //! What the app remembers between runs (eframe persistence, stored as RON): the transfer
 //! function's choices, render settings, camera, layout, renderer, recent files.
 
-use std::path::Path;
-
 use serde::{Deserialize, Serialize};
 
 use super::command::Panel;
-use voxscope_octree::{Colormap, OpacityMode, TransferFunction};
+use voxscope_octree::{Colormap, OpacityMode};
 use voxscope_render::{
     Camera, DEFAULT_BRICK_SIZE, RenderMode, RendererKind, RendererOptions, Shading,
 };
-use voxscope_volume::ValueWindow;
+use voxscope_scene::TransferChoice;
 
 /// The key under which eframe stores [`AppSettings`].
 pub const STORAGE_KEY: &str = "voxscope.settings";
@@ -57,91 +55,6 @@ impl Layout {
             Self::TransferPair => "Transfer pair (compare settings)",
             Self::Slices => "Slices (3D, axial, coronal, sagittal)",
         }
-    }
-}
-
-/// The transfer-function choices that carry over from one volume to the next (the window is
-/// the data's own and is reset on load).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct TransferChoice {
-    pub opacity: OpacityMode,
-    pub threshold: f32,
-    pub colormap: Colormap,
-}
-
-impl TransferChoice {
-    pub fn with_window(self, window: ValueWindow) -> TransferFunction {
-        TransferFunction {
-            opacity: self.opacity,
-            window,
-            threshold: self.threshold,
-            colormap: self.colormap,
-        }
-    }
-}
-
-impl From<TransferFunction> for TransferChoice {
-    fn from(transfer: TransferFunction) -> Self {
-        Self {
-            opacity: transfer.opacity,
-            threshold: transfer.threshold,
-            colormap: transfer.colormap,
-        }
-    }
-}
-
-/// A saved transfer function (File ▸ Save transfer function…), as RON.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct TransferPreset {
-    pub transfer: TransferFunction,
-    pub density: f32,
-    pub mode: RenderMode,
-}
-
-impl TransferPreset {
-    /// Largest file accepted as a transfer function.
-    const MAX_BYTES: u64 = 1 << 20;
-
-    /// Writes the preset as RON (what File ▸ Save transfer function… saves).
-    pub fn write(&self, path: &Path) -> Result<(), String> {
-        let text = ron::ser::to_string_pretty(self, ron::ser::PrettyConfig::default())
-            .map_err(|e| format!("{}: cannot encode: {e}", path.display()))?;
-        std::fs::write(path, text).map_err(|e| format!("{}: cannot write: {e}", path.display()))
-    }
-
-    /// Reads and validates a file written by File ▸ Save transfer function…; the error is
-    /// one line naming the file.
-    pub fn read(path: &Path) -> Result<Self, String> {
-        let metadata = std::fs::metadata(path).map_err(|e| format!("{}: {e}", path.display()))?;
-        if metadata.len() > Self::MAX_BYTES {
-            return Err(format!(
-                "{}: {} bytes is too large for a transfer function",
-                path.display(),
-                metadata.len()
-            ));
-        }
-        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-        let preset: Self = ron::from_str(&text).map_err(|e| {
-            format!(
-                "{}: not a voxscope transfer function: {}",
-                path.display(),
-                e.to_string().lines().next().unwrap_or_default()
-            )
-        })?;
-        let window = preset.transfer.window;
-        let valid = window.low.is_finite()
-            && window.high.is_finite()
-            && window.high > window.low
-            && (0.0..=1.0).contains(&preset.transfer.threshold)
-            && preset.density > 0.0
-            && preset.density <= 1.0;
-        if !valid {
-            return Err(format!(
-                "{}: the window, threshold or opacity scale is out of range",
-                path.display()
-            ));
-        }
-        Ok(preset)
     }
 }
 
@@ -232,7 +145,7 @@ impl Default for AppSettings {
             slice_linear: false,
             show_slice_planes: true,
             frame_rate: 4.0,
-            prefetch_frames: super::prefetch::DEFAULT_PREFETCH_FRAMES,
+            prefetch_frames: voxscope_scene::DEFAULT_PREFETCH_FRAMES,
             recent: Vec::new(),
         }
     }

@@ -7,10 +7,10 @@
 use egui::{Align2, Color32, PointerButton, Pos2, Rect, Response, Stroke, Ui, pos2, vec2};
 
 use super::overlays::{RULER_COLOR, SLICE_COLORS};
-use super::scene::Scene;
 use super::settings::{AppSettings, Tool};
 use super::view_state::{Ruler, ViewState};
 use voxscope_render::{SliceConvention, SliceFrame, SliceView};
+use voxscope_scene::Scene;
 
 /// How close (in points) the pointer must be to a crop-box edge to drag it.
 const EDGE_GRAB: f32 = 5.0;

@@ -5,8 +5,8 @@
 use egui::Ui;
 
 use super::octree_panel::{format_bytes, group_digits};
-use super::scene::Scene;
 use super::settings::AppSettings;
+use voxscope_scene::Scene;
 use voxscope_stream::StreamStatus;
 
 /// The GPU budgets offered, in MiB (the device's largest 3D texture bounds the atlas anyway).

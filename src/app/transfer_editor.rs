@@ -6,10 +6,10 @@
 
 use egui::{Color32, CornerRadius, Pos2, Rect, Response, Sense, Shape, Stroke, Ui, pos2, vec2};
 
-use super::scene::{HISTOGRAM_BINS, VolumeData};
 use super::settings::AppSettings;
 use voxscope_octree::{ControlPoint, OpacityMode, TransferFunction};
-use voxscope_volume::ValueWindow;
+use voxscope_scene::{HISTOGRAM_BINS, VolumeData};
+use voxscope_volume::{ValueWindow, format_value};
 
 /// Radius of a control point, in points.
 const POINT_RADIUS: f32 = 4.5;
@@ -399,16 +399,4 @@ pub fn preset_button(
         visuals.text_color(),
     );
     response
-}
-
-/// A data value as people write it: integers plain, others with 4 significant digits.
-pub fn format_value(value: f64) -> String {
-    if value.fract() == 0.0 && value.abs() < 1e9 {
-        format!("{value:.0}")
-    } else if value != 0.0 && (value.abs() >= 1e5 || value.abs() < 1e-3) {
-        format!("{value:.3e}")
-    } else {
-        let decimals = (3 - value.abs().log10().floor() as i32).clamp(0, 6) as usize;
-        format!("{value:.decimals$}")
-    }
 }

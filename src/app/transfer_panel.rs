@@ -4,13 +4,13 @@
 
 use egui::Ui;
 
-use super::scene::VolumeData;
 use super::settings::AppSettings;
 use super::transfer_editor;
 use voxscope_octree::{
     Colormap, ControlPoint, DataKind, OpacityCurve, OpacityMode, Preset, labels_transfer,
 };
 use voxscope_render::RenderMode;
+use voxscope_scene::VolumeData;
 use voxscope_volume::ValueWindow;
 
 /// 2-D windows for CT data (Hounsfield units) as level/width pairs radiologists use: they set

@@ -3,9 +3,9 @@
 //! statistics under the live transfer function. (What carries over from one volume to the
 //! next is in [`super::AppSettings`].)
 
-use super::channels::ChannelState;
 use voxscope_octree::{Clip, ClipPlane, LevelStatistics, TransferFunction};
 use voxscope_render::SliceView;
+use voxscope_scene::ChannelState;
 use voxscope_volume::ValueWindow;
 
 /// The level grid's largest pane count.

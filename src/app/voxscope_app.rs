@@ -15,18 +15,20 @@ use super::command::{Command, CommandQueue};
 use super::dialogs::DialogKind;
 use super::file_browser::{BrowserOutcome, FileBrowser};
 use super::frame_controls::{self, Playback};
-use super::jobs::{Job, JobError, JobEvent, Jobs, Opened};
+use super::jobs::{JobEvent, Jobs};
 use super::menu::{self, NOTICE_DURATION};
 use super::octree_panel::{self, OctreeFacts};
 use super::overlays;
-use super::prefetch::{FrameKey, Prefetch};
-use super::scene::{self, Scene, VolumeData, VolumeSource};
-use super::settings::{AppSettings, STORAGE_KEY, TransferChoice, TransferPreset};
+use super::settings::{AppSettings, STORAGE_KEY};
 use super::transfer_panel;
 use super::url_dialog::{UrlDialog, UrlOutcome};
 use super::view_state::{Clipping, ViewState};
 use voxscope_octree::{Clip, LevelStatistics, TransferFunction};
 use voxscope_render::{FrameReport, GpuContext, RendererKind, RendererOptions};
+use voxscope_scene::{FrameKey, Prefetch};
+use voxscope_scene::{Job, Opened, SceneError};
+use voxscope_scene::{SavedTransfer, TransferChoice};
+use voxscope_scene::{Scene, VolumeData, VolumeSource};
 
 /// The voxscope window.
 pub struct VoxscopeApp {
@@ -145,7 +147,7 @@ impl VoxscopeApp {
     }
 
     /// The composite's channels as the 3D views draw them, when the composite is shown.
-    pub fn composite_channels(&self) -> Option<Vec<super::ChannelState>> {
+    pub fn composite_channels(&self) -> Option<Vec<voxscope_scene::ChannelState>> {
         self.scene.as_ref()?.composite.as_ref()?;
         Some(self.view.composite_channels(self.transfer()))
     }
@@ -233,7 +235,7 @@ impl VoxscopeApp {
 
     /// Writes the transfer function, opacity scale and mode as RON.
     pub fn save_transfer(&self, path: &Path) -> Result<(), String> {
-        TransferPreset {
+        SavedTransfer {
             transfer: self.transfer(),
             density: self.settings.density,
             mode: self.settings.mode,
@@ -243,7 +245,7 @@ impl VoxscopeApp {
 
     /// Reads a transfer function saved by [`Self::save_transfer`].
     pub fn load_transfer(&mut self, path: &Path) -> Result<(), String> {
-        let preset = TransferPreset::read(path)?;
+        let preset = SavedTransfer::read(path)?;
         self.settings.transfer = TransferChoice::from(preset.transfer);
         self.view.window = preset.transfer.window;
         self.settings.density = preset.density;
@@ -274,8 +276,8 @@ impl VoxscopeApp {
         for event in self.jobs.poll() {
             match event {
                 JobEvent::Opened(opened) => self.show_opened(*opened),
-                JobEvent::OpenEnded(JobError::Cancelled) => self.notify("opening cancelled"),
-                JobEvent::OpenEnded(JobError::Failed(message)) => self.fail(message),
+                JobEvent::OpenEnded(SceneError::Cancelled) => self.notify("opening cancelled"),
+                JobEvent::OpenEnded(error) => self.fail(error.to_string()),
                 JobEvent::Uploaded(mut scene) => {
                     // The composite does not depend on the renderer of one channel: it stays.
                     if let Some(old) = self.scene.take()
@@ -416,7 +418,9 @@ impl VoxscopeApp {
                 Job::spawn(
                     format!("{} renderer", wanted.kind.name()),
                     move || wake.request_repaint(),
-                    move |progress| scene::upload(data, &context, wanted, transfer, progress),
+                    move |progress| {
+                        voxscope_scene::upload(data, &context, wanted, transfer, progress)
+                    },
                 ),
             ));
         }
@@ -427,7 +431,7 @@ impl VoxscopeApp {
             && self.jobs.counting.is_none()
         {
             let wake = ctx.clone();
-            self.jobs.counting = Some(scene::statistics_job(
+            self.jobs.counting = Some(voxscope_scene::statistics_job(
                 Arc::clone(&scene.data),
                 transfer,
                 self.view.clipping.clip(),

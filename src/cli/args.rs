@@ -4,13 +4,10 @@ use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
 
-use crate::app::TransferPreset;
-use voxscope_octree::{
-    Clip, ClipPlane, Colormap, DataKind, OpacityCurve, OpacityMode, Preset, TransferFunction,
-    default_transfer,
-};
+use voxscope_octree::{Clip, ClipPlane, Colormap, OpacityCurve, OpacityMode, Preset};
 use voxscope_render::{RenderMode, RenderSettings, RendererKind, Shading};
-use voxscope_volume::{LoadOptions, QuantizedVolume, RawLayout, ValueWindow};
+use voxscope_scene::{SavedTransfer, TransferRequest};
+use voxscope_volume::{LoadOptions, RawLayout, ValueWindow};
 
 /// Which volume to open.
 #[derive(Debug, Clone, Args)]
@@ -273,53 +270,35 @@ impl TransferArgs {
     }
 
     /// The saved transfer function of --tf, if given.
-    pub fn saved(&self) -> Result<Option<TransferPreset>, String> {
-        self.tf.as_deref().map(TransferPreset::read).transpose()
+    pub fn saved(&self) -> Result<Option<SavedTransfer>, String> {
+        self.tf.as_deref().map(SavedTransfer::read).transpose()
     }
 
-    /// The transfer function for `volume`, whose values are of `kind`: --tf (`saved`), --preset,
-    /// --opacity-points or --opacity where given (over `default_window`), else the kind's
-    /// default (a CT preset, the labels colormap), else alpha = gray over `default_window`;
-    /// --window and --colormap override any of them.
-    pub fn transfer_function(
-        &self,
-        volume: &QuantizedVolume,
-        kind: DataKind,
-        saved: Option<&TransferPreset>,
-        default_window: ValueWindow,
-    ) -> TransferFunction {
-        let colormap = self.colormap.unwrap_or(Colormap::Grays);
-        let gray = |opacity| TransferFunction {
+    /// What these options ask of the transfer function ([`voxscope_scene::opening_transfer`]
+    /// applies it):
+    /// --tf (`saved`), --preset, --opacity-points or --opacity, --threshold, --window and
+    /// --colormap; without them the data decides.
+    pub fn request(&self, saved: Option<&SavedTransfer>) -> TransferRequest {
+        let opacity = match (self.opacity_points, self.opacity) {
+            (Some(curve), _) => Some(OpacityMode::Points(curve)),
+            (None, Some(OpacityArg::Gray)) => Some(OpacityMode::Gray),
+            (None, Some(OpacityArg::Binary)) => Some(OpacityMode::Binary),
+            (None, None) => None,
+        };
+        TransferRequest {
+            saved: saved.map(|s| s.transfer),
+            preset: self.preset,
             opacity,
-            window: default_window,
-            threshold: self.threshold,
-            colormap,
-        };
-        let mut transfer = if let Some(saved) = saved {
-            saved.transfer
-        } else if let Some(preset) = self.preset {
-            preset.transfer(volume, colormap)
-        } else if let Some(curve) = self.opacity_points {
-            gray(OpacityMode::Points(curve))
-        } else {
-            match self.opacity {
-                Some(OpacityArg::Gray) => gray(OpacityMode::Gray),
-                Some(OpacityArg::Binary) => gray(OpacityMode::Binary),
-                None => default_transfer(volume, kind).unwrap_or_else(|| gray(OpacityMode::Gray)),
-            }
-        };
-        if let Some(window) = self.window {
-            transfer.window = window;
+            threshold: Some(self.threshold),
+            colormap: self.colormap,
+            window: self.window,
+            fallback: None,
         }
-        if let Some(colormap) = self.colormap {
-            transfer.colormap = colormap;
-        }
-        transfer
     }
 
     /// Render settings for an octree of `depth`; the level is clamped to it. `saved` is the
     /// --tf file's, whose opacity scale and mode apply unless given here.
-    pub fn render_settings(&self, depth: u32, saved: Option<&TransferPreset>) -> RenderSettings {
+    pub fn render_settings(&self, depth: u32, saved: Option<&SavedTransfer>) -> RenderSettings {
         let mode = match self.mode {
             Some(ModeArg::Dvr) => RenderMode::Dvr,
             Some(ModeArg::Mip) => RenderMode::Mip,

@@ -150,7 +150,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
         None => (Prepared::new(&args.volume, &transfer_args)?, None),
     };
     let context = GpuContext::new_headless().map_err(|e| e.to_string())?;
-    let depth = prepared.octree.depth;
+    let depth = prepared.data.octree.depth;
     let max_level = args.level.unwrap_or(depth).min(depth);
     let target = RenderTarget::new(&context, args.size.0, args.size.1);
     let timer = GpuTimer::new(&context, args.frames.max(RECOLOR_RUNS));
@@ -198,13 +198,13 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
                 brick_size: args.brick_size,
                 ..Default::default()
             },
-            &prepared.octree,
-            &prepared.quantized,
-            prepared.volume.spacing,
+            &prepared.data.octree,
+            &prepared.data.quantized,
+            prepared.data.volume.spacing,
             depth,
             &prepared.transfer,
         )
-        .map_err(|e| format!("{}: {e}", prepared.volume.name))?;
+        .map_err(|e| format!("{}: {e}", prepared.data.volume.name))?;
         let buffers: serde_json::Map<String, serde_json::Value> = renderer
             .gpu_bytes()
             .into_iter()
@@ -278,20 +278,20 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
         density: args.density,
         clip,
         depth,
-        spacing: prepared.volume.spacing,
+        spacing: prepared.data.volume.spacing,
     };
     for &count in args.composite_channels.as_deref().unwrap_or_default() {
         let layers: Vec<ChannelLayer<'_>> = (0..count)
             .map(|index| ChannelLayer {
-                quantized: &prepared.quantized,
+                quantized: &prepared.data.quantized,
                 transfer: &gray,
-                color: super::composite::DEFAULT_CHANNEL_COLORS[index]
+                color: voxscope_volume::DEFAULT_CHANNEL_COLORS[index]
                     .1
                     .map(|c| c as f32 / 255.0),
             })
             .collect();
-        let volume = CompositeVolume::upload(&context, &layers, prepared.volume.spacing)
-            .map_err(|e| format!("{}: {e}", prepared.volume.name))?;
+        let volume = CompositeVolume::upload(&context, &layers, prepared.data.volume.spacing)
+            .map_err(|e| format!("{}: {e}", prepared.data.volume.name))?;
         gpu_bytes.insert(
             format!("composite-{count}"),
             json!({"textures_and_tables": volume.gpu_bytes()}),
@@ -301,8 +301,8 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
     // A multi-channel file: the composite of its own channels too (`--channel all`).
     if let Some(channels) = &file_channels {
         let layers: Vec<ChannelLayer<'_>> = channels.iter().map(|c| c.layer()).collect();
-        let volume = CompositeVolume::upload(&context, &layers, prepared.volume.spacing)
-            .map_err(|e| format!("{}: {e}", prepared.volume.name))?;
+        let volume = CompositeVolume::upload(&context, &layers, prepared.data.volume.spacing)
+            .map_err(|e| format!("{}: {e}", prepared.data.volume.name))?;
         gpu_bytes.insert(
             "composite-file".into(),
             json!({"textures_and_tables": volume.gpu_bytes()}),
@@ -321,15 +321,15 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
         "size": [target.width, target.height],
         "frames": args.frames,
         "volume": {
-            "file": prepared.volume.name,
-            "dims": prepared.volume.dims,
-            "voxel_type": prepared.volume.voxel_type().name(),
+            "file": prepared.data.volume.name,
+            "dims": prepared.data.volume.dims,
+            "voxel_type": prepared.data.volume.voxel_type().name(),
             "octree_depth": depth,
             "max_level": max_level,
-            "octree_nodes": prepared.octree.nodes.len(),
+            "octree_nodes": prepared.data.octree.nodes.len(),
         },
         "results": results,
-        "build_seconds": prepared.octree.build_seconds,
+        "build_seconds": prepared.data.octree.build_seconds,
         "recolor_ms": recolor_ms,
         "recolor_wall_ms": recolor_wall_ms,
         "brick_size": args.brick_size,

@@ -8,11 +8,14 @@ use clap::Args;
 use super::TransferArgs;
 use super::args::RendererArg;
 use super::render::RenderArgs;
-use voxscope_octree::{Colormap, DataKind, TransferFunction};
+use voxscope_octree::DataKind;
 use voxscope_render::{
     Camera, ChannelLayer, CompositeRaycaster, CompositeVolume, GpuContext, RenderTarget, read_image,
 };
-use voxscope_volume::{QuantizedVolume, ValueWindow, Volume};
+use voxscope_scene::{ChannelRequest, ChannelState};
+use voxscope_volume::{
+    DEFAULT_CHANNEL_COLORS, QuantizedVolume, ValueWindow, Volume, channel_color_by_name,
+};
 
 /// Colors and windows of the channels of a composite.
 #[derive(Debug, Clone, Args)]
@@ -28,26 +31,12 @@ pub struct ChannelArgs {
     pub channel_window: Vec<(usize, ValueWindow)>,
 }
 
-/// The colors channels take where neither the command line nor the file names one (napari's
-/// order for additive channels).
-pub const DEFAULT_CHANNEL_COLORS: [(&str, [u8; 3]); 8] = [
-    ("green", [0, 255, 0]),
-    ("magenta", [255, 0, 255]),
-    ("cyan", [0, 255, 255]),
-    ("yellow", [255, 255, 0]),
-    ("red", [255, 0, 0]),
-    ("blue", [0, 0, 255]),
-    ("orange", [255, 165, 0]),
-    ("gray", [255, 255, 255]),
-];
-
 /// A color name of [`DEFAULT_CHANNEL_COLORS`] (`grey` too) or `#rrggbb`.
 pub fn parse_color(text: &str) -> Result<[u8; 3], String> {
-    let name = text.trim().to_lowercase();
-    let name = if name == "grey" { "gray".into() } else { name };
-    if let Some((_, rgb)) = DEFAULT_CHANNEL_COLORS.iter().find(|(n, _)| *n == name) {
-        return Ok(*rgb);
+    if let Some(rgb) = channel_color_by_name(text) {
+        return Ok(rgb);
     }
+    let name = text.trim().to_lowercase();
     if let Some(hex) = name.strip_prefix('#')
         && hex.len() == 6
         && let Ok(value) = u32::from_str_radix(hex, 16)
@@ -75,12 +64,11 @@ fn parse_channel_window(text: &str) -> Result<(usize, ValueWindow), String> {
     Ok((channel, window))
 }
 
-/// One channel ready to draw: its levels, transfer function and color.
+/// One channel ready to draw: its values and how it is drawn (color, window, opacity).
 pub struct PreparedChannel {
     pub volume: Volume,
     pub quantized: QuantizedVolume,
-    pub transfer: TransferFunction,
-    pub color: [u8; 3],
+    pub state: ChannelState,
 }
 
 impl PreparedChannel {
@@ -88,68 +76,52 @@ impl PreparedChannel {
     pub fn layer(&self) -> ChannelLayer<'_> {
         ChannelLayer {
             quantized: &self.quantized,
-            transfer: &self.transfer,
-            color: self.color.map(|c| c as f32 / 255.0),
+            transfer: &self.state.transfer,
+            color: self.state.color.map(|c| c as f32 / 255.0),
         }
     }
 }
 
 impl ChannelArgs {
-    /// Quantizes `channels` and gives each its transfer function (`transfer`'s opacity
-    /// over the channel's window, grays, to be tinted) and color. A channel number in
-    /// --channel-window or --channel-colors beyond the channels is an error.
+    /// What these options ask of the channels' colors and windows.
+    pub fn request(&self) -> ChannelRequest {
+        ChannelRequest {
+            colors: self.channel_colors.clone().unwrap_or_default(),
+            windows: self.channel_window.clone(),
+        }
+    }
+
+    /// Quantizes `channels` and gives each its color and transfer function as the scene
+    /// layer opens channels ([`ChannelState::opening_of`]): `transfer`'s request over the
+    /// channel's window, in grays, to be tinted. A channel number in --channel-window or
+    /// --channel-colors beyond the channels is an error.
     pub fn prepare(
         &self,
         channels: Vec<Volume>,
         transfer: &TransferArgs,
     ) -> Result<Vec<PreparedChannel>, String> {
-        let count = channels.len();
-        if let Some((channel, _)) = self.channel_window.iter().find(|(c, _)| *c >= count) {
-            return Err(format!(
-                "--channel-window {channel}: there are {count} channels (0 to {})",
-                count - 1
-            ));
-        }
-        if let Some(colors) = &self.channel_colors
-            && colors.len() > count
-        {
-            return Err(format!(
-                "--channel-colors gives {} colors for {count} channels",
-                colors.len()
-            ));
-        }
+        let request = self.request();
+        request.check(channels.len())?;
         let saved = transfer.saved()?;
+        let transfer_request = transfer.request(saved.as_ref());
         Ok(channels
             .into_iter()
             .enumerate()
             .map(|(index, volume)| {
                 let quantized = QuantizedVolume::new(&volume);
-                let file_channel = volume.series.channels.get(volume.series.selected.channel);
-                let window = self
-                    .channel_window
-                    .iter()
-                    .rev()
-                    .find(|(c, _)| *c == index)
-                    .map(|(_, w)| *w)
-                    .or_else(|| file_channel.and_then(|c| c.window))
-                    .or(volume.default_window)
-                    .unwrap_or_else(|| quantized.robust_window());
                 let kind = DataKind::of_volume(&volume, &quantized);
-                let mut function =
-                    transfer.transfer_function(&quantized, kind, saved.as_ref(), window);
-                function.window = window;
-                function.colormap = Colormap::Grays;
-                let color = self
-                    .channel_colors
-                    .as_ref()
-                    .and_then(|colors| colors.get(index).copied())
-                    .or_else(|| file_channel.and_then(|c| c.color))
-                    .unwrap_or(DEFAULT_CHANNEL_COLORS[index % DEFAULT_CHANNEL_COLORS.len()].1);
+                let state = ChannelState::opening_of(
+                    &volume,
+                    &quantized,
+                    kind,
+                    index,
+                    &transfer_request,
+                    &request,
+                );
                 PreparedChannel {
                     volume,
                     quantized,
-                    transfer: function,
-                    color,
+                    state,
                 }
             })
             .collect())
@@ -193,7 +165,8 @@ pub(super) fn render(args: &RenderArgs, channels: Vec<Volume>) -> Result<(), Str
         .map_err(|e| format!("cannot write {}: {e}", args.output.display()))?;
     let colors: Vec<String> = prepared
         .iter()
-        .map(|c| format!("#{:02x}{:02x}{:02x}", c.color[0], c.color[1], c.color[2]))
+        .map(|c| c.state.color)
+        .map(|c| format!("#{:02x}{:02x}{:02x}", c[0], c[1], c[2]))
         .collect();
     eprintln!(
         "wrote {} ({}x{}, composite of {} channels ({}), dense renderer) on {} in {:.2} s",

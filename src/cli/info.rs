@@ -3,9 +3,9 @@
 use clap::Args;
 use serde_json::json;
 
-use super::prepare::beyond_octree;
 use super::{Prepared, TransferArgs, VolumeArgs};
 use voxscope_octree::{MAX_DEPTH, Node, full_tree_nodes, level_statistics};
+use voxscope_scene::beyond_octree;
 use voxscope_volume::ome_zarr::{Pyramid, is_zarr_spec};
 use voxscope_volume::{QuantizedVolume, ValueWindow, Volume, format_dims};
 
@@ -235,18 +235,18 @@ fn print_beyond_octree(volume: &Volume, pyramid: Option<&Pyramid>, as_json: bool
 }
 
 fn info_json(p: &Prepared) -> serde_json::Value {
-    let levels = level_statistics(&p.octree);
+    let levels = level_statistics(&p.data.octree);
     json!({
-        "volume": volume_json(&p.volume, &p.quantized),
+        "volume": volume_json(&p.data.volume, &p.data.quantized),
         "octree": {
-            "depth": p.octree.depth,
-            "side": p.octree.side(),
+            "depth": p.data.octree.depth,
+            "side": p.data.octree.side(),
             "node_bytes": std::mem::size_of::<Node>(),
-            "total_nodes": p.octree.nodes.len(),
-            "total_bytes": p.octree.node_bytes(),
-            "full_tree_nodes": full_tree_nodes(p.octree.depth),
-            "collapsed_uniform": p.octree.collapsed,
-            "build_seconds": p.octree.build_seconds,
+            "total_nodes": p.data.octree.nodes.len(),
+            "total_bytes": p.data.octree.node_bytes(),
+            "full_tree_nodes": full_tree_nodes(p.data.octree.depth),
+            "collapsed_uniform": p.data.octree.collapsed,
+            "build_seconds": p.data.octree.build_seconds,
             "recolor_seconds": p.recolor_time.as_secs_f64(),
             "recolor_device": "cpu",
             "levels": levels,
@@ -292,9 +292,9 @@ fn composite_json(channels: &[super::composite::PreparedChannel]) -> serde_json:
                     "index": index,
                     "file": c.volume.name,
                     "name": series.channels.get(series.selected.channel).and_then(|i| i.name.clone()),
-                    "color": hex_color(c.color),
+                    "color": hex_color(c.state.color),
                     "value_range": c.quantized.value_range,
-                    "window": [c.transfer.window.low, c.transfer.window.high],
+                    "window": [c.state.transfer.window.low, c.state.transfer.window.high],
                 })
             })
             .collect::<Vec<_>>()
@@ -319,9 +319,9 @@ fn composite_table(channels: &[super::composite::PreparedChannel]) -> String {
         let _ = writeln!(
             out,
             "  channel {index}  {name}  {}  range {low} … {high}  window {} … {}",
-            hex_color(c.color),
-            c.transfer.window.low,
-            c.transfer.window.high
+            hex_color(c.state.color),
+            c.state.transfer.window.low,
+            c.state.transfer.window.high
         );
     }
     out
@@ -405,8 +405,13 @@ fn volume_lines(
 
 fn info_table(p: &Prepared, with_series: bool) -> String {
     use std::fmt::Write;
-    let octree = &p.octree;
-    let mut out = volume_lines(&p.volume, &p.quantized, p.transfer.window, with_series);
+    let octree = &p.data.octree;
+    let mut out = volume_lines(
+        &p.data.volume,
+        &p.data.quantized,
+        p.transfer.window,
+        with_series,
+    );
     let _ = writeln!(
         out,
         "octree       depth {}, cube {}³, 8-byte nodes{}",

@@ -63,7 +63,7 @@ pub fn run() -> std::process::ExitCode {
         Some(Command::Slice(args)) => slice::run(&args),
         Some(Command::Convert(args)) => convert::run(&args),
         None => crate::app::run(
-            cli.file.map(crate::app::VolumeSource::Spec),
+            cli.file.map(voxscope_scene::VolumeSource::Spec),
             cli.clip.clip(),
         ),
     };

@@ -1,25 +1,27 @@
-//! The CPU half of every command: load, quantize, build the octree, color it.
+//! The CPU half of every command, through the scene layer: load, quantize, build the octree,
+//! choose the transfer function ([`voxscope_scene::opening_transfer`]) and color it.
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
-use crate::app::TransferPreset;
-use voxscope_octree::{BuildOptions, DataKind, Octree, TransferFunction};
+use voxscope_octree::{self as octree, TransferFunction};
 use voxscope_render::{GpuContext, RendererKind};
-use voxscope_volume::progress::Progress;
-use voxscope_volume::{QuantizedVolume, Volume};
+use voxscope_scene::{
+    Progress, SavedTransfer, SceneError, VolumeData, VolumeSource, beyond_octree, opening_transfer,
+    renderer_for_octree,
+};
+use voxscope_volume::Volume;
 
 use super::{TransferArgs, VolumeArgs};
 
-/// A volume ready to draw: its octree colored by a transfer function.
+/// A volume ready to draw: its data (quantized, octree, histogram) with its octree colored by
+/// the transfer function the options ask for.
 pub struct Prepared {
-    pub volume: Volume,
-    pub quantized: QuantizedVolume,
-    pub octree: Octree,
+    pub data: VolumeData,
     pub transfer: TransferFunction,
     /// The transfer function file of --tf, whose opacity scale and mode apply too.
-    pub saved: Option<TransferPreset>,
+    pub saved: Option<SavedTransfer>,
     pub recolor_time: Duration,
 }
 
@@ -34,27 +36,29 @@ impl Prepared {
     /// Prepares `volume`, loaded already (a channel of a composite that has only one).
     pub fn from_volume(volume: Volume, transfer_args: &TransferArgs) -> Result<Self, String> {
         let saved = transfer_args.saved()?;
-        let quantized = QuantizedVolume::new(&volume);
-        let mut octree = build_reporting_progress(&quantized).map_err(|e| {
+        let source = VolumeSource::from_spec(&volume.name);
+        let dims = volume.dims;
+        let mut data = reporting_progress(|progress| {
+            VolumeData::prepare(&source, volume, Instant::now(), progress)
+        })
+        .map_err(|e| {
             // The paper's octree keeps its limit; the streamed bricks have none.
-            let hint = if beyond_octree(volume.dims) {
+            let hint = if beyond_octree(dims) {
                 " (render draws it with --renderer bricks or stream, bench with --stream)"
             } else {
                 ""
             };
-            format!("{}: {e}{hint}", volume.name)
+            format!("{e}{hint}")
         })?;
-        let kind = DataKind::of_volume(&volume, &quantized);
-        // A file's own window (OME-Zarr's omero) where it has one, else the percentiles.
-        let window = volume
-            .default_window
-            .unwrap_or_else(|| quantized.robust_window());
-        let transfer = transfer_args.transfer_function(&quantized, kind, saved.as_ref(), window);
-        let recolor_time = voxscope_octree::recolor(&mut octree, &transfer);
+        let transfer = opening_transfer(
+            &data.quantized,
+            data.kind,
+            data.default_window,
+            &transfer_args.request(saved.as_ref()),
+        );
+        let recolor_time = octree::recolor(&mut data.octree, &transfer);
         Ok(Self {
-            volume,
-            quantized,
-            octree,
+            data,
             transfer,
             saved,
             recolor_time,
@@ -62,11 +66,11 @@ impl Prepared {
     }
 }
 
-/// Builds the octree; a build still running after a second prints its progress to stderr
-/// once a second (`building octree: 42 %`), so large volumes do not look hung.
-fn build_reporting_progress(
-    quantized: &QuantizedVolume,
-) -> Result<Octree, voxscope_octree::BuildError> {
+/// Runs `work`; while it still runs after a second, prints its progress to stderr once a
+/// second (`building octree: 42 %`), so large volumes do not look hung.
+fn reporting_progress<T>(
+    work: impl FnOnce(&Progress) -> Result<T, SceneError>,
+) -> Result<T, SceneError> {
     let progress = Arc::new(Progress::new());
     let finished = Arc::new(AtomicBool::new(false));
     let reporter = {
@@ -89,18 +93,10 @@ fn build_reporting_progress(
             }
         })
     };
-    let result =
-        voxscope_octree::build_with_progress(quantized, BuildOptions::default(), &progress);
+    let result = work(&progress);
     finished.store(true, Ordering::Relaxed);
     let _ = reporter.join();
     result
-}
-
-/// Whether a volume of `dims` is longer than the voxel octree holds (1024 voxels a side, depth
-/// [`voxscope_octree::MAX_DEPTH`]): `render` then draws it with the streaming renderer from memory
-/// unless `octree` or `dense` is asked for.
-pub(super) fn beyond_octree(dims: [usize; 3]) -> bool {
-    dims.iter().any(|&d| d > 1 << voxscope_octree::MAX_DEPTH)
 }
 
 /// The renderer for `render` and `slice` when none was asked for, as the app chooses: the
@@ -108,20 +104,12 @@ pub(super) fn beyond_octree(dims: [usize; 3]) -> bool {
 /// `level` exceed one of the device's storage buffers.
 pub(super) fn default_renderer(
     context: &GpuContext,
-    octree: &Octree,
+    octree: &octree::Octree,
     level: u32,
     then: &str,
 ) -> RendererKind {
-    let nodes = octree.nodes_through_level(level);
-    let bytes = (nodes * std::mem::size_of::<voxscope_octree::Node>()) as u64;
-    if bytes <= context.max_storage_bytes() {
-        return RendererKind::Octree;
-    }
-    eprintln!(
-        "the octree through level {level} needs {} MiB of nodes but this GPU ({}) allows {} MiB per storage buffer; {then} with bricks",
-        bytes.div_ceil(1 << 20),
-        context.adapter_info.name,
-        context.max_storage_bytes() >> 20
-    );
-    RendererKind::Bricks
+    renderer_for_octree(context, octree, level).unwrap_or_else(|(kind, reason)| {
+        eprintln!("{reason}; {then} with bricks");
+        kind
+    })
 }

@@ -6,14 +6,15 @@ use std::time::{Duration, Instant};
 use clap::Args;
 
 use super::args::RendererArg;
-use super::prepare::{beyond_octree, default_renderer};
-use super::stream::{StreamArgs, StreamPrepared, describe_missing, refine};
+use super::prepare::default_renderer;
+use super::stream::{StreamArgs, open_streamed};
 use super::{ClipArgs, Prepared, TransferArgs, VolumeArgs};
 use voxscope_octree::MAX_DEPTH;
 use voxscope_render::{
     Camera, DEFAULT_BRICK_SIZE, GpuContext, RenderTarget, RendererOptions, VolumeRenderer,
     read_image,
 };
+use voxscope_scene::{SavedTransfer, StreamedVolume, beyond_octree, describe_missing, refine};
 use voxscope_volume::format_dims;
 
 #[derive(Debug, Args)]
@@ -63,8 +64,8 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     check_output(&args.output, args.volume.file.as_deref())?;
     check_max_wait(args.max_wait)?;
     if args.renderer == Some(RendererArg::Stream) {
-        let prepared = StreamPrepared::new(&args.volume, &args.transfer)?;
-        return run_stream(args, prepared, Instant::now());
+        let (streamed, saved) = open_streamed(&args.volume, &args.transfer)?;
+        return run_stream(args, streamed, saved, Instant::now());
     }
     let started = Instant::now();
     let volume = match args.volume.composite_channels()? {
@@ -82,18 +83,26 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
             format_dims(volume.dims),
             1u32 << MAX_DEPTH
         );
-        let prepared = StreamPrepared::from_volume(volume, &args.transfer, started)?;
-        return run_stream(args, prepared, started);
+        let saved = args.transfer.saved()?;
+        let streamed =
+            StreamedVolume::from_volume(volume, &args.transfer.request(saved.as_ref()), started)
+                .map_err(|e| e.to_string())?;
+        return run_stream(args, streamed, saved, started);
     }
     let prepared = Prepared::from_volume(volume, &args.transfer)?;
     let mut settings = args
         .transfer
-        .render_settings(prepared.octree.depth, prepared.saved.as_ref());
+        .render_settings(prepared.data.octree.depth, prepared.saved.as_ref());
     settings.clip = args.clip.clip();
     let context = GpuContext::new_headless().map_err(|e| e.to_string())?;
     let kind = match args.renderer {
         Some(renderer) => renderer.into(),
-        None => default_renderer(&context, &prepared.octree, settings.max_level, "rendering"),
+        None => default_renderer(
+            &context,
+            &prepared.data.octree,
+            settings.max_level,
+            "rendering",
+        ),
     };
     let renderer = VolumeRenderer::new(
         &context,
@@ -102,13 +111,13 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
             brick_size: args.brick_size,
             ..Default::default()
         },
-        &prepared.octree,
-        &prepared.quantized,
-        prepared.volume.spacing,
+        &prepared.data.octree,
+        &prepared.data.quantized,
+        prepared.data.volume.spacing,
         settings.max_level,
         &prepared.transfer,
     )
-    .map_err(|e| format!("{}: {e}", prepared.volume.name))?;
+    .map_err(|e| format!("{}: {e}", prepared.data.volume.name))?;
     let target = RenderTarget::new(&context, args.size.0, args.size.1);
     let camera = Camera {
         azimuth_deg: args.azimuth,
@@ -129,7 +138,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         target.height,
         renderer.kind().name(),
         settings.max_level,
-        prepared.octree.depth,
+        prepared.data.octree.depth,
         context.describe(),
         started.elapsed().as_secs_f64()
     );
@@ -147,12 +156,17 @@ fn check_max_wait(max_wait: f64) -> Result<(), String> {
 
 /// `render --renderer stream` (and `bricks` beyond the octree): draws `prepared`'s pyramid,
 /// opened since `started`, until nothing visible is missing (or `--max-wait`), writes the
-/// image.
-fn run_stream(args: &RenderArgs, prepared: StreamPrepared, started: Instant) -> Result<(), String> {
+/// image. `saved` is the --tf file.
+fn run_stream(
+    args: &RenderArgs,
+    prepared: StreamedVolume,
+    saved: Option<SavedTransfer>,
+    started: Instant,
+) -> Result<(), String> {
     let name = prepared.source.name().to_owned();
     let mut settings = args
         .transfer
-        .render_settings(prepared.depth(), prepared.saved.as_ref());
+        .render_settings(prepared.depth(), saved.as_ref());
     settings.clip = args.clip.clip();
     let context = GpuContext::new_headless().map_err(|e| e.to_string())?;
     let mut renderer = VolumeRenderer::new_stream(
@@ -177,7 +191,8 @@ fn run_stream(args: &RenderArgs, prepared: StreamPrepared, started: Instant) -> 
         &camera,
         &settings,
         Duration::from_secs_f64(args.max_wait),
-    )?;
+    )
+    .map_err(|e| e.to_string())?;
     for error in &refinement.errors {
         eprintln!("{error}");
     }

@@ -88,7 +88,7 @@ pub fn run(args: &SliceArgs) -> Result<(), String> {
         ..TransferArgs::defaults()
     };
     let prepared = Prepared::new(&args.volume, &transfer_args)?;
-    let volume = &prepared.volume;
+    let volume = &prepared.data.volume;
     let axis = args.axis.index();
     let side = volume.dims[axis];
     let index = args.index.unwrap_or(side / 2);
@@ -118,7 +118,12 @@ pub fn run(args: &SliceArgs) -> Result<(), String> {
             ));
         }
         Some(renderer) => renderer.into(),
-        None => default_renderer(&context, &prepared.octree, prepared.octree.depth, "slicing"),
+        None => default_renderer(
+            &context,
+            &prepared.data.octree,
+            prepared.data.octree.depth,
+            "slicing",
+        ),
     };
     let renderer = VolumeRenderer::new(
         &context,
@@ -127,10 +132,10 @@ pub fn run(args: &SliceArgs) -> Result<(), String> {
             brick_size: args.brick_size,
             ..Default::default()
         },
-        &prepared.octree,
-        &prepared.quantized,
+        &prepared.data.octree,
+        &prepared.data.quantized,
         volume.spacing,
-        prepared.octree.depth,
+        prepared.data.octree.depth,
         &prepared.transfer,
     )
     .map_err(|e| format!("{}: {e}", volume.name))?;

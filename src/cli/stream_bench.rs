@@ -11,12 +11,13 @@ use serde_json::json;
 
 use super::args::{OpacityArg, TransferArgs};
 use super::bench::BenchArgs;
-use super::stream::{StreamPrepared, refine};
+use super::stream::open_streamed;
 use voxscope_octree::{BuildOptions, TransferFunction};
 use voxscope_render::{
     Camera, GpuContext, GpuTimer, RenderMode, RenderSettings, RenderTarget, RendererKind,
     RendererOptions, Shading, VolumeRenderer, time_passes, timing_name,
 };
+use voxscope_scene::{StreamedVolume, refine};
 use voxscope_stream::{Downsampling, MemorySource, StreamOptions, preview};
 
 /// The paper's cameras, in bounding-sphere radii.
@@ -73,7 +74,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
     // function's defaults), the renderer made (the always-resident levels read), one frame
     // drawn and finished.
     let opened = Instant::now();
-    let prepared = StreamPrepared::new(&args.volume, &transfer_args)?;
+    let (prepared, _) = open_streamed(&args.volume, &transfer_args)?;
     let options = prepared.stream_options(options);
     let name = prepared.source.name().to_owned();
     let depth = prepared.depth();
@@ -91,7 +92,8 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
     let first_image_s = opened.elapsed().as_secs_f64();
 
     // The stopped view, from that first image to complete.
-    let refinement = refine(&context, &mut renderer, &target, &medium, &gray, MAX_WAIT)?;
+    let refinement = refine(&context, &mut renderer, &target, &medium, &gray, MAX_WAIT)
+        .map_err(|e| e.to_string())?;
     let complete_s = opened.elapsed().as_secs_f64();
     let counters = &refinement.status.counters;
     let floor_bytes = counters.view_slots as u64 * counters.slot_bytes;
@@ -230,7 +232,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
 fn resident_comparison(
     context: &GpuContext,
     args: &BenchArgs,
-    prepared: &StreamPrepared,
+    prepared: &StreamedVolume,
     target: &RenderTarget,
     options: StreamOptions,
     timer: Option<&GpuTimer>,
@@ -289,7 +291,8 @@ fn resident_comparison(
                 distance,
                 ..Camera::default()
             };
-            let refinement = refine(context, &mut stream, target, &camera, &settings, MAX_WAIT)?;
+            let refinement = refine(context, &mut stream, target, &camera, &settings, MAX_WAIT)
+                .map_err(|e| e.to_string())?;
             let (stream_gpu, stream_wall) = time_view(
                 context,
                 &stream,

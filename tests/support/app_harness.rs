@@ -6,7 +6,8 @@ use std::time::{Duration, Instant};
 
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
-use voxscope::app::{VolumeSource, VoxscopeApp, wgpu_setup};
+use voxscope::app::{VoxscopeApp, wgpu_setup};
+use voxscope_scene::VolumeSource;
 
 pub const SIZE: egui::Vec2 = egui::vec2(1280.0, 800.0);
 

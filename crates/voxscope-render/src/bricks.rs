@@ -143,7 +143,7 @@ impl GpuBricks {
             storage,
         );
         if let Some(error) = pollster::block_on(out_of_memory.pop()) {
-            return Err(RenderError(format!(
+            return Err(RenderError::DoesNotFit(format!(
                 "the GPU has no room for the bricks: {error}"
             )));
         }

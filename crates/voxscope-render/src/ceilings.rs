@@ -183,10 +183,11 @@ impl Kit {
     fn new(context: &GpuContext, sizes: CeilingSizes) -> Result<Self, RenderError> {
         let device = &context.device;
         let stream_bytes = sizes.stream_bytes.min(context.max_storage_bytes()) / 16 * 16;
-        let elements = u32::try_from(stream_bytes / 16)
-            .map_err(|_| RenderError("the bandwidth kernel streams at most 64 GiB".into()))?;
+        let elements = u32::try_from(stream_bytes / 16).map_err(|_| {
+            RenderError::Invalid("the bandwidth kernel streams at most 64 GiB".into())
+        })?;
         if elements == 0 || sizes.repeats == 0 {
-            return Err(RenderError(
+            return Err(RenderError::Invalid(
                 "ceilings need a positive stream size and repeat count".into(),
             ));
         }
@@ -345,7 +346,8 @@ impl Kit {
     /// Checks what `kernel` wrote against what it must have computed.
     fn check(&self, context: &GpuContext, kernel: usize) -> Result<(), RenderError> {
         let name = KERNELS[kernel].0;
-        let wrong = |detail: String| RenderError(format!("ceilings: the {name} kernel {detail}"));
+        let wrong =
+            |detail: String| RenderError::Invalid(format!("ceilings: the {name} kernel {detail}"));
         if name == "stream" {
             let bytes = self.stream_bytes();
             let copied = read_buffer(context, &self.destination, bytes)?;

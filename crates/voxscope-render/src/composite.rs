@@ -150,21 +150,25 @@ impl CompositeVolume {
         spacing: [f64; 3],
     ) -> Result<Self, RenderError> {
         let Some(first) = layers.first() else {
-            return Err(RenderError("a composite needs at least one channel".into()));
+            return Err(RenderError::Invalid(
+                "a composite needs at least one channel".into(),
+            ));
         };
         if layers.len() > MAX_CHANNELS {
-            return Err(RenderError(format!(
+            return Err(RenderError::Invalid(format!(
                 "{} channels; a composite shows at most {MAX_CHANNELS}",
                 layers.len()
             )));
         }
         let dims = first.quantized.dims;
         if layers.iter().any(|layer| layer.quantized.dims != dims) {
-            return Err(RenderError("the channels' dimensions differ".into()));
+            return Err(RenderError::Invalid(
+                "the channels' dimensions differ".into(),
+            ));
         }
         let limit = context.limits.max_texture_dimension_3d as usize;
         if dims.iter().any(|&d| d > limit) {
-            return Err(RenderError(format!(
+            return Err(RenderError::Invalid(format!(
                 "the composite needs a {}x{}x{} 3D texture but this GPU allows {limit} per side",
                 dims[0], dims[1], dims[2]
             )));
@@ -207,7 +211,7 @@ impl CompositeVolume {
                 usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             });
         if let Some(error) = pollster::block_on(out_of_memory.pop()) {
-            return Err(RenderError(format!(
+            return Err(RenderError::DoesNotFit(format!(
                 "the GPU has no room for the composite: {error}"
             )));
         }

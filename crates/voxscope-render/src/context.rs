@@ -1,20 +1,27 @@
 //! The wgpu device: created headless here (CLI, tests, benchmarks), or handed over by the app.
 
-use std::fmt;
-
 use super::pipeline_cache::PipelineCache;
 
-/// Why rendering could not start or go on.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct RenderError(pub String);
-
-impl fmt::Display for RenderError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(&self.0)
-    }
+/// Why rendering could not start or go on; each displays as one line. Callers branch on the
+/// variant: a volume that does not fit one renderer may fit another.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum RenderError {
+    /// What the renderer needs is more than this device allows or has room for (a storage
+    /// buffer, a 3D texture's side, memory).
+    #[error("{0}")]
+    DoesNotFit(String),
+    /// There is no device: no adapter was found, or it refused a device.
+    #[error("{0}")]
+    NoDevice(String),
+    /// The device failed while working: a wait or a readback did not complete (a lost
+    /// device, a dropped mapping).
+    #[error("{0}")]
+    DeviceLost(String),
+    /// What was asked makes no sense here (a pixel outside the image, channels of different
+    /// grids, a recolor of an octree only partly on the GPU).
+    #[error("{0}")]
+    Invalid(String),
 }
-
-impl std::error::Error for RenderError {}
 
 /// A device, its queue and what it can do, decided once; and the pipelines built with it,
 /// each once ([`PipelineCache`]).
@@ -69,7 +76,7 @@ impl GpuContext {
         };
         // The adapter keeps what it needs of the instance alive.
         pollster::block_on(instance.request_adapter(&options)).map_err(|e| {
-            RenderError(format!(
+            RenderError::NoDevice(format!(
                 "no GPU adapter found ({e}); for a software device install mesa-vulkan-drivers and set WGPU_BACKEND=vulkan"
             ))
         })
@@ -79,7 +86,7 @@ impl GpuContext {
     pub fn from_adapter(adapter: &wgpu::Adapter) -> Result<Self, RenderError> {
         let descriptor = Self::device_descriptor(adapter);
         let (device, queue) = pollster::block_on(adapter.request_device(&descriptor))
-            .map_err(|e| RenderError(format!("the GPU refused a device: {e}")))?;
+            .map_err(|e| RenderError::NoDevice(format!("the GPU refused a device: {e}")))?;
         Ok(Self::from_device(device, queue, adapter.get_info()))
     }
 
@@ -107,7 +114,7 @@ impl GpuContext {
         self.device
             .poll(wgpu::PollType::wait_indefinitely())
             .map(|_| ())
-            .map_err(|e| RenderError(format!("GPU wait failed: {e}")))
+            .map_err(|e| RenderError::DeviceLost(format!("GPU wait failed: {e}")))
     }
 
     /// Largest buffer a shader can bind as storage, in bytes.

@@ -45,7 +45,7 @@ impl GpuVolume {
                 Some(level) => format!("; try --level {level} or lower"),
                 None => String::new(),
             };
-            return Err(RenderError(format!(
+            return Err(RenderError::DoesNotFit(format!(
                 "the octree through level {uploaded_level} needs {} MiB of nodes but this GPU ({}) allows {} MiB per storage buffer{advice}",
                 bytes.div_ceil(1 << 20),
                 context.adapter_info.name,
@@ -69,7 +69,7 @@ impl GpuVolume {
         });
         let transfer = GpuTransferTable::new(context, octree.quantization, transfer);
         if let Some(error) = pollster::block_on(out_of_memory.pop()) {
-            return Err(RenderError(format!(
+            return Err(RenderError::DoesNotFit(format!(
                 "the GPU ({}) has no room for the octree's {} MiB: {error}; try a lower --level",
                 context.adapter_info.name,
                 bytes.div_ceil(1 << 20)

@@ -42,7 +42,7 @@ impl LevelTexture {
     ) -> Result<Self, RenderError> {
         let limit = context.limits.max_texture_dimension_3d as usize;
         if dims.iter().any(|&d| d > limit) {
-            return Err(RenderError(format!(
+            return Err(RenderError::DoesNotFit(format!(
                 "the {label} needs a {}x{}x{} 3D texture but this GPU allows {limit} per side",
                 dims[0], dims[1], dims[2]
             )));
@@ -91,7 +91,7 @@ impl LevelTexture {
             size,
         );
         if let Some(error) = pollster::block_on(out_of_memory.pop()) {
-            return Err(RenderError(format!(
+            return Err(RenderError::DoesNotFit(format!(
                 "the GPU has no room for the {label}: {error}"
             )));
         }

@@ -57,7 +57,7 @@ impl ProbeRequest<'_> {
         let [x, y] = self.pixel;
         let [width, height] = self.size;
         if x >= width || y >= height {
-            return Err(RenderError(format!(
+            return Err(RenderError::Invalid(format!(
                 "the probed pixel ({x}, {y}) is outside the {width}x{height} image"
             )));
         }
@@ -226,7 +226,9 @@ pub fn probe_pixel(
     probe
         .poll(context)
         .map(|outcome| outcome.hit)
-        .ok_or_else(|| RenderError("the GPU probe's answer could not be read back".into()))
+        .ok_or_else(|| {
+            RenderError::DeviceLost("the GPU probe's answer could not be read back".into())
+        })
 }
 
 #[cfg(test)]

@@ -12,11 +12,11 @@ fn map_and_read(context: &GpuContext, buffer: &wgpu::Buffer) -> Result<Vec<u8>, 
     context.wait_idle()?;
     receiver
         .recv()
-        .map_err(|_| RenderError("GPU readback was dropped".into()))?
-        .map_err(|e| RenderError(format!("GPU readback failed: {e}")))?;
+        .map_err(|_| RenderError::DeviceLost("GPU readback was dropped".into()))?
+        .map_err(|e| RenderError::DeviceLost(format!("GPU readback failed: {e}")))?;
     let bytes = slice
         .get_mapped_range()
-        .map_err(|e| RenderError(format!("GPU readback failed: {e}")))?
+        .map_err(|e| RenderError::DeviceLost(format!("GPU readback failed: {e}")))?
         .to_vec();
     buffer.unmap();
     Ok(bytes)
@@ -86,7 +86,7 @@ pub fn read_image(
         pixels.extend_from_slice(&row[..unpadded as usize]);
     }
     image::RgbaImage::from_raw(target.width, target.height, pixels)
-        .ok_or_else(|| RenderError("GPU image has the wrong size".into()))
+        .ok_or_else(|| RenderError::Invalid("GPU image has the wrong size".into()))
 }
 
 /// Nodes visited by each pixel's ray in the last frame of `target`.

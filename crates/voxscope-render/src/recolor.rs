@@ -41,7 +41,7 @@ impl GpuRecolor {
         timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) -> Result<(), RenderError> {
         if !volume.is_complete() {
-            return Err(RenderError(format!(
+            return Err(RenderError::Invalid(format!(
                 "only levels 0..={} of {} are on the GPU; recolor on the CPU",
                 volume.uploaded_level, volume.depth
             )));

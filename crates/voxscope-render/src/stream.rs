@@ -98,7 +98,7 @@ fn atlas_grid(
     let depth = depth.clamp(1, max_side);
     let grid = [side, side, depth];
     if side * side * depth > slots {
-        return Err(RenderError(format!(
+        return Err(RenderError::DoesNotFit(format!(
             "a GPU budget of {budget} bytes holds no atlas (a brick takes {slot_bytes} bytes)"
         )));
     }
@@ -139,7 +139,7 @@ impl StreamVolume {
         let quantization = source.quantization();
         let visible = visible_below(&transfer.lookup_table(quantization));
         let (streamer, pinned) = Streamer::new(Arc::clone(&source), grid, texels, options, visible)
-            .map_err(RenderError)?;
+            .map_err(RenderError::DoesNotFit)?;
         let device = &context.device;
         let out_of_memory = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let size = wgpu::Extent3d {
@@ -198,7 +198,7 @@ impl StreamVolume {
             .collect();
         let transfer_table = GpuTransferTable::new(context, quantization, transfer);
         if let Some(error) = pollster::block_on(out_of_memory.pop()) {
-            return Err(RenderError(format!(
+            return Err(RenderError::DoesNotFit(format!(
                 "the GPU has no room for the streaming atlas: {error}"
             )));
         }

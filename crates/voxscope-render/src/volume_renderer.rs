@@ -153,7 +153,7 @@ impl VolumeRenderer {
                     options.brick_size,
                     context.limits.max_texture_dimension_3d as usize,
                 )
-                .map_err(RenderError)?;
+                .map_err(RenderError::DoesNotFit)?;
                 State::Bricks(Box::new(GpuBricks::upload(
                     context,
                     &layout,
@@ -165,7 +165,7 @@ impl VolumeRenderer {
             }
             RendererKind::Stream => {
                 let source = MemorySource::new("volume", quantized, spacing, Downsampling::Mean)
-                    .map_err(RenderError)?;
+                    .map_err(RenderError::Invalid)?;
                 let stream = StreamOptions {
                     gpu_memory: options.gpu_memory,
                     ..StreamOptions::default()

@@ -9,22 +9,36 @@ pub const MAX_CHANNELS: usize = 8;
 /// The colors channels take where the file names none, in napari's order for additive
 /// channels: green, magenta, cyan, yellow, red, blue, orange, gray (the command line's
 /// `--channel-colors` names them).
-pub const DEFAULT_CHANNEL_COLORS: [[u8; 3]; MAX_CHANNELS] = [
-    [0, 255, 0],
-    [255, 0, 255],
-    [0, 255, 255],
-    [255, 255, 0],
-    [255, 0, 0],
-    [0, 0, 255],
-    [255, 165, 0],
-    [255, 255, 255],
+pub const DEFAULT_CHANNEL_COLORS: [(&str, [u8; 3]); MAX_CHANNELS] = [
+    ("green", [0, 255, 0]),
+    ("magenta", [255, 0, 255]),
+    ("cyan", [0, 255, 255]),
+    ("yellow", [255, 255, 0]),
+    ("red", [255, 0, 0]),
+    ("blue", [0, 0, 255]),
+    ("orange", [255, 165, 0]),
+    ("gray", [255, 255, 255]),
 ];
+
+/// The color of a name in [`DEFAULT_CHANNEL_COLORS`] (`grey` too), any case.
+pub fn channel_color_by_name(name: &str) -> Option<[u8; 3]> {
+    let name = name.trim().to_lowercase();
+    let name = if name == "grey" {
+        "gray"
+    } else {
+        name.as_str()
+    };
+    DEFAULT_CHANNEL_COLORS
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map(|(_, rgb)| *rgb)
+}
 
 /// Channel `index`'s color: the file's (`info`, OME or omero) where it names one, else
 /// [`DEFAULT_CHANNEL_COLORS`] in turn.
 pub fn channel_color(info: Option<&super::ChannelInfo>, index: usize) -> [u8; 3] {
     info.and_then(|c| c.color)
-        .unwrap_or(DEFAULT_CHANNEL_COLORS[index % DEFAULT_CHANNEL_COLORS.len()])
+        .unwrap_or(DEFAULT_CHANNEL_COLORS[index % DEFAULT_CHANNEL_COLORS.len()].1)
 }
 
 /// Every channel of `spec` at `options.select.time` (one volume for a one-channel file).

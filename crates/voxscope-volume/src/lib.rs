@@ -26,7 +26,8 @@ mod voxel_type;
 mod vti;
 
 pub use channels::{
-    DEFAULT_CHANNEL_COLORS, MAX_CHANNELS, channel_color, load_all_channels, load_as_channels,
+    DEFAULT_CHANNEL_COLORS, MAX_CHANNELS, channel_color, channel_color_by_name, load_all_channels,
+    load_as_channels,
 };
 pub use error::LoadError;
 pub use format::{Format, dialog_extensions, dialog_filter_name};
@@ -38,7 +39,7 @@ pub use registry::{LoadOptions, load};
 pub use sample::{SAMPLE_NAME, sample};
 pub use series::{ChannelInfo, Selection, Series};
 pub use synthetic::SyntheticKind;
-pub use values::{Histogram, LEVELS, Quantization, QuantizedVolume, ValueWindow};
+pub use values::{Histogram, LEVELS, Quantization, QuantizedVolume, ValueWindow, format_value};
 pub use voxel_type::{Endian, Scalar, VoxelData, VoxelType};
 
 /// Largest accepted extent along one axis. Larger headers are corrupt or not volumes.

@@ -204,3 +204,15 @@ fn finite_range<T: Scalar>(values: &[T], map: impl Fn(f64) -> f64 + Sync) -> [f6
         );
     if min <= max { [min, max] } else { [0.0, 0.0] }
 }
+
+/// A data value as people write it: integers plain, others with 4 significant digits.
+pub fn format_value(value: f64) -> String {
+    if value.fract() == 0.0 && value.abs() < 1e9 {
+        format!("{value:.0}")
+    } else if value != 0.0 && (value.abs() >= 1e5 || value.abs() < 1e-3) {
+        format!("{value:.3e}")
+    } else {
+        let decimals = (3 - value.abs().log10().floor() as i32).clamp(0, 6) as usize;
+        format!("{value:.decimals$}")
+    }
+}

@@ -5,13 +5,13 @@
 use std::time::{Duration, Instant};
 
 use super::super::AppGpu;
-use super::super::scene::{NetworkState, Scene};
 use super::super::settings::{AppSettings, Layout};
 use super::super::slice_pane;
 use super::super::view_state::ViewState;
 use super::super::viewport::DrawKey;
 use super::{CentralView, PaneKind, pane_kinds};
 use voxscope_render::{Frame, FrameProbe, RenderError, RenderSettings, SliceSettings};
+use voxscope_scene::{NetworkState, Scene};
 
 impl CentralView {
     /// Draws every pane whose image is out of date (or all, when drawing continuously, or

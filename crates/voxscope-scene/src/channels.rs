@@ -1,0 +1,202 @@
+//! A multi-channel volume: every channel's own color, visibility and transfer function
+//! ([`ChannelState`], which the app's channel list edits and the command line's
+//! `--channel-colors` and `--channel-window` set), and the composite drawn of them
+//! ([`CompositeScene`]: the dense march of [`voxscope_render::CompositeRaycaster`], additive
+//! DVR and MIP over up to eight channels).
+//!
+//! The composite is unshaded and has no probe (voxscope-render's composite.rs says why). The
+//! other renderers draw one channel.
+
+use std::sync::Arc;
+
+use voxscope_octree::{Colormap, DataKind, TransferFunction};
+use voxscope_render::{ChannelLayer, CompositeRaycaster, CompositeVolume, GpuContext, RenderError};
+use voxscope_volume::{QuantizedVolume, ValueWindow, Volume, channel_color};
+
+use crate::{TransferRequest, VolumeData, default_window, file_window, opening_transfer};
+
+/// What the user set for one channel of the composite.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ChannelState {
+    /// The file's name for it, else `channel N`.
+    pub name: String,
+    /// RGB: the channel is drawn black to this color over its window (napari's additive
+    /// colormaps).
+    pub color: [u8; 3],
+    /// Drawn at all (the eye toggle).
+    pub visible: bool,
+    /// Its window and opacity (the colors of its colormap are multiplied by `color`).
+    pub transfer: TransferFunction,
+}
+
+/// What was asked of the channels' colors and windows (the command line's `--channel-colors`
+/// and `--channel-window`); where nothing is, each channel takes the file's.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ChannelRequest {
+    /// Colors of channels 0, 1, … (fewer than the channels: the rest take their defaults).
+    pub colors: Vec<[u8; 3]>,
+    /// Windows by channel number (the last given for a channel wins).
+    pub windows: Vec<(usize, ValueWindow)>,
+}
+
+impl ChannelRequest {
+    /// Checks the request against a file of `count` channels: no window or color for a
+    /// channel that is not there.
+    pub fn check(&self, count: usize) -> Result<(), String> {
+        if let Some((channel, _)) = self.windows.iter().find(|(c, _)| *c >= count) {
+            return Err(format!(
+                "--channel-window {channel}: there are {count} channels (0 to {})",
+                count.saturating_sub(1)
+            ));
+        }
+        if self.colors.len() > count {
+            return Err(format!(
+                "--channel-colors gives {} colors for {count} channels",
+                self.colors.len()
+            ));
+        }
+        Ok(())
+    }
+
+    fn window(&self, index: usize) -> Option<ValueWindow> {
+        self.windows
+            .iter()
+            .rev()
+            .find(|(c, _)| *c == index)
+            .map(|(_, w)| *w)
+    }
+}
+
+impl ChannelState {
+    /// Channel `index` of the file as it opens ([`Self::opening_of`] with nothing asked of
+    /// its color and window).
+    pub fn opening(data: &VolumeData, index: usize, request: &TransferRequest) -> Self {
+        Self::opening_of(
+            &data.volume,
+            &data.quantized,
+            data.kind,
+            index,
+            request,
+            &ChannelRequest::default(),
+        )
+    }
+
+    /// Channel `index` of `volume` (its values `quantized`, of `kind`) as it opens: the
+    /// file's name, else `channel N`; the color `channels` asks for, else the file's, else
+    /// the default palette's; the transfer function [`opening_transfer`] gives for
+    /// `request` over the channel's default window, with the window `channels` asks for, in
+    /// grays (the channel's color tints it; a colormap under it would mix two schemes).
+    pub fn opening_of(
+        volume: &Volume,
+        quantized: &QuantizedVolume,
+        kind: DataKind,
+        index: usize,
+        request: &TransferRequest,
+        channels: &ChannelRequest,
+    ) -> Self {
+        // The file's facts of the channel this volume holds (for `--channels-from`, each
+        // file's own first channel).
+        let info = volume.series.channels.get(volume.series.selected.channel);
+        let window = default_window(file_window(volume), quantized);
+        let request = TransferRequest {
+            window: channels.window(index).or(request.window),
+            ..*request
+        };
+        let mut transfer = opening_transfer(quantized, kind, window, &request);
+        transfer.colormap = Colormap::Grays;
+        Self {
+            name: info
+                .and_then(|c| c.name.clone())
+                .unwrap_or_else(|| format!("channel {index}")),
+            color: channels
+                .colors
+                .get(index)
+                .copied()
+                .unwrap_or_else(|| channel_color(info, index)),
+            visible: true,
+            transfer,
+        }
+    }
+}
+
+/// The channels of one time point on the GPU as the composite, and what its tables follow.
+pub struct CompositeScene {
+    /// Every channel's data (the panels' histogram, window presets and kind for the channel
+    /// being edited); channel 0 is also the scene's [`crate::Scene::data`].
+    pub channels: Vec<Arc<VolumeData>>,
+    pub volume: CompositeVolume,
+    pub raycaster: CompositeRaycaster,
+    /// The channel states the GPU tables were last written from.
+    applied: Vec<ChannelState>,
+    /// Bumped whenever the tables change, so panes drawn with the old ones redraw.
+    generation: u64,
+}
+
+impl CompositeScene {
+    /// Uploads `channels` (2 to 8, one grid) drawn as `states` say.
+    pub fn new(
+        context: &GpuContext,
+        channels: Vec<Arc<VolumeData>>,
+        states: &[ChannelState],
+    ) -> Result<Self, RenderError> {
+        if states.len() != channels.len() {
+            return Err(RenderError::Invalid(format!(
+                "{} channel settings for {} channels",
+                states.len(),
+                channels.len()
+            )));
+        }
+        let spacing = channels
+            .first()
+            .map_or([1.0; 3], |data| data.volume.spacing);
+        let volume = CompositeVolume::upload(context, &layers(&channels, states), spacing)?;
+        let shown: Vec<bool> = states.iter().map(|s| s.visible).collect();
+        volume.set_shown_layers(context, &layers(&channels, states), &shown);
+        Ok(Self {
+            raycaster: CompositeRaycaster::new(context),
+            channels,
+            volume,
+            applied: states.to_vec(),
+            generation: 1,
+        })
+    }
+
+    /// Writes the tables of `states` where they differ from what the GPU holds (no reload:
+    /// edits stay live); returns the tables' generation, which changes with every write.
+    pub fn apply(&mut self, context: &GpuContext, states: &[ChannelState]) -> u64 {
+        if states.len() == self.channels.len() && states != self.applied.as_slice() {
+            let shown: Vec<bool> = states.iter().map(|s| s.visible).collect();
+            self.volume
+                .set_shown_layers(context, &layers(&self.channels, states), &shown);
+            self.applied = states.to_vec();
+            self.generation += 1;
+        }
+        self.generation
+    }
+
+    /// The channel states the GPU tables follow now.
+    pub fn applied(&self) -> &[ChannelState] {
+        &self.applied
+    }
+
+    /// Bytes on the CPU: every channel's value levels and octree nodes.
+    pub fn cpu_bytes(&self) -> u64 {
+        self.channels.iter().map(|data| data.cpu_bytes()).sum()
+    }
+}
+
+/// The renderer's layers: each channel's levels under its state's transfer function and color.
+fn layers<'a>(
+    channels: &'a [Arc<VolumeData>],
+    states: &'a [ChannelState],
+) -> Vec<ChannelLayer<'a>> {
+    channels
+        .iter()
+        .zip(states)
+        .map(|(data, state)| ChannelLayer {
+            quantized: &data.quantized,
+            transfer: &state.transfer,
+            color: state.color.map(|c| c as f32 / 255.0),
+        })
+        .collect()
+}

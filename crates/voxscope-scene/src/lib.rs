@@ -1,0 +1,44 @@
+//! The scene layer: everything between a file and a picture that is not a window. Opening a
+//! source ([`VolumeSource`]) reads the time point and channels asked for, quantizes them,
+//! builds the octree and histogram ([`VolumeData`]), chooses the transfer function the volume
+//! opens with ([`opening_transfer`], one rule for the default window and the presets) and
+//! makes the renderer ([`Scene`]); a store too large for memory opens streamed
+//! ([`StreamedVolume`], refined by [`refine`] where nothing drives frames). Long work runs as
+//! a [`Job`] with a [`Progress`] and ends in a typed [`SceneError`] when it does not succeed
+//! (cancellation is a variant, not a message).
+//!
+//! The app's background jobs, the command line and the Python module all call this crate;
+//! nothing here knows of egui.
+
+mod channels;
+mod data;
+mod error;
+mod job;
+mod opening;
+mod prefetch;
+mod prepare;
+mod saved_transfer;
+mod scene;
+mod source;
+mod streaming;
+
+pub use channels::{ChannelRequest, ChannelState, CompositeScene};
+pub use data::{HISTOGRAM_BINS, VolumeData};
+pub use error::SceneError;
+pub use job::Job;
+pub use opening::{
+    TransferChoice, TransferRequest, beyond_octree, default_window, file_window, opening_transfer,
+    renderer_for_octree,
+};
+pub use prefetch::{
+    DEFAULT_PREFETCH_FRAMES, FrameKey, MAX_PREFETCH_FRAMES, PREFETCH_BYTES, Prefetch,
+    frames_within_cap, window,
+};
+pub use prepare::{FrameChange, Opened, PANEL_LEVEL_VOXELS, prepare_scene};
+pub use saved_transfer::SavedTransfer;
+pub use scene::{Counted, NetworkState, Scene, statistics_job, upload};
+pub use source::VolumeSource;
+pub use streaming::{
+    PREVIEW_BRICKS, REMOTE_WORKERS, Refinement, StreamedVolume, describe_missing, refine,
+};
+pub use voxscope_volume::progress::{Cancelled, Progress};

@@ -1,0 +1,223 @@
+//! Volumes drawn by the streaming renderer where nothing drives frames (the command line, the
+//! benchmark, the Python module): opening a pyramid (a procedural one, a Zarr store's own
+//! levels, or any readable volume's, whose coarser levels are computed in memory) with its
+//! transfer function, and drawing one view until nothing visible is missing.
+
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use voxscope_octree::{DataKind, TransferFunction};
+use voxscope_render::{Camera, GpuContext, RenderSettings, RenderTarget, VolumeRenderer};
+use voxscope_stream::{
+    BrickSource, MemorySource, NoiseSource, StreamOptions, StreamStatus, ZarrSource, preview,
+};
+use voxscope_volume::ome_zarr::Pyramid;
+use voxscope_volume::{LoadOptions, QuantizedVolume, ValueWindow, Volume, parse_dims};
+
+use crate::prepare::downsampling_of;
+use crate::{SceneError, TransferRequest, VolumeSource, default_window, opening_transfer};
+
+/// Loader threads for a URL's pyramid, at least: each waits on the network most of its time
+/// (a region's requests are in flight together, up to `--max-requests`), not on a core.
+pub const REMOTE_WORKERS: usize = 8;
+
+/// Bricks of the level read whole for the transfer function's defaults (and, for a store,
+/// fetched together before the first frame).
+pub const PREVIEW_BRICKS: u64 = 64;
+
+/// A pyramid opened for streaming, and the transfer function to draw it with.
+pub struct StreamedVolume {
+    pub source: Arc<dyn BrickSource>,
+    /// The Zarr pyramid the source reads, where it reads one (its remote counters).
+    pub pyramid: Option<Arc<Pyramid>>,
+    pub transfer: TransferFunction,
+    /// How long opening took (reading a volume and computing its levels, or the preview).
+    pub open_seconds: f64,
+}
+
+impl StreamedVolume {
+    /// Opens `source` as a pyramid: `synthetic:noise:SIZE` as procedural noise generated brick
+    /// by brick (any size: 16384 is 8 TB of voxels), a Zarr store brick by brick from its own
+    /// levels, anything else read into memory ([`Self::from_volume`]). Its transfer function
+    /// is [`opening_transfer`]'s for `request`.
+    pub fn open(
+        source: &VolumeSource,
+        options: &LoadOptions,
+        request: &TransferRequest,
+    ) -> Result<Self, SceneError> {
+        let started = Instant::now();
+        let spec = source.spec();
+        let headered = options.raw.is_none();
+        match spec.strip_prefix("synthetic:noise:") {
+            Some(size) if headered => {
+                let dims = parse_dims(size).ok_or_else(|| {
+                    SceneError::failed(format!(
+                        "synthetic:noise:{size}: the size is not N or XxYxZ"
+                    ))
+                })?;
+                let name = format!("synthetic:noise:{size}");
+                let source = Arc::new(NoiseSource::new(&name, dims).map_err(SceneError::Failed)?);
+                Self::finish(source, None, None, None, request, started)
+            }
+            _ if source.zarr_spec().is_some() && headered => {
+                // Read region by region from the file's own levels (a folder's or a URL's),
+                // never whole.
+                let pyramid = Pyramid::open_spec(spec, options.select, options.remote)?;
+                let window = pyramid.omero_window();
+                let pyramid = Arc::new(pyramid);
+                let source = ZarrSource::new(pyramid.clone()).map_err(SceneError::Failed)?;
+                // The preview's and the pinned levels' chunks in one batch, not a chunk at a
+                // time (a URL's round trips).
+                source.warm_first_image(PREVIEW_BRICKS);
+                Self::finish(
+                    Arc::new(source),
+                    None,
+                    window,
+                    Some(pyramid),
+                    request,
+                    started,
+                )
+            }
+            _ => Self::from_volume(source.load_with(options)?, request, started),
+        }
+    }
+
+    /// A volume read whole already (since `started`), its coarser levels computed in memory
+    /// (2× mean; max for label volumes): any loader's volume, of any size the RAM holds.
+    pub fn from_volume(
+        loaded: Volume,
+        request: &TransferRequest,
+        started: Instant,
+    ) -> Result<Self, SceneError> {
+        let quantized = QuantizedVolume::new(&loaded);
+        let kind = DataKind::of_volume(&loaded, &quantized);
+        let source = MemorySource::from_levels(
+            &loaded.name,
+            quantized.levels,
+            quantized.dims,
+            quantized.quantization,
+            loaded.spacing,
+            downsampling_of(kind),
+        )
+        .map_err(SceneError::Failed)?;
+        let window = crate::file_window(&loaded);
+        Self::finish(Arc::new(source), Some(kind), window, None, request, started)
+    }
+
+    /// The transfer function of `source` (its kind and window where known, else its preview's)
+    /// and the rest of a prepared pyramid.
+    fn finish(
+        source: Arc<dyn BrickSource>,
+        kind: Option<DataKind>,
+        window: Option<ValueWindow>,
+        pyramid: Option<Arc<Pyramid>>,
+        request: &TransferRequest,
+        started: Instant,
+    ) -> Result<Self, SceneError> {
+        let (preview, _) = preview(&*source, PREVIEW_BRICKS)
+            .map_err(|e| SceneError::failed(format!("{}: {e}", source.name())))?;
+        let kind = kind.unwrap_or_else(|| DataKind::of(&preview, None, false));
+        let window = default_window(window, &preview);
+        let transfer = opening_transfer(&preview, kind, window, request);
+        Ok(Self {
+            source,
+            pyramid,
+            transfer,
+            open_seconds: started.elapsed().as_secs_f64(),
+        })
+    }
+
+    /// `options` for this source: a URL's pyramid gets at least [`REMOTE_WORKERS`] loaders.
+    pub fn stream_options(&self, options: StreamOptions) -> StreamOptions {
+        let remote = self
+            .pyramid
+            .as_ref()
+            .is_some_and(|p| p.remote_stats().is_some());
+        StreamOptions {
+            workers: if remote {
+                options.workers.max(REMOTE_WORKERS)
+            } else {
+                options.workers
+            },
+            ..options
+        }
+    }
+
+    /// The octree depth of the pyramid (levels − 1): the max level's range.
+    pub fn depth(&self) -> u32 {
+        self.source.shape().depth()
+    }
+}
+
+/// How a view's refinement ended.
+pub struct Refinement {
+    pub status: StreamStatus,
+    /// Frames drawn.
+    pub frames: u32,
+    pub seconds: f64,
+    /// Nothing visible was missing at the end (else `max_wait` ran out).
+    pub complete: bool,
+    /// Every update's error lines.
+    pub errors: Vec<String>,
+}
+
+/// Draws `camera`'s view into `target` frame after frame (update, draw, wait for the GPU)
+/// until nothing visible is missing or `max_wait` has passed.
+pub fn refine(
+    context: &GpuContext,
+    renderer: &mut VolumeRenderer,
+    target: &RenderTarget,
+    camera: &Camera,
+    settings: &RenderSettings,
+    max_wait: Duration,
+) -> Result<Refinement, SceneError> {
+    let started = Instant::now();
+    let mut first_frame = None;
+    let mut errors = Vec::new();
+    for frames in 1.. {
+        let status = renderer
+            .update(context)
+            .ok_or_else(|| SceneError::failed("refine needs the streaming renderer"))?;
+        errors.extend(status.errors.iter().cloned());
+        let first = *first_frame.get_or_insert(status.frame);
+        renderer.render(context, target, camera, settings);
+        context
+            .wait_idle()
+            .map_err(|e| SceneError::failed(e.to_string()))?;
+        let complete = status.complete && status.judged_frame.is_some_and(|f| f >= first);
+        if complete || started.elapsed() >= max_wait {
+            return Ok(Refinement {
+                status,
+                frames,
+                seconds: started.elapsed().as_secs_f64(),
+                complete,
+                errors,
+            });
+        }
+        if status.uploads == 0 && status.queued + status.loading > 0 {
+            std::thread::sleep(Duration::from_millis(1));
+        }
+    }
+    unreachable!("the loop returns")
+}
+
+/// `12 bricks missing (level 0: 10, level 1: 2)`.
+pub fn describe_missing(status: &StreamStatus) -> String {
+    let per_level: Vec<String> = status
+        .counters
+        .levels
+        .iter()
+        .enumerate()
+        .filter(|(_, l)| l.requested > 0)
+        .map(|(level, l)| format!("level {level}: {}", l.requested))
+        .collect();
+    format!(
+        "{} bricks missing ({})",
+        status.missing,
+        if per_level.is_empty() {
+            "none requested".to_owned()
+        } else {
+            per_level.join(", ")
+        }
+    )
+}
