@@ -11,8 +11,8 @@ use support::gpu;
 use support::reference::{CompositeChannel, MarchVolume, psnr, reference_composite};
 use voxscope_octree::TransferFunction;
 use voxscope_render::{
-    Camera, ChannelLayer, CompositeRaycaster, CompositeVolume, GpuContext, RenderMode,
-    RenderSettings, RenderTarget, RendererKind, read_image, tinted_lookup_table,
+    Camera, ChannelLayer, CompositeVolume, GpuContext, RenderMode, RenderSettings, RenderTarget,
+    Renderer, RendererKind, read_image, tinted_lookup_table,
 };
 use voxscope_volume::{LoadOptions, QuantizedVolume, ValueWindow};
 
@@ -84,7 +84,7 @@ fn composite(
 ) -> RgbaImage {
     let volume = CompositeVolume::upload(context, layers, [1.0; 3]).expect("upload");
     let target = RenderTarget::new(context, SIZE.0, SIZE.1);
-    CompositeRaycaster::new(context).render(context, &volume, &target, &camera(), settings);
+    volume.render(context, &target, &camera(), settings);
     read_image(context, &target).expect("readback")
 }
 
@@ -496,7 +496,7 @@ fn new_layers_on_an_uploaded_composite_draw_as_a_fresh_upload() {
     let volume = CompositeVolume::upload(&context, &before, [1.0; 3]).unwrap();
     volume.set_layers(&context, &after);
     let target = RenderTarget::new(&context, SIZE.0, SIZE.1);
-    CompositeRaycaster::new(&context).render(&context, &volume, &target, &camera(), &dvr);
+    volume.render(&context, &target, &camera(), &dvr);
     let edited = read_image(&context, &target).unwrap();
     let fresh = composite(&context, &after, &dvr);
     assert_eq!(edited, fresh);
@@ -576,7 +576,7 @@ fn transparent_blocks_are_skipped_without_changing_the_picture() {
         };
         let gpu_volume = CompositeVolume::upload(&context, &[layer], [1.0; 3]).unwrap();
         let target = RenderTarget::new(&context, SIZE.0, SIZE.1);
-        CompositeRaycaster::new(&context).render(&context, &gpu_volume, &target, &camera(), &dvr);
+        gpu_volume.render(&context, &target, &camera(), &dvr);
         let image = read_image(&context, &target).unwrap();
         let visits = voxscope_render::read_visits(&context, &target).unwrap();
         samples.push(visits.iter().map(|&v| v as u64).sum::<u64>());

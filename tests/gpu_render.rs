@@ -299,7 +299,7 @@ fn gpu_recolor_equals_cpu_recolor_bit_for_bit() {
             threshold: 0.4,
             colormap: Default::default(),
         };
-        gpu_volume.set_transfer(&context, &second);
+        gpu_volume.write_lookup_table(&context, &second);
         let mut encoder = context.device.create_command_encoder(&Default::default());
         recolor
             .encode(&context, &mut encoder, &gpu_volume, None)
@@ -680,7 +680,7 @@ fn gpu_brick_recolor_equals_the_cpu_rule_bit_for_bit() {
             colormap: Default::default(),
             ..first
         };
-        bricks.set_transfer(&context, &second);
+        bricks.write_lookup_table(&context, &second);
         let mut encoder = context.device.create_command_encoder(&Default::default());
         recolor.encode(&context, &mut encoder, &bricks, None);
         context.queue.submit([encoder.finish()]);

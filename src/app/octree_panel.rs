@@ -179,8 +179,8 @@ pub fn show(
 /// table does not apply; empty-space skipping's reach and the memory do.
 fn composite_facts(ui: &mut Ui, composite: &CompositeScene) {
     ui.strong("Composite");
-    let (visible, total) = composite.volume.block_counts();
-    let dims = composite.volume.dims;
+    let (visible, total) = composite.volume().block_counts();
+    let dims = composite.volume().dims;
     egui::Grid::new("composite_facts")
         .num_columns(2)
         .spacing([8.0, 3.0])
@@ -204,7 +204,7 @@ fn composite_facts(ui: &mut Ui, composite: &CompositeScene) {
             ui.label("Memory");
             ui.label(format!(
                 "{} GPU, {} RAM",
-                format_bytes(composite.volume.gpu_bytes()),
+                format_bytes(composite.gpu_bytes()),
                 format_bytes(composite.cpu_bytes())
             ))
             .on_hover_text("GPU: the channels' levels in two RGBA 16-bit float 3D textures, their tables and the skipping blocks. RAM: every channel's levels and octree");
@@ -231,7 +231,7 @@ fn frame_numbers(ui: &mut Ui, facts: &OctreeFacts<'_>) {
                 ui.end_row();
                 let mut buffers = scene.renderer.gpu_bytes();
                 if let Some(composite) = &scene.composite {
-                    buffers.push(("composite", composite.volume.gpu_bytes()));
+                    buffers.push(("composite", composite.gpu_bytes()));
                 }
                 let total: u64 = buffers.iter().map(|(_, b)| b).sum::<u64>() + facts.target_bytes;
                 ui.label("GPU memory");

@@ -12,9 +12,9 @@ use super::stream::StreamArgs;
 use super::{ClipArgs, Prepared, VolumeArgs};
 use voxscope_octree::{OpacityMode, TransferFunction};
 use voxscope_render::{
-    Camera, ChannelLayer, CompositeRaycaster, CompositeVolume, DEFAULT_BRICK_SIZE, Frame,
-    GpuContext, GpuTimer, RenderMode, RenderSettings, RenderTarget, RendererKind, RendererOptions,
-    Shading, VolumeRenderer, read_visits, time_passes, timing_name,
+    Camera, ChannelLayer, DEFAULT_BRICK_SIZE, GpuContext, GpuTimer, RenderMode, RenderSettings,
+    RenderTarget, RendererKind, RendererOptions, Shading, VolumeRenderer, read_visits, time_passes,
+    timing_name,
 };
 use voxscope_volume::ValueWindow;
 
@@ -205,12 +205,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
             &prepared.transfer,
         )
         .map_err(|e| format!("{}: {e}", prepared.data.volume.name))?;
-        let buffers: serde_json::Map<String, serde_json::Value> = renderer
-            .gpu_bytes()
-            .into_iter()
-            .map(|(name, bytes)| (name.to_owned(), bytes.into()))
-            .collect();
-        gpu_bytes.insert(kind.name().to_owned(), buffers.into());
+        gpu_bytes.insert(kind.name().to_owned(), bytes_json(&renderer));
         let (mut edit_gpu_ms, mut edit_wall_ms) = (Vec::new(), Vec::new());
         for case in &cases {
             if case.time_edit {
@@ -235,7 +230,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
                     ..Camera::default()
                 };
                 let view = View {
-                    renderer: Drawer::Volume(&renderer),
+                    renderer: &renderer,
                     target: &target,
                     camera,
                     settings: &settings,
@@ -278,7 +273,6 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
         density: args.density,
         clip,
         depth,
-        spacing: prepared.data.volume.spacing,
     };
     for &count in args.composite_channels.as_deref().unwrap_or_default() {
         let layers: Vec<ChannelLayer<'_>> = (0..count)
@@ -290,24 +284,20 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
                     .map(|c| c as f32 / 255.0),
             })
             .collect();
-        let volume = CompositeVolume::upload(&context, &layers, prepared.data.volume.spacing)
-            .map_err(|e| format!("{}: {e}", prepared.data.volume.name))?;
-        gpu_bytes.insert(
-            format!("composite-{count}"),
-            json!({"textures_and_tables": volume.gpu_bytes()}),
-        );
-        composite.rows(&volume, "composite", &mut results)?;
+        let renderer =
+            VolumeRenderer::new_composite(&context, &layers, prepared.data.volume.spacing)
+                .map_err(|e| format!("{}: {e}", prepared.data.volume.name))?;
+        gpu_bytes.insert(format!("composite-{count}"), bytes_json(&renderer));
+        composite.rows(&renderer, count, "composite", &mut results)?;
     }
     // A multi-channel file: the composite of its own channels too (`--channel all`).
     if let Some(channels) = &file_channels {
         let layers: Vec<ChannelLayer<'_>> = channels.iter().map(|c| c.layer()).collect();
-        let volume = CompositeVolume::upload(&context, &layers, prepared.data.volume.spacing)
-            .map_err(|e| format!("{}: {e}", prepared.data.volume.name))?;
-        gpu_bytes.insert(
-            "composite-file".into(),
-            json!({"textures_and_tables": volume.gpu_bytes()}),
-        );
-        composite.rows(&volume, "composite-file", &mut results)?;
+        let renderer =
+            VolumeRenderer::new_composite(&context, &layers, prepared.data.volume.spacing)
+                .map_err(|e| format!("{}: {e}", prepared.data.volume.name))?;
+        gpu_bytes.insert("composite-file".into(), bytes_json(&renderer));
+        composite.rows(&renderer, channels.len(), "composite-file", &mut results)?;
     }
     gpu_bytes.insert(
         "target".into(),
@@ -345,56 +335,6 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
     Ok(())
 }
 
-/// What draws a timed frame: one of the volume renderers, or the composite of channels.
-#[derive(Clone, Copy)]
-enum Drawer<'a> {
-    Volume(&'a VolumeRenderer),
-    Composite(&'a CompositeRaycaster, &'a CompositeVolume),
-}
-
-impl Drawer<'_> {
-    fn encode(
-        self,
-        context: &GpuContext,
-        encoder: &mut wgpu::CommandEncoder,
-        target: &RenderTarget,
-        camera: &Camera,
-        settings: &RenderSettings,
-        writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
-    ) {
-        match self {
-            Self::Volume(renderer) => {
-                renderer.encode(context, encoder, target, camera, settings, writes)
-            }
-            Self::Composite(raycaster, volume) => {
-                let frame = Frame {
-                    volume,
-                    target,
-                    camera,
-                    settings,
-                };
-                raycaster.encode(context, encoder, &frame, writes);
-            }
-        }
-    }
-
-    fn render(
-        self,
-        context: &GpuContext,
-        target: &RenderTarget,
-        camera: &Camera,
-        settings: &RenderSettings,
-    ) {
-        let mut encoder = context
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("voxscope::bench_frame"),
-            });
-        self.encode(context, &mut encoder, target, camera, settings, None);
-        context.queue.submit([encoder.finish()]);
-    }
-}
-
 /// What every composite row shares: device, target, timing and settings.
 struct CompositeBench<'a> {
     context: &'a GpuContext,
@@ -404,19 +344,18 @@ struct CompositeBench<'a> {
     density: f32,
     clip: voxscope_octree::Clip,
     depth: u32,
-    spacing: [f64; 3],
 }
 
 impl CompositeBench<'_> {
-    /// Times `volume`'s composite, DVR and MIP, from the three cameras, as rows of `renderer`.
+    /// Times the composite `composite` (of `channels` channels), DVR and MIP, from the three
+    /// cameras, as rows of `renderer`.
     fn rows(
         &self,
-        volume: &CompositeVolume,
+        composite: &VolumeRenderer,
+        channels: usize,
         renderer: &'static str,
         results: &mut Vec<BenchResult>,
     ) -> Result<(), String> {
-        debug_assert_eq!(volume.spacing, self.spacing);
-        let raycaster = CompositeRaycaster::new(self.context);
         for (mode_name, mode) in [("dvr-gray", RenderMode::Dvr), ("mip", RenderMode::Mip)] {
             let settings = RenderSettings {
                 mode,
@@ -427,7 +366,7 @@ impl CompositeBench<'_> {
             };
             for (camera_name, distance) in CAMERAS {
                 let view = View {
-                    renderer: Drawer::Composite(&raycaster, volume),
+                    renderer: composite,
                     target: self.target,
                     camera: Camera {
                         distance,
@@ -441,7 +380,7 @@ impl CompositeBench<'_> {
                 let pixels = self.target.width as f64 * self.target.height as f64;
                 results.push(BenchResult {
                     renderer,
-                    mode: composite_mode_name(mode_name, volume.channels),
+                    mode: composite_mode_name(mode_name, channels),
                     camera: camera_name,
                     median_ms: median,
                     p95_ms: percentile(&times, 95.0),
@@ -477,9 +416,19 @@ fn composite_mode_name(mode: &str, channels: usize) -> &'static str {
     names[channels.clamp(1, 8) - 1]
 }
 
+/// `renderer`'s GPU memory by buffer and texture, as the report's JSON has it.
+fn bytes_json(renderer: &VolumeRenderer) -> serde_json::Value {
+    let buffers: serde_json::Map<String, serde_json::Value> = renderer
+        .gpu_bytes()
+        .into_iter()
+        .map(|(name, bytes)| (name.to_owned(), bytes.into()))
+        .collect();
+    buffers.into()
+}
+
 /// One renderer, target, camera and settings: what a timed frame draws.
 struct View<'a> {
-    renderer: Drawer<'a>,
+    renderer: &'a VolumeRenderer,
     target: &'a RenderTarget,
     camera: Camera,
     settings: &'a RenderSettings,

@@ -9,9 +9,7 @@ use super::TransferArgs;
 use super::args::RendererArg;
 use super::render::RenderArgs;
 use voxscope_octree::DataKind;
-use voxscope_render::{
-    Camera, ChannelLayer, CompositeRaycaster, CompositeVolume, GpuContext, RenderTarget, read_image,
-};
+use voxscope_render::{Camera, ChannelLayer, GpuContext, RenderTarget, VolumeRenderer, read_image};
 use voxscope_scene::{ChannelRequest, ChannelState};
 use voxscope_volume::{
     DEFAULT_CHANNEL_COLORS, QuantizedVolume, ValueWindow, Volume, channel_color_by_name,
@@ -147,9 +145,8 @@ pub(super) fn render(args: &RenderArgs, channels: Vec<Volume>) -> Result<(), Str
     let context = GpuContext::new_headless().map_err(|e| e.to_string())?;
     let layers: Vec<ChannelLayer<'_>> = prepared.iter().map(PreparedChannel::layer).collect();
     let name = &prepared[0].volume.name;
-    let volume = CompositeVolume::upload(&context, &layers, prepared[0].volume.spacing)
+    let renderer = VolumeRenderer::new_composite(&context, &layers, prepared[0].volume.spacing)
         .map_err(|e| format!("{name}: {e}"))?;
-    let raycaster = CompositeRaycaster::new(&context);
     let target = RenderTarget::new(&context, args.size.0, args.size.1);
     let camera = Camera {
         azimuth_deg: args.azimuth,
@@ -158,7 +155,7 @@ pub(super) fn render(args: &RenderArgs, channels: Vec<Volume>) -> Result<(), Str
         fov_y_deg: args.fov,
         pan: [0.0; 3],
     };
-    raycaster.render(&context, &volume, &target, &camera, &settings);
+    renderer.render(&context, &target, &camera, &settings);
     let image = read_image(&context, &target).map_err(|e| e.to_string())?;
     image
         .save(&args.output)

@@ -14,9 +14,16 @@ use super::level_texture::LevelTexture;
 use super::pipeline::{
     atlas_entry, compute_pipeline, numbered_bind_group, storage_entry, uniform_entry,
 };
-use super::raycaster::{BrickShape, OctreeOnGpu, VolumeShape};
+use super::raycaster::{
+    BrickShape, OctreeOnGpu, ProbeTarget, VolumeShape, encode_frame, encode_probe_ray,
+};
 use super::recolor::RecolorLevels;
-use super::{GpuContext, GpuTransferTable, RenderError};
+use super::renderer::{Renderer, level_detail, pipeline_variants};
+use super::slice::SliceSource;
+use super::{
+    Camera, Frame, GpuContext, GpuTransferTable, LevelDetail, RenderError, RenderSettings,
+    RenderTarget, RendererKind,
+};
 use voxscope_octree::{BRICK_FLAG, BrickLayout, TransferFunction, ValueBounds};
 use voxscope_stream::{Downsampling, coarser_levels};
 use voxscope_volume::QuantizedVolume;
@@ -44,6 +51,12 @@ pub struct GpuBricks {
 }
 
 impl GpuBricks {
+    /// Writes a new transfer function's lookup table (recolor afterwards: the
+    /// [`Renderer::set_transfer`] of the bricks does both).
+    pub fn write_lookup_table(&mut self, context: &GpuContext, transfer: &TransferFunction) {
+        self.transfer.write(context, transfer);
+    }
+
     /// Uploads `layout` (nodes colored as they are), cut from `volume` (whose octree has
     /// `depth` levels), and the atlases of the levels between its brick level and full detail.
     /// The atlases are 8-bit when every value level fits (≤ 255), 16-bit otherwise
@@ -170,14 +183,86 @@ impl GpuBricks {
             depth,
         })
     }
+}
 
-    /// Writes a new transfer function's lookup table (recolor afterwards).
-    pub fn set_transfer(&mut self, context: &GpuContext, transfer: &TransferFunction) {
-        self.transfer.write(context, transfer);
+/// The bricks renderer: drawn and probed by the device's [`super::Raycaster`] (the tree walk,
+/// or the grid walk where nothing stops above the bricks), recolored by
+/// [`GpuBrickRecolor`].
+impl Renderer for GpuBricks {
+    fn kind(&self) -> RendererKind {
+        RendererKind::Bricks
     }
 
-    /// GPU memory by buffer and texture.
-    pub fn gpu_bytes(&self) -> Vec<(&'static str, u64)> {
+    fn level_detail(&self, max_level: u32) -> LevelDetail {
+        level_detail(
+            self.depth,
+            self.dims,
+            self.sampled_level(max_level),
+            max_level,
+        )
+    }
+
+    fn encode(
+        &self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &RenderTarget,
+        camera: &Camera,
+        settings: &RenderSettings,
+        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
+        let frame = Frame {
+            volume: self,
+            target,
+            camera,
+            settings,
+        };
+        encode_frame(
+            context.raycaster(),
+            context,
+            encoder,
+            &frame,
+            timestamp_writes,
+        );
+    }
+
+    fn encode_probe(
+        &self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        probe: &ProbeTarget<'_>,
+    ) -> bool {
+        encode_probe_ray(context.raycaster(), context, encoder, self, probe);
+        true
+    }
+
+    /// Writes the lookup table and records the recolor of the brick level, the levels above
+    /// it and the cell grid.
+    fn set_transfer(
+        &mut self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        transfer: &TransferFunction,
+        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) -> Result<(), RenderError> {
+        self.write_lookup_table(context, transfer);
+        context
+            .brick_recolor()
+            .encode(context, encoder, self, timestamp_writes);
+        Ok(())
+    }
+
+    fn prepare_pipelines(&self, context: &GpuContext, settings: &RenderSettings, probe: bool) {
+        let coarse = matches!(
+            self.level_detail(settings.max_level),
+            LevelDetail::Pyramid { .. }
+        );
+        for variant in pipeline_variants(settings, probe, coarse) {
+            context.raycaster().prepare(context, variant);
+        }
+    }
+
+    fn gpu_bytes(&self) -> Vec<(&'static str, u64)> {
         vec![
             ("atlas", self.atlas.bytes),
             (
@@ -190,6 +275,10 @@ impl GpuBricks {
             ("brick_grid", self.grid.size() + self.grid_leaves.size()),
             ("lookup_table", self.transfer.size()),
         ]
+    }
+
+    fn slice_source(&self) -> Option<SliceSource<'_>> {
+        Some(SliceSource::Bricks(self))
     }
 }
 

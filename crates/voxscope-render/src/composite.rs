@@ -14,12 +14,18 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use wgpu::util::DeviceExt;
 
+use super::gpu_data::RaycastParams;
 use super::pipeline::{
     Variant, VariantPipelines, atlas_entry, atlas_sampler_entry, clamped_sampler,
-    dispatch_per_pixel, numbered_bind_group, output_image_entry, storage_entry, uniform_entry,
+    numbered_bind_group, output_image_entry, storage_entry, uniform_entry,
 };
-use super::raycaster::{StandIns, VolumeShape, frame_params_buffer, raycast_params};
-use super::{Camera, Frame, GpuContext, RenderError, RenderSettings, RenderTarget};
+use super::raycaster::{
+    ProbeTarget, RayPass, StandIns, VolumeShape, encode_frame, frame_params_buffer,
+};
+use super::renderer::Renderer;
+use super::{
+    Camera, Frame, GpuContext, LevelDetail, RenderError, RenderSettings, RenderTarget, RendererKind,
+};
 use voxscope_octree::{TransferFunction, pack_rgba, unpack_rgba};
 use voxscope_volume::{MAX_CHANNELS, Quantization, QuantizedVolume};
 
@@ -271,7 +277,7 @@ impl CompositeVolume {
     }
 
     /// Bytes on the GPU: textures and tables.
-    pub fn gpu_bytes(&self) -> u64 {
+    pub fn total_bytes(&self) -> u64 {
         self.bytes
     }
 
@@ -374,8 +380,9 @@ pub struct CompositeRaycaster {
 }
 
 impl CompositeRaycaster {
-    /// Builds the pipeline (its clipped variant on first use).
-    pub fn new(context: &GpuContext) -> Self {
+    /// Builds the pipeline (its clipped variant on first use);
+    /// [`GpuContext::composite_raycaster`] does, once per device.
+    pub(crate) fn new(context: &GpuContext) -> Self {
         let device = &context.device;
         let (pipelines, layout) = VariantPipelines::new(
             context,
@@ -411,29 +418,47 @@ impl CompositeRaycaster {
         }
     }
 
-    /// Records one frame into `encoder` (settings' shading aside: the composite is
-    /// unshaded).
-    pub fn encode(
+    /// Builds the pipeline of `variant` where not built yet (off the frame path).
+    pub(crate) fn prepare(&self, context: &GpuContext, variant: Variant) {
+        self.pipelines.get(context, 0, variant);
+    }
+}
+
+impl RayPass<CompositeVolume> for CompositeRaycaster {
+    const NAME: &'static str = "composite";
+
+    fn pipelines(&self) -> &VariantPipelines {
+        &self.pipelines
+    }
+
+    fn stand_ins(&self) -> &StandIns {
+        &self.stand_ins
+    }
+
+    /// Unshaded, one level: only the clipped variant differs.
+    fn variant(&self, base: Variant, _params: &RaycastParams) -> Variant {
+        Variant {
+            clipped: base.clipped,
+            ..Variant::PLAIN
+        }
+    }
+
+    fn bind_group(
         &self,
         context: &GpuContext,
-        encoder: &mut wgpu::CommandEncoder,
-        frame: &Frame<'_, CompositeVolume>,
-        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
-    ) {
-        let (volume, target, settings) = (frame.volume, frame.target, frame.settings);
-        let params = raycast_params(
-            volume,
-            [target.width, target.height],
-            frame.camera,
-            settings,
-        );
-        let params = frame_params_buffer(context, "voxscope::composite_params", &params);
+        volume: &CompositeVolume,
+        params: &RaycastParams,
+        settings: &RenderSettings,
+        target: &RenderTarget,
+        probe: &wgpu::Buffer,
+    ) -> wgpu::BindGroup {
+        let params = frame_params_buffer(context, "voxscope::composite_params", params);
         let sampler = if settings.trilinear {
             &self.trilinear
         } else {
             &self.nearest
         };
-        let bind_group = numbered_bind_group(
+        numbered_bind_group(
             &context.device,
             "voxscope::composite_bind_group",
             &self.layout,
@@ -444,47 +469,83 @@ impl CompositeRaycaster {
                 volume.tables.as_entire_binding(),
                 wgpu::BindingResource::TextureView(&target.view),
                 target.visits.as_entire_binding(),
-                self.stand_ins.probe.as_entire_binding(),
+                probe.as_entire_binding(),
                 wgpu::BindingResource::TextureView(&volume.high),
                 volume.visible.as_entire_binding(),
             ],
-        );
-        let variant = Variant {
-            clipped: settings.clip.is_active(),
-            ..Variant::PLAIN
-        };
-        let pipeline = self.pipelines.get(context, 0, variant);
-        dispatch_per_pixel(
-            encoder,
-            "composite",
-            pipeline,
-            &bind_group,
-            target,
-            timestamp_writes,
-        );
+        )
+    }
+}
+
+/// The composite of channels: drawn by the device's [`CompositeRaycaster`]. Its channels carry
+/// their own transfer functions ([`CompositeVolume::set_shown_layers`]); it has no levels, no
+/// shading and no probe (the module's doc says why).
+impl Renderer for CompositeVolume {
+    fn kind(&self) -> RendererKind {
+        RendererKind::Composite
     }
 
-    /// Draws one frame of `volume` into `target` and submits it.
-    pub fn render(
+    fn level_detail(&self, _max_level: u32) -> LevelDetail {
+        LevelDetail::Full
+    }
+
+    fn encode(
         &self,
         context: &GpuContext,
-        volume: &CompositeVolume,
+        encoder: &mut wgpu::CommandEncoder,
         target: &RenderTarget,
         camera: &Camera,
         settings: &RenderSettings,
+        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
-        let mut encoder = context
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("voxscope::composite_frame"),
-            });
         let frame = Frame {
-            volume,
+            volume: self,
             target,
             camera,
             settings,
         };
-        self.encode(context, &mut encoder, &frame, None);
-        context.queue.submit([encoder.finish()]);
+        encode_frame(
+            context.composite_raycaster(),
+            context,
+            encoder,
+            &frame,
+            timestamp_writes,
+        );
+    }
+
+    fn encode_probe(
+        &self,
+        _context: &GpuContext,
+        _encoder: &mut wgpu::CommandEncoder,
+        _probe: &ProbeTarget<'_>,
+    ) -> bool {
+        false
+    }
+
+    /// Nothing: each channel's transfer function is its own ([`Self::set_shown_layers`]).
+    fn set_transfer(
+        &mut self,
+        _context: &GpuContext,
+        _encoder: &mut wgpu::CommandEncoder,
+        _transfer: &TransferFunction,
+        _timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) -> Result<(), RenderError> {
+        Ok(())
+    }
+
+    fn prepare_pipelines(&self, context: &GpuContext, settings: &RenderSettings, _probe: bool) {
+        let variant = Variant {
+            clipped: settings.clip.is_active(),
+            ..Variant::PLAIN
+        };
+        context.composite_raycaster().prepare(context, variant);
+    }
+
+    fn gpu_bytes(&self) -> Vec<(&'static str, u64)> {
+        vec![("textures_and_tables", self.bytes)]
+    }
+
+    fn composite(&self) -> Option<&CompositeVolume> {
+        Some(self)
     }
 }

@@ -4,17 +4,22 @@
 //! level draws its own pyramid level (the volume reduced 2× per level by the mean, a texture
 //! each, as the streaming renderer's pyramid), one step per voxel of that level.
 
+use super::gpu_data::RaycastParams;
 use super::level_texture::LevelTexture;
 use super::pipeline::{
     Variant, VariantPipelines, atlas_entry, atlas_sampler_entry, clamped_sampler,
-    dispatch_per_pixel, dispatch_probe, numbered_bind_group, output_image_entry, storage_entry,
-    uniform_entry,
+    numbered_bind_group, output_image_entry, storage_entry, uniform_entry,
 };
 use super::raycaster::{
-    ProbeTarget, StandIns, VolumeShape, frame_params_buffer, frame_variant, level_variant,
-    probe_variant, raycast_params,
+    ProbeTarget, RayPass, StandIns, VolumeShape, encode_frame, encode_probe_ray,
+    frame_params_buffer,
 };
-use super::{Frame, GpuContext, GpuTransferTable, RenderError, RenderSettings, RenderTarget};
+use super::renderer::{Renderer, level_detail, pipeline_variants};
+use super::slice::SliceSource;
+use super::{
+    Camera, Frame, GpuContext, GpuTransferTable, LevelDetail, RenderError, RenderSettings,
+    RenderTarget, RendererKind,
+};
 use voxscope_octree::TransferFunction;
 use voxscope_stream::{Downsampling, coarser_levels};
 use voxscope_volume::QuantizedVolume;
@@ -68,17 +73,6 @@ impl DenseVolume {
             0 => &self.levels.view,
             _ => &self.coarser[level as usize - 1].0.view,
         }
-    }
-
-    /// Writes a new transfer function (no other work: the texture holds values, not colors).
-    pub fn set_transfer(&mut self, context: &GpuContext, transfer: &TransferFunction) {
-        self.transfer.write(context, transfer);
-    }
-
-    /// Bytes on the GPU: the textures and the lookup table.
-    pub fn gpu_bytes(&self) -> u64 {
-        let coarser: u64 = self.coarser.iter().map(|(texture, _)| texture.bytes).sum();
-        self.levels.bytes + coarser + self.transfer.size()
     }
 }
 
@@ -178,68 +172,26 @@ impl DenseRaycaster {
         frame: &Frame<'_, DenseVolume>,
         timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
-        let target = frame.target;
-        let params = raycast_params(
-            frame.volume,
-            [target.width, target.height],
-            frame.camera,
-            frame.settings,
-        );
-        let bind_group = self.bind_group(
-            context,
-            frame.volume,
-            &params,
-            frame.settings,
-            target,
-            &self.stand_ins.probe,
-        );
-        let pipeline = self.pipelines.get(
-            context,
-            0,
-            level_variant(frame_variant(frame.settings), &params),
-        );
-        dispatch_per_pixel(
-            encoder,
-            "dense",
-            pipeline,
-            &bind_group,
-            target,
-            timestamp_writes,
-        );
+        encode_frame(self, context, encoder, frame, timestamp_writes);
+    }
+}
+
+impl RayPass<DenseVolume> for DenseRaycaster {
+    const NAME: &'static str = "dense";
+
+    fn pipelines(&self) -> &VariantPipelines {
+        &self.pipelines
     }
 
-    /// Records the probe of one pixel (see [`super::Raycaster`]'s): one ray, its answer in
-    /// `probe.output`; draws nothing.
-    pub(crate) fn encode_probe(
-        &self,
-        context: &GpuContext,
-        encoder: &mut wgpu::CommandEncoder,
-        volume: &DenseVolume,
-        probe: &ProbeTarget<'_>,
-    ) {
-        let mut params = raycast_params(volume, probe.size, probe.camera, probe.settings);
-        params.probe_pixel = probe.pixel;
-        let bind_group = self.bind_group(
-            context,
-            volume,
-            &params,
-            probe.settings,
-            &self.stand_ins.target,
-            probe.output,
-        );
-        let pipeline = self.pipelines.get(
-            context,
-            0,
-            level_variant(probe_variant(probe.settings), &params),
-        );
-        dispatch_probe(encoder, "dense_probe", pipeline, &bind_group);
+    fn stand_ins(&self) -> &StandIns {
+        &self.stand_ins
     }
 
     fn bind_group(
         &self,
         context: &GpuContext,
         volume: &DenseVolume,
-        params: &super::gpu_data::RaycastParams,
+        params: &RaycastParams,
         settings: &RenderSettings,
         target: &RenderTarget,
         probe: &wgpu::Buffer,
@@ -265,5 +217,88 @@ impl DenseRaycaster {
                 probe.as_entire_binding(),
             ],
         )
+    }
+}
+
+impl Renderer for DenseVolume {
+    fn kind(&self) -> RendererKind {
+        RendererKind::Dense
+    }
+
+    fn level_detail(&self, max_level: u32) -> LevelDetail {
+        level_detail(
+            self.depth(),
+            self.dims,
+            self.sampled_level(max_level),
+            max_level,
+        )
+    }
+
+    fn encode(
+        &self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &RenderTarget,
+        camera: &Camera,
+        settings: &RenderSettings,
+        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
+        let frame = Frame {
+            volume: self,
+            target,
+            camera,
+            settings,
+        };
+        encode_frame(
+            context.dense_raycaster(),
+            context,
+            encoder,
+            &frame,
+            timestamp_writes,
+        );
+    }
+
+    fn encode_probe(
+        &self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        probe: &ProbeTarget<'_>,
+    ) -> bool {
+        encode_probe_ray(context.dense_raycaster(), context, encoder, self, probe);
+        true
+    }
+
+    /// Writes the lookup table (no other work: the textures hold values, not colors).
+    fn set_transfer(
+        &mut self,
+        context: &GpuContext,
+        _encoder: &mut wgpu::CommandEncoder,
+        transfer: &TransferFunction,
+        _timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) -> Result<(), RenderError> {
+        self.transfer.write(context, transfer);
+        Ok(())
+    }
+
+    fn prepare_pipelines(&self, context: &GpuContext, settings: &RenderSettings, probe: bool) {
+        let coarse = matches!(
+            self.level_detail(settings.max_level),
+            LevelDetail::Pyramid { .. }
+        );
+        for variant in pipeline_variants(settings, probe, coarse) {
+            context.dense_raycaster().prepare(context, variant);
+        }
+    }
+
+    fn gpu_bytes(&self) -> Vec<(&'static str, u64)> {
+        let coarser: u64 = self.coarser.iter().map(|(texture, _)| texture.bytes).sum();
+        vec![
+            ("texture", self.levels.bytes + coarser),
+            ("lookup_table", self.transfer.size()),
+        ]
+    }
+
+    fn slice_source(&self) -> Option<SliceSource<'_>> {
+        Some(SliceSource::Dense(self))
     }
 }

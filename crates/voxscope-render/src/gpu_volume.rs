@@ -3,7 +3,13 @@
 
 use wgpu::util::DeviceExt;
 
-use super::{GpuContext, GpuTransferTable, RenderError};
+use super::raycaster::{ProbeTarget, encode_frame, encode_probe_ray};
+use super::renderer::{Renderer, level_detail, pipeline_variants};
+use super::slice::SliceSource;
+use super::{
+    Camera, Frame, GpuContext, GpuTransferTable, LevelDetail, RenderError, RenderSettings,
+    RenderTarget, RendererKind,
+};
 use voxscope_octree::{Node, Octree, TransferFunction, ValueBounds};
 
 /// GPU buffers of one octree, uploaded through `levels` (a prefix of the flat list).
@@ -97,13 +103,87 @@ impl GpuVolume {
         self.level_starts[self.uploaded_level as usize + 1]
     }
 
-    /// Writes a new transfer function's lookup table (recolor afterwards).
-    pub fn set_transfer(&mut self, context: &GpuContext, transfer: &TransferFunction) {
+    /// Writes a new transfer function's lookup table (recolor afterwards: the
+    /// [`Renderer::set_transfer`] of the octree does both).
+    pub fn write_lookup_table(&mut self, context: &GpuContext, transfer: &TransferFunction) {
         self.transfer.write(context, transfer);
     }
+}
 
-    /// Bytes of every buffer on the GPU.
-    pub fn gpu_bytes(&self) -> u64 {
-        self.nodes.size() + self.bounds.size() + self.transfer.size()
+/// The paper's octree: drawn and probed by the device's [`super::Raycaster`], recolored on the
+/// GPU level by level ([`super::GpuRecolor`]).
+impl Renderer for GpuVolume {
+    fn kind(&self) -> RendererKind {
+        RendererKind::Octree
+    }
+
+    fn level_detail(&self, max_level: u32) -> LevelDetail {
+        level_detail(self.depth, self.dims, 0, max_level)
+    }
+
+    fn encode(
+        &self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &RenderTarget,
+        camera: &Camera,
+        settings: &RenderSettings,
+        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
+        let frame = Frame {
+            volume: self,
+            target,
+            camera,
+            settings,
+        };
+        encode_frame(
+            context.raycaster(),
+            context,
+            encoder,
+            &frame,
+            timestamp_writes,
+        );
+    }
+
+    fn encode_probe(
+        &self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        probe: &ProbeTarget<'_>,
+    ) -> bool {
+        encode_probe_ray(context.raycaster(), context, encoder, self, probe);
+        true
+    }
+
+    /// Writes the lookup table and records the recolor of every level (topology untouched).
+    fn set_transfer(
+        &mut self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        transfer: &TransferFunction,
+        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) -> Result<(), RenderError> {
+        self.write_lookup_table(context, transfer);
+        context
+            .recolor()
+            .encode(context, encoder, self, timestamp_writes)
+    }
+
+    fn prepare_pipelines(&self, context: &GpuContext, settings: &RenderSettings, probe: bool) {
+        for variant in pipeline_variants(settings, probe, false) {
+            context.raycaster().prepare(context, variant);
+        }
+    }
+
+    fn gpu_bytes(&self) -> Vec<(&'static str, u64)> {
+        vec![
+            ("nodes", self.nodes.size()),
+            ("bounds", self.bounds.size()),
+            ("lookup_table", self.transfer.size()),
+        ]
+    }
+
+    fn slice_source(&self) -> Option<SliceSource<'_>> {
+        Some(SliceSource::Octree(self))
     }
 }

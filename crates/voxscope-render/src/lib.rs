@@ -18,6 +18,7 @@ mod probe;
 mod raycaster;
 mod readback;
 mod recolor;
+mod renderer;
 mod settings;
 pub mod shaders;
 mod slice;
@@ -35,14 +36,17 @@ pub use dense::{DenseRaycaster, DenseVolume};
 pub use frame_probe::{FrameProbe, FrameReport};
 pub use gpu_volume::GpuVolume;
 pub use probe::{GpuProbe, PROBE_ALPHA, ProbeHit, ProbeOutcome, ProbeRequest, probe_pixel};
-pub use raycaster::{Frame, OctreeOnGpu, Raycaster, RenderTarget, VolumeShape};
+pub use raycaster::{Frame, OctreeOnGpu, ProbeTarget, Raycaster, RenderTarget, VolumeShape};
 pub use readback::{read_buffer, read_image, read_visits};
 pub use recolor::GpuRecolor;
+pub use renderer::Renderer;
 pub use settings::{
     EARLY_TERMINATION_ALPHA, GRADIENT_FOR_FULL_SHADING, HEATMAP_SATURATION, RenderMode,
     RenderSettings, Shading, heatmap_color,
 };
-pub use slice::{EdgeLabels, SliceConvention, SliceFrame, SliceSettings, SliceView, Slicer};
+pub use slice::{
+    EdgeLabels, SliceConvention, SliceFrame, SliceSettings, SliceSource, SliceView, Slicer,
+};
 pub use stream::{StreamRaycaster, StreamVolume};
 pub use timer::{GpuTimer, time_passes, timing_name};
 pub use transfer_table::GpuTransferTable;

@@ -14,7 +14,8 @@ use std::sync::OnceLock;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use super::{
-    DenseRaycaster, GpuBrickRecolor, GpuContext, GpuRecolor, Raycaster, Slicer, StreamRaycaster,
+    CompositeRaycaster, DenseRaycaster, GpuBrickRecolor, GpuContext, GpuRecolor, Raycaster, Slicer,
+    StreamRaycaster,
 };
 
 /// The pipeline families of one device, each built on first use.
@@ -26,6 +27,7 @@ pub(crate) struct PipelineCache {
     brick_recolor: OnceLock<GpuBrickRecolor>,
     slicer: OnceLock<Slicer>,
     stream_raycaster: OnceLock<StreamRaycaster>,
+    composite_raycaster: OnceLock<CompositeRaycaster>,
     /// Compute pipelines built with this device so far.
     built: AtomicUsize,
 }
@@ -71,6 +73,13 @@ impl GpuContext {
         self.pipelines
             .stream_raycaster
             .get_or_init(|| StreamRaycaster::new(self))
+    }
+
+    /// The composite-of-channels ray caster of this device, built on first use.
+    pub fn composite_raycaster(&self) -> &CompositeRaycaster {
+        self.pipelines
+            .composite_raycaster
+            .get_or_init(|| CompositeRaycaster::new(self))
     }
 
     /// The slice pipeline of this device (every renderer's slices), built on first use.

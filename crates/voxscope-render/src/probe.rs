@@ -123,7 +123,8 @@ impl GpuProbe {
 
     /// Records the probe of `request` into `encoder` (before or after the frame's pass: it
     /// draws nothing) and the copy of its answer. Returns false, recording nothing, while an
-    /// earlier probe is in flight; an error for a pixel outside the image.
+    /// earlier probe is in flight; an error for a pixel outside the image or a renderer
+    /// without a probe (the composite).
     pub fn record(
         &mut self,
         context: &GpuContext,
@@ -138,7 +139,7 @@ impl GpuProbe {
         // A ray that never writes (none does: every probed ray writes) would leave the last
         // answer; cleared, it reads as "not found".
         encoder.clear_buffer(&self.output, 0, None);
-        renderer.encode_probe(
+        let probed = renderer.encode_probe(
             context,
             encoder,
             &ProbeTarget {
@@ -149,6 +150,12 @@ impl GpuProbe {
                 output: &self.output,
             },
         );
+        if !probed {
+            return Err(RenderError::Invalid(format!(
+                "the {} renderer has no probe",
+                renderer.kind().name()
+            )));
+        }
         encoder.copy_buffer_to_buffer(&self.output, 0, &self.staging, 0, RESULT_BYTES);
         self.pixel = request.pixel;
         self.state.store(RECORDED, Ordering::Release);

@@ -337,61 +337,36 @@ impl Raycaster {
         frame: &Frame<'_, impl OctreeOnGpu>,
         timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
-        let Frame {
-            volume,
-            target,
-            camera,
-            settings,
-        } = *frame;
-        let params = raycast_params(volume, [target.width, target.height], camera, settings);
-        let bind_group = self.bind_group(context, volume, &params, target, &self.stand_ins.probe);
-        let pipeline = self.pipelines.get(
-            context,
-            entry_point(volume, &params),
-            level_variant(frame_variant(settings), &params),
-        );
-        dispatch_per_pixel(
-            encoder,
-            "raycast",
-            pipeline,
-            &bind_group,
-            target,
-            timestamp_writes,
-        );
+        encode_frame(self, context, encoder, frame, timestamp_writes);
+    }
+}
+
+impl<V: OctreeOnGpu> RayPass<V> for Raycaster {
+    const NAME: &'static str = "raycast";
+
+    fn pipelines(&self) -> &VariantPipelines {
+        &self.pipelines
     }
 
-    /// Records the probe of pixel `pixel` of an image of `size` (the frame that `camera` and
-    /// `settings` would draw there) into `encoder`: one ray, whose [`ProbeResult`] goes to
-    /// `probe` (STORAGE, 16 bytes). Draws nothing.
-    pub(crate) fn encode_probe(
-        &self,
-        context: &GpuContext,
-        encoder: &mut wgpu::CommandEncoder,
-        volume: &impl OctreeOnGpu,
-        probe: &ProbeTarget<'_>,
-    ) {
-        let mut params = raycast_params(volume, probe.size, probe.camera, probe.settings);
-        params.probe_pixel = probe.pixel;
-        let bind_group = self.bind_group(
-            context,
-            volume,
-            &params,
-            &self.stand_ins.target,
-            probe.output,
-        );
-        let pipeline = self.pipelines.get(
-            context,
-            entry_point(volume, &params),
-            level_variant(probe_variant(probe.settings), &params),
-        );
-        dispatch_probe(encoder, "raycast_probe", pipeline, &bind_group);
+    fn stand_ins(&self) -> &StandIns {
+        &self.stand_ins
+    }
+
+    /// The grid walk for bricks when nothing may stop above them (it holds the brick level
+    /// alone; at the brick level itself the bricks' nodes are drawn, a voxel a brick), else
+    /// the tree walk.
+    fn entry_point(&self, volume: &V, params: &RaycastParams) -> usize {
+        let walk_bricks = volume.bricks().is_some_and(|b| params.max_level > b.level)
+            && params.flags & FLAG_PIXEL_LOD == 0;
+        if walk_bricks { GRID_WALK } else { TREE_WALK }
     }
 
     fn bind_group(
         &self,
         context: &GpuContext,
-        volume: &impl OctreeOnGpu,
+        volume: &V,
         params: &RaycastParams,
+        _settings: &RenderSettings,
         target: &RenderTarget,
         probe: &wgpu::Buffer,
     ) -> wgpu::BindGroup {
@@ -423,23 +398,127 @@ impl Raycaster {
     }
 }
 
+/// What differs between the ray casters (octree and bricks, dense, streaming, composite): the
+/// pipelines, the entry point and variant a frame runs, how a volume binds. [`encode_frame`]
+/// and [`encode_probe_ray`] record the rest, the same for every one.
+pub(crate) trait RayPass<V: VolumeShape> {
+    /// The pass's name in labels (`raycast`).
+    const NAME: &'static str;
+
+    fn pipelines(&self) -> &VariantPipelines;
+
+    /// What is bound where a pass does not use a binding.
+    fn stand_ins(&self) -> &StandIns;
+
+    /// The entry point that draws `volume` with `params`.
+    fn entry_point(&self, _volume: &V, _params: &RaycastParams) -> usize {
+        0
+    }
+
+    /// The variant of `base` that frames of `params` run: the `COARSE` one where they sample
+    /// a coarser pyramid level ([`level_variant`]).
+    fn variant(&self, base: Variant, params: &RaycastParams) -> Variant {
+        level_variant(base, params)
+    }
+
+    /// What happens on the CPU as a frame of `volume` with `params` is recorded (the streaming
+    /// renderer notes where the camera is).
+    fn before_frame(&self, _volume: &V, _params: &RaycastParams) {}
+
+    /// The bind group of one pass: `params` in a buffer of its own, `volume`, the image
+    /// `target` and the probe's answer `probe`.
+    fn bind_group(
+        &self,
+        context: &GpuContext,
+        volume: &V,
+        params: &RaycastParams,
+        settings: &RenderSettings,
+        target: &RenderTarget,
+        probe: &wgpu::Buffer,
+    ) -> wgpu::BindGroup;
+}
+
+/// Records one frame of `frame.volume` with `pass` into `encoder`, its parameters in a buffer
+/// of its own.
+pub(crate) fn encode_frame<V: VolumeShape, P: RayPass<V>>(
+    pass: &P,
+    context: &GpuContext,
+    encoder: &mut wgpu::CommandEncoder,
+    frame: &Frame<'_, V>,
+    timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+) {
+    let Frame {
+        volume,
+        target,
+        camera,
+        settings,
+    } = *frame;
+    let params = raycast_params(volume, [target.width, target.height], camera, settings);
+    pass.before_frame(volume, &params);
+    let bind_group = pass.bind_group(
+        context,
+        volume,
+        &params,
+        settings,
+        target,
+        &pass.stand_ins().probe,
+    );
+    let pipeline = pass.pipelines().get(
+        context,
+        pass.entry_point(volume, &params),
+        pass.variant(frame_variant(settings), &params),
+    );
+    dispatch_per_pixel(
+        encoder,
+        P::NAME,
+        pipeline,
+        &bind_group,
+        target,
+        timestamp_writes,
+    );
+}
+
+/// Records the probe of pixel `probe.pixel` of an image of `probe.size` (the frame that its
+/// camera and settings would draw there) with `pass` into `encoder`: one ray, whose
+/// [`ProbeResult`] goes to `probe.output` (STORAGE, 16 bytes). Draws nothing.
+pub(crate) fn encode_probe_ray<V: VolumeShape, P: RayPass<V>>(
+    pass: &P,
+    context: &GpuContext,
+    encoder: &mut wgpu::CommandEncoder,
+    volume: &V,
+    probe: &ProbeTarget<'_>,
+) {
+    let mut params = raycast_params(volume, probe.size, probe.camera, probe.settings);
+    params.probe_pixel = probe.pixel;
+    let bind_group = pass.bind_group(
+        context,
+        volume,
+        &params,
+        probe.settings,
+        &pass.stand_ins().target,
+        probe.output,
+    );
+    let pipeline = pass.pipelines().get(
+        context,
+        pass.entry_point(volume, &params),
+        pass.variant(probe_variant(probe.settings), &params),
+    );
+    dispatch_probe(
+        encoder,
+        &format!("{}_probe", P::NAME),
+        pipeline,
+        &bind_group,
+    );
+}
+
 /// Where and what a probe traces: pixel `pixel` of an image of `size` drawn with `camera` and
 /// `settings`, its answer written to `output`.
-pub(crate) struct ProbeTarget<'a> {
+pub struct ProbeTarget<'a> {
     pub size: [u32; 2],
     pub pixel: [u32; 2],
     pub camera: &'a Camera,
     pub settings: &'a RenderSettings,
     pub output: &'a wgpu::Buffer,
-}
-
-/// The entry point that draws `volume` with `params`: the grid walk for bricks when nothing may
-/// stop above them (it holds the brick level alone; at the brick level itself the bricks' nodes
-/// are drawn, a voxel a brick), else the tree walk.
-fn entry_point(volume: &impl VolumeShape, params: &RaycastParams) -> usize {
-    let walk_bricks = volume.bricks().is_some_and(|b| params.max_level > b.level)
-        && params.flags & FLAG_PIXEL_LOD == 0;
-    if walk_bricks { GRID_WALK } else { TREE_WALK }
 }
 
 /// A uniform buffer holding one frame's `params`: one per recorded frame, so nothing shared is

@@ -372,8 +372,8 @@ impl SliceColorCache {
     }
 }
 
-/// Which of a renderer's volumes a slice reads.
-pub(crate) enum SliceSource<'a> {
+/// Which of a renderer's volumes a slice reads its values from ([`super::Renderer::slice_source`]).
+pub enum SliceSource<'a> {
     Dense(&'a DenseVolume),
     Bricks(&'a GpuBricks),
     Octree(&'a GpuVolume),

@@ -3,27 +3,31 @@
 //! readback; the pipeline that draws it (`stream.wgsl`). The CPU side, which decides what to
 //! load and upload, is [`voxscope_stream::Streamer`].
 //!
-//! Per frame: [`StreamVolume::update`] (the app calls it once before drawing; it never waits)
+//! Per frame: [`StreamVolume::step`] (the app calls it once before drawing; it never waits)
 //! copies the last drawn frame's requests and usage marks to a staging buffer and maps it,
 //! clears the requests for the next frame, takes in whatever readback has arrived, and lets the
 //! streamer decide; it then writes the uploads into their atlas slots and the changed page-table
-//! entries. Then any number of [`StreamRaycaster::encode`]s draw with what is resident.
+//! entries. Then any number of frames draw with what is resident.
 
 use std::sync::atomic::{AtomicBool, AtomicU8, Ordering};
 use std::sync::{Arc, Mutex};
 
 use wgpu::util::DeviceExt;
 
-use super::gpu_data::{STREAM_LEVELS, StreamParams};
+use super::gpu_data::{RaycastParams, STREAM_LEVELS, StreamParams};
 use super::pipeline::{
     Variant, VariantPipelines, atlas_entry, atlas_sampler_entry, clamped_sampler,
-    dispatch_per_pixel, dispatch_probe, numbered_bind_group, output_image_entry, storage_entry,
-    uniform_entry,
+    numbered_bind_group, output_image_entry, storage_entry, uniform_entry,
 };
 use super::raycaster::{
-    BrickShape, ProbeTarget, StandIns, VolumeShape, frame_variant, probe_variant, raycast_params,
+    BrickShape, ProbeTarget, RayPass, StandIns, VolumeShape, encode_frame, encode_probe_ray,
+    frame_params_buffer,
 };
-use super::{Frame, GpuContext, GpuTransferTable, RenderError, RenderTarget};
+use super::renderer::{Renderer, level_detail, pipeline_variants};
+use super::{
+    Camera, Frame, GpuContext, GpuTransferTable, LevelDetail, RenderError, RenderSettings,
+    RenderTarget, RendererKind,
+};
 use voxscope_octree::TransferFunction;
 use voxscope_stream::{
     AtlasTexels, BRICK_SIZE, BrickSource, Feedback, PADDED_BRICK, PADDED_BRICK_VOXELS,
@@ -265,8 +269,9 @@ impl StreamVolume {
 
     /// The per-frame step: reads back what earlier frames asked for and used (without
     /// waiting), loads and uploads within the budgets, and readies the request buffer for the
-    /// next frame. Call once per displayed frame, before drawing it.
-    pub fn update(&mut self, context: &GpuContext) -> StreamStatus {
+    /// next frame. Call once per displayed frame, before drawing it ([`Renderer::update`]
+    /// does).
+    pub fn step(&mut self, context: &GpuContext) -> StreamStatus {
         let _ = context.device.poll(wgpu::PollType::Poll);
         let feedback = self.take_readbacks();
         if self.drawn.swap(false, Ordering::AcqRel) {
@@ -377,7 +382,7 @@ impl StreamVolume {
     /// Applies a new transfer function: the lookup table, and each page-table entry's
     /// visibility bit (written now, so the next frame skips by the new function). Nothing is
     /// reloaded.
-    pub fn set_transfer(&mut self, context: &GpuContext, transfer: &TransferFunction) {
+    fn apply_transfer(&mut self, context: &GpuContext, transfer: &TransferFunction) {
         self.transfer.write(context, transfer);
         let table = transfer.lookup_table(self.streamer.source().quantization());
         self.streamer.set_visibility(visible_below(&table));
@@ -392,21 +397,6 @@ impl StreamVolume {
     /// The streamer, to prefetch into ([`Streamer::prefetch`]).
     pub fn streamer_mut(&mut self) -> &mut Streamer {
         &mut self.streamer
-    }
-
-    /// GPU memory by buffer and texture: together within the budget given.
-    pub fn gpu_bytes(&self) -> Vec<(&'static str, u64)> {
-        vec![
-            ("atlas", self.atlas_bytes),
-            ("page_table", self.table.size()),
-            ("requests", self.requests.size()),
-            ("usage", self.usage.size()),
-            (
-                "readback",
-                self.readbacks.iter().map(|r| r.buffer.size()).sum(),
-            ),
-            ("lookup_table", self.transfer.size()),
-        ]
     }
 
     /// The uniforms of a frame drawn with `params`.
@@ -515,7 +505,7 @@ impl StreamRaycaster {
     }
 
     /// Records one frame of `volume` into `encoder` with what is resident now; its rays'
-    /// requests and usage marks are read back by the next [`StreamVolume::update`].
+    /// requests and usage marks are read back by the next [`StreamVolume::step`].
     pub fn encode(
         &self,
         context: &GpuContext,
@@ -523,65 +513,48 @@ impl StreamRaycaster {
         frame: &Frame<'_, StreamVolume>,
         timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
-        let Frame {
-            volume,
-            target,
-            camera,
-            settings,
-        } = *frame;
-        let params = raycast_params(volume, [target.width, target.height], camera, settings);
+        encode_frame(self, context, encoder, frame, timestamp_writes);
+    }
+}
+
+impl RayPass<StreamVolume> for StreamRaycaster {
+    const NAME: &'static str = "stream";
+
+    fn pipelines(&self) -> &VariantPipelines {
+        &self.pipelines
+    }
+
+    fn stand_ins(&self) -> &StandIns {
+        &self.stand_ins
+    }
+
+    /// Each segment picks its own level from the page table: no coarse variant.
+    fn variant(&self, base: Variant, _params: &RaycastParams) -> Variant {
+        base
+    }
+
+    /// Notes the camera (the load order follows it) and that a frame was drawn (its requests
+    /// are read back). Probes ask for nothing.
+    fn before_frame(&self, volume: &StreamVolume, params: &RaycastParams) {
         let forward = glam::Vec3::from_slice(&params.forward[..3]).normalize_or_zero();
         *volume.view.lock().unwrap_or_else(|p| p.into_inner()) = Some(ViewPoint {
             eye: [params.eye[0], params.eye[1], params.eye[2]].map(f64::from),
             forward: forward.to_array().map(f64::from),
         });
         volume.drawn.store(true, Ordering::Release);
-        let bind_group = self.bind_group(context, volume, &params, target, &self.stand_ins.probe);
-        let pipeline = self.pipelines.get(context, 0, frame_variant(settings));
-        dispatch_per_pixel(
-            encoder,
-            "stream",
-            pipeline,
-            &bind_group,
-            target,
-            timestamp_writes,
-        );
-    }
-
-    /// Records the probe of one pixel (draws nothing, asks for nothing).
-    pub(crate) fn encode_probe(
-        &self,
-        context: &GpuContext,
-        encoder: &mut wgpu::CommandEncoder,
-        volume: &StreamVolume,
-        probe: &ProbeTarget<'_>,
-    ) {
-        let mut params = raycast_params(volume, probe.size, probe.camera, probe.settings);
-        params.probe_pixel = probe.pixel;
-        let bind_group = self.bind_group(
-            context,
-            volume,
-            &params,
-            &self.stand_ins.target,
-            probe.output,
-        );
-        let pipeline = self
-            .pipelines
-            .get(context, 0, probe_variant(probe.settings));
-        dispatch_probe(encoder, "stream_probe", pipeline, &bind_group);
     }
 
     fn bind_group(
         &self,
         context: &GpuContext,
         volume: &StreamVolume,
-        params: &super::gpu_data::RaycastParams,
+        params: &RaycastParams,
+        _settings: &RenderSettings,
         target: &RenderTarget,
         probe: &wgpu::Buffer,
     ) -> wgpu::BindGroup {
         let device = &context.device;
-        let params_buffer =
-            super::raycaster::frame_params_buffer(context, "voxscope::stream_params", params);
+        let params_buffer = frame_params_buffer(context, "voxscope::stream_params", params);
         let stream_params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("voxscope::stream_level_params"),
             contents: bytemuck::bytes_of(&volume.stream_params(params.max_level)),
@@ -605,5 +578,101 @@ impl StreamRaycaster {
                 probe.as_entire_binding(),
             ],
         )
+    }
+}
+
+/// The streaming renderer: driven once a frame ([`Renderer::update`]), drawn and probed by the
+/// device's [`StreamRaycaster`] with whatever is resident.
+impl Renderer for StreamVolume {
+    fn kind(&self) -> RendererKind {
+        RendererKind::Stream
+    }
+
+    fn level_detail(&self, max_level: u32) -> LevelDetail {
+        let depth = self.depth();
+        level_detail(
+            depth,
+            self.dims(),
+            depth.saturating_sub(max_level),
+            max_level,
+        )
+    }
+
+    fn encode(
+        &self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &RenderTarget,
+        camera: &Camera,
+        settings: &RenderSettings,
+        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
+        let frame = Frame {
+            volume: self,
+            target,
+            camera,
+            settings,
+        };
+        encode_frame(
+            context.stream_raycaster(),
+            context,
+            encoder,
+            &frame,
+            timestamp_writes,
+        );
+    }
+
+    fn encode_probe(
+        &self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        probe: &ProbeTarget<'_>,
+    ) -> bool {
+        encode_probe_ray(context.stream_raycaster(), context, encoder, self, probe);
+        true
+    }
+
+    fn set_transfer(
+        &mut self,
+        context: &GpuContext,
+        _encoder: &mut wgpu::CommandEncoder,
+        transfer: &TransferFunction,
+        _timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) -> Result<(), RenderError> {
+        self.apply_transfer(context, transfer);
+        Ok(())
+    }
+
+    fn prepare_pipelines(&self, context: &GpuContext, settings: &RenderSettings, probe: bool) {
+        for variant in pipeline_variants(settings, probe, false) {
+            context.stream_raycaster().prepare(context, variant);
+        }
+    }
+
+    /// Together within the budget given.
+    fn gpu_bytes(&self) -> Vec<(&'static str, u64)> {
+        vec![
+            ("atlas", self.atlas_bytes),
+            ("page_table", self.table.size()),
+            ("requests", self.requests.size()),
+            ("usage", self.usage.size()),
+            (
+                "readback",
+                self.readbacks.iter().map(|r| r.buffer.size()).sum(),
+            ),
+            ("lookup_table", self.transfer.size()),
+        ]
+    }
+
+    fn update(&mut self, context: &GpuContext) -> Option<StreamStatus> {
+        Some(self.step(context))
+    }
+
+    fn stream(&self) -> Option<&StreamVolume> {
+        Some(self)
+    }
+
+    fn stream_mut(&mut self) -> Option<&mut StreamVolume> {
+        Some(self)
     }
 }

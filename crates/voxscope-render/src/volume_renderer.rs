@@ -1,13 +1,15 @@
-//! One volume on the GPU drawn by one of the renderers, behind one interface: what the command
-//! line, the benchmark and the app switch between. It holds the volume's buffers and textures
-//! alone; the pipelines that draw and recolor it are the device's
+//! One volume on the GPU drawn by one of the renderers ([`Renderer`]), with what every one of
+//! them shares: the slices' color tables and the constructors that choose the renderer. What
+//! the command line, the benchmark and the app switch between. It holds the volume's buffers
+//! and textures alone; the pipelines that draw and recolor it are the device's
 //! (`pipeline_cache.rs`), built once, whatever the number of volumes and renderers.
 
-use super::raycaster::{ProbeTarget, VolumeShape, frame_variant, probe_variant};
+use super::raycaster::ProbeTarget;
+use super::renderer::Renderer;
 use super::slice::{SliceColorCache, SliceSource};
 use super::{
-    Camera, DenseVolume, Frame, GpuBricks, GpuContext, GpuVolume, RenderError, RenderSettings,
-    RenderTarget, SliceSettings, StreamVolume,
+    Camera, ChannelLayer, CompositeVolume, DenseVolume, GpuBricks, GpuContext, GpuVolume,
+    RenderError, RenderSettings, RenderTarget, SliceSettings, StreamVolume,
 };
 use std::sync::Arc;
 use voxscope_octree::{BrickLayout, Octree, TransferFunction};
@@ -26,6 +28,9 @@ pub enum RendererKind {
     /// A pyramid of 32³ bricks streamed into an atlas of a fixed GPU budget through a page
     /// table: volumes of any size ([`VolumeRenderer::new_stream`], [`VolumeRenderer::update`]).
     Stream,
+    /// Up to eight channels on one grid drawn together, each in its color (the dense march;
+    /// [`VolumeRenderer::new_composite`]).
+    Composite,
 }
 
 /// Voxels along a brick's side in the bricks renderer, unless chosen otherwise.
@@ -70,6 +75,7 @@ impl RendererKind {
             Self::Dense => "dense",
             Self::Bricks => "bricks",
             Self::Stream => "stream",
+            Self::Composite => "composite",
         }
     }
 }
@@ -87,16 +93,9 @@ pub enum LevelDetail {
     Full,
 }
 
-enum State {
-    Octree(GpuVolume),
-    Dense(DenseVolume),
-    Bricks(Box<GpuBricks>),
-    Stream(Box<StreamVolume>),
-}
-
 /// A volume uploaded for one renderer, drawn with the device's pipelines.
 pub struct VolumeRenderer {
-    state: State,
+    renderer: Box<dyn Renderer>,
     /// What the value levels mean (for the slices' colors).
     quantization: Quantization,
     /// The slices' color tables, made on the first slice of each window and colormap.
@@ -121,6 +120,9 @@ fn build_pipelines(context: &GpuContext, kind: RendererKind) {
         RendererKind::Stream => {
             context.stream_raycaster();
         }
+        RendererKind::Composite => {
+            context.composite_raycaster();
+        }
     }
 }
 
@@ -128,6 +130,7 @@ impl VolumeRenderer {
     /// Uploads what `kind` needs: the octree (colored as it is, through `max_level`) or the
     /// quantized voxels. Builds the device's pipelines for `kind` if this is its first use, so
     /// that the compile happens here (the app's loading thread) and not at the first frame.
+    /// (The composite of several channels is [`Self::new_composite`].)
     pub fn new(
         context: &GpuContext,
         options: impl Into<RendererOptions>,
@@ -139,12 +142,12 @@ impl VolumeRenderer {
     ) -> Result<Self, RenderError> {
         let options = options.into();
         build_pipelines(context, options.kind);
-        let state = match options.kind {
-            RendererKind::Octree => State::Octree(GpuVolume::upload(
+        let renderer: Box<dyn Renderer> = match options.kind {
+            RendererKind::Octree => Box::new(GpuVolume::upload(
                 context, octree, spacing, max_level, transfer,
             )?),
             RendererKind::Dense => {
-                State::Dense(DenseVolume::upload(context, quantized, spacing, transfer)?)
+                Box::new(DenseVolume::upload(context, quantized, spacing, transfer)?)
             }
             RendererKind::Bricks => {
                 let layout = BrickLayout::new(
@@ -154,14 +157,14 @@ impl VolumeRenderer {
                     context.limits.max_texture_dimension_3d as usize,
                 )
                 .map_err(RenderError::DoesNotFit)?;
-                State::Bricks(Box::new(GpuBricks::upload(
+                Box::new(GpuBricks::upload(
                     context,
                     &layout,
                     quantized,
                     spacing,
                     octree.depth,
                     transfer,
-                )?))
+                )?)
             }
             RendererKind::Stream => {
                 let source = MemorySource::new("volume", quantized, spacing, Downsampling::Mean)
@@ -170,19 +173,20 @@ impl VolumeRenderer {
                     gpu_memory: options.gpu_memory,
                     ..StreamOptions::default()
                 };
-                State::Stream(Box::new(StreamVolume::new(
+                Box::new(StreamVolume::new(
                     context,
                     Arc::new(source),
                     stream,
                     transfer,
-                )?))
+                )?)
+            }
+            RendererKind::Composite => {
+                return Err(RenderError::Invalid(
+                    "the composite is made of channels (VolumeRenderer::new_composite)".into(),
+                ));
             }
         };
-        Ok(Self {
-            state,
-            quantization: octree.quantization,
-            slice_colors: SliceColorCache::default(),
-        })
+        Ok(Self::from_renderer(renderer, octree.quantization))
     }
 
     /// The streaming renderer of `source` (an in-memory volume's pyramid, a procedural one, a
@@ -197,11 +201,41 @@ impl VolumeRenderer {
         build_pipelines(context, RendererKind::Stream);
         let quantization = source.quantization();
         let volume = StreamVolume::new(context, source, options, transfer)?;
-        Ok(Self {
-            state: State::Stream(Box::new(volume)),
+        Ok(Self::from_renderer(Box::new(volume), quantization))
+    }
+
+    /// The composite of `layers` (1 to 8 channels on one grid, each its transfer function and
+    /// color) with the voxel size `spacing`; its channels' tables are set on
+    /// [`Self::composite`].
+    pub fn new_composite(
+        context: &GpuContext,
+        layers: &[ChannelLayer<'_>],
+        spacing: [f64; 3],
+    ) -> Result<Self, RenderError> {
+        build_pipelines(context, RendererKind::Composite);
+        let volume = CompositeVolume::upload(context, layers, spacing)?;
+        let quantization = layers.first().map_or(
+            Quantization {
+                offset: 0.0,
+                step: 1.0,
+            },
+            |layer| layer.quantized.quantization,
+        );
+        Ok(Self::from_renderer(Box::new(volume), quantization))
+    }
+
+    /// `renderer`, its value levels meaning what `quantization` says.
+    pub fn from_renderer(renderer: Box<dyn Renderer>, quantization: Quantization) -> Self {
+        Self {
+            renderer,
             quantization,
             slice_colors: SliceColorCache::default(),
-        })
+        }
+    }
+
+    /// The renderer itself.
+    pub fn renderer(&self) -> &dyn Renderer {
+        self.renderer.as_ref()
     }
 
     /// The per-frame step of the streaming renderer, before drawing: takes in what earlier
@@ -209,77 +243,36 @@ impl VolumeRenderer {
     /// uploads within the frame's budget. `None` for the other renderers (nothing to stream).
     /// Never waits on I/O or the GPU.
     pub fn update(&mut self, context: &GpuContext) -> Option<StreamStatus> {
-        match &mut self.state {
-            State::Stream(volume) => Some(volume.update(context)),
-            _ => None,
-        }
+        self.renderer.update(context)
     }
 
     /// The streaming renderer's GPU side (its streamer and counters), if this is one.
     pub fn stream(&self) -> Option<&StreamVolume> {
-        match &self.state {
-            State::Stream(volume) => Some(volume),
-            _ => None,
-        }
+        self.renderer.stream()
     }
 
     /// The streaming renderer's GPU side, to prefetch into, if this is one.
     pub fn stream_mut(&mut self) -> Option<&mut StreamVolume> {
-        match &mut self.state {
-            State::Stream(volume) => Some(volume),
-            _ => None,
-        }
+        self.renderer.stream_mut()
+    }
+
+    /// The composite of channels, if this is one.
+    pub fn composite(&self) -> Option<&CompositeVolume> {
+        self.renderer.composite()
     }
 
     /// What frames of max level `max_level` draw with this renderer.
     pub fn level_detail(&self, max_level: u32) -> LevelDetail {
-        let (depth, sampled, bricks, dims) = match &self.state {
-            State::Octree(volume) => (volume.depth(), 0, None, volume.dims()),
-            State::Dense(volume) => (
-                volume.depth(),
-                volume.sampled_level(max_level),
-                None,
-                volume.dims(),
-            ),
-            State::Bricks(volume) => (
-                volume.depth(),
-                volume.sampled_level(max_level),
-                volume.bricks(),
-                volume.dims(),
-            ),
-            State::Stream(volume) => {
-                let depth = volume.depth();
-                (depth, depth.saturating_sub(max_level), None, volume.dims())
-            }
-        };
-        if max_level >= depth {
-            LevelDetail::Full
-        } else if sampled > 0 {
-            LevelDetail::Pyramid {
-                level: sampled,
-                dims: dims.map(|d| d.div_ceil(1 << sampled)),
-            }
-        } else {
-            debug_assert!(
-                matches!(self.state, State::Octree(_))
-                    || bricks.is_some_and(|b| max_level <= b.level)
-            );
-            LevelDetail::Nodes { level: max_level }
-        }
+        self.renderer.level_detail(max_level)
     }
 
     /// Which renderer this is.
     pub fn kind(&self) -> RendererKind {
-        match self.state {
-            State::Octree(_) => RendererKind::Octree,
-            State::Dense(_) => RendererKind::Dense,
-            State::Bricks(_) => RendererKind::Bricks,
-            State::Stream(_) => RendererKind::Stream,
-        }
+        self.renderer.kind()
     }
 
-    /// Applies a new transfer function: writes the lookup table and, for the octree, records
-    /// the GPU recolor of every level into `encoder` (topology untouched).
+    /// Applies a new transfer function: writes the lookup table and, for the octree and
+    /// bricks, records the GPU recolor into `encoder` (topology untouched).
     pub fn set_transfer(
         &mut self,
         context: &GpuContext,
@@ -287,29 +280,8 @@ impl VolumeRenderer {
         transfer: &TransferFunction,
         timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) -> Result<(), RenderError> {
-        match &mut self.state {
-            State::Octree(volume) => {
-                volume.set_transfer(context, transfer);
-                context
-                    .recolor()
-                    .encode(context, encoder, volume, timestamp_writes)
-            }
-            State::Dense(volume) => {
-                volume.set_transfer(context, transfer);
-                Ok(())
-            }
-            State::Bricks(volume) => {
-                volume.set_transfer(context, transfer);
-                context
-                    .brick_recolor()
-                    .encode(context, encoder, volume, timestamp_writes);
-                Ok(())
-            }
-            State::Stream(volume) => {
-                volume.set_transfer(context, transfer);
-                Ok(())
-            }
-        }
+        self.renderer
+            .set_transfer(context, encoder, transfer, timestamp_writes)
     }
 
     /// Records one frame into `encoder`. Frames of several renderers and targets may share an
@@ -324,107 +296,27 @@ impl VolumeRenderer {
         settings: &RenderSettings,
         timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
-        match &self.state {
-            State::Octree(volume) => {
-                let frame = Frame {
-                    volume,
-                    target,
-                    camera,
-                    settings,
-                };
-                context
-                    .raycaster()
-                    .encode(context, encoder, &frame, timestamp_writes);
-            }
-            State::Dense(volume) => {
-                let frame = Frame {
-                    volume,
-                    target,
-                    camera,
-                    settings,
-                };
-                context
-                    .dense_raycaster()
-                    .encode(context, encoder, &frame, timestamp_writes);
-            }
-            State::Bricks(volume) => {
-                let frame = Frame {
-                    volume: volume.as_ref(),
-                    target,
-                    camera,
-                    settings,
-                };
-                context
-                    .raycaster()
-                    .encode(context, encoder, &frame, timestamp_writes);
-            }
-            State::Stream(volume) => {
-                let frame = Frame {
-                    volume: volume.as_ref(),
-                    target,
-                    camera,
-                    settings,
-                };
-                context
-                    .stream_raycaster()
-                    .encode(context, encoder, &frame, timestamp_writes);
-            }
-        }
+        self.renderer
+            .encode(context, encoder, target, camera, settings, timestamp_writes);
     }
 
     /// Builds, where not built yet, the device's pipelines this renderer draws `settings` with
     /// (the shaded or clipped variants where they shade or clip) and, with `probe`, its probe
-    /// pipelines: so that a
-    /// caller that knows its settings compiles them where it likes (the app's loading thread)
-    /// rather than at the first frame that needs them.
+    /// pipelines: so that a caller that knows its settings compiles them where it likes (the
+    /// app's loading thread) rather than at the first frame that needs them.
     pub fn prepare_pipelines(&self, context: &GpuContext, settings: &RenderSettings, probe: bool) {
-        let mut variants = vec![frame_variant(settings)];
-        if probe {
-            variants.push(probe_variant(settings));
-        }
-        // Dense and bricks below full detail sample a coarser pyramid level: their own variant.
-        let coarse = matches!(self.state, State::Dense(_) | State::Bricks(_))
-            && matches!(
-                self.level_detail(settings.max_level),
-                LevelDetail::Pyramid { .. }
-            );
-        for variant in &mut variants {
-            variant.coarse = coarse;
-        }
-        for variant in variants {
-            match self.state {
-                State::Octree(_) | State::Bricks(_) => {
-                    context.raycaster().prepare(context, variant)
-                }
-                State::Dense(_) => context.dense_raycaster().prepare(context, variant),
-                State::Stream(_) => context.stream_raycaster().prepare(context, variant),
-            }
-        }
+        self.renderer.prepare_pipelines(context, settings, probe);
     }
 
-    /// Records the probe of one pixel ([`super::GpuProbe`]).
+    /// Records the probe of one pixel ([`super::GpuProbe`]); `false` where this renderer has
+    /// no probe.
     pub(crate) fn encode_probe(
         &self,
         context: &GpuContext,
         encoder: &mut wgpu::CommandEncoder,
         probe: &ProbeTarget<'_>,
-    ) {
-        match &self.state {
-            State::Octree(volume) => context
-                .raycaster()
-                .encode_probe(context, encoder, volume, probe),
-            State::Dense(volume) => context
-                .dense_raycaster()
-                .encode_probe(context, encoder, volume, probe),
-            State::Bricks(volume) => {
-                context
-                    .raycaster()
-                    .encode_probe(context, encoder, volume.as_ref(), probe)
-            }
-            State::Stream(volume) => context
-                .stream_raycaster()
-                .encode_probe(context, encoder, volume, probe),
-        }
+    ) -> bool {
+        self.renderer.encode_probe(context, encoder, probe)
     }
 
     /// Records and submits one frame.
@@ -435,13 +327,7 @@ impl VolumeRenderer {
         camera: &Camera,
         settings: &RenderSettings,
     ) {
-        let mut encoder = context
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("voxscope::frame"),
-            });
-        self.encode(context, &mut encoder, target, camera, settings, None);
-        context.queue.submit([encoder.finish()]);
+        self.renderer.render(context, target, camera, settings);
     }
 
     /// Records one planar slice of the volume into `target` (see [`super::SliceFrame`]): the
@@ -450,7 +336,7 @@ impl VolumeRenderer {
     /// colormap, opaque; transparent black outside the volume. The slice pipeline is built on
     /// the device's first slice. A color table is made once per window and colormap (the
     /// last four are kept, for views with windows of their own); slices of several windows may
-    /// share an encoder. The streaming renderer records nothing ([`Self::has_slices`]).
+    /// share an encoder. The streaming renderer and the composite record nothing ([`Self::has_slices`]).
     pub fn encode_slice(
         &self,
         context: &GpuContext,
@@ -472,8 +358,9 @@ impl VolumeRenderer {
             .encode(context, encoder, &source, &colors, target, settings);
     }
 
-    /// Whether [`Self::encode_slice`] draws: every renderer of an in-memory volume; not the
-    /// streaming renderer yet (its slices would need the slice shader to read the page table).
+    /// Whether [`Self::encode_slice`] draws: every renderer of one in-memory volume; not the
+    /// streaming renderer yet (its slices would need the slice shader to read the page table)
+    /// nor the composite.
     pub fn has_slices(&self) -> bool {
         self.slice_source().is_some()
     }
@@ -502,37 +389,16 @@ impl VolumeRenderer {
     }
 
     fn slice_source(&self) -> Option<SliceSource<'_>> {
-        match &self.state {
-            State::Octree(volume) => Some(SliceSource::Octree(volume)),
-            State::Dense(volume) => Some(SliceSource::Dense(volume)),
-            State::Bricks(volume) => Some(SliceSource::Bricks(volume)),
-            State::Stream(_) => None,
-        }
+        self.renderer.slice_source()
     }
 
     /// GPU memory of each of this renderer's buffers and textures, by name.
     pub fn gpu_bytes(&self) -> Vec<(&'static str, u64)> {
-        let mut bytes = self.volume_gpu_bytes();
+        let mut bytes = self.renderer.gpu_bytes();
         let slice_colors = self.slice_colors.gpu_bytes();
         if slice_colors > 0 {
             bytes.push(("slice_colors", slice_colors));
         }
         bytes
-    }
-
-    fn volume_gpu_bytes(&self) -> Vec<(&'static str, u64)> {
-        match &self.state {
-            State::Octree(volume) => vec![
-                ("nodes", volume.nodes.size()),
-                ("bounds", volume.bounds.size()),
-                ("lookup_table", volume.transfer.size()),
-            ],
-            State::Dense(volume) => vec![
-                ("texture", volume.gpu_bytes() - volume.transfer.size()),
-                ("lookup_table", volume.transfer.size()),
-            ],
-            State::Bricks(volume) => volume.gpu_bytes(),
-            State::Stream(volume) => volume.gpu_bytes(),
-        }
     }
 }

@@ -10,7 +10,7 @@
 use std::sync::Arc;
 
 use voxscope_octree::{Colormap, DataKind, TransferFunction};
-use voxscope_render::{ChannelLayer, CompositeRaycaster, CompositeVolume, GpuContext, RenderError};
+use voxscope_render::{ChannelLayer, CompositeVolume, GpuContext, RenderError, VolumeRenderer};
 use voxscope_volume::{QuantizedVolume, ValueWindow, Volume, channel_color};
 
 use crate::{TransferRequest, VolumeData, default_window, file_window, opening_transfer};
@@ -124,8 +124,8 @@ pub struct CompositeScene {
     /// Every channel's data (the panels' histogram, window presets and kind for the channel
     /// being edited); channel 0 is also the scene's [`crate::Scene::data`].
     pub channels: Vec<Arc<VolumeData>>,
-    pub volume: CompositeVolume,
-    pub raycaster: CompositeRaycaster,
+    /// The composite renderer ([`voxscope_render::RendererKind::Composite`]).
+    pub renderer: VolumeRenderer,
     /// The channel states the GPU tables were last written from.
     applied: Vec<ChannelState>,
     /// Bumped whenever the tables change, so panes drawn with the old ones redraw.
@@ -149,13 +149,14 @@ impl CompositeScene {
         let spacing = channels
             .first()
             .map_or([1.0; 3], |data| data.volume.spacing);
-        let volume = CompositeVolume::upload(context, &layers(&channels, states), spacing)?;
+        let renderer = VolumeRenderer::new_composite(context, &layers(&channels, states), spacing)?;
         let shown: Vec<bool> = states.iter().map(|s| s.visible).collect();
-        volume.set_shown_layers(context, &layers(&channels, states), &shown);
+        if let Some(volume) = renderer.composite() {
+            volume.set_shown_layers(context, &layers(&channels, states), &shown);
+        }
         Ok(Self {
-            raycaster: CompositeRaycaster::new(context),
             channels,
-            volume,
+            renderer,
             applied: states.to_vec(),
             generation: 1,
         })
@@ -164,10 +165,12 @@ impl CompositeScene {
     /// Writes the tables of `states` where they differ from what the GPU holds (no reload:
     /// edits stay live); returns the tables' generation, which changes with every write.
     pub fn apply(&mut self, context: &GpuContext, states: &[ChannelState]) -> u64 {
-        if states.len() == self.channels.len() && states != self.applied.as_slice() {
+        if states.len() == self.channels.len()
+            && states != self.applied.as_slice()
+            && let Some(volume) = self.renderer.composite()
+        {
             let shown: Vec<bool> = states.iter().map(|s| s.visible).collect();
-            self.volume
-                .set_shown_layers(context, &layers(&self.channels, states), &shown);
+            volume.set_shown_layers(context, &layers(&self.channels, states), &shown);
             self.applied = states.to_vec();
             self.generation += 1;
         }
@@ -177,6 +180,18 @@ impl CompositeScene {
     /// The channel states the GPU tables follow now.
     pub fn applied(&self) -> &[ChannelState] {
         &self.applied
+    }
+
+    /// The composite on the GPU (its skipping blocks, grid and memory).
+    pub fn volume(&self) -> &CompositeVolume {
+        self.renderer
+            .composite()
+            .expect("a composite scene's renderer is the composite")
+    }
+
+    /// Bytes on the GPU: textures and tables.
+    pub fn gpu_bytes(&self) -> u64 {
+        self.volume().total_bytes()
     }
 
     /// Bytes on the CPU: every channel's value levels and octree nodes.

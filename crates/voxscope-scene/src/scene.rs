@@ -77,10 +77,18 @@ impl Scene {
     /// Bytes this scene holds on the GPU and in memory (what a prefetched frame costs).
     pub fn bytes(&self) -> u64 {
         let gpu: u64 = self.renderer.gpu_bytes().iter().map(|(_, b)| b).sum();
-        let composite = self.composite.as_ref().map_or(self.data.cpu_bytes(), |c| {
-            c.volume.gpu_bytes() + c.cpu_bytes()
-        });
+        let composite = self
+            .composite
+            .as_ref()
+            .map_or(self.data.cpu_bytes(), |c| c.gpu_bytes() + c.cpu_bytes());
         gpu + composite
+    }
+
+    /// The renderer the 3D views draw: the composite where one is shown, else the volume's.
+    pub fn view_renderer(&self) -> &VolumeRenderer {
+        self.composite
+            .as_ref()
+            .map_or(&self.renderer, |composite| &composite.renderer)
     }
 
     /// The deepest max level: the octree's depth, or the streamed pyramid's (a streamed

@@ -10,7 +10,7 @@ use super::super::slice_pane;
 use super::super::view_state::ViewState;
 use super::super::viewport::DrawKey;
 use super::{CentralView, PaneKind, pane_kinds};
-use voxscope_render::{Frame, FrameProbe, RenderError, RenderSettings, SliceSettings};
+use voxscope_render::{FrameProbe, RenderError, RenderSettings, SliceSettings};
 use voxscope_scene::{NetworkState, Scene};
 
 impl CentralView {
@@ -141,27 +141,14 @@ impl CentralView {
                         !drew && self.frame_probe.as_ref().is_some_and(FrameProbe::is_idle);
                     let probe = self.frame_probe.as_mut().filter(|_| measure);
                     let writes = probe.as_ref().and_then(|p| p.timestamp_writes());
-                    match &scene.composite {
-                        Some(composite) => composite.raycaster.encode(
-                            &gpu.context,
-                            &mut encoder,
-                            &Frame {
-                                volume: &composite.volume,
-                                target,
-                                camera,
-                                settings: render_settings,
-                            },
-                            writes,
-                        ),
-                        None => scene.renderer.encode(
-                            &gpu.context,
-                            &mut encoder,
-                            target,
-                            camera,
-                            render_settings,
-                            writes,
-                        ),
-                    }
+                    scene.view_renderer().encode(
+                        &gpu.context,
+                        &mut encoder,
+                        target,
+                        camera,
+                        render_settings,
+                        writes,
+                    );
                     if let Some(probe) = probe {
                         probe.record(&gpu.context, &mut encoder, target);
                         gpu.context.queue.submit([encoder.finish()]);

@@ -1,0 +1,149 @@
+//! One interface for every renderer: a volume uploaded for one way of drawing it (the octree,
+//! dense, bricks, the streaming renderer, the composite of channels) is a [`Renderer`]. The
+//! app's panes, `render`, `bench`, the probe and the tests draw, probe, recolor, measure and
+//! drive any of them through it ([`super::VolumeRenderer`] holds one), so what differs
+//! between renderers lives in their own files and nothing above dispatches on the kind.
+//!
+//! The pipelines a renderer draws with are the device's ([`GpuContext`]'s cache); a renderer
+//! holds its volume's buffers and textures alone.
+
+use voxscope_octree::TransferFunction;
+use voxscope_stream::StreamStatus;
+
+use super::pipeline::Variant;
+use super::raycaster::{ProbeTarget, frame_variant, probe_variant};
+use super::slice::SliceSource;
+use super::{
+    Camera, CompositeVolume, GpuContext, LevelDetail, RenderError, RenderSettings, RenderTarget,
+    RendererKind, StreamVolume,
+};
+
+/// A volume on the GPU that frames are drawn from.
+pub trait Renderer: Send {
+    /// Which renderer this is.
+    fn kind(&self) -> RendererKind;
+
+    /// What frames of max level `max_level` draw (what the app's Octree panel says under the
+    /// max-level slider).
+    fn level_detail(&self, max_level: u32) -> LevelDetail;
+
+    /// Records one frame into `encoder`, its parameters in a buffer of its own, so frames of
+    /// several renderers and targets may share an encoder.
+    fn encode(
+        &self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &RenderTarget,
+        camera: &Camera,
+        settings: &RenderSettings,
+        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    );
+
+    /// Records and submits one frame ([`Self::encode`] in an encoder of its own).
+    fn render(
+        &self,
+        context: &GpuContext,
+        target: &RenderTarget,
+        camera: &Camera,
+        settings: &RenderSettings,
+    ) {
+        let mut encoder = context
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("voxscope::frame"),
+            });
+        self.encode(context, &mut encoder, target, camera, settings, None);
+        context.queue.submit([encoder.finish()]);
+    }
+
+    /// Records the probe of one pixel (one ray of the frame `probe` describes, its answer
+    /// written to `probe.output`); `false` where this renderer has no probe (the composite).
+    fn encode_probe(
+        &self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        probe: &ProbeTarget<'_>,
+    ) -> bool;
+
+    /// Applies a new transfer function: writes the lookup table and records whatever else it
+    /// takes (the octree's recolor) into `encoder`.
+    fn set_transfer(
+        &mut self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        transfer: &TransferFunction,
+        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) -> Result<(), RenderError>;
+
+    /// Builds, where not built yet, the device's pipelines that frames with `settings` (and,
+    /// with `probe`, their probes) need: so that a caller compiles them where it likes (the
+    /// app's loading thread) rather than at the first frame.
+    fn prepare_pipelines(&self, context: &GpuContext, settings: &RenderSettings, probe: bool);
+
+    /// GPU memory of each buffer and texture, by name.
+    fn gpu_bytes(&self) -> Vec<(&'static str, u64)>;
+
+    /// What slices read, where this renderer holds every voxel (not the streaming renderer
+    /// nor the composite yet).
+    fn slice_source(&self) -> Option<SliceSource<'_>> {
+        None
+    }
+
+    /// The per-frame step of the streaming renderer, before drawing (see
+    /// [`StreamVolume::step`]); `None` for the renderers that need none. Never waits.
+    fn update(&mut self, _context: &GpuContext) -> Option<StreamStatus> {
+        None
+    }
+
+    /// The streaming renderer's GPU side, if this is one.
+    fn stream(&self) -> Option<&StreamVolume> {
+        None
+    }
+
+    /// The streaming renderer's GPU side, to prefetch into, if this is one.
+    fn stream_mut(&mut self) -> Option<&mut StreamVolume> {
+        None
+    }
+
+    /// The composite of channels, if this is one (its channels' tables are set there).
+    fn composite(&self) -> Option<&CompositeVolume> {
+        None
+    }
+}
+
+/// What frames of max level `max_level` draw of a volume of `depth` levels and `dims` voxels
+/// that samples pyramid level `sampled` there (0: its own nodes or every voxel).
+pub(crate) fn level_detail(
+    depth: u32,
+    dims: [usize; 3],
+    sampled: u32,
+    max_level: u32,
+) -> LevelDetail {
+    if max_level >= depth {
+        LevelDetail::Full
+    } else if sampled > 0 {
+        LevelDetail::Pyramid {
+            level: sampled,
+            dims: dims.map(|d| d.div_ceil(1 << sampled)),
+        }
+    } else {
+        LevelDetail::Nodes { level: max_level }
+    }
+}
+
+/// The pipeline variants frames with `settings` draw with (and, with `probe`, probe with);
+/// `coarse` where they sample a coarser pyramid level.
+pub(crate) fn pipeline_variants(
+    settings: &RenderSettings,
+    probe: bool,
+    coarse: bool,
+) -> Vec<Variant> {
+    let mut variants = vec![frame_variant(settings)];
+    if probe {
+        variants.push(probe_variant(settings));
+    }
+    for variant in &mut variants {
+        variant.coarse = coarse;
+    }
+    variants
+}
