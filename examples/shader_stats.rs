@@ -1,7 +1,7 @@
 //! What the Vulkan driver makes of voxscope's ray casters: registers, shared and local memory,
 //! and whatever else it reports through `VK_KHR_pipeline_executable_properties` (wgpu does not
 //! expose it). Occupancy follows from the register count, and the benchmarks' few-sample rows
-//! depend on it (docs/benchmarks.md, "The bound on bricks against dense").
+//! depend on it (docs/performance-log.md, run 38, "The bound on bricks against dense").
 //!
 //! `cargo run --release --example shader_stats` compiles each compute entry point of `raycast`
 //! and `dense`, in each pipeline variant (plain, `SHADING`, `PROBE`: the override constants),

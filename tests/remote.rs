@@ -680,5 +680,3 @@ fn a_converted_volume_renders_from_s3_equal_to_its_folder() {
     let line = one_line_error(&voxscope(&["info", &missing], &signed), &missing, secret);
     assert!(line.contains("is not a Zarr store"), "{line}");
 }
-
-// ---- Figures for docs/benchmarks.md (run by hand) ----

@@ -63,7 +63,7 @@ pub fn show(
     ui.small(format!(
         "{} channels, {} on the GPU",
         composite.channels.len(),
-        super::octree_panel::format_bytes(composite.gpu_bytes())
+        super::numbers::format_bytes(composite.gpu_bytes())
     ));
     ui.separator();
 }

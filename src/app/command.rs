@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use egui::{Key, KeyboardShortcut, Modifiers};
 
 use super::dialogs::DialogKind;
-use super::settings::{Layout, Tool};
+use super::settings::{Layout, Panel, Tool};
 use voxscope_scene::VolumeSource;
 use voxscope_volume::Selection;
 
@@ -89,27 +89,6 @@ impl ViewPreset {
             Self::Front => (0.0, 0.0),
             Self::Side => (90.0, 0.0),
             Self::Top => (0.0, 89.0),
-        }
-    }
-}
-
-/// The side panels.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Panel {
-    /// Left: the transfer function.
-    Transfer,
-    /// Right: the octree, renderer and numbers.
-    Octree,
-}
-
-impl Panel {
-    pub const ALL: [Self; 2] = [Self::Transfer, Self::Octree];
-
-    /// The View menu's name for it.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Transfer => "Transfer function panel",
-            Self::Octree => "Octree panel",
         }
     }
 }

@@ -6,9 +6,9 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use super::command::Command;
+use super::dialogs::DialogAnswer;
 use super::dialogs::{self, DialogKind, NOT_SHOWN_WITHIN};
 use super::file_browser::FileBrowser;
-use super::jobs::DialogAnswer;
 use super::settings::AppSettings;
 use super::url_dialog::UrlDialog;
 use super::viewport;

@@ -4,7 +4,11 @@ use std::path::{Path, PathBuf};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
-use super::jobs::DialogAnswer;
+/// What the user chose in a native file dialog, and how long it was open.
+pub struct DialogAnswer {
+    pub path: Option<PathBuf>,
+    pub open_for: Duration,
+}
 
 /// The file dialogs the app shows.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -9,7 +9,7 @@ use std::sync::mpsc::{self, Receiver, TryRecvError};
 use egui::{Key, RichText, Ui};
 
 use super::dialogs::DialogKind;
-use super::octree_panel::format_bytes;
+use super::numbers::format_bytes;
 
 /// Most entries shown of one folder (a folder of a million files stays usable).
 const MAX_ENTRIES: usize = 5000;

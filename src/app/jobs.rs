@@ -3,19 +3,11 @@
 //! native file dialog) runs on its own thread; [`Jobs::poll`], called once per frame, turns
 //! what has finished into typed [`JobEvent`]s. The UI thread never waits on any of them.
 
-use std::path::PathBuf;
 use std::sync::mpsc::{Receiver, TryRecvError};
-use std::time::Duration;
 
-use super::dialogs::DialogKind;
+use super::dialogs::{DialogAnswer, DialogKind};
 use voxscope_render::RendererOptions;
 use voxscope_scene::{Counted, Job, Opened, Scene, SceneError};
-
-/// What the user chose in a native file dialog, and how long it was open.
-pub struct DialogAnswer {
-    pub path: Option<PathBuf>,
-    pub open_for: Duration,
-}
 
 /// Something a background job finished, as [`Jobs::poll`] hands it to the app.
 pub enum JobEvent {

@@ -5,9 +5,10 @@ use std::time::Duration;
 
 use egui::Ui;
 
-use super::command::{Command, CommandQueue, Panel, ViewPreset, command_button};
+use super::command::{Command, CommandQueue, ViewPreset, command_button};
 use super::dialogs::DialogKind;
 use super::jobs::Jobs;
+use super::settings::Panel;
 use super::settings::{AppSettings, Layout, Tool};
 use voxscope_scene::{Scene, VolumeSource};
 

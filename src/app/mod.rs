@@ -20,6 +20,7 @@ mod file_browser;
 mod frame_controls;
 mod jobs;
 mod menu;
+mod numbers;
 mod octree_panel;
 mod overlays;
 mod pane_header;
@@ -37,9 +38,9 @@ mod voxscope_app;
 
 use std::sync::Arc;
 
-pub use command::{Command, Panel, ViewPreset};
+pub use command::{Command, ViewPreset};
 pub use dialogs::DialogKind;
-pub use settings::{AppSettings, Layout, STORAGE_KEY};
+pub use settings::{AppSettings, Layout, Panel, STORAGE_KEY};
 pub use view_state::ViewState;
 pub use voxscope_app::VoxscopeApp;
 

@@ -3,7 +3,7 @@
 
 use egui::{Align2, Color32, Rect, RichText, Ui, UiBuilder, vec2};
 
-use super::octree_panel::group_digits;
+use super::numbers::group_digits;
 use super::settings::{AppSettings, Layout};
 use super::view_state::{MAX_GRID_PANES, ViewState};
 use voxscope_octree::OpacityMode;

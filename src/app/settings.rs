@@ -3,7 +3,6 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::command::Panel;
 use voxscope_octree::{Colormap, OpacityMode};
 use voxscope_render::{
     Camera, DEFAULT_BRICK_SIZE, RenderMode, RendererKind, RendererOptions, Shading,
@@ -58,6 +57,27 @@ impl Layout {
     }
 }
 
+/// The side panels.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Panel {
+    /// Left: the transfer function.
+    Transfer,
+    /// Right: the octree, renderer and numbers.
+    Octree,
+}
+
+impl Panel {
+    pub const ALL: [Self; 2] = [Self::Transfer, Self::Octree];
+
+    /// The View menu's name for it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Transfer => "Transfer function panel",
+            Self::Octree => "Octree panel",
+        }
+    }
+}
+
 /// Everything persisted.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
@@ -96,7 +116,7 @@ pub struct AppSettings {
     /// Frames a second when playing a time series.
     pub frame_rate: f32,
     /// Frames of an in-memory time series kept loaded ahead of the one on screen (0 to
-    /// [`super::prefetch::MAX_PREFETCH_FRAMES`]; 0 loads each frame when it is asked for).
+    /// [`voxscope_scene::MAX_PREFETCH_FRAMES`]; 0 loads each frame when it is asked for).
     pub prefetch_frames: usize,
     /// Most recent first.
     pub recent: Vec<String>,

@@ -4,7 +4,7 @@
 
 use egui::Ui;
 
-use super::octree_panel::{format_bytes, group_digits};
+use super::numbers::{format_bytes, group_digits};
 use super::settings::AppSettings;
 use voxscope_scene::Scene;
 use voxscope_stream::StreamStatus;

@@ -113,18 +113,30 @@ const CAMERAS: [(&str, f64); 3] = [("near", 1.5), ("medium", 3.0), ("far", 6.0)]
 /// Frames rendered and thrown away before each configuration is timed: at least this many, in
 /// rounds of this many, until `WARMUP_TIME` has passed. A GPU that sat idle while the octree was
 /// built starts at idle clocks; five frames alone left the first configuration of a 1024³ run
-/// up to 30 % slow in some processes (docs/benchmarks.md, runs 32 and 34).
+/// up to 30 % slow in some processes (docs/performance-log.md, attempt 23).
 const WARMUP_FRAMES: u32 = 5;
 const WARMUP_TIME: Duration = Duration::from_millis(200);
 const RECOLOR_RUNS: u32 = 20;
 
+impl BenchArgs {
+    /// Whether these options ask for the streaming renderer's benchmark
+    /// (`super::stream_bench`) rather than the in-memory renderers'.
+    pub fn streams(&self) -> bool {
+        self.stream || self.renderer == Some(RendererArg::Stream)
+    }
+
+    /// The checks both benchmarks make before anything is read.
+    pub fn check(&self) -> Result<(), String> {
+        if self.frames == 0 {
+            return Err("--frames must be at least 1".into());
+        }
+        Ok(())
+    }
+}
+
+/// `bench` of the in-memory renderers (octree, dense, bricks, and composites).
 pub fn run(args: &BenchArgs) -> Result<(), String> {
-    if args.frames == 0 {
-        return Err("--frames must be at least 1".into());
-    }
-    if args.stream || args.renderer == Some(RendererArg::Stream) {
-        return super::stream_bench::run(args);
-    }
+    args.check()?;
     let mut transfer_args = TransferArgs::defaults();
     transfer_args.window = args.window;
     transfer_args.threshold = args.threshold;

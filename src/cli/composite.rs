@@ -1,15 +1,12 @@
 //! Several channels drawn together (`--channel all`, the default for a multi-channel file, or
-//! `--channels-from`): each channel's color and window, and `render`'s composite.
-
-use std::time::Instant;
+//! `--channels-from`): each channel's color and window (`--channel-colors`,
+//! `--channel-window`), as `render`, `info` and `bench` read them.
 
 use clap::Args;
 
 use super::TransferArgs;
-use super::args::RendererArg;
-use super::render::RenderArgs;
 use voxscope_octree::DataKind;
-use voxscope_render::{Camera, ChannelLayer, GpuContext, RenderTarget, VolumeRenderer, read_image};
+use voxscope_render::ChannelLayer;
 use voxscope_scene::{ChannelRequest, ChannelState};
 use voxscope_volume::{
     DEFAULT_CHANNEL_COLORS, QuantizedVolume, ValueWindow, Volume, channel_color_by_name,
@@ -124,56 +121,4 @@ impl ChannelArgs {
             })
             .collect())
     }
-}
-
-/// `render` of several channels: the dense renderer's composite.
-pub(super) fn render(args: &RenderArgs, channels: Vec<Volume>) -> Result<(), String> {
-    let started = Instant::now();
-    if let Some(renderer) = args.renderer
-        && renderer != RendererArg::Dense
-    {
-        return Err(format!(
-            "the composite of {} channels is drawn by the dense renderer; --renderer {} draws one channel (--channel N)",
-            channels.len(),
-            voxscope_render::RendererKind::from(renderer).name()
-        ));
-    }
-    let prepared = args.channels.prepare(channels, &args.transfer)?;
-    let saved = args.transfer.saved()?;
-    let mut settings = args.transfer.render_settings(0, saved.as_ref());
-    settings.clip = args.clip.clip();
-    let context = GpuContext::new_headless().map_err(|e| e.to_string())?;
-    let layers: Vec<ChannelLayer<'_>> = prepared.iter().map(PreparedChannel::layer).collect();
-    let name = &prepared[0].volume.name;
-    let renderer = VolumeRenderer::new_composite(&context, &layers, prepared[0].volume.spacing)
-        .map_err(|e| format!("{name}: {e}"))?;
-    let target = RenderTarget::new(&context, args.size.0, args.size.1);
-    let camera = Camera {
-        azimuth_deg: args.azimuth,
-        elevation_deg: args.elevation,
-        distance: args.distance,
-        fov_y_deg: args.fov,
-        pan: [0.0; 3],
-    };
-    renderer.render(&context, &target, &camera, &settings);
-    let image = read_image(&context, &target).map_err(|e| e.to_string())?;
-    image
-        .save(&args.output)
-        .map_err(|e| format!("cannot write {}: {e}", args.output.display()))?;
-    let colors: Vec<String> = prepared
-        .iter()
-        .map(|c| c.state.color)
-        .map(|c| format!("#{:02x}{:02x}{:02x}", c[0], c[1], c[2]))
-        .collect();
-    eprintln!(
-        "wrote {} ({}x{}, composite of {} channels ({}), dense renderer) on {} in {:.2} s",
-        args.output.display(),
-        target.width,
-        target.height,
-        prepared.len(),
-        colors.join(", "),
-        context.describe(),
-        started.elapsed().as_secs_f64()
-    );
-    Ok(())
 }

@@ -57,6 +57,7 @@ pub fn run() -> std::process::ExitCode {
     let result = match cli.command {
         Some(Command::Info(args)) => info::run(&args),
         Some(Command::Render(args)) => render::run(&args),
+        Some(Command::Bench(args)) if args.streams() => stream_bench::run(&args),
         Some(Command::Bench(args)) => bench::run(&args),
         Some(Command::Ceilings(args)) => ceilings::run(&args),
         Some(Command::Probe(args)) => probe::run(&args),

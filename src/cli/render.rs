@@ -6,16 +6,17 @@ use std::time::{Duration, Instant};
 use clap::Args;
 
 use super::args::RendererArg;
+use super::composite::PreparedChannel;
 use super::prepare::default_renderer;
 use super::stream::{StreamArgs, open_streamed};
 use super::{ClipArgs, Prepared, TransferArgs, VolumeArgs};
 use voxscope_octree::MAX_DEPTH;
 use voxscope_render::{
-    Camera, DEFAULT_BRICK_SIZE, GpuContext, RenderTarget, RendererOptions, VolumeRenderer,
-    read_image,
+    Camera, ChannelLayer, DEFAULT_BRICK_SIZE, GpuContext, RenderTarget, RendererOptions,
+    VolumeRenderer, read_image,
 };
 use voxscope_scene::{SavedTransfer, StreamedVolume, beyond_octree, describe_missing, refine};
-use voxscope_volume::format_dims;
+use voxscope_volume::{Volume, format_dims};
 
 #[derive(Debug, Args)]
 pub struct RenderArgs {
@@ -70,7 +71,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     let started = Instant::now();
     let volume = match args.volume.composite_channels()? {
         Some(channels) if channels.len() > 1 => {
-            return super::composite::render(args, channels);
+            return run_composite(args, channels);
         }
         Some(mut channels) => channels.pop().ok_or("no channel was read")?,
         None => args.volume.load()?,
@@ -139,6 +140,58 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         renderer.kind().name(),
         settings.max_level,
         prepared.data.octree.depth,
+        context.describe(),
+        started.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+/// `render` of several channels: the dense renderer's composite.
+fn run_composite(args: &RenderArgs, channels: Vec<Volume>) -> Result<(), String> {
+    let started = Instant::now();
+    if let Some(renderer) = args.renderer
+        && renderer != RendererArg::Dense
+    {
+        return Err(format!(
+            "the composite of {} channels is drawn by the dense renderer; --renderer {} draws one channel (--channel N)",
+            channels.len(),
+            voxscope_render::RendererKind::from(renderer).name()
+        ));
+    }
+    let prepared = args.channels.prepare(channels, &args.transfer)?;
+    let saved = args.transfer.saved()?;
+    let mut settings = args.transfer.render_settings(0, saved.as_ref());
+    settings.clip = args.clip.clip();
+    let context = GpuContext::new_headless().map_err(|e| e.to_string())?;
+    let layers: Vec<ChannelLayer<'_>> = prepared.iter().map(PreparedChannel::layer).collect();
+    let name = &prepared[0].volume.name;
+    let renderer = VolumeRenderer::new_composite(&context, &layers, prepared[0].volume.spacing)
+        .map_err(|e| format!("{name}: {e}"))?;
+    let target = RenderTarget::new(&context, args.size.0, args.size.1);
+    let camera = Camera {
+        azimuth_deg: args.azimuth,
+        elevation_deg: args.elevation,
+        distance: args.distance,
+        fov_y_deg: args.fov,
+        pan: [0.0; 3],
+    };
+    renderer.render(&context, &target, &camera, &settings);
+    let image = read_image(&context, &target).map_err(|e| e.to_string())?;
+    image
+        .save(&args.output)
+        .map_err(|e| format!("cannot write {}: {e}", args.output.display()))?;
+    let colors: Vec<String> = prepared
+        .iter()
+        .map(|c| c.state.color)
+        .map(|c| format!("#{:02x}{:02x}{:02x}", c[0], c[1], c[2]))
+        .collect();
+    eprintln!(
+        "wrote {} ({}x{}, composite of {} channels ({}), dense renderer) on {} in {:.2} s",
+        args.output.display(),
+        target.width,
+        target.height,
+        prepared.len(),
+        colors.join(", "),
         context.describe(),
         started.elapsed().as_secs_f64()
     );

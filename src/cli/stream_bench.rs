@@ -48,6 +48,7 @@ fn summary(values: &[f64]) -> serde_json::Value {
 }
 
 pub fn run(args: &BenchArgs) -> Result<(), String> {
+    args.check()?;
     let mut transfer_args = TransferArgs::defaults();
     transfer_args.window = args.window;
     transfer_args.threshold = args.threshold;

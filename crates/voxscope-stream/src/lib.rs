@@ -10,6 +10,7 @@
 //!
 //! Module direction: volume → stream → render. Nothing here touches the GPU.
 
+mod brick;
 mod frame;
 mod key_hash;
 mod loader;
@@ -27,6 +28,7 @@ mod status;
 mod streamer;
 mod zarr_source;
 
+pub use brick::{BRICK_SIZE, BrickData, BrickId, PADDED_BRICK, PADDED_BRICK_VOXELS, ValueRange};
 pub use frame::{Feedback, Upload, ViewPoint};
 pub use key_hash::{KeyHasher, KeyMap, KeySet};
 pub use loader::{AtlasTexels, LoadedBrick};
@@ -45,10 +47,7 @@ pub use pyramid::{
 pub use queue::{Priority, Request, RequestQueue, Tier};
 pub use ram_cache::RamCache;
 pub use slots::{Allocation, SlotPool};
-pub use source::{
-    BRICK_SIZE, BrickData, BrickError, BrickId, BrickSource, PADDED_BRICK, PADDED_BRICK_VOXELS,
-    ValueRange,
-};
+pub use source::{BrickError, BrickSource};
 pub use status::{LevelCounters, StreamCounters, StreamStatus};
 pub use streamer::Streamer;
 pub use zarr_source::{MAX_BRICK_READ, ZarrSource};

@@ -8,7 +8,7 @@ use std::sync::mpsc::{Receiver, Sender, channel};
 use std::thread::JoinHandle;
 
 use super::queue::{RequestQueue, Tier};
-use super::source::{BrickError, BrickId, BrickSource, PADDED_BRICK_VOXELS, ValueRange};
+use crate::{BrickError, BrickId, BrickSource, PADDED_BRICK_VOXELS, ValueRange};
 
 /// How value levels are stored in the atlas's texels.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -128,7 +128,7 @@ pub fn load_brick(
             let bytes_read = (data.levels.len() * texels.bytes()) as u64;
             if data.levels.len() != PADDED_BRICK_VOXELS {
                 return (
-                    Err(BrickError(format!(
+                    Err(BrickError::Invalid(format!(
                         "{}: {id} has {} value levels, not {PADDED_BRICK_VOXELS}",
                         source.name(),
                         data.levels.len()

@@ -4,7 +4,7 @@
 //! axis does not bound it.
 
 use super::pyramid::{Downsampling, PyramidShape, coarser_levels, cut_brick};
-use super::source::{BrickData, BrickError, BrickId, BrickSource};
+use crate::{BrickData, BrickError, BrickId, BrickSource};
 use voxscope_volume::{Quantization, QuantizedVolume};
 
 /// Every level of a pyramid, held whole in memory.
@@ -103,7 +103,7 @@ impl BrickSource for MemorySource {
     fn read_brick(&self, id: BrickId) -> Result<BrickData, BrickError> {
         let (Some(levels), Some(_)) = (self.levels.get(id.level as usize), self.shape.key(id))
         else {
-            return Err(BrickError(format!("{}: no {id}", self.name)));
+            return Err(BrickError::Invalid(format!("{}: no {id}", self.name)));
         };
         Ok(cut_brick(
             levels,

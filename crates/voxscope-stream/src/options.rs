@@ -14,7 +14,8 @@ pub struct StreamOptions {
     pub ram_cache: u64,
     /// Bytes uploaded to the atlas per frame at most. Default 8 MiB (about 100 16-bit bricks):
     /// on an H200, 8 MiB kept 199 of 200 streaming frames under 16 ms of wall time, 16 MiB
-    /// 151–193 of 200, 32 MiB up to 60 ms a frame (runs 46–47, docs/benchmarks.md).
+    /// 151–193 of 200, 32 MiB up to 63 ms a frame on noise and 100 ms on a CT (runs 46–47,
+    /// docs/performance-log.md, "What bounds the misses").
     pub upload_bytes_per_frame: u64,
     /// Worker threads loading bricks. Default: the machine's cores less one (at least one).
     pub workers: usize,

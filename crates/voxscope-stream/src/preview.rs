@@ -5,7 +5,7 @@
 use rayon::prelude::*;
 
 use super::pyramid::PyramidShape;
-use super::source::{BRICK_SIZE, BrickError, BrickId, BrickSource, PADDED_BRICK};
+use crate::{BRICK_SIZE, BrickError, BrickId, BrickSource, PADDED_BRICK};
 use voxscope_volume::{Histogram, QuantizedVolume};
 
 /// The level [`preview`] reads: the finest with at most `max_bricks` bricks (the coarsest if

@@ -8,7 +8,7 @@
 //! real pyramid's would, and every level has detail at its own resolution.
 
 use super::pyramid::PyramidShape;
-use super::source::{BRICK_SIZE, BrickData, BrickError, BrickId, BrickSource, PADDED_BRICK};
+use crate::{BRICK_SIZE, BrickData, BrickError, BrickId, BrickSource, PADDED_BRICK};
 use voxscope_volume::Quantization;
 
 /// Fractal value noise, 16-bit, of any size.
@@ -67,10 +67,10 @@ impl BrickSource for NoiseSource {
 
     fn read_brick(&self, id: BrickId) -> Result<BrickData, BrickError> {
         let Some(level) = self.shape.levels.get(id.level as usize) else {
-            return Err(BrickError(format!("{}: no {id}", self.name)));
+            return Err(BrickError::Invalid(format!("{}: no {id}", self.name)));
         };
         if self.shape.key(id).is_none() {
-            return Err(BrickError(format!("{}: no {id}", self.name)));
+            return Err(BrickError::Invalid(format!("{}: no {id}", self.name)));
         }
         // Each padded voxel's center in level-0 voxels, per axis (clamped to the level).
         let centers: [Vec<f32>; 3] = std::array::from_fn(|axis| {
@@ -205,7 +205,7 @@ fn lattice_value(p: [i64; 3], k: u32) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::source::PADDED_BRICK_VOXELS;
+    use crate::PADDED_BRICK_VOXELS;
 
     fn brick(source: &NoiseSource, level: u32, brick: [u32; 3]) -> BrickData {
         source

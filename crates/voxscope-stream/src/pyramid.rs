@@ -4,7 +4,7 @@
 
 use rayon::prelude::*;
 
-use super::source::{BRICK_SIZE, BrickData, BrickId, PADDED_BRICK_VOXELS};
+use crate::{BRICK_SIZE, BrickData, BrickId, PADDED_BRICK_VOXELS};
 
 /// The most levels a pyramid may have. Level 15 is left out: its keys are reserved for the
 /// page table's empty entries ([`EMPTY_KEY`]), so levels 0…14 (2¹⁴ voxels per level-14 voxel).
@@ -238,8 +238,8 @@ pub fn cut_brick(levels: &[u16], dims: [usize; 3], brick: [u32; 3]) -> BrickData
 
 #[cfg(test)]
 mod tests {
-    use super::super::source::PADDED_BRICK;
     use super::*;
+    use crate::PADDED_BRICK;
 
     #[test]
     fn levels_halve_down_to_one_voxel_as_the_octree_depth_says() {

@@ -7,7 +7,7 @@ use std::sync::{Condvar, Mutex, MutexGuard};
 
 use super::key_hash::KeySet;
 use super::pyramid::MAX_LEVELS;
-use super::source::BrickId;
+use crate::BrickId;
 
 /// Why a brick is wanted.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]

@@ -111,7 +111,7 @@ mod tests {
     use std::sync::Arc;
 
     use super::*;
-    use crate::source::ValueRange;
+    use crate::ValueRange;
 
     fn brick(bytes: usize) -> LoadedBrick {
         LoadedBrick {

@@ -21,8 +21,8 @@ use super::pyramid::PyramidShape;
 use super::queue::{Priority, Request, RequestQueue, Tier};
 use super::ram_cache::RamCache;
 use super::slots::SlotPool;
-use super::source::{BrickId, BrickSource, PADDED_BRICK_VOXELS};
 use super::status::{LevelCounters, StreamCounters, StreamStatus};
+use crate::{BrickId, BrickSource, PADDED_BRICK_VOXELS};
 
 /// The longest wait before a failed brick is asked for again.
 const MAX_RETRY_DELAY: Duration = Duration::from_secs(300);

@@ -12,7 +12,7 @@ use rayon::prelude::*;
 
 use super::preview::preview_level;
 use super::pyramid::{Downsampling, PyramidShape};
-use super::source::{
+use crate::{
     BRICK_SIZE, BrickData, BrickError, BrickId, BrickSource, PADDED_BRICK, PADDED_BRICK_VOXELS,
     ValueRange,
 };
@@ -456,7 +456,7 @@ impl BrickSource for ZarrSource {
             self.sources.get(id.level as usize),
             self.shape.key(id),
         ) else {
-            return Err(BrickError(format!("{}: no {id}", self.name)));
+            return Err(BrickError::Invalid(format!("{}: no {id}", self.name)));
         };
         let stored_dims = self.pyramid.levels[source.stored].dims;
         let first = id.brick.map(|c| c as usize * BRICK_SIZE);
@@ -474,7 +474,7 @@ impl BrickSource for ZarrSource {
         let size: [usize; 3] = std::array::from_fn(|a| spans[a].1 - spans[a].0 + 1);
         let stored = self
             .read_levels(source.stored, origin, size)
-            .map_err(|e| BrickError(format!("{id}: {e}")))?;
+            .map_err(|e| BrickError::of_load(id, &e))?;
         // Each distinct pyramid voxel (the apron and the part past the level's end repeat the
         // edge ones): the mean (or max) of the stored voxels it covers, computed once.
         let distinct: [Vec<usize>; 3] = std::array::from_fn(|a| {

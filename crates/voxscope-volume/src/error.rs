@@ -10,6 +10,23 @@ pub struct LoadError {
     pub source: String,
     /// What is wrong with it, as one sentence without a trailing period.
     pub problem: String,
+    /// What kind of failure it is, for callers that branch on it (a reader retries a fetch,
+    /// not a chunk that does not decode).
+    pub kind: LoadErrorKind,
+}
+
+/// What kind of failure a [`LoadError`] is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum LoadErrorKind {
+    /// The file or store is not what it claims, not supported, or asked for what it does not
+    /// hold: another try reads the same.
+    #[default]
+    Invalid,
+    /// The bytes could not be fetched (the disk or the network failed): another try may
+    /// succeed.
+    Fetch,
+    /// The bytes arrived but do not decode (a damaged or truncated chunk).
+    Decode,
 }
 
 /// A problem longer than this is cut: the loaders shorten what they quote from a file, and
@@ -27,7 +44,13 @@ impl LoadError {
         Self {
             source: escape(&source.to_string()),
             problem,
+            kind: LoadErrorKind::Invalid,
         }
+    }
+
+    /// The same error, of `kind`.
+    pub fn with_kind(self, kind: LoadErrorKind) -> Self {
+        Self { kind, ..self }
     }
 }
 

@@ -29,7 +29,7 @@ pub use channels::{
     DEFAULT_CHANNEL_COLORS, MAX_CHANNELS, channel_color, channel_color_by_name, load_all_channels,
     load_as_channels,
 };
-pub use error::LoadError;
+pub use error::{LoadError, LoadErrorKind};
 pub use format::{Format, dialog_extensions, dialog_filter_name};
 pub use nrrd::NrrdEncoding;
 pub use orientation::Orientation;

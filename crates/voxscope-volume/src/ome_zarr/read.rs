@@ -2,12 +2,14 @@
 //! point, a remote store's chunks fetched together, and the failing chunk named.
 
 use zarrs::array::data_type::Float64DataType;
-use zarrs::array::{Array, ArraySubset};
+use zarrs::array::{Array, ArrayError, ArraySubset, CodecError};
 use zarrs::storage::{ReadableStorageTraits, StoreKey};
 
 use super::super::error::{Problem, printable, quoted};
 use super::super::series::{ChannelInfo, Series, parse_hex_color};
-use super::super::{LoadError, MAX_VOXELS, ValueWindow, VoxelData, VoxelType, format_dims};
+use super::super::{
+    LoadError, LoadErrorKind, MAX_VOXELS, ValueWindow, VoxelData, VoxelType, format_dims,
+};
 use super::{Pyramid, Stored};
 
 /// The most chunks [`Pyramid::prefetch_regions`] asks for at once.
@@ -24,7 +26,7 @@ impl Pyramid {
         size: [usize; 3],
     ) -> Result<VoxelData, LoadError> {
         self.read_region_problem(level, origin, size)
-            .map_err(|problem| LoadError::new(&self.source, problem))
+            .map_err(|(problem, kind)| LoadError::new(&self.source, problem).with_kind(kind))
     }
 
     /// A whole level (or what [`load`] reads).
@@ -180,7 +182,21 @@ impl Pyramid {
         level: usize,
         origin: [usize; 3],
         size: [usize; 3],
-    ) -> Result<VoxelData, Problem> {
+    ) -> Result<VoxelData, (Problem, LoadErrorKind)> {
+        let subset = self
+            .region_subset(level, origin, size)
+            .map_err(|problem| (problem, LoadErrorKind::Invalid))?;
+        self.read_subset(level, &subset)
+    }
+
+    /// The region `origin`/`size` of `level` as a subset of the stored array, once it is
+    /// checked to lie inside the level and within [`MAX_VOXELS`].
+    fn region_subset(
+        &self,
+        level: usize,
+        origin: [usize; 3],
+        size: [usize; 3],
+    ) -> Result<ArraySubset, Problem> {
         let info = self
             .levels
             .get(level)
@@ -203,14 +219,24 @@ impl Pyramid {
                 format_dims(size)
             ));
         }
-        let subset = self.subset(origin, size);
+        Ok(self.subset(origin, size))
+    }
+
+    /// Reads `subset` of `level`'s array: a remote store's chunks asked for together first.
+    /// A failure says which chunk and whether it could not be fetched or does not decode.
+    fn read_subset(
+        &self,
+        level: usize,
+        subset: &ArraySubset,
+    ) -> Result<VoxelData, (Problem, LoadErrorKind)> {
+        let info = &self.levels[level];
         let array = &self.arrays[level];
         if let Some(remote) = &self.remote
             && info.shard.is_none()
         {
             // zarrs asks for one chunk per reading thread at a time: over a network all of
             // the region's chunks are asked for at once first.
-            if let Ok(Some(chunks)) = array.chunks_in_array_subset(&subset) {
+            if let Ok(Some(chunks)) = array.chunks_in_array_subset(subset) {
                 let keys: Vec<StoreKey> = chunks
                     .indices()
                     .into_iter()
@@ -220,42 +246,43 @@ impl Pyramid {
             }
         }
         let read = || match self.stored {
-            Stored::Native(VoxelType::U8) => {
-                array.retrieve_array_subset(&subset).map(VoxelData::U8)
-            }
-            Stored::Native(VoxelType::I8) => {
-                array.retrieve_array_subset(&subset).map(VoxelData::I8)
-            }
+            Stored::Native(VoxelType::U8) => array.retrieve_array_subset(subset).map(VoxelData::U8),
+            Stored::Native(VoxelType::I8) => array.retrieve_array_subset(subset).map(VoxelData::I8),
             Stored::Native(VoxelType::U16) => {
-                array.retrieve_array_subset(&subset).map(VoxelData::U16)
+                array.retrieve_array_subset(subset).map(VoxelData::U16)
             }
             Stored::Native(VoxelType::I16) => {
-                array.retrieve_array_subset(&subset).map(VoxelData::I16)
+                array.retrieve_array_subset(subset).map(VoxelData::I16)
             }
             Stored::Native(VoxelType::U32) => {
-                array.retrieve_array_subset(&subset).map(VoxelData::U32)
+                array.retrieve_array_subset(subset).map(VoxelData::U32)
             }
             Stored::Native(VoxelType::I32) => {
-                array.retrieve_array_subset(&subset).map(VoxelData::I32)
+                array.retrieve_array_subset(subset).map(VoxelData::I32)
             }
             Stored::Native(VoxelType::F32) => {
-                array.retrieve_array_subset(&subset).map(VoxelData::F32)
+                array.retrieve_array_subset(subset).map(VoxelData::F32)
             }
             Stored::Native(VoxelType::F64) => {
-                array.retrieve_array_subset(&subset).map(VoxelData::F64)
+                array.retrieve_array_subset(subset).map(VoxelData::F64)
             }
             Stored::U64 => array
-                .retrieve_array_subset::<Vec<u64>>(&subset)
+                .retrieve_array_subset::<Vec<u64>>(subset)
                 .map(|v| VoxelData::F64(v.into_iter().map(|x| x as f64).collect())),
             Stored::I64 => array
-                .retrieve_array_subset::<Vec<i64>>(&subset)
+                .retrieve_array_subset::<Vec<i64>>(subset)
                 .map(|v| VoxelData::F64(v.into_iter().map(|x| x as f64).collect())),
         };
         let read = match &self.reader_pool {
             Some(pool) => pool.install(read),
             None => read(),
         };
-        read.map_err(|error| self.failing_chunk(level, &subset, &error.to_string()))
+        read.map_err(|error| {
+            (
+                self.failing_chunk(level, subset, &error.to_string()),
+                failure_kind(&error),
+            )
+        })
     }
 
     /// The region `origin`/`size` (x, y, z) as a subset of the stored array.
@@ -313,6 +340,22 @@ impl Pyramid {
             }
         }
         format!("{at}: {}", printable(error))
+    }
+}
+
+/// What kind of failure zarrs' `error` is: the store could not deliver the bytes, or they do
+/// not decode, or anything else.
+fn failure_kind(error: &ArrayError) -> LoadErrorKind {
+    match error {
+        ArrayError::StorageError(_)
+        | ArrayError::CodecError(CodecError::StorageError(_) | CodecError::IOError(_)) => {
+            LoadErrorKind::Fetch
+        }
+        ArrayError::CodecError(_)
+        | ArrayError::UnexpectedChunkDecodedSize(..)
+        | ArrayError::UnexpectedChunkDecodedShape(..)
+        | ArrayError::InvalidBytesInputSize(..) => LoadErrorKind::Decode,
+        _ => LoadErrorKind::Invalid,
     }
 }
 
