@@ -33,7 +33,7 @@ const ENTRY_POINTS: [(&str, &str); 3] = [
     ("dense", "main"),
 ];
 
-/// The pipeline variants of each entry point measured (src/render/pipeline.rs, `Variant`):
+/// The pipeline variants of each entry point measured (voxscope-render's pipeline.rs, `Variant`):
 /// their override constants.
 const VARIANTS: [&str; 5] = ["", "SHADING=1", "PROBE=1", "CLIP=1", "SHADING=1,CLIP=1"];
 

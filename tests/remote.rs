@@ -327,7 +327,7 @@ fn opening_and_the_first_image_take_a_few_round_trips_whatever_the_levels() {
         );
 
         // What the first image reads: the preview's level and the pinned levels, warmed as
-        // `StreamPrepared` does, then read brick by brick as the preview and the streamer do.
+        // `StreamedVolume::open` does, then read brick by brick as the preview and the streamer do.
         let source = ZarrSource::new(Arc::new(pyramid)).unwrap_or_else(|e| panic!("{e}"));
         source.warm_first_image(PREVIEW_BRICKS);
         let (remote_preview, level) =

@@ -1,5 +1,5 @@
 //! Every shader voxscope compiles parses and validates with naga, as composed (WGSL has no
-//! includes; see src/render/shaders.rs), so a shader typo fails here and not on a user's
+//! includes; see crates/voxscope-render/src/shaders.rs), so a shader typo fails here and not on a user's
 //! machine. And every .wgsl file in shaders/ is part of some shader.
 
 use std::collections::BTreeSet;

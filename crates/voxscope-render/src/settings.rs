@@ -73,7 +73,7 @@ pub struct Shading {
 /// window's width per voxel (of the smallest spacing). Weaker gradients shade in proportion.
 /// Chosen so that an edge (skin against air, bone against soft tissue: 0.3 or more) is shaded
 /// fully and the noise of a homogeneous region of an MRI (0.02–0.05) barely. Keep in sync with
-/// the shader's use of `shading_scale.w` (src/render/raycaster.rs).
+/// the shader's use of `shading_scale.w` (raycaster.rs).
 pub const GRADIENT_FOR_FULL_SHADING: f32 = 0.15;
 
 impl Shading {

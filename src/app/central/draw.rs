@@ -188,7 +188,7 @@ impl CentralView {
             pane.drawn = Some(key);
             drew = true;
         }
-        // The composite has no probe (render/composite.rs says why).
+        // The composite has no probe (voxscope-render's composite.rs says why).
         if let Some(picking) = self.picking.as_mut().filter(|_| scene.composite.is_none()) {
             let drawn: Vec<Option<DrawKey>> = self.panes.iter().map(|p| p.drawn).collect();
             picking.record(gpu, scene, &drawn);
