@@ -26,7 +26,7 @@ struct StreamParams {
     request_capacity: u32,  // keys the request buffer holds
     request_set_mask: u32,  // entries of its deduplicating set − 1
     lod_scale: f32,         // footprint multiplier (0: no pixel LOD)
-    lod_bias: u32,          // levels added where the atlas cannot hold the view
+    _pad: u32,
 }
 
 @group(0) @binding(0) var<uniform> params: Params;
@@ -156,7 +156,7 @@ fn wanted_level(t: f32, lod_per_t: f32) -> u32 {
         }
         level += 1u;
     }
-    return min(level + stream.lod_bias, stream.level_count - 1u);
+    return level;
 }
 
 // The value level at normalized atlas coordinates, trilinear.

@@ -224,16 +224,16 @@ fn a_refined_view_equals_the_bricks_render_with_a_quarter_of_the_bricks_in_budge
     let db = psnr(&refined.image, &expected);
     let status = &refined.status;
     eprintln!(
-        "refined in {} frames: {db:.1} dB, {} of {} slots at most, lod bias {}, {:?}",
+        "refined in {} frames: {db:.1} dB, {} of {} slots at most, budget {:?}, {:?}",
         refined.frames,
         refined.most_slots_used,
         status.counters.slots,
-        status.lod_bias,
+        status.budget,
         status.counters.levels
     );
     assert!(coverage(&expected) > 0.5, "the view shows the volume");
     assert_eq!(
-        status.lod_bias, 0,
+        status.budget, None,
         "the budget holds this view at full resolution"
     );
     assert!(
@@ -316,51 +316,145 @@ fn uncorrected(max_level: u32) -> RenderSettings {
 }
 
 #[test]
-fn a_budget_that_cannot_hold_the_view_draws_a_coarser_level_correctly_within_it() {
+fn a_view_three_times_the_atlas_completes_coarser_where_least_important_and_refines_with_room() {
     let context = gpu();
     let prepared = &*NOISE;
-    let budget = level0_bytes() / 16;
-    let mut renderer = streaming(
+    // The whole volume in view, rays through it: most of level 0 is needed.
+    let camera = Camera {
+        distance: 2.5,
+        ..close_camera(30.0)
+    };
+    let full = settings(prepared.octree.depth);
+    // The view's bricks at full detail, with room for all of them.
+    let mut roomy = streaming(
         &context,
         PYRAMID.clone(),
-        options(budget),
+        options(level0_bytes() * 2),
         &prepared.transfer,
     );
-    let camera = close_camera(30.0);
-    let refined = refine(
-        &context,
-        &mut renderer,
-        &camera,
-        &uncorrected(prepared.octree.depth),
-    );
+    let whole = refine(&context, &mut roomy, &camera, &full);
+    assert_eq!(whole.status.budget, None, "2× level 0 holds the view");
+    let needed = whole.status.counters.view_slots;
+    eprintln!("the view needs {needed} bricks at full detail");
+    // An atlas whose room for a view is a third of that: the view's working set is three
+    // times what it can hold. (The budget pays for the page table and request buffers too, and
+    // a fifth of the slots is the frame's own room: grow it a slot at a time until it fits.)
+    let slot_bytes = whole.status.counters.slot_bytes;
+    let mut budget = slot_bytes * (needed as u64 / 3);
+    let mut renderer = loop {
+        let Ok(mut renderer) = VolumeRenderer::new_stream(
+            &context,
+            PYRAMID.clone(),
+            options(budget),
+            &prepared.transfer,
+        ) else {
+            budget += slot_bytes; // too small for the pinned levels and a view yet
+            continue;
+        };
+        let counters = renderer.update(&context).expect("streaming").counters;
+        let unpinned = counters.slots - counters.slots_pinned;
+        if (unpinned - unpinned / 5) * 3 + 6 >= needed {
+            break renderer;
+        }
+        budget += slot_bytes;
+    };
+    let refined = refine(&context, &mut renderer, &camera, &full);
     let status = &refined.status;
-    let level = status.lod_bias as usize;
-    assert!(level >= 1, "the view at level 0 does not fit: {status:?}");
-    assert_eq!(
-        status.counters.levels[0].resident, 0,
-        "no level-0 brick is kept"
-    );
-    let coarse = level_volume(level);
-    let expected = bricks_image(
-        &context,
-        &coarse,
-        &coarse.transfer,
-        &camera,
-        &uncorrected(coarse.octree.depth),
-    );
-    save(&refined.image, "coarser");
-    save(&expected, "coarser-bricks");
-    let db = psnr(&refined.image, &expected);
+    let counters = &status.counters;
+    let limit = status.budget.expect("the budget says it limits the view");
     eprintln!(
-        "level {level} after {} frames: {db:.1} dB; {} of {} slots at most",
-        refined.frames, refined.most_slots_used, status.counters.slots
+        "{needed} bricks at full detail, {} slots: complete after {} frames, {} bricks read; {}",
+        counters.slots,
+        refined.frames,
+        counters.loads,
+        limit.describe()
     );
     assert!(
-        db >= 40.0,
-        "streamed level {level} against its bricks render: {db:.1} dB"
+        (needed as f64 / limit.fit as f64 - 3.0).abs() < 0.2,
+        "the test's premise, 3×: {needed} bricks for {} that fit",
+        limit.fit
     );
-    assert!(gpu_total(&renderer) <= budget);
-    assert!(refined.most_slots_used <= status.counters.slots);
+    assert!(limit.left_out > 0 && limit.needed >= needed);
+    assert_eq!(
+        limit.finest,
+        Some(0),
+        "the view's center stays at full detail"
+    );
+    assert!(limit.coarsest >= Some(1));
+    assert!(
+        counters.loads <= 3 * counters.slots as u64,
+        "{} bricks read for {} slots",
+        counters.loads,
+        counters.slots
+    );
+    assert!(
+        gpu_total(&renderer) <= budget,
+        "{:?} for {budget}",
+        renderer.gpu_bytes()
+    );
+    // Correct for the cut it says it drew: the same bricks left out of a roomy renderer of the
+    // same pyramid draw the same picture.
+    let (view, standing) = renderer
+        .stream()
+        .and_then(|s| s.streamer().budget_cut())
+        .expect("bricks are left out");
+    let mut reference = streaming(
+        &context,
+        PYRAMID.clone(),
+        options(level0_bytes() * 2),
+        &prepared.transfer,
+    );
+    reference
+        .stream_mut()
+        .expect("streaming")
+        .streamer_mut()
+        .apply_budget_cut(view, standing.iter().copied());
+    let expected = refine(&context, &mut reference, &camera, &full);
+    save(&refined.image, "budget-cut");
+    save(&expected.image, "budget-cut-reference");
+    let db = psnr(&refined.image, &expected.image);
+    assert!(
+        db >= 40.0,
+        "the cut against the same cut in a roomy atlas: {db:.1} dB"
+    );
+    // Coarser where least important: the bricks standing for left-out ones lie farther from
+    // the view's center than the level-0 bricks drawn.
+    let shape = PYRAMID.shape();
+    let off = |key: u32| {
+        let id = shape.brick_of(key).expect("a key of the pyramid");
+        view.off_center(shape.brick_center(id))
+    };
+    let drawn_fine: Vec<u32> = renderer
+        .stream()
+        .expect("streaming")
+        .streamer()
+        .resident_keys()
+        .filter(|&k| shape.brick_of(k).is_some_and(|id| id.level == 0))
+        .collect();
+    let mean = |keys: &[u32]| keys.iter().map(|&k| off(k)).sum::<f32>() / keys.len() as f32;
+    assert!(!drawn_fine.is_empty());
+    assert!(
+        mean(&drawn_fine) < mean(&standing),
+        "kept {} vs standing in {}",
+        mean(&drawn_fine),
+        mean(&standing)
+    );
+    // And it is not the full-detail picture: the cut shows.
+    assert!(psnr(&refined.image, &whole.image) < db);
+    // A larger budget refines the same view to full detail.
+    let mut larger = streaming(
+        &context,
+        PYRAMID.clone(),
+        options(level0_bytes() * 2),
+        &prepared.transfer,
+    );
+    let again = refine(&context, &mut larger, &camera, &full);
+    assert_eq!(again.status.budget, None);
+    let db = psnr(&again.image, &whole.image);
+    assert!(
+        db >= 60.0,
+        "room for the view: full detail again ({db:.1} dB)"
+    );
 }
 
 #[test]
@@ -807,7 +901,7 @@ fn a_converted_volume_streams_from_disk_equal_to_the_bricks_render() {
     save(&refined.image, "zarr-refined");
     let db = psnr(&refined.image, &expected);
     assert!(coverage(&expected) > 0.5, "the view shows the volume");
-    assert_eq!(refined.status.lod_bias, 0, "the budget holds the view");
+    assert_eq!(refined.status.budget, None, "the budget holds the view");
     assert!(
         refined.status.counters.levels[0].resident > 4,
         "level 0 streamed"

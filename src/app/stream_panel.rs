@@ -35,13 +35,26 @@ pub fn budget_row(ui: &mut Ui, settings: &mut AppSettings) {
 /// The status bar's word on streaming: `refining: N bricks` while visible detail is missing.
 pub fn refining_text(scene: &Scene) -> Option<String> {
     let status = scene.stream_status.as_ref()?;
-    (status.missing > 0).then(|| {
+    let budget = status.budget.map(|budget| {
         format!(
+            "{} in {}",
+            budget.describe(),
+            format_bytes(status.counters.slot_bytes * budget.fit as u64)
+        )
+    });
+    if status.missing > 0 {
+        let refining = format!(
             "refining: {} brick{}",
             group_digits(status.missing as u64),
             if status.missing == 1 { "" } else { "s" }
-        )
-    })
+        );
+        Some(match budget {
+            Some(budget) => format!("{refining} ({budget})"),
+            None => refining,
+        })
+    } else {
+        budget
+    }
 }
 
 /// The numbers of the streaming renderer: state, atlas, RAM cache, reads and uploads, and
@@ -142,11 +155,13 @@ pub fn show(ui: &mut Ui, scene: &Scene) {
         .show(ui, |ui| {
             egui::Grid::new("stream_levels")
                 .striped(true)
-                .num_columns(6)
+                .num_columns(7)
                 .spacing([10.0, 2.0])
                 .show(ui, |ui| {
-                    for header in ["level", "voxels", "bricks", "resident", "empty", "wanted"] {
-                        ui.strong(header);
+                    for header in [
+                        "level", "voxels", "bricks", "resident", "empty", "wanted", "coarser",
+                    ] {
+                        ui.strong(header).on_hover_text(column_help(header));
                     }
                     ui.end_row();
                     // Coarse first, as the max-level slider counts.
@@ -159,25 +174,45 @@ pub fn show(ui: &mut Ui, scene: &Scene) {
                         ui.monospace(group_digits(level.resident as u64));
                         ui.monospace(group_digits(level.empty as u64));
                         ui.monospace(group_digits(level.requested as u64));
+                        ui.monospace(group_digits(level.left_out as u64));
                         ui.end_row();
                     }
                 });
         });
 }
 
+/// What a column of the per-level table counts.
+fn column_help(header: &str) -> &'static str {
+    match header {
+        "level" => "The max level that draws this pyramid level (the slider's numbers)",
+        "voxels" => "The level's size",
+        "bricks" => "Bricks of 32³ voxels in the level",
+        "resident" => "Bricks in the GPU atlas",
+        "empty" => {
+            "Bricks known to need no slot (uniform, or invisible under the transfer function)"
+        }
+        "wanted" => "Bricks the view asks for that are not on the GPU yet",
+        "coarser" => {
+            "Bricks the view asks for that the GPU budget leaves out: drawn from a coarser level while the view stays"
+        }
+        _ => "",
+    }
+}
+
 fn state_text(status: &StreamStatus) -> String {
+    let budget = status
+        .budget
+        .map(|budget| format!("; {}", budget.describe()))
+        .unwrap_or_default();
     if status.missing > 0 {
         format!(
-            "refining: {} bricks missing, {} queued, {} loading{}",
+            "refining: {} bricks missing, {} queued, {} loading{budget}",
             group_digits(status.missing as u64),
             status.queued,
             status.loading,
-            if status.lod_bias > 0 {
-                format!("; {} level(s) coarser to fit the budget", status.lod_bias)
-            } else {
-                String::new()
-            }
         )
+    } else if status.complete && status.budget.is_some() {
+        format!("complete at the budget{budget}")
     } else if status.complete {
         "complete: nothing visible is missing".to_owned()
     } else {

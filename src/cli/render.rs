@@ -255,7 +255,15 @@ fn run_stream(
         .map_err(|e| format!("cannot write {}: {e}", args.output.display()))?;
     let counters = &refinement.status.counters;
     let state = if refinement.complete {
-        format!("complete after {} frames", refinement.frames)
+        match &refinement.status.budget {
+            Some(budget) => format!(
+                "complete at the budget after {} frames ({} in {} MiB of atlas)",
+                refinement.frames,
+                budget.describe(),
+                (counters.slot_bytes * budget.fit as u64) >> 20
+            ),
+            None => format!("complete after {} frames", refinement.frames),
+        }
     } else {
         format!(
             "still coarse after {:.1} s (--max-wait): {}",

@@ -187,8 +187,7 @@ pub(crate) struct StreamParams {
     pub request_set_mask: u32,
     /// The pixel footprint's multiplier (0: always the finest allowed level).
     pub lod_scale: f32,
-    /// Levels added to every choice (the atlas cannot hold the view).
-    pub lod_bias: u32,
+    pub _pad: u32,
 }
 
 const _: () = assert!(std::mem::size_of::<StreamParams>() == 544);
@@ -293,7 +292,7 @@ mod tests {
             request_capacity,
             request_set_mask,
             lod_scale,
-            lod_bias,
+            _pad,
         })
     }
 

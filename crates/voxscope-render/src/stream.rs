@@ -86,7 +86,11 @@ fn atlas_grid(
     slot_bytes: u64,
     bricks_in_pyramid: u64,
 ) -> Result<[usize; 3], RenderError> {
-    let fixed = 65536 * 4 + (1 + REQUEST_CAPACITY as u64 + REQUEST_SET as u64) * 4;
+    // The lookup table, the request buffer and its set, and each readback's copy of the
+    // requests (the usage marks are counted per slot).
+    let fixed = 65536 * 4
+        + (1 + REQUEST_CAPACITY as u64 + REQUEST_SET as u64) * 4
+        + READBACKS as u64 * (1 + REQUEST_CAPACITY as u64) * 4;
     let per_slot = slot_bytes + TABLE_BYTES_PER_SLOT + 4 + READBACKS as u64 * 4;
     let max_side = (context.limits.max_texture_dimension_3d as usize / PADDED_BRICK).min(1024);
     let slots = (budget.saturating_sub(fixed) / per_slot)
@@ -420,7 +424,7 @@ impl StreamVolume {
             request_capacity: REQUEST_CAPACITY,
             request_set_mask: REQUEST_SET - 1,
             lod_scale: self.streamer.options().lod_scale.max(0.0),
-            lod_bias: self.streamer.lod_bias(),
+            _pad: 0,
         }
     }
 }

@@ -13,7 +13,7 @@ pub struct ViewPoint {
 
 impl ViewPoint {
     /// 1 − cos of the angle between the view's center and `point`: 0 straight ahead.
-    pub(super) fn off_center(&self, point: [f64; 3]) -> f32 {
+    pub fn off_center(&self, point: [f64; 3]) -> f32 {
         let d: [f64; 3] = std::array::from_fn(|a| point[a] - self.eye[a]);
         let length = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt().max(1e-9);
         let cos =

@@ -11,6 +11,7 @@
 //! Module direction: volume → stream → render. Nothing here touches the GPU.
 
 mod brick;
+mod budget;
 mod frame;
 mod key_hash;
 mod loader;
@@ -29,6 +30,7 @@ mod streamer;
 mod zarr_source;
 
 pub use brick::{BRICK_SIZE, BrickData, BrickId, PADDED_BRICK, PADDED_BRICK_VOXELS, ValueRange};
+pub use budget::{Cut, cut_within};
 pub use frame::{Feedback, Upload, ViewPoint};
 pub use key_hash::{KeyHasher, KeyMap, KeySet};
 pub use loader::{AtlasTexels, LoadedBrick};
@@ -48,6 +50,6 @@ pub use queue::{Priority, Request, RequestQueue, Tier};
 pub use ram_cache::RamCache;
 pub use slots::{Allocation, SlotPool};
 pub use source::{BrickError, BrickSource};
-pub use status::{LevelCounters, StreamCounters, StreamStatus};
+pub use status::{BudgetLimit, LevelCounters, StreamCounters, StreamStatus};
 pub use streamer::Streamer;
 pub use zarr_source::{MAX_BRICK_READ, ZarrSource};

@@ -79,6 +79,7 @@ impl SlotPool {
                         !self.pinned[s]
                             && self.keys[s] != EMPTY_KEY
                             && self.last_used[s] < protect_from
+                            && self.last_stand_in[s] < protect_from
                     })
                     .collect();
                 // Oldest last: popped first.
@@ -94,7 +95,9 @@ impl SlotPool {
             let slot = loop {
                 let slot = victims.pop()?;
                 // Still a candidate (not refilled earlier this frame).
-                if self.last_used[slot as usize] < protect_from {
+                if self.last_used[slot as usize] < protect_from
+                    && self.last_stand_in[slot as usize] < protect_from
+                {
                     break slot;
                 }
             };
@@ -148,6 +151,30 @@ impl SlotPool {
             .count()
     }
 
+    /// Slots a brick can be placed in without evicting anything a ray used at `protect_from`
+    /// or later (wanted or in place of a finer brick): the free ones and the unused ones.
+    pub fn available(&self, protect_from: u32) -> usize {
+        (0..self.keys.len())
+            .filter(|&s| {
+                self.keys[s] == EMPTY_KEY
+                    || (!self.pinned[s]
+                        && self.last_used[s] < protect_from
+                        && self.last_stand_in[s] < protect_from)
+            })
+            .count()
+    }
+
+    /// The keys of the unpinned slots holding a brick wanted at `frame` or later: the part of
+    /// a view the atlas holds at the levels its rays chose.
+    pub fn wanted_unpinned_since(&self, frame: u32) -> impl Iterator<Item = u32> + '_ {
+        self.keys
+            .iter()
+            .zip(&self.last_used)
+            .zip(&self.pinned)
+            .filter(move |&((&k, &used), &pinned)| k != EMPTY_KEY && used >= frame && !pinned)
+            .map(|((&k, _), _)| k)
+    }
+
     /// The key of every occupied slot.
     pub fn keys(&self) -> impl Iterator<Item = u32> + '_ {
         self.keys.iter().copied().filter(|&k| k != EMPTY_KEY)
@@ -159,7 +186,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn free_slots_first_then_the_least_recently_used_unprotected_one() {
+    fn free_slots_first_then_the_least_recently_used_slot_no_ray_drew_lately() {
         let mut pool = SlotPool::new(4);
         for key in 0..4 {
             let a = pool.allocate(key, 1, 1).expect("free");
@@ -170,15 +197,16 @@ mod tests {
         pool.mark_used(2, 3, true); // key 2 at frame 3; key 3 last at frame 1
         pool.mark_used(3, 5, false); // key 3 stood in for a finer brick at frame 5
         pool.new_frame();
-        // Protect what frame 5 wanted: victims are 2 (frame 3), then 3 (a stand-in at 5).
+        // Protect what frame 5 drew, wanted or in place of a finer brick: the victim is 2
+        // (frame 3) alone.
+        assert_eq!(pool.available(5), 1);
         let first = pool.allocate(10, 6, 5).expect("a victim");
         assert_eq!((first.slot, first.evicted), (2, Some(2)));
-        let second = pool.allocate(11, 6, 5).expect("a victim");
-        assert_eq!((second.slot, second.evicted), (3, Some(3)));
         // Only the pinned slot and frame 5's (and this frame's) remain: no room.
-        assert_eq!(pool.allocate(12, 6, 5), None);
+        assert_eq!(pool.allocate(11, 6, 5), None);
+        assert_eq!(pool.available(5), 0);
         assert_eq!(pool.occupied(), 4);
-        assert_eq!(pool.used_since(5), 3);
+        assert_eq!(pool.used_since(5), 2);
         assert_eq!(pool.key(2), Some(10));
     }
 }

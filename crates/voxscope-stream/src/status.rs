@@ -12,6 +12,8 @@ pub struct LevelCounters {
     pub empty: usize,
     /// Wanted by the latest frame read back and not on the GPU yet.
     pub requested: usize,
+    /// Asked for by the view on screen and left out by the budget: drawn from a coarser level.
+    pub left_out: usize,
 }
 
 /// Everything counted, for the app's panel and `bench --stream --json`.
@@ -77,12 +79,64 @@ pub struct StreamStatus {
     /// Loads waiting and in progress.
     pub queued: usize,
     pub loading: usize,
-    /// Levels added to every ray's choice because the atlas cannot hold the view at its own.
-    pub lod_bias: u32,
+    /// What the view needs against what fits, while the budget leaves bricks out (`None`: the
+    /// view fits at the levels its rays chose).
+    pub budget: Option<BudgetLimit>,
     /// Uploaded in this update.
     pub uploads: usize,
     pub upload_bytes: u64,
     /// Bricks that failed since the last update, one line each.
     pub errors: Vec<String>,
     pub counters: StreamCounters,
+}
+
+/// A view larger than the atlas: the least important of its bricks (the finest, farthest from
+/// the view's center) are drawn from coarser levels so that the rest fits and the view
+/// completes at the resolution the budget allows.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+pub struct BudgetLimit {
+    /// Bricks the view needs at the levels its rays chose ("full detail" for this view).
+    pub needed: usize,
+    /// Bricks of that kind the atlas holds for a view (the slots less the pinned levels and
+    /// the frame's own room).
+    pub fit: usize,
+    /// Bricks left out, drawn from a coarser level.
+    pub left_out: usize,
+    /// The finest level drawn.
+    pub finest: Option<u32>,
+    /// The coarsest level a left-out region is drawn from.
+    pub coarsest: Option<u32>,
+}
+
+impl BudgetLimit {
+    /// `budget-limited: finest level 0, level 2 where least important; the view needs 9 412
+    /// bricks at full detail, 6 480 fit` (the caller adds the budget in bytes).
+    pub fn describe(&self) -> String {
+        let levels = match (self.finest, self.coarsest) {
+            (Some(finest), Some(coarsest)) if coarsest > finest => {
+                format!("finest level {finest}, level {coarsest} where least important")
+            }
+            (Some(finest), _) => format!("finest level {finest}"),
+            (None, Some(coarsest)) => format!("level {coarsest}"),
+            (None, None) => "coarser levels".to_owned(),
+        };
+        format!(
+            "budget-limited: {levels}; the view needs {} bricks at full detail, {} fit",
+            group_thousands(self.needed),
+            group_thousands(self.fit)
+        )
+    }
+}
+
+/// `9 412`: thousands apart (a narrow space, as the app's panels write numbers).
+fn group_thousands(n: usize) -> String {
+    let digits = n.to_string();
+    let mut out = String::new();
+    for (i, c) in digits.chars().enumerate() {
+        if i > 0 && (digits.len() - i).is_multiple_of(3) {
+            out.push(' ');
+        }
+        out.push(c);
+    }
+    out
 }

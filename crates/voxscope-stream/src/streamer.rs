@@ -10,6 +10,7 @@ use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
 
+use super::budget::{Cut, cut_within};
 use super::frame::{Feedback, Upload, ViewPoint};
 use super::key_hash::{KeyMap, KeySet};
 use super::loader::{AtlasTexels, LoadedBrick, Loader, load_brick};
@@ -21,7 +22,7 @@ use super::pyramid::PyramidShape;
 use super::queue::{Priority, Request, RequestQueue, Tier};
 use super::ram_cache::RamCache;
 use super::slots::SlotPool;
-use super::status::{LevelCounters, StreamCounters, StreamStatus};
+use super::status::{BudgetLimit, LevelCounters, StreamCounters, StreamStatus};
 use crate::{BrickId, BrickSource, PADDED_BRICK_VOXELS};
 
 /// The longest wait before a failed brick is asked for again.
@@ -72,8 +73,13 @@ pub struct Streamer {
     retries: Vec<(Instant, u32)>,
     attempts: KeyMap<u32>,
     new_errors: Vec<String>,
-    lod_bias: u32,
-    bias_changed: u32,
+    /// Bricks that stand for the finer ones the budget leaves out of the view on screen
+    /// ([`crate::cut_within`]): whatever rays ask for below one is drawn from it, not loaded.
+    standing: KeySet,
+    /// The view they stand in; another view is cut anew.
+    standing_view: Option<ViewPoint>,
+    /// What the latest cut came to, while anything is left out.
+    budget: Option<BudgetLimit>,
     /// `visible_below[i]`: value levels below `i` the transfer function makes visible (65 537
     /// counts): the entries' [`ENTRY_VISIBLE`] bits follow it.
     visible_below: Vec<u32>,
@@ -139,8 +145,9 @@ impl Streamer {
             retries: Vec::new(),
             attempts: KeyMap::default(),
             new_errors: Vec::new(),
-            lod_bias: 0,
-            bias_changed: 0,
+            standing: KeySet::default(),
+            standing_view: None,
+            budget: None,
             visible_below,
             counters: StreamCounters {
                 levels: shape
@@ -225,11 +232,6 @@ impl Streamer {
     /// The frame about to be drawn (what rays mark the slots they use with).
     pub fn frame(&self) -> u32 {
         self.frame
-    }
-
-    /// Levels every ray's choice is made coarser by (the atlas cannot hold the view).
-    pub fn lod_bias(&self) -> u32 {
-        self.lod_bias
     }
 
     /// The page table (its changed entries go to the GPU with [`PageTable::take_dirty`]).
@@ -320,6 +322,8 @@ impl Streamer {
             return;
         }
         self.visible_below = visible_below;
+        // Other values visible: another working set, cut anew.
+        self.cut_anew();
         let counts = &self.visible_below;
         self.table.update_each(|entry| {
             let (low, high) = (
@@ -392,18 +396,16 @@ impl Streamer {
         self.slots.new_frame();
         self.retry_failed();
         self.receive_results();
+        if let Some(view) = view {
+            self.follow_view(view);
+        }
         if let Some(feedback) = feedback {
             self.take_feedback(feedback, view);
         }
-        // Whether the latest frame read back was drawn with the table as it is now: only then
-        // does a full atlas say the view does not fit (rather than that bricks just uploaded
-        // have not been drawn yet, and the stand-ins they replace not yet released).
-        let settled = self.feedback_frame.is_some_and(|f| f >= self.changed_frame);
-        let (uploads, upload_bytes, overflow) = self.upload_ready();
+        let (uploads, upload_bytes) = self.upload_ready();
         if !uploads.is_empty() {
             self.changed_frame = self.frame;
         }
-        self.adjust_bias(overflow && settled);
         let status = self.status(uploads.len(), upload_bytes);
         (uploads, status)
     }
@@ -530,23 +532,82 @@ impl Streamer {
         let mut asked: Vec<u32> = feedback.requests.to_vec();
         asked.sort_unstable();
         asked.dedup();
-        self.feedback_missing = asked
-            .iter()
-            .filter(|&&key| !self.failed.contains(&key) && self.shape.brick_of(key).is_some())
-            .count();
-        // What was asked for, and the coarser bricks above each down to the first one the GPU
-        // has (so the picture refines level by level).
-        let mut wanted: KeyMap<Request> = KeyMap::default();
-        wanted.reserve(asked.len() + asked.len() / 4);
-        let mut prefetch: KeyMap<Request> = KeyMap::default();
-        // Prefetch around a few asks only: beyond that the view is far from complete and what
-        // is visible keeps the workers busy (and the frame's CPU time stays small).
-        let prefetch_around = self.options.prefetch && asked.len() <= PREFETCH_AROUND;
+        // What was asked for that can show, each in place of the brick that stands for it
+        // where the budget left it out, within the room the atlas has for this view
+        // (`budget.rs`: the least important give way to their parents where it does not fit).
+        let mut requests = Vec::with_capacity(asked.len());
+        let mut seen = KeySet::default();
+        let mut left_out = vec![0usize; self.shape.levels.len()];
         for &key in &asked {
-            let Some(mut id) = self.shape.brick_of(key) else {
+            let Some(id) = self.shape.brick_of(key) else {
                 continue;
             };
-            let mut key = key;
+            let (key, id) = match self.standing_for(id) {
+                Some(stand_in) => {
+                    left_out[id.level as usize] += 1;
+                    stand_in
+                }
+                None => (key, id),
+            };
+            if !seen.insert(key) || self.satisfied(key) || self.known_invisible(key, id) {
+                continue;
+            }
+            let off_center = view.off_center(self.shape.brick_center(id));
+            requests.push(Request {
+                priority: Priority::new(Tier::Visible, id.level, off_center),
+                id,
+                key,
+            });
+        }
+        // Failed bricks are asked for no more; left-out ones are drawn from what stands for
+        // them: what still lacks is what the view misses.
+        self.feedback_missing = requests.len();
+        for (counters, &count) in self.counters.levels.iter_mut().zip(&left_out) {
+            counters.left_out = count;
+        }
+        // The view's bricks in the atlas: those its rays wanted, and those standing for
+        // bricks left out (drawn in their place).
+        let mut committed: KeySet = self.slots.wanted_unpinned_since(feedback.frame).collect();
+        committed.extend(
+            self.standing
+                .iter()
+                .copied()
+                .filter(|&key| self.table.get(key).is_some_and(|e| e.is_resident())),
+        );
+        // Within the view's share of the atlas, and never more than can be placed without
+        // evicting what the frame drew.
+        let room = self
+            .budget_slots()
+            .saturating_sub(committed.len())
+            .min(self.slots.available(feedback.frame.max(1)));
+        let cut = cut_within(&requests, room, &self.shape, &view, |key| {
+            self.satisfied(key)
+        });
+        // The cut counts every asked brick as a slot; many turn out uniform (no slot) once
+        // read. So the cut stands only once everything it loads is in: until then the rest is
+        // just not loaded yet, and the next frame's cut knows more.
+        if !cut.standing.is_empty() && cut.load.iter().all(|r| self.satisfied(r.key)) {
+            self.stand_in(&cut.standing, view);
+        }
+        if !self.standing.is_empty() {
+            let left_out: usize = left_out.iter().sum::<usize>() + cut.left_out.len();
+            self.note_budget(&cut, &committed, requests.len(), left_out);
+        }
+        // What the cut loads, and the coarser bricks above each down to the first one the GPU
+        // has (so the picture refines level by level).
+        let mut wanted: KeyMap<Request> = KeyMap::default();
+        wanted.reserve(cut.load.len() + cut.load.len() / 4);
+        let mut prefetch: KeyMap<Request> = KeyMap::default();
+        // Prefetch around a few asks only, and only when the view fits: beyond that the view
+        // is far from complete, or the atlas full, and what is visible keeps the workers busy
+        // (and the frame's CPU time stays small).
+        let prefetch_around = self.options.prefetch
+            && asked.len() <= PREFETCH_AROUND
+            && cut.left_out.is_empty()
+            && self.standing.is_empty();
+        for request in &cut.load {
+            let mut id = request.id;
+            let mut key = request.key;
             let asked_level = id.level;
             loop {
                 if wanted.contains_key(&key) || self.satisfied(key) {
@@ -608,6 +669,80 @@ impl Streamer {
         self.wanted = wanted;
     }
 
+    /// Unpinned slots a view may fill with bricks at the levels its rays want: the rest of the
+    /// atlas (a fifth) is the frame's own room, for the coarser stand-ins drawn while finer
+    /// bricks arrive.
+    fn budget_slots(&self) -> usize {
+        let unpinned = self.slots.capacity() - self.slots.pinned();
+        unpinned - unpinned / 5
+    }
+
+    /// The brick that stands for `id` in the view on screen (the coarsest of its ancestors
+    /// standing for bricks the budget left out), if any.
+    fn standing_for(&self, id: BrickId) -> Option<(u32, BrickId)> {
+        if self.standing.is_empty() {
+            return None;
+        }
+        let mut found = None;
+        let mut ancestor = self.shape.parent(id);
+        while let Some(up) = ancestor {
+            let key = self.shape.key(up)?;
+            if self.standing.contains(&key) {
+                found = Some((key, up));
+            }
+            ancestor = self.shape.parent(up);
+        }
+        found
+    }
+
+    /// `keys` stand for the bricks below them in `view` from now on.
+    fn stand_in(&mut self, keys: &[u32], view: ViewPoint) {
+        self.standing.extend(keys.iter().copied());
+        self.standing_view = Some(view);
+        self.changed_frame = self.frame;
+    }
+
+    /// What the view needs against what fits, for the status: the bricks it draws from the
+    /// atlas (`committed`), `asked` more, `left_out` of them drawn coarser.
+    fn note_budget(&mut self, cut: &Cut, committed: &KeySet, asked: usize, left_out: usize) {
+        let level_of = |key: &u32| self.shape.brick_of(*key).map(|id| id.level);
+        let finest = committed.iter().filter_map(level_of).min();
+        let coarsest = self
+            .standing
+            .iter()
+            .filter_map(level_of)
+            .max()
+            .max(cut.coarsest);
+        self.budget = Some(BudgetLimit {
+            needed: committed.len() + asked + left_out,
+            fit: self.budget_slots(),
+            left_out,
+            finest,
+            coarsest,
+        });
+    }
+
+    /// A view other than the one bricks stand in is cut anew.
+    fn follow_view(&mut self, view: ViewPoint) {
+        if self
+            .standing_view
+            .is_some_and(|standing_for| standing_for != view)
+        {
+            self.cut_anew();
+        }
+    }
+
+    /// Forgets what stands for what: rays' asks load again and the next cut decides.
+    fn cut_anew(&mut self) {
+        self.standing.clear();
+        for level in &mut self.counters.levels {
+            level.left_out = 0;
+        }
+        self.standing_view = None;
+        self.budget = None;
+        self.changed_frame = self.frame;
+    }
+
     /// The face neighbours of `id` in its level, as prefetch requests.
     fn add_neighbours(&self, id: BrickId, off_center: f32, into: &mut KeyMap<Request>) {
         let grid = self.shape.levels[id.level as usize].grid;
@@ -637,8 +772,10 @@ impl Streamer {
     }
 
     /// Uploads ready bricks in priority order within the frame's byte budget. Returns the
-    /// uploads, their bytes, and whether a brick found no slot (the atlas cannot hold the view).
-    fn upload_ready(&mut self) -> (Vec<Upload>, u64, bool) {
+    /// uploads and their bytes. A brick that finds no slot (every slot holds what the last
+    /// frame drew) waits: the cut keeps the view within the atlas, so the stand-ins its
+    /// bricks replace free slots as they arrive.
+    fn upload_ready(&mut self) -> (Vec<Upload>, u64) {
         let mut uploads = Vec::new();
         let mut bytes = 0u64;
         let mut overflow = false;
@@ -692,34 +829,7 @@ impl Streamer {
         {
             self.uploads_recent.pop_front();
         }
-        (uploads, bytes, overflow)
-    }
-
-    /// Coarser everywhere when the atlas cannot hold the view; finer again once the view uses
-    /// an eighth of the unpinned slots or less (so the finer view, at most eight bricks for
-    /// each, fits). Each change waits for a frame drawn with the previous one.
-    fn adjust_bias(&mut self, overflow: bool) {
-        let Some(seen) = self.feedback_frame else {
-            return;
-        };
-        if seen <= self.bias_changed {
-            return;
-        }
-        let coarsest = self.shape.depth();
-        if overflow && self.lod_bias < coarsest {
-            self.lod_bias += 1;
-        } else if !overflow
-            && self.lod_bias > 0
-            && self.feedback_missing == 0
-            && self.ready.is_empty()
-            && self.slots.used_since(seen) * 8 <= self.slots.capacity() - self.slots.pinned()
-        {
-            self.lod_bias -= 1;
-        } else {
-            return;
-        }
-        self.bias_changed = self.frame;
-        self.changed_frame = self.frame;
+        (uploads, bytes)
     }
 
     fn status(&mut self, uploads: usize, upload_bytes: u64) -> StreamStatus {
@@ -745,7 +855,7 @@ impl Streamer {
             missing,
             queued,
             loading,
-            lod_bias: self.lod_bias,
+            budget: self.budget,
             uploads,
             upload_bytes,
             errors: std::mem::take(&mut self.new_errors),
@@ -756,6 +866,27 @@ impl Streamer {
     /// Keys of the bricks in the atlas.
     pub fn resident_keys(&self) -> impl Iterator<Item = u32> + '_ {
         self.slots.keys()
+    }
+
+    /// The bricks standing for the finer ones the budget left out of the view on screen, and
+    /// that view; `None` while the view fits.
+    pub fn budget_cut(&self) -> Option<(ViewPoint, Vec<u32>)> {
+        let view = self.standing_view?;
+        let mut keys: Vec<u32> = self.standing.iter().copied().collect();
+        keys.sort_unstable();
+        Some((view, keys))
+    }
+
+    /// Takes the cut another streamer of the same pyramid made for `view` (its
+    /// [`Self::budget_cut`]): `keys` stand for the bricks below them while the view stays.
+    pub fn apply_budget_cut(&mut self, view: ViewPoint, keys: impl IntoIterator<Item = u32>) {
+        let keys: Vec<u32> = keys
+            .into_iter()
+            .filter(|&key| self.shape.brick_of(key).is_some())
+            .collect();
+        if !keys.is_empty() {
+            self.stand_in(&keys, view);
+        }
     }
 
     /// Loads the bricks `keys` name into RAM before any ray asks for them, at prefetch

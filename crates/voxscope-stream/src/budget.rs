@@ -1,0 +1,301 @@
+//! A view within the atlas: when the bricks a view's rays ask for do not fit the slots it may
+//! still fill, the ones the loader would load last (the finest level first, then the farthest
+//! from the view's center) give way to their parents, eight siblings for one, until the rest
+//! fits. The parents stand for them: while the view stays, whatever is asked for below a
+//! standing brick is drawn from it and not loaded, so a view larger than the budget completes
+//! at the resolution the budget allows instead of evicting what it draws to load what it
+//! lacks.
+
+use std::cmp::Ordering;
+use std::collections::BinaryHeap;
+
+use super::frame::ViewPoint;
+use super::key_hash::{KeyMap, KeySet};
+use super::pyramid::PyramidShape;
+use super::queue::{Priority, Request, Tier};
+
+/// What a view's asks come to within the room left: the bricks to load (the asked ones that
+/// fit, and the parents that stand for the groups left out) and the asked bricks left out.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Cut {
+    /// Bricks to load, in the loader's order.
+    pub load: Vec<Request>,
+    /// Asked bricks left out (drawn from a coarser level while the view stays).
+    pub left_out: Vec<u32>,
+    /// The coarser bricks that stand for the groups left out (each in [`Self::load`]).
+    pub standing: Vec<u32>,
+    /// The coarsest level a left-out region is drawn from (its nearest ancestor in
+    /// [`Self::load`] or already satisfied); `None` when nothing is left out.
+    pub coarsest: Option<u32>,
+}
+
+/// A group of siblings in the cut: their parent's key and how far it lies from the view's
+/// center. The heap pops the group to give way first: the finest level, then the farthest.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Group {
+    parent: u32,
+    level: u32,
+    off_center: f32,
+}
+
+impl Eq for Group {}
+
+impl Ord for Group {
+    fn cmp(&self, other: &Self) -> Ordering {
+        // Finer children (a lower level) first, then farther from the center.
+        other
+            .level
+            .cmp(&self.level)
+            .then(self.off_center.total_cmp(&other.off_center))
+            .then(self.parent.cmp(&other.parent))
+    }
+}
+
+impl PartialOrd for Group {
+    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+/// The cut of `asked` (the bricks a frame's rays lacked, each missing) within `room` slots
+/// for bricks not yet in the atlas. `satisfied(key)`: the brick needs no slot of its own (in
+/// the atlas, uniform, or failed). Asked bricks are only ever replaced by ancestors, so every
+/// region stays drawn, at its own level where it fits and coarser where it does not.
+pub fn cut_within(
+    asked: &[Request],
+    room: usize,
+    shape: &PyramidShape,
+    view: &ViewPoint,
+    satisfied: impl Fn(u32) -> bool,
+) -> Cut {
+    let mut targets: KeyMap<Request> = asked.iter().map(|r| (r.key, *r)).collect();
+    let mut cost = targets.keys().filter(|&&k| !satisfied(k)).count();
+    if cost <= room {
+        return Cut {
+            load: sorted(targets.into_values().collect()),
+            left_out: Vec::new(),
+            standing: Vec::new(),
+            coarsest: None,
+        };
+    }
+    // The children in the cut of each parent.
+    let mut children: KeyMap<Vec<u32>> = KeyMap::default();
+    let mut heap = BinaryHeap::new();
+    let group_of = |key: u32| -> Option<(u32, Group)> {
+        let id = shape.brick_of(key)?;
+        let parent = shape.parent(id)?;
+        let parent_key = shape.key(parent)?;
+        Some((
+            parent_key,
+            Group {
+                parent: parent_key,
+                level: id.level,
+                off_center: view.off_center(shape.brick_center(parent)),
+            },
+        ))
+    };
+    let mut queued = KeySet::default();
+    for &key in targets.keys() {
+        if let Some((parent, group)) = group_of(key) {
+            children.entry(parent).or_default().push(key);
+            if queued.insert(parent) {
+                heap.push(group);
+            }
+        }
+    }
+    let asked_keys: KeySet = asked.iter().map(|r| r.key).collect();
+    let mut left_out = Vec::new();
+    let mut introduced = KeySet::default();
+    let mut coarsest = None;
+    while cost > room {
+        let Some(group) = heap.pop() else {
+            break; // everything is at the coarsest level: nothing more gives way
+        };
+        queued.remove(&group.parent);
+        let Some(members) = children.remove(&group.parent) else {
+            continue;
+        };
+        for key in members {
+            if targets.remove(&key).is_some() && !satisfied(key) {
+                cost -= 1;
+            }
+            if asked_keys.contains(&key) {
+                left_out.push(key);
+            }
+        }
+        let Some(parent_id) = shape.brick_of(group.parent) else {
+            continue;
+        };
+        coarsest = Some(coarsest.map_or(parent_id.level, |c: u32| c.max(parent_id.level)));
+        introduced.insert(group.parent);
+        if let std::collections::hash_map::Entry::Vacant(slot) = targets.entry(group.parent) {
+            slot.insert(Request {
+                priority: Priority::new(Tier::Visible, parent_id.level, group.off_center),
+                id: parent_id,
+                key: group.parent,
+            });
+            if !satisfied(group.parent) {
+                cost += 1;
+            }
+        }
+        // The parent may give way to its own parent in turn, with its siblings in the cut.
+        if let Some((grandparent, next)) = group_of(group.parent) {
+            let siblings = children.entry(grandparent).or_default();
+            if !siblings.contains(&group.parent) {
+                siblings.push(group.parent);
+            }
+            if queued.insert(grandparent) {
+                heap.push(next);
+            }
+        }
+    }
+    left_out.sort_unstable();
+    let mut standing: Vec<u32> = introduced
+        .into_iter()
+        .filter(|key| targets.contains_key(key))
+        .collect();
+    standing.sort_unstable();
+    Cut {
+        load: sorted(targets.into_values().collect()),
+        left_out,
+        standing,
+        coarsest,
+    }
+}
+
+fn sorted(mut requests: Vec<Request>) -> Vec<Request> {
+    requests.sort_unstable_by_key(|r| (r.priority, r.key));
+    requests
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::BrickId;
+
+    /// A 256³ pyramid: level 0 has 8³ bricks, level 1 4³, level 2 2³, level 3 one.
+    fn shape() -> PyramidShape {
+        PyramidShape::new([256, 256, 256]).expect("a pyramid")
+    }
+
+    fn ask(shape: &PyramidShape, view: &ViewPoint, level: u32, brick: [u32; 3]) -> Request {
+        let id = BrickId { level, brick };
+        Request {
+            priority: Priority::new(
+                Tier::Visible,
+                level,
+                view.off_center(shape.brick_center(id)),
+            ),
+            id,
+            key: shape.key(id).expect("in the pyramid"),
+        }
+    }
+
+    fn level0_block(shape: &PyramidShape, view: &ViewPoint, side: u32) -> Vec<Request> {
+        let mut asked = Vec::new();
+        for z in 0..side {
+            for y in 0..side {
+                for x in 0..side {
+                    asked.push(ask(shape, view, 0, [x, y, z]));
+                }
+            }
+        }
+        asked
+    }
+
+    /// Looking down +z along the volume's axis through the center of brick column (3, 3).
+    fn view() -> ViewPoint {
+        ViewPoint {
+            eye: [128.0, 128.0, -500.0],
+            forward: [0.0, 0.0, 1.0],
+        }
+    }
+
+    #[test]
+    fn what_fits_is_loaded_whole() {
+        let (shape, view) = (shape(), view());
+        let asked = level0_block(&shape, &view, 4);
+        let cut = cut_within(&asked, 64, &shape, &view, |_| false);
+        assert_eq!(cut.load.len(), 64);
+        assert!(cut.left_out.is_empty());
+        assert_eq!(cut.coarsest, None);
+    }
+
+    #[test]
+    fn the_farthest_groups_of_the_finest_level_give_way_to_their_parents_until_it_fits() {
+        let (shape, view) = (shape(), view());
+        // 8³ = 512 level-0 bricks asked, 200 slots: groups of 8 become one parent each.
+        let asked = level0_block(&shape, &view, 8);
+        let cut = cut_within(&asked, 200, &shape, &view, |_| false);
+        assert!(cut.load.len() <= 200, "{}", cut.load.len());
+        // Each group left out saves 7: (512 − 200) / 7 → 45 groups, 360 bricks left out.
+        assert_eq!(cut.left_out.len(), 45 * 8);
+        assert_eq!(cut.standing.len(), 45);
+        assert_eq!(cut.coarsest, Some(1));
+        // What stayed fine is nearest the view's center: every kept group's parent is
+        // nearer it than every parent that replaced a group.
+        let parent_off = |id: BrickId| {
+            let parent = shape.parent(id).expect("level 0 has parents");
+            view.off_center(shape.brick_center(parent))
+        };
+        let kept = cut
+            .load
+            .iter()
+            .filter(|r| r.id.level == 0)
+            .map(|r| parent_off(r.id))
+            .fold(0.0f32, f32::max);
+        let replaced = cut
+            .load
+            .iter()
+            .filter(|r| r.id.level == 1)
+            .map(|r| view.off_center(shape.brick_center(r.id)))
+            .fold(f32::MAX, f32::min);
+        assert!(kept <= replaced, "{kept} vs {replaced}");
+        // Every asked brick is either loaded or under a loaded parent.
+        for request in &asked {
+            let loaded = cut.load.iter().any(|r| r.key == request.key);
+            let parent = shape.parent(request.id).and_then(|p| shape.key(p));
+            let under = cut.load.iter().any(|r| Some(r.key) == parent);
+            assert!(loaded ^ under, "{:?}", request.id);
+        }
+    }
+
+    #[test]
+    fn groups_give_way_level_by_level_down_to_the_coarsest() {
+        let (shape, view) = (shape(), view());
+        let asked = level0_block(&shape, &view, 8);
+        // 9 slots: the 512 asks become level 2's eight bricks (and then the root would do
+        // too, but 8 fit).
+        let cut = cut_within(&asked, 9, &shape, &view, |_| false);
+        assert!(cut.load.len() <= 9, "{:?}", cut.load.len());
+        assert_eq!(cut.left_out.len(), 512);
+        assert_eq!(cut.coarsest, Some(2));
+        // Level 2's eight stand for everything; the level-1 parents between gave way too.
+        assert_eq!(cut.standing.len(), 8);
+        assert!(
+            cut.standing
+                .iter()
+                .all(|&k| shape.brick_of(k).unwrap().level == 2)
+        );
+        // No room at all: everything gives way to the root, which the atlas always holds.
+        let root = shape
+            .key(BrickId {
+                level: 3,
+                brick: [0; 3],
+            })
+            .unwrap();
+        let cut = cut_within(&asked, 0, &shape, &view, |k| k == root);
+        assert_eq!(cut.coarsest, Some(3));
+        assert_eq!(cut.load.len(), 1);
+        assert_eq!(cut.load[0].key, root);
+    }
+
+    #[test]
+    fn bricks_already_satisfied_cost_nothing() {
+        let (shape, view) = (shape(), view());
+        let asked = level0_block(&shape, &view, 4);
+        // Half of them are satisfied (say uniform): 32 missing fit in 40.
+        let cut = cut_within(&asked, 40, &shape, &view, |k| k % 2 == 0);
+        assert!(cut.left_out.is_empty());
+    }
+}
