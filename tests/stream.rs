@@ -83,6 +83,7 @@ fn options(gpu_memory: u64) -> StreamOptions {
         gpu_memory,
         ram_cache: 256 << 20,
         upload_bytes_per_frame: 8 << 20,
+        staging_ring: true,
         workers: 2,
         lod_scale: 0.0,
         prefetch: false,
@@ -454,6 +455,47 @@ fn a_view_three_times_the_atlas_completes_coarser_where_least_important_and_refi
     assert!(
         db >= 60.0,
         "room for the view: full detail again ({db:.1} dB)"
+    );
+}
+
+#[test]
+fn uploads_through_the_staging_ring_draw_what_queue_writes_draw() {
+    let context = gpu();
+    let prepared = &*NOISE;
+    let camera = close_camera(30.0);
+    let settings = settings(prepared.octree.depth);
+    let image = |staging_ring: bool| {
+        let mut renderer = streaming(
+            &context,
+            PYRAMID.clone(),
+            StreamOptions {
+                staging_ring,
+                ..options(level0_bytes())
+            },
+            &prepared.transfer,
+        );
+        let refined = refine(&context, &mut renderer, &camera, &settings);
+        let counters = &refined.status.counters;
+        assert!(counters.bytes_uploaded > 0 && counters.upload_seconds > 0.0);
+        assert!(counters.upload_allowance >= counters.slot_bytes);
+        eprintln!(
+            "ring {staging_ring}: {} bricks in {} frames, {:.0} MB/s to upload, {:.0} MB/s a loader",
+            counters.loads,
+            refined.frames,
+            counters.bytes_uploaded as f64 / counters.upload_seconds / 1e6,
+            counters.bytes_read as f64 / counters.read_seconds / 1e6
+        );
+        refined.image
+    };
+    let through_ring = image(true);
+    let through_queue = image(false);
+    save(&through_ring, "ring");
+    save(&through_queue, "queue");
+    eprintln!("{:.1} dB", psnr(&through_ring, &through_queue));
+    assert!(coverage(&through_ring) > 0.5, "the view shows the volume");
+    assert!(
+        through_ring == through_queue,
+        "the ring's uploads differ from the queue's"
     );
 }
 

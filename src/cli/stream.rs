@@ -18,8 +18,9 @@ pub struct StreamArgs {
     /// Streaming renderer: decoded bricks kept in RAM.
     #[arg(long, value_name = "SIZE", default_value = "2GiB", value_parser = parse_bytes)]
     pub ram_cache: u64,
-    /// Streaming renderer: bricks uploaded to the GPU per frame at most, in bytes.
-    #[arg(long, value_name = "SIZE", default_value = "8MiB", value_parser = parse_bytes)]
+    /// Streaming renderer: bricks uploaded to the GPU per frame at most, in bytes. Within it, a
+    /// frame uploads what the measured upload cost lets it do in about 4 ms.
+    #[arg(long, value_name = "SIZE", default_value = "256MiB", value_parser = parse_bytes)]
     pub upload_budget: u64,
     /// Streaming renderer: the pixel footprint is multiplied by this to pick each segment's
     /// level (1: no voxel larger than a pixel's footprint; 2: one level coarser; 0: always the

@@ -18,7 +18,7 @@ use voxscope_render::{
     RendererOptions, Shading, VolumeRenderer, time_passes, timing_name,
 };
 use voxscope_scene::{StreamedVolume, refine};
-use voxscope_stream::{Downsampling, MemorySource, StreamOptions, preview};
+use voxscope_stream::{Downsampling, MemorySource, StreamCounters, StreamOptions, preview};
 
 /// The paper's cameras, in bounding-sphere radii.
 const CAMERAS: [(&str, f64); 3] = [("near", 1.5), ("medium", 3.0), ("far", 6.0)];
@@ -116,6 +116,8 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
         "floor_bytes": floor_bytes,
         "read_over_floor": counters.bytes_read as f64 / floor_bytes.max(1) as f64,
         "fetched": remote,
+        "pipeline": pipeline_json(counters, options.workers),
+        "budget": refinement.status.budget,
         "counters": counters,
     });
     let gpu_bytes: serde_json::Map<String, serde_json::Value> = renderer
@@ -124,6 +126,49 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
         .map(|(name, bytes)| (name.to_owned(), bytes.into()))
         .collect();
     drop(renderer);
+
+    // Near stopped views, DVR and MIP, each from a cold start: where a view's bricks outgrow
+    // the budget, it completes at the resolution the budget allows.
+    let mut near = Vec::new();
+    for (mode_name, mode) in [("dvr-gray", RenderMode::Dvr), ("mip", RenderMode::Mip)] {
+        let camera = Camera {
+            distance: NEAR_STOPPED,
+            ..medium
+        };
+        let mut renderer = VolumeRenderer::new_stream(
+            &context,
+            prepared.source.clone(),
+            options,
+            &prepared.transfer,
+        )
+        .map_err(|e| format!("{name}: {e}"))?;
+        let started = Instant::now();
+        let settings = settings(depth, mode);
+        let refinement = refine(
+            &context,
+            &mut renderer,
+            &target,
+            &camera,
+            &settings,
+            MAX_WAIT,
+        )
+        .map_err(|e| e.to_string())?;
+        let counters = &refinement.status.counters;
+        near.push(json!({
+            "camera": "near",
+            "distance": NEAR_STOPPED,
+            "mode": mode_name,
+            "complete": refinement.complete,
+            "seconds": started.elapsed().as_secs_f64(),
+            "frames": refinement.frames,
+            "bricks_read": counters.loads,
+            "view_bricks": counters.view_slots,
+            "slots": counters.slots,
+            "read_over_slots": counters.loads as f64 / counters.slots.max(1) as f64,
+            "budget": refinement.status.budget,
+            "pipeline": pipeline_json(counters, options.workers),
+        }));
+    }
 
     // Orbits while detail streams in, each from a cold start (a new renderer, empty caches).
     let timer = GpuTimer::new(&context, args.frames);
@@ -213,6 +258,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
         "first_image_s": first_image_s,
         "pipeline_build_s": pipeline_build_s,
         "stopped_view": stopped,
+        "near_stopped_views": near,
         "orbits": orbits,
         "resident": resident,
     });
@@ -225,6 +271,26 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
         );
     }
     Ok(())
+}
+
+/// The near stopped views' camera distance, in bounding-sphere radii (the issue that asked for
+/// views to complete within the budget measured at 0.6).
+const NEAR_STOPPED: f64 = 0.6;
+
+/// What each part of the upload pipeline did: the loader threads' rate (read and decode,
+/// per thread and for all of them), the frames' upload rate (into the staging ring and
+/// recorded), and the per-frame allowance the measured cost set.
+fn pipeline_json(counters: &StreamCounters, workers: usize) -> serde_json::Value {
+    let rate = |bytes: u64, seconds: f64| (seconds > 0.0).then(|| bytes as f64 / seconds);
+    let per_thread = rate(counters.bytes_read, counters.read_seconds);
+    json!({
+        "read_decode_bytes_per_s_per_thread": per_thread,
+        "read_decode_bytes_per_s": per_thread.map(|r| r * workers as f64),
+        "upload_bytes_per_s": rate(counters.bytes_uploaded, counters.upload_seconds),
+        "upload_allowance_bytes": counters.upload_allowance,
+        "bytes_read": counters.bytes_read,
+        "bytes_uploaded": counters.bytes_uploaded,
+    })
 }
 
 /// The streaming renderer, once everything a view needs is resident, against the bricks

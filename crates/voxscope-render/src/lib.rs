@@ -22,6 +22,7 @@ mod renderer;
 mod settings;
 pub mod shaders;
 mod slice;
+mod staging_ring;
 mod stream;
 mod timer;
 mod transfer_table;

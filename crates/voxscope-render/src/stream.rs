@@ -11,6 +11,7 @@
 
 use std::sync::atomic::{AtomicBool, AtomicU8, Ordering};
 use std::sync::{Arc, Mutex};
+use std::time::Instant;
 
 use wgpu::util::DeviceExt;
 
@@ -24,6 +25,7 @@ use super::raycaster::{
     frame_params_buffer,
 };
 use super::renderer::{Renderer, level_detail, pipeline_variants};
+use super::staging_ring::{StagedBrick, StagingRing};
 use super::{
     Camera, Frame, GpuContext, GpuTransferTable, LevelDetail, RenderError, RenderSettings,
     RenderTarget, RendererKind,
@@ -71,6 +73,8 @@ pub struct StreamVolume {
     requests: wgpu::Buffer,
     usage: wgpu::Buffer,
     readbacks: Vec<Readback>,
+    /// Where uploads are staged on their way into the atlas.
+    ring: StagingRing,
     /// Whether a frame was drawn since the last update (its requests are then read back).
     drawn: AtomicBool,
     /// The camera of the latest frame drawn, for the load order.
@@ -210,6 +214,15 @@ impl StreamVolume {
                 "the GPU has no room for the streaming atlas: {error}"
             )));
         }
+        // A ring buffer holds what a frame may upload, up to 64 bricks (about 19 MB: a brick's
+        // rows sit at the copy's 256-byte row alignment).
+        let per_frame = (options.upload_bytes_per_frame / slot_bytes).max(1) as usize;
+        let ring_bricks = if options.staging_ring {
+            per_frame.min(slots).min(64)
+        } else {
+            0
+        };
+        let ring = StagingRing::new(context, ring_bricks, texels.bytes() as u32);
         let mut volume = Self {
             streamer,
             atlas,
@@ -222,6 +235,7 @@ impl StreamVolume {
             requests,
             usage,
             readbacks,
+            ring,
             drawn: AtomicBool::new(false),
             view: Mutex::new(None),
             spacing: source.spacing(),
@@ -230,22 +244,46 @@ impl StreamVolume {
         Ok(volume)
     }
 
-    /// Writes `uploads` into their atlas slots and the page table's changed entries.
+    /// Writes `uploads` into their atlas slots (through the staging ring, the rest through the
+    /// queue while no ring buffer is mapped) and the page table's changed entries; tells the
+    /// streamer what that cost.
     fn write(&mut self, context: &GpuContext, uploads: &[Upload]) {
+        let started = Instant::now();
         let side = PADDED_BRICK as u32;
         let [gx, gy, _] = self.atlas_grid.map(|g| g as u32);
-        for upload in uploads {
-            let slot = upload.slot;
-            let origin = wgpu::Origin3d {
-                x: (slot % gx) * side,
-                y: ((slot / gx) % gy) * side,
-                z: (slot / (gx * gy)) * side,
-            };
+        let origin = |slot: u32| wgpu::Origin3d {
+            x: (slot % gx) * side,
+            y: ((slot / gx) % gy) * side,
+            z: (slot / (gx * gy)) * side,
+        };
+        let mut staged = 0;
+        if !uploads.is_empty() {
+            let bricks: Vec<StagedBrick<'_>> = uploads
+                .iter()
+                .take(self.ring.bricks_per_buffer())
+                .map(|upload| StagedBrick {
+                    texels: &upload.texels,
+                    origin: origin(upload.slot),
+                })
+                .collect();
+            let mut encoder =
+                context
+                    .device
+                    .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                        label: Some("voxscope::stream_uploads"),
+                    });
+            staged = self.ring.stage(&mut encoder, &self.atlas, &bricks);
+            if staged > 0 {
+                context.queue.submit([encoder.finish()]);
+                self.ring.submitted();
+            }
+        }
+        for upload in &uploads[staged..] {
             context.queue.write_texture(
                 wgpu::TexelCopyTextureInfo {
                     texture: &self.atlas,
                     mip_level: 0,
-                    origin,
+                    origin: origin(upload.slot),
                     aspect: wgpu::TextureAspect::All,
                 },
                 &upload.texels,
@@ -261,6 +299,9 @@ impl StreamVolume {
                 },
             );
         }
+        let bytes: u64 = uploads.iter().map(|u| u.texels.len() as u64).sum();
+        self.streamer
+            .set_upload_cost(bytes, started.elapsed().as_secs_f64());
         let entry_bytes = std::mem::size_of::<TableEntry>() as u64;
         for (start, entries) in self.streamer.table_mut().take_dirty() {
             context.queue.write_buffer(

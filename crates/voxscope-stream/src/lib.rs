@@ -51,5 +51,5 @@ pub use ram_cache::RamCache;
 pub use slots::{Allocation, SlotPool};
 pub use source::{BrickError, BrickSource};
 pub use status::{BudgetLimit, LevelCounters, StreamCounters, StreamStatus};
-pub use streamer::Streamer;
+pub use streamer::{Streamer, UPLOAD_SECONDS_PER_FRAME};
 pub use zarr_source::{MAX_BRICK_READ, ZarrSource};

@@ -76,6 +76,8 @@ pub struct LoadResult {
     /// Bytes the source produced for it: its padded voxels in the atlas's texel size (what a
     /// view's floor is counted in).
     pub bytes_read: u64,
+    /// How long the worker took: the source's read and decode, and the texel conversion.
+    pub seconds: f64,
 }
 
 /// The worker threads and the channel their results arrive on.
@@ -156,12 +158,14 @@ fn work(
     results: &Sender<LoadResult>,
 ) {
     while let Some(request) = queue.take() {
+        let started = std::time::Instant::now();
         let (brick, bytes_read) = load_brick(source, request.id, texels);
         let result = LoadResult {
             key: request.key,
             prefetch: request.priority.tier() == Tier::Prefetch,
             brick,
             bytes_read,
+            seconds: started.elapsed().as_secs_f64(),
         };
         if results.send(result).is_err() {
             return; // the streamer is gone

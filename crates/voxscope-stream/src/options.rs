@@ -12,11 +12,15 @@ pub struct StreamOptions {
     pub gpu_memory: u64,
     /// Bytes of decoded bricks kept in RAM (`--ram-cache`). Default 2 GiB.
     pub ram_cache: u64,
-    /// Bytes uploaded to the atlas per frame at most. Default 8 MiB (about 100 16-bit bricks):
-    /// on an H200, 8 MiB kept 199 of 200 streaming frames under 16 ms of wall time, 16 MiB
-    /// 151–193 of 200, 32 MiB up to 63 ms a frame on noise and 100 ms on a CT (runs 46–47,
-    /// docs/performance-log.md, "What bounds the misses").
+    /// Bytes uploaded to the atlas per frame at most (`--upload-budget`). Within it, a frame
+    /// uploads what its measured upload cost lets it do in a few milliseconds
+    /// ([`crate::UPLOAD_SECONDS_PER_FRAME`]). Default 256 MiB. (With a fixed 8 MiB, runs
+    /// 46–47 on an H200 kept 199 of 200 frames under 16 ms, and 32 MiB took up to 100 ms a
+    /// frame: docs/performance-log.md, "What bounds the misses".)
     pub upload_bytes_per_frame: u64,
+    /// Upload through the staging ring (buffers mapped once, a frame's bricks in one copy
+    /// encoder) rather than a queue write per brick. Default on.
+    pub staging_ring: bool,
     /// Worker threads loading bricks. Default: the machine's cores less one (at least one).
     pub workers: usize,
     /// The pixel footprint is multiplied by this before it picks a level: 1 takes the level
@@ -37,7 +41,8 @@ impl Default for StreamOptions {
         Self {
             gpu_memory: 1 << 30,
             ram_cache: 2 << 30,
-            upload_bytes_per_frame: 8 << 20,
+            upload_bytes_per_frame: 256 << 20,
+            staging_ring: true,
             workers: cores.saturating_sub(1).max(1),
             lod_scale: 1.0,
             prefetch: true,

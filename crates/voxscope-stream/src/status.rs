@@ -38,7 +38,16 @@ pub struct StreamCounters {
     pub prefetch_loads: u64,
     /// Bytes the source produced (padded bricks in texel size).
     pub bytes_read: u64,
+    /// Seconds the loader threads spent reading, decoding and converting bricks, together
+    /// (bytes read ÷ this: one thread's rate).
+    pub read_seconds: f64,
     pub bytes_uploaded: u64,
+    /// Seconds the frames spent putting uploads on their way (copying into the staging ring,
+    /// recording the copies): bytes uploaded ÷ this is that step's rate.
+    pub upload_seconds: f64,
+    /// Bytes a frame may upload now: chosen from the measured upload cost so that a frame
+    /// spends at most a few milliseconds on it, within `--upload-budget`.
+    pub upload_allowance: u64,
     /// Uploaded over the last second.
     pub upload_bytes_per_s: f64,
     /// Bricks that lost their atlas slot to another.

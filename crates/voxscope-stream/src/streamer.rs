@@ -28,6 +28,10 @@ use crate::{BrickId, BrickSource, PADDED_BRICK_VOXELS};
 /// The longest wait before a failed brick is asked for again.
 const MAX_RETRY_DELAY: Duration = Duration::from_secs(300);
 
+/// What a frame may spend putting uploads on their way (the upload allowance follows from it
+/// and the measured cost): a few milliseconds of a 16 ms frame.
+pub const UPLOAD_SECONDS_PER_FRAME: f64 = 0.004;
+
 /// Prefetch neighbours only when a frame asked for at most this many bricks.
 const PREFETCH_AROUND: usize = 1024;
 
@@ -80,6 +84,8 @@ pub struct Streamer {
     standing_view: Option<ViewPoint>,
     /// What the latest cut came to, while anything is left out.
     budget: Option<BudgetLimit>,
+    /// The uploads' measured cost, a moving average (0 before the first).
+    upload_seconds_per_byte: f64,
     /// `visible_below[i]`: value levels below `i` the transfer function makes visible (65 537
     /// counts): the entries' [`ENTRY_VISIBLE`] bits follow it.
     visible_below: Vec<u32>,
@@ -148,6 +154,7 @@ impl Streamer {
             standing: KeySet::default(),
             standing_view: None,
             budget: None,
+            upload_seconds_per_byte: 0.0,
             visible_below,
             counters: StreamCounters {
                 levels: shape
@@ -207,6 +214,33 @@ impl Streamer {
         }
         self.changed_frame = self.frame;
         Ok(uploads)
+    }
+
+    /// Bytes a frame may upload: the allowance set from the measured cost
+    /// ([`Self::set_upload_cost`]), never more than `--upload-budget`.
+    fn upload_allowance(&self) -> u64 {
+        match self.counters.upload_allowance {
+            0 => self.options.upload_bytes_per_frame,
+            allowance => allowance.min(self.options.upload_bytes_per_frame),
+        }
+    }
+
+    /// What the last frame's uploads cost: `seconds` for `bytes`. The allowance follows, so
+    /// that a frame spends about [`UPLOAD_SECONDS_PER_FRAME`] on uploads whatever the device.
+    pub fn set_upload_cost(&mut self, bytes: u64, seconds: f64) {
+        self.counters.upload_seconds += seconds;
+        if bytes == 0 || seconds <= 0.0 {
+            return;
+        }
+        let per_byte = seconds / bytes as f64;
+        // A moving average over a few frames: one slow frame does not halve the next.
+        self.upload_seconds_per_byte = if self.upload_seconds_per_byte > 0.0 {
+            self.upload_seconds_per_byte * 0.75 + per_byte * 0.25
+        } else {
+            per_byte
+        };
+        let allowance = (UPLOAD_SECONDS_PER_FRAME / self.upload_seconds_per_byte) as u64;
+        self.counters.upload_allowance = allowance.max(self.counters.slot_bytes);
     }
 
     /// The pyramid's shape.
@@ -442,6 +476,7 @@ impl Streamer {
             self.counters.bytes_read += result.bytes_read;
             match result.brick {
                 Ok(brick) => {
+                    self.counters.read_seconds += result.seconds;
                     self.attempts.remove(&result.key);
                     self.counters.loads += 1;
                     self.counters.prefetch_loads += result.prefetch as u64;
@@ -574,15 +609,22 @@ impl Streamer {
                 .copied()
                 .filter(|&key| self.table.get(key).is_some_and(|e| e.is_resident())),
         );
-        // Within the view's share of the atlas, and never more than can be placed without
-        // evicting what the frame drew.
-        let room = self
-            .budget_slots()
-            .saturating_sub(committed.len())
-            .min(self.slots.available(feedback.frame.max(1)));
+        // The view's share of the atlas decides what the view can have; what loads now is also
+        // never more than can be placed without evicting what the frame drew (a passing
+        // shortage, while stand-ins are drawn, delays bricks but leaves none out).
+        let room = self.budget_slots().saturating_sub(committed.len());
         let cut = cut_within(&requests, room, &self.shape, &view, |key| {
             self.satisfied(key)
         });
+        let available = self.slots.available(feedback.frame.max(1));
+        let loads_now = if available < room {
+            cut_within(&requests, available, &self.shape, &view, |key| {
+                self.satisfied(key)
+            })
+            .load
+        } else {
+            cut.load.clone()
+        };
         // The cut counts every asked brick as a slot; many turn out uniform (no slot) once
         // read. So the cut stands only once everything it loads is in: until then the rest is
         // just not loaded yet, and the next frame's cut knows more.
@@ -605,7 +647,7 @@ impl Streamer {
             && asked.len() <= PREFETCH_AROUND
             && cut.left_out.is_empty()
             && self.standing.is_empty();
-        for request in &cut.load {
+        for request in &loads_now {
             let mut id = request.id;
             let mut key = request.key;
             let asked_level = id.level;
@@ -792,7 +834,7 @@ impl Streamer {
             let cost = brick.texels.as_ref().map_or(0, |t| t.len() as u64);
             // Past the budget (at least one brick a frame, whatever the budget) or once the
             // atlas is full, bricks with texels wait; uniform ones cost nothing to place.
-            let over_budget = bytes > 0 && bytes + cost > self.options.upload_bytes_per_frame;
+            let over_budget = bytes > 0 && bytes + cost > self.upload_allowance();
             if cost > 0 && (overflow || over_budget) {
                 waiting.push(request);
                 continue;
