@@ -22,6 +22,31 @@ impl ViewPoint {
     }
 }
 
+impl ViewPoint {
+    /// How the view moved from `earlier` to this one, per frame (eye and direction deltas).
+    pub fn since(&self, earlier: &ViewPoint) -> ViewPoint {
+        ViewPoint {
+            eye: std::array::from_fn(|a| self.eye[a] - earlier.eye[a]),
+            forward: std::array::from_fn(|a| self.forward[a] - earlier.forward[a]),
+        }
+    }
+
+    /// The view `frames` frames on at the per-frame `motion` ([`Self::since`]).
+    pub fn ahead(&self, motion: ViewPoint, frames: f64) -> ViewPoint {
+        let forward: [f64; 3] =
+            std::array::from_fn(|a| self.forward[a] + motion.forward[a] * frames);
+        let length = forward.iter().map(|f| f * f).sum::<f64>().sqrt();
+        ViewPoint {
+            eye: std::array::from_fn(|a| self.eye[a] + motion.eye[a] * frames),
+            forward: if length > 1e-9 {
+                forward.map(|f| f / length)
+            } else {
+                self.forward
+            },
+        }
+    }
+}
+
 /// What one drawn frame reported: the bricks its rays asked for and each slot's last use.
 #[derive(Debug, Clone, Copy)]
 pub struct Feedback<'a> {
@@ -42,4 +67,37 @@ pub struct Upload {
     pub slot: u32,
     /// The padded brick's texels ([`AtlasTexels`]).
     pub texels: Arc<[u8]>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::ViewPoint;
+
+    #[test]
+    fn the_view_ahead_follows_the_camera_s_motion() {
+        let earlier = ViewPoint {
+            eye: [0.0, 0.0, -100.0],
+            forward: [0.0, 0.0, 1.0],
+        };
+        let now = ViewPoint {
+            eye: [2.0, 0.0, -100.0],
+            forward: [0.0, 0.0, 1.0],
+        };
+        let motion = now.since(&earlier);
+        let ahead = now.ahead(motion, 10.0);
+        assert_eq!(ahead.eye, [22.0, 0.0, -100.0]);
+        // A brick the camera moves toward is nearer the view ahead's center than now.
+        let coming = [40.0, 0.0, 0.0];
+        assert!(ahead.off_center(coming) < now.off_center(coming));
+        // Standing still, ahead is now.
+        assert_eq!(now.ahead(now.since(&now), 10.0), now);
+        // A turning camera turns on: its direction stays a unit vector.
+        let turned = ViewPoint {
+            forward: [0.1, 0.0, 0.995],
+            ..now
+        };
+        let ahead = turned.ahead(turned.since(&now), 5.0);
+        let length = ahead.forward.iter().map(|f| f * f).sum::<f64>().sqrt();
+        assert!((length - 1.0).abs() < 1e-9 && ahead.forward[0] > 0.1);
+    }
 }

@@ -32,6 +32,9 @@ const MAX_RETRY_DELAY: Duration = Duration::from_secs(300);
 /// and the measured cost): a few milliseconds of a 16 ms frame.
 pub const UPLOAD_SECONDS_PER_FRAME: f64 = 0.004;
 
+/// Frames ahead the prefetch follows the camera's motion.
+const MOTION_LOOKAHEAD: f64 = 8.0;
+
 /// Prefetch neighbours only when a frame asked for at most this many bricks.
 const PREFETCH_AROUND: usize = 1024;
 
@@ -86,6 +89,9 @@ pub struct Streamer {
     budget: Option<BudgetLimit>,
     /// The uploads' measured cost, a moving average (0 before the first).
     upload_seconds_per_byte: f64,
+    /// The view of the last frame drawn, and how it moved since the one before.
+    last_view: Option<ViewPoint>,
+    motion: Option<ViewPoint>,
     /// `visible_below[i]`: value levels below `i` the transfer function makes visible (65 537
     /// counts): the entries' [`ENTRY_VISIBLE`] bits follow it.
     visible_below: Vec<u32>,
@@ -155,6 +161,8 @@ impl Streamer {
             standing_view: None,
             budget: None,
             upload_seconds_per_byte: 0.0,
+            last_view: None,
+            motion: None,
             visible_below,
             counters: StreamCounters {
                 levels: shape
@@ -432,6 +440,8 @@ impl Streamer {
         self.receive_results();
         if let Some(view) = view {
             self.follow_view(view);
+            self.motion = self.last_view.map(|last| view.since(&last));
+            self.last_view = Some(view);
         }
         if let Some(feedback) = feedback {
             self.take_feedback(feedback, view);
@@ -564,6 +574,10 @@ impl Streamer {
             eye: [0.0; 3],
             forward: [0.0, 0.0, 1.0],
         });
+        // Where the camera's motion leads: the prefetch loads what it will see first.
+        let ahead = self
+            .motion
+            .map_or(view, |motion| view.ahead(motion, MOTION_LOOKAHEAD));
         let mut asked: Vec<u32> = feedback.requests.to_vec();
         asked.sort_unstable();
         asked.dedup();
@@ -669,7 +683,7 @@ impl Streamer {
                     },
                 );
                 if prefetch_around && id.level == asked_level {
-                    self.add_neighbours(id, off_center, &mut prefetch);
+                    self.add_neighbours(id, &ahead, &mut prefetch);
                 }
                 let Some(parent) = self.shape.parent(id) else {
                     break;
@@ -785,8 +799,9 @@ impl Streamer {
         self.changed_frame = self.frame;
     }
 
-    /// The face neighbours of `id` in its level, as prefetch requests.
-    fn add_neighbours(&self, id: BrickId, off_center: f32, into: &mut KeyMap<Request>) {
+    /// The face neighbours of `id` in its level, as prefetch requests, nearest the center of
+    /// the view the camera's motion leads to first.
+    fn add_neighbours(&self, id: BrickId, ahead: &ViewPoint, into: &mut KeyMap<Request>) {
         let grid = self.shape.levels[id.level as usize].grid;
         for axis in 0..3 {
             for step in [-1i64, 1] {
@@ -804,6 +819,7 @@ impl Streamer {
                 if self.satisfied(key) || self.failed.contains(&key) {
                     continue;
                 }
+                let off_center = ahead.off_center(self.shape.brick_center(neighbour));
                 into.entry(key).or_insert(Request {
                     priority: Priority::new(Tier::Prefetch, id.level, off_center),
                     id: neighbour,
