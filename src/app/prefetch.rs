@@ -64,7 +64,8 @@ impl VoxscopeApp {
         {
             let streamer = stream.streamer();
             let keys: Vec<u32> = streamer.resident_keys().collect();
-            self.prefetch.warm(streamer.shape(), &keys);
+            let cut = streamer.budget_cut();
+            self.prefetch.warm(streamer.shape(), &keys, cut.as_ref());
         }
     }
 }

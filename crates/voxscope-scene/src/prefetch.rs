@@ -8,7 +8,7 @@
 //! shows refined from memory instead of fetching its bricks again.
 
 use voxscope_render::RendererOptions;
-use voxscope_stream::PyramidShape;
+use voxscope_stream::{PyramidShape, ViewPoint};
 use voxscope_volume::Selection;
 
 use crate::{Job, Opened, Scene, SceneError};
@@ -99,9 +99,16 @@ impl Prefetch {
     }
 
     /// Gives each ready streamed frame not given them yet the bricks `keys` of the view on
-    /// screen (a pyramid of `shape`) to load ahead ([`voxscope_stream::Streamer::prefetch`]);
-    /// frames of another shape are left alone. Returns the loads queued.
-    pub fn warm(&mut self, shape: &PyramidShape, keys: &[u32]) -> usize {
+    /// screen (a pyramid of `shape`) to load ahead ([`voxscope_stream::Streamer::prefetch`]),
+    /// and the view's budget cut (`cut`: what stands for the bricks the budget left out, so the
+    /// next frame leaves out the same and loads none of them); frames of another shape are left
+    /// alone. Returns the loads queued.
+    pub fn warm(
+        &mut self,
+        shape: &PyramidShape,
+        keys: &[u32],
+        cut: Option<&(ViewPoint, Vec<u32>)>,
+    ) -> usize {
         let mut queued = 0;
         for (key, _, opened) in &mut self.ready {
             if self.warmed.contains(key) {
@@ -112,6 +119,11 @@ impl Prefetch {
             };
             self.warmed.push(*key);
             if stream.streamer().shape() == shape {
+                if let Some((view, standing)) = cut {
+                    stream
+                        .streamer_mut()
+                        .apply_budget_cut(*view, standing.iter().copied());
+                }
                 queued += stream.streamer_mut().prefetch(keys.iter().copied());
             }
         }
