@@ -491,12 +491,12 @@ fn uploads_through_the_staging_ring_draw_what_queue_writes_draw() {
     let through_queue = image(false);
     save(&through_ring, "ring");
     save(&through_queue, "queue");
-    eprintln!("{:.1} dB", psnr(&through_ring, &through_queue));
     assert!(coverage(&through_ring) > 0.5, "the view shows the volume");
-    assert!(
-        through_ring == through_queue,
-        "the ring's uploads differ from the queue's"
-    );
+    // The same bricks, in other slots where they arrived in another order: a sample's atlas
+    // coordinate rounds differently there (about 90 dB); a misplaced row or a brick written
+    // over before its copy ran would be tens of dB lower.
+    let db = psnr(&through_ring, &through_queue);
+    assert!(db >= 80.0, "the ring's uploads differ from the queue's: {db:.1} dB");
 }
 
 #[test]

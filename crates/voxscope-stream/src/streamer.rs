@@ -631,19 +631,27 @@ impl Streamer {
             self.satisfied(key)
         });
         let available = self.slots.available(feedback.frame.max(1));
-        let loads_now = if available < room {
+        let cut_now = (available < room).then(|| {
             cut_within(&requests, available, &self.shape, &view, |key| {
                 self.satisfied(key)
             })
-            .load
-        } else {
-            cut.load.clone()
-        };
+        });
+        let loads_now = cut_now.as_ref().map_or(&cut.load, |now| &now.load).clone();
         // The cut counts every asked brick as a slot; many turn out uniform (no slot) once
         // read. So the cut stands only once everything it loads is in: until then the rest is
         // just not loaded yet, and the next frame's cut knows more.
         if !cut.standing.is_empty() && cut.load.iter().all(|r| self.satisfied(r.key)) {
             self.stand_in(&cut.standing, view);
+        } else if let Some(now) = cut_now.filter(|now| {
+            // Stuck: every slot holds a brick the frame drew (wanted, or drawn in place of a
+            // finer one), nothing can be placed without evicting one, and nothing is on its
+            // way. What the atlas holds is the cut: its coarser bricks stand for the rest.
+            !now.standing.is_empty()
+                && now.load.iter().all(|r| self.satisfied(r.key))
+                && self.ready.is_empty()
+                && self.queue.counts() == (0, 0)
+        }) {
+            self.stand_in(&now.standing, view);
         }
         if !self.standing.is_empty() {
             let left_out: usize = left_out.iter().sum::<usize>() + cut.left_out.len();
