@@ -348,7 +348,8 @@ pub fn spacing_of(value: Option<&Bound<'_, PyAny>>) -> PyResult<[f64; 3]> {
     };
     if zyx.iter().any(|v| !v.is_finite() || *v <= 0.0) {
         return Err(PyValueError::new_err(format!(
-            "spacing {zyx:?} needs three positive numbers"
+            "spacing ({:?}, {:?}, {:?}) needs three positive numbers",
+            zyx[0], zyx[1], zyx[2]
         )));
     }
     Ok([zyx[2], zyx[1], zyx[0]])
