@@ -133,6 +133,7 @@ def view(
     The app runs in a child process (`python -m voxscope._app`) that this interpreter does not
     wait for; the returned Viewer can `wait()` for it or `close()` it.
     """
+    words = _voxscope._command_line_words(clip_box=clip_box, clip_plane=clip_plane)
     folder = None
     if isinstance(data, (str, os.PathLike)):
         source = os.fspath(data)
@@ -154,7 +155,6 @@ def view(
 
             shutil.rmtree(folder, ignore_errors=True)
             raise
-    words = _voxscope._command_line_words(clip_box=clip_box, clip_plane=clip_plane)
     command = [sys.executable, "-m", "voxscope._app"]
     if folder is not None:
         command += ["--remove", folder]
