@@ -79,7 +79,7 @@ pub enum Drawn {
     },
 }
 
-/// How a frame is drawn after [`Drawn::prepare_frame`]: its settings and camera.
+/// How a frame is drawn ([`Drawn::frame`]): its settings, camera, size and patience.
 pub struct Frame {
     pub settings: RenderSettings,
     pub camera: Camera,
@@ -202,7 +202,8 @@ impl Drawn {
                 channel,
             })
             .collect();
-        let states = channel_states(&channels, options)?;
+        let saved = options.transfer.saved().map_err(Failure::Load)?;
+        let states = channel_states(&channels, options, saved.as_ref())?;
         let spacing = channels[0].channel.volume.spacing;
         let renderer = VolumeRenderer::new_composite(context, &layers(&channels, &states), spacing)
             .map_err(|e| Failure::Render(format!("{}: {e}", channels[0].channel.volume.name)))?;
@@ -262,40 +263,32 @@ impl Drawn {
         }
     }
 
-    /// Applies what `options` ask of the transfer function and channels (where it changed:
-    /// a recolor or a table write) and returns how to draw the frame.
-    pub fn prepare_frame(
+    /// Applies what `options` ask of the transfer function and channels, where it changed (a
+    /// GPU recolor or a table write); `saved` is their `tf` file, read already.
+    pub fn apply_transfer(
         &mut self,
         context: &GpuContext,
         options: &RenderOptions,
-    ) -> Result<Frame, Failure> {
-        options.check().map_err(Failure::Value)?;
-        let saved: Option<SavedTransfer> = options.transfer.saved().map_err(Failure::Load)?;
-        let request = options.transfer.request(saved.as_ref());
-        let mut settings = match self {
+        saved: Option<&SavedTransfer>,
+    ) -> Result<(), Failure> {
+        let request = options.transfer.request(saved);
+        match self {
             Self::Volume {
                 data,
                 renderer,
                 applied,
-                upload_level,
+                ..
             } => {
                 let transfer =
                     opening_transfer(&data.quantized, data.kind, data.default_window, &request);
-                apply_transfer(context, renderer, applied, transfer, &data.volume.name)?;
-                let mut settings = options
-                    .transfer
-                    .render_settings(data.octree.depth, saved.as_ref());
-                if renderer.kind() == RendererKind::Octree {
-                    settings.max_level = settings.max_level.min(*upload_level);
-                }
-                settings
+                apply_transfer(context, renderer, applied, transfer, &data.volume.name)
             }
             Self::Composite {
                 channels,
                 renderer,
                 applied,
             } => {
-                let states = channel_states(channels, options)?;
+                let states = channel_states(channels, options, saved)?;
                 if states != *applied
                     && let Some(volume) = renderer.composite()
                 {
@@ -303,7 +296,7 @@ impl Drawn {
                     volume.set_shown_layers(context, &layers(channels, &states), &shown);
                     *applied = states;
                 }
-                options.transfer.render_settings(0, saved.as_ref())
+                Ok(())
             }
             Self::Stream {
                 streamed,
@@ -312,19 +305,38 @@ impl Drawn {
             } => {
                 let transfer = streamed.transfer_for(&request);
                 let name = streamed.source.name().to_owned();
-                apply_transfer(context, renderer, applied, transfer, &name)?;
-                options
-                    .transfer
-                    .render_settings(streamed.depth(), saved.as_ref())
+                apply_transfer(context, renderer, applied, transfer, &name)
+            }
+        }
+    }
+
+    /// How to draw a frame with `options` (`saved`: their `tf` file): settings, camera, size.
+    pub fn frame(&self, options: &RenderOptions, saved: Option<&SavedTransfer>) -> Frame {
+        let mut settings = match self {
+            Self::Volume {
+                data,
+                renderer,
+                upload_level,
+                ..
+            } => {
+                let mut settings = options.transfer.render_settings(data.octree.depth, saved);
+                if renderer.kind() == RendererKind::Octree {
+                    settings.max_level = settings.max_level.min(*upload_level);
+                }
+                settings
+            }
+            Self::Composite { .. } => options.transfer.render_settings(0, saved),
+            Self::Stream { streamed, .. } => {
+                options.transfer.render_settings(streamed.depth(), saved)
             }
         };
         settings.clip = options.clip.clip();
-        Ok(Frame {
+        Frame {
             settings,
             camera: options.camera(),
             size: options.size,
             max_wait: Duration::from_secs_f64(options.max_wait),
-        })
+        }
     }
 
     /// Records and submits `frame` into `target` without waiting (the streaming renderer
@@ -403,11 +415,11 @@ fn apply_transfer(
 fn channel_states(
     channels: &[CompositeChannel],
     options: &RenderOptions,
+    saved: Option<&SavedTransfer>,
 ) -> Result<Vec<ChannelState>, Failure> {
     let request = options.channels.request();
     request.check(channels.len()).map_err(Failure::Value)?;
-    let saved = options.transfer.saved().map_err(Failure::Load)?;
-    let transfer_request = options.transfer.request(saved.as_ref());
+    let transfer_request = options.transfer.request(saved);
     Ok(channels
         .iter()
         .enumerate()

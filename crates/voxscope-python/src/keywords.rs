@@ -69,6 +69,16 @@ pub const STRUCTURAL: [&str; 6] = [
     "lod_scale",
 ];
 
+/// Keywords that change neither the transfer function nor the channels' tables.
+const VIEW_ONLY: [&str; 6] = [
+    "azimuth",
+    "elevation",
+    "distance",
+    "fov",
+    "size",
+    "max_wait",
+];
+
 /// `render`'s options but the volume and the output: what `render()`, `Renderer()` and
 /// `Renderer.render()` take.
 pub const RENDER: &[Keyword] = &[
@@ -194,6 +204,38 @@ impl Given {
             .iter()
             .map(|(name, _)| *name)
             .find(|name| names.contains(name))
+    }
+
+    /// `options` (these keywords' options parsed already) with `frame`'s camera keywords
+    /// set, where `frame` holds camera keywords alone (`azimuth`, `elevation`, `distance`,
+    /// `fov`), each a number read as clap reads it; else `None` (parse them all). A camera
+    /// sweep then costs microseconds a frame in Python, not the parser's fraction of a
+    /// millisecond (building clap's command for some forty options).
+    pub fn with_camera(options: &RenderOptions, frame: &Given) -> Option<RenderOptions> {
+        let mut options = options.clone();
+        for (name, words) in &frame.words {
+            let [word] = &words[..] else { return None };
+            let (_, text) = word.split_once('=')?;
+            let value: f64 = text.parse().ok()?;
+            match *name {
+                "azimuth" => options.azimuth = value,
+                "elevation" => options.elevation = value,
+                "distance" => options.distance = value,
+                "fov" => options.fov = value,
+                _ => return None,
+            }
+        }
+        Some(options)
+    }
+
+    /// The words of the keywords that decide the transfer function and the channels' tables
+    /// (all but the camera, size and `max_wait`): what changes them.
+    pub fn transfer_words(&self) -> Vec<String> {
+        self.words
+            .iter()
+            .filter(|(name, _)| !VIEW_ONLY.contains(name))
+            .flat_map(|(_, words)| words.iter().cloned())
+            .collect()
     }
 
     /// Every word, in order.

@@ -9,12 +9,13 @@ use std::sync::{Arc, Mutex, MutexGuard};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use voxscope::cli::RenderOptions;
 use voxscope_render::{GpuContext, RenderTarget, read_image};
-use voxscope_scene::VolumeSource;
+use voxscope_scene::{SavedTransfer, VolumeSource};
 
 use crate::arrays::{ArrayOptions, quantize, spacing_of, supported_array};
 use crate::drawn::{Drawn, Frame, Notice};
-use crate::errors::{RenderError, VoxscopeError, gpu_error};
+use crate::errors::{LoadError, RenderError, VoxscopeError, gpu_error};
 use crate::gpu::device;
 use crate::keywords::{Given, OPEN, RENDER, STRUCTURAL};
 use crate::opened::{Opened, spec_of};
@@ -29,20 +30,42 @@ pub struct Renderer {
     resident: Mutex<Resident>,
 }
 
-/// What a Renderer holds: the device, the volume uploaded, the keywords it was made with,
-/// and the target of the last frame.
+/// What a Renderer holds: the device, the volume uploaded, the keywords it was made with
+/// (and their options, parsed), what its transfer function follows now, and the target of
+/// the last frame.
 struct Resident {
     context: Arc<GpuContext>,
     drawn: Drawn,
     base: Given,
+    base_options: RenderOptions,
+    /// The transfer keywords' words last applied, and their `tf` file as read then.
+    applied: Option<(Vec<String>, Option<SavedTransfer>)>,
     target: Option<RenderTarget>,
 }
 
 impl Resident {
-    /// The frame of the Renderer's keywords with `frame`'s on top, applied.
+    /// The frame of the Renderer's keywords with `frame`'s on top, applied: the transfer
+    /// function and channels where their keywords changed, a target of the frame's size.
     fn prepare(&mut self, frame: &Given) -> Result<Frame, PyErr> {
-        let options = self.base.with(frame).render_options()?;
-        let prepared = self.drawn.prepare_frame(&self.context, &options)?;
+        let merged = self.base.with(frame);
+        let options = match Given::with_camera(&self.base_options, frame) {
+            Some(options) => options,
+            None => merged.render_options()?,
+        };
+        options.check().map_err(PyValueError::new_err)?;
+        let words = merged.transfer_words();
+        if self
+            .applied
+            .as_ref()
+            .is_none_or(|(applied, _)| *applied != words)
+        {
+            let saved = options.transfer.saved().map_err(LoadError::new_err)?;
+            self.drawn
+                .apply_transfer(&self.context, &options, saved.as_ref())?;
+            self.applied = Some((words, saved));
+        }
+        let saved = self.applied.as_ref().and_then(|(_, saved)| saved.as_ref());
+        let prepared = self.drawn.frame(&options, saved);
         let (width, height) = prepared.size;
         let fits = self
             .target
@@ -174,6 +197,8 @@ impl Renderer {
                 context,
                 drawn,
                 base,
+                base_options: options,
+                applied: None,
                 target: None,
             }),
         })
