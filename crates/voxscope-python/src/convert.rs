@@ -51,11 +51,12 @@ pub fn convert(
         let volume = array_volume(source, &name, spacing)?;
         py.detach(|| write_ome_zarr(SlabSource::from_volume(volume), &args, |_| {}))
     } else {
-        let spec = match source.cast::<crate::opened::Opened>() {
-            Ok(volume) => volume.get().spec.clone(),
-            Err(_) => spec_of(source)?,
-        };
         let given = Given::read(options, CONVERT, "convert")?;
+        // A Volume converts as it was opened (its `raw`, `spacing`, channel and time).
+        let (spec, given) = match source.cast::<crate::opened::Opened>() {
+            Ok(volume) => (volume.get().spec.clone(), volume.get().given.with(&given)),
+            Err(_) => (spec_of(source)?, given),
+        };
         let args = given.convert_args(&spec, &output)?;
         if std::path::Path::new(&spec) == std::path::Path::new(&output) {
             return Err(PyValueError::new_err(format!(

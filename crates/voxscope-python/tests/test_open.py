@@ -156,6 +156,15 @@ def test_convert_writes_an_array_and_a_file_as_ome_zarr(tmp_path, head):
         assert np.array_equal(ours.read(level), theirs.read(level))
     with pytest.raises(voxscope.LoadError, match="exists"):
         voxscope.convert(voxels, tmp_path / "head.ome.zarr")
+    # A Volume converts as it was opened: headerless voxels with their layout and spacing.
+    raw = tmp_path / "head.raw"
+    voxels.tofile(raw)
+    z, y, x = voxels.shape
+    opened = voxscope.open(raw, raw=f"{x}x{y}x{z}:i16", spacing=spacing)
+    voxscope.convert(opened, tmp_path / "raw.ome.zarr")
+    again = voxscope.open(tmp_path / "raw.ome.zarr")
+    assert again.spacing == pytest.approx(spacing)
+    assert np.array_equal(again.read(), voxels)
 
 
 def test_python_m_voxscope_is_the_command_line(tmp_path):

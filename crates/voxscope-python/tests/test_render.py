@@ -121,7 +121,7 @@ def test_other_dtypes_convert_to_one_voxscope_stores(head, tmp_path, make, store
 def test_channels_draw_as_the_composite_of_the_command_line(head, tmp_path, images):
     values, spacing = small_head(head)
     first = values.astype(np.uint16) * 100
-    second = (255 - values).astype(np.uint16) * 50
+    second = values[:, :, ::-1].astype(np.uint16) * 50  # the head mirrored left to right
     stack = np.stack([first, second])  # (c, z, y, x)
     files = []
     for index, channel in enumerate(stack):
