@@ -23,7 +23,7 @@ pub struct BenchArgs {
     #[command(flatten)]
     pub volume: VolumeArgs,
     /// Image size WxH.
-    #[arg(long, default_value = "1024x768", value_parser = super::render::parse_size)]
+    #[arg(long, default_value = "1024x768", value_parser = super::render_options::parse_size)]
     pub size: (u32, u32),
     /// Timed frames per case; the azimuth sweeps a full turn over them.
     #[arg(long, default_value_t = 200)]

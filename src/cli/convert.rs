@@ -70,8 +70,7 @@ pub enum FormatArg {
 
 pub fn run(args: &ConvertArgs) -> Result<(), String> {
     let spec = args.input.as_str();
-    let output = Path::new(&args.output);
-    if Path::new(spec) == output {
+    if Path::new(spec) == Path::new(&args.output) {
         return Err(format!("{}: the output is the input", args.output));
     }
     let started = Instant::now();
@@ -86,7 +85,29 @@ pub fn run(args: &ConvertArgs) -> Result<(), String> {
             max_requests: args.max_requests,
         },
     };
-    let mut source = SlabSource::open(spec, &load_options).map_err(|e| e.to_string())?;
+    let source = SlabSource::open(spec, &load_options).map_err(|e| e.to_string())?;
+    let levels = write(source, args, |message| eprint!("{message}"))?;
+    let shown: Vec<String> = levels.iter().map(|d| format_dims(*d)).collect();
+    println!(
+        "wrote {} ({} levels: {}) in {:.2} s",
+        args.output,
+        levels.len(),
+        shown.join(", "),
+        started.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+/// Writes `source` (a file opened for reading in slabs, or a volume in memory: the Python
+/// module's arrays) as the OME-Zarr image `args` describe (`args.input` names it), saying
+/// what it does and how far it is through `report`; returns the levels' dimensions.
+pub fn write(
+    mut source: SlabSource,
+    args: &ConvertArgs,
+    mut report: impl FnMut(&str),
+) -> Result<Vec<[usize; 3]>, String> {
+    let spec = args.input.as_str();
+    let output = Path::new(&args.output);
     if let Some(copies) = args.tile {
         source = source.tiled(copies).map_err(|e| e.to_string())?;
     }
@@ -117,8 +138,8 @@ pub fn run(args: &ConvertArgs) -> Result<(), String> {
         &options,
     )
     .map_err(|p| format!("{}: {p}", args.output))?;
-    eprintln!(
-        "converting {} ({} {}, {}) to OME-Zarr {} in {}³ chunks",
+    report(&format!(
+        "converting {} ({} {}, {}) to OME-Zarr {} in {}³ chunks\n",
         source.name,
         format_dims(source.dims),
         source.voxel_type.name(),
@@ -132,7 +153,7 @@ pub fn run(args: &ConvertArgs) -> Result<(), String> {
             FormatArg::V05 => "0.5",
         },
         args.chunk
-    );
+    ));
     let depth = source.dims[2];
     let slab = writer.slab_depth();
     let mut z = 0;
@@ -143,21 +164,16 @@ pub fn run(args: &ConvertArgs) -> Result<(), String> {
             .push(&data)
             .map_err(|p| format!("{}: {p}", args.output))?;
         z += count;
-        eprint!("\rconverting: {:3.0} %", 100.0 * z as f64 / depth as f64);
+        report(&format!(
+            "\rconverting: {:3.0} %",
+            100.0 * z as f64 / depth as f64
+        ));
     }
     let levels = writer
         .finish()
         .map_err(|p| format!("{}: {p}", args.output))?;
-    eprintln!("\rconverting: done ");
-    let shown: Vec<String> = levels.iter().map(|d| format_dims(*d)).collect();
-    println!(
-        "wrote {} ({} levels: {}) in {:.2} s",
-        args.output,
-        levels.len(),
-        shown.join(", "),
-        started.elapsed().as_secs_f64()
-    );
-    Ok(())
+    report("\rconverting: done \n");
+    Ok(levels)
 }
 
 /// `--tile N` or `--tile X,Y,Z`.

@@ -10,14 +10,19 @@ mod info;
 mod prepare;
 mod probe;
 mod render;
+mod render_options;
 mod slice;
 mod stream;
 mod stream_bench;
 
 use clap::{Parser, Subcommand};
 
-pub use args::{ClipArgs, TransferArgs, VolumeArgs};
+pub use args::{ChannelArg, ClipArgs, RendererArg, TransferArgs, VolumeArgs};
+pub use composite::ChannelArgs;
+pub use convert::{ConvertArgs, write as write_ome_zarr};
 pub use prepare::Prepared;
+pub use render_options::RenderOptions;
+pub use stream::StreamArgs;
 
 /// voxscope: look inside volume data. A flat-list sparse octree, ray-cast on the GPU.
 #[derive(Debug, Parser)]
@@ -53,8 +58,25 @@ pub enum Command {
 
 /// Runs the command line; returns the process exit code. Errors print as one line.
 pub fn run() -> std::process::ExitCode {
-    let cli = Cli::parse();
-    let result = match cli.command {
+    match run_from(std::env::args_os()) {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(message) => {
+            eprintln!("error: {message}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+/// Runs the command line on `args` (the program's name first) and returns its one-line
+/// error: what `voxscope` does, for the Python module's `python -m voxscope` and `view()`.
+/// Usage errors, `--help` and `--version` print and exit the process, as clap does.
+pub fn run_from<I, T>(args: I) -> Result<(), String>
+where
+    I: IntoIterator<Item = T>,
+    T: Into<std::ffi::OsString> + Clone,
+{
+    let cli = Cli::parse_from(args);
+    match cli.command {
         Some(Command::Info(args)) => info::run(&args),
         Some(Command::Render(args)) => render::run(&args),
         Some(Command::Bench(args)) if args.streams() => stream_bench::run(&args),
@@ -67,12 +89,5 @@ pub fn run() -> std::process::ExitCode {
             cli.file.map(voxscope_scene::VolumeSource::Spec),
             cli.clip.clip(),
         ),
-    };
-    match result {
-        Ok(()) => std::process::ExitCode::SUCCESS,
-        Err(message) => {
-            eprintln!("error: {message}");
-            std::process::ExitCode::FAILURE
-        }
     }
 }

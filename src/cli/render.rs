@@ -8,12 +8,11 @@ use clap::Args;
 use super::args::RendererArg;
 use super::composite::PreparedChannel;
 use super::prepare::default_renderer;
-use super::stream::{StreamArgs, open_streamed};
-use super::{ClipArgs, Prepared, TransferArgs, VolumeArgs};
+use super::stream::open_streamed;
+use super::{Prepared, RenderOptions, VolumeArgs};
 use voxscope_octree::MAX_DEPTH;
 use voxscope_render::{
-    Camera, ChannelLayer, DEFAULT_BRICK_SIZE, GpuContext, RenderTarget, RendererOptions,
-    VolumeRenderer, read_image,
+    ChannelLayer, GpuContext, RenderTarget, RendererOptions, VolumeRenderer, read_image,
 };
 use voxscope_scene::{SavedTransfer, StreamedVolume, beyond_octree, describe_missing, refine};
 use voxscope_volume::{Volume, format_dims};
@@ -23,49 +22,18 @@ pub struct RenderArgs {
     #[command(flatten)]
     pub volume: VolumeArgs,
     #[command(flatten)]
-    pub transfer: TransferArgs,
-    #[command(flatten)]
-    pub clip: ClipArgs,
-    #[command(flatten)]
-    pub channels: super::composite::ChannelArgs,
-    /// Which renderer draws the image (default: octree, or bricks, said on stderr, when the
-    /// octree does not fit this GPU's storage buffers, as the app does).
-    #[arg(long, value_enum)]
-    pub renderer: Option<RendererArg>,
-    /// Voxels along a brick's side (bricks renderer): 4, 8, 16 or 32.
-    #[arg(long, default_value_t = DEFAULT_BRICK_SIZE, value_parser = super::args::parse_brick_size)]
-    pub brick_size: usize,
-    #[command(flatten)]
-    pub stream: StreamArgs,
-    /// Streaming renderer: draw until nothing visible is missing, at most this long (then the
-    /// image is written as it is, and what was still coarse is said).
-    #[arg(long, value_name = "SECONDS", default_value_t = 30.0)]
-    pub max_wait: f64,
+    pub options: RenderOptions,
     /// Output PNG.
     #[arg(short, long, value_name = "FILE.png")]
     pub output: PathBuf,
-    /// Image size WxH.
-    #[arg(long, default_value = "1024x768", value_parser = parse_size)]
-    pub size: (u32, u32),
-    /// Camera rotation around the vertical axis, degrees (0: from the front).
-    #[arg(long, default_value_t = 30.0, allow_hyphen_values = true)]
-    pub azimuth: f64,
-    /// Camera angle above the horizontal, degrees.
-    #[arg(long, default_value_t = 20.0, allow_hyphen_values = true)]
-    pub elevation: f64,
-    /// Camera distance from the volume center in bounding-sphere radii.
-    #[arg(long, default_value_t = 3.0)]
-    pub distance: f64,
-    /// Vertical field of view, degrees.
-    #[arg(long, default_value_t = 45.0)]
-    pub fov: f64,
 }
 
 pub fn run(args: &RenderArgs) -> Result<(), String> {
     check_output(&args.output, args.volume.file.as_deref())?;
-    check_max_wait(args.max_wait)?;
-    if args.renderer == Some(RendererArg::Stream) {
-        let (streamed, saved) = open_streamed(&args.volume, &args.transfer)?;
+    let options = &args.options;
+    options.check()?;
+    if options.renderer == Some(RendererArg::Stream) {
+        let (streamed, saved) = open_streamed(&args.volume, &options.transfer)?;
         return run_stream(args, streamed, saved, Instant::now());
     }
     let started = Instant::now();
@@ -77,26 +45,26 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         None => args.volume.load()?,
     };
     // Longer than the voxel octree holds: bricks are streamed from memory.
-    if beyond_octree(volume.dims) && matches!(args.renderer, None | Some(RendererArg::Bricks)) {
+    if beyond_octree(volume.dims) && matches!(options.renderer, None | Some(RendererArg::Bricks)) {
         eprintln!(
             "{}: {} voxels are beyond the voxel octree's {} a side: drawn by the streaming renderer, from memory",
             volume.name,
             format_dims(volume.dims),
             1u32 << MAX_DEPTH
         );
-        let saved = args.transfer.saved()?;
+        let saved = options.transfer.saved()?;
         let streamed =
-            StreamedVolume::from_volume(volume, &args.transfer.request(saved.as_ref()), started)
+            StreamedVolume::from_volume(volume, &options.transfer.request(saved.as_ref()), started)
                 .map_err(|e| e.to_string())?;
         return run_stream(args, streamed, saved, started);
     }
-    let prepared = Prepared::from_volume(volume, &args.transfer)?;
-    let mut settings = args
+    let prepared = Prepared::from_volume(volume, &options.transfer)?;
+    let mut settings = options
         .transfer
         .render_settings(prepared.data.octree.depth, prepared.saved.as_ref());
-    settings.clip = args.clip.clip();
+    settings.clip = options.clip.clip();
     let context = GpuContext::new_headless().map_err(|e| e.to_string())?;
-    let kind = match args.renderer {
+    let kind = match options.renderer {
         Some(renderer) => renderer.into(),
         None => default_renderer(
             &context,
@@ -109,7 +77,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         &context,
         RendererOptions {
             kind,
-            brick_size: args.brick_size,
+            brick_size: options.brick_size,
             ..Default::default()
         },
         &prepared.data.octree,
@@ -119,14 +87,8 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         &prepared.transfer,
     )
     .map_err(|e| format!("{}: {e}", prepared.data.volume.name))?;
-    let target = RenderTarget::new(&context, args.size.0, args.size.1);
-    let camera = Camera {
-        azimuth_deg: args.azimuth,
-        elevation_deg: args.elevation,
-        distance: args.distance,
-        fov_y_deg: args.fov,
-        pan: [0.0; 3],
-    };
+    let target = RenderTarget::new(&context, options.size.0, options.size.1);
+    let camera = options.camera();
     renderer.render(&context, &target, &camera, &settings);
     let image = read_image(&context, &target).map_err(|e| e.to_string())?;
     image
@@ -149,7 +111,8 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
 /// `render` of several channels: the dense renderer's composite.
 fn run_composite(args: &RenderArgs, channels: Vec<Volume>) -> Result<(), String> {
     let started = Instant::now();
-    if let Some(renderer) = args.renderer
+    let options = &args.options;
+    if let Some(renderer) = options.renderer
         && renderer != RendererArg::Dense
     {
         return Err(format!(
@@ -158,23 +121,17 @@ fn run_composite(args: &RenderArgs, channels: Vec<Volume>) -> Result<(), String>
             voxscope_render::RendererKind::from(renderer).name()
         ));
     }
-    let prepared = args.channels.prepare(channels, &args.transfer)?;
-    let saved = args.transfer.saved()?;
-    let mut settings = args.transfer.render_settings(0, saved.as_ref());
-    settings.clip = args.clip.clip();
+    let prepared = options.channels.prepare(channels, &options.transfer)?;
+    let saved = options.transfer.saved()?;
+    let mut settings = options.transfer.render_settings(0, saved.as_ref());
+    settings.clip = options.clip.clip();
     let context = GpuContext::new_headless().map_err(|e| e.to_string())?;
     let layers: Vec<ChannelLayer<'_>> = prepared.iter().map(PreparedChannel::layer).collect();
     let name = &prepared[0].volume.name;
     let renderer = VolumeRenderer::new_composite(&context, &layers, prepared[0].volume.spacing)
         .map_err(|e| format!("{name}: {e}"))?;
-    let target = RenderTarget::new(&context, args.size.0, args.size.1);
-    let camera = Camera {
-        azimuth_deg: args.azimuth,
-        elevation_deg: args.elevation,
-        distance: args.distance,
-        fov_y_deg: args.fov,
-        pan: [0.0; 3],
-    };
+    let target = RenderTarget::new(&context, options.size.0, options.size.1);
+    let camera = options.camera();
     renderer.render(&context, &target, &camera, &settings);
     let image = read_image(&context, &target).map_err(|e| e.to_string())?;
     image
@@ -198,15 +155,6 @@ fn run_composite(args: &RenderArgs, channels: Vec<Volume>) -> Result<(), String>
     Ok(())
 }
 
-/// `--max-wait` is a number of seconds.
-fn check_max_wait(max_wait: f64) -> Result<(), String> {
-    if max_wait.is_finite() && max_wait >= 0.0 {
-        Ok(())
-    } else {
-        Err(format!("--max-wait {max_wait} is not a number of seconds"))
-    }
-}
-
 /// `render --renderer stream` (and `bricks` beyond the octree): draws `prepared`'s pyramid,
 /// opened since `started`, until nothing visible is missing (or `--max-wait`), writes the
 /// image. `saved` is the --tf file.
@@ -217,33 +165,28 @@ fn run_stream(
     started: Instant,
 ) -> Result<(), String> {
     let name = prepared.source.name().to_owned();
-    let mut settings = args
+    let options = &args.options;
+    let mut settings = options
         .transfer
         .render_settings(prepared.depth(), saved.as_ref());
-    settings.clip = args.clip.clip();
+    settings.clip = options.clip.clip();
     let context = GpuContext::new_headless().map_err(|e| e.to_string())?;
     let mut renderer = VolumeRenderer::new_stream(
         &context,
         prepared.source.clone(),
-        prepared.stream_options(args.stream.options()),
+        prepared.stream_options(options.stream.options()),
         &prepared.transfer,
     )
     .map_err(|e| format!("{name}: {e}"))?;
-    let target = RenderTarget::new(&context, args.size.0, args.size.1);
-    let camera = Camera {
-        azimuth_deg: args.azimuth,
-        elevation_deg: args.elevation,
-        distance: args.distance,
-        fov_y_deg: args.fov,
-        pan: [0.0; 3],
-    };
+    let target = RenderTarget::new(&context, options.size.0, options.size.1);
+    let camera = options.camera();
     let refinement = refine(
         &context,
         &mut renderer,
         &target,
         &camera,
         &settings,
-        Duration::from_secs_f64(args.max_wait),
+        Duration::from_secs_f64(options.max_wait),
     )
     .map_err(|e| e.to_string())?;
     for error in &refinement.errors {
@@ -312,14 +255,4 @@ pub(super) fn check_output(output: &Path, input: Option<&str>) -> Result<(), Str
         }
     }
     Ok(())
-}
-
-pub(super) fn parse_size(text: &str) -> Result<(u32, u32), String> {
-    let (w, h) = text
-        .split_once('x')
-        .ok_or_else(|| format!("size '{text}' is not WxH"))?;
-    match (w.parse::<u32>(), h.parse::<u32>()) {
-        (Ok(w), Ok(h)) if (1..=16384).contains(&w) && (1..=16384).contains(&h) => Ok((w, h)),
-        _ => Err(format!("size '{text}' needs W and H from 1 to 16384")),
-    }
 }

@@ -48,6 +48,19 @@ impl VolumeData {
         progress.begin("quantizing");
         let quantized = QuantizedVolume::new(&volume);
         volume.data = volume.data.emptied();
+        Self::from_quantized(source, volume, quantized, started, progress)
+    }
+
+    /// [`Self::prepare`] of values quantized already ([`QuantizedVolume::of_values`]: the
+    /// Python module's arrays, read in place); `volume` describes them (its voxels may be
+    /// empty, of their stored type).
+    pub fn from_quantized(
+        source: &VolumeSource,
+        volume: Volume,
+        quantized: QuantizedVolume,
+        started: Instant,
+        progress: &Progress,
+    ) -> Result<Self, SceneError> {
         progress.check()?;
         let octree = octree::build_with_progress(&quantized, BuildOptions::default(), progress)
             .map_err(|e| SceneError::from_build(&volume.name, e))?;

@@ -33,6 +33,11 @@ pub struct StreamedVolume {
     pub transfer: TransferFunction,
     /// How long opening took (reading a volume and computing its levels, or the preview).
     pub open_seconds: f64,
+    /// The coarse level read whole for the transfer function's defaults, its data kind and
+    /// default window: what [`Self::transfer_for`] chooses another transfer function from.
+    pub preview: QuantizedVolume,
+    pub kind: DataKind,
+    pub default_window: ValueWindow,
 }
 
 impl StreamedVolume {
@@ -90,17 +95,28 @@ impl StreamedVolume {
         started: Instant,
     ) -> Result<Self, SceneError> {
         let quantized = QuantizedVolume::new(&loaded);
-        let kind = DataKind::of_volume(&loaded, &quantized);
+        Self::from_quantized(&loaded, quantized, request, started)
+    }
+
+    /// [`Self::from_volume`] of values quantized already (the Python module's arrays, read
+    /// in place); `volume` describes them.
+    pub fn from_quantized(
+        volume: &Volume,
+        quantized: QuantizedVolume,
+        request: &TransferRequest,
+        started: Instant,
+    ) -> Result<Self, SceneError> {
+        let kind = DataKind::of_volume(volume, &quantized);
         let source = MemorySource::from_levels(
-            &loaded.name,
+            &volume.name,
             quantized.levels,
             quantized.dims,
             quantized.quantization,
-            loaded.spacing,
+            volume.spacing,
             downsampling_of(kind),
         )
         .map_err(SceneError::Failed)?;
-        let window = crate::file_window(&loaded);
+        let window = crate::file_window(volume);
         Self::finish(Arc::new(source), Some(kind), window, None, request, started)
     }
 
@@ -124,7 +140,16 @@ impl StreamedVolume {
             pyramid,
             transfer,
             open_seconds: started.elapsed().as_secs_f64(),
+            preview,
+            kind,
+            default_window: window,
         })
+    }
+
+    /// The transfer function `request` asks for, chosen as at opening ([`opening_transfer`]
+    /// over the preview): a Python `Renderer`'s frame with another preset or window.
+    pub fn transfer_for(&self, request: &TransferRequest) -> TransferFunction {
+        opening_transfer(&self.preview, self.kind, self.default_window, request)
     }
 
     /// `options` for this source: a URL's pyramid gets at least [`REMOTE_WORKERS`] loaders.

@@ -3,7 +3,7 @@
 
 use rayon::prelude::*;
 
-use super::{Scalar, Volume};
+use super::{Scalar, ValueScale, Volume};
 use crate::with_voxel_slice;
 
 /// Number of quantization levels (and histogram bins): the octree stores 16-bit levels.
@@ -113,26 +113,35 @@ pub struct QuantizedVolume {
 impl QuantizedVolume {
     /// Quantizes every voxel of `volume` (non-finite values count as the minimum).
     pub fn new(volume: &Volume) -> Self {
-        let scale = volume.value_scale;
-        let [min, max] =
-            with_voxel_slice!(&volume.data, values => finite_range(values, |v| scale.apply(v)));
+        with_voxel_slice!(&volume.data, values => Self::of_values(volume.dims, values, volume.value_scale))
+    }
+
+    /// Quantizes `values` (x fastest, then y, then z, in a grid of `dims`), stored values
+    /// that `scale` maps to the data's units: [`Self::new`] without a [`Volume`] owning them
+    /// (the Python module reads a numpy array's memory in place).
+    pub fn of_values<T: Scalar>(dims: [usize; 3], values: &[T], scale: ValueScale) -> Self {
+        let [min, max] = finite_range(values, |v| scale.apply(v));
         let span = max - min;
         let integer_step = scale.slope.abs();
         let step = if span <= 0.0 {
             1.0
-        } else if volume.voxel_type().is_integer() && span / integer_step <= (LEVELS - 1) as f64 {
+        } else if T::TYPE.is_integer() && span / integer_step <= (LEVELS - 1) as f64 {
             integer_step
         } else {
             span / (LEVELS - 1) as f64
         };
         let quantization = Quantization { offset: min, step };
-        let levels: Vec<u16> = with_voxel_slice!(&volume.data, values => values
+        let levels: Vec<u16> = values
             .par_iter()
             .map(|&v| {
                 let value = scale.apply(v.to_f64());
-                if value.is_finite() { quantization.level(value) } else { 0 }
+                if value.is_finite() {
+                    quantization.level(value)
+                } else {
+                    0
+                }
             })
-            .collect());
+            .collect();
         let counts = levels
             .par_chunks(1 << 16)
             .fold(
@@ -157,7 +166,7 @@ impl QuantizedVolume {
             quantization,
         };
         Self {
-            dims: volume.dims,
+            dims,
             levels,
             quantization,
             histogram,

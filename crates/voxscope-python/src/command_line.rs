@@ -1,0 +1,18 @@
+//! The command line inside the module: `python -m voxscope ARGS` is `voxscope ARGS` (render,
+//! info, convert, …; without a command the app), and `view()` starts the app this way in a
+//! child process, so the wheel needs no separate binary.
+
+use pyo3::prelude::*;
+
+use crate::errors::VoxscopeError;
+
+/// run_command_line(argv: list[str]) -> None
+///
+/// Runs `voxscope` with `argv` (the program's name first) in this process, the GIL released:
+/// the app's window blocks until it closes. A failure raises VoxscopeError with the command
+/// line's one-line message; `--help`, `--version` and usage errors print and exit the process.
+#[pyfunction]
+pub fn run_command_line(py: Python<'_>, argv: Vec<String>) -> PyResult<()> {
+    py.detach(|| voxscope::cli::run_from(argv))
+        .map_err(VoxscopeError::new_err)
+}

@@ -1,0 +1,111 @@
+//! `voxscope.convert()`: `voxscope convert` from Python. Any volume voxscope opens, or a numpy
+//! array (z, y, x), written as a multiscale OME-Zarr image (0.4, or 0.5 sharded), with the
+//! GIL released. An array is copied once into voxscope's layout before it is written.
+
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use voxscope::cli::write_ome_zarr;
+use voxscope_volume::ome_zarr::SlabSource;
+use voxscope_volume::{LoadOptions, Volume};
+
+use crate::arrays::{spacing_of, supported_array};
+use crate::errors::LoadError;
+use crate::keywords::{CONVERT, Given};
+use crate::opened::spec_of;
+
+/// convert(source, output, **options) -> list[tuple[int, int, int]]
+///
+/// Writes `source` (a path or URL voxscope opens, a `voxscope.Volume`, or a numpy array (z,
+/// y, x) with `spacing=` in the same order) as the OME-Zarr image `output`, which must not
+/// exist. Options are `voxscope convert`'s: `format` ("0.4" or "0.5"), `chunk`, `shard`,
+/// `compression`, `labels`, `unit`, `tile`, and for a path `raw`, `spacing`, `channel`,
+/// `time`, `max_requests`. Returns each level's shape (z, y, x), finest first.
+#[pyfunction]
+#[pyo3(signature = (source, output, **options))]
+pub fn convert(
+    py: Python<'_>,
+    source: &Bound<'_, PyAny>,
+    output: &Bound<'_, PyAny>,
+    options: Option<&Bound<'_, PyDict>>,
+) -> PyResult<Vec<(usize, usize, usize)>> {
+    let output = spec_of(output)?;
+    let is_array = source.hasattr("__array__")? || source.hasattr("__array_interface__")?;
+    let levels = if is_array {
+        let options = match options {
+            Some(options) => options.copy()?,
+            None => PyDict::new(py),
+        };
+        let spacing = spacing_of(options.get_item("spacing")?.as_ref())?;
+        let name: String = match options.get_item("name")? {
+            Some(name) => name.extract()?,
+            None => "array".to_owned(),
+        };
+        for key in ["spacing", "name"] {
+            if options.contains(key)? {
+                options.del_item(key)?;
+            }
+        }
+        let given = Given::read(Some(&options), CONVERT, "convert")?;
+        let args = given.convert_args(&name, &output)?;
+        let volume = array_volume(source, &name, spacing)?;
+        py.detach(|| write_ome_zarr(SlabSource::from_volume(volume), &args, |_| {}))
+    } else {
+        let given = Given::read(options, CONVERT, "convert")?;
+        // A Volume converts as it was opened (its `raw`, `spacing`, channel and time).
+        let (spec, given) = match source.cast::<crate::opened::Opened>() {
+            Ok(volume) => (volume.get().spec.clone(), volume.get().given.with(&given)),
+            Err(_) => (spec_of(source)?, given),
+        };
+        let args = given.convert_args(&spec, &output)?;
+        if std::path::Path::new(&spec) == std::path::Path::new(&output) {
+            return Err(PyValueError::new_err(format!(
+                "{output}: the output is the input"
+            )));
+        }
+        py.detach(|| {
+            let load = LoadOptions {
+                raw: args.raw,
+                spacing: args.spacing,
+                select: voxscope_volume::Selection {
+                    channel: args.channel,
+                    time: args.time,
+                },
+                remote: voxscope_volume::remote::RemoteOptions {
+                    max_requests: args.max_requests,
+                },
+            };
+            let source = SlabSource::open(&spec, &load).map_err(|e| e.to_string())?;
+            write_ome_zarr(source, &args, |_| {})
+        })
+    };
+    let levels = levels.map_err(LoadError::new_err)?;
+    Ok(levels.into_iter().map(|[x, y, z]| (z, y, x)).collect())
+}
+
+/// A 3-D array (z, y, x) copied into a [`Volume`].
+fn array_volume(source: &Bound<'_, PyAny>, name: &str, spacing: [f64; 3]) -> PyResult<Volume> {
+    use numpy::{PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods};
+    let array = supported_array(source)?;
+    let shape = array.shape().to_vec();
+    let [z, y, x] = shape[..] else {
+        return Err(PyValueError::new_err(format!(
+            "{name}: convert() writes one (z, y, x) volume; this array has shape {shape:?}"
+        )));
+    };
+    macro_rules! typed {
+        ($($t:ty),*) => {
+            $(
+                if let Ok(typed) = array.cast::<PyArrayDyn<$t>>() {
+                    let values: Vec<$t> = typed.readonly().as_array().as_standard_layout().iter().copied().collect();
+                    return Volume::new(name, "NumPy array", [x, y, z], spacing, <$t as voxscope_volume::Scalar>::wrap(values))
+                        .map_err(|e| PyValueError::new_err(e.to_string()));
+                }
+            )*
+        };
+    }
+    typed!(u8, i8, u16, i16, u32, i32, f32, f64);
+    Err(PyValueError::new_err(format!(
+        "{name}: the array's dtype is not one voxscope stores"
+    )))
+}

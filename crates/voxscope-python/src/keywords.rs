@@ -1,0 +1,451 @@
+//! Python keywords as the command line's options: each rendering keyword is the `render`
+//! option of the same name (`opacity_points=` is `--opacity-points`), written as the option's
+//! text and parsed by the command line's own clap groups ([`RenderOptions`], [`VolumeArgs`],
+//! [`ConvertArgs`]). So a keyword means what its option means, takes its defaults and its
+//! checks, and a bad value raises the option's one-line message.
+//!
+//! Values: a string is the option's text as typed on the command line (in its x, y, z
+//! order); numbers, booleans, tuples and lists are written for it, tuples of axes in numpy's
+//! (z, y, x) order (`spacing`, `clip_box`, `clip_plane`), as the arrays are.
+
+use clap::{Args, Parser};
+use pyo3::exceptions::{PyTypeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyString};
+use voxscope::cli::{ConvertArgs, RenderOptions, VolumeArgs};
+
+/// How a keyword's Python value becomes command-line words.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Form {
+    /// One value, written as Python's `str()` of it (a number, a name, a path).
+    Value,
+    /// Two numbers joined by `separator` (`window=(0, 255)` is `0:255`, `size` `1024x768`).
+    Pair(&'static str),
+    /// `True` adds the flag, `False` nothing.
+    Flag,
+    /// `True` adds `--NAME`, `False` adds `--no-NAME` (`shading`).
+    Switch,
+    /// `False` adds `--no-NAME`, `True` nothing (`opacity_correction`).
+    NegatedFlag,
+    /// (value, opacity) pairs: `V:A,V:A,…` (`opacity_points`).
+    Points,
+    /// ((z0, z1), (y0, y1), (x0, x1)): `X0:X1,Y0:Y1,Z0:Z1`.
+    ClipBox,
+    /// (nz, ny, nx, d): `NX,NY,NZ,D`.
+    ClipPlane,
+    /// (sz, sy, sx), or one number for all three: `SX,SY,SZ`.
+    Spacing,
+    /// (x, y, z) copies, or one number: `X,Y,Z` (`convert`'s `tile`).
+    Triple,
+    /// Names, `#rrggbb` or (r, g, b) triples: `C0,C1,…` (`channel_colors`).
+    Colors,
+    /// {channel: (low, high)} or (channel, low, high) triples: one `N:LOW:HIGH` each
+    /// (`channel_window`).
+    ChannelWindows,
+}
+
+/// A keyword and the option it stands for.
+#[derive(Debug, Clone, Copy)]
+pub struct Keyword {
+    pub name: &'static str,
+    pub form: Form,
+}
+
+const fn keyword(name: &'static str, form: Form) -> Keyword {
+    Keyword { name, form }
+}
+
+/// The keywords that choose the transfer function: any of them replaces the others given
+/// before (a frame's `preset=` replaces the Renderer's `opacity=`), as they conflict.
+pub const TRANSFER_CHOICE: [&str; 4] = ["opacity", "opacity_points", "preset", "tf"];
+
+/// Keywords fixed when a [`crate::renderer::Renderer`] is made (they choose what is uploaded).
+pub const STRUCTURAL: [&str; 6] = [
+    "renderer",
+    "brick_size",
+    "gpu_memory",
+    "ram_cache",
+    "upload_budget",
+    "lod_scale",
+];
+
+/// Keywords that change neither the transfer function nor the channels' tables.
+const VIEW_ONLY: [&str; 6] = [
+    "azimuth",
+    "elevation",
+    "distance",
+    "fov",
+    "size",
+    "max_wait",
+];
+
+/// `render`'s options but the volume and the output: what `render()`, `Renderer()` and
+/// `Renderer.render()` take.
+pub const RENDER: &[Keyword] = &[
+    keyword("mode", Form::Value),
+    keyword("opacity", Form::Value),
+    keyword("opacity_points", Form::Points),
+    keyword("preset", Form::Value),
+    keyword("tf", Form::Value),
+    keyword("threshold", Form::Value),
+    keyword("window", Form::Pair(":")),
+    keyword("colormap", Form::Value),
+    keyword("density", Form::Value),
+    keyword("level", Form::Value),
+    keyword("pixel_lod", Form::Flag),
+    keyword("opacity_correction", Form::NegatedFlag),
+    keyword("heatmap", Form::Flag),
+    keyword("nearest", Form::Flag),
+    keyword("shading", Form::Switch),
+    keyword("ambient", Form::Value),
+    keyword("diffuse", Form::Value),
+    keyword("specular", Form::Value),
+    keyword("shininess", Form::Value),
+    keyword("clip_box", Form::ClipBox),
+    keyword("clip_plane", Form::ClipPlane),
+    keyword("channel_colors", Form::Colors),
+    keyword("channel_window", Form::ChannelWindows),
+    keyword("renderer", Form::Value),
+    keyword("brick_size", Form::Value),
+    keyword("gpu_memory", Form::Value),
+    keyword("ram_cache", Form::Value),
+    keyword("upload_budget", Form::Value),
+    keyword("lod_scale", Form::Value),
+    keyword("max_wait", Form::Value),
+    keyword("size", Form::Pair("x")),
+    keyword("azimuth", Form::Value),
+    keyword("elevation", Form::Value),
+    keyword("distance", Form::Value),
+    keyword("fov", Form::Value),
+];
+
+/// What opens a path or URL: `open()`'s keywords (the command line's volume options).
+pub const OPEN: &[Keyword] = &[
+    keyword("raw", Form::Value),
+    keyword("spacing", Form::Spacing),
+    keyword("channel", Form::Value),
+    keyword("time", Form::Value),
+    keyword("max_requests", Form::Value),
+];
+
+/// `convert()`'s keywords: `convert`'s options but the input and output.
+pub const CONVERT: &[Keyword] = &[
+    keyword("raw", Form::Value),
+    keyword("spacing", Form::Spacing),
+    keyword("channel", Form::Value),
+    keyword("time", Form::Value),
+    keyword("max_requests", Form::Value),
+    keyword("format", Form::Value),
+    keyword("chunk", Form::Value),
+    keyword("shard", Form::Value),
+    keyword("compression", Form::Value),
+    keyword("labels", Form::Flag),
+    keyword("unit", Form::Value),
+    keyword("tile", Form::Triple),
+];
+
+/// Keywords given to a call, each already written as its command-line words, in the order
+/// given.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Given {
+    pub words: Vec<(&'static str, Vec<String>)>,
+}
+
+impl Given {
+    /// Reads `kwargs` against `table`; `function` names the call in a wrong keyword's
+    /// TypeError, as Python does.
+    pub fn read(
+        kwargs: Option<&Bound<'_, PyDict>>,
+        table: &[Keyword],
+        function: &str,
+    ) -> PyResult<Self> {
+        let mut words = Vec::new();
+        for (key, value) in kwargs.into_iter().flatten() {
+            let key: String = key.extract()?;
+            let keyword = table.iter().find(|k| k.name == key).ok_or_else(|| {
+                let names: Vec<&str> = table.iter().map(|k| k.name).collect();
+                PyTypeError::new_err(format!(
+                    "{function}() got an unexpected keyword argument '{key}' (it takes {})",
+                    names.join(", ")
+                ))
+            })?;
+            if value.is_none() {
+                continue;
+            }
+            words.push((keyword.name, write(keyword, &value)?));
+        }
+        Ok(Self { words })
+    }
+
+    /// These keywords with `later`'s on top: a keyword given again takes its new value, and
+    /// a new transfer choice (`preset`, `opacity`, …) drops the old one.
+    pub fn with(&self, later: &Given) -> Given {
+        let replaces_choice = later
+            .words
+            .iter()
+            .any(|(name, _)| TRANSFER_CHOICE.contains(name));
+        let mut words: Vec<_> = self
+            .words
+            .iter()
+            .filter(|(name, _)| {
+                let given_again = later.words.iter().any(|(n, _)| n == name);
+                let choice_replaced = replaces_choice && TRANSFER_CHOICE.contains(name);
+                !given_again && !choice_replaced
+            })
+            .cloned()
+            .collect();
+        words.extend(later.words.iter().cloned());
+        Given { words }
+    }
+
+    /// The first of `names` given, if any.
+    pub fn any_of(&self, names: &[&str]) -> Option<&'static str> {
+        self.words
+            .iter()
+            .map(|(name, _)| *name)
+            .find(|name| names.contains(name))
+    }
+
+    /// `options` (these keywords' options parsed already) with `frame`'s camera keywords
+    /// set, where `frame` holds camera keywords alone (`azimuth`, `elevation`, `distance`,
+    /// `fov`), each a number read as clap reads it; else `None` (parse them all). A camera
+    /// sweep then costs microseconds a frame in Python, not the parser's fraction of a
+    /// millisecond (building clap's command for some forty options).
+    pub fn with_camera(options: &RenderOptions, frame: &Given) -> Option<RenderOptions> {
+        let mut options = options.clone();
+        for (name, words) in &frame.words {
+            let [word] = &words[..] else { return None };
+            let (_, text) = word.split_once('=')?;
+            let value: f64 = text.parse().ok()?;
+            match *name {
+                "azimuth" => options.azimuth = value,
+                "elevation" => options.elevation = value,
+                "distance" => options.distance = value,
+                "fov" => options.fov = value,
+                _ => return None,
+            }
+        }
+        Some(options)
+    }
+
+    /// The words of the keywords that decide the transfer function and the channels' tables
+    /// (all but the camera, size and `max_wait`): what changes them.
+    pub fn transfer_words(&self) -> Vec<String> {
+        self.words
+            .iter()
+            .filter(|(name, _)| !VIEW_ONLY.contains(name))
+            .flat_map(|(_, words)| words.iter().cloned())
+            .collect()
+    }
+
+    /// Every word, in order.
+    pub fn argv(&self) -> Vec<String> {
+        self.words
+            .iter()
+            .flat_map(|(_, words)| words.iter().cloned())
+            .collect()
+    }
+
+    /// The render options these keywords set (the rest at `render`'s defaults).
+    pub fn render_options(&self) -> PyResult<RenderOptions> {
+        parse(self.argv())
+    }
+
+    /// The volume options of opening `spec` with these keywords.
+    pub fn volume_args(&self, spec: &str) -> PyResult<VolumeArgs> {
+        let mut argv = vec![spec.to_owned()];
+        argv.extend(self.argv());
+        parse(argv)
+    }
+
+    /// `convert`'s options for `input` to `output` with these keywords.
+    pub fn convert_args(&self, input: &str, output: &str) -> PyResult<ConvertArgs> {
+        let mut argv = vec![input.to_owned(), output.to_owned()];
+        argv.extend(self.argv());
+        parse(argv)
+    }
+}
+
+/// One of the command line's option groups as a parser of its own.
+#[derive(Debug, Parser)]
+#[command(name = "voxscope", no_binary_name = true, disable_help_flag = true)]
+struct Group<T: Args> {
+    #[command(flatten)]
+    inner: T,
+}
+
+/// The group `T` of `argv`; an error is the command line's first line, as a ValueError.
+fn parse<T: Args>(argv: Vec<String>) -> PyResult<T> {
+    Group::<T>::try_parse_from(argv)
+        .map(|group| group.inner)
+        .map_err(|e| PyValueError::new_err(clap_message(&e)))
+}
+
+/// The first line of clap's error without its `error: ` (what the command line prints).
+pub fn clap_message(error: &clap::Error) -> String {
+    let text = error.render().to_string();
+    let first = text.lines().find(|l| !l.trim().is_empty()).unwrap_or("");
+    first.trim_start_matches("error: ").trim().to_owned()
+}
+
+/// The words of `keyword` = `value`.
+fn write(keyword: &Keyword, value: &Bound<'_, PyAny>) -> PyResult<Vec<String>> {
+    let option = format!("--{}", keyword.name.replace('_', "-"));
+    let single = |text: String| Ok(vec![format!("{option}={text}")]);
+    // A string is the option's text, as typed on the command line.
+    if let Ok(text) = value.cast::<PyString>() {
+        let text = text.to_cow()?.into_owned();
+        return match keyword.form {
+            Form::Flag | Form::Switch | Form::NegatedFlag => Err(PyTypeError::new_err(format!(
+                "{}= takes True or False, not '{text}'",
+                keyword.name
+            ))),
+            Form::ChannelWindows => Ok(text
+                .split(';')
+                .map(|w| format!("{option}={}", w.trim()))
+                .collect()),
+            _ => single(text),
+        };
+    }
+    match keyword.form {
+        Form::Value => single(value.str()?.to_string()),
+        Form::Pair(separator) => {
+            let [a, b] = numbers::<2>(keyword.name, value)?;
+            single(format!("{a}{separator}{b}"))
+        }
+        Form::Flag => Ok(if boolean(keyword.name, value)? {
+            vec![option]
+        } else {
+            Vec::new()
+        }),
+        Form::Switch => Ok(if boolean(keyword.name, value)? {
+            vec![option]
+        } else {
+            vec![format!("--no-{}", keyword.name.replace('_', "-"))]
+        }),
+        Form::NegatedFlag => Ok(if boolean(keyword.name, value)? {
+            Vec::new()
+        } else {
+            vec![format!("--no-{}", keyword.name.replace('_', "-"))]
+        }),
+        Form::Points => {
+            let mut points = Vec::new();
+            for point in value.try_iter()? {
+                let [v, a] = numbers::<2>(keyword.name, &point?)?;
+                points.push(format!("{v}:{a}"));
+            }
+            single(points.join(","))
+        }
+        Form::ClipBox => {
+            let mut ranges = Vec::new();
+            for range in value.try_iter()? {
+                let [low, high] = numbers::<2>(keyword.name, &range?)?;
+                ranges.push(format!("{low}:{high}"));
+            }
+            if ranges.len() != 3 {
+                return Err(PyValueError::new_err(format!(
+                    "clip_box= takes three (low, high) pairs in (z, y, x) order, not {}",
+                    ranges.len()
+                )));
+            }
+            ranges.reverse();
+            single(ranges.join(","))
+        }
+        Form::ClipPlane => {
+            let [nz, ny, nx, d] = numbers::<4>(keyword.name, value)?;
+            single(format!("{nx},{ny},{nz},{d}"))
+        }
+        Form::Spacing => {
+            if let Ok(one) = value.extract::<f64>() {
+                return single(format!("{one},{one},{one}"));
+            }
+            let [z, y, x] = numbers::<3>(keyword.name, value)?;
+            single(format!("{x},{y},{z}"))
+        }
+        Form::Triple => {
+            if let Ok(one) = value.extract::<i64>() {
+                return single(one.to_string());
+            }
+            let [x, y, z] = numbers::<3>(keyword.name, value)?;
+            single(format!("{x},{y},{z}"))
+        }
+        Form::Colors => {
+            let mut colors = Vec::new();
+            for color in value.try_iter()? {
+                let color = color?;
+                colors.push(match color.extract::<String>() {
+                    Ok(name) => name,
+                    Err(_) => {
+                        let rgb: [u8; 3] = color.extract().map_err(|_| {
+                            PyTypeError::new_err(
+                                "channel_colors= takes names, '#rrggbb' or (r, g, b) triples of 0…255",
+                            )
+                        })?;
+                        format!("#{:02x}{:02x}{:02x}", rgb[0], rgb[1], rgb[2])
+                    }
+                });
+            }
+            single(colors.join(","))
+        }
+        Form::ChannelWindows => {
+            let entries: Vec<(String, String, String)> = if let Ok(map) = value.cast::<PyDict>() {
+                map.iter()
+                    .map(|(channel, window)| {
+                        let [low, high] = numbers::<2>(keyword.name, &window)?;
+                        Ok((channel.str()?.to_string(), low, high))
+                    })
+                    .collect::<PyResult<_>>()?
+            } else {
+                value
+                    .try_iter()?
+                    .map(|entry| {
+                        let [channel, low, high] = numbers::<3>(keyword.name, &entry?)?;
+                        Ok((channel, low, high))
+                    })
+                    .collect::<PyResult<_>>()?
+            };
+            Ok(entries
+                .into_iter()
+                .map(|(channel, low, high)| format!("{option}={channel}:{low}:{high}"))
+                .collect())
+        }
+    }
+}
+
+/// `True` or `False` (numbers are refused: `shading=0` is more likely a mistake).
+fn boolean(name: &str, value: &Bound<'_, PyAny>) -> PyResult<bool> {
+    value
+        .extract::<bool>()
+        .map_err(|_| PyTypeError::new_err(format!("{name}= takes True or False")))
+}
+
+/// Exactly `N` numbers (a tuple, list or array), each written as Python's `str()` of it.
+fn numbers<const N: usize>(name: &str, value: &Bound<'_, PyAny>) -> PyResult<[String; N]> {
+    let wrong = || {
+        PyTypeError::new_err(format!(
+            "{name}= takes {N} numbers, not {}",
+            value
+                .repr()
+                .map(|r| r.to_string())
+                .unwrap_or_else(|_| "this".into())
+        ))
+    };
+    let items: Vec<Bound<'_, PyAny>> = value
+        .try_iter()
+        .map_err(|_| wrong())?
+        .collect::<PyResult<_>>()?;
+    if items.len() != N {
+        return Err(wrong());
+    }
+    let mut texts = Vec::with_capacity(N);
+    for item in &items {
+        // Numbers only; numpy scalars pass through float().
+        let number: f64 = item.extract().map_err(|_| wrong())?;
+        texts.push(if number.fract() == 0.0 && number.abs() < 1e15 {
+            format!("{}", number as i64)
+        } else {
+            item.str()?.to_string()
+        });
+    }
+    texts.try_into().map_err(|_| wrong())
+}

@@ -1,0 +1,118 @@
+"""`voxscope.Renderer` keeps a volume on the GPU: its frames differ as the camera moves and
+equal single `render` calls of the same keywords, whatever it drew before (a transfer function
+recolored on the GPU, another size); draw/finish/read give what render gives; the streaming
+renderer refines a store to its complete picture."""
+
+import threading
+
+import numpy as np
+import pytest
+
+import voxscope
+from conftest import FIXTURES, lit, psnr, save
+
+SIZE = (96, 72)
+
+
+@pytest.fixture(scope="module")
+def small(head):
+    voxels, (sz, sy, sx) = head
+    return voxels[::2, ::2, ::2].copy(), (2 * sz, 2 * sy, 2 * sx)
+
+
+def test_frames_differ_as_the_camera_moves_and_equal_single_renders(small, images):
+    voxels, spacing = small
+    renderer = voxscope.Renderer(voxels, spacing=spacing, size=SIZE)
+    assert renderer.kind in ("octree", "bricks") and renderer.depth == 6
+    frames = [renderer.render(azimuth=azimuth) for azimuth in range(0, 360, 45)]
+    for index, frame in enumerate(frames):
+        save(images, f"renderer_azimuth_{index * 45}", frame)
+        assert lit(frame) > 0.02
+    for a, b in zip(frames, frames[1:]):
+        assert psnr(a, b) < 30, "a turn of 45° must change the picture"
+    for azimuth in (0, 135, 270):
+        single = voxscope.render(voxels, spacing=spacing, size=SIZE, azimuth=azimuth)
+        assert np.array_equal(frames[azimuth // 45], single)
+
+
+def test_each_frame_takes_its_own_transfer_function_size_and_clip(small):
+    voxels, spacing = small
+    renderer = voxscope.Renderer(voxels, spacing=spacing, size=SIZE, preset="ramp")
+    cases = [
+        {"elevation": 50},
+        {"opacity": "binary", "threshold": 0.5},  # replaces the Renderer's preset
+        {"mode": "mip", "window": (0, 120)},
+        {"shading": False, "colormap": "magma"},
+        {"size": (40, 30), "level": 2},
+        {"clip_box": ((0, 1), (0, 1), (0, 0.5))},
+        {},
+    ]
+    for keywords in cases:
+        frame = renderer.render(**keywords)
+        merged = {"size": SIZE, "preset": "ramp", **keywords}
+        if "opacity" in keywords:
+            del merged["preset"]
+        single = voxscope.render(voxels, spacing=spacing, **merged)
+        assert frame.shape == single.shape
+        assert np.array_equal(frame, single), f"{keywords}: {psnr(frame, single):.1f} dB"
+
+
+@pytest.mark.parametrize("kind", ["octree", "dense", "bricks", "stream"])
+def test_draw_finish_and_read_give_the_rendered_frame(small, kind):
+    voxels, spacing = small
+    renderer = voxscope.Renderer(voxels, spacing=spacing, size=SIZE, renderer=kind, max_wait=60)
+    assert renderer.kind == kind
+    expected = renderer.render(azimuth=77)
+    for azimuth in range(0, 360, 30):
+        renderer.draw(azimuth=azimuth)
+    renderer.draw(azimuth=77)
+    renderer.finish()
+    assert psnr(renderer.read(), expected) >= 40
+    assert sum(bytes for _, bytes in renderer.gpu_bytes) > 0
+
+
+def test_the_composite_recolors_per_frame(small):
+    voxels, spacing = small
+    stack = np.stack([voxels, voxels[:, ::-1, :]])
+    renderer = voxscope.Renderer(stack, channel_axis=0, spacing=spacing, size=SIZE)
+    assert renderer.kind == "composite"
+    frame = renderer.render(channel_colors=["red", "blue"], channel_window={0: (0, 90)})
+    single = voxscope.render(
+        stack, channel_axis=0, spacing=spacing, size=SIZE,
+        channel_colors=["red", "blue"], channel_window={0: (0, 90)},
+    )
+    assert np.array_equal(frame, single)
+    assert not np.array_equal(frame, renderer.render())
+
+
+def test_a_store_streams_to_its_complete_picture(images):
+    store = voxscope.open(FIXTURES / "head-v04-zstd.ome.zarr")
+    streamed = voxscope.Renderer(store, renderer="stream", gpu_memory="32MiB", size=SIZE)
+    assert streamed.kind == "stream"
+    frame = streamed.render(azimuth=200, preset="ramp")
+    save(images, "renderer_stream", frame)
+    in_memory = voxscope.render(store, renderer="bricks", size=SIZE, azimuth=200, preset="ramp")
+    assert lit(frame) > 0.02
+    assert psnr(frame, in_memory) >= 35, f"{psnr(frame, in_memory):.1f} dB"
+
+
+def test_renderers_in_threads_draw_as_alone(small):
+    voxels, spacing = small
+    renderer = voxscope.Renderer(voxels, spacing=spacing, size=SIZE)
+    expected = {azimuth: renderer.render(azimuth=azimuth) for azimuth in (10, 100, 190)}
+    results, errors = {}, []
+
+    def draw(azimuth):
+        try:
+            results[azimuth] = renderer.render(azimuth=azimuth)
+        except Exception as error:  # reported below
+            errors.append(error)
+
+    threads = [threading.Thread(target=draw, args=(a,)) for a in expected]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    assert not errors
+    for azimuth, frame in expected.items():
+        assert np.array_equal(results[azimuth], frame)

@@ -1,0 +1,87 @@
+//! What `render` draws a volume with, besides the volume and the output file: the transfer
+//! function, clipping, the channels' colors, the renderer and its budgets, the image size and
+//! the camera. One group, so that the Python module's keywords are these options, parsed and
+//! checked by the same code (`voxscope.render(…, mode="mip")` is `render --mode mip`).
+
+use clap::Args;
+
+use super::args::{RendererArg, parse_brick_size};
+use super::composite::ChannelArgs;
+use super::stream::StreamArgs;
+use super::{ClipArgs, TransferArgs};
+use voxscope_render::{Camera, DEFAULT_BRICK_SIZE};
+
+/// Every option of `render` but the volume and the output.
+#[derive(Debug, Clone, Args)]
+pub struct RenderOptions {
+    #[command(flatten)]
+    pub transfer: TransferArgs,
+    #[command(flatten)]
+    pub clip: ClipArgs,
+    #[command(flatten)]
+    pub channels: ChannelArgs,
+    /// Which renderer draws the image (default: octree, or bricks, said on stderr, when the
+    /// octree does not fit this GPU's storage buffers, as the app does).
+    #[arg(long, value_enum)]
+    pub renderer: Option<RendererArg>,
+    /// Voxels along a brick's side (bricks renderer): 4, 8, 16 or 32.
+    #[arg(long, default_value_t = DEFAULT_BRICK_SIZE, value_parser = parse_brick_size)]
+    pub brick_size: usize,
+    #[command(flatten)]
+    pub stream: StreamArgs,
+    /// Streaming renderer: draw until nothing visible is missing, at most this long (then the
+    /// image is written as it is, and what was still coarse is said).
+    #[arg(long, value_name = "SECONDS", default_value_t = 30.0)]
+    pub max_wait: f64,
+    /// Image size WxH.
+    #[arg(long, default_value = "1024x768", value_parser = parse_size)]
+    pub size: (u32, u32),
+    /// Camera rotation around the vertical axis, degrees (0: from the front).
+    #[arg(long, default_value_t = 30.0, allow_hyphen_values = true)]
+    pub azimuth: f64,
+    /// Camera angle above the horizontal, degrees.
+    #[arg(long, default_value_t = 20.0, allow_hyphen_values = true)]
+    pub elevation: f64,
+    /// Camera distance from the volume center in bounding-sphere radii.
+    #[arg(long, default_value_t = 3.0)]
+    pub distance: f64,
+    /// Vertical field of view, degrees.
+    #[arg(long, default_value_t = 45.0)]
+    pub fov: f64,
+}
+
+impl RenderOptions {
+    /// The camera of --azimuth, --elevation, --distance and --fov (no pan).
+    pub fn camera(&self) -> Camera {
+        Camera {
+            azimuth_deg: self.azimuth,
+            elevation_deg: self.elevation,
+            distance: self.distance,
+            fov_y_deg: self.fov,
+            pan: [0.0; 3],
+        }
+    }
+
+    /// What clap cannot check of the values: `--max-wait` is a number of seconds.
+    pub fn check(&self) -> Result<(), String> {
+        if self.max_wait.is_finite() && self.max_wait >= 0.0 {
+            Ok(())
+        } else {
+            Err(format!(
+                "--max-wait {} is not a number of seconds",
+                self.max_wait
+            ))
+        }
+    }
+}
+
+/// `WxH`, each from 1 to 16384.
+pub fn parse_size(text: &str) -> Result<(u32, u32), String> {
+    let (w, h) = text
+        .split_once('x')
+        .ok_or_else(|| format!("size '{text}' is not WxH"))?;
+    match (w.parse::<u32>(), h.parse::<u32>()) {
+        (Ok(w), Ok(h)) if (1..=16384).contains(&w) && (1..=16384).contains(&h) => Ok((w, h)),
+        _ => Err(format!("size '{text}' needs W and H from 1 to 16384")),
+    }
+}
