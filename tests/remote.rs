@@ -17,7 +17,7 @@ use std::time::{Duration, Instant};
 use support::http_server::{Faults, FileServer};
 use voxscope_stream::{BrickId, BrickSource, ZarrSource, preview};
 use voxscope_volume::ome_zarr::{Pyramid, PyramidOptions};
-use voxscope_volume::remote::{OPEN_DEADLINE, RemoteOptions, is_url};
+use voxscope_volume::remote::{RemoteOptions, Timing, is_url};
 use voxscope_volume::{LoadOptions, load};
 
 const FIXTURES: [&str; 6] = [
@@ -446,7 +446,7 @@ fn a_server_that_never_answers_fails_within_the_bounded_time() {
     let seconds = started.elapsed().as_secs_f64();
     let line = one_line_error(&out, &url, "\u{0}");
     assert!(line.contains("no answer within"), "{line}");
-    let bound = OPEN_DEADLINE.as_secs_f64() + 3.0;
+    let bound = Timing::default().open_deadline.as_secs_f64() + 3.0;
     assert!(seconds < bound, "took {seconds:.1} s (bound {bound} s)");
     drop(held);
 

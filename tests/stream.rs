@@ -502,7 +502,7 @@ impl BrickSource for Failing {
     }
     fn read_brick(&self, id: BrickId) -> Result<BrickData, BrickError> {
         if (self.fails)(id) {
-            return Err(BrickError::Decode(format!("damaged: {id} does not decode")));
+            return Err(BrickError::decode(format!("damaged: {id} does not decode")));
         }
         self.inner.read_brick(id)
     }

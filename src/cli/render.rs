@@ -61,7 +61,17 @@ pub struct RenderArgs {
     pub fov: f64,
 }
 
-pub fn run(args: &RenderArgs) -> Result<(), String> {
+/// How a render that wrote its image ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Rendered {
+    /// The image holds everything the view shows (or what `--max-wait` allowed).
+    Complete,
+    /// Some bricks the view needed could not be read: drawn from a coarser level, listed on
+    /// stderr; the process exits with [`super::EXIT_INCOMPLETE`].
+    Incomplete,
+}
+
+pub fn run(args: &RenderArgs) -> Result<Rendered, String> {
     check_output(&args.output, args.volume.file.as_deref())?;
     check_max_wait(args.max_wait)?;
     if args.renderer == Some(RendererArg::Stream) {
@@ -71,7 +81,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     let started = Instant::now();
     let volume = match args.volume.composite_channels()? {
         Some(channels) if channels.len() > 1 => {
-            return run_composite(args, channels);
+            return run_composite(args, channels).map(|()| Rendered::Complete);
         }
         Some(mut channels) => channels.pop().ok_or("no channel was read")?,
         None => args.volume.load()?,
@@ -143,7 +153,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         context.describe(),
         started.elapsed().as_secs_f64()
     );
-    Ok(())
+    Ok(Rendered::Complete)
 }
 
 /// `render` of several channels: the dense renderer's composite.
@@ -215,7 +225,7 @@ fn run_stream(
     prepared: StreamedVolume,
     saved: Option<SavedTransfer>,
     started: Instant,
-) -> Result<(), String> {
+) -> Result<Rendered, String> {
     let name = prepared.source.name().to_owned();
     let mut settings = args
         .transfer
@@ -246,13 +256,14 @@ fn run_stream(
         Duration::from_secs_f64(args.max_wait),
     )
     .map_err(|e| e.to_string())?;
-    for error in &refinement.errors {
-        eprintln!("{error}");
-    }
     let image = read_image(&context, &target).map_err(|e| e.to_string())?;
     image
         .save(&args.output)
         .map_err(|e| format!("cannot write {}: {e}", args.output.display()))?;
+    // Each brick that could not be read once (or, when many, one line per cause).
+    for line in refinement.failure_lines() {
+        eprintln!("{line}");
+    }
     let counters = &refinement.status.counters;
     let state = if refinement.complete {
         format!("complete after {} frames", refinement.frames)
@@ -263,8 +274,20 @@ fn run_stream(
             describe_missing(&refinement.status)
         )
     };
+    let unreadable = refinement.unreadable.len();
+    let (ending, rendered) = if unreadable > 0 {
+        (
+            format!(
+                "; incomplete: {unreadable} brick{} unreadable",
+                if unreadable == 1 { "" } else { "s" }
+            ),
+            Rendered::Incomplete,
+        )
+    } else {
+        (String::new(), Rendered::Complete)
+    };
     eprintln!(
-        "wrote {} ({}x{}, stream renderer, level {}/{}) on {} in {:.2} s: {state}; {} bricks read ({:.1} MiB), {} of {} atlas slots used",
+        "wrote {} ({}x{}, stream renderer, level {}/{}) on {} in {:.2} s: {} bricks read ({:.1} MiB), {} of {} atlas slots used; {state}{ending}",
         args.output.display(),
         target.width,
         target.height,
@@ -277,7 +300,7 @@ fn run_stream(
         counters.slots_used,
         counters.slots,
     );
-    Ok(())
+    Ok(rendered)
 }
 
 /// The output must be a .png and never the input volume itself.

@@ -1,7 +1,9 @@
 //! Worker threads that load bricks: they take the best request from the queue, read it from
 //! the source (I/O and decode), convert it to the atlas's texel format, and send it to the
 //! streamer, which picks results up once per frame without waiting. No frame ever waits on a
-//! worker.
+//! worker, and nothing waits for a worker to finish: one blocked on a silent server is left to
+//! end on its own (the source's deadlines bound it) when its streamer goes. A panic while
+//! reading a brick is caught and becomes that brick's error.
 
 use std::sync::Arc;
 use std::sync::mpsc::{Receiver, Sender, channel};
@@ -82,7 +84,6 @@ pub struct LoadResult {
 pub struct Loader {
     queue: Arc<RequestQueue>,
     results: Receiver<LoadResult>,
-    workers: Vec<JoinHandle<()>>,
 }
 
 impl Loader {
@@ -94,21 +95,15 @@ impl Loader {
         workers: usize,
     ) -> Self {
         let (sender, results) = channel();
-        let workers = (0..workers.max(1))
-            .map(|index| {
-                let (source, queue, sender) =
-                    (Arc::clone(&source), Arc::clone(&queue), sender.clone());
-                std::thread::Builder::new()
-                    .name(format!("voxscope-brick-loader-{index}"))
-                    .spawn(move || work(&*source, &queue, texels, &sender))
-                    .expect("the system starts a thread")
-            })
-            .collect();
-        Self {
-            queue,
-            results,
-            workers,
+        for index in 0..workers.max(1) {
+            let (source, queue, sender) = (Arc::clone(&source), Arc::clone(&queue), sender.clone());
+            // Detached: see the module's documentation.
+            let _detached: JoinHandle<()> = std::thread::Builder::new()
+                .name(format!("voxscope-brick-loader-{index}"))
+                .spawn(move || work(&*source, &queue, texels, &sender))
+                .expect("the system starts a thread");
         }
+        Self { queue, results }
     }
 
     /// Every result that has arrived, without waiting.
@@ -117,18 +112,32 @@ impl Loader {
     }
 }
 
-/// Reads one brick as the loader does (also used for the pinned levels, on the caller's thread).
+/// Reads one brick as the loader does (also used for the pinned levels, on the caller's
+/// thread); a panic in the source becomes the brick's error.
 pub fn load_brick(
     source: &dyn BrickSource,
     id: BrickId,
     texels: AtlasTexels,
 ) -> (Result<LoadedBrick, BrickError>, u64) {
-    match source.read_brick(id) {
+    let read = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| source.read_brick(id)))
+        .unwrap_or_else(|panic| {
+            let text = panic
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| panic.downcast_ref::<String>().cloned())
+                .unwrap_or_default();
+            Err(BrickError::invalid(format!(
+                "{}: reading {id} failed inside voxscope ({})",
+                source.name(),
+                text.split_whitespace().collect::<Vec<_>>().join(" ")
+            )))
+        });
+    match read {
         Ok(data) => {
             let bytes_read = (data.levels.len() * texels.bytes()) as u64;
             if data.levels.len() != PADDED_BRICK_VOXELS {
                 return (
-                    Err(BrickError::Invalid(format!(
+                    Err(BrickError::invalid(format!(
                         "{}: {id} has {} value levels, not {PADDED_BRICK_VOXELS}",
                         source.name(),
                         data.levels.len()
@@ -171,9 +180,7 @@ fn work(
 
 impl Drop for Loader {
     fn drop(&mut self) {
+        // Workers take nothing more; one still reading ends when its read does.
         self.queue.close();
-        for worker in self.workers.drain(..) {
-            let _ = worker.join();
-        }
     }
 }

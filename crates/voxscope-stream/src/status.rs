@@ -79,10 +79,18 @@ pub struct StreamStatus {
     pub loading: usize,
     /// Levels added to every ray's choice because the atlas cannot hold the view at its own.
     pub lod_bias: u32,
+    /// Bricks the rays of the judged frame asked for that could not be read (drawn from the
+    /// finest coarser level that could): the view is incomplete while this is above 0, even
+    /// when [`Self::complete`] says nothing more is to come.
+    pub unreadable: usize,
+    /// Seconds until the next failed brick is asked for again (`None`: none will be): a
+    /// window that draws only when something changes wakes then.
+    pub next_retry_s: Option<f64>,
     /// Uploaded in this update.
     pub uploads: usize,
     pub upload_bytes: u64,
-    /// Bricks that failed since the last update, one line each.
+    /// What failed since the last update: a line for the first brick of each cause (further
+    /// bricks failing the same way are counted, not repeated: `Streamer::failures`).
     pub errors: Vec<String>,
     pub counters: StreamCounters,
 }

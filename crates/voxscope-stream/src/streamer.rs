@@ -10,6 +10,7 @@ use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
 
+use super::failures::Failures;
 use super::frame::{Feedback, Upload, ViewPoint};
 use super::key_hash::{KeyMap, KeySet};
 use super::loader::{AtlasTexels, LoadedBrick, Loader, load_brick};
@@ -23,9 +24,6 @@ use super::ram_cache::RamCache;
 use super::slots::SlotPool;
 use super::status::{LevelCounters, StreamCounters, StreamStatus};
 use crate::{BrickId, BrickSource, PADDED_BRICK_VOXELS};
-
-/// The longest wait before a failed brick is asked for again.
-const MAX_RETRY_DELAY: Duration = Duration::from_secs(300);
 
 /// Prefetch neighbours only when a frame asked for at most this many bricks.
 const PREFETCH_AROUND: usize = 1024;
@@ -67,10 +65,12 @@ pub struct Streamer {
     ready: Vec<Request>,
     /// Table entries that hold no slot, oldest first (dropped when the table is full).
     metadata: VecDeque<u32>,
+    /// Bricks that could not be read (their table entries say so: rays draw a coarser level).
     failed: KeySet,
-    /// When each failed brick is asked for again, and how often it has failed.
-    retries: Vec<(Instant, u32)>,
-    attempts: KeyMap<u32>,
+    /// How each failed, whether and when it is asked for again (failures.rs).
+    failures: Failures,
+    /// The bricks the rays of the latest frame read back asked for that could not be read.
+    unreadable: Vec<u32>,
     new_errors: Vec<String>,
     lod_bias: u32,
     bias_changed: u32,
@@ -136,8 +136,8 @@ impl Streamer {
             ready: Vec::new(),
             metadata: VecDeque::new(),
             failed: KeySet::default(),
-            retries: Vec::new(),
-            attempts: KeyMap::default(),
+            failures: Failures::new(options.retry_after),
+            unreadable: Vec::new(),
             new_errors: Vec::new(),
             lod_bias: 0,
             bias_changed: 0,
@@ -169,7 +169,8 @@ impl Streamer {
         Ok((streamer, uploads))
     }
 
-    /// Reads every brick of the `pinned` levels and gives each a pinned slot.
+    /// Reads every brick of the `pinned` levels and gives each a pinned slot. One that cannot
+    /// be read is a failed brick like any other (asked for again as its failure allows).
     fn load_pinned(&mut self, pinned: &[u32]) -> Result<Vec<Upload>, String> {
         let ids: Vec<BrickId> = pinned
             .iter()
@@ -186,11 +187,16 @@ impl Streamer {
             .collect();
         let mut uploads = Vec::new();
         for (id, (brick, bytes_read)) in loaded {
-            let brick =
-                brick.map_err(|e| format!("the always-resident {id} cannot be read: {e}"))?;
+            let key = self.shape.key(id).expect("a pinned level's brick");
+            let brick = match brick {
+                Ok(brick) => brick,
+                Err(error) => {
+                    self.fail(key, id, error);
+                    continue;
+                }
+            };
             self.counters.bytes_read += bytes_read;
             self.counters.loads += 1;
-            let key = self.shape.key(id).expect("a pinned level's brick");
             if let Some(upload) = self.place(key, id, &brick, None)? {
                 self.slots.pin(upload.slot);
                 uploads.push(upload);
@@ -410,17 +416,10 @@ impl Streamer {
 
     /// Forgets the failures whose retry time has come: the rays ask for those bricks again.
     fn retry_failed(&mut self) {
-        let now = Instant::now();
-        let due: Vec<u32> = self
-            .retries
-            .iter()
-            .filter(|(at, _)| *at <= now)
-            .map(|&(_, key)| key)
-            .collect();
+        let due = self.failures.due(Instant::now());
         if due.is_empty() {
             return;
         }
-        self.retries.retain(|(at, _)| *at > now);
         for key in due {
             self.failed.remove(&key);
             if self
@@ -434,13 +433,44 @@ impl Streamer {
         self.changed_frame = self.frame;
     }
 
+    /// Brick `id` (`key`) could not be read: its entry says so (rays draw the finest coarser
+    /// level there and ask for it only to say they need it), and its failure is recorded.
+    fn fail(&mut self, key: u32, id: BrickId, error: crate::BrickError) {
+        self.failures.record(key, id, error, Instant::now());
+        self.new_errors.extend(self.failures.take_lines());
+        if self.failed.insert(key) {
+            let entry = TableEntry {
+                key,
+                cell: ENTRY_FAILED,
+                range: 0,
+                slot: 0,
+            };
+            let _ = self.insert_entry(entry);
+            self.changed_frame = self.frame;
+        }
+    }
+
+    /// The bricks that could not be read: each one's level, brick, cause and whether it is
+    /// asked for again (the app's panel lists them).
+    pub fn failures(&self) -> &Failures {
+        &self.failures
+    }
+
+    /// The bricks the latest frame read back needed and could not have (drawn from a coarser
+    /// level): what makes a view incomplete (`render` lists them).
+    pub fn unreadable(&self) -> impl Iterator<Item = &crate::FailedBrick> + '_ {
+        self.unreadable
+            .iter()
+            .filter_map(|&key| self.failures.get(key))
+    }
+
     fn receive_results(&mut self) {
         for result in self.loader.received() {
             self.queue.done(result.key);
             self.counters.bytes_read += result.bytes_read;
             match result.brick {
                 Ok(brick) => {
-                    self.attempts.remove(&result.key);
+                    self.failures.succeeded(result.key);
                     self.counters.loads += 1;
                     self.counters.prefetch_loads += result.prefetch as u64;
                     self.ram.insert(result.key, brick);
@@ -452,25 +482,10 @@ impl Streamer {
                     if self.wanted.contains_key(&result.key) {
                         self.missing = self.missing.saturating_sub(1);
                     }
-                    if self.failed.insert(result.key) {
-                        let attempts = self.attempts.entry(result.key).or_insert(0);
-                        *attempts += 1;
-                        let delay = self
-                            .options
-                            .retry_after
-                            .saturating_mul(1 << (*attempts - 1).min(16))
-                            .min(MAX_RETRY_DELAY);
-                        self.retries.push((Instant::now() + delay, result.key));
-                        let entry = TableEntry {
-                            key: result.key,
-                            cell: ENTRY_FAILED,
-                            range: 0,
-                            slot: 0,
-                        };
-                        let _ = self.insert_entry(entry);
-                        self.changed_frame = self.frame;
-                        self.new_errors
-                            .push(format!("{error} (drawn from a coarser level)"));
+                    if let Some(id) = self.shape.brick_of(result.key)
+                        && !self.failed.contains(&result.key)
+                    {
+                        self.fail(result.key, id, error);
                     }
                 }
             }
@@ -534,6 +549,11 @@ impl Streamer {
             .iter()
             .filter(|&&key| !self.failed.contains(&key) && self.shape.brick_of(key).is_some())
             .count();
+        self.unreadable = asked
+            .iter()
+            .copied()
+            .filter(|key| self.failed.contains(key))
+            .collect();
         // What was asked for, and the coarser bricks above each down to the first one the GPU
         // has (so the picture refines level by level).
         let mut wanted: KeyMap<Request> = KeyMap::default();
@@ -549,6 +569,15 @@ impl Streamer {
             let mut key = key;
             let asked_level = id.level;
             loop {
+                if self.failed.contains(&key) {
+                    // Unreadable: the finest coarser brick that can be read stands in for it.
+                    let Some(parent) = self.shape.parent(id) else {
+                        break;
+                    };
+                    id = parent;
+                    key = self.shape.key(id).expect("a parent is in the pyramid");
+                    continue;
+                }
                 if wanted.contains_key(&key) || self.satisfied(key) {
                     break;
                 }
@@ -736,6 +765,10 @@ impl Streamer {
         self.counters.slots_pinned = self.slots.pinned();
         self.counters.ram_bytes = self.ram.bytes();
         self.counters.failed = self.failed.len();
+        let next_retry = self
+            .failures
+            .next_retry()
+            .map(|at| at.saturating_duration_since(Instant::now()).as_secs_f64());
         self.counters.upload_bytes_per_s =
             self.uploads_recent.iter().map(|&(_, b)| b).sum::<u64>() as f64;
         StreamStatus {
@@ -746,6 +779,8 @@ impl Streamer {
             queued,
             loading,
             lod_bias: self.lod_bias,
+            unreadable: self.unreadable.len(),
+            next_retry_s: next_retry,
             uploads,
             upload_bytes,
             errors: std::mem::take(&mut self.new_errors),

@@ -36,12 +36,12 @@ pub fn load(spec: &str, options: &LoadOptions) -> Result<Volume, LoadError> {
     } else if super::remote::is_url(spec) {
         if options.raw.is_some() {
             return Err(LoadError::new(
-                super::remote::display_url(spec),
+                super::remote::redact_url(spec),
                 "--raw reads files; a URL must be a Zarr store",
             ));
         }
         super::ome_zarr::load_url(spec, options.select, options.remote)
-            .map_err(|p| LoadError::new(super::remote::display_url(spec), p))?
+            .map_err(|p| LoadError::new(super::remote::redact_url(spec), p))?
     } else {
         load_file(Path::new(spec), options).map_err(|p| LoadError::new(spec, p))?
     };
@@ -52,12 +52,12 @@ pub fn load(spec: &str, options: &LoadOptions) -> Result<Volume, LoadError> {
         options
             .select
             .check(series.channel_count(), series.time_points)
-            .map_err(|p| LoadError::new(super::remote::display_url(spec), p))?;
+            .map_err(|p| LoadError::new(super::remote::redact_url(spec), p))?;
     }
     if let Some(spacing) = options.spacing {
         if spacing.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
             return Err(LoadError::new(
-                super::remote::display_url(spec),
+                super::remote::redact_url(spec),
                 "--spacing values must be positive",
             ));
         }

@@ -242,7 +242,7 @@ impl Pyramid {
         options: PyramidOptions,
         remote: RemoteOptions,
     ) -> Result<Self, LoadError> {
-        let source = super::remote::display_url(url);
+        let source = super::remote::redact_url(url);
         let store =
             RemoteStore::open(url, remote).map_err(|problem| LoadError::new(&source, problem))?;
         // Each step of the walk (the root's documents, then every level's) in one round trip.
@@ -254,6 +254,7 @@ impl Pyramid {
         let mut pyramid = open_root(store.clone(), &source, options, &warm)
             .map_err(|problem| LoadError::new(&source, problem))?;
         store.mark_opened();
+        pyramid.bound_objects(&store);
         pyramid.remote = Some(store);
         let threads = remote.max_requests.clamp(4, 64);
         pyramid.reader_pool = rayon::ThreadPoolBuilder::new()
@@ -263,6 +264,39 @@ impl Pyramid {
             .ok()
             .map(Arc::new);
         Ok(pyramid)
+    }
+
+    /// Tells a URL's `store` the most bytes each level's objects (a chunk, or a shard with
+    /// its index) may have: the decoded size with room for a codec's overhead. A body that
+    /// grows past it is refused, whether or not the server said its length.
+    fn bound_objects(&self, store: &RemoteStore) {
+        for (info, array) in self.levels.iter().zip(&self.arrays) {
+            let zeros = vec![0u64; array.dimensionality()];
+            let Ok(shape) = array.chunk_shape(&zeros) else {
+                continue;
+            };
+            let elements = shape.iter().map(|n| n.get()).product::<u64>();
+            let value_bytes = array.data_type().fixed_size().unwrap_or(8) as u64;
+            let decoded = elements.saturating_mul(value_bytes);
+            let inner_chunks = match info.shard {
+                Some(shard) => (0..3)
+                    .map(|a| shard[a].div_ceil(info.chunk[a].max(1)) as u64)
+                    .product::<u64>(),
+                None => 0,
+            };
+            // Compressors add at most a few bytes per block (blosc 16, zstd and deflate a
+            // fraction of a percent); a shard adds its index (16 bytes a chunk and a crc32c).
+            let bound = decoded
+                .saturating_add(decoded / 8)
+                .saturating_add(inner_chunks.saturating_mul(16))
+                .saturating_add(64 << 10);
+            let prefix = if info.path.is_empty() {
+                String::new()
+            } else {
+                format!("{}/", array.path().as_str().trim_start_matches('/'))
+            };
+            store.bound_objects(&prefix, bound);
+        }
     }
 
     /// Opens a URL ([`Self::open_url`]) or a folder ([`Self::open`]).
