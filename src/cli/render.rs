@@ -265,7 +265,10 @@ fn run_stream(
         eprintln!("{line}");
     }
     let counters = &refinement.status.counters;
-    let state = if refinement.complete {
+    let unreadable = refinement.unreadable.len();
+    let state = if refinement.complete && unreadable > 0 {
+        format!("settled after {} frames", refinement.frames)
+    } else if refinement.complete {
         format!("complete after {} frames", refinement.frames)
     } else {
         format!(
@@ -274,7 +277,6 @@ fn run_stream(
             describe_missing(&refinement.status)
         )
     };
-    let unreadable = refinement.unreadable.len();
     let (ending, rendered) = if unreadable > 0 {
         (
             format!(

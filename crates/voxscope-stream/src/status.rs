@@ -86,6 +86,9 @@ pub struct StreamStatus {
     /// Seconds until the next failed brick is asked for again (`None`: none will be): a
     /// window that draws only when something changes wakes then.
     pub next_retry_s: Option<f64>,
+    /// Whether this update changed the page table (uploads, failures, retries, evictions,
+    /// visibility): only then can a new frame differ from the last one drawn.
+    pub table_changed: bool,
     /// Uploaded in this update.
     pub uploads: usize,
     pub upload_bytes: u64,

@@ -780,6 +780,7 @@ impl Streamer {
             loading,
             lod_bias: self.lod_bias,
             unreadable: self.unreadable.len(),
+            table_changed: self.changed_frame == self.frame,
             next_retry_s: next_retry,
             uploads,
             upload_bytes,

@@ -76,6 +76,9 @@ fn load_file(path: &Path, options: &LoadOptions) -> Result<Volume, Problem> {
         if !super::dicom::dicom_files(path).is_empty() {
             return super::dicom::load(path);
         }
+        if let Some(level) = super::ome_zarr::unfinished_store(path) {
+            return Err(super::ome_zarr::unfinished_problem(&level));
+        }
         return super::slices::load(path);
     }
     // Devices and pipes are refused: /dev/zero would be read forever, a pipe would block.

@@ -25,7 +25,8 @@
 //!   once for 5 s, so that a dead server costs one timeout, not one per object.
 //! - **Failures are remembered** per object ([`remembered`]): within a while, asking again
 //!   answers with the same failure without a request; permanent ones (401, 403, a body larger
-//!   than the object may be) for the store's life.
+//!   than the object may be) for the store's life. While most recent operations failed after
+//!   their retries (a dead level), an operation retries twice, not eight times.
 //! - **Bodies** without `Content-Length` (chunked, or ended by closing the connection) are
 //!   read, each within the size its object may have ([`RemoteStore::bound_objects`]: a
 //!   level's chunks register theirs; metadata 16 MiB).
@@ -331,10 +332,16 @@ impl RemoteStore {
         }
     }
 
-    /// The last failure of the object `key` in words, if it failed (remembered or not any
-    /// more): what a message naming a chunk says about it.
-    pub fn failure_of(&self, key: &str) -> Option<String> {
-        self.inner.remembered.last(key).map(|f| f.cause)
+    /// The last failure of the object `key`, if it failed (remembered or not any more): its
+    /// cause alone (`HTTP 500 Internal Server Error`, shared by objects failing the same way)
+    /// and the cause with its tries (`… (after 9 tries)`), what a message naming the chunk says.
+    pub fn failure_of(&self, key: &str) -> Option<(String, String)> {
+        let failure = self.inner.remembered.last(key)?;
+        let secrets = &self.inner.secrets;
+        Some((
+            url::redact_text(&failure.cause, secrets),
+            url::redact_text(&failure.describe(), secrets),
+        ))
     }
 
     /// Fetches `keys` (whole objects: unsharded chunks) all at once, up to the request limit,
@@ -520,7 +527,29 @@ impl Inner {
     where
         F: Future<Output = Result<T, Failure>>,
     {
+        let result = self.retrying_unrecorded(attempt, received).await;
+        // A silent server is the health's own business; an operation that got an answer or
+        // failed after its tries counts.
+        if result
+            .as_ref()
+            .err()
+            .is_none_or(|f| f.persistence != fault::Persistence::Silent)
+        {
+            self.health.operation_ended(result.is_err());
+        }
+        result
+    }
+
+    async fn retrying_unrecorded<T, F>(
+        &self,
+        attempt: impl Fn() -> F,
+        received: impl Fn(&T) -> u64,
+    ) -> Result<T, Failure>
+    where
+        F: Future<Output = Result<T, Failure>>,
+    {
         let timing = self.timing;
+        let max_retries = self.health.retries(timing.max_retries);
         let mut tries = 0u32;
         let mut deadline: Option<Instant> = None;
         loop {
@@ -567,7 +596,7 @@ impl Inner {
                     )
                 }
             };
-            if !failure.is_transient() || tries > timing.max_retries {
+            if !failure.is_transient() || tries > max_retries {
                 return Err(failure.after(tries));
             }
             let pause = match failure.retry_after {
@@ -586,7 +615,7 @@ impl Inner {
 
     /// One line for `failure` as zarrs passes it on: the cause, every secret blanked out.
     fn storage_error(&self, failure: Failure) -> StorageError {
-        StorageError::Other(url::redact_text(&failure.cause, &self.secrets))
+        StorageError::Other(url::redact_text(&failure.describe(), &self.secrets))
     }
 }
 

@@ -218,6 +218,34 @@ pub fn is_zarr_folder(path: &Path) -> bool {
             .any(|name| path.join(name).is_file())
 }
 
+/// If the folder `path` is a Zarr store whose root document is not written yet (`voxscope
+/// convert` writes it last, once every level is complete): the subfolder that already holds a
+/// Zarr array or group.
+pub fn unfinished_store(path: &Path) -> Option<String> {
+    if is_zarr_folder(path) {
+        return None;
+    }
+    let mut entries: Vec<_> = std::fs::read_dir(path)
+        .ok()?
+        .flatten()
+        .map(|e| e.path())
+        .collect();
+    entries.sort();
+    entries
+        .into_iter()
+        .take(64)
+        .find(|sub| is_zarr_folder(sub))
+        .and_then(|sub| sub.file_name().map(|n| n.to_string_lossy().into_owned()))
+}
+
+/// The words for a store whose root document is missing while `level` holds an array.
+pub(crate) fn unfinished_problem(level: &str) -> String {
+    format!(
+        "is a Zarr store still being written (or cut short): '{}' holds an array but the root has no zarr.json, .zgroup or .zarray yet; `voxscope convert` writes it last, when every level is complete",
+        super::error::escape(level)
+    )
+}
+
 impl Pyramid {
     /// Opens the Zarr folder at `path` (an OME-Zarr group, a bioformats2raw container, or a
     /// plain array), selecting the channel and time point of `options`.
@@ -228,6 +256,9 @@ impl Pyramid {
                 &source,
                 "is not a folder (a Zarr store is one)",
             ));
+        }
+        if let Some(level) = unfinished_store(path) {
+            return Err(LoadError::new(&source, unfinished_problem(&level)));
         }
         let store = zarrs::filesystem::FilesystemStore::new(path)
             .map_err(|e| LoadError::new(&source, format!("cannot open: {e}")))?;

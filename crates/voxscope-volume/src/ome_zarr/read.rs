@@ -378,9 +378,9 @@ impl Pyramid {
         if let Some(remote) = &self.remote {
             for indices in &chunks {
                 let key = array.chunk_key(indices);
-                if let Some(cause) = remote.failure_of(key.as_str()) {
+                if let Some((cause, described)) = remote.failure_of(key.as_str()) {
                     return ReadFailure {
-                        problem: format!("{at}, chunk {}: {cause}", quoted(key.as_str())),
+                        problem: format!("{at}, chunk {}: {described}", quoted(key.as_str())),
                         kind: failure_kind(error),
                         cause: Some(cause),
                     };

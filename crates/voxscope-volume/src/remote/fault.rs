@@ -81,7 +81,11 @@ pub(crate) enum Persistence {
 /// One failure: the cause in words (no URL: callers name the object), and what it means.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub(crate) struct Failure {
+    /// The cause alone (`HTTP 500 Internal Server Error`): the same for every object that
+    /// failed the same way.
     pub(crate) cause: String,
+    /// Tries made before it was given up (1: no retry).
+    pub(crate) tries: u32,
     pub(crate) persistence: Persistence,
     /// What the server's `Retry-After` asked for.
     pub(crate) retry_after: Option<Duration>,
@@ -96,6 +100,7 @@ impl Failure {
     pub(crate) fn transient(cause: impl Into<String>, answered: bool) -> Self {
         Self {
             cause: cause.into(),
+            tries: 1,
             persistence: Persistence::Transient,
             retry_after: None,
             answered,
@@ -133,26 +138,45 @@ impl Failure {
 
     /// The failure as it ends an operation of `tries` tries.
     pub(crate) fn after(mut self, tries: u32) -> Self {
-        if tries > 1 {
-            self.cause = format!("{} (after {tries} tries)", self.cause);
-        }
+        self.tries = tries;
         self
+    }
+
+    /// The cause and, when it was retried, how often: `HTTP 500 Internal Server Error (after
+    /// 9 tries)`.
+    pub(crate) fn describe(&self) -> String {
+        if self.tries > 1 {
+            format!("{} (after {} tries)", self.cause, self.tries)
+        } else {
+            self.cause.clone()
+        }
     }
 }
 
 /// Whether the server is answering: after a request timed out with nothing heard from the
 /// server since it was sent, every request fails at once for [`Timing::silence_cool_down`],
-/// so that a server that went silent costs one timeout, not one per object.
+/// so that a server that went silent costs one timeout, not one per object. And whether its
+/// objects fail: while most of the latest operations ended in failure after their retries (a
+/// level whose every chunk answers 500), an operation retries [`FEW_RETRIES`] times, not
+/// [`Timing::max_retries`], so that a dead level costs each brick a moment, not seconds.
 #[derive(Debug, Default)]
 pub(crate) struct Health {
     state: Mutex<HealthState>,
 }
+
+/// Retries of an operation while most operations fail.
+pub(crate) const FEW_RETRIES: u32 = 2;
+
+/// Operations whose outcome is remembered.
+const OUTCOMES: usize = 16;
 
 #[derive(Debug, Default)]
 struct HealthState {
     last_answer: Option<Instant>,
     silent_until: Option<Instant>,
     silent_for: Duration,
+    /// Whether each of the latest operations failed, oldest first.
+    outcomes: std::collections::VecDeque<bool>,
 }
 
 impl Health {
@@ -179,6 +203,30 @@ impl Health {
         if let Ok(mut state) = self.state.lock() {
             state.last_answer = Some(Instant::now());
             state.silent_until = None;
+        }
+    }
+
+    /// An operation (an object and its retries) ended, in failure or not.
+    pub(crate) fn operation_ended(&self, failed: bool) {
+        if let Ok(mut state) = self.state.lock() {
+            if state.outcomes.len() == OUTCOMES {
+                state.outcomes.pop_front();
+            }
+            state.outcomes.push_back(failed);
+        }
+    }
+
+    /// The retries an operation starting now may make: `max`, or [`FEW_RETRIES`] while at
+    /// least three quarters of the latest operations (eight or more) failed.
+    pub(crate) fn retries(&self, max: u32) -> u32 {
+        let Ok(state) = self.state.lock() else {
+            return max;
+        };
+        let failed = state.outcomes.iter().filter(|&&f| f).count();
+        if state.outcomes.len() >= 8 && failed * 4 >= state.outcomes.len() * 3 {
+            max.min(FEW_RETRIES)
+        } else {
+            max
         }
     }
 
@@ -289,5 +337,25 @@ mod tests {
         // A timeout of a request sent before the last answer says nothing.
         health.timed_out(sent, Duration::from_secs(20), Duration::from_secs(5));
         assert!(health.check().is_none());
+    }
+
+    #[test]
+    fn while_most_operations_fail_few_retries_are_made() {
+        let health = Health::default();
+        assert_eq!(health.retries(8), 8);
+        for _ in 0..7 {
+            health.operation_ended(true);
+        }
+        assert_eq!(health.retries(8), 8, "too few to judge");
+        health.operation_ended(true);
+        assert_eq!(health.retries(8), FEW_RETRIES);
+        for _ in 0..4 {
+            health.operation_ended(false);
+        }
+        assert_eq!(
+            health.retries(8),
+            8,
+            "8 of 12 failed: fewer than three quarters"
+        );
     }
 }
