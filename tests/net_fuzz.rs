@@ -239,7 +239,6 @@ fn run_case(stores: &Stores, case: &Case) -> Vec<String> {
         ..RemoteOptions::default()
     };
     let started = Instant::now();
-    let mut problems = Vec::new();
     let mut messages = Vec::new();
     let result = read(
         &url,
@@ -252,13 +251,26 @@ fn run_case(stores: &Stores, case: &Case) -> Vec<String> {
     );
     let elapsed = started.elapsed();
     drop(server);
+    judge(&result, &messages, &secrets, elapsed, case.recoverable)
+}
+
+/// The oracle: what is wrong with a case that ended with `result` after `elapsed`, having met
+/// `messages`, where `secrets` must never show and, if `recoverable`, the read must succeed.
+fn judge(
+    result: &Result<Equal, String>,
+    messages: &[String],
+    secrets: &[String],
+    elapsed: Duration,
+    recoverable: bool,
+) -> Vec<String> {
+    let mut problems = Vec::new();
     if elapsed > case_deadline() {
         problems.push(format!(
             "ran {elapsed:.1?}, past its deadline of {:.1?}",
             case_deadline()
         ));
     }
-    for message in &messages {
+    for message in messages {
         if message.contains('\n') {
             problems.push(format!("a message of more than one line: {message}"));
         }
@@ -271,7 +283,7 @@ fn run_case(stores: &Stores, case: &Case) -> Vec<String> {
         Ok(Equal::No(what)) => problems.push(format!(
             "read other values than the folder's without a message: {what}"
         )),
-        Err(message) if case.recoverable => problems.push(format!(
+        Err(message) if recoverable => problems.push(format!(
             "transient faults the retries absorb ended in an error: {message}"
         )),
         Err(_) => {}
@@ -417,4 +429,54 @@ fn seeded_fault_mixes_and_damaged_stores_never_panic_stall_lie_or_leak() {
             .collect::<Vec<_>>()
             .join("\n")
     );
+}
+
+#[test]
+fn the_oracle_catches_other_values_leaks_and_slow_cases() {
+    count_panics();
+    // A server that sends a store's valid chunks where the folder holds other values: read
+    // without an error, and the oracle reports it.
+    let dir = tempfile::tempdir().unwrap();
+    let kind = StoreKind::Zstd;
+    let store = damage::write_store(dir.path(), kind);
+    let pyramid = Pyramid::open(&store, PyramidOptions::default()).unwrap();
+    let reference: Vec<VoxelData> = (0..pyramid.levels.len())
+        .map(|level| match pyramid.read_level(level).unwrap() {
+            VoxelData::U16(values) => VoxelData::U16(values.iter().map(|v| v ^ 1).collect()),
+            other => other,
+        })
+        .collect();
+    let server = FaultServer::start(dir.path(), FaultPlan::default());
+    let options = RemoteOptions {
+        timing: timing(),
+        ..RemoteOptions::default()
+    };
+    let mut messages = Vec::new();
+    let result = read(
+        &server.url(kind.name()),
+        options,
+        Reading::Levels,
+        &reference,
+        dir.path(),
+        &kind,
+        &mut messages,
+    );
+    let problems = judge(&result, &messages, &[], Duration::ZERO, false);
+    assert!(
+        problems.iter().any(|p| p.contains("other values")),
+        "{problems:?}"
+    );
+    // A leaked secret, a message of two lines, a slow case, a recoverable case that failed.
+    let secrets = ["PLANTEDpw7".to_owned()];
+    let problems = judge(
+        &Err("x".into()),
+        &[
+            "http://u:PLANTEDpw7@h/x: refused".into(),
+            "two\nlines".into(),
+        ],
+        &secrets,
+        case_deadline() + Duration::from_secs(1),
+        true,
+    );
+    assert_eq!(problems.len(), 4, "{problems:?}");
 }

@@ -679,4 +679,11 @@ fn a_converted_volume_renders_from_s3_equal_to_its_folder() {
     let missing = format!("s3://{bucket}/data/missing.ome.zarr");
     let line = one_line_error(&voxscope(&["info", &missing], &signed), &missing, secret);
     assert!(line.contains("is not a Zarr store"), "{line}");
+    // A bucket that is not there is said so (not "not a Zarr store").
+    let nowhere = format!("s3://voxscope-none-{}/cells.ome.zarr", std::process::id());
+    let line = one_line_error(&voxscope(&["info", &nowhere], &signed), &nowhere, secret);
+    assert!(
+        line.contains(&format!("the bucket 'voxscope-none-{}' does not exist", std::process::id())),
+        "{line}"
+    );
 }

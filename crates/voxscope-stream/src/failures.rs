@@ -16,7 +16,7 @@ use super::key_hash::KeyMap;
 use crate::{BrickError, BrickId};
 
 /// Tries of a brick whose fetch fails, at most (then it stays unreadable).
-pub const MAX_BRICK_ATTEMPTS: u32 = 4;
+pub const MAX_BRICK_ATTEMPTS: u32 = 6;
 
 /// The longest wait before a failed brick is asked for again.
 const MAX_RETRY_DELAY: Duration = Duration::from_secs(300);

@@ -184,3 +184,74 @@ impl Drop for Loader {
         self.queue.close();
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{BrickData, PyramidShape};
+    use voxscope_volume::Quantization;
+
+    /// A source whose reads panic (a library's bug met by a loader).
+    struct Panicking(PyramidShape);
+
+    impl BrickSource for Panicking {
+        fn name(&self) -> &str {
+            "panicking"
+        }
+        fn shape(&self) -> &PyramidShape {
+            &self.0
+        }
+        fn spacing(&self) -> [f64; 3] {
+            [1.0; 3]
+        }
+        fn quantization(&self) -> Quantization {
+            Quantization {
+                offset: 0.0,
+                step: 1.0,
+            }
+        }
+        fn max_value_level(&self) -> u16 {
+            255
+        }
+        fn read_brick(&self, _: BrickId) -> Result<BrickData, BrickError> {
+            panic!("index out of bounds: the len is 3 but the index is 7")
+        }
+    }
+
+    #[test]
+    fn a_panic_while_reading_a_brick_is_that_bricks_error() {
+        let source = Panicking(PyramidShape::new([40, 40, 40]).expect("a shape"));
+        let id = BrickId {
+            level: 0,
+            brick: [1, 0, 0],
+        };
+        let (brick, bytes) = load_brick(&source, id, AtlasTexels::Unorm8);
+        let error = brick.expect_err("it panicked");
+        assert!(matches!(error, BrickError::Invalid(_)), "{error:?}");
+        assert_eq!(
+            error.to_string(),
+            "panicking: reading level 0 brick (1, 0, 0) failed inside voxscope (index out of bounds: the len is 3 but the index is 7)"
+        );
+        assert_eq!(bytes, 0);
+        // And in a worker: the result arrives, the worker lives on for the next request.
+        let queue = Arc::new(RequestQueue::default());
+        let loader = Loader::start(Arc::new(source), Arc::clone(&queue), AtlasTexels::Unorm8, 1);
+        let request = |key| crate::Request {
+            priority: crate::Priority::new(Tier::Visible, 0, 0.0),
+            id: BrickId {
+                level: 0,
+                brick: [key, 0, 0],
+            },
+            key,
+        };
+        queue.replace(vec![request(0), request(1)]);
+        let mut results = Vec::new();
+        let started = std::time::Instant::now();
+        while results.len() < 2 && started.elapsed() < std::time::Duration::from_secs(10) {
+            results.extend(loader.received());
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        }
+        assert_eq!(results.len(), 2);
+        assert!(results.iter().all(|r| r.brick.is_err()));
+    }
+}
