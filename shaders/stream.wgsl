@@ -341,7 +341,11 @@ fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32) -> RayResult
             var skip = false;
             if entry[TABLE_KEY] != key {
                 request_brick(key);
-            } else if !drawable(entry) && (entry[TABLE_CELL] & ENTRY_FAILED) == 0u {
+            } else if (entry[TABLE_CELL] & ENTRY_FAILED) != 0u {
+                // Unreadable: asked for all the same, so that the streamer knows the view
+                // needs it (it is counted unreadable, and its coarser brick is loaded instead).
+                request_brick(key);
+            } else if !drawable(entry) {
                 // Its range is known: ask for it only if it can show.
                 if entry_visible(entry, acc.running_max) {
                     request_brick(key);

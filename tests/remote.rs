@@ -17,7 +17,7 @@ use std::time::{Duration, Instant};
 use support::http_server::{Faults, FileServer};
 use voxscope_stream::{BrickId, BrickSource, ZarrSource, preview};
 use voxscope_volume::ome_zarr::{Pyramid, PyramidOptions};
-use voxscope_volume::remote::{OPEN_DEADLINE, RemoteOptions, is_url};
+use voxscope_volume::remote::{RemoteOptions, Timing, is_url};
 use voxscope_volume::{LoadOptions, load};
 
 const FIXTURES: [&str; 6] = [
@@ -446,7 +446,7 @@ fn a_server_that_never_answers_fails_within_the_bounded_time() {
     let seconds = started.elapsed().as_secs_f64();
     let line = one_line_error(&out, &url, "\u{0}");
     assert!(line.contains("no answer within"), "{line}");
-    let bound = OPEN_DEADLINE.as_secs_f64() + 3.0;
+    let bound = Timing::default().open_deadline.as_secs_f64() + 3.0;
     assert!(seconds < bound, "took {seconds:.1} s (bound {bound} s)");
     drop(held);
 
@@ -679,4 +679,11 @@ fn a_converted_volume_renders_from_s3_equal_to_its_folder() {
     let missing = format!("s3://{bucket}/data/missing.ome.zarr");
     let line = one_line_error(&voxscope(&["info", &missing], &signed), &missing, secret);
     assert!(line.contains("is not a Zarr store"), "{line}");
+    // A bucket that is not there is said so (not "not a Zarr store").
+    let nowhere = format!("s3://voxscope-none-{}/cells.ome.zarr", std::process::id());
+    let line = one_line_error(&voxscope(&["info", &nowhere], &signed), &nowhere, secret);
+    assert!(
+        line.contains(&format!("the bucket 'voxscope-none-{}' does not exist", std::process::id())),
+        "{line}"
+    );
 }

@@ -613,11 +613,12 @@ fn evicted_bricks_are_asked_for_again_from_ram_and_transfer_edits_apply_while_st
     );
 }
 
-/// The noise's pyramid with the bricks `fails` names unreadable (a damaged chunk, a server
-/// that is away).
+/// The noise's pyramid with the bricks `fails` names unreadable: damaged (they never decode),
+/// or, with `away`, on a server that is away (their fetch fails; it may pass later).
 struct Failing {
     inner: Arc<MemorySource>,
     fails: Box<dyn Fn(BrickId) -> bool + Send + Sync>,
+    away: bool,
 }
 
 impl BrickSource for Failing {
@@ -637,8 +638,11 @@ impl BrickSource for Failing {
         self.inner.max_value_level()
     }
     fn read_brick(&self, id: BrickId) -> Result<BrickData, BrickError> {
+        if (self.fails)(id) && self.away {
+            return Err(BrickError::fetch(format!("away: {id} cannot be fetched")));
+        }
         if (self.fails)(id) {
-            return Err(BrickError::Decode(format!("damaged: {id} does not decode")));
+            return Err(BrickError::decode(format!("damaged: {id} does not decode")));
         }
         self.inner.read_brick(id)
     }
@@ -685,6 +689,7 @@ fn a_brick_that_fails_to_load_leaves_its_region_coarser_and_the_rest_unchanged()
     let damaged = Arc::new(Failing {
         inner: PYRAMID.clone(),
         fails: Box::new(move |id| id == broken),
+        away: false,
     });
     let mut renderer = streaming(
         &context,
@@ -1056,12 +1061,13 @@ fn bricks_that_failed_are_asked_for_again_and_the_view_recovers() {
             let down = down.clone();
             move |id| id.level == 0 && down.load(std::sync::atomic::Ordering::SeqCst)
         }),
+        away: true,
     });
     let mut renderer = streaming(
         &context,
         source.clone(),
         StreamOptions {
-            retry_after: Duration::from_millis(50),
+            retry_after: Duration::from_millis(200),
             ..options(level0_bytes())
         },
         &prepared.transfer,

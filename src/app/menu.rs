@@ -180,8 +180,14 @@ pub fn status_bar(
             ui.separator();
         }
         if let Some(refining) = scene.and_then(super::stream_panel::refining_text) {
-            ui.spinner();
-            ui.label(refining);
+            // A spinner while bricks are on their way; none for bricks that could not be
+            // read (it would repaint an untouched window forever).
+            if scene.is_some_and(|s| s.stream_status.as_ref().is_some_and(|s| s.missing > 0)) {
+                ui.spinner();
+                ui.label(refining);
+            } else {
+                ui.colored_label(ui.visuals().warn_fg_color, refining);
+            }
             ui.separator();
         }
         if let Some(text) = scene

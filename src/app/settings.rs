@@ -193,7 +193,7 @@ impl AppSettings {
     pub fn remember(&mut self, source: &str) {
         let shown;
         let source = if voxscope_volume::remote::is_url(source) {
-            shown = voxscope_volume::remote::display_url(source);
+            shown = voxscope_volume::remote::redact_url(source);
             shown.as_str()
         } else {
             source

@@ -1,13 +1,14 @@
 //! The streaming renderer's part of the Octree panel: its GPU budget, and what it holds and
 //! does (per level: bricks total, resident, empty, requested; the atlas and RAM cache's fill,
-//! hit rate, bytes read, upload rate, failures).
+//! hit rate, bytes read, upload rate), and every brick that could not be read (level, brick,
+//! cause, whether it is asked for again); the status bar's words on streaming.
 
 use egui::Ui;
 
 use super::numbers::{format_bytes, group_digits};
 use super::settings::AppSettings;
 use voxscope_scene::Scene;
-use voxscope_stream::StreamStatus;
+use voxscope_stream::{Failures, StreamStatus};
 
 /// The GPU budgets offered, in MiB (the device's largest 3D texture bounds the atlas anyway).
 const GPU_BUDGETS_MIB: [u64; 7] = [64, 128, 256, 512, 1024, 2048, 4096];
@@ -32,7 +33,8 @@ pub fn budget_row(ui: &mut Ui, settings: &mut AppSettings) {
     ui.end_row();
 }
 
-/// The status bar's word on streaming: `refining: N bricks` while visible detail is missing.
+/// The status bar's word on streaming: `refining: N bricks` while visible detail is missing;
+/// `incomplete: N bricks unreadable` while the view needs bricks that could not be read.
 pub fn refining_text(scene: &Scene) -> Option<String> {
     let status = scene.stream_status.as_ref()?;
     let budget = status.budget.map(|budget| {
@@ -42,18 +44,54 @@ pub fn refining_text(scene: &Scene) -> Option<String> {
             format_bytes(status.counters.slot_bytes * budget.fit as u64)
         )
     });
-    if status.missing > 0 {
-        let refining = format!(
+    let plural = |n: usize| if n == 1 { "" } else { "s" };
+    let state = match (status.missing, status.unreadable) {
+        (0, 0) => None,
+        (missing, 0) => Some(format!(
             "refining: {} brick{}",
-            group_digits(status.missing as u64),
-            if status.missing == 1 { "" } else { "s" }
-        );
-        Some(match budget {
-            Some(budget) => format!("{refining} ({budget})"),
-            None => refining,
-        })
-    } else {
-        budget
+            group_digits(missing as u64),
+            plural(missing)
+        )),
+        (0, unreadable) => Some(format!(
+            "incomplete: {} brick{} unreadable",
+            group_digits(unreadable as u64),
+            plural(unreadable)
+        )),
+        (missing, unreadable) => Some(format!(
+            "refining: {} brick{}; {} unreadable",
+            group_digits(missing as u64),
+            plural(missing),
+            group_digits(unreadable as u64)
+        )),
+    };
+    match (state, budget) {
+        (Some(state), Some(budget)) => Some(format!("{state} ({budget})")),
+        (state, budget) => state.or(budget),
+    }
+}
+
+/// The status bar's notice when bricks newly could not be read: how many and the most common
+/// cause (each cause's first brick is also on stderr; the panel lists every one).
+pub fn failure_notice(scene: &Scene) -> Option<String> {
+    let stream = scene.renderer.stream()?;
+    let failures = stream.streamer().failures();
+    let groups = failures.groups();
+    let first = groups.first()?;
+    let count = failures.count();
+    Some(format!(
+        "{} brick{} could not be read ({}): drawn from coarser levels; the Octree panel lists {}",
+        group_digits(count as u64),
+        if count == 1 { "" } else { "s" },
+        shorten(&first.cause, 120),
+        if count == 1 { "it" } else { "them" }
+    ))
+}
+
+/// `text` cut to `max` characters with an ellipsis.
+fn shorten(text: &str, max: usize) -> String {
+    match text.char_indices().nth(max) {
+        Some((cut, _)) => format!("{}…", &text[..cut]),
+        None => text.to_owned(),
     }
 }
 
@@ -139,17 +177,19 @@ pub fn show(ui: &mut Ui, scene: &Scene) {
                 }
             }
             if counters.failed > 0 {
-                ui.label("Failed");
+                ui.label("Unreadable");
                 ui.colored_label(
                     ui.visuals().warn_fg_color,
                     format!(
-                        "{} bricks could not be read (drawn coarser; see the log)",
-                        counters.failed
+                        "{} brick{} could not be read (drawn from coarser levels; listed below)",
+                        group_digits(counters.failed as u64),
+                        if counters.failed == 1 { "" } else { "s" }
                     ),
                 );
                 ui.end_row();
             }
         });
+    failed_bricks(ui, stream.streamer().failures(), depth);
     egui::ScrollArea::horizontal()
         .id_salt("stream_levels_scroll")
         .show(ui, |ui| {
@@ -199,17 +239,81 @@ fn column_help(header: &str) -> &'static str {
     }
 }
 
+/// The bricks that could not be read, one row each (at most [`LISTED_FAILURES`]): the
+/// max level that draws it, the brick, why, and whether it is asked for again.
+fn failed_bricks(ui: &mut Ui, failures: &Failures, depth: u32) {
+    let count = failures.count();
+    if count == 0 {
+        return;
+    }
+    egui::CollapsingHeader::new(format!(
+        "Unreadable bricks ({})",
+        group_digits(count as u64)
+    ))
+    .id_salt("stream_failures")
+    .show(ui, |ui| {
+        for group in failures.groups() {
+            ui.label(group.describe());
+        }
+        ui.separator();
+        egui::ScrollArea::vertical()
+            .id_salt("stream_failures_scroll")
+            .max_height(160.0)
+            .show(ui, |ui| {
+                let now = std::time::Instant::now();
+                for brick in failures.bricks().take(LISTED_FAILURES) {
+                    let again = match brick.retry_at {
+                        Some(at) => format!(
+                            "asked again in {} s",
+                            at.saturating_duration_since(now).as_secs().max(1)
+                        ),
+                        None => "not asked again".to_owned(),
+                    };
+                    ui.label(format!(
+                        "{} (max level {}), {} tr{}, {again}: {}",
+                        brick.id,
+                        depth.saturating_sub(brick.id.level),
+                        brick.attempts,
+                        if brick.attempts == 1 { "y" } else { "ies" },
+                        brick.error.cause()
+                    ))
+                    .on_hover_text(brick.error.to_string());
+                }
+                if count > LISTED_FAILURES {
+                    ui.label(format!(
+                        "… and {} more",
+                        group_digits((count - LISTED_FAILURES) as u64)
+                    ));
+                }
+            });
+    });
+}
+
+/// Failed bricks listed one by one, at most.
+const LISTED_FAILURES: usize = 200;
+
 fn state_text(status: &StreamStatus) -> String {
     let budget = status
         .budget
         .map(|budget| format!("; {}", budget.describe()))
         .unwrap_or_default();
-    if status.missing > 0 {
+    if status.unreadable > 0 && status.missing == 0 {
         format!(
-            "refining: {} bricks missing, {} queued, {} loading{budget}",
+            "incomplete: {} brick{} the view needs could not be read (drawn from coarser levels){budget}",
+            group_digits(status.unreadable as u64),
+            if status.unreadable == 1 { "" } else { "s" }
+        )
+    } else if status.missing > 0 {
+        format!(
+            "refining: {} bricks missing, {} queued, {} loading{}{budget}",
             group_digits(status.missing as u64),
             status.queued,
             status.loading,
+            if status.unreadable > 0 {
+                format!("; {} unreadable", group_digits(status.unreadable as u64))
+            } else {
+                String::new()
+            },
         )
     } else if status.complete && status.budget.is_some() {
         format!("complete at the budget{budget}")

@@ -42,12 +42,18 @@ impl UrlDialog {
                 );
                 response.request_focus();
                 let text = self.text.trim();
-                let valid = is_url(text);
-                if !text.is_empty() && !valid {
-                    ui.colored_label(
-                        ui.visuals().warn_fg_color,
-                        "a URL starts with http://, https:// or s3://",
-                    );
+                // Checked as the store will check it (no secret of it in the words).
+                let checked = voxscope_volume::remote::check_url(text);
+                let valid = checked.is_ok();
+                if !text.is_empty()
+                    && let Err(problem) = checked
+                {
+                    let problem = if is_url(text) {
+                        problem
+                    } else {
+                        "a URL starts with http://, https:// or s3://".to_owned()
+                    };
+                    ui.colored_label(ui.visuals().warn_fg_color, problem);
                 }
                 ui.horizontal(|ui| {
                     let enter = response.lost_focus() && ui.input(|i| i.key_pressed(Key::Enter));

@@ -271,6 +271,26 @@ impl VoxscopeApp {
         self.notice = Some((text.into(), Instant::now()));
     }
 
+    /// Names bricks that newly could not be read, once, in the status bar; and wakes the
+    /// window when a failed brick is next asked for again (an untouched window draws no frame
+    /// otherwise, and the retry happens in a frame).
+    fn tell_stream_failures(&mut self, ctx: &egui::Context) {
+        let Some(scene) = &self.scene else {
+            return;
+        };
+        let Some(status) = &scene.stream_status else {
+            return;
+        };
+        if let Some(seconds) = status.next_retry_s {
+            ctx.request_repaint_after(Duration::from_secs_f64(seconds.max(0.05)));
+        }
+        if !status.errors.is_empty()
+            && let Some(notice) = super::stream_panel::failure_notice(scene)
+        {
+            self.notify(notice);
+        }
+    }
+
     /// Applies what finished in the background since the last frame.
     pub(super) fn handle_job_events(&mut self, ctx: &egui::Context) {
         for event in self.jobs.poll() {
@@ -589,11 +609,13 @@ impl eframe::App for VoxscopeApp {
                 .central
                 .draw(gpu, scene, self.scene_serial, &self.settings, &self.view)
             {
-                // Streaming: the next frame takes in what this one asked for.
-                Ok(true) => ctx.request_repaint(),
-                Ok(false) => {}
+                // Streaming: the next frame takes in what this one asked for (at once when
+                // something arrived; else at the busy pace while bricks are on their way).
+                Ok(true) if self.central.stream_changed() => ctx.request_repaint(),
+                Ok(_) => {}
                 Err(error) => self.fail(error.to_string()),
             }
+            self.tell_stream_failures(&ctx);
         }
         if self.settings.continuous {
             ctx.request_repaint();

@@ -82,6 +82,7 @@ impl VolumeArgs {
             },
             remote: voxscope_volume::remote::RemoteOptions {
                 max_requests: self.max_requests,
+                ..Default::default()
             },
         }
     }

@@ -83,6 +83,7 @@ pub fn run(args: &ConvertArgs) -> Result<(), String> {
         },
         remote: RemoteOptions {
             max_requests: args.max_requests,
+            ..Default::default()
         },
     };
     let source = SlabSource::open(spec, &load_options).map_err(|e| e.to_string())?;

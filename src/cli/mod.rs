@@ -56,7 +56,13 @@ pub enum Command {
     Convert(convert::ConvertArgs),
 }
 
-/// Runs the command line; returns the process exit code. Errors print as one line.
+/// The exit code of `render` when it wrote its image but some bricks the view needed could
+/// not be read (drawn from a coarser level, listed on stderr): not 0, so that scripts notice,
+/// and not 1 (an error: no image).
+pub const EXIT_INCOMPLETE: u8 = 3;
+
+/// Runs the command line; returns the process exit code: 0, 1 for an error (printed as one
+/// line), 2 for a usage error (clap's), [`EXIT_INCOMPLETE`] for an incomplete image.
 pub fn run() -> std::process::ExitCode {
     match run_from(std::env::args_os()) {
         Ok(()) => std::process::ExitCode::SUCCESS,
@@ -78,7 +84,12 @@ where
     let cli = Cli::parse_from(args);
     match cli.command {
         Some(Command::Info(args)) => info::run(&args),
-        Some(Command::Render(args)) => render::run(&args),
+        Some(Command::Render(args)) => match render::run(&args) {
+            Ok(render::Rendered::Incomplete) => {
+                return std::process::ExitCode::from(EXIT_INCOMPLETE);
+            }
+            other => other.map(|_| ()),
+        },
         Some(Command::Bench(args)) if args.streams() => stream_bench::run(&args),
         Some(Command::Bench(args)) => bench::run(&args),
         Some(Command::Ceilings(args)) => ceilings::run(&args),

@@ -28,7 +28,17 @@ pub struct RenderArgs {
     pub output: PathBuf,
 }
 
-pub fn run(args: &RenderArgs) -> Result<(), String> {
+/// How a render that wrote its image ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Rendered {
+    /// The image holds everything the view shows (or what `--max-wait` allowed).
+    Complete,
+    /// Some bricks the view needed could not be read: drawn from a coarser level, listed on
+    /// stderr; the process exits with [`super::EXIT_INCOMPLETE`].
+    Incomplete,
+}
+
+pub fn run(args: &RenderArgs) -> Result<Rendered, String> {
     check_output(&args.output, args.volume.file.as_deref())?;
     let options = &args.options;
     options.check()?;
@@ -39,7 +49,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     let started = Instant::now();
     let volume = match args.volume.composite_channels()? {
         Some(channels) if channels.len() > 1 => {
-            return run_composite(args, channels);
+            return run_composite(args, channels).map(|()| Rendered::Complete);
         }
         Some(mut channels) => channels.pop().ok_or("no channel was read")?,
         None => args.volume.load()?,
@@ -105,7 +115,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         context.describe(),
         started.elapsed().as_secs_f64()
     );
-    Ok(())
+    Ok(Rendered::Complete)
 }
 
 /// `render` of several channels: the dense renderer's composite.
@@ -163,7 +173,7 @@ fn run_stream(
     prepared: StreamedVolume,
     saved: Option<SavedTransfer>,
     started: Instant,
-) -> Result<(), String> {
+) -> Result<Rendered, String> {
     let name = prepared.source.name().to_owned();
     let options = &args.options;
     let mut settings = options
@@ -189,15 +199,19 @@ fn run_stream(
         Duration::from_secs_f64(options.max_wait),
     )
     .map_err(|e| e.to_string())?;
-    for error in &refinement.errors {
-        eprintln!("{error}");
-    }
     let image = read_image(&context, &target).map_err(|e| e.to_string())?;
     image
         .save(&args.output)
         .map_err(|e| format!("cannot write {}: {e}", args.output.display()))?;
+    // Each brick that could not be read once (or, when many, one line per cause).
+    for line in refinement.failure_lines() {
+        eprintln!("{line}");
+    }
     let counters = &refinement.status.counters;
-    let state = if refinement.complete {
+    let unreadable = refinement.unreadable.len();
+    let state = if refinement.complete && unreadable > 0 {
+        format!("settled after {} frames", refinement.frames)
+    } else if refinement.complete {
         match &refinement.status.budget {
             Some(budget) => format!(
                 "complete at the budget after {} frames ({} in {} MiB of atlas)",
@@ -214,8 +228,19 @@ fn run_stream(
             describe_missing(&refinement.status)
         )
     };
+    let (ending, rendered) = if unreadable > 0 {
+        (
+            format!(
+                "; incomplete: {unreadable} brick{} unreadable",
+                if unreadable == 1 { "" } else { "s" }
+            ),
+            Rendered::Incomplete,
+        )
+    } else {
+        (String::new(), Rendered::Complete)
+    };
     eprintln!(
-        "wrote {} ({}x{}, stream renderer, level {}/{}) on {} in {:.2} s: {state}; {} bricks read ({:.1} MiB), {} of {} atlas slots used",
+        "wrote {} ({}x{}, stream renderer, level {}/{}) on {} in {:.2} s: {} bricks read ({:.1} MiB), {} of {} atlas slots used; {state}{ending}",
         args.output.display(),
         target.width,
         target.height,
@@ -228,7 +253,7 @@ fn run_stream(
         counters.slots_used,
         counters.slots,
     );
-    Ok(())
+    Ok(rendered)
 }
 
 /// The output must be a .png and never the input volume itself.

@@ -3,6 +3,8 @@
 #![allow(dead_code)] // each test binary uses a different part
 
 pub mod app_harness;
+pub mod damage;
+pub mod fault_server;
 pub mod http_server;
 pub mod reference;
 pub mod writers;

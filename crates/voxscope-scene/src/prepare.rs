@@ -78,10 +78,13 @@ pub fn prepare_scene(
         }
         None => None,
     };
+    let mut notice = None;
     let volume = match &streamed {
         Some(pyramid) => {
             options.kind = RendererKind::Stream;
-            pyramid.level_volume(pyramid.finest_within(PANEL_LEVEL_VOXELS))?
+            let (volume, fallback) = panel_level(pyramid)?;
+            notice = fallback;
+            volume
         }
         None => source.load(select)?,
     };
@@ -149,7 +152,6 @@ pub fn prepare_scene(
         }
         Err(error) => return Err(error),
     };
-    let mut notice = None;
     if composite {
         progress.begin("uploading the composite");
         channels.insert(0, Arc::clone(&scene.data));
@@ -171,6 +173,36 @@ pub fn prepare_scene(
         channels: states,
         notice,
     })
+}
+
+/// The level the panels read whole beside a streamed store: the finest within
+/// [`PANEL_LEVEL_VOXELS`], else (a chunk of it cannot be read) the next coarser one that can
+/// be, with a notice saying so: a damaged chunk costs the panels detail, not the open.
+fn panel_level(pyramid: &Pyramid) -> Result<(Volume, Option<String>), SceneError> {
+    let finest = pyramid.finest_within(PANEL_LEVEL_VOXELS);
+    let mut first_error = None;
+    for level in finest..pyramid.levels.len() {
+        match pyramid.level_volume(level) {
+            Ok(volume) => {
+                let notice = first_error.map(|error: voxscope_volume::LoadError| {
+                    format!(
+                        "the panels show level {level}: level {finest} cannot be read ({})",
+                        error.problem
+                    )
+                });
+                return Ok((volume, notice));
+            }
+            Err(error) if error.kind == voxscope_volume::LoadErrorKind::Invalid => {
+                return Err(error.into());
+            }
+            Err(error) => {
+                first_error.get_or_insert(error);
+            }
+        }
+    }
+    Err(first_error
+        .map(SceneError::from)
+        .unwrap_or_else(|| SceneError::failed("the store has no level to read")))
 }
 
 /// The pyramid of `volume` (quantized, each level 2× coarser, by the mean or for labels the

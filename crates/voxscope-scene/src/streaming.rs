@@ -9,7 +9,8 @@ use std::time::{Duration, Instant};
 use voxscope_octree::{DataKind, TransferFunction};
 use voxscope_render::{Camera, GpuContext, RenderSettings, RenderTarget, VolumeRenderer};
 use voxscope_stream::{
-    BrickSource, MemorySource, NoiseSource, StreamOptions, StreamStatus, ZarrSource, preview,
+    BrickSource, FailedBrick, FailureGroup, MemorySource, NoiseSource, StreamOptions, StreamStatus,
+    ZarrSource, group, preview,
 };
 use voxscope_volume::ome_zarr::Pyramid;
 use voxscope_volume::{LoadOptions, QuantizedVolume, ValueWindow, Volume, parse_dims};
@@ -180,10 +181,43 @@ pub struct Refinement {
     /// Frames drawn.
     pub frames: u32,
     pub seconds: f64,
-    /// Nothing visible was missing at the end (else `max_wait` ran out).
+    /// Nothing visible was missing at the end but what could not be read (else `max_wait`
+    /// ran out).
     pub complete: bool,
-    /// Every update's error lines.
+    /// Every update's error lines (one for the first brick of each cause).
     pub errors: Vec<String>,
+    /// The bricks the final view needed and could not have (drawn from the finest coarser
+    /// level that could be read): the image is incomplete when there are any.
+    pub unreadable: Vec<FailedBrick>,
+    /// Bricks that failed besides those (not needed by the final view).
+    pub other_failures: usize,
+}
+
+impl Refinement {
+    /// What stderr says of the bricks that could not be read: each brick on a line of its own
+    /// when there are few, else one summary line per cause; and how many others failed.
+    pub fn failure_lines(&self) -> Vec<String> {
+        /// Bricks listed one by one, at most.
+        const LISTED: usize = 8;
+        let mut lines: Vec<String> = if self.unreadable.len() <= LISTED {
+            self.unreadable
+                .iter()
+                .map(|brick| format!("unreadable: {}", brick.error))
+                .collect()
+        } else {
+            group(self.unreadable.iter())
+                .iter()
+                .map(FailureGroup::describe)
+                .collect()
+        };
+        if self.other_failures > 0 {
+            lines.push(format!(
+                "{} more bricks could not be read that this view does not need",
+                self.other_failures
+            ));
+        }
+        lines
+    }
 }
 
 /// Draws `camera`'s view into `target` frame after frame (update, draw, wait for the GPU)
@@ -211,12 +245,19 @@ pub fn refine(
             .map_err(|e| SceneError::failed(e.to_string()))?;
         let complete = status.complete && status.judged_frame.is_some_and(|f| f >= first);
         if complete || started.elapsed() >= max_wait {
+            let (unreadable, failed) = renderer.stream().map_or((Vec::new(), 0), |stream| {
+                let streamer = stream.streamer();
+                let unreadable: Vec<FailedBrick> = streamer.unreadable().cloned().collect();
+                (unreadable, streamer.failures().count())
+            });
             return Ok(Refinement {
                 status,
                 frames,
                 seconds: started.elapsed().as_secs_f64(),
                 complete,
                 errors,
+                other_failures: failed.saturating_sub(unreadable.len()),
+                unreadable,
             });
         }
         if status.uploads == 0 && status.queued + status.loading > 0 {

@@ -12,6 +12,7 @@
 
 mod brick;
 mod budget;
+mod failures;
 mod frame;
 mod key_hash;
 mod loader;
@@ -31,6 +32,7 @@ mod zarr_source;
 
 pub use brick::{BRICK_SIZE, BrickData, BrickId, PADDED_BRICK, PADDED_BRICK_VOXELS, ValueRange};
 pub use budget::{Cut, cut_within};
+pub use failures::{FailedBrick, FailureGroup, Failures, MAX_BRICK_ATTEMPTS, group};
 pub use frame::{Feedback, Upload, ViewPoint};
 pub use key_hash::{KeyHasher, KeyMap, KeySet};
 pub use loader::{AtlasTexels, LoadedBrick};
@@ -49,7 +51,7 @@ pub use pyramid::{
 pub use queue::{Priority, Request, RequestQueue, Tier};
 pub use ram_cache::RamCache;
 pub use slots::{Allocation, SlotPool};
-pub use source::{BrickError, BrickSource};
+pub use source::{BrickError, BrickFault, BrickSource};
 pub use status::{BudgetLimit, LevelCounters, StreamCounters, StreamStatus};
 pub use streamer::{Streamer, UPLOAD_SECONDS_PER_FRAME};
-pub use zarr_source::{MAX_BRICK_READ, ZarrSource};
+pub use zarr_source::{MAX_BRICK_READ, MAX_REMOTE_BRICK_CHUNKS, ZarrSource};

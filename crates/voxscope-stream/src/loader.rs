@@ -1,7 +1,9 @@
 //! Worker threads that load bricks: they take the best request from the queue, read it from
 //! the source (I/O and decode), convert it to the atlas's texel format, and send it to the
 //! streamer, which picks results up once per frame without waiting. No frame ever waits on a
-//! worker.
+//! worker, and nothing waits for a worker to finish: one blocked on a silent server is left to
+//! end on its own (the source's deadlines bound it) when its streamer goes. A panic while
+//! reading a brick is caught and becomes that brick's error.
 
 use std::sync::Arc;
 use std::sync::mpsc::{Receiver, Sender, channel};
@@ -84,7 +86,6 @@ pub struct LoadResult {
 pub struct Loader {
     queue: Arc<RequestQueue>,
     results: Receiver<LoadResult>,
-    workers: Vec<JoinHandle<()>>,
 }
 
 impl Loader {
@@ -96,21 +97,15 @@ impl Loader {
         workers: usize,
     ) -> Self {
         let (sender, results) = channel();
-        let workers = (0..workers.max(1))
-            .map(|index| {
-                let (source, queue, sender) =
-                    (Arc::clone(&source), Arc::clone(&queue), sender.clone());
-                std::thread::Builder::new()
-                    .name(format!("voxscope-brick-loader-{index}"))
-                    .spawn(move || work(&*source, &queue, texels, &sender))
-                    .expect("the system starts a thread")
-            })
-            .collect();
-        Self {
-            queue,
-            results,
-            workers,
+        for index in 0..workers.max(1) {
+            let (source, queue, sender) = (Arc::clone(&source), Arc::clone(&queue), sender.clone());
+            // Detached: see the module's documentation.
+            let _detached: JoinHandle<()> = std::thread::Builder::new()
+                .name(format!("voxscope-brick-loader-{index}"))
+                .spawn(move || work(&*source, &queue, texels, &sender))
+                .expect("the system starts a thread");
         }
+        Self { queue, results }
     }
 
     /// Every result that has arrived, without waiting.
@@ -119,18 +114,32 @@ impl Loader {
     }
 }
 
-/// Reads one brick as the loader does (also used for the pinned levels, on the caller's thread).
+/// Reads one brick as the loader does (also used for the pinned levels, on the caller's
+/// thread); a panic in the source becomes the brick's error.
 pub fn load_brick(
     source: &dyn BrickSource,
     id: BrickId,
     texels: AtlasTexels,
 ) -> (Result<LoadedBrick, BrickError>, u64) {
-    match source.read_brick(id) {
+    let read = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| source.read_brick(id)))
+        .unwrap_or_else(|panic| {
+            let text = panic
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| panic.downcast_ref::<String>().cloned())
+                .unwrap_or_default();
+            Err(BrickError::invalid(format!(
+                "{}: reading {id} failed inside voxscope ({})",
+                source.name(),
+                text.split_whitespace().collect::<Vec<_>>().join(" ")
+            )))
+        });
+    match read {
         Ok(data) => {
             let bytes_read = (data.levels.len() * texels.bytes()) as u64;
             if data.levels.len() != PADDED_BRICK_VOXELS {
                 return (
-                    Err(BrickError::Invalid(format!(
+                    Err(BrickError::invalid(format!(
                         "{}: {id} has {} value levels, not {PADDED_BRICK_VOXELS}",
                         source.name(),
                         data.levels.len()
@@ -175,9 +184,78 @@ fn work(
 
 impl Drop for Loader {
     fn drop(&mut self) {
+        // Workers take nothing more; one still reading ends when its read does.
         self.queue.close();
-        for worker in self.workers.drain(..) {
-            let _ = worker.join();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{BrickData, PyramidShape};
+    use voxscope_volume::Quantization;
+
+    /// A source whose reads panic (a library's bug met by a loader).
+    struct Panicking(PyramidShape);
+
+    impl BrickSource for Panicking {
+        fn name(&self) -> &str {
+            "panicking"
         }
+        fn shape(&self) -> &PyramidShape {
+            &self.0
+        }
+        fn spacing(&self) -> [f64; 3] {
+            [1.0; 3]
+        }
+        fn quantization(&self) -> Quantization {
+            Quantization {
+                offset: 0.0,
+                step: 1.0,
+            }
+        }
+        fn max_value_level(&self) -> u16 {
+            255
+        }
+        fn read_brick(&self, _: BrickId) -> Result<BrickData, BrickError> {
+            panic!("index out of bounds: the len is 3 but the index is 7")
+        }
+    }
+
+    #[test]
+    fn a_panic_while_reading_a_brick_is_that_bricks_error() {
+        let source = Panicking(PyramidShape::new([40, 40, 40]).expect("a shape"));
+        let id = BrickId {
+            level: 0,
+            brick: [1, 0, 0],
+        };
+        let (brick, bytes) = load_brick(&source, id, AtlasTexels::Unorm8);
+        let error = brick.expect_err("it panicked");
+        assert!(matches!(error, BrickError::Invalid(_)), "{error:?}");
+        assert_eq!(
+            error.to_string(),
+            "panicking: reading level 0 brick (1, 0, 0) failed inside voxscope (index out of bounds: the len is 3 but the index is 7)"
+        );
+        assert_eq!(bytes, 0);
+        // And in a worker: the result arrives, the worker lives on for the next request.
+        let queue = Arc::new(RequestQueue::default());
+        let loader = Loader::start(Arc::new(source), Arc::clone(&queue), AtlasTexels::Unorm8, 1);
+        let request = |key| crate::Request {
+            priority: crate::Priority::new(Tier::Visible, 0, 0.0),
+            id: BrickId {
+                level: 0,
+                brick: [key, 0, 0],
+            },
+            key,
+        };
+        queue.replace(vec![request(0), request(1)]);
+        let mut results = Vec::new();
+        let started = std::time::Instant::now();
+        while results.len() < 2 && started.elapsed() < std::time::Duration::from_secs(10) {
+            results.extend(loader.received());
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        }
+        assert_eq!(results.len(), 2);
+        assert!(results.iter().all(|r| r.brick.is_err()));
     }
 }

@@ -103,7 +103,7 @@ impl BrickSource for MemorySource {
     fn read_brick(&self, id: BrickId) -> Result<BrickData, BrickError> {
         let (Some(levels), Some(_)) = (self.levels.get(id.level as usize), self.shape.key(id))
         else {
-            return Err(BrickError::Invalid(format!("{}: no {id}", self.name)));
+            return Err(BrickError::invalid(format!("{}: no {id}", self.name)));
         };
         Ok(cut_brick(
             levels,

@@ -22,7 +22,9 @@ pub const MAX_PROBES: u32 = 32;
 pub const ENTRY_RESIDENT: u32 = 1 << 31;
 
 /// Set in [`TableEntry::cell`] when the brick could not be read: rays draw its region from a
-/// coarser level and do not ask for it again. Keep in sync with `ENTRY_FAILED` in `stream.wgsl`.
+/// coarser level and still ask for it (so that the streamer knows the view needs it, counts it
+/// unreadable and loads the coarser brick instead). Keep in sync with `ENTRY_FAILED` in
+/// `stream.wgsl`.
 pub const ENTRY_FAILED: u32 = 1 << 30;
 
 /// Set in [`TableEntry::slot`] when some value level in the brick's range is visible under the

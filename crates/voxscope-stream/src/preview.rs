@@ -19,7 +19,10 @@ pub(crate) fn preview_level(shape: &PyramidShape, max_bricks: u64) -> usize {
 }
 
 /// The finest level of `source` with at most `max_bricks` bricks (the coarsest if none is
-/// that small), read whole: its voxels' levels and histogram; and which level it is.
+/// that small), read whole: its voxels' levels and histogram; and which level it is. A brick
+/// that cannot be read is left out of the histogram (its voxels hold the lowest level read):
+/// one damaged chunk costs the defaults a little of their data, not the open. Only when no
+/// brick can be read is it an error (the first one's).
 pub fn preview(
     source: &dyn BrickSource,
     max_bricks: u64,
@@ -35,12 +38,28 @@ pub fn preview(
             brick: brick.map(|c| c as u32),
         })
         .collect();
-    let bricks = ids
+    let read: Vec<(BrickId, Result<_, BrickError>)> = ids
         .par_iter()
-        .map(|&id| source.read_brick(id).map(|data| (id, data)))
-        .collect::<Result<Vec<_>, _>>()?;
+        .map(|&id| (id, source.read_brick(id)))
+        .collect();
+    let mut bricks = Vec::with_capacity(read.len());
+    let mut first_error = None;
+    for (id, result) in read {
+        match result {
+            Ok(data) => bricks.push((id, data)),
+            Err(error) => {
+                first_error.get_or_insert(error);
+            }
+        }
+    }
+    if bricks.is_empty()
+        && let Some(error) = first_error
+    {
+        return Err(error);
+    }
     let [dx, dy, dz] = info.dims;
     let mut levels = vec![0u16; dx * dy * dz];
+    let mut read_voxels = first_error.is_some().then(|| vec![false; levels.len()]);
     for (id, data) in bricks {
         let first = id.brick.map(|c| c as usize * BRICK_SIZE);
         for z in 0..BRICK_SIZE.min(dz - first[2]) {
@@ -49,25 +68,34 @@ pub fn preview(
                 let count = BRICK_SIZE.min(dx - first[0]);
                 let out = first[0] + dx * ((first[1] + y) + dy * (first[2] + z));
                 levels[out..out + count].copy_from_slice(&data.levels[row..row + count]);
+                if let Some(read) = &mut read_voxels {
+                    read[out..out + count].fill(true);
+                }
             }
         }
     }
     let quantization = source.quantization();
     let mut counts = vec![0u64; 1 << 16];
-    for &l in &levels {
-        counts[l as usize] += 1;
+    let (mut low, mut high, mut total) = (u16::MAX, 0u16, 0u64);
+    for (i, &l) in levels.iter().enumerate() {
+        if read_voxels.as_ref().is_none_or(|read| read[i]) {
+            counts[l as usize] += 1;
+            (low, high, total) = (low.min(l), high.max(l), total + 1);
+        }
     }
-    let (low, high) = (
-        levels.iter().copied().min().unwrap_or(0),
-        levels.iter().copied().max().unwrap_or(0),
-    );
+    if let Some(read) = &read_voxels {
+        for (level, _) in levels.iter_mut().zip(read).filter(|(_, read)| !**read) {
+            *level = low;
+        }
+    }
+    let (low, high) = if total == 0 { (0, 0) } else { (low, high) };
     Ok((
         QuantizedVolume {
             dims: info.dims,
             histogram: Histogram {
                 counts,
                 quantization,
-                total: levels.len() as u64,
+                total,
             },
             levels,
             quantization,

@@ -67,10 +67,10 @@ impl BrickSource for NoiseSource {
 
     fn read_brick(&self, id: BrickId) -> Result<BrickData, BrickError> {
         let Some(level) = self.shape.levels.get(id.level as usize) else {
-            return Err(BrickError::Invalid(format!("{}: no {id}", self.name)));
+            return Err(BrickError::invalid(format!("{}: no {id}", self.name)));
         };
         if self.shape.key(id).is_none() {
-            return Err(BrickError::Invalid(format!("{}: no {id}", self.name)));
+            return Err(BrickError::invalid(format!("{}: no {id}", self.name)));
         }
         // Each padded voxel's center in level-0 voxels, per axis (clamped to the level).
         let centers: [Vec<f32>; 3] = std::array::from_fn(|axis| {

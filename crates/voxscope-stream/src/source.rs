@@ -16,25 +16,86 @@ pub enum BrickError {
     /// Its bytes could not be fetched (the disk or the network failed): another try may
     /// succeed.
     #[error("{0}")]
-    Fetch(String),
+    Fetch(BrickFault),
     /// Its bytes arrived but do not decode (a damaged chunk).
     #[error("{0}")]
-    Decode(String),
+    Decode(BrickFault),
     /// Anything else: a brick the pyramid does not have, one of the wrong size, a store that
-    /// cannot be read this way. Another try reads the same.
+    /// cannot be read this way, a reader that panicked. Another try reads the same.
     #[error("{0}")]
-    Invalid(String),
+    Invalid(BrickFault),
+}
+
+/// What a [`BrickError`] says: the whole line, and the cause alone (what many bricks failing
+/// the same way share, `HTTP 500 Internal Server Error (after 9 tries)`: what a summary groups
+/// them by).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct BrickFault {
+    /// The one line: the brick, the source, the chunk, the cause.
+    pub message: String,
+    /// The cause alone.
+    pub cause: String,
+}
+
+impl std::fmt::Display for BrickFault {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.message)
+    }
+}
+
+impl BrickFault {
+    fn whole(message: String) -> Self {
+        Self {
+            cause: message.clone(),
+            message,
+        }
+    }
 }
 
 impl BrickError {
-    /// The error of brick `id` whose read failed with `error`, of the same kind.
+    /// A fetch failure whose message is its own cause.
+    pub fn fetch(message: impl Into<String>) -> Self {
+        Self::Fetch(BrickFault::whole(message.into()))
+    }
+
+    /// A decode failure whose message is its own cause.
+    pub fn decode(message: impl Into<String>) -> Self {
+        Self::Decode(BrickFault::whole(message.into()))
+    }
+
+    /// An invalid read whose message is its own cause.
+    pub fn invalid(message: impl Into<String>) -> Self {
+        Self::Invalid(BrickFault::whole(message.into()))
+    }
+
+    /// The error of brick `id` whose read failed with `error`, of the same kind and cause.
     pub fn of_load(id: BrickId, error: &LoadError) -> Self {
-        let message = format!("{id}: {error}");
+        let fault = BrickFault {
+            message: format!("{id}: {error}"),
+            cause: error.cause().to_owned(),
+        };
         match error.kind {
-            LoadErrorKind::Fetch => Self::Fetch(message),
-            LoadErrorKind::Decode => Self::Decode(message),
-            LoadErrorKind::Invalid => Self::Invalid(message),
+            LoadErrorKind::Fetch => Self::Fetch(fault),
+            LoadErrorKind::Decode => Self::Decode(fault),
+            LoadErrorKind::Invalid => Self::Invalid(fault),
         }
+    }
+
+    /// The line and the cause.
+    pub fn fault(&self) -> &BrickFault {
+        match self {
+            Self::Fetch(fault) | Self::Decode(fault) | Self::Invalid(fault) => fault,
+        }
+    }
+
+    /// The cause alone ([`BrickFault::cause`]).
+    pub fn cause(&self) -> &str {
+        &self.fault().cause
+    }
+
+    /// Whether another try may succeed (a failed fetch; not a damaged or invalid brick).
+    pub fn may_pass_later(&self) -> bool {
+        matches!(self, Self::Fetch(_))
     }
 }
 

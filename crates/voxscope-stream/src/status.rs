@@ -91,10 +91,21 @@ pub struct StreamStatus {
     /// What the view needs against what fits, while the budget leaves bricks out (`None`: the
     /// view fits at the levels its rays chose).
     pub budget: Option<BudgetLimit>,
+    /// Bricks the rays of the judged frame asked for that could not be read (drawn from the
+    /// finest coarser level that could): the view is incomplete while this is above 0, even
+    /// when [`Self::complete`] says nothing more is to come.
+    pub unreadable: usize,
+    /// Seconds until the next failed brick is asked for again (`None`: none will be): a
+    /// window that draws only when something changes wakes then.
+    pub next_retry_s: Option<f64>,
+    /// Whether this update changed the page table (uploads, failures, retries, evictions,
+    /// visibility): only then can a new frame differ from the last one drawn.
+    pub table_changed: bool,
     /// Uploaded in this update.
     pub uploads: usize,
     pub upload_bytes: u64,
-    /// Bricks that failed since the last update, one line each.
+    /// What failed since the last update: a line for the first brick of each cause (further
+    /// bricks failing the same way are counted, not repeated: `Streamer::failures`).
     pub errors: Vec<String>,
     pub counters: StreamCounters,
 }

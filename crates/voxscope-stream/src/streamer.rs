@@ -11,6 +11,7 @@ use std::time::{Duration, Instant};
 use rayon::prelude::*;
 
 use super::budget::{Cut, cut_within};
+use super::failures::Failures;
 use super::frame::{Feedback, Upload, ViewPoint};
 use super::key_hash::{KeyMap, KeySet};
 use super::loader::{AtlasTexels, LoadedBrick, Loader, load_brick};
@@ -24,9 +25,6 @@ use super::ram_cache::RamCache;
 use super::slots::SlotPool;
 use super::status::{BudgetLimit, LevelCounters, StreamCounters, StreamStatus};
 use crate::{BrickId, BrickSource, PADDED_BRICK_VOXELS};
-
-/// The longest wait before a failed brick is asked for again.
-const MAX_RETRY_DELAY: Duration = Duration::from_secs(300);
 
 /// What a frame may spend putting uploads on their way (the upload allowance follows from it
 /// and the measured cost): a few milliseconds of a 16 ms frame.
@@ -75,10 +73,12 @@ pub struct Streamer {
     ready: Vec<Request>,
     /// Table entries that hold no slot, oldest first (dropped when the table is full).
     metadata: VecDeque<u32>,
+    /// Bricks that could not be read (their table entries say so: rays draw a coarser level).
     failed: KeySet,
-    /// When each failed brick is asked for again, and how often it has failed.
-    retries: Vec<(Instant, u32)>,
-    attempts: KeyMap<u32>,
+    /// How each failed, whether and when it is asked for again (failures.rs).
+    failures: Failures,
+    /// The bricks the rays of the latest frame read back asked for that could not be read.
+    unreadable: Vec<u32>,
     new_errors: Vec<String>,
     /// Bricks that stand for the finer ones the budget leaves out of the view on screen
     /// ([`crate::cut_within`]): whatever rays ask for below one is drawn from it, not loaded.
@@ -154,8 +154,8 @@ impl Streamer {
             ready: Vec::new(),
             metadata: VecDeque::new(),
             failed: KeySet::default(),
-            retries: Vec::new(),
-            attempts: KeyMap::default(),
+            failures: Failures::new(options.retry_after),
+            unreadable: Vec::new(),
             new_errors: Vec::new(),
             standing: KeySet::default(),
             standing_view: None,
@@ -191,7 +191,8 @@ impl Streamer {
         Ok((streamer, uploads))
     }
 
-    /// Reads every brick of the `pinned` levels and gives each a pinned slot.
+    /// Reads every brick of the `pinned` levels and gives each a pinned slot. One that cannot
+    /// be read is a failed brick like any other (asked for again as its failure allows).
     fn load_pinned(&mut self, pinned: &[u32]) -> Result<Vec<Upload>, String> {
         let ids: Vec<BrickId> = pinned
             .iter()
@@ -208,11 +209,16 @@ impl Streamer {
             .collect();
         let mut uploads = Vec::new();
         for (id, (brick, bytes_read)) in loaded {
-            let brick =
-                brick.map_err(|e| format!("the always-resident {id} cannot be read: {e}"))?;
+            let key = self.shape.key(id).expect("a pinned level's brick");
+            let brick = match brick {
+                Ok(brick) => brick,
+                Err(error) => {
+                    self.fail(key, id, error);
+                    continue;
+                }
+            };
             self.counters.bytes_read += bytes_read;
             self.counters.loads += 1;
-            let key = self.shape.key(id).expect("a pinned level's brick");
             if let Some(upload) = self.place(key, id, &brick, None)? {
                 self.slots.pin(upload.slot);
                 uploads.push(upload);
@@ -456,17 +462,10 @@ impl Streamer {
 
     /// Forgets the failures whose retry time has come: the rays ask for those bricks again.
     fn retry_failed(&mut self) {
-        let now = Instant::now();
-        let due: Vec<u32> = self
-            .retries
-            .iter()
-            .filter(|(at, _)| *at <= now)
-            .map(|&(_, key)| key)
-            .collect();
+        let due = self.failures.due(Instant::now());
         if due.is_empty() {
             return;
         }
-        self.retries.retain(|(at, _)| *at > now);
         for key in due {
             self.failed.remove(&key);
             if self
@@ -480,6 +479,37 @@ impl Streamer {
         self.changed_frame = self.frame;
     }
 
+    /// Brick `id` (`key`) could not be read: its entry says so (rays draw the finest coarser
+    /// level there and ask for it only to say they need it), and its failure is recorded.
+    fn fail(&mut self, key: u32, id: BrickId, error: crate::BrickError) {
+        self.failures.record(key, id, error, Instant::now());
+        self.new_errors.extend(self.failures.take_lines());
+        if self.failed.insert(key) {
+            let entry = TableEntry {
+                key,
+                cell: ENTRY_FAILED,
+                range: 0,
+                slot: 0,
+            };
+            let _ = self.insert_entry(entry);
+            self.changed_frame = self.frame;
+        }
+    }
+
+    /// The bricks that could not be read: each one's level, brick, cause and whether it is
+    /// asked for again (the app's panel lists them).
+    pub fn failures(&self) -> &Failures {
+        &self.failures
+    }
+
+    /// The bricks the latest frame read back needed and could not have (drawn from a coarser
+    /// level): what makes a view incomplete (`render` lists them).
+    pub fn unreadable(&self) -> impl Iterator<Item = &crate::FailedBrick> + '_ {
+        self.unreadable
+            .iter()
+            .filter_map(|&key| self.failures.get(key))
+    }
+
     fn receive_results(&mut self) {
         for result in self.loader.received() {
             self.queue.done(result.key);
@@ -487,7 +517,7 @@ impl Streamer {
             match result.brick {
                 Ok(brick) => {
                     self.counters.read_seconds += result.seconds;
-                    self.attempts.remove(&result.key);
+                    self.failures.succeeded(result.key);
                     self.counters.loads += 1;
                     self.counters.prefetch_loads += result.prefetch as u64;
                     self.ram.insert(result.key, brick);
@@ -499,25 +529,10 @@ impl Streamer {
                     if self.wanted.contains_key(&result.key) {
                         self.missing = self.missing.saturating_sub(1);
                     }
-                    if self.failed.insert(result.key) {
-                        let attempts = self.attempts.entry(result.key).or_insert(0);
-                        *attempts += 1;
-                        let delay = self
-                            .options
-                            .retry_after
-                            .saturating_mul(1 << (*attempts - 1).min(16))
-                            .min(MAX_RETRY_DELAY);
-                        self.retries.push((Instant::now() + delay, result.key));
-                        let entry = TableEntry {
-                            key: result.key,
-                            cell: ENTRY_FAILED,
-                            range: 0,
-                            slot: 0,
-                        };
-                        let _ = self.insert_entry(entry);
-                        self.changed_frame = self.frame;
-                        self.new_errors
-                            .push(format!("{error} (drawn from a coarser level)"));
+                    if let Some(id) = self.shape.brick_of(result.key)
+                        && !self.failed.contains(&result.key)
+                    {
+                        self.fail(result.key, id, error);
                     }
                 }
             }
@@ -581,6 +596,12 @@ impl Streamer {
         let mut asked: Vec<u32> = feedback.requests.to_vec();
         asked.sort_unstable();
         asked.dedup();
+        // Asked for and unreadable: drawn from the finest coarser level that can be read.
+        self.unreadable = asked
+            .iter()
+            .copied()
+            .filter(|key| self.failed.contains(key))
+            .collect();
         // What was asked for that can show, each in place of the brick that stands for it
         // where the budget left it out, within the room the atlas has for this view
         // (`budget.rs`: the least important give way to their parents where it does not fit).
@@ -674,6 +695,15 @@ impl Streamer {
             let mut key = request.key;
             let asked_level = id.level;
             loop {
+                if self.failed.contains(&key) {
+                    // Unreadable: the finest coarser brick that can be read stands in for it.
+                    let Some(parent) = self.shape.parent(id) else {
+                        break;
+                    };
+                    id = parent;
+                    key = self.shape.key(id).expect("a parent is in the pyramid");
+                    continue;
+                }
                 if wanted.contains_key(&key) || self.satisfied(key) {
                     break;
                 }
@@ -912,6 +942,10 @@ impl Streamer {
         self.counters.slots_pinned = self.slots.pinned();
         self.counters.ram_bytes = self.ram.bytes();
         self.counters.failed = self.failed.len();
+        let next_retry = self
+            .failures
+            .next_retry()
+            .map(|at| at.saturating_duration_since(Instant::now()).as_secs_f64());
         self.counters.upload_bytes_per_s =
             self.uploads_recent.iter().map(|&(_, b)| b).sum::<u64>() as f64;
         StreamStatus {
@@ -922,6 +956,9 @@ impl Streamer {
             queued,
             loading,
             budget: self.budget,
+            unreadable: self.unreadable.len(),
+            table_changed: self.changed_frame == self.frame,
+            next_retry_s: next_retry,
             uploads,
             upload_bytes,
             errors: std::mem::take(&mut self.new_errors),

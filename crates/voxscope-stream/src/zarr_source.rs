@@ -25,6 +25,11 @@ use voxscope_volume::{Quantization, Scalar, VoxelData, VoxelType, with_voxel_sli
 /// and is refused at open with the advice to convert it.
 pub const MAX_BRICK_READ: u64 = 1 << 26;
 
+/// The most chunks one brick may read from a URL's store (each a request, all in flight
+/// together): a store of tiny chunks (1-voxel chunks: 42 875 a brick) is refused at open, with
+/// the way around, rather than read for hours.
+pub const MAX_REMOTE_BRICK_CHUNKS: u64 = 4096;
+
 /// Where one pyramid level's bricks come from: a stored level, and how many of its voxels one
 /// pyramid voxel covers along x, y, z.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -154,6 +159,19 @@ impl ZarrSource {
                     coarsest[0], coarsest[1], coarsest[2], info.dims[0], info.dims[1], info.dims[2],
                 ));
             }
+            let info = &pyramid.levels[stored];
+            let chunks: u64 = (0..3)
+                .map(|a| {
+                    let span = (PADDED_BRICK * ratio[a]).min(info.dims[a]);
+                    (span.div_ceil(info.chunk[a]) + 1).min(info.chunk_grid()[a]) as u64
+                })
+                .product();
+            if pyramid.remote_stats().is_some() && chunks > MAX_REMOTE_BRICK_CHUNKS {
+                return Err(format!(
+                    "{name}: level {stored} is stored in chunks of {}x{}x{} voxels: one brick would take {chunks} requests (at most {MAX_REMOTE_BRICK_CHUNKS} over a network); copy the store and `voxscope convert` it to larger chunks",
+                    info.chunk[0], info.chunk[1], info.chunk[2]
+                ));
+            }
             sources.push(LevelSource { stored, ratio });
         }
         let (quantization, max_value_level) = quantization_of(&pyramid)?;
@@ -198,6 +216,19 @@ impl ZarrSource {
         let first: [usize; 3] = std::array::from_fn(|a| origin[a] / chunk[a]);
         let last: [usize; 3] = std::array::from_fn(|a| (origin[a] + size[a] - 1) / chunk[a]);
         let mut out = vec![0u16; size.iter().product()];
+        // Over a network, the brick's chunks are asked for together (a folder's store does
+        // nothing here).
+        let uncached = self.chunks.lock().is_ok_and(|cache| {
+            (first[2]..=last[2]).any(|cz| {
+                (first[1]..=last[1]).any(|cy| {
+                    (first[0]..=last[0])
+                        .any(|cx| !cache.chunks.contains_key(&(stored, [cx, cy, cz])))
+                })
+            })
+        });
+        if uncached {
+            self.pyramid.prefetch_regions(&[(stored, origin, size)]);
+        }
         for cz in first[2]..=last[2] {
             for cy in first[1]..=last[1] {
                 for cx in first[0]..=last[0] {
@@ -456,7 +487,7 @@ impl BrickSource for ZarrSource {
             self.sources.get(id.level as usize),
             self.shape.key(id),
         ) else {
-            return Err(BrickError::Invalid(format!("{}: no {id}", self.name)));
+            return Err(BrickError::invalid(format!("{}: no {id}", self.name)));
         };
         let stored_dims = self.pyramid.levels[source.stored].dims;
         let first = id.brick.map(|c| c as usize * BRICK_SIZE);

@@ -13,6 +13,10 @@ pub struct LoadError {
     /// What kind of failure it is, for callers that branch on it (a reader retries a fetch,
     /// not a chunk that does not decode).
     pub kind: LoadErrorKind,
+    /// The cause alone, where it is one that many reads may share (`HTTP 500 Internal Server
+    /// Error (after 9 tries)`, `connection refused`): what a summary of many failures groups
+    /// by. `None`: the problem is its own cause.
+    pub cause: Option<String>,
 }
 
 /// What kind of failure a [`LoadError`] is.
@@ -45,12 +49,27 @@ impl LoadError {
             source: escape(&source.to_string()),
             problem,
             kind: LoadErrorKind::Invalid,
+            cause: None,
         }
     }
 
     /// The same error, of `kind`.
     pub fn with_kind(self, kind: LoadErrorKind) -> Self {
         Self { kind, ..self }
+    }
+
+    /// The same error, with its shared `cause` ([`Self::cause`]).
+    pub fn with_cause(self, cause: Option<String>) -> Self {
+        Self {
+            cause: cause
+                .map(|c| shorten(&escape(&c.replace(['\n', '\r'], " ")), MAX_PROBLEM_CHARS)),
+            ..self
+        }
+    }
+
+    /// The cause a summary groups this error by: [`Self::cause`], else the whole problem.
+    pub fn cause(&self) -> &str {
+        self.cause.as_deref().unwrap_or(&self.problem)
     }
 }
 

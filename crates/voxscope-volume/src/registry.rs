@@ -36,12 +36,12 @@ pub fn load(spec: &str, options: &LoadOptions) -> Result<Volume, LoadError> {
     } else if super::remote::is_url(spec) {
         if options.raw.is_some() {
             return Err(LoadError::new(
-                super::remote::display_url(spec),
+                super::remote::redact_url(spec),
                 "--raw reads files; a URL must be a Zarr store",
             ));
         }
         super::ome_zarr::load_url(spec, options.select, options.remote)
-            .map_err(|p| LoadError::new(super::remote::display_url(spec), p))?
+            .map_err(|p| LoadError::new(super::remote::redact_url(spec), p))?
     } else {
         load_file(Path::new(spec), options).map_err(|p| LoadError::new(spec, p))?
     };
@@ -52,12 +52,12 @@ pub fn load(spec: &str, options: &LoadOptions) -> Result<Volume, LoadError> {
         options
             .select
             .check(series.channel_count(), series.time_points)
-            .map_err(|p| LoadError::new(super::remote::display_url(spec), p))?;
+            .map_err(|p| LoadError::new(super::remote::redact_url(spec), p))?;
     }
     if let Some(spacing) = options.spacing {
         if spacing.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
             return Err(LoadError::new(
-                super::remote::display_url(spec),
+                super::remote::redact_url(spec),
                 "--spacing values must be positive",
             ));
         }
@@ -75,6 +75,9 @@ fn load_file(path: &Path, options: &LoadOptions) -> Result<Volume, Problem> {
         }
         if !super::dicom::dicom_files(path).is_empty() {
             return super::dicom::load(path);
+        }
+        if let Some(level) = super::ome_zarr::unfinished_store(path) {
+            return Err(super::ome_zarr::unfinished_problem(&level));
         }
         return super::slices::load(path);
     }

@@ -1,65 +1,80 @@
 //! Zarr stores behind URLs: `http://` and `https://` servers and `s3://` object storage (AWS,
-//! MinIO, Ceph, anything S3-compatible), read through `object_store`'s clients as a zarrs
-//! [`ReadableStorageTraits`] store, so [`super::ome_zarr::Pyramid`] reads them as it reads a
-//! folder.
+//! MinIO, Ceph, anything S3-compatible), read as a zarrs [`ReadableStorageTraits`] store, so
+//! [`super::ome_zarr::Pyramid`] reads them as it reads a folder. HTTP goes through voxscope's
+//! own client over reqwest ([`http`]), S3 through object_store's signing client ([`s3`]); the
+//! retries, deadlines, caching and failure bookkeeping here are the same for both.
 //!
+//! - **URLs** are parsed and checked by voxscope first ([`url`]); one that no request can be
+//!   made to is refused in one line. Every URL shown anywhere passes through [`redact_url`]
+//!   (no user name, password, query or fragment). A URL's `user:password@` is sent as HTTP
+//!   basic authentication, over HTTPS or to this machine only.
 //! - **Concurrency**: at most [`RemoteOptions::max_requests`] requests in flight (default
-//!   [`DEFAULT_MAX_REQUESTS`]). zarrs asks for one chunk at a time per reading thread, so a
-//!   region read first fetches all its chunks at once ([`RemoteStore::prefetch`]). Sharded
-//!   arrays are read by byte ranges (the shard index, then only the inner chunks a region
-//!   needs), all of one shard's ranges in flight together.
-//! - **Cache**: fetched bytes stay in RAM up to [`FETCH_CACHE_BYTES`] (a padded brick reads
-//!   the edges of its neighbours' chunks; zarrs reads a shard's index for every region), and
-//!   so does which objects are missing (a store's skipped chunks).
-//! - **Opening in a few round trips**: the metadata documents of each step of a hierarchy (the
-//!   root's, then every level's) are fetched together ([`RemoteStore::prefetch_documents`]),
-//!   and what that learned answers the reader's size checks and reads.
-//! - **Time bounds**: connecting takes at most [`CONNECT_TIMEOUT`], one request at most
-//!   [`REQUEST_TIMEOUT`]; 5xx answers, 429, resets, timeouts and cut bodies are retried with
-//!   exponential backoff ([`MAX_RETRIES`]); one store operation with its retries ends within
-//!   [`OPEN_DEADLINE`] while the store is opened (a URL that does not answer fails in that
-//!   time) and [`READ_DEADLINE`] afterwards.
-//! - **Errors** are one line naming the object's URL and what went wrong (HTTP 403 access
-//!   denied, 401 unauthenticated, no answer); a missing object is a missing key (Zarr: the fill
-//!   value, or "not a Zarr store" at the root). User names, passwords and query strings of a
-//!   URL, and the AWS secrets from the environment, never appear in a message.
-//! - **Credentials** for `s3://`: the standard AWS variables (`AWS_ACCESS_KEY_ID`,
-//!   `AWS_SECRET_ACCESS_KEY`, `AWS_SESSION_TOKEN`, `AWS_REGION`/`AWS_DEFAULT_REGION`,
-//!   `AWS_ENDPOINT_URL`, …), else the profile (`AWS_PROFILE`, default `default`) of
-//!   `~/.aws/credentials` and `~/.aws/config` (or `AWS_SHARED_CREDENTIALS_FILE`,
-//!   `AWS_CONFIG_FILE`), else web identity / container credentials where their variables are
-//!   set, else anonymous (unsigned) requests: public buckets need nothing.
+//!   [`DEFAULT_MAX_REQUESTS`]), and one fetch per object and piece at a time: a reader asking
+//!   for what is being fetched waits for that fetch. zarrs asks for one chunk at a time per
+//!   reading thread, so a region read first fetches all its chunks at once
+//!   ([`RemoteStore::prefetch`]). Sharded arrays are read by byte ranges.
+//! - **Cache**: fetched bytes stay in RAM up to [`FETCH_CACHE_BYTES`], and so does which
+//!   objects are missing. A server that ignores `Range` (answering `200` with the whole
+//!   object) is read all the same: the whole object is kept and cut, and once the store knows
+//!   the server does so it asks for whole objects.
+//! - **Time bounds** ([`Timing`]): connecting 5 s; one request, its whole body included,
+//!   20 s; one operation (an object with its retries) 10 s while the store is opened and 30 s
+//!   afterwards. 5xx answers, 408, 429, resets, timeouts and cut bodies are retried with
+//!   exponential backoff (or after what `Retry-After` asks, up to 20 s). A server that lets a
+//!   request time out without answering anything is taken to be silent: every request fails at
+//!   once for 5 s, so that a dead server costs one timeout, not one per object.
+//! - **Failures are remembered** per object ([`remembered`]): within a while, asking again
+//!   answers with the same failure without a request; permanent ones (401, 403, a body larger
+//!   than the object may be) for the store's life. While most recent operations failed after
+//!   their retries (a dead level), an operation retries twice, not eight times.
+//! - **Bodies** without `Content-Length` (chunked, or ended by closing the connection) are
+//!   read, each within the size its object may have ([`RemoteStore::bound_objects`]: a
+//!   level's chunks register theirs; metadata 16 MiB).
+//! - **Errors** say the cause first and whole (`HTTP 500 Internal Server Error (after 9
+//!   tries)`, `connection refused`, `host not found (DNS)`, `no answer within 10 s`, `access
+//!   denied (HTTP 403)`, `the bucket 'b' does not exist`); callers name the object. No secret
+//!   (password, query, AWS secret key or session token, the endpoint's password) appears.
+//! - **Credentials** for `s3://`: the standard AWS variables, else the profile of
+//!   `~/.aws/credentials` and `~/.aws/config`, else web identity / container credentials
+//!   where their variables are set, else anonymous (unsigned) requests.
 //!
 //! Store calls are synchronous (zarrs's store traits are): each blocks its reading thread on a
-//! small process-wide tokio runtime. A read nobody waits for any more is not started, so the
-//! streaming renderer's queue, which drops bricks the view no longer wants, is what cancels.
+//! small process-wide tokio runtime; a panic inside is caught and becomes that read's error.
 
 use std::collections::HashMap;
 use std::future::Future;
-use std::ops::Range;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::panic::AssertUnwindSafe;
+use std::sync::atomic::{AtomicBool, AtomicU8, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, OnceLock};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
-use object_store::aws::AmazonS3Builder;
-use object_store::http::HttpBuilder;
-use object_store::path::Path as ObjectPath;
-use object_store::{
-    BackoffConfig, ClientOptions, GetOptions, GetRange, ObjectStore, ObjectStoreExt, RetryConfig,
-};
+use futures::FutureExt;
+use futures::future::{BoxFuture, Shared};
 use tokio::sync::Semaphore;
-use zarrs::storage::byte_range::{ByteRange, ByteRangeIterator};
+use zarrs::storage::byte_range::ByteRangeIterator;
 use zarrs::storage::{
     Bytes, MaybeBytes, MaybeBytesIterator, ReadableStorageTraits, StorageError, StoreKey,
 };
 
-use super::error::{Problem, printable};
+use super::error::{Problem, escape};
 use cache::{FetchCache, Piece};
 use documents::Known;
+use fault::{Failure, Health};
+use http::{Answer, HttpTransport};
+use s3::S3Transport;
+use url::{Scheme, StoreUrl};
 
 mod aws;
 mod cache;
 mod documents;
+mod fault;
+mod http;
+mod remembered;
+mod s3;
+mod url;
+
+pub use fault::Timing;
+pub use url::redact_url;
 
 /// Requests in flight at once by default: enough to fill a fast link at 50–100 ms of latency
 /// with chunks of ~1 MiB, few enough for a small lab server.
@@ -68,26 +83,9 @@ pub const DEFAULT_MAX_REQUESTS: usize = 32;
 /// The most requests in flight that `--max-requests` accepts.
 pub const MAX_MAX_REQUESTS: usize = 1024;
 
-/// Time to establish a connection (TCP and TLS).
-pub const CONNECT_TIMEOUT: Duration = Duration::from_secs(5);
-
-/// Time for one request, from sending it to the last byte of its answer.
-pub const REQUEST_TIMEOUT: Duration = Duration::from_secs(30);
-
-/// Retries of one request (5xx, 429, connection resets, timeouts, cut bodies), with
-/// exponential backoff from 50 ms up to 2 s.
-pub const MAX_RETRIES: usize = 8;
-
-/// How long one store operation (its retries included) may take while the store is opened:
-/// a URL that does not answer fails within this time.
-pub const OPEN_DEADLINE: Duration = Duration::from_secs(10);
-
-/// How long one store operation (its retries included) may take once the store is open.
-pub const READ_DEADLINE: Duration = Duration::from_secs(120);
-
-/// The largest object (a whole chunk or shard) read in one piece: a server's length is
-/// checked against it before the bytes are collected.
-const MAX_OBJECT_BYTES: u64 = 2 << 30;
+/// The largest object (a whole chunk or shard) read in one piece, unless its level registered
+/// a smaller bound ([`RemoteStore::bound_objects`]).
+pub const MAX_OBJECT_BYTES: u64 = 2 << 30;
 
 /// Fetched bytes (whole chunks, inner-chunk ranges, shard indexes) kept in RAM, at most:
 /// a padded brick reads the edges of its neighbours' chunks, and zarrs reads a shard's index
@@ -100,12 +98,15 @@ pub const FETCH_CACHE_BYTES: u64 = 256 << 20;
 pub struct RemoteOptions {
     /// Requests in flight at once, at most (1 to [`MAX_MAX_REQUESTS`]).
     pub max_requests: usize,
+    /// The time bounds.
+    pub timing: Timing,
 }
 
 impl Default for RemoteOptions {
     fn default() -> Self {
         Self {
             max_requests: DEFAULT_MAX_REQUESTS,
+            timing: Timing::default(),
         }
     }
 }
@@ -113,39 +114,14 @@ impl Default for RemoteOptions {
 /// Whether `spec` names a remote store (`http://`, `https://`, `s3://`) rather than a path or
 /// a `synthetic:` spec: the app uses it to tell a URL from a file in its recent list.
 pub fn is_url(spec: &str) -> bool {
-    scheme_of(spec).is_some()
+    url::scheme_of(spec).is_some()
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Scheme {
-    Http,
-    S3,
-}
-
-fn scheme_of(spec: &str) -> Option<Scheme> {
-    let lower = spec.trim_start().to_ascii_lowercase();
-    if lower.starts_with("http://") || lower.starts_with("https://") {
-        Some(Scheme::Http)
-    } else if lower.starts_with("s3://") {
-        Some(Scheme::S3)
-    } else {
-        None
-    }
-}
-
-/// `url` without its user name, password, query and fragment: what messages may show.
-pub fn display_url(url: &str) -> String {
-    match url::Url::parse(url.trim()) {
-        Ok(mut parsed) => {
-            // Setting these cannot fail on URLs with a host, the only ones accepted.
-            let _ = parsed.set_username("");
-            let _ = parsed.set_password(None);
-            parsed.set_query(None);
-            parsed.set_fragment(None);
-            parsed.to_string().trim_end_matches('/').to_owned()
-        }
-        Err(_) => printable(url.split(['?', '#']).next().unwrap_or_default()),
-    }
+/// Checks `spec` as a store's URL without contacting anything: `Err` is the one line that
+/// says why no request could be made to it (the app's Open URL window shows it as it is
+/// typed).
+pub fn check_url(spec: &str) -> Result<(), String> {
+    StoreUrl::parse(spec).map(|_| ())
 }
 
 /// Counters of one remote store, for the app's panel and benchmarks.
@@ -157,7 +133,8 @@ pub struct RemoteStats {
     pub in_flight: u64,
     /// Bytes received (bodies).
     pub bytes: u64,
-    /// Operations that failed after their retries (a missing object is no failure).
+    /// Operations that failed after their retries (a missing object is no failure; an answer
+    /// from the remembered failures is not counted again).
     pub errors: u64,
 }
 
@@ -169,19 +146,58 @@ struct Counters {
     errors: AtomicU64,
 }
 
-/// A Zarr store at a URL, read through `object_store` (see the module's documentation).
+/// Where requests go.
+enum Transport {
+    Http(HttpTransport),
+    S3(S3Transport),
+}
+
+impl Transport {
+    async fn get(&self, key: &str, piece: Piece, bound: u64) -> Result<Answer, Failure> {
+        match self {
+            Self::Http(http) => http.get(key, piece, bound).await,
+            Self::S3(s3) => s3.get(key, piece, bound).await,
+        }
+    }
+
+    async fn head(&self, key: &str) -> Result<Option<Option<u64>>, Failure> {
+        match self {
+            Self::Http(http) => http.head(key).await,
+            Self::S3(s3) => s3.head(key).await,
+        }
+    }
+}
+
+/// Whether the server honours `Range`, as far as the store has seen.
+const RANGES_UNKNOWN: u8 = 0;
+const RANGES_HONOURED: u8 = 1;
+const RANGES_IGNORED: u8 = 2;
+
+/// A fetch in flight that every reader of the same object and piece waits for.
+type Flight = Shared<BoxFuture<'static, Result<Answer, Failure>>>;
+
+/// A Zarr store at a URL (see the module's documentation).
 pub struct RemoteStore {
-    store: Arc<dyn ObjectStore>,
-    /// The object path of the Zarr root inside `store` (empty for HTTP: the URL is the root).
-    prefix: String,
+    inner: Arc<Inner>,
+}
+
+struct Inner {
+    transport: Transport,
     /// The URL as messages show it.
     shown: String,
+    timing: Timing,
     limit: Arc<Semaphore>,
     opened: AtomicBool,
     counters: Counters,
     cache: Mutex<FetchCache>,
-    /// What document batches learned besides bytes ([`Self::prefetch_documents`]).
+    /// What document batches learned besides bytes ([`RemoteStore::prefetch_documents`]).
     known: Mutex<HashMap<String, Known>>,
+    remembered: remembered::Remembered,
+    health: Health,
+    flights: Mutex<HashMap<(String, Piece), Flight>>,
+    ranges: AtomicU8,
+    /// The most bytes an object under each key prefix may have (longest prefix wins).
+    bounds: Mutex<Vec<(String, u64)>>,
     /// Strings that must never appear in a message (passwords, AWS secrets).
     secrets: Vec<String>,
 }
@@ -210,101 +226,94 @@ fn runtime() -> Result<&'static tokio::runtime::Runtime, Problem> {
         .map_err(Clone::clone)
 }
 
+/// Runs `future` to its end on the network runtime from a synchronous caller; a panic inside
+/// becomes an error (a library's bug costs that read, not the process).
+fn block_on<T>(future: impl Future<Output = Result<T, Failure>>) -> Result<T, Failure> {
+    let runtime = runtime().map_err(Failure::permanent)?;
+    match std::panic::catch_unwind(AssertUnwindSafe(|| runtime.block_on(future))) {
+        Ok(result) => result,
+        Err(panic) => {
+            let text = panic
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| panic.downcast_ref::<String>().cloned())
+                .unwrap_or_default();
+            Err(Failure::permanent(format!(
+                "the network client failed ({})",
+                escape(&text)
+            )))
+        }
+    }
+}
+
 impl RemoteStore {
     /// Opens the store at `url` (`http://`, `https://` or `s3://BUCKET/PATH`); contacts nothing
-    /// yet. The error is one line (a URL that cannot be parsed, an unknown scheme).
+    /// yet. The error is one line without secrets (a URL that cannot be parsed or that no
+    /// request can be made to, an unknown scheme, a password for plain HTTP elsewhere).
     pub fn open(url: &str, options: RemoteOptions) -> Result<Arc<Self>, Problem> {
         install_crypto_provider();
-        let url = url.trim();
-        let parsed = url::Url::parse(url).map_err(|e| format!("is not a valid URL: {e}"))?;
+        let parsed = StoreUrl::parse(url)?;
         let max_requests = options.max_requests.clamp(1, MAX_MAX_REQUESTS);
-        let mut secrets: Vec<String> = [parsed.password().unwrap_or_default(), parsed.username()]
-            .into_iter()
-            .filter(|s| s.len() >= 3)
-            .map(str::to_owned)
-            .collect();
-        let client = ClientOptions::new()
-            .with_connect_timeout(CONNECT_TIMEOUT)
-            .with_timeout(REQUEST_TIMEOUT)
-            .with_pool_max_idle_per_host(max_requests);
-        let retry = RetryConfig {
-            backoff: BackoffConfig {
-                init_backoff: Duration::from_millis(50),
-                max_backoff: Duration::from_secs(2),
-                base: 2.0,
-            },
-            max_retries: MAX_RETRIES,
-            retry_timeout: READ_DEADLINE,
-        };
-        let (store, prefix): (Arc<dyn ObjectStore>, String) = match scheme_of(url) {
-            Some(Scheme::Http) => {
-                let base = url.trim_end_matches('/');
-                let store = HttpBuilder::new()
-                    .with_url(base)
-                    .with_client_options(client.with_allow_http(true))
-                    .with_retry(retry)
-                    .build()
-                    .map_err(|e| format!("cannot read over HTTP: {}", one_line(&e, &secrets)))?;
-                (Arc::new(store), String::new())
+        let timing = options.timing;
+        let mut secrets: Vec<String> = parsed
+            .credentials()
+            .map(|(user, password)| [Some(user), password].into_iter().flatten().collect())
+            .unwrap_or_default();
+        if let Some(query) = parsed.url.query() {
+            secrets.extend(
+                query
+                    .split('&')
+                    .filter_map(|p| p.split_once('='))
+                    .map(|(_, v)| v.to_owned()),
+            );
+        }
+        let transport = match parsed.scheme {
+            Scheme::Http => {
+                Transport::Http(HttpTransport::new(&parsed, timing.connect, max_requests)?)
             }
-            Some(Scheme::S3) => {
-                let bucket = parsed
-                    .host_str()
-                    .filter(|b| !b.is_empty())
-                    .ok_or("names no bucket (s3://BUCKET/PATH)")?
-                    .to_owned();
-                let prefix = parsed.path().trim_matches('/').to_owned();
-                let credentials = aws::Credentials::find();
-                secrets.extend(credentials.secrets());
-                let builder = credentials.apply(
-                    AmazonS3Builder::from_env()
-                        .with_bucket_name(&bucket)
-                        .with_retry(retry),
-                );
-                let http_endpoint = builder
-                    .get_config_value(&object_store::aws::AmazonS3ConfigKey::Endpoint)
-                    .is_some_and(|e| e.to_ascii_lowercase().starts_with("http://"));
-                let store = builder
-                    .with_client_options(client.with_allow_http(http_endpoint))
-                    .build()
-                    .map_err(|e| format!("cannot read from S3: {}", one_line(&e, &secrets)))?;
-                (Arc::new(store), prefix)
-            }
-            None => {
-                return Err(format!(
-                    "has the scheme '{}:'; remote stores are http://, https:// or s3://",
-                    printable(parsed.scheme())
-                ));
+            Scheme::S3 => {
+                let s3 = S3Transport::new(&parsed, timing.connect, timing.request, max_requests)?;
+                secrets.extend(s3.secrets().iter().cloned());
+                Transport::S3(s3)
             }
         };
+        secrets.retain(|s| s.len() >= 3);
         Ok(Arc::new(Self {
-            store,
-            prefix,
-            shown: display_url(url),
-            limit: Arc::new(Semaphore::new(max_requests)),
-            opened: AtomicBool::new(false),
-            counters: Counters::default(),
-            cache: Mutex::new(FetchCache::default()),
-            known: Mutex::default(),
-            secrets,
+            inner: Arc::new(Inner {
+                transport,
+                shown: parsed.shown,
+                timing,
+                limit: Arc::new(Semaphore::new(max_requests)),
+                opened: AtomicBool::new(false),
+                counters: Counters::default(),
+                cache: Mutex::new(FetchCache::default()),
+                known: Mutex::default(),
+                remembered: remembered::Remembered::default(),
+                health: Health::default(),
+                flights: Mutex::default(),
+                ranges: AtomicU8::new(RANGES_UNKNOWN),
+                bounds: Mutex::default(),
+                secrets,
+            }),
         }))
     }
 
     /// The URL as messages show it (no user name, password or query).
     pub fn url(&self) -> &str {
-        &self.shown
+        &self.inner.shown
     }
 
-    /// Marks the store open: operations may take [`READ_DEADLINE`] from now on, not
-    /// [`OPEN_DEADLINE`].
+    /// Marks the store open: operations may take [`Timing::read_deadline`] from now on, not
+    /// [`Timing::open_deadline`]; transient failures met while opening are forgotten.
     pub fn mark_opened(&self) {
-        self.opened.store(true, Ordering::Relaxed);
+        self.inner.opened.store(true, Ordering::Relaxed);
         self.forget_failures();
+        self.inner.remembered.forget_transient();
     }
 
     /// The counters so far.
     pub fn stats(&self) -> RemoteStats {
-        let c = &self.counters;
+        let c = &self.inner.counters;
         RemoteStats {
             requests: c.requests.load(Ordering::Relaxed),
             in_flight: c.in_flight.load(Ordering::Relaxed),
@@ -313,207 +322,314 @@ impl RemoteStore {
         }
     }
 
+    /// Objects whose keys start with `prefix` (a level's path and `/`) hold at most
+    /// `max_bytes`: a body that grows past that is cut off and refused (a chunk of that level
+    /// cannot be larger), whether or not the server announced its length.
+    pub fn bound_objects(&self, prefix: &str, max_bytes: u64) {
+        if let Ok(mut bounds) = self.inner.bounds.lock() {
+            bounds.retain(|(p, _)| p != prefix);
+            bounds.push((prefix.to_owned(), max_bytes));
+        }
+    }
+
+    /// The last failure of the object `key`, if it failed (remembered or not any more): its
+    /// cause alone (`HTTP 500 Internal Server Error`, shared by objects failing the same way)
+    /// and the cause with its tries (`… (after 9 tries)`), what a message naming the chunk says.
+    pub fn failure_of(&self, key: &str) -> Option<(String, String)> {
+        let failure = self.inner.remembered.last(key)?;
+        let secrets = &self.inner.secrets;
+        Some((
+            url::redact_text(&failure.cause, secrets),
+            url::redact_text(&failure.describe(), secrets),
+        ))
+    }
+
     /// Fetches `keys` (whole objects: unsharded chunks) all at once, up to the request limit,
     /// into the fetch cache that [`ReadableStorageTraits::get`] reads first; missing objects
-    /// are remembered as missing. Failures are left for `get` to meet (and report) again.
+    /// are remembered as missing, failed ones as failed.
     pub fn prefetch(&self, keys: &[StoreKey]) {
-        let wanted: Vec<&StoreKey> = match self.cache.lock() {
+        let wanted: Vec<String> = match self.inner.cache.lock() {
             Ok(cache) => keys
                 .iter()
-                .filter(|key| {
-                    cache.get(key.as_str(), Piece::Whole).is_none()
-                        && !cache.is_missing(key.as_str())
-                })
+                .map(|key| key.as_str())
+                .filter(|key| cache.get(key, Piece::Whole).is_none() && !cache.is_missing(key))
+                .map(str::to_owned)
                 .collect(),
             Err(_) => return,
         };
         if wanted.len() < 2 {
             return;
         }
-        let Ok(runtime) = runtime() else { return };
-        let fetches = wanted
-            .iter()
-            .map(|key| async move { self.fetch(key, None).await.ok().flatten() });
-        let deadline = self.deadline();
-        // The fetches fill the cache themselves.
-        let _ = runtime.block_on(async {
-            tokio::time::timeout(deadline, futures::future::join_all(fetches)).await
+        let reads = wanted
+            .into_iter()
+            .map(|key| self.inner.clone().read(key, Piece::Whole, None));
+        let _ = block_on(async {
+            futures::future::join_all(reads).await;
+            Ok(())
         });
     }
+}
 
+impl Inner {
     fn deadline(&self) -> Duration {
         if self.opened.load(Ordering::Relaxed) {
-            READ_DEADLINE
+            self.timing.read_deadline
         } else {
-            OPEN_DEADLINE
+            self.timing.open_deadline
         }
     }
 
-    fn location(&self, key: &StoreKey) -> ObjectPath {
-        if self.prefix.is_empty() {
-            ObjectPath::from(key.as_str())
-        } else {
-            ObjectPath::from(format!("{}/{}", self.prefix, key.as_str()))
+    /// The most bytes the object `key` may have.
+    fn bound(&self, key: &str) -> u64 {
+        self.bounds
+            .lock()
+            .ok()
+            .and_then(|bounds| {
+                bounds
+                    .iter()
+                    .filter(|(prefix, _)| key.starts_with(prefix.as_str()))
+                    .max_by_key(|(prefix, _)| prefix.len())
+                    .map(|&(_, bound)| bound)
+            })
+            .unwrap_or(MAX_OBJECT_BYTES)
+    }
+
+    /// `piece` of the object `key` (`None`: there is none): from the cache, from the fetch in
+    /// flight, or fetched now with its retries. `bound`: the most bytes it may have (`None`:
+    /// its prefix's, [`RemoteStore::bound_objects`]).
+    async fn read(
+        self: Arc<Self>,
+        key: String,
+        piece: Piece,
+        bound: Option<u64>,
+    ) -> Result<Option<Bytes>, Failure> {
+        if piece.is_empty() {
+            return Ok(Some(Bytes::new()));
         }
-    }
-
-    /// The URL of `key` as messages show it.
-    fn key_url(&self, key: &StoreKey) -> String {
-        format!("{}/{}", self.shown, key.as_str())
-    }
-
-    /// Runs `operation` on the runtime within the deadline; the error names `key`'s URL.
-    fn block_on<T>(
-        &self,
-        key: &StoreKey,
-        operation: impl Future<Output = Result<T, object_store::Error>>,
-    ) -> Result<T, StorageError> {
-        let deadline = self.deadline();
-        let result = runtime()
-            .map_err(StorageError::Other)?
-            .block_on(async { tokio::time::timeout(deadline, operation).await });
-        match result {
-            Ok(Ok(value)) => Ok(value),
-            Ok(Err(error)) => {
-                self.counters.errors.fetch_add(1, Ordering::Relaxed);
-                Err(StorageError::Other(format!(
-                    "{}: {}",
-                    self.key_url(key),
-                    self.describe(&error)
-                )))
-            }
-            Err(_) => {
-                self.counters.errors.fetch_add(1, Ordering::Relaxed);
-                Err(StorageError::Other(format!(
-                    "{}: no answer within {} s",
-                    self.key_url(key),
-                    deadline.as_secs()
-                )))
-            }
-        }
-    }
-
-    /// One line for an error: the HTTP status's meaning where it is a refusal, else the
-    /// client's message with every secret blanked out.
-    fn describe(&self, error: &object_store::Error) -> String {
-        match error {
-            object_store::Error::PermissionDenied { .. } => "access denied (HTTP 403)".to_owned(),
-            object_store::Error::Unauthenticated { .. } => {
-                "not authenticated (HTTP 401)".to_owned()
-            }
-            other => one_line(other, &self.secrets),
-        }
-    }
-
-    /// One request: the object at `key`, or the range of it; `None` if there is no object.
-    async fn fetch(
-        &self,
-        key: &StoreKey,
-        range: Option<GetRange>,
-    ) -> Result<Option<Bytes>, object_store::Error> {
-        let piece = Piece::of(range.as_ref());
         if let Ok(cache) = self.cache.lock() {
-            if cache.is_missing(key.as_str()) {
+            if cache.is_missing(&key) {
                 return Ok(None);
             }
-            if let Some(bytes) = cache.get(key.as_str(), piece) {
-                return Ok(Some(bytes));
+            if let Some(cut) = cache.piece(&key, piece) {
+                return cut.map(Some);
             }
         }
-        let location = self.location(key);
-        let _permit = self
-            .limit
-            .acquire()
-            .await
-            .map_err(|e| generic(e.to_string()))?;
-        self.counters.in_flight.fetch_add(1, Ordering::Relaxed);
-        let result = self.fetch_unlimited(&location, range).await;
-        self.counters.in_flight.fetch_sub(1, Ordering::Relaxed);
-        self.counters.requests.fetch_add(1, Ordering::Relaxed);
-        match result {
-            Ok(bytes) => {
-                self.counters
-                    .bytes
-                    .fetch_add(bytes.len() as u64, Ordering::Relaxed);
-                if let Ok(mut cache) = self.cache.lock() {
-                    cache.insert(key.as_str(), piece, &bytes);
-                }
-                Ok(Some(bytes))
-            }
-            Err(object_store::Error::NotFound { .. }) => {
-                if let Ok(mut cache) = self.cache.lock() {
-                    cache.insert_missing(key.as_str());
-                }
-                Ok(None)
-            }
-            Err(error) => Err(error),
+        if let Some(failure) = self.remembered.get(&key) {
+            return Err(failure);
         }
-    }
-
-    async fn fetch_unlimited(
-        &self,
-        location: &ObjectPath,
-        range: Option<GetRange>,
-    ) -> Result<Bytes, object_store::Error> {
-        let options = GetOptions {
-            range,
-            ..GetOptions::default()
+        // A server known to ignore `Range` is asked for the whole object, once for all pieces.
+        let fetched = if self.ranges.load(Ordering::Relaxed) == RANGES_IGNORED {
+            Piece::Whole
+        } else {
+            piece
         };
-        let result = self.store.get_opts(location, options).await?;
-        let Range { start, end } = result.range;
-        let length = end.saturating_sub(start);
-        if length > MAX_OBJECT_BYTES {
-            return Err(generic(format!(
-                "the object is {length} bytes; more than {MAX_OBJECT_BYTES} are not read in one piece"
-            )));
+        let flight = self.flight(&key, fetched, bound);
+        match flight.await? {
+            Answer::Missing => Ok(None),
+            Answer::Body { bytes, whole } => {
+                if piece == Piece::Whole || (!whole && fetched == piece) {
+                    Ok(Some(bytes))
+                } else {
+                    piece.cut(&bytes).map(Some)
+                }
+            }
         }
-        let bytes = result.bytes().await?;
-        if bytes.len() as u64 != length {
-            return Err(generic(format!(
-                "{} bytes arrived of the {length} announced",
-                bytes.len()
-            )));
+    }
+
+    /// The fetch of `piece` of `key` in flight, started now if there is none.
+    fn flight(self: &Arc<Self>, key: &str, piece: Piece, bound: Option<u64>) -> Flight {
+        let id = (key.to_owned(), piece);
+        let Ok(mut flights) = self.flights.lock() else {
+            return self
+                .clone()
+                .fetch(key.to_owned(), piece, bound)
+                .boxed()
+                .shared();
+        };
+        if let Some(flight) = flights.get(&id) {
+            return flight.clone();
         }
-        Ok(bytes)
+        let inner = self.clone();
+        let flight = async move {
+            let result = inner.clone().fetch(id.0.clone(), piece, bound).await;
+            if let Ok(mut flights) = inner.flights.lock() {
+                flights.remove(&id);
+            }
+            result
+        }
+        .boxed()
+        .shared();
+        flights.insert((key.to_owned(), piece), flight.clone());
+        flight
     }
-}
 
-fn generic(message: String) -> object_store::Error {
-    object_store::Error::Generic {
-        store: "voxscope",
-        source: message.into(),
+    /// Fetches `piece` of `key` with its retries and keeps what it learned: the bytes, that
+    /// the object is missing, or that it failed.
+    async fn fetch(
+        self: Arc<Self>,
+        key: String,
+        piece: Piece,
+        bound: Option<u64>,
+    ) -> Result<Answer, Failure> {
+        let bound = bound.unwrap_or_else(|| self.bound(&key));
+        let result = self
+            .retrying(
+                || self.transport.get(&key, piece, bound),
+                |answer| match answer {
+                    Answer::Body { bytes, .. } => bytes.len() as u64,
+                    Answer::Missing => 0,
+                },
+            )
+            .await;
+        match &result {
+            Ok(Answer::Missing) => {
+                self.remembered.forget(&key);
+                if let Ok(mut cache) = self.cache.lock() {
+                    cache.insert_missing(&key);
+                }
+            }
+            Ok(Answer::Body { bytes, whole }) => {
+                self.remembered.forget(&key);
+                if piece != Piece::Whole {
+                    let ranges = if *whole {
+                        RANGES_IGNORED
+                    } else {
+                        RANGES_HONOURED
+                    };
+                    let _ = self.ranges.compare_exchange(
+                        RANGES_UNKNOWN,
+                        ranges,
+                        Ordering::Relaxed,
+                        Ordering::Relaxed,
+                    );
+                }
+                if let Ok(mut cache) = self.cache.lock() {
+                    let kept = if *whole { Piece::Whole } else { piece };
+                    cache.insert(&key, kept, bytes);
+                }
+            }
+            Err(failure) => {
+                self.counters.errors.fetch_add(1, Ordering::Relaxed);
+                self.remembered.remember(&key, failure, &self.timing);
+            }
+        }
+        result
     }
-}
 
-/// `error` on one line, with each of `secrets` replaced by `***`, at most 300 characters.
-fn one_line(error: &dyn std::fmt::Display, secrets: &[String]) -> String {
-    let mut text = error.to_string();
-    for secret in secrets {
-        text = text.replace(secret.as_str(), "***");
+    /// Runs `attempt` until it succeeds, fails for good, or the operation's deadline (which
+    /// starts with its first request) or retries run out; each attempt within
+    /// [`Timing::request`]; `received` counts an answer's bytes.
+    async fn retrying<T, F>(
+        &self,
+        attempt: impl Fn() -> F,
+        received: impl Fn(&T) -> u64,
+    ) -> Result<T, Failure>
+    where
+        F: Future<Output = Result<T, Failure>>,
+    {
+        let result = self.retrying_unrecorded(attempt, received).await;
+        // A silent server is the health's own business; an operation that got an answer or
+        // failed after its tries counts.
+        if result
+            .as_ref()
+            .err()
+            .is_none_or(|f| f.persistence != fault::Persistence::Silent)
+        {
+            self.health.operation_ended(result.is_err());
+        }
+        result
     }
-    let text = printable(&text.split_whitespace().collect::<Vec<_>>().join(" "));
-    match text.char_indices().nth(300) {
-        Some((cut, _)) => format!("{}…", &text[..cut]),
-        None => text,
-    }
-}
 
-fn to_get_range(range: ByteRange) -> GetRange {
-    match range {
-        ByteRange::FromStart(offset, Some(length)) => GetRange::Bounded(offset..offset + length),
-        ByteRange::FromStart(offset, None) => GetRange::Offset(offset),
-        ByteRange::Suffix(length) => GetRange::Suffix(length),
+    async fn retrying_unrecorded<T, F>(
+        &self,
+        attempt: impl Fn() -> F,
+        received: impl Fn(&T) -> u64,
+    ) -> Result<T, Failure>
+    where
+        F: Future<Output = Result<T, Failure>>,
+    {
+        let timing = self.timing;
+        let max_retries = self.health.retries(timing.max_retries);
+        let mut tries = 0u32;
+        let mut deadline: Option<Instant> = None;
+        loop {
+            if let Some(silent) = self.health.check() {
+                return Err(silent);
+            }
+            let permit = self
+                .limit
+                .acquire()
+                .await
+                .map_err(|_| Failure::permanent("the store is closed"))?;
+            let sent = Instant::now();
+            let deadline = *deadline.get_or_insert(sent + self.deadline());
+            let wait = timing.request.min(deadline.saturating_duration_since(sent));
+            self.counters.in_flight.fetch_add(1, Ordering::Relaxed);
+            let answer = tokio::time::timeout(wait, attempt()).await;
+            self.counters.in_flight.fetch_sub(1, Ordering::Relaxed);
+            self.counters.requests.fetch_add(1, Ordering::Relaxed);
+            drop(permit);
+            tries += 1;
+            let failure = match answer {
+                Ok(Ok(value)) => {
+                    self.health.answered();
+                    self.counters
+                        .bytes
+                        .fetch_add(received(&value), Ordering::Relaxed);
+                    return Ok(value);
+                }
+                Ok(Err(failure)) => {
+                    if failure.answered {
+                        self.health.answered();
+                    }
+                    failure
+                }
+                Err(_) => {
+                    // Only a whole request's time without a word says the server is silent
+                    // (not the last moments of an operation's deadline).
+                    if wait >= timing.request.min(timing.open_deadline) {
+                        self.health.timed_out(sent, wait, timing.silence_cool_down);
+                    }
+                    Failure::transient(
+                        format!("no answer within {} s", fault::seconds(wait)),
+                        false,
+                    )
+                }
+            };
+            if !failure.is_transient() || tries > max_retries {
+                return Err(failure.after(tries));
+            }
+            let pause = match failure.retry_after {
+                Some(asked) if asked > timing.max_retry_after => {
+                    return Err(failure.after(tries));
+                }
+                Some(asked) => asked,
+                None => timing.backoff(tries),
+            };
+            if Instant::now() + pause >= deadline {
+                return Err(failure.after(tries));
+            }
+            tokio::time::sleep(pause).await;
+        }
+    }
+
+    /// One line for `failure` as zarrs passes it on: the cause, every secret blanked out.
+    fn storage_error(&self, failure: Failure) -> StorageError {
+        StorageError::Other(url::redact_text(&failure.describe(), &self.secrets))
     }
 }
 
 impl ReadableStorageTraits for RemoteStore {
     fn get(&self, key: &StoreKey) -> Result<MaybeBytes, StorageError> {
         match self.known(key) {
-            Some(Known::Missing) => return Ok(None),
             Some(Known::Failed(message)) => return Err(StorageError::Other(message)),
             Some(Known::TooLarge(_)) | None => {}
         }
-        self.block_on(key, self.fetch(key, None))
+        let read = self
+            .inner
+            .clone()
+            .read(key.as_str().to_owned(), Piece::Whole, None);
+        block_on(read).map_err(|f| self.inner.storage_error(f))
     }
 
     fn get_partial_many<'a>(
@@ -521,21 +637,35 @@ impl ReadableStorageTraits for RemoteStore {
         key: &StoreKey,
         byte_ranges: ByteRangeIterator<'a>,
     ) -> Result<MaybeBytesIterator<'a>, StorageError> {
-        let ranges: Vec<ByteRange> = byte_ranges.collect();
-        if ranges.is_empty() {
+        let pieces: Vec<Piece> = byte_ranges.map(Piece::of).collect();
+        if pieces.is_empty() {
             return Ok(Some(Box::new(std::iter::empty())));
         }
-        // Every range in flight at once (up to the request limit); a missing object is
-        // missing for all of them.
-        let fetches = ranges
-            .iter()
-            .map(|range| self.fetch(key, Some(to_get_range(*range))));
-        let parts = self.block_on(key, async {
-            futures::future::join_all(fetches)
-                .await
-                .into_iter()
-                .collect::<Result<Vec<Option<Bytes>>, _>>()
-        })?;
+        let inner = &self.inner;
+        let parts = block_on(async {
+            // Until the store knows whether the server honours `Range`, one piece is asked
+            // for first: a server that ignores it would send the whole object for each.
+            let mut parts = Vec::with_capacity(pieces.len());
+            let mut rest = &pieces[..];
+            if inner.ranges.load(Ordering::Relaxed) == RANGES_UNKNOWN {
+                parts.push(
+                    inner
+                        .clone()
+                        .read(key.as_str().to_owned(), rest[0], None)
+                        .await?,
+                );
+                rest = &rest[1..];
+            }
+            let reads = rest
+                .iter()
+                .map(|&piece| inner.clone().read(key.as_str().to_owned(), piece, None));
+            for part in futures::future::join_all(reads).await {
+                parts.push(part?);
+            }
+            Ok(parts)
+        })
+        .map_err(|f| inner.storage_error(f))?;
+        // A missing object is missing for every piece.
         if parts.iter().any(Option::is_none) {
             return Ok(None);
         }
@@ -547,21 +677,30 @@ impl ReadableStorageTraits for RemoteStore {
         if let Some(answer) = self.known_size(key) {
             return answer;
         }
-        let location = self.location(key);
-        let head = async {
-            let _permit = self
-                .limit
-                .acquire()
-                .await
-                .map_err(|e| generic(e.to_string()))?;
-            self.counters.requests.fetch_add(1, Ordering::Relaxed);
-            match self.store.head(&location).await {
-                Ok(meta) => Ok(Some(meta.size)),
-                Err(object_store::Error::NotFound { .. }) => Ok(None),
-                Err(error) => Err(error),
+        let inner = &self.inner;
+        if let Some(failure) = inner.remembered.get(key.as_str()) {
+            return Err(inner.storage_error(failure));
+        }
+        let head = block_on(inner.retrying(|| inner.transport.head(key.as_str()), |_| 0));
+        match head {
+            Ok(None) => Ok(None),
+            Ok(Some(Some(size))) => Ok(Some(size)),
+            // The server does not say: the object itself tells.
+            Ok(Some(None)) => block_on(inner.clone().read(
+                key.as_str().to_owned(),
+                Piece::Whole,
+                None,
+            ))
+            .map(|bytes| bytes.map(|b| b.len() as u64))
+            .map_err(|f| inner.storage_error(f)),
+            Err(failure) => {
+                inner.counters.errors.fetch_add(1, Ordering::Relaxed);
+                inner
+                    .remembered
+                    .remember(key.as_str(), &failure, &inner.timing);
+                Err(inner.storage_error(failure))
             }
-        };
-        self.block_on(key, head)
+        }
     }
 
     fn supports_get_partial(&self) -> bool {
@@ -584,24 +723,6 @@ mod tests {
         assert!(!is_url("/data/http://x"));
         assert!(!is_url("synthetic:noise:64"));
         assert!(!is_url("C:\\data\\x.zarr"));
-    }
-
-    #[test]
-    fn shown_urls_carry_no_secrets() {
-        assert_eq!(
-            display_url("https://alice:hunter22@data.example.org/x.zarr/?token=abc#f"),
-            "https://data.example.org/x.zarr"
-        );
-        assert_eq!(display_url("s3://bucket/path/"), "s3://bucket/path");
-    }
-
-    #[test]
-    fn messages_blank_out_secrets() {
-        let text = one_line(
-            &"bad\nsignature for hunter22 at x",
-            &["hunter22".to_owned()],
-        );
-        assert_eq!(text, "bad signature for *** at x");
     }
 
     #[test]

@@ -15,9 +15,10 @@ use voxscope_scene::{NetworkState, Scene};
 
 impl CentralView {
     /// Draws every pane whose image is out of date (or all, when drawing continuously, or
-    /// while the streaming renderer refines). `serial` changes with every new scene. Returns
-    /// whether another frame is wanted: the streaming renderer has bricks to load or upload,
-    /// or has not yet judged the current view complete.
+    /// when the streaming renderer's page table changed). `serial` changes with every new
+    /// scene. Returns whether another frame is wanted: the streaming renderer has bricks to
+    /// load or upload, or has not yet judged the current view complete
+    /// ([`CentralView::stream_changed`] says whether it is wanted at once).
     pub fn draw(
         &mut self,
         gpu: &AppGpu,
@@ -37,7 +38,14 @@ impl CentralView {
                 || s.judged_frame
                     .is_none_or(|judged| judged < self.stream_view_frame)
         });
+        // Only a changed page table can make a frame differ from the last one drawn: while
+        // bricks are being fetched and nothing arrived, the panes are not drawn again (the
+        // streamer still takes in readbacks and results at every update).
+        let stream_changed = stream
+            .as_ref()
+            .is_some_and(|s| s.uploads > 0 || s.table_changed);
         if let Some(status) = &stream {
+            // One line for the first brick of each cause (the panel lists every one).
             for error in &status.errors {
                 eprintln!("voxscope: {error}");
             }
@@ -107,7 +115,7 @@ impl CentralView {
                 }
             };
             let volume_pane = matches!(key, DrawKey::Volume { .. });
-            if pane.drawn == Some(key) && !settings.continuous && !(refining && volume_pane) {
+            if pane.drawn == Some(key) && !settings.continuous && !(stream_changed && volume_pane) {
                 continue;
             }
             if volume_pane
@@ -210,6 +218,7 @@ impl CentralView {
             scene.network = Some(NetworkState::follow(scene.network, stats));
         }
         self.refining = refining;
+        self.stream_changed = stream_changed;
         Ok(refining)
     }
 }

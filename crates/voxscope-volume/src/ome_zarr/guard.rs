@@ -263,6 +263,31 @@ mod tests {
         let decoder = zstd::stream::read::Decoder::with_buffer(&zst[..]).unwrap();
         assert_eq!(read_bounded(decoder, 1000, "zstd").unwrap(), data);
 
+        // A frame with a content checksum (convert writes them) is verified: a changed byte
+        // of its content is an error, never other values.
+        let varied: Vec<u8> = (0..1000u32).map(|i| (i * 7 % 251) as u8).collect();
+        let mut encoder = zstd::stream::write::Encoder::new(Vec::new(), 3).unwrap();
+        encoder.include_checksum(true).unwrap();
+        std::io::Write::write_all(&mut encoder, &varied).unwrap();
+        let framed = encoder.finish().unwrap();
+        let decoder = zstd::stream::read::Decoder::with_buffer(&framed[..]).unwrap();
+        assert_eq!(read_bounded(decoder, 1000, "zstd").unwrap(), varied);
+        let mut damaged = 0;
+        for at in 6..framed.len() {
+            let mut flipped = framed.clone();
+            flipped[at] ^= 0x10;
+            let decoder = zstd::stream::read::Decoder::with_buffer(&flipped[..]);
+            match decoder.map(|d| read_bounded(d, 1000, "zstd")) {
+                Ok(Ok(values)) => assert_eq!(values, varied, "byte {at} changed the values"),
+                _ => damaged += 1,
+            }
+        }
+        assert!(
+            damaged > framed.len() / 2,
+            "{damaged} of {} flips caught",
+            framed.len()
+        );
+
         let mut blosc = vec![2u8, 1, 0, 1];
         blosc.extend_from_slice(&5000u32.to_le_bytes());
         blosc.extend_from_slice(&[0; 8]);

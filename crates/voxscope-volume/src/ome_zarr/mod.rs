@@ -218,6 +218,34 @@ pub fn is_zarr_folder(path: &Path) -> bool {
             .any(|name| path.join(name).is_file())
 }
 
+/// If the folder `path` is a Zarr store whose root document is not written yet (`voxscope
+/// convert` writes it last, once every level is complete): the subfolder that already holds a
+/// Zarr array or group.
+pub fn unfinished_store(path: &Path) -> Option<String> {
+    if is_zarr_folder(path) {
+        return None;
+    }
+    let mut entries: Vec<_> = std::fs::read_dir(path)
+        .ok()?
+        .flatten()
+        .map(|e| e.path())
+        .collect();
+    entries.sort();
+    entries
+        .into_iter()
+        .take(64)
+        .find(|sub| is_zarr_folder(sub))
+        .and_then(|sub| sub.file_name().map(|n| n.to_string_lossy().into_owned()))
+}
+
+/// The words for a store whose root document is missing while `level` holds an array.
+pub(crate) fn unfinished_problem(level: &str) -> String {
+    format!(
+        "is a Zarr store still being written (or cut short): '{}' holds an array but the root has no zarr.json, .zgroup or .zarray yet; `voxscope convert` writes it last, when every level is complete",
+        super::error::escape(level)
+    )
+}
+
 impl Pyramid {
     /// Opens the Zarr folder at `path` (an OME-Zarr group, a bioformats2raw container, or a
     /// plain array), selecting the channel and time point of `options`.
@@ -228,6 +256,9 @@ impl Pyramid {
                 &source,
                 "is not a folder (a Zarr store is one)",
             ));
+        }
+        if let Some(level) = unfinished_store(path) {
+            return Err(LoadError::new(&source, unfinished_problem(&level)));
         }
         let store = zarrs::filesystem::FilesystemStore::new(path)
             .map_err(|e| LoadError::new(&source, format!("cannot open: {e}")))?;
@@ -242,7 +273,7 @@ impl Pyramid {
         options: PyramidOptions,
         remote: RemoteOptions,
     ) -> Result<Self, LoadError> {
-        let source = super::remote::display_url(url);
+        let source = super::remote::redact_url(url);
         let store =
             RemoteStore::open(url, remote).map_err(|problem| LoadError::new(&source, problem))?;
         // Each step of the walk (the root's documents, then every level's) in one round trip.
@@ -254,6 +285,7 @@ impl Pyramid {
         let mut pyramid = open_root(store.clone(), &source, options, &warm)
             .map_err(|problem| LoadError::new(&source, problem))?;
         store.mark_opened();
+        pyramid.bound_objects(&store);
         pyramid.remote = Some(store);
         let threads = remote.max_requests.clamp(4, 64);
         pyramid.reader_pool = rayon::ThreadPoolBuilder::new()
@@ -263,6 +295,39 @@ impl Pyramid {
             .ok()
             .map(Arc::new);
         Ok(pyramid)
+    }
+
+    /// Tells a URL's `store` the most bytes each level's objects (a chunk, or a shard with
+    /// its index) may have: the decoded size with room for a codec's overhead. A body that
+    /// grows past it is refused, whether or not the server said its length.
+    fn bound_objects(&self, store: &RemoteStore) {
+        for (info, array) in self.levels.iter().zip(&self.arrays) {
+            let zeros = vec![0u64; array.dimensionality()];
+            let Ok(shape) = array.chunk_shape(&zeros) else {
+                continue;
+            };
+            let elements = shape.iter().map(|n| n.get()).product::<u64>();
+            let value_bytes = array.data_type().fixed_size().unwrap_or(8) as u64;
+            let decoded = elements.saturating_mul(value_bytes);
+            let inner_chunks = match info.shard {
+                Some(shard) => (0..3)
+                    .map(|a| shard[a].div_ceil(info.chunk[a].max(1)) as u64)
+                    .product::<u64>(),
+                None => 0,
+            };
+            // Compressors add at most a few bytes per block (blosc 16, zstd and deflate a
+            // fraction of a percent); a shard adds its index (16 bytes a chunk and a crc32c).
+            let bound = decoded
+                .saturating_add(decoded / 8)
+                .saturating_add(inner_chunks.saturating_mul(16))
+                .saturating_add(64 << 10);
+            let prefix = if info.path.is_empty() {
+                String::new()
+            } else {
+                format!("{}/", array.path().as_str().trim_start_matches('/'))
+            };
+            store.bound_objects(&prefix, bound);
+        }
     }
 
     /// Opens a URL ([`Self::open_url`]) or a folder ([`Self::open`]).

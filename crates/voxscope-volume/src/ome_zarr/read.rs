@@ -5,7 +5,7 @@ use zarrs::array::data_type::Float64DataType;
 use zarrs::array::{Array, ArrayError, ArraySubset, CodecError};
 use zarrs::storage::{ReadableStorageTraits, StoreKey};
 
-use super::super::error::{Problem, printable, quoted};
+use super::super::error::{Problem, escape, printable, quoted};
 use super::super::series::{ChannelInfo, Series, parse_hex_color};
 use super::super::{
     LoadError, LoadErrorKind, MAX_VOXELS, ValueWindow, VoxelData, VoxelType, format_dims,
@@ -14,6 +14,29 @@ use super::{Pyramid, Stored};
 
 /// The most chunks [`Pyramid::prefetch_regions`] asks for at once.
 pub const MAX_PREFETCH_CHUNKS: usize = 4096;
+
+/// The most chunks one region read over a network may need (each a request): a store of tiny
+/// chunks (a 64³ array in 1-voxel chunks is 262 144 objects) is refused up front in one line,
+/// with the way around, rather than read for minutes.
+pub const MAX_REMOTE_READ_CHUNKS: u64 = 16384;
+
+/// Why a read failed: the problem (naming the level and chunk), its kind, and its shared
+/// cause ([`LoadError::cause`]).
+struct ReadFailure {
+    problem: Problem,
+    kind: LoadErrorKind,
+    cause: Option<String>,
+}
+
+impl ReadFailure {
+    fn invalid(problem: Problem) -> Self {
+        Self {
+            problem,
+            kind: LoadErrorKind::Invalid,
+            cause: None,
+        }
+    }
+}
 
 impl Pyramid {
     /// The voxels `[origin, origin + size)` of `level` (x, y, z; within the level's
@@ -26,7 +49,11 @@ impl Pyramid {
         size: [usize; 3],
     ) -> Result<VoxelData, LoadError> {
         self.read_region_problem(level, origin, size)
-            .map_err(|(problem, kind)| LoadError::new(&self.source, problem).with_kind(kind))
+            .map_err(|failure| {
+                LoadError::new(&self.source, failure.problem)
+                    .with_kind(failure.kind)
+                    .with_cause(failure.cause)
+            })
     }
 
     /// A whole level (or what [`load`] reads).
@@ -182,11 +209,37 @@ impl Pyramid {
         level: usize,
         origin: [usize; 3],
         size: [usize; 3],
-    ) -> Result<VoxelData, (Problem, LoadErrorKind)> {
+    ) -> Result<VoxelData, ReadFailure> {
         let subset = self
             .region_subset(level, origin, size)
-            .map_err(|problem| (problem, LoadErrorKind::Invalid))?;
+            .map_err(ReadFailure::invalid)?;
+        if self.remote.is_some() {
+            self.check_remote_chunks(level, origin, size)
+                .map_err(ReadFailure::invalid)?;
+        }
         self.read_subset(level, &subset)
+    }
+
+    /// A region read over a network must not need more than [`MAX_REMOTE_READ_CHUNKS`]
+    /// chunks (each a request).
+    fn check_remote_chunks(
+        &self,
+        level: usize,
+        origin: [usize; 3],
+        size: [usize; 3],
+    ) -> Result<(), Problem> {
+        let chunk = self.levels[level].chunk;
+        let chunks: u64 = (0..3)
+            .map(|a| ((origin[a] + size[a] - 1) / chunk[a] - origin[a] / chunk[a] + 1) as u64)
+            .product();
+        if chunks <= MAX_REMOTE_READ_CHUNKS {
+            return Ok(());
+        }
+        Err(format!(
+            "reading {} voxels of level {level} takes {chunks} requests (its chunks hold {} voxels); at most {MAX_REMOTE_READ_CHUNKS} are made for one read over a network: copy the store and `voxscope convert` it to larger chunks",
+            format_dims(size),
+            format_dims(chunk)
+        ))
     }
 
     /// The region `origin`/`size` of `level` as a subset of the stored array, once it is
@@ -224,11 +277,7 @@ impl Pyramid {
 
     /// Reads `subset` of `level`'s array: a remote store's chunks asked for together first.
     /// A failure says which chunk and whether it could not be fetched or does not decode.
-    fn read_subset(
-        &self,
-        level: usize,
-        subset: &ArraySubset,
-    ) -> Result<VoxelData, (Problem, LoadErrorKind)> {
+    fn read_subset(&self, level: usize, subset: &ArraySubset) -> Result<VoxelData, ReadFailure> {
         let info = &self.levels[level];
         let array = &self.arrays[level];
         if let Some(remote) = &self.remote
@@ -277,12 +326,7 @@ impl Pyramid {
             Some(pool) => pool.install(read),
             None => read(),
         };
-        read.map_err(|error| {
-            (
-                self.failing_chunk(level, subset, &error.to_string()),
-                failure_kind(&error),
-            )
-        })
+        read.map_err(|error| self.failing_chunk(level, subset, &error))
     }
 
     /// The region `origin`/`size` (x, y, z) as a subset of the stored array.
@@ -304,9 +348,11 @@ impl Pyramid {
         ArraySubset::new_with_ranges(&ranges)
     }
 
-    /// Why reading `subset` failed, naming the first chunk (in storage order) that fails
-    /// alone; zarrs's own message when none does (a store failing intermittently).
-    fn failing_chunk(&self, level: usize, subset: &ArraySubset, error: &str) -> Problem {
+    /// Why reading `subset` failed, naming the chunk: for a URL's store the first of the
+    /// region's chunks the store remembers failing (its cause as the store put it); else the
+    /// first chunk (in storage order) that fails alone; zarrs's own message when none does (a
+    /// store failing intermittently).
+    fn failing_chunk(&self, level: usize, subset: &ArraySubset, error: &ArrayError) -> ReadFailure {
         /// Chunks retried one by one; the first failure is usually among the first.
         const MAX_RETRIED: usize = 4096;
         let array = &self.arrays[level];
@@ -316,36 +362,119 @@ impl Pyramid {
         } else {
             format!("level {level} ({})", quoted(path))
         };
-        if let Ok(Some(chunks)) = array.chunks_in_array_subset(subset) {
-            for indices in chunks.indices().into_iter().take(MAX_RETRIED) {
-                let indices: Vec<u64> = indices.to_vec();
-                let Ok(chunk) = array.chunk_subset_bounded(&indices) else {
-                    continue;
-                };
-                let Ok(overlap) = chunk.overlap(subset) else {
-                    continue;
-                };
-                let Ok(relative) = overlap.relative_to(chunk.start()) else {
-                    continue;
-                };
-                if let Err(e) = array
-                    .retrieve_chunk_subset::<zarrs::array::ArrayBytes<'static>>(&indices, &relative)
-                {
-                    return format!(
-                        "{at}, chunk {}: {}",
-                        quoted(&array.chunk_key(&indices).to_string()),
-                        printable(&e.to_string())
-                    );
+        let chunks = array
+            .chunks_in_array_subset(subset)
+            .ok()
+            .flatten()
+            .map(|chunks| {
+                chunks
+                    .indices()
+                    .into_iter()
+                    .take(MAX_RETRIED)
+                    .map(|i| i.to_vec())
+                    .collect::<Vec<_>>()
+            })
+            .unwrap_or_default();
+        if let Some(remote) = &self.remote {
+            for indices in &chunks {
+                let key = array.chunk_key(indices);
+                if let Some((cause, described)) = remote.failure_of(key.as_str()) {
+                    return ReadFailure {
+                        problem: format!("{at}, chunk {}: {described}", quoted(key.as_str())),
+                        kind: failure_kind(error),
+                        cause: Some(cause),
+                    };
                 }
             }
         }
-        format!("{at}: {}", printable(error))
+        for indices in &chunks {
+            let Ok(chunk) = array.chunk_subset_bounded(indices) else {
+                continue;
+            };
+            let Ok(overlap) = chunk.overlap(subset) else {
+                continue;
+            };
+            let Ok(relative) = overlap.relative_to(chunk.start()) else {
+                continue;
+            };
+            if let Err(e) =
+                array.retrieve_chunk_subset::<zarrs::array::ArrayBytes<'static>>(indices, &relative)
+            {
+                let key = array.chunk_key(indices);
+                let (kind, cause) = self.chunk_failure(level, key.as_str(), &e);
+                return ReadFailure {
+                    problem: format!("{at}, chunk {}: {cause}", quoted(key.as_str())),
+                    kind,
+                    cause: Some(cause),
+                };
+            }
+        }
+        let (kind, cause) = (failure_kind(error), escape(&error.to_string()));
+        ReadFailure {
+            problem: format!("{at}: {cause}"),
+            kind,
+            cause: Some(cause),
+        }
+    }
+
+    /// What went wrong with the chunk `key` of `level`, in words, and its kind. A chunk that
+    /// ends before its data does (zarrs reads an uncompressed chunk's bytes by their offsets,
+    /// and the read meets the file's end) is damaged, not a failed fetch: its size is said.
+    fn chunk_failure(
+        &self,
+        level: usize,
+        key: &str,
+        error: &ArrayError,
+    ) -> (LoadErrorKind, String) {
+        let kind = failure_kind(error);
+        if is_unexpected_end(error) {
+            let size = StoreKey::new(key)
+                .ok()
+                .and_then(|k| self.store.size_key(&k).ok().flatten());
+            let info = &self.levels[level];
+            let expected = info.chunk.iter().product::<usize>() as u64 * self.stored_bytes();
+            let size = size.map_or(String::new(), |s| format!(" ({s} bytes)"));
+            return (
+                LoadErrorKind::Decode,
+                format!(
+                    "the chunk is shorter than its data{size}: {} voxels of {} take {expected} bytes uncompressed",
+                    format_dims(info.chunk),
+                    self.stored_type
+                ),
+            );
+        }
+        (kind, escape(&error.to_string()))
+    }
+
+    /// Bytes of one stored value.
+    fn stored_bytes(&self) -> u64 {
+        match self.stored {
+            Stored::Native(voxel_type) => voxel_type.size() as u64,
+            Stored::U64 | Stored::I64 => 8,
+        }
     }
 }
 
+/// Whether zarrs's `error` is an I/O read that met the end of the data.
+fn is_unexpected_end(error: &ArrayError) -> bool {
+    let io = match error {
+        ArrayError::StorageError(zarrs::storage::StorageError::IOError(io))
+        | ArrayError::CodecError(CodecError::StorageError(
+            zarrs::storage::StorageError::IOError(io),
+        )) => Some(io.kind()),
+        ArrayError::CodecError(CodecError::IOError(io)) => Some(io.kind()),
+        _ => None,
+    };
+    io == Some(std::io::ErrorKind::UnexpectedEof)
+}
+
 /// What kind of failure zarrs' `error` is: the store could not deliver the bytes, or they do
-/// not decode, or anything else.
+/// not decode, or anything else. A store's own short read (an uncompressed chunk cut short)
+/// is damage, not a failed fetch.
 fn failure_kind(error: &ArrayError) -> LoadErrorKind {
+    if is_unexpected_end(error) {
+        return LoadErrorKind::Decode;
+    }
     match error {
         ArrayError::StorageError(_)
         | ArrayError::CodecError(CodecError::StorageError(_) | CodecError::IOError(_)) => {

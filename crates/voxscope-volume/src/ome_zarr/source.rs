@@ -75,6 +75,9 @@ impl SlabSource {
             && !super::is_zarr_folder(path)
             && super::super::dicom::dicom_files(path).is_empty()
         {
+            if let Some(level) = super::unfinished_store(path) {
+                return Err(LoadError::new(spec, super::unfinished_problem(&level)));
+            }
             return Self::slices(path, options.spacing).map_err(|p| LoadError::new(spec, p));
         }
         let volume = super::super::load(spec, options)?;

@@ -1,31 +1,64 @@
-//! Fetched bytes kept in RAM by object and piece ([`super::FETCH_CACHE_BYTES`]).
+//! Fetched bytes kept in RAM by object and piece ([`super::FETCH_CACHE_BYTES`]); a piece is
+//! also cut from the whole object where that is kept (a server that ignores `Range` sends it).
 
 use std::collections::{HashMap, HashSet, VecDeque};
 
-use object_store::GetRange;
 use zarrs::storage::Bytes;
+use zarrs::storage::byte_range::ByteRange;
 
 use super::FETCH_CACHE_BYTES;
+use super::fault::Failure;
 
-/// Which bytes of an object a cached piece is.
+/// Which bytes of an object are asked for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub(super) enum Piece {
+pub(crate) enum Piece {
+    /// The whole object.
     Whole,
+    /// Bytes `start..end`.
     Range(u64, u64),
+    /// From an offset to the end.
     From(u64),
+    /// The last bytes.
     Suffix(u64),
 }
 
 impl Piece {
-    pub(super) fn of(range: Option<&GetRange>) -> Self {
+    /// The piece zarrs's `range` asks for.
+    pub(crate) fn of(range: ByteRange) -> Self {
         match range {
             // zarrs reads a whole chunk as the range from its start: the same bytes as a
             // whole object's, which a prefetch asked for.
-            None | Some(GetRange::Offset(0)) => Self::Whole,
-            Some(GetRange::Bounded(r)) => Self::Range(r.start, r.end),
-            Some(GetRange::Offset(o)) => Self::From(*o),
-            Some(GetRange::Suffix(n)) => Self::Suffix(*n),
+            ByteRange::FromStart(0, None) => Self::Whole,
+            ByteRange::FromStart(offset, Some(length)) => {
+                Self::Range(offset, offset.saturating_add(length))
+            }
+            ByteRange::FromStart(offset, None) => Self::From(offset),
+            ByteRange::Suffix(length) => Self::Suffix(length),
         }
+    }
+
+    /// Whether it holds no byte (answered without a request).
+    pub(crate) fn is_empty(self) -> bool {
+        matches!(self, Self::Range(a, b) if a >= b) || self == Self::Suffix(0)
+    }
+
+    /// This piece of the whole object `whole`; an error if it lies beyond the object's end
+    /// (a damaged shard index points there).
+    pub(crate) fn cut(self, whole: &Bytes) -> Result<Bytes, Failure> {
+        let len = whole.len() as u64;
+        let (start, end) = match self {
+            Self::Whole => (0, len),
+            Self::Range(a, b) => (a, b),
+            Self::From(a) => (a, len),
+            // As HTTP answers a suffix longer than the object: all of it.
+            Self::Suffix(n) => (len.saturating_sub(n), len),
+        };
+        if start > end || end > len {
+            return Err(Failure::permanent(format!(
+                "bytes {start}..{end} lie beyond the object's {len}"
+            )));
+        }
+        Ok(whole.slice(start as usize..end as usize))
     }
 }
 
@@ -46,6 +79,15 @@ pub(super) struct FetchCache {
 impl FetchCache {
     pub(super) fn get(&self, key: &str, piece: Piece) -> Option<Bytes> {
         self.pieces.get(&(key.to_owned(), piece)).cloned()
+    }
+
+    /// `piece` of `key`: kept as such, or cut from the whole object where that is kept.
+    pub(super) fn piece(&self, key: &str, piece: Piece) -> Option<Result<Bytes, Failure>> {
+        if let Some(bytes) = self.get(key, piece) {
+            return Some(Ok(bytes));
+        }
+        let whole = self.get(key, Piece::Whole)?;
+        Some(piece.cut(&whole))
     }
 
     /// Whether the object `key` was found missing.

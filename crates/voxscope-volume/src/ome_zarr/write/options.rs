@@ -76,8 +76,10 @@ impl Compression {
                     "blocksize": 0
                 }
             })),
+            // With the frame's content checksum: a damaged chunk fails to decode rather than
+            // decoding to other values.
             Self::Zstd => {
-                Some(json!({"name": "zstd", "configuration": {"level": 3, "checksum": false}}))
+                Some(json!({"name": "zstd", "configuration": {"level": 3, "checksum": true}}))
             }
             Self::Gzip => Some(json!({"name": "gzip", "configuration": {"level": 5}})),
             Self::None => None,
