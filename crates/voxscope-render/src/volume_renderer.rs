@@ -146,9 +146,13 @@ impl VolumeRenderer {
             RendererKind::Octree => Box::new(GpuVolume::upload(
                 context, octree, spacing, max_level, transfer,
             )?),
-            RendererKind::Dense => {
-                Box::new(DenseVolume::upload(context, quantized, spacing, transfer)?)
-            }
+            RendererKind::Dense => Box::new(DenseVolume::upload(
+                context,
+                quantized,
+                spacing,
+                transfer,
+                octree.labels,
+            )?),
             RendererKind::Bricks => {
                 let layout = BrickLayout::new(
                     octree,
@@ -167,7 +171,8 @@ impl VolumeRenderer {
                 )?)
             }
             RendererKind::Stream => {
-                let source = MemorySource::new("volume", quantized, spacing, Downsampling::Mean)
+                let how = Downsampling::of_values(octree.labels);
+                let source = MemorySource::new("volume", quantized, spacing, how)
                     .map_err(RenderError::Invalid)?;
                 let stream = StreamOptions {
                     gpu_memory: options.gpu_memory,

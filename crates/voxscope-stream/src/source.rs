@@ -33,7 +33,7 @@ impl BrickError {
         match error.kind {
             LoadErrorKind::Fetch => Self::Fetch(message),
             LoadErrorKind::Decode => Self::Decode(message),
-            LoadErrorKind::Invalid => Self::Invalid(message),
+            LoadErrorKind::Invalid | LoadErrorKind::Unrecognized => Self::Invalid(message),
         }
     }
 }
@@ -67,5 +67,12 @@ pub trait BrickSource: Send + Sync {
     /// one (what the app shows while a URL streams).
     fn remote_stats(&self) -> Option<RemoteStats> {
         None
+    }
+
+    /// Whether the values are labels (categories): the renderer samples them at the nearest
+    /// voxel, and the levels the source computes keep each block's most frequent label
+    /// ([`crate::Downsampling::Mode`]).
+    fn labels(&self) -> bool {
+        false
     }
 }
