@@ -184,7 +184,7 @@ impl CentralView {
                 |ui| {
                     ui.horizontal(|ui| match settings.layout {
                         Layout::LevelGrid => grid_strip(ui, settings),
-                        _ => pair_strip(ui, settings),
+                        _ => pair_strip(ui, settings, view.window),
                     });
                 },
             );

@@ -9,7 +9,7 @@ use super::numbers::{format_bytes, group_digits};
 use super::settings::AppSettings;
 use super::stream_panel;
 use super::view_state::ViewState;
-use voxscope_octree::LevelStatistics;
+use voxscope_octree::{DataKind, LevelStatistics};
 use voxscope_render::{FrameReport, HEATMAP_SATURATION, LevelDetail, RendererKind, heatmap_color};
 use voxscope_scene::CompositeScene;
 use voxscope_scene::Scene;
@@ -58,24 +58,40 @@ pub fn show(
                 ui.end_row();
             }
 
+            // The renderer this volume is drawn with: the data's where it called for one (a
+            // large store streams), else the user's. Choosing one is the user's choice, for
+            // this volume and the next.
+            let shown = view.data_renderer.unwrap_or(settings.renderer);
+            let mut chosen = shown;
             let label = ui.label("Renderer");
-            egui::ComboBox::from_id_salt("renderer")
-                .selected_text(settings.renderer.name())
+            let combo = egui::ComboBox::from_id_salt("renderer")
+                .selected_text(shown.name())
                 .show_ui(ui, |ui| {
                     for kind in RendererKind::ALL.into_iter().chain([RendererKind::Stream]) {
-                        ui.selectable_value(&mut settings.renderer, kind, kind.name());
+                        ui.selectable_value(&mut chosen, kind, kind.name());
                     }
                 })
                 .response
                 .labelled_by(label.id)
                 .on_hover_text("octree: the paper's voxel octree · dense: one 3D texture (the usual way) · bricks: octree down to bricks in a 3D atlas · stream: a pyramid of 32³ bricks streamed into a fixed GPU budget (OME-Zarr stores from the file, at full resolution)");
+            if view.data_renderer.is_some() {
+                combo.on_hover_text(format!(
+                    "This volume called for {}; the next opens with {}, the renderer chosen here",
+                    shown.name(),
+                    settings.renderer.name()
+                ));
+            }
+            if chosen != shown {
+                settings.renderer = chosen;
+                view.data_renderer = None;
+            }
             ui.end_row();
 
-            if settings.renderer == RendererKind::Stream {
+            if shown == RendererKind::Stream {
                 stream_panel::budget_row(ui, settings);
             }
 
-            if settings.renderer == RendererKind::Bricks {
+            if shown == RendererKind::Bricks {
                 let label = ui.label("Brick size");
                 egui::ComboBox::from_id_salt("brick_size")
                     .selected_text(format!("{0}³", settings.brick_size))
@@ -105,11 +121,20 @@ pub fn show(
     )
     .on_hover_text("Correct alpha for the distance a ray travels in a node; off is the paper's plain compositing")
     .on_disabled_hover_text(NO_NODES);
+    let drawn_with = view.data_renderer.unwrap_or(settings.renderer);
+    let labels = facts
+        .scene
+        .is_some_and(|s| composite.is_none() && matches!(s.data.kind, DataKind::Labels(_)));
     ui.add_enabled(
-        settings.renderer != RendererKind::Octree || composite.is_some(),
+        !labels && (drawn_with != RendererKind::Octree || composite.is_some()),
         egui::Checkbox::new(&mut settings.trilinear, "Trilinear filtering"),
     )
-    .on_hover_text("Dense, bricks and the composite sample textures; the octree draws whole nodes");
+    .on_hover_text("Dense, bricks, stream and the composite sample textures; the octree draws whole nodes")
+    .on_disabled_hover_text(if labels {
+        "A label volume's values are categories: a value between two labels is a third, unrelated label. Every renderer and the slices sample it at the nearest voxel, and its coarser levels keep each block's most frequent label."
+    } else {
+        "The octree draws whole nodes: there is nothing between voxels to filter"
+    });
     ui.checkbox(&mut settings.heatmap, "Nodes-visited heat map")
         .on_hover_text("Show per pixel how many nodes its ray visited (the composite: how many samples it took)");
     if settings.heatmap {
@@ -317,13 +342,16 @@ fn level_detail_text(detail: LevelDetail) -> String {
 }
 
 fn statistics_table(ui: &mut Ui, statistics: &[LevelStatistics]) {
+    // The panel's width, scrolling sideways where the columns need more: a table that grew
+    // the panel's content past its edge clipped its last column and the chart below.
     egui::ScrollArea::horizontal()
         .id_salt("stats_scroll")
+        .auto_shrink([false, true])
         .show(ui, |ui| {
             egui::Grid::new("stats_table")
                 .striped(true)
                 .num_columns(6)
-                .spacing([10.0, 2.0])
+                .spacing([6.0, 2.0])
                 .show(ui, |ui| {
                     for header in ["level", "nodes", "leaves", "transp.", "opaque", "bytes"] {
                         ui.strong(header);

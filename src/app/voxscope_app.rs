@@ -19,12 +19,12 @@ use super::jobs::{JobEvent, Jobs};
 use super::menu::{self, NOTICE_DURATION};
 use super::octree_panel::{self, OctreeFacts};
 use super::overlays;
-use super::settings::{AppSettings, STORAGE_KEY};
+use super::settings::{AppSettings, DEFAULT_COMPARE_TRANSFER, STORAGE_KEY};
 use super::transfer_panel;
 use super::url_dialog::{UrlDialog, UrlOutcome};
 use super::view_state::{Clipping, ViewState};
-use voxscope_octree::{Clip, LevelStatistics, TransferFunction};
-use voxscope_render::{FrameReport, GpuContext, RendererKind, RendererOptions};
+use voxscope_octree::{Clip, LevelStatistics, OpacityMode, TransferFunction};
+use voxscope_render::{Camera, FrameReport, GpuContext, RendererKind, RendererOptions};
 use voxscope_scene::{FrameKey, Prefetch};
 use voxscope_scene::{Job, Opened, SceneError};
 use voxscope_scene::{SavedTransfer, TransferChoice};
@@ -253,12 +253,34 @@ impl VoxscopeApp {
         Ok(())
     }
 
+    /// The renderer the volume on screen is to be drawn with: the one its data called for
+    /// ([`ViewState::data_renderer`]), else the user's.
     pub(super) fn renderer_options(&self) -> RendererOptions {
+        RendererOptions {
+            kind: self.view.data_renderer.unwrap_or(self.settings.renderer),
+            ..self.chosen_renderer_options()
+        }
+    }
+
+    /// The renderer the user chose in the Octree panel: what a new volume is opened with.
+    pub(super) fn chosen_renderer_options(&self) -> RendererOptions {
         RendererOptions {
             kind: self.settings.renderer,
             brick_size: self.settings.brick_size,
             gpu_memory: self.settings.stream_gpu_memory,
         }
+    }
+
+    /// The transfer function a new volume is to open with instead of its own: the one on
+    /// screen while the user has pinned it (before any volume is shown, the one pinned when
+    /// the app was last closed).
+    pub(super) fn pinned_transfer(&self) -> Option<TransferFunction> {
+        let pinned = self.settings.pinned_transfer?;
+        Some(if self.scene.is_some() {
+            self.transfer()
+        } else {
+            pinned
+        })
     }
 
     pub(super) fn fail(&mut self, message: impl Into<String>) {
@@ -346,24 +368,12 @@ impl VoxscopeApp {
             self.error = None;
             return;
         }
-        if scene.options.kind != self.settings.renderer {
-            let why = if scene.options.kind == RendererKind::Stream {
-                let dims = scene.renderer.stream().map(|s| s.streamer().shape().dims());
-                format!(
-                    "{} is larger than memory allows: streaming it at full resolution ({}); the panels read a coarser level ({})",
-                    scene.data.volume.name,
-                    dims.map_or_else(String::new, voxscope_volume::format_dims),
-                    voxscope_volume::format_dims(scene.data.volume.dims),
-                )
-            } else {
-                format!(
-                    "the octree does not fit this GPU's buffers; showing it with the {} renderer",
-                    scene.options.kind.name()
-                )
-            };
-            self.notify(why);
-            self.settings.renderer = scene.options.kind;
-        }
+        // A renderer the data called for is not the user's choice: it holds for this volume
+        // alone (ViewState::data_renderer), and the next opens with the user's.
+        let data_renderer = (scene.options.kind != self.settings.renderer).then(|| {
+            self.notify(data_renderer_notice(&scene));
+            scene.options.kind
+        });
         let depth = scene.depth();
         // The volume may open with its own transfer function (a CT preset, labels): the
         // panel shows and edits that one.
@@ -375,6 +385,7 @@ impl VoxscopeApp {
             statistics,
         );
         self.view.channels = channels;
+        self.view.data_renderer = data_renderer;
         self.prefetch.clear();
         if let Some(clip) = self.first_clip.take() {
             self.view.clipping = Clipping::from(clip);
@@ -382,7 +393,18 @@ impl VoxscopeApp {
         if let VolumeSource::Spec(spec) = &scene.data.source {
             self.settings.remember(spec);
         }
+        // The distance is in units of this volume's size, and a zoom chosen for another
+        // volume's detail means nothing here: the direction stays, zoom and pan do not.
         self.settings.camera.pan = [0.0; 3];
+        self.settings.camera.distance = Camera::default().distance;
+        // Pane B's curve, like A's, was in the last volume's units.
+        if matches!(
+            self.settings.compare_transfer.opacity,
+            OpacityMode::Points(_)
+        ) && self.settings.pinned_transfer.is_none()
+        {
+            self.settings.compare_transfer = DEFAULT_COMPARE_TRANSFER;
+        }
         let volume = &scene.data.volume;
         eprintln!(
             "voxscope: opened {} ({}, octree depth {depth}, {} nodes) in {:.2} s",
@@ -598,9 +620,46 @@ impl eframe::App for VoxscopeApp {
         if self.settings.continuous {
             ctx.request_repaint();
         }
+        if self.settings.pinned_transfer.is_some() && self.scene.is_some() {
+            self.settings.pinned_transfer = Some(self.transfer());
+        }
     }
 
     fn save(&mut self, storage: &mut dyn eframe::Storage) {
         eframe::set_value(storage, STORAGE_KEY, &self.settings);
+    }
+}
+
+/// Why `scene` is drawn with another renderer than the one chosen, in a line short enough for
+/// the status bar: a store above the voxels opened whole streams from its files, a volume
+/// longer than the octree holds streams from a pyramid in memory, an octree larger than the
+/// GPU's buffers is drawn with bricks.
+fn data_renderer_notice(scene: &Scene) -> String {
+    let volume = &scene.data.volume;
+    let name = Path::new(&volume.name)
+        .file_name()
+        .map_or_else(|| volume.name.clone(), |n| n.to_string_lossy().into_owned());
+    let panel_dims = voxscope_volume::format_dims(volume.dims);
+    match scene.options.kind {
+        RendererKind::Stream => {
+            let dims = scene
+                .renderer
+                .stream()
+                .map(|s| voxscope_volume::format_dims(s.streamer().shape().dims()))
+                .unwrap_or_default();
+            if scene.data.pyramid.is_some() {
+                format!(
+                    "{name}: {dims} is longer than the octree's 1024 voxels a side; streamed from a pyramid in memory (panels: {panel_dims})"
+                )
+            } else {
+                format!(
+                    "{name}: {dims} is more than the 512³ voxels opened whole; streamed from the store (panels: {panel_dims})"
+                )
+            }
+        }
+        kind => format!(
+            "{name}: the octree does not fit this GPU's buffers; drawn with {}",
+            kind.name()
+        ),
     }
 }
