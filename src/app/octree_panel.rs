@@ -4,13 +4,14 @@
 use egui::Ui;
 use egui_plot::{Bar, BarChart, Legend, Plot};
 
+use super::central::FrameFacts;
 use super::clip_panel::{self, ClipContext};
 use super::numbers::{format_bytes, group_digits};
 use super::settings::AppSettings;
 use super::stream_panel;
 use super::view_state::ViewState;
 use voxscope_octree::{DataKind, LevelStatistics};
-use voxscope_render::{FrameReport, HEATMAP_SATURATION, LevelDetail, RendererKind, heatmap_color};
+use voxscope_render::{HEATMAP_SATURATION, LevelDetail, RendererKind, heatmap_color};
 use voxscope_scene::CompositeScene;
 use voxscope_scene::Scene;
 
@@ -20,7 +21,8 @@ pub struct OctreeFacts<'a> {
     pub statistics: &'a [LevelStatistics],
     /// True while the statistics are being recounted for a new transfer function.
     pub statistics_pending: bool,
-    pub frame: Option<FrameReport>,
+    /// The last frame measured, and the pane it was measured on.
+    pub frame: Option<FrameFacts>,
     /// Frames per second over the last second of continuous drawing.
     pub fps: Option<f64>,
     pub adapter: &'a str,
@@ -147,11 +149,8 @@ pub fn show(
             },
         );
     }
-    ui.checkbox(
-        &mut settings.fast_interaction,
-        "Half resolution while moving",
-    )
-    .on_hover_text("When a frame takes over 20 ms, draw at half resolution while the camera moves");
+    ui.checkbox(&mut settings.fast_interaction, "Preview slow frames")
+        .on_hover_text("When a frame would take the GPU over 40 ms, show it first at a resolution that fits, then at full resolution band by band; off: band by band alone (the window answers either way)");
     ui.checkbox(&mut settings.continuous, "Redraw every frame")
         .on_hover_text(
             "Measure sustained frame rate; otherwise the view is drawn only when something changes",
@@ -275,11 +274,28 @@ fn frame_numbers(ui: &mut Ui, facts: &OctreeFacts<'_>) {
                 ui.end_row();
             }
             if let Some(frame) = facts.frame {
+                let measured = frame.measured;
+                // Several panes: say which one the numbers are of.
+                if measured.panes > 1 {
+                    ui.label("Measured");
+                    ui.label(match measured.level {
+                        Some(level) => format!("pane {} (level {level})", measured.pane + 1),
+                        None => format!("pane {}", measured.pane + 1),
+                    })
+                    .on_hover_text("The GPU time and the nodes per ray below are of this pane's last full image");
+                    ui.end_row();
+                }
                 ui.label("GPU time");
-                ui.label(match frame.gpu_ms {
+                let time = match frame.frame_ms {
+                    Some(ms) if frame.bands > 1 => {
+                        format!("{ms:.1} ms per frame, in {} bands", frame.bands)
+                    }
                     Some(ms) => format!("{ms:.3} ms per frame"),
                     None => "no timestamp queries on this GPU".to_owned(),
-                });
+                };
+                ui.label(time).on_hover_text(
+                    "A frame that would keep the device busy longer than a UI frame's budget (40 ms) is drawn in bands, a preview shown meanwhile, so the window keeps answering",
+                );
                 ui.end_row();
                 ui.label(if composite {
                     "Samples per ray"
@@ -288,7 +304,7 @@ fn frame_numbers(ui: &mut Ui, facts: &OctreeFacts<'_>) {
                 });
                 ui.label(format!(
                     "{:.1} average, {} max",
-                    frame.nodes_per_ray_avg, frame.nodes_per_ray_max
+                    frame.report.nodes_per_ray_avg, frame.report.nodes_per_ray_max
                 ));
                 ui.end_row();
             }

@@ -109,7 +109,8 @@ pub struct AppSettings {
     pub layout: Layout,
     /// Panes of the level grid, 2…6.
     pub grid_panes: usize,
-    /// Draw at half resolution while the camera moves, when frames are slow.
+    /// Where a frame is too slow for one UI frame, show a lower-resolution preview of it while
+    /// its full image is drawn band by band (off: the bands alone).
     pub fast_interaction: bool,
     /// Re-render every frame (to watch sustained frame rate) instead of only on change.
     pub continuous: bool,

@@ -59,6 +59,8 @@ pub struct VoxscopeApp {
     pub(super) no_desktop_dialogs: bool,
     /// The clip the first volume opens with (the command line's `--clip-box`, `--clip-plane`).
     pub(super) first_clip: Option<Clip>,
+    /// The time point of the scene the 3D views last showed whole.
+    pub(super) shown_time: Option<usize>,
 }
 
 impl VoxscopeApp {
@@ -94,6 +96,7 @@ impl VoxscopeApp {
             prefetch: Prefetch::default(),
             no_desktop_dialogs: false,
             first_clip: None,
+            shown_time: None,
         };
         if app.gpu.is_none() {
             app.fail("voxscope needs the wgpu renderer; no GPU device was handed to the app");
@@ -211,6 +214,18 @@ impl VoxscopeApp {
     /// The last frame's measured cost.
     pub fn frame_report(&self) -> Option<FrameReport> {
         self.central.frame_report()
+    }
+
+    /// What a whole frame of the measured 3D pane costs the GPU, in ms (estimated from its
+    /// bands' wall time where a slow device drew it in bands), and in how many bands.
+    pub fn frame_cost(&self) -> Option<(f64, u32)> {
+        let facts = self.central.frame_facts()?;
+        Some((facts.frame_ms?, facts.bands))
+    }
+
+    /// Whether a frame is on the GPU or a pane's full image is still being drawn in bands.
+    pub fn is_drawing(&self) -> bool {
+        self.central.is_drawing()
     }
 
     /// The transfer function of the main view.
@@ -418,6 +433,31 @@ impl VoxscopeApp {
         self.error = None;
     }
 
+    /// Plays a time series: the next time point once the one on screen is drawn (a slow
+    /// device slows playback rather than skipping frames it never showed), before the panels
+    /// are built, so that the time they show is the frame being drawn.
+    fn step_playback(&mut self, ctx: &egui::Context) {
+        let Some(scene) = &self.scene else { return };
+        let series = &scene.data.volume.series;
+        let loading = self.jobs.open_progress().is_some();
+        let shown = self.central.shows_scene(self.scene_serial);
+        if let Some(next) = self
+            .playback
+            .next(series, self.settings.frame_rate, loading || !shown)
+        {
+            self.run_command(Command::ShowTime(next), ctx);
+        }
+        if self.playback.playing {
+            ctx.request_repaint_after(self.playback.wait(self.settings.frame_rate));
+        }
+    }
+
+    /// The time point whose picture the 3D views last showed whole: the scene's, or while a
+    /// slow device draws a new one, the one before (`None` before the first).
+    pub fn shown_time(&self) -> Option<usize> {
+        self.shown_time
+    }
+
     /// Starts the background work that settings changes call for: another renderer, fresh
     /// statistics.
     pub(super) fn follow_settings(&mut self, ctx: &egui::Context) {
@@ -468,6 +508,7 @@ impl eframe::App for VoxscopeApp {
     fn ui(&mut self, ui: &mut Ui, _frame: &mut eframe::Frame) {
         let ctx = ui.ctx().clone();
         self.handle_job_events(&ctx);
+        self.step_playback(&ctx);
 
         let has_scene = self.scene.is_some();
         egui::Panel::top("menu_bar").show(ui, |ui| {
@@ -497,6 +538,7 @@ impl eframe::App for VoxscopeApp {
                                 composite: scene.composite.is_some(),
                                 prefetched: self.prefetch.ready().len(),
                                 streamed: scene.renderer.stream().is_some(),
+                                on_screen: self.shown_time,
                             };
                             frame_controls::show(
                                 ui,
@@ -541,7 +583,7 @@ impl eframe::App for VoxscopeApp {
                             scene: self.scene.as_ref(),
                             statistics: &statistics,
                             statistics_pending,
-                            frame: self.central.frame_report(),
+                            frame: self.central.frame_facts(),
                             fps: self.central.fps(self.settings.continuous),
                             adapter: self
                                 .gpu
@@ -591,31 +633,27 @@ impl eframe::App for VoxscopeApp {
                 }
             }
         }
-        if let Some(scene) = &self.scene {
-            let series = &scene.data.volume.series;
-            let loading = self.jobs.open_progress().is_some();
-            if let Some(next) = self
-                .playback
-                .next(series, self.settings.frame_rate, loading)
-            {
-                self.commands.send(Command::ShowTime(next));
-            }
-            if self.playback.playing {
-                ctx.request_repaint_after(self.playback.wait(self.settings.frame_rate));
-            }
-        }
         self.run_queued_commands(&ctx);
         self.follow_settings(&ctx);
         if let (Some(gpu), Some(scene)) = (&self.gpu, &mut self.scene) {
-            match self
-                .central
-                .draw(gpu, scene, self.scene_serial, &self.settings, &self.view)
-            {
-                // Streaming: the next frame takes in what this one asked for.
-                Ok(true) => ctx.request_repaint(),
-                Ok(false) => {}
+            match self.central.draw(
+                &ctx,
+                gpu,
+                scene,
+                self.scene_serial,
+                &self.settings,
+                &self.view,
+            ) {
+                // Bands left to draw, the stream refining, the device busy: look again.
+                Ok(Some(after)) => ctx.request_repaint_after(after),
+                Ok(None) => {}
                 Err(error) => self.fail(error.to_string()),
             }
+        }
+        if let Some(scene) = &self.scene
+            && self.central.shows_scene(self.scene_serial)
+        {
+            self.shown_time = Some(scene.data.volume.series.selected.time);
         }
         if self.settings.continuous {
             ctx.request_repaint();

@@ -91,33 +91,33 @@ mod tests {
     #[test]
     fn a_notch_reported_on_press_and_release_is_one_step_in_one_frame_or_two() {
         let mut notches = WheelNotches::default();
-        let up = wheel(MouseWheelUnit::Line, 1.0);
-        let down = wheel(MouseWheelUnit::Line, -1.0);
-        assert_eq!(notches.count(&[up, up], 1, 0.0), 1);
-        assert_eq!(notches.count(&[down, down], 5, 1.0), -1);
+        let up = || wheel(MouseWheelUnit::Line, 1.0);
+        let down = || wheel(MouseWheelUnit::Line, -1.0);
+        assert_eq!(notches.count(&[up(), up()], 1, 0.0), 1);
+        assert_eq!(notches.count(&[down(), down()], 5, 1.0), -1);
         // The press in one frame, the release in the next, half a second later (a slow frame).
-        assert_eq!(notches.count(&[down], 9, 2.0), -1);
-        assert_eq!(notches.count(&[down], 10, 2.5), 0);
-        assert_eq!(notches.count(&[up, up, up, up], 14, 3.0), 2);
+        assert_eq!(notches.count(&[down()], 9, 2.0), -1);
+        assert_eq!(notches.count(&[down()], 10, 2.5), 0);
+        assert_eq!(notches.count(&[up(), up(), up(), up()], 14, 3.0), 2);
         assert_eq!(notches.count(&[], 15, 4.0), 0);
     }
 
     #[test]
     fn a_wheel_that_reports_once_counts_every_event_once_found_odd_at_rest() {
         let mut notches = WheelNotches::default();
-        let up = wheel(MouseWheelUnit::Line, 1.0);
-        assert_eq!(notches.count(&[up], 1, 0.0), 1);
+        let up = || wheel(MouseWheelUnit::Line, 1.0);
+        assert_eq!(notches.count(&[up()], 1, 0.0), 1);
         // After a pause the count is odd: no doubling wheel leaves it so.
-        assert_eq!(notches.count(&[up], 5, 1.0), 1);
-        assert_eq!(notches.count(&[up, up], 6, 1.01), 2);
-        assert_eq!(notches.count(&[up], 7, 1.02), 1);
+        assert_eq!(notches.count(&[up()], 5, 1.0), 1);
+        assert_eq!(notches.count(&[up(), up()], 6, 1.01), 2);
+        assert_eq!(notches.count(&[up()], 7, 1.02), 1);
     }
 
     #[test]
     fn fractions_and_points_add_up_to_notches_and_zoom_is_not_a_notch() {
         let mut notches = WheelNotches::default();
         let eighth = wheel(MouseWheelUnit::Line, 0.125);
-        assert_eq!(notches.count(&[eighth; 7], 1, 0.0), 0);
+        assert_eq!(notches.count(&vec![eighth.clone(); 7], 1, 0.0), 0);
         assert_eq!(notches.count(&[eighth], 2, 0.1), 1);
         assert_eq!(
             notches.count(&[wheel(MouseWheelUnit::Point, -120.0)], 3, 0.2),

@@ -9,7 +9,7 @@ use super::renderer::Renderer;
 use super::slice::{SliceColorCache, SliceSource};
 use super::{
     Camera, ChannelLayer, CompositeVolume, DenseVolume, GpuBricks, GpuContext, GpuVolume,
-    RenderError, RenderSettings, RenderTarget, SliceSettings, StreamVolume,
+    ImageRegion, RenderError, RenderSettings, RenderTarget, SliceSettings, StreamVolume,
 };
 use std::sync::Arc;
 use voxscope_octree::{BrickLayout, Octree, TransferFunction};
@@ -303,6 +303,37 @@ impl VolumeRenderer {
     ) {
         self.renderer
             .encode(context, encoder, target, camera, settings, timestamp_writes);
+    }
+
+    /// Records the pixels `region` of one frame into `encoder` (the rest of `target` keeps
+    /// what it holds): a slow device's frame drawn band by band. A renderer that draws whole
+    /// frames only ([`Self::draws_regions`] false) draws all of it.
+    #[allow(clippy::too_many_arguments)]
+    pub fn encode_region(
+        &self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &RenderTarget,
+        camera: &Camera,
+        settings: &RenderSettings,
+        region: ImageRegion,
+        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
+        self.renderer.encode_region(
+            context,
+            encoder,
+            target,
+            camera,
+            settings,
+            region,
+            timestamp_writes,
+        );
+    }
+
+    /// Whether [`Self::encode_region`] draws its region alone (every renderer but the
+    /// streaming one, whose rays' requests are a whole frame's).
+    pub fn draws_regions(&self) -> bool {
+        self.renderer.draws_regions()
     }
 
     /// Builds, where not built yet, the device's pipelines this renderer draws `settings` with
