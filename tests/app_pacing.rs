@@ -71,3 +71,49 @@ fn input_is_answered_while_a_slow_frame_is_drawn() {
         "UI frames waited {slowest:?} (the menu {menu_after:?}) for a {frame:?} frame"
     );
 }
+
+#[test]
+fn playback_on_a_slow_device_shows_every_time_point_it_names() {
+    let store = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/ome-zarr/tzyx-head-v04.ome.zarr");
+    let mut harness = software_device_harness(&store.display().to_string());
+    settle(&mut harness);
+    let time = |harness: &egui_kittest::Harness<'_, voxscope::app::VoxscopeApp>| {
+        harness.state().frame().expect("a volume").time
+    };
+    // As fast as playback goes: each frame's drawing is what paces it.
+    harness.state_mut().settings.frame_rate = 30.0;
+    harness.get_by_label("Play").click();
+    let started = Instant::now();
+    let mut named = time(&harness);
+    let mut advances = 0;
+    let mut said_drawing = false;
+    while advances < 4 {
+        harness.step();
+        std::thread::sleep(Duration::from_millis(5));
+        let now = time(&harness);
+        if now != named {
+            // The next time point only once the last one was on screen whole.
+            assert_eq!(
+                harness.state().shown_time(),
+                Some(named),
+                "moved on to {now} before {named} was shown"
+            );
+            named = now;
+            advances += 1;
+        }
+        // While a time point is drawn, the controls say which one the picture still is.
+        if harness.state().shown_time() != Some(named) {
+            said_drawing |= harness
+                .query_by_label_contains(&format!("drawing {named}; showing"))
+                .is_some();
+        }
+        assert!(
+            started.elapsed() < Duration::from_secs(120),
+            "playback stalled at {named}"
+        );
+    }
+    assert!(said_drawing, "the time controls never said a frame was being drawn");
+    harness.get_by_label("Pause").click();
+    settle(&mut harness);
+}

@@ -576,7 +576,7 @@ impl eframe::App for VoxscopeApp {
             // Lent to the panel's facts while the panel edits the rest of the view state.
             let statistics = std::mem::take(&mut self.view.statistics);
             egui::Panel::right("octree_panel")
-                .default_size(390.0)
+                .default_size(410.0)
                 .show(ui, |ui| {
                     egui::ScrollArea::vertical().show(ui, |ui| {
                         let facts = OctreeFacts {
