@@ -90,11 +90,13 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let t_enter = interval.x;
     let t_leave = interval.y;
     let step = 1.0 / length(dir);
+    // Sample k at t_enter + (k + jitter)·step, the pixel's jitter (`pixel_jitter`).
+    let t_first = t_enter + (pixel_jitter(pixel) - 0.5) * step;
     let texel = 1.0 / params.volume.xyz;
     let inv = safe_inverse(dir);
     if t_enter < t_leave {
         for (var k = 0.0; ; k += 1.0) {
-            let t = t_enter + (k + 0.5) * step;
+            let t = t_first + (k + 0.5) * step;
             if t >= t_leave {
                 break;
             }
@@ -103,7 +105,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
                 // from the first sample past the block (on the same lattice of samples).
                 let exit = empty_block_exit(origin + t * dir, origin, inv);
                 if exit >= 0.0 {
-                    k = max(k + 1.0, ceil((exit - t_enter) / step - 0.5)) - 1.0;
+                    k = max(k + 1.0, ceil((exit - t_first) / step - 0.5)) - 1.0;
                     continue;
                 }
             }

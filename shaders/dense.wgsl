@@ -51,7 +51,8 @@ fn level_gradient(coords: vec3<f32>, half_texel: vec3<f32>) -> vec3<f32> {
     return (high - low) * (params.atlas_scale / sample_voxels());
 }
 
-fn march(origin: vec3<f32>, dir: vec3<f32>) -> MarchResult {
+// `jitter` (`pixel_jitter`) places the samples in their steps.
+fn march(origin: vec3<f32>, dir: vec3<f32>, jitter: f32) -> MarchResult {
     var result = MarchResult(vec3<f32>(0.0), 0u, -1.0);
     let interval = volume_interval(origin, dir, safe_inverse(dir));
     let t_enter = interval.x;
@@ -59,17 +60,18 @@ fn march(origin: vec3<f32>, dir: vec3<f32>) -> MarchResult {
     if t_enter >= t_leave {
         return result;
     }
-    // One voxel of the level drawn per step.
+    // One voxel of the level drawn per step, the first `jitter` of a step in.
     let step = sample_voxels() / length(dir);
+    let t_first = t_enter + (jitter - 0.5) * step;
     var acc = new_accumulation();
     let texel = select(1.0 / params.volume.xyz, params.atlas_texel.xyz, COARSE);
     let frame = SampleFrame(origin * texel, origin * texel, 3.4e38, dir * texel,
                             0.5 * sample_voxels() * texel, headlight(dir));
-    // Sample k sits at t_enter + (k + 0.5) · step (as in the bricks renderer, sample for sample),
-    // fetched two batches at a time.
+    // Sample k sits at t_enter + (k + jitter) · step (as in the bricks renderer, sample for
+    // sample), fetched two batches at a time.
     for (var k = 0.0; ; k += f32(BATCH_PAIR)) {
-        let t = t_enter + (vec4<f32>(k) + BATCH_OFFSETS) * step;
-        let t2 = t_enter + (vec4<f32>(k + f32(BATCH)) + BATCH_OFFSETS) * step;
+        let t = t_first + (vec4<f32>(k) + BATCH_OFFSETS) * step;
+        let t2 = t_first + (vec4<f32>(k + f32(BATCH)) + BATCH_OFFSETS) * step;
         let count = count_before(t, t_leave) + count_before(t2, t_leave);
         if count == 0u {
             break;
@@ -95,7 +97,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let ray = pixel_ray(pixel);
-    let result = march(params.eye.xyz, ray.dir);
+    let result = march(params.eye.xyz, ray.dir, pixel_jitter(pixel));
     if PROBE {
         write_probe(params.eye.xyz, ray.dir, result.probe_t);
     } else {

@@ -9,13 +9,15 @@ struct Node {
 }
 
 // The uniforms of recolor.wgsl (one level's nodes) and brick_grid.wgsl (level_count: the
-// cells; level_start unused). Keep in sync with `RecolorParams` in src/render/gpu_data.rs.
+// cells; level_start and labels unused). Keep in sync with `RecolorParams` in
+// src/render/gpu_data.rs.
 struct LevelParams {
     level_start: u32,
     level_count: u32,
     // Workgroups along x of the 2D dispatch (a level can exceed 65535 workgroups).
     groups_x: u32,
-    _pad: u32,
+    // 1: the values are labels, and a parent takes its children's most shown color.
+    labels: u32,
 }
 
 const LEAF: u32 = 0xffffffffu;

@@ -32,6 +32,9 @@ struct Params {
     // where dense or bricks draw a pyramid level finer than the nodes but not full detail; 1.
     sample_voxels: f32,
     _sample_pad: u32,
+    // The pixels a frame draws: [xy, zw) of the image (a band of it where a slow device draws
+    // a frame in parts; the whole image otherwise). Dispatches cover the tile alone.
+    tile: vec4<u32>,
 }
 
 // Pipeline variants (src/render/raycaster.rs builds each as its own pipeline, so that a
@@ -63,6 +66,9 @@ const MODE_MIP: u32 = 1u;
 const FLAG_OPACITY_CORRECTION: u32 = 1u;
 const FLAG_PIXEL_LOD: u32 = 2u;
 const FLAG_HEATMAP: u32 = 4u;
+// The values are labels (categories): MIP draws the first label along the ray that the
+// transfer function shows, unblended (`first_label`). Keep in sync with gpu_data.rs.
+const FLAG_LABELS: u32 = 8u;
 // Keep in sync with `EARLY_TERMINATION_ALPHA` in src/render/settings.rs.
 const EARLY_TERMINATION_ALPHA: f32 = 0.99;
 
@@ -75,6 +81,31 @@ fn safe_inverse(d: vec3<f32>) -> vec3<f32> {
 }
 
 fn max_component(v: vec3<f32>) -> f32 { return max(v.x, max(v.y, v.z)); }
+
+// MIP of a label volume: the largest label is no more meaningful than their mean, so a ray
+// draws the first label the transfer function shows (label 0 is transparent), unblended.
+fn first_label() -> bool {
+    return params.mode == MODE_MIP && (params.flags & FLAG_LABELS) != 0u;
+}
+
+// MIP by value: the maximum along the ray (every MIP but a label volume's).
+fn max_projection() -> bool {
+    return params.mode == MODE_MIP && (params.flags & FLAG_LABELS) == 0u;
+}
+
+// Where in a sample step a pixel's samples sit, in [0, 1): a hash of the pixel (the same on
+// every frame and in every renderer, so images stay comparable). Samples one step apart from
+// the same entry plane would lie on the same shells for every pixel, and a thin band of
+// opacity (CT's lung preset) shows them as rings (moiré); shifted per pixel they average out
+// into fine noise, as other volume renderers do. Keep in sync with `pixel_jitter` in
+// tests/support/reference.rs.
+fn pixel_jitter(pixel: vec2<u32>) -> f32 {
+    var h = (pixel.x * 0x8da6b343u) ^ (pixel.y * 0xd8163841u);
+    h = (h ^ (h >> 16u)) * 0x7feb352du;
+    h = (h ^ (h >> 15u)) * 0x846ca68bu;
+    h = h ^ (h >> 16u);
+    return f32(h >> 8u) * (1.0 / 16777216.0);
+}
 fn min_component(v: vec3<f32>) -> f32 { return min(v.x, min(v.y, v.z)); }
 
 // Inferno-like ramp for the nodes-visited heat map, x in 0…1.
@@ -208,6 +239,14 @@ fn shade_sample(rgb: vec3<f32>, gradient: vec3<f32>, light: vec3<f32>) -> vec3<f
 // samples for SHADING's gradient (unused, and compiled out, elsewhere).
 fn accumulate(acc: ptr<function, Accumulation>, levels: vec4<u32>, count: u32, ts: vec4<f32>,
               frame: SampleFrame) -> u32 {
+    if first_label() {
+        for (var j = 0u; j < count; j++) {
+            if take_label(acc, levels[j], ts[j]) {
+                return j + 1u;
+            }
+        }
+        return count;
+    }
     if params.mode == MODE_MIP {
         for (var j = 0u; j < count; j++) {
             if PROBE && levels[j] > (*acc).running_max {
@@ -250,6 +289,23 @@ fn accumulate(acc: ptr<function, Accumulation>, levels: vec4<u32>, count: u32, t
     return count;
 }
 
+// `first_label`: takes value level `level` at ray distance `t` if the transfer function shows
+// it, as the pixel's color, opaque; returns whether it did (the ray is then done).
+fn take_label(acc: ptr<function, Accumulation>, level: u32, t: f32) -> bool {
+    let rgba = unpack4x8unorm(lookup_table[level]);
+    if rgba.a <= 0.0 {
+        return false;
+    }
+    (*acc).color = rgba.rgb;
+    (*acc).alpha = 1.0;
+    (*acc).running_max = level;
+    (*acc).done = true;
+    if PROBE {
+        (*acc).probe_t = t;
+    }
+    return true;
+}
+
 // The opacity-correction exponent of one sample step: its length in level-0 voxels where
 // opacity correction is on (a sample of a coarser level stands for that many voxels), else 1.
 fn sample_exponent() -> f32 {
@@ -284,21 +340,24 @@ fn value_index(texel: f32) -> u32 {
     return u32(clamp(round(texel * params.atlas_scale), 0.0, 65535.0));
 }
 
-// The pixel's color once the ray is finished: blended over black, or the MIP's color.
+// The pixel's color once the ray is finished: blended over black (and a first label's, black
+// where none was met), or the MIP's color.
 fn final_color(acc: Accumulation) -> vec3<f32> {
-    if params.mode == MODE_MIP {
+    if max_projection() {
         return unpack4x8unorm(lookup_table[acc.running_max]).rgb;
     }
     return acc.color;
 }
 
-// The pixel an invocation traces: its own, or in a PROBE pipeline (one workgroup) the probed
-// pixel for invocation 0 and, for the others, one past the image (which they leave at once).
+// The pixel an invocation traces: its own in the frame's tile, or in a PROBE pipeline (one
+// workgroup) the probed pixel for invocation 0; the others (past the tile, or a probe's other
+// invocations) get one past the image, which they leave at once.
 fn ray_pixel(id: vec2<u32>) -> vec2<u32> {
     if PROBE {
         return select(params.image_size, params.probe_pixel, all(id == vec2<u32>(0u)));
     }
-    return id;
+    let pixel = id + params.tile.xy;
+    return select(params.image_size, pixel, all(pixel < params.tile.zw));
 }
 
 // A PROBE pipeline's answer: the point at `probe_t` on the ray, if it got there.

@@ -65,21 +65,23 @@ struct RayResult {
 }
 
 
-// Marches a brick from `t` to `t_out` in the atlas with hardware trilinear filtering, at the
-// dense renderer's sample distances t_enter + (k + ½)·step. `to_atlas` maps a voxel-space
-// point of this brick to its atlas texel (`brick_to_atlas`). Returns the samples taken.
+// Marches a brick from `t` to `t_out` in the atlas with the sampler's filtering (trilinear, or
+// nearest for labels), at the dense renderer's sample distances t_first + (k + ½)·step
+// (`t_first`: the ray's entry moved by its pixel's jitter, `pixel_jitter`). `to_atlas` maps a
+// voxel-space point of this brick to its atlas texel (`brick_to_atlas`). Returns the samples
+// taken.
 // (Unlike the grid walk, this keeps the per-sample offset: the tree walk's entry point is
 // shared with the plain octree, which ran 2–5 % slower with the grid walk's form, runs 34–35.)
-fn march_brick(acc: ptr<function, Accumulation>, origin: vec3<f32>, dir: vec3<f32>, t_enter: f32,
+fn march_brick(acc: ptr<function, Accumulation>, origin: vec3<f32>, dir: vec3<f32>, t_first: f32,
                sample_step: f32, t: f32, t_out: f32, to_atlas: vec3<f32>) -> u32 {
     var taken = 0u;
-    var k = max(ceil((t - t_enter) / sample_step - 0.5), 0.0);
+    var k = max(ceil((t - t_first) / sample_step - 0.5), 0.0);
     let texel = params.atlas_texel.xyz;
     let here = (origin + to_atlas) * texel;
     let frame = SampleFrame(here, here, 3.4e38, dir * texel, 0.5 * sample_voxels() * texel,
                             headlight(dir));
     loop {
-        let ts = t_enter + (vec4<f32>(k) + BATCH_OFFSETS) * sample_step;
+        let ts = t_first + (vec4<f32>(k) + BATCH_OFFSETS) * sample_step;
         let count = count_before(ts, t_out);
         if count == 0u {
             break;
@@ -114,7 +116,7 @@ fn brick_batch(atlas_dir: vec3<f32>, ts: vec4<f32>, t_out: f32, atlas_here: vec3
     );
 }
 
-// The value level at normalized atlas coordinates, trilinear.
+// The value level at normalized atlas coordinates, trilinear (nearest for labels: the sampler).
 fn atlas_level_at(coords: vec3<f32>) -> u32 {
     return value_index(textureSampleLevel(atlas, atlas_sampler, coords, 0.0).r);
 }
@@ -182,7 +184,8 @@ fn clip_ray(origin: vec3<f32>, dir: vec3<f32>) -> ClippedRay {
     return ClippedRay(inv, inv >= vec3<f32>(0.0), interval.x, interval.y);
 }
 
-fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, lane: u32) -> RayResult {
+fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, lane: u32,
+             jitter: f32) -> RayResult {
     var result = RayResult(vec3<f32>(0.0), 0u, -1.0);
     let ray = clip_ray(origin, dir);
     if ray.t_enter >= ray.t_leave {
@@ -194,11 +197,13 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, lane: u32) ->
     let lod_per_t = world_length * params.lod_factor;
     let use_lod = (params.flags & FLAG_PIXEL_LOD) != 0u;
     let correct_opacity = (params.flags & FLAG_OPACITY_CORRECTION) != 0u;
-    let mip = params.mode == MODE_MIP;
+    // (A first label is found as DVR finds its first visible node.)
+    let mip = max_projection();
     let probe_step = 1e-3 / max(voxels_per_t, 1e-20);
     // Bricks are sampled once per voxel of path (of the level sampled), at the same places as
     // the dense renderer.
     let sample_step = sample_voxels() / max(voxels_per_t, 1e-20);
+    let t_first = ray.t_enter + (jitter - 0.5) * sample_step;
 
     // The path from the root; entry `level` is the current node, also kept in registers
     // (`node_index`, `corner`, `t_out`) so that a descent step waits on one node read alone.
@@ -265,7 +270,7 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, lane: u32) ->
                 || (use_lod && size <= t * lod_per_t);
             if !cut && level == params.brick_level && (node.first_child & BRICK_FLAG) != 0u {
                 let to_atlas = brick_to_atlas(atlas_cell_of_slot(node.first_child & ~BRICK_FLAG), corner);
-                result.visited += march_brick(&acc, origin, dir, ray.t_enter, sample_step, t, t_out,
+                result.visited += march_brick(&acc, origin, dir, t_first, sample_step, t, t_out,
                                               to_atlas);
                 if SHADING {
                     previous_level = node_level(node_bounds, previous_level);
@@ -280,6 +285,14 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, lane: u32) ->
                         acc.probe_t = 0.5 * (t + t_out);
                     }
                     acc.running_max = max(acc.running_max, node_bounds >> 16u);
+                } else if first_label() {
+                    // A visible node (skipping passed it): its color, the pixel's. At the
+                    // voxels it is the voxel's label; above, the one its children show most.
+                    acc.color = unpack4x8unorm(node.color).rgb;
+                    acc.alpha = 1.0;
+                    if PROBE {
+                        acc.probe_t = min(t + probe_step, t_out);
+                    }
                 } else {
                     let rgba = unpack4x8unorm(node.color);
                     let node_alpha = min(rgba.a * params.density, 1.0);
@@ -412,14 +425,16 @@ fn walk_cell(cell: vec3<i32>, exits: vec3<f32>, t_leave: f32, step: vec3<i32>,
 // last iteration reached the current one's exit): the lanes of a warp leave their cells at different
 // samples, and nested cell and sample loops would make each wait for the others at every cell.
 // The samples are the dense renderer's (t_enter + (k + ½)·step), as in `march_brick`.
-fn walk_bricks(origin: vec3<f32>, dir: vec3<f32>) -> RayResult {
+fn walk_bricks(origin: vec3<f32>, dir: vec3<f32>, jitter: f32) -> RayResult {
     var result = RayResult(vec3<f32>(0.0), 0u, -1.0);
     let ray = clip_ray(origin, dir);
     if ray.t_enter >= ray.t_leave {
         return result;
     }
-    let mip = params.mode == MODE_MIP;
+    let mip = max_projection();
     let sample_step = sample_voxels() / max(length(dir), 1e-20);
+    // Sample k at t_first + (k + ½)·step: `jitter` of a step past the entry.
+    let t_first = ray.t_enter + (jitter - 0.5) * sample_step;
     let brick = f32(params.brick_size);
     let grid = vec3<i32>(params.brick_grid.xyz);
     let step = select(vec3<i32>(-1), vec3<i32>(1), ray.positive);
@@ -455,8 +470,8 @@ fn walk_bricks(origin: vec3<f32>, dir: vec3<f32>) -> RayResult {
             advance = false;
         }
         if draw {
-            let ts = ray.t_enter + (vec4<f32>(k) + BATCH_OFFSETS) * sample_step;
-            let ts2 = ray.t_enter + (vec4<f32>(k + f32(BATCH)) + BATCH_OFFSETS) * sample_step;
+            let ts = t_first + (vec4<f32>(k) + BATCH_OFFSETS) * sample_step;
+            let ts2 = t_first + (vec4<f32>(k + f32(BATCH)) + BATCH_OFFSETS) * sample_step;
             let count_here = count_before(ts, here.t_out) + count_before(ts2, here.t_out);
             // Samples past the cell's exit come from the next cell when that one is drawn too
             // (its entry is already here), so a cell boundary costs no short iteration.
@@ -481,21 +496,24 @@ fn walk_bricks(origin: vec3<f32>, dir: vec3<f32>) -> RayResult {
             // MIP: once the ray's maximum reaches the brick's (its own voxels' maximum, which
             // the cell skip trusts too), the rest of the brick cannot raise it.
             if mip && !COARSE && !advance && acc.running_max >= (entry[CELL_BOUNDS] >> 16u) {
-                k = max(ceil((here.t_out - ray.t_enter) / sample_step - 0.5), k);
+                k = max(ceil((here.t_out - t_first) / sample_step - 0.5), k);
                 advance = true;
             }
         } else {
             // Skipped, or a uniform region (a leaf above the bricks): its samples in one go.
-            let end = max(ceil((here.t_out - ray.t_enter) / sample_step - 0.5), k);
+            let end = max(ceil((here.t_out - t_first) / sample_step - 0.5), k);
             // (Only where a sample falls: a ray can clip a cell's corner between two samples.)
             // (Unshaded: a uniform region has no gradient.)
             if entry[CELL_FIRST_CHILD] == LEAF && (entry[CELL_BOUNDS] & 0xffffu) <= (entry[CELL_BOUNDS] >> 16u) && end > k {
                 if mip {
                     if PROBE && (entry[CELL_BOUNDS] >> 16u) > acc.running_max {
-                        acc.probe_t = ray.t_enter + (k + 0.5) * sample_step; // the run's first sample
+                        acc.probe_t = t_first + (k + 0.5) * sample_step; // the run's first sample
                     }
                     acc.running_max = max(acc.running_max, entry[CELL_BOUNDS] >> 16u);
                     acc.done = acc.running_max >= params.mip_saturation;
+                } else if first_label() {
+                    // The run's value, where the transfer function shows it.
+                    take_label(&acc, entry[CELL_BOUNDS] & 0xffffu, t_first + (k + 0.5) * sample_step);
                 } else if (entry[CELL_COLOR] >> 24u) != 0u {
                     let rgba = unpack4x8unorm(entry[CELL_COLOR]);
                     let sample_alpha = min(rgba.a * params.density, 1.0);
@@ -511,7 +529,7 @@ fn walk_bricks(origin: vec3<f32>, dir: vec3<f32>) -> RayResult {
                         let needed = log((1.0 - PROBE_ALPHA) / (1.0 - alpha_before))
                             / log(1.0 - sample_alpha);
                         let j = clamp(ceil(needed / exponent) - 1.0, 0.0, end - k - 1.0);
-                        acc.probe_t = ray.t_enter + (k + j + 0.5) * sample_step;
+                        acc.probe_t = t_first + (k + j + 0.5) * sample_step;
                     }
                 }
             }
@@ -540,7 +558,7 @@ fn draws_brick(cell: vec4<u32>, running_max: u32) -> bool {
     if cell[CELL_FIRST_CHILD] == LEAF {
         return false;
     }
-    if params.mode == MODE_MIP {
+    if max_projection() {
         return (cell[CELL_BOUNDS] >> 16u) > running_max;
     }
     return (cell[CELL_COLOR] >> 24u) != 0u;
@@ -561,7 +579,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>,
         return;
     }
     let ray = pixel_ray(pixel);
-    let result = trace_ray(params.eye.xyz, ray.dir, ray.world_length, lane);
+    let result = trace_ray(params.eye.xyz, ray.dir, ray.world_length, lane, pixel_jitter(pixel));
     if PROBE {
         write_probe(params.eye.xyz, ray.dir, result.probe_t);
     } else {
@@ -579,7 +597,7 @@ fn main_bricks(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let ray = pixel_ray(pixel);
-    let result = walk_bricks(params.eye.xyz, ray.dir);
+    let result = walk_bricks(params.eye.xyz, ray.dir, pixel_jitter(pixel));
     if PROBE {
         write_probe(params.eye.xyz, ray.dir, result.probe_t);
     } else {

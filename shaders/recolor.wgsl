@@ -1,7 +1,8 @@
 // Recolors one level of the octree: leaves from the transfer function's lookup table, inner
-// nodes as the opacity-weighted average of their 8 children (alpha rounded up). Dispatched
-// once per level, deepest first, so children are final before their parents read them.
-// Integer math only: the result equals the CPU's `recolor` bit for bit.
+// nodes as the opacity-weighted average of their 8 children (alpha rounded up), or for labels
+// the color most of their visible children show. Dispatched once per level, deepest first, so
+// children are final before their parents read them. Integer math only: the result equals the
+// CPU's `recolor` bit for bit.
 
 const WORKGROUP: u32 = 256u;
 
@@ -17,6 +18,36 @@ fn average_color(first: u32) -> u32 {
         sums += weighted_sums(nodes[first + c].color);
     }
     return weighted_mean(sums, 8u);
+}
+
+// A label volume's parent: the color most of its visible children show (ties to the first
+// child), with the average's alpha. Keep in sync with `mode_color` in src/octree/node.rs.
+fn mode_color(first: u32) -> u32 {
+    let alpha = average_color(first) >> 24u;
+    if alpha == 0u {
+        return 0u;
+    }
+    var best = 0u;
+    var best_count = 0u;
+    for (var i = 0u; i < 8u; i++) {
+        let color = nodes[first + i].color;
+        if (color >> 24u) == 0u {
+            continue;
+        }
+        var earlier = false;
+        for (var j = 0u; j < i; j++) {
+            earlier = earlier || nodes[first + j].color == color;
+        }
+        var count = 0u;
+        for (var j = i; j < 8u; j++) {
+            count += select(0u, 1u, nodes[first + j].color == color);
+        }
+        if !earlier && count > best_count {
+            best = color;
+            best_count = count;
+        }
+    }
+    return (best & 0x00ffffffu) | (alpha << 24u);
 }
 
 @compute @workgroup_size(256, 1, 1)
@@ -36,6 +67,8 @@ fn main(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index
         } else {
             color = lookup_table[b_min];
         }
+    } else if params.labels != 0u {
+        color = mode_color(node.first_child);
     } else {
         color = average_color(node.first_child);
     }

@@ -12,8 +12,10 @@
 // function it skips it. Otherwise it asks for the brick (the request buffer, read back by the
 // CPU a frame or two later) and draws the segment from the finest coarser level the table has
 // there (the coarsest level is always resident). Samples sit where the dense renderer's sit for
-// the level marched, t_enter + (k + ½)·step with step one voxel of that level, so a fully
-// resident level 0 gives the bricks renderer's image. Prepended with ray_common.wgsl.
+// the level marched, t_enter + (k + jitter)·step with step one voxel of that level and jitter
+// the pixel's (`pixel_jitter`), so a fully resident level 0 gives the bricks renderer's image.
+// A label volume's bricks are sampled at the nearest voxel (the sampler) and its MIP draws the
+// first visible label (`first_label`). Prepended with ray_common.wgsl.
 
 // Keep in sync with `StreamParams` in src/render/gpu_data.rs.
 struct StreamParams {
@@ -135,10 +137,10 @@ fn drawable(entry: vec4<u32>) -> bool {
         || ((entry[TABLE_CELL] & ENTRY_FAILED) == 0u && (range & 0xffffu) == (range >> 16u));
 }
 
-// Whether a brick can change the pixel: DVR, some value level of its range is visible (the
-// entry's bit); MIP, its maximum is above the ray's so far.
+// Whether a brick can change the pixel: DVR (and a first label), some value level of its range
+// is visible (the entry's bit); MIP, its maximum is above the ray's so far.
 fn entry_visible(entry: vec4<u32>, running_max: u32) -> bool {
-    if params.mode == MODE_MIP {
+    if max_projection() {
         return (entry[TABLE_RANGE] >> 16u) > running_max;
     }
     return (entry[TABLE_SLOT] & ENTRY_VISIBLE) != 0u;
@@ -159,7 +161,7 @@ fn wanted_level(t: f32, lod_per_t: f32) -> u32 {
     return level;
 }
 
-// The value level at normalized atlas coordinates, trilinear.
+// The value level at normalized atlas coordinates, trilinear (nearest for labels: the sampler).
 fn atlas_level_at(coords: vec3<f32>) -> u32 {
     return value_index(textureSampleLevel(atlas, atlas_sampler, coords, 0.0).r);
 }
@@ -193,6 +195,14 @@ fn step_alpha(alpha: f32, exponent: f32) -> f32 {
 fn accumulate_level(acc: ptr<function, Accumulation>, levels: vec4<u32>, count: u32,
                     ts: vec4<f32>, frame: SampleFrame, exponent: f32,
                     level_scale: vec3<f32>) -> u32 {
+    if first_label() {
+        for (var j = 0u; j < count; j++) {
+            if take_label(acc, levels[j], ts[j]) {
+                return j + 1u;
+            }
+        }
+        return count;
+    }
     if params.mode == MODE_MIP {
         for (var j = 0u; j < count; j++) {
             if PROBE && levels[j] > (*acc).running_max {
@@ -237,6 +247,10 @@ fn accumulate_run(acc: ptr<function, Accumulation>, level: u32, samples: f32, fi
     if samples <= 0.0 {
         return;
     }
+    if first_label() {
+        take_label(acc, level, first_t);
+        return;
+    }
     if params.mode == MODE_MIP {
         if PROBE && level > (*acc).running_max {
             (*acc).probe_t = first_t;
@@ -272,7 +286,7 @@ struct RayResult {
 // one ended (looking its brick up and skipping or compositing what needs no marching at once),
 // then marches a batch pair of the current segment's samples, so a warp's lanes never wait for
 // each other at nested loops' ends (the grid walk's lesson, raycast.wgsl).
-fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32) -> RayResult {
+fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, jitter: f32) -> RayResult {
     var result = RayResult(vec3<f32>(0.0), 0u, -1.0);
     let inv = safe_inverse(dir);
     let interval = volume_interval(origin, dir, inv);
@@ -282,7 +296,9 @@ fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32) -> RayResult
         return result;
     }
     let positive = inv >= vec3<f32>(0.0);
-    let mip = params.mode == MODE_MIP;
+    let mip = max_projection();
+    // Sample k of a level sits at t_enter + (k + jitter)·step: (k + ½ + shift)·step.
+    let shift = jitter - 0.5;
     let voxels_per_t = length(dir);
     let lod_per_t = world_length * params.lod_factor * stream.lod_scale;
     let correct = (params.flags & FLAG_OPACITY_CORRECTION) != 0u;
@@ -373,22 +389,22 @@ fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32) -> RayResult
             if !skip {
                 skip = !entry_visible(entry, acc.running_max);
             }
-            // The samples of the level drawn: t_enter + (k + ½)·step, k continuing while the
-            // level stays the same.
+            // The samples of the level drawn: t_enter + (k + jitter)·step, k continuing while
+            // the level stays the same.
             scale = stream.level_scale[level].xyz;
             step = 1.0 / max(length(dir / scale), 1e-20);
             if level != k_level {
-                k = max(ceil((t - t_enter) / step - 0.5), 0.0);
+                k = max(ceil((t - t_enter) / step - 0.5 - shift), 0.0);
                 k_level = level;
             }
-            let end = max(ceil((t_out - t_enter) / step - 0.5), k);
+            let end = max(ceil((t_out - t_enter) / step - 0.5 - shift), k);
             exponent = select(1.0, step * voxels_per_t, correct);
             if skip {
                 k = end;
                 t = t_out;
             } else if (entry[TABLE_CELL] & ENTRY_RESIDENT) == 0u {
                 accumulate_run(&acc, entry[TABLE_RANGE] & 0xffffu, end - k,
-                               t_enter + (k + 0.5) * step, step, exponent);
+                               t_enter + (k + 0.5 + shift) * step, step, exponent);
                 k = end;
                 t = t_out;
             } else {
@@ -433,8 +449,8 @@ fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32) -> RayResult
             }
         }
         if marching {
-            let ts = t_enter + (vec4<f32>(k) + BATCH_OFFSETS) * step;
-            let ts2 = t_enter + (vec4<f32>(k + f32(BATCH)) + BATCH_OFFSETS) * step;
+            let ts = t_enter + (vec4<f32>(k + shift) + BATCH_OFFSETS) * step;
+            let ts2 = t_enter + (vec4<f32>(k + shift + f32(BATCH)) + BATCH_OFFSETS) * step;
             let count_here = count_before(ts, segment_out) + count_before(ts2, segment_out);
             // A batch that reaches this brick's exit goes on into the next brick when that one
             // is read ahead, in the atlas and visible (its entry is here already), so a brick
@@ -483,7 +499,7 @@ fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32) -> RayResult
                 t = segment_out;
             } else if mip && acc.running_max >= brick_max {
                 // Nothing further in this brick can raise the maximum.
-                k = max(ceil((segment_out - t_enter) / step - 0.5), k);
+                k = max(ceil((segment_out - t_enter) / step - 0.5 - shift), k);
                 marching = false;
                 t = segment_out;
             }
@@ -507,7 +523,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let ray = pixel_ray(pixel);
-    let result = stream_ray(params.eye.xyz, ray.dir, ray.world_length);
+    let result = stream_ray(params.eye.xyz, ray.dir, ray.world_length, pixel_jitter(pixel));
     if PROBE {
         write_probe(params.eye.xyz, ray.dir, result.probe_t);
     } else {

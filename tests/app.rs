@@ -5,7 +5,8 @@
 mod support;
 
 use support::app_harness::{
-    SIZE, differing_pixels, harness, harness_with, lit_pixels, scratch, settle, snapshot, view,
+    MemoryStorage, SIZE, differing_pixels, harness, harness_with, lit_pixels, scratch, settle,
+    snapshot, view,
 };
 
 use std::path::{Path, PathBuf};
@@ -279,22 +280,6 @@ fn screenshot_transfer_functions_and_settings_are_saved() {
     );
 }
 
-#[derive(Default)]
-struct MemoryStorage(std::collections::HashMap<String, String>);
-
-impl eframe::Storage for MemoryStorage {
-    fn get_string(&self, key: &str) -> Option<String> {
-        self.0.get(key).cloned()
-    }
-    fn set_string(&mut self, key: &str, value: String) {
-        self.0.insert(key.to_owned(), value);
-    }
-    fn remove_string(&mut self, key: &str) {
-        self.0.remove(key);
-    }
-    fn flush(&mut self) {}
-}
-
 /// A file dropped on the window, as winit would hand it over.
 #[derive(Debug)]
 struct DroppedPath(PathBuf);
@@ -400,12 +385,27 @@ fn a_volume_too_large_for_the_octree_buffers_opens_with_bricks() {
         app.renderer_kind(),
         Some(voxscope_render::RendererKind::Bricks)
     );
-    assert_eq!(app.settings.renderer, voxscope_render::RendererKind::Bricks);
     assert!(lit_pixels(&view(&harness)) > 10_000);
+    // Bricks were this volume's need, not the user's choice: the next opens with the octree.
+    assert_eq!(app.settings.renderer, voxscope_render::RendererKind::Octree);
+    assert!(
+        app.notice()
+            .is_some_and(|n| n.contains("drawn with bricks")),
+        "{:?}",
+        app.notice()
+    );
+    harness
+        .state_mut()
+        .run_command(Command::Open(VolumeSource::Sample), &ctx);
+    settle(&mut harness);
+    assert_eq!(
+        harness.state().renderer_kind(),
+        Some(voxscope_render::RendererKind::Octree)
+    );
 }
 
 #[test]
-fn dragging_orbits_at_half_resolution_on_a_slow_gpu_then_draws_full() {
+fn dragging_orbits_with_a_smaller_preview_on_a_slow_gpu_then_draws_full() {
     let mut harness = harness();
     let full = harness.state().pane_sizes()[0];
     let azimuth = harness.state().settings.camera.azimuth_deg;
@@ -420,11 +420,10 @@ fn dragging_orbits_at_half_resolution_on_a_slow_gpu_then_draws_full() {
         harness.step();
     }
     let moving = harness.state().pane_sizes()[0];
-    // lavapipe takes far more than 20 ms per frame.
-    assert_eq!(
-        moving,
-        [full[0].div_ceil(2), full[1].div_ceil(2)].map(|v| v.max(1)),
-        "half size while moving (full {full:?})"
+    // lavapipe takes far more than the 40 ms a UI frame gives the GPU: a preview while moving.
+    assert!(
+        moving[0] <= full[0] / 2 && moving[1] <= full[1] / 2,
+        "a preview of at most half the size while moving: {moving:?} of {full:?}"
     );
     assert!(
         harness.state().settings.camera.azimuth_deg != azimuth,

@@ -190,3 +190,32 @@ fn a_click_in_the_3d_view_puts_the_cursor_on_the_surface_under_it() {
         "{cursor:?} inside {dims:?}"
     );
 }
+
+#[test]
+fn one_wheel_notch_moves_one_slice_however_the_platform_reports_it() {
+    let mut harness = slices();
+    let dims = harness.state().volume_data().expect("a volume").volume.dims;
+    let axial = harness.state().pane_rects()[1].center();
+    harness.hover_at(axial);
+    harness.step();
+    let wheel = || egui::Event::MouseWheel {
+        unit: egui::MouseWheelUnit::Line,
+        delta: egui::vec2(0.0, 1.0),
+        phase: egui::TouchPhase::Move,
+        source: egui::MouseWheelSource::Unknown,
+        modifiers: egui::Modifiers::NONE,
+    };
+    let slice = |harness: &Harness<'_, VoxscopeApp>| harness.state().view.cursor_voxel(dims)[2];
+    let start = slice(&harness);
+    // X11's button wheel as winit 0.30 reports it: the press and the release, one notch.
+    harness.event(wheel());
+    harness.event(wheel());
+    settle(&mut harness);
+    assert_eq!(slice(&harness), start + 1, "two events of one notch in a frame");
+    // The release may come a frame later, on a slow device long after.
+    harness.event(wheel());
+    harness.step();
+    harness.event(wheel());
+    settle(&mut harness);
+    assert_eq!(slice(&harness), start + 2, "a notch whose release came a frame later");
+}

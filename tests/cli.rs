@@ -170,7 +170,14 @@ fn bad_input_exits_non_zero_with_one_line_naming_the_file() {
     let dir = tempfile::tempdir().unwrap();
     let empty = dir.path().join("empty.nrrd");
     std::fs::write(&empty, b"").unwrap();
+    let mystery = dir.path().join("mystery.bin");
+    std::fs::write(&mystery, b"neither a header nor magic bytes").unwrap();
     let cases: Vec<(Vec<String>, &str)> = vec![
+        // The command line can read it as raw voxels, and says how (the app does not).
+        (
+            vec!["info".into(), mystery.display().to_string()],
+            "or raw voxels with --raw WxHxD:TYPE",
+        ),
         (
             vec!["info".into(), empty.display().to_string()],
             "file is empty",

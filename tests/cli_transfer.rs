@@ -205,7 +205,7 @@ fn render_uses_bricks_when_the_octree_does_not_fit_and_says_so() {
         "an explicit octree fails clearly"
     );
     assert!(
-        stderr(&refused).contains("try --level"),
+        stderr(&refused).contains("it fits through max level"),
         "{}",
         stderr(&refused)
     );

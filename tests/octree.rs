@@ -11,9 +11,11 @@ use voxscope_volume::{QuantizedVolume, ValueWindow, Volume, VoxelData};
 
 const FULL: BuildOptions = BuildOptions {
     collapse_uniform: false,
+    labels: false,
 };
 const COLLAPSED: BuildOptions = BuildOptions {
     collapse_uniform: true,
+    labels: false,
 };
 
 fn volume_u8(dims: [usize; 3], values: Vec<u8>) -> Volume {
@@ -296,7 +298,7 @@ proptest! {
         let volume = volume_u8(dims, values.clone());
         let window = ValueWindow { low: 0.0, high: 200.0 };
         let transfer = TransferFunction { opacity: OpacityMode::Binary, window, threshold, colormap: Default::default() };
-        let (octree, _) = built(&volume, BuildOptions { collapse_uniform: collapse }, Some(transfer));
+        let (octree, _) = built(&volume, BuildOptions { collapse_uniform: collapse, labels: false }, Some(transfer));
         check_layout(&octree);
         check_colors(&octree);
         // The root's bounds cover exactly the voxels' range.

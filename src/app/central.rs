@@ -1,7 +1,8 @@
 //! The central view: its panes laid out for the chosen [`Layout`], each a render target drawn
-//! again only when what it shows changed; the strips above the panes (the level grid's pane
-//! count, the transfer pair's B), the pane labels, the orientation gizmo, and the measured
-//! cost of the last frame.
+//! again only when what it shows changed, paced so that the device is never given more than
+//! it finishes in a UI frame (`central/pacing.rs`, `central/draw.rs`); the strips above the
+//! panes (the level grid's pane count, the transfer pair's B), the pane labels, the
+//! orientation gizmo, and the measured cost of the last frame.
 
 use std::time::Instant;
 
@@ -14,10 +15,14 @@ use super::picking::Picking;
 use super::settings::{AppSettings, Layout, Tool};
 use super::slice_pane::{self, SlicePane};
 use super::view_state::{MAX_GRID_PANES, ViewState};
-use super::viewport::{self, Pane};
+use super::viewport::{self, DrawKey};
 use voxscope_scene::Scene;
 
 mod draw;
+mod pacing;
+mod pane;
+use pacing::FramePacer;
+use pane::Pane;
 use voxscope_render::{FrameProbe, FrameReport, SliceConvention, read_image};
 
 /// Height of the strip of controls above the panes of the level grid and the transfer pair.
@@ -26,17 +31,26 @@ const STRIP_HEIGHT: f32 = 30.0;
 /// Points between panes.
 const PANE_GAP: f32 = 2.0;
 
-/// Frames slower than this are drawn at half resolution while the camera moves.
-const SLOW_FRAME_MS: f64 = 20.0;
-
 /// The central view's panes and what it measured of their drawing.
 pub struct CentralView {
     panes: Vec<Pane>,
     /// Where the panes were laid out last frame, in points, and the whole view.
     pane_rects: Vec<Rect>,
     view_rect: Rect,
-    /// Times the first drawn pane of a frame and counts its nodes per ray.
+    /// Times a pass of each submission and counts its nodes per ray.
     frame_probe: Option<FrameProbe>,
+    /// The pass the frame probe measures now.
+    measuring: Option<Measured>,
+    /// The pass of the last report that completed an image (what the panel's numbers are of).
+    last_measured: Option<Measured>,
+    /// Bands the last full image drawn in bands took (0: drawn whole).
+    last_bands: u32,
+    /// Per pane, the wall time its current (or last) full image's bands took on the device.
+    band_time: Vec<std::time::Duration>,
+    /// What the device is doing, and what a pixel costs.
+    pacer: FramePacer,
+    /// When input last came (the frame budget is larger after a pause).
+    last_input: Instant,
     /// Finds the 3D point under the pointer in a 3D pane.
     picking: Option<Picking>,
     last_report: Option<FrameReport>,
@@ -57,6 +71,31 @@ pub struct CentralView {
     stream_changed: bool,
 }
 
+/// A pass the frame probe measured: which pane (of how many), at which level, how many pixels
+/// of how many, and whether it completed the pane's image.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Measured {
+    pub pane: usize,
+    pub panes: usize,
+    /// The pane's max level (a 3D pane).
+    pub level: Option<u32>,
+    pub pixels: u64,
+    pub complete: bool,
+    /// The pane's full image's pixels.
+    pub full_pixels: u64,
+}
+
+/// What the Octree panel says of the last frame: the probe's report, the pane it measured,
+/// and its GPU time per whole frame (estimated from a band's where it was drawn in bands).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FrameFacts {
+    pub report: FrameReport,
+    pub measured: Measured,
+    pub frame_ms: Option<f64>,
+    /// Bands the frame took (0: drawn whole).
+    pub bands: u32,
+}
+
 /// What a frame of the central view reads and edits.
 pub struct ViewInputs<'a> {
     pub gpu: Option<&'a AppGpu>,
@@ -75,6 +114,12 @@ impl CentralView {
             pane_rects: Vec::new(),
             view_rect: Rect::NOTHING,
             frame_probe: gpu.map(|gpu| FrameProbe::new(&gpu.context)),
+            measuring: None,
+            last_measured: None,
+            last_bands: 0,
+            band_time: Vec::new(),
+            pacer: FramePacer::default(),
+            last_input: Instant::now(),
             picking: gpu.map(Picking::new),
             last_report: None,
             draw_times: Vec::new(),
@@ -97,12 +142,32 @@ impl CentralView {
         &self.pane_rects
     }
 
-    /// Pixel sizes of the panes' render targets.
+    /// Pixel sizes of the images the panes show (a preview's while a slow frame is drawn).
     pub fn pane_sizes(&self) -> Vec<[u32; 2]> {
         self.panes
             .iter()
-            .filter_map(|p| p.target.as_ref().map(|t| [t.width, t.height]))
+            .filter_map(|p| p.shown().map(|s| [s.target.width, s.target.height]))
             .collect()
+    }
+
+    /// Whether every 3D pane shows the scene `serial` at full resolution, its drawing handed
+    /// to the device (what a time series' playback waits for before the next frame).
+    pub fn shows_scene(&self, serial: u64) -> bool {
+        !self.pacer.is_in_flight()
+            && self.panes.iter().all(|pane| match pane.drawn {
+                Some(DrawKey::Volume { scene, .. }) => scene == serial && pane.preview.is_none(),
+                Some(DrawKey::Slice { .. }) => true,
+                None => false,
+            })
+    }
+
+    /// True while a frame is on the device or a pane's full image is still being drawn.
+    pub fn is_drawing(&self) -> bool {
+        self.pacer.is_in_flight()
+            || self
+                .panes
+                .iter()
+                .any(|pane| pane.banding.is_some() || pane.preview.is_some())
     }
 
     /// The voxel under the pointer, as of the last frame: in a slice view, or where a 3D
@@ -121,18 +186,44 @@ impl CentralView {
         self.last_report
     }
 
-    /// Bytes of the panes' render targets.
+    /// The last measured frame with the pane it was measured on.
+    pub fn frame_facts(&self) -> Option<FrameFacts> {
+        let (report, measured) = (self.last_report?, self.last_measured?);
+        let frame_ms = if self.last_bands > 0 {
+            self.band_time
+                .get(measured.pane)
+                .map(|spent| spent.as_secs_f64() * 1e3)
+        } else {
+            report.gpu_ms
+        };
+        Some(FrameFacts {
+            report,
+            measured,
+            frame_ms,
+            bands: self.last_bands,
+        })
+    }
+
+    /// Bytes of the panes' render targets (previews included).
     pub fn target_bytes(&self) -> u64 {
         self.panes
             .iter()
-            .filter_map(|p| p.target.as_ref())
+            .flat_map(|p| {
+                [
+                    p.target(),
+                    p.preview.as_ref().map(|preview| &preview.image.target),
+                ]
+            })
+            .flatten()
             .map(|t| t.gpu_bytes())
             .sum()
     }
 
-    /// True while a frame's measurement or a picked point is on its way back from the GPU.
+    /// True while a frame's measurement or a picked point is on its way back from the GPU, or
+    /// a frame is being drawn.
     pub fn is_measuring(&self) -> bool {
-        self.frame_probe.as_ref().is_some_and(|p| !p.is_idle())
+        self.is_drawing()
+            || self.frame_probe.as_ref().is_some_and(|p| !p.is_idle())
             || self.picking.as_ref().is_some_and(Picking::is_busy)
     }
 
@@ -153,8 +244,14 @@ impl CentralView {
     /// or starts a ruler in `view`). `scale` takes the renderer's voxel space to the view's
     /// ([`Scene::voxel_scale`]).
     pub fn poll(&mut self, gpu: &AppGpu, view: &mut ViewState, tool: Tool, scale: [f64; 3]) {
-        if let Some(report) = self.frame_probe.as_mut().and_then(|p| p.poll(&gpu.context)) {
-            self.last_report = Some(report);
+        if let Some(report) = self.frame_probe.as_mut().and_then(|p| p.poll(&gpu.context))
+            && let Some(measured) = self.measuring.take()
+        {
+            // The panel's numbers are of whole images (a band's visits are partly stale).
+            if measured.complete {
+                self.last_report = Some(report);
+                self.last_measured = Some(measured);
+            }
         }
         if let Some(picking) = &mut self.picking {
             picking.poll(gpu, view, tool, scale);
@@ -194,7 +291,7 @@ impl CentralView {
                 |ui| {
                     ui.horizontal(|ui| match settings.layout {
                         Layout::LevelGrid => grid_strip(ui, settings),
-                        _ => pair_strip(ui, settings),
+                        _ => pair_strip(ui, settings, view.window),
                     });
                 },
             );
@@ -202,13 +299,7 @@ impl CentralView {
         let rects = grid_rects(area, count, PANE_GAP);
         self.pane_rects = rects.clone();
         if let Some(gpu) = gpu {
-            self.fit_targets(
-                gpu,
-                scene.is_some(),
-                &rects,
-                ui.ctx().pixels_per_point(),
-                settings,
-            );
+            self.fit_targets(gpu, scene.is_some(), &rects, ui.ctx().pixels_per_point());
         }
 
         let was_interacting = self.interacting;
@@ -230,10 +321,7 @@ impl CentralView {
                         viewport::control_camera(&mut settings.camera, &response, ui, extent);
                     self.interacting |= moved || response.dragged();
                     volume_hovered |= response.hovered();
-                    let target = self.panes[index]
-                        .target
-                        .as_ref()
-                        .map(|t| [t.width, t.height]);
+                    let target = self.panes[index].target().map(|t| [t.width, t.height]);
                     // The composite has no probe: nothing to pick in its 3D view.
                     if let (Some(picking), Some(target), None) =
                         (&mut self.picking, target, &scene.composite)
@@ -245,8 +333,7 @@ impl CentralView {
                 }
                 PaneKind::Slice(axis) => {
                     let target = self.panes[index]
-                        .target
-                        .as_ref()
+                        .target()
                         .map_or([1, 1], |t| [t.width, t.height]);
                     let pane = SlicePane {
                         axis,
@@ -307,16 +394,14 @@ impl CentralView {
         }
     }
 
-    /// Gives every pane a target of its rect's pixel size (half that while the camera moves
-    /// on a slow GPU, as ParaView's interactive LOD does; the full image follows when the
-    /// motion stops), and drops the panes the layout no longer has.
+    /// Gives every pane a target of its rect's pixel size (a slow device shows a smaller
+    /// preview meanwhile: `central/draw.rs`), and drops the panes the layout no longer has.
     fn fit_targets(
         &mut self,
         gpu: &AppGpu,
         has_scene: bool,
         rects: &[Rect],
         pixels_per_point: f32,
-        settings: &AppSettings,
     ) {
         let mut egui_renderer = gpu.render_state.renderer.write();
         while self.panes.len() > rects.len() {
@@ -325,20 +410,12 @@ impl CentralView {
             }
         }
         self.panes.resize_with(rects.len(), Pane::default);
-        let slow = self
-            .last_report
-            .is_none_or(|r| r.gpu_ms.is_none_or(|ms| ms > SLOW_FRAME_MS));
-        let scale = if self.interacting && slow && settings.fast_interaction {
-            0.5
-        } else {
-            1.0
-        };
         if has_scene {
             for (pane, rect) in self.panes.iter_mut().zip(rects) {
                 pane.ensure_size(
                     &gpu.context,
                     &mut egui_renderer,
-                    viewport::pixel_size(*rect, pixels_per_point * scale),
+                    viewport::pixel_size(*rect, pixels_per_point),
                 );
             }
         }
@@ -358,7 +435,7 @@ impl CentralView {
             image::RgbaImage::from_pixel(size[0], size[1], image::Rgba([0, 0, 0, 255]));
         let mut any = false;
         for (pane, rect) in self.panes.iter().zip(&self.pane_rects) {
-            let (Some(target), Some(drawn)) = (&pane.target, pane.drawn) else {
+            let (Some(target), Some(drawn)) = (pane.target(), pane.drawn) else {
                 continue;
             };
             let image = read_image(&gpu.context, target).map_err(|e| e.to_string())?;

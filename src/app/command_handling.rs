@@ -15,7 +15,7 @@ use super::viewport;
 use super::voxscope_app::VoxscopeApp;
 use voxscope_scene::FrameKey;
 use voxscope_scene::Job;
-use voxscope_scene::{FrameChange, VolumeSource, prepare_scene};
+use voxscope_scene::{FrameChange, TransferRequest, VolumeSource, prepare_scene};
 
 impl VoxscopeApp {
     /// Carries out `command` now. Menus, toolbar and shortcuts queue theirs and the app runs
@@ -85,10 +85,10 @@ impl VoxscopeApp {
             }
             Command::SaveScreenshot(path) => self
                 .save_screenshot(&path, ctx.pixels_per_point())
-                .map(|()| Some(format!("saved {}", path.display()))),
+                .map(|()| Some(self.saved(&path, "screenshot"))),
             Command::SaveTransfer(path) => self
                 .save_transfer(&path)
-                .map(|()| Some(format!("saved {}", path.display()))),
+                .map(|()| Some(self.saved(&path, "transfer function"))),
             Command::LoadTransfer(path) => self
                 .load_transfer(&path)
                 .map(|()| Some(format!("loaded {}", path.display()))),
@@ -206,8 +206,16 @@ impl VoxscopeApp {
             return;
         };
         let context = Arc::clone(&gpu.context);
-        let choice = self.settings.transfer;
-        let options = self.renderer_options();
+        // A new volume opens with what fits its data, unless the user pinned the transfer
+        // function; with the renderer the user chose, not one the last volume called for.
+        let request = TransferRequest {
+            saved: self.pinned_transfer(),
+            ..TransferRequest::default()
+        };
+        let options = match &frame {
+            Some(_) => self.renderer_options(),
+            None => self.chosen_renderer_options(),
+        };
         let wake = ctx.clone();
         let title = match &frame {
             Some(frame) if frame.composite => format!(
@@ -226,7 +234,7 @@ impl VoxscopeApp {
         self.jobs.open(Job::spawn(
             title,
             move || wake.request_repaint(),
-            move |progress| prepare_scene(&source, frame, choice, &context, options, progress),
+            move |progress| prepare_scene(&source, frame, &request, &context, options, progress),
         ));
     }
 
@@ -236,19 +244,30 @@ impl VoxscopeApp {
             return;
         }
         let wake = ctx.clone();
-        let receiver = dialogs::spawn(kind, recent_directory(&self.settings), move || {
+        let receiver = dialogs::spawn(kind, start_directory(&self.settings, kind), move || {
             wake.request_repaint()
         });
         self.jobs.dialog = Some((kind, receiver));
     }
 
-    /// Opens the app's own file browser for `kind`, in the folder of the most recent file.
+    /// Opens the app's own file browser for `kind`, where its dialog would start
+    /// ([`start_directory`]).
     pub(super) fn browse(&mut self, kind: DialogKind, ctx: &egui::Context) {
         self.browser = Some(FileBrowser::new(
             kind,
-            recent_directory(&self.settings),
+            start_directory(&self.settings, kind),
             ctx,
         ));
+    }
+
+    /// Remembers `path`'s folder for the next save, and says what was saved where: the
+    /// status bar's confirmation.
+    fn saved(&mut self, path: &Path, what: &str) -> String {
+        let absolute = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
+        if let Some(folder) = absolute.parent() {
+            self.settings.last_save_folder = Some(folder.to_path_buf());
+        }
+        format!("{what} saved: {}", absolute.display())
     }
 
     pub(super) fn dialog_closed(
@@ -303,10 +322,25 @@ impl VoxscopeApp {
     }
 }
 
-/// Where a file dialog starts: the folder of the most recent file.
-pub(super) fn recent_directory(settings: &AppSettings) -> Option<PathBuf> {
-    settings
-        .recent
-        .first()
-        .and_then(|spec| Path::new(spec).parent().map(Path::to_path_buf))
+/// Where a file dialog of `kind` starts: a save (and loading a transfer function) where the
+/// last save went, else in the most recent volume's folder; an open in the most recent
+/// volume's folder.
+pub(super) fn start_directory(settings: &AppSettings, kind: DialogKind) -> Option<PathBuf> {
+    let recent = || {
+        settings
+            .recent
+            .first()
+            .and_then(|spec| Path::new(spec).parent().map(Path::to_path_buf))
+    };
+    match kind {
+        // Transfer functions are loaded from where they were saved.
+        DialogKind::SaveScreenshot | DialogKind::SaveTransfer | DialogKind::LoadTransfer => {
+            settings
+                .last_save_folder
+                .clone()
+                .filter(|folder| folder.is_dir())
+                .or_else(recent)
+        }
+        DialogKind::Open | DialogKind::OpenFolder => recent(),
+    }
 }

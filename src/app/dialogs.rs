@@ -15,7 +15,7 @@ pub struct DialogAnswer {
 pub enum DialogKind {
     /// File ▸ Open…: a volume file.
     Open,
-    /// File ▸ Open folder…: a DICOM series or a folder of slices.
+    /// File ▸ Open folder…: a DICOM series, a folder of slices or a Zarr store.
     OpenFolder,
     /// File ▸ Save screenshot…
     SaveScreenshot,
@@ -24,6 +24,10 @@ pub enum DialogKind {
     /// File ▸ Load transfer function…
     LoadTransfer,
 }
+
+/// The title of File ▸ Open folder…'s dialog: what a folder can be.
+pub const OPEN_FOLDER_TITLE: &str =
+    "Open a folder: a DICOM series, TIFF/PNG slices or an OME-Zarr store";
 
 /// A dialog that closes faster than this was never shown: nobody cancels one so quickly.
 pub const NOT_SHOWN_WITHIN: Duration = Duration::from_millis(300);
@@ -64,9 +68,7 @@ fn show(kind: DialogKind, directory: Option<&Path>) -> Option<PathBuf> {
             )
             .add_filter("All files", &["*"])
             .pick_file(),
-        DialogKind::OpenFolder => dialog
-            .set_title("Open a folder: a DICOM series or TIFF/PNG slices")
-            .pick_folder(),
+        DialogKind::OpenFolder => dialog.set_title(OPEN_FOLDER_TITLE).pick_folder(),
         DialogKind::SaveScreenshot => dialog
             .set_title("Save screenshot")
             .add_filter("PNG image", &["png"])

@@ -1,6 +1,7 @@
 //! The app's own file browser, for where the desktop's file dialog cannot be shown (no
 //! portal, a bare X session, a remote display) and for File > Open path: a typed path, the
-//! folder's subfolders and the files voxscope reads, recent places. Folders are listed on
+//! folder's subfolders, its Zarr stores (folders that open as a file does) and the files
+//! voxscope reads, recent places, and the button that opens or saves. Folders are listed on
 //! another thread, so a slow disk or network mount never stalls the UI.
 
 use std::path::{Path, PathBuf};
@@ -8,8 +9,9 @@ use std::sync::mpsc::{self, Receiver, TryRecvError};
 
 use egui::{Key, RichText, Ui};
 
-use super::dialogs::DialogKind;
+use super::dialogs::{DialogKind, OPEN_FOLDER_TITLE};
 use super::numbers::format_bytes;
+use voxscope_volume::ome_zarr::is_zarr_folder;
 
 /// Most entries shown of one folder (a folder of a million files stays usable).
 const MAX_ENTRIES: usize = 5000;
@@ -30,6 +32,9 @@ pub enum BrowserOutcome {
 #[derive(Debug, Clone, Default)]
 struct Listing {
     folders: Vec<String>,
+    /// Folders that are Zarr stores (`zarr.json`, `.zgroup` or `.zarray` in them): a volume
+    /// each, opened by a click rather than entered.
+    stores: Vec<String>,
     /// File names and sizes.
     files: Vec<(String, u64)>,
     /// Entries left out beyond [`MAX_ENTRIES`].
@@ -147,6 +152,18 @@ impl FileBrowser {
                     if ui.button("Cancel").clicked() {
                         outcome = Some(BrowserOutcome::Cancelled);
                     }
+                    let typed = !self.path_text.trim().is_empty();
+                    if ui
+                        .add_enabled(
+                            typed || self.kind == DialogKind::OpenFolder,
+                            egui::Button::new(self.action_name()),
+                        )
+                        .on_hover_text("The path typed above (Enter does the same)")
+                        .on_disabled_hover_text("Type a name or a path above, or click a file")
+                        .clicked()
+                    {
+                        self.accept_typed(&mut outcome, &mut go_to);
+                    }
                     if self.kind == DialogKind::OpenFolder
                         && ui.button("Open this folder").clicked()
                     {
@@ -166,8 +183,8 @@ impl FileBrowser {
 
     fn title(&self) -> &'static str {
         match self.kind {
-            DialogKind::Open => "Open a volume",
-            DialogKind::OpenFolder => "Open a folder: a DICOM series or TIFF/PNG slices",
+            DialogKind::Open => "Open a volume: a file or an OME-Zarr store",
+            DialogKind::OpenFolder => OPEN_FOLDER_TITLE,
             DialogKind::SaveScreenshot => "Save screenshot (PNG)",
             DialogKind::SaveTransfer => "Save transfer function (RON)",
             DialogKind::LoadTransfer => "Load transfer function (RON)",
@@ -198,20 +215,8 @@ impl FileBrowser {
                 edit.request_focus();
             }
             let entered = edit.lost_focus() && ui.input(|i| i.key_pressed(Key::Enter));
-            if entered && !self.path_text.trim().is_empty() {
-                let typed = self.path_text.trim();
-                if typed.starts_with("synthetic:") && self.kind == DialogKind::Open {
-                    *outcome = Some(BrowserOutcome::Chosen(PathBuf::from(typed)));
-                    return;
-                }
-                let path = self.directory.join(typed);
-                if path.is_dir() && self.kind != DialogKind::OpenFolder {
-                    *go_to = Some(path);
-                    self.path_text.clear();
-                    self.focus_path = true;
-                } else {
-                    *outcome = Some(BrowserOutcome::Chosen(path));
-                }
+            if entered {
+                self.accept_typed(outcome, go_to);
             }
         });
         ui.horizontal(|ui| {
@@ -222,6 +227,44 @@ impl FileBrowser {
             }
             ui.label(RichText::new(self.directory.display().to_string()).monospace());
         });
+    }
+
+    /// Acts on the typed path (Enter, or the Open/Save button): a `synthetic:` spec or a Zarr
+    /// store opens, a folder is entered (or, for Open folder, chosen), anything else is the
+    /// file chosen. Nothing typed: Open folder chooses the folder shown, the others nothing.
+    fn accept_typed(&mut self, outcome: &mut Option<BrowserOutcome>, go_to: &mut Option<PathBuf>) {
+        let typed = self.path_text.trim();
+        if typed.is_empty() {
+            if self.kind == DialogKind::OpenFolder {
+                *outcome = Some(BrowserOutcome::Chosen(self.directory.clone()));
+            }
+            return;
+        }
+        if typed.starts_with("synthetic:") && self.kind == DialogKind::Open {
+            *outcome = Some(BrowserOutcome::Chosen(PathBuf::from(typed)));
+            return;
+        }
+        let path = self.directory.join(typed);
+        let opens_stores = matches!(self.kind, DialogKind::Open | DialogKind::OpenFolder);
+        if path.is_dir()
+            && self.kind != DialogKind::OpenFolder
+            && !(opens_stores && is_zarr_folder(&path))
+        {
+            *go_to = Some(path);
+            self.path_text.clear();
+            self.focus_path = true;
+        } else {
+            *outcome = Some(BrowserOutcome::Chosen(path));
+        }
+    }
+
+    /// The button that does what Enter in the path field does: Open, Save or Load.
+    fn action_name(&self) -> &'static str {
+        match self.kind {
+            DialogKind::Open | DialogKind::OpenFolder => "Open",
+            DialogKind::SaveScreenshot | DialogKind::SaveTransfer => "Save",
+            DialogKind::LoadTransfer => "Load",
+        }
     }
 
     /// The folder's subfolders and matching files, in a list of fixed height (so the modal
@@ -258,8 +301,19 @@ impl FileBrowser {
                     }
                     Some(Ok(listing)) => listing,
                 };
+                let opens_stores = matches!(self.kind, DialogKind::Open | DialogKind::OpenFolder);
                 for folder in &listing.folders {
-                    if ui.selectable_label(false, format!("{folder}/")).clicked() {
+                    let store = listing.stores.contains(folder);
+                    if store && opens_stores {
+                        // A store is a volume: a click opens it, as a file's does.
+                        if ui
+                            .selectable_label(false, format!("{folder}  ·  Zarr store"))
+                            .on_hover_text("An OME-Zarr (or Zarr) store: click to open it")
+                            .clicked()
+                        {
+                            *outcome = Some(BrowserOutcome::Chosen(self.directory.join(folder)));
+                        }
+                    } else if ui.selectable_label(false, format!("{folder}/")).clicked() {
                         *go_to = Some(self.directory.join(folder));
                     }
                 }
@@ -339,6 +393,9 @@ fn list(directory: &Path, folders_only: bool) -> Result<Listing, String> {
             continue;
         };
         if metadata.is_dir() {
+            if is_zarr_folder(&entry.path()) {
+                listing.stores.push(name.clone());
+            }
             listing.folders.push(name);
         } else if !folders_only {
             listing.files.push((name, metadata.len()));

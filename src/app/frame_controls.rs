@@ -34,14 +34,15 @@ impl Default for Playback {
 
 impl Playback {
     /// The next time point to ask for, if playing, `frames_per_second` allows one now and no
-    /// frame is still loading (a slow load slows playback rather than queueing frames).
+    /// frame is still loading or being drawn (`waiting`: a slow load or device slows playback
+    /// rather than queueing frames, or skipping ones never shown).
     pub fn next(
         &mut self,
         series: &Series,
         frames_per_second: f32,
-        loading: bool,
+        waiting: bool,
     ) -> Option<usize> {
-        if !self.playing || loading || series.time_points < 2 {
+        if !self.playing || waiting || series.time_points < 2 {
             return None;
         }
         let period = Duration::from_secs_f32(
@@ -72,6 +73,9 @@ pub struct Shown<'a> {
     pub prefetched: usize,
     /// The volume is streamed (the next time point alone is prefetched).
     pub streamed: bool,
+    /// The time point the 3D views show whole (another than the selected one while a slow
+    /// device draws it).
+    pub on_screen: Option<usize>,
 }
 
 /// The channel and time controls, shown where the file has more than one of either.
@@ -139,6 +143,15 @@ pub fn show(
                     queue.send(Command::ShowTime(time));
                 }
                 ui.end_row();
+                if let Some(on_screen) = shown.on_screen.filter(|&t| t != selected.time) {
+                    // A slow device: the picture is still the time point before.
+                    ui.label("");
+                    ui.horizontal(|ui| {
+                        ui.spinner();
+                        ui.small(format!("drawing {}; showing {on_screen}", selected.time));
+                    });
+                    ui.end_row();
+                }
                 ui.label("");
                 ui.horizontal(|ui| {
                     let text = if playback.playing { "Pause" } else { "Play" };

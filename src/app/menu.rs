@@ -52,14 +52,15 @@ pub fn menu_bar(ui: &mut Ui, settings: &AppSettings, has_scene: bool, queue: &mu
 }
 
 fn file_menu(ui: &mut Ui, settings: &AppSettings, has_scene: bool, queue: &mut CommandQueue) {
-    command_button(ui, "Open…", Command::ShowDialog(DialogKind::Open), queue);
+    command_button(ui, "Open…", Command::ShowDialog(DialogKind::Open), queue)
+        .on_hover_text("A volume file; an OME-Zarr store is a folder: Open folder… or Open path…");
     command_button(
         ui,
         "Open folder…",
         Command::ShowDialog(DialogKind::OpenFolder),
         queue,
     )
-    .on_hover_text("A DICOM series, or a folder of TIFF/PNG slices");
+    .on_hover_text("A DICOM series, a folder of TIFF/PNG slices, or an OME-Zarr store");
     ui.menu_button("Open recent", |ui| {
         if settings.recent.is_empty() {
             ui.label("nothing yet");
@@ -190,14 +191,23 @@ pub fn status_bar(
             }
             ui.separator();
         }
+        // The notice first: the confirmation of what was just done must not be pushed past the
+        // window's edge by the volume's description, which is cut short instead (in full on
+        // hover).
+        if let Some(notice) = notice {
+            ui.add(egui::Label::new(egui::RichText::new(notice).strong()).truncate())
+                .on_hover_text(notice);
+            ui.separator();
+            ui.ctx().request_repaint_after(Duration::from_millis(500));
+        }
         if let Some(text) = scene
             .zip(hovered)
             .and_then(|(s, v)| s.data.describe_voxel(v))
         {
-            ui.label(text);
+            ui.add(egui::Label::new(text).truncate());
         } else if let Some(scene) = scene {
             let volume = &scene.data.volume;
-            ui.label(format!(
+            let description = format!(
                 "{} · {} · {}×{}×{} {} · spacing {:.3}×{:.3}×{:.3} · {}",
                 volume.name,
                 volume.format,
@@ -209,12 +219,9 @@ pub fn status_bar(
                 volume.spacing[1],
                 volume.spacing[2],
                 volume.orientation.describe(),
-            ));
-        }
-        if let Some(notice) = notice {
-            ui.separator();
-            ui.label(notice);
-            ui.ctx().request_repaint_after(Duration::from_millis(500));
+            );
+            ui.add(egui::Label::new(&description).truncate())
+                .on_hover_text(&description);
         }
     });
 }

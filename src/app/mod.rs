@@ -35,6 +35,7 @@ mod url_dialog;
 mod view_state;
 mod viewport;
 mod voxscope_app;
+mod wheel;
 
 use std::sync::Arc;
 

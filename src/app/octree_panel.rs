@@ -4,13 +4,14 @@
 use egui::Ui;
 use egui_plot::{Bar, BarChart, Legend, Plot};
 
+use super::central::FrameFacts;
 use super::clip_panel::{self, ClipContext};
 use super::numbers::{format_bytes, group_digits};
 use super::settings::AppSettings;
 use super::stream_panel;
 use super::view_state::ViewState;
-use voxscope_octree::LevelStatistics;
-use voxscope_render::{FrameReport, HEATMAP_SATURATION, LevelDetail, RendererKind, heatmap_color};
+use voxscope_octree::{DataKind, LevelStatistics};
+use voxscope_render::{HEATMAP_SATURATION, LevelDetail, RendererKind, heatmap_color};
 use voxscope_scene::CompositeScene;
 use voxscope_scene::Scene;
 
@@ -20,7 +21,8 @@ pub struct OctreeFacts<'a> {
     pub statistics: &'a [LevelStatistics],
     /// True while the statistics are being recounted for a new transfer function.
     pub statistics_pending: bool,
-    pub frame: Option<FrameReport>,
+    /// The last frame measured, and the pane it was measured on.
+    pub frame: Option<FrameFacts>,
     /// Frames per second over the last second of continuous drawing.
     pub fps: Option<f64>,
     pub adapter: &'a str,
@@ -58,24 +60,40 @@ pub fn show(
                 ui.end_row();
             }
 
+            // The renderer this volume is drawn with: the data's where it called for one (a
+            // large store streams), else the user's. Choosing one is the user's choice, for
+            // this volume and the next.
+            let shown = view.data_renderer.unwrap_or(settings.renderer);
+            let mut chosen = shown;
             let label = ui.label("Renderer");
-            egui::ComboBox::from_id_salt("renderer")
-                .selected_text(settings.renderer.name())
+            let combo = egui::ComboBox::from_id_salt("renderer")
+                .selected_text(shown.name())
                 .show_ui(ui, |ui| {
                     for kind in RendererKind::ALL.into_iter().chain([RendererKind::Stream]) {
-                        ui.selectable_value(&mut settings.renderer, kind, kind.name());
+                        ui.selectable_value(&mut chosen, kind, kind.name());
                     }
                 })
                 .response
                 .labelled_by(label.id)
                 .on_hover_text("octree: the paper's voxel octree · dense: one 3D texture (the usual way) · bricks: octree down to bricks in a 3D atlas · stream: a pyramid of 32³ bricks streamed into a fixed GPU budget (OME-Zarr stores from the file, at full resolution)");
+            if view.data_renderer.is_some() {
+                combo.on_hover_text(format!(
+                    "This volume called for {}; the next opens with {}, the renderer chosen here",
+                    shown.name(),
+                    settings.renderer.name()
+                ));
+            }
+            if chosen != shown {
+                settings.renderer = chosen;
+                view.data_renderer = None;
+            }
             ui.end_row();
 
-            if settings.renderer == RendererKind::Stream {
+            if shown == RendererKind::Stream {
                 stream_panel::budget_row(ui, settings);
             }
 
-            if settings.renderer == RendererKind::Bricks {
+            if shown == RendererKind::Bricks {
                 let label = ui.label("Brick size");
                 egui::ComboBox::from_id_salt("brick_size")
                     .selected_text(format!("{0}³", settings.brick_size))
@@ -105,11 +123,20 @@ pub fn show(
     )
     .on_hover_text("Correct alpha for the distance a ray travels in a node; off is the paper's plain compositing")
     .on_disabled_hover_text(NO_NODES);
+    let drawn_with = view.data_renderer.unwrap_or(settings.renderer);
+    let labels = facts
+        .scene
+        .is_some_and(|s| composite.is_none() && matches!(s.data.kind, DataKind::Labels(_)));
     ui.add_enabled(
-        settings.renderer != RendererKind::Octree || composite.is_some(),
+        !labels && (drawn_with != RendererKind::Octree || composite.is_some()),
         egui::Checkbox::new(&mut settings.trilinear, "Trilinear filtering"),
     )
-    .on_hover_text("Dense, bricks and the composite sample textures; the octree draws whole nodes");
+    .on_hover_text("Dense, bricks, stream and the composite sample textures; the octree draws whole nodes")
+    .on_disabled_hover_text(if labels {
+        "A label volume's values are categories: a value between two labels is a third, unrelated label. Every renderer and the slices sample it at the nearest voxel, and its coarser levels keep each block's most frequent label."
+    } else {
+        "The octree draws whole nodes: there is nothing between voxels to filter"
+    });
     ui.checkbox(&mut settings.heatmap, "Nodes-visited heat map")
         .on_hover_text("Show per pixel how many nodes its ray visited (the composite: how many samples it took)");
     if settings.heatmap {
@@ -122,11 +149,8 @@ pub fn show(
             },
         );
     }
-    ui.checkbox(
-        &mut settings.fast_interaction,
-        "Half resolution while moving",
-    )
-    .on_hover_text("When a frame takes over 20 ms, draw at half resolution while the camera moves");
+    ui.checkbox(&mut settings.fast_interaction, "Preview slow frames")
+        .on_hover_text("When a frame would take the GPU over 40 ms, show it first at a resolution that fits, then at full resolution band by band; off: band by band alone (the window answers either way)");
     ui.checkbox(&mut settings.continuous, "Redraw every frame")
         .on_hover_text(
             "Measure sustained frame rate; otherwise the view is drawn only when something changes",
@@ -250,11 +274,28 @@ fn frame_numbers(ui: &mut Ui, facts: &OctreeFacts<'_>) {
                 ui.end_row();
             }
             if let Some(frame) = facts.frame {
+                let measured = frame.measured;
+                // Several panes: say which one the numbers are of.
+                if measured.panes > 1 {
+                    ui.label("Measured");
+                    ui.label(match measured.level {
+                        Some(level) => format!("pane {} (level {level})", measured.pane + 1),
+                        None => format!("pane {}", measured.pane + 1),
+                    })
+                    .on_hover_text("The GPU time and the nodes per ray below are of this pane's last full image");
+                    ui.end_row();
+                }
                 ui.label("GPU time");
-                ui.label(match frame.gpu_ms {
+                let time = match frame.frame_ms {
+                    Some(ms) if frame.bands > 1 => {
+                        format!("{ms:.1} ms per frame, in {} bands", frame.bands)
+                    }
                     Some(ms) => format!("{ms:.3} ms per frame"),
                     None => "no timestamp queries on this GPU".to_owned(),
-                });
+                };
+                ui.label(time).on_hover_text(
+                    "A frame that would keep the device busy longer than a UI frame's budget (40 ms) is drawn in bands, a preview shown meanwhile, so the window keeps answering",
+                );
                 ui.end_row();
                 ui.label(if composite {
                     "Samples per ray"
@@ -263,7 +304,7 @@ fn frame_numbers(ui: &mut Ui, facts: &OctreeFacts<'_>) {
                 });
                 ui.label(format!(
                     "{:.1} average, {} max",
-                    frame.nodes_per_ray_avg, frame.nodes_per_ray_max
+                    frame.report.nodes_per_ray_avg, frame.report.nodes_per_ray_max
                 ));
                 ui.end_row();
             }
@@ -317,13 +358,16 @@ fn level_detail_text(detail: LevelDetail) -> String {
 }
 
 fn statistics_table(ui: &mut Ui, statistics: &[LevelStatistics]) {
+    // The panel's width, scrolling sideways where the columns need more: a table that grew
+    // the panel's content past its edge clipped its last column and the chart below.
     egui::ScrollArea::horizontal()
         .id_salt("stats_scroll")
+        .auto_shrink([false, true])
         .show(ui, |ui| {
             egui::Grid::new("stats_table")
                 .striped(true)
                 .num_columns(6)
-                .spacing([10.0, 2.0])
+                .spacing([6.0, 2.0])
                 .show(ui, |ui| {
                     for header in ["level", "nodes", "leaves", "transp.", "opaque", "bytes"] {
                         ui.strong(header);

@@ -10,6 +10,9 @@ use voxscope_octree::OpacityMode;
 use voxscope_render::{LevelDetail, RendererKind};
 use voxscope_scene::Scene;
 use voxscope_scene::TransferChoice;
+use voxscope_volume::{ValueWindow, format_value};
+
+use super::transfer_panel::threshold_slider;
 
 /// The level grid's strip: how many panes.
 pub fn grid_strip(ui: &mut Ui, settings: &mut AppSettings) {
@@ -22,14 +25,15 @@ pub fn grid_strip(ui: &mut Ui, settings: &mut AppSettings) {
     ui.label("· each pane: its own max level, one linked camera");
 }
 
-/// The transfer pair's strip: pane B's transfer function.
-pub fn pair_strip(ui: &mut Ui, settings: &mut AppSettings) {
+/// The transfer pair's strip: pane B's transfer function (over the volume's `window`).
+pub fn pair_strip(ui: &mut Ui, settings: &mut AppSettings, window: ValueWindow) {
     ui.label("B:");
     let b = &mut settings.compare_transfer;
     ui.selectable_value(&mut b.opacity, OpacityMode::Gray, "Gray");
     ui.selectable_value(&mut b.opacity, OpacityMode::Binary, "Binary");
     if b.opacity == OpacityMode::Binary {
-        ui.add(egui::Slider::new(&mut b.threshold, 0.0..=1.0).text("threshold"));
+        let label = ui.label("threshold");
+        threshold_slider(ui, &mut b.threshold, window).labelled_by(label.id);
     }
     let colormap_label = ui.label("colormap");
     egui::ComboBox::from_id_salt("compare_colormap")
@@ -132,18 +136,22 @@ pub fn pane_label(
                 settings.compare_transfer
             };
             let name = if index == 0 { "A" } else { "B" };
-            paint(ui, format!("{name} · {}", describe_choice(choice)));
+            paint(
+                ui,
+                format!("{name} · {}", describe_choice(choice, view.window)),
+            );
         }
     }
 }
 
-/// `alpha = gray, grays`, `binary at 0.30, viridis`.
-fn describe_choice(choice: TransferChoice) -> String {
+/// `alpha = gray, grays`, `binary at 120, viridis` (the threshold in data units over
+/// `window`).
+fn describe_choice(choice: TransferChoice, window: ValueWindow) -> String {
     match choice.opacity {
         OpacityMode::Gray => format!("alpha = gray, {}", choice.colormap.name()),
         OpacityMode::Binary => format!(
-            "binary at {:.2}, {}",
-            choice.threshold,
+            "binary at {}, {}",
+            format_value(window.low + choice.threshold as f64 * (window.high - window.low)),
             choice.colormap.name()
         ),
         OpacityMode::Points(curve) => format!(

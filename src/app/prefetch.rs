@@ -6,7 +6,8 @@ use std::sync::Arc;
 
 use super::voxscope_app::VoxscopeApp;
 use voxscope_scene::{
-    FrameChange, FrameKey, Job, MAX_PREFETCH_FRAMES, frames_within_cap, prepare_scene, window,
+    FrameChange, FrameKey, Job, MAX_PREFETCH_FRAMES, TransferRequest, frames_within_cap,
+    prepare_scene, window,
 };
 
 impl VoxscopeApp {
@@ -36,7 +37,8 @@ impl VoxscopeApp {
         let options = scene.options;
         let source = scene.data.source.clone();
         let context = Arc::clone(&gpu.context);
-        let choice = self.settings.transfer;
+        // Frame changes keep the transfer functions they carry; nothing else is asked.
+        let request = TransferRequest::default();
         let current = self.frame_change(FrameKey::of_scene(scene));
         self.prefetch.plan(&wanted, options, |key| {
             let frame = FrameChange {
@@ -49,7 +51,7 @@ impl VoxscopeApp {
                 format!("time point {} of {} (prefetched)", key.time, source.spec()),
                 move || wake.request_repaint(),
                 move |progress| {
-                    prepare_scene(&source, Some(frame), choice, &context, options, progress)
+                    prepare_scene(&source, Some(frame), &request, &context, options, progress)
                 },
             )
         });

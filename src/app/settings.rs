@@ -1,9 +1,11 @@
 //! What the app remembers between runs (eframe persistence, stored as RON): the transfer
 //! function's choices, render settings, camera, layout, renderer, recent files.
 
+use std::path::PathBuf;
+
 use serde::{Deserialize, Serialize};
 
-use voxscope_octree::{Colormap, OpacityMode};
+use voxscope_octree::{Colormap, OpacityMode, TransferFunction};
 use voxscope_render::{
     Camera, DEFAULT_BRICK_SIZE, RenderMode, RendererKind, RendererOptions, Shading,
 };
@@ -82,7 +84,13 @@ impl Panel {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct AppSettings {
+    /// The transfer function's choices as the panel shows them (its window is the volume's,
+    /// in [`super::ViewState`]).
     pub transfer: TransferChoice,
+    /// The transfer function the user pinned ("Keep for the next volumes" in the Transfer
+    /// function panel), kept up to date with the panel while pinned: the next volume opens
+    /// with it instead of what fits its data. `None`: every volume opens with its own.
+    pub pinned_transfer: Option<TransferFunction>,
     /// The second transfer function of [`Layout::TransferPair`].
     pub compare_transfer: TransferChoice,
     pub mode: RenderMode,
@@ -101,7 +109,8 @@ pub struct AppSettings {
     pub layout: Layout,
     /// Panes of the level grid, 2…6.
     pub grid_panes: usize,
-    /// Draw at half resolution while the camera moves, when frames are slow.
+    /// Where a frame is too slow for one UI frame, show a lower-resolution preview of it while
+    /// its full image is drawn band by band (off: the bands alone).
     pub fast_interaction: bool,
     /// Re-render every frame (to watch sustained frame rate) instead of only on change.
     pub continuous: bool,
@@ -120,7 +129,17 @@ pub struct AppSettings {
     pub prefetch_frames: usize,
     /// Most recent first.
     pub recent: Vec<String>,
+    /// The folder of the last screenshot or transfer function saved: save dialogs start there
+    /// (the data's folder is where volumes are, not where pictures go).
+    pub last_save_folder: Option<PathBuf>,
 }
+
+/// Pane B of the transfer pair until the user sets it: binary at 0.3 of the window.
+pub const DEFAULT_COMPARE_TRANSFER: TransferChoice = TransferChoice {
+    opacity: OpacityMode::Binary,
+    threshold: 0.3,
+    colormap: Colormap::Grays,
+};
 
 /// What a click or drag in a view does.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -139,11 +158,8 @@ impl Default for AppSettings {
                 threshold: 0.3,
                 colormap: Colormap::Grays,
             },
-            compare_transfer: TransferChoice {
-                opacity: OpacityMode::Binary,
-                threshold: 0.3,
-                colormap: Colormap::Grays,
-            },
+            pinned_transfer: None,
+            compare_transfer: DEFAULT_COMPARE_TRANSFER,
             mode: RenderMode::Dvr,
             density: 1.0,
             shading: Shading::default(),
@@ -167,6 +183,7 @@ impl Default for AppSettings {
             frame_rate: 4.0,
             prefetch_frames: voxscope_scene::DEFAULT_PREFETCH_FRAMES,
             recent: Vec::new(),
+            last_save_folder: None,
         }
     }
 }

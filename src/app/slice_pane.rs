@@ -9,6 +9,7 @@ use egui::{Align2, Color32, PointerButton, Pos2, Rect, Response, Stroke, Ui, pos
 use super::overlays::{RULER_COLOR, SLICE_COLORS};
 use super::settings::{AppSettings, Tool};
 use super::view_state::{Ruler, ViewState};
+use super::wheel::WheelNotches;
 use voxscope_render::{SliceConvention, SliceFrame, SliceView};
 use voxscope_scene::Scene;
 
@@ -94,22 +95,18 @@ pub fn interact(
 
     // Wheel and keys: step through the slices; Ctrl+wheel: zoom about the pointer.
     if response.hovered() {
-        let (notches, zoom, page) = ui.input(|i| {
+        let (events, time, zoom, page) = ui.input(|i| {
             let page =
                 i.key_pressed(egui::Key::PageUp) as i32 - i.key_pressed(egui::Key::PageDown) as i32;
-            // One slice per wheel event (a notch), whatever its size; Ctrl+wheel is egui's
-            // zoom and arrives as `zoom_delta` instead.
-            let notches: i32 = i
-                .events
-                .iter()
-                .filter_map(|event| match event {
-                    egui::Event::MouseWheel {
-                        delta, modifiers, ..
-                    } if !modifiers.command && delta.y != 0.0 => Some(delta.y.signum() as i32),
-                    _ => None,
-                })
-                .sum();
-            (notches, i.zoom_delta(), page)
+            (i.events.clone(), i.time, i.zoom_delta(), page)
+        });
+        // One slice per notch, whatever the platform reports for it (wheel.rs); Ctrl+wheel is
+        // egui's zoom and arrives as `zoom_delta` instead.
+        let wheel_id = egui::Id::unique("slice_wheel_notches");
+        let frame_nr = ui.ctx().cumulative_frame_nr();
+        let notches = ui.data_mut(|d| {
+            d.get_temp_mut_or_default::<WheelNotches>(wheel_id)
+                .count(&events, frame_nr, time)
         });
         if zoom != 1.0 {
             zoom_about(view, axis, zoom as f64, pointer, rect);

@@ -38,7 +38,18 @@ pub fn show(
         )),
         None => ui.heading("Transfer function"),
     };
+    let mut keep = settings.pinned_transfer.is_some();
+    if ui
+        .checkbox(&mut keep, "Keep for the next volumes")
+        .on_hover_text(
+            "Open the next volumes with this transfer function (its curve, colors and window, in this data's units) instead of the one that fits their data (CT: soft tissue; labels: their colors; else gray over the robust window). Multi-channel files keep their channels' own.",
+        )
+        .changed()
+    {
+        settings.pinned_transfer = keep.then(|| settings.transfer.with_window(*window));
+    }
     ui.add_space(4.0);
+    let labels = data.is_some_and(|d| matches!(d.kind, DataKind::Labels(_)));
 
     egui::Grid::new("transfer_grid")
         .num_columns(2)
@@ -48,8 +59,13 @@ pub fn show(
             ui.horizontal(|ui| {
                 ui.selectable_value(&mut settings.mode, RenderMode::Dvr, "DVR")
                     .on_hover_text("Direct volume rendering: front-to-back compositing");
+                let mip_text = if labels {
+                    "For a label volume: the first label along each ray that the transfer function shows (label 0 is transparent), unblended; a maximum of labels would mean nothing"
+                } else {
+                    "Maximum intensity projection"
+                };
                 ui.selectable_value(&mut settings.mode, RenderMode::Mip, "MIP")
-                    .on_hover_text("Maximum intensity projection");
+                    .on_hover_text(mip_text);
             });
             ui.end_row();
 
@@ -59,11 +75,9 @@ pub fn show(
 
             if settings.transfer.opacity == OpacityMode::Binary {
                 let label = ui.label("Threshold");
-                ui.add(
-                    egui::Slider::new(&mut settings.transfer.threshold, 0.0..=1.0)
-                        .fixed_decimals(3),
-                )
-                .labelled_by(label.id);
+                threshold_slider(ui, &mut settings.transfer.threshold, *window)
+                    .labelled_by(label.id)
+                    .on_hover_text("Opaque at and above this value (data units, within the window)");
                 ui.end_row();
             }
 
@@ -237,4 +251,25 @@ fn presets(ui: &mut Ui, settings: &mut AppSettings, window: &mut ValueWindow, da
             }
         }
     });
+}
+
+/// The binary threshold in the data's units, as the window and the histogram show values,
+/// though it is kept as a fraction of the window (so it follows the window, as the
+/// histogram's handle does).
+pub fn threshold_slider(ui: &mut Ui, threshold: &mut f32, window: ValueWindow) -> egui::Response {
+    let width = window.high - window.low;
+    let mut value = window.low + *threshold as f64 * width;
+    let digits = if width >= 100.0 {
+        0
+    } else if width >= 1.0 {
+        2
+    } else {
+        4
+    };
+    let response =
+        ui.add(egui::Slider::new(&mut value, window.low..=window.high).fixed_decimals(digits));
+    if response.changed() && width > 0.0 {
+        *threshold = ((value - window.low) / width).clamp(0.0, 1.0) as f32;
+    }
+    response
 }

@@ -7,9 +7,20 @@ use egui::{Context, Key};
 use voxscope_volume::remote::is_url;
 
 /// The text being typed, kept while the window is open.
-#[derive(Debug, Default, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct UrlDialog {
     pub text: String,
+    /// Give the text field the keyboard focus in the next frame (when the window opens).
+    focus: bool,
+}
+
+impl Default for UrlDialog {
+    fn default() -> Self {
+        Self {
+            text: String::new(),
+            focus: true,
+        }
+    }
 }
 
 /// What the window's user did this frame.
@@ -28,11 +39,14 @@ impl UrlDialog {
     pub fn show(&mut self, ctx: &Context, recent: &[String]) -> UrlOutcome {
         let mut outcome = UrlOutcome::Open;
         let mut open = true;
+        // Below the menu bar and centered, not over the menus at the window's corner.
         egui::Window::new("Open URL")
             .open(&mut open)
             .collapsible(false)
             .resizable(false)
             .default_width(460.0)
+            .pivot(egui::Align2::CENTER_TOP)
+            .default_pos(ctx.content_rect().center_top() + egui::vec2(0.0, 80.0))
             .show(ctx, |ui| {
                 ui.label("An OME-Zarr store on an HTTP server or in S3 (credentials, region and endpoint from the AWS environment and config files):");
                 let response = ui.add(
@@ -40,7 +54,11 @@ impl UrlDialog {
                         .hint_text("https://host/path/image.ome.zarr or s3://bucket/image.ome.zarr")
                         .desired_width(440.0),
                 );
-                response.request_focus();
+                // Focus once: asking every frame took it back from the Enter that had just
+                // left the field, so Enter never opened.
+                if std::mem::take(&mut self.focus) {
+                    response.request_focus();
+                }
                 let text = self.text.trim();
                 // Checked as the store will check it (no secret of it in the words).
                 let checked = voxscope_volume::remote::check_url(text);
@@ -56,7 +74,8 @@ impl UrlDialog {
                     ui.colored_label(ui.visuals().warn_fg_color, problem);
                 }
                 ui.horizontal(|ui| {
-                    let enter = response.lost_focus() && ui.input(|i| i.key_pressed(Key::Enter));
+                    let enter = (response.lost_focus() || response.has_focus())
+                        && ui.input(|i| i.key_pressed(Key::Enter));
                     if ui.add_enabled(valid, egui::Button::new("Open")).clicked()
                         || (enter && valid)
                     {

@@ -4,7 +4,7 @@
 //! next is in [`super::AppSettings`].)
 
 use voxscope_octree::{Clip, ClipPlane, LevelStatistics, TransferFunction};
-use voxscope_render::SliceView;
+use voxscope_render::{RendererKind, SliceView};
 use voxscope_scene::ChannelState;
 use voxscope_volume::ValueWindow;
 
@@ -39,6 +39,11 @@ pub struct ViewState {
     pub channels: Vec<ChannelState>,
     /// The channel the transfer function editor edits.
     pub active_channel: usize,
+    /// The renderer this volume's data called for where it differs from the one chosen in
+    /// the Octree panel (a store larger than memory streams; an octree too large for the
+    /// GPU's buffers is drawn with bricks), until the user chooses another. It is no choice
+    /// of the user's: the next volume opens with theirs.
+    pub data_renderer: Option<RendererKind>,
 }
 
 /// The crop box and clip plane as the panel edits them: each kept while switched off, so
@@ -123,6 +128,7 @@ impl Default for ViewState {
             slice_views: std::array::from_fn(|axis| SliceView::new(axis, 0)),
             channels: Vec::new(),
             active_channel: 0,
+            data_renderer: None,
         }
     }
 }
@@ -149,6 +155,7 @@ impl ViewState {
             slice_views: std::array::from_fn(|axis| SliceView::new(axis, dims[axis] / 2)),
             channels: Vec::new(),
             active_channel: 0,
+            data_renderer: None,
         }
     }
 

@@ -1,12 +1,12 @@
-//! One view of the volume in the central panel: a render target registered with egui-wgpu,
-//! drawn again only when what it shows changed, plus the mouse controls of the orbit camera
-//! and the orientation gizmo.
+//! One view of the volume in the central panel: what its image depends on ([`DrawKey`]), the
+//! mouse controls of the orbit camera and the orientation gizmo. (The pane's images are
+//! `central/pane.rs`'s.)
 
 use egui::{Color32, PointerButton, Pos2, Rect, Response, Sense, Stroke, Ui, Vec2, pos2, vec2};
 use glam::DVec3;
 
 use voxscope_octree::TransferFunction;
-use voxscope_render::{Camera, GpuContext, RenderSettings, RenderTarget, SliceSettings};
+use voxscope_render::{Camera, RenderSettings, SliceSettings};
 
 /// Everything a pane's image depends on; a pane is drawn again when this changes.
 // Inline like the transfer function it holds: compared for every pane every frame.
@@ -30,71 +30,6 @@ pub enum DrawKey {
         size: [u32; 2],
         scene: u64,
     },
-}
-
-/// A render target shown as an egui texture.
-#[derive(Default)]
-pub struct Pane {
-    pub target: Option<RenderTarget>,
-    pub texture: Option<egui::TextureId>,
-    /// What the target holds now.
-    pub drawn: Option<DrawKey>,
-}
-
-impl Pane {
-    /// Makes sure the target has `size` pixels and egui knows it; returns true when it was
-    /// (re)created.
-    pub fn ensure_size(
-        &mut self,
-        gpu: &GpuContext,
-        egui_renderer: &mut egui_wgpu::Renderer,
-        size: [u32; 2],
-    ) -> bool {
-        if self
-            .target
-            .as_ref()
-            .is_some_and(|t| [t.width, t.height] == size)
-        {
-            return false;
-        }
-        let target = RenderTarget::new(gpu, size[0], size[1]);
-        match self.texture {
-            Some(id) => egui_renderer.update_egui_texture_from_wgpu_texture(
-                &gpu.device,
-                &target.view,
-                wgpu::FilterMode::Linear,
-                id,
-            ),
-            None => {
-                self.texture = Some(egui_renderer.register_native_texture(
-                    &gpu.device,
-                    &target.view,
-                    wgpu::FilterMode::Linear,
-                ))
-            }
-        }
-        self.target = Some(target);
-        self.drawn = None;
-        true
-    }
-
-    /// Gives the texture back to egui-wgpu.
-    pub fn release(&mut self, egui_renderer: &mut egui_wgpu::Renderer) {
-        if let Some(id) = self.texture.take() {
-            egui_renderer.free_texture(&id);
-        }
-        self.target = None;
-        self.drawn = None;
-    }
-
-    /// Paints the target into `rect`. What the target holds by the time egui renders this
-    /// frame is shown: panes are drawn later in the same frame, before egui's render pass.
-    pub fn paint(&self, ui: &Ui, rect: Rect) {
-        if let Some(id) = self.texture {
-            let uv = Rect::from_min_max(pos2(0.0, 0.0), pos2(1.0, 1.0));
-            ui.painter().image(id, rect, uv, Color32::WHITE);
-        }
-    }
 }
 
 /// Pixel size of a rect of `points` at `pixels_per_point`.

@@ -19,12 +19,12 @@ use super::jobs::{JobEvent, Jobs};
 use super::menu::{self, NOTICE_DURATION};
 use super::octree_panel::{self, OctreeFacts};
 use super::overlays;
-use super::settings::{AppSettings, STORAGE_KEY};
+use super::settings::{AppSettings, DEFAULT_COMPARE_TRANSFER, STORAGE_KEY};
 use super::transfer_panel;
 use super::url_dialog::{UrlDialog, UrlOutcome};
 use super::view_state::{Clipping, ViewState};
-use voxscope_octree::{Clip, LevelStatistics, TransferFunction};
-use voxscope_render::{FrameReport, GpuContext, RendererKind, RendererOptions};
+use voxscope_octree::{Clip, LevelStatistics, OpacityMode, TransferFunction};
+use voxscope_render::{Camera, FrameReport, GpuContext, RendererKind, RendererOptions};
 use voxscope_scene::{FrameKey, Prefetch};
 use voxscope_scene::{Job, Opened, SceneError};
 use voxscope_scene::{SavedTransfer, TransferChoice};
@@ -59,6 +59,8 @@ pub struct VoxscopeApp {
     pub(super) no_desktop_dialogs: bool,
     /// The clip the first volume opens with (the command line's `--clip-box`, `--clip-plane`).
     pub(super) first_clip: Option<Clip>,
+    /// The time point of the scene the 3D views last showed whole.
+    pub(super) shown_time: Option<usize>,
 }
 
 impl VoxscopeApp {
@@ -94,6 +96,7 @@ impl VoxscopeApp {
             prefetch: Prefetch::default(),
             no_desktop_dialogs: false,
             first_clip: None,
+            shown_time: None,
         };
         if app.gpu.is_none() {
             app.fail("voxscope needs the wgpu renderer; no GPU device was handed to the app");
@@ -213,6 +216,18 @@ impl VoxscopeApp {
         self.central.frame_report()
     }
 
+    /// What a whole frame of the measured 3D pane costs the GPU, in ms (estimated from its
+    /// bands' wall time where a slow device drew it in bands), and in how many bands.
+    pub fn frame_cost(&self) -> Option<(f64, u32)> {
+        let facts = self.central.frame_facts()?;
+        Some((facts.frame_ms?, facts.bands))
+    }
+
+    /// Whether a frame is on the GPU or a pane's full image is still being drawn in bands.
+    pub fn is_drawing(&self) -> bool {
+        self.central.is_drawing()
+    }
+
     /// The transfer function of the main view.
     pub fn transfer(&self) -> TransferFunction {
         self.settings.transfer.with_window(self.view.window)
@@ -253,12 +268,34 @@ impl VoxscopeApp {
         Ok(())
     }
 
+    /// The renderer the volume on screen is to be drawn with: the one its data called for
+    /// ([`ViewState::data_renderer`]), else the user's.
     pub(super) fn renderer_options(&self) -> RendererOptions {
+        RendererOptions {
+            kind: self.view.data_renderer.unwrap_or(self.settings.renderer),
+            ..self.chosen_renderer_options()
+        }
+    }
+
+    /// The renderer the user chose in the Octree panel: what a new volume is opened with.
+    pub(super) fn chosen_renderer_options(&self) -> RendererOptions {
         RendererOptions {
             kind: self.settings.renderer,
             brick_size: self.settings.brick_size,
             gpu_memory: self.settings.stream_gpu_memory,
         }
+    }
+
+    /// The transfer function a new volume is to open with instead of its own: the one on
+    /// screen while the user has pinned it (before any volume is shown, the one pinned when
+    /// the app was last closed).
+    pub(super) fn pinned_transfer(&self) -> Option<TransferFunction> {
+        let pinned = self.settings.pinned_transfer?;
+        Some(if self.scene.is_some() {
+            self.transfer()
+        } else {
+            pinned
+        })
     }
 
     pub(super) fn fail(&mut self, message: impl Into<String>) {
@@ -366,24 +403,12 @@ impl VoxscopeApp {
             self.error = None;
             return;
         }
-        if scene.options.kind != self.settings.renderer {
-            let why = if scene.options.kind == RendererKind::Stream {
-                let dims = scene.renderer.stream().map(|s| s.streamer().shape().dims());
-                format!(
-                    "{} is larger than memory allows: streaming it at full resolution ({}); the panels read a coarser level ({})",
-                    scene.data.volume.name,
-                    dims.map_or_else(String::new, voxscope_volume::format_dims),
-                    voxscope_volume::format_dims(scene.data.volume.dims),
-                )
-            } else {
-                format!(
-                    "the octree does not fit this GPU's buffers; showing it with the {} renderer",
-                    scene.options.kind.name()
-                )
-            };
-            self.notify(why);
-            self.settings.renderer = scene.options.kind;
-        }
+        // A renderer the data called for is not the user's choice: it holds for this volume
+        // alone (ViewState::data_renderer), and the next opens with the user's.
+        let data_renderer = (scene.options.kind != self.settings.renderer).then(|| {
+            self.notify(data_renderer_notice(&scene));
+            scene.options.kind
+        });
         let depth = scene.depth();
         // The volume may open with its own transfer function (a CT preset, labels): the
         // panel shows and edits that one.
@@ -395,6 +420,7 @@ impl VoxscopeApp {
             statistics,
         );
         self.view.channels = channels;
+        self.view.data_renderer = data_renderer;
         self.prefetch.clear();
         if let Some(clip) = self.first_clip.take() {
             self.view.clipping = Clipping::from(clip);
@@ -402,7 +428,18 @@ impl VoxscopeApp {
         if let VolumeSource::Spec(spec) = &scene.data.source {
             self.settings.remember(spec);
         }
+        // The distance is in units of this volume's size, and a zoom chosen for another
+        // volume's detail means nothing here: the direction stays, zoom and pan do not.
         self.settings.camera.pan = [0.0; 3];
+        self.settings.camera.distance = Camera::default().distance;
+        // Pane B's curve, like A's, was in the last volume's units.
+        if matches!(
+            self.settings.compare_transfer.opacity,
+            OpacityMode::Points(_)
+        ) && self.settings.pinned_transfer.is_none()
+        {
+            self.settings.compare_transfer = DEFAULT_COMPARE_TRANSFER;
+        }
         let volume = &scene.data.volume;
         eprintln!(
             "voxscope: opened {} ({}, octree depth {depth}, {} nodes) in {:.2} s",
@@ -414,6 +451,31 @@ impl VoxscopeApp {
         self.scene = Some(scene);
         self.scene_serial += 1;
         self.error = None;
+    }
+
+    /// Plays a time series: the next time point once the one on screen is drawn (a slow
+    /// device slows playback rather than skipping frames it never showed), before the panels
+    /// are built, so that the time they show is the frame being drawn.
+    fn step_playback(&mut self, ctx: &egui::Context) {
+        let Some(scene) = &self.scene else { return };
+        let series = &scene.data.volume.series;
+        let loading = self.jobs.open_progress().is_some();
+        let shown = self.central.shows_scene(self.scene_serial);
+        if let Some(next) = self
+            .playback
+            .next(series, self.settings.frame_rate, loading || !shown)
+        {
+            self.run_command(Command::ShowTime(next), ctx);
+        }
+        if self.playback.playing {
+            ctx.request_repaint_after(self.playback.wait(self.settings.frame_rate));
+        }
+    }
+
+    /// The time point whose picture the 3D views last showed whole: the scene's, or while a
+    /// slow device draws a new one, the one before (`None` before the first).
+    pub fn shown_time(&self) -> Option<usize> {
+        self.shown_time
     }
 
     /// Starts the background work that settings changes call for: another renderer, fresh
@@ -466,6 +528,7 @@ impl eframe::App for VoxscopeApp {
     fn ui(&mut self, ui: &mut Ui, _frame: &mut eframe::Frame) {
         let ctx = ui.ctx().clone();
         self.handle_job_events(&ctx);
+        self.step_playback(&ctx);
 
         let has_scene = self.scene.is_some();
         egui::Panel::top("menu_bar").show(ui, |ui| {
@@ -495,6 +558,7 @@ impl eframe::App for VoxscopeApp {
                                 composite: scene.composite.is_some(),
                                 prefetched: self.prefetch.ready().len(),
                                 streamed: scene.renderer.stream().is_some(),
+                                on_screen: self.shown_time,
                             };
                             frame_controls::show(
                                 ui,
@@ -532,14 +596,14 @@ impl eframe::App for VoxscopeApp {
             // Lent to the panel's facts while the panel edits the rest of the view state.
             let statistics = std::mem::take(&mut self.view.statistics);
             egui::Panel::right("octree_panel")
-                .default_size(390.0)
+                .default_size(410.0)
                 .show(ui, |ui| {
                     egui::ScrollArea::vertical().show(ui, |ui| {
                         let facts = OctreeFacts {
                             scene: self.scene.as_ref(),
                             statistics: &statistics,
                             statistics_pending,
-                            frame: self.central.frame_report(),
+                            frame: self.central.frame_facts(),
                             fps: self.central.fps(self.settings.continuous),
                             adapter: self
                                 .gpu
@@ -589,40 +653,72 @@ impl eframe::App for VoxscopeApp {
                 }
             }
         }
-        if let Some(scene) = &self.scene {
-            let series = &scene.data.volume.series;
-            let loading = self.jobs.open_progress().is_some();
-            if let Some(next) = self
-                .playback
-                .next(series, self.settings.frame_rate, loading)
-            {
-                self.commands.send(Command::ShowTime(next));
-            }
-            if self.playback.playing {
-                ctx.request_repaint_after(self.playback.wait(self.settings.frame_rate));
-            }
-        }
         self.run_queued_commands(&ctx);
         self.follow_settings(&ctx);
         if let (Some(gpu), Some(scene)) = (&self.gpu, &mut self.scene) {
-            match self
-                .central
-                .draw(gpu, scene, self.scene_serial, &self.settings, &self.view)
-            {
-                // Streaming: the next frame takes in what this one asked for (at once when
-                // something arrived; else at the busy pace while bricks are on their way).
-                Ok(true) if self.central.stream_changed() => ctx.request_repaint(),
-                Ok(_) => {}
+            match self.central.draw(
+                &ctx,
+                gpu,
+                scene,
+                self.scene_serial,
+                &self.settings,
+                &self.view,
+            ) {
+                // Bands left to draw, the stream refining, the device busy: look again.
+                Ok(Some(after)) => ctx.request_repaint_after(after),
+                Ok(None) => {}
                 Err(error) => self.fail(error.to_string()),
             }
             self.tell_stream_failures(&ctx);
         }
+        if let Some(scene) = &self.scene
+            && self.central.shows_scene(self.scene_serial)
+        {
+            self.shown_time = Some(scene.data.volume.series.selected.time);
+        }
         if self.settings.continuous {
             ctx.request_repaint();
+        }
+        if self.settings.pinned_transfer.is_some() && self.scene.is_some() {
+            self.settings.pinned_transfer = Some(self.transfer());
         }
     }
 
     fn save(&mut self, storage: &mut dyn eframe::Storage) {
         eframe::set_value(storage, STORAGE_KEY, &self.settings);
+    }
+}
+
+/// Why `scene` is drawn with another renderer than the one chosen, in a line short enough for
+/// the status bar: a store above the voxels opened whole streams from its files, a volume
+/// longer than the octree holds streams from a pyramid in memory, an octree larger than the
+/// GPU's buffers is drawn with bricks.
+fn data_renderer_notice(scene: &Scene) -> String {
+    let volume = &scene.data.volume;
+    let name = Path::new(&volume.name)
+        .file_name()
+        .map_or_else(|| volume.name.clone(), |n| n.to_string_lossy().into_owned());
+    let panel_dims = voxscope_volume::format_dims(volume.dims);
+    match scene.options.kind {
+        RendererKind::Stream => {
+            let dims = scene
+                .renderer
+                .stream()
+                .map(|s| voxscope_volume::format_dims(s.streamer().shape().dims()))
+                .unwrap_or_default();
+            if scene.data.pyramid.is_some() {
+                format!(
+                    "{name}: {dims} is longer than the octree's 1024 voxels a side; streamed from a pyramid in memory (panels: {panel_dims})"
+                )
+            } else {
+                format!(
+                    "{name}: {dims} is more than the 512³ voxels opened whole; streamed from the store (panels: {panel_dims})"
+                )
+            }
+        }
+        kind => format!(
+            "{name}: the octree does not fit this GPU's buffers; drawn with {}",
+            kind.name()
+        ),
     }
 }

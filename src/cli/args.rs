@@ -7,16 +7,15 @@ use clap::{Args, ValueEnum};
 use voxscope_octree::{Clip, ClipPlane, Colormap, OpacityCurve, OpacityMode, Preset};
 use voxscope_render::{RenderMode, RenderSettings, RendererKind, Shading};
 use voxscope_scene::{SavedTransfer, TransferRequest};
-use voxscope_volume::{LoadOptions, RawLayout, ValueWindow};
+use voxscope_volume::{LoadError, LoadErrorKind, LoadOptions, RawLayout, ValueWindow};
 
 /// Which volume to open.
 #[derive(Debug, Clone, Args)]
 pub struct VolumeArgs {
     /// Volume file (.nii, .nii.gz, .nrrd, .nhdr, raw with --raw), a folder (DICOM series,
     /// slices, .zarr / .ome.zarr), a Zarr store's URL (http://, https://, s3://BUCKET/PATH)
-    /// or synthetic:KIND:SIZE
-    /// (kinds: sphere, shells, noise, gradient; SIZE: N or XxYxZ). Default: the built-in
-    /// sample head MRI.
+    /// or synthetic:KIND:SIZE (kinds: sphere, shells, noise, gradient, ct, labels; SIZE: N or
+    /// XxYxZ). Default: the built-in sample head MRI.
     pub file: Option<String>,
     /// Read FILE as headerless voxels: XxYxZ:TYPE[:le|:be], TYPE one of u8 i8 u16 i16 u32 i32 f32 f64.
     #[arg(long, value_name = "LAYOUT", value_parser = RawLayout::parse)]
@@ -58,6 +57,15 @@ pub fn parse_max_requests(text: &str) -> Result<usize, String> {
     }
 }
 
+/// A load error as the command line says it: a file no format recognized can still be read
+/// as raw voxels here, and the message says how (the app, which has no `--raw`, does not).
+pub fn load_error_text(error: &LoadError) -> String {
+    match error.kind {
+        LoadErrorKind::Unrecognized => format!("{error}, or raw voxels with --raw WxHxD:TYPE"),
+        _ => error.to_string(),
+    }
+}
+
 impl VolumeArgs {
     /// Reads FILE (the channel and time point chosen), or the built-in sample without one.
     pub fn load(&self) -> Result<voxscope_volume::Volume, String> {
@@ -65,7 +73,7 @@ impl VolumeArgs {
             Some(spec) => voxscope_volume::load(spec, &self.load_options()),
             None => voxscope_volume::sample(),
         }
-        .map_err(|e| e.to_string())
+        .map_err(|e| load_error_text(&e))
     }
 
     /// The options for [`voxscope_volume::load`].
@@ -115,13 +123,13 @@ impl VolumeArgs {
         if let Some(specs) = &self.channels_from {
             return voxscope_volume::load_as_channels(specs, &options)
                 .map(Some)
-                .map_err(|e| e.to_string());
+                .map_err(|e| load_error_text(&e));
         }
         match (&self.file, self.channel) {
             (_, Some(ChannelArg::Index(_))) | (None, _) => Ok(None),
             (Some(spec), _) => voxscope_volume::load_all_channels(spec, &options)
                 .map(Some)
-                .map_err(|e| e.to_string()),
+                .map_err(|e| load_error_text(&e)),
         }
     }
 }
@@ -293,7 +301,6 @@ impl TransferArgs {
             threshold: Some(self.threshold),
             colormap: self.colormap,
             window: self.window,
-            fallback: None,
         }
     }
 

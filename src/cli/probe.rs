@@ -38,7 +38,7 @@ pub fn run(args: &ProbeArgs) -> Result<(), String> {
         Some(spec) => voxscope_volume::load(spec, &args.volume.load_options()),
         None => voxscope_volume::sample(),
     }
-    .map_err(|e| e.to_string())?;
+    .map_err(|e| super::args::load_error_text(&e))?;
     let probed = probe(&volume, args.at)?;
     if args.json {
         println!(

@@ -5,7 +5,7 @@
 use clap::Args;
 
 use super::{TransferArgs, VolumeArgs};
-use voxscope_scene::{SavedTransfer, StreamedVolume, VolumeSource};
+use voxscope_scene::{SavedTransfer, SceneError, StreamedVolume, VolumeSource};
 use voxscope_stream::StreamOptions;
 
 /// The streaming renderer's budgets (`--renderer stream`, `bench --stream`).
@@ -98,7 +98,10 @@ pub fn open_streamed(
         &volume_args.load_options(),
         &transfer_args.request(saved.as_ref()),
     )
-    .map_err(|e| e.to_string())?;
+    .map_err(|error| match &error {
+        SceneError::Load(load) => super::args::load_error_text(load),
+        _ => error.to_string(),
+    })?;
     Ok((streamed, saved))
 }
 

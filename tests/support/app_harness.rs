@@ -27,6 +27,76 @@ pub fn harness() -> Harness<'static, VoxscopeApp> {
     harness_with(None, SIZE)
 }
 
+/// A fresh app (no settings stored: a new user's) opening `source`, settled.
+pub fn fresh_app(source: &str) -> Harness<'static, VoxscopeApp> {
+    harness_with(Some(VolumeSource::Spec(source.to_owned())), SIZE)
+}
+
+/// An app started with `storage` as its stored settings (a restart), opening `source` (the
+/// sample when `None`), settled.
+pub fn restarted_app(
+    storage: MemoryStorage,
+    source: Option<VolumeSource>,
+) -> Harness<'static, VoxscopeApp> {
+    let storage: &'static MemoryStorage = Box::leak(Box::new(storage));
+    let mut harness = Harness::builder()
+        .with_size(SIZE)
+        .wgpu_setup(wgpu_setup())
+        .build_eframe(move |cc| {
+            cc.storage = Some(storage);
+            VoxscopeApp::new(cc, source)
+        });
+    settle(&mut harness);
+    harness
+}
+
+/// What eframe would store of `harness`'s app on quitting.
+pub fn stored_settings(harness: &mut Harness<'_, VoxscopeApp>) -> MemoryStorage {
+    let mut storage = MemoryStorage::default();
+    eframe::App::save(harness.state_mut(), &mut storage);
+    storage
+}
+
+/// Settings storage in memory, as eframe's file storage holds them.
+#[derive(Default)]
+pub struct MemoryStorage(std::collections::HashMap<String, String>);
+
+impl eframe::Storage for MemoryStorage {
+    fn get_string(&self, key: &str) -> Option<String> {
+        self.0.get(key).cloned()
+    }
+    fn set_string(&mut self, key: &str, value: String) {
+        self.0.insert(key.to_owned(), value);
+    }
+    fn remove_string(&mut self, key: &str) {
+        self.0.remove(key);
+    }
+    fn flush(&mut self) {}
+}
+
+/// The app on Mesa's software Vulkan device (lavapipe), whatever GPU the machine has: where
+/// a frame takes seconds, as the slow-frame tests need. Fails when the device is missing.
+pub fn software_device_harness(source: &str) -> Harness<'static, VoxscopeApp> {
+    let egui_wgpu::WgpuSetup::CreateNew(mut setup) = wgpu_setup() else {
+        panic!("voxscope's setup creates its device");
+    };
+    setup.native_adapter_selector = Some(std::sync::Arc::new(|adapters, _| {
+        adapters
+            .iter()
+            .find(|adapter| adapter.get_info().device_type == wgpu::DeviceType::Cpu)
+            .cloned()
+            .ok_or_else(|| {
+                "the slow-frame tests need Mesa's software Vulkan device (mesa-vulkan-drivers)"
+                    .to_owned()
+            })
+    }));
+    let source = VolumeSource::Spec(source.to_owned());
+    Harness::builder()
+        .with_size(SIZE)
+        .wgpu_setup(egui_wgpu::WgpuSetup::CreateNew(setup))
+        .build_eframe(move |cc| VoxscopeApp::new(cc, Some(source)))
+}
+
 /// Steps until no background work is left and the view is drawn.
 pub fn settle(harness: &mut Harness<'_, VoxscopeApp>) {
     let started = Instant::now();
@@ -59,9 +129,12 @@ pub fn snapshot(harness: &mut Harness<'_, VoxscopeApp>, name: &str) {
         .into_iter()
         .find(|label| harness.query_by_label(label).is_some())
         .expect("the panel shows nodes or samples per ray");
+    // Several panes: which one the numbers are of depends on which finished last.
+    let measured = harness.query_by_label("Measured").map(|node| node.rect());
     let rows: Vec<egui::Rect> = ["Load + build", "GPU time", per_ray]
         .iter()
         .map(|label| harness.get_by_label(label).rect())
+        .chain(measured)
         .collect();
     let values_left = harness.get_by_label(per_ray).rect().right() + 4.0;
     for row in rows {

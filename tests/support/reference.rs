@@ -4,9 +4,11 @@
 //!   (recursion, children sorted by entry distance), with the same compositing, skipping,
 //!   level-of-detail, face-shading and clipping rules;
 //! - a trilinear ray marcher for `dense` and `bricks`: the same sample positions
-//!   (`t_enter + (k + ½)·step`, one voxel apart, from the clipped entry), the same filter
-//!   (texel centers at voxel centers, clamped to the edge) over the levels as the GPU texture
-//!   holds them, and the same gradient rule for shading.
+//!   (`t_enter + (k + jitter)·step`, one voxel apart, from the clipped entry, the pixel's
+//!   jitter [`pixel_jitter`]), the same filter (texel centers at voxel centers, clamped to the
+//!   edge) over the levels as the GPU texture holds them, and the same gradient rule for
+//!   shading; for a label volume ([`MarchVolume::as_labels`]) the nearest voxel's label, and
+//!   MIP the first visible label.
 //!
 //! Each also reports the probe (`GpuProbe`): the point where the ray's opacity reaches
 //! `PROBE_ALPHA` (DVR) or of its maximum (MIP).
@@ -19,6 +21,16 @@ use voxscope_render::{
     RenderSettings, Shading, ViewFrame,
 };
 use voxscope_volume::{Quantization, QuantizedVolume};
+
+/// Where in its sample steps pixel (`x`, `y`) samples, in [0, 1): `pixel_jitter` of
+/// ray_common.wgsl, the same integer hash.
+pub fn pixel_jitter(x: u32, y: u32) -> f64 {
+    let mut h = x.wrapping_mul(0x8da6_b343) ^ y.wrapping_mul(0xd816_3841);
+    h = (h ^ (h >> 16)).wrapping_mul(0x7feb_352d);
+    h = (h ^ (h >> 15)).wrapping_mul(0x846c_a68b);
+    h ^= h >> 16;
+    (h >> 8) as f64 / 16_777_216.0
+}
 
 /// The probe of one pixel as a CPU reference renderer finds it.
 #[derive(Debug, Clone, Copy)]
@@ -96,13 +108,13 @@ impl View {
         DVec3::splat(self.spacing.min_element()) / self.spacing
     }
 
-    /// Runs `trace` for every pixel and writes its color.
-    fn image(&self, trace: impl Fn(DVec3, DVec3, f64) -> DVec3) -> RgbaImage {
+    /// Runs `trace` for every pixel (its ray and jitter) and writes its color.
+    fn image(&self, trace: impl Fn(DVec3, DVec3, f64, f64) -> DVec3) -> RgbaImage {
         let mut image = RgbaImage::new(self.width, self.height);
         for y in 0..self.height {
             for x in 0..self.width {
                 let (origin, dir, world_length) = self.ray(x, y);
-                let rgb = trace(origin, dir, world_length);
+                let rgb = trace(origin, dir, world_length, pixel_jitter(x, y));
                 let to_byte = |c: f64| (c.clamp(0.0, 1.0) * 255.0).round() as u8;
                 image.put_pixel(
                     x,
@@ -143,7 +155,7 @@ pub fn reference_render(
     let view = View::new(octree.dims, spacing, camera, width, height);
     let lookup_table = transfer.lookup_table(octree.quantization);
     let scene = Scene::new(octree, &view, transfer, &lookup_table, settings);
-    view.image(|origin, dir, world_length| scene.trace(&view, origin, dir, world_length).0)
+    view.image(|origin, dir, world_length, _| scene.trace(&view, origin, dir, world_length).0)
 }
 
 /// The probe of pixel `pixel` of the octree's reference render.
@@ -165,6 +177,8 @@ pub fn reference_probe(
 
 struct Scene<'a> {
     octree: &'a Octree,
+    /// MIP of a label volume: the first visible node's color (`first_label`).
+    first_label: bool,
     lookup_table: &'a [u32],
     saturation: u16,
     settings: &'a RenderSettings,
@@ -193,6 +207,7 @@ struct Ray {
 impl Ray {
     fn finished(&self, scene: &Scene) -> bool {
         match scene.settings.mode {
+            _ if scene.first_label => self.alpha >= 1.0,
             RenderMode::Dvr => self.alpha >= EARLY_TERMINATION_ALPHA as f64,
             RenderMode::Mip => self.running_max >= scene.saturation,
         }
@@ -238,6 +253,7 @@ impl<'a> Scene<'a> {
     ) -> Self {
         Self {
             octree,
+            first_label: octree.labels && settings.mode == RenderMode::Mip,
             lookup_table,
             saturation: transfer.saturation_level(octree.quantization),
             settings,
@@ -288,6 +304,7 @@ impl<'a> Scene<'a> {
             margin,
         };
         let color = match self.settings.mode {
+            _ if self.first_label => ray.color,
             RenderMode::Dvr => ray.color,
             RenderMode::Mip => {
                 let [r, g, b, _] = unpack_rgba(self.lookup_table[ray.running_max as usize]);
@@ -309,7 +326,7 @@ impl<'a> Scene<'a> {
         }
         let node = self.octree.nodes[index];
         let bounds = self.octree.bounds[index];
-        let mip = self.settings.mode == RenderMode::Mip;
+        let mip = self.settings.mode == RenderMode::Mip && !self.first_label;
         let skip = if mip {
             bounds.is_empty() || bounds.max() <= ray.running_max
         } else {
@@ -329,6 +346,11 @@ impl<'a> Scene<'a> {
                     ray.probe_t = Some(0.5 * (start + end));
                 }
                 ray.running_max = ray.running_max.max(bounds.max());
+            } else if self.first_label {
+                let [r, g, b, _] = unpack_rgba(node.color).map(|c| c as f64 / 255.0);
+                ray.color = DVec3::new(r, g, b);
+                ray.alpha = 1.0;
+                ray.probe_t = Some(start);
             } else {
                 let [r, g, b, a] = unpack_rgba(node.color).map(|c| c as f64 / 255.0);
                 let node_alpha = (a * self.settings.density as f64).min(1.0);
@@ -433,6 +455,8 @@ pub struct MarchVolume {
     pub dims: [usize; 3],
     levels: Vec<f64>,
     quantization: Quantization,
+    /// Labels: sampled at the nearest voxel whatever the settings, MIP the first visible one.
+    labels: bool,
 }
 
 impl MarchVolume {
@@ -453,6 +477,15 @@ impl MarchVolume {
             dims: volume.dims,
             levels,
             quantization: volume.quantization,
+            labels: false,
+        }
+    }
+
+    /// This volume's values as labels (categories), as the renderers draw a label volume.
+    pub fn as_labels(self) -> Self {
+        Self {
+            labels: true,
+            ..self
         }
     }
 
@@ -507,7 +540,7 @@ pub fn reference_march(
 ) -> RgbaImage {
     let view = View::new(volume.dims, spacing, camera, width, height);
     let marcher = Marcher::new(volume, &view, transfer, settings);
-    view.image(|origin, dir, _| marcher.march(&view, origin, dir).0)
+    view.image(|origin, dir, _, jitter| marcher.march(&view, origin, dir, jitter).0)
 }
 
 /// The probe of pixel `pixel` of the marcher's render.
@@ -523,7 +556,9 @@ pub fn reference_march_probe(
     let view = View::new(volume.dims, spacing, camera, size.0, size.1);
     let marcher = Marcher::new(volume, &view, transfer, settings);
     let (origin, dir, _) = view.ray(pixel.0, pixel.1);
-    marcher.march(&view, origin, dir).1
+    marcher
+        .march(&view, origin, dir, pixel_jitter(pixel.0, pixel.1))
+        .1
 }
 
 struct Marcher<'a> {
@@ -554,7 +589,13 @@ impl<'a> Marcher<'a> {
         }
     }
 
-    fn march(&self, view: &View, origin: DVec3, dir: DVec3) -> (DVec3, ReferenceProbe) {
+    fn march(
+        &self,
+        view: &View,
+        origin: DVec3,
+        dir: DVec3,
+        jitter: f64,
+    ) -> (DVec3, ReferenceProbe) {
         let mut probe = ReferenceProbe {
             point: None,
             margin: f64::INFINITY,
@@ -564,7 +605,8 @@ impl<'a> Marcher<'a> {
             return (DVec3::ZERO, probe);
         }
         let step = 1.0 / dir.length();
-        let trilinear = self.settings.trilinear;
+        let trilinear = self.settings.trilinear && !self.volume.labels;
+        let first_label = self.volume.labels && self.settings.mode == RenderMode::Mip;
         let (mut color, mut alpha) = (DVec3::ZERO, 0.0);
         let mut running_max = 0u16;
         // MIP: every sample's filtered value, for the probe's margin; and whether the ray
@@ -573,13 +615,23 @@ impl<'a> Marcher<'a> {
         let mut saturated = false;
         let mut k = 0.0;
         loop {
-            let t = enter + (k + 0.5) * step;
+            let t = enter + (k + jitter) * step;
             if t >= leave {
                 break;
             }
             let p = origin + t * dir;
             let raw = self.volume.sample(p, trilinear);
             let level = raw.round().clamp(0.0, 65535.0) as u16;
+            if first_label {
+                let [r, g, b, a] = unpack_rgba(self.lookup_table[level as usize]);
+                if a > 0 {
+                    color = DVec3::new(r as f64, g as f64, b as f64) / 255.0;
+                    probe.point = Some(p);
+                    break;
+                }
+                k += 1.0;
+                continue;
+            }
             match self.settings.mode {
                 RenderMode::Mip => {
                     values.push(raw);
@@ -619,7 +671,7 @@ impl<'a> Marcher<'a> {
             // The ray stayed below the probed opacity: by how much.
             probe.margin = PROBE_ALPHA as f64 - alpha;
         }
-        if self.settings.mode == RenderMode::Mip {
+        if self.settings.mode == RenderMode::Mip && !first_label {
             let [r, g, b, _] = unpack_rgba(self.lookup_table[running_max as usize]);
             color = DVec3::new(r as f64, g as f64, b as f64) / 255.0;
             // The answer is the first sample that rounds to the final maximum M: another
@@ -705,7 +757,7 @@ pub fn reference_composite(
 ) -> RgbaImage {
     let view = View::new(channels[0].volume.dims, spacing, camera, width, height);
     let trilinear = settings.trilinear;
-    view.image(|origin, dir, _| {
+    view.image(|origin, dir, _, jitter| {
         let (enter, leave) = view.interval(origin, dir, settings);
         let mut maxima = vec![0u16; channels.len()];
         let (mut color, mut alpha) = (DVec3::ZERO, 0.0);
@@ -713,7 +765,7 @@ pub fn reference_composite(
             let step = 1.0 / dir.length();
             let mut k = 0.0;
             loop {
-                let t = enter + (k + 0.5) * step;
+                let t = enter + (k + jitter) * step;
                 if t >= leave {
                     break;
                 }

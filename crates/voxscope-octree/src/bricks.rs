@@ -36,6 +36,8 @@ pub struct BrickLayout {
     /// For each brick cell, x fastest, the node covering it: its brick, or a leaf above the
     /// brick level. What a ray walking the cells reads instead of descending the tree.
     pub grid_leaves: Vec<u32>,
+    /// The octree's values are labels ([`Octree::labels`]).
+    pub labels: bool,
 }
 
 impl BrickLayout {
@@ -141,6 +143,7 @@ impl BrickLayout {
             atlas_grid,
             atlas,
             brick_origins,
+            labels: octree.labels,
         })
     }
 

@@ -21,12 +21,15 @@ pub struct BuildOptions {
     /// Collapse subtrees whose voxels are all equal (or all padding) into one leaf. Lossless:
     /// such a leaf has the color its voxels would have.
     pub collapse_uniform: bool,
+    /// The values are labels ([`crate::DataKind::Labels`]): recorded in [`Octree::labels`].
+    pub labels: bool,
 }
 
 impl Default for BuildOptions {
     fn default() -> Self {
         Self {
             collapse_uniform: true,
+            labels: false,
         }
     }
 }
@@ -194,6 +197,7 @@ pub fn build_with_progress(
         level_starts,
         quantization: volume.quantization,
         collapsed: options.collapse_uniform,
+        labels: options.labels,
         build_seconds: started.elapsed().as_secs_f64(),
     })
 }
@@ -295,7 +299,11 @@ mod tests {
             let volume = Volume::new("t", "test", dims, [1.0; 3], VoxelData::U8(values)).unwrap();
             let quantized = QuantizedVolume::new(&volume);
             for collapse_uniform in [false, true] {
-                let octree = build(&quantized, BuildOptions { collapse_uniform }).unwrap();
+                let options = BuildOptions {
+                    collapse_uniform,
+                    ..BuildOptions::default()
+                };
+                let octree = build(&quantized, options).unwrap();
                 // Walk down from the root with each node's corner and side in voxels.
                 let mut stack = vec![(0usize, [0usize; 3], octree.side())];
                 let mut visited = 0;

@@ -18,7 +18,7 @@ use std::ops::Range;
 pub use bricks::{BRICK_FLAG, BrickLayout};
 pub use build::{BuildError, BuildOptions, MAX_DEPTH, build, build_with_progress};
 pub use clip::{Clip, ClipPlane};
-pub use node::{LEAF, Node, ValueBounds, average_color, pack_rgba, unpack_rgba};
+pub use node::{LEAF, Node, ValueBounds, average_color, mode_color, pack_rgba, unpack_rgba};
 pub use presets::{DataKind, MAX_LABELS, Preset, default_transfer, labels_transfer};
 pub use recolor::recolor;
 pub use statistics::{
@@ -47,6 +47,10 @@ pub struct Octree {
     pub quantization: Quantization,
     /// Whether subtrees of equal voxels were collapsed into single leaves.
     pub collapsed: bool,
+    /// Whether the values are labels ([`BuildOptions::labels`]): an inner node shows its
+    /// children's most frequent visible color ([`mode_color`]) rather than their average, and
+    /// every renderer samples the volume at the nearest voxel.
+    pub labels: bool,
     /// Wall time of [`build`].
     pub build_seconds: f64,
 }

@@ -72,6 +72,34 @@ pub fn average_color(children: [u32; 8]) -> u32 {
     ])
 }
 
+/// The color of a parent of a label volume's nodes from its 8 children: the color most of
+/// its visible children show (ties to the first child in order), never a mix of two labels'
+/// colors; its alpha is [`average_color`]'s (transparent only when every child is, which the
+/// ray casters' skipping relies on). Keep in sync with `mode_color` in `recolor.wgsl`.
+#[inline]
+pub fn mode_color(children: [u32; 8]) -> u32 {
+    let alpha = average_color(children) >> 24;
+    if alpha == 0 {
+        return 0;
+    }
+    let visible = |color: u32| color >> 24 != 0;
+    let mut best = 0u32;
+    let mut best_count = 0;
+    for (i, &color) in children.iter().enumerate() {
+        if !visible(color) {
+            continue;
+        }
+        let count = children[i..].iter().filter(|&&c| c == color).count();
+        // The first child of a color sees every other of that color after it.
+        let first = children[..i].iter().all(|&c| c != color);
+        if first && count > best_count {
+            best = color;
+            best_count = count;
+        }
+    }
+    (best & 0x00ff_ffff) | (alpha << 24)
+}
+
 /// The range of 16-bit value levels below a node: `min | max << 16`.
 /// [`ValueBounds::EMPTY`] (min above max) marks padding outside the volume.
 /// Keep in sync with the WGSL shaders, which read it as a plain `u32`.
@@ -127,6 +155,22 @@ impl ValueBounds {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_label_parent_takes_its_most_shown_child_color_never_a_mix() {
+        let red = pack_rgba([255, 0, 0, 255]);
+        let blue = pack_rgba([0, 0, 255, 255]);
+        let children = [0, red, blue, blue, 0, red, blue, 0];
+        // Blue thrice, red twice: blue, with the alpha of the average (5 of 8 opaque).
+        assert_eq!(
+            unpack_rgba(mode_color(children)),
+            [0, 0, 255, (5 * 255u32).div_ceil(8) as u8]
+        );
+        // A tie goes to the first child's color.
+        let tie = [0, red, blue, 0, 0, 0, red, blue];
+        assert_eq!(unpack_rgba(mode_color(tie))[..3], [255, 0, 0]);
+        assert_eq!(mode_color([0; 8]), 0);
+    }
 
     #[test]
     fn average_of_one_opaque_white_among_transparent_is_faint_white() {

@@ -179,6 +179,11 @@ pub enum DataKind {
 pub const MAX_LABELS: usize = 64;
 
 impl DataKind {
+    /// Whether the values are labels (categories, not amounts).
+    pub fn is_labels(self) -> bool {
+        matches!(self, Self::Labels(_))
+    }
+
     /// The kind of `volume`'s values, quantized as `quantized` (DICOM's modality from its
     /// metadata where it has one).
     pub fn of_volume(volume: &Volume, quantized: &QuantizedVolume) -> Self {

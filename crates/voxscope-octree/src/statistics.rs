@@ -177,6 +177,7 @@ mod tests {
             &quantized,
             BuildOptions {
                 collapse_uniform: false,
+                ..BuildOptions::default()
             },
         )
         .expect("builds");

@@ -2,10 +2,11 @@
 //! and the recolor of the brick level. Drawn by the same [`super::Raycaster`] as the octree.
 //!
 //! Max levels between the brick level and full detail draw pyramid levels of their own: each
-//! level of the volume reduced 2× per level by the mean (the streaming renderer's pyramid) in
-//! a texture of its own, sampled where the cell grid says a ray must look (bricks, and
-//! uniform regions, which a coarser level blurs into their neighbours), so each level shows its
-//! own resolution, filtered, at one sample per voxel of the level.
+//! level of the volume reduced 2× per level by the mean (the mode for labels: the streaming
+//! renderer's pyramid) in a texture of its own, sampled where the cell grid says a ray must look
+//! (bricks, and uniform regions, which a coarser level blurs into their neighbours), so each
+//! level shows its own resolution, filtered (nearest for labels), at one sample per voxel of the
+//! level.
 
 use wgpu::util::DeviceExt;
 
@@ -15,14 +16,14 @@ use super::pipeline::{
     atlas_entry, compute_pipeline, numbered_bind_group, storage_entry, uniform_entry,
 };
 use super::raycaster::{
-    BrickShape, OctreeOnGpu, ProbeTarget, VolumeShape, encode_frame, encode_probe_ray,
+    BrickShape, OctreeOnGpu, ProbeTarget, VolumeShape, encode_frame_region, encode_probe_ray,
 };
 use super::recolor::RecolorLevels;
 use super::renderer::{Renderer, level_detail, pipeline_variants};
 use super::slice::SliceSource;
 use super::{
-    Camera, Frame, GpuContext, GpuTransferTable, LevelDetail, RenderError, RenderSettings,
-    RenderTarget, RendererKind,
+    Camera, Frame, GpuContext, GpuTransferTable, ImageRegion, LevelDetail, RenderError,
+    RenderSettings, RenderTarget, RendererKind,
 };
 use voxscope_octree::{BRICK_FLAG, BrickLayout, TransferFunction, ValueBounds};
 use voxscope_stream::{Downsampling, coarser_levels};
@@ -48,6 +49,8 @@ pub struct GpuBricks {
     dims: [usize; 3],
     spacing: [f64; 3],
     depth: u32,
+    /// The values are labels ([`BrickLayout::labels`]).
+    labels: bool,
 }
 
 impl GpuBricks {
@@ -80,7 +83,7 @@ impl GpuBricks {
         let levels = coarser_levels(
             &volume.levels,
             dims,
-            Downsampling::Mean,
+            Downsampling::of_values(layout.labels),
             sub_brick_levels as usize,
         )
         .iter()
@@ -181,6 +184,7 @@ impl GpuBricks {
             dims,
             spacing,
             depth,
+            labels: layout.labels,
         })
     }
 }
@@ -211,19 +215,46 @@ impl Renderer for GpuBricks {
         settings: &RenderSettings,
         timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
+        let whole = ImageRegion::whole(target.width, target.height);
+        self.encode_region(
+            context,
+            encoder,
+            target,
+            camera,
+            settings,
+            whole,
+            timestamp_writes,
+        );
+    }
+
+    fn encode_region(
+        &self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &RenderTarget,
+        camera: &Camera,
+        settings: &RenderSettings,
+        region: ImageRegion,
+        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
         let frame = Frame {
             volume: self,
             target,
             camera,
             settings,
         };
-        encode_frame(
+        encode_frame_region(
             context.raycaster(),
             context,
             encoder,
             &frame,
+            region,
             timestamp_writes,
         );
+    }
+
+    fn draws_regions(&self) -> bool {
+        true
     }
 
     fn encode_probe(
@@ -303,6 +334,9 @@ impl VolumeShape for GpuBricks {
     }
     fn window_levels(&self) -> f32 {
         self.transfer.window_levels()
+    }
+    fn labels(&self) -> bool {
+        self.labels
     }
     fn sampled_level(&self, max_level: u32) -> u32 {
         if max_level > self.shape.level && max_level < self.depth {
@@ -427,7 +461,8 @@ impl GpuBrickRecolor {
             ],
             dims: [dims[0], dims[1], dims[2], 0],
             atlas_scale: bricks.shape.atlas_scale,
-            _pad: [0; 3],
+            labels: u32::from(bricks.labels),
+            _pad: [0; 2],
         };
         let device = &context.device;
         let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -480,6 +515,7 @@ impl GpuBrickRecolor {
                 lookup_table: &bricks.transfer.buffer,
                 level_starts: &bricks.level_starts,
                 deepest: level as u32 - 1,
+                labels: bricks.labels,
             };
             context
                 .recolor()
@@ -503,7 +539,7 @@ impl GpuBrickRecolor {
             level_start: 0,
             level_count: bricks.grid_cells,
             groups_x,
-            _pad: 0,
+            labels: 0,
         };
         let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("voxscope::brick_grid_params"),

@@ -20,11 +20,12 @@ use super::pipeline::{
     numbered_bind_group, output_image_entry, storage_entry, uniform_entry,
 };
 use super::raycaster::{
-    ProbeTarget, RayPass, StandIns, VolumeShape, encode_frame, frame_params_buffer,
+    ProbeTarget, RayPass, StandIns, VolumeShape, encode_frame_region, frame_params_buffer,
 };
 use super::renderer::Renderer;
 use super::{
-    Camera, Frame, GpuContext, LevelDetail, RenderError, RenderSettings, RenderTarget, RendererKind,
+    Camera, Frame, GpuContext, ImageRegion, LevelDetail, RenderError, RenderSettings, RenderTarget,
+    RendererKind,
 };
 use voxscope_octree::{TransferFunction, pack_rgba, unpack_rgba};
 use voxscope_volume::{MAX_CHANNELS, Quantization, QuantizedVolume};
@@ -498,19 +499,46 @@ impl Renderer for CompositeVolume {
         settings: &RenderSettings,
         timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
+        let whole = ImageRegion::whole(target.width, target.height);
+        self.encode_region(
+            context,
+            encoder,
+            target,
+            camera,
+            settings,
+            whole,
+            timestamp_writes,
+        );
+    }
+
+    fn encode_region(
+        &self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &RenderTarget,
+        camera: &Camera,
+        settings: &RenderSettings,
+        region: ImageRegion,
+        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
         let frame = Frame {
             volume: self,
             target,
             camera,
             settings,
         };
-        encode_frame(
+        encode_frame_region(
             context.composite_raycaster(),
             context,
             encoder,
             &frame,
+            region,
             timestamp_writes,
         );
+    }
+
+    fn draws_regions(&self) -> bool {
+        true
     }
 
     fn encode_probe(

@@ -1,8 +1,9 @@
 //! The dense baseline renderer: the volume's value levels in one 3D texture, marched at fixed
 //! one-voxel steps with hardware filtering. What napari/vispy, pygfx and ParaView do; voxscope
 //! keeps it to measure the octree against, and as a cross-check. Below full detail, a max
-//! level draws its own pyramid level (the volume reduced 2× per level by the mean, a texture
-//! each, as the streaming renderer's pyramid), one step per voxel of that level.
+//! level draws its own pyramid level (the volume reduced 2× per level by the mean, or a label
+//! volume's by the mode, a texture each, as the streaming renderer's pyramid), one step per
+//! voxel of that level. A label volume is always sampled at the nearest voxel.
 
 use super::gpu_data::RaycastParams;
 use super::level_texture::LevelTexture;
@@ -11,14 +12,14 @@ use super::pipeline::{
     numbered_bind_group, output_image_entry, storage_entry, uniform_entry,
 };
 use super::raycaster::{
-    ProbeTarget, RayPass, StandIns, VolumeShape, encode_frame, encode_probe_ray,
-    frame_params_buffer,
+    ProbeTarget, RayPass, StandIns, VolumeShape, encode_frame, encode_frame_region,
+    encode_probe_ray, frame_params_buffer,
 };
 use super::renderer::{Renderer, level_detail, pipeline_variants};
 use super::slice::SliceSource;
 use super::{
-    Camera, Frame, GpuContext, GpuTransferTable, LevelDetail, RenderError, RenderSettings,
-    RenderTarget, RendererKind,
+    Camera, Frame, GpuContext, GpuTransferTable, ImageRegion, LevelDetail, RenderError,
+    RenderSettings, RenderTarget, RendererKind,
 };
 use voxscope_octree::TransferFunction;
 use voxscope_stream::{Downsampling, coarser_levels};
@@ -34,22 +35,25 @@ pub struct DenseVolume {
     pub transfer: GpuTransferTable,
     pub dims: [usize; 3],
     pub spacing: [f64; 3],
+    /// The values are labels: nearest samples, levels reduced by the mode.
+    pub labels: bool,
 }
 
 impl DenseVolume {
-    /// Uploads `volume`'s value levels and its coarser pyramid levels; fails when a side
-    /// exceeds the device's 3D texture limit.
+    /// Uploads `volume`'s value levels and its coarser pyramid levels (reduced by the mode
+    /// where `labels`); fails when a side exceeds the device's 3D texture limit.
     pub fn upload(
         context: &GpuContext,
         volume: &QuantizedVolume,
         spacing: [f64; 3],
         transfer: &TransferFunction,
+        labels: bool,
     ) -> Result<Self, RenderError> {
         let levels = LevelTexture::upload(context, "dense_texture", volume.dims, &volume.levels)?;
         let coarser = coarser_levels(
             &volume.levels,
             volume.dims,
-            Downsampling::Mean,
+            Downsampling::of_values(labels),
             depth_of(volume.dims) as usize,
         )
         .iter()
@@ -64,6 +68,7 @@ impl DenseVolume {
             transfer: GpuTransferTable::new(context, volume.quantization, transfer),
             dims: volume.dims,
             spacing,
+            labels,
         })
     }
 
@@ -104,6 +109,9 @@ impl VolumeShape for DenseVolume {
     }
     fn window_levels(&self) -> f32 {
         self.transfer.window_levels()
+    }
+    fn labels(&self) -> bool {
+        self.labels
     }
     fn sampled_level(&self, max_level: u32) -> u32 {
         (self.coarser.len() as u32).saturating_sub(max_level)
@@ -198,7 +206,7 @@ impl RayPass<DenseVolume> for DenseRaycaster {
     ) -> wgpu::BindGroup {
         let level = volume.level_view(volume.sampled_level(params.max_level));
         let params = frame_params_buffer(context, "voxscope::dense_params", params);
-        let sampler = if settings.trilinear {
+        let sampler = if volume.filters(settings) {
             &self.trilinear
         } else {
             &self.nearest
@@ -243,19 +251,46 @@ impl Renderer for DenseVolume {
         settings: &RenderSettings,
         timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
+        let whole = ImageRegion::whole(target.width, target.height);
+        self.encode_region(
+            context,
+            encoder,
+            target,
+            camera,
+            settings,
+            whole,
+            timestamp_writes,
+        );
+    }
+
+    fn encode_region(
+        &self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &RenderTarget,
+        camera: &Camera,
+        settings: &RenderSettings,
+        region: ImageRegion,
+        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
         let frame = Frame {
             volume: self,
             target,
             camera,
             settings,
         };
-        encode_frame(
+        encode_frame_region(
             context.dense_raycaster(),
             context,
             encoder,
             &frame,
+            region,
             timestamp_writes,
         );
+    }
+
+    fn draws_regions(&self) -> bool {
+        true
     }
 
     fn encode_probe(

@@ -50,9 +50,12 @@ pub(crate) struct RaycastParams {
     /// nodes but coarser than full detail (the texture bound is that level's), else 1.
     pub sample_voxels: f32,
     pub _sample_pad: u32,
+    /// The pixels the frame draws, `[x0, y0, x1, y1)`: the whole image, or a band of it where
+    /// a slow device draws a frame in parts ([`crate::ImageRegion`]).
+    pub tile: [u32; 4],
 }
 
-const _: () = assert!(std::mem::size_of::<RaycastParams>() == 272);
+const _: () = assert!(std::mem::size_of::<RaycastParams>() == 288);
 
 /// What a probe pipeline writes for its one pixel (`GpuProbe`). Keep in sync with
 /// `struct ProbeResult` in `ray_common.wgsl`.
@@ -91,7 +94,9 @@ pub(crate) struct RecolorParams {
     pub level_start: u32,
     pub level_count: u32,
     pub groups_x: u32,
-    pub _pad: u32,
+    /// 1 where the values are labels: a parent takes its children's most frequent visible
+    /// color (`mode_color`), else their average. Unused by `brick_grid.wgsl`.
+    pub labels: u32,
 }
 
 const _: () = assert!(std::mem::size_of::<RecolorParams>() == 16);
@@ -107,7 +112,10 @@ pub(crate) struct BrickRecolorParams {
     pub atlas_grid: [u32; 4],
     pub dims: [u32; 4],
     pub atlas_scale: f32,
-    pub _pad: [u32; 3],
+    /// 1 where the values are labels: a brick takes the color most of its visible voxels show
+    /// (by majority vote), not their average.
+    pub labels: u32,
+    pub _pad: [u32; 2],
 }
 
 const _: () = assert!(std::mem::size_of::<BrickRecolorParams>() == 64);
@@ -195,6 +203,8 @@ const _: () = assert!(std::mem::size_of::<StreamParams>() == 544);
 pub(crate) const FLAG_OPACITY_CORRECTION: u32 = 1;
 pub(crate) const FLAG_PIXEL_LOD: u32 = 2;
 pub(crate) const FLAG_HEATMAP: u32 = 4;
+/// The values are labels: MIP draws the first visible label (`first_label`, ray_common.wgsl).
+pub(crate) const FLAG_LABELS: u32 = 8;
 
 #[cfg(test)]
 mod tests {
@@ -278,6 +288,7 @@ mod tests {
             probe_pixel,
             sample_voxels,
             _sample_pad,
+            tile,
         })
     }
 
@@ -318,7 +329,7 @@ mod tests {
             level_start,
             level_count,
             groups_x,
-            _pad,
+            labels,
         })
     }
 
@@ -331,6 +342,7 @@ mod tests {
             atlas_grid,
             dims,
             atlas_scale,
+            labels,
             _pad,
         })
     }
@@ -575,7 +587,7 @@ mod tests {
             level_start,
             level_count,
             groups_x,
-            _pad,
+            labels,
         });
         let check = |wgsl: &str| {
             let source = format!("{wgsl}\n@group(0) @binding(0) var<uniform> params: LevelParams;");
@@ -583,11 +595,11 @@ mod tests {
             compare("test", &declared_structs(&module)["LevelParams"], &rust)
         };
         let same =
-            "struct LevelParams { level_start: u32, level_count: u32, groups_x: u32, _p: u32 }";
+            "struct LevelParams { level_start: u32, level_count: u32, groups_x: u32, labels: u32 }";
         assert_eq!(check(same), Ok(()));
         let cases = [
             (
-                "struct LevelParams { level_count: u32, level_start: u32, groups_x: u32, _p: u32 }",
+                "struct LevelParams { level_count: u32, level_start: u32, groups_x: u32, labels: u32 }",
                 "field 1 is `level_count` in WGSL, `level_start` in Rust",
             ),
             (
@@ -604,7 +616,11 @@ mod tests {
             ),
             (
                 "struct LevelParams { level_start: u32, level_count: u32, groups_x: u32 }",
-                "12 bytes in WGSL, 16 in Rust",
+                "`labels` is missing in WGSL",
+            ),
+            (
+                "struct LevelParams { level_start: u32, level_count: u32, groups_x: u32, labels: u32, _p: u32 }",
+                "20 bytes in WGSL, 16 in Rust",
             ),
         ];
         for (wgsl, expected) in cases {

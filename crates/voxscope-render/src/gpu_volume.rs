@@ -3,12 +3,12 @@
 
 use wgpu::util::DeviceExt;
 
-use super::raycaster::{ProbeTarget, encode_frame, encode_probe_ray};
+use super::raycaster::{ProbeTarget, encode_frame_region, encode_probe_ray};
 use super::renderer::{Renderer, level_detail, pipeline_variants};
 use super::slice::SliceSource;
 use super::{
-    Camera, Frame, GpuContext, GpuTransferTable, LevelDetail, RenderError, RenderSettings,
-    RenderTarget, RendererKind,
+    Camera, Frame, GpuContext, GpuTransferTable, ImageRegion, LevelDetail, RenderError,
+    RenderSettings, RenderTarget, RendererKind,
 };
 use voxscope_octree::{Node, Octree, TransferFunction, ValueBounds};
 
@@ -27,6 +27,8 @@ pub struct GpuVolume {
     pub uploaded_level: u32,
     /// `level_starts` of the octree, through `uploaded_level + 1`.
     pub level_starts: Vec<usize>,
+    /// The values are labels ([`voxscope_octree::Octree::labels`]).
+    pub labels: bool,
 }
 
 impl GpuVolume {
@@ -47,8 +49,10 @@ impl GpuVolume {
             let fitting = (0..=octree.depth).rev().find(|&l| {
                 (octree.nodes_through_level(l) * std::mem::size_of::<Node>()) as u64 <= limit
             });
+            // Said as a max level, which both the command line (--level) and the app (Max
+            // level) set.
             let advice = match fitting {
-                Some(level) => format!("; try --level {level} or lower"),
+                Some(level) => format!("; it fits through max level {level}"),
                 None => String::new(),
             };
             return Err(RenderError::DoesNotFit(format!(
@@ -76,7 +80,7 @@ impl GpuVolume {
         let transfer = GpuTransferTable::new(context, octree.quantization, transfer);
         if let Some(error) = pollster::block_on(out_of_memory.pop()) {
             return Err(RenderError::DoesNotFit(format!(
-                "the GPU ({}) has no room for the octree's {} MiB: {error}; try a lower --level",
+                "the GPU ({}) has no room for the octree's {} MiB: {error}; a lower max level needs less",
                 context.adapter_info.name,
                 bytes.div_ceil(1 << 20)
             )));
@@ -90,6 +94,7 @@ impl GpuVolume {
             depth: octree.depth,
             uploaded_level,
             level_starts: octree.level_starts[..uploaded_level as usize + 2].to_vec(),
+            labels: octree.labels,
         })
     }
 
@@ -130,19 +135,46 @@ impl Renderer for GpuVolume {
         settings: &RenderSettings,
         timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
+        let whole = ImageRegion::whole(target.width, target.height);
+        self.encode_region(
+            context,
+            encoder,
+            target,
+            camera,
+            settings,
+            whole,
+            timestamp_writes,
+        );
+    }
+
+    fn encode_region(
+        &self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &RenderTarget,
+        camera: &Camera,
+        settings: &RenderSettings,
+        region: ImageRegion,
+        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
         let frame = Frame {
             volume: self,
             target,
             camera,
             settings,
         };
-        encode_frame(
+        encode_frame_region(
             context.raycaster(),
             context,
             encoder,
             &frame,
+            region,
             timestamp_writes,
         );
+    }
+
+    fn draws_regions(&self) -> bool {
+        true
     }
 
     fn encode_probe(

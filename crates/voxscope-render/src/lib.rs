@@ -18,6 +18,7 @@ mod probe;
 mod raycaster;
 mod readback;
 mod recolor;
+mod region;
 mod renderer;
 mod settings;
 pub mod shaders;
@@ -40,6 +41,7 @@ pub use probe::{GpuProbe, PROBE_ALPHA, ProbeHit, ProbeOutcome, ProbeRequest, pro
 pub use raycaster::{Frame, OctreeOnGpu, ProbeTarget, Raycaster, RenderTarget, VolumeShape};
 pub use readback::{read_buffer, read_image, read_visits};
 pub use recolor::GpuRecolor;
+pub use region::ImageRegion;
 pub use renderer::Renderer;
 pub use settings::{
     EARLY_TERMINATION_ALPHA, GRADIENT_FOR_FULL_SHADING, HEATMAP_SATURATION, RenderMode,

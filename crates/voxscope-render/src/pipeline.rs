@@ -301,6 +301,29 @@ pub(crate) fn dispatch_per_pixel(
     );
 }
 
+/// Records one compute pass of a per-pixel pipeline over `region` of the image (its first
+/// pixel is `params.tile`'s; `ray_pixel` in ray_common.wgsl adds it).
+pub(crate) fn dispatch_region(
+    encoder: &mut wgpu::CommandEncoder,
+    label: &str,
+    pipeline: &wgpu::ComputePipeline,
+    bind_group: &wgpu::BindGroup,
+    region: super::ImageRegion,
+    timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+) {
+    dispatch(
+        encoder,
+        label,
+        pipeline,
+        bind_group,
+        [
+            region.size[0].div_ceil(WORKGROUP_SIDE),
+            region.size[1].div_ceil(WORKGROUP_SIDE),
+        ],
+        timestamp_writes,
+    );
+}
+
 /// Records one compute pass of a probe pipeline: one workgroup, whose first invocation traces
 /// the probed pixel (`ray_pixel` in `ray_common.wgsl`).
 pub(crate) fn dispatch_probe(

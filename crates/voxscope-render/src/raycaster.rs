@@ -3,15 +3,14 @@
 use glam::DVec3;
 
 use super::gpu_data::{
-    FLAG_HEATMAP, FLAG_OPACITY_CORRECTION, FLAG_PIXEL_LOD, ProbeResult, RaycastParams,
+    FLAG_HEATMAP, FLAG_LABELS, FLAG_OPACITY_CORRECTION, FLAG_PIXEL_LOD, ProbeResult, RaycastParams,
 };
 use super::pipeline::{
-    Variant, VariantPipelines, atlas_entry, atlas_sampler_entry, clamped_sampler,
-    dispatch_per_pixel, dispatch_probe, numbered_bind_group, output_image_entry, storage_entry,
-    uniform_entry,
+    Variant, VariantPipelines, atlas_entry, atlas_sampler_entry, clamped_sampler, dispatch_probe,
+    dispatch_region, numbered_bind_group, output_image_entry, storage_entry, uniform_entry,
 };
 use super::settings::GRADIENT_FOR_FULL_SHADING;
-use super::{Camera, GpuContext, GpuVolume, RenderMode, RenderSettings, Shading};
+use super::{Camera, GpuContext, GpuVolume, ImageRegion, RenderMode, RenderSettings, Shading};
 
 /// Where a frame goes: an RGBA8 storage texture and the per-pixel count of nodes visited.
 pub struct RenderTarget {
@@ -99,6 +98,17 @@ pub trait VolumeShape {
     fn mip_saturation(&self) -> u16;
     /// The transfer window's width in value levels (shading measures gradients against it).
     fn window_levels(&self) -> f32;
+    /// Whether the values are labels (categories): sampled at the nearest voxel whatever the
+    /// settings' filtering (a value between two labels is a third, unrelated one), and MIP
+    /// draws the first visible label along a ray.
+    fn labels(&self) -> bool {
+        false
+    }
+    /// Whether frames sample with trilinear filtering under `settings`: where asked, and never
+    /// for labels.
+    fn filters(&self, settings: &RenderSettings) -> bool {
+        settings.trilinear && !self.labels()
+    }
     /// Where brick leaves are, if any.
     fn bricks(&self) -> Option<BrickShape> {
         None
@@ -192,6 +202,9 @@ impl VolumeShape for GpuVolume {
     fn window_levels(&self) -> f32 {
         self.transfer.window_levels()
     }
+    fn labels(&self) -> bool {
+        self.labels
+    }
 }
 
 /// The entry points of `raycast.wgsl`, in the order [`VariantPipelines`] numbers them.
@@ -211,6 +224,8 @@ pub struct Raycaster {
     /// Bound where a volume has no brick grid.
     no_grid: wgpu::Buffer,
     atlas_sampler: wgpu::Sampler,
+    /// The bricks of a label volume, or with trilinear filtering off.
+    nearest_sampler: wgpu::Sampler,
     /// Bound where nothing is probed, and bound as the image of a probe (which draws nothing).
     stand_ins: StandIns,
 }
@@ -309,12 +324,15 @@ impl Raycaster {
             .create_view(&wgpu::TextureViewDescriptor::default());
         let atlas_sampler =
             clamped_sampler(device, wgpu::FilterMode::Linear, "voxscope::atlas_sampler");
+        let nearest_sampler =
+            clamped_sampler(device, wgpu::FilterMode::Nearest, "voxscope::atlas_nearest");
         Self {
             pipelines,
             layout,
             no_atlas,
             no_grid,
             atlas_sampler,
+            nearest_sampler,
             stand_ins: StandIns::new(context),
         }
     }
@@ -366,11 +384,16 @@ impl<V: OctreeOnGpu> RayPass<V> for Raycaster {
         context: &GpuContext,
         volume: &V,
         params: &RaycastParams,
-        _settings: &RenderSettings,
+        settings: &RenderSettings,
         target: &RenderTarget,
         probe: &wgpu::Buffer,
     ) -> wgpu::BindGroup {
         let params_buffer = frame_params_buffer(context, "voxscope::raycast_params", params);
+        let sampler = if volume.filters(settings) {
+            &self.atlas_sampler
+        } else {
+            &self.nearest_sampler
+        };
         numbered_bind_group(
             &context.device,
             "voxscope::raycast_bind_group",
@@ -387,7 +410,7 @@ impl<V: OctreeOnGpu> RayPass<V> for Raycaster {
                         .sampled_texture(volume.sampled_level(params.max_level))
                         .unwrap_or(&self.no_atlas),
                 ),
-                wgpu::BindingResource::Sampler(&self.atlas_sampler),
+                wgpu::BindingResource::Sampler(sampler),
                 volume
                     .brick_grid()
                     .unwrap_or(&self.no_grid)
@@ -447,13 +470,28 @@ pub(crate) fn encode_frame<V: VolumeShape, P: RayPass<V>>(
     frame: &Frame<'_, V>,
     timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
 ) {
+    let whole = ImageRegion::whole(frame.target.width, frame.target.height);
+    encode_frame_region(pass, context, encoder, frame, whole, timestamp_writes);
+}
+
+/// Records the pixels `region` of one frame of `frame.volume` with `pass` into `encoder` (the
+/// rest of the target keeps what it holds), its parameters in a buffer of its own.
+pub(crate) fn encode_frame_region<V: VolumeShape, P: RayPass<V>>(
+    pass: &P,
+    context: &GpuContext,
+    encoder: &mut wgpu::CommandEncoder,
+    frame: &Frame<'_, V>,
+    region: ImageRegion,
+    timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+) {
     let Frame {
         volume,
         target,
         camera,
         settings,
     } = *frame;
-    let params = raycast_params(volume, [target.width, target.height], camera, settings);
+    let mut params = raycast_params(volume, [target.width, target.height], camera, settings);
+    params.tile = region.bounds();
     pass.before_frame(volume, &params);
     let bind_group = pass.bind_group(
         context,
@@ -468,12 +506,12 @@ pub(crate) fn encode_frame<V: VolumeShape, P: RayPass<V>>(
         pass.entry_point(volume, &params),
         pass.variant(frame_variant(settings), &params),
     );
-    dispatch_per_pixel(
+    dispatch_region(
         encoder,
         P::NAME,
         pipeline,
         &bind_group,
-        target,
+        region,
         timestamp_writes,
     );
 }
@@ -573,6 +611,9 @@ pub(crate) fn raycast_params(
     if settings.heatmap {
         flags |= FLAG_HEATMAP;
     }
+    if volume.labels() {
+        flags |= FLAG_LABELS;
+    }
     // Clipping, from normalized volume coordinates to voxel space (p_voxel = p · dims).
     let box_fractions = settings.clip.box_fractions();
     let corner = |side: usize| -> [f32; 4] {
@@ -644,5 +685,6 @@ pub(crate) fn raycast_params(
         probe_pixel: [0, 0],
         sample_voxels,
         _sample_pad: 0,
+        tile: [0, 0, width, height],
     }
 }

@@ -52,6 +52,7 @@ impl GpuRecolor {
             lookup_table: &volume.transfer.buffer,
             level_starts: &volume.level_starts,
             deepest: volume.depth,
+            labels: volume.labels,
         };
         self.encode_levels(context, encoder, &levels, timestamp_writes);
         Ok(())
@@ -83,7 +84,7 @@ impl GpuRecolor {
                 level_start: start,
                 level_count: count,
                 groups_x,
-                _pad: 0,
+                labels: u32::from(levels.labels),
             };
             blocks[slot * stride..slot * stride + 16].copy_from_slice(bytemuck::bytes_of(&params));
             dispatches.push(((slot * stride) as u32, groups_x, groups_y));
@@ -134,4 +135,6 @@ pub(crate) struct RecolorLevels<'a> {
     pub level_starts: &'a [usize],
     /// Levels `deepest..=0` are recolored.
     pub deepest: u32,
+    /// The values are labels: parents take their children's most shown color.
+    pub labels: bool,
 }

@@ -14,8 +14,8 @@ use super::pipeline::Variant;
 use super::raycaster::{ProbeTarget, frame_variant, probe_variant};
 use super::slice::SliceSource;
 use super::{
-    Camera, CompositeVolume, GpuContext, LevelDetail, RenderError, RenderSettings, RenderTarget,
-    RendererKind, StreamVolume,
+    Camera, CompositeVolume, GpuContext, ImageRegion, LevelDetail, RenderError, RenderSettings,
+    RenderTarget, RendererKind, StreamVolume,
 };
 
 /// A volume on the GPU that frames are drawn from.
@@ -38,6 +38,31 @@ pub trait Renderer: Send {
         settings: &RenderSettings,
         timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
     );
+
+    /// Records the pixels `region` of one frame ([`Self::encode`] of a part of the image; the
+    /// rest of the target keeps what it holds), for a caller that draws a slow frame in parts
+    /// so that no submission keeps the device busy for long. A renderer that draws whole
+    /// frames only ([`Self::draws_regions`] false: the streaming renderer, whose rays' requests
+    /// and usage marks are a frame's) draws all of it.
+    #[allow(clippy::too_many_arguments)]
+    fn encode_region(
+        &self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &RenderTarget,
+        camera: &Camera,
+        settings: &RenderSettings,
+        region: ImageRegion,
+        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
+        let _whole_frame_instead = region;
+        self.encode(context, encoder, target, camera, settings, timestamp_writes);
+    }
+
+    /// Whether [`Self::encode_region`] draws its region alone.
+    fn draws_regions(&self) -> bool {
+        false
+    }
 
     /// Records and submits one frame ([`Self::encode`] in an encoder of its own).
     fn render(

@@ -281,8 +281,9 @@ pub struct SliceSettings {
     /// Values at or below `low` take the colormap's first color, at or above `high` its last.
     pub window: ValueWindow,
     pub colormap: Colormap,
-    /// The nearest voxel's value (exact); otherwise trilinear between voxel centers. The
-    /// labels colormap is always nearest: a label between two labels means nothing.
+    /// The nearest voxel's value (exact); otherwise trilinear between voxel centers. A label
+    /// volume, and the labels colormap, are always nearest: a label between two labels means
+    /// nothing.
     pub nearest: bool,
 }
 
@@ -390,6 +391,15 @@ impl SliceSource<'_> {
         match self {
             Self::Dense(_) | Self::Bricks(_) => true,
             Self::Octree(volume) => volume.is_complete(),
+        }
+    }
+
+    /// Whether the values are labels: slices of them show the nearest voxel, whatever asked.
+    pub(crate) fn labels(&self) -> bool {
+        match self {
+            Self::Dense(volume) => volume.labels(),
+            Self::Bricks(bricks) => bricks.labels(),
+            Self::Octree(volume) => volume.labels(),
         }
     }
 }
@@ -563,7 +573,9 @@ fn slice_params(
         brick_grid: [brick_grid[0], brick_grid[1], brick_grid[2], 0],
         image_size: [target.width, target.height],
         source: kind,
-        nearest: u32::from(settings.nearest || settings.colormap == Colormap::Labels),
+        nearest: u32::from(
+            settings.nearest || settings.colormap == Colormap::Labels || source.labels(),
+        ),
         level_scale,
         deepest_level,
         brick_size,

@@ -489,6 +489,10 @@ impl VolumeShape for StreamVolume {
     fn window_levels(&self) -> f32 {
         self.transfer.window_levels()
     }
+    /// A label volume's source ([`BrickSource::labels`]): nearest samples, first-label MIP.
+    fn labels(&self) -> bool {
+        self.streamer.source().labels()
+    }
     fn bricks(&self) -> Option<BrickShape> {
         let grid = self.streamer.shape().levels[0].grid.map(|g| g as u32);
         Some(BrickShape {
@@ -507,6 +511,8 @@ pub struct StreamRaycaster {
     pipelines: VariantPipelines,
     layout: wgpu::BindGroupLayout,
     sampler: wgpu::Sampler,
+    /// For labels, or with trilinear filtering off.
+    nearest: wgpu::Sampler,
     stand_ins: StandIns,
 }
 
@@ -539,6 +545,11 @@ impl StreamRaycaster {
                 &context.device,
                 wgpu::FilterMode::Linear,
                 "voxscope::stream_sampler",
+            ),
+            nearest: clamped_sampler(
+                &context.device,
+                wgpu::FilterMode::Nearest,
+                "voxscope::stream_nearest",
             ),
             stand_ins: StandIns::new(context),
         }
@@ -594,11 +605,16 @@ impl RayPass<StreamVolume> for StreamRaycaster {
         context: &GpuContext,
         volume: &StreamVolume,
         params: &RaycastParams,
-        _settings: &RenderSettings,
+        settings: &RenderSettings,
         target: &RenderTarget,
         probe: &wgpu::Buffer,
     ) -> wgpu::BindGroup {
         let device = &context.device;
+        let sampler = if volume.filters(settings) {
+            &self.sampler
+        } else {
+            &self.nearest
+        };
         let params_buffer = frame_params_buffer(context, "voxscope::stream_params", params);
         let stream_params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("voxscope::stream_level_params"),
@@ -616,7 +632,7 @@ impl RayPass<StreamVolume> for StreamRaycaster {
                 wgpu::BindingResource::TextureView(&target.view),
                 target.visits.as_entire_binding(),
                 wgpu::BindingResource::TextureView(&volume.atlas_view),
-                wgpu::BindingResource::Sampler(&self.sampler),
+                wgpu::BindingResource::Sampler(sampler),
                 volume.table.as_entire_binding(),
                 volume.requests.as_entire_binding(),
                 volume.usage.as_entire_binding(),

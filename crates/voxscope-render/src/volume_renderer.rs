@@ -9,7 +9,7 @@ use super::renderer::Renderer;
 use super::slice::{SliceColorCache, SliceSource};
 use super::{
     Camera, ChannelLayer, CompositeVolume, DenseVolume, GpuBricks, GpuContext, GpuVolume,
-    RenderError, RenderSettings, RenderTarget, SliceSettings, StreamVolume,
+    ImageRegion, RenderError, RenderSettings, RenderTarget, SliceSettings, StreamVolume,
 };
 use std::sync::Arc;
 use voxscope_octree::{BrickLayout, Octree, TransferFunction};
@@ -146,9 +146,13 @@ impl VolumeRenderer {
             RendererKind::Octree => Box::new(GpuVolume::upload(
                 context, octree, spacing, max_level, transfer,
             )?),
-            RendererKind::Dense => {
-                Box::new(DenseVolume::upload(context, quantized, spacing, transfer)?)
-            }
+            RendererKind::Dense => Box::new(DenseVolume::upload(
+                context,
+                quantized,
+                spacing,
+                transfer,
+                octree.labels,
+            )?),
             RendererKind::Bricks => {
                 let layout = BrickLayout::new(
                     octree,
@@ -167,7 +171,8 @@ impl VolumeRenderer {
                 )?)
             }
             RendererKind::Stream => {
-                let source = MemorySource::new("volume", quantized, spacing, Downsampling::Mean)
+                let how = Downsampling::of_values(octree.labels);
+                let source = MemorySource::new("volume", quantized, spacing, how)
                     .map_err(RenderError::Invalid)?;
                 let stream = StreamOptions {
                     gpu_memory: options.gpu_memory,
@@ -298,6 +303,37 @@ impl VolumeRenderer {
     ) {
         self.renderer
             .encode(context, encoder, target, camera, settings, timestamp_writes);
+    }
+
+    /// Records the pixels `region` of one frame into `encoder` (the rest of `target` keeps
+    /// what it holds): a slow device's frame drawn band by band. A renderer that draws whole
+    /// frames only ([`Self::draws_regions`] false) draws all of it.
+    #[allow(clippy::too_many_arguments)]
+    pub fn encode_region(
+        &self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &RenderTarget,
+        camera: &Camera,
+        settings: &RenderSettings,
+        region: ImageRegion,
+        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
+        self.renderer.encode_region(
+            context,
+            encoder,
+            target,
+            camera,
+            settings,
+            region,
+            timestamp_writes,
+        );
+    }
+
+    /// Whether [`Self::encode_region`] draws its region alone (every renderer but the
+    /// streaming one, whose rays' requests are a whole frame's).
+    pub fn draws_regions(&self) -> bool {
+        self.renderer.draws_regions()
     }
 
     /// Builds, where not built yet, the device's pipelines this renderer draws `settings` with

@@ -62,11 +62,17 @@ impl VolumeData {
         progress: &Progress,
     ) -> Result<Self, SceneError> {
         progress.check()?;
-        let octree = octree::build_with_progress(&quantized, BuildOptions::default(), progress)
+        let kind = DataKind::of_volume(&volume, &quantized);
+        // A label volume's octree colors its inner nodes by their children's most shown label,
+        // and every renderer made of it samples the nearest voxel.
+        let options = BuildOptions {
+            labels: kind.is_labels(),
+            ..BuildOptions::default()
+        };
+        let octree = octree::build_with_progress(&quantized, options, progress)
             .map_err(|e| SceneError::from_build(&volume.name, e))?;
         let default_window = default_window(file_window(&volume), &quantized);
         let histogram = display_histogram(&quantized);
-        let kind = DataKind::of_volume(&volume, &quantized);
         Ok(Self {
             source: source.clone(),
             volume,

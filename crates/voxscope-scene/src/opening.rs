@@ -30,8 +30,10 @@ pub fn default_window(
     file_window.unwrap_or_else(|| quantized.robust_window())
 }
 
-/// The transfer-function choices that carry over from one volume to the next in the app (the
-/// window is the data's own and is reset on load).
+/// The transfer-function choices the app's panel edits and remembers between runs (the window
+/// is the data's own and lives beside it). What a new volume opens with is not taken from
+/// here: a curve in data units belongs to its data ([`TransferRequest::saved`] carries a
+/// function the user pinned).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct TransferChoice {
     pub opacity: OpacityMode,
@@ -49,17 +51,6 @@ impl TransferChoice {
             colormap: self.colormap,
         }
     }
-
-    /// Whether this choice only makes sense for other data than values in `value_range`: a
-    /// curve wholly outside them, or the labels colormap.
-    fn is_foreign(&self, value_range: [f64; 2]) -> bool {
-        let [low, high] = value_range;
-        let foreign_curve = self.opacity.curve().is_some_and(|curve| {
-            let [first, last] = curve.span();
-            last < low || first > high
-        });
-        foreign_curve || self.colormap == Colormap::Labels
-    }
 }
 
 impl From<TransferFunction> for TransferChoice {
@@ -73,11 +64,14 @@ impl From<TransferFunction> for TransferChoice {
 }
 
 /// What was asked of the transfer function a volume opens with, most binding first. Every part
-/// is optional: without any, the volume opens with its kind's default (a CT preset, labels)
-/// or alpha = gray over its default window.
+/// is optional: without any, the volume opens with what fits its data, its kind's default (a CT
+/// preset, labels) or alpha = gray over its default window. Nothing of the volume shown
+/// before carries over unless asked here: the app asks `saved` with the function on screen
+/// when the user pinned it ("Keep for the next volumes").
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct TransferRequest {
-    /// A whole transfer function (a saved file's): taken as it is.
+    /// A whole transfer function (a saved file's, or the one the user pinned in the app):
+    /// taken as it is.
     pub saved: Option<TransferFunction>,
     /// A preset, over the data's values.
     pub preset: Option<Preset>,
@@ -89,10 +83,6 @@ pub struct TransferRequest {
     pub colormap: Option<Colormap>,
     /// The window (instead of the preset's or the default's).
     pub window: Option<ValueWindow>,
-    /// What stands in where the data's kind has no default of its own (the app's remembered
-    /// choice); a choice that only fits other data (see [`TransferChoice`]) is replaced by
-    /// the ramp preset.
-    pub fallback: Option<TransferChoice>,
 }
 
 /// The binary threshold where none is asked for.
@@ -101,8 +91,8 @@ const DEFAULT_THRESHOLD: f32 = 0.3;
 /// The transfer function a volume of `kind` with these `quantized` values opens with, as
 /// `request` asks: its saved function, else its preset, else its opacity over
 /// `default_window`, else the kind's default (CT: the soft-tissue preset; labels: the
-/// labels colormap), else its fallback choice over `default_window`, else alpha = gray over
-/// `default_window`. The request's window and colormap then override any of them.
+/// labels colormap), else alpha = gray over `default_window`. The request's window and
+/// colormap then override any of them.
 pub fn opening_transfer(
     quantized: &QuantizedVolume,
     kind: DataKind,
@@ -125,16 +115,6 @@ pub fn opening_transfer(
         over_window(opacity)
     } else if let Some(transfer) = default_transfer(quantized, kind) {
         transfer
-    } else if let Some(choice) = request.fallback {
-        if choice.is_foreign(quantized.value_range) {
-            let colormap = match choice.colormap {
-                Colormap::Labels => Colormap::Grays,
-                colormap => colormap,
-            };
-            Preset::Ramp.transfer(quantized, colormap)
-        } else {
-            choice.with_window(default_window)
-        }
     } else {
         over_window(OpacityMode::Gray)
     };

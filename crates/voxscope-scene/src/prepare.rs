@@ -14,8 +14,8 @@ use voxscope_volume::remote::RemoteOptions;
 use voxscope_volume::{MAX_CHANNELS, QuantizedVolume, Selection, ValueScale, Volume, VoxelData};
 
 use crate::{
-    ChannelState, CompositeScene, Scene, SceneError, TransferChoice, TransferRequest, VolumeData,
-    VolumeSource, opening_transfer, upload,
+    ChannelState, CompositeScene, Scene, SceneError, TransferRequest, VolumeData, VolumeSource,
+    opening_transfer, upload,
 };
 
 /// Voxels of the level the app reads whole beside a streamed OME-Zarr store, for what the
@@ -50,12 +50,15 @@ pub struct Opened {
 /// Loads `source` (the frame `frame` names, else the first) and prepares everything to draw
 /// it with `options`: a multi-channel file as the composite of its channels, a store larger
 /// than memory streamed, a volume longer than the octree holds streamed from a pyramid of its
-/// own. A new volume's transfer function is [`opening_transfer`]'s with `choice` standing in
-/// where the data has no default of its own; a frame change keeps the one it carries.
+/// own. A new volume's transfer function is [`opening_transfer`]'s for `request` (what fits
+/// the data unless the request asks otherwise: the app asks for the function the user pinned,
+/// nothing else of the volume before); a composite's channels open with the file's colors
+/// and windows whatever the request's saved function. A frame change keeps the transfer
+/// functions it carries.
 pub fn prepare_scene(
     source: &VolumeSource,
     frame: Option<FrameChange>,
-    choice: TransferChoice,
+    request: &TransferRequest,
     gpu: &GpuContext,
     options: RendererOptions,
     progress: &Progress,
@@ -115,23 +118,25 @@ pub fn prepare_scene(
             progress,
         )?));
     }
-    let request = TransferRequest {
-        fallback: Some(choice),
-        ..TransferRequest::default()
+    // One function for every channel of a composite would draw them all alike: each opens
+    // with its own window (the file's, else its values').
+    let channel_request = TransferRequest {
+        saved: None,
+        ..*request
     };
     let states: Vec<ChannelState> = match &frame {
         Some(frame) if composite && frame.channels.len() == channel_count => frame.channels.clone(),
         _ if composite => std::iter::once(&data)
             .chain(channels.iter().map(Arc::as_ref))
             .enumerate()
-            .map(|(index, data)| ChannelState::opening(data, index, &request))
+            .map(|(index, data)| ChannelState::opening(data, index, &channel_request))
             .collect(),
         _ => Vec::new(),
     };
     let transfer = match (&frame, states.first()) {
         (_, Some(first)) => first.transfer,
         (Some(frame), None) => frame.transfer,
-        (None, None) => opening_transfer(&data.quantized, data.kind, data.default_window, &request),
+        (None, None) => opening_transfer(&data.quantized, data.kind, data.default_window, request),
     };
     progress.begin("coloring");
     octree::recolor(&mut data.octree, &transfer);
@@ -206,7 +211,7 @@ fn panel_level(pyramid: &Pyramid) -> Result<(Volume, Option<String>), SceneError
 }
 
 /// The pyramid of `volume` (quantized, each level 2× coarser, by the mean or for labels the
-/// maximum), and its finest level within [`PANEL_LEVEL_VOXELS`] as a volume of its own (its
+/// mode), and its finest level within [`PANEL_LEVEL_VOXELS`] as a volume of its own (its
 /// voxels the levels, mapped back to the data's units by the value scale) for the panels.
 fn in_memory_pyramid(
     volume: Volume,
@@ -255,11 +260,9 @@ fn in_memory_pyramid(
     Ok((panel, Arc::new(pyramid)))
 }
 
-/// How the coarser levels of a pyramid of data of `kind` are reduced: labels by the maximum
-/// (a mean of labels is another label), everything else by the mean.
+/// How the coarser levels of a pyramid of data of `kind` are reduced: labels by their mode (a
+/// mean of labels is another label, and their maximum lets the largest label grow over the
+/// others level by level), everything else by the mean.
 pub(crate) fn downsampling_of(kind: DataKind) -> Downsampling {
-    match kind {
-        DataKind::Labels(_) => Downsampling::Max,
-        _ => Downsampling::Mean,
-    }
+    Downsampling::of_values(kind.is_labels())
 }

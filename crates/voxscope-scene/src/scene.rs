@@ -135,7 +135,9 @@ pub fn upload(
         (_, Some(spec)) if options.kind == RendererKind::Stream => {
             let pyramid =
                 Pyramid::open_spec(spec, data.volume.series.selected, RemoteOptions::default())?;
-            let source = ZarrSource::new(Arc::new(pyramid)).map_err(SceneError::Failed)?;
+            let source = ZarrSource::new(Arc::new(pyramid))
+                .map_err(SceneError::Failed)?
+                .of_labels(data.kind.is_labels());
             // The coarse levels the first frames draw, their chunks fetched together (a URL's
             // round trips), on this loading thread.
             source.warm_first_image(FIRST_IMAGE_BRICKS);

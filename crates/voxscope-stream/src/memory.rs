@@ -16,6 +16,8 @@ pub struct MemorySource {
     spacing: [f64; 3],
     quantization: Quantization,
     max_value_level: u16,
+    /// How the coarser levels were reduced ([`Downsampling::Mode`]: labels).
+    how: Downsampling,
 }
 
 impl MemorySource {
@@ -70,6 +72,7 @@ impl MemorySource {
             spacing,
             quantization,
             max_value_level,
+            how,
         })
     }
 
@@ -110,5 +113,10 @@ impl BrickSource for MemorySource {
             self.shape.levels[id.level as usize].dims,
             id.brick,
         ))
+    }
+
+    /// Labels where the levels were reduced by their mode.
+    fn labels(&self) -> bool {
+        self.how == Downsampling::Mode
     }
 }

@@ -143,13 +143,36 @@ impl PyramidShape {
 pub enum Downsampling {
     /// Their mean, rounded (intensities).
     Mean,
-    /// Their largest level (label volumes, whose values are names, not amounts).
+    /// Their largest level (a store that says its levels were made so).
     Max,
+    /// Their most frequent level, ties to the larger (label volumes, whose values are names,
+    /// not amounts: a mean of two labels is a third, and the largest label wins every block it
+    /// touches, growing small labels over large ones level by level).
+    Mode,
+}
+
+impl Downsampling {
+    /// The reduction for values that are labels (the mode) or amounts (the mean).
+    pub fn of_values(labels: bool) -> Self {
+        if labels { Self::Mode } else { Self::Mean }
+    }
+}
+
+/// The most frequent of up to eight levels, ties to the larger.
+fn mode_of(values: &[u32]) -> u32 {
+    let mut best = (0usize, 0u32);
+    for &value in values {
+        let count = values.iter().filter(|&&v| v == value).count();
+        if (count, value) > best {
+            best = (count, value);
+        }
+    }
+    best.1
 }
 
 /// The next coarser level of `levels` (`dims`, x fastest): `ceil(dims / 2)` voxels, each the
-/// mean (rounded) or the maximum of the 2×2×2 voxels it covers; at an odd edge the last voxel
-/// stands in for the missing one (as a clamped texture would).
+/// mean (rounded), the maximum or the mode of the 2×2×2 voxels it covers; at an odd edge the
+/// last voxel stands in for the missing one (as a clamped texture would).
 pub fn downsample(levels: &[u16], dims: [usize; 3], how: Downsampling) -> (Vec<u16>, [usize; 3]) {
     let half = dims.map(|d| d.div_ceil(2));
     let [dx, dy, _] = dims;
@@ -164,18 +187,23 @@ pub fn downsample(levels: &[u16], dims: [usize; 3], how: Downsampling) -> (Vec<u
                 for x in 0..half[0] {
                     let xs = [2 * x, (2 * x + 1).min(dims[0] - 1)];
                     let (mut sum, mut max) = (0u32, 0u32);
+                    let mut block = [0u32; 8];
+                    let mut n = 0;
                     for &z in &zs {
                         for &y in &ys {
                             for &x in &xs {
                                 let v = at(x, y, z);
                                 sum += v;
                                 max = max.max(v);
+                                block[n] = v;
+                                n += 1;
                             }
                         }
                     }
                     plane[x + half[0] * y] = match how {
                         Downsampling::Mean => (sum + 4) / 8,
                         Downsampling::Max => max,
+                        Downsampling::Mode => mode_of(&block),
                     } as u16;
                 }
             }
@@ -307,6 +335,15 @@ mod tests {
         // A 2×2×2 block of 1…8 averages to 4.5, rounded to 5.
         let (mean, _) = downsample(&[1, 2, 3, 4, 5, 6, 7, 8], [2, 2, 2], Downsampling::Mean);
         assert_eq!(mean, vec![5]);
+        // Labels: the most frequent, not the mean (3) nor the largest (9); ties to the larger.
+        let labels = [2, 2, 2, 9, 0, 0, 2, 9];
+        let (mode, _) = downsample(&labels, [2, 2, 2], Downsampling::Mode);
+        assert_eq!(mode, vec![2]);
+        let (tie, _) = downsample(&[0, 0, 0, 0, 5, 5, 5, 5], [2, 2, 2], Downsampling::Mode);
+        assert_eq!(tie, vec![5]);
+        // At an odd edge the last voxel counts twice, as for the mean.
+        let (edge, _) = downsample(&[1, 4, 4], [3, 1, 1], Downsampling::Mode);
+        assert_eq!(edge, vec![4, 4]);
     }
 
     #[test]

@@ -77,7 +77,7 @@ impl BrickError {
         match error.kind {
             LoadErrorKind::Fetch => Self::Fetch(fault),
             LoadErrorKind::Decode => Self::Decode(fault),
-            LoadErrorKind::Invalid => Self::Invalid(fault),
+            LoadErrorKind::Invalid | LoadErrorKind::Unrecognized => Self::Invalid(fault),
         }
     }
 
@@ -128,5 +128,12 @@ pub trait BrickSource: Send + Sync {
     /// one (what the app shows while a URL streams).
     fn remote_stats(&self) -> Option<RemoteStats> {
         None
+    }
+
+    /// Whether the values are labels (categories): the renderer samples them at the nearest
+    /// voxel, and the levels the source computes keep each block's most frequent label
+    /// ([`crate::Downsampling::Mode`]).
+    fn labels(&self) -> bool {
+        false
     }
 }

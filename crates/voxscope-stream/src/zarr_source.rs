@@ -47,6 +47,8 @@ pub struct ZarrSource {
     quantization: Quantization,
     max_value_level: u16,
     how: Downsampling,
+    /// The values are labels ([`Self::of_labels`]).
+    labels: bool,
     /// Decoded chunks as value levels: neighbouring bricks share a chunk (and every brick's
     /// apron reaches into its neighbours'), so each chunk is decoded once while it is used.
     chunks: Mutex<ChunkCache>,
@@ -187,6 +189,7 @@ impl ZarrSource {
             }
         }
         let how = match pyramid.downscaling.as_deref() {
+            Some(kind) if kind.contains("mode") => Downsampling::Mode,
             Some(kind) if kind.contains("max") || kind.contains("nearest") => Downsampling::Max,
             _ => Downsampling::Mean,
         };
@@ -198,9 +201,21 @@ impl ZarrSource {
             quantization,
             max_value_level,
             how,
+            labels: how == Downsampling::Mode,
             chunks: Mutex::default(),
             chunk_ranges,
         })
+    }
+
+    /// This source of a label volume (its values categories: the app knows from the level it
+    /// reads whole): sampled at the nearest voxel, and the levels it computes from stored ones
+    /// reduced by their mode, whatever the store says of its own downsampling.
+    pub fn of_labels(mut self, labels: bool) -> Self {
+        self.labels = labels;
+        if labels {
+            self.how = Downsampling::Mode;
+        }
+        self
     }
 
     /// The value levels of the stored level's voxels `[origin, origin + size)`, x fastest,
@@ -528,6 +543,7 @@ impl BrickSource for ZarrSource {
             for &(y0, y1) in &boxes[1] {
                 for &(x0, x1) in &boxes[0] {
                     let (mut sum, mut max, mut count) = (0u64, 0u16, 0u64);
+                    let mut block = Vec::new();
                     for z in z0..=z1 {
                         for y in y0..=y1 {
                             let row = sx * (y + sy * z);
@@ -535,12 +551,16 @@ impl BrickSource for ZarrSource {
                                 sum += v as u64;
                                 max = max.max(v);
                                 count += 1;
+                                if self.how == Downsampling::Mode {
+                                    block.push(v);
+                                }
                             }
                         }
                     }
                     reduced.push(match self.how {
                         Downsampling::Mean => ((sum + count / 2) / count) as u16,
                         Downsampling::Max => max,
+                        Downsampling::Mode => mode_of_block(&mut block),
                     });
                 }
             }
@@ -563,6 +583,10 @@ impl BrickSource for ZarrSource {
         }
         let inside = std::array::from_fn(|a| level.dims[a].saturating_sub(first[a]));
         Ok(BrickData::new(levels, inside))
+    }
+
+    fn labels(&self) -> bool {
+        self.labels
     }
 }
 
@@ -589,4 +613,16 @@ mod tests {
         assert_eq!(covered(5, 5, 2, 10), (9, 9));
         assert_eq!(covered(4, 4, 2, 9), (8, 8));
     }
+}
+
+/// The most frequent value of `block` (ties to the larger), sorting it.
+fn mode_of_block(block: &mut [u16]) -> u16 {
+    block.sort_unstable();
+    let mut best = (0usize, 0u16);
+    for run in block.chunk_by(|a, b| a == b) {
+        if (run.len(), run[0]) > best {
+            best = (run.len(), run[0]);
+        }
+    }
+    best.1
 }

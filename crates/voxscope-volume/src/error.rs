@@ -31,6 +31,9 @@ pub enum LoadErrorKind {
     Fetch,
     /// The bytes arrived but do not decode (a damaged or truncated chunk).
     Decode,
+    /// No format recognized the file (by extension or first bytes): the command line can
+    /// still read it as raw voxels of a given layout, which it then says.
+    Unrecognized,
 }
 
 /// A problem longer than this is cut: the loaders shorten what they quote from a file, and

@@ -131,7 +131,9 @@ pub fn dialog_filter_name() -> String {
     format!("Volumes ({})", names.join(", "))
 }
 
-/// What the registry says when nothing recognized a file: every format with its extensions.
+/// What the registry says when nothing recognized a file: every format with its extensions
+/// (the registry marks it [`super::LoadErrorKind::Unrecognized`], where the command line adds
+/// its `--raw`).
 pub(crate) fn unrecognized_problem() -> Problem {
     let listed: Vec<String> = FORMATS
         .iter()
@@ -148,10 +150,7 @@ pub(crate) fn unrecognized_problem() -> Problem {
             )
         })
         .collect();
-    format!(
-        "unrecognized format: expected {}, or raw voxels with --raw WxHxD:TYPE",
-        listed.join(", ")
-    )
+    format!("unrecognized format: expected {}", listed.join(", "))
 }
 
 #[cfg(test)]

@@ -8,7 +8,7 @@ use std::path::Path;
 use super::error::Problem;
 use super::format;
 use super::io::{io_reason, not_a_file};
-use super::{LoadError, RawLayout, Selection, Volume};
+use super::{LoadError, LoadErrorKind, RawLayout, Selection, Volume};
 
 /// What the command line adds to a path.
 #[derive(Debug, Clone, Default)]
@@ -43,7 +43,11 @@ pub fn load(spec: &str, options: &LoadOptions) -> Result<Volume, LoadError> {
         super::ome_zarr::load_url(spec, options.select, options.remote)
             .map_err(|p| LoadError::new(super::remote::redact_url(spec), p))?
     } else {
-        load_file(Path::new(spec), options).map_err(|p| LoadError::new(spec, p))?
+        load_file(Path::new(spec), options).map_err(|error| match error {
+            FileError::Problem(problem) => LoadError::new(spec, problem),
+            FileError::Unrecognized => LoadError::new(spec, format::unrecognized_problem())
+                .with_kind(LoadErrorKind::Unrecognized),
+        })?
     };
     // Loaders of 4-D formats refuse a frame they lack before reading and record the one they
     // read; the others read the only one there is, which must be the one asked for.
@@ -66,37 +70,51 @@ pub fn load(spec: &str, options: &LoadOptions) -> Result<Volume, LoadError> {
     Ok(volume)
 }
 
-fn load_file(path: &Path, options: &LoadOptions) -> Result<Volume, Problem> {
+/// Why a file did not load: a problem, or no format recognized it.
+enum FileError {
+    Problem(Problem),
+    Unrecognized,
+}
+
+impl From<Problem> for FileError {
+    fn from(problem: Problem) -> Self {
+        Self::Problem(problem)
+    }
+}
+
+fn load_file(path: &Path, options: &LoadOptions) -> Result<Volume, FileError> {
     let metadata =
         std::fs::metadata(path).map_err(|e| format!("cannot open: {}", io_reason(&e)))?;
     if metadata.is_dir() {
         if super::ome_zarr::is_zarr_folder(path) {
-            return super::ome_zarr::load(path, options.select);
+            return super::ome_zarr::load(path, options.select).map_err(FileError::Problem);
         }
         if !super::dicom::dicom_files(path).is_empty() {
-            return super::dicom::load(path);
+            return super::dicom::load(path).map_err(FileError::Problem);
         }
         if let Some(level) = super::ome_zarr::unfinished_store(path) {
-            return Err(super::ome_zarr::unfinished_problem(&level));
+            return Err(FileError::Problem(super::ome_zarr::unfinished_problem(&level)));
         }
-        return super::slices::load(path);
+        return super::slices::load(path).map_err(FileError::Problem);
     }
     // Devices and pipes are refused: /dev/zero would be read forever, a pipe would block.
     if let Some(what) = not_a_file(&metadata) {
-        return Err(what.into());
+        return Err(FileError::Problem(what.into()));
     }
     if metadata.len() == 0 {
-        return Err("file is empty".into());
+        return Err(FileError::Problem("file is empty".into()));
     }
     if let Some(layout) = &options.raw {
-        return super::raw::load(path, layout, metadata.len());
+        return super::raw::load(path, layout, metadata.len()).map_err(FileError::Problem);
     }
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
     if let Some(format) = format::by_extension(&name) {
-        return format.load(path, options.select);
+        return format
+            .load(path, options.select)
+            .map_err(FileError::Problem);
     }
     // No known extension: look at the first bytes.
     let mut head = Vec::with_capacity(format::SNIFF_BYTES);
@@ -104,7 +122,9 @@ fn load_file(path: &Path, options: &LoadOptions) -> Result<Volume, Problem> {
         .and_then(|f| f.take(format::SNIFF_BYTES as u64).read_to_end(&mut head))
         .map_err(|e| format!("cannot read: {}", io_reason(&e)))?;
     match format::by_magic(&head) {
-        Some(format) => format.load(path, options.select),
-        None => Err(format::unrecognized_problem()),
+        Some(format) => format
+            .load(path, options.select)
+            .map_err(FileError::Problem),
+        None => Err(FileError::Unrecognized),
     }
 }

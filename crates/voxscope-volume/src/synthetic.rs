@@ -23,15 +23,21 @@ pub enum SyntheticKind {
     /// two lungs (−900…−550), a spine (900), ribs (700) and a contrast-filled aorta (300), with a
     /// little noise. What a real CT looks like to the transfer function, without a CT file.
     Ct,
+    /// A segmentation (u8 labels 0…12): a body (label 1) in a skin two voxels thick (7), a
+    /// membrane across it about a voxel thick (10), and nine organs of different sizes
+    /// (numbered out of order, so that neighbours' labels are far apart); 0 outside. What a tissue atlas looks
+    /// like to the renderers: values that name, not measure.
+    Labels,
 }
 
 impl SyntheticKind {
-    pub const ALL: [SyntheticKind; 5] = [
+    pub const ALL: [SyntheticKind; 6] = [
         Self::Sphere,
         Self::Shells,
         Self::Noise,
         Self::Gradient,
         Self::Ct,
+        Self::Labels,
     ];
 
     /// The name used in specs.
@@ -42,6 +48,7 @@ impl SyntheticKind {
             Self::Noise => "noise",
             Self::Gradient => "gradient",
             Self::Ct => "ct",
+            Self::Labels => "labels",
         }
     }
 
@@ -84,6 +91,7 @@ impl SyntheticKind {
                 })
             }
             Self::Ct => fill::<i16>(count, |i| chest_phantom(position(i), dims)),
+            Self::Labels => fill::<u8>(count, |i| tissue_labels(position(i), dims)),
         };
         Volume::new(
             format!(
@@ -175,6 +183,48 @@ fn chest_phantom(p: [f64; 3], dims: [usize; 3]) -> f64 {
         45.0 // soft tissue
     };
     tissue + noise
+}
+
+/// The label of [`SyntheticKind::Labels`] at voxel `p` of a volume of `dims`.
+fn tissue_labels(p: [f64; 3], dims: [usize; 3]) -> f64 {
+    // Coordinates from the center in units of each side, so the phantom fills any box.
+    let q: [f64; 3] = std::array::from_fn(|a| (p[a] + 0.5) / dims[a].max(1) as f64 - 0.5);
+    let inside = |center: [f64; 3], radii: [f64; 3]| {
+        (0..3)
+            .map(|a| ((q[a] - center[a]) / radii[a]).powi(2))
+            .sum::<f64>()
+            < 1.0
+    };
+    if !inside([0.0; 3], [0.45, 0.42, 0.46]) {
+        return 0.0;
+    }
+    // Organs, the first that holds the point wins: labels deliberately not in order of place.
+    let organs: [(f64, [f64; 3], [f64; 3]); 9] = [
+        (12.0, [-0.2, -0.1, 0.15], [0.14, 0.12, 0.18]),
+        (2.0, [0.2, -0.1, 0.15], [0.14, 0.12, 0.18]),
+        (9.0, [0.0, 0.18, -0.05], [0.22, 0.1, 0.12]),
+        (4.0, [-0.15, 0.05, -0.25], [0.1, 0.1, 0.1]),
+        (11.0, [0.15, 0.05, -0.25], [0.1, 0.1, 0.1]),
+        (6.0, [0.0, -0.25, -0.15], [0.06, 0.06, 0.2]),
+        (3.0, [0.0, 0.0, 0.32], [0.08, 0.08, 0.06]),
+        (8.0, [0.28, 0.2, 0.0], [0.05, 0.05, 0.3]),
+        (5.0, [-0.28, 0.2, 0.0], [0.05, 0.05, 0.3]),
+    ];
+    if let Some((label, _, _)) = organs.iter().find(|(_, c, r)| inside(*c, *r)) {
+        return *label;
+    }
+    // Two sheets a voxel or two thick: a membrane across the body and the skin, where any
+    // blending of labels shows at once.
+    let voxel = 1.0 / dims[2].max(1) as f64;
+    if (q[2] - 0.05).abs() < 0.75 * voxel {
+        return 10.0;
+    }
+    // The skin: two voxels thick along every axis.
+    let skin: [f64; 3] = std::array::from_fn(|a| 2.0 / dims[a].max(1) as f64);
+    if !inside([0.0; 3], [0.45 - skin[0], 0.42 - skin[1], 0.46 - skin[2]]) {
+        return 7.0;
+    }
+    1.0
 }
 
 /// Two octaves of trilinear value noise on integer lattices (8 and 3 voxels apart).

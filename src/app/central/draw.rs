@@ -1,6 +1,10 @@
-//! Drawing the central view's panes: once a frame, each pane whose image is out of date (or
-//! every one while drawing continuously or while the streaming renderer refines), with the
-//! frame probe's measurement on the first and the picking probe after them.
+//! Drawing the central view's panes: once a UI frame, and only when the device has finished
+//! what the last one gave it (`pacing.rs`), each pane whose image is out of date (or every 3D
+//! pane while drawing continuously or while the streaming renderer refines), all in one
+//! submission that fits the frame budget. A 3D frame that fits it is drawn whole; one that
+//! does not is shown first as a preview at a resolution that fits, then drawn at full
+//! resolution band by band, one band a UI frame, and shown once complete. The frame probe
+//! measures one pass a submission for the Octree panel, the picking probe runs after.
 
 use std::time::{Duration, Instant};
 
@@ -9,28 +13,61 @@ use super::super::settings::{AppSettings, Layout};
 use super::super::slice_pane;
 use super::super::view_state::ViewState;
 use super::super::viewport::DrawKey;
-use super::{CentralView, PaneKind, pane_kinds};
-use voxscope_render::{FrameProbe, RenderError, RenderSettings, SliceSettings};
+use super::pacing::{FRAME_BUDGET, IDLE_AFTER, IDLE_BUDGET, IN_FLIGHT_POLL, Work};
+use super::pane::Banding;
+use super::{CentralView, Measured, PaneKind, pane_kinds};
+use voxscope_render::{ImageRegion, RenderError, RenderSettings, RenderTarget, SliceSettings};
 use voxscope_scene::{NetworkState, Scene};
 
+/// The preview's scale (of each side) before any frame was measured: a sixteenth of the pixels.
+const FIRST_PREVIEW_SCALE: f64 = 0.25;
+/// Previews are at least this scale of each side (a sixty-fourth of the pixels) and at most
+/// half: a frame that fits at more is drawn whole, in bands.
+const PREVIEW_SCALES: std::ops::RangeInclusive<f64> = 0.125..=0.5;
+/// Rows a band has where no cost was measured yet.
+const FIRST_BAND_ROWS: u32 = 16;
+
+/// What one UI frame draws of a 3D pane.
+enum VolumeWork {
+    /// The whole frame at full resolution.
+    Whole,
+    /// The whole frame into the preview target at this scale of each side.
+    Preview(f64),
+    /// Rows `first..first + count` of the full image.
+    Band { first: u32, count: u32 },
+}
+
 impl CentralView {
-    /// Draws every pane whose image is out of date (or all, when drawing continuously, or
-    /// when the streaming renderer's page table changed). `serial` changes with every new
-    /// scene. Returns whether another frame is wanted: the streaming renderer has bricks to
-    /// load or upload, or has not yet judged the current view complete
-    /// ([`CentralView::stream_changed`] says whether it is wanted at once).
+    /// Draws what is out of date, within the frame budget, if the device is free. `serial`
+    /// changes with every new scene. A streamed view is drawn again only when the streamer's
+    /// page table changed (a frame could not differ otherwise). Returns when another UI frame is
+    /// wanted: at once while bands are left to draw or bricks arrived, soon while the device is
+    /// busy, `None` otherwise (while bricks are on their way the app's busy pace looks again).
     pub fn draw(
         &mut self,
+        ctx: &egui::Context,
         gpu: &AppGpu,
         scene: &mut Scene,
         serial: u64,
         settings: &AppSettings,
         view: &ViewState,
-    ) -> Result<bool, RenderError> {
+    ) -> Result<Option<Duration>, RenderError> {
+        let context = &gpu.context;
+        // Nothing more goes to the device while it works on the last batch: egui's drawing
+        // would wait behind it.
+        if self.pacer.busy() {
+            return Ok(Some(IN_FLIGHT_POLL));
+        }
+        // A band's time counts to its pane's frame (what the panel says a frame costs).
+        if let Some((Work::Band { pane, .. }, took)) = self.pacer.take_finished()
+            && let Some(spent) = self.band_time.get_mut(pane)
+        {
+            *spent += took;
+        }
         let depth = scene.depth();
         // The streaming renderer takes in what earlier frames' rays asked for and uploads
         // within its budget; it never waits on I/O or the GPU.
-        let stream = scene.renderer.update(&gpu.context);
+        let stream = scene.renderer.update(context);
         let stream_frame = stream.as_ref().map(|s| s.frame);
         let mut refining = stream.as_ref().is_some_and(|s| {
             !s.complete
@@ -56,7 +93,7 @@ impl CentralView {
         // tells the panes drawn with older tables.
         let composite_channels = view.composite_channels(main);
         let layers = match &mut scene.composite {
-            Some(composite) => composite.apply(&gpu.context, &composite_channels),
+            Some(composite) => composite.apply(context, &composite_channels),
             None => 0,
         };
         // With the composite shown the slices are channel 0's (the renderer of one channel).
@@ -66,20 +103,43 @@ impl CentralView {
         };
         let kinds = pane_kinds(settings);
         let count = kinds.len();
+        let mut encoder = context
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("voxscope::app_frame"),
+            });
+        // Input lately: the small budget (input waits at most that); a pause: the larger one.
+        if ctx.input(|i| !i.events.is_empty() || i.pointer.is_moving() || i.pointer.any_down()) {
+            self.last_input = Instant::now();
+        }
+        let full_budget = if self.last_input.elapsed() >= IDLE_AFTER {
+            IDLE_BUDGET
+        } else {
+            FRAME_BUDGET
+        };
+        let mut budget = full_budget;
+        let mut pixels = 0u64;
+        let mut band = None;
         let mut drew = false;
-        for (index, (pane, kind)) in self.panes.iter_mut().zip(kinds).enumerate() {
-            let (Some(target), Some(rect)) = (&pane.target, self.pane_rects.get(index)) else {
+        let mut measured = None;
+        let mut egui_renderer = gpu.render_state.renderer.write();
+        for (index, kind) in kinds.into_iter().enumerate() {
+            let (Some(pane), Some(rect)) = (self.panes.get_mut(index), self.pane_rects.get(index))
+            else {
+                continue;
+            };
+            let Some(target) = pane.target() else {
                 continue;
             };
             let size = [target.width, target.height];
-            let key = match kind {
+            let (key, level) = match kind {
                 PaneKind::Volume => {
                     let (level, transfer) = match settings.layout {
                         Layout::LevelGrid => (view.grid_level(index, count, depth), main),
                         Layout::TransferPair if index == 1 => (view.max_level.min(depth), compare),
                         _ => (view.max_level.min(depth), main),
                     };
-                    DrawKey::Volume {
+                    let key = DrawKey::Volume {
                         size,
                         camera: settings.camera,
                         settings: RenderSettings {
@@ -96,13 +156,14 @@ impl CentralView {
                         transfer,
                         scene: serial,
                         layers,
-                    }
+                    };
+                    (key, Some(level))
                 }
                 PaneKind::Slice(axis) => {
                     let mut slice_view = view.slice_views[axis];
                     slice_view.index = view.cursor_voxel(scene.data.volume.dims)[axis];
                     let (frame, _) = slice_pane::frame(scene, &slice_view, *rect, size);
-                    DrawKey::Slice {
+                    let key = DrawKey::Slice {
                         settings: SliceSettings {
                             frame,
                             window: slice_transfer.window,
@@ -111,95 +172,254 @@ impl CentralView {
                         },
                         size,
                         scene: serial,
-                    }
+                    };
+                    (key, None)
                 }
             };
-            let volume_pane = matches!(key, DrawKey::Volume { .. });
-            if pane.drawn == Some(key) && !settings.continuous && !(stream_changed && volume_pane) {
+            let DrawKey::Volume {
+                camera,
+                settings: render_settings,
+                transfer,
+                ..
+            } = key
+            else {
+                // Slices cost a sample a pixel: drawn whole, outside the budget.
+                if !pane.shows(&key) {
+                    if let (
+                        DrawKey::Slice {
+                            settings: slice_settings,
+                            ..
+                        },
+                        Some(target),
+                    ) = (&key, pane.target())
+                    {
+                        scene
+                            .renderer
+                            .encode_slice(context, &mut encoder, target, slice_settings);
+                    }
+                    pane.drawn = Some(key);
+                    pane.preview = None;
+                    drew = true;
+                }
+                continue;
+            };
+            let redraw = settings.continuous || stream_changed;
+            if pane.shows(&key) && !redraw {
                 continue;
             }
-            if volume_pane
-                && pane.drawn != Some(key)
+            if budget.is_zero() {
+                // The rest of the panes next frame.
+                continue;
+            }
+            if pane.latest_key() != Some(key)
                 && let Some(frame) = stream_frame
             {
                 // A new view: wait for a frame drawn with it to be judged.
                 self.stream_view_frame = frame;
                 refining = true;
             }
-            let mut encoder =
-                gpu.context
-                    .device
-                    .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                        label: Some("voxscope::app_frame"),
-                    });
-            match &key {
-                DrawKey::Volume {
-                    camera,
-                    settings: render_settings,
-                    transfer,
-                    ..
-                } => {
-                    if scene.composite.is_none() && scene.applied_transfer != *transfer {
-                        scene
-                            .renderer
-                            .set_transfer(&gpu.context, &mut encoder, transfer, None)?;
-                        scene.applied_transfer = *transfer;
+            let full_pixels = size[0] as u64 * size[1] as u64;
+            let estimate = self.pacer.estimate(full_pixels);
+            let fits = estimate.is_some_and(|e| e <= budget);
+            let renderer = scene.view_renderer();
+            let in_bands = renderer.draws_regions() && !settings.continuous;
+            let work = match pane.banding {
+                Some(banding) if banding.key == key && !fits => {
+                    let rows = self
+                        .pacer
+                        .band_rows(size[0], FIRST_BAND_ROWS, full_budget)
+                        .clamp(1, size[1] - banding.next_row.min(size[1] - 1));
+                    VolumeWork::Band {
+                        first: banding.next_row,
+                        count: rows,
                     }
-                    let measure =
-                        !drew && self.frame_probe.as_ref().is_some_and(FrameProbe::is_idle);
-                    let probe = self.frame_probe.as_mut().filter(|_| measure);
-                    let writes = probe.as_ref().and_then(|p| p.timestamp_writes());
-                    scene.view_renderer().encode(
-                        &gpu.context,
+                }
+                _ if fits => VolumeWork::Whole,
+                // Drawn continuously, or a renderer that draws whole frames only: its full
+                // frame once the view is still and complete, a preview meanwhile.
+                _ if !in_bands && !(self.interacting || refining) => VolumeWork::Whole,
+                _ if !settings.fast_interaction && in_bands => {
+                    // Asked for no previews: the full image, band by band.
+                    pane.banding = Some(Banding {
+                        key,
+                        next_row: 0,
+                        bands: 0,
+                    });
+                    pane.drawn = None;
+                    VolumeWork::Band {
+                        first: 0,
+                        count: self
+                            .pacer
+                            .band_rows(size[0], FIRST_BAND_ROWS, full_budget)
+                            .clamp(1, size[1]),
+                    }
+                }
+                _ => {
+                    let scale = estimate.map_or(FIRST_PREVIEW_SCALE, |e| {
+                        (budget.as_secs_f64() / e.as_secs_f64().max(1e-9))
+                            .sqrt()
+                            .clamp(*PREVIEW_SCALES.start(), *PREVIEW_SCALES.end())
+                    });
+                    VolumeWork::Preview(scale)
+                }
+            };
+            // A changed transfer function recolors first, in the same submission.
+            if scene.composite.is_none() && scene.applied_transfer != transfer {
+                scene
+                    .renderer
+                    .set_transfer(context, &mut encoder, &transfer, None)?;
+                scene.applied_transfer = transfer;
+            }
+            let measure =
+                measured.is_none() && self.frame_probe.as_ref().is_some_and(|p| p.is_idle());
+            let writes = self
+                .frame_probe
+                .as_ref()
+                .filter(|_| measure)
+                .and_then(|p| p.timestamp_writes());
+            let renderer = scene.view_renderer();
+            let (drawn_to, region, complete): (&RenderTarget, ImageRegion, bool) = match work {
+                VolumeWork::Whole => {
+                    let target = pane.target().expect("checked above");
+                    let region = ImageRegion::whole(size[0], size[1]);
+                    renderer.encode(
+                        context,
                         &mut encoder,
                         target,
-                        camera,
-                        render_settings,
+                        &camera,
+                        &render_settings,
                         writes,
                     );
-                    if let Some(probe) = probe {
-                        probe.record(&gpu.context, &mut encoder, target);
-                        gpu.context.queue.submit([encoder.finish()]);
-                        probe.submitted();
-                    } else {
-                        gpu.context.queue.submit([encoder.finish()]);
-                    }
-                    if self.logged_scene != serial {
-                        self.logged_scene = serial;
-                        let how = match &scene.composite {
-                            Some(composite) => format!(
-                                "composite of {} channels, dense march",
-                                composite.channels.len()
-                            ),
-                            None => format!(
-                                "{} renderer, level {}",
-                                scene.options.kind.name(),
-                                render_settings.max_level
-                            ),
-                        };
-                        eprintln!(
-                            "voxscope: drew {} ({}x{} px, {how})",
-                            scene.data.volume.name, target.width, target.height,
-                        );
-                    }
+                    pane.drawn = Some(key);
+                    pane.preview = None;
+                    pane.banding = None;
+                    self.last_bands = 0;
+                    (pane.target().expect("checked above"), region, true)
                 }
-                DrawKey::Slice {
-                    settings: slice_settings,
-                    ..
-                } => {
-                    scene
-                        .renderer
-                        .encode_slice(&gpu.context, &mut encoder, target, slice_settings);
-                    gpu.context.queue.submit([encoder.finish()]);
+                VolumeWork::Preview(scale) => {
+                    let preview_size = size.map(|s| ((s as f64 * scale).round() as u32).max(1));
+                    let target =
+                        pane.preview_target(context, &mut egui_renderer, preview_size, key);
+                    renderer.encode(
+                        context,
+                        &mut encoder,
+                        target,
+                        &camera,
+                        &render_settings,
+                        writes,
+                    );
+                    pane.banding = in_bands.then_some(Banding {
+                        key,
+                        next_row: 0,
+                        bands: 0,
+                    });
+                    if in_bands {
+                        pane.drawn = None;
+                    }
+                    let region = ImageRegion::whole(preview_size[0], preview_size[1]);
+                    let target = &pane.preview.as_ref().expect("made above").image.target;
+                    (target, region, false)
                 }
+                VolumeWork::Band { first, count } => {
+                    let target = pane.target().expect("checked above");
+                    let region = ImageRegion::rows(size[0], size[1], first, count);
+                    renderer.encode_region(
+                        context,
+                        &mut encoder,
+                        target,
+                        &camera,
+                        &render_settings,
+                        region,
+                        writes,
+                    );
+                    let banding = pane.banding.get_or_insert(Banding {
+                        key,
+                        next_row: 0,
+                        bands: 0,
+                    });
+                    banding.next_row = first + region.size[1];
+                    banding.bands += 1;
+                    let done = banding.next_row >= size[1];
+                    let bands = banding.bands;
+                    if done {
+                        // Complete: the full image replaces the preview.
+                        pane.drawn = Some(key);
+                        pane.banding = None;
+                        pane.preview = None;
+                    }
+                    if done {
+                        self.last_bands = bands;
+                    }
+                    if first == 0 {
+                        if self.band_time.len() <= index {
+                            self.band_time.resize(index + 1, Duration::ZERO);
+                        }
+                        self.band_time[index] = Duration::ZERO;
+                    }
+                    band = Some(Work::Band {
+                        pane: index,
+                        rows: region.size[1],
+                    });
+                    (pane.target().expect("checked above"), region, done)
+                }
+            };
+            if measure && let Some(probe) = self.frame_probe.as_mut() {
+                probe.record(context, &mut encoder, drawn_to);
+                measured = Some(Measured {
+                    pane: index,
+                    panes: count,
+                    level,
+                    pixels: region.pixels(),
+                    complete,
+                    full_pixels,
+                });
             }
-            pane.drawn = Some(key);
+            pixels += region.pixels();
+            // A band takes the rest of the budget; an image what it is estimated to cost.
+            budget = if band.is_some() {
+                Duration::ZERO
+            } else {
+                budget.saturating_sub(self.pacer.estimate(region.pixels()).unwrap_or(full_budget))
+            };
             drew = true;
+            if self.logged_scene != serial && complete {
+                self.logged_scene = serial;
+                let how = match &scene.composite {
+                    Some(composite) => format!(
+                        "composite of {} channels, dense march",
+                        composite.channels.len()
+                    ),
+                    None => format!(
+                        "{} renderer, level {}",
+                        scene.options.kind.name(),
+                        render_settings.max_level
+                    ),
+                };
+                eprintln!(
+                    "voxscope: drew {} ({}x{} px, {how})",
+                    scene.data.volume.name, size[0], size[1],
+                );
+            }
+        }
+        drop(egui_renderer);
+        if drew {
+            let work = match band {
+                Some(band) => band,
+                None if pixels > 0 => Work::Images { pixels },
+                None => Work::Other,
+            };
+            self.pacer.submit(context, encoder, work, ctx);
+            if measured.is_some()
+                && let Some(probe) = self.frame_probe.as_mut()
+            {
+                probe.submitted();
+                self.measuring = measured;
+            }
         }
         // The composite has no probe (voxscope-render's composite.rs says why).
         if let Some(picking) = self.picking.as_mut().filter(|_| scene.composite.is_none()) {
-            let drawn: Vec<Option<DrawKey>> = self.panes.iter().map(|p| p.drawn).collect();
-            picking.record(gpu, scene, &drawn);
+            let latest: Vec<Option<DrawKey>> = self.panes.iter().map(|p| p.latest_key()).collect();
+            picking.record(gpu, scene, &latest);
         }
         let now = Instant::now();
         if drew {
@@ -219,6 +439,16 @@ impl CentralView {
         }
         self.refining = refining;
         self.stream_changed = stream_changed;
-        Ok(refining)
+        let unfinished = self
+            .panes
+            .iter()
+            .any(|pane| pane.banding.is_some() || pane.preview.is_some());
+        Ok(if self.pacer.is_in_flight() {
+            Some(IN_FLIGHT_POLL)
+        } else if (refining && stream_changed) || unfinished {
+            Some(Duration::ZERO)
+        } else {
+            None
+        })
     }
 }
