@@ -113,7 +113,10 @@ fn playback_on_a_slow_device_shows_every_time_point_it_names() {
             "playback stalled at {named}"
         );
     }
-    assert!(said_drawing, "the time controls never said a frame was being drawn");
+    assert!(
+        said_drawing,
+        "the time controls never said a frame was being drawn"
+    );
     harness.get_by_label("Pause").click();
     settle(&mut harness);
 }

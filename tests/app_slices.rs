@@ -211,11 +211,19 @@ fn one_wheel_notch_moves_one_slice_however_the_platform_reports_it() {
     harness.event(wheel());
     harness.event(wheel());
     settle(&mut harness);
-    assert_eq!(slice(&harness), start + 1, "two events of one notch in a frame");
+    assert_eq!(
+        slice(&harness),
+        start + 1,
+        "two events of one notch in a frame"
+    );
     // The release may come a frame later, on a slow device long after.
     harness.event(wheel());
     harness.step();
     harness.event(wheel());
     settle(&mut harness);
-    assert_eq!(slice(&harness), start + 2, "a notch whose release came a frame later");
+    assert_eq!(
+        slice(&harness),
+        start + 2,
+        "a notch whose release came a frame later"
+    );
 }

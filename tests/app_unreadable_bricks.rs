@@ -31,7 +31,11 @@ fn damaged_ct(folder: &Path) -> std::path::PathBuf {
         ])
         .output()
         .expect("the binary runs");
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let mut damaged = 0;
     for relative in support::damage::files(&store) {
         if relative.starts_with("0") && !support::damage::is_metadata(&relative) {
@@ -58,7 +62,11 @@ fn unreadable_bricks_are_shown_missing_named_once_and_the_app_goes_idle() {
     // It opened (the panels read level 1, since level 0 cannot be read) and streams.
     assert_eq!(harness.state().error(), None);
     assert_eq!(harness.state().renderer_kind(), Some(RendererKind::Stream));
-    let status = harness.state().stream_status().expect("a streaming status").clone();
+    let status = harness
+        .state()
+        .stream_status()
+        .expect("a streaming status")
+        .clone();
     assert!(status.unreadable > 0, "{status:?}");
     assert_eq!(status.missing, 0, "{status:?}");
     // Damage does not heal: nothing is asked for again.
@@ -74,7 +82,11 @@ fn unreadable_bricks_are_shown_missing_named_once_and_the_app_goes_idle() {
         "incomplete: {} brick{plural} unreadable",
         status.unreadable
     ));
-    assert!(harness.query_by_label("complete: nothing visible is missing").is_none());
+    assert!(
+        harness
+            .query_by_label("complete: nothing visible is missing")
+            .is_none()
+    );
     harness.get_by_label_contains("could not be read (drawn from coarser levels");
     let header = harness.get_by_label_contains("Unreadable bricks (");
     header.click();

@@ -177,7 +177,7 @@ fn every_renderer_draws_labels_as_the_nearest_neighbour_reference_dvr_and_mip() 
     let labels = prepare();
     let palette = labels.palette();
     let depth = labels.octree.depth;
-    let nearest = MarchVolume::new(&labels.quantized).as_labels();
+    let nearest = MarchVolume::new(&labels.quantized).into_labels();
     let interpolated = MarchVolume::new(&labels.quantized);
     for mode in [RenderMode::Dvr, RenderMode::Mip] {
         let settings = settings(depth, mode);
@@ -358,8 +358,13 @@ fn the_octree_and_the_bricks_color_coarse_nodes_by_a_label_never_a_mix() {
     let dims = labels.volume.dims;
     let level = layout.brick_level as usize;
     let mut checked = 0;
-    for index in layout.level_starts[level]..layout.level_starts[level + 1] {
-        let node = layout.nodes[index];
+    let range = layout.level_starts[level]..layout.level_starts[level + 1];
+    for (index, (node, gpu_node)) in layout.nodes[range.clone()]
+        .iter()
+        .zip(&nodes[range.clone()])
+        .enumerate()
+    {
+        let index = range.start + index;
         if node.first_child == LEAF || node.first_child & voxscope_octree::BRICK_FLAG == 0 {
             continue;
         }
@@ -377,7 +382,7 @@ fn the_octree_and_the_bricks_color_coarse_nodes_by_a_label_never_a_mix() {
                 }
             }
         }
-        let got = nodes[index].color;
+        let got = gpu_node.color;
         if shown.is_empty() {
             assert_eq!(got >> 24, 0, "brick node {index}: nothing visible");
             continue;

@@ -333,10 +333,8 @@ fn read(
             }
         }
         Reading::Bricks => {
-            let remote = ZarrSource::new(Arc::new(pyramid)).map_err(|e| {
-                messages.push(e.clone());
-                e
-            })?;
+            let remote =
+                ZarrSource::new(Arc::new(pyramid)).inspect_err(|e| messages.push(e.clone()))?;
             let local = ZarrSource::new(Arc::new(
                 Pyramid::open(&pristine.join(kind.name()), PyramidOptions::default()).unwrap(),
             ))

@@ -683,7 +683,10 @@ fn a_converted_volume_renders_from_s3_equal_to_its_folder() {
     let nowhere = format!("s3://voxscope-none-{}/cells.ome.zarr", std::process::id());
     let line = one_line_error(&voxscope(&["info", &nowhere], &signed), &nowhere, secret);
     assert!(
-        line.contains(&format!("the bucket 'voxscope-none-{}' does not exist", std::process::id())),
+        line.contains(&format!(
+            "the bucket 'voxscope-none-{}' does not exist",
+            std::process::id()
+        )),
         "{line}"
     );
 }

@@ -496,7 +496,10 @@ fn uploads_through_the_staging_ring_draw_what_queue_writes_draw() {
     // coordinate rounds differently there (about 90 dB); a misplaced row or a brick written
     // over before its copy ran would be tens of dB lower.
     let db = psnr(&through_ring, &through_queue);
-    assert!(db >= 80.0, "the ring's uploads differ from the queue's: {db:.1} dB");
+    assert!(
+        db >= 80.0,
+        "the ring's uploads differ from the queue's: {db:.1} dB"
+    );
 }
 
 #[test]

@@ -67,8 +67,6 @@ pub struct CentralView {
     stream_view_frame: u32,
     /// The streaming renderer wanted another frame, as of the last draw.
     refining: bool,
-    /// Whether the streaming renderer's page table changed at the last draw.
-    stream_changed: bool,
 }
 
 /// A pass the frame probe measured: which pane (of how many), at which level, how many pixels
@@ -128,7 +126,6 @@ impl CentralView {
             hovered_voxel: None,
             stream_view_frame: 0,
             refining: false,
-            stream_changed: false,
         }
     }
 
@@ -230,13 +227,6 @@ impl CentralView {
     /// Whether the streaming renderer was still refining the view at the last draw.
     pub fn is_refining(&self) -> bool {
         self.refining
-    }
-
-    /// Whether the streaming renderer's page table changed at the last draw (bricks arrived,
-    /// failed, or were asked for again): the next frame is wanted at once. While it refines
-    /// without a change (bricks on their way), frames come at the busy pace, not at once.
-    pub fn stream_changed(&self) -> bool {
-        self.stream_changed
     }
 
     /// Takes what the GPU has delivered since the last frame: an earlier frame's measurement,

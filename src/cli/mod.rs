@@ -65,7 +65,7 @@ pub const EXIT_INCOMPLETE: u8 = 3;
 /// line), 2 for a usage error (clap's), [`EXIT_INCOMPLETE`] for an incomplete image.
 pub fn run() -> std::process::ExitCode {
     match run_from(std::env::args_os()) {
-        Ok(()) => std::process::ExitCode::SUCCESS,
+        Ok(status) => std::process::ExitCode::from(status),
         Err(message) => {
             eprintln!("error: {message}");
             std::process::ExitCode::FAILURE
@@ -73,23 +73,24 @@ pub fn run() -> std::process::ExitCode {
     }
 }
 
-/// Runs the command line on `args` (the program's name first) and returns its one-line
-/// error: what `voxscope` does, for the Python module's `python -m voxscope` and `view()`.
-/// Usage errors, `--help` and `--version` print and exit the process, as clap does.
-pub fn run_from<I, T>(args: I) -> Result<(), String>
+/// Runs the command line on `args` (the program's name first) and returns its exit status (0,
+/// or [`EXIT_INCOMPLETE`]) or its one-line error: what `voxscope` does, for the Python
+/// module's `python -m voxscope` and `view()`. Usage errors, `--help` and `--version` print
+/// and exit the process, as clap does.
+pub fn run_from<I, T>(args: I) -> Result<u8, String>
 where
     I: IntoIterator<Item = T>,
     T: Into<std::ffi::OsString> + Clone,
 {
     let cli = Cli::parse_from(args);
-    match cli.command {
+    let ran = match cli.command {
         Some(Command::Info(args)) => info::run(&args),
-        Some(Command::Render(args)) => match render::run(&args) {
-            Ok(render::Rendered::Incomplete) => {
-                return std::process::ExitCode::from(EXIT_INCOMPLETE);
-            }
-            other => other.map(|_| ()),
-        },
+        Some(Command::Render(args)) => {
+            return render::run(&args).map(|rendered| match rendered {
+                render::Rendered::Complete => 0,
+                render::Rendered::Incomplete => EXIT_INCOMPLETE,
+            });
+        }
         Some(Command::Bench(args)) if args.streams() => stream_bench::run(&args),
         Some(Command::Bench(args)) => bench::run(&args),
         Some(Command::Ceilings(args)) => ceilings::run(&args),
@@ -100,5 +101,6 @@ where
             cli.file.map(voxscope_scene::VolumeSource::Spec),
             cli.clip.clip(),
         ),
-    }
+    };
+    ran.map(|()| 0)
 }

@@ -7,7 +7,7 @@
 //!   (`t_enter + (k + jitter)·step`, one voxel apart, from the clipped entry, the pixel's
 //!   jitter [`pixel_jitter`]), the same filter (texel centers at voxel centers, clamped to the
 //!   edge) over the levels as the GPU texture holds them, and the same gradient rule for
-//!   shading; for a label volume ([`MarchVolume::as_labels`]) the nearest voxel's label, and
+//!   shading; for a label volume ([`MarchVolume::into_labels`]) the nearest voxel's label, and
 //!   MIP the first visible label.
 //!
 //! Each also reports the probe (`GpuProbe`): the point where the ray's opacity reaches
@@ -482,7 +482,7 @@ impl MarchVolume {
     }
 
     /// This volume's values as labels (categories), as the renderers draw a label volume.
-    pub fn as_labels(self) -> Self {
+    pub fn into_labels(self) -> Self {
         Self {
             labels: true,
             ..self

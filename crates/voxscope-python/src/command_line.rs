@@ -6,13 +6,15 @@ use pyo3::prelude::*;
 
 use crate::errors::VoxscopeError;
 
-/// run_command_line(argv: list[str]) -> None
+/// run_command_line(argv: list[str]) -> int
 ///
 /// Runs `voxscope` with `argv` (the program's name first) in this process, the GIL released:
-/// the app's window blocks until it closes. A failure raises VoxscopeError with the command
-/// line's one-line message; `--help`, `--version` and usage errors print and exit the process.
+/// the app's window blocks until it closes. Returns the exit status (0, or 3 for a render
+/// whose image is incomplete: bricks could not be read). A failure raises VoxscopeError with
+/// the command line's one-line message; `--help`, `--version` and usage errors print and exit
+/// the process.
 #[pyfunction]
-pub fn run_command_line(py: Python<'_>, argv: Vec<String>) -> PyResult<()> {
+pub fn run_command_line(py: Python<'_>, argv: Vec<String>) -> PyResult<u8> {
     py.detach(|| voxscope::cli::run_from(argv))
         .map_err(VoxscopeError::new_err)
 }

@@ -601,6 +601,18 @@ fn to_levels(data: &VoxelData, quantization: Quantization) -> Vec<u16> {
         .collect())
 }
 
+/// The most frequent value of `block` (ties to the larger), sorting it.
+fn mode_of_block(block: &mut [u16]) -> u16 {
+    block.sort_unstable();
+    let mut best = (0usize, 0u16);
+    for run in block.chunk_by(|a, b| a == b) {
+        if (run.len(), run[0]) > best {
+            best = (run.len(), run[0]);
+        }
+    }
+    best.1
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -613,16 +625,4 @@ mod tests {
         assert_eq!(covered(5, 5, 2, 10), (9, 9));
         assert_eq!(covered(4, 4, 2, 9), (8, 8));
     }
-}
-
-/// The most frequent value of `block` (ties to the larger), sorting it.
-fn mode_of_block(block: &mut [u16]) -> u16 {
-    block.sort_unstable();
-    let mut best = (0usize, 0u16);
-    for run in block.chunk_by(|a, b| a == b) {
-        if (run.len(), run[0]) > best {
-            best = (run.len(), run[0]);
-        }
-    }
-    best.1
 }

@@ -93,7 +93,9 @@ fn load_file(path: &Path, options: &LoadOptions) -> Result<Volume, FileError> {
             return super::dicom::load(path).map_err(FileError::Problem);
         }
         if let Some(level) = super::ome_zarr::unfinished_store(path) {
-            return Err(FileError::Problem(super::ome_zarr::unfinished_problem(&level)));
+            return Err(FileError::Problem(super::ome_zarr::unfinished_problem(
+                &level,
+            )));
         }
         return super::slices::load(path).map_err(FileError::Problem);
     }

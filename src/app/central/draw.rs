@@ -237,7 +237,7 @@ impl CentralView {
                 _ if fits => VolumeWork::Whole,
                 // Drawn continuously, or a renderer that draws whole frames only: its full
                 // frame once the view is still and complete, a preview meanwhile.
-                _ if !in_bands && !(self.interacting || refining) => VolumeWork::Whole,
+                _ if !(in_bands || self.interacting || refining) => VolumeWork::Whole,
                 _ if !settings.fast_interaction && in_bands => {
                     // Asked for no previews: the full image, band by band.
                     pane.banding = Some(Banding {
@@ -438,7 +438,6 @@ impl CentralView {
             scene.network = Some(NetworkState::follow(scene.network, stats));
         }
         self.refining = refining;
-        self.stream_changed = stream_changed;
         let unfinished = self
             .panes
             .iter()

@@ -16,8 +16,7 @@ def main(argv: list) -> int:
     if argv[:1] == ["--"]:
         argv = argv[1:]
     try:
-        run_command_line(["voxscope", *argv])
-        return 0
+        return run_command_line(["voxscope", *argv])
     except VoxscopeError as error:
         print(f"error: {error}", file=sys.stderr)
         return 1
