@@ -87,7 +87,9 @@ fn unreadable_bricks_are_shown_missing_named_once_and_the_app_goes_idle() {
             .query_by_label("complete: nothing visible is missing")
             .is_none()
     );
-    harness.get_by_label_contains("could not be read (drawn from coarser levels");
+    // The Octree panel: the state line and the row that counts them (listed below it).
+    harness.get_by_label_contains("the view needs could not be read (drawn from coarser levels)");
+    harness.get_by_label_contains("could not be read (drawn from coarser levels; listed below)");
     let header = harness.get_by_label_contains("Unreadable bricks (");
     header.click();
     harness.run_steps(2);

@@ -28,6 +28,7 @@ const PREVIEW_SCALES: std::ops::RangeInclusive<f64> = 0.125..=0.5;
 const FIRST_BAND_ROWS: u32 = 16;
 
 /// What one UI frame draws of a 3D pane.
+#[derive(Debug, Clone, Copy)]
 enum VolumeWork {
     /// The whole frame at full resolution.
     Whole,
@@ -223,6 +224,7 @@ impl CentralView {
             let fits = estimate.is_some_and(|e| e <= budget);
             let renderer = scene.view_renderer();
             let in_bands = renderer.draws_regions() && !settings.continuous;
+            let streaming = renderer.stream().is_some();
             let work = match pane.banding {
                 Some(banding) if banding.key == key && !fits => {
                     let rows = self
@@ -236,8 +238,13 @@ impl CentralView {
                 }
                 _ if fits => VolumeWork::Whole,
                 // Drawn continuously, or a renderer that draws whole frames only: its full
-                // frame once the view is still and complete, a preview meanwhile.
-                _ if !(in_bands || self.interacting || refining) => VolumeWork::Whole,
+                // frame once the view is still (and, but for the streaming renderer, complete),
+                // a preview meanwhile. A streamed view refines on whole frames: its rays ask for
+                // the bricks their pixels resolve, and a preview's would judge it complete at a
+                // coarser level than the frame shown.
+                _ if !(in_bands || self.interacting || (refining && !streaming)) => {
+                    VolumeWork::Whole
+                }
                 _ if !settings.fast_interaction && in_bands => {
                     // Asked for no previews: the full image, band by band.
                     pane.banding = Some(Banding {
@@ -270,8 +277,16 @@ impl CentralView {
                     .set_transfer(context, &mut encoder, &transfer, None)?;
                 scene.applied_transfer = transfer;
             }
-            let measure =
-                measured.is_none() && self.frame_probe.as_ref().is_some_and(|p| p.is_idle());
+            // Measured: draws that complete the full image (the panel's numbers are of whole
+            // images; a banded frame's last band reads back every band's counts).
+            let completes = match work {
+                VolumeWork::Whole => true,
+                VolumeWork::Preview(_) => false,
+                VolumeWork::Band { first, count } => first + count >= size[1],
+            };
+            let measure = completes
+                && measured.is_none()
+                && self.frame_probe.as_ref().is_some_and(|p| p.is_idle());
             let writes = self
                 .frame_probe
                 .as_ref()
