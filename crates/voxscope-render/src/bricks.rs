@@ -206,27 +206,6 @@ impl Renderer for GpuBricks {
         )
     }
 
-    fn encode(
-        &self,
-        context: &GpuContext,
-        encoder: &mut wgpu::CommandEncoder,
-        target: &RenderTarget,
-        camera: &Camera,
-        settings: &RenderSettings,
-        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
-    ) {
-        let whole = ImageRegion::whole(target.width, target.height);
-        self.encode_region(
-            context,
-            encoder,
-            target,
-            camera,
-            settings,
-            whole,
-            timestamp_writes,
-        );
-    }
-
     fn encode_region(
         &self,
         context: &GpuContext,

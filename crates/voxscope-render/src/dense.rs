@@ -12,8 +12,8 @@ use super::pipeline::{
     numbered_bind_group, output_image_entry, storage_entry, uniform_entry,
 };
 use super::raycaster::{
-    ProbeTarget, RayPass, StandIns, VolumeShape, encode_frame, encode_frame_region,
-    encode_probe_ray, frame_params_buffer,
+    ProbeTarget, RayPass, StandIns, VolumeShape, encode_frame_region, encode_probe_ray,
+    frame_params_buffer,
 };
 use super::renderer::{Renderer, level_detail, pipeline_variants};
 use super::slice::SliceSource;
@@ -170,18 +170,6 @@ impl DenseRaycaster {
     pub(crate) fn prepare(&self, context: &GpuContext, variant: Variant) {
         self.pipelines.get(context, 0, variant);
     }
-
-    /// Records one frame into `encoder`, its parameters in a buffer of its own (so frames of
-    /// several panes and volumes can share an encoder).
-    pub fn encode(
-        &self,
-        context: &GpuContext,
-        encoder: &mut wgpu::CommandEncoder,
-        frame: &Frame<'_, DenseVolume>,
-        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
-    ) {
-        encode_frame(self, context, encoder, frame, timestamp_writes);
-    }
 }
 
 impl RayPass<DenseVolume> for DenseRaycaster {
@@ -240,27 +228,6 @@ impl Renderer for DenseVolume {
             self.sampled_level(max_level),
             max_level,
         )
-    }
-
-    fn encode(
-        &self,
-        context: &GpuContext,
-        encoder: &mut wgpu::CommandEncoder,
-        target: &RenderTarget,
-        camera: &Camera,
-        settings: &RenderSettings,
-        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
-    ) {
-        let whole = ImageRegion::whole(target.width, target.height);
-        self.encode_region(
-            context,
-            encoder,
-            target,
-            camera,
-            settings,
-            whole,
-            timestamp_writes,
-        );
     }
 
     fn encode_region(

@@ -126,27 +126,6 @@ impl Renderer for GpuVolume {
         level_detail(self.depth, self.dims, 0, max_level)
     }
 
-    fn encode(
-        &self,
-        context: &GpuContext,
-        encoder: &mut wgpu::CommandEncoder,
-        target: &RenderTarget,
-        camera: &Camera,
-        settings: &RenderSettings,
-        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
-    ) {
-        let whole = ImageRegion::whole(target.width, target.height);
-        self.encode_region(
-            context,
-            encoder,
-            target,
-            camera,
-            settings,
-            whole,
-            timestamp_writes,
-        );
-    }
-
     fn encode_region(
         &self,
         context: &GpuContext,

@@ -64,8 +64,6 @@ pub fn render_frame(context: &GpuContext, frame: &Frame<'_>) {
         .create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("voxscope::frame"),
         });
-    context
-        .raycaster()
-        .encode(context, &mut encoder, frame, None);
+    raycaster::encode_frame(context.raycaster(), context, &mut encoder, frame, None);
     context.queue.submit([encoder.finish()]);
 }

@@ -344,19 +344,6 @@ impl Raycaster {
             self.pipelines.get(context, entry, variant);
         }
     }
-
-    /// Records one frame into `encoder`, its parameters in a buffer of its own: the pipelines
-    /// are shared, so frames of several panes and volumes can be recorded into one encoder, or
-    /// into several submitted in any order, without overwriting each other's parameters.
-    pub fn encode(
-        &self,
-        context: &GpuContext,
-        encoder: &mut wgpu::CommandEncoder,
-        frame: &Frame<'_, impl OctreeOnGpu>,
-        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
-    ) {
-        encode_frame(self, context, encoder, frame, timestamp_writes);
-    }
 }
 
 impl<V: OctreeOnGpu> RayPass<V> for Raycaster {

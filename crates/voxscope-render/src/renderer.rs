@@ -37,7 +37,18 @@ pub trait Renderer: Send {
         camera: &Camera,
         settings: &RenderSettings,
         timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
-    );
+    ) {
+        let whole = ImageRegion::whole(target.width, target.height);
+        self.encode_region(
+            context,
+            encoder,
+            target,
+            camera,
+            settings,
+            whole,
+            timestamp_writes,
+        );
+    }
 
     /// Records the pixels `region` of one frame ([`Self::encode`] of a part of the image; the
     /// rest of the target keeps what it holds), for a caller that draws a slow frame in parts
@@ -54,10 +65,7 @@ pub trait Renderer: Send {
         settings: &RenderSettings,
         region: ImageRegion,
         timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
-    ) {
-        let _whole_frame_instead = region;
-        self.encode(context, encoder, target, camera, settings, timestamp_writes);
-    }
+    );
 
     /// Whether [`Self::encode_region`] draws its region alone.
     fn draws_regions(&self) -> bool {

@@ -27,8 +27,8 @@ use super::raycaster::{
 use super::renderer::{Renderer, level_detail, pipeline_variants};
 use super::staging_ring::{StagedBrick, StagingRing};
 use super::{
-    Camera, Frame, GpuContext, GpuTransferTable, LevelDetail, RenderError, RenderSettings,
-    RenderTarget, RendererKind,
+    Camera, Frame, GpuContext, GpuTransferTable, ImageRegion, LevelDetail, RenderError,
+    RenderSettings, RenderTarget, RendererKind,
 };
 use voxscope_octree::TransferFunction;
 use voxscope_stream::{
@@ -559,18 +559,6 @@ impl StreamRaycaster {
     pub(crate) fn prepare(&self, context: &GpuContext, variant: Variant) {
         self.pipelines.get(context, 0, variant);
     }
-
-    /// Records one frame of `volume` into `encoder` with what is resident now; its rays'
-    /// requests and usage marks are read back by the next [`StreamVolume::step`].
-    pub fn encode(
-        &self,
-        context: &GpuContext,
-        encoder: &mut wgpu::CommandEncoder,
-        frame: &Frame<'_, StreamVolume>,
-        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
-    ) {
-        encode_frame(self, context, encoder, frame, timestamp_writes);
-    }
 }
 
 impl RayPass<StreamVolume> for StreamRaycaster {
@@ -659,13 +647,16 @@ impl Renderer for StreamVolume {
         )
     }
 
-    fn encode(
+    /// The whole frame, whatever `region` asks: a frame's requests and usage marks are of all
+    /// its rays ([`Renderer::draws_regions`] is false).
+    fn encode_region(
         &self,
         context: &GpuContext,
         encoder: &mut wgpu::CommandEncoder,
         target: &RenderTarget,
         camera: &Camera,
         settings: &RenderSettings,
+        _region: ImageRegion,
         timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
         let frame = Frame {

@@ -1,0 +1,93 @@
+#!/usr/bin/env bash
+# Views larger than the GPU budget (issue 26, docs/benchmarks.md "Streaming") on the lent GPU
+# machine, in one call: the 256x256x20 PD MRI series (i16, ../shared/data) tiled 16x16x52 by
+# `voxscope convert` into a 4096x4096x1040 OME-Zarr 0.4 (64³ chunks, zstd, spacing 1) on the
+# machine's disk; then, the page cache dropped before each, near stopped views under a 512 MiB
+# GPU budget and a 2 GiB RAM cache through `render` (MIP and DVR at 0.6 and 1.0 radii: the
+# close-ups whose bricks outgrow the atlas), `bench --stream` under the same budget (first image,
+# the stopped medium view, the near stopped views, the orbits, the pipeline's rates, resident
+# against in-memory bricks), and finally run.sh's `head` job (this binary against
+# voxscope-base on the 256³ head).
+#
+# It builds nothing: it expects out/zarr-bench/voxscope.gz and brain-pd-dicom/, .bench/ with
+# voxscope.gz, voxscope-base.gz and mri-head-256.nii.gz, and the Vulkan loader's .deb files in
+# .gl. Usage: bash docs/bench/budget.sh RUN_NAME   (RUN_NAME.tar.gz of every file goes to $OUT;
+# a summary to stdout)
+set -uo pipefail
+started=$SECONDS
+D=out/zarr-bench
+RUN=${1:-run60}
+for deb in .gl/*.deb; do dpkg -x "$deb" /; done
+ldconfig
+export WGPU_BACKEND=vulkan
+if [ ! -e /usr/share/vulkan/icd.d/nvidia_icd.json ]; then
+    export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
+fi
+gunzip -kf $D/voxscope.gz && chmod +x $D/voxscope
+OUTDIR=/tmp/$RUN
+mkdir -p "$OUTDIR"
+STORE=$PWD/out/pd4096x1040.ome.zarr
+nvidia-smi --query-gpu=name,driver_version --format=csv,noheader
+echo "$(nproc) cores; $(df -h "$PWD" | tail -1)"
+if [ ! -e "$STORE/.zattrs" ]; then
+    rm -rf "$STORE"
+    timeout "${CONVERT_LIMIT:-240}" $D/voxscope convert $D/brain-pd-dicom "$STORE" --tile 16,16,52 \
+        --spacing 1,1,1 --chunk 64 --compression zstd 2>"$OUTDIR/$RUN-convert.err"
+    echo "convert exit $? after $((SECONDS - started)) s"
+    tr '\r' '\n' <"$OUTDIR/$RUN-convert.err" | grep -v '%$' | tail -2
+fi
+if [ ! -e "$STORE/.zattrs" ]; then echo "no store: stopping"; exit 1; fi
+du -sh "$STORE"
+$D/voxscope info "$STORE" >"$OUTDIR/$RUN-info.txt" 2>&1
+drop() {
+    sync
+    echo 3 >/proc/sys/vm/drop_caches 2>/dev/null || echo "page cache NOT dropped"
+}
+# The close-ups: each a cold process, from disk.
+for mode in mip dvr; do
+    for distance in 0.6 1.0; do
+        drop
+        name=$RUN-near-$mode-$distance
+        t0=$(date +%s.%N)
+        timeout 80 $D/voxscope render "$STORE" --renderer stream --mode $mode --distance $distance \
+            --gpu-memory 512MiB --ram-cache 2GiB --max-wait 60 -o "$OUTDIR/$name.png" \
+            >"$OUTDIR/$name.txt" 2>&1
+        code=$?
+        echo "render $mode at $distance: exit $code, $(python3 -c "import time; print(round(time.time() - $t0, 2))") s wall"
+        tail -2 "$OUTDIR/$name.txt"
+    done
+done
+drop
+t0=$SECONDS
+timeout "${LIMIT:-200}" $D/voxscope bench "$STORE" --stream --json --gpu-memory 512MiB \
+    --ram-cache 2GiB >"$OUTDIR/$RUN-stream-pd4096x1040.json" 2>"$OUTDIR/$RUN-stream-pd4096x1040.err"
+echo "bench --stream exit $? after $((SECONDS - t0)) s"
+tail -2 "$OUTDIR/$RUN-stream-pd4096x1040.err"
+python3 - "$OUTDIR/$RUN-stream-pd4096x1040.json" <<'PY'
+import json, sys
+try:
+    r = json.load(open(sys.argv[1]))
+except Exception as e:
+    print("no JSON:", e); sys.exit()
+s = r["stopped_view"]
+print(r["adapter"], r["driver"], "first image", round(r["first_image_s"], 3))
+print("stopped medium:", s["complete"], round(s["seconds_after_first_image"], 3), "s after first;",
+      s["bricks_read"], "read,", s["view_bricks"], "view bricks; budget", s.get("budget"))
+for n in r["near_stopped_views"]:
+    p = n["pipeline"]
+    print("near", n["mode"], n["distance"], "complete", n["complete"], round(n["seconds"], 2), "s,",
+          n["bricks_read"], "read,", n["view_bricks"], "view bricks,", n["slots"], "slots; budget", n["budget"])
+    print("   pipeline", {k: (round(v, 3) if isinstance(v, float) else v) for k, v in p.items()})
+for o in r["orbits"]:
+    print("orbit", o["camera"], "wall", {k: round(v, 2) for k, v in o["wall_ms"].items()},
+          "over16", o["frames_over_16ms_wall"], "missing", o["missing_bricks"])
+for row in r["resident"]["rows"]:
+    print("resident", row["mode"], row["camera"], row["complete"], round(row["stream_over_bricks"], 2))
+PY
+echo "== head A/B after $((SECONDS - started)) s"
+BENCH_DIR=.bench bash docs/bench/run.sh "$RUN" head 2>&1 | tail -12
+cp /tmp/voxscope-bench/"$RUN"-*.json "$OUTDIR"/ 2>/dev/null
+if [ -n "${OUT:-}" ]; then
+    tar -czf "$OUT/$RUN.tar.gz" -C /tmp "$RUN"
+fi
+echo "done after $((SECONDS - started)) s"
