@@ -9,13 +9,12 @@
 # against in-memory bricks), and finally run.sh's `head` job (this binary against
 # voxscope-base on the 256³ head).
 #
-# It builds nothing: it expects out/zarr-bench/voxscope.gz and brain-pd-dicom/, .bench/ with
-# voxscope.gz, voxscope-base.gz and mri-head-256.nii.gz, and the Vulkan loader's .deb files in
-# .gl. Usage: bash docs/bench/budget.sh RUN_NAME   (RUN_NAME.tar.gz of every file goes to $OUT;
+# It builds nothing: it expects out/zarr-bench/brain-pd-dicom/, .bench/ with voxscope.gz,
+# voxscope-base.gz and mri-head-256.nii.gz, and the Vulkan loader's .deb files in .gl. Usage: bash docs/bench/budget.sh RUN_NAME   (RUN_NAME.tar.gz of every file goes to $OUT;
 # a summary to stdout)
 set -uo pipefail
 started=$SECONDS
-D=out/zarr-bench
+D=.bench
 RUN=${1:-run60}
 for deb in .gl/*.deb; do dpkg -x "$deb" /; done
 ldconfig
@@ -31,7 +30,7 @@ nvidia-smi --query-gpu=name,driver_version --format=csv,noheader
 echo "$(nproc) cores; $(df -h "$PWD" | tail -1)"
 if [ ! -e "$STORE/.zattrs" ]; then
     rm -rf "$STORE"
-    timeout "${CONVERT_LIMIT:-240}" $D/voxscope convert $D/brain-pd-dicom "$STORE" --tile 16,16,52 \
+    timeout "${CONVERT_LIMIT:-240}" $D/voxscope convert out/zarr-bench/brain-pd-dicom "$STORE" --tile 16,16,52 \
         --spacing 1,1,1 --chunk 64 --compression zstd 2>"$OUTDIR/$RUN-convert.err"
     echo "convert exit $? after $((SECONDS - started)) s"
     tr '\r' '\n' <"$OUTDIR/$RUN-convert.err" | grep -v '%$' | tail -2
@@ -49,8 +48,8 @@ for mode in mip dvr; do
         drop
         name=$RUN-near-$mode-$distance
         t0=$(date +%s.%N)
-        timeout 80 $D/voxscope render "$STORE" --renderer stream --mode $mode --distance $distance \
-            --gpu-memory 512MiB --ram-cache 2GiB --max-wait 60 -o "$OUTDIR/$name.png" \
+        timeout 45 $D/voxscope render "$STORE" --renderer stream --mode $mode --distance $distance \
+            --gpu-memory 512MiB --ram-cache 2GiB --max-wait 30 -o "$OUTDIR/$name.png" \
             >"$OUTDIR/$name.txt" 2>&1
         code=$?
         echo "render $mode at $distance: exit $code, $(python3 -c "import time; print(round(time.time() - $t0, 2))") s wall"
@@ -59,7 +58,7 @@ for mode in mip dvr; do
 done
 drop
 t0=$SECONDS
-timeout "${LIMIT:-200}" $D/voxscope bench "$STORE" --stream --json --gpu-memory 512MiB \
+timeout "${LIMIT:-180}" $D/voxscope bench "$STORE" --stream --json --gpu-memory 512MiB \
     --ram-cache 2GiB >"$OUTDIR/$RUN-stream-pd4096x1040.json" 2>"$OUTDIR/$RUN-stream-pd4096x1040.err"
 echo "bench --stream exit $? after $((SECONDS - t0)) s"
 tail -2 "$OUTDIR/$RUN-stream-pd4096x1040.err"
