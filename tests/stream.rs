@@ -1102,3 +1102,47 @@ fn bricks_that_failed_are_asked_for_again_and_the_view_recovers() {
     );
     assert!(db >= 40.0, "recovered against bricks: {db:.1} dB");
 }
+
+#[test]
+fn views_beyond_the_atlas_complete_in_mip_and_dvr_at_every_distance() {
+    let context = gpu();
+    let prepared = &*NOISE;
+    // A small atlas: a sixth of level 0 (MIP's rays need every brick they cross).
+    let budget = level0_bytes() / 6;
+    for mode in [
+        voxscope_render::RenderMode::Mip,
+        voxscope_render::RenderMode::Dvr,
+    ] {
+        for distance in [0.6, 1.0, 1.6, 2.5] {
+            let camera = Camera {
+                distance,
+                ..close_camera(30.0)
+            };
+            let settings = RenderSettings {
+                mode,
+                ..settings(prepared.octree.depth)
+            };
+            let mut renderer = streaming(
+                &context,
+                PYRAMID.clone(),
+                options(budget),
+                &prepared.transfer,
+            );
+            let refined = refine(&context, &mut renderer, &camera, &settings);
+            let counters = &refined.status.counters;
+            eprintln!(
+                "{mode:?} at {distance}: complete after {} frames, {} bricks read for {} slots; {:?}",
+                refined.frames,
+                counters.loads,
+                counters.slots,
+                refined.status.budget.map(|b| b.describe())
+            );
+            assert!(
+                counters.loads <= 3 * counters.slots as u64,
+                "{mode:?} at {distance}: {} bricks read for {} slots",
+                counters.loads,
+                counters.slots
+            );
+        }
+    }
+}

@@ -73,6 +73,7 @@ pub fn convert(
                 },
                 remote: voxscope_volume::remote::RemoteOptions {
                     max_requests: args.max_requests,
+                    ..Default::default()
                 },
             };
             let source = SlabSource::open(&spec, &load).map_err(|e| e.to_string())?;
