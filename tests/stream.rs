@@ -943,10 +943,31 @@ fn a_converted_volume_streams_from_disk_equal_to_the_bricks_render() {
     let prepared = Prepared::new(volume, None);
     let context = gpu();
     let budget = source.shape().levels[0].brick_count() * (PADDED_BRICK_VOXELS * 2) as u64;
-    let mut renderer = streaming(&context, source, options(budget), &prepared.transfer);
+    // A RAM budget of 2 MiB, below the store's 4.6 MiB of value levels: the decoded chunks
+    // the source keeps get a quarter of it, the bricks' cache the rest.
+    let ram = 2 << 20;
+    let mut renderer = streaming(
+        &context,
+        source,
+        StreamOptions {
+            ram_cache: ram,
+            ..options(budget)
+        },
+        &prepared.transfer,
+    );
     let camera = close_camera(30.0);
     let settings = settings(prepared.octree.depth);
     let refined = refine(&context, &mut renderer, &camera, &settings);
+    let counters = &refined.status.counters;
+    assert_eq!(counters.source_cache_capacity, ram / 4);
+    assert_eq!(counters.ram_capacity, ram - ram / 4);
+    assert!(
+        counters.source_cache_bytes > 0 && counters.source_cache_bytes <= ram / 4,
+        "decoded chunks kept: {} of {}",
+        counters.source_cache_bytes,
+        ram / 4
+    );
+    assert!(counters.ram_bytes <= counters.ram_capacity);
     let expected = bricks_image(&context, &prepared, &prepared.transfer, &camera, &settings);
     save(&refined.image, "zarr-refined");
     let db = psnr(&refined.image, &expected);

@@ -129,6 +129,16 @@ pub fn show(ui: &mut Ui, scene: &Scene) {
                 100.0 * counters.ram_hit_rate(),
             ));
             ui.end_row();
+            if counters.source_cache_capacity > 0 {
+                // A store's decoded chunks and fetched bytes, within the same RAM budget.
+                ui.label("Store cache");
+                ui.label(format!(
+                    "{} of {}",
+                    format_bytes(counters.source_cache_bytes),
+                    format_bytes(counters.source_cache_capacity),
+                ));
+                ui.end_row();
+            }
             ui.label("Read");
             ui.label(format!(
                 "{} bricks ({} prefetched), {}",

@@ -7,6 +7,7 @@ mod ceilings;
 mod composite;
 mod convert;
 mod info;
+mod memory;
 mod prepare;
 mod probe;
 mod render;

@@ -239,8 +239,13 @@ fn run_stream(
     } else {
         (String::new(), Rendered::Complete)
     };
+    // The most the process held (Linux): the RAM budget, the device's, and what every
+    // process with a GPU holds.
+    let peak = super::memory::resident()
+        .map(|r| format!(", peak memory {:.0} MiB", super::memory::mib(r.peak)))
+        .unwrap_or_default();
     eprintln!(
-        "wrote {} ({}x{}, stream renderer, level {}/{}) on {} in {:.2} s: {} bricks read ({:.1} MiB), {} of {} atlas slots used; {state}{ending}",
+        "wrote {} ({}x{}, stream renderer, level {}/{}) on {} in {:.2} s: {} bricks read ({:.1} MiB), {} of {} atlas slots used{peak}; {state}{ending}",
         args.output.display(),
         target.width,
         target.height,

@@ -11,6 +11,7 @@ use serde_json::json;
 
 use super::args::{OpacityArg, TransferArgs};
 use super::bench::BenchArgs;
+use super::memory;
 use super::stream::open_streamed;
 use voxscope_octree::{BuildOptions, TransferFunction};
 use voxscope_render::{
@@ -71,6 +72,10 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
     let building = Instant::now();
     context.stream_raycaster();
     let pipeline_build_s = building.elapsed().as_secs_f64();
+    // Memory: what the process holds with a device and its pipelines, then the most it holds
+    // in each phase (the streaming ones bounded by the budgets, the last one the in-memory
+    // renderer's).
+    let mut memory = Memory::start();
     // Open, and the first image: the pyramid opened (a coarse level read for the transfer
     // function's defaults), the renderer made (the always-resident levels read), one frame
     // drawn and finished.
@@ -87,10 +92,14 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
         &prepared.transfer,
     )
     .map_err(|e| format!("{name}: {e}"))?;
-    renderer.update(&context);
+    let first_update = renderer.update(&context);
     renderer.render(&context, &target, &medium, &gray);
     context.wait_idle().map_err(|e| e.to_string())?;
     let first_image_s = opened.elapsed().as_secs_f64();
+    memory.phase(
+        "open_first_image",
+        first_update.as_ref().map(|s| &s.counters),
+    );
 
     // The stopped view, from that first image to complete.
     let refinement = refine(&context, &mut renderer, &target, &medium, &gray, MAX_WAIT)
@@ -120,6 +129,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
         "budget": refinement.status.budget,
         "counters": counters,
     });
+    memory.phase("stopped_view", Some(counters));
     let gpu_bytes: serde_json::Map<String, serde_json::Value> = renderer
         .gpu_bytes()
         .into_iter()
@@ -168,6 +178,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
             "budget": refinement.status.budget,
             "pipeline": pipeline_json(counters, options.workers),
         }));
+        memory.phase(&format!("near_stopped_{mode_name}"), Some(counters));
     }
 
     // Orbits while detail streams in, each from a cold start (a new renderer, empty caches).
@@ -228,10 +239,12 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
             "uploaded_bytes": uploaded,
             "counters": status.counters,
         }));
+        memory.phase(&format!("orbit_{camera_name}"), Some(&status.counters));
     }
 
     let resident =
         resident_comparison(&context, args, &prepared, &target, options, timer.as_ref())?;
+    memory.phase("resident_comparison", None);
 
     let report = json!({
         "adapter": context.adapter_info.name,
@@ -261,6 +274,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
         "near_stopped_views": near,
         "orbits": orbits,
         "resident": resident,
+        "memory": memory.report(options.ram_cache),
     });
     if args.json {
         println!("{report}");
@@ -271,6 +285,57 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
         );
     }
     Ok(())
+}
+
+/// Resident memory by phase: each phase's peak (the kernel's high-water mark, reset at its
+/// start) and what the streamer's caches held at its end.
+struct Memory {
+    baseline: Option<u64>,
+    phases: Vec<serde_json::Value>,
+    streaming_peak: u64,
+}
+
+impl Memory {
+    fn start() -> Self {
+        memory::reset_peak();
+        Self {
+            baseline: memory::resident().map(|r| r.now),
+            phases: Vec::new(),
+            streaming_peak: 0,
+        }
+    }
+
+    /// Ends the phase `name` (`counters`: a streaming one's, at its end) and starts the next.
+    fn phase(&mut self, name: &str, counters: Option<&StreamCounters>) {
+        let Some(resident) = memory::resident() else {
+            return;
+        };
+        if counters.is_some() {
+            self.streaming_peak = self.streaming_peak.max(resident.peak);
+        }
+        self.phases.push(json!({
+            "phase": name,
+            "peak_bytes": resident.peak,
+            "end_bytes": resident.now,
+            "ram_cache_bytes": counters.map(|c| c.ram_bytes),
+            "store_cache_bytes": counters.map(|c| c.source_cache_bytes),
+        }));
+        memory::reset_peak();
+    }
+
+    /// The phases, and the streaming phases' peak above the baseline against the RAM budget.
+    fn report(&self, ram_budget: u64) -> serde_json::Value {
+        let over_baseline = self
+            .baseline
+            .map(|baseline| self.streaming_peak.saturating_sub(baseline));
+        json!({
+            "baseline_bytes": self.baseline,
+            "ram_budget_bytes": ram_budget,
+            "streaming_peak_bytes": self.streaming_peak,
+            "streaming_peak_over_baseline_bytes": over_baseline,
+            "phases": self.phases,
+        })
+    }
 }
 
 /// The near stopped views' camera distance, in bounding-sphere radii (the issue that asked for
@@ -304,7 +369,7 @@ fn resident_comparison(
     options: StreamOptions,
     timer: Option<&GpuTimer>,
 ) -> Result<serde_json::Value, String> {
-    let (volume, level) = preview(&*prepared.source, RESIDENT_BRICKS)
+    let (mut volume, level) = preview(&*prepared.source, RESIDENT_BRICKS)
         .map_err(|e| format!("{}: {e}", prepared.source.name()))?;
     let scale = prepared.source.shape().levels[level].scale as f64;
     let spacing = prepared.source.spacing().map(|s| s * scale);
@@ -326,9 +391,13 @@ fn resident_comparison(
         &transfer,
     )
     .map_err(|e| e.to_string())?;
+    // The bricks renderer holds its own copy on the GPU: the octree and the voxels in RAM go
+    // now (the voxels to the streaming renderer's source), not kept twice.
+    let depth = octree.depth;
+    drop(octree);
     let source = MemorySource::from_levels(
         "resident",
-        volume.levels.clone(),
+        std::mem::take(&mut volume.levels),
         volume.dims,
         volume.quantization,
         spacing,
@@ -344,7 +413,6 @@ fn resident_comparison(
         &transfer,
     )
     .map_err(|e| e.to_string())?;
-    let depth = octree.depth;
     let mut rows = Vec::new();
     for (mode_name, mode) in [("dvr-gray", RenderMode::Dvr), ("mip", RenderMode::Mip)] {
         let settings = RenderSettings {

@@ -130,6 +130,19 @@ pub trait BrickSource: Send + Sync {
         None
     }
 
+    /// Takes the source's own caches (decoded chunks, fetched bytes) out of `ram`, the
+    /// streamer's whole RAM budget (`--ram-cache`), and returns the bytes they may hold: the
+    /// RAM cache of bricks gets the rest. A source that keeps nothing between reads (a volume
+    /// in memory, procedural data) takes nothing.
+    fn reserve_caches(&self, _ram: u64) -> u64 {
+        0
+    }
+
+    /// Bytes the source's own caches hold now (at most what [`Self::reserve_caches`] took).
+    fn cached_bytes(&self) -> u64 {
+        0
+    }
+
     /// Whether the values are labels (categories): the renderer samples them at the nearest
     /// voxel, and the levels the source computes keep each block's most frequent label
     /// ([`crate::Downsampling::Mode`]).

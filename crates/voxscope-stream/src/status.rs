@@ -29,8 +29,13 @@ pub struct StreamCounters {
     pub slots_pinned: usize,
     /// Bytes of one atlas slot.
     pub slot_bytes: u64,
+    /// Bytes of decoded bricks in the RAM cache, and its capacity: the RAM budget
+    /// (`--ram-cache`) less what the source's own caches took ([`Self::source_cache_capacity`]).
     pub ram_bytes: u64,
     pub ram_capacity: u64,
+    /// Bytes the source's own caches (decoded chunks, fetched bytes) hold, and may hold.
+    pub source_cache_bytes: u64,
+    pub source_cache_capacity: u64,
     /// Wanted bricks found in the RAM cache / loaded from the source.
     pub ram_hits: u64,
     pub loads: u64,

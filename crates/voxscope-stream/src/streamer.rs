@@ -138,11 +138,16 @@ impl Streamer {
             options.workers,
         );
         let levels = shape.levels.len();
+        // The RAM budget covers the source's caches too: the bricks' cache gets the rest.
+        let source_caches = source
+            .reserve_caches(options.ram_cache)
+            .min(options.ram_cache);
+        let ram_capacity = options.ram_cache - source_caches;
         let mut streamer = Self {
             table: PageTable::new(max_entries * 4),
             max_entries,
             slots: SlotPool::new(capacity),
-            ram: RamCache::new(options.ram_cache),
+            ram: RamCache::new(ram_capacity),
             queue,
             loader,
             frame: 0,
@@ -175,7 +180,8 @@ impl Streamer {
                     .collect(),
                 slots: capacity,
                 slot_bytes: (PADDED_BRICK_VOXELS * texels.bytes()) as u64,
-                ram_capacity: options.ram_cache,
+                ram_capacity,
+                source_cache_capacity: source_caches,
                 ..Default::default()
             },
             resident: vec![0; levels],
@@ -941,6 +947,7 @@ impl Streamer {
         self.counters.view_slots = self.feedback_frame.map_or(0, |f| self.slots.used_since(f));
         self.counters.slots_pinned = self.slots.pinned();
         self.counters.ram_bytes = self.ram.bytes();
+        self.counters.source_cache_bytes = self.source.cached_bytes();
         self.counters.failed = self.failed.len();
         let next_retry = self
             .failures

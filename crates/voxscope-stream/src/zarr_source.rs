@@ -62,21 +62,51 @@ pub struct ZarrSource {
 /// as value levels, 128 MiB while a 64-bit type is converted).
 pub const WARM_VOXELS: u64 = 1 << 24;
 
-/// Bytes of decoded chunks a [`ZarrSource`] keeps (value levels, 2 bytes a voxel).
+/// Bytes of decoded chunks a [`ZarrSource`] keeps at most (value levels, 2 bytes a voxel),
+/// and less where the streamer's RAM budget is smaller ([`BrickSource::reserve_caches`]).
 pub const CHUNK_CACHE_BYTES: usize = 512 << 20;
 
 /// A decoded chunk: stored level and chunk index.
 type ChunkKey = (usize, [usize; 3]);
 
-/// The least recently used decoded chunks, each with the clock of its last use.
-#[derive(Default)]
+/// The least recently used decoded chunks, each with the clock of its last use, within a
+/// byte capacity (the last chunk used is kept even when it alone is larger).
 struct ChunkCache {
     chunks: HashMap<ChunkKey, (Arc<Vec<u16>>, u64)>,
     bytes: usize,
+    capacity: usize,
     clock: u64,
 }
 
+impl Default for ChunkCache {
+    fn default() -> Self {
+        Self {
+            chunks: HashMap::new(),
+            bytes: 0,
+            capacity: CHUNK_CACHE_BYTES,
+            clock: 0,
+        }
+    }
+}
+
 impl ChunkCache {
+    fn set_capacity(&mut self, capacity: usize) {
+        self.capacity = capacity;
+        self.shrink();
+    }
+
+    fn shrink(&mut self) {
+        while self.bytes > self.capacity && self.chunks.len() > 1 {
+            // Evict the least recently used (a scan: the cache holds about a thousand chunks).
+            let Some((&oldest, _)) = self.chunks.iter().min_by_key(|(_, (_, used))| *used) else {
+                break;
+            };
+            if let Some((old, _)) = self.chunks.remove(&oldest) {
+                self.bytes -= old.len() * 2;
+            }
+        }
+    }
+
     fn get(&mut self, key: ChunkKey) -> Option<Arc<Vec<u16>>> {
         self.clock += 1;
         let clock = self.clock;
@@ -92,15 +122,7 @@ impl ChunkCache {
         if let Some((old, _)) = self.chunks.insert(key, (chunk, self.clock)) {
             self.bytes -= old.len() * 2;
         }
-        while self.bytes > CHUNK_CACHE_BYTES && self.chunks.len() > 1 {
-            // Evict the least recently used (a scan: the cache holds about a thousand chunks).
-            let Some((&oldest, _)) = self.chunks.iter().min_by_key(|(_, (_, used))| *used) else {
-                break;
-            };
-            if let Some((old, _)) = self.chunks.remove(&oldest) {
-                self.bytes -= old.len() * 2;
-            }
-        }
+        self.shrink();
     }
 }
 
@@ -455,6 +477,28 @@ impl BrickSource for ZarrSource {
 
     fn remote_stats(&self) -> Option<RemoteStats> {
         self.pyramid.remote_stats()
+    }
+
+    /// Decoded chunks get a quarter of `ram` (at most [`CHUNK_CACHE_BYTES`]); a network
+    /// store's fetched bytes an eighth (at most [`voxscope_volume::remote::FETCH_CACHE_BYTES`]).
+    fn reserve_caches(&self, ram: u64) -> u64 {
+        let chunks = (ram / 4).min(CHUNK_CACHE_BYTES as u64);
+        if let Ok(mut cache) = self.chunks.lock() {
+            cache.set_capacity(chunks as usize);
+        }
+        let fetched = if self.pyramid.remote_stats().is_some() {
+            let fetched = (ram / 8).min(voxscope_volume::remote::FETCH_CACHE_BYTES);
+            self.pyramid.set_fetch_cache_bytes(fetched);
+            fetched
+        } else {
+            0
+        };
+        chunks + fetched
+    }
+
+    fn cached_bytes(&self) -> u64 {
+        let chunks = self.chunks.lock().map_or(0, |cache| cache.bytes as u64);
+        chunks + self.pyramid.fetch_cached_bytes()
     }
 
     fn known_range(&self, id: BrickId) -> Option<ValueRange> {

@@ -311,6 +311,19 @@ impl RemoteStore {
         self.inner.remembered.forget_transient();
     }
 
+    /// Keeps at most `bytes` of fetched bytes in RAM from now on ([`FETCH_CACHE_BYTES`] until
+    /// this is called): the streamer's share of its RAM budget.
+    pub fn set_cache_bytes(&self, bytes: u64) {
+        if let Ok(mut cache) = self.inner.cache.lock() {
+            cache.set_capacity(bytes);
+        }
+    }
+
+    /// Bytes of fetched objects kept in RAM now.
+    pub fn cached_bytes(&self) -> u64 {
+        self.inner.cache.lock().map_or(0, |cache| cache.bytes())
+    }
+
     /// The counters so far.
     pub fn stats(&self) -> RemoteStats {
         let c = &self.inner.counters;

@@ -348,6 +348,19 @@ impl Pyramid {
         self.remote.as_ref().map(|store| store.stats())
     }
 
+    /// Keeps at most `bytes` of fetched bytes in RAM, where the store is remote
+    /// ([`RemoteStore::set_cache_bytes`]); a folder's store keeps none.
+    pub fn set_fetch_cache_bytes(&self, bytes: u64) {
+        if let Some(store) = &self.remote {
+            store.set_cache_bytes(bytes);
+        }
+    }
+
+    /// Bytes of fetched objects kept in RAM (none for a folder's store).
+    pub fn fetch_cached_bytes(&self) -> u64 {
+        self.remote.as_ref().map_or(0, |store| store.cached_bytes())
+    }
+
     /// Opens the Zarr hierarchy at the root of `store`; `source` names it in messages.
     pub fn open_store(
         store: ReadableStorage,

@@ -66,17 +66,52 @@ impl Piece {
 /// chunks: a brick's reads and a prefetch's would each ask again).
 const MAX_MISSING: usize = 1 << 20;
 
-/// Fetched bytes by object and piece, the oldest dropped first beyond [`FETCH_CACHE_BYTES`];
-/// and objects found missing.
-#[derive(Default)]
+/// Fetched bytes by object and piece, the oldest dropped first beyond its capacity
+/// ([`FETCH_CACHE_BYTES`] unless the streamer's RAM budget sets less); and objects found
+/// missing.
 pub(super) struct FetchCache {
     pieces: HashMap<(String, Piece), Bytes>,
     order: VecDeque<(String, Piece)>,
     bytes: u64,
+    capacity: u64,
     missing: HashSet<String>,
 }
 
+impl Default for FetchCache {
+    fn default() -> Self {
+        Self {
+            pieces: HashMap::new(),
+            order: VecDeque::new(),
+            bytes: 0,
+            capacity: FETCH_CACHE_BYTES,
+            missing: HashSet::new(),
+        }
+    }
+}
+
 impl FetchCache {
+    /// Keeps at most `capacity` bytes from now on, dropping the oldest pieces beyond it.
+    pub(super) fn set_capacity(&mut self, capacity: u64) {
+        self.capacity = capacity;
+        self.shrink();
+    }
+
+    /// Bytes kept.
+    pub(super) fn bytes(&self) -> u64 {
+        self.bytes
+    }
+
+    fn shrink(&mut self) {
+        while self.bytes > self.capacity {
+            let Some(oldest) = self.order.pop_front() else {
+                break;
+            };
+            if let Some(dropped) = self.pieces.remove(&oldest) {
+                self.bytes -= dropped.len() as u64;
+            }
+        }
+    }
+
     pub(super) fn get(&self, key: &str, piece: Piece) -> Option<Bytes> {
         self.pieces.get(&(key.to_owned(), piece)).cloned()
     }
@@ -104,7 +139,7 @@ impl FetchCache {
 
     pub(super) fn insert(&mut self, key: &str, piece: Piece, bytes: &Bytes) {
         let size = bytes.len() as u64;
-        if size > FETCH_CACHE_BYTES / 4 {
+        if size > self.capacity / 4 {
             return;
         }
         let entry = (key.to_owned(), piece);
@@ -113,13 +148,34 @@ impl FetchCache {
         }
         self.order.push_back(entry);
         self.bytes += size;
-        while self.bytes > FETCH_CACHE_BYTES {
-            let Some(oldest) = self.order.pop_front() else {
-                break;
-            };
-            if let Some(dropped) = self.pieces.remove(&oldest) {
-                self.bytes -= dropped.len() as u64;
-            }
+        self.shrink();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn bytes(n: usize) -> Bytes {
+        Bytes::from(vec![7u8; n])
+    }
+
+    #[test]
+    fn keeps_at_most_its_capacity_oldest_dropped_first() {
+        let mut cache = FetchCache::default();
+        cache.set_capacity(1000);
+        for i in 0..10 {
+            cache.insert(&format!("0/{i}"), Piece::Whole, &bytes(200));
         }
+        assert!(cache.bytes() <= 1000, "{}", cache.bytes());
+        assert!(cache.get("0/9", Piece::Whole).is_some(), "the newest stays");
+        assert!(cache.get("0/0", Piece::Whole).is_none(), "the oldest went");
+        // A piece over a quarter of the capacity is never kept.
+        cache.insert("big", Piece::Whole, &bytes(251));
+        assert!(cache.get("big", Piece::Whole).is_none());
+        // A smaller capacity drops what no longer fits at once.
+        cache.set_capacity(300);
+        assert!(cache.bytes() <= 300, "{}", cache.bytes());
+        assert!(cache.get("0/9", Piece::Whole).is_some());
     }
 }
