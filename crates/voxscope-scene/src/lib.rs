@@ -14,6 +14,7 @@ mod channels;
 mod data;
 mod error;
 mod job;
+mod movie_path;
 mod opening;
 mod prefetch;
 mod prepare;
@@ -21,11 +22,13 @@ mod saved_transfer;
 mod scene;
 mod source;
 mod streaming;
+mod view;
 
 pub use channels::{ChannelRequest, ChannelState, CompositeScene};
 pub use data::{HISTOGRAM_BINS, VolumeData};
 pub use error::SceneError;
 pub use job::Job;
+pub use movie_path::{Shot, keyframe_path, turntable};
 pub use opening::{
     TransferChoice, TransferRequest, beyond_octree, default_window, file_window, opening_transfer,
     renderer_for_octree,
@@ -41,4 +44,5 @@ pub use source::VolumeSource;
 pub use streaming::{
     PREVIEW_BRICKS, REMOTE_WORKERS, Refinement, StreamedVolume, describe_missing, refine,
 };
+pub use view::{SavedView, VIEW_VERSION, ViewChannel, ViewData, ViewRuler, ViewStream};
 pub use voxscope_volume::progress::{Cancelled, Progress};
