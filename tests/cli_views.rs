@@ -89,7 +89,15 @@ fn save_view_then_view_reproduces_the_render_exactly_and_options_beside_it_win()
     assert!(written.contains(VOLUME), "{written}");
 
     let turned = dir.path().join("turned.png");
-    run(&["render", "--view", text(&view), "--azimuth", "150", "-o", text(&turned)]);
+    run(&[
+        "render",
+        "--view",
+        text(&view),
+        "--azimuth",
+        "150",
+        "-o",
+        text(&turned),
+    ]);
     let mut direct_options = options[..options.len() - 2].to_vec();
     direct_options[1] = "150";
     let direct = still(dir.path(), "direct.png", &direct_options);
@@ -104,7 +112,11 @@ fn a_malformed_view_or_one_whose_data_is_missing_is_one_line() {
     let bad = dir.path().join("bad.ron");
     std::fs::write(&bad, "(version: 1, camera: (azimuth_deg: ").unwrap();
     let missing = dir.path().join("missing.ron");
-    std::fs::write(&missing, "(version: 1, data: (source: Some(\"no/such/head.nii.gz\")))").unwrap();
+    std::fs::write(
+        &missing,
+        "(version: 1, data: (source: Some(\"no/such/head.nii.gz\")))",
+    )
+    .unwrap();
     let newer = dir.path().join("newer.ron");
     std::fs::write(&newer, "(version: 99)").unwrap();
     for (view, expected) in [
@@ -144,7 +156,11 @@ fn a_turntable_starts_at_the_still_and_every_frame_turns() {
     let start = still(dir.path(), "start.png", &["--azimuth", "40"]);
     assert_eq!(movie[0], png(&start), "the first frame is the still");
     let quarter = still(dir.path(), "quarter.png", &["--azimuth", "130"]);
-    assert_eq!(movie[3], png(&quarter), "frame 3 of 12 is a quarter turn on");
+    assert_eq!(
+        movie[3],
+        png(&quarter),
+        "frame 3 of 12 is a quarter turn on"
+    );
     for (index, pair) in movie.windows(2).enumerate() {
         assert_ne!(pair[0], pair[1], "frames {index} and {} differ", index + 1);
     }
@@ -157,7 +173,14 @@ fn a_keyframe_movie_starts_at_its_first_view_and_ends_at_its_last() {
     let first = still(
         dir.path(),
         "a.png",
-        &["--azimuth", "10", "--window", "0:0.8", "--save-view", text(&a)],
+        &[
+            "--azimuth",
+            "10",
+            "--window",
+            "0:0.8",
+            "--save-view",
+            text(&a),
+        ],
     );
     let last = still(
         dir.path(),
@@ -175,9 +198,21 @@ fn a_keyframe_movie_starts_at_its_first_view_and_ends_at_its_last() {
     );
     let folder = dir.path().join("path");
     let keyframes = format!("{},{}", text(&a), text(&b));
-    run(&["movie", "--keyframes", &keyframes, "--frames", "3", "-o", text(&folder)]);
+    run(&[
+        "movie",
+        "--keyframes",
+        &keyframes,
+        "--frames",
+        "3",
+        "-o",
+        text(&folder),
+    ]);
     let movie = frames(&folder);
-    assert_eq!(movie.len(), 4, "3 frames of the segment, then the last view");
+    assert_eq!(
+        movie.len(),
+        4,
+        "3 frames of the segment, then the last view"
+    );
     assert_eq!(movie[0], png(&first));
     assert_eq!(movie[3], png(&last));
     assert!(movie[1] != movie[0] && movie[1] != movie[3] && movie[2] != movie[1]);
@@ -256,7 +291,10 @@ fn gif_webp_and_apng_hold_every_frame_and_mp4_without_ffmpeg_says_how_to_get_it(
     let err = stderr(&output);
     assert_eq!(output.status.code(), Some(1), "{err}");
     assert_eq!(err.trim().lines().count(), 1, "{err}");
-    assert!(err.contains("needs ffmpeg") && err.contains("apt install ffmpeg"), "{err}");
+    assert!(
+        err.contains("needs ffmpeg") && err.contains("apt install ffmpeg"),
+        "{err}"
+    );
     assert!(!mp4.exists());
 }
 
@@ -264,7 +302,11 @@ fn gif_webp_and_apng_hold_every_frame_and_mp4_without_ffmpeg_says_how_to_get_it(
 fn a_still_drawn_in_tiles_equals_the_one_drawn_whole() {
     let dir = tempfile::tempdir().unwrap();
     // 100x70 in tiles of 32: full tiles, a partial column and a partial row.
-    for extra in [&["--pixel-lod"][..], &["--renderer", "dense"], &["--renderer", "bricks"]] {
+    for extra in [
+        &["--pixel-lod"][..],
+        &["--renderer", "dense"],
+        &["--renderer", "bricks"],
+    ] {
         let draw = |name: &str, tiles: &[&str]| {
             let out = dir.path().join(name);
             let mut args = vec!["render", VOLUME, "--size", "100x70", "-o", text(&out)];
@@ -276,7 +318,10 @@ fn a_still_drawn_in_tiles_equals_the_one_drawn_whole() {
         let (err, tiled) = draw("tiled.png", &["--tile-size", "32"]);
         assert!(err.contains("drawn in tiles of 32x32"), "{err}");
         assert_eq!(tiled, whole, "{extra:?}");
-        assert!(support_coverage(&whole) > 0.05, "{extra:?}: the volume is drawn");
+        assert!(
+            support_coverage(&whole) > 0.05,
+            "{extra:?}: the volume is drawn"
+        );
     }
 }
 

@@ -5,11 +5,11 @@
 
 use std::time::{Duration, Instant};
 
-use voxscope_octree::{MAX_DEPTH, TransferFunction};
 use image::{GenericImage, RgbaImage};
+use voxscope_octree::{MAX_DEPTH, TransferFunction};
 use voxscope_render::{
-    Camera, ChannelLayer, GpuContext, RenderSettings, RenderTarget, RendererKind,
-    RendererOptions, VolumeRenderer, read_image,
+    Camera, ChannelLayer, GpuContext, RenderSettings, RenderTarget, RendererKind, RendererOptions,
+    VolumeRenderer, read_image,
 };
 use voxscope_scene::{ChannelState, Refinement, StreamedVolume, beyond_octree, refine};
 use voxscope_volume::{Volume, format_dims};
@@ -61,7 +61,8 @@ impl Drawing {
             None => volume.load()?,
         };
         // Longer than the voxel octree holds: bricks are streamed from memory.
-        if beyond_octree(loaded.dims) && matches!(options.renderer, None | Some(RendererArg::Bricks))
+        if beyond_octree(loaded.dims)
+            && matches!(options.renderer, None | Some(RendererArg::Bricks))
         {
             eprintln!(
                 "{}: {} voxels are beyond the voxel octree's {} a side: drawn by the streaming renderer, from memory",
@@ -213,7 +214,8 @@ impl Drawing {
             .map(Some)
             .map_err(|e| e.to_string());
         }
-        self.renderer.render(&self.context, target, camera, settings);
+        self.renderer
+            .render(&self.context, target, camera, settings);
         self.context.wait_idle().map_err(|e| e.to_string())?;
         Ok(None)
     }
@@ -266,8 +268,7 @@ impl Drawing {
         for y in (0..height).step_by(side as usize) {
             for x in (0..width).step_by(side as usize) {
                 let part_size = [side.min(width - x), side.min(height - y)];
-                let target =
-                    RenderTarget::tile(&self.context, part_size, [x, y], [width, height]);
+                let target = RenderTarget::tile(&self.context, part_size, [x, y], [width, height]);
                 self.draw(&target, camera, settings)?;
                 let part = read_image(&self.context, &target).map_err(|e| e.to_string())?;
                 image

@@ -30,7 +30,11 @@ pub struct MovieArgs {
     #[arg(long, value_name = "V.ron", conflicts_with = "keyframes")]
     pub view: Option<PathBuf>,
     /// A full turn about the vertical axis in --frames frames (default 120).
-    #[arg(long, conflicts_with = "keyframes", required_unless_present = "keyframes")]
+    #[arg(
+        long,
+        conflicts_with = "keyframes",
+        required_unless_present = "keyframes"
+    )]
     pub turntable: bool,
     /// Views saved by `render --save-view`, A.ron,B.ron,…: the camera moves on its orbit
     /// through them (azimuth, elevation, distance), window, transfer function, clip and level
@@ -172,7 +176,9 @@ fn read_keyframes(args: &MovieArgs) -> Result<Vec<(PathBuf, SavedView)>, String>
     if paths.len() < 2 {
         return Err(format!(
             "--keyframes needs two views or more (a movie from one view: --view {} --turntable)",
-            paths.first().map_or(String::new(), |p| p.display().to_string())
+            paths
+                .first()
+                .map_or(String::new(), |p| p.display().to_string())
         ));
     }
     let views = paths

@@ -19,7 +19,9 @@ pub enum MovieFormat {
     /// Numbered PNGs (`frame_00000.png`, …) in a folder.
     Folder,
     /// H.264 through this `ffmpeg`.
-    Mp4 { ffmpeg: PathBuf },
+    Mp4 {
+        ffmpeg: PathBuf,
+    },
 }
 
 impl MovieFormat {
@@ -133,10 +135,13 @@ pub fn frame_file_name(index: usize) -> String {
 
 /// `1 / fps` as a fraction of u16s (the APNG frame delay).
 fn frame_delay(fps: f64) -> (u16, u16) {
-    if (fps - fps.round()).abs() < 1e-9 && fps >= 1.0 && fps <= u16::MAX as f64 {
+    if (fps - fps.round()).abs() < 1e-9 && (1.0..=u16::MAX as f64).contains(&fps) {
         (1, fps.round() as u16)
     } else {
-        (((1000.0 / fps).round().clamp(1.0, u16::MAX as f64)) as u16, 1000)
+        (
+            ((1000.0 / fps).round().clamp(1.0, u16::MAX as f64)) as u16,
+            1000,
+        )
     }
 }
 
@@ -166,7 +171,8 @@ impl MovieWriter for GifWriter {
     }
 
     fn finish(self: Box<Self>) -> Result<(), String> {
-        let cannot = |e: &dyn std::fmt::Display| format!("cannot write {}: {e}", self.path.display());
+        let cannot =
+            |e: &dyn std::fmt::Display| format!("cannot write {}: {e}", self.path.display());
         let mut file = self.encoder.into_inner().map_err(|e| cannot(&e))?;
         file.flush().map_err(|e| cannot(&e))
     }
@@ -269,7 +275,8 @@ impl WebpWriter {
 
 impl MovieWriter for WebpWriter {
     fn add(&mut self, frame: &RgbaImage) -> Result<(), String> {
-        let cannot = |e: &dyn std::fmt::Display| format!("cannot write {}: {e}", self.path.display());
+        let cannot =
+            |e: &dyn std::fmt::Display| format!("cannot write {}: {e}", self.path.display());
         let mut still = Vec::new();
         image_webp::WebPEncoder::new(&mut still)
             .encode(
@@ -319,18 +326,39 @@ struct Mp4Writer {
 impl Mp4Writer {
     fn start(ffmpeg: &Path, output: &Path, size: (u32, u32), fps: f64) -> Result<Self, String> {
         let mut child = Command::new(ffmpeg)
-            .args(["-y", "-loglevel", "error", "-f", "rawvideo", "-pix_fmt", "rgba"])
+            .args([
+                "-y",
+                "-loglevel",
+                "error",
+                "-f",
+                "rawvideo",
+                "-pix_fmt",
+                "rgba",
+            ])
             .args(["-s", &format!("{}x{}", size.0, size.1)])
             .args(["-r", &format!("{fps}"), "-i", "-"])
             // H.264 in 4:2:0 (what players play) needs even sides.
             .args(["-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2"])
-            .args(["-c:v", "libx264", "-pix_fmt", "yuv420p", "-movflags", "+faststart"])
+            .args([
+                "-c:v",
+                "libx264",
+                "-pix_fmt",
+                "yuv420p",
+                "-movflags",
+                "+faststart",
+            ])
             .arg(output)
             .stdin(Stdio::piped())
             .stdout(Stdio::null())
             .stderr(Stdio::piped())
             .spawn()
-            .map_err(|e| format!("{}: cannot start {}: {e}", output.display(), ffmpeg.display()))?;
+            .map_err(|e| {
+                format!(
+                    "{}: cannot start {}: {e}",
+                    output.display(),
+                    ffmpeg.display()
+                )
+            })?;
         let input = child.stdin.take();
         Ok(Self {
             child,
@@ -340,10 +368,17 @@ impl Mp4Writer {
     }
 
     /// ffmpeg's own last line, after it ended.
-    fn failure(self: Box<Self>) -> String {
+    fn failure(self) -> String {
         let output = self.child.wait_with_output();
         let said = output
-            .map(|o| String::from_utf8_lossy(&o.stderr).trim().lines().last().unwrap_or("").to_owned())
+            .map(|o| {
+                String::from_utf8_lossy(&o.stderr)
+                    .trim()
+                    .lines()
+                    .last()
+                    .unwrap_or("")
+                    .to_owned()
+            })
             .unwrap_or_default();
         format!("{}: ffmpeg failed: {said}", self.path.display())
     }
@@ -352,16 +387,19 @@ impl Mp4Writer {
 impl MovieWriter for Mp4Writer {
     fn add(&mut self, frame: &RgbaImage) -> Result<(), String> {
         let input = self.input.as_mut().expect("the pipe lives until finish");
-        input
-            .write_all(frame.as_raw())
-            .map_err(|e| format!("{}: ffmpeg stopped reading frames: {e}", self.path.display()))
+        input.write_all(frame.as_raw()).map_err(|e| {
+            format!(
+                "{}: ffmpeg stopped reading frames: {e}",
+                self.path.display()
+            )
+        })
     }
 
     fn finish(mut self: Box<Self>) -> Result<(), String> {
         drop(self.input.take());
         match self.child.wait() {
             Ok(status) if status.success() => Ok(()),
-            _ => Err(self.failure()),
+            _ => Err((*self).failure()),
         }
     }
 }
@@ -375,7 +413,10 @@ mod tests {
         assert_eq!(MovieFormat::of(Path::new("a.gif")), Ok(MovieFormat::Gif));
         assert_eq!(MovieFormat::of(Path::new("a.WebP")), Ok(MovieFormat::Webp));
         assert_eq!(MovieFormat::of(Path::new("a.png")), Ok(MovieFormat::Apng));
-        assert_eq!(MovieFormat::of(Path::new("frames")), Ok(MovieFormat::Folder));
+        assert_eq!(
+            MovieFormat::of(Path::new("frames")),
+            Ok(MovieFormat::Folder)
+        );
         let error = MovieFormat::of(Path::new("a.avi")).expect_err("not a format");
         assert!(error.contains(".gif, .webp"), "{error}");
         assert_eq!(frame_delay(30.0), (1, 30));

@@ -80,9 +80,14 @@ pub fn run(args: &RenderArgs, given: &Given) -> Result<Rendered, String> {
         image.height()
     );
     match (&drawing.content, refinement) {
-        (Content::Streamed { depth }, Some(refinement)) => {
-            Ok(report_stream(&written, &drawing, *depth, &settings, &refinement, seconds))
-        }
+        (Content::Streamed { depth }, Some(refinement)) => Ok(report_stream(
+            &written,
+            &drawing,
+            *depth,
+            &settings,
+            &refinement,
+            seconds,
+        )),
         (Content::Composite { channels }, _) => {
             let colors: Vec<String> = channels
                 .iter()

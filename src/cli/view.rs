@@ -8,9 +8,7 @@ use clap::ArgMatches;
 use clap::parser::ValueSource;
 use voxscope_octree::TransferFunction;
 use voxscope_render::RendererKind;
-use voxscope_scene::{
-    SavedTransfer, SavedView, VIEW_VERSION, ViewChannel, ViewData, ViewStream,
-};
+use voxscope_scene::{SavedTransfer, SavedView, VIEW_VERSION, ViewChannel, ViewData, ViewStream};
 use voxscope_volume::{Endian, RawLayout};
 
 use super::args::{ChannelArg, RendererArg};

@@ -5,7 +5,8 @@
 //! makes the renderer ([`Scene`]); a store too large for memory opens streamed
 //! ([`StreamedVolume`], refined by [`refine`] where nothing drives frames). Long work runs as
 //! a [`Job`] with a [`Progress`] and ends in a typed [`SceneError`] when it does not succeed
-//! (cancellation is a variant, not a message).
+//! (cancellation is a variant, not a message). A view is saved and read again as a
+//! [`SavedView`]; a movie's frames are [`Shot`]s of a [`turntable`] or a [`keyframe_path`].
 //!
 //! The app's background jobs, the command line and the Python module all call this crate;
 //! nothing here knows of egui.

@@ -24,7 +24,8 @@ pub fn turntable(shot: &Shot, frames: usize) -> Vec<Shot> {
     (0..frames)
         .map(|frame| {
             let mut turned = *shot;
-            turned.camera.azimuth_deg = shot.camera.azimuth_deg + 360.0 * frame as f64 / frames as f64;
+            turned.camera.azimuth_deg =
+                shot.camera.azimuth_deg + 360.0 * frame as f64 / frames as f64;
             turned
         })
         .collect()
@@ -61,9 +62,7 @@ pub fn keyframe_path(keys: &[Shot], frames_per_segment: usize) -> Vec<Shot> {
                 shots.push(keys[segment]);
                 continue;
             }
-            let spline = |value: &dyn Fn(usize) -> f64| {
-                catmull_rom(index.map(value), t)
-            };
+            let spline = |value: &dyn Fn(usize) -> f64| catmull_rom(index.map(value), t);
             let camera = Camera {
                 azimuth_deg: spline(&|k| azimuths[k]),
                 elevation_deg: spline(&|k| keys[k].camera.elevation_deg),
@@ -266,7 +265,13 @@ mod tests {
         let modes: Vec<RenderMode> = shots.iter().map(|s| s.settings.mode).collect();
         assert_eq!(
             modes,
-            [RenderMode::Dvr, RenderMode::Dvr, RenderMode::Mip, RenderMode::Mip, RenderMode::Mip]
+            [
+                RenderMode::Dvr,
+                RenderMode::Dvr,
+                RenderMode::Mip,
+                RenderMode::Mip,
+                RenderMode::Mip
+            ]
         );
         assert_eq!(shots[1].transfer.colormap, Colormap::Grays);
         assert_eq!(shots[3].transfer.colormap, Colormap::Viridis);

@@ -128,7 +128,11 @@ impl ViewData {
             .iter()
             .chain(&self.channels_from)
             .map(String::as_str)
-            .find(|spec| !spec.contains("://") && !spec.starts_with("synthetic:") && !Path::new(spec).exists())
+            .find(|spec| {
+                !spec.contains("://")
+                    && !spec.starts_with("synthetic:")
+                    && !Path::new(spec).exists()
+            })
     }
 }
 
@@ -188,7 +192,9 @@ impl SavedView {
         .chain(&camera.pan)
         .all(|v| v.is_finite());
         if !finite || camera.distance <= 0.0 {
-            return Err("the camera has a value that is not a finite number (or a distance ≤ 0)".into());
+            return Err(
+                "the camera has a value that is not a finite number (or a distance ≤ 0)".into(),
+            );
         }
         let transfers = view
             .transfer
@@ -196,9 +202,11 @@ impl SavedView {
             .chain(view.channels.iter().map(|c| &c.transfer));
         for transfer in transfers {
             let window = transfer.window;
-            if !(window.low.is_finite() && window.high.is_finite() && window.high > window.low)
-                || !(0.0..=1.0).contains(&transfer.threshold)
-            {
+            let valid = window.low.is_finite()
+                && window.high.is_finite()
+                && window.high > window.low
+                && (0.0..=1.0).contains(&transfer.threshold);
+            if !valid {
                 return Err("a transfer function's window or threshold is out of range".into());
             }
         }
@@ -248,8 +256,8 @@ mod tests {
             }],
             ..SavedView::default()
         };
-        let text = ron::ser::to_string_pretty(&view, ron::ser::PrettyConfig::default())
-            .expect("encodes");
+        let text =
+            ron::ser::to_string_pretty(&view, ron::ser::PrettyConfig::default()).expect("encodes");
         assert_eq!(SavedView::parse(&text), Ok(view));
         // A file of an earlier version with only a camera.
         let old = SavedView::parse("(version: 1, camera: (azimuth_deg: 10.0, elevation_deg: 5.0, distance: 2.0, fov_y_deg: 30.0, pan: (0.0, 0.0, 0.0)))")
@@ -279,6 +287,9 @@ mod tests {
             ViewData::stored_source("https://me:secret@example.org/a.ome.zarr?token=x"),
             "https://example.org/a.ome.zarr"
         );
-        assert_eq!(ViewData::stored_source("../data/head.nii.gz"), "../data/head.nii.gz");
+        assert_eq!(
+            ViewData::stored_source("../data/head.nii.gz"),
+            "../data/head.nii.gz"
+        );
     }
 }
