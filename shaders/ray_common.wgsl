@@ -35,6 +35,9 @@ struct Params {
     // The pixels a frame draws: [xy, zw) of the image (a band of it where a slow device draws
     // a frame in parts; the whole image otherwise). Dispatches cover the tile alone.
     tile: vec4<u32>,
+    // Where the target texture lies in the image: xy its first pixel, z its width. The whole
+    // image at (0, 0); a tile of a still larger than the device's textures elsewhere.
+    placement: vec4<u32>,
 }
 
 // Pipeline variants (src/render/raycaster.rs builds each as its own pipeline, so that a
@@ -371,6 +374,7 @@ fn write_pixel(id: vec2<u32>, color: vec3<f32>, work: u32) {
     if (params.flags & FLAG_HEATMAP) != 0u {
         rgb = heat(clamp(log2(1.0 + f32(work)) / 10.0, 0.0, 1.0));
     }
-    textureStore(output, vec2<i32>(id), vec4<f32>(rgb, 1.0));
-    visits[id.y * params.image_size.x + id.x] = work;
+    let texel = id - params.placement.xy;
+    textureStore(output, vec2<i32>(texel), vec4<f32>(rgb, 1.0));
+    visits[texel.y * params.placement.z + texel.x] = work;
 }

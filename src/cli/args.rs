@@ -104,7 +104,8 @@ pub enum ChannelArg {
 }
 
 impl ChannelArg {
-    fn parse(text: &str) -> Result<Self, String> {
+    /// `N` or `all`.
+    pub(super) fn parse(text: &str) -> Result<Self, String> {
         if text.eq_ignore_ascii_case("all") {
             return Ok(Self::All);
         }
@@ -205,6 +206,9 @@ pub struct TransferArgs {
     /// Shading: the highlight's exponent, 1…128 (default 10; larger is sharper).
     #[arg(long, value_parser = parse_shininess)]
     pub shininess: Option<f32>,
+    /// The transfer function of a saved view (`--view`), taken like a --tf file's.
+    #[arg(skip)]
+    pub view_transfer: Option<SavedTransfer>,
 }
 
 /// Clipping: a crop box and one clip plane, in normalized volume coordinates (0…1 along each
@@ -278,9 +282,12 @@ impl TransferArgs {
             .expect("the defaults of TransferArgs parse")
     }
 
-    /// The saved transfer function of --tf, if given.
+    /// The saved transfer function of --tf, if given, else a `--view`'s.
     pub fn saved(&self) -> Result<Option<SavedTransfer>, String> {
-        self.tf.as_deref().map(SavedTransfer::read).transpose()
+        match self.tf.as_deref() {
+            Some(path) => SavedTransfer::read(path).map(Some),
+            None => Ok(self.view_transfer),
+        }
     }
 
     /// What these options ask of the transfer function ([`voxscope_scene::opening_transfer`]

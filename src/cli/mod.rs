@@ -1,13 +1,16 @@
-//! The command line: `voxscope [FILE]` opens the app; `voxscope info`, `render`, `bench`,
-//! `ceilings`, `probe`, `slice` and `convert` work without a window.
+//! The command line: `voxscope [FILE]` opens the app; `voxscope info`, `render`, `movie`,
+//! `bench`, `ceilings`, `probe`, `slice` and `convert` work without a window.
 
 mod args;
 mod bench;
 mod ceilings;
 mod composite;
 mod convert;
+mod drawing;
 mod info;
 mod memory;
+mod movie;
+mod movie_writer;
 mod prepare;
 mod probe;
 mod render;
@@ -15,8 +18,9 @@ mod render_options;
 mod slice;
 mod stream;
 mod stream_bench;
+mod view;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
 pub use args::{ChannelArg, ClipArgs, RendererArg, TransferArgs, VolumeArgs};
 pub use composite::ChannelArgs;
@@ -45,6 +49,8 @@ pub enum Command {
     Info(Box<info::InfoArgs>),
     /// Render the volume to a PNG without a window.
     Render(Box<render::RenderArgs>),
+    /// Write a movie: a turntable or a path through saved views, as GIF, WebP, APNG, MP4 or PNGs.
+    Movie(Box<movie::MovieArgs>),
     /// Measure GPU time per frame (near, medium, far; gray, binary, MIP), build and recolor.
     Bench(bench::BenchArgs),
     /// Measure the GPU's own ceilings: memory bandwidth, filtered samples, fetch latencies, FMA.
@@ -83,11 +89,15 @@ where
     I: IntoIterator<Item = T>,
     T: Into<std::ffi::OsString> + Clone,
 {
-    let cli = Cli::parse_from(args);
+    let matches = Cli::command().get_matches_from(args);
+    let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|error| error.exit());
+    // The options given on the command line (beside a --view, they win over it).
+    let given = |name: &str| view::Given::of(matches.subcommand_matches(name));
     let ran = match cli.command {
         Some(Command::Info(args)) => info::run(&args),
+        Some(Command::Movie(args)) => movie::run(&args, &given("movie")),
         Some(Command::Render(args)) => {
-            return render::run(&args).map(|rendered| match rendered {
+            return render::run(&args, &given("render")).map(|rendered| match rendered {
                 render::Rendered::Complete => 0,
                 render::Rendered::Incomplete => EXIT_INCOMPLETE,
             });

@@ -1,21 +1,15 @@
 //! `voxscope render`: one image, no window.
 
 use std::path::{Path, PathBuf};
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use clap::Args;
 
-use super::args::RendererArg;
-use super::composite::PreparedChannel;
-use super::prepare::default_renderer;
-use super::stream::open_streamed;
-use super::{Prepared, RenderOptions, VolumeArgs};
-use voxscope_octree::MAX_DEPTH;
-use voxscope_render::{
-    ChannelLayer, GpuContext, RenderTarget, RendererOptions, VolumeRenderer, read_image,
-};
-use voxscope_scene::{SavedTransfer, StreamedVolume, beyond_octree, describe_missing, refine};
-use voxscope_volume::{Volume, format_dims};
+use super::drawing::{Content, Drawing};
+use super::view::{self, Given};
+use super::{RenderOptions, VolumeArgs};
+use voxscope_render::{RenderTarget, read_image};
+use voxscope_scene::{Refinement, SavedView, describe_missing};
 
 #[derive(Debug, Args)]
 pub struct RenderArgs {
@@ -26,6 +20,16 @@ pub struct RenderArgs {
     /// Output PNG.
     #[arg(short, long, value_name = "FILE.png")]
     pub output: PathBuf,
+    /// A view saved by --save-view: its data, camera, transfer function and every rendering
+    /// choice; options given beside it win over its own.
+    #[arg(long, value_name = "V.ron")]
+    pub view: Option<PathBuf>,
+    /// Also write the view of this render (RON): `render --view` draws it again.
+    #[arg(long, value_name = "V.ron")]
+    pub save_view: Option<PathBuf>,
+    /// Draw in square tiles of this side even where the image fits the device (tests).
+    #[arg(long, hide = true, value_name = "PIXELS", value_parser = clap::value_parser!(u32).range(16..=16384))]
+    pub tile_size: Option<u32>,
 }
 
 /// How a render that wrote its image ended.
@@ -38,171 +42,99 @@ pub enum Rendered {
     Incomplete,
 }
 
-pub fn run(args: &RenderArgs) -> Result<Rendered, String> {
-    check_output(&args.output, args.volume.file.as_deref())?;
-    let options = &args.options;
+pub fn run(args: &RenderArgs, given: &Given) -> Result<Rendered, String> {
+    let (volume, options) = resolved(args, given)?;
+    check_output(&args.output, volume.file.as_deref())?;
     options.check()?;
-    if options.renderer == Some(RendererArg::Stream) {
-        let (streamed, saved) = open_streamed(&args.volume, &options.transfer)?;
-        return run_stream(args, streamed, saved, Instant::now());
-    }
     let started = Instant::now();
-    let volume = match args.volume.composite_channels()? {
-        Some(channels) if channels.len() > 1 => {
-            return run_composite(args, channels).map(|()| Rendered::Complete);
+    let mut drawing = Drawing::open(&volume, &options)?;
+    let camera = options.camera();
+    let settings = drawing.settings;
+    let (image, refinement) = match drawing.tile_side(options.size, args.tile_size) {
+        Some(side) => {
+            let image = drawing.draw_tiled(options.size, side, &camera, &settings)?;
+            eprintln!(
+                "drawn in tiles of {side}x{side} pixels ({}x{} is beyond one target of this device)",
+                options.size.0, options.size.1
+            );
+            (image, None)
         }
-        Some(mut channels) => channels.pop().ok_or("no channel was read")?,
-        None => args.volume.load()?,
+        None => {
+            let target = RenderTarget::new(&drawing.context, options.size.0, options.size.1);
+            let refinement = drawing.draw(&target, &camera, &settings)?;
+            let image = read_image(&drawing.context, &target).map_err(|e| e.to_string())?;
+            (image, refinement)
+        }
     };
-    // Longer than the voxel octree holds: bricks are streamed from memory.
-    if beyond_octree(volume.dims) && matches!(options.renderer, None | Some(RendererArg::Bricks)) {
-        eprintln!(
-            "{}: {} voxels are beyond the voxel octree's {} a side: drawn by the streaming renderer, from memory",
-            volume.name,
-            format_dims(volume.dims),
-            1u32 << MAX_DEPTH
-        );
-        let saved = options.transfer.saved()?;
-        let streamed =
-            StreamedVolume::from_volume(volume, &options.transfer.request(saved.as_ref()), started)
-                .map_err(|e| e.to_string())?;
-        return run_stream(args, streamed, saved, started);
-    }
-    let prepared = Prepared::from_volume(volume, &options.transfer)?;
-    let mut settings = options
-        .transfer
-        .render_settings(prepared.data.octree.depth, prepared.saved.as_ref());
-    settings.clip = options.clip.clip();
-    let context = GpuContext::new_headless().map_err(|e| e.to_string())?;
-    let kind = match options.renderer {
-        Some(renderer) => renderer.into(),
-        None => default_renderer(
-            &context,
-            &prepared.data.octree,
-            settings.max_level,
-            "rendering",
-        ),
-    };
-    let renderer = VolumeRenderer::new(
-        &context,
-        RendererOptions {
-            kind,
-            brick_size: options.brick_size,
-            ..Default::default()
-        },
-        &prepared.data.octree,
-        &prepared.data.quantized,
-        prepared.data.volume.spacing,
-        settings.max_level,
-        &prepared.transfer,
-    )
-    .map_err(|e| format!("{}: {e}", prepared.data.volume.name))?;
-    let target = RenderTarget::new(&context, options.size.0, options.size.1);
-    let camera = options.camera();
-    renderer.render(&context, &target, &camera, &settings);
-    let image = read_image(&context, &target).map_err(|e| e.to_string())?;
     image
         .save(&args.output)
         .map_err(|e| format!("cannot write {}: {e}", args.output.display()))?;
-    eprintln!(
-        "wrote {} ({}x{}, {} renderer, level {}/{}) on {} in {:.2} s",
+    if let Some(path) = &args.save_view {
+        view::view_of(&volume, &options, &drawing).write(path)?;
+    }
+    let seconds = started.elapsed().as_secs_f64();
+    let written = format!(
+        "wrote {} ({}x{}",
         args.output.display(),
-        target.width,
-        target.height,
-        renderer.kind().name(),
-        settings.max_level,
-        prepared.data.octree.depth,
-        context.describe(),
-        started.elapsed().as_secs_f64()
+        image.width(),
+        image.height()
     );
-    Ok(Rendered::Complete)
+    match (&drawing.content, refinement) {
+        (Content::Streamed { depth }, Some(refinement)) => Ok(report_stream(
+            &written,
+            &drawing,
+            *depth,
+            &settings,
+            &refinement,
+            seconds,
+        )),
+        (Content::Composite { channels }, _) => {
+            let colors: Vec<String> = channels
+                .iter()
+                .map(|c| c.color)
+                .map(|c| format!("#{:02x}{:02x}{:02x}", c[0], c[1], c[2]))
+                .collect();
+            eprintln!(
+                "{written}, composite of {} channels ({}), dense renderer) on {} in {seconds:.2} s",
+                channels.len(),
+                colors.join(", "),
+                drawing.context.describe(),
+            );
+            Ok(Rendered::Complete)
+        }
+        (Content::Volume { depth } | Content::Streamed { depth }, _) => {
+            eprintln!(
+                "{written}, {} renderer, level {}/{depth}) on {} in {seconds:.2} s",
+                drawing.renderer.kind().name(),
+                settings.max_level,
+                drawing.context.describe(),
+            );
+            Ok(Rendered::Complete)
+        }
+    }
 }
 
-/// `render` of several channels: the dense renderer's composite.
-fn run_composite(args: &RenderArgs, channels: Vec<Volume>) -> Result<(), String> {
-    let started = Instant::now();
-    let options = &args.options;
-    if let Some(renderer) = options.renderer
-        && renderer != RendererArg::Dense
-    {
-        return Err(format!(
-            "the composite of {} channels is drawn by the dense renderer; --renderer {} draws one channel (--channel N)",
-            channels.len(),
-            voxscope_render::RendererKind::from(renderer).name()
-        ));
+/// The volume and options of `args` under its `--view` (the options `given` on the command
+/// line win over the view's).
+fn resolved(args: &RenderArgs, given: &Given) -> Result<(VolumeArgs, RenderOptions), String> {
+    let (mut volume, mut options) = (args.volume.clone(), args.options.clone());
+    if let Some(path) = &args.view {
+        let saved = SavedView::read(path)?;
+        view::apply(&saved, path, &mut volume, &mut options, given)?;
     }
-    let prepared = options.channels.prepare(channels, &options.transfer)?;
-    let saved = options.transfer.saved()?;
-    let mut settings = options.transfer.render_settings(0, saved.as_ref());
-    settings.clip = options.clip.clip();
-    let context = GpuContext::new_headless().map_err(|e| e.to_string())?;
-    let layers: Vec<ChannelLayer<'_>> = prepared.iter().map(PreparedChannel::layer).collect();
-    let name = &prepared[0].volume.name;
-    let renderer = VolumeRenderer::new_composite(&context, &layers, prepared[0].volume.spacing)
-        .map_err(|e| format!("{name}: {e}"))?;
-    let target = RenderTarget::new(&context, options.size.0, options.size.1);
-    let camera = options.camera();
-    renderer.render(&context, &target, &camera, &settings);
-    let image = read_image(&context, &target).map_err(|e| e.to_string())?;
-    image
-        .save(&args.output)
-        .map_err(|e| format!("cannot write {}: {e}", args.output.display()))?;
-    let colors: Vec<String> = prepared
-        .iter()
-        .map(|c| c.state.color)
-        .map(|c| format!("#{:02x}{:02x}{:02x}", c[0], c[1], c[2]))
-        .collect();
-    eprintln!(
-        "wrote {} ({}x{}, composite of {} channels ({}), dense renderer) on {} in {:.2} s",
-        args.output.display(),
-        target.width,
-        target.height,
-        prepared.len(),
-        colors.join(", "),
-        context.describe(),
-        started.elapsed().as_secs_f64()
-    );
-    Ok(())
+    Ok((volume, options))
 }
 
-/// `render --renderer stream` (and `bricks` beyond the octree): draws `prepared`'s pyramid,
-/// opened since `started`, until nothing visible is missing (or `--max-wait`), writes the
-/// image. `saved` is the --tf file.
-fn run_stream(
-    args: &RenderArgs,
-    prepared: StreamedVolume,
-    saved: Option<SavedTransfer>,
-    started: Instant,
-) -> Result<Rendered, String> {
-    let name = prepared.source.name().to_owned();
-    let options = &args.options;
-    let mut settings = options
-        .transfer
-        .render_settings(prepared.depth(), saved.as_ref());
-    settings.clip = options.clip.clip();
-    let context = GpuContext::new_headless().map_err(|e| e.to_string())?;
-    let mut renderer = VolumeRenderer::new_stream(
-        &context,
-        prepared.source.clone(),
-        prepared.stream_options(options.stream.options()),
-        &prepared.transfer,
-    )
-    .map_err(|e| format!("{name}: {e}"))?;
-    let target = RenderTarget::new(&context, options.size.0, options.size.1);
-    let camera = options.camera();
-    let refinement = refine(
-        &context,
-        &mut renderer,
-        &target,
-        &camera,
-        &settings,
-        Duration::from_secs_f64(options.max_wait),
-    )
-    .map_err(|e| e.to_string())?;
-    let image = read_image(&context, &target).map_err(|e| e.to_string())?;
-    image
-        .save(&args.output)
-        .map_err(|e| format!("cannot write {}: {e}", args.output.display()))?;
+/// What a streamed render says on stderr (each brick that could not be read, then the
+/// summary) and how it ended.
+fn report_stream(
+    written: &str,
+    drawing: &Drawing,
+    depth: u32,
+    settings: &voxscope_render::RenderSettings,
+    refinement: &Refinement,
+    seconds: f64,
+) -> Rendered {
     // Each brick that could not be read once (or, when many, one line per cause).
     for line in refinement.failure_lines() {
         eprintln!("{line}");
@@ -245,20 +177,15 @@ fn run_stream(
         .map(|r| format!(", peak memory {:.0} MiB", super::memory::mib(r.peak)))
         .unwrap_or_default();
     eprintln!(
-        "wrote {} ({}x{}, stream renderer, level {}/{}) on {} in {:.2} s: {} bricks read ({:.1} MiB), {} of {} atlas slots used{peak}; {state}{ending}",
-        args.output.display(),
-        target.width,
-        target.height,
+        "{written}, stream renderer, level {}/{depth}) on {} in {seconds:.2} s: {} bricks read ({:.1} MiB), {} of {} atlas slots used{peak}; {state}{ending}",
         settings.max_level,
-        prepared.depth(),
-        context.describe(),
-        started.elapsed().as_secs_f64(),
+        drawing.context.describe(),
         counters.loads,
         counters.bytes_read as f64 / (1 << 20) as f64,
         counters.slots_used,
         counters.slots,
     );
-    Ok(rendered)
+    rendered
 }
 
 /// The output must be a .png and never the input volume itself.

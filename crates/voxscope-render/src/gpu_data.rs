@@ -53,9 +53,13 @@ pub(crate) struct RaycastParams {
     /// The pixels the frame draws, `[x0, y0, x1, y1)`: the whole image, or a band of it where
     /// a slow device draws a frame in parts ([`crate::ImageRegion`]).
     pub tile: [u32; 4],
+    /// Where the target lies in the image: xy its first pixel, z its width (w unused). The
+    /// whole image at `[0, 0, width]`; a tile of a still larger than the device's textures
+    /// elsewhere ([`crate::RenderTarget::tile`]), its rays those of the whole image's pixels.
+    pub placement: [u32; 4],
 }
 
-const _: () = assert!(std::mem::size_of::<RaycastParams>() == 288);
+const _: () = assert!(std::mem::size_of::<RaycastParams>() == 304);
 
 /// What a probe pipeline writes for its one pixel (`GpuProbe`). Keep in sync with
 /// `struct ProbeResult` in `ray_common.wgsl`.
@@ -289,6 +293,7 @@ mod tests {
             sample_voxels,
             _sample_pad,
             tile,
+            placement,
         })
     }
 

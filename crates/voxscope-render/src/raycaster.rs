@@ -20,6 +20,10 @@ pub struct RenderTarget {
     pub visits: wgpu::Buffer,
     pub width: u32,
     pub height: u32,
+    /// Where it lies in the image it is part of: its first pixel (`[0, 0]` but for a tile).
+    pub origin: [u32; 2],
+    /// The whole image's size (its own but for a tile).
+    pub image: [u32; 2],
 }
 
 impl RenderTarget {
@@ -58,6 +62,20 @@ impl RenderTarget {
             visits,
             width,
             height,
+            origin: [0, 0],
+            image: [width, height],
+        }
+    }
+
+    /// A target of `size` pixels that holds the part at `origin` of an image of `image`
+    /// pixels: its rays are those of the whole image's pixels, so tiles drawn one by one make
+    /// the image a target of the whole size would (a still larger than the device's largest
+    /// texture or storage buffer).
+    pub fn tile(context: &GpuContext, size: [u32; 2], origin: [u32; 2], image: [u32; 2]) -> Self {
+        Self {
+            origin,
+            image,
+            ..Self::new(context, size[0], size[1])
         }
     }
 
@@ -477,8 +495,11 @@ pub(crate) fn encode_frame_region<V: VolumeShape, P: RayPass<V>>(
         camera,
         settings,
     } = *frame;
-    let mut params = raycast_params(volume, [target.width, target.height], camera, settings);
-    params.tile = region.bounds();
+    let mut params = raycast_params(volume, target.image, camera, settings);
+    let [x0, y0, x1, y1] = region.bounds();
+    let [ox, oy] = target.origin;
+    params.tile = [x0 + ox, y0 + oy, x1 + ox, y1 + oy];
+    params.placement = [ox, oy, target.width, 0];
     pass.before_frame(volume, &params);
     let bind_group = pass.bind_group(
         context,
@@ -673,5 +694,6 @@ pub(crate) fn raycast_params(
         sample_voxels,
         _sample_pad: 0,
         tile: [0, 0, width, height],
+        placement: [0, 0, width, 0],
     }
 }

@@ -5,7 +5,8 @@
 //! makes the renderer ([`Scene`]); a store too large for memory opens streamed
 //! ([`StreamedVolume`], refined by [`refine`] where nothing drives frames). Long work runs as
 //! a [`Job`] with a [`Progress`] and ends in a typed [`SceneError`] when it does not succeed
-//! (cancellation is a variant, not a message).
+//! (cancellation is a variant, not a message). A view is saved and read again as a
+//! [`SavedView`]; a movie's frames are [`Shot`]s of a [`turntable`] or a [`keyframe_path`].
 //!
 //! The app's background jobs, the command line and the Python module all call this crate;
 //! nothing here knows of egui.
@@ -14,6 +15,7 @@ mod channels;
 mod data;
 mod error;
 mod job;
+mod movie_path;
 mod opening;
 mod prefetch;
 mod prepare;
@@ -21,11 +23,13 @@ mod saved_transfer;
 mod scene;
 mod source;
 mod streaming;
+mod view;
 
 pub use channels::{ChannelRequest, ChannelState, CompositeScene};
 pub use data::{HISTOGRAM_BINS, VolumeData};
 pub use error::SceneError;
 pub use job::Job;
+pub use movie_path::{Shot, keyframe_path, turntable};
 pub use opening::{
     TransferChoice, TransferRequest, beyond_octree, default_window, file_window, opening_transfer,
     renderer_for_octree,
@@ -41,4 +45,5 @@ pub use source::VolumeSource;
 pub use streaming::{
     PREVIEW_BRICKS, REMOTE_WORKERS, Refinement, StreamedVolume, describe_missing, refine,
 };
+pub use view::{SavedView, VIEW_VERSION, ViewChannel, ViewData, ViewRuler, ViewStream};
 pub use voxscope_volume::progress::{Cancelled, Progress};

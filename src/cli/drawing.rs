@@ -1,0 +1,300 @@
+//! What `render` and `movie` draw: the volume the options name, uploaded once for its renderer
+//! (one volume, the composite of its channels, or a streamed pyramid), and a frame of it for
+//! any camera, settings and transfer function, complete before it is read back (a streamed
+//! view is refined until nothing visible is missing, or `--max-wait`).
+
+use std::time::{Duration, Instant};
+
+use image::{GenericImage, RgbaImage};
+use voxscope_octree::{MAX_DEPTH, TransferFunction};
+use voxscope_render::{
+    Camera, ChannelLayer, GpuContext, RenderSettings, RenderTarget, RendererKind, RendererOptions,
+    VolumeRenderer, read_image,
+};
+use voxscope_scene::{ChannelState, Refinement, StreamedVolume, beyond_octree, refine};
+use voxscope_volume::{Volume, format_dims};
+
+use super::args::RendererArg;
+use super::prepare::default_renderer;
+use super::stream::open_streamed;
+use super::{Prepared, RenderOptions, VolumeArgs};
+
+/// One volume on the GPU, ready to draw frames of.
+pub struct Drawing {
+    pub context: GpuContext,
+    pub renderer: VolumeRenderer,
+    /// The settings the options ask for (the first frame's).
+    pub settings: RenderSettings,
+    /// The transfer function the renderer holds now.
+    pub transfer: TransferFunction,
+    pub content: Content,
+    /// The volume's name, for messages.
+    pub name: String,
+    max_wait: Duration,
+}
+
+/// What a [`Drawing`] holds.
+pub enum Content {
+    /// One volume in memory, its octree `depth` deep.
+    Volume { depth: u32 },
+    /// The composite of these channels (the dense renderer).
+    Composite { channels: Vec<ChannelState> },
+    /// A pyramid streamed through the GPU budget, `depth` levels deep.
+    Streamed { depth: u32 },
+}
+
+impl Drawing {
+    /// Reads, prepares and uploads what `volume` and `options` name, as `render` draws it:
+    /// `--renderer stream`, the composite of several channels, a volume beyond the octree
+    /// streamed from memory, or one volume for its renderer.
+    pub fn open(volume: &VolumeArgs, options: &RenderOptions) -> Result<Self, String> {
+        let max_wait = Duration::from_secs_f64(options.max_wait);
+        if options.renderer == Some(RendererArg::Stream) {
+            let (streamed, saved) = open_streamed(volume, &options.transfer)?;
+            return Self::streamed(streamed, saved.as_ref(), options, max_wait);
+        }
+        let loaded = match volume.composite_channels()? {
+            Some(channels) if channels.len() > 1 => {
+                return Self::composite(channels, options, max_wait);
+            }
+            Some(mut channels) => channels.pop().ok_or("no channel was read")?,
+            None => volume.load()?,
+        };
+        // Longer than the voxel octree holds: bricks are streamed from memory.
+        if beyond_octree(loaded.dims)
+            && matches!(options.renderer, None | Some(RendererArg::Bricks))
+        {
+            eprintln!(
+                "{}: {} voxels are beyond the voxel octree's {} a side: drawn by the streaming renderer, from memory",
+                loaded.name,
+                format_dims(loaded.dims),
+                1u32 << MAX_DEPTH
+            );
+            let saved = options.transfer.saved()?;
+            let streamed = StreamedVolume::from_volume(
+                loaded,
+                &options.transfer.request(saved.as_ref()),
+                Instant::now(),
+            )
+            .map_err(|e| e.to_string())?;
+            return Self::streamed(streamed, saved.as_ref(), options, max_wait);
+        }
+        let prepared = Prepared::from_volume(loaded, &options.transfer)?;
+        let depth = prepared.data.octree.depth;
+        let mut settings = options
+            .transfer
+            .render_settings(depth, prepared.saved.as_ref());
+        settings.clip = options.clip.clip();
+        let context = GpuContext::new_headless().map_err(|e| e.to_string())?;
+        let kind = match options.renderer {
+            Some(renderer) => renderer.into(),
+            None => default_renderer(
+                &context,
+                &prepared.data.octree,
+                settings.max_level,
+                "rendering",
+            ),
+        };
+        let name = prepared.data.volume.name.clone();
+        let renderer = VolumeRenderer::new(
+            &context,
+            RendererOptions {
+                kind,
+                brick_size: options.brick_size,
+                ..Default::default()
+            },
+            &prepared.data.octree,
+            &prepared.data.quantized,
+            prepared.data.volume.spacing,
+            settings.max_level,
+            &prepared.transfer,
+        )
+        .map_err(|e| format!("{name}: {e}"))?;
+        Ok(Self {
+            context,
+            renderer,
+            settings,
+            transfer: prepared.transfer,
+            content: Content::Volume { depth },
+            name,
+            max_wait,
+        })
+    }
+
+    fn composite(
+        channels: Vec<Volume>,
+        options: &RenderOptions,
+        max_wait: Duration,
+    ) -> Result<Self, String> {
+        if let Some(renderer) = options.renderer
+            && renderer != RendererArg::Dense
+        {
+            return Err(format!(
+                "the composite of {} channels is drawn by the dense renderer; --renderer {} draws one channel (--channel N)",
+                channels.len(),
+                RendererKind::from(renderer).name()
+            ));
+        }
+        let prepared = options.channels.prepare(channels, &options.transfer)?;
+        let saved = options.transfer.saved()?;
+        let mut settings = options.transfer.render_settings(0, saved.as_ref());
+        settings.clip = options.clip.clip();
+        let context = GpuContext::new_headless().map_err(|e| e.to_string())?;
+        let layers: Vec<ChannelLayer<'_>> = prepared.iter().map(|c| c.layer()).collect();
+        let name = prepared[0].volume.name.clone();
+        let renderer = VolumeRenderer::new_composite(&context, &layers, prepared[0].volume.spacing)
+            .map_err(|e| format!("{name}: {e}"))?;
+        Ok(Self {
+            context,
+            renderer,
+            settings,
+            transfer: prepared[0].state.transfer,
+            content: Content::Composite {
+                channels: prepared.into_iter().map(|c| c.state).collect(),
+            },
+            name,
+            max_wait,
+        })
+    }
+
+    fn streamed(
+        prepared: StreamedVolume,
+        saved: Option<&voxscope_scene::SavedTransfer>,
+        options: &RenderOptions,
+        max_wait: Duration,
+    ) -> Result<Self, String> {
+        let name = prepared.source.name().to_owned();
+        let depth = prepared.depth();
+        let mut settings = options.transfer.render_settings(depth, saved);
+        settings.clip = options.clip.clip();
+        let context = GpuContext::new_headless().map_err(|e| e.to_string())?;
+        let renderer = VolumeRenderer::new_stream(
+            &context,
+            prepared.source.clone(),
+            prepared.stream_options(options.stream.options()),
+            &prepared.transfer,
+        )
+        .map_err(|e| format!("{name}: {e}"))?;
+        Ok(Self {
+            context,
+            renderer,
+            settings,
+            transfer: prepared.transfer,
+            content: Content::Streamed { depth },
+            name,
+            max_wait,
+        })
+    }
+
+    /// The octree's (or pyramid's) depth; 0 for the composite.
+    pub fn depth(&self) -> u32 {
+        match self.content {
+            Content::Volume { depth } | Content::Streamed { depth } => depth,
+            Content::Composite { .. } => 0,
+        }
+    }
+
+    /// Draws one frame into `target` and waits for it: for a streamed pyramid, frame after
+    /// frame until nothing visible is missing (or `--max-wait`), whose refinement it returns.
+    pub fn draw(
+        &mut self,
+        target: &RenderTarget,
+        camera: &Camera,
+        settings: &RenderSettings,
+    ) -> Result<Option<Refinement>, String> {
+        if let Content::Streamed { .. } = self.content {
+            return refine(
+                &self.context,
+                &mut self.renderer,
+                target,
+                camera,
+                settings,
+                self.max_wait,
+            )
+            .map(Some)
+            .map_err(|e| e.to_string());
+        }
+        self.renderer
+            .render(&self.context, target, camera, settings);
+        self.context.wait_idle().map_err(|e| e.to_string())?;
+        Ok(None)
+    }
+
+    /// The side of the square tiles this device draws an image of `size` in, where the image
+    /// exceeds what one target may be (its largest 2D texture, storage buffer or buffer), or
+    /// `asked` (`--tile-size`); `None` where it is drawn whole.
+    pub fn tile_side(&self, size: (u32, u32), asked: Option<u32>) -> Option<u32> {
+        if asked.is_some() {
+            return asked;
+        }
+        let limits = &self.context.limits;
+        let fits = |width: u32, height: u32| {
+            let row_bytes = (width as u64 * 4).div_ceil(256) * 256;
+            width <= limits.max_texture_dimension_2d
+                && height <= limits.max_texture_dimension_2d
+                && width as u64 * height as u64 * 4 <= self.context.max_storage_bytes()
+                && row_bytes * height as u64 <= limits.max_buffer_size
+        };
+        if fits(size.0, size.1) {
+            return None;
+        }
+        let mut side = (limits.max_texture_dimension_2d.min(4096) / 16 * 16).max(16);
+        while side > 16 && !fits(side, side) {
+            side /= 2;
+        }
+        Some(side)
+    }
+
+    /// Draws an image of `size` in tiles of `side` pixels (see [`RenderTarget::tile`]), each
+    /// drawn, waited for and read back before the next: the image one target of the whole
+    /// size would hold. The streaming renderer draws whole frames only (its rays' requests
+    /// are a frame's) and is refused.
+    pub fn draw_tiled(
+        &mut self,
+        size: (u32, u32),
+        side: u32,
+        camera: &Camera,
+        settings: &RenderSettings,
+    ) -> Result<RgbaImage, String> {
+        if let Content::Streamed { .. } = self.content {
+            return Err(format!(
+                "{}: {}x{} is beyond what this device draws at once ({} pixels a side) and the streaming renderer does not draw in tiles; choose a smaller --size or another --renderer",
+                self.name, size.0, size.1, self.context.limits.max_texture_dimension_2d
+            ));
+        }
+        let (width, height) = size;
+        let side = side.max(1);
+        let mut image = RgbaImage::new(width, height);
+        for y in (0..height).step_by(side as usize) {
+            for x in (0..width).step_by(side as usize) {
+                let part_size = [side.min(width - x), side.min(height - y)];
+                let target = RenderTarget::tile(&self.context, part_size, [x, y], [width, height]);
+                self.draw(&target, camera, settings)?;
+                let part = read_image(&self.context, &target).map_err(|e| e.to_string())?;
+                image
+                    .copy_from(&part, x, y)
+                    .map_err(|e| format!("{}: a tile does not fit: {e}", self.name))?;
+            }
+        }
+        Ok(image)
+    }
+
+    /// Gives the renderer another transfer function (the composite keeps its channels' own).
+    pub fn set_transfer(&mut self, transfer: &TransferFunction) -> Result<(), String> {
+        if *transfer == self.transfer || matches!(self.content, Content::Composite { .. }) {
+            return Ok(());
+        }
+        let mut encoder =
+            self.context
+                .device
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                    label: Some("voxscope::movie_transfer"),
+                });
+        self.renderer
+            .set_transfer(&self.context, &mut encoder, transfer, None)
+            .map_err(|e| format!("{}: {e}", self.name))?;
+        self.context.queue.submit([encoder.finish()]);
+        self.transfer = *transfer;
+        Ok(())
+    }
+}
