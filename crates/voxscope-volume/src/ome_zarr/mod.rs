@@ -2,7 +2,8 @@
 //! read region by region, never a whole level at once, and a [`Volume`] of the finest level
 //! that fits [`VOLUME_VOXEL_BUDGET`] for the in-memory renderers.
 //!
-//! Chunks are read and decoded by zarrs (blosc, zstd, gzip, uncompressed; `.` or `/` chunk
+//! Chunks are read and decoded by zarrs (blosc, zstd, gzip, zlib, bz2, uncompressed, and
+//! numcodecs' lz4 and lzma through [`numcodecs`]'s plugins; `.` or `/` chunk
 //! keys; sharding) from any zarrs `ReadableStorageTraits` store: a folder, or a URL
 //! (`http://`, `https://`, `s3://`: [`super::remote`]). What a file declares is checked before anything of that size exists:
 //! the region a caller asks for bounds the output, a chunk holds at most [`MAX_CHUNK_BYTES`]
@@ -16,6 +17,7 @@
 mod guard;
 mod levels;
 mod metadata;
+mod numcodecs;
 mod open;
 mod read;
 mod source;
