@@ -301,6 +301,7 @@ impl TransferArgs {
             threshold: Some(self.threshold),
             colormap: self.colormap,
             window: self.window,
+            mip: self.mode == Some(ModeArg::Mip),
         }
     }
 

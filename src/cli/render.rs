@@ -5,7 +5,7 @@ use std::time::{Duration, Instant};
 
 use clap::Args;
 
-use super::args::RendererArg;
+use super::args::{ChannelArg, RendererArg};
 use super::composite::PreparedChannel;
 use super::prepare::default_renderer;
 use super::stream::open_streamed;
@@ -53,6 +53,32 @@ pub fn run(args: &RenderArgs) -> Result<Rendered, String> {
         }
         Some(mut channels) => channels.pop().ok_or("no channel was read")?,
         None => args.volume.load()?,
+    };
+    // `--channel N` of a file of several channels: drawn as the composite draws it, in the
+    // channel's color and window, where the options or the file give it a color and the
+    // dense renderer can draw it; else in the channel's window, by the renderer asked for.
+    let mut transfer_args = options.transfer.clone();
+    if let Some(ChannelArg::Index(index)) = args.volume.channel {
+        if options.channels.colors_channel(&volume, index)? {
+            if matches!(options.renderer, None | Some(RendererArg::Dense))
+                && !beyond_octree(volume.dims)
+            {
+                let channel = options
+                    .channels
+                    .prepare_one(volume, index, &options.transfer)?;
+                return draw_composite(args, vec![channel], started).map(|()| Rendered::Complete);
+            }
+            eprintln!(
+                "channel {index} is drawn in grays: its color needs the dense renderer (--renderer dense)"
+            );
+        }
+        if let Some(window) = options.channels.window_of(index) {
+            transfer_args.window = Some(window);
+        }
+    }
+    let options = &RenderOptions {
+        transfer: transfer_args,
+        ..options.clone()
     };
     // Longer than the voxel octree holds: bricks are streamed from memory.
     if beyond_octree(volume.dims) && matches!(options.renderer, None | Some(RendererArg::Bricks)) {
@@ -132,6 +158,17 @@ fn run_composite(args: &RenderArgs, channels: Vec<Volume>) -> Result<(), String>
         ));
     }
     let prepared = options.channels.prepare(channels, &options.transfer)?;
+    draw_composite(args, prepared, started)
+}
+
+/// Draws `prepared` (one channel or several) with the dense renderer's composite and writes
+/// the image.
+fn draw_composite(
+    args: &RenderArgs,
+    prepared: Vec<PreparedChannel>,
+    started: Instant,
+) -> Result<(), String> {
+    let options = &args.options;
     let saved = options.transfer.saved()?;
     let mut settings = options.transfer.render_settings(0, saved.as_ref());
     settings.clip = options.clip.clip();
@@ -152,13 +189,19 @@ fn run_composite(args: &RenderArgs, channels: Vec<Volume>) -> Result<(), String>
         .map(|c| c.state.color)
         .map(|c| format!("#{:02x}{:02x}{:02x}", c[0], c[1], c[2]))
         .collect();
+    let what = match &prepared[..] {
+        [one] => format!("{} in {}", one.state.name, colors.join("")),
+        _ => format!(
+            "composite of {} channels ({})",
+            prepared.len(),
+            colors.join(", ")
+        ),
+    };
     eprintln!(
-        "wrote {} ({}x{}, composite of {} channels ({}), dense renderer) on {} in {:.2} s",
+        "wrote {} ({}x{}, {what}, dense renderer) on {} in {:.2} s",
         args.output.display(),
         target.width,
         target.height,
-        prepared.len(),
-        colors.join(", "),
         context.describe(),
         started.elapsed().as_secs_f64()
     );
