@@ -82,7 +82,18 @@ where
     I: IntoIterator<Item = T>,
     T: Into<std::ffi::OsString> + Clone,
 {
-    let cli = Cli::parse_from(args);
+    let mut cli = Cli::parse_from(args);
+    let volume = match &mut cli.command {
+        Some(Command::Info(args)) => Some(&mut args.volume),
+        Some(Command::Render(args)) => Some(&mut args.volume),
+        Some(Command::Bench(args)) => Some(&mut args.volume),
+        Some(Command::Probe(args)) => Some(&mut args.volume),
+        Some(Command::Slice(args)) => Some(&mut args.volume),
+        Some(Command::Ceilings(_) | Command::Convert(_)) | None => None,
+    };
+    if let Some(volume) = volume {
+        volume.apply_field()?;
+    }
     let ran = match cli.command {
         Some(Command::Info(args)) => info::run(&args),
         Some(Command::Render(args)) => {
