@@ -348,9 +348,11 @@ fn a_chosen_frame_renders_as_the_same_frame_written_alone() {
         image::open(&out).unwrap().to_rgba8()
     };
     for (multi, frame, alone) in [
+        // The octree renderer draws the chosen channel as a one-channel volume (the dense
+        // renderer's default draws it in the file's channel color, as the composite does).
         (
             "hyperstack.tif",
-            &["--channel", "1", "--time", "1"][..],
+            &["--channel", "1", "--time", "1", "--renderer", "octree"][..],
             "hyperstack-c1-t1.tif",
         ),
         ("series-4d.nii.gz", &["--time", "1"][..], "series-t1.nii.gz"),

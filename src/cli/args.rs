@@ -44,6 +44,28 @@ pub struct VolumeArgs {
     /// A URL's store: requests in flight at once, at most (1 to 1024).
     #[arg(long, value_name = "N", default_value_t = voxscope_volume::remote::DEFAULT_MAX_REQUESTS, value_parser = parse_max_requests)]
     pub max_requests: usize,
+    /// The field of an HCS plate (OME-Zarr `plate`) to open, as ROW/COLUMN/FIELD (`B/3/0`);
+    /// default: the first well's first field (`info` lists them all).
+    #[arg(long, value_name = "ROW/COLUMN/FIELD", value_parser = parse_field)]
+    pub field: Option<String>,
+}
+
+/// `--field ROW/COLUMN/FIELD`: three path components inside the plate.
+fn parse_field(text: &str) -> Result<String, String> {
+    let parts: Vec<&str> = text.trim().trim_matches('/').split('/').collect();
+    let valid = |part: &&str| {
+        !part.is_empty()
+            && *part != "."
+            && *part != ".."
+            && part
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+    };
+    if parts.len() == 3 && parts.iter().all(valid) {
+        Ok(parts.join("/"))
+    } else {
+        Err(format!("'{text}' is not ROW/COLUMN/FIELD (e.g. B/3/0)"))
+    }
 }
 
 /// `--max-requests`: 1 to [`voxscope_volume::remote::MAX_MAX_REQUESTS`].
@@ -67,6 +89,21 @@ pub fn load_error_text(error: &LoadError) -> String {
 }
 
 impl VolumeArgs {
+    /// FILE with `--field`'s field path appended (the field of a plate is an image group
+    /// inside it); an error for `--field` without FILE.
+    pub fn apply_field(&mut self) -> Result<(), String> {
+        let Some(field) = self.field.take() else {
+            return Ok(());
+        };
+        match &mut self.file {
+            Some(file) => {
+                *file = format!("{}/{field}", file.trim_end_matches('/'));
+                Ok(())
+            }
+            None => Err(format!("--field {field} needs a plate to open")),
+        }
+    }
+
     /// Reads FILE (the channel and time point chosen), or the built-in sample without one.
     pub fn load(&self) -> Result<voxscope_volume::Volume, String> {
         match &self.file {
@@ -308,6 +345,7 @@ impl TransferArgs {
             threshold: Some(self.threshold),
             colormap: self.colormap,
             window: self.window,
+            mip: self.mode == Some(ModeArg::Mip),
         }
     }
 

@@ -1,6 +1,8 @@
 //! Several channels drawn together (`--channel all`, the default for a multi-channel file, or
 //! `--channels-from`): each channel's color and window (`--channel-colors`,
-//! `--channel-window`), as `render`, `info` and `bench` read them.
+//! `--channel-window`), as `render`, `info` and `bench` read them. `render --channel N` draws
+//! channel N alone the same way: in its color (where the options or the file give one) and
+//! its window.
 
 use clap::Args;
 
@@ -84,6 +86,62 @@ impl ChannelArgs {
             colors: self.channel_colors.clone().unwrap_or_default(),
             windows: self.channel_window.clone(),
         }
+    }
+
+    /// The window `--channel-window` gives channel `index`, if any (the last given wins).
+    pub fn window_of(&self, index: usize) -> Option<ValueWindow> {
+        self.channel_window
+            .iter()
+            .rev()
+            .find(|(channel, _)| *channel == index)
+            .map(|(_, window)| *window)
+    }
+
+    /// Whether channel `index` of `volume`'s file (the channel `--channel N` chose) has a
+    /// color of its own: from `--channel-colors`, else from the file (OME-Zarr `omero`,
+    /// OME-XML). A file of several channels checks the options against its channel count.
+    pub fn colors_channel(&self, volume: &Volume, index: usize) -> Result<bool, String> {
+        let count = volume.series.channel_count();
+        self.request().check(count)?;
+        let from_file = volume
+            .series
+            .channels
+            .get(index)
+            .is_some_and(|c| c.color.is_some());
+        let asked = self
+            .channel_colors
+            .as_ref()
+            .is_some_and(|colors| colors.len() > index);
+        Ok(count > 1 && (asked || from_file))
+    }
+
+    /// Channel `index` of a file (the volume `--channel N` read) prepared as the composite
+    /// draws it: its color and window as [`Self::prepare`] gives channel `index` of all.
+    pub fn prepare_one(
+        &self,
+        volume: Volume,
+        index: usize,
+        transfer: &TransferArgs,
+    ) -> Result<PreparedChannel, String> {
+        let request = self.request();
+        request.check(volume.series.channel_count())?;
+        let saved = transfer.saved()?;
+        let transfer_request = transfer.request(saved.as_ref());
+        let quantized = QuantizedVolume::new(&volume);
+        let kind = DataKind::of_volume(&volume, &quantized);
+        let state = ChannelState::opening_of(
+            &volume,
+            &quantized,
+            kind,
+            index,
+            &transfer_request,
+            &request,
+        );
+        Ok(PreparedChannel {
+            volume,
+            quantized,
+            state,
+        })
     }
 
     /// Quantizes `channels` and gives each its color and transfer function as the scene

@@ -1,4 +1,5 @@
-//! `voxscope convert IN OUT.ome.zarr`: any readable volume to a multiscale OME-Zarr image.
+//! `voxscope convert IN OUT.ome.zarr`: any readable volume to a multiscale OME-Zarr image, its
+//! values in the data's units (a stored value scale applied: [`SlabSource::value_scale`]).
 
 use std::path::Path;
 use std::time::Instant;
@@ -10,7 +11,7 @@ use voxscope_volume::ome_zarr::{
     Compression, Downsampling, PyramidOptions, PyramidWriter, SlabSource, WriteOptions, ZarrVersion,
 };
 use voxscope_volume::remote::RemoteOptions;
-use voxscope_volume::{LoadOptions, RawLayout, format_dims};
+use voxscope_volume::{LoadOptions, RawLayout, ValueScale, format_dims};
 
 #[derive(Debug, Args)]
 pub struct ConvertArgs {
@@ -155,6 +156,18 @@ pub fn write(
         },
         args.chunk
     ));
+    // Values stored with a scale (NIfTI scl_slope/scl_inter, DICOM rescale) are written in
+    // the data's units: an OME-Zarr image has no such scale, and every reader would take the
+    // stored integers for the values.
+    if source.value_scale != ValueScale::IDENTITY {
+        report(&format!(
+            "values in the data's units: stored {} × {} + {} written as {}\n",
+            source.stored_type.name(),
+            source.value_scale.slope,
+            source.value_scale.intercept,
+            source.voxel_type.name()
+        ));
+    }
     let depth = source.dims[2];
     let slab = writer.slab_depth();
     let mut z = 0;

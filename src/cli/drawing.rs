@@ -14,7 +14,8 @@ use voxscope_render::{
 use voxscope_scene::{ChannelState, Refinement, StreamedVolume, beyond_octree, refine};
 use voxscope_volume::{Volume, format_dims};
 
-use super::args::RendererArg;
+use super::args::{ChannelArg, RendererArg};
+use super::composite::PreparedChannel;
 use super::prepare::default_renderer;
 use super::stream::open_streamed;
 use super::{Prepared, RenderOptions, VolumeArgs};
@@ -59,6 +60,32 @@ impl Drawing {
             }
             Some(mut channels) => channels.pop().ok_or("no channel was read")?,
             None => volume.load()?,
+        };
+        // `--channel N` of a file of several channels: drawn as the composite draws it, in the
+        // channel's color and window, where the options or the file give it a color and the
+        // dense renderer can draw it; else in the channel's window, by the renderer asked for.
+        let mut transfer_args = options.transfer.clone();
+        if let Some(ChannelArg::Index(index)) = volume.channel {
+            if options.channels.colors_channel(&loaded, index)? {
+                if matches!(options.renderer, None | Some(RendererArg::Dense))
+                    && !beyond_octree(loaded.dims)
+                {
+                    let channel = options
+                        .channels
+                        .prepare_one(loaded, index, &options.transfer)?;
+                    return Self::composite_of(vec![channel], options, max_wait);
+                }
+                eprintln!(
+                    "channel {index} is drawn in grays: its color needs the dense renderer (--renderer dense)"
+                );
+            }
+            if let Some(window) = options.channels.window_of(index) {
+                transfer_args.window = Some(window);
+            }
+        }
+        let options = &RenderOptions {
+            transfer: transfer_args,
+            ..options.clone()
         };
         // Longer than the voxel octree holds: bricks are streamed from memory.
         if beyond_octree(loaded.dims)
@@ -136,6 +163,15 @@ impl Drawing {
             ));
         }
         let prepared = options.channels.prepare(channels, &options.transfer)?;
+        Self::composite_of(prepared, options, max_wait)
+    }
+
+    /// `prepared` (one channel or several) drawn by the dense renderer's composite.
+    fn composite_of(
+        prepared: Vec<PreparedChannel>,
+        options: &RenderOptions,
+        max_wait: Duration,
+    ) -> Result<Self, String> {
         let saved = options.transfer.saved()?;
         let mut settings = options.transfer.render_settings(0, saved.as_ref());
         settings.clip = options.clip.clip();

@@ -90,9 +90,21 @@ where
     T: Into<std::ffi::OsString> + Clone,
 {
     let matches = Cli::command().get_matches_from(args);
-    let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|error| error.exit());
+    let mut cli = Cli::from_arg_matches(&matches).unwrap_or_else(|error| error.exit());
     // The options given on the command line (beside a --view, they win over it).
     let given = |name: &str| view::Given::of(matches.subcommand_matches(name));
+    let volume = match &mut cli.command {
+        Some(Command::Info(args)) => Some(&mut args.volume),
+        Some(Command::Render(args)) => Some(&mut args.volume),
+        Some(Command::Movie(args)) => Some(&mut args.volume),
+        Some(Command::Bench(args)) => Some(&mut args.volume),
+        Some(Command::Probe(args)) => Some(&mut args.volume),
+        Some(Command::Slice(args)) => Some(&mut args.volume),
+        Some(Command::Ceilings(_) | Command::Convert(_)) | None => None,
+    };
+    if let Some(volume) = volume {
+        volume.apply_field()?;
+    }
     let ran = match cli.command {
         Some(Command::Info(args)) => info::run(&args),
         Some(Command::Movie(args)) => movie::run(&args, &given("movie")),

@@ -94,10 +94,16 @@ pub fn run(args: &RenderArgs, given: &Given) -> Result<Rendered, String> {
                 .map(|c| c.color)
                 .map(|c| format!("#{:02x}{:02x}{:02x}", c[0], c[1], c[2]))
                 .collect();
+            let what = match &channels[..] {
+                [one] => format!("{} in {}", one.name, colors.join("")),
+                _ => format!(
+                    "composite of {} channels ({})",
+                    channels.len(),
+                    colors.join(", ")
+                ),
+            };
             eprintln!(
-                "{written}, composite of {} channels ({}), dense renderer) on {} in {seconds:.2} s",
-                channels.len(),
-                colors.join(", "),
+                "{written}, {what}, dense renderer) on {} in {seconds:.2} s",
                 drawing.context.describe(),
             );
             Ok(Rendered::Complete)

@@ -8,8 +8,12 @@
 //! chunk's voxels times their size, for numeric data), so a hostile or damaged chunk costs no
 //! more memory than a good one and fails with a message that says what it claimed.
 //!
+//! zarrs's zlib and bz2 codecs read to the end of the stream too. numcodecs' lz4 and lzma,
+//! which zarrs lacks, are [`super::numcodecs`]'s, bounded the same way.
+//!
 //! The wrappers are registered once, as zarrs runtime codec plugins under the same names
-//! (`blosc`, `zstd`, `gzip`, for Zarr v2 and v3); runtime plugins take precedence over the
+//! (`blosc`, `zstd`, `gzip`, `zlib`, `bz2` for Zarr v2; the same and `numcodecs.zlib`,
+//! `numcodecs.bz2` for Zarr v3); runtime plugins take precedence over the
 //! built-in ones, so every array zarrs opens afterwards, inner chunks of shards included, gets
 //! them. Encoding is zarrs's own, unchanged.
 
@@ -22,7 +26,7 @@ use zarrs::array::codec::api::{
     CodecRuntimePluginV2, CodecRuntimePluginV3, PartialDecoderCapability, PartialEncoderCapability,
     register_codec_v2, register_codec_v3,
 };
-use zarrs::array::codec::{BloscCodec, GzipCodec, ZstdCodec};
+use zarrs::array::codec::{BloscCodec, Bz2Codec, GzipCodec, ZlibCodec, ZstdCodec};
 use zarrs::array::{
     ArrayBytesRaw, BytesRepresentation, BytesToBytesCodecTraits, Codec, CodecError,
     CodecMetadataOptions, CodecOptions, CodecTraits, CodecTraitsV2, CodecTraitsV3,
@@ -39,17 +43,27 @@ enum Compressor {
     Blosc,
     Zstd,
     Gzip,
+    Zlib,
+    Bz2,
 }
 
 impl Compressor {
-    const ALL: [Self; 3] = [Self::Blosc, Self::Zstd, Self::Gzip];
+    const ALL: [Self; 5] = [Self::Blosc, Self::Zstd, Self::Gzip, Self::Zlib, Self::Bz2];
 
     fn name(self) -> &'static str {
         match self {
             Self::Blosc => "blosc",
             Self::Zstd => "zstd",
             Self::Gzip => "gzip",
+            Self::Zlib => "zlib",
+            Self::Bz2 => "bz2",
         }
+    }
+
+    /// Whether `name` names this compressor in Zarr v3 metadata: zarrs's name, or numcodecs'
+    /// (`numcodecs.zlib`, as zarr-python 3 writes it, and as zarrs names a v2 array's codecs).
+    fn matches_v3(self, name: &str) -> bool {
+        name == self.name() || name.strip_prefix("numcodecs.") == Some(self.name())
     }
 
     /// zarrs's own codec for Zarr v3 metadata.
@@ -58,6 +72,8 @@ impl Compressor {
             Self::Blosc => <BloscCodec as CodecTraitsV3>::create(metadata),
             Self::Zstd => <ZstdCodec as CodecTraitsV3>::create(metadata),
             Self::Gzip => <GzipCodec as CodecTraitsV3>::create(metadata),
+            Self::Zlib => <ZlibCodec as CodecTraitsV3>::create(metadata),
+            Self::Bz2 => <Bz2Codec as CodecTraitsV3>::create(metadata),
         }
     }
 
@@ -67,6 +83,8 @@ impl Compressor {
             Self::Blosc => <BloscCodec as CodecTraitsV2>::create(metadata),
             Self::Zstd => <ZstdCodec as CodecTraitsV2>::create(metadata),
             Self::Gzip => <GzipCodec as CodecTraitsV2>::create(metadata),
+            Self::Zlib => <ZlibCodec as CodecTraitsV2>::create(metadata),
+            Self::Bz2 => <Bz2Codec as CodecTraitsV2>::create(metadata),
         }
     }
 }
@@ -78,7 +96,7 @@ pub(crate) fn register() {
         for compressor in Compressor::ALL {
             // The handles would unregister the plugins; they stay for the process's life.
             let _ = register_codec_v3(CodecRuntimePluginV3::new(
-                move |name| name == compressor.name(),
+                move |name| compressor.matches_v3(name),
                 move |metadata| wrap(compressor, compressor.create_v3(metadata)?),
             ));
             let _ = register_codec_v2(CodecRuntimePluginV2::new(
@@ -199,6 +217,14 @@ impl BytesToBytesCodecTraits for BoundedDecoder {
                 let decoder = flate2::read::GzDecoder::new(&encoded_value[..]);
                 read_bounded(decoder, expected, "gzip").map(Cow::Owned)
             }
+            Compressor::Zlib => {
+                let decoder = flate2::read::ZlibDecoder::new(&encoded_value[..]);
+                read_bounded(decoder, expected, "zlib").map(Cow::Owned)
+            }
+            Compressor::Bz2 => {
+                let decoder = bzip2::read::BzDecoder::new(&encoded_value[..]);
+                read_bounded(decoder, expected, "bz2").map(Cow::Owned)
+            }
         }
     }
 }
@@ -258,6 +284,20 @@ mod tests {
                 .contains("more than the chunk's 999 bytes"),
             "{error}"
         );
+
+        let mut encoder = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::fast());
+        std::io::Write::write_all(&mut encoder, &data).unwrap();
+        let zlib = encoder.finish().unwrap();
+        let ok = read_bounded(flate2::read::ZlibDecoder::new(&zlib[..]), 1000, "zlib").unwrap();
+        assert_eq!(ok, data);
+        assert!(read_bounded(flate2::read::ZlibDecoder::new(&zlib[..]), 999, "zlib").is_err());
+
+        let mut encoder = bzip2::write::BzEncoder::new(Vec::new(), bzip2::Compression::fast());
+        std::io::Write::write_all(&mut encoder, &data).unwrap();
+        let bz2 = encoder.finish().unwrap();
+        let ok = read_bounded(bzip2::read::BzDecoder::new(&bz2[..]), 1000, "bz2").unwrap();
+        assert_eq!(ok, data);
+        assert!(read_bounded(bzip2::read::BzDecoder::new(&bz2[..]), 999, "bz2").is_err());
 
         let zst = zstd::encode_all(&data[..], 3).unwrap();
         let decoder = zstd::stream::read::Decoder::with_buffer(&zst[..]).unwrap();

@@ -249,7 +249,8 @@ fn describe_codecs(metadata: &ArrayMetadata) -> String {
                     .unwrap_or_else(|| "none".to_owned());
                 format!("sharding({inner})")
             }
-            other => printable(other),
+            // numcodecs' compressors in Zarr v3 (and zarrs's v3 form of a v2 array's).
+            other => printable(other.strip_prefix("numcodecs.").unwrap_or(other)),
         })
     }
     fn list(codecs: &[Value]) -> String {

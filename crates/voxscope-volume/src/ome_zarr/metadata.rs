@@ -360,6 +360,109 @@ pub(crate) fn omero_channels(attributes: &Map<String, Value>) -> Vec<OmeroChanne
 
 /// A bioformats2raw layout's first image (`0`), when the group is such a container and has no
 /// multiscales of its own.
+/// An HCS plate's layout (OME-Zarr 0.4/0.5 `plate`): its rows, columns and wells.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Plate {
+    /// The plate's name, if it has one.
+    pub name: Option<String>,
+    /// Row names (`A`, `B`, …).
+    pub rows: Vec<String>,
+    /// Column names (`1`, `2`, …).
+    pub columns: Vec<String>,
+    /// Each well's path (`A/1`) and its fields' paths (`0`, `1`, … from its `well` metadata),
+    /// in the plate's order.
+    pub wells: Vec<(String, Vec<String>)>,
+    /// The field opened, `ROW/COLUMN/FIELD`.
+    pub field: String,
+}
+
+/// The plate's wells at most read (a 1536-well plate's).
+pub(crate) const MAX_WELLS: usize = 1536;
+
+/// The `plate` of a group's attributes, if it has one: its name, rows, columns and well
+/// paths (fields not yet read).
+pub(crate) fn plate(attributes: &Map<String, Value>) -> Result<Option<Plate>, Problem> {
+    let Some(plate) = ome_attributes(attributes).get("plate") else {
+        return Ok(None);
+    };
+    let plate = plate.as_object().ok_or("'plate' is not an object")?;
+    let names = |key: &str| -> Result<Vec<String>, Problem> {
+        let list = plate
+            .get(key)
+            .and_then(Value::as_array)
+            .ok_or_else(|| format!("plate.{key} is not a list"))?;
+        list.iter()
+            .enumerate()
+            .map(|(i, entry)| {
+                entry
+                    .get("name")
+                    .and_then(Value::as_str)
+                    .map(printable)
+                    .ok_or_else(|| format!("plate.{key}[{i}] has no name"))
+            })
+            .collect()
+    };
+    let rows = names("rows")?;
+    let columns = names("columns")?;
+    let wells = plate
+        .get("wells")
+        .and_then(Value::as_array)
+        .ok_or("plate.wells is not a list")?;
+    if wells.len() > MAX_WELLS {
+        return Err(format!(
+            "the plate lists {} wells; at most {MAX_WELLS} are read",
+            wells.len()
+        ));
+    }
+    let wells = wells
+        .iter()
+        .enumerate()
+        .map(|(i, well)| {
+            let path = well
+                .get("path")
+                .and_then(Value::as_str)
+                .ok_or_else(|| format!("plate.wells[{i}] has no path"))?;
+            check_path(path).map_err(|e| format!("plate.wells[{i}].path: {e}"))?;
+            Ok((path.to_owned(), Vec::new()))
+        })
+        .collect::<Result<Vec<_>, Problem>>()?;
+    if wells.is_empty() {
+        return Err("the plate lists no wells".to_owned());
+    }
+    Ok(Some(Plate {
+        name: plate.get("name").and_then(Value::as_str).map(printable),
+        rows,
+        columns,
+        wells,
+        field: String::new(),
+    }))
+}
+
+/// The fields (image paths) of a well group's `well` metadata.
+pub(crate) fn well_fields(
+    attributes: &Map<String, Value>,
+    well: &str,
+) -> Result<Vec<String>, Problem> {
+    let images = ome_attributes(attributes)
+        .get("well")
+        .and_then(|w| w.get("images"))
+        .and_then(Value::as_array)
+        .ok_or_else(|| format!("well {} has no 'well' images list", quoted(well)))?;
+    images
+        .iter()
+        .enumerate()
+        .map(|(i, image)| {
+            let path = image
+                .get("path")
+                .and_then(Value::as_str)
+                .ok_or_else(|| format!("well {}: images[{i}] has no path", quoted(well)))?;
+            check_path(path)
+                .map_err(|e| format!("well {}: images[{i}].path: {e}", quoted(well)))?;
+            Ok(path.to_owned())
+        })
+        .collect()
+}
+
 pub(crate) fn bioformats2raw_image(attributes: &Map<String, Value>) -> bool {
     ome_attributes(attributes).contains_key("bioformats2raw.layout")
         && !ome_attributes(attributes).contains_key("multiscales")

@@ -2,7 +2,8 @@
 //! read region by region, never a whole level at once, and a [`Volume`] of the finest level
 //! that fits [`VOLUME_VOXEL_BUDGET`] for the in-memory renderers.
 //!
-//! Chunks are read and decoded by zarrs (blosc, zstd, gzip, uncompressed; `.` or `/` chunk
+//! Chunks are read and decoded by zarrs (blosc, zstd, gzip, zlib, bz2, uncompressed, and
+//! numcodecs' lz4 and lzma through [`numcodecs`]'s plugins; `.` or `/` chunk
 //! keys; sharding) from any zarrs `ReadableStorageTraits` store: a folder, or a URL
 //! (`http://`, `https://`, `s3://`: [`super::remote`]). What a file declares is checked before anything of that size exists:
 //! the region a caller asks for bounds the output, a chunk holds at most [`MAX_CHUNK_BYTES`]
@@ -16,6 +17,7 @@
 mod guard;
 mod levels;
 mod metadata;
+mod numcodecs;
 mod open;
 mod read;
 mod source;
@@ -35,7 +37,7 @@ use super::error::Problem;
 use super::remote::{RemoteOptions, RemoteStats, RemoteStore};
 use super::{LoadError, MAX_VOXELS, Selection, Volume, VoxelType, format_dims};
 
-pub use metadata::{Axis, AxisKind, OmeroChannel};
+pub use metadata::{Axis, AxisKind, OmeroChannel, Plate};
 use open::open_root;
 pub use read::MAX_PREFETCH_CHUNKS;
 pub use source::SlabSource;
@@ -180,6 +182,9 @@ pub struct Pyramid {
     pub stored_type: String,
     /// How the levels were computed (`type` of the multiscale), if said.
     pub downscaling: Option<String>,
+    /// The HCS plate the image is a field of, where the store's root is a plate (its first
+    /// well's first field opens).
+    pub plate: Option<Plate>,
     stored: Stored,
     layout: Layout,
     arrays: Vec<Array<dyn ReadableStorageTraits>>,
@@ -484,6 +489,35 @@ fn volume_facts(pyramid: &Pyramid, level: usize) -> Vec<(String, String)> {
         facts.push((
             "time point".to_owned(),
             format!("{} of {}", pyramid.selected.time, pyramid.time_points),
+        ));
+    }
+    if let Some(plate) = &pyramid.plate {
+        let wells: Vec<String> = plate
+            .wells
+            .iter()
+            .map(|(well, fields)| format!("{well} (fields {})", fields.join(", ")))
+            .collect();
+        facts.push((
+            "plate".to_owned(),
+            format!(
+                "{}rows {}; columns {}; {} wells: {}",
+                plate
+                    .name
+                    .as_ref()
+                    .map(|n| format!("{n}: "))
+                    .unwrap_or_default(),
+                plate.rows.join(", "),
+                plate.columns.join(", "),
+                plate.wells.len(),
+                wells.join(", ")
+            ),
+        ));
+        facts.push((
+            "field".to_owned(),
+            format!(
+                "{} (the first well's first field; --field ROW/COLUMN/FIELD opens another)",
+                plate.field
+            ),
         ));
     }
     if let Some(unit) = pyramid.units.iter().flatten().next() {

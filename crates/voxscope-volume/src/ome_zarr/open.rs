@@ -129,6 +129,7 @@ pub(super) fn open_root(
     warm: Warm,
 ) -> Result<Pyramid, Problem> {
     warm(&node_documents(""));
+    let mut plate = None;
     let (attributes, zarr_format, prefix) = match node(&store, "")? {
         Node::Missing => {
             return Err(
@@ -163,11 +164,33 @@ pub(super) fn open_root(
                         );
                     }
                 }
+            } else if let Some(found) = metadata::plate(&attributes)? {
+                // An HCS plate: the first well's first field opens (another is opened by
+                // its own path, `--field ROW/COLUMN/FIELD`); every well's fields are listed.
+                let found = plate_fields(&store, found, warm)?;
+                let field = format!("{}/", found.field);
+                warm(&node_documents(&field));
+                let image = match node(&store, &field)? {
+                    Node::Group {
+                        attributes,
+                        zarr_format,
+                    } => (attributes, zarr_format),
+                    _ => {
+                        return Err(format!(
+                            "is a plate whose field {} is not an image group",
+                            quoted(&found.field)
+                        ));
+                    }
+                };
+                plate = Some(found);
+                (image.0, image.1, "")
             } else {
                 (attributes, zarr_format, "")
             }
         }
     };
+    let field_prefix = plate.as_ref().map(|p| format!("{}/", p.field));
+    let prefix = field_prefix.as_deref().unwrap_or(prefix);
     let multiscale = metadata::multiscale(&attributes)?.ok_or(
         "is a Zarr group without OME-Zarr 'multiscales' metadata (open an array inside it, or an OME-Zarr image)",
     )?;
@@ -178,7 +201,46 @@ pub(super) fn open_root(
         prefix,
         warm,
     };
-    open_levels(store, &opening, Some(multiscale), attributes)
+    let mut pyramid = open_levels(store, &opening, Some(multiscale), attributes)?;
+    pyramid.plate = plate;
+    Ok(pyramid)
+}
+
+/// Reads the fields of every well of `plate` (their documents fetched together first) and
+/// names the field that opens: the first well's first.
+fn plate_fields(
+    store: &ReadableStorage,
+    mut plate: metadata::Plate,
+    warm: Warm,
+) -> Result<metadata::Plate, Problem> {
+    let documents: Vec<String> = plate
+        .wells
+        .iter()
+        .flat_map(|(well, _)| node_documents(&format!("{well}/")))
+        .collect();
+    warm(&documents);
+    // A well that cannot be read lists no fields (the plate still opens); the first must.
+    for (index, (well, fields)) in plate.wells.iter_mut().enumerate() {
+        let read = match node(store, &format!("{well}/")) {
+            Ok(Node::Group { attributes, .. }) => metadata::well_fields(&attributes, well),
+            Ok(_) => Err(format!(
+                "is a plate whose well {} is not a group",
+                quoted(well)
+            )),
+            Err(problem) => Err(problem),
+        };
+        match read {
+            Ok(read) => *fields = read,
+            Err(problem) if index == 0 => return Err(problem),
+            Err(_) => {}
+        }
+    }
+    let (well, fields) = &plate.wells[0];
+    let first = fields
+        .first()
+        .ok_or_else(|| format!("is a plate whose well {} has no fields", quoted(well)))?;
+    plate.field = format!("{well}/{first}");
+    Ok(plate)
 }
 
 /// What [`open_levels`] knows from the root: where the image is, and how it was asked for.
@@ -377,6 +439,7 @@ fn open_levels(
         store,
         remote: None,
         reader_pool: None,
+        plate: None,
     })
 }
 

@@ -11,8 +11,8 @@ use rayon::prelude::*;
 use super::super::error::Problem;
 use super::super::io::io_reason;
 use super::super::{
-    Endian, LoadError, LoadOptions, MAX_AXIS, RawLayout, Scalar, Volume, VoxelData, VoxelType,
-    format_dims, with_voxel_slice,
+    Endian, LoadError, LoadOptions, MAX_AXIS, RawLayout, Scalar, ValueScale, Volume, VoxelData,
+    VoxelType, format_dims, with_voxel_slice,
 };
 
 /// An input volume read in z slabs.
@@ -24,8 +24,15 @@ pub struct SlabSource {
     pub dims: [usize; 3],
     /// The voxel size along x, y, z.
     pub spacing: [f64; 3],
-    /// The stored type.
+    /// The type of the values [`Self::read`] returns: the stored type, or where the input
+    /// maps its stored values to its units ([`Self::value_scale`]), the type of those.
     pub voxel_type: VoxelType,
+    /// The type the input stores.
+    pub stored_type: VoxelType,
+    /// The input's map from stored values to its units (NIfTI `scl_slope`/`scl_inter`,
+    /// DICOM rescale), which [`Self::read`] applies: an OME-Zarr image has no such map, so
+    /// its values are written in the data's units.
+    pub value_scale: ValueScale,
     /// The spacing's unit, when the input says.
     pub unit: Option<String>,
     input: Input,
@@ -84,14 +91,18 @@ impl SlabSource {
         Ok(Self::from_volume(volume))
     }
 
-    /// A loaded volume, handed out in slabs.
+    /// A loaded volume, handed out in slabs, its values in its units ([`scaled_type`]).
     pub fn from_volume(volume: Volume) -> Self {
         let unit = volume.metadata_value("unit").and_then(ome_unit);
+        let stored_type = volume.data.voxel_type();
+        let value_scale = volume.value_scale;
         Self {
             name: volume.name,
             dims: volume.dims,
             spacing: volume.spacing,
-            voxel_type: volume.data.voxel_type(),
+            voxel_type: scaled_type(&volume.data, value_scale),
+            stored_type,
+            value_scale,
             unit,
             input: Input::Memory(volume.data),
         }
@@ -163,6 +174,8 @@ impl SlabSource {
             dims,
             spacing: spacing.unwrap_or([1.0; 3]),
             voxel_type: layout.voxel_type,
+            stored_type: layout.voxel_type,
+            value_scale: ValueScale::IDENTITY,
             unit: None,
             input: Input::Raw {
                 file,
@@ -190,6 +203,8 @@ impl SlabSource {
             dims: extent.dims,
             spacing: spacing.unwrap_or(extent.spacing),
             voxel_type: extent.voxel_type,
+            stored_type: extent.voxel_type,
+            value_scale: ValueScale::IDENTITY,
             unit: None,
             input: Input::Raw {
                 file,
@@ -212,15 +227,29 @@ impl SlabSource {
             dims: [first.dims[0], first.dims[1], files.len()],
             spacing: spacing.unwrap_or(first.spacing),
             voxel_type: first.data.voxel_type(),
+            stored_type: first.data.voxel_type(),
+            value_scale: ValueScale::IDENTITY,
             unit: None,
             input: Input::Slices(files),
         })
     }
 
     /// Slices `z0 .. z0 + count` (within the depth), x fastest.
+    /// Slices `z0..z0 + count`, in the data's units ([`Self::value_scale`] applied), as
+    /// [`Self::voxel_type`].
     pub fn read(&mut self, z0: usize, count: usize) -> Result<VoxelData, LoadError> {
-        self.read_problem(z0, count)
-            .map_err(|problem| LoadError::new(&self.name, problem))
+        let stored = self
+            .read_problem(z0, count)
+            .map_err(|problem| LoadError::new(&self.name, problem))?;
+        if self.value_scale == ValueScale::IDENTITY {
+            return Ok(stored);
+        }
+        let scale = self.value_scale;
+        let values: Vec<f64> = (0..stored.len())
+            .into_par_iter()
+            .map(|i| scale.apply(stored.get(i).unwrap_or(0.0)))
+            .collect();
+        Ok(VoxelData::from_f64_values(self.voxel_type, &values))
     }
 
     fn read_problem(&mut self, z0: usize, count: usize) -> Result<VoxelData, Problem> {
@@ -328,6 +357,60 @@ impl SlabSource {
 }
 
 /// An OME-Zarr unit name for a unit a loader reports (`mm`, `µm`, `Å`), if it knows one.
+/// The type `data`'s values take in their units through `scale`: the stored type where the
+/// scale is the identity; an integer type where the scale maps integers to integers (integer
+/// slope and intercept: a CT's Hounsfield units) and every mapped value fits it (the stored
+/// type if it does, else the smallest of u8, i8, u16, i16, u32, i32 that does); else f32.
+pub fn scaled_type(data: &VoxelData, scale: ValueScale) -> VoxelType {
+    let stored = data.voxel_type();
+    if scale == ValueScale::IDENTITY {
+        return stored;
+    }
+    let integral = |v: f64| v.is_finite() && v.fract() == 0.0;
+    if !stored.is_integer() || !integral(scale.slope) || !integral(scale.intercept) {
+        return VoxelType::F32;
+    }
+    let (low, high) = (0..data.len())
+        .into_par_iter()
+        .map(|i| data.get(i).unwrap_or(0.0))
+        .fold(
+            || (f64::INFINITY, f64::NEG_INFINITY),
+            |(low, high), v| (low.min(v), high.max(v)),
+        )
+        .reduce(
+            || (f64::INFINITY, f64::NEG_INFINITY),
+            |a, b| (a.0.min(b.0), a.1.max(b.1)),
+        );
+    if low > high {
+        return stored;
+    }
+    let (a, b) = (scale.apply(low), scale.apply(high));
+    let (low, high) = (a.min(b), a.max(b));
+    let fits = |t: VoxelType| {
+        let (min, max) = match t {
+            VoxelType::U8 => (0.0, u8::MAX as f64),
+            VoxelType::I8 => (i8::MIN as f64, i8::MAX as f64),
+            VoxelType::U16 => (0.0, u16::MAX as f64),
+            VoxelType::I16 => (i16::MIN as f64, i16::MAX as f64),
+            VoxelType::U32 => (0.0, u32::MAX as f64),
+            VoxelType::I32 => (i32::MIN as f64, i32::MAX as f64),
+            VoxelType::F32 | VoxelType::F64 => return false,
+        };
+        min <= low && high <= max
+    };
+    std::iter::once(stored)
+        .chain([
+            VoxelType::U8,
+            VoxelType::I8,
+            VoxelType::U16,
+            VoxelType::I16,
+            VoxelType::U32,
+            VoxelType::I32,
+        ])
+        .find(|&t| fits(t))
+        .unwrap_or(VoxelType::F32)
+}
+
 fn ome_unit(unit: &str) -> Option<String> {
     let name = match unit.trim() {
         "mm" | "millimeter" | "millimetre" => "millimeter",

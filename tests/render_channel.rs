@@ -1,0 +1,182 @@
+//! What `render` draws by default for one channel and for a projection: `--channel N` in the
+//! channel's color and window (from `--channel-colors` and `--channel-window`, as the
+//! composite draws it), and `--mode mip` of any volume in grays unless a colormap or preset is
+//! asked for (a CT's DVR keeps its soft-tissue preset).
+
+mod support;
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+use image::RgbaImage;
+use support::writers::{NiftiSpec, encode, nifti_bytes, nifti_datatype};
+use voxscope_volume::{Endian, VoxelType};
+
+fn voxscope(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_voxscope"))
+        .args(args)
+        .output()
+        .expect("the binary runs")
+}
+
+/// Renders `input` with `extra` options to `out` (64×48) and returns the image and stderr.
+fn render(input: &str, out: &Path, extra: &[&str]) -> (RgbaImage, String) {
+    let mut args = vec![
+        "render",
+        input,
+        "-o",
+        out.to_str().unwrap(),
+        "--size",
+        "64x48",
+    ];
+    args.extend_from_slice(extra);
+    let output = voxscope(&args);
+    let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
+    assert!(output.status.success(), "{extra:?}: {stderr}");
+    (image::open(out).unwrap().to_rgba8(), stderr)
+}
+
+/// The fraction of pixels that are not black.
+fn lit(image: &RgbaImage) -> f64 {
+    let count = image
+        .pixels()
+        .filter(|p| p[0] > 8 || p[1] > 8 || p[2] > 8)
+        .count();
+    count as f64 / (image.width() * image.height()) as f64
+}
+
+/// The mean of every pixel's brightest component.
+fn brightness(image: &RgbaImage) -> f64 {
+    let sum: f64 = image
+        .pixels()
+        .map(|p| f64::from(p[0].max(p[1]).max(p[2])))
+        .sum();
+    sum / (image.width() * image.height()) as f64
+}
+
+fn is_gray(image: &RgbaImage) -> bool {
+    image
+        .pixels()
+        .all(|p| p[0].abs_diff(p[1]) <= 1 && p[1].abs_diff(p[2]) <= 1)
+}
+
+#[test]
+fn one_channel_renders_in_its_color_and_window() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("channel.png");
+    let ome = format!(
+        "{}/tests/data/channels/two-channels.ome.tif",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let (wide, stderr) = render(
+        &ome,
+        &out,
+        &[
+            "--channel",
+            "1",
+            "--channel-colors",
+            "green,magenta",
+            "--channel-window",
+            "1:0:65535",
+            "--mode",
+            "mip",
+        ],
+    );
+    assert!(stderr.contains("in #ff00ff, dense renderer"), "{stderr}");
+    // Magenta only: red and blue alike, no green.
+    assert!(lit(&wide) > 0.05, "{}", lit(&wide));
+    assert!(
+        wide.pixels().all(|p| p[1] == 0 && p[0].abs_diff(p[2]) <= 1),
+        "not magenta"
+    );
+    // The window is the one asked for: a narrower one around the data draws it brighter.
+    let (narrow, _) = render(
+        &ome,
+        &out,
+        &[
+            "--channel",
+            "1",
+            "--channel-colors",
+            "green,magenta",
+            "--channel-window",
+            "1:3800:5000",
+            "--mode",
+            "mip",
+        ],
+    );
+    assert!(
+        brightness(&narrow) > brightness(&wide) + 10.0,
+        "{} against {}",
+        brightness(&narrow),
+        brightness(&wide)
+    );
+
+    // Another renderer draws the channel in grays (in its window) and says why.
+    let (octree, stderr) = render(
+        &ome,
+        &out,
+        &[
+            "--channel",
+            "1",
+            "--channel-colors",
+            "green,magenta",
+            "--renderer",
+            "octree",
+            "--mode",
+            "mip",
+        ],
+    );
+    assert!(
+        stderr.contains("its color needs the dense renderer"),
+        "{stderr}"
+    );
+    assert!(is_gray(&octree) && lit(&octree) > 0.05);
+}
+
+#[test]
+fn mip_defaults_to_grays_for_any_volume() {
+    let dir = tempfile::tempdir().unwrap();
+    // A CT in Hounsfield units: a ball of soft tissue and bone in air.
+    let dims = [24usize, 24, 24];
+    let values: Vec<i16> = (0..dims.iter().product::<usize>())
+        .map(|i| {
+            let (x, y, z) = (i % 24, (i / 24) % 24, i / 576);
+            let r2 = [x, y, z]
+                .iter()
+                .map(|&c| (c as f64 - 11.5).powi(2))
+                .sum::<f64>();
+            if r2 < 16.0 {
+                1500
+            } else if r2 < 100.0 {
+                40 + (i % 50) as i16
+            } else {
+                -1000
+            }
+        })
+        .collect();
+    let spec = NiftiSpec {
+        dims,
+        datatype: nifti_datatype(VoxelType::I16),
+        spacing: [1.0; 3],
+        slope: 1.0,
+        intercept: 0.0,
+        sform: None,
+        endian: Endian::Little,
+    };
+    let ct = dir.path().join("ct.nii");
+    std::fs::write(&ct, nifti_bytes(&spec, &encode(&values, Endian::Little))).unwrap();
+    let ct = ct.to_str().unwrap();
+    let out = dir.path().join("ct.png");
+
+    // DVR keeps the CT preset's colors; MIP draws grays.
+    let (dvr, _) = render(ct, &out, &[]);
+    assert!(!is_gray(&dvr), "the soft-tissue preset draws in color");
+    let (mip, _) = render(ct, &out, &["--mode", "mip"]);
+    assert!(lit(&mip) > 0.05, "{}", lit(&mip));
+    assert!(is_gray(&mip), "MIP of a CT is gray");
+    // A colormap or preset asked for still applies.
+    let (viridis, _) = render(ct, &out, &["--mode", "mip", "--colormap", "viridis"]);
+    assert!(!is_gray(&viridis));
+    let (preset, _) = render(ct, &out, &["--mode", "mip", "--preset", "ct-bone"]);
+    assert!(!is_gray(&preset));
+}
