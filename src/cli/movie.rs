@@ -104,17 +104,25 @@ pub fn run(args: &MovieArgs, given: &Given) -> Result<(), String> {
     let mut coarse_frames = 0;
     let mut unreadable_frames = 0;
     let drawing_started = Instant::now();
+    // An error ends the progress line before it is said.
+    let ended = |error: String| {
+        eprintln!();
+        error
+    };
     for (index, shot) in shots.iter().enumerate() {
         let frame_started = Instant::now();
-        drawing.set_transfer(&shot.transfer)?;
-        if let Some(refinement) = drawing.draw(&target, &shot.camera, &shot.settings)? {
+        drawing.set_transfer(&shot.transfer).map_err(ended)?;
+        let drawn = drawing
+            .draw(&target, &shot.camera, &shot.settings)
+            .map_err(ended)?;
+        if let Some(refinement) = drawn {
             coarse_frames += usize::from(!refinement.complete);
             unreadable_frames += usize::from(!refinement.unreadable.is_empty());
         }
         let rendered = Instant::now();
-        let image = read_image(&drawing.context, &target).map_err(|e| e.to_string())?;
+        let image = read_image(&drawing.context, &target).map_err(|e| ended(e.to_string()))?;
         let read = Instant::now();
-        writer.add(&image)?;
+        writer.add(&image).map_err(ended)?;
         let encoded = Instant::now();
         times.render += rendered - frame_started;
         times.readback += read - rendered;

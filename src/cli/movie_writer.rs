@@ -367,39 +367,34 @@ impl Mp4Writer {
         })
     }
 
-    /// ffmpeg's own last line, after it ended.
-    fn failure(self) -> String {
-        let output = self.child.wait_with_output();
-        let said = output
-            .map(|o| {
-                String::from_utf8_lossy(&o.stderr)
-                    .trim()
-                    .lines()
-                    .last()
-                    .unwrap_or("")
-                    .to_owned()
-            })
-            .unwrap_or_default();
-        format!("{}: ffmpeg failed: {said}", self.path.display())
+    /// ffmpeg's own last line (why it stopped), once it ended: its input is closed first.
+    fn failure(&mut self) -> String {
+        drop(self.input.take());
+        let _ = self.child.wait();
+        let mut said = String::new();
+        if let Some(mut stderr) = self.child.stderr.take() {
+            let _ = std::io::Read::read_to_string(&mut stderr, &mut said);
+        }
+        let last = said.trim().lines().last().unwrap_or("it gave no reason");
+        format!("{}: ffmpeg failed: {last}", self.path.display())
     }
 }
 
 impl MovieWriter for Mp4Writer {
     fn add(&mut self, frame: &RgbaImage) -> Result<(), String> {
         let input = self.input.as_mut().expect("the pipe lives until finish");
-        input.write_all(frame.as_raw()).map_err(|e| {
-            format!(
-                "{}: ffmpeg stopped reading frames: {e}",
-                self.path.display()
-            )
-        })
+        match input.write_all(frame.as_raw()) {
+            Ok(()) => Ok(()),
+            // ffmpeg stopped reading: what it said is the reason.
+            Err(_) => Err(self.failure()),
+        }
     }
 
     fn finish(mut self: Box<Self>) -> Result<(), String> {
         drop(self.input.take());
         match self.child.wait() {
             Ok(status) if status.success() => Ok(()),
-            _ => Err((*self).failure()),
+            _ => Err(self.failure()),
         }
     }
 }

@@ -53,10 +53,15 @@ pub fn run(args: &RenderArgs, given: &Given) -> Result<Rendered, String> {
     let (image, refinement) = match drawing.tile_side(options.size, args.tile_size) {
         Some(side) => {
             let image = drawing.draw_tiled(options.size, side, &camera, &settings)?;
-            eprintln!(
-                "drawn in tiles of {side}x{side} pixels ({}x{} is beyond one target of this device)",
-                options.size.0, options.size.1
-            );
+            let why = if args.tile_size.is_some() {
+                "as --tile-size asks".to_owned()
+            } else {
+                format!(
+                    "{}x{} is beyond one target of this device",
+                    options.size.0, options.size.1
+                )
+            };
+            eprintln!("drawn in tiles of {side}x{side} pixels ({why})");
             (image, None)
         }
         None => {
