@@ -48,6 +48,10 @@ pub struct VolumeArgs {
     /// default: the first well's first field (`info` lists them all).
     #[arg(long, value_name = "ROW/COLUMN/FIELD", value_parser = parse_field)]
     pub field: Option<String>,
+    /// The series of a bioformats2raw container to open (0, 1, …); default: the first
+    /// (`info` lists them all).
+    #[arg(long, value_name = "N", conflicts_with = "field")]
+    pub series: Option<u32>,
 }
 
 /// `--field ROW/COLUMN/FIELD`: three path components inside the plate.
@@ -66,6 +70,11 @@ fn parse_field(text: &str) -> Result<String, String> {
     } else {
         Err(format!("'{text}' is not ROW/COLUMN/FIELD (e.g. B/3/0)"))
     }
+}
+
+/// FILE's series `series` (a bioformats2raw container's group of that number).
+pub fn series_file(file: &str, series: u32) -> String {
+    format!("{}/{series}", file.trim_end_matches('/'))
 }
 
 /// `--max-requests`: 1 to [`voxscope_volume::remote::MAX_MAX_REQUESTS`].
@@ -101,6 +110,24 @@ impl VolumeArgs {
                 Ok(())
             }
             None => Err(format!("--field {field} needs a plate to open")),
+        }
+    }
+
+    /// FILE with `--series`'s series group appended (a bioformats2raw container's series `N`
+    /// is its group `N`; one it lacks is named with the container's count when opened); an
+    /// error for `--series` without FILE.
+    pub fn apply_series(&mut self) -> Result<(), String> {
+        let Some(series) = self.series.take() else {
+            return Ok(());
+        };
+        match &mut self.file {
+            Some(file) => {
+                *file = series_file(file, series);
+                Ok(())
+            }
+            None => Err(format!(
+                "--series {series} needs a bioformats2raw container to open"
+            )),
         }
     }
 

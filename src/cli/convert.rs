@@ -32,6 +32,9 @@ pub struct ConvertArgs {
     /// The time point of a time-lapse OME-Zarr input.
     #[arg(long, default_value_t = 0)]
     pub time: usize,
+    /// The series of a bioformats2raw input to convert (0, 1, …); default: the first.
+    #[arg(long, value_name = "N")]
+    pub series: Option<u32>,
     /// A URL input: requests in flight at once, at most (1 to 1024).
     #[arg(long, value_name = "N", default_value_t = voxscope_volume::remote::DEFAULT_MAX_REQUESTS, value_parser = parse_max_requests)]
     pub max_requests: usize,

@@ -104,6 +104,12 @@ where
     };
     if let Some(volume) = volume {
         volume.apply_field()?;
+        volume.apply_series()?;
+    }
+    if let Some(Command::Convert(args)) = &mut cli.command
+        && let Some(series) = args.series.take()
+    {
+        args.input = args::series_file(&args.input, series);
     }
     let ran = match cli.command {
         Some(Command::Info(args)) => info::run(&args),

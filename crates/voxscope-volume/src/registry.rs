@@ -83,6 +83,10 @@ impl From<Problem> for FileError {
 }
 
 fn load_file(path: &Path, options: &LoadOptions) -> Result<Volume, FileError> {
+    // A bioformats2raw container's series `ROOT/N` (`--series N`), whether or not it exists.
+    if super::ome_zarr::series_path(path).is_some() {
+        return super::ome_zarr::load(path, options.select).map_err(FileError::Problem);
+    }
     let metadata =
         std::fs::metadata(path).map_err(|e| format!("cannot open: {}", io_reason(&e)))?;
     if metadata.is_dir() {

@@ -358,8 +358,6 @@ pub(crate) fn omero_channels(attributes: &Map<String, Value>) -> Vec<OmeroChanne
         .collect()
 }
 
-/// A bioformats2raw layout's first image (`0`), when the group is such a container and has no
-/// multiscales of its own.
 /// An HCS plate's layout (OME-Zarr 0.4/0.5 `plate`): its rows, columns and wells.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Plate {
@@ -463,6 +461,79 @@ pub(crate) fn well_fields(
         .collect()
 }
 
+/// A bioformats2raw root's series (its images `0`, `1`, … or those its `OME` group's `series`
+/// lists) and which one is open.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Bioformats2raw {
+    /// Each series in order: its group's path, its name (the OME-XML `Image`'s `Name`, when
+    /// `OME/METADATA.ome.xml` says) and its finest level's shape, x first, with the axes'
+    /// names (`None` when its metadata could not be read).
+    pub series: Vec<SeriesEntry>,
+    /// The index of the series opened.
+    pub opened: usize,
+    /// Whether the series was asked for (`--series N`, or its own path) rather than opened as
+    /// the root's first.
+    pub chosen: bool,
+}
+
+/// One series of a bioformats2raw root.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct SeriesEntry {
+    /// The image group's path (`0`, `1`, …).
+    pub path: String,
+    /// Its OME-XML name, when there is one.
+    pub name: Option<String>,
+    /// Its finest level's shape, x first, and the axes' names in that order.
+    pub dims: Option<(Vec<u64>, Vec<String>)>,
+}
+
+/// The series a bioformats2raw root lists at most.
+pub(crate) const MAX_SERIES: usize = 4096;
+
+/// The `series` list of a bioformats2raw `OME` group's attributes, if it has one.
+pub(crate) fn series_paths(
+    attributes: &Map<String, Value>,
+) -> Result<Option<Vec<String>>, Problem> {
+    let Some(list) = ome_attributes(attributes).get("series") else {
+        return Ok(None);
+    };
+    let list = list.as_array().ok_or("OME 'series' is not a list")?;
+    if list.len() > MAX_SERIES {
+        return Err(format!(
+            "OME 'series' lists {} series; at most {MAX_SERIES} are read",
+            list.len()
+        ));
+    }
+    list.iter()
+        .enumerate()
+        .map(|(i, entry)| {
+            let path = entry
+                .as_str()
+                .ok_or_else(|| format!("OME 'series'[{i}] is not a path"))?;
+            check_path(path).map_err(|e| format!("OME 'series'[{i}]: {e}"))?;
+            Ok(path.to_owned())
+        })
+        .collect::<Result<Vec<_>, Problem>>()
+        .map(Some)
+}
+
+/// The `Name` of each `Image` of an OME-XML document, in order (`None` where one has none);
+/// empty when the text is not XML.
+pub(crate) fn ome_xml_image_names(text: &str) -> Vec<Option<String>> {
+    let Ok(document) = roxmltree::Document::parse(text) else {
+        return Vec::new();
+    };
+    document
+        .root_element()
+        .children()
+        .filter(|node| node.is_element() && node.tag_name().name() == "Image")
+        .take(MAX_SERIES)
+        .map(|image| image.attribute("Name").map(printable))
+        .collect()
+}
+
+/// Whether the group is a bioformats2raw container (its images are groups `0`, `1`, …) without
+/// multiscales of its own.
 pub(crate) fn bioformats2raw_image(attributes: &Map<String, Value>) -> bool {
     ome_attributes(attributes).contains_key("bioformats2raw.layout")
         && !ome_attributes(attributes).contains_key("multiscales")

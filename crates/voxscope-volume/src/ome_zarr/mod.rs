@@ -37,7 +37,7 @@ use super::error::Problem;
 use super::remote::{RemoteOptions, RemoteStats, RemoteStore};
 use super::{LoadError, MAX_VOXELS, Selection, Volume, VoxelType, format_dims};
 
-pub use metadata::{Axis, AxisKind, OmeroChannel, Plate};
+pub use metadata::{Axis, AxisKind, Bioformats2raw, OmeroChannel, Plate, SeriesEntry};
 use open::open_root;
 pub use read::MAX_PREFETCH_CHUNKS;
 pub use source::SlabSource;
@@ -185,6 +185,9 @@ pub struct Pyramid {
     /// The HCS plate the image is a field of, where the store's root is a plate (its first
     /// well's first field opens).
     pub plate: Option<Plate>,
+    /// The series of the bioformats2raw container the image is one of, where the store's root
+    /// is such a container (its first series opens unless another is asked for).
+    pub bioformats2raw: Option<Bioformats2raw>,
     stored: Stored,
     layout: Layout,
     arrays: Vec<Array<dyn ReadableStorageTraits>>,
@@ -215,12 +218,35 @@ pub fn is_zarr_spec(spec: &str) -> bool {
     super::remote::is_url(spec) || is_zarr_folder(Path::new(spec))
 }
 
-/// Whether `path` is a Zarr folder: `.zgroup`, `.zarray` or `zarr.json` in it.
+/// Whether `path` is a Zarr folder: `.zgroup`, `.zarray` or `zarr.json` in it; or a
+/// bioformats2raw container's series `ROOT/N`, which opens (or is named missing) from `ROOT`.
 pub fn is_zarr_folder(path: &Path) -> bool {
-    path.is_dir()
+    (path.is_dir()
         && [".zgroup", ".zarray", "zarr.json"]
             .iter()
-            .any(|name| path.join(name).is_file())
+            .any(|name| path.join(name).is_file()))
+        || series_path(path).is_some()
+}
+
+/// If `path` is `ROOT/N` with `ROOT` a bioformats2raw container (a folder) and `N` a number
+/// (whether or not the series exists): `ROOT` and `N`.
+pub(crate) fn series_path(path: &Path) -> Option<(std::path::PathBuf, String)> {
+    let name = path.file_name()?.to_str()?;
+    if name.is_empty() || name.len() > 9 || !name.bytes().all(|b| b.is_ascii_digit()) {
+        return None;
+    }
+    let root = path.parent()?;
+    let root = if root.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        root
+    };
+    if !root.is_dir() {
+        return None;
+    }
+    let store = zarrs::filesystem::FilesystemStore::new(root).ok()?;
+    let store: ReadableStorage = Arc::new(store);
+    open::is_bioformats2raw_root(&store).then(|| (root.to_path_buf(), name.to_owned()))
 }
 
 /// If the folder `path` is a Zarr store whose root document is not written yet (`voxscope
@@ -254,8 +280,19 @@ pub(crate) fn unfinished_problem(level: &str) -> String {
 impl Pyramid {
     /// Opens the Zarr folder at `path` (an OME-Zarr group, a bioformats2raw container, or a
     /// plain array), selecting the channel and time point of `options`.
+    ///
+    /// A path `ROOT/N` inside a bioformats2raw container `ROOT` opens the container's series
+    /// `N` (`--series N`), listing the others; one the container lacks is named with its
+    /// count. The container itself opens its first series and says so on stderr.
     pub fn open(path: &Path, options: PyramidOptions) -> Result<Self, LoadError> {
         let source = path.display().to_string();
+        if let Some((root, series)) = series_path(path) {
+            let store = zarrs::filesystem::FilesystemStore::new(&root)
+                .map_err(|e| LoadError::new(&source, format!("cannot open: {e}")))?;
+            guard::register();
+            return open_root(Arc::new(store), &source, options, &|_| {}, Some(&series))
+                .map_err(|problem| LoadError::new(&source, problem));
+        }
         if !path.is_dir() {
             return Err(LoadError::new(
                 &source,
@@ -287,8 +324,9 @@ impl Pyramid {
             store.prefetch_documents(&keys, MAX_METADATA_BYTES);
         };
         guard::register();
-        let mut pyramid = open_root(store.clone(), &source, options, &warm)
+        let mut pyramid = open_root(store.clone(), &source, options, &warm, None)
             .map_err(|problem| LoadError::new(&source, problem))?;
+        pyramid.note_series();
         store.mark_opened();
         pyramid.bound_objects(&store);
         pyramid.remote = Some(store);
@@ -373,8 +411,31 @@ impl Pyramid {
         options: PyramidOptions,
     ) -> Result<Self, LoadError> {
         guard::register();
-        open_root(store, source, options, &|_| {})
-            .map_err(|problem| LoadError::new(source, problem))
+        let pyramid = open_root(store, source, options, &|_| {}, None)
+            .map_err(|problem| LoadError::new(source, problem))?;
+        pyramid.note_series();
+        Ok(pyramid)
+    }
+
+    /// Says on stderr that a bioformats2raw container of several series opened its first
+    /// (once per container: a command may open it more than once).
+    fn note_series(&self) {
+        static NOTED: std::sync::Mutex<Vec<String>> = std::sync::Mutex::new(Vec::new());
+        if let Some(found) = &self.bioformats2raw
+            && !found.chosen
+            && found.series.len() > 1
+        {
+            let mut noted = NOTED.lock().unwrap_or_else(|e| e.into_inner());
+            if noted.contains(&self.source) {
+                return;
+            }
+            noted.push(self.source.clone());
+            eprintln!(
+                "note: {}: a bioformats2raw container of {} series; opened series 0 (--series N opens another; info lists them)",
+                self.source,
+                found.series.len()
+            );
+        }
     }
 }
 
@@ -518,6 +579,46 @@ fn volume_facts(pyramid: &Pyramid, level: usize) -> Vec<(String, String)> {
                 "{} (the first well's first field; --field ROW/COLUMN/FIELD opens another)",
                 plate.field
             ),
+        ));
+    }
+    if let Some(found) = &pyramid.bioformats2raw {
+        let listed: Vec<String> = found
+            .series
+            .iter()
+            .enumerate()
+            .map(|(index, entry)| {
+                let mut text = index.to_string();
+                if entry.path != index.to_string() {
+                    text.push_str(&format!(" (group {})", entry.path));
+                }
+                if let Some(name) = &entry.name {
+                    text.push_str(&format!(" \"{name}\""));
+                }
+                if let Some((shape, names)) = &entry.dims {
+                    let shape: Vec<String> = shape.iter().map(u64::to_string).collect();
+                    text.push_str(&format!(" {}", shape.join("x")));
+                    if !names.is_empty() {
+                        text.push_str(&format!(" ({})", names.join(" ")));
+                    }
+                }
+                text
+            })
+            .collect();
+        facts.push((
+            "series".to_owned(),
+            format!(
+                "{} (bioformats2raw): {}",
+                found.series.len(),
+                listed.join("; ")
+            ),
+        ));
+        facts.push((
+            "open series".to_owned(),
+            if found.chosen {
+                found.opened.to_string()
+            } else {
+                format!("{} (the first; --series N opens another)", found.opened)
+            },
         ));
     }
     if let Some(unit) = pyramid.units.iter().flatten().next() {

@@ -152,15 +152,16 @@ fn decode_lz4(encoded: &[u8], expected: Option<u64>) -> Result<Vec<u8>, CodecErr
         )));
     };
     let declared = u64::from(u32::from_le_bytes(*size));
-    if let Some(expected) = expected
-        && declared > expected
-    {
+    // Variable-length data (which voxscope never reads) has no expected size to check the
+    // declared one against: refused rather than trusted.
+    let expected = expected.ok_or_else(|| {
+        CodecError::Other("lz4: variable-length data has no size to bound the chunk".into())
+    })?;
+    if declared > expected {
         return Err(CodecError::Other(format!(
             "lz4: the chunk declares {declared} decoded bytes, it holds {expected}"
         )));
     }
-    // Variable-length data (which voxscope never reads) has no expected size; the declared
-    // size is then at most 4 GiB, numcodecs' own limit.
     let mut decoded = vec![0; declared as usize];
     let written = lz4_flex::block::decompress_into(block, &mut decoded)
         .map_err(|e| CodecError::Other(format!("lz4: {e}")))?;
@@ -306,7 +307,9 @@ impl BytesToBytesCodecTraits for LzmaCodec {
         decoded_representation: &BytesRepresentation,
         _options: &CodecOptions,
     ) -> Result<ArrayBytesRaw<'a>, CodecError> {
-        let expected = decoded_representation.size().unwrap_or(u64::from(u32::MAX));
+        let expected = decoded_representation.size().ok_or_else(|| {
+            CodecError::Other("lzma: variable-length data has no size to bound the chunk".into())
+        })?;
         let encoded = &encoded_value[..];
         let decoded = if encoded.starts_with(&XZ_MAGIC) {
             check_xz(encoded, expected)?;

@@ -127,9 +127,11 @@ pub(super) fn open_root(
     source: &str,
     options: PyramidOptions,
     warm: Warm,
+    series: Option<&str>,
 ) -> Result<Pyramid, Problem> {
     warm(&node_documents(""));
     let mut plate = None;
+    let mut bioformats2raw = None;
     let (attributes, zarr_format, prefix) = match node(&store, "")? {
         Node::Missing => {
             return Err(
@@ -151,19 +153,51 @@ pub(super) fn open_root(
             zarr_format,
         } => {
             if metadata::bioformats2raw_image(&attributes) {
-                // bioformats2raw.layout 3: the images are groups 0, 1, …; the first is read.
-                warm(&node_documents("0/"));
-                match node(&store, "0/")? {
+                // bioformats2raw.layout 3: the images are groups 0, 1, … (or those OME's
+                // `series` lists); the first is read unless another is asked for.
+                let mut found = series_list(&store, warm)?;
+                let count = found.series.len();
+                let opened = match series {
+                    None => 0,
+                    Some(path) => found
+                        .series
+                        .iter()
+                        .position(|entry| entry.path == path)
+                        .ok_or_else(|| {
+                            format!(
+                                "series {} does not exist (the bioformats2raw container has {count} series{})",
+                                printable(path),
+                                if count > 0 {
+                                    format!(", 0 to {}", count - 1)
+                                } else {
+                                    String::new()
+                                }
+                            )
+                        })?,
+                };
+                found.opened = opened;
+                found.chosen = series.is_some();
+                let path = found
+                    .series
+                    .get(opened)
+                    .map(|entry| entry.path.clone())
+                    .ok_or("is a bioformats2raw container without an image group '0'")?;
+                let group = format!("{path}/");
+                bioformats2raw = Some(found);
+                match node(&store, &group)? {
                     Node::Group {
                         attributes,
                         zarr_format,
-                    } => (attributes, zarr_format, "0/"),
+                    } => (attributes, zarr_format, ""),
                     _ => {
-                        return Err(
-                            "is a bioformats2raw container without an image group '0'".to_owned()
-                        );
+                        return Err(format!(
+                            "is a bioformats2raw container whose series {} is not an image group",
+                            quoted(&path)
+                        ));
                     }
                 }
+            } else if series.is_some() {
+                return Err("is not a bioformats2raw container of series".to_owned());
             } else if let Some(found) = metadata::plate(&attributes)? {
                 // An HCS plate: the first well's first field opens (another is opened by
                 // its own path, `--field ROW/COLUMN/FIELD`); every well's fields are listed.
@@ -189,7 +223,11 @@ pub(super) fn open_root(
             }
         }
     };
-    let field_prefix = plate.as_ref().map(|p| format!("{}/", p.field));
+    let field_prefix = plate.as_ref().map(|p| format!("{}/", p.field)).or_else(|| {
+        bioformats2raw
+            .as_ref()
+            .map(|b: &metadata::Bioformats2raw| format!("{}/", b.series[b.opened].path))
+    });
     let prefix = field_prefix.as_deref().unwrap_or(prefix);
     let multiscale = metadata::multiscale(&attributes)?.ok_or(
         "is a Zarr group without OME-Zarr 'multiscales' metadata (open an array inside it, or an OME-Zarr image)",
@@ -203,7 +241,121 @@ pub(super) fn open_root(
     };
     let mut pyramid = open_levels(store, &opening, Some(multiscale), attributes)?;
     pyramid.plate = plate;
+    pyramid.bioformats2raw = bioformats2raw;
     Ok(pyramid)
+}
+
+/// The series of a bioformats2raw container: the paths its `OME` group's `series` lists (if
+/// any), else its groups `0`, `1`, … as far as they go; named from `OME/METADATA.ome.xml` where it
+/// names them, each with its finest level's shape (the first [`DESCRIBED_SERIES`]).
+fn series_list(store: &ReadableStorage, warm: Warm) -> Result<metadata::Bioformats2raw, Problem> {
+    warm(&node_documents("OME/"));
+    let listed = match node(store, "OME/") {
+        Ok(Node::Group { attributes, .. }) => metadata::series_paths(&attributes)?,
+        _ => None,
+    };
+    let paths = match listed {
+        Some(paths) if !paths.is_empty() => paths,
+        _ => {
+            let mut paths = Vec::new();
+            while paths.len() < metadata::MAX_SERIES {
+                let path = paths.len().to_string();
+                warm(&node_documents(&format!("{path}/")));
+                match node(store, &format!("{path}/")) {
+                    Ok(Node::Group { .. }) => paths.push(path),
+                    _ => break,
+                }
+            }
+            paths
+        }
+    };
+    let names = read_text(store, "OME/METADATA.ome.xml")
+        .ok()
+        .flatten()
+        .map(|text| metadata::ome_xml_image_names(&text))
+        .unwrap_or_default();
+    let described: Vec<String> = paths
+        .iter()
+        .take(DESCRIBED_SERIES)
+        .flat_map(|path| node_documents(&format!("{path}/")))
+        .collect();
+    warm(&described);
+    let series = paths
+        .into_iter()
+        .enumerate()
+        .map(|(index, path)| metadata::SeriesEntry {
+            name: names.get(index).cloned().flatten(),
+            dims: if index < DESCRIBED_SERIES {
+                series_shape(store, &path)
+            } else {
+                None
+            },
+            path,
+        })
+        .collect();
+    Ok(metadata::Bioformats2raw {
+        series,
+        opened: 0,
+        chosen: false,
+    })
+}
+
+/// The series of a bioformats2raw container whose shapes are read (their documents, a few
+/// requests each for a URL's store).
+const DESCRIBED_SERIES: usize = 64;
+
+/// A series' finest level's shape, x first, and its axes' names in that order (`None` when its
+/// metadata cannot be read).
+fn series_shape(store: &ReadableStorage, path: &str) -> Option<(Vec<u64>, Vec<String>)> {
+    let Ok(Node::Group { attributes, .. }) = node(store, &format!("{path}/")) else {
+        return None;
+    };
+    let multiscale = metadata::multiscale(&attributes).ok().flatten()?;
+    let level = format!("{path}/{}", multiscale.datasets.first()?.path);
+    let document = match read_json(store, &format!("{level}/zarr.json")).ok()? {
+        Some(document) => document,
+        None => read_json(store, &format!("{level}/.zarray")).ok()??,
+    };
+    let mut shape: Vec<u64> = document
+        .get("shape")?
+        .as_array()?
+        .iter()
+        .map(Value::as_u64)
+        .collect::<Option<_>>()?;
+    let mut names: Vec<String> = match &multiscale.axes {
+        Some(axes) if axes.len() == shape.len() => axes.iter().map(|a| a.name.clone()).collect(),
+        _ => Vec::new(),
+    };
+    shape.reverse();
+    names.reverse();
+    Some((shape, names))
+}
+
+/// The text of the document at `key`, if there is one (at most [`MAX_METADATA_BYTES`]).
+fn read_text(store: &ReadableStorage, key: &str) -> Result<Option<String>, Problem> {
+    let store_key = StoreKey::new(key).map_err(|e| format!("store key {}: {e}", quoted(key)))?;
+    match store.size_key(&store_key) {
+        Ok(Some(size)) if size > MAX_METADATA_BYTES => {
+            return Err(format!("{key} is {size} bytes; not read"));
+        }
+        Ok(Some(_)) => {}
+        Ok(None) => return Ok(None),
+        Err(e) => return Err(format!("cannot read {key}: {}", printable(&e.to_string()))),
+    }
+    match store.get(&store_key) {
+        Ok(Some(bytes)) => Ok(Some(String::from_utf8_lossy(&bytes).into_owned())),
+        Ok(None) => Ok(None),
+        Err(e) => Err(format!("cannot read {key}: {}", printable(&e.to_string()))),
+    }
+}
+
+/// Whether the store's root is a bioformats2raw container (its series are opened by
+/// [`open_root`]'s `series`).
+pub(super) fn is_bioformats2raw_root(store: &ReadableStorage) -> bool {
+    matches!(
+        node(store, ""),
+        Ok(Node::Group { attributes, .. }) if metadata::bioformats2raw_image(&attributes)
+    )
 }
 
 /// Reads the fields of every well of `plate` (their documents fetched together first) and
@@ -440,6 +592,7 @@ fn open_levels(
         remote: None,
         reader_pool: None,
         plate: None,
+        bioformats2raw: None,
     })
 }
 
