@@ -116,6 +116,10 @@ def main() -> None:
     v3("v3-bz2.zarr", v3_numcodecs.BZ2(level=9), "bz2")
     v3("v3-lz4.zarr", v3_numcodecs.LZ4(acceleration=1), "lz4")
     v3("v3-lzma.zarr", v3_numcodecs.LZMA(), "lzma")
+    # numcodecs' own settings under a v3 name (zstd without `checksum`, blosc's numeric
+    # `shuffle`), as zarr-python 3 writes them for numcodecs codecs.
+    v3("v3-numcodecs-zstd.zarr", v3_numcodecs.Zstd(level=3), "zstd")
+    v3("v3-numcodecs-blosc.zarr", v3_numcodecs.Blosc(cname="zstd", clevel=5, shuffle=1), "blosc zstd")
     v3("v3-none.zarr", None, "none")
 
     # Each array reads back equal to the voxels through the reference implementation.

@@ -66,14 +66,47 @@ impl Compressor {
         name == self.name() || name.strip_prefix("numcodecs.") == Some(self.name())
     }
 
-    /// zarrs's own codec for Zarr v3 metadata.
+    /// zarrs's own codec for Zarr v3 metadata. Under a `numcodecs.` name zarr-python 3 writes
+    /// numcodecs' own settings, which for some codecs are not zarrs's v3 ones (`zstd` without
+    /// `checksum`, `blosc` with a numeric `shuffle`): those are read as the codec's v2 settings.
     fn create_v3(self, metadata: &MetadataV3) -> Result<Codec, PluginCreateError> {
-        match self {
+        let created = match self {
             Self::Blosc => <BloscCodec as CodecTraitsV3>::create(metadata),
             Self::Zstd => <ZstdCodec as CodecTraitsV3>::create(metadata),
             Self::Gzip => <GzipCodec as CodecTraitsV3>::create(metadata),
             Self::Zlib => <ZlibCodec as CodecTraitsV3>::create(metadata),
             Self::Bz2 => <Bz2Codec as CodecTraitsV3>::create(metadata),
+        };
+        match created {
+            Err(error) if metadata.name().starts_with("numcodecs.") => {
+                let mut settings = match metadata.configuration().map(serde_json::to_value) {
+                    Some(Ok(serde_json::Value::Object(settings))) => settings,
+                    _ => serde_json::Map::new(),
+                };
+                if self == Self::Blosc {
+                    // zarrs makes v2's blosc only with the array's data type: as v3 settings
+                    // instead, the shuffle named. A frame's header holds its type size, so the
+                    // decoder needs none (1 stands in).
+                    let shuffle = match settings.get("shuffle").and_then(serde_json::Value::as_u64)
+                    {
+                        Some(0) => "noshuffle",
+                        Some(2) => "bitshuffle",
+                        _ => "shuffle",
+                    };
+                    settings.insert("shuffle".to_owned(), shuffle.into());
+                    settings.insert("typesize".to_owned(), 1.into());
+                    settings.entry("blocksize").or_insert(0.into());
+                    let v3 =
+                        MetadataV3::new_with_configuration("blosc", Configuration::from(settings));
+                    return <BloscCodec as CodecTraitsV3>::create(&v3).map_err(|_| error);
+                }
+                settings.insert("id".to_owned(), self.name().into());
+                serde_json::from_value::<MetadataV2>(serde_json::Value::Object(settings))
+                    .ok()
+                    .and_then(|v2| self.create_v2(&v2).ok())
+                    .ok_or(error)
+            }
+            created => created,
         }
     }
 

@@ -237,7 +237,7 @@ fn describe_codecs(metadata: &ArrayMetadata) -> String {
         let config = codec.get("configuration").unwrap_or(codec);
         Some(match name {
             "bytes" | "crc32c" => return None,
-            "blosc" => format!(
+            "blosc" | "numcodecs.blosc" => format!(
                 "blosc {}",
                 config.get("cname").and_then(Value::as_str).unwrap_or("?")
             ),
