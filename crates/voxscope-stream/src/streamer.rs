@@ -551,6 +551,10 @@ impl Streamer {
     /// function makes that range invisible; if so the brick enters the table without a slot
     /// (as an evicted one would), so that rays skip it and nothing is loaded.
     fn known_invisible(&mut self, key: u32, id: BrickId) -> bool {
+        if let Some(entry) = self.table.get(key) {
+            // Entered already (read, or known invisible before): its bit says.
+            return entry.cell & ENTRY_FAILED == 0 && entry.slot & ENTRY_VISIBLE == 0;
+        }
         let Some(range) = self.source.known_range(id) else {
             return false;
         };
@@ -582,6 +586,24 @@ impl Streamer {
             }
             None => false,
         }
+    }
+
+    /// Whether `key` takes no slot in a view: [`Self::satisfied`], or its range (known without
+    /// reading it, or from when it was last read) is invisible, so that rays skip it. A coarser
+    /// brick of a cut may be invisible while the finer ones it stands for are not (a mean of
+    /// a thin bright structure falls below the transfer function's visible values): counted as
+    /// a slot to load, it would never load, and the cut would never stand.
+    fn needs_no_slot(&self, key: u32) -> bool {
+        if self.satisfied(key) {
+            return true;
+        }
+        if let Some(entry) = self.table.get(key) {
+            return entry.slot & ENTRY_VISIBLE == 0;
+        }
+        self.shape
+            .brick_of(key)
+            .and_then(|id| self.source.known_range(id))
+            .is_some_and(|range| !self.range_visible(range.packed()))
     }
 
     fn take_feedback(&mut self, feedback: Feedback<'_>, view: Option<ViewPoint>) {
@@ -655,26 +677,26 @@ impl Streamer {
         // shortage, while stand-ins are drawn, delays bricks but leaves none out).
         let room = self.budget_slots().saturating_sub(committed.len());
         let cut = cut_within(&requests, room, &self.shape, &view, |key| {
-            self.satisfied(key)
+            self.needs_no_slot(key)
         });
         let available = self.slots.available(feedback.frame.max(1));
         let cut_now = (available < room).then(|| {
             cut_within(&requests, available, &self.shape, &view, |key| {
-                self.satisfied(key)
+                self.needs_no_slot(key)
             })
         });
         let loads_now = cut_now.as_ref().map_or(&cut.load, |now| &now.load).clone();
         // The cut counts every asked brick as a slot; many turn out uniform (no slot) once
         // read. So the cut stands only once everything it loads is in: until then the rest is
         // just not loaded yet, and the next frame's cut knows more.
-        if !cut.standing.is_empty() && cut.load.iter().all(|r| self.satisfied(r.key)) {
+        if !cut.standing.is_empty() && cut.load.iter().all(|r| self.needs_no_slot(r.key)) {
             self.stand_in(&cut.standing, view);
         } else if let Some(now) = cut_now.filter(|now| {
             // Stuck: every slot holds a brick the frame drew (wanted, or drawn in place of a
             // finer one), nothing can be placed without evicting one, and nothing is on its
             // way. What the atlas holds is the cut: its coarser bricks stand for the rest.
             !now.standing.is_empty()
-                && now.load.iter().all(|r| self.satisfied(r.key))
+                && now.load.iter().all(|r| self.needs_no_slot(r.key))
                 && self.ready.is_empty()
                 && self.queue.counts() == (0, 0)
         }) {
