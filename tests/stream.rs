@@ -316,6 +316,24 @@ fn uncorrected(max_level: u32) -> RenderSettings {
     }
 }
 
+/// The whole noise in view, rays through it (most of level 0 is needed), refined with room
+/// for all of its bricks at full detail: the camera, the settings and what was drawn.
+fn the_whole_volume_in_view(context: &GpuContext) -> (Camera, RenderSettings, Refined) {
+    let camera = Camera {
+        distance: 2.5,
+        ..close_camera(30.0)
+    };
+    let full = settings(NOISE.octree.depth);
+    let mut roomy = streaming(
+        context,
+        PYRAMID.clone(),
+        options(level0_bytes() * 2),
+        &NOISE.transfer,
+    );
+    let whole = refine(context, &mut roomy, &camera, &full);
+    (camera, full, whole)
+}
+
 /// A streaming renderer of `source` (the noise's pyramid) and its GPU budget, whose atlas
 /// holds a third of a view needing `needed` bricks of `slot_bytes`. (The budget pays for the
 /// page table and request buffers too, and a fifth of the slots is the frame's own room: it
@@ -347,20 +365,7 @@ fn a_third_of_the_view(
 fn a_view_three_times_the_atlas_completes_coarser_where_least_important_and_refines_with_room() {
     let context = gpu();
     let prepared = &*NOISE;
-    // The whole volume in view, rays through it: most of level 0 is needed.
-    let camera = Camera {
-        distance: 2.5,
-        ..close_camera(30.0)
-    };
-    let full = settings(prepared.octree.depth);
-    // The view's bricks at full detail, with room for all of them.
-    let mut roomy = streaming(
-        &context,
-        PYRAMID.clone(),
-        options(level0_bytes() * 2),
-        &prepared.transfer,
-    );
-    let whole = refine(&context, &mut roomy, &camera, &full);
+    let (camera, full, whole) = the_whole_volume_in_view(&context);
     assert_eq!(whole.status.budget, None, "2× level 0 holds the view");
     let needed = whole.status.counters.view_slots;
     eprintln!("the view needs {needed} bricks at full detail");
@@ -511,18 +516,7 @@ fn a_view_larger_than_the_atlas_completes_where_the_coarser_bricks_are_invisible
             .all(|&packed| voxscope_octree::unpack_rgba(packed)[3] == 0),
         "the premise: the lowest two levels are transparent"
     );
-    let camera = Camera {
-        distance: 2.5,
-        ..close_camera(30.0)
-    };
-    let full = settings(prepared.octree.depth);
-    let mut roomy = streaming(
-        &context,
-        PYRAMID.clone(),
-        options(level0_bytes() * 2),
-        &prepared.transfer,
-    );
-    let whole = refine(&context, &mut roomy, &camera, &full);
+    let (camera, full, whole) = the_whole_volume_in_view(&context);
     let needed = whole.status.counters.view_slots;
     let source: Arc<dyn BrickSource> = Arc::new(InvisibleParents(PYRAMID.clone()));
     let (mut renderer, _) =
