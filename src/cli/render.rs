@@ -50,7 +50,8 @@ pub fn run(args: &RenderArgs, given: &Given) -> Result<Rendered, String> {
     let mut drawing = Drawing::open(&volume, &options)?;
     let camera = options.camera();
     let settings = drawing.settings;
-    let (image, refinement) = match drawing.tile_side(options.size, args.tile_size) {
+    let side = drawing.tile_side(options.size, args.tile_size);
+    let (mut image, refinement) = match side {
         Some(side) => {
             let image = drawing.draw_tiled(options.size, side, &camera, &settings)?;
             let why = if args.tile_size.is_some() {
@@ -71,6 +72,7 @@ pub fn run(args: &RenderArgs, given: &Given) -> Result<Rendered, String> {
             (image, refinement)
         }
     };
+    drawing.draw_labels_over(&mut image, side, &camera, &settings)?;
     image
         .save(&args.output)
         .map_err(|e| format!("cannot write {}: {e}", args.output.display()))?;
@@ -114,8 +116,14 @@ pub fn run(args: &RenderArgs, given: &Given) -> Result<Rendered, String> {
             Ok(Rendered::Complete)
         }
         (Content::Volume { depth } | Content::Streamed { depth }, _) => {
+            let names: Vec<&str> = drawing.labels.iter().map(|l| l.name.as_str()).collect();
+            let labels = if names.is_empty() {
+                String::new()
+            } else {
+                format!(", labels {} over it", names.join(", "))
+            };
             eprintln!(
-                "{written}, {} renderer, level {}/{depth}) on {} in {seconds:.2} s",
+                "{written}, {} renderer, level {}/{depth}{labels}) on {} in {seconds:.2} s",
                 drawing.renderer.kind().name(),
                 settings.max_level,
                 drawing.context.describe(),

@@ -1,0 +1,136 @@
+//! Label overlays on the command line (`render --labels NAME|FILE`, `probe`): which label
+//! volumes to draw over the image, read and checked against the image's grid. How they are
+//! drawn is voxscope-scene's `label_overlay.rs`.
+
+use std::path::Path;
+
+use clap::Args;
+use voxscope_scene::{DEFAULT_LABEL_OPACITY, LabelOverlay};
+use voxscope_volume::ome_zarr::{LabelImage, Pyramid};
+use voxscope_volume::{LoadOptions, Selection, format_dims};
+
+use super::VolumeArgs;
+
+/// The label layers drawn over the image.
+#[derive(Debug, Clone, Default, Args)]
+pub struct LabelArgs {
+    /// Draw labels over the image: a label image of the opened OME-Zarr image by name (its
+    /// `labels/` group; `info` lists them), or a label file on the image's grid (NIfTI, NRRD,
+    /// TIFF, …). Repeatable, or a comma list.
+    #[arg(long, value_name = "NAME|FILE", value_delimiter = ',')]
+    pub labels: Vec<String>,
+    /// The labels' opacity over the image, 0…1 (times each label color's alpha).
+    #[arg(long, value_name = "F", default_value_t = DEFAULT_LABEL_OPACITY, value_parser = parse_opacity)]
+    pub labels_opacity: f32,
+    /// Label values not drawn: a ray passes them and shows the next visible label.
+    #[arg(long, value_name = "V,…", value_delimiter = ',', allow_hyphen_values = true)]
+    pub labels_hide: Vec<f64>,
+}
+
+fn parse_opacity(text: &str) -> Result<f32, String> {
+    match text.trim().parse::<f32>() {
+        Ok(v) if (0.0..=1.0).contains(&v) => Ok(v),
+        _ => Err(format!("'{text}' is not an opacity from 0 to 1")),
+    }
+}
+
+/// The label images of the OME-Zarr image `volume` opens (none for other files), with the
+/// pyramid they belong to.
+pub fn label_images(volume: &VolumeArgs) -> Option<(Pyramid, Vec<LabelImage>)> {
+    let file = volume.file.as_deref()?;
+    if !voxscope_volume::ome_zarr::is_zarr_spec(file) {
+        return None;
+    }
+    let options = volume.load_options();
+    let pyramid = Pyramid::open_spec(file, options.select, options.remote).ok()?;
+    let labels = pyramid.label_images();
+    Some((pyramid, labels))
+}
+
+/// Reads each of `names` (a label image of the image `volume` opens, else a file) as a label
+/// overlay on the grid of the image, whose volume in memory has `image_dims` voxels. Errors
+/// are one line naming the label or file and the problem.
+pub fn open_overlays(
+    names: &[String],
+    volume: &VolumeArgs,
+    image_dims: [usize; 3],
+) -> Result<Vec<LabelOverlay>, String> {
+    if names.is_empty() {
+        return Ok(Vec::new());
+    }
+    let listed = label_images(volume);
+    names
+        .iter()
+        .map(|name| open_overlay(name, volume, listed.as_ref(), image_dims))
+        .collect()
+}
+
+fn open_overlay(
+    name: &str,
+    volume: &VolumeArgs,
+    listed: Option<&(Pyramid, Vec<LabelImage>)>,
+    image_dims: [usize; 3],
+) -> Result<LabelOverlay, String> {
+    let image_name = volume.file.as_deref().unwrap_or(voxscope_volume::SAMPLE_NAME);
+    if let Some((image, labels)) = listed
+        && let Some(label) = labels.iter().find(|label| label.name == name)
+    {
+        return open_label_image(image, image_name, label, volume, image_dims);
+    }
+    if voxscope_volume::remote::is_url(name) || Path::new(name).exists() {
+        let labels = voxscope_volume::load(name, &LoadOptions::default())
+            .map_err(|e| super::args::load_error_text(&e))?;
+        return LabelOverlay::new(name, &labels, image_dims, Vec::new());
+    }
+    let known = match listed {
+        Some((_, labels)) if !labels.is_empty() => format!(
+            "its label images are {}",
+            labels
+                .iter()
+                .map(|l| l.name.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+        _ => "it has no label images".to_owned(),
+    };
+    Err(format!(
+        "--labels {name}: no such file, and no label image of {image_name} by that name ({known})"
+    ))
+}
+
+/// Label image `label` of the OME-Zarr `image`: its level on the grid of the image's volume
+/// in memory (`image_dims`), its resolution 0 being the image's.
+fn open_label_image(
+    image: &Pyramid,
+    image_name: &str,
+    label: &LabelImage,
+    volume: &VolumeArgs,
+    image_dims: [usize; 3],
+) -> Result<LabelOverlay, String> {
+    let spec = image.label_spec(image_name, label);
+    let options = volume.load_options();
+    let pyramid = Pyramid::open_spec(&spec, Selection::default(), options.remote)
+        .map_err(|e| e.to_string())?;
+    let (Some(finest), Some(image_finest)) = (pyramid.levels.first(), image.levels.first()) else {
+        return Err(format!("{spec}: has no levels"));
+    };
+    if finest.dims != image_finest.dims {
+        return Err(format!(
+            "{spec}: its grid ({}) is not the image's ({}); labels must lie on the image's grid",
+            format_dims(finest.dims),
+            format_dims(image_finest.dims)
+        ));
+    }
+    let level = pyramid
+        .levels
+        .iter()
+        .position(|level| level.dims == image_dims)
+        .ok_or_else(|| {
+            format!(
+                "{spec}: no level of {} voxels, the image's level in memory",
+                format_dims(image_dims)
+            )
+        })?;
+    let labels = pyramid.level_volume(level).map_err(|e| e.to_string())?;
+    LabelOverlay::new(&label.name, &labels, image_dims, label.colors.clone())
+}
