@@ -16,6 +16,7 @@ use super::dialogs::DialogKind;
 use super::file_browser::{BrowserOutcome, FileBrowser};
 use super::frame_controls::{self, Playback};
 use super::jobs::{JobEvent, Jobs};
+use super::label_list::{self, LabelLayers};
 use super::menu::{self, NOTICE_DURATION};
 use super::octree_panel::{self, OctreeFacts};
 use super::overlays;
@@ -61,6 +62,8 @@ pub struct VoxscopeApp {
     pub(super) first_clip: Option<Clip>,
     /// The time point of the scene the 3D views last showed whole.
     pub(super) shown_time: Option<usize>,
+    /// The label images drawn over the image, and their overlay.
+    pub(super) labels: LabelLayers,
 }
 
 impl VoxscopeApp {
@@ -97,6 +100,7 @@ impl VoxscopeApp {
             no_desktop_dialogs: false,
             first_clip: None,
             shown_time: None,
+            labels: LabelLayers::default(),
         };
         if app.gpu.is_none() {
             app.fail("voxscope needs the wgpu renderer; no GPU device was handed to the app");
@@ -128,6 +132,7 @@ impl VoxscopeApp {
     /// open or a frame's measurement is on its way back.
     pub fn is_busy(&self) -> bool {
         self.jobs.is_busy()
+            || self.labels.is_busy()
             || self.prefetch.is_busy()
             || self.central.is_measuring()
             || (self.scene.is_some() && self.central.is_refining())
@@ -572,6 +577,7 @@ impl eframe::App for VoxscopeApp {
                         if let Some(composite) = composite {
                             channel_list::show(ui, composite, &mut self.view, &mut self.commands);
                         }
+                        label_list::show(ui, &mut self.labels);
                         let data = match composite {
                             Some(composite) => composite
                                 .channels
@@ -627,6 +633,11 @@ impl eframe::App for VoxscopeApp {
                     opening: self.jobs.opening.is_some(),
                 },
             );
+            if let Some(scene) = &self.scene {
+                let sizes = self.central.pane_sizes();
+                let rects = self.central.pane_rects();
+                label_list::paint(ui, &self.labels, scene, &self.settings, &self.view, rects, &sizes);
+            }
             if let Some(message) = &self.error
                 && overlays::error_banner(ui, self.central.rect(), message)
             {
@@ -655,6 +666,11 @@ impl eframe::App for VoxscopeApp {
         }
         self.run_queued_commands(&ctx);
         self.follow_settings(&ctx);
+        if let (Some(gpu), Some(scene)) = (&self.gpu, &self.scene) {
+            let sizes = self.central.pane_sizes();
+            self.labels
+                .follow(&ctx, gpu, scene, &self.settings, &self.view, &sizes);
+        }
         if let (Some(gpu), Some(scene)) = (&self.gpu, &mut self.scene) {
             match self.central.draw(
                 &ctx,

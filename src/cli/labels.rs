@@ -7,7 +7,6 @@ use std::path::Path;
 use clap::Args;
 use voxscope_scene::{DEFAULT_LABEL_OPACITY, LabelOverlay};
 use voxscope_volume::ome_zarr::{LabelImage, Pyramid};
-use voxscope_volume::{LoadOptions, Selection, format_dims};
 
 use super::VolumeArgs;
 
@@ -75,12 +74,11 @@ fn open_overlay(
     if let Some((image, labels)) = listed
         && let Some(label) = labels.iter().find(|label| label.name == name)
     {
-        return open_label_image(image, image_name, label, volume, image_dims);
+        let remote = volume.load_options().remote;
+        return LabelOverlay::open_label_image(image, image_name, label, image_dims, remote);
     }
     if voxscope_volume::remote::is_url(name) || Path::new(name).exists() {
-        let labels = voxscope_volume::load(name, &LoadOptions::default())
-            .map_err(|e| super::args::load_error_text(&e))?;
-        return LabelOverlay::new(name, &labels, image_dims, Vec::new());
+        return LabelOverlay::open_file(name, image_dims);
     }
     let known = match listed {
         Some((_, labels)) if !labels.is_empty() => format!(
@@ -96,41 +94,4 @@ fn open_overlay(
     Err(format!(
         "--labels {name}: no such file, and no label image of {image_name} by that name ({known})"
     ))
-}
-
-/// Label image `label` of the OME-Zarr `image`: its level on the grid of the image's volume
-/// in memory (`image_dims`), its resolution 0 being the image's.
-fn open_label_image(
-    image: &Pyramid,
-    image_name: &str,
-    label: &LabelImage,
-    volume: &VolumeArgs,
-    image_dims: [usize; 3],
-) -> Result<LabelOverlay, String> {
-    let spec = image.label_spec(image_name, label);
-    let options = volume.load_options();
-    let pyramid = Pyramid::open_spec(&spec, Selection::default(), options.remote)
-        .map_err(|e| e.to_string())?;
-    let (Some(finest), Some(image_finest)) = (pyramid.levels.first(), image.levels.first()) else {
-        return Err(format!("{spec}: has no levels"));
-    };
-    if finest.dims != image_finest.dims {
-        return Err(format!(
-            "{spec}: its grid ({}) is not the image's ({}); labels must lie on the image's grid",
-            format_dims(finest.dims),
-            format_dims(image_finest.dims)
-        ));
-    }
-    let level = pyramid
-        .levels
-        .iter()
-        .position(|level| level.dims == image_dims)
-        .ok_or_else(|| {
-            format!(
-                "{spec}: no level of {} voxels, the image's level in memory",
-                format_dims(image_dims)
-            )
-        })?;
-    let labels = pyramid.level_volume(level).map_err(|e| e.to_string())?;
-    LabelOverlay::new(&label.name, &labels, image_dims, label.colors.clone())
 }

@@ -25,8 +25,11 @@ use voxscope_render::{
     Camera, GpuContext, RenderMode, RenderSettings, RenderTarget, RendererOptions,
     VolumeRenderer, read_image,
 };
-use voxscope_volume::ome_zarr::LabelColor;
-use voxscope_volume::{QuantizedVolume, ValueWindow, Volume, VoxelData, format_dims};
+use voxscope_volume::ome_zarr::{LabelColor, LabelImage, Pyramid};
+use voxscope_volume::remote::RemoteOptions;
+use voxscope_volume::{
+    LoadOptions, QuantizedVolume, Selection, ValueWindow, Volume, VoxelData, format_dims,
+};
 
 /// The opacity a label layer is drawn with unless told (napari's labels layer's default).
 pub const DEFAULT_LABEL_OPACITY: f32 = 0.7;
@@ -107,6 +110,58 @@ impl LabelOverlay {
             given_colors,
             label_index,
         })
+    }
+
+    /// Label image `label` of the OME-Zarr image opened from `image_spec` (`image`): the level
+    /// of its pyramid on the grid of the image's volume in memory (`image_dims`), its
+    /// resolution 0 being the image's (else one line naming both grids).
+    pub fn open_label_image(
+        image: &Pyramid,
+        image_spec: &str,
+        label: &LabelImage,
+        image_dims: [usize; 3],
+        remote: RemoteOptions,
+    ) -> Result<Self, String> {
+        let spec = image.label_spec(image_spec, label);
+        let pyramid =
+            Pyramid::open_spec(&spec, Selection::default(), remote).map_err(|e| e.to_string())?;
+        let (Some(finest), Some(image_finest)) = (pyramid.levels.first(), image.levels.first())
+        else {
+            return Err(format!("{spec}: has no levels"));
+        };
+        if finest.dims != image_finest.dims {
+            return Err(format!(
+                "{spec}: its grid ({}) is not the image's ({}); labels must lie on the image's grid",
+                format_dims(finest.dims),
+                format_dims(image_finest.dims)
+            ));
+        }
+        let level = pyramid
+            .levels
+            .iter()
+            .position(|level| level.dims == image_dims)
+            .ok_or_else(|| {
+                format!(
+                    "{spec}: no level of {} voxels, the image's level in memory",
+                    format_dims(image_dims)
+                )
+            })?;
+        let labels = pyramid.level_volume(level).map_err(|e| e.to_string())?;
+        Self::new(&label.name, &labels, image_dims, label.colors.clone())
+    }
+
+    /// A label file (NIfTI, NRRD, TIFF, …, or a Zarr store) on the grid of the image's volume
+    /// in memory (`image_dims`), in the labels palette; named by `spec`.
+    pub fn open_file(spec: &str, image_dims: [usize; 3]) -> Result<Self, String> {
+        let labels = voxscope_volume::load(spec, &LoadOptions::default()).map_err(|e| {
+            match e.kind {
+                voxscope_volume::LoadErrorKind::Unrecognized => {
+                    format!("{e} (a label file: NIfTI, NRRD, TIFF, …)")
+                }
+                _ => e.to_string(),
+            }
+        })?;
+        Self::new(spec, &labels, image_dims, Vec::new())
     }
 
     /// The color of label `value`: its `image-label` color where the file gives one, else the
@@ -324,6 +379,25 @@ impl UploadedLabels {
     /// opacity × the color's alpha; pixels of slot 0 are left as they are.
     pub fn blend(&self, rgba: &mut [u8], slots: &[u16]) {
         blend_slots(rgba, slots, &self.slots, self.opacity);
+    }
+
+    /// Composes the labels of `slots` over `premultiplied` (4 numbers 0…1 a pixel, its colors
+    /// premultiplied by its alpha: an overlay of layers drawn before, transparent at first), at
+    /// the layer's opacity × each color's alpha; what a UI paints over the image's picture.
+    pub fn compose(&self, premultiplied: &mut [f32], slots: &[u16]) {
+        for (pixel, &slot) in premultiplied.chunks_exact_mut(4).zip(slots) {
+            let Some(color) = (slot as usize)
+                .checked_sub(1)
+                .and_then(|index| self.slots.get(index))
+            else {
+                continue;
+            };
+            let alpha = self.opacity * color[3] as f32 / 255.0;
+            for c in 0..3 {
+                pixel[c] = color[c] as f32 / 255.0 * alpha + pixel[c] * (1.0 - alpha);
+            }
+            pixel[3] = alpha + pixel[3] * (1.0 - alpha);
+        }
     }
 }
 

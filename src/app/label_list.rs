@@ -1,0 +1,531 @@
+//! The Labels section of the Transfer function panel, and the label overlays it draws over the
+//! 3D panes.
+//!
+//! An OME-Zarr image with a `labels/` group lists its label images here (read by a job when the
+//! image opens); a label file on the image's grid can be added by its path. Each label image has
+//! a checkbox (drawn or not), an opacity, and a list of its label values with their colors
+//! (`image-label`'s, else the labels palette) and a visibility checkbox each.
+//!
+//! Drawing happens in a background job, never on the UI thread: the job reads a label volume the
+//! first time it is drawn, uploads it for the renderer of the image (voxscope-scene's
+//! `label_overlay.rs`: the first-visible-label pass), draws it with the view's camera and
+//! settings, waits for the device and turns the slots it read back into one premultiplied RGBA
+//! image of every layer, which egui paints over each 3D pane. The job keeps the label volumes and
+//! their uploads (handed back and forth with it), so a new view only draws. While the view
+//! changes, the overlay of an older view is not shown; the newest view is drawn once the job
+//! before it ended. Not over a streamed volume (yet).
+
+use std::collections::HashMap;
+use std::sync::Arc;
+
+use egui::{Color32, ColorImage, RichText, TextureHandle, TextureOptions, Ui};
+
+use super::AppGpu;
+use super::central::{PaneKind, pane_kinds};
+use super::settings::AppSettings;
+use super::view_state::ViewState;
+use voxscope_render::{
+    Camera, GpuContext, RenderSettings, RenderTarget, RendererKind, RendererOptions,
+};
+use voxscope_scene::{
+    DEFAULT_LABEL_OPACITY, Job, LabelOverlay, Scene, SceneError, UploadedLabels, VolumeSource,
+};
+use voxscope_volume::format_value;
+use voxscope_volume::ome_zarr::{LabelImage, Pyramid, is_zarr_spec};
+use voxscope_volume::remote::RemoteOptions;
+
+/// Label values listed at most per label image (the rest are drawn, not listed).
+const LISTED_LABELS: usize = 1000;
+
+/// The label layers of the image on screen, their overlay, and the jobs that make it.
+#[derive(Default)]
+pub struct LabelLayers {
+    /// The image the layers belong to: its spec and its grid in memory.
+    image: Option<(String, [usize; 3])>,
+    /// Reading the image's label images.
+    listing: Option<Job<Vec<LabelImage>>>,
+    /// The label images and files, in the order drawn (later over earlier).
+    pub layers: Vec<LabelLayer>,
+    /// The path typed into "Add a label file".
+    file_path: String,
+    /// The label volumes read and uploaded; `None` while a drawing job holds them.
+    cache: Option<OverlayCache>,
+    /// Drawing the overlay of a view.
+    drawing: Option<Job<(OverlayCache, Result<DrawnOverlay, String>)>>,
+    /// The overlay drawn last, and the view it is of.
+    shown: Option<(OverlayKey, TextureHandle)>,
+    /// Why the last overlay could not be drawn.
+    error: Option<String>,
+    /// The view last given to a drawing job (one that failed is not tried again).
+    tried: Option<OverlayKey>,
+}
+
+/// One label image (or file) of the image on screen.
+pub struct LabelLayer {
+    /// Its name (a label image's) or path (a file's).
+    pub name: String,
+    /// Where it comes from.
+    source: LayerSource,
+    /// Drawn over the image.
+    pub enabled: bool,
+    /// Its opacity over the image, 0…1 (times each color's alpha).
+    pub opacity: f32,
+    /// Label values not drawn.
+    pub hidden: Vec<f64>,
+    /// Its label values and their colors, once read.
+    labels: Vec<(f64, [u8; 4])>,
+}
+
+#[derive(Clone)]
+enum LayerSource {
+    /// A label image of the OME-Zarr image.
+    Image(LabelImage),
+    /// A label file on the image's grid.
+    File(String),
+}
+
+/// What a drawing job keeps between views: each layer's label volume and its upload.
+#[derive(Default)]
+struct OverlayCache {
+    loaded: HashMap<String, Arc<LabelOverlay>>,
+    uploaded: HashMap<String, (UploadKey, UploadedLabels)>,
+}
+
+/// What an upload of a layer depends on.
+#[derive(Clone, PartialEq)]
+struct UploadKey {
+    hidden: Vec<f64>,
+    renderer: RendererOptions,
+    max_level: u32,
+}
+
+/// The view an overlay is of.
+#[derive(Clone, PartialEq)]
+struct OverlayKey {
+    size: [u32; 2],
+    camera: Camera,
+    settings: RenderSettings,
+    renderer: RendererOptions,
+    image: (String, [usize; 3]),
+    /// The image's voxel size (the labels are drawn on its grid).
+    spacing: [f64; 3],
+    layers: Vec<(String, Vec<f64>, f32)>,
+}
+
+/// A drawn overlay: its view, the image, and each layer's labels and colors.
+struct DrawnOverlay {
+    key: OverlayKey,
+    image: ColorImage,
+    labels: Vec<(String, Vec<(f64, [u8; 4])>)>,
+}
+
+impl LabelLayers {
+    /// Whether a job of the labels runs.
+    pub fn is_busy(&self) -> bool {
+        self.listing.is_some() || self.drawing.is_some()
+    }
+
+    /// Follows the scene on screen: lists a newly opened image's label images, takes in what
+    /// jobs finished, and starts drawing the overlay of the view where it is out of date.
+    pub fn follow(
+        &mut self,
+        ctx: &egui::Context,
+        gpu: &AppGpu,
+        scene: &Scene,
+        settings: &AppSettings,
+        view: &ViewState,
+        pane_sizes: &[[u32; 2]],
+    ) {
+        let image = match &scene.data.source {
+            VolumeSource::Spec(spec) => Some((spec.clone(), scene.data.volume.dims)),
+            _ => None,
+        };
+        if image != self.image {
+            self.reset(ctx, image.clone());
+        }
+        if let Some(job) = &self.listing
+            && let Some(result) = job.try_take()
+        {
+            self.listing = None;
+            self.layers = result
+                .unwrap_or_default()
+                .into_iter()
+                .map(|label| LabelLayer::new(label.name.clone(), LayerSource::Image(label)))
+                .collect();
+        }
+        if let Some(job) = &self.drawing
+            && let Some(result) = job.try_take()
+        {
+            self.drawing = None;
+            match result {
+                Ok((cache, drawn)) => {
+                    self.cache = Some(cache);
+                    self.take_drawn(ctx, drawn);
+                }
+                Err(error) => {
+                    self.cache = Some(OverlayCache::default());
+                    self.error = Some(error.to_string());
+                }
+            }
+        }
+        let Some(image) = image else { return };
+        let Some(key) = self.view_key(scene, settings, view, pane_sizes, image) else {
+            return;
+        };
+        let current = self.shown.as_ref().is_some_and(|(shown, _)| *shown == key);
+        if current || self.drawing.is_some() {
+            return;
+        }
+        // A view that failed is not tried again until it changes.
+        if self.error.is_some() && self.tried.as_ref() == Some(&key) {
+            return;
+        }
+        let Some(cache) = self.cache.take() else {
+            return;
+        };
+        self.tried = Some(key.clone());
+        let sources: Vec<(String, LayerSource)> = self
+            .layers
+            .iter()
+            .filter(|layer| layer.enabled)
+            .map(|layer| (layer.name.clone(), layer.source.clone()))
+            .collect();
+        let context = Arc::clone(&gpu.context);
+        let wake = ctx.clone();
+        self.drawing = Some(Job::spawn(
+            "label overlay".to_owned(),
+            move || wake.request_repaint(),
+            move |_| {
+                let mut cache = cache;
+                let drawn = draw_overlay(&context, &mut cache, &sources, key);
+                Ok::<_, SceneError>((cache, drawn))
+            },
+        ));
+    }
+
+    /// Forgets the layers of the last image and lists the label images of `image`.
+    fn reset(&mut self, ctx: &egui::Context, image: Option<(String, [usize; 3])>) {
+        self.layers.clear();
+        self.shown = None;
+        self.error = None;
+        self.tried = None;
+        if self.drawing.is_none() {
+            self.cache = Some(OverlayCache::default());
+        }
+        self.listing = image
+            .as_ref()
+            .filter(|(spec, _)| is_zarr_spec(spec))
+            .map(|(spec, _)| {
+                let spec = spec.clone();
+                let wake = ctx.clone();
+                Job::spawn(
+                    format!("labels of {spec}"),
+                    move || wake.request_repaint(),
+                    move |_| {
+                        let pyramid = Pyramid::open_spec(
+                            &spec,
+                            Default::default(),
+                            RemoteOptions::default(),
+                        )
+                        .map_err(|e| SceneError::failed(e.to_string()))?;
+                        Ok(pyramid.label_images())
+                    },
+                )
+            });
+        self.image = image;
+    }
+
+    /// The view the overlay must show now, if any layer is drawn and a 3D pane shows.
+    fn view_key(
+        &self,
+        scene: &Scene,
+        settings: &AppSettings,
+        view: &ViewState,
+        pane_sizes: &[[u32; 2]],
+        image: (String, [usize; 3]),
+    ) -> Option<OverlayKey> {
+        let layers: Vec<(String, Vec<f64>, f32)> = self
+            .layers
+            .iter()
+            .filter(|layer| layer.enabled)
+            .map(|layer| (layer.name.clone(), layer.hidden.clone(), layer.opacity))
+            .collect();
+        if layers.is_empty() {
+            return None;
+        }
+        let index = pane_kinds(settings)
+            .iter()
+            .position(|kind| matches!(kind, PaneKind::Volume))?;
+        let size = *pane_sizes.get(index)?;
+        if size.contains(&0) {
+            return None;
+        }
+        let kind = match scene.options.kind {
+            // The composite is drawn by the dense march: its labels too.
+            _ if scene.composite.is_some() => RendererKind::Dense,
+            RendererKind::Stream => return None,
+            kind => kind,
+        };
+        Some(OverlayKey {
+            size,
+            camera: settings.camera,
+            settings: RenderSettings {
+                mode: settings.mode,
+                max_level: view.max_level.min(scene.depth()),
+                pixel_lod: settings.pixel_lod,
+                opacity_correction: settings.opacity_correction,
+                density: settings.density,
+                heatmap: false,
+                trilinear: settings.trilinear,
+                shading: settings.shading,
+                clip: view.clipping.clip(),
+            },
+            renderer: RendererOptions {
+                kind,
+                ..scene.options
+            },
+            image,
+            spacing: scene.data.volume.spacing,
+            layers,
+        })
+    }
+
+    fn take_drawn(&mut self, ctx: &egui::Context, drawn: Result<DrawnOverlay, String>) {
+        match drawn {
+            Ok(drawn) => {
+                for (name, labels) in drawn.labels {
+                    if let Some(layer) = self.layers.iter_mut().find(|l| l.name == name) {
+                        layer.labels = labels;
+                    }
+                }
+                let texture = ctx.load_texture("label_overlay", drawn.image, TextureOptions::NEAREST);
+                self.shown = Some((drawn.key, texture));
+                self.error = None;
+            }
+            Err(error) => {
+                self.error = Some(error);
+            }
+        }
+    }
+
+    /// The overlay's texture, where it shows the view that `key_of` the panes would draw now:
+    /// what [`paint`] puts over the 3D panes.
+    fn current_texture(
+        &self,
+        scene: &Scene,
+        settings: &AppSettings,
+        view: &ViewState,
+        pane_sizes: &[[u32; 2]],
+    ) -> Option<&TextureHandle> {
+        let image = self.image.clone()?;
+        let key = self.view_key(scene, settings, view, pane_sizes, image)?;
+        self.shown
+            .as_ref()
+            .filter(|(shown, _)| *shown == key)
+            .map(|(_, texture)| texture)
+    }
+}
+
+impl LabelLayer {
+    fn new(name: String, source: LayerSource) -> Self {
+        Self {
+            name,
+            source,
+            enabled: false,
+            opacity: DEFAULT_LABEL_OPACITY,
+            hidden: Vec::new(),
+            labels: Vec::new(),
+        }
+    }
+}
+
+/// Draws the overlay of `key`'s view: every layer of `sources` read (once) and uploaded (once
+/// per hidden set and renderer), drawn, read back and composed in order.
+fn draw_overlay(
+    context: &GpuContext,
+    cache: &mut OverlayCache,
+    sources: &[(String, LayerSource)],
+    key: OverlayKey,
+) -> Result<DrawnOverlay, String> {
+    let [width, height] = key.size;
+    let mut premultiplied = vec![0f32; width as usize * height as usize * 4];
+    let target = RenderTarget::new(context, width, height);
+    let mut labels = Vec::new();
+    for ((name, source), (_, hidden, opacity)) in sources.iter().zip(&key.layers) {
+        let overlay = match cache.loaded.get(name) {
+            Some(overlay) => Arc::clone(overlay),
+            None => {
+                let (spec, dims) = &key.image;
+                let overlay = Arc::new(match source {
+                    LayerSource::Image(label) => {
+                        let image = Pyramid::open_spec(spec, Default::default(), RemoteOptions::default())
+                            .map_err(|e| e.to_string())?;
+                        LabelOverlay::open_label_image(&image, spec, label, *dims, RemoteOptions::default())?
+                    }
+                    LayerSource::File(path) => LabelOverlay::open_file(path, *dims)?,
+                });
+                cache.loaded.insert(name.clone(), Arc::clone(&overlay));
+                overlay
+            }
+        };
+        let upload_key = UploadKey {
+            hidden: hidden.clone(),
+            renderer: key.renderer,
+            max_level: key.settings.max_level,
+        };
+        if cache
+            .uploaded
+            .get(name)
+            .is_none_or(|(uploaded_for, _)| *uploaded_for != upload_key)
+        {
+            let uploaded = overlay
+                .layer(hidden, *opacity, key.spacing)?
+                .upload(context, key.renderer, key.settings.max_level)?;
+            cache.uploaded.insert(name.clone(), (upload_key, uploaded));
+        }
+        let (_, uploaded) = cache.uploaded.get_mut(name).expect("inserted above");
+        uploaded.opacity = opacity.clamp(0.0, 1.0);
+        let slots = uploaded.draw_slots(context, &target, &key.camera, &key.settings)?;
+        uploaded.compose(&mut premultiplied, &slots);
+        let listed = overlay
+            .labels
+            .iter()
+            .take(LISTED_LABELS)
+            .map(|&(value, _)| (value, overlay.color_of(value)))
+            .collect();
+        labels.push((name.clone(), listed));
+    }
+    let bytes: Vec<u8> = premultiplied
+        .iter()
+        .map(|&c| (c * 255.0).round().clamp(0.0, 255.0) as u8)
+        .collect();
+    Ok(DrawnOverlay {
+        image: ColorImage::from_rgba_premultiplied([width as usize, height as usize], &bytes),
+        key,
+        labels,
+    })
+}
+
+/// Draws the Labels section: a checkbox per label image, its opacity, its label values with
+/// their colors and visibility; a field to add a label file.
+pub fn show(ui: &mut Ui, labels: &mut LabelLayers) {
+    if labels.image.is_none() {
+        return;
+    }
+    if labels.layers.is_empty() && labels.listing.is_none() && labels.file_path.is_empty() {
+        // Nothing listed: only the way to add a file, folded.
+        ui.collapsing("Labels", |ui| add_file_row(ui, labels));
+        return;
+    }
+    ui.heading("Labels");
+    ui.small("Label images drawn over the image (the first visible label along each ray).");
+    if labels.listing.is_some() {
+        ui.small("reading the label images…");
+    }
+    for layer in &mut labels.layers {
+        ui.horizontal(|ui| {
+            ui.checkbox(&mut layer.enabled, RichText::new(&layer.name).strong())
+                .on_hover_text(match &layer.source {
+                    LayerSource::Image(label) => format!(
+                        "{} ({})",
+                        label.path,
+                        if label.colors.is_empty() {
+                            "labels palette".to_owned()
+                        } else {
+                            format!("{} colors from image-label", label.colors.len())
+                        }
+                    ),
+                    LayerSource::File(path) => path.clone(),
+                });
+            ui.add(egui::Slider::new(&mut layer.opacity, 0.0..=1.0).text("opacity"));
+        });
+        if layer.enabled && !layer.labels.is_empty() {
+            label_values(ui, layer);
+        }
+    }
+    if labels.drawing.is_some() {
+        ui.small("drawing the labels…");
+    }
+    if let Some(error) = &labels.error {
+        ui.colored_label(Color32::from_rgb(230, 120, 100), error);
+    }
+    add_file_row(ui, labels);
+    ui.separator();
+}
+
+/// A layer's label values: a color swatch and a visibility checkbox each, in a scrolled list.
+fn label_values(ui: &mut Ui, layer: &mut LabelLayer) {
+    egui::ScrollArea::vertical()
+        .id_salt(("label_values", layer.name.as_str()))
+        .max_height(140.0)
+        .show(ui, |ui| {
+            for &(value, rgba) in &layer.labels {
+                ui.horizontal(|ui| {
+                    let mut visible = !layer.hidden.contains(&value);
+                    let (rect, _) =
+                        ui.allocate_exact_size(egui::vec2(14.0, 14.0), egui::Sense::hover());
+                    ui.painter().rect_filled(
+                        rect,
+                        2.0,
+                        Color32::from_rgba_unmultiplied(rgba[0], rgba[1], rgba[2], rgba[3]),
+                    );
+                    if ui
+                        .checkbox(&mut visible, format!("label {}", format_value(value)))
+                        .on_hover_text("Drawn (unticked: hidden; rays show the next label behind)")
+                        .changed()
+                    {
+                        if visible {
+                            layer.hidden.retain(|&v| v != value);
+                        } else {
+                            layer.hidden.push(value);
+                        }
+                    }
+                });
+            }
+        });
+}
+
+fn add_file_row(ui: &mut Ui, labels: &mut LabelLayers) {
+    ui.horizontal(|ui| {
+        ui.add(
+            egui::TextEdit::singleline(&mut labels.file_path)
+                .hint_text("a label file on the image's grid")
+                .desired_width(180.0),
+        );
+        if ui
+            .button("Add")
+            .on_hover_text("NIfTI, NRRD, TIFF, … of the image's dimensions")
+            .clicked()
+            && !labels.file_path.trim().is_empty()
+        {
+            let path = labels.file_path.trim().to_owned();
+            if !labels.layers.iter().any(|l| l.name == path) {
+                let mut layer = LabelLayer::new(path.clone(), LayerSource::File(path));
+                layer.enabled = true;
+                labels.layers.push(layer);
+            }
+            labels.file_path.clear();
+        }
+    });
+}
+
+/// Paints the overlay over every 3D pane, where it shows the view the panes show.
+pub fn paint(
+    ui: &Ui,
+    labels: &LabelLayers,
+    scene: &Scene,
+    settings: &AppSettings,
+    view: &ViewState,
+    pane_rects: &[egui::Rect],
+    pane_sizes: &[[u32; 2]],
+) {
+    let Some(texture) = labels.current_texture(scene, settings, view, pane_sizes) else {
+        return;
+    };
+    let uv = egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0));
+    for (rect, kind) in pane_rects.iter().zip(pane_kinds(settings)) {
+        if matches!(kind, PaneKind::Volume) {
+            ui.painter().image(texture.id(), *rect, uv, Color32::WHITE);
+        }
+    }
+}
