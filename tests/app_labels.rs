@@ -9,7 +9,7 @@ mod support;
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
 use support::app_harness::{fresh_app, scratch, settle};
-use voxscope::app::VoxscopeApp;
+use voxscope::app::{Command, VoxscopeApp};
 
 const IMAGE: &str = "tests/data/labels-overlay/cells-v04.ome.zarr";
 
@@ -53,14 +53,20 @@ fn label_images_are_listed_ticked_drawn_over_the_view_and_hidden_one_by_one() {
     assert_eq!(green_pixels(&plain), 0, "no labels before one is ticked");
 
     // Both label images are listed; ticking `cells` draws it.
-    assert!(harness.query_by_label("regions").is_some(), "regions is listed");
+    assert!(
+        harness.query_by_label("regions").is_some(),
+        "regions is listed"
+    );
     harness.get_by_label("cells").click();
     settle(&mut harness);
     let window = harness.render().expect("the window renders");
     let drawn = pane(&harness, &window);
     window.save(scratch("labels-cells.png")).expect("saved");
     let green = green_pixels(&drawn);
-    assert!(green > 500, "label 2 (green) is drawn over the view: {green} pixels");
+    assert!(
+        green > 500,
+        "label 2 (green) is drawn over the view: {green} pixels"
+    );
     let red = red_pixels(&drawn);
     assert!(red > 50, "label 1 (red) is drawn: {red} pixels");
 
@@ -69,8 +75,14 @@ fn label_images_are_listed_ticked_drawn_over_the_view_and_hidden_one_by_one() {
     settle(&mut harness);
     let window = harness.render().expect("the window renders");
     let hidden = pane(&harness, &window);
-    window.save(scratch("labels-cells-without-2.png")).expect("saved");
-    assert!(green_pixels(&hidden) < 20, "label 2 is hidden: {}", green_pixels(&hidden));
+    window
+        .save(scratch("labels-cells-without-2.png"))
+        .expect("saved");
+    assert!(
+        green_pixels(&hidden) < 20,
+        "label 2 is hidden: {}",
+        green_pixels(&hidden)
+    );
     assert!(red_pixels(&hidden) > red, "label 1 behind label 2 shows");
 
     // Unticked: the view as before.
@@ -79,5 +91,33 @@ fn label_images_are_listed_ticked_drawn_over_the_view_and_hidden_one_by_one() {
     let window = harness.render().expect("the window renders");
     let again = pane(&harness, &window);
     assert_eq!(green_pixels(&again), 0);
-    assert_eq!(red_pixels(&again), red_pixels(&plain));
+    assert_eq!(again, plain, "the view without labels");
+
+    // File ▸ Open labels…: the cells as a NIfTI file, drawn at once in the labels palette.
+    let ctx = harness.ctx.clone();
+    harness.state_mut().run_command(
+        Command::OpenLabels("tests/data/labels-overlay/cells.nii".into()),
+        &ctx,
+    );
+    settle(&mut harness);
+    let window = harness.render().expect("the window renders");
+    window
+        .save(scratch("labels-cells-nifti.png"))
+        .expect("saved");
+    let file = pane(&harness, &window);
+    let changed = file
+        .pixels()
+        .zip(plain.pixels())
+        .filter(|(a, b)| a != b)
+        .count();
+    assert!(
+        changed > 1000,
+        "the label file is drawn: {changed} pixels changed"
+    );
+    assert_eq!(
+        green_pixels(&file),
+        0,
+        "in the palette, not image-label's colors"
+    );
+    assert_eq!(harness.state().error(), None);
 }

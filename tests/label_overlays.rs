@@ -111,8 +111,8 @@ fn expected_overlay(
             continue;
         };
         let alpha = OPACITY * color[3] as f64 / 255.0;
-        for c in 0..3 {
-            pixel.0[c] = (pixel.0[c] as f64 * (1.0 - alpha) + color[c] as f64 * alpha).round() as u8;
+        for (channel, &value) in pixel.0.iter_mut().zip(&color).take(3) {
+            *channel = (*channel as f64 * (1.0 - alpha) + value as f64 * alpha).round() as u8;
         }
     }
     image
@@ -122,9 +122,17 @@ fn expected_overlay(
 /// elsewhere; returns how many pixels are labelled.
 fn assert_overlay(drawn: &RgbaImage, expected: &RgbaImage, labels: &[f64], what: &str) -> usize {
     let mut labelled = 0;
-    for (index, ((d, e), &label)) in drawn.pixels().zip(expected.pixels()).zip(labels).enumerate() {
+    for (index, ((d, e), &label)) in drawn
+        .pixels()
+        .zip(expected.pixels())
+        .zip(labels)
+        .enumerate()
+    {
         if label == 0.0 {
-            assert_eq!(d, e, "{what}: pixel {index} without a label must be the plain render's");
+            assert_eq!(
+                d, e,
+                "{what}: pixel {index} without a label must be the plain render's"
+            );
         } else {
             labelled += 1;
             let off = (0..4).map(|c| d.0[c].abs_diff(e.0[c])).max().unwrap_or(0);
@@ -149,18 +157,34 @@ fn image_label_color(label: f64) -> Option<[u8; 4]> {
 fn cells_over_the_image_in_dvr_and_mip_in_the_image_label_colors() {
     let store = image_store();
     let alone_path = format!("{store}/labels/cells");
-    for (mode, renderer) in [("dvr", "octree"), ("mip", "octree"), ("dvr", "dense"), ("mip", "bricks")] {
+    for (mode, renderer) in [
+        ("dvr", "octree"),
+        ("mip", "octree"),
+        ("dvr", "dense"),
+        ("mip", "bricks"),
+    ] {
         // The label image on its own, by the same renderer.
         let alone = render(
             &alone_path,
             &format!("cells-alone-{renderer}"),
-            &["--mode", "mip", "--colormap", "labels", "--renderer", renderer],
+            &[
+                "--mode",
+                "mip",
+                "--colormap",
+                "labels",
+                "--renderer",
+                renderer,
+            ],
         );
         let labels = first_labels(&alone, &[1.0, 2.0, 3.0]);
         for label in [1.0, 2.0, 3.0] {
             assert!(labels.contains(&label), "label {label} is seen in the view");
         }
-        let plain = render(&store, &format!("plain-{mode}-{renderer}"), &["--mode", mode, "--renderer", renderer]);
+        let plain = render(
+            &store,
+            &format!("plain-{mode}-{renderer}"),
+            &["--mode", mode, "--renderer", renderer],
+        );
         let drawn = render(
             &store,
             &format!("cells-{mode}-{renderer}"),
@@ -174,7 +198,10 @@ fn cells_over_the_image_in_dvr_and_mip_in_the_image_label_colors() {
             }
         });
         let labelled = assert_overlay(&drawn, &expected, &labels, &format!("{mode} {renderer}"));
-        assert!(labelled > 200, "{mode} {renderer}: {labelled} labelled pixels");
+        assert!(
+            labelled > 200,
+            "{mode} {renderer}: {labelled} labelled pixels"
+        );
         assert_ne!(drawn, plain, "{mode} {renderer}: the labels show");
     }
 }
@@ -184,7 +211,11 @@ fn labels_without_colors_take_the_palette_and_a_label_file_works_as_a_name() {
     let store = image_store();
     let plain = render(&store, "plain", &[]);
     // `regions` gives no colors: the labels palette, opaque.
-    let alone = render(&format!("{store}/labels/regions"), "regions-alone", &["--mode", "mip", "--colormap", "labels"]);
+    let alone = render(
+        &format!("{store}/labels/regions"),
+        "regions-alone",
+        &["--mode", "mip", "--colormap", "labels"],
+    );
     let labels = first_labels(&alone, &[5.0, 9.0]);
     let palette = |label: f64| {
         (label != 0.0).then(|| {
@@ -193,15 +224,29 @@ fn labels_without_colors_take_the_palette_and_a_label_file_works_as_a_name() {
         })
     };
     let drawn = render(&store, "regions", &["--labels", "regions"]);
-    let labelled = assert_overlay(&drawn, &expected_overlay(&plain, &labels, palette), &labels, "regions");
+    let labelled = assert_overlay(
+        &drawn,
+        &expected_overlay(&plain, &labels, palette),
+        &labels,
+        "regions",
+    );
     assert!(labelled > 200, "{labelled} labelled pixels");
 
     // The cells as a NIfTI file of the same grid: no image-label, so the palette.
-    let alone = render(&format!("{store}/labels/cells"), "cells-alone-dvr-view", &["--mode", "mip", "--colormap", "labels"]);
+    let alone = render(
+        &format!("{store}/labels/cells"),
+        "cells-alone-dvr-view",
+        &["--mode", "mip", "--colormap", "labels"],
+    );
     let labels = first_labels(&alone, &[1.0, 2.0, 3.0]);
     let file = data().join("cells.nii").display().to_string();
     let drawn = render(&store, "cells-nifti", &["--labels", &file]);
-    assert_overlay(&drawn, &expected_overlay(&plain, &labels, palette), &labels, "cells.nii");
+    assert_overlay(
+        &drawn,
+        &expected_overlay(&plain, &labels, palette),
+        &labels,
+        "cells.nii",
+    );
 }
 
 #[test]
@@ -209,8 +254,16 @@ fn a_hidden_label_lets_the_ray_reach_the_next_and_opacity_scales_the_blend() {
     let store = image_store();
     let plain = render(&store, "plain-hide", &[]);
     let shown = render(&store, "cells-shown", &["--labels", "cells"]);
-    let hidden = render(&store, "cells-without-2", &["--labels", "cells", "--labels-hide", "2"]);
-    let alone = render(&format!("{store}/labels/cells"), "cells-alone-hide", &["--mode", "mip", "--colormap", "labels"]);
+    let hidden = render(
+        &store,
+        "cells-without-2",
+        &["--labels", "cells", "--labels-hide", "2"],
+    );
+    let alone = render(
+        &format!("{store}/labels/cells"),
+        "cells-alone-hide",
+        &["--mode", "mip", "--colormap", "labels"],
+    );
     let labels = first_labels(&alone, &[1.0, 2.0, 3.0]);
     let green = expected_overlay(&plain, &labels, |label| {
         (label == 2.0).then(|| image_label_color(2.0).expect("green"))
@@ -218,24 +271,46 @@ fn a_hidden_label_lets_the_ray_reach_the_next_and_opacity_scales_the_blend() {
     let mut changed = 0;
     for (index, &label) in labels.iter().enumerate() {
         let (x, y) = (index as u32 % plain.width(), index as u32 / plain.width());
-        let (p, s, h) = (plain.get_pixel(x, y), shown.get_pixel(x, y), hidden.get_pixel(x, y));
+        let (p, s, h) = (
+            plain.get_pixel(x, y),
+            shown.get_pixel(x, y),
+            hidden.get_pixel(x, y),
+        );
         if label == 2.0 {
             // Label 2 is gone: the image, or a label behind it (1 or 3), never its green.
-            assert_ne!(h, green.get_pixel(x, y), "pixel {index} still shows label 2");
+            assert_ne!(
+                h,
+                green.get_pixel(x, y),
+                "pixel {index} still shows label 2"
+            );
             changed += usize::from(h != s);
             if h != p {
-                assert!(h.0[0] > p.0[0] || h.0[2] > p.0[2], "pixel {index}: red or blue behind");
+                assert!(
+                    h.0[0] > p.0[0] || h.0[2] > p.0[2],
+                    "pixel {index}: red or blue behind"
+                );
             }
         } else {
-            assert_eq!(h, s, "pixel {index}: labels 1 and 3 and the background stay");
+            assert_eq!(
+                h, s,
+                "pixel {index}: labels 1 and 3 and the background stay"
+            );
         }
     }
     assert!(changed > 50, "{changed} pixels of label 2 changed");
 
     // Opacity 0 draws the image alone; opacity 1 the labels' colors alone.
-    let none = render(&store, "cells-opacity-0", &["--labels", "cells", "--labels-opacity", "0"]);
+    let none = render(
+        &store,
+        "cells-opacity-0",
+        &["--labels", "cells", "--labels-opacity", "0"],
+    );
     assert_eq!(none, plain);
-    let full = render(&store, "cells-opacity-1", &["--labels", "cells", "--labels-opacity", "1"]);
+    let full = render(
+        &store,
+        "cells-opacity-1",
+        &["--labels", "cells", "--labels-opacity", "1"],
+    );
     for (pixel, &label) in full.pixels().zip(&labels) {
         if let Some(color) = (label != 0.0).then(|| image_label_color(label)).flatten() {
             assert_eq!(&pixel.0[..3], &color[..3]);
@@ -252,40 +327,75 @@ fn wrong_grids_and_unknown_names_are_one_line_and_info_and_probe_read_the_labels
     let stderr = String::from_utf8_lossy(&failed.stderr);
     assert_eq!(failed.status.code(), Some(1), "{stderr}");
     assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
-    assert!(stderr.contains("wrong-grid.nii") && stderr.contains("12x10x8") && stderr.contains("24x20x16"), "{stderr}");
+    assert!(
+        stderr.contains("wrong-grid.nii")
+            && stderr.contains("12x10x8")
+            && stderr.contains("24x20x16"),
+        "{stderr}"
+    );
     assert!(!Path::new(&out).exists());
 
     let failed = voxscope(&["render", &store, "-o", &out, "--labels", "nuclei"]);
     let stderr = String::from_utf8_lossy(&failed.stderr);
     assert_eq!(failed.status.code(), Some(1), "{stderr}");
     assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
-    assert!(stderr.contains("nuclei") && stderr.contains("cells, regions"), "{stderr}");
+    assert!(
+        stderr.contains("nuclei") && stderr.contains("cells, regions"),
+        "{stderr}"
+    );
 
     // info lists the label images with their image-label colors.
     let info = voxscope(&["info", &store, "--json"]);
-    assert!(info.status.success(), "{}", String::from_utf8_lossy(&info.stderr));
+    assert!(
+        info.status.success(),
+        "{}",
+        String::from_utf8_lossy(&info.stderr)
+    );
     let json: Value = serde_json::from_slice(&info.stdout).expect("JSON");
     let labels = json["pyramid"]["labels"].as_array().expect("labels listed");
     let names: Vec<&str> = labels.iter().filter_map(|l| l["name"].as_str()).collect();
     assert_eq!(names, ["cells", "regions"]);
     assert_eq!(labels[0]["path"], "labels/cells");
     assert_eq!(labels[0]["colors"][1]["value"], 2.0);
-    assert_eq!(labels[0]["colors"][1]["rgba"], serde_json::json!([0, 255, 0, 255]));
+    assert_eq!(
+        labels[0]["colors"][1]["rgba"],
+        serde_json::json!([0, 255, 0, 255])
+    );
     assert_eq!(labels[0]["version"], "0.4");
     assert_eq!(labels[1]["colors"].as_array().map(Vec::len), Some(0));
 
     // probe reads every label image's value beside the image's.
     for voxel in expected()["voxels"].as_array().expect("voxels") {
-        let at: Vec<String> = voxel["at"].as_array().unwrap().iter().map(|v| v.to_string()).collect();
+        let at: Vec<String> = voxel["at"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.to_string())
+            .collect();
         let probe = voxscope(&["probe", &store, "--at", &at.join(","), "--json"]);
-        assert!(probe.status.success(), "{}", String::from_utf8_lossy(&probe.stderr));
+        assert!(
+            probe.status.success(),
+            "{}",
+            String::from_utf8_lossy(&probe.stderr)
+        );
         let json: Value = serde_json::from_slice(&probe.stdout).expect("JSON");
         assert_eq!(json["value"].as_f64(), voxel["image"].as_f64(), "{at:?}");
-        assert_eq!(json["labels"]["cells"].as_f64(), voxel["cells"].as_f64(), "{at:?}");
-        assert_eq!(json["labels"]["regions"].as_f64(), voxel["regions"].as_f64(), "{at:?}");
+        assert_eq!(
+            json["labels"]["cells"].as_f64(),
+            voxel["cells"].as_f64(),
+            "{at:?}"
+        );
+        assert_eq!(
+            json["labels"]["regions"].as_f64(),
+            voxel["regions"].as_f64(),
+            "{at:?}"
+        );
     }
     let file = data().join("cells.nii").display().to_string();
     let probe = voxscope(&["probe", &store, "--at", "16,12,9", "--labels", &file]);
     let stdout = String::from_utf8_lossy(&probe.stdout);
-    assert!(stdout.contains("label      2 (") && stdout.contains("cells.nii)"), "{stdout}");
+    assert!(
+        stdout.contains("label      2 (") && stdout.contains("cells.nii)"),
+        "{stdout}"
+    );
 }

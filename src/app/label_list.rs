@@ -2,7 +2,7 @@
 //! 3D panes.
 //!
 //! An OME-Zarr image with a `labels/` group lists its label images here (read by a job when the
-//! image opens); a label file on the image's grid can be added by its path. Each label image has
+//! image opens); File ▸ Open labels… adds a label file on the image's grid. Each label image has
 //! a checkbox (drawn or not), an opacity, and a list of its label values with their colors
 //! (`image-label`'s, else the labels palette) and a visibility checkbox each.
 //!
@@ -46,12 +46,10 @@ pub struct LabelLayers {
     listing: Option<Job<Vec<LabelImage>>>,
     /// The label images and files, in the order drawn (later over earlier).
     pub layers: Vec<LabelLayer>,
-    /// The path typed into "Add a label file".
-    file_path: String,
     /// The label volumes read and uploaded; `None` while a drawing job holds them.
     cache: Option<OverlayCache>,
     /// Drawing the overlay of a view.
-    drawing: Option<Job<(OverlayCache, Result<DrawnOverlay, String>)>>,
+    drawing: Option<Job<DrawingResult>>,
     /// The overlay drawn last, and the view it is of.
     shown: Option<(OverlayKey, TextureHandle)>,
     /// Why the last overlay could not be drawn.
@@ -74,6 +72,8 @@ pub struct LabelLayer {
     pub hidden: Vec<f64>,
     /// Its label values and their colors, once read.
     labels: Vec<(f64, [u8; 4])>,
+    /// Its label volume, once read (what the status bar reads the hovered label from).
+    overlay: Option<Arc<LabelOverlay>>,
 }
 
 #[derive(Clone)]
@@ -116,8 +116,18 @@ struct OverlayKey {
 struct DrawnOverlay {
     key: OverlayKey,
     image: ColorImage,
-    labels: Vec<(String, Vec<(f64, [u8; 4])>)>,
+    layers: Vec<DrawnLayer>,
 }
+
+/// A layer of a drawn overlay: its label volume and its labels' colors.
+struct DrawnLayer {
+    name: String,
+    overlay: Arc<LabelOverlay>,
+    labels: Vec<(f64, [u8; 4])>,
+}
+
+/// What a drawing job hands back: the label volumes and uploads, and the overlay.
+type DrawingResult = (OverlayCache, Result<DrawnOverlay, String>);
 
 impl LabelLayers {
     /// Whether a job of the labels runs.
@@ -222,12 +232,9 @@ impl LabelLayers {
                     format!("labels of {spec}"),
                     move || wake.request_repaint(),
                     move |_| {
-                        let pyramid = Pyramid::open_spec(
-                            &spec,
-                            Default::default(),
-                            RemoteOptions::default(),
-                        )
-                        .map_err(|e| SceneError::failed(e.to_string()))?;
+                        let pyramid =
+                            Pyramid::open_spec(&spec, Default::default(), RemoteOptions::default())
+                                .map_err(|e| SceneError::failed(e.to_string()))?;
                         Ok(pyramid.label_images())
                     },
                 )
@@ -293,12 +300,15 @@ impl LabelLayers {
     fn take_drawn(&mut self, ctx: &egui::Context, drawn: Result<DrawnOverlay, String>) {
         match drawn {
             Ok(drawn) => {
-                for (name, labels) in drawn.labels {
-                    if let Some(layer) = self.layers.iter_mut().find(|l| l.name == name) {
-                        layer.labels = labels;
+                for drawn_layer in drawn.layers {
+                    if let Some(layer) = self.layers.iter_mut().find(|l| l.name == drawn_layer.name)
+                    {
+                        layer.labels = drawn_layer.labels;
+                        layer.overlay = Some(drawn_layer.overlay);
                     }
                 }
-                let texture = ctx.load_texture("label_overlay", drawn.image, TextureOptions::NEAREST);
+                let texture =
+                    ctx.load_texture("label_overlay", drawn.image, TextureOptions::NEAREST);
                 self.shown = Some((drawn.key, texture));
                 self.error = None;
             }
@@ -306,6 +316,30 @@ impl LabelLayers {
                 self.error = Some(error);
             }
         }
+    }
+
+    /// Adds the label file at `path` (on the image's grid) as a layer, drawn.
+    pub fn add_file(&mut self, path: &str) {
+        if self.image.is_none() || self.layers.iter().any(|layer| layer.name == path) {
+            return;
+        }
+        let mut layer = LabelLayer::new(path.to_owned(), LayerSource::File(path.to_owned()));
+        layer.enabled = true;
+        self.layers.push(layer);
+    }
+
+    /// The labels at `voxel` of the layers drawn (`label 2 (cells)`), for the status bar.
+    pub fn describe_at(&self, voxel: [usize; 3]) -> Option<String> {
+        let parts: Vec<String> = self
+            .layers
+            .iter()
+            .filter(|layer| layer.enabled)
+            .filter_map(|layer| {
+                let value = layer.overlay.as_ref()?.value_at(voxel);
+                Some(format!("label {} ({})", format_value(value), layer.name))
+            })
+            .collect();
+        (!parts.is_empty()).then(|| parts.join(" · "))
     }
 
     /// The overlay's texture, where it shows the view that `key_of` the panes would draw now:
@@ -335,6 +369,7 @@ impl LabelLayer {
             opacity: DEFAULT_LABEL_OPACITY,
             hidden: Vec::new(),
             labels: Vec::new(),
+            overlay: None,
         }
     }
 }
@@ -350,7 +385,7 @@ fn draw_overlay(
     let [width, height] = key.size;
     let mut premultiplied = vec![0f32; width as usize * height as usize * 4];
     let target = RenderTarget::new(context, width, height);
-    let mut labels = Vec::new();
+    let mut layers = Vec::new();
     for ((name, source), (_, hidden, opacity)) in sources.iter().zip(&key.layers) {
         let overlay = match cache.loaded.get(name) {
             Some(overlay) => Arc::clone(overlay),
@@ -358,9 +393,16 @@ fn draw_overlay(
                 let (spec, dims) = &key.image;
                 let overlay = Arc::new(match source {
                     LayerSource::Image(label) => {
-                        let image = Pyramid::open_spec(spec, Default::default(), RemoteOptions::default())
-                            .map_err(|e| e.to_string())?;
-                        LabelOverlay::open_label_image(&image, spec, label, *dims, RemoteOptions::default())?
+                        let image =
+                            Pyramid::open_spec(spec, Default::default(), RemoteOptions::default())
+                                .map_err(|e| e.to_string())?;
+                        LabelOverlay::open_label_image(
+                            &image,
+                            spec,
+                            label,
+                            *dims,
+                            RemoteOptions::default(),
+                        )?
                     }
                     LayerSource::File(path) => LabelOverlay::open_file(path, *dims)?,
                 });
@@ -378,9 +420,11 @@ fn draw_overlay(
             .get(name)
             .is_none_or(|(uploaded_for, _)| *uploaded_for != upload_key)
         {
-            let uploaded = overlay
-                .layer(hidden, *opacity, key.spacing)?
-                .upload(context, key.renderer, key.settings.max_level)?;
+            let uploaded = overlay.layer(hidden, *opacity, key.spacing)?.upload(
+                context,
+                key.renderer,
+                key.settings.max_level,
+            )?;
             cache.uploaded.insert(name.clone(), (upload_key, uploaded));
         }
         let (_, uploaded) = cache.uploaded.get_mut(name).expect("inserted above");
@@ -393,7 +437,11 @@ fn draw_overlay(
             .take(LISTED_LABELS)
             .map(|&(value, _)| (value, overlay.color_of(value)))
             .collect();
-        labels.push((name.clone(), listed));
+        layers.push(DrawnLayer {
+            name: name.clone(),
+            overlay,
+            labels: listed,
+        });
     }
     let bytes: Vec<u8> = premultiplied
         .iter()
@@ -402,29 +450,28 @@ fn draw_overlay(
     Ok(DrawnOverlay {
         image: ColorImage::from_rgba_premultiplied([width as usize, height as usize], &bytes),
         key,
-        labels,
+        layers,
     })
 }
 
-/// Draws the Labels section: a checkbox per label image, its opacity, its label values with
-/// their colors and visibility; a field to add a label file.
+/// Draws the Labels section, where the image has label images (or a label file was added):
+/// a checkbox per label image, its opacity, its label values with their colors and visibility.
 pub fn show(ui: &mut Ui, labels: &mut LabelLayers) {
-    if labels.image.is_none() {
-        return;
-    }
-    if labels.layers.is_empty() && labels.listing.is_none() && labels.file_path.is_empty() {
-        // Nothing listed: only the way to add a file, folded.
-        ui.collapsing("Labels", |ui| add_file_row(ui, labels));
+    if labels.image.is_none() || labels.layers.is_empty() {
         return;
     }
     ui.heading("Labels");
-    ui.small("Label images drawn over the image (the first visible label along each ray).");
-    if labels.listing.is_some() {
-        ui.small("reading the label images…");
-    }
+    ui.small("Drawn over the image: the first visible label along each ray.");
     for layer in &mut labels.layers {
         ui.horizontal(|ui| {
-            ui.checkbox(&mut layer.enabled, RichText::new(&layer.name).strong())
+            // A file by its name (its path on hover).
+            let shown_name = match &layer.source {
+                LayerSource::File(path) => std::path::Path::new(path)
+                    .file_name()
+                    .map_or_else(|| path.clone(), |n| n.to_string_lossy().into_owned()),
+                LayerSource::Image(_) => layer.name.clone(),
+            };
+            ui.checkbox(&mut layer.enabled, RichText::new(shown_name).strong())
                 .on_hover_text(match &layer.source {
                     LayerSource::Image(label) => format!(
                         "{} ({})",
@@ -449,7 +496,7 @@ pub fn show(ui: &mut Ui, labels: &mut LabelLayers) {
     if let Some(error) = &labels.error {
         ui.colored_label(Color32::from_rgb(230, 120, 100), error);
     }
-    add_file_row(ui, labels);
+    ui.small("File > Open labels… adds a label file on the image's grid.");
     ui.separator();
 }
 
@@ -483,30 +530,6 @@ fn label_values(ui: &mut Ui, layer: &mut LabelLayer) {
                 });
             }
         });
-}
-
-fn add_file_row(ui: &mut Ui, labels: &mut LabelLayers) {
-    ui.horizontal(|ui| {
-        ui.add(
-            egui::TextEdit::singleline(&mut labels.file_path)
-                .hint_text("a label file on the image's grid")
-                .desired_width(180.0),
-        );
-        if ui
-            .button("Add")
-            .on_hover_text("NIfTI, NRRD, TIFF, … of the image's dimensions")
-            .clicked()
-            && !labels.file_path.trim().is_empty()
-        {
-            let path = labels.file_path.trim().to_owned();
-            if !labels.layers.iter().any(|l| l.name == path) {
-                let mut layer = LabelLayer::new(path.clone(), LayerSource::File(path));
-                layer.enabled = true;
-                labels.layers.push(layer);
-            }
-            labels.file_path.clear();
-        }
-    });
 }
 
 /// Paints the overlay over every 3D pane, where it shows the view the panes show.

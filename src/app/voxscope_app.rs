@@ -540,14 +540,18 @@ impl eframe::App for VoxscopeApp {
             menu::menu_bar(ui, &self.settings, has_scene, &mut self.commands)
         });
         let notice = self.notice().map(str::to_owned);
+        let hovered = self
+            .scene
+            .as_ref()
+            .and_then(|s| self.central.hovered_voxel(s.data.volume.dims));
+        let hovered_labels = hovered.and_then(|voxel| self.labels.describe_at(voxel));
         egui::Panel::bottom("status_bar").show(ui, |ui| {
             menu::status_bar(
                 ui,
                 &self.jobs,
                 self.scene.as_ref(),
-                self.scene
-                    .as_ref()
-                    .and_then(|s| self.central.hovered_voxel(s.data.volume.dims)),
+                hovered,
+                hovered_labels.as_deref(),
                 notice.as_deref(),
                 &mut self.commands,
             )
@@ -636,7 +640,15 @@ impl eframe::App for VoxscopeApp {
             if let Some(scene) = &self.scene {
                 let sizes = self.central.pane_sizes();
                 let rects = self.central.pane_rects();
-                label_list::paint(ui, &self.labels, scene, &self.settings, &self.view, rects, &sizes);
+                label_list::paint(
+                    ui,
+                    &self.labels,
+                    scene,
+                    &self.settings,
+                    &self.view,
+                    rects,
+                    &sizes,
+                );
             }
             if let Some(message) = &self.error
                 && overlays::error_banner(ui, self.central.rect(), message)

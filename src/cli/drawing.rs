@@ -372,7 +372,8 @@ impl Drawing {
                             let size = [side.min(width - x), side.min(height - y)];
                             let target =
                                 RenderTarget::tile(&self.context, size, [x, y], [width, height]);
-                            let part = labels.draw_slots(&self.context, &target, camera, settings)?;
+                            let part =
+                                labels.draw_slots(&self.context, &target, camera, settings)?;
                             for row in 0..size[1] {
                                 let from = (row * size[0]) as usize;
                                 let to = ((y + row) * width + x) as usize;

@@ -22,7 +22,12 @@ pub struct LabelArgs {
     #[arg(long, value_name = "F", default_value_t = DEFAULT_LABEL_OPACITY, value_parser = parse_opacity)]
     pub labels_opacity: f32,
     /// Label values not drawn: a ray passes them and shows the next visible label.
-    #[arg(long, value_name = "V,…", value_delimiter = ',', allow_hyphen_values = true)]
+    #[arg(
+        long,
+        value_name = "V,…",
+        value_delimiter = ',',
+        allow_hyphen_values = true
+    )]
     pub labels_hide: Vec<f64>,
 }
 
@@ -70,7 +75,10 @@ fn open_overlay(
     listed: Option<&(Pyramid, Vec<LabelImage>)>,
     image_dims: [usize; 3],
 ) -> Result<LabelOverlay, String> {
-    let image_name = volume.file.as_deref().unwrap_or(voxscope_volume::SAMPLE_NAME);
+    let image_name = volume
+        .file
+        .as_deref()
+        .unwrap_or(voxscope_volume::SAMPLE_NAME);
     if let Some((image, labels)) = listed
         && let Some(label) = labels.iter().find(|label| label.name == name)
     {

@@ -22,8 +22,8 @@ use std::collections::HashMap;
 
 use voxscope_octree::{self as octree, BuildOptions, Colormap, OpacityMode, TransferFunction};
 use voxscope_render::{
-    Camera, GpuContext, RenderMode, RenderSettings, RenderTarget, RendererOptions,
-    VolumeRenderer, read_image,
+    Camera, GpuContext, RenderMode, RenderSettings, RenderTarget, RendererOptions, VolumeRenderer,
+    read_image,
 };
 use voxscope_volume::ome_zarr::{LabelColor, LabelImage, Pyramid};
 use voxscope_volume::remote::RemoteOptions;
@@ -153,14 +153,13 @@ impl LabelOverlay {
     /// A label file (NIfTI, NRRD, TIFF, …, or a Zarr store) on the grid of the image's volume
     /// in memory (`image_dims`), in the labels palette; named by `spec`.
     pub fn open_file(spec: &str, image_dims: [usize; 3]) -> Result<Self, String> {
-        let labels = voxscope_volume::load(spec, &LoadOptions::default()).map_err(|e| {
-            match e.kind {
+        let labels =
+            voxscope_volume::load(spec, &LoadOptions::default()).map_err(|e| match e.kind {
                 voxscope_volume::LoadErrorKind::Unrecognized => {
                     format!("{e} (a label file: NIfTI, NRRD, TIFF, …)")
                 }
                 _ => e.to_string(),
-            }
-        })?;
+            })?;
         Self::new(spec, &labels, image_dims, Vec::new())
     }
 
