@@ -207,6 +207,99 @@ fn cells_over_the_image_in_dvr_and_mip_in_the_image_label_colors() {
 }
 
 #[test]
+fn cells_streamed_over_a_streamed_image_equal_the_expected_overlay() {
+    // The streaming renderer marches its own sample positions: the reference for which label a
+    // ray meets first is the dense renderer's (one-voxel steps) of the label image in memory,
+    // which may differ at a label's edge; the colors must be exact.
+    let store = image_store();
+    let alone_path = format!("{store}/labels/cells");
+    let alone = render(
+        &alone_path,
+        "cells-alone-dense-mip",
+        &[
+            "--renderer",
+            "dense",
+            "--mode",
+            "mip",
+            "--colormap",
+            "labels",
+        ],
+    );
+    let labels = first_labels(&alone, &[1.0, 2.0, 3.0]);
+    for mode in ["dvr", "mip"] {
+        let stream = ["--renderer", "stream", "--mode", mode];
+        let plain = render(&store, &format!("plain-stream-{mode}"), &stream);
+        let mut with_labels = stream.to_vec();
+        with_labels.extend(["--labels", "cells", "--labels-hide", "3"]);
+        let drawn = render(&store, &format!("cells-stream-{mode}"), &with_labels);
+        let candidates: Vec<(f64, RgbaImage)> = [1.0, 2.0]
+            .into_iter()
+            .map(|label| {
+                let everywhere = vec![label; labels.len()];
+                let color = image_label_color(label).expect("colors");
+                (
+                    label,
+                    expected_overlay(&plain, &everywhere, |_| Some(color)),
+                )
+            })
+            .collect();
+        let (mut labelled, mut disagree) = (0, 0);
+        for (index, (d, p)) in drawn.pixels().zip(plain.pixels()).enumerate() {
+            let (x, y) = (index as u32 % plain.width(), index as u32 / plain.width());
+            // The label this pixel shows: none (the plain render's bits), or 1 or 2 exactly
+            // blended (label 3 is hidden; nothing else may show).
+            let shown = if d == p {
+                0.0
+            } else {
+                candidates
+                    .iter()
+                    .find(|(_, blended)| {
+                        let e = blended.get_pixel(x, y);
+                        (0..3).all(|c| d.0[c].abs_diff(e.0[c]) <= 1)
+                    })
+                    .map(|(label, _)| *label)
+                    .unwrap_or_else(|| {
+                        panic!(
+                            "{mode}: pixel {index} is {:?}: no label's color over the image",
+                            d.0
+                        )
+                    })
+            };
+            labelled += usize::from(shown != 0.0);
+            let reference = labels[index];
+            if reference != 3.0 && shown != reference {
+                disagree += 1;
+            }
+        }
+        assert!(labelled > 200, "{mode}: {labelled} labelled pixels");
+        assert!(
+            disagree * 20 <= labelled,
+            "{mode}: {disagree} of {labelled} pixels show another label than the dense march's"
+        );
+    }
+    // A label file cannot stream: one line.
+    let out = out_dir().join("never-stream.png").display().to_string();
+    let file = data().join("cells.nii").display().to_string();
+    let failed = voxscope(&[
+        "render",
+        &store,
+        "-o",
+        &out,
+        "--renderer",
+        "stream",
+        "--labels",
+        &file,
+    ]);
+    let stderr = String::from_utf8_lossy(&failed.stderr);
+    assert_eq!(failed.status.code(), Some(1), "{stderr}");
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    assert!(
+        stderr.contains("a label file is drawn over the image in memory"),
+        "{stderr}"
+    );
+}
+
+#[test]
 fn labels_without_colors_take_the_palette_and_a_label_file_works_as_a_name() {
     let store = image_store();
     let plain = render(&store, "plain", &[]);

@@ -18,7 +18,7 @@ use voxscope_volume::{Volume, format_dims};
 
 use super::args::{ChannelArg, RendererArg};
 use super::composite::PreparedChannel;
-use super::labels::open_overlays;
+use super::labels::{open_overlays, open_streamed_overlays};
 use super::prepare::default_renderer;
 use super::stream::open_streamed;
 use super::{Prepared, RenderOptions, VolumeArgs};
@@ -64,9 +64,18 @@ impl Drawing {
             }
         };
         if options.renderer == Some(RendererArg::Stream) {
-            refuse_labels("the streaming renderer")?;
             let (streamed, saved) = open_streamed(volume, &options.transfer)?;
-            return Self::streamed(streamed, saved.as_ref(), options, max_wait);
+            let image_dims = streamed.source.shape().dims();
+            let mut drawing = Self::streamed(streamed, saved.as_ref(), options, max_wait)?;
+            drawing.labels = open_streamed_overlays(
+                &options.labels,
+                volume,
+                image_dims,
+                &drawing.context,
+                options.stream.options(),
+                max_wait,
+            )?;
+            return Ok(drawing);
         }
         let loaded = match volume.composite_channels()? {
             Some(channels) if channels.len() > 1 => {
@@ -351,14 +360,14 @@ impl Drawing {
     /// Draws the label overlays (`--labels`) over `image`, the frame of `camera` and
     /// `settings` drawn whole (`side` None) or in tiles of `side` pixels, as the image was.
     pub fn draw_labels_over(
-        &self,
+        &mut self,
         image: &mut RgbaImage,
         side: Option<u32>,
         camera: &Camera,
         settings: &RenderSettings,
     ) -> Result<(), String> {
         let (width, height) = image.dimensions();
-        for labels in &self.labels {
+        for labels in &mut self.labels {
             let slots = match side {
                 None => {
                     let target = RenderTarget::new(&self.context, width, height);

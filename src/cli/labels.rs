@@ -5,8 +5,14 @@
 use std::path::Path;
 
 use clap::Args;
-use voxscope_scene::{DEFAULT_LABEL_OPACITY, LabelOverlay};
+use std::sync::Arc;
+use std::time::Duration;
+
+use voxscope_render::GpuContext;
+use voxscope_scene::{DEFAULT_LABEL_OPACITY, LabelOverlay, UploadedLabels};
+use voxscope_stream::StreamOptions;
 use voxscope_volume::ome_zarr::{LabelImage, Pyramid};
+use voxscope_volume::{Selection, format_dims};
 
 use super::VolumeArgs;
 
@@ -102,4 +108,66 @@ fn open_overlay(
     Err(format!(
         "--labels {name}: no such file, and no label image of {image_name} by that name ({known})"
     ))
+}
+
+/// The label images `args` names, streamed over a streamed image (`volume`, whose level 0 has
+/// `image_dims` voxels) from their own pyramids, each with a quarter of the image's GPU and RAM
+/// budgets (`options`). Only label images of the store: a label file is drawn over an image in
+/// memory.
+pub fn open_streamed_overlays(
+    args: &LabelArgs,
+    volume: &VolumeArgs,
+    image_dims: [usize; 3],
+    context: &GpuContext,
+    options: StreamOptions,
+    max_wait: Duration,
+) -> Result<Vec<UploadedLabels>, String> {
+    if args.labels.is_empty() {
+        return Ok(Vec::new());
+    }
+    let listed = label_images(volume);
+    let image_name = volume
+        .file
+        .as_deref()
+        .unwrap_or(voxscope_volume::SAMPLE_NAME);
+    let remote = volume.load_options().remote;
+    let options = StreamOptions {
+        gpu_memory: (options.gpu_memory / 4).max(1 << 20),
+        ram_cache: (options.ram_cache / 4).max(1 << 20),
+        ..options
+    };
+    args.labels
+        .iter()
+        .map(|name| {
+            let Some((image, label)) = listed
+                .as_ref()
+                .and_then(|(image, labels)| Some((image, labels.iter().find(|l| &l.name == name)?)))
+            else {
+                return Err(format!(
+                    "--labels {name}: over a streamed image, labels are label images of {image_name} (info lists them); a label file is drawn over the image in memory (without --renderer stream)"
+                ));
+            };
+            let spec = image.label_spec(image_name, label);
+            let pyramid =
+                Pyramid::open_spec(&spec, Selection::default(), remote).map_err(|e| e.to_string())?;
+            let dims = pyramid.levels.first().map(|level| level.dims);
+            if dims != Some(image_dims) {
+                return Err(format!(
+                    "{spec}: its grid ({}) is not the image's ({}); labels must lie on the image's grid",
+                    dims.map(format_dims).unwrap_or_default(),
+                    format_dims(image_dims)
+                ));
+            }
+            UploadedLabels::streamed(
+                context,
+                &label.name,
+                Arc::new(pyramid),
+                &label.colors,
+                &args.labels_hide,
+                args.labels_opacity,
+                options,
+                max_wait,
+            )
+        })
+        .collect()
 }

@@ -86,9 +86,16 @@ pub fn run(args: &RenderArgs, given: &Given) -> Result<Rendered, String> {
         image.width(),
         image.height()
     );
+    let names: Vec<&str> = drawing.labels.iter().map(|l| l.name.as_str()).collect();
+    let labels = if names.is_empty() {
+        String::new()
+    } else {
+        format!(", labels {} over it", names.join(", "))
+    };
     match (&drawing.content, refinement) {
         (Content::Streamed { depth }, Some(refinement)) => Ok(report_stream(
             &written,
+            &labels,
             &drawing,
             *depth,
             &settings,
@@ -116,12 +123,6 @@ pub fn run(args: &RenderArgs, given: &Given) -> Result<Rendered, String> {
             Ok(Rendered::Complete)
         }
         (Content::Volume { depth } | Content::Streamed { depth }, _) => {
-            let names: Vec<&str> = drawing.labels.iter().map(|l| l.name.as_str()).collect();
-            let labels = if names.is_empty() {
-                String::new()
-            } else {
-                format!(", labels {} over it", names.join(", "))
-            };
             eprintln!(
                 "{written}, {} renderer, level {}/{depth}{labels}) on {} in {seconds:.2} s",
                 drawing.renderer.kind().name(),
@@ -148,6 +149,7 @@ fn resolved(args: &RenderArgs, given: &Given) -> Result<(VolumeArgs, RenderOptio
 /// summary) and how it ended.
 fn report_stream(
     written: &str,
+    labels: &str,
     drawing: &Drawing,
     depth: u32,
     settings: &voxscope_render::RenderSettings,
@@ -196,7 +198,7 @@ fn report_stream(
         .map(|r| format!(", peak memory {:.0} MiB", super::memory::mib(r.peak)))
         .unwrap_or_default();
     eprintln!(
-        "{written}, stream renderer, level {}/{depth}) on {} in {seconds:.2} s: {} bricks read ({:.1} MiB), {} of {} atlas slots used{peak}; {state}{ending}",
+        "{written}, stream renderer, level {}/{depth}{labels}) on {} in {seconds:.2} s: {} bricks read ({:.1} MiB), {} of {} atlas slots used{peak}; {state}{ending}",
         settings.max_level,
         drawing.context.describe(),
         counters.loads,

@@ -19,16 +19,23 @@
 //! tissue still shows (as in napari's 3D view of a labels layer over an image layer).
 
 use std::collections::HashMap;
+use std::sync::Arc;
+use std::time::Duration;
 
 use voxscope_octree::{self as octree, BuildOptions, Colormap, OpacityMode, TransferFunction};
 use voxscope_render::{
     Camera, GpuContext, RenderMode, RenderSettings, RenderTarget, RendererOptions, VolumeRenderer,
     read_image,
 };
+use voxscope_stream::{
+    BrickData, BrickError, BrickId, BrickSource, PyramidShape, StreamOptions, ValueRange,
+    ZarrSource,
+};
 use voxscope_volume::ome_zarr::{LabelColor, LabelImage, Pyramid};
 use voxscope_volume::remote::RemoteOptions;
 use voxscope_volume::{
-    LoadOptions, QuantizedVolume, Selection, ValueWindow, Volume, VoxelData, format_dims,
+    LoadOptions, Quantization, QuantizedVolume, Selection, ValueWindow, Volume, VoxelData,
+    format_dims,
 };
 
 /// The opacity a label layer is drawn with unless told (napari's labels layer's default).
@@ -166,14 +173,7 @@ impl LabelOverlay {
     /// The color of label `value`: its `image-label` color where the file gives one, else the
     /// labels palette's (opaque); label 0 is transparent.
     pub fn color_of(&self, value: f64) -> [u8; 4] {
-        if value == 0.0 {
-            return [0; 4];
-        }
-        if let Some(given) = self.given_colors.iter().find(|c| c.value == value) {
-            return given.rgba;
-        }
-        let [r, g, b] = Colormap::Labels.rgb_of(value, 0.0);
-        [r, g, b, 255]
+        label_color(value, &self.given_colors)
     }
 
     /// The label at `voxel` (0 outside the grid or for the background).
@@ -233,6 +233,19 @@ impl LabelOverlay {
             opacity: opacity.clamp(0.0, 1.0),
         })
     }
+}
+
+/// The color of label `value`: its color in `given` (`image-label`'s) where listed, else the
+/// labels palette's (opaque); label 0 is transparent.
+pub fn label_color(value: f64, given: &[LabelColor]) -> [u8; 4] {
+    if value == 0.0 {
+        return [0; 4];
+    }
+    if let Some(given) = given.iter().find(|c| c.value == value) {
+        return given.rgba;
+    }
+    let [r, g, b] = Colormap::Labels.rgb_of(value, 0.0);
+    [r, g, b, 255]
 }
 
 /// One volume of slot codes (gray level = code), quantized, its label octree colored.
@@ -323,6 +336,7 @@ impl LabelLayer {
             slots: self.slots,
             opacity: self.opacity,
             renderers,
+            streamed: None,
         })
     }
 }
@@ -333,6 +347,9 @@ pub struct UploadedLabels {
     slots: Vec<[u8; 4]>,
     pub opacity: f32,
     renderers: Vec<VolumeRenderer>,
+    /// Streamed from the label image's pyramid: each view is refined until complete, at most
+    /// this long.
+    streamed: Option<Duration>,
 }
 
 /// The settings a label pass draws with: the image's view (level, clip, pixel LOD), in the
@@ -346,10 +363,63 @@ pub fn label_pass_settings(image: &RenderSettings) -> RenderSettings {
 }
 
 impl UploadedLabels {
+    /// Label image `pyramid` (on the grid of a streamed image) streamed brick by brick for
+    /// the streaming renderer: its bricks read from the store's levels (coarser ones reduced
+    /// by the mode), each voxel's label mapped to its color's slot as it arrives, colored by
+    /// `given` (`image-label`) else the palette, `hidden` labels transparent. At most 255
+    /// visible colors (the palette's 20 and those `image-label` gives).
+    #[allow(clippy::too_many_arguments)]
+    pub fn streamed(
+        context: &GpuContext,
+        name: &str,
+        pyramid: Arc<Pyramid>,
+        given: &[LabelColor],
+        hidden: &[f64],
+        opacity: f32,
+        options: StreamOptions,
+        max_wait: Duration,
+    ) -> Result<Self, String> {
+        let inner = ZarrSource::new(pyramid)?.of_labels(true);
+        let quantization = inner.quantization();
+        let top = inner.max_value_level();
+        let mut slots: Vec<[u8; 4]> = Vec::new();
+        let mut slot_of_color: HashMap<[u8; 4], usize> = HashMap::new();
+        let mut codes = vec![0u8; 1 << 16];
+        for (level, code) in codes.iter_mut().enumerate().take(top as usize + 1) {
+            let value = quantization.value(level as u16);
+            let color = label_color(value, given);
+            if color[3] == 0 || hidden.contains(&value) {
+                continue;
+            }
+            let next = slots.len() + 1;
+            let slot = *slot_of_color.entry(color).or_insert(next);
+            if slot == next {
+                slots.push(color);
+            }
+            *code = u8::try_from(slot).map_err(|_| {
+                format!("{name}: more than 255 label colors; streamed labels draw at most 255")
+            })?;
+        }
+        let source = SlotBricks {
+            inner: Box::new(inner),
+            codes,
+        };
+        let renderer =
+            VolumeRenderer::new_stream(context, Arc::new(source), options, &slot_transfer())
+                .map_err(|e| format!("{name}: {e}"))?;
+        Ok(Self {
+            name: name.to_owned(),
+            slots,
+            opacity: opacity.clamp(0.0, 1.0),
+            renderers: vec![renderer],
+            streamed: Some(max_wait),
+        })
+    }
+
     /// The slot of each pixel of `target` (0: no visible label), drawn with the image's
     /// `camera` and `settings` and waited for.
     pub fn draw_slots(
-        &self,
+        &mut self,
         context: &GpuContext,
         target: &RenderTarget,
         camera: &Camera,
@@ -357,9 +427,17 @@ impl UploadedLabels {
     ) -> Result<Vec<u16>, String> {
         let settings = label_pass_settings(settings);
         let mut slots = vec![0u16; (target.width * target.height) as usize];
-        for (pass, renderer) in self.renderers.iter().enumerate() {
-            renderer.render(context, target, camera, &settings);
-            context.wait_idle().map_err(|e| e.to_string())?;
+        for (pass, renderer) in self.renderers.iter_mut().enumerate() {
+            match self.streamed {
+                Some(max_wait) => {
+                    crate::refine(context, renderer, target, camera, &settings, max_wait)
+                        .map_err(|e| format!("{}: {e}", self.name))?;
+                }
+                None => {
+                    renderer.render(context, target, camera, &settings);
+                    context.wait_idle().map_err(|e| e.to_string())?;
+                }
+            }
             let image = read_image(context, target).map_err(|e| e.to_string())?;
             for (slot, pixel) in slots.iter_mut().zip(image.into_raw().chunks_exact(4)) {
                 let code = pixel[0] as u16;
@@ -414,5 +492,72 @@ pub fn blend_slots(rgba: &mut [u8], slots: &[u16], colors: &[[u8; 4]], opacity: 
             let mixed = pixel[c] as f32 * (1.0 - alpha) + color[c] as f32 * alpha;
             pixel[c] = mixed.round().clamp(0.0, 255.0) as u8;
         }
+    }
+}
+
+/// A label pyramid's bricks as slot codes, for the streaming renderer: each brick as `inner`
+/// reads it (label volumes' coarser levels reduced by the mode), each value level mapped
+/// through `codes` (0: transparent).
+struct SlotBricks {
+    inner: Box<dyn BrickSource>,
+    codes: Vec<u8>,
+}
+
+impl BrickSource for SlotBricks {
+    fn name(&self) -> &str {
+        self.inner.name()
+    }
+
+    fn shape(&self) -> &PyramidShape {
+        self.inner.shape()
+    }
+
+    fn spacing(&self) -> [f64; 3] {
+        self.inner.spacing()
+    }
+
+    fn quantization(&self) -> Quantization {
+        Quantization {
+            offset: 0.0,
+            step: 1.0,
+        }
+    }
+
+    fn max_value_level(&self) -> u16 {
+        SLOTS_PER_PASS as u16
+    }
+
+    fn read_brick(&self, id: BrickId) -> Result<BrickData, BrickError> {
+        let mut data = self.inner.read_brick(id)?;
+        let (mut min, mut max) = (u16::MAX, 0u16);
+        for level in &mut data.levels {
+            let code = self.codes.get(*level as usize).copied().unwrap_or(0) as u16;
+            *level = code;
+            min = min.min(code);
+            max = max.max(code);
+        }
+        // The apron's codes are counted too: a range a little wider than the brick's own
+        // voxels only skips less.
+        data.range = ValueRange {
+            min: min.min(max),
+            max,
+        };
+        Ok(data)
+    }
+
+    fn remote_stats(&self) -> Option<voxscope_volume::remote::RemoteStats> {
+        self.inner.remote_stats()
+    }
+
+    fn reserve_caches(&self, ram: u64) -> u64 {
+        self.inner.reserve_caches(ram)
+    }
+
+    fn cached_bytes(&self) -> u64 {
+        self.inner.cached_bytes()
+    }
+
+    fn labels(&self) -> bool {
+        true
     }
 }

@@ -32,7 +32,7 @@ pub use error::SceneError;
 pub use job::Job;
 pub use label_overlay::{
     DEFAULT_LABEL_OPACITY, LabelLayer, LabelOverlay, MAX_LABEL_VALUES, SlotPass, UploadedLabels,
-    blend_slots, label_pass_settings,
+    blend_slots, label_color, label_pass_settings,
 };
 pub use movie_path::{Shot, keyframe_path, turntable};
 pub use opening::{
