@@ -7,6 +7,8 @@
 //! the expected pixel, and pixels whose ray meets no label equal the plain render bit for bit.
 //! Runs on the software Vulkan device; GPU tests fail when no adapter is found.
 
+mod support;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -490,5 +492,72 @@ fn wrong_grids_and_unknown_names_are_one_line_and_info_and_probe_read_the_labels
     assert!(
         stdout.contains("label      2 (") && stdout.contains("cells.nii)"),
         "{stdout}"
+    );
+}
+
+/// 300 labels of distinct `image-label` colors (more than one pass's 255 slots), one voxel
+/// each in one slice seen from above: every labelled pixel has one of the given colors, and
+/// more than 255 distinct ones show (the second pass's high part is decoded).
+#[test]
+fn more_than_255_colors_take_a_second_pass_and_keep_their_colors() {
+    use voxscope_render::{RenderSettings, RenderTarget, RendererKind};
+    use voxscope_scene::LabelOverlay;
+    use voxscope_volume::ome_zarr::LabelColor;
+    use voxscope_volume::{Volume, VoxelData};
+
+    let values: Vec<u16> = (1..=300).collect();
+    let volume = Volume::new(
+        "many",
+        "test",
+        [20, 15, 1],
+        [1.0; 3],
+        VoxelData::U16(values),
+    )
+    .expect("a volume");
+    let given: Vec<LabelColor> = (1..=300u32)
+        .map(|v| LabelColor {
+            value: v as f64,
+            rgba: [(v % 256) as u8, (v / 256 * 100 + 20) as u8, 77, 255],
+        })
+        .collect();
+    let colors: std::collections::HashSet<[u8; 3]> = given
+        .iter()
+        .map(|c| [c.rgba[0], c.rgba[1], c.rgba[2]])
+        .collect();
+    let overlay = LabelOverlay::new("many", &volume, [20, 15, 1], given).expect("labels");
+    assert_eq!(overlay.labels.len(), 300);
+    let layer = overlay.layer(&[], 1.0, [1.0; 3]).expect("a layer");
+    assert_eq!(layer.passes.len(), 2, "300 colors take two passes");
+    let depth = layer.passes[0].octree.depth;
+    let context = support::gpu();
+    let mut uploaded = layer
+        .upload(&context, RendererKind::Dense.into(), depth)
+        .expect("upload");
+    let (width, height) = (240, 180);
+    let target = RenderTarget::new(&context, width, height);
+    let camera = voxscope_render::Camera {
+        azimuth_deg: 0.0,
+        elevation_deg: 80.0,
+        distance: 1.3,
+        ..Default::default()
+    };
+    let settings = RenderSettings::full_detail(depth);
+    let slots = uploaded
+        .draw_slots(&context, &target, &camera, &settings)
+        .expect("drawn");
+    let mut rgba = vec![0u8; (width * height * 4) as usize];
+    uploaded.blend(&mut rgba, &slots);
+    let mut seen = std::collections::HashSet::new();
+    for (pixel, &slot) in rgba.chunks_exact(4).zip(&slots) {
+        if slot > 0 {
+            let rgb = [pixel[0], pixel[1], pixel[2]];
+            assert!(colors.contains(&rgb), "{rgb:?} is no label's color");
+            seen.insert(rgb);
+        }
+    }
+    assert!(
+        seen.len() > 255,
+        "{} distinct label colors drawn",
+        seen.len()
     );
 }
