@@ -561,3 +561,29 @@ fn more_than_255_colors_take_a_second_pass_and_keep_their_colors() {
         seen.len()
     );
 }
+
+/// OME-Zarr 0.5 (Zarr v3, `attributes.ome`): the same label images listed and drawn as 0.4's.
+#[test]
+fn a_0_5_store_lists_and_draws_its_labels_as_0_4_does() {
+    let v05 = data().join("cells-v05.ome.zarr").display().to_string();
+    let info = voxscope(&["info", &v05, "--json"]);
+    assert!(
+        info.status.success(),
+        "{}",
+        String::from_utf8_lossy(&info.stderr)
+    );
+    let json: Value = serde_json::from_slice(&info.stdout).expect("JSON");
+    let labels = json["pyramid"]["labels"].as_array().expect("labels listed");
+    let names: Vec<&str> = labels.iter().filter_map(|l| l["name"].as_str()).collect();
+    assert_eq!(names, ["cells", "regions"]);
+    assert_eq!(labels[0]["version"], "0.5");
+    assert_eq!(
+        labels[0]["colors"][2]["rgba"],
+        serde_json::json!([0, 0, 255, 255])
+    );
+    let both = ["--labels", "cells,regions", "--mode", "mip"];
+    let drawn = render(&v05, "v05-cells-regions", &both);
+    let v04 = render(&image_store(), "v04-cells-regions", &both);
+    assert_eq!(drawn, v04, "the same voxels and labels draw the same image");
+    assert_ne!(drawn, render(&v05, "v05-plain", &["--mode", "mip"]));
+}

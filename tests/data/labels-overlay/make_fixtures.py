@@ -12,6 +12,8 @@ written by `write_labels`:
 - `cells` (u8): label 1 a box, 2 a ball, 3 a small box; `image-label` colors 1 red, 2 green,
   3 blue (all opaque);
 - `regions` (u16): label 5 a slab, 9 another; no colors (the labels palette applies).
+`cells-v05.ome.zarr`: the same image and label images as OME-Zarr 0.5 (Zarr v3; `labels` and
+`image-label` under `attributes.ome` of `zarr.json`).
 `cells.nii`: the `cells` label image as NIfTI-1 (written by hand, no orientation codes), and
 `wrong-grid.nii`: a label volume of 12 x 10 x 8 voxels (not the image's grid).
 expected.json records the versions, the labels' voxel counts and a few voxels' values.
@@ -26,7 +28,7 @@ from pathlib import Path
 import numpy as np
 import ome_zarr
 import zarr
-from ome_zarr.format import FormatV04
+from ome_zarr.format import FormatV04, FormatV05
 from ome_zarr.writer import write_image, write_labels
 
 HERE = Path(__file__).resolve().parent
@@ -83,6 +85,13 @@ def main() -> None:
     colors = [{"label-value": v, "rgba": rgba} for v, rgba in COLORS.items()]
     write_labels(cells, root, "cells", scale_factors=[], axes="zyx", fmt=fmt, label_metadata={"colors": colors})
     regions = regions_voxels()
+    write_labels(regions, root, "regions", scale_factors=[], axes="zyx", fmt=fmt)
+    path = HERE / "cells-v05.ome.zarr"
+    shutil.rmtree(path, ignore_errors=True)
+    fmt = FormatV05()
+    root = zarr.open_group(str(path), mode="w", zarr_format=3)
+    write_image(image, root, scale_factors=[], axes="zyx", fmt=fmt)
+    write_labels(cells, root, "cells", scale_factors=[], axes="zyx", fmt=fmt, label_metadata={"colors": colors})
     write_labels(regions, root, "regions", scale_factors=[], axes="zyx", fmt=fmt)
     write_nifti(HERE / "cells.nii", cells)
     write_nifti(HERE / "wrong-grid.nii", cells[::2, ::2, ::2])
