@@ -8,8 +8,9 @@ mod support;
 
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
-use support::app_harness::{fresh_app, scratch, settle};
+use support::app_harness::{choose_renderer, fresh_app, scratch, settle};
 use voxscope::app::{Command, VoxscopeApp};
+use voxscope_render::RendererKind;
 
 const IMAGE: &str = "tests/data/labels-overlay/cells-v04.ome.zarr";
 
@@ -119,5 +120,27 @@ fn label_images_are_listed_ticked_drawn_over_the_view_and_hidden_one_by_one() {
         0,
         "in the palette, not image-label's colors"
     );
+    assert_eq!(harness.state().error(), None);
+}
+
+#[test]
+fn over_the_streaming_renderer_a_label_image_streams_too() {
+    let mut harness = fresh_app(IMAGE);
+    choose_renderer(&mut harness, "stream");
+    settle(&mut harness);
+    assert_eq!(harness.state().renderer_kind(), Some(RendererKind::Stream));
+    harness.get_by_label("cells").click();
+    settle(&mut harness);
+    let window = harness.render().expect("the window renders");
+    window
+        .save(scratch("labels-cells-streamed.png"))
+        .expect("saved");
+    let drawn = pane(&harness, &window);
+    assert!(
+        green_pixels(&drawn) > 500,
+        "label 2 streams over the view: {}",
+        green_pixels(&drawn)
+    );
+    assert!(red_pixels(&drawn) > 50, "label 1 too");
     assert_eq!(harness.state().error(), None);
 }

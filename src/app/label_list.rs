@@ -13,10 +13,13 @@
 //! image of every layer, which egui paints over each 3D pane. The job keeps the label volumes and
 //! their uploads (handed back and forth with it), so a new view only draws. While the view
 //! changes, the overlay of an older view is not shown; the newest view is drawn once the job
-//! before it ended. Not over a streamed volume (yet).
+//! before it ended. Over a streamed image, a label image of the store streams from its own
+//! pyramid (refined until complete on the job's thread); its label values are listed where
+//! `image-label` gives their colors.
 
 use std::collections::HashMap;
 use std::sync::Arc;
+use std::time::Duration;
 
 use egui::{Color32, ColorImage, RichText, TextureHandle, TextureOptions, Ui};
 
@@ -30,12 +33,16 @@ use voxscope_render::{
 use voxscope_scene::{
     DEFAULT_LABEL_OPACITY, Job, LabelOverlay, Scene, SceneError, UploadedLabels, VolumeSource,
 };
+use voxscope_stream::StreamOptions;
 use voxscope_volume::format_value;
 use voxscope_volume::ome_zarr::{LabelImage, Pyramid, is_zarr_spec};
 use voxscope_volume::remote::RemoteOptions;
 
 /// Label values listed at most per label image (the rest are drawn, not listed).
 const LISTED_LABELS: usize = 1000;
+
+/// The longest a streamed label image's view is refined (on the drawing job's thread).
+const STREAMED_LABELS_WAIT: Duration = Duration::from_secs(30);
 
 /// The label layers of the image on screen, their overlay, and the jobs that make it.
 #[derive(Default)]
@@ -122,7 +129,8 @@ struct DrawnOverlay {
 /// A layer of a drawn overlay: its label volume and its labels' colors.
 struct DrawnLayer {
     name: String,
-    overlay: Arc<LabelOverlay>,
+    /// None where it streams (its labels are not read whole).
+    overlay: Option<Arc<LabelOverlay>>,
     labels: Vec<(f64, [u8; 4])>,
 }
 
@@ -270,7 +278,6 @@ impl LabelLayers {
         let kind = match scene.options.kind {
             // The composite is drawn by the dense march: its labels too.
             _ if scene.composite.is_some() => RendererKind::Dense,
-            RendererKind::Stream => return None,
             kind => kind,
         };
         Some(OverlayKey {
@@ -304,7 +311,7 @@ impl LabelLayers {
                     if let Some(layer) = self.layers.iter_mut().find(|l| l.name == drawn_layer.name)
                     {
                         layer.labels = drawn_layer.labels;
-                        layer.overlay = Some(drawn_layer.overlay);
+                        layer.overlay = drawn_layer.overlay;
                     }
                 }
                 let texture =
@@ -387,6 +394,19 @@ fn draw_overlay(
     let target = RenderTarget::new(context, width, height);
     let mut layers = Vec::new();
     for ((name, source), (_, hidden, opacity)) in sources.iter().zip(&key.layers) {
+        if key.renderer.kind == RendererKind::Stream {
+            layers.push(draw_streamed(
+                context,
+                cache,
+                (name, source),
+                hidden,
+                *opacity,
+                &key,
+                &target,
+                &mut premultiplied,
+            )?);
+            continue;
+        }
         let overlay = match cache.loaded.get(name) {
             Some(overlay) => Arc::clone(overlay),
             None => {
@@ -439,7 +459,7 @@ fn draw_overlay(
             .collect();
         layers.push(DrawnLayer {
             name: name.clone(),
-            overlay,
+            overlay: Some(overlay),
             labels: listed,
         });
     }
@@ -451,6 +471,79 @@ fn draw_overlay(
         image: ColorImage::from_rgba_premultiplied([width as usize, height as usize], &bytes),
         key,
         layers,
+    })
+}
+
+/// A label image over a streamed image: streamed from its own pyramid (uploaded once per
+/// hidden set), each view refined until complete on the job's thread, composed over
+/// `premultiplied`. A label file is not drawn over a streamed image.
+#[allow(clippy::too_many_arguments)]
+fn draw_streamed(
+    context: &GpuContext,
+    cache: &mut OverlayCache,
+    (name, source): (&String, &LayerSource),
+    hidden: &[f64],
+    opacity: f32,
+    key: &OverlayKey,
+    target: &RenderTarget,
+    premultiplied: &mut [f32],
+) -> Result<DrawnLayer, String> {
+    let LayerSource::Image(label) = source else {
+        return Err(format!(
+            "{name}: a label file is not drawn over a streamed volume (label images of the store are)"
+        ));
+    };
+    let upload_key = UploadKey {
+        hidden: hidden.to_vec(),
+        renderer: key.renderer,
+        max_level: key.settings.max_level,
+    };
+    if cache
+        .uploaded
+        .get(name)
+        .is_none_or(|(uploaded_for, _)| *uploaded_for != upload_key)
+    {
+        let (spec, _) = &key.image;
+        let remote = RemoteOptions::default();
+        let image =
+            Pyramid::open_spec(spec, Default::default(), remote).map_err(|e| e.to_string())?;
+        let label_spec = image.label_spec(spec, label);
+        let pyramid = Pyramid::open_spec(&label_spec, Default::default(), remote)
+            .map_err(|e| e.to_string())?;
+        let dims = |p: &Pyramid| p.levels.first().map(|level| level.dims);
+        if dims(&pyramid) != dims(&image) {
+            return Err(format!(
+                "{label_spec}: its grid is not the image's; labels must lie on the image's grid"
+            ));
+        }
+        // A quarter of the image's budgets.
+        let defaults = StreamOptions::default();
+        let options = StreamOptions {
+            gpu_memory: (key.renderer.gpu_memory / 4).max(16 << 20),
+            ram_cache: defaults.ram_cache / 4,
+            ..defaults
+        };
+        let uploaded = UploadedLabels::streamed(
+            context,
+            &label.name,
+            Arc::new(pyramid),
+            &label.colors,
+            hidden,
+            opacity,
+            options,
+            STREAMED_LABELS_WAIT,
+        )?;
+        cache.uploaded.insert(name.clone(), (upload_key, uploaded));
+    }
+    let (_, uploaded) = cache.uploaded.get_mut(name).expect("inserted above");
+    uploaded.opacity = opacity.clamp(0.0, 1.0);
+    let slots = uploaded.draw_slots(context, target, &key.camera, &key.settings)?;
+    uploaded.compose(premultiplied, &slots);
+    Ok(DrawnLayer {
+        name: name.clone(),
+        overlay: None,
+        // Only the colors image-label gives are known without reading every brick.
+        labels: label.colors.iter().map(|c| (c.value, c.rgba)).collect(),
     })
 }
 
