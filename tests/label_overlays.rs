@@ -228,6 +228,32 @@ fn cells_streamed_over_a_streamed_image_equal_the_expected_overlay() {
         ],
     );
     let labels = first_labels(&alone, &[1.0, 2.0, 3.0]);
+    // The label image on its own streams as labels too (its `image-label` says so): nearest
+    // samples, never a blend of two labels that makes a third (a ring of label 1 between 0
+    // and 2).
+    let alone_streamed = render(
+        &alone_path,
+        "cells-alone-stream-mip",
+        &[
+            "--renderer",
+            "stream",
+            "--mode",
+            "mip",
+            "--colormap",
+            "labels",
+        ],
+    );
+    let streamed_labels = first_labels(&alone_streamed, &[1.0, 2.0, 3.0]);
+    let labelled = labels.iter().filter(|&&l| l != 0.0).count();
+    let disagree = labels
+        .iter()
+        .zip(&streamed_labels)
+        .filter(|(a, b)| a != b)
+        .count();
+    assert!(
+        disagree * 20 <= labelled,
+        "the label image streamed alone shows another label at {disagree} of {labelled} pixels"
+    );
     for mode in ["dvr", "mip"] {
         let stream = ["--renderer", "stream", "--mode", mode];
         let plain = render(&store, &format!("plain-stream-{mode}"), &stream);

@@ -187,6 +187,9 @@ pub struct Pyramid {
     /// The HCS plate the image is a field of, where the store's root is a plate (its first
     /// well's first field opens).
     pub plate: Option<Plate>,
+    /// The image is a label image (its group has OME-Zarr `image-label` metadata): its values
+    /// are categories (nearest samples, coarser levels by the mode).
+    pub label_image: bool,
     /// The series of the bioformats2raw container the image is one of, where the store's root
     /// is such a container (its first series opens unless another is asked for).
     pub bioformats2raw: Option<Bioformats2raw>,

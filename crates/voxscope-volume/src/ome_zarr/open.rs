@@ -613,6 +613,7 @@ fn open_levels(
         arrays: arrays.into_iter().map(|(_, _, array)| array).collect(),
         range_paths: range_paths(&attributes, prefix, levels_len),
         image_prefix: prefix.to_owned(),
+        label_image: metadata::ome_attributes(&attributes).contains_key("image-label"),
         store,
         remote: None,
         reader_pool: None,
