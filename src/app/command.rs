@@ -40,6 +40,8 @@ pub enum Command {
     SaveTransfer(PathBuf),
     /// Load a transfer function saved by [`Command::SaveTransfer`].
     LoadTransfer(PathBuf),
+    /// Add a label file on the image's grid to the Labels section, drawn over the image.
+    OpenLabels(PathBuf),
     /// Split the central view another way.
     SetLayout(Layout),
     /// Look from the front, side or top.

@@ -92,6 +92,10 @@ impl VoxscopeApp {
             Command::LoadTransfer(path) => self
                 .load_transfer(&path)
                 .map(|()| Some(format!("loaded {}", path.display()))),
+            Command::OpenLabels(path) => {
+                self.labels.add_file(&path.display().to_string());
+                Ok(None)
+            }
             Command::SetLayout(layout) => {
                 self.settings.layout = layout;
                 Ok(None)
@@ -297,6 +301,7 @@ impl VoxscopeApp {
             DialogKind::SaveScreenshot => Command::SaveScreenshot(path),
             DialogKind::SaveTransfer => Command::SaveTransfer(path),
             DialogKind::LoadTransfer => Command::LoadTransfer(path),
+            DialogKind::OpenLabels => Command::OpenLabels(path),
         };
         self.run_command(command, ctx);
     }
@@ -341,6 +346,6 @@ pub(super) fn start_directory(settings: &AppSettings, kind: DialogKind) -> Optio
                 .filter(|folder| folder.is_dir())
                 .or_else(recent)
         }
-        DialogKind::Open | DialogKind::OpenFolder => recent(),
+        DialogKind::Open | DialogKind::OpenFolder | DialogKind::OpenLabels => recent(),
     }
 }

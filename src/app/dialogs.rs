@@ -23,6 +23,8 @@ pub enum DialogKind {
     SaveTransfer,
     /// File ▸ Load transfer function…
     LoadTransfer,
+    /// File ▸ Open labels…: a label volume on the image's grid, drawn over it.
+    OpenLabels,
 }
 
 /// The title of File ▸ Open folder…'s dialog: what a folder can be.
@@ -79,6 +81,14 @@ fn show(kind: DialogKind, directory: Option<&Path>) -> Option<PathBuf> {
             .add_filter("Transfer function (RON)", &["ron"])
             .set_file_name("transfer.ron")
             .save_file(),
+        DialogKind::OpenLabels => dialog
+            .set_title("Open labels on the image's grid")
+            .add_filter(
+                voxscope_volume::dialog_filter_name(),
+                &voxscope_volume::dialog_extensions(),
+            )
+            .add_filter("All files", &["*"])
+            .pick_file(),
         DialogKind::LoadTransfer => dialog
             .set_title("Load transfer function")
             .add_filter("Transfer function (RON)", &["ron"])

@@ -188,6 +188,7 @@ impl FileBrowser {
             DialogKind::SaveScreenshot => "Save screenshot (PNG)",
             DialogKind::SaveTransfer => "Save transfer function (RON)",
             DialogKind::LoadTransfer => "Load transfer function (RON)",
+            DialogKind::OpenLabels => "Open labels on the image's grid",
         }
     }
 
@@ -261,7 +262,7 @@ impl FileBrowser {
     /// The button that does what Enter in the path field does: Open, Save or Load.
     fn action_name(&self) -> &'static str {
         match self.kind {
-            DialogKind::Open | DialogKind::OpenFolder => "Open",
+            DialogKind::Open | DialogKind::OpenFolder | DialogKind::OpenLabels => "Open",
             DialogKind::SaveScreenshot | DialogKind::SaveTransfer => "Save",
             DialogKind::LoadTransfer => "Load",
         }
@@ -276,7 +277,7 @@ impl FileBrowser {
         go_to: &mut Option<PathBuf>,
     ) {
         let wanted = |name: &str| match self.kind {
-            DialogKind::Open => self.show_all || is_volume_file(name),
+            DialogKind::Open | DialogKind::OpenLabels => self.show_all || is_volume_file(name),
             DialogKind::OpenFolder => false,
             DialogKind::SaveScreenshot => has_extension(name, "png"),
             DialogKind::SaveTransfer | DialogKind::LoadTransfer => has_extension(name, "ron"),

@@ -105,6 +105,15 @@ fn file_menu(ui: &mut Ui, settings: &AppSettings, has_scene: bool, queue: &mut C
         Command::ShowDialog(DialogKind::LoadTransfer),
         queue,
     );
+    ui.add_enabled_ui(has_scene, |ui| {
+        command_button(
+            ui,
+            "Open labels…",
+            Command::ShowDialog(DialogKind::OpenLabels),
+            queue,
+        )
+        .on_hover_text("A label volume on the image's grid (NIfTI, NRRD, TIFF, …), drawn over it");
+    });
     ui.separator();
     command_button(ui, "Quit", Command::Quit, queue);
 }
@@ -155,6 +164,7 @@ pub fn status_bar(
     jobs: &Jobs,
     scene: Option<&Scene>,
     hovered: Option<[usize; 3]>,
+    hovered_labels: Option<&str>,
     notice: Option<&str>,
     queue: &mut CommandQueue,
 ) {
@@ -203,6 +213,10 @@ pub fn status_bar(
         if let Some(text) = scene
             .zip(hovered)
             .and_then(|(s, v)| s.data.describe_voxel(v))
+            .map(|text| match hovered_labels {
+                Some(labels) => format!("{text} · {labels}"),
+                None => text,
+            })
         {
             ui.add(egui::Label::new(text).truncate());
         } else if let Some(scene) = scene {

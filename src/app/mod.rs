@@ -19,6 +19,7 @@ mod dialogs;
 mod file_browser;
 mod frame_controls;
 mod jobs;
+mod label_list;
 mod menu;
 mod numbers;
 mod octree_panel;

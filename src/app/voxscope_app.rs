@@ -16,6 +16,7 @@ use super::dialogs::DialogKind;
 use super::file_browser::{BrowserOutcome, FileBrowser};
 use super::frame_controls::{self, OpenContainer, Playback};
 use super::jobs::{JobEvent, Jobs};
+use super::label_list::{self, LabelLayers};
 use super::menu::{self, NOTICE_DURATION};
 use super::octree_panel::{self, OctreeFacts};
 use super::overlays;
@@ -63,6 +64,8 @@ pub struct VoxscopeApp {
     pub(super) shown_time: Option<usize>,
     /// The container (plate, bioformats2raw root) the image on screen is one of.
     pub(super) container: Option<OpenContainer>,
+    /// The label images drawn over the image, and their overlay.
+    pub(super) labels: LabelLayers,
 }
 
 impl VoxscopeApp {
@@ -100,6 +103,7 @@ impl VoxscopeApp {
             first_clip: None,
             shown_time: None,
             container: None,
+            labels: LabelLayers::default(),
         };
         if app.gpu.is_none() {
             app.fail("voxscope needs the wgpu renderer; no GPU device was handed to the app");
@@ -131,6 +135,7 @@ impl VoxscopeApp {
     /// open or a frame's measurement is on its way back.
     pub fn is_busy(&self) -> bool {
         self.jobs.is_busy()
+            || self.labels.is_busy()
             || self.prefetch.is_busy()
             || self.central.is_measuring()
             || (self.scene.is_some() && self.central.is_refining())
@@ -550,14 +555,18 @@ impl eframe::App for VoxscopeApp {
             menu::menu_bar(ui, &self.settings, has_scene, &mut self.commands)
         });
         let notice = self.notice().map(str::to_owned);
+        let hovered = self
+            .scene
+            .as_ref()
+            .and_then(|s| self.central.hovered_voxel(s.data.volume.dims));
+        let hovered_labels = hovered.and_then(|voxel| self.labels.describe_at(voxel));
         egui::Panel::bottom("status_bar").show(ui, |ui| {
             menu::status_bar(
                 ui,
                 &self.jobs,
                 self.scene.as_ref(),
-                self.scene
-                    .as_ref()
-                    .and_then(|s| self.central.hovered_voxel(s.data.volume.dims)),
+                hovered,
+                hovered_labels.as_deref(),
                 notice.as_deref(),
                 &mut self.commands,
             )
@@ -588,6 +597,7 @@ impl eframe::App for VoxscopeApp {
                         if let Some(composite) = composite {
                             channel_list::show(ui, composite, &mut self.view, &mut self.commands);
                         }
+                        label_list::show(ui, &mut self.labels);
                         let data = match composite {
                             Some(composite) => composite
                                 .channels
@@ -643,6 +653,19 @@ impl eframe::App for VoxscopeApp {
                     opening: self.jobs.opening.is_some(),
                 },
             );
+            if let Some(scene) = &self.scene {
+                let sizes = self.central.pane_sizes();
+                let rects = self.central.pane_rects();
+                label_list::paint(
+                    ui,
+                    &self.labels,
+                    scene,
+                    &self.settings,
+                    &self.view,
+                    rects,
+                    &sizes,
+                );
+            }
             if let Some(message) = &self.error
                 && overlays::error_banner(ui, self.central.rect(), message)
             {
@@ -671,6 +694,11 @@ impl eframe::App for VoxscopeApp {
         }
         self.run_queued_commands(&ctx);
         self.follow_settings(&ctx);
+        if let (Some(gpu), Some(scene)) = (&self.gpu, &self.scene) {
+            let sizes = self.central.pane_sizes();
+            self.labels
+                .follow(&ctx, gpu, scene, &self.settings, &self.view, &sizes);
+        }
         if let (Some(gpu), Some(scene)) = (&self.gpu, &mut self.scene) {
             match self.central.draw(
                 &ctx,

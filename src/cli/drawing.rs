@@ -11,11 +11,14 @@ use voxscope_render::{
     Camera, ChannelLayer, GpuContext, RenderSettings, RenderTarget, RendererKind, RendererOptions,
     VolumeRenderer, read_image,
 };
-use voxscope_scene::{ChannelState, Refinement, StreamedVolume, beyond_octree, refine};
+use voxscope_scene::{
+    ChannelState, Refinement, StreamedVolume, UploadedLabels, beyond_octree, refine,
+};
 use voxscope_volume::{Volume, format_dims};
 
 use super::args::{ChannelArg, RendererArg};
 use super::composite::PreparedChannel;
+use super::labels::{open_overlays, open_streamed_overlays};
 use super::prepare::default_renderer;
 use super::stream::open_streamed;
 use super::{Prepared, RenderOptions, VolumeArgs};
@@ -31,6 +34,8 @@ pub struct Drawing {
     pub content: Content,
     /// The volume's name, for messages.
     pub name: String,
+    /// The label overlays drawn over each image (`--labels`), in order.
+    pub labels: Vec<UploadedLabels>,
     max_wait: Duration,
 }
 
@@ -50,12 +55,31 @@ impl Drawing {
     /// streamed from memory, or one volume for its renderer.
     pub fn open(volume: &VolumeArgs, options: &RenderOptions) -> Result<Self, String> {
         let max_wait = Duration::from_secs_f64(options.max_wait);
+        let refuse_labels = |what: &str| -> Result<(), String> {
+            match options.labels.labels.first() {
+                Some(name) => Err(format!(
+                    "--labels {name}: label overlays are drawn over one volume in memory; not over {what} (yet)"
+                )),
+                None => Ok(()),
+            }
+        };
         if options.renderer == Some(RendererArg::Stream) {
             let (streamed, saved) = open_streamed(volume, &options.transfer)?;
-            return Self::streamed(streamed, saved.as_ref(), options, max_wait);
+            let image_dims = streamed.source.shape().dims();
+            let mut drawing = Self::streamed(streamed, saved.as_ref(), options, max_wait)?;
+            drawing.labels = open_streamed_overlays(
+                &options.labels,
+                volume,
+                image_dims,
+                &drawing.context,
+                options.stream.options(),
+                max_wait,
+            )?;
+            return Ok(drawing);
         }
         let loaded = match volume.composite_channels()? {
             Some(channels) if channels.len() > 1 => {
+                refuse_labels("the composite of several channels (--channel N draws one)")?;
                 return Self::composite(channels, options, max_wait);
             }
             Some(mut channels) => channels.pop().ok_or("no channel was read")?,
@@ -70,6 +94,7 @@ impl Drawing {
                 if matches!(options.renderer, None | Some(RendererArg::Dense))
                     && !beyond_octree(loaded.dims)
                 {
+                    refuse_labels("a channel in its color (--renderer octree draws it)")?;
                     let channel = options
                         .channels
                         .prepare_one(loaded, index, &options.transfer)?;
@@ -97,6 +122,7 @@ impl Drawing {
                 format_dims(loaded.dims),
                 1u32 << MAX_DEPTH
             );
+            refuse_labels("a volume streamed from memory")?;
             let saved = options.transfer.saved()?;
             let streamed = StreamedVolume::from_volume(
                 loaded,
@@ -123,13 +149,26 @@ impl Drawing {
             ),
         };
         let name = prepared.data.volume.name.clone();
+        let renderer_options = RendererOptions {
+            kind,
+            brick_size: options.brick_size,
+            ..Default::default()
+        };
+        let labels = open_overlays(&options.labels.labels, volume, prepared.data.volume.dims)?
+            .into_iter()
+            .map(|overlay| {
+                overlay
+                    .layer(
+                        &options.labels.labels_hide,
+                        options.labels.labels_opacity,
+                        prepared.data.volume.spacing,
+                    )?
+                    .upload(&context, renderer_options, settings.max_level)
+            })
+            .collect::<Result<Vec<_>, String>>()?;
         let renderer = VolumeRenderer::new(
             &context,
-            RendererOptions {
-                kind,
-                brick_size: options.brick_size,
-                ..Default::default()
-            },
+            renderer_options,
             &prepared.data.octree,
             &prepared.data.quantized,
             prepared.data.volume.spacing,
@@ -144,6 +183,7 @@ impl Drawing {
             transfer: prepared.transfer,
             content: Content::Volume { depth },
             name,
+            labels,
             max_wait,
         })
     }
@@ -189,6 +229,7 @@ impl Drawing {
                 channels: prepared.into_iter().map(|c| c.state).collect(),
             },
             name,
+            labels: Vec::new(),
             max_wait,
         })
     }
@@ -218,6 +259,7 @@ impl Drawing {
             transfer: prepared.transfer,
             content: Content::Streamed { depth },
             name,
+            labels: Vec::new(),
             max_wait,
         })
     }
@@ -313,6 +355,48 @@ impl Drawing {
             }
         }
         Ok(image)
+    }
+
+    /// Draws the label overlays (`--labels`) over `image`, the frame of `camera` and
+    /// `settings` drawn whole (`side` None) or in tiles of `side` pixels, as the image was.
+    pub fn draw_labels_over(
+        &mut self,
+        image: &mut RgbaImage,
+        side: Option<u32>,
+        camera: &Camera,
+        settings: &RenderSettings,
+    ) -> Result<(), String> {
+        let (width, height) = image.dimensions();
+        for labels in &mut self.labels {
+            let slots = match side {
+                None => {
+                    let target = RenderTarget::new(&self.context, width, height);
+                    labels.draw_slots(&self.context, &target, camera, settings)?
+                }
+                Some(side) => {
+                    let side = side.max(1);
+                    let mut slots = vec![0u16; (width * height) as usize];
+                    for y in (0..height).step_by(side as usize) {
+                        for x in (0..width).step_by(side as usize) {
+                            let size = [side.min(width - x), side.min(height - y)];
+                            let target =
+                                RenderTarget::tile(&self.context, size, [x, y], [width, height]);
+                            let part =
+                                labels.draw_slots(&self.context, &target, camera, settings)?;
+                            for row in 0..size[1] {
+                                let from = (row * size[0]) as usize;
+                                let to = ((y + row) * width + x) as usize;
+                                slots[to..to + size[0] as usize]
+                                    .copy_from_slice(&part[from..from + size[0] as usize]);
+                            }
+                        }
+                    }
+                    slots
+                }
+            };
+            labels.blend(image, &slots);
+        }
+        Ok(())
     }
 
     /// Gives the renderer another transfer function (the composite keeps its channels' own).

@@ -100,6 +100,13 @@ fn pyramid_json(p: &Pyramid) -> serde_json::Value {
             "range": c.range,
         })).collect::<Vec<_>>(),
         "downscaling": p.downscaling,
+        "labels": p.label_images().iter().map(|l| json!({
+            "name": l.name,
+            "path": l.path,
+            "colors": l.colors.iter().map(|c| json!({"value": c.value, "rgba": c.rgba})).collect::<Vec<_>>(),
+            "version": l.version,
+            "source_image": l.source_image,
+        })).collect::<Vec<_>>(),
         "levels": p.levels.iter().map(|l| json!({
             "path": l.path,
             "dims": l.dims,
@@ -174,6 +181,23 @@ fn pyramid_table(p: &Pyramid) -> String {
                 .as_ref()
                 .map(|c| format!(", color #{c}"))
                 .unwrap_or_default()
+        );
+    }
+    let labels = p.label_images();
+    if !labels.is_empty() {
+        let listed: Vec<String> = labels
+            .iter()
+            .map(|label| match label.colors.len() {
+                0 => format!("{} (labels palette)", label.name),
+                1 => format!("{} (1 color)", label.name),
+                n => format!("{} ({n} colors)", label.name),
+            })
+            .collect();
+        let _ = writeln!(
+            out,
+            "labels       {} (render --labels NAME draws one over the image): {}",
+            labels.len(),
+            listed.join(", ")
         );
     }
     let _ = writeln!(out);

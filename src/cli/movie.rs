@@ -120,7 +120,10 @@ pub fn run(args: &MovieArgs, given: &Given) -> Result<(), String> {
             unreadable_frames += usize::from(!refinement.unreadable.is_empty());
         }
         let rendered = Instant::now();
-        let image = read_image(&drawing.context, &target).map_err(|e| ended(e.to_string()))?;
+        let mut image = read_image(&drawing.context, &target).map_err(|e| ended(e.to_string()))?;
+        drawing
+            .draw_labels_over(&mut image, None, &shot.camera, &shot.settings)
+            .map_err(ended)?;
         let read = Instant::now();
         writer.add(&image).map_err(ended)?;
         let encoded = Instant::now();

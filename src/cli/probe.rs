@@ -13,6 +13,11 @@ pub struct ProbeArgs {
     /// The voxel I,J,K in the displayed order (RAS-reordered, as `slice` and the app use).
     #[arg(long, value_name = "I,J,K", value_parser = parse_index)]
     pub at: [usize; 3],
+    /// Label volumes to read the voxel's label from, beside its value: label images of the
+    /// OME-Zarr image by name, or label files on its grid (default: every label image the
+    /// image lists).
+    #[arg(long, value_name = "NAME|FILE", value_delimiter = ',')]
+    pub labels: Vec<String>,
     /// Print one JSON object instead of lines.
     #[arg(long)]
     pub json: bool,
@@ -40,7 +45,23 @@ pub fn run(args: &ProbeArgs) -> Result<(), String> {
     }
     .map_err(|e| super::args::load_error_text(&e))?;
     let probed = probe(&volume, args.at)?;
+    let names = if args.labels.is_empty() {
+        super::labels::label_images(&args.volume)
+            .map(|(_, labels)| labels.into_iter().map(|label| label.name).collect())
+            .unwrap_or_default()
+    } else {
+        args.labels.clone()
+    };
+    let labels: Vec<(String, f64)> =
+        super::labels::open_overlays(&names, &args.volume, volume.dims)?
+            .iter()
+            .map(|overlay| (overlay.name.clone(), overlay.value_at(probed.index)))
+            .collect();
     if args.json {
+        let labels: serde_json::Map<String, serde_json::Value> = labels
+            .iter()
+            .map(|(name, value)| (name.clone(), json!(value)))
+            .collect();
         println!(
             "{}",
             json!({
@@ -52,6 +73,7 @@ pub fn run(args: &ProbeArgs) -> Result<(), String> {
                 "position_unit": volume.spatial_unit(),
                 "value": probed.value,
                 "unit": probed.unit,
+                "labels": labels,
             })
         );
     } else {
@@ -66,6 +88,9 @@ pub fn run(args: &ProbeArgs) -> Result<(), String> {
         match &probed.unit {
             Some(unit) => println!("value      {} {unit}", probed.value),
             None => println!("value      {}", probed.value),
+        }
+        for (name, value) in &labels {
+            println!("label      {value} ({name})");
         }
     }
     Ok(())

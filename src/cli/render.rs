@@ -50,7 +50,8 @@ pub fn run(args: &RenderArgs, given: &Given) -> Result<Rendered, String> {
     let mut drawing = Drawing::open(&volume, &options)?;
     let camera = options.camera();
     let settings = drawing.settings;
-    let (image, refinement) = match drawing.tile_side(options.size, args.tile_size) {
+    let side = drawing.tile_side(options.size, args.tile_size);
+    let (mut image, refinement) = match side {
         Some(side) => {
             let image = drawing.draw_tiled(options.size, side, &camera, &settings)?;
             let why = if args.tile_size.is_some() {
@@ -71,6 +72,7 @@ pub fn run(args: &RenderArgs, given: &Given) -> Result<Rendered, String> {
             (image, refinement)
         }
     };
+    drawing.draw_labels_over(&mut image, side, &camera, &settings)?;
     image
         .save(&args.output)
         .map_err(|e| format!("cannot write {}: {e}", args.output.display()))?;
@@ -84,9 +86,16 @@ pub fn run(args: &RenderArgs, given: &Given) -> Result<Rendered, String> {
         image.width(),
         image.height()
     );
+    let names: Vec<&str> = drawing.labels.iter().map(|l| l.name.as_str()).collect();
+    let labels = if names.is_empty() {
+        String::new()
+    } else {
+        format!(", labels {} over it", names.join(", "))
+    };
     match (&drawing.content, refinement) {
         (Content::Streamed { depth }, Some(refinement)) => Ok(report_stream(
             &written,
+            &labels,
             &drawing,
             *depth,
             &settings,
@@ -115,7 +124,7 @@ pub fn run(args: &RenderArgs, given: &Given) -> Result<Rendered, String> {
         }
         (Content::Volume { depth } | Content::Streamed { depth }, _) => {
             eprintln!(
-                "{written}, {} renderer, level {}/{depth}) on {} in {seconds:.2} s",
+                "{written}, {} renderer, level {}/{depth}{labels}) on {} in {seconds:.2} s",
                 drawing.renderer.kind().name(),
                 settings.max_level,
                 drawing.context.describe(),
@@ -140,6 +149,7 @@ fn resolved(args: &RenderArgs, given: &Given) -> Result<(VolumeArgs, RenderOptio
 /// summary) and how it ended.
 fn report_stream(
     written: &str,
+    labels: &str,
     drawing: &Drawing,
     depth: u32,
     settings: &voxscope_render::RenderSettings,
@@ -188,7 +198,7 @@ fn report_stream(
         .map(|r| format!(", peak memory {:.0} MiB", super::memory::mib(r.peak)))
         .unwrap_or_default();
     eprintln!(
-        "{written}, stream renderer, level {}/{depth}) on {} in {seconds:.2} s: {} bricks read ({:.1} MiB), {} of {} atlas slots used{peak}; {state}{ending}",
+        "{written}, stream renderer, level {}/{depth}{labels}) on {} in {seconds:.2} s: {} bricks read ({:.1} MiB), {} of {} atlas slots used{peak}; {state}{ending}",
         settings.max_level,
         drawing.context.describe(),
         counters.loads,

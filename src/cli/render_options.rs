@@ -7,6 +7,7 @@ use clap::Args;
 
 use super::args::{RendererArg, parse_brick_size};
 use super::composite::ChannelArgs;
+use super::labels::LabelArgs;
 use super::stream::StreamArgs;
 use super::{ClipArgs, TransferArgs};
 use voxscope_render::{Camera, DEFAULT_BRICK_SIZE};
@@ -20,6 +21,8 @@ pub struct RenderOptions {
     pub clip: ClipArgs,
     #[command(flatten)]
     pub channels: ChannelArgs,
+    #[command(flatten)]
+    pub labels: LabelArgs,
     /// Which renderer draws the image (default: octree, or bricks, said on stderr, when the
     /// octree does not fit this GPU's storage buffers, as the app does).
     #[arg(long, value_enum)]

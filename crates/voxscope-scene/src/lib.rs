@@ -15,6 +15,7 @@ mod channels;
 mod data;
 mod error;
 mod job;
+mod label_overlay;
 mod movie_path;
 mod opening;
 mod prefetch;
@@ -29,6 +30,10 @@ pub use channels::{ChannelRequest, ChannelState, CompositeScene};
 pub use data::{HISTOGRAM_BINS, VolumeData};
 pub use error::SceneError;
 pub use job::Job;
+pub use label_overlay::{
+    DEFAULT_LABEL_OPACITY, LabelLayer, LabelOverlay, MAX_LABEL_VALUES, SlotPass, UploadedLabels,
+    blend_slots, label_color, label_pass_settings,
+};
 pub use movie_path::{Shot, keyframe_path, turntable};
 pub use opening::{
     TransferChoice, TransferRequest, beyond_octree, default_window, file_window, opening_transfer,

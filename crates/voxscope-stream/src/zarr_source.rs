@@ -211,6 +211,8 @@ impl ZarrSource {
             }
         }
         let how = match pyramid.downscaling.as_deref() {
+            // A label image (`image-label`) is categories whatever its levels were made with.
+            _ if pyramid.label_image => Downsampling::Mode,
             Some(kind) if kind.contains("mode") => Downsampling::Mode,
             Some(kind) if kind.contains("max") || kind.contains("nearest") => Downsampling::Max,
             _ => Downsampling::Mean,

@@ -461,6 +461,91 @@ pub(crate) fn well_fields(
         .collect()
 }
 
+/// One label image of an OME-Zarr image (its `labels/` group's `labels` list): a segmentation
+/// on the image's grid, with the colors its `image-label` metadata gives.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct LabelImage {
+    /// Its name in the `labels` list (its group's name inside `labels/`).
+    pub name: String,
+    /// Its group's path inside the store (`labels/cells`; inside a plate's field or a
+    /// bioformats2raw series, that image's path first).
+    pub path: String,
+    /// `image-label` `colors`: a label value and its RGBA (0–255), in the file's order.
+    pub colors: Vec<LabelColor>,
+    /// `image-label` `version`, if given.
+    pub version: Option<String>,
+    /// `image-label` `source.image` (the image it labels, relative to it), if given.
+    pub source_image: Option<String>,
+}
+
+/// A label value's color from `image-label` `colors`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LabelColor {
+    /// The label value (`label-value`).
+    pub value: f64,
+    /// Its red, green, blue and alpha, 0–255 (`rgba`).
+    pub rgba: [u8; 4],
+}
+
+/// The label images an image lists at most (and the colors one label image gives at most).
+pub(crate) const MAX_LABEL_IMAGES: usize = 256;
+pub(crate) const MAX_LABEL_COLORS: usize = 1 << 16;
+
+/// The names of a `labels/` group's `labels` list (as given; invalid names are left out).
+pub(crate) fn label_names(attributes: &Map<String, Value>) -> Vec<String> {
+    let Some(list) = ome_attributes(attributes)
+        .get("labels")
+        .and_then(Value::as_array)
+    else {
+        return Vec::new();
+    };
+    list.iter()
+        .filter_map(Value::as_str)
+        .filter(|name| check_path(name).is_ok() && !name.contains('/'))
+        .take(MAX_LABEL_IMAGES)
+        .map(str::to_owned)
+        .collect()
+}
+
+/// The `image-label` of a label image's group attributes, into `label` (colors that are not a
+/// value with four numbers 0–255 are left out).
+pub(crate) fn image_label(attributes: &Map<String, Value>, label: &mut LabelImage) {
+    let Some(image_label) = ome_attributes(attributes)
+        .get("image-label")
+        .and_then(Value::as_object)
+    else {
+        return;
+    };
+    label.version = image_label
+        .get("version")
+        .and_then(Value::as_str)
+        .map(printable);
+    label.source_image = image_label
+        .get("source")
+        .and_then(|s| s.get("image"))
+        .and_then(Value::as_str)
+        .map(printable);
+    let colors = image_label.get("colors").and_then(Value::as_array);
+    label.colors = colors
+        .into_iter()
+        .flatten()
+        .take(MAX_LABEL_COLORS)
+        .filter_map(|entry| {
+            let value = entry.get("label-value").and_then(Value::as_f64)?;
+            let rgba = entry.get("rgba").and_then(Value::as_array)?;
+            let channels: Vec<u8> = rgba
+                .iter()
+                .map(|c| c.as_f64().filter(|c| (0.0..=255.0).contains(c)))
+                .map(|c| c.map(|c| c.round() as u8))
+                .collect::<Option<_>>()?;
+            Some(LabelColor {
+                value,
+                rgba: <[u8; 4]>::try_from(channels).ok()?,
+            })
+        })
+        .collect();
+}
+
 /// A bioformats2raw root's series (its images `0`, `1`, … or those its `OME` group's `series`
 /// lists) and which one is open.
 #[derive(Debug, Clone, PartialEq, Default)]

@@ -37,7 +37,9 @@ use super::error::Problem;
 use super::remote::{RemoteOptions, RemoteStats, RemoteStore};
 use super::{LoadError, MAX_VOXELS, Selection, Volume, VoxelType, format_dims};
 
-pub use metadata::{Axis, AxisKind, Bioformats2raw, OmeroChannel, Plate, SeriesEntry};
+pub use metadata::{
+    Axis, AxisKind, Bioformats2raw, LabelColor, LabelImage, OmeroChannel, Plate, SeriesEntry,
+};
 use open::open_root;
 pub use read::MAX_PREFETCH_CHUNKS;
 pub use source::SlabSource;
@@ -185,6 +187,9 @@ pub struct Pyramid {
     /// The HCS plate the image is a field of, where the store's root is a plate (its first
     /// well's first field opens).
     pub plate: Option<Plate>,
+    /// The image is a label image (its group has OME-Zarr `image-label` metadata): its values
+    /// are categories (nearest samples, coarser levels by the mode).
+    pub label_image: bool,
     /// The series of the bioformats2raw container the image is one of, where the store's root
     /// is such a container (its first series opens unless another is asked for).
     pub bioformats2raw: Option<Bioformats2raw>,
@@ -194,6 +199,8 @@ pub struct Pyramid {
     store: ReadableStorage,
     /// Where the levels' chunk ranges are (`voxscope.chunk_ranges.paths`), full store paths.
     range_paths: Vec<String>,
+    /// The image group's path in the store (`""`, or a plate's field or a series, `A/1/0/`).
+    image_prefix: String,
     /// The store again, where it is remote: a region's chunks are fetched together.
     remote: Option<Arc<RemoteStore>>,
     /// Where a remote store's reads run: zarrs reads a region's chunks (a sharded array's
@@ -415,6 +422,31 @@ impl Pyramid {
             .map_err(|problem| LoadError::new(source, problem))?;
         pyramid.note_series();
         Ok(pyramid)
+    }
+
+    /// The label images of the image (its `labels/` group's list, each with its `image-label`
+    /// colors), read from the store now: empty for a plain array or an image without labels.
+    pub fn label_images(&self) -> Vec<LabelImage> {
+        if self.format != "OME-Zarr" {
+            return Vec::new();
+        }
+        open::label_images(&self.store, &self.image_prefix)
+    }
+
+    /// The spec that opens label image `label` of this image: the store's root (the folder or
+    /// URL this pyramid was opened from, a series' container) followed by the label's path.
+    pub fn label_spec(&self, root: &str, label: &LabelImage) -> String {
+        let root = match &self.bioformats2raw {
+            // `ROOT/N` names the series; the label's path starts with the series' group.
+            Some(_) => match root.trim_end_matches('/').rsplit_once('/') {
+                Some((container, last)) if last.bytes().all(|b| b.is_ascii_digit()) => {
+                    container.to_owned()
+                }
+                _ => root.trim_end_matches('/').to_owned(),
+            },
+            None => root.trim_end_matches('/').to_owned(),
+        };
+        format!("{root}/{}", label.path)
     }
 
     /// Says on stderr that a bioformats2raw container of several series opened its first

@@ -245,6 +245,30 @@ pub(super) fn open_root(
     Ok(pyramid)
 }
 
+/// The label images the `labels/` group of the image at `prefix` (`""` or `A/1/0/`) lists,
+/// each with its `image-label` (none where the group is missing or unreadable: labels are
+/// extras, never a reason the image does not open).
+pub(super) fn label_images(store: &ReadableStorage, prefix: &str) -> Vec<metadata::LabelImage> {
+    let group = format!("{prefix}labels/");
+    let Ok(Node::Group { attributes, .. }) = node(store, &group) else {
+        return Vec::new();
+    };
+    metadata::label_names(&attributes)
+        .into_iter()
+        .map(|name| {
+            let mut label = metadata::LabelImage {
+                path: format!("{group}{name}"),
+                name,
+                ..Default::default()
+            };
+            if let Ok(Node::Group { attributes, .. }) = node(store, &format!("{}/", label.path)) {
+                metadata::image_label(&attributes, &mut label);
+            }
+            label
+        })
+        .collect()
+}
+
 /// The series of a bioformats2raw container: the paths its `OME` group's `series` lists (if
 /// any), else its groups `0`, `1`, … as far as they go; named from `OME/METADATA.ome.xml` where it
 /// names them, each with its finest level's shape (the first [`DESCRIBED_SERIES`]).
@@ -588,6 +612,8 @@ fn open_levels(
         layout,
         arrays: arrays.into_iter().map(|(_, _, array)| array).collect(),
         range_paths: range_paths(&attributes, prefix, levels_len),
+        image_prefix: prefix.to_owned(),
+        label_image: metadata::ome_attributes(&attributes).contains_key("image-label"),
         store,
         remote: None,
         reader_pool: None,

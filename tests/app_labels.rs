@@ -1,0 +1,146 @@
+//! Label overlays in the app, driven through egui_kittest on the software Vulkan device: an
+//! OME-Zarr image with a `labels/` group (tests/data/labels-overlay, written by ome-zarr-py)
+//! lists its label images in the Labels section; ticking one draws it over the 3D view in its
+//! `image-label` colors (a background job reads, uploads and draws it); unticking a label value
+//! hides it, and the ray shows what lies behind.
+
+mod support;
+
+use egui_kittest::Harness;
+use egui_kittest::kittest::Queryable;
+use support::app_harness::{choose_renderer, fresh_app, scratch, settle};
+use voxscope::app::{Command, VoxscopeApp};
+use voxscope_render::RendererKind;
+
+const IMAGE: &str = "tests/data/labels-overlay/cells-v04.ome.zarr";
+
+/// The 3D pane of `window` (a screenshot at one pixel a point), less its corners' gizmo.
+fn pane(harness: &Harness<'_, VoxscopeApp>, window: &image::RgbaImage) -> image::RgbaImage {
+    let rect = harness.state().pane_rects()[0].shrink(80.0);
+    image::imageops::crop_imm(
+        window,
+        rect.left() as u32,
+        rect.top() as u32,
+        rect.width() as u32,
+        rect.height() as u32,
+    )
+    .to_image()
+}
+
+/// Pixels whose channel `c` stands well above the other two: label 1's red (c = 0) or label
+/// 2's green (c = 1) over the image.
+fn dominant(image: &image::RgbaImage, c: usize) -> usize {
+    image
+        .pixels()
+        .filter(|p| (0..3).all(|o| o == c || p.0[c] as i32 > p.0[o] as i32 + 80))
+        .count()
+}
+
+fn green_pixels(image: &image::RgbaImage) -> usize {
+    dominant(image, 1)
+}
+
+fn red_pixels(image: &image::RgbaImage) -> usize {
+    dominant(image, 0)
+}
+
+#[test]
+fn label_images_are_listed_ticked_drawn_over_the_view_and_hidden_one_by_one() {
+    let mut harness = fresh_app(IMAGE);
+    assert_eq!(harness.state().error(), None);
+    let window = harness.render().expect("the window renders");
+    let plain = pane(&harness, &window);
+    window.save(scratch("labels-plain.png")).expect("saved");
+    assert_eq!(green_pixels(&plain), 0, "no labels before one is ticked");
+
+    // Both label images are listed; ticking `cells` draws it.
+    assert!(
+        harness.query_by_label("regions").is_some(),
+        "regions is listed"
+    );
+    harness.get_by_label("cells").click();
+    settle(&mut harness);
+    let window = harness.render().expect("the window renders");
+    let drawn = pane(&harness, &window);
+    window.save(scratch("labels-cells.png")).expect("saved");
+    let green = green_pixels(&drawn);
+    assert!(
+        green > 500,
+        "label 2 (green) is drawn over the view: {green} pixels"
+    );
+    let red = red_pixels(&drawn);
+    assert!(red > 50, "label 1 (red) is drawn: {red} pixels");
+
+    // Label 2 hidden: its green is gone, and the red box behind the ball shows more.
+    harness.get_by_label("label 2").click();
+    settle(&mut harness);
+    let window = harness.render().expect("the window renders");
+    let hidden = pane(&harness, &window);
+    window
+        .save(scratch("labels-cells-without-2.png"))
+        .expect("saved");
+    assert!(
+        green_pixels(&hidden) < 20,
+        "label 2 is hidden: {}",
+        green_pixels(&hidden)
+    );
+    assert!(red_pixels(&hidden) > red, "label 1 behind label 2 shows");
+
+    // Unticked: the view as before.
+    harness.get_by_label("cells").click();
+    settle(&mut harness);
+    let window = harness.render().expect("the window renders");
+    let again = pane(&harness, &window);
+    assert_eq!(green_pixels(&again), 0);
+    assert_eq!(again, plain, "the view without labels");
+
+    // File ▸ Open labels…: the cells as a NIfTI file, drawn at once in the labels palette.
+    let ctx = harness.ctx.clone();
+    harness.state_mut().run_command(
+        Command::OpenLabels("tests/data/labels-overlay/cells.nii".into()),
+        &ctx,
+    );
+    settle(&mut harness);
+    let window = harness.render().expect("the window renders");
+    window
+        .save(scratch("labels-cells-nifti.png"))
+        .expect("saved");
+    let file = pane(&harness, &window);
+    let changed = file
+        .pixels()
+        .zip(plain.pixels())
+        .filter(|(a, b)| a != b)
+        .count();
+    assert!(
+        changed > 1000,
+        "the label file is drawn: {changed} pixels changed"
+    );
+    assert_eq!(
+        green_pixels(&file),
+        0,
+        "in the palette, not image-label's colors"
+    );
+    assert_eq!(harness.state().error(), None);
+}
+
+#[test]
+fn over_the_streaming_renderer_a_label_image_streams_too() {
+    let mut harness = fresh_app(IMAGE);
+    choose_renderer(&mut harness, "stream");
+    settle(&mut harness);
+    assert_eq!(harness.state().renderer_kind(), Some(RendererKind::Stream));
+    harness.get_by_label("cells").click();
+    settle(&mut harness);
+    let window = harness.render().expect("the window renders");
+    window
+        .save(scratch("labels-cells-streamed.png"))
+        .expect("saved");
+    let drawn = pane(&harness, &window);
+    assert!(
+        green_pixels(&drawn) > 500,
+        "label 2 streams over the view: {}",
+        green_pixels(&drawn)
+    );
+    assert!(red_pixels(&drawn) > 50, "label 1 too");
+    assert_eq!(harness.state().error(), None);
+}
