@@ -82,8 +82,15 @@ pub struct LoadResult {
     pub seconds: f64,
 }
 
+/// Bricks of the queue's best whose network reads are started ahead
+/// ([`BrickSource::fetch_ahead`]) each frame and as a worker takes one: with 64³ chunks a
+/// brick reads one to eight chunks, so this is several round trips' requests at the default
+/// limit of 32 in flight.
+pub const FETCH_AHEAD_BRICKS: usize = 96;
+
 /// The worker threads and the channel their results arrive on.
 pub struct Loader {
+    source: Arc<dyn BrickSource>,
     queue: Arc<RequestQueue>,
     results: Receiver<LoadResult>,
 }
@@ -105,7 +112,17 @@ impl Loader {
                 .spawn(move || work(&*source, &queue, texels, &sender))
                 .expect("the system starts a thread");
         }
-        Self { queue, results }
+        Self {
+            source,
+            queue,
+            results,
+        }
+    }
+
+    /// Starts the network reads of the queue's next bricks without waiting
+    /// ([`BrickSource::fetch_ahead`]; nothing for a source on disk or in memory).
+    pub fn fetch_ahead(&self) {
+        fetch_ahead(&*self.source, &self.queue);
     }
 
     /// Every result that has arrived, without waiting.
@@ -160,6 +177,13 @@ pub fn load_brick(
     }
 }
 
+fn fetch_ahead(source: &dyn BrickSource, queue: &RequestQueue) {
+    let upcoming = queue.upcoming(FETCH_AHEAD_BRICKS);
+    if !upcoming.is_empty() {
+        source.fetch_ahead(&upcoming);
+    }
+}
+
 fn work(
     source: &dyn BrickSource,
     queue: &RequestQueue,
@@ -167,6 +191,8 @@ fn work(
     results: &Sender<LoadResult>,
 ) {
     while let Some(request) = queue.take() {
+        // What comes after this brick goes on the wire while this one is read and decoded.
+        fetch_ahead(source, queue);
         let started = std::time::Instant::now();
         let (brick, bytes_read) = load_brick(source, request.id, texels);
         let result = LoadResult {

@@ -1,8 +1,15 @@
 //! Reading regions of a [`Pyramid`]'s levels: bounds checked, the selected channel and time
 //! point, a remote store's chunks fetched together, and the failing chunk named.
 
+use std::collections::BTreeMap;
 use zarrs::array::data_type::Float64DataType;
-use zarrs::array::{Array, ArrayError, ArraySubset, CodecError};
+
+use rayon::prelude::*;
+use zarrs::array::{
+    Array, ArrayError, ArrayShardedExt, ArrayShardedReadableExt, ArrayShardedReadableExtCache,
+    ArraySubset, CodecError,
+};
+use zarrs::storage::byte_range::ByteRange;
 use zarrs::storage::{ReadableStorageTraits, StoreKey};
 
 use super::super::error::{Problem, escape, printable, quoted};
@@ -147,24 +154,39 @@ impl Pyramid {
 
     /// Fetches the chunks of every region (`level`, `origin`, `size`, as [`Self::read_region`]
     /// takes them) of a URL's store together, ahead of their reads: one round trip for all of
-    /// them, not one a reading thread at a time. A sharded level's are left to its reads
-    /// (zarrs reads a shard's index, then its inner chunks, all in flight together). Regions
-    /// outside their level, and anything beyond [`MAX_PREFETCH_CHUNKS`] chunks, are skipped;
-    /// a folder's store does nothing.
+    /// them, not one a reading thread at a time. A sharded level's regions are fetched shard
+    /// by shard: the shards' indexes together, then each shard's inner chunks of the regions
+    /// as one batch of byte ranges, adjacent ones coalesced into one request
+    /// ([`RemoteStore::prefetch_ranges`]). Regions outside their level, and anything beyond
+    /// [`MAX_PREFETCH_CHUNKS`] chunks, are skipped; a folder's store does nothing.
     pub fn prefetch_regions(&self, regions: &[(usize, [usize; 3], [usize; 3])]) {
         let Some(remote) = &self.remote else { return };
+        remote.prefetch(&self.unsharded_chunk_keys(regions));
+        let ranges = self.shard_ranges(regions);
+        if !ranges.is_empty() {
+            remote.prefetch_ranges(&ranges);
+        }
+    }
+
+    /// Starts fetching the chunks of `regions` of a URL's store in this order, the first
+    /// soonest, and returns without waiting ([`RemoteStore::fetch_ahead`]): what a streamer
+    /// will read next. Sharded levels are left to their reads ([`Self::prefetch_regions`]:
+    /// their inner chunks' places are only known from the shards' indexes). Returns how many
+    /// fetches it started; a folder's store does nothing.
+    pub fn fetch_ahead_regions(&self, regions: &[(usize, [usize; 3], [usize; 3])]) -> usize {
+        let Some(remote) = &self.remote else { return 0 };
+        remote.fetch_ahead(&self.unsharded_chunk_keys(regions))
+    }
+
+    /// The keys of the chunks of `regions` that lie in unsharded levels, region by region, at
+    /// most [`MAX_PREFETCH_CHUNKS`].
+    fn unsharded_chunk_keys(&self, regions: &[(usize, [usize; 3], [usize; 3])]) -> Vec<StoreKey> {
         let mut keys = Vec::new();
         for &(level, origin, size) in regions {
-            let (Some(info), Some(array)) = (self.levels.get(level), self.arrays.get(level)) else {
+            let Some(array) = self.region_array(level, origin, size) else {
                 continue;
             };
-            let inside = (0..3).all(|a| {
-                size[a] > 0
-                    && origin[a]
-                        .checked_add(size[a])
-                        .is_some_and(|end| end <= info.dims[a])
-            });
-            if info.shard.is_some() || !inside {
+            if self.levels[level].shard.is_some() {
                 continue;
             }
             let subset = self.subset(origin, size);
@@ -179,9 +201,104 @@ impl Pyramid {
                         .map(|indices| array.chunk_key(&indices)),
                 );
             }
+            if keys.len() >= MAX_PREFETCH_CHUNKS {
+                break;
+            }
         }
         keys.truncate(MAX_PREFETCH_CHUNKS);
-        remote.prefetch(&keys);
+        keys
+    }
+
+    /// `level`'s array, if the region lies inside the level.
+    fn region_array(
+        &self,
+        level: usize,
+        origin: [usize; 3],
+        size: [usize; 3],
+    ) -> Option<&Array<dyn ReadableStorageTraits>> {
+        let (info, array) = (self.levels.get(level)?, self.arrays.get(level)?);
+        let inside = (0..3).all(|a| {
+            size[a] > 0
+                && origin[a]
+                    .checked_add(size[a])
+                    .is_some_and(|end| end <= info.dims[a])
+        });
+        inside.then_some(array)
+    }
+
+    /// Per shard, the byte ranges of the inner chunks that the regions of sharded levels read
+    /// (every shard's index read first, all at once, on the reader pool): what
+    /// [`RemoteStore::prefetch_ranges`] fetches in one batch per shard. Only arrays sharded
+    /// and nothing else (zarrs tells inner chunks' ranges for those alone); empty inner chunks
+    /// have none.
+    fn shard_ranges(
+        &self,
+        regions: &[(usize, [usize; 3], [usize; 3])],
+    ) -> Vec<(StoreKey, Vec<ByteRange>)> {
+        // Per shard (level and shard indices): its key and the inner chunks wanted.
+        let mut shards: BTreeMap<(usize, Vec<u64>), (StoreKey, Vec<Vec<u64>>)> = BTreeMap::new();
+        let mut inner_chunks = 0usize;
+        for &(level, origin, size) in regions {
+            let Some(array) = self.region_array(level, origin, size) else {
+                continue;
+            };
+            if self.levels[level].shard.is_none() || !array.is_exclusively_sharded() {
+                continue;
+            }
+            let grid = array.subchunk_grid();
+            let Ok(Some(subchunks)) = grid.chunks_in_array_subset(&self.subset(origin, size))
+            else {
+                continue;
+            };
+            for indices in subchunks.indices() {
+                let Ok(Some(first_voxel)) = grid.chunk_origin(&indices) else {
+                    continue;
+                };
+                let Ok(Some(shard)) = array.chunk_grid().chunk_indices(&first_voxel) else {
+                    continue;
+                };
+                let key = array.chunk_key(&shard);
+                let wanted = &mut shards.entry((level, shard)).or_insert((key, Vec::new())).1;
+                if !wanted.contains(&indices.to_vec()) {
+                    wanted.push(indices.to_vec());
+                    inner_chunks += 1;
+                }
+            }
+            if inner_chunks > MAX_PREFETCH_CHUNKS {
+                return Vec::new();
+            }
+        }
+        if shards.is_empty() {
+            return Vec::new();
+        }
+        let caches: Vec<ArrayShardedReadableExtCache> = self
+            .arrays
+            .iter()
+            .map(ArrayShardedReadableExtCache::new)
+            .collect();
+        let ranges_of =
+            |((level, _), (key, inner)): (&(usize, Vec<u64>), &(StoreKey, Vec<Vec<u64>>))| {
+                let array = &self.arrays[*level];
+                let ranges: Vec<ByteRange> = inner
+                    .iter()
+                    .filter_map(|indices| {
+                        array
+                            .subchunk_byte_range(&caches[*level], indices)
+                            .ok()
+                            .flatten()
+                    })
+                    .collect();
+                (key.clone(), ranges)
+            };
+        let shards: Vec<_> = shards.iter().collect();
+        let read = || -> Vec<(StoreKey, Vec<ByteRange>)> {
+            shards.par_iter().map(|&shard| ranges_of(shard)).collect()
+        };
+        let ranges = match &self.reader_pool {
+            Some(pool) => pool.install(read),
+            None => read(),
+        };
+        ranges.into_iter().filter(|(_, r)| !r.is_empty()).collect()
     }
 
     /// The store key of the chunk of `level` holding voxel `(x, y, z)` (for messages and tests).

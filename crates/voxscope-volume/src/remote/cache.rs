@@ -137,6 +137,15 @@ impl FetchCache {
         }
     }
 
+    /// Drops `piece` of `key` (a coalesced run, once its pieces are kept on their own).
+    pub(super) fn remove(&mut self, key: &str, piece: Piece) {
+        let entry = (key.to_owned(), piece);
+        if let Some(dropped) = self.pieces.remove(&entry) {
+            self.bytes -= dropped.len() as u64;
+            self.order.retain(|kept| kept != &entry);
+        }
+    }
+
     pub(super) fn insert(&mut self, key: &str, piece: Piece, bytes: &Bytes) {
         let size = bytes.len() as u64;
         if size > self.capacity / 4 {
