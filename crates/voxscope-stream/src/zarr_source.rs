@@ -549,10 +549,10 @@ impl BrickSource for ZarrSource {
     }
 
     /// Starts the fetches of the bricks' chunks that are not decoded yet, in the bricks' order
-    /// ([`Pyramid::fetch_ahead_regions`]; a sharded level's are batched when the brick is
-    /// read).
+    /// ([`Pyramid::fetch_ahead_regions`]: whole chunks, or a sharded level's inner chunks
+    /// shard by shard, coalesced).
     fn fetch_ahead(&self, ids: &[BrickId]) {
-        if self.pyramid.remote_stats().is_none() {
+        if !self.pyramid.can_fetch_ahead() {
             return;
         }
         let mut regions = Vec::with_capacity(ids.len());

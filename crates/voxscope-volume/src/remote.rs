@@ -412,6 +412,12 @@ impl RemoteStore {
     /// are under way at once (one round trip's in flight, the next waiting for a permit in
     /// this order), the rest left for the next call. A reader of a key fetched ahead waits for
     /// that fetch. Returns how many fetches it started.
+    /// Whether [`Self::fetch_ahead`] has room for another fetch now (cheap: a caller asks
+    /// before it works out keys).
+    pub fn can_fetch_ahead(&self) -> bool {
+        self.inner.ahead.load(Ordering::Relaxed) < self.inner.max_ahead
+    }
+
     pub fn fetch_ahead(&self, keys: &[StoreKey]) -> usize {
         let inner = &self.inner;
         let room = inner
@@ -468,16 +474,27 @@ impl RemoteStore {
     /// request for the adjacent ones instead of one each. Failures are remembered as a read's
     /// are; what they cost shows when the region is read.
     pub fn prefetch_ranges(&self, ranges: &[(StoreKey, Vec<ByteRange>)]) {
+        self.get_ranges(ranges);
+    }
+
+    /// The byte ranges `ranges` of each object, fetched as [`Self::prefetch_ranges`] does:
+    /// per object its pieces in order, or `None` where the object is missing or could not
+    /// be fetched (remembered as a read's failure is).
+    pub fn get_ranges(&self, ranges: &[(StoreKey, Vec<ByteRange>)]) -> Vec<Option<Vec<Bytes>>> {
         let reads = ranges.iter().map(|(key, ranges)| {
             let pieces = ranges.iter().map(|&r| Piece::of(r)).collect();
             self.inner
                 .clone()
                 .read_many(key.as_str().to_owned(), pieces)
         });
-        let _ = block_on(async {
-            futures::future::join_all(reads).await;
-            Ok(())
-        });
+        let answers =
+            block_on(async { Ok(futures::future::join_all(reads).await) }).unwrap_or_default();
+        let mut answers: Vec<Option<Vec<Bytes>>> = answers
+            .into_iter()
+            .map(|answer| answer.ok()?.into_iter().collect())
+            .collect();
+        answers.resize(ranges.len(), None);
+        answers
     }
 }
 
@@ -572,6 +589,20 @@ impl Inner {
         } else {
             piece
         };
+        // A range inside a coalesced run being fetched is cut from that run.
+        if let Some((run, start)) = self.run_holding(&key, fetched) {
+            return match run.await? {
+                Answer::Missing => Ok(None),
+                Answer::Body { bytes, whole } => {
+                    let piece = if whole {
+                        piece
+                    } else {
+                        piece.shifted_back(start)
+                    };
+                    piece.cut(&bytes).map(Some)
+                }
+            };
+        }
         let flight = self.flight(&key, fetched, bound);
         match flight.await? {
             Answer::Missing => Ok(None),
@@ -653,6 +684,24 @@ impl Inner {
             }
         }
         Ok(parts.into_iter().map(Option::flatten).collect())
+    }
+
+    /// A fetch in flight of a range of `key` that holds all of `piece` (a range, not itself
+    /// being fetched), and where that range starts.
+    fn run_holding(&self, key: &str, piece: Piece) -> Option<(Flight, u64)> {
+        let Piece::Range(a, b) = piece else {
+            return None;
+        };
+        let flights = self.flights.lock().ok()?;
+        if flights.contains_key(&(key.to_owned(), piece)) {
+            return None;
+        }
+        flights.iter().find_map(|((k, run), flight)| match *run {
+            Piece::Range(start, end) if k == key && start <= a && b <= end => {
+                Some((flight.clone(), start))
+            }
+            _ => None,
+        })
     }
 
     /// The fetch of `piece` of `key` in flight, started now if there is none.

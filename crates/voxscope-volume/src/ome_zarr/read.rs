@@ -2,13 +2,11 @@
 //! point, a remote store's chunks fetched together, and the failing chunk named.
 
 use std::collections::BTreeMap;
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
 use zarrs::array::data_type::Float64DataType;
 
-use rayon::prelude::*;
-use zarrs::array::{
-    Array, ArrayError, ArrayShardedExt, ArrayShardedReadableExt, ArrayShardedReadableExtCache,
-    ArraySubset, CodecError,
-};
+use zarrs::array::{Array, ArrayError, ArrayShardedExt, ArraySubset, CodecError};
 use zarrs::storage::byte_range::ByteRange;
 use zarrs::storage::{ReadableStorageTraits, StoreKey};
 
@@ -17,6 +15,7 @@ use super::super::series::{ChannelInfo, Series, parse_hex_color};
 use super::super::{
     LoadError, LoadErrorKind, MAX_VOXELS, ValueWindow, VoxelData, VoxelType, format_dims,
 };
+use super::shard_index::ShardIndexLayout;
 use super::{Pyramid, Stored};
 
 /// The most chunks [`Pyramid::prefetch_regions`] asks for at once.
@@ -169,13 +168,60 @@ impl Pyramid {
     }
 
     /// Starts fetching the chunks of `regions` of a URL's store in this order, the first
-    /// soonest, and returns without waiting ([`RemoteStore::fetch_ahead`]): what a streamer
-    /// will read next. Sharded levels are left to their reads ([`Self::prefetch_regions`]:
-    /// their inner chunks' places are only known from the shards' indexes). Returns how many
+    /// soonest, and returns without waiting: what a streamer will read next. Unsharded
+    /// levels' chunks go to [`RemoteStore::fetch_ahead`] (whole objects, up to twice the
+    /// request limit under way). Sharded levels' regions are fetched as
+    /// [`Self::prefetch_regions`] does, on a thread of their own, one batch at a time (the
+    /// shards' indexes, then each shard's inner chunks coalesced): a call while a batch is
+    /// under way leaves its sharded regions to the next call. Returns how many unsharded
     /// fetches it started; a folder's store does nothing.
-    pub fn fetch_ahead_regions(&self, regions: &[(usize, [usize; 3], [usize; 3])]) -> usize {
+    pub fn fetch_ahead_regions(
+        self: &Arc<Self>,
+        regions: &[(usize, [usize; 3], [usize; 3])],
+    ) -> usize {
         let Some(remote) = &self.remote else { return 0 };
+        let sharded: Vec<(usize, [usize; 3], [usize; 3])> = regions
+            .iter()
+            .filter(|(level, _, _)| self.levels.get(*level).is_some_and(|l| l.shard.is_some()))
+            .copied()
+            .collect();
+        if !sharded.is_empty()
+            && self
+                .shard_batch_busy
+                .compare_exchange(false, true, Ordering::AcqRel, Ordering::Relaxed)
+                .is_ok()
+        {
+            let pyramid = Arc::clone(self);
+            let spawned = std::thread::Builder::new()
+                .name("voxscope-shard-batch".into())
+                .spawn(move || {
+                    let ranges = pyramid.shard_ranges(&sharded);
+                    if let Some(remote) = &pyramid.remote
+                        && !ranges.is_empty()
+                    {
+                        remote.prefetch_ranges(&ranges);
+                    }
+                    pyramid.shard_batch_busy.store(false, Ordering::Release);
+                });
+            if spawned.is_err() {
+                self.shard_batch_busy.store(false, Ordering::Release);
+            }
+        }
+        if !remote.can_fetch_ahead() {
+            return 0;
+        }
         remote.fetch_ahead(&self.unsharded_chunk_keys(regions))
+    }
+
+    /// Whether [`Self::fetch_ahead_regions`] may start anything now: a URL's store with room
+    /// for more fetches ahead, or sharded levels and no batch under way. Cheap: a streamer
+    /// asks before it works out its bricks' regions.
+    pub fn can_fetch_ahead(&self) -> bool {
+        self.remote.as_ref().is_some_and(|remote| {
+            remote.can_fetch_ahead()
+                || (self.levels.iter().any(|l| l.shard.is_some())
+                    && !self.shard_batch_busy.load(Ordering::Relaxed))
+        })
     }
 
     /// The keys of the chunks of `regions` that lie in unsharded levels, region by region, at
@@ -227,40 +273,52 @@ impl Pyramid {
     }
 
     /// Per shard, the byte ranges of the inner chunks that the regions of sharded levels read
-    /// (every shard's index read first, all at once, on the reader pool): what
-    /// [`RemoteStore::prefetch_ranges`] fetches in one batch per shard. Only arrays sharded
-    /// and nothing else (zarrs tells inner chunks' ranges for those alone); empty inner chunks
-    /// have none.
+    /// (every shard's index fetched first, all at once): what [`RemoteStore::prefetch_ranges`]
+    /// fetches in one batch per shard. Only levels whose index voxscope reads itself
+    /// ([`ShardIndexLayout`]); inner chunks never written have no range.
     fn shard_ranges(
         &self,
         regions: &[(usize, [usize; 3], [usize; 3])],
     ) -> Vec<(StoreKey, Vec<ByteRange>)> {
-        // Per shard (level and shard indices): its key and the inner chunks wanted.
-        let mut shards: BTreeMap<(usize, Vec<u64>), (StoreKey, Vec<Vec<u64>>)> = BTreeMap::new();
+        let Some(remote) = &self.remote else {
+            return Vec::new();
+        };
+        let mut layouts: BTreeMap<usize, Option<ShardIndexLayout>> = BTreeMap::new();
+        // Per shard (level and shard indices): its key and the index entries wanted.
+        let mut shards: BTreeMap<(usize, Vec<u64>), (StoreKey, Vec<u64>)> = BTreeMap::new();
         let mut inner_chunks = 0usize;
         for &(level, origin, size) in regions {
             let Some(array) = self.region_array(level, origin, size) else {
                 continue;
             };
-            if self.levels[level].shard.is_none() || !array.is_exclusively_sharded() {
+            if self.levels[level].shard.is_none() {
                 continue;
             }
+            let Some(layout) = layouts
+                .entry(level)
+                .or_insert_with(|| ShardIndexLayout::of(array))
+                .as_ref()
+            else {
+                continue;
+            };
             let grid = array.subchunk_grid();
             let Ok(Some(subchunks)) = grid.chunks_in_array_subset(&self.subset(origin, size))
             else {
                 continue;
             };
             for indices in subchunks.indices() {
-                let Ok(Some(first_voxel)) = grid.chunk_origin(&indices) else {
+                let Some(entry) = layout.entry(&indices) else {
                     continue;
                 };
-                let Ok(Some(shard)) = array.chunk_grid().chunk_indices(&first_voxel) else {
-                    continue;
-                };
+                let shard: Vec<u64> = indices
+                    .iter()
+                    .zip(&layout.per_shard)
+                    .map(|(&i, &n)| i / n)
+                    .collect();
                 let key = array.chunk_key(&shard);
                 let wanted = &mut shards.entry((level, shard)).or_insert((key, Vec::new())).1;
-                if !wanted.contains(&indices.to_vec()) {
-                    wanted.push(indices.to_vec());
+                if !wanted.contains(&entry) {
+                    wanted.push(entry);
                     inner_chunks += 1;
                 }
             }
@@ -268,37 +326,31 @@ impl Pyramid {
                 return Vec::new();
             }
         }
-        if shards.is_empty() {
+        let index_ranges: Vec<(StoreKey, Vec<ByteRange>)> = shards
+            .iter()
+            .filter_map(|((level, _), (key, _))| {
+                let layout = layouts.get(level)?.as_ref()?;
+                Some((key.clone(), vec![layout.range()]))
+            })
+            .collect();
+        if index_ranges.is_empty() {
             return Vec::new();
         }
-        let caches: Vec<ArrayShardedReadableExtCache> = self
-            .arrays
+        let indexes = remote.get_ranges(&index_ranges);
+        shards
             .iter()
-            .map(ArrayShardedReadableExtCache::new)
-            .collect();
-        let ranges_of =
-            |((level, _), (key, inner)): (&(usize, Vec<u64>), &(StoreKey, Vec<Vec<u64>>))| {
-                let array = &self.arrays[*level];
-                let ranges: Vec<ByteRange> = inner
+            .zip(indexes)
+            .filter_map(|(((level, _), (key, entries)), index)| {
+                let layout = layouts.get(level)?.as_ref()?;
+                let index = index?.into_iter().next()?;
+                let max_bytes = self.object_bound(*level)?;
+                let ranges: Vec<ByteRange> = entries
                     .iter()
-                    .filter_map(|indices| {
-                        array
-                            .subchunk_byte_range(&caches[*level], indices)
-                            .ok()
-                            .flatten()
-                    })
+                    .filter_map(|&entry| layout.inner_range(&index, entry, max_bytes))
                     .collect();
-                (key.clone(), ranges)
-            };
-        let shards: Vec<_> = shards.iter().collect();
-        let read = || -> Vec<(StoreKey, Vec<ByteRange>)> {
-            shards.par_iter().map(|&shard| ranges_of(shard)).collect()
-        };
-        let ranges = match &self.reader_pool {
-            Some(pool) => pool.install(read),
-            None => read(),
-        };
-        ranges.into_iter().filter(|(_, r)| !r.is_empty()).collect()
+                (!ranges.is_empty()).then(|| (key.clone(), ranges))
+            })
+            .collect()
     }
 
     /// The store key of the chunk of `level` holding voxel `(x, y, z)` (for messages and tests).

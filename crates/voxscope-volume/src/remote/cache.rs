@@ -37,6 +37,15 @@ impl Piece {
         }
     }
 
+    /// The same piece counted from `offset` (a range inside a run fetched from `offset`).
+    pub(crate) fn shifted_back(self, offset: u64) -> Self {
+        match self {
+            Self::Range(a, b) => Self::Range(a.saturating_sub(offset), b.saturating_sub(offset)),
+            Self::From(a) => Self::From(a.saturating_sub(offset)),
+            other => other,
+        }
+    }
+
     /// Whether it holds no byte (answered without a request).
     pub(crate) fn is_empty(self) -> bool {
         matches!(self, Self::Range(a, b) if a >= b) || self == Self::Suffix(0)
