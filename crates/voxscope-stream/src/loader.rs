@@ -248,6 +248,74 @@ mod tests {
         }
     }
 
+    /// A source that records what it is asked to fetch ahead.
+    struct Recording(PyramidShape, std::sync::Mutex<Vec<Vec<BrickId>>>);
+
+    impl BrickSource for Recording {
+        fn name(&self) -> &str {
+            "recording"
+        }
+        fn shape(&self) -> &PyramidShape {
+            &self.0
+        }
+        fn spacing(&self) -> [f64; 3] {
+            [1.0; 3]
+        }
+        fn quantization(&self) -> Quantization {
+            Quantization {
+                offset: 0.0,
+                step: 1.0,
+            }
+        }
+        fn max_value_level(&self) -> u16 {
+            255
+        }
+        fn read_brick(&self, id: BrickId) -> Result<BrickData, BrickError> {
+            Err(BrickError::invalid(format!("{id} is not read here")))
+        }
+        fn fetch_ahead(&self, ids: &[BrickId]) {
+            self.1.lock().expect("not poisoned").push(ids.to_vec());
+        }
+    }
+
+    #[test]
+    fn the_queues_next_bricks_are_fetched_ahead_in_its_order() {
+        let source = Recording(
+            PyramidShape::new([256, 256, 256]).expect("a shape"),
+            Default::default(),
+        );
+        let queue = RequestQueue::default();
+        let request = |tier, level, off_center, x| crate::Request {
+            priority: crate::Priority::new(tier, level, off_center),
+            id: BrickId {
+                level,
+                brick: [x, 0, 0],
+            },
+            key: level << 28 | x,
+        };
+        queue.replace(vec![
+            request(Tier::Prefetch, 2, 0.0, 0),
+            request(Tier::Visible, 0, 0.5, 1),
+            request(Tier::Visible, 0, 0.1, 2),
+            request(Tier::Visible, 1, 0.9, 3),
+        ]);
+        fetch_ahead(&source, &queue);
+        let asked: Vec<(u32, u32)> = source.1.lock().expect("not poisoned")[0]
+            .iter()
+            .map(|id| (id.level, id.brick[0]))
+            .collect();
+        // Visible before prefetch, coarse before fine, the center before the edge.
+        assert_eq!(asked, [(1, 3), (0, 2), (0, 1), (2, 0)]);
+        // A worker takes the best; the next call asks for the rest.
+        assert_eq!(queue.try_take().map(|r| r.id.brick[0]), Some(3));
+        fetch_ahead(&source, &queue);
+        assert_eq!(source.1.lock().expect("not poisoned")[1].len(), 3);
+        // Nothing waiting: nothing asked.
+        while queue.try_take().is_some() {}
+        fetch_ahead(&source, &queue);
+        assert_eq!(source.1.lock().expect("not poisoned").len(), 2);
+    }
+
     #[test]
     fn a_panic_while_reading_a_brick_is_that_bricks_error() {
         let source = Panicking(PyramidShape::new([40, 40, 40]).expect("a shape"));

@@ -56,7 +56,14 @@ pub struct ZarrSource {
     /// (`voxscope convert` writes them), x fastest: what [`BrickSource::known_range`] answers
     /// from.
     chunk_ranges: Vec<Option<Vec<[f64; 2]>>>,
+    /// Chunks of unsharded levels handed to a network store to fetch ahead
+    /// ([`BrickSource::fetch_ahead`]): not asked for again (at most [`MAX_FETCHED_AHEAD`],
+    /// then forgotten all at once).
+    fetched_ahead: Mutex<std::collections::HashSet<ChunkKey>>,
 }
+
+/// The most chunks a [`ZarrSource`] remembers having fetched ahead.
+const MAX_FETCHED_AHEAD: usize = 1 << 16;
 
 /// The most stored voxels [`ZarrSource::warm_first_image`] reads as one region (16 Mi: 32 MiB
 /// as value levels, 128 MiB while a 64-bit type is converted).
@@ -226,6 +233,7 @@ impl ZarrSource {
             labels: how == Downsampling::Mode,
             chunks: Mutex::default(),
             chunk_ranges,
+            fetched_ahead: Mutex::default(),
         })
     }
 
@@ -548,34 +556,71 @@ impl BrickSource for ZarrSource {
         })
     }
 
-    /// Starts the fetches of the bricks' chunks that are not decoded yet, in the bricks' order
-    /// ([`Pyramid::fetch_ahead_regions`]: whole chunks, or a sharded level's inner chunks
-    /// shard by shard, coalesced).
+    /// Starts the fetches of the bricks' chunks that are neither decoded nor fetched ahead
+    /// before, in the bricks' order: whole chunks ([`Pyramid::fetch_ahead_chunks`]), or a
+    /// sharded level's inner chunks shard by shard, coalesced
+    /// ([`Pyramid::fetch_ahead_regions`]). The chunks already handed to the store are
+    /// remembered, so that a call costs little once a view's chunks are on their way.
     fn fetch_ahead(&self, ids: &[BrickId]) {
         if !self.pyramid.can_fetch_ahead() {
             return;
         }
-        let mut regions = Vec::with_capacity(ids.len());
-        for &id in ids {
-            let (Some(level), Some(source)) = (
-                self.shape.levels.get(id.level as usize),
-                self.sources.get(id.level as usize),
-            ) else {
-                continue;
+        let mut sharded = Vec::new();
+        let mut chunks: Vec<ChunkKey> = Vec::new();
+        {
+            let (Ok(decoded), Ok(asked)) = (self.chunks.lock(), self.fetched_ahead.lock()) else {
+                return;
             };
-            let info = &self.pyramid.levels[source.stored];
-            let first = id.brick.map(|c| c as usize * BRICK_SIZE);
-            if (0..3).any(|a| first[a] >= level.dims[a]) {
-                continue;
+            let mut seen = std::collections::HashSet::new();
+            for &id in ids {
+                let (Some(level), Some(source)) = (
+                    self.shape.levels.get(id.level as usize),
+                    self.sources.get(id.level as usize),
+                ) else {
+                    continue;
+                };
+                let info = &self.pyramid.levels[source.stored];
+                let first = id.brick.map(|c| c as usize * BRICK_SIZE);
+                if (0..3).any(|a| first[a] >= level.dims[a]) {
+                    continue;
+                }
+                let voxels = padded_voxels(first, level.dims);
+                let (origin, size) = stored_region(&voxels, source.ratio, info.dims);
+                let low: [usize; 3] = std::array::from_fn(|a| origin[a] / info.chunk[a]);
+                let high: [usize; 3] =
+                    std::array::from_fn(|a| (origin[a] + size[a] - 1) / info.chunk[a]);
+                let mut missing = (low[2]..=high[2]).flat_map(|z| {
+                    (low[1]..=high[1]).flat_map(move |y| (low[0]..=high[0]).map(move |x| [x, y, z]))
+                });
+                if info.shard.is_some() {
+                    if missing.any(|c| !decoded.chunks.contains_key(&(source.stored, c))) {
+                        sharded.push((source.stored, origin, size));
+                    }
+                    continue;
+                }
+                for chunk in missing {
+                    let key = (source.stored, chunk);
+                    if !decoded.chunks.contains_key(&key)
+                        && !asked.contains(&key)
+                        && seen.insert(key)
+                    {
+                        chunks.push(key);
+                    }
+                }
             }
-            let voxels = padded_voxels(first, level.dims);
-            let (origin, size) = stored_region(&voxels, source.ratio, info.dims);
-            if self.chunks_decoded(source.stored, origin, size) {
-                continue;
-            }
-            regions.push((source.stored, origin, size));
         }
-        self.pyramid.fetch_ahead_regions(&regions);
+        if !sharded.is_empty() {
+            self.pyramid.fetch_ahead_regions(&sharded);
+        }
+        if !chunks.is_empty() {
+            let handled = self.pyramid.fetch_ahead_chunks(&chunks);
+            if let Ok(mut asked) = self.fetched_ahead.lock() {
+                if asked.len() + handled > MAX_FETCHED_AHEAD {
+                    asked.clear();
+                }
+                asked.extend(chunks[..handled].iter().copied());
+            }
+        }
     }
 
     fn read_brick(&self, id: BrickId) -> Result<BrickData, BrickError> {

@@ -405,19 +405,20 @@ impl RemoteStore {
         });
     }
 
-    /// Starts fetching `keys` (whole objects: unsharded chunks) in this order, the first
-    /// soonest, and returns without waiting: what a streamer will read next, asked for while
-    /// its loaders still decode what came before. Objects kept, known missing, remembered as
-    /// failed or being fetched are skipped; at most twice the request limit of these fetches
-    /// are under way at once (one round trip's in flight, the next waiting for a permit in
-    /// this order), the rest left for the next call. A reader of a key fetched ahead waits for
-    /// that fetch. Returns how many fetches it started.
     /// Whether [`Self::fetch_ahead`] has room for another fetch now (cheap: a caller asks
     /// before it works out keys).
     pub fn can_fetch_ahead(&self) -> bool {
         self.inner.ahead.load(Ordering::Relaxed) < self.inner.max_ahead
     }
 
+    /// Starts fetching `keys` (whole objects: unsharded chunks) in this order, the first
+    /// soonest, and returns without waiting: what a streamer will read next, asked for while
+    /// its loaders still decode what came before. Objects kept, known missing, remembered as
+    /// failed or being fetched are skipped; at most twice the request limit of these fetches
+    /// are under way at once (one round trip's in flight, the next waiting for a permit in
+    /// this order), the rest left for a later call. A reader of a key fetched ahead waits for
+    /// that fetch. Returns how many of `keys`, from the first, are fetched, being fetched or
+    /// settled (missing, failed): those need not be asked for again.
     pub fn fetch_ahead(&self, keys: &[StoreKey]) -> usize {
         let inner = &self.inner;
         let room = inner
@@ -428,29 +429,31 @@ impl RemoteStore {
         }
         let Ok(runtime) = runtime() else { return 0 };
         let mut wanted: Vec<String> = Vec::new();
+        let mut handled = 0;
         {
             let (Ok(cache), Ok(flights)) = (inner.cache.lock(), inner.flights.lock()) else {
                 return 0;
             };
             for key in keys {
-                if wanted.len() == room {
-                    break;
-                }
                 let key = key.as_str();
                 let busy = cache.get(key, Piece::Whole).is_some()
                     || cache.is_missing(key)
-                    || flights.contains_key(&(key.to_owned(), Piece::Whole));
-                if !busy && !wanted.iter().any(|w| w == key) {
+                    || flights.contains_key(&(key.to_owned(), Piece::Whole))
+                    || wanted.iter().any(|w| w == key);
+                if !busy {
+                    if wanted.len() == room {
+                        break;
+                    }
                     wanted.push(key.to_owned());
                 }
+                handled += 1;
             }
         }
         wanted.retain(|key| inner.remembered.get(key).is_none());
         if wanted.is_empty() {
-            return 0;
+            return handled;
         }
         inner.ahead.fetch_add(wanted.len(), Ordering::Relaxed);
-        let started = wanted.len();
         // The flights are made here, in order, so that a reader asking for one of them from
         // now on waits for it; `join_all` polls them in this order, so they queue for the
         // request limit in this order.
@@ -465,7 +468,7 @@ impl RemoteStore {
             })
             .collect();
         runtime.spawn(futures::future::join_all(flights));
-        started
+        handled
     }
 
     /// Fetches the byte ranges `ranges` of each object (a shard's inner chunks) into the fetch

@@ -213,6 +213,26 @@ impl Pyramid {
         remote.fetch_ahead(&self.unsharded_chunk_keys(regions))
     }
 
+    /// Starts fetching the unsharded chunks `chunks` (stored level and chunk indices x, y,
+    /// z) of a URL's store in this order without waiting ([`RemoteStore::fetch_ahead`]).
+    /// Returns how many of them, from the first, are fetched, being fetched or settled:
+    /// those need not be asked for again. Chunks of sharded levels, or outside their level,
+    /// end the run; a folder's store handles nothing.
+    pub fn fetch_ahead_chunks(&self, chunks: &[(usize, [usize; 3])]) -> usize {
+        let Some(remote) = &self.remote else { return 0 };
+        let keys: Vec<StoreKey> = chunks
+            .iter()
+            .map_while(|&(level, chunk)| {
+                let info = self.levels.get(level)?;
+                if info.shard.is_some() || (0..3).any(|a| chunk[a] >= info.chunk_grid()[a]) {
+                    return None;
+                }
+                self.chunk_store_key(level, chunk.map(|c| c as u64))
+            })
+            .collect();
+        remote.fetch_ahead(&keys)
+    }
+
     /// Whether [`Self::fetch_ahead_regions`] may start anything now: a URL's store with room
     /// for more fetches ahead, or sharded levels and no batch under way. Cheap: a streamer
     /// asks before it works out its bricks' regions.
@@ -351,6 +371,25 @@ impl Pyramid {
                 (!ranges.is_empty()).then(|| (key.clone(), ranges))
             })
             .collect()
+    }
+
+    /// The store key of the chunk (a shard, where the level is sharded) of `level` at the
+    /// grid indices `chunk` (x, y, z), in the selected channel and time point.
+    fn chunk_store_key(&self, level: usize, chunk: [u64; 3]) -> Option<StoreKey> {
+        let array = self.arrays.get(level)?;
+        let mut indices = vec![0u64; self.layout.ndim];
+        if let Some(t) = self.layout.time {
+            indices[t] = self.selected.time as u64 / array_chunk(array, t);
+        }
+        if let Some(c) = self.layout.channel {
+            indices[c] = self.selected.channel as u64 / array_chunk(array, c);
+        }
+        for (axis, dim) in self.layout.space.iter().enumerate() {
+            if let Some(dim) = dim {
+                indices[*dim] = chunk[axis];
+            }
+        }
+        Some(array.chunk_key(&indices))
     }
 
     /// The store key of the chunk of `level` holding voxel `(x, y, z)` (for messages and tests).
