@@ -6,7 +6,9 @@
 # --lod-scale 0 (every visible brick at full detail: a few hundred requests). Prints the
 # render's line (its time, first image, requests, bytes, most in flight), the server's counts
 # (requests, bytes, most in flight, active seconds, waves of round trips) and the link's floor:
-# max(bytes ÷ 100 MB/s, requests ÷ in-flight limit × 50 ms).
+# max(bytes ÷ 100 MB/s, requests ÷ in-flight limit × 50 ms). Then each store drawn from its
+# folder, the same view: what the CPU and the renderer take without a network (where
+# ImageMagick's `compare` is installed, with the PSNR of the URL's image against it).
 #
 # Usage: bash docs/bench/remote-local.sh [VOXSCOPE] [SIZE]  (default target/debug/voxscope,
 # 256x192; stores go to out/remote-bench)
@@ -25,7 +27,7 @@ for store in ct512.ome.zarr ct512s.ome.zarr; do
     python3 docs/bench/slow_http.py $D $PORT 0.05 100e6 2>$D/server.err &
     server=$!
     sleep 1
-    $BIN render "http://127.0.0.1:$PORT/$store" -o $D/${store%.ome.zarr}.png --renderer stream \
+    $BIN render "http://127.0.0.1:$PORT/$store" -o $D/${store%.ome.zarr}-url.png --renderer stream \
         --size $SIZE --lod-scale 0 --max-requests $LIMIT 2>$D/render.err
     kill $server; wait $server 2>/dev/null
     echo "== $store"
@@ -40,4 +42,14 @@ print("server", counts, f"floor {floor:.2f} s (bytes {counts['bytes'] / 100e6:.2
       f"requests {counts['requests'] / limit * 0.05:.2f} s); active / floor",
       round(counts.get("active_s", 0) / floor, 2) if floor else None)
 PY
+done
+for store in ct512.ome.zarr ct512s.ome.zarr; do
+    $BIN render $D/$store -o $D/${store%.ome.zarr}-folder.png --renderer stream --size $SIZE \
+        --lod-scale 0 2>$D/render.err
+    echo "== $store from its folder"
+    tail -1 $D/render.err
+    if command -v compare >/dev/null; then
+        echo "URL against folder: $(compare -metric PSNR $D/${store%.ome.zarr}-url.png \
+            $D/${store%.ome.zarr}-folder.png /dev/null 2>&1) dB"
+    fi
 done
