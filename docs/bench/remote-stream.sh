@@ -84,6 +84,15 @@ for name in ("http", "folder"):
           "read", s["bricks_read"], "view", s["view_bricks"], "floor MB", round(s["floor_bytes"] / 1e6, 2),
           "fetched", fetched,
           "fetched/floor", round(fetched["bytes"] / s["floor_bytes"], 2) if fetched and s["floor_bytes"] else None)
+    if fetched and name == "http":
+        # The link's floor for what crossed it by the view's end (docs/benchmarks.md):
+        # max(bytes / 100 MB/s, requests / the request limit x 50 ms).
+        limit = 32
+        floor = max(fetched["bytes"] / 100e6, fetched["requests"] / limit * 0.05)
+        print("  floor", round(floor, 3), "s: complete after first image",
+              round(s["seconds_after_first_image"], 3), "s, from open", round(s["seconds_from_open"], 3),
+              "s =", round(s["seconds_from_open"] / floor, 2), "x the floor; at most",
+              fetched.get("peak_in_flight"), "in flight")
     for o in r["orbits"]:
         print("  orbit", o["camera"], "gpu", {k: round(v, 3) for k, v in o["gpu_ms"].items()},
               "wall", {k: round(v, 2) for k, v in o["wall_ms"].items()}, "over16", o["frames_over_16ms_wall"],

@@ -2,7 +2,11 @@
 """A slow static HTTP server for benchmarks of remote stores (docs/benchmarks.md): serves a
 folder on 127.0.0.1 with LATENCY seconds added to every request and all bodies sharing one link
 of BANDWIDTH bytes a second. Serves single byte ranges (`Range: bytes=A-B`, `bytes=A-`,
-`bytes=-N`), as object stores do. Counts requests and bytes, printed when stopped.
+`bytes=-N`), as object stores do. Counts requests and bytes, the most requests in flight at
+once, the seconds from the first request's arrival to the last answer's end (`active_s`) and
+the round trips one after another (`waves`: the longest chain of requests each of which arrived
+after the one before it was answered), printed when stopped: a client that keeps the link full
+makes few waves, one that waits for each batch before asking the next makes many.
 
 Usage: slow_http.py ROOT PORT LATENCY_S BANDWIDTH_BYTES_PER_S
 """
@@ -16,7 +20,10 @@ import time
 root, port, latency, bandwidth = sys.argv[1], int(sys.argv[2]), float(sys.argv[3]), float(sys.argv[4])
 lock = threading.Lock()
 link_free_at = [0.0]
-counts = {"requests": 0, "bytes": 0}
+counts = {"requests": 0, "bytes": 0, "peak_in_flight": 0}
+in_flight = [0]
+# (arrival, end) of every answered GET.
+spans = []
 
 
 def reserve(nbytes):
@@ -38,6 +45,18 @@ class Handler(http.server.SimpleHTTPRequestHandler):
         pass
 
     def do_GET(self):
+        arrived = time.monotonic()
+        with lock:
+            in_flight[0] += 1
+            counts["peak_in_flight"] = max(counts["peak_in_flight"], in_flight[0])
+        try:
+            self.answer()
+        finally:
+            with lock:
+                in_flight[0] -= 1
+                spans.append((arrived, time.monotonic()))
+
+    def answer(self):
         time.sleep(latency)
         path = self.translate_path(self.path)
         if not os.path.isfile(path):
@@ -97,4 +116,15 @@ signal.signal(signal.SIGTERM, lambda *_: sys.exit(0))
 try:
     server.serve_forever()
 finally:
+    with lock:
+        spans.sort()
+        if spans:
+            counts["active_s"] = round(max(e for _, e in spans) - spans[0][0], 3)
+            # depth[i]: the longest chain ending with request i (answers end in order of
+            # arrival closely enough to bound the search by the ends seen so far).
+            depth = []
+            for i, (start, _) in enumerate(spans[:20000]):
+                before = [depth[j] for j in range(i) if spans[j][1] <= start]
+                depth.append(1 + max(before, default=0))
+            counts["waves"] = max(depth)
     print("served", counts, file=sys.stderr)

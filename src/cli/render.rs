@@ -50,6 +50,9 @@ pub fn run(args: &RenderArgs, given: &Given) -> Result<Rendered, String> {
     let mut drawing = Drawing::open(&volume, &options)?;
     let camera = options.camera();
     let settings = drawing.settings;
+    // Seconds from the start to the first frame's drawing (a streamed render's first image
+    // is this and the refinement's first frame).
+    let mut drawing_began = 0.0;
     let side = drawing.tile_side(options.size, args.tile_size);
     let (mut image, refinement) = match side {
         Some(side) => {
@@ -67,6 +70,7 @@ pub fn run(args: &RenderArgs, given: &Given) -> Result<Rendered, String> {
         }
         None => {
             let target = RenderTarget::new(&drawing.context, options.size.0, options.size.1);
+            drawing_began = started.elapsed().as_secs_f64();
             let refinement = drawing.draw(&target, &camera, &settings)?;
             let image = read_image(&drawing.context, &target).map_err(|e| e.to_string())?;
             (image, refinement)
@@ -101,6 +105,7 @@ pub fn run(args: &RenderArgs, given: &Given) -> Result<Rendered, String> {
             &settings,
             &refinement,
             seconds,
+            drawing_began + refinement.first_frame_seconds,
         )),
         (Content::Composite { channels }, _) => {
             let colors: Vec<String> = channels
@@ -155,6 +160,7 @@ fn report_stream(
     settings: &voxscope_render::RenderSettings,
     refinement: &Refinement,
     seconds: f64,
+    first_image_seconds: f64,
 ) -> Rendered {
     // Each brick that could not be read once (or, when many, one line per cause).
     for line in refinement.failure_lines() {
@@ -197,8 +203,23 @@ fn report_stream(
     let peak = super::memory::resident()
         .map(|r| format!(", peak memory {:.0} MiB", super::memory::mib(r.peak)))
         .unwrap_or_default();
+    // A URL's store: what crossed the network (metadata, indexes and chunks) and how many
+    // requests were on the wire together.
+    let network = drawing
+        .renderer
+        .stream()
+        .and_then(|stream| stream.streamer().source().remote_stats())
+        .map(|stats| {
+            format!(
+                "; network: {} requests, {:.1} MB, at most {} in flight",
+                stats.requests,
+                stats.bytes as f64 / 1e6,
+                stats.peak_in_flight
+            )
+        })
+        .unwrap_or_default();
     eprintln!(
-        "{written}, stream renderer, level {}/{depth}{labels}) on {} in {seconds:.2} s: {} bricks read ({:.1} MiB), {} of {} atlas slots used{peak}; {state}{ending}",
+        "{written}, stream renderer, level {}/{depth}{labels}) on {} in {seconds:.2} s (first image after {first_image_seconds:.2} s): {} bricks read ({:.1} MiB), {} of {} atlas slots used{peak}{network}; {state}{ending}",
         settings.max_level,
         drawing.context.describe(),
         counters.loads,

@@ -112,7 +112,14 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
         .pyramid
         .as_ref()
         .and_then(|p| p.remote_stats())
-        .map(|stats| json!({ "requests": stats.requests, "bytes": stats.bytes, "errors": stats.errors }));
+        .map(|stats| {
+            json!({
+                "requests": stats.requests,
+                "bytes": stats.bytes,
+                "errors": stats.errors,
+                "peak_in_flight": stats.peak_in_flight,
+            })
+        });
     let stopped = json!({
         "camera": "medium",
         "complete": refinement.complete,

@@ -42,6 +42,8 @@ pub struct ServerCounters {
     link_free_at: Mutex<Option<Instant>>,
     /// When each answered request arrived and was answered, in the order they ended.
     spans: Mutex<Vec<(Instant, Instant)>>,
+    /// Each request's path (and `Range` header, if any) in the order they arrived.
+    arrivals: Mutex<Vec<(String, Option<String>)>>,
 }
 
 impl ServerCounters {
@@ -59,6 +61,15 @@ impl ServerCounters {
             .lock()
             .unwrap_or_else(|poisoned| poisoned.into_inner())
             .push((started, Instant::now()));
+    }
+
+    /// Every request's path (without the leading `/`) and `Range` header, in the order they
+    /// arrived.
+    pub fn arrivals(&self) -> Vec<(String, Option<String>)> {
+        self.arrivals
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner())
+            .clone()
     }
 
     /// Round trips one after another so far: the longest chain of requests each of which
@@ -230,6 +241,14 @@ fn answer(
     counters: &ServerCounters,
 ) -> bool {
     let n = counters.requests.fetch_add(1, Ordering::SeqCst) + 1;
+    counters
+        .arrivals
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner())
+        .push((
+            request.path.trim_start_matches('/').to_owned(),
+            request.range.clone(),
+        ));
     std::thread::sleep(faults.latency);
     let every = |k: u64| k > 0 && n.is_multiple_of(k);
     if every(faults.drop_every) {

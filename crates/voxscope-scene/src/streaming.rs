@@ -181,6 +181,8 @@ pub struct Refinement {
     /// Frames drawn.
     pub frames: u32,
     pub seconds: f64,
+    /// Seconds until the first frame was drawn and finished.
+    pub first_frame_seconds: f64,
     /// Nothing visible was missing at the end but what could not be read (else `max_wait`
     /// ran out).
     pub complete: bool,
@@ -232,6 +234,7 @@ pub fn refine(
 ) -> Result<Refinement, SceneError> {
     let started = Instant::now();
     let mut first_frame = None;
+    let mut first_frame_seconds = None;
     let mut errors = Vec::new();
     for frames in 1.. {
         let status = renderer
@@ -243,6 +246,8 @@ pub fn refine(
         context
             .wait_idle()
             .map_err(|e| SceneError::failed(e.to_string()))?;
+        let first_frame_seconds =
+            *first_frame_seconds.get_or_insert_with(|| started.elapsed().as_secs_f64());
         let complete = status.complete && status.judged_frame.is_some_and(|f| f >= first);
         if complete || started.elapsed() >= max_wait {
             let (unreadable, failed) = renderer.stream().map_or((Vec::new(), 0), |stream| {
@@ -254,6 +259,7 @@ pub fn refine(
                 status,
                 frames,
                 seconds: started.elapsed().as_secs_f64(),
+                first_frame_seconds,
                 complete,
                 errors,
                 other_failures: failed.saturating_sub(unreadable.len()),

@@ -82,8 +82,15 @@ pub struct LoadResult {
     pub seconds: f64,
 }
 
+/// Bricks of the queue's best whose network reads are started ahead
+/// ([`BrickSource::fetch_ahead`]) each frame and as a worker takes one: with 64³ chunks a
+/// brick reads one to eight chunks, so this is several round trips' requests at the default
+/// limit of 32 in flight.
+pub const FETCH_AHEAD_BRICKS: usize = 96;
+
 /// The worker threads and the channel their results arrive on.
 pub struct Loader {
+    source: Arc<dyn BrickSource>,
     queue: Arc<RequestQueue>,
     results: Receiver<LoadResult>,
 }
@@ -105,7 +112,17 @@ impl Loader {
                 .spawn(move || work(&*source, &queue, texels, &sender))
                 .expect("the system starts a thread");
         }
-        Self { queue, results }
+        Self {
+            source,
+            queue,
+            results,
+        }
+    }
+
+    /// Starts the network reads of the queue's next bricks without waiting
+    /// ([`BrickSource::fetch_ahead`]; nothing for a source on disk or in memory).
+    pub fn fetch_ahead(&self) {
+        fetch_ahead(&*self.source, &self.queue);
     }
 
     /// Every result that has arrived, without waiting.
@@ -160,6 +177,13 @@ pub fn load_brick(
     }
 }
 
+fn fetch_ahead(source: &dyn BrickSource, queue: &RequestQueue) {
+    let upcoming = queue.upcoming(FETCH_AHEAD_BRICKS);
+    if !upcoming.is_empty() {
+        source.fetch_ahead(&upcoming);
+    }
+}
+
 fn work(
     source: &dyn BrickSource,
     queue: &RequestQueue,
@@ -167,6 +191,8 @@ fn work(
     results: &Sender<LoadResult>,
 ) {
     while let Some(request) = queue.take() {
+        // What comes after this brick goes on the wire while this one is read and decoded.
+        fetch_ahead(source, queue);
         let started = std::time::Instant::now();
         let (brick, bytes_read) = load_brick(source, request.id, texels);
         let result = LoadResult {
@@ -220,6 +246,74 @@ mod tests {
         fn read_brick(&self, _: BrickId) -> Result<BrickData, BrickError> {
             panic!("index out of bounds: the len is 3 but the index is 7")
         }
+    }
+
+    /// A source that records what it is asked to fetch ahead.
+    struct Recording(PyramidShape, std::sync::Mutex<Vec<Vec<BrickId>>>);
+
+    impl BrickSource for Recording {
+        fn name(&self) -> &str {
+            "recording"
+        }
+        fn shape(&self) -> &PyramidShape {
+            &self.0
+        }
+        fn spacing(&self) -> [f64; 3] {
+            [1.0; 3]
+        }
+        fn quantization(&self) -> Quantization {
+            Quantization {
+                offset: 0.0,
+                step: 1.0,
+            }
+        }
+        fn max_value_level(&self) -> u16 {
+            255
+        }
+        fn read_brick(&self, id: BrickId) -> Result<BrickData, BrickError> {
+            Err(BrickError::invalid(format!("{id} is not read here")))
+        }
+        fn fetch_ahead(&self, ids: &[BrickId]) {
+            self.1.lock().expect("not poisoned").push(ids.to_vec());
+        }
+    }
+
+    #[test]
+    fn the_queues_next_bricks_are_fetched_ahead_in_its_order() {
+        let source = Recording(
+            PyramidShape::new([256, 256, 256]).expect("a shape"),
+            Default::default(),
+        );
+        let queue = RequestQueue::default();
+        let request = |tier, level, off_center, x| crate::Request {
+            priority: crate::Priority::new(tier, level, off_center),
+            id: BrickId {
+                level,
+                brick: [x, 0, 0],
+            },
+            key: level << 28 | x,
+        };
+        queue.replace(vec![
+            request(Tier::Prefetch, 2, 0.0, 0),
+            request(Tier::Visible, 0, 0.5, 1),
+            request(Tier::Visible, 0, 0.1, 2),
+            request(Tier::Visible, 1, 0.9, 3),
+        ]);
+        fetch_ahead(&source, &queue);
+        let asked: Vec<(u32, u32)> = source.1.lock().expect("not poisoned")[0]
+            .iter()
+            .map(|id| (id.level, id.brick[0]))
+            .collect();
+        // Visible before prefetch, coarse before fine, the center before the edge.
+        assert_eq!(asked, [(1, 3), (0, 2), (0, 1), (2, 0)]);
+        // A worker takes the best; the next call asks for the rest.
+        assert_eq!(queue.try_take().map(|r| r.id.brick[0]), Some(3));
+        fetch_ahead(&source, &queue);
+        assert_eq!(source.1.lock().expect("not poisoned")[1].len(), 3);
+        // Nothing waiting: nothing asked.
+        while queue.try_take().is_some() {}
+        fetch_ahead(&source, &queue);
+        assert_eq!(source.1.lock().expect("not poisoned").len(), 2);
     }
 
     #[test]

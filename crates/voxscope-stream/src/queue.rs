@@ -126,6 +126,19 @@ impl RequestQueue {
         Some(request)
     }
 
+    /// The `count` best requests waiting, best first, left in the queue: what the loaders will
+    /// take next (what a network source fetches ahead).
+    pub fn upcoming(&self, count: usize) -> Vec<BrickId> {
+        let state = self.lock();
+        state
+            .pending
+            .iter()
+            .rev()
+            .take(count)
+            .map(|r| r.id)
+            .collect()
+    }
+
     /// The streamer has received the result for `key`: it may be queued again.
     pub fn done(&self, key: u32) {
         self.lock().in_flight.remove(&key);

@@ -124,6 +124,13 @@ pub trait BrickSource: Send + Sync {
         None
     }
 
+    /// Starts fetching, without waiting, what reading the bricks `ids` will need from a
+    /// network (the first soonest): the load queue's next bricks, asked for while the loaders
+    /// still decode what came before, so that enough requests are in flight to fill the link.
+    /// Called on the frame's thread and by loaders: it must return at once. A source that
+    /// reads nothing over a network does nothing.
+    fn fetch_ahead(&self, _ids: &[BrickId]) {}
+
     /// Requests, bytes and errors of the network store behind the source, if it reads from
     /// one (what the app shows while a URL streams).
     fn remote_stats(&self) -> Option<RemoteStats> {

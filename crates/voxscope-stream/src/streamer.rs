@@ -802,6 +802,10 @@ impl Streamer {
                 .take(room as usize),
         );
         self.queue.replace(loads);
+        // The queue's first bricks' requests go out now, in its order (visible before
+        // prefetch, coarse before fine, the view's center first), not one brick a loader at
+        // a time.
+        self.loader.fetch_ahead();
         self.missing = wanted.len();
         self.wanted = wanted;
     }
@@ -1065,6 +1069,8 @@ impl Streamer {
             })
             .take(room as usize)
             .collect();
-        self.queue.replace(requests)
+        let queued = self.queue.replace(requests);
+        self.loader.fetch_ahead();
+        queued
     }
 }

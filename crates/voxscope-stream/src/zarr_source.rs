@@ -56,7 +56,14 @@ pub struct ZarrSource {
     /// (`voxscope convert` writes them), x fastest: what [`BrickSource::known_range`] answers
     /// from.
     chunk_ranges: Vec<Option<Vec<[f64; 2]>>>,
+    /// Chunks of unsharded levels handed to a network store to fetch ahead
+    /// ([`BrickSource::fetch_ahead`]): not asked for again (at most [`MAX_FETCHED_AHEAD`],
+    /// then forgotten all at once).
+    fetched_ahead: Mutex<std::collections::HashSet<ChunkKey>>,
 }
+
+/// The most chunks a [`ZarrSource`] remembers having fetched ahead.
+const MAX_FETCHED_AHEAD: usize = 1 << 16;
 
 /// The most stored voxels [`ZarrSource::warm_first_image`] reads as one region (16 Mi: 32 MiB
 /// as value levels, 128 MiB while a 64-bit type is converted).
@@ -228,6 +235,7 @@ impl ZarrSource {
             labels: how == Downsampling::Mode,
             chunks: Mutex::default(),
             chunk_ranges,
+            fetched_ahead: Mutex::default(),
         })
     }
 
@@ -257,15 +265,7 @@ impl ZarrSource {
         let mut out = vec![0u16; size.iter().product()];
         // Over a network, the brick's chunks are asked for together (a folder's store does
         // nothing here).
-        let uncached = self.chunks.lock().is_ok_and(|cache| {
-            (first[2]..=last[2]).any(|cz| {
-                (first[1]..=last[1]).any(|cy| {
-                    (first[0]..=last[0])
-                        .any(|cx| !cache.chunks.contains_key(&(stored, [cx, cy, cz])))
-                })
-            })
-        });
-        if uncached {
+        if !self.chunks_decoded(stored, origin, size) {
             self.pyramid.prefetch_regions(&[(stored, origin, size)]);
         }
         for cz in first[2]..=last[2] {
@@ -309,6 +309,22 @@ impl ZarrSource {
             }
         }
         Ok(out)
+    }
+
+    /// Whether every chunk of the stored level's region `[origin, origin + size)` is in the
+    /// decoded-chunk cache.
+    fn chunks_decoded(&self, stored: usize, origin: [usize; 3], size: [usize; 3]) -> bool {
+        let chunk = self.pyramid.levels[stored].chunk;
+        let first: [usize; 3] = std::array::from_fn(|a| origin[a] / chunk[a]);
+        let last: [usize; 3] = std::array::from_fn(|a| (origin[a] + size[a] - 1) / chunk[a]);
+        self.chunks.lock().is_ok_and(|cache| {
+            (first[2]..=last[2]).all(|cz| {
+                (first[1]..=last[1]).all(|cy| {
+                    (first[0]..=last[0])
+                        .all(|cx| cache.chunks.contains_key(&(stored, [cx, cy, cz])))
+                })
+            })
+        })
     }
 
     /// Reads, before the first image, what it needs from the store: the stored voxels of the
@@ -542,6 +558,73 @@ impl BrickSource for ZarrSource {
         })
     }
 
+    /// Starts the fetches of the bricks' chunks that are neither decoded nor fetched ahead
+    /// before, in the bricks' order: whole chunks ([`Pyramid::fetch_ahead_chunks`]), or a
+    /// sharded level's inner chunks shard by shard, coalesced
+    /// ([`Pyramid::fetch_ahead_regions`]). The chunks already handed to the store are
+    /// remembered, so that a call costs little once a view's chunks are on their way.
+    fn fetch_ahead(&self, ids: &[BrickId]) {
+        if !self.pyramid.can_fetch_ahead() {
+            return;
+        }
+        let mut sharded = Vec::new();
+        let mut chunks: Vec<ChunkKey> = Vec::new();
+        {
+            let (Ok(decoded), Ok(asked)) = (self.chunks.lock(), self.fetched_ahead.lock()) else {
+                return;
+            };
+            let mut seen = std::collections::HashSet::new();
+            for &id in ids {
+                let (Some(level), Some(source)) = (
+                    self.shape.levels.get(id.level as usize),
+                    self.sources.get(id.level as usize),
+                ) else {
+                    continue;
+                };
+                let info = &self.pyramid.levels[source.stored];
+                let first = id.brick.map(|c| c as usize * BRICK_SIZE);
+                if (0..3).any(|a| first[a] >= level.dims[a]) {
+                    continue;
+                }
+                let voxels = padded_voxels(first, level.dims);
+                let (origin, size) = stored_region(&voxels, source.ratio, info.dims);
+                let low: [usize; 3] = std::array::from_fn(|a| origin[a] / info.chunk[a]);
+                let high: [usize; 3] =
+                    std::array::from_fn(|a| (origin[a] + size[a] - 1) / info.chunk[a]);
+                let mut missing = (low[2]..=high[2]).flat_map(|z| {
+                    (low[1]..=high[1]).flat_map(move |y| (low[0]..=high[0]).map(move |x| [x, y, z]))
+                });
+                if info.shard.is_some() {
+                    if missing.any(|c| !decoded.chunks.contains_key(&(source.stored, c))) {
+                        sharded.push((source.stored, origin, size));
+                    }
+                    continue;
+                }
+                for chunk in missing {
+                    let key = (source.stored, chunk);
+                    if !decoded.chunks.contains_key(&key)
+                        && !asked.contains(&key)
+                        && seen.insert(key)
+                    {
+                        chunks.push(key);
+                    }
+                }
+            }
+        }
+        if !sharded.is_empty() {
+            self.pyramid.fetch_ahead_regions(&sharded);
+        }
+        if !chunks.is_empty() {
+            let handled = self.pyramid.fetch_ahead_chunks(&chunks);
+            if let Ok(mut asked) = self.fetched_ahead.lock() {
+                if asked.len() + handled > MAX_FETCHED_AHEAD {
+                    asked.clear();
+                }
+                asked.extend(chunks[..handled].iter().copied());
+            }
+        }
+    }
+
     fn read_brick(&self, id: BrickId) -> Result<BrickData, BrickError> {
         let (Some(level), Some(source), Some(_)) = (
             self.shape.levels.get(id.level as usize),
@@ -552,18 +635,8 @@ impl BrickSource for ZarrSource {
         };
         let stored_dims = self.pyramid.levels[source.stored].dims;
         let first = id.brick.map(|c| c as usize * BRICK_SIZE);
-        // The pyramid voxels of the padded brick, clamped to the level, per axis.
-        let voxels: [Vec<usize>; 3] = std::array::from_fn(|a| {
-            (0..PADDED_BRICK)
-                .map(|i| (first[a] + i).saturating_sub(1).min(level.dims[a] - 1))
-                .collect()
-        });
-        let spans: [(usize, usize); 3] = std::array::from_fn(|a| {
-            let (c0, c1) = (voxels[a][0], voxels[a][PADDED_BRICK - 1]);
-            covered(c0, c1, source.ratio[a], stored_dims[a])
-        });
-        let origin = spans.map(|(first, _)| first);
-        let size: [usize; 3] = std::array::from_fn(|a| spans[a].1 - spans[a].0 + 1);
+        let voxels = padded_voxels(first, level.dims);
+        let (origin, size) = stored_region(&voxels, source.ratio, stored_dims);
         let stored = self
             .read_levels(source.stored, origin, size)
             .map_err(|e| BrickError::of_load(id, &e))?;
@@ -634,6 +707,33 @@ impl BrickSource for ZarrSource {
     fn labels(&self) -> bool {
         self.labels
     }
+}
+
+/// The pyramid voxels of a padded brick whose first own voxel is `first`, clamped to the
+/// level's `dims`, per axis.
+fn padded_voxels(first: [usize; 3], dims: [usize; 3]) -> [Vec<usize>; 3] {
+    std::array::from_fn(|a| {
+        (0..PADDED_BRICK)
+            .map(|i| (first[a] + i).saturating_sub(1).min(dims[a] - 1))
+            .collect()
+    })
+}
+
+/// The stored voxels (origin and size) that the pyramid voxels `voxels` cover, `ratio`
+/// stored voxels each along each axis, within the stored level's `dims`.
+fn stored_region(
+    voxels: &[Vec<usize>; 3],
+    ratio: [usize; 3],
+    dims: [usize; 3],
+) -> ([usize; 3], [usize; 3]) {
+    let spans: [(usize, usize); 3] = std::array::from_fn(|a| {
+        let (c0, c1) = (voxels[a][0], voxels[a][PADDED_BRICK - 1]);
+        covered(c0, c1, ratio[a], dims[a])
+    });
+    (
+        spans.map(|(first, _)| first),
+        std::array::from_fn(|a| spans[a].1 - spans[a].0 + 1),
+    )
 }
 
 /// Each stored value's level (non-finite values as level 0).

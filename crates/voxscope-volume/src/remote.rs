@@ -12,7 +12,11 @@
 //!   [`DEFAULT_MAX_REQUESTS`]), and one fetch per object and piece at a time: a reader asking
 //!   for what is being fetched waits for that fetch. zarrs asks for one chunk at a time per
 //!   reading thread, so a region read first fetches all its chunks at once
-//!   ([`RemoteStore::prefetch`]). Sharded arrays are read by byte ranges.
+//!   ([`RemoteStore::prefetch`]), and a streamer starts the fetches of the bricks it will
+//!   read next without waiting ([`RemoteStore::fetch_ahead`]), in its order, so that the
+//!   link stays full. Sharded arrays are read by byte ranges: the ranges asked of one object
+//!   together are coalesced where they are adjacent or nearly so ([`COALESCE_GAP`]), one
+//!   request for many inner chunks ([`RemoteStore::prefetch_ranges`]).
 //! - **Cache**: fetched bytes stay in RAM up to [`FETCH_CACHE_BYTES`], and so does which
 //!   objects are missing. A server that ignores `Range` (answering `200` with the whole
 //!   object) is read all the same: the whole object is kept and cut, and once the store knows
@@ -44,14 +48,14 @@
 use std::collections::HashMap;
 use std::future::Future;
 use std::panic::AssertUnwindSafe;
-use std::sync::atomic::{AtomicBool, AtomicU8, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU8, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, OnceLock};
 use std::time::{Duration, Instant};
 
 use futures::FutureExt;
 use futures::future::{BoxFuture, Shared};
 use tokio::sync::Semaphore;
-use zarrs::storage::byte_range::ByteRangeIterator;
+use zarrs::storage::byte_range::{ByteRange, ByteRangeIterator};
 use zarrs::storage::{
     Bytes, MaybeBytes, MaybeBytesIterator, ReadableStorageTraits, StorageError, StoreKey,
 };
@@ -79,6 +83,14 @@ pub use url::redact_url;
 /// Requests in flight at once by default: enough to fill a fast link at 50–100 ms of latency
 /// with chunks of ~1 MiB, few enough for a small lab server.
 pub const DEFAULT_MAX_REQUESTS: usize = 32;
+
+/// Byte ranges of one object asked for together are fetched as one request where the gap
+/// between them is at most this: a request costs a round trip, a few KiB of gap far less.
+pub const COALESCE_GAP: u64 = 64 << 10;
+
+/// The most bytes one coalesced request asks for: larger runs are split, so that they still
+/// travel in parallel.
+pub const MAX_COALESCED_BYTES: u64 = 8 << 20;
 
 /// The most requests in flight that `--max-requests` accepts.
 pub const MAX_MAX_REQUESTS: usize = 1024;
@@ -131,6 +143,8 @@ pub struct RemoteStats {
     pub requests: u64,
     /// Requests in flight now.
     pub in_flight: u64,
+    /// The most requests that were in flight at once.
+    pub peak_in_flight: u64,
     /// Bytes received (bodies).
     pub bytes: u64,
     /// Operations that failed after their retries (a missing object is no failure; an answer
@@ -142,6 +156,7 @@ pub struct RemoteStats {
 struct Counters {
     requests: AtomicU64,
     in_flight: AtomicU64,
+    peak_in_flight: AtomicU64,
     bytes: AtomicU64,
     errors: AtomicU64,
 }
@@ -187,6 +202,11 @@ struct Inner {
     shown: String,
     timing: Timing,
     limit: Arc<Semaphore>,
+    /// Fetches started by [`RemoteStore::fetch_ahead`] and not yet ended, and the most that
+    /// may be (twice the request limit: one round trip's requests in flight, the next
+    /// round's waiting for a permit).
+    ahead: Arc<AtomicUsize>,
+    max_ahead: usize,
     opened: AtomicBool,
     counters: Counters,
     cache: Mutex<FetchCache>,
@@ -284,6 +304,8 @@ impl RemoteStore {
                 shown: parsed.shown,
                 timing,
                 limit: Arc::new(Semaphore::new(max_requests)),
+                ahead: Arc::default(),
+                max_ahead: 2 * max_requests,
                 opened: AtomicBool::new(false),
                 counters: Counters::default(),
                 cache: Mutex::new(FetchCache::default()),
@@ -330,6 +352,7 @@ impl RemoteStore {
         RemoteStats {
             requests: c.requests.load(Ordering::Relaxed),
             in_flight: c.in_flight.load(Ordering::Relaxed),
+            peak_in_flight: c.peak_in_flight.load(Ordering::Relaxed),
             bytes: c.bytes.load(Ordering::Relaxed),
             errors: c.errors.load(Ordering::Relaxed),
         }
@@ -381,6 +404,139 @@ impl RemoteStore {
             Ok(())
         });
     }
+
+    /// Whether [`Self::fetch_ahead`] has room for another fetch now (cheap: a caller asks
+    /// before it works out keys).
+    pub fn can_fetch_ahead(&self) -> bool {
+        self.inner.ahead.load(Ordering::Relaxed) < self.inner.max_ahead
+    }
+
+    /// Starts fetching `keys` (whole objects: unsharded chunks) in this order, the first
+    /// soonest, and returns without waiting: what a streamer will read next, asked for while
+    /// its loaders still decode what came before. Objects kept, known missing, remembered as
+    /// failed or being fetched are skipped; at most twice the request limit of these fetches
+    /// are under way at once (one round trip's in flight, the next waiting for a permit in
+    /// this order), the rest left for a later call. A reader of a key fetched ahead waits for
+    /// that fetch. Returns how many of `keys`, from the first, are fetched, being fetched or
+    /// settled (missing, failed): those need not be asked for again.
+    pub fn fetch_ahead(&self, keys: &[StoreKey]) -> usize {
+        let inner = &self.inner;
+        let room = inner
+            .max_ahead
+            .saturating_sub(inner.ahead.load(Ordering::Relaxed));
+        if room == 0 || keys.is_empty() {
+            return 0;
+        }
+        let Ok(runtime) = runtime() else { return 0 };
+        let mut wanted: Vec<String> = Vec::new();
+        let mut handled = 0;
+        {
+            let (Ok(cache), Ok(flights)) = (inner.cache.lock(), inner.flights.lock()) else {
+                return 0;
+            };
+            for key in keys {
+                let key = key.as_str();
+                let busy = cache.get(key, Piece::Whole).is_some()
+                    || cache.is_missing(key)
+                    || flights.contains_key(&(key.to_owned(), Piece::Whole))
+                    || wanted.iter().any(|w| w == key);
+                if !busy {
+                    if wanted.len() == room {
+                        break;
+                    }
+                    wanted.push(key.to_owned());
+                }
+                handled += 1;
+            }
+        }
+        wanted.retain(|key| inner.remembered.get(key).is_none());
+        if wanted.is_empty() {
+            return handled;
+        }
+        inner.ahead.fetch_add(wanted.len(), Ordering::Relaxed);
+        // The flights are made here, in order, so that a reader asking for one of them from
+        // now on waits for it; `join_all` polls them in this order, so they queue for the
+        // request limit in this order.
+        let flights: Vec<_> = wanted
+            .into_iter()
+            .map(|key| {
+                let (flight, ahead) = (inner.flight(&key, Piece::Whole, None), inner.ahead.clone());
+                async move {
+                    let _ = flight.await;
+                    ahead.fetch_sub(1, Ordering::Relaxed);
+                }
+            })
+            .collect();
+        runtime.spawn(futures::future::join_all(flights));
+        handled
+    }
+
+    /// Fetches the byte ranges `ranges` of each object (a shard's inner chunks) into the fetch
+    /// cache, every object's at once and each object's ranges coalesced ([`coalesce`]), and
+    /// returns when they are in: a sharded region read then finds its inner chunks kept, one
+    /// request for the adjacent ones instead of one each. Failures are remembered as a read's
+    /// are; what they cost shows when the region is read.
+    pub fn prefetch_ranges(&self, ranges: &[(StoreKey, Vec<ByteRange>)]) {
+        self.get_ranges(ranges);
+    }
+
+    /// The byte ranges `ranges` of each object, fetched as [`Self::prefetch_ranges`] does:
+    /// per object its pieces in order, or `None` where the object is missing or could not
+    /// be fetched (remembered as a read's failure is).
+    pub fn get_ranges(&self, ranges: &[(StoreKey, Vec<ByteRange>)]) -> Vec<Option<Vec<Bytes>>> {
+        let reads = ranges.iter().map(|(key, ranges)| {
+            let pieces = ranges.iter().map(|&r| Piece::of(r)).collect();
+            self.inner
+                .clone()
+                .read_many(key.as_str().to_owned(), pieces)
+        });
+        let answers =
+            block_on(async { Ok(futures::future::join_all(reads).await) }).unwrap_or_default();
+        let mut answers: Vec<Option<Vec<Bytes>>> = answers
+            .into_iter()
+            .map(|answer| answer.ok()?.into_iter().collect())
+            .collect();
+        answers.resize(ranges.len(), None);
+        answers
+    }
+}
+
+/// The requests that fetch `pieces` of one object: ranges sorted by their start and merged
+/// where the gap between them is at most [`COALESCE_GAP`] and the run stays within
+/// [`MAX_COALESCED_BYTES`]; other pieces (whole, open-ended, suffixes) alone. Each request
+/// with the indices of the pieces it holds.
+pub(crate) fn coalesce(pieces: &[Piece]) -> Vec<(Piece, Vec<usize>)> {
+    let mut groups: Vec<(Piece, Vec<usize>)> = Vec::new();
+    let mut ranges: Vec<(u64, u64, usize)> = Vec::new();
+    for (index, &piece) in pieces.iter().enumerate() {
+        match piece {
+            Piece::Range(start, end) => ranges.push((start, end, index)),
+            other => groups.push((other, vec![index])),
+        }
+    }
+    ranges.sort_unstable();
+    let mut run: Option<(u64, u64, Vec<usize>)> = None;
+    for (start, end, index) in ranges {
+        match &mut run {
+            Some((first, last, members))
+                if start <= last.saturating_add(COALESCE_GAP)
+                    && end.max(*last) - *first <= MAX_COALESCED_BYTES =>
+            {
+                *last = end.max(*last);
+                members.push(index);
+            }
+            _ => {
+                if let Some((first, last, members)) = run.take() {
+                    groups.push((Piece::Range(first, last), members));
+                }
+                run = Some((start, end, vec![index]));
+            }
+        }
+    }
+    if let Some((first, last, members)) = run {
+        groups.push((Piece::Range(first, last), members));
+    }
+    groups
 }
 
 impl Inner {
@@ -436,6 +592,20 @@ impl Inner {
         } else {
             piece
         };
+        // A range inside a coalesced run being fetched is cut from that run.
+        if let Some((run, start)) = self.run_holding(&key, fetched) {
+            return match run.await? {
+                Answer::Missing => Ok(None),
+                Answer::Body { bytes, whole } => {
+                    let piece = if whole {
+                        piece
+                    } else {
+                        piece.shifted_back(start)
+                    };
+                    piece.cut(&bytes).map(Some)
+                }
+            };
+        }
         let flight = self.flight(&key, fetched, bound);
         match flight.await? {
             Answer::Missing => Ok(None),
@@ -447,6 +617,94 @@ impl Inner {
                 }
             }
         }
+    }
+
+    /// `pieces` of the object `key`, in their order (`None`: there is none): those kept from
+    /// the cache, the rest fetched together, adjacent ranges in one request ([`coalesce`]),
+    /// each piece then kept on its own. Until the store knows whether the server honours
+    /// `Range`, one request is made first: a server that ignores it would send the whole
+    /// object for each.
+    async fn read_many(
+        self: Arc<Self>,
+        key: String,
+        pieces: Vec<Piece>,
+    ) -> Result<Vec<Option<Bytes>>, Failure> {
+        let mut parts: Vec<Option<Option<Bytes>>> = vec![None; pieces.len()];
+        if let Ok(cache) = self.cache.lock() {
+            for (part, &piece) in parts.iter_mut().zip(&pieces) {
+                if let Some(Ok(bytes)) = cache.piece(&key, piece) {
+                    *part = Some(Some(bytes));
+                }
+            }
+        }
+        let left: Vec<usize> = (0..pieces.len()).filter(|&i| parts[i].is_none()).collect();
+        let left_pieces: Vec<Piece> = left.iter().map(|&i| pieces[i]).collect();
+        let mut groups = coalesce(&left_pieces);
+        // A server that ignores `Range` answers each merged range with the whole object too:
+        // the first group alone until that is known.
+        let first = if self.ranges.load(Ordering::Relaxed) == RANGES_UNKNOWN && !groups.is_empty() {
+            Some(groups.remove(0))
+        } else {
+            None
+        };
+        let mut answers: Vec<(Vec<usize>, Piece, Option<Bytes>)> = Vec::new();
+        if let Some((piece, members)) = first {
+            let bytes = self.clone().read(key.clone(), piece, None).await?;
+            answers.push((members, piece, bytes));
+        }
+        let reads = groups
+            .iter()
+            .map(|(piece, _)| self.clone().read(key.clone(), *piece, None));
+        for ((piece, members), bytes) in groups.iter().zip(futures::future::join_all(reads).await) {
+            answers.push((members.clone(), *piece, bytes?));
+        }
+        for (members, fetched, bytes) in answers {
+            let Some(bytes) = bytes else {
+                // A missing object is missing for every piece.
+                return Ok(vec![None; pieces.len()]);
+            };
+            if let [member] = members[..] {
+                parts[left[member]] = Some(Some(bytes));
+                continue;
+            }
+            let Piece::Range(start, _) = fetched else {
+                continue;
+            };
+            let mut cache = self.cache.lock().ok();
+            for member in members {
+                let Piece::Range(a, b) = left_pieces[member] else {
+                    continue;
+                };
+                let cut = Piece::Range(a - start, b - start).cut(&bytes)?;
+                if let Some(cache) = cache.as_mut() {
+                    cache.insert(&key, left_pieces[member], &cut);
+                }
+                parts[left[member]] = Some(Some(cut));
+            }
+            // Each piece is kept on its own: the run need not be kept twice.
+            if let Some(cache) = cache.as_mut() {
+                cache.remove(&key, fetched);
+            }
+        }
+        Ok(parts.into_iter().map(Option::flatten).collect())
+    }
+
+    /// A fetch in flight of a range of `key` that holds all of `piece` (a range, not itself
+    /// being fetched), and where that range starts.
+    fn run_holding(&self, key: &str, piece: Piece) -> Option<(Flight, u64)> {
+        let Piece::Range(a, b) = piece else {
+            return None;
+        };
+        let flights = self.flights.lock().ok()?;
+        if flights.contains_key(&(key.to_owned(), piece)) {
+            return None;
+        }
+        flights.iter().find_map(|((k, run), flight)| match *run {
+            Piece::Range(start, end) if k == key && start <= a && b <= end => {
+                Some((flight.clone(), start))
+            }
+            _ => None,
+        })
     }
 
     /// The fetch of `piece` of `key` in flight, started now if there is none.
@@ -577,7 +835,10 @@ impl Inner {
             let sent = Instant::now();
             let deadline = *deadline.get_or_insert(sent + self.deadline());
             let wait = timing.request.min(deadline.saturating_duration_since(sent));
-            self.counters.in_flight.fetch_add(1, Ordering::Relaxed);
+            let now = self.counters.in_flight.fetch_add(1, Ordering::Relaxed) + 1;
+            self.counters
+                .peak_in_flight
+                .fetch_max(now, Ordering::Relaxed);
             let answer = tokio::time::timeout(wait, attempt()).await;
             self.counters.in_flight.fetch_sub(1, Ordering::Relaxed);
             self.counters.requests.fetch_add(1, Ordering::Relaxed);
@@ -655,29 +916,8 @@ impl ReadableStorageTraits for RemoteStore {
             return Ok(Some(Box::new(std::iter::empty())));
         }
         let inner = &self.inner;
-        let parts = block_on(async {
-            // Until the store knows whether the server honours `Range`, one piece is asked
-            // for first: a server that ignores it would send the whole object for each.
-            let mut parts = Vec::with_capacity(pieces.len());
-            let mut rest = &pieces[..];
-            if inner.ranges.load(Ordering::Relaxed) == RANGES_UNKNOWN {
-                parts.push(
-                    inner
-                        .clone()
-                        .read(key.as_str().to_owned(), rest[0], None)
-                        .await?,
-                );
-                rest = &rest[1..];
-            }
-            let reads = rest
-                .iter()
-                .map(|&piece| inner.clone().read(key.as_str().to_owned(), piece, None));
-            for part in futures::future::join_all(reads).await {
-                parts.push(part?);
-            }
-            Ok(parts)
-        })
-        .map_err(|f| inner.storage_error(f))?;
+        let parts = block_on(inner.clone().read_many(key.as_str().to_owned(), pieces))
+            .map_err(|f| inner.storage_error(f))?;
         // A missing object is missing for every piece.
         if parts.iter().any(Option::is_none) {
             return Ok(None);

@@ -20,6 +20,7 @@ mod metadata;
 mod numcodecs;
 mod open;
 mod read;
+mod shard_index;
 mod source;
 mod write;
 
@@ -207,6 +208,10 @@ pub struct Pyramid {
     /// shards) on rayon threads, each blocked on the network while it waits, so they get a
     /// pool of their own as large as the request limit, not the cores' global pool.
     reader_pool: Option<Arc<rayon::ThreadPool>>,
+    /// Whether a batch of sharded regions is being fetched ahead
+    /// ([`Pyramid::fetch_ahead_regions`]): one batch at a time, the next call asks for the
+    /// newest regions once it ends.
+    shard_batch_busy: Arc<std::sync::atomic::AtomicBool>,
 }
 
 impl std::fmt::Debug for Pyramid {
@@ -351,26 +356,10 @@ impl Pyramid {
     /// its index) may have: the decoded size with room for a codec's overhead. A body that
     /// grows past it is refused, whether or not the server said its length.
     fn bound_objects(&self, store: &RemoteStore) {
-        for (info, array) in self.levels.iter().zip(&self.arrays) {
-            let zeros = vec![0u64; array.dimensionality()];
-            let Ok(shape) = array.chunk_shape(&zeros) else {
+        for (level, (info, array)) in self.levels.iter().zip(&self.arrays).enumerate() {
+            let Some(bound) = self.object_bound(level) else {
                 continue;
             };
-            let elements = shape.iter().map(|n| n.get()).product::<u64>();
-            let value_bytes = array.data_type().fixed_size().unwrap_or(8) as u64;
-            let decoded = elements.saturating_mul(value_bytes);
-            let inner_chunks = match info.shard {
-                Some(shard) => (0..3)
-                    .map(|a| shard[a].div_ceil(info.chunk[a].max(1)) as u64)
-                    .product::<u64>(),
-                None => 0,
-            };
-            // Compressors add at most a few bytes per block (blosc 16, zstd and deflate a
-            // fraction of a percent); a shard adds its index (16 bytes a chunk and a crc32c).
-            let bound = decoded
-                .saturating_add(decoded / 8)
-                .saturating_add(inner_chunks.saturating_mul(16))
-                .saturating_add(64 << 10);
             let prefix = if info.path.is_empty() {
                 String::new()
             } else {
@@ -378,6 +367,31 @@ impl Pyramid {
             };
             store.bound_objects(&prefix, bound);
         }
+    }
+
+    /// The most bytes one object (a chunk, or a shard with its index) of `level` may have:
+    /// its decoded size with room for a codec's overhead.
+    fn object_bound(&self, level: usize) -> Option<u64> {
+        let (info, array) = (self.levels.get(level)?, self.arrays.get(level)?);
+        let zeros = vec![0u64; array.dimensionality()];
+        let shape = array.chunk_shape(&zeros).ok()?;
+        let elements = shape.iter().map(|n| n.get()).product::<u64>();
+        let value_bytes = array.data_type().fixed_size().unwrap_or(8) as u64;
+        let decoded = elements.saturating_mul(value_bytes);
+        let inner_chunks = match info.shard {
+            Some(shard) => (0..3)
+                .map(|a| shard[a].div_ceil(info.chunk[a].max(1)) as u64)
+                .product::<u64>(),
+            None => 0,
+        };
+        // Compressors add at most a few bytes per block (blosc 16, zstd and deflate a
+        // fraction of a percent); a shard adds its index (16 bytes a chunk and a crc32c).
+        Some(
+            decoded
+                .saturating_add(decoded / 8)
+                .saturating_add(inner_chunks.saturating_mul(16))
+                .saturating_add(64 << 10),
+        )
     }
 
     /// Opens a URL ([`Self::open_url`]) or a folder ([`Self::open`]).

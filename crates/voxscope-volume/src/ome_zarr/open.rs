@@ -617,6 +617,7 @@ fn open_levels(
         store,
         remote: None,
         reader_pool: None,
+        shard_batch_busy: std::sync::Arc::default(),
         plate: None,
         bioformats2raw: None,
     })

@@ -1,10 +1,13 @@
 //! Reading regions of a [`Pyramid`]'s levels: bounds checked, the selected channel and time
 //! point, a remote store's chunks fetched together, and the failing chunk named.
 
+use std::collections::BTreeMap;
 use std::sync::Arc;
-
+use std::sync::atomic::Ordering;
 use zarrs::array::data_type::Float64DataType;
-use zarrs::array::{Array, ArrayError, ArraySubset, CodecError};
+
+use zarrs::array::{Array, ArrayError, ArrayShardedExt, ArraySubset, CodecError};
+use zarrs::storage::byte_range::ByteRange;
 use zarrs::storage::{ReadableStorageTraits, StoreKey};
 
 use super::super::error::{Problem, escape, printable, quoted};
@@ -12,6 +15,7 @@ use super::super::series::{ChannelInfo, Container, Series, parse_hex_color};
 use super::super::{
     LoadError, LoadErrorKind, MAX_VOXELS, ValueWindow, VoxelData, VoxelType, format_dims,
 };
+use super::shard_index::ShardIndexLayout;
 use super::{Pyramid, Stored};
 
 /// The most chunks [`Pyramid::prefetch_regions`] asks for at once.
@@ -155,24 +159,106 @@ impl Pyramid {
 
     /// Fetches the chunks of every region (`level`, `origin`, `size`, as [`Self::read_region`]
     /// takes them) of a URL's store together, ahead of their reads: one round trip for all of
-    /// them, not one a reading thread at a time. A sharded level's are left to its reads
-    /// (zarrs reads a shard's index, then its inner chunks, all in flight together). Regions
-    /// outside their level, and anything beyond [`MAX_PREFETCH_CHUNKS`] chunks, are skipped;
-    /// a folder's store does nothing.
+    /// them, not one a reading thread at a time. A sharded level's regions are fetched shard
+    /// by shard: the shards' indexes together, then each shard's inner chunks of the regions
+    /// as one batch of byte ranges, adjacent ones coalesced into one request
+    /// ([`RemoteStore::prefetch_ranges`]). Regions outside their level, and anything beyond
+    /// [`MAX_PREFETCH_CHUNKS`] chunks, are skipped; a folder's store does nothing.
     pub fn prefetch_regions(&self, regions: &[(usize, [usize; 3], [usize; 3])]) {
         let Some(remote) = &self.remote else { return };
+        remote.prefetch(&self.unsharded_chunk_keys(regions));
+        let ranges = self.shard_ranges(regions);
+        if !ranges.is_empty() {
+            remote.prefetch_ranges(&ranges);
+        }
+    }
+
+    /// Starts fetching the chunks of `regions` of a URL's store in this order, the first
+    /// soonest, and returns without waiting: what a streamer will read next. Unsharded
+    /// levels' chunks go to [`RemoteStore::fetch_ahead`] (whole objects, up to twice the
+    /// request limit under way). Sharded levels' regions are fetched as
+    /// [`Self::prefetch_regions`] does, on a thread of their own, one batch at a time (the
+    /// shards' indexes, then each shard's inner chunks coalesced): a call while a batch is
+    /// under way leaves its sharded regions to the next call. Returns how many unsharded
+    /// fetches it started; a folder's store does nothing.
+    pub fn fetch_ahead_regions(
+        self: &Arc<Self>,
+        regions: &[(usize, [usize; 3], [usize; 3])],
+    ) -> usize {
+        let Some(remote) = &self.remote else { return 0 };
+        let sharded: Vec<(usize, [usize; 3], [usize; 3])> = regions
+            .iter()
+            .filter(|(level, _, _)| self.levels.get(*level).is_some_and(|l| l.shard.is_some()))
+            .copied()
+            .collect();
+        if !sharded.is_empty()
+            && self
+                .shard_batch_busy
+                .compare_exchange(false, true, Ordering::AcqRel, Ordering::Relaxed)
+                .is_ok()
+        {
+            let pyramid = Arc::clone(self);
+            let spawned = std::thread::Builder::new()
+                .name("voxscope-shard-batch".into())
+                .spawn(move || {
+                    let ranges = pyramid.shard_ranges(&sharded);
+                    if let Some(remote) = &pyramid.remote
+                        && !ranges.is_empty()
+                    {
+                        remote.prefetch_ranges(&ranges);
+                    }
+                    pyramid.shard_batch_busy.store(false, Ordering::Release);
+                });
+            if spawned.is_err() {
+                self.shard_batch_busy.store(false, Ordering::Release);
+            }
+        }
+        if !remote.can_fetch_ahead() {
+            return 0;
+        }
+        remote.fetch_ahead(&self.unsharded_chunk_keys(regions))
+    }
+
+    /// Starts fetching the unsharded chunks `chunks` (stored level and chunk indices x, y,
+    /// z) of a URL's store in this order without waiting ([`RemoteStore::fetch_ahead`]).
+    /// Returns how many of them, from the first, are fetched, being fetched or settled:
+    /// those need not be asked for again. Chunks of sharded levels, or outside their level,
+    /// end the run; a folder's store handles nothing.
+    pub fn fetch_ahead_chunks(&self, chunks: &[(usize, [usize; 3])]) -> usize {
+        let Some(remote) = &self.remote else { return 0 };
+        let keys: Vec<StoreKey> = chunks
+            .iter()
+            .map_while(|&(level, chunk)| {
+                let info = self.levels.get(level)?;
+                if info.shard.is_some() || (0..3).any(|a| chunk[a] >= info.chunk_grid()[a]) {
+                    return None;
+                }
+                self.chunk_store_key(level, chunk.map(|c| c as u64))
+            })
+            .collect();
+        remote.fetch_ahead(&keys)
+    }
+
+    /// Whether [`Self::fetch_ahead_regions`] may start anything now: a URL's store with room
+    /// for more fetches ahead, or sharded levels and no batch under way. Cheap: a streamer
+    /// asks before it works out its bricks' regions.
+    pub fn can_fetch_ahead(&self) -> bool {
+        self.remote.as_ref().is_some_and(|remote| {
+            remote.can_fetch_ahead()
+                || (self.levels.iter().any(|l| l.shard.is_some())
+                    && !self.shard_batch_busy.load(Ordering::Relaxed))
+        })
+    }
+
+    /// The keys of the chunks of `regions` that lie in unsharded levels, region by region, at
+    /// most [`MAX_PREFETCH_CHUNKS`].
+    fn unsharded_chunk_keys(&self, regions: &[(usize, [usize; 3], [usize; 3])]) -> Vec<StoreKey> {
         let mut keys = Vec::new();
         for &(level, origin, size) in regions {
-            let (Some(info), Some(array)) = (self.levels.get(level), self.arrays.get(level)) else {
+            let Some(array) = self.region_array(level, origin, size) else {
                 continue;
             };
-            let inside = (0..3).all(|a| {
-                size[a] > 0
-                    && origin[a]
-                        .checked_add(size[a])
-                        .is_some_and(|end| end <= info.dims[a])
-            });
-            if info.shard.is_some() || !inside {
+            if self.levels[level].shard.is_some() {
                 continue;
             }
             let subset = self.subset(origin, size);
@@ -187,9 +273,129 @@ impl Pyramid {
                         .map(|indices| array.chunk_key(&indices)),
                 );
             }
+            if keys.len() >= MAX_PREFETCH_CHUNKS {
+                break;
+            }
         }
         keys.truncate(MAX_PREFETCH_CHUNKS);
-        remote.prefetch(&keys);
+        keys
+    }
+
+    /// `level`'s array, if the region lies inside the level.
+    fn region_array(
+        &self,
+        level: usize,
+        origin: [usize; 3],
+        size: [usize; 3],
+    ) -> Option<&Array<dyn ReadableStorageTraits>> {
+        let (info, array) = (self.levels.get(level)?, self.arrays.get(level)?);
+        let inside = (0..3).all(|a| {
+            size[a] > 0
+                && origin[a]
+                    .checked_add(size[a])
+                    .is_some_and(|end| end <= info.dims[a])
+        });
+        inside.then_some(array)
+    }
+
+    /// Per shard, the byte ranges of the inner chunks that the regions of sharded levels read
+    /// (every shard's index fetched first, all at once): what [`RemoteStore::prefetch_ranges`]
+    /// fetches in one batch per shard. Only levels whose index voxscope reads itself
+    /// ([`ShardIndexLayout`]); inner chunks never written have no range.
+    fn shard_ranges(
+        &self,
+        regions: &[(usize, [usize; 3], [usize; 3])],
+    ) -> Vec<(StoreKey, Vec<ByteRange>)> {
+        let Some(remote) = &self.remote else {
+            return Vec::new();
+        };
+        let mut layouts: BTreeMap<usize, Option<ShardIndexLayout>> = BTreeMap::new();
+        // Per shard (level and shard indices): its key and the index entries wanted.
+        let mut shards: BTreeMap<(usize, Vec<u64>), (StoreKey, Vec<u64>)> = BTreeMap::new();
+        let mut inner_chunks = 0usize;
+        for &(level, origin, size) in regions {
+            let Some(array) = self.region_array(level, origin, size) else {
+                continue;
+            };
+            if self.levels[level].shard.is_none() {
+                continue;
+            }
+            let Some(layout) = layouts
+                .entry(level)
+                .or_insert_with(|| ShardIndexLayout::of(array))
+                .as_ref()
+            else {
+                continue;
+            };
+            let grid = array.subchunk_grid();
+            let Ok(Some(subchunks)) = grid.chunks_in_array_subset(&self.subset(origin, size))
+            else {
+                continue;
+            };
+            for indices in subchunks.indices() {
+                let Some(entry) = layout.entry(&indices) else {
+                    continue;
+                };
+                let shard: Vec<u64> = indices
+                    .iter()
+                    .zip(&layout.per_shard)
+                    .map(|(&i, &n)| i / n)
+                    .collect();
+                let key = array.chunk_key(&shard);
+                let wanted = &mut shards.entry((level, shard)).or_insert((key, Vec::new())).1;
+                if !wanted.contains(&entry) {
+                    wanted.push(entry);
+                    inner_chunks += 1;
+                }
+            }
+            if inner_chunks > MAX_PREFETCH_CHUNKS {
+                return Vec::new();
+            }
+        }
+        let index_ranges: Vec<(StoreKey, Vec<ByteRange>)> = shards
+            .iter()
+            .filter_map(|((level, _), (key, _))| {
+                let layout = layouts.get(level)?.as_ref()?;
+                Some((key.clone(), vec![layout.range()]))
+            })
+            .collect();
+        if index_ranges.is_empty() {
+            return Vec::new();
+        }
+        let indexes = remote.get_ranges(&index_ranges);
+        shards
+            .iter()
+            .zip(indexes)
+            .filter_map(|(((level, _), (key, entries)), index)| {
+                let layout = layouts.get(level)?.as_ref()?;
+                let index = index?.into_iter().next()?;
+                let max_bytes = self.object_bound(*level)?;
+                let ranges: Vec<ByteRange> = entries
+                    .iter()
+                    .filter_map(|&entry| layout.inner_range(&index, entry, max_bytes))
+                    .collect();
+                (!ranges.is_empty()).then(|| (key.clone(), ranges))
+            })
+            .collect()
+    }
+
+    /// The store key of the chunk (a shard, where the level is sharded) of `level` at the
+    /// grid indices `chunk` (x, y, z), in the selected channel and time point.
+    fn chunk_store_key(&self, level: usize, chunk: [u64; 3]) -> Option<StoreKey> {
+        let array = self.arrays.get(level)?;
+        let mut indices = vec![0u64; self.layout.ndim];
+        if let Some(t) = self.layout.time {
+            indices[t] = self.selected.time as u64 / array_chunk(array, t);
+        }
+        if let Some(c) = self.layout.channel {
+            indices[c] = self.selected.channel as u64 / array_chunk(array, c);
+        }
+        for (axis, dim) in self.layout.space.iter().enumerate() {
+            if let Some(dim) = dim {
+                indices[*dim] = chunk[axis];
+            }
+        }
+        Some(array.chunk_key(&indices))
     }
 
     /// The store key of the chunk of `level` holding voxel `(x, y, z)` (for messages and tests).

@@ -37,6 +37,15 @@ impl Piece {
         }
     }
 
+    /// The same piece counted from `offset` (a range inside a run fetched from `offset`).
+    pub(crate) fn shifted_back(self, offset: u64) -> Self {
+        match self {
+            Self::Range(a, b) => Self::Range(a.saturating_sub(offset), b.saturating_sub(offset)),
+            Self::From(a) => Self::From(a.saturating_sub(offset)),
+            other => other,
+        }
+    }
+
     /// Whether it holds no byte (answered without a request).
     pub(crate) fn is_empty(self) -> bool {
         matches!(self, Self::Range(a, b) if a >= b) || self == Self::Suffix(0)
@@ -134,6 +143,15 @@ impl FetchCache {
     pub(super) fn insert_missing(&mut self, key: &str) {
         if self.missing.len() < MAX_MISSING {
             self.missing.insert(key.to_owned());
+        }
+    }
+
+    /// Drops `piece` of `key` (a coalesced run, once its pieces are kept on their own).
+    pub(super) fn remove(&mut self, key: &str, piece: Piece) {
+        let entry = (key.to_owned(), piece);
+        if let Some(dropped) = self.pieces.remove(&entry) {
+            self.bytes -= dropped.len() as u64;
+            self.order.retain(|kept| kept != &entry);
         }
     }
 
