@@ -40,6 +40,14 @@ pub enum Command {
     SaveTransfer(PathBuf),
     /// Load a transfer function saved by [`Command::SaveTransfer`].
     LoadTransfer(PathBuf),
+    /// Save the view (data, camera, transfer functions, settings, rulers, layout) as a view
+    /// file (RON, voxscope-scene's `SavedView`), in the background.
+    SaveView(PathBuf),
+    /// Save the view to the view file saved or opened last in this session, else ask where
+    /// (Ctrl+S).
+    SaveViewAgain,
+    /// Open a view file: its data in the background, then the rest of the view.
+    OpenView(PathBuf),
     /// Split the central view another way.
     SetLayout(Layout),
     /// Look from the front, side or top.
@@ -100,14 +108,19 @@ impl Command {
             Self::ShowDialog(DialogKind::Open) => {
                 Some(KeyboardShortcut::new(Modifiers::COMMAND, Key::O))
             }
+            Self::SaveViewAgain => Some(KeyboardShortcut::new(Modifiers::COMMAND, Key::S)),
             Self::Quit => Some(KeyboardShortcut::new(Modifiers::COMMAND, Key::Q)),
             _ => None,
         }
     }
 
     /// The commands that have a keyboard shortcut.
-    pub fn with_shortcuts() -> [Self; 2] {
-        [Self::ShowDialog(DialogKind::Open), Self::Quit]
+    pub fn with_shortcuts() -> [Self; 3] {
+        [
+            Self::ShowDialog(DialogKind::Open),
+            Self::SaveViewAgain,
+            Self::Quit,
+        ]
     }
 }
 

@@ -9,6 +9,7 @@ use super::command::Command;
 use super::dialogs::DialogAnswer;
 use super::dialogs::{self, DialogKind, NOT_SHOWN_WITHIN};
 use super::file_browser::FileBrowser;
+use super::saved_view;
 use super::settings::AppSettings;
 use super::url_dialog::UrlDialog;
 use super::viewport;
@@ -92,6 +93,21 @@ impl VoxscopeApp {
             Command::LoadTransfer(path) => self
                 .load_transfer(&path)
                 .map(|()| Some(format!("loaded {}", path.display()))),
+            Command::SaveView(path) => self.save_view(path, ctx).map(|()| None),
+            Command::SaveViewAgain => match self.last_view_file.clone() {
+                Some(path) => self.save_view(path, ctx).map(|()| None),
+                None => {
+                    self.commands
+                        .send(Command::ShowDialog(DialogKind::SaveView));
+                    Ok(None)
+                }
+            },
+            Command::OpenView(path) => {
+                let wake = ctx.clone();
+                self.jobs.view_file =
+                    Some(saved_view::read_job(path, move || wake.request_repaint()));
+                Ok(None)
+            }
             Command::SetLayout(layout) => {
                 self.settings.layout = layout;
                 Ok(None)
@@ -260,6 +276,23 @@ impl VoxscopeApp {
         ));
     }
 
+    /// Writes the view on screen to `path` in the background; the status bar says when it is
+    /// written, and Ctrl+S saves there from then on.
+    fn save_view(&mut self, path: PathBuf, ctx: &egui::Context) -> Result<(), String> {
+        let view = self
+            .saved_view()
+            .ok_or("no volume is shown: there is no view to save")?;
+        let absolute = std::path::absolute(&path).unwrap_or_else(|_| path.clone());
+        if let Some(folder) = absolute.parent() {
+            self.settings.last_save_folder = Some(folder.to_path_buf());
+        }
+        let wake = ctx.clone();
+        self.jobs.view_file = Some(saved_view::write_job(view, path, move || {
+            wake.request_repaint()
+        }));
+        Ok(())
+    }
+
     /// Remembers `path`'s folder for the next save, and says what was saved where: the
     /// status bar's confirmation.
     fn saved(&mut self, path: &Path, what: &str) -> String {
@@ -297,6 +330,8 @@ impl VoxscopeApp {
             DialogKind::SaveScreenshot => Command::SaveScreenshot(path),
             DialogKind::SaveTransfer => Command::SaveTransfer(path),
             DialogKind::LoadTransfer => Command::LoadTransfer(path),
+            DialogKind::SaveView => Command::SaveView(path),
+            DialogKind::OpenView => Command::OpenView(path),
         };
         self.run_command(command, ctx);
     }
@@ -333,14 +368,16 @@ pub(super) fn start_directory(settings: &AppSettings, kind: DialogKind) -> Optio
             .and_then(|spec| Path::new(spec).parent().map(Path::to_path_buf))
     };
     match kind {
-        // Transfer functions are loaded from where they were saved.
-        DialogKind::SaveScreenshot | DialogKind::SaveTransfer | DialogKind::LoadTransfer => {
-            settings
-                .last_save_folder
-                .clone()
-                .filter(|folder| folder.is_dir())
-                .or_else(recent)
-        }
+        // Transfer functions and views are opened from where they were saved.
+        DialogKind::SaveScreenshot
+        | DialogKind::SaveTransfer
+        | DialogKind::LoadTransfer
+        | DialogKind::SaveView
+        | DialogKind::OpenView => settings
+            .last_save_folder
+            .clone()
+            .filter(|folder| folder.is_dir())
+            .or_else(recent),
         DialogKind::Open | DialogKind::OpenFolder => recent(),
     }
 }

@@ -23,6 +23,10 @@ pub enum DialogKind {
     SaveTransfer,
     /// File ▸ Load transfer function…
     LoadTransfer,
+    /// File ▸ Save view… (and Ctrl+S before a view file was saved or opened).
+    SaveView,
+    /// File ▸ Open view…
+    OpenView,
 }
 
 /// The title of File ▸ Open folder…'s dialog: what a folder can be.
@@ -82,6 +86,15 @@ fn show(kind: DialogKind, directory: Option<&Path>) -> Option<PathBuf> {
         DialogKind::LoadTransfer => dialog
             .set_title("Load transfer function")
             .add_filter("Transfer function (RON)", &["ron"])
+            .pick_file(),
+        DialogKind::SaveView => dialog
+            .set_title("Save view")
+            .add_filter("voxscope view (RON)", &["ron"])
+            .set_file_name("view.ron")
+            .save_file(),
+        DialogKind::OpenView => dialog
+            .set_title("Open view")
+            .add_filter("voxscope view (RON)", &["ron"])
             .pick_file(),
     }
 }

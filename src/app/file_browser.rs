@@ -65,6 +65,7 @@ impl FileBrowser {
         let path_text = match kind {
             DialogKind::SaveScreenshot => "voxscope.png".to_owned(),
             DialogKind::SaveTransfer => "transfer.ron".to_owned(),
+            DialogKind::SaveView => "view.ron".to_owned(),
             _ => String::new(),
         };
         let mut browser = Self {
@@ -188,6 +189,8 @@ impl FileBrowser {
             DialogKind::SaveScreenshot => "Save screenshot (PNG)",
             DialogKind::SaveTransfer => "Save transfer function (RON)",
             DialogKind::LoadTransfer => "Load transfer function (RON)",
+            DialogKind::SaveView => "Save view (RON)",
+            DialogKind::OpenView => "Open view (RON)",
         }
     }
 
@@ -201,7 +204,10 @@ impl FileBrowser {
         ui.horizontal(|ui| {
             let label = ui.label("Path");
             let hint = match self.kind {
-                DialogKind::SaveScreenshot | DialogKind::SaveTransfer => "file name or path",
+                DialogKind::SaveScreenshot | DialogKind::SaveTransfer | DialogKind::SaveView => {
+                    "file name or path"
+                }
+                DialogKind::OpenView => "view.ron",
                 _ => "/path/to/volume.nii.gz, a folder, or synthetic:sphere:64",
             };
             let edit = ui
@@ -262,8 +268,9 @@ impl FileBrowser {
     fn action_name(&self) -> &'static str {
         match self.kind {
             DialogKind::Open | DialogKind::OpenFolder => "Open",
-            DialogKind::SaveScreenshot | DialogKind::SaveTransfer => "Save",
+            DialogKind::SaveScreenshot | DialogKind::SaveTransfer | DialogKind::SaveView => "Save",
             DialogKind::LoadTransfer => "Load",
+            DialogKind::OpenView => "Open",
         }
     }
 
@@ -279,7 +286,10 @@ impl FileBrowser {
             DialogKind::Open => self.show_all || is_volume_file(name),
             DialogKind::OpenFolder => false,
             DialogKind::SaveScreenshot => has_extension(name, "png"),
-            DialogKind::SaveTransfer | DialogKind::LoadTransfer => has_extension(name, "ron"),
+            DialogKind::SaveTransfer
+            | DialogKind::LoadTransfer
+            | DialogKind::SaveView
+            | DialogKind::OpenView => has_extension(name, "ron"),
         };
         egui::ScrollArea::vertical()
             .id_salt("file_browser_entries")
@@ -321,7 +331,9 @@ impl FileBrowser {
                     let text = format!("{name}  ·  {}", format_bytes(*bytes));
                     if ui.selectable_label(false, text).clicked() {
                         match self.kind {
-                            DialogKind::SaveScreenshot | DialogKind::SaveTransfer => {
+                            DialogKind::SaveScreenshot
+                            | DialogKind::SaveTransfer
+                            | DialogKind::SaveView => {
                                 self.path_text = name.clone();
                             }
                             _ => {

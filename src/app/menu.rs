@@ -93,6 +93,30 @@ fn file_menu(ui: &mut Ui, settings: &AppSettings, has_scene: bool, queue: &mut C
             queue,
         );
     });
+    ui.separator();
+    command_button(
+        ui,
+        "Open view…",
+        Command::ShowDialog(DialogKind::OpenView),
+        queue,
+    )
+    .on_hover_text("A view file: its data, camera, transfer functions, settings and layout");
+    ui.add_enabled_ui(has_scene, |ui| {
+        // Always asks where; Ctrl+S saves again to the view file of this session.
+        let shortcut = Command::SaveViewAgain.shortcut().map(|s| ui.ctx().format_shortcut(&s));
+        let mut button = egui::Button::new("Save view…");
+        if let Some(text) = shortcut {
+            button = button.shortcut_text(text);
+        }
+        if ui
+            .add(button)
+            .on_hover_text("What is shown and how, as a file that Open view… and `voxscope render --view` read")
+            .clicked()
+        {
+            queue.send(Command::ShowDialog(DialogKind::SaveView));
+        }
+    });
+    ui.separator();
     command_button(
         ui,
         "Save transfer function…",

@@ -26,6 +26,7 @@ mod overlays;
 mod pane_header;
 mod picking;
 mod prefetch;
+mod saved_view;
 mod settings;
 mod slice_pane;
 mod stream_panel;
@@ -85,14 +86,25 @@ pub fn native_options() -> eframe::NativeOptions {
     }
 }
 
-/// Opens the window on `source` (the sample when `None`), clipped by `clip`, and runs until
-/// it is closed.
-pub fn run(source: Option<VolumeSource>, clip: voxscope_octree::Clip) -> Result<(), String> {
+/// What the window opens on.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Start {
+    /// A volume (the sample when `None`): `voxscope [FILE]`.
+    Open(Option<VolumeSource>),
+    /// A view file: `voxscope --view V.ron`.
+    View(std::path::PathBuf),
+}
+
+/// Opens the window on `start`, clipped by `clip`, and runs until it is closed.
+pub fn run(start: Start, clip: voxscope_octree::Clip) -> Result<(), String> {
     eframe::run_native(
         "voxscope",
         native_options(),
         Box::new(move |cc| {
-            let mut app = VoxscopeApp::new(cc, source);
+            let mut app = match start {
+                Start::Open(source) => VoxscopeApp::new(cc, source),
+                Start::View(view) => VoxscopeApp::with_view(cc, view),
+            };
             app.clip_first_volume(clip);
             Ok(Box::new(app))
         }),

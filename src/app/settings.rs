@@ -5,9 +5,9 @@ use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 
-use voxscope_octree::{Colormap, OpacityMode, TransferFunction};
+use voxscope_octree::{Clip, Colormap, OpacityMode, TransferFunction};
 use voxscope_render::{
-    Camera, DEFAULT_BRICK_SIZE, RenderMode, RendererKind, RendererOptions, Shading,
+    Camera, DEFAULT_BRICK_SIZE, RenderMode, RenderSettings, RendererKind, RendererOptions, Shading,
 };
 use voxscope_scene::TransferChoice;
 
@@ -189,6 +189,22 @@ impl Default for AppSettings {
 }
 
 impl AppSettings {
+    /// What the 3D views draw with, at level `max_level` clipped by `clip` (those two belong
+    /// to the volume on screen, in [`super::ViewState`]).
+    pub fn render_settings(&self, max_level: u32, clip: Clip) -> RenderSettings {
+        RenderSettings {
+            mode: self.mode,
+            max_level,
+            pixel_lod: self.pixel_lod,
+            opacity_correction: self.opacity_correction,
+            density: self.density,
+            heatmap: self.heatmap,
+            trilinear: self.trilinear,
+            shading: self.shading,
+            clip,
+        }
+    }
+
     /// Whether the side panel `panel` is shown.
     pub fn panel_shown(&self, panel: Panel) -> bool {
         match panel {

@@ -2,7 +2,7 @@
 //! background jobs, the central view) and the one place where [`Command`]s and finished jobs
 //! change it. The panels, menus and central view draw themselves in their own modules.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -19,6 +19,7 @@ use super::jobs::{JobEvent, Jobs};
 use super::menu::{self, NOTICE_DURATION};
 use super::octree_panel::{self, OctreeFacts};
 use super::overlays;
+use super::saved_view::ViewFile;
 use super::settings::{AppSettings, DEFAULT_COMPARE_TRANSFER, STORAGE_KEY};
 use super::transfer_panel;
 use super::url_dialog::{UrlDialog, UrlOutcome};
@@ -61,11 +62,25 @@ pub struct VoxscopeApp {
     pub(super) first_clip: Option<Clip>,
     /// The time point of the scene the 3D views last showed whole.
     pub(super) shown_time: Option<usize>,
+    /// The view file saved or opened last in this session: where Ctrl+S saves.
+    pub(super) last_view_file: Option<PathBuf>,
 }
 
 impl VoxscopeApp {
     /// The app in `cc`'s window, opening `source` (the sample when `None`).
     pub fn new(cc: &eframe::CreationContext<'_>, source: Option<VolumeSource>) -> Self {
+        Self::starting(cc, Command::Open(source.unwrap_or(VolumeSource::Sample)))
+    }
+
+    /// The app in `cc`'s window, opening the view file `view` (`voxscope --view V.ron`): its
+    /// data, then the rest of the view. A view that cannot be read, or whose data is missing,
+    /// leaves the window empty with one line saying why.
+    pub fn with_view(cc: &eframe::CreationContext<'_>, view: PathBuf) -> Self {
+        Self::starting(cc, Command::OpenView(view))
+    }
+
+    /// The app in `cc`'s window, carrying out `first` (an open) at once.
+    fn starting(cc: &eframe::CreationContext<'_>, first: Command) -> Self {
         let settings: AppSettings = cc
             .storage
             .and_then(|storage| eframe::get_value(storage, STORAGE_KEY))
@@ -97,14 +112,12 @@ impl VoxscopeApp {
             no_desktop_dialogs: false,
             first_clip: None,
             shown_time: None,
+            last_view_file: None,
         };
         if app.gpu.is_none() {
             app.fail("voxscope needs the wgpu renderer; no GPU device was handed to the app");
         } else {
-            app.run_command(
-                Command::Open(source.unwrap_or(VolumeSource::Sample)),
-                &cc.egui_ctx,
-            );
+            app.run_command(first, &cc.egui_ctx);
         }
         app
     }
@@ -333,6 +346,18 @@ impl VoxscopeApp {
         for event in self.jobs.poll() {
             match event {
                 JobEvent::Opened(opened) => self.show_opened(*opened),
+                JobEvent::ViewOpened(opened, view) => self.show_view_opened(*opened, &view),
+                JobEvent::ViewFile(ViewFile::Written(path)) => {
+                    let notice = self.view_file_done(&path, "view saved");
+                    self.notify(notice);
+                }
+                JobEvent::ViewFile(ViewFile::Read(path, view)) => {
+                    self.view_file_done(&path, "view opened");
+                    if let Err(message) = self.open_view(*view, ctx) {
+                        self.fail(format!("{}: {message}", path.display()));
+                    }
+                }
+                JobEvent::ViewFileFailed(error) => self.fail(error.to_string()),
                 JobEvent::OpenEnded(SceneError::Cancelled) => self.notify("opening cancelled"),
                 JobEvent::OpenEnded(error) => self.fail(error.to_string()),
                 JobEvent::Uploaded(mut scene) => {
