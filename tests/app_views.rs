@@ -27,7 +27,7 @@ const WINDOW: egui::Vec2 = egui::vec2(480.0, 360.0);
 fn app(source: &str) -> Harness<'static, VoxscopeApp> {
     let mut harness = harness_with(Some(VolumeSource::Spec(source.to_owned())), WINDOW);
     let ctx = harness.ctx.clone();
-    for panel in voxscope::app::Panel::ALL {
+    for panel in [voxscope::app::Panel::Transfer, voxscope::app::Panel::Octree] {
         harness
             .state_mut()
             .run_command(Command::TogglePanel(panel), &ctx);

@@ -48,6 +48,22 @@ pub enum Command {
     SaveViewAgain,
     /// Open a view file: its data in the background, then the rest of the view.
     OpenView(PathBuf),
+    /// Add the view on screen as the movie's last keyframe.
+    AddKeyframe,
+    /// Move the movie's keyframe `from` to place `to`.
+    MoveKeyframe { from: usize, to: usize },
+    /// Delete the movie's keyframe.
+    DeleteKeyframe(usize),
+    /// Where the movie goes (the Movie panel's output).
+    SetMovieOutput(PathBuf),
+    /// Play the movie's camera path in the central view.
+    PreviewMovie,
+    /// Stop the preview and show the view before it.
+    StopPreview,
+    /// Draw and write the movie in the background.
+    ExportMovie,
+    /// Stop the movie being written.
+    CancelExport,
     /// Split the central view another way.
     SetLayout(Layout),
     /// Look from the front, side or top.

@@ -108,6 +108,33 @@ impl VoxscopeApp {
                     Some(saved_view::read_job(path, move || wake.request_repaint()));
                 Ok(None)
             }
+            Command::AddKeyframe => self.add_keyframe().map(|()| None),
+            Command::MoveKeyframe { from, to } => {
+                self.move_keyframe(from, to);
+                Ok(None)
+            }
+            Command::DeleteKeyframe(index) => {
+                if index < self.movie.keyframes.len() {
+                    self.movie.keyframes.remove(index);
+                }
+                Ok(None)
+            }
+            Command::SetMovieOutput(path) => {
+                self.movie.output = path.display().to_string();
+                Ok(None)
+            }
+            Command::PreviewMovie => self.start_preview().map(|()| None),
+            Command::StopPreview => {
+                self.stop_preview();
+                Ok(None)
+            }
+            Command::ExportMovie => self.export_movie(ctx).map(|()| None),
+            Command::CancelExport => {
+                if let Some(job) = &self.jobs.exporting {
+                    job.progress.cancel();
+                }
+                Ok(None)
+            }
             Command::SetLayout(layout) => {
                 self.settings.layout = layout;
                 Ok(None)
@@ -332,6 +359,7 @@ impl VoxscopeApp {
             DialogKind::LoadTransfer => Command::LoadTransfer(path),
             DialogKind::SaveView => Command::SaveView(path),
             DialogKind::OpenView => Command::OpenView(path),
+            DialogKind::MovieOutput => Command::SetMovieOutput(path),
         };
         self.run_command(command, ctx);
     }
@@ -373,7 +401,8 @@ pub(super) fn start_directory(settings: &AppSettings, kind: DialogKind) -> Optio
         | DialogKind::SaveTransfer
         | DialogKind::LoadTransfer
         | DialogKind::SaveView
-        | DialogKind::OpenView => settings
+        | DialogKind::OpenView
+        | DialogKind::MovieOutput => settings
             .last_save_folder
             .clone()
             .filter(|folder| folder.is_dir())

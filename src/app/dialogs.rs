@@ -27,6 +27,8 @@ pub enum DialogKind {
     SaveView,
     /// File ▸ Open view…
     OpenView,
+    /// The Movie panel's output: a movie file (or a folder, typed).
+    MovieOutput,
 }
 
 /// The title of File ▸ Open folder…'s dialog: what a folder can be.
@@ -96,5 +98,10 @@ fn show(kind: DialogKind, directory: Option<&Path>) -> Option<PathBuf> {
             .set_title("Open view")
             .add_filter("voxscope view (RON)", &["ron"])
             .pick_file(),
+        DialogKind::MovieOutput => dialog
+            .set_title("Write the movie to")
+            .add_filter("Movie", &["webp", "gif", "png", "mp4"])
+            .set_file_name("movie.webp")
+            .save_file(),
     }
 }

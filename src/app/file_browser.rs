@@ -66,6 +66,7 @@ impl FileBrowser {
             DialogKind::SaveScreenshot => "voxscope.png".to_owned(),
             DialogKind::SaveTransfer => "transfer.ron".to_owned(),
             DialogKind::SaveView => "view.ron".to_owned(),
+            DialogKind::MovieOutput => "movie.webp".to_owned(),
             _ => String::new(),
         };
         let mut browser = Self {
@@ -191,6 +192,7 @@ impl FileBrowser {
             DialogKind::LoadTransfer => "Load transfer function (RON)",
             DialogKind::SaveView => "Save view (RON)",
             DialogKind::OpenView => "Open view (RON)",
+            DialogKind::MovieOutput => "Movie: .webp, .gif, .png, .mp4, or a folder of PNGs",
         }
     }
 
@@ -204,9 +206,10 @@ impl FileBrowser {
         ui.horizontal(|ui| {
             let label = ui.label("Path");
             let hint = match self.kind {
-                DialogKind::SaveScreenshot | DialogKind::SaveTransfer | DialogKind::SaveView => {
-                    "file name or path"
-                }
+                DialogKind::SaveScreenshot
+                | DialogKind::SaveTransfer
+                | DialogKind::SaveView
+                | DialogKind::MovieOutput => "file name or path",
                 DialogKind::OpenView => "view.ron",
                 _ => "/path/to/volume.nii.gz, a folder, or synthetic:sphere:64",
             };
@@ -269,6 +272,7 @@ impl FileBrowser {
         match self.kind {
             DialogKind::Open | DialogKind::OpenFolder => "Open",
             DialogKind::SaveScreenshot | DialogKind::SaveTransfer | DialogKind::SaveView => "Save",
+            DialogKind::MovieOutput => "Choose",
             DialogKind::LoadTransfer => "Load",
             DialogKind::OpenView => "Open",
         }
@@ -290,6 +294,9 @@ impl FileBrowser {
             | DialogKind::LoadTransfer
             | DialogKind::SaveView
             | DialogKind::OpenView => has_extension(name, "ron"),
+            DialogKind::MovieOutput => ["webp", "gif", "png", "mp4"]
+                .iter()
+                .any(|extension| has_extension(name, extension)),
         };
         egui::ScrollArea::vertical()
             .id_salt("file_browser_entries")
@@ -333,7 +340,8 @@ impl FileBrowser {
                         match self.kind {
                             DialogKind::SaveScreenshot
                             | DialogKind::SaveTransfer
-                            | DialogKind::SaveView => {
+                            | DialogKind::SaveView
+                            | DialogKind::MovieOutput => {
                                 self.path_text = name.clone();
                             }
                             _ => {

@@ -6,6 +6,7 @@
 use std::sync::mpsc::{Receiver, TryRecvError};
 
 use super::dialogs::{DialogAnswer, DialogKind};
+use super::movie_export::Exported;
 use super::saved_view::ViewFile;
 use voxscope_render::RendererOptions;
 use voxscope_scene::{Counted, Job, Opened, SavedView, Scene, SceneError};
@@ -28,6 +29,10 @@ pub enum JobEvent {
     ViewFile(ViewFile),
     /// Reading or writing a view file failed.
     ViewFileFailed(SceneError),
+    /// A movie was written.
+    MovieExported(Exported),
+    /// Writing a movie was cancelled, or failed.
+    MovieEnded(SceneError),
     /// A file dialog closed.
     DialogClosed(DialogKind, DialogAnswer),
 }
@@ -41,6 +46,8 @@ pub struct Jobs {
     opening_view: Option<Box<SavedView>>,
     /// Reading or writing a view file.
     pub view_file: Option<Job<ViewFile>>,
+    /// Drawing and writing a movie (the Movie panel's Export).
+    pub exporting: Option<Job<Exported>>,
     /// Uploading the volume on screen for other renderer options.
     pub uploading: Option<(RendererOptions, Job<Scene>)>,
     /// Counting nodes per level under the live transfer function.
@@ -56,6 +63,7 @@ impl Jobs {
             || self.uploading.is_some()
             || self.counting.is_some()
             || self.view_file.is_some()
+            || self.exporting.is_some()
             || self.dialog.is_some()
     }
 
@@ -116,6 +124,13 @@ impl Jobs {
                 events.push(JobEvent::Counted(Box::new(counted)));
             }
         }
+        if let Some(result) = self.exporting.as_ref().and_then(Job::try_take) {
+            self.exporting = None;
+            events.push(match result {
+                Ok(exported) => JobEvent::MovieExported(exported),
+                Err(error) => JobEvent::MovieEnded(error),
+            });
+        }
         if let Some((kind, receiver)) = &self.dialog {
             match receiver.try_recv() {
                 Ok(answer) => {
@@ -127,6 +142,14 @@ impl Jobs {
             }
         }
         events
+    }
+
+    /// The movie being written: its title, stage and fraction done.
+    pub fn export_progress(&self) -> Option<(&str, &'static str, f32)> {
+        self.exporting.as_ref().map(|job| {
+            let (stage, fraction) = job.progress.get();
+            (job.title.as_str(), stage, fraction)
+        })
     }
 
     /// The open in progress: its title, stage and fraction done.

@@ -183,6 +183,23 @@ pub fn status_bar(
     queue: &mut CommandQueue,
 ) {
     ui.horizontal(|ui| {
+        if let Some((title, stage, fraction)) = jobs.export_progress() {
+            ui.spinner();
+            if ui
+                .button("Cancel")
+                .on_hover_text("Stop writing the movie")
+                .clicked()
+            {
+                queue.send(Command::CancelExport);
+            }
+            ui.add(
+                egui::ProgressBar::new(fraction)
+                    .desired_width(160.0)
+                    .show_percentage(),
+            );
+            ui.label(format!("{title}: {stage}"));
+            ui.separator();
+        }
         if let Some((title, stage, fraction)) = jobs.open_progress() {
             // Fixed-width items first, so Cancel does not move as the text changes.
             ui.spinner();

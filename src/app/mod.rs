@@ -20,6 +20,8 @@ mod file_browser;
 mod frame_controls;
 mod jobs;
 mod menu;
+mod movie_export;
+mod movie_panel;
 mod numbers;
 mod octree_panel;
 mod overlays;
@@ -42,6 +44,7 @@ use std::sync::Arc;
 
 pub use command::{Command, ViewPreset};
 pub use dialogs::DialogKind;
+pub use movie_panel::MoviePlan;
 pub use settings::{AppSettings, Layout, Panel, STORAGE_KEY};
 pub use view_state::ViewState;
 pub use voxscope_app::VoxscopeApp;

@@ -14,10 +14,11 @@
 use std::path::{Path, PathBuf};
 
 use voxscope_octree::TransferFunction;
-use voxscope_render::{RendererKind, RendererOptions};
+use voxscope_render::{RenderSettings, RendererKind, RendererOptions};
 use voxscope_scene::{
-    FrameChange, Job, Opened, SavedView, SceneError, TransferChoice, TransferRequest, VIEW_VERSION,
-    ViewChannel, ViewData, ViewRuler, VolumeSource, opening_transfer,
+    ChannelState, FrameChange, Job, Opened, SavedView, SceneError, Shot, TransferChoice,
+    TransferRequest, VIEW_VERSION, ViewChannel, ViewData, ViewRuler, VolumeSource,
+    opening_transfer,
 };
 use voxscope_volume::{Selection, ValueWindow};
 
@@ -254,15 +255,7 @@ impl VoxscopeApp {
         }
         self.settings.camera = view.camera;
         if let Some(settings) = view.settings {
-            self.settings.mode = settings.mode;
-            self.settings.density = settings.density;
-            self.settings.pixel_lod = settings.pixel_lod;
-            self.settings.opacity_correction = settings.opacity_correction;
-            self.settings.trilinear = settings.trilinear;
-            self.settings.heatmap = settings.heatmap;
-            self.settings.shading = settings.shading;
-            self.view.max_level = settings.max_level.min(depth);
-            self.view.clipping = Clipping::from(settings.clip);
+            self.apply_render_settings(&settings, depth);
         }
         self.view.rulers = view
             .rulers
@@ -275,6 +268,40 @@ impl VoxscopeApp {
         if let Some(layout) = view.layout.as_deref().and_then(layout_named) {
             self.settings.layout = layout;
         }
+    }
+
+    /// Shows `shot` (a movie's frame: its camera, settings and transfer function) and, for the
+    /// composite, its `channels`.
+    pub(super) fn apply_shot(&mut self, shot: &Shot, channels: &[ChannelState]) {
+        let Some(scene) = &self.scene else {
+            return;
+        };
+        let (depth, composite) = (scene.depth(), scene.composite.is_some());
+        self.settings.camera = shot.camera;
+        self.apply_render_settings(&shot.settings, depth);
+        if composite && channels.len() == self.view.channels.len() {
+            self.view.channels = channels.to_vec();
+            let active = channels
+                .get(self.view.active_channel)
+                .map_or(shot.transfer, |c| c.transfer);
+            self.set_panel_transfer(active);
+        } else {
+            self.set_panel_transfer(shot.transfer);
+        }
+    }
+
+    /// Takes what `settings` holds into the app's settings and view state (the level at most
+    /// `depth`).
+    fn apply_render_settings(&mut self, settings: &RenderSettings, depth: u32) {
+        self.settings.mode = settings.mode;
+        self.settings.density = settings.density;
+        self.settings.pixel_lod = settings.pixel_lod;
+        self.settings.opacity_correction = settings.opacity_correction;
+        self.settings.trilinear = settings.trilinear;
+        self.settings.heatmap = settings.heatmap;
+        self.settings.shading = settings.shading;
+        self.view.max_level = settings.max_level.min(depth);
+        self.view.clipping = Clipping::from(settings.clip);
     }
 
     /// Makes `transfer` the one the Transfer function panel shows and edits.

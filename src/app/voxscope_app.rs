@@ -17,6 +17,7 @@ use super::file_browser::{BrowserOutcome, FileBrowser};
 use super::frame_controls::{self, Playback};
 use super::jobs::{JobEvent, Jobs};
 use super::menu::{self, NOTICE_DURATION};
+use super::movie_panel::{self, MoviePlan, MoviePreview};
 use super::octree_panel::{self, OctreeFacts};
 use super::overlays;
 use super::saved_view::ViewFile;
@@ -64,6 +65,10 @@ pub struct VoxscopeApp {
     pub(super) shown_time: Option<usize>,
     /// The view file saved or opened last in this session: where Ctrl+S saves.
     pub(super) last_view_file: Option<PathBuf>,
+    /// The Movie panel's keyframes and output.
+    pub movie: MoviePlan,
+    /// The movie's camera path playing in the central view.
+    pub(super) preview: Option<MoviePreview>,
 }
 
 impl VoxscopeApp {
@@ -113,6 +118,8 @@ impl VoxscopeApp {
             first_clip: None,
             shown_time: None,
             last_view_file: None,
+            movie: MoviePlan::default(),
+            preview: None,
         };
         if app.gpu.is_none() {
             app.fail("voxscope needs the wgpu renderer; no GPU device was handed to the app");
@@ -358,6 +365,16 @@ impl VoxscopeApp {
                     }
                 }
                 JobEvent::ViewFileFailed(error) => self.fail(error.to_string()),
+                JobEvent::MovieExported(exported) => self.notify(format!(
+                    "movie written: {} ({} frames in {:.1} s)",
+                    exported.output.display(),
+                    exported.frames,
+                    exported.seconds
+                )),
+                JobEvent::MovieEnded(SceneError::Cancelled) => {
+                    self.notify("writing the movie cancelled")
+                }
+                JobEvent::MovieEnded(error) => self.fail(error.to_string()),
                 JobEvent::OpenEnded(SceneError::Cancelled) => self.notify("opening cancelled"),
                 JobEvent::OpenEnded(error) => self.fail(error.to_string()),
                 JobEvent::Uploaded(mut scene) => {
@@ -554,6 +571,7 @@ impl eframe::App for VoxscopeApp {
         let ctx = ui.ctx().clone();
         self.handle_job_events(&ctx);
         self.step_playback(&ctx);
+        self.step_preview(&ctx);
 
         let has_scene = self.scene.is_some();
         egui::Panel::top("menu_bar").show(ui, |ui| {
@@ -659,6 +677,19 @@ impl eframe::App for VoxscopeApp {
             }
         });
 
+        if self.settings.show_movie_panel {
+            let state = movie_panel::PanelState {
+                has_scene,
+                previewing: self.preview.is_some(),
+                exporting: self.jobs.exporting.is_some(),
+            };
+            let mut open = true;
+            movie_panel::show(&ctx, &mut self.movie, &mut open, state, &mut self.commands);
+            if !open {
+                self.commands
+                    .send(Command::TogglePanel(super::Panel::Movie));
+            }
+        }
         if let Some(browser) = &mut self.browser
             && let Some(outcome) = browser.show(&ctx, &self.settings.recent)
         {

@@ -10,7 +10,6 @@ mod drawing;
 mod info;
 mod memory;
 mod movie;
-mod movie_writer;
 mod prepare;
 mod probe;
 mod render;

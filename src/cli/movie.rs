@@ -9,9 +9,9 @@ use std::time::{Duration, Instant};
 use clap::Args;
 
 use super::drawing::{Content, Drawing};
-use super::movie_writer::MovieFormat;
 use super::view::{self, Given};
 use super::{RenderOptions, VolumeArgs};
+use crate::movie_writer::MovieFormat;
 use voxscope_render::{RenderTarget, read_image};
 use voxscope_scene::{SavedView, Shot, keyframe_path, turntable};
 

@@ -29,7 +29,7 @@ pub use channels::{ChannelRequest, ChannelState, CompositeScene};
 pub use data::{HISTOGRAM_BINS, VolumeData};
 pub use error::SceneError;
 pub use job::Job;
-pub use movie_path::{Shot, keyframe_path, turntable};
+pub use movie_path::{Shot, keyframe_channels, keyframe_path, turntable};
 pub use opening::{
     TransferChoice, TransferRequest, beyond_octree, default_window, file_window, opening_transfer,
     renderer_for_octree,
