@@ -36,6 +36,10 @@ pub enum Command {
     CancelOpen,
     /// Save what the central view shows as PNG.
     SaveScreenshot(PathBuf),
+    /// Save the 3D view drawn again at `scale` times its pixels as PNG, in the background.
+    SaveScaledScreenshot { path: PathBuf, scale: u32 },
+    /// The scale the next screenshot chosen in the file dialog is saved at (1, 2 or 4).
+    SetScreenshotScale(u32),
     /// Save the transfer function as RON.
     SaveTransfer(PathBuf),
     /// Load a transfer function saved by [`Command::SaveTransfer`].

@@ -87,6 +87,13 @@ impl VoxscopeApp {
             Command::SaveScreenshot(path) => self
                 .save_screenshot(&path, ctx.pixels_per_point())
                 .map(|()| Some(self.saved(&path, "screenshot"))),
+            Command::SaveScaledScreenshot { path, scale } => {
+                self.save_scaled_screenshot(path, scale, ctx).map(|()| None)
+            }
+            Command::SetScreenshotScale(scale) => {
+                self.screenshot_scale = scale.max(1);
+                Ok(None)
+            }
             Command::SaveTransfer(path) => self
                 .save_transfer(&path)
                 .map(|()| Some(self.saved(&path, "transfer function"))),
@@ -322,7 +329,7 @@ impl VoxscopeApp {
 
     /// Remembers `path`'s folder for the next save, and says what was saved where: the
     /// status bar's confirmation.
-    fn saved(&mut self, path: &Path, what: &str) -> String {
+    pub(super) fn saved(&mut self, path: &Path, what: &str) -> String {
         let absolute = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
         if let Some(folder) = absolute.parent() {
             self.settings.last_save_folder = Some(folder.to_path_buf());
@@ -354,7 +361,10 @@ impl VoxscopeApp {
             DialogKind::Open | DialogKind::OpenFolder => {
                 Command::Open(VolumeSource::from_spec(&path.display().to_string()))
             }
-            DialogKind::SaveScreenshot => Command::SaveScreenshot(path),
+            DialogKind::SaveScreenshot => match std::mem::replace(&mut self.screenshot_scale, 1) {
+                1 => Command::SaveScreenshot(path),
+                scale => Command::SaveScaledScreenshot { path, scale },
+            },
             DialogKind::SaveTransfer => Command::SaveTransfer(path),
             DialogKind::LoadTransfer => Command::LoadTransfer(path),
             DialogKind::SaveView => Command::SaveView(path),

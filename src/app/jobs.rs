@@ -33,6 +33,10 @@ pub enum JobEvent {
     MovieExported(Exported),
     /// Writing a movie was cancelled, or failed.
     MovieEnded(SceneError),
+    /// A screenshot at a scale was written to this file.
+    ScreenshotSaved(std::path::PathBuf),
+    /// Drawing or writing a screenshot at a scale failed.
+    ScreenshotFailed(SceneError),
     /// A file dialog closed.
     DialogClosed(DialogKind, DialogAnswer),
 }
@@ -48,6 +52,8 @@ pub struct Jobs {
     pub view_file: Option<Job<ViewFile>>,
     /// Drawing and writing a movie (the Movie panel's Export).
     pub exporting: Option<Job<Exported>>,
+    /// Drawing and writing a screenshot at a scale (File ▸ Save screenshot at 2×, 4×).
+    pub screenshot: Option<Job<std::path::PathBuf>>,
     /// Uploading the volume on screen for other renderer options.
     pub uploading: Option<(RendererOptions, Job<Scene>)>,
     /// Counting nodes per level under the live transfer function.
@@ -64,6 +70,7 @@ impl Jobs {
             || self.counting.is_some()
             || self.view_file.is_some()
             || self.exporting.is_some()
+            || self.screenshot.is_some()
             || self.dialog.is_some()
     }
 
@@ -129,6 +136,13 @@ impl Jobs {
             events.push(match result {
                 Ok(exported) => JobEvent::MovieExported(exported),
                 Err(error) => JobEvent::MovieEnded(error),
+            });
+        }
+        if let Some(result) = self.screenshot.as_ref().and_then(Job::try_take) {
+            self.screenshot = None;
+            events.push(match result {
+                Ok(path) => JobEvent::ScreenshotSaved(path),
+                Err(error) => JobEvent::ScreenshotFailed(error),
             });
         }
         if let Some((kind, receiver)) = &self.dialog {

@@ -86,12 +86,16 @@ fn file_menu(ui: &mut Ui, settings: &AppSettings, has_scene: bool, queue: &mut C
     );
     ui.separator();
     ui.add_enabled_ui(has_scene, |ui| {
-        command_button(
-            ui,
-            "Save screenshot…",
-            Command::ShowDialog(DialogKind::SaveScreenshot),
-            queue,
-        );
+        for (scale, text, hover) in [
+            (1, "Save screenshot…", "The view as shown, at the window's pixels"),
+            (2, "Save screenshot at 2×…", "The 3D view drawn again at twice its pixels, rulers and axes to scale"),
+            (4, "Save screenshot at 4×…", "The 3D view drawn again at four times its pixels, in tiles beyond the GPU's limits"),
+        ] {
+            if ui.button(text).on_hover_text(hover).clicked() {
+                queue.send(Command::SetScreenshotScale(scale));
+                queue.send(Command::ShowDialog(DialogKind::SaveScreenshot));
+            }
+        }
     });
     ui.separator();
     command_button(
@@ -212,6 +216,10 @@ pub fn status_bar(
                     .show_percentage(),
             );
             ui.label(format!("{title}: {stage}"));
+            ui.separator();
+        } else if let Some(job) = &jobs.screenshot {
+            ui.spinner();
+            ui.label(format!("{}: {}", job.title, job.progress.get().0));
             ui.separator();
         } else if let Some((options, _)) = &jobs.uploading {
             ui.spinner();

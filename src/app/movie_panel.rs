@@ -14,7 +14,8 @@ use voxscope_scene::{ChannelState, SavedView, Shot, keyframe_channels, keyframe_
 
 use super::command::{Command, CommandQueue};
 use super::dialogs::DialogKind;
-use super::movie_export::{self, Export, ExportSource};
+use super::movie_export::{self, Export};
+use super::offscreen::OffscreenSource;
 use super::voxscope_app::VoxscopeApp;
 
 /// What the movie will be: its keyframes and how it is written.
@@ -197,7 +198,7 @@ fn contents(ui: &mut Ui, plan: &mut MoviePlan, state: PanelState, queue: &mut Co
 
 impl VoxscopeApp {
     /// The view on screen as a movie's shot, and the composite's channels as drawn.
-    fn current_shot(&self) -> (Shot, Vec<ChannelState>) {
+    pub(super) fn current_shot(&self) -> (Shot, Vec<ChannelState>) {
         let transfer = self.transfer();
         (
             Shot {
@@ -328,10 +329,10 @@ impl VoxscopeApp {
             return Err("no volume is shown".into());
         };
         let source = match &scene.composite {
-            Some(composite) => ExportSource::Composite {
+            Some(composite) => OffscreenSource::Composite {
                 channels: composite.channels.clone(),
             },
-            None => ExportSource::Volume {
+            None => OffscreenSource::Volume {
                 data: Arc::clone(&scene.data),
                 options: scene.options,
             },

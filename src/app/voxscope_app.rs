@@ -69,6 +69,11 @@ pub struct VoxscopeApp {
     pub movie: MoviePlan,
     /// The movie's camera path playing in the central view.
     pub(super) preview: Option<MoviePreview>,
+    /// The scale the screenshot being chosen in a file dialog is saved at.
+    pub(super) screenshot_scale: u32,
+    /// Screenshots at a scale are drawn in tiles of this side even where the device draws
+    /// them whole (tests; `None`: tiles only beyond the device's targets).
+    pub screenshot_tile: Option<u32>,
 }
 
 impl VoxscopeApp {
@@ -120,6 +125,8 @@ impl VoxscopeApp {
             last_view_file: None,
             movie: MoviePlan::default(),
             preview: None,
+            screenshot_scale: 1,
+            screenshot_tile: None,
         };
         if app.gpu.is_none() {
             app.fail("voxscope needs the wgpu renderer; no GPU device was handed to the app");
@@ -253,16 +260,25 @@ impl VoxscopeApp {
         self.settings.transfer.with_window(self.view.window)
     }
 
-    /// What is drawn: the panes' images composed as laid out, at full pixel resolution.
+    /// What is drawn: the panes' images composed as laid out, at full pixel resolution, with
+    /// the rulers.
     pub fn view_image(&self, pixels_per_point: f32) -> Result<image::RgbaImage, String> {
         let gpu = self.gpu.as_ref().ok_or("no GPU device")?;
-        self.central
-            .image(gpu, pixels_per_point, self.scene.as_ref(), &self.view)
+        self.central.image(
+            gpu,
+            pixels_per_point,
+            self.scene.as_ref(),
+            &self.view,
+            false,
+        )
     }
 
-    /// Saves [`Self::view_image`] as PNG.
+    /// Saves [`Self::view_image`] with the axes gizmo as PNG (File ▸ Save screenshot…, 1×).
     pub fn save_screenshot(&self, path: &Path, pixels_per_point: f32) -> Result<(), String> {
-        let image = self.view_image(pixels_per_point)?;
+        let gpu = self.gpu.as_ref().ok_or("no GPU device")?;
+        let image =
+            self.central
+                .image(gpu, pixels_per_point, self.scene.as_ref(), &self.view, true)?;
         image
             .save_with_format(path, image::ImageFormat::Png)
             .map_err(|e| format!("{}: cannot write the screenshot: {e}", path.display()))
@@ -375,6 +391,11 @@ impl VoxscopeApp {
                     self.notify("writing the movie cancelled")
                 }
                 JobEvent::MovieEnded(error) => self.fail(error.to_string()),
+                JobEvent::ScreenshotSaved(path) => {
+                    let notice = self.saved(&path, "screenshot");
+                    self.notify(notice);
+                }
+                JobEvent::ScreenshotFailed(error) => self.fail(error.to_string()),
                 JobEvent::OpenEnded(SceneError::Cancelled) => self.notify("opening cancelled"),
                 JobEvent::OpenEnded(error) => self.fail(error.to_string()),
                 JobEvent::Uploaded(mut scene) => {

@@ -267,25 +267,7 @@ impl Drawing {
     /// exceeds what one target may be (its largest 2D texture, storage buffer or buffer), or
     /// `asked` (`--tile-size`); `None` where it is drawn whole.
     pub fn tile_side(&self, size: (u32, u32), asked: Option<u32>) -> Option<u32> {
-        if asked.is_some() {
-            return asked;
-        }
-        let limits = &self.context.limits;
-        let fits = |width: u32, height: u32| {
-            let row_bytes = (width as u64 * 4).div_ceil(256) * 256;
-            width <= limits.max_texture_dimension_2d
-                && height <= limits.max_texture_dimension_2d
-                && width as u64 * height as u64 * 4 <= self.context.max_storage_bytes()
-                && row_bytes * height as u64 <= limits.max_buffer_size
-        };
-        if fits(size.0, size.1) {
-            return None;
-        }
-        let mut side = (limits.max_texture_dimension_2d.min(4096) / 16 * 16).max(16);
-        while side > 16 && !fits(side, side) {
-            side /= 2;
-        }
-        Some(side)
+        asked.or_else(|| self.context.tile_side([size.0, size.1]))
     }
 
     /// Draws an image of `size` in tiles of `side` pixels (see [`RenderTarget::tile`]), each
