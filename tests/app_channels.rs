@@ -239,3 +239,87 @@ fn ome_zarr_channels_take_their_omero_colors_and_windows() {
     assert_eq!(channels[0].color, [255, 255, 0]);
     assert_eq!(channels[1].transfer.window.high, 200.0);
 }
+
+/// The value range of the volume on screen, in its units.
+fn value_range(harness: &egui_kittest::Harness<'_, voxscope::app::VoxscopeApp>) -> (f64, f64) {
+    let data = harness.state().volume_data().expect("a volume is open");
+    let [low, high] = data.quantized.value_range;
+    (low, high)
+}
+
+/// Picks `item` from the combo box labelled `combo` (its popup opens on a click).
+fn pick(
+    harness: &mut egui_kittest::Harness<'_, voxscope::app::VoxscopeApp>,
+    combo: &str,
+    item: &str,
+) {
+    harness.get_by_label(combo).click();
+    harness.run();
+    // The popup's entry, a button (a label elsewhere may read the same, e.g. a number).
+    harness
+        .query_all_by_label(item)
+        .find(|node| node.accesskit_node().role() == egui::accesskit::Role::Button)
+        .expect("the entry is in the popup")
+        .click();
+    settle(harness);
+    assert_eq!(harness.state().error(), None);
+}
+
+#[test]
+fn a_plate_opens_its_first_field_and_the_well_and_field_are_picked_in_the_panel() {
+    // tests/data/plates: wells A/1 and B/3 of two fields each; a field's values are
+    // 10 · well + 4 · field + (x + y + z) mod 4 (well 0 is A/1, 1 is B/3).
+    let mut harness = harness();
+    open(&mut harness, "tests/data/plates/plate-v04.ome.zarr");
+    let (container, opened) = harness.state().container().expect("a plate");
+    assert!(matches!(container, voxscope_volume::Container::Plate(_)));
+    assert_eq!(opened, "A/1/0");
+    assert_eq!(value_range(&harness), (0.0, 3.0));
+    harness.get_by_label("Plate, channels and time");
+    pick(&mut harness, "Field", "1");
+    assert_eq!(
+        harness.state().container().expect("still the plate").1,
+        "A/1/1"
+    );
+    assert_eq!(value_range(&harness), (4.0, 7.0));
+    // Another well opens its first field.
+    pick(&mut harness, "Well", "B/3 (2 fields)");
+    assert_eq!(
+        harness.state().container().expect("still the plate").1,
+        "B/3/0"
+    );
+    assert_eq!(value_range(&harness), (10.0, 13.0));
+    let (name, _) = harness.state().volume().expect("open");
+    assert!(name.ends_with("plate-v04.ome.zarr/B/3/0"), "{name}");
+    // Another file: no plate.
+    open(&mut harness, OME_ZARR);
+    assert!(harness.state().container().is_none());
+    assert!(harness.query_by_label("Well").is_none());
+}
+
+#[test]
+fn a_bioformats2raw_root_of_two_series_offers_the_other_in_the_panel() {
+    let mut harness = harness();
+    open(&mut harness, "tests/data/series/two-series.zarr");
+    let (container, opened) = harness.state().container().expect("a container");
+    assert!(matches!(container, voxscope_volume::Container::Series(_)));
+    assert_eq!(opened, "0");
+    let before = harness.state().volume_data().expect("open").volume.dims;
+    harness.get_by_label("Series").click();
+    harness.run();
+    let entry = harness
+        .query_all_by_label_contains("(5×4×3)")
+        .filter_map(|node| node.accesskit_node().label())
+        .next()
+        .expect("series 1 is listed with its shape");
+    assert!(entry.starts_with("1"), "{entry}");
+    harness.get_by_label(&entry).click();
+    settle(&mut harness);
+    assert_eq!(harness.state().error(), None);
+    assert_eq!(harness.state().container().expect("still the root").1, "1");
+    assert_eq!(
+        harness.state().volume_data().expect("open").volume.dims,
+        [5, 4, 3]
+    );
+    assert_ne!(before, [5, 4, 3]);
+}

@@ -19,7 +19,7 @@ use voxscope_render::{
 };
 use voxscope_stream::{
     BRICK_SIZE, BrickData, BrickError, BrickId, BrickSource, Downsampling, MemorySource,
-    PADDED_BRICK_VOXELS, PyramidShape, StreamOptions, StreamStatus, ZarrSource,
+    PADDED_BRICK_VOXELS, PyramidShape, StreamOptions, StreamStatus, ValueRange, ZarrSource,
 };
 use voxscope_volume::ome_zarr::{Pyramid, PyramidOptions};
 use voxscope_volume::{
@@ -316,24 +316,56 @@ fn uncorrected(max_level: u32) -> RenderSettings {
     }
 }
 
-#[test]
-fn a_view_three_times_the_atlas_completes_coarser_where_least_important_and_refines_with_room() {
-    let context = gpu();
-    let prepared = &*NOISE;
-    // The whole volume in view, rays through it: most of level 0 is needed.
+/// The whole noise in view, rays through it (most of level 0 is needed), refined with room
+/// for all of its bricks at full detail: the camera, the settings and what was drawn.
+fn the_whole_volume_in_view(context: &GpuContext) -> (Camera, RenderSettings, Refined) {
     let camera = Camera {
         distance: 2.5,
         ..close_camera(30.0)
     };
-    let full = settings(prepared.octree.depth);
-    // The view's bricks at full detail, with room for all of them.
+    let full = settings(NOISE.octree.depth);
     let mut roomy = streaming(
-        &context,
+        context,
         PYRAMID.clone(),
         options(level0_bytes() * 2),
-        &prepared.transfer,
+        &NOISE.transfer,
     );
-    let whole = refine(&context, &mut roomy, &camera, &full);
+    let whole = refine(context, &mut roomy, &camera, &full);
+    (camera, full, whole)
+}
+
+/// A streaming renderer of `source` (the noise's pyramid) and its GPU budget, whose atlas
+/// holds a third of a view needing `needed` bricks of `slot_bytes`. (The budget pays for the
+/// page table and request buffers too, and a fifth of the slots is the frame's own room: it
+/// grows a slot at a time until it fits.)
+fn a_third_of_the_view(
+    context: &GpuContext,
+    source: Arc<dyn BrickSource>,
+    needed: usize,
+    slot_bytes: u64,
+) -> (VolumeRenderer, u64) {
+    let mut budget = slot_bytes * (needed as u64 / 3);
+    loop {
+        let Ok(mut renderer) =
+            VolumeRenderer::new_stream(context, source.clone(), options(budget), &NOISE.transfer)
+        else {
+            budget += slot_bytes; // too small for the pinned levels and a view yet
+            continue;
+        };
+        let counters = renderer.update(context).expect("streaming").counters;
+        let unpinned = counters.slots - counters.slots_pinned;
+        if (unpinned - unpinned / 5) * 3 + 6 >= needed {
+            return (renderer, budget);
+        }
+        budget += slot_bytes;
+    }
+}
+
+#[test]
+fn a_view_three_times_the_atlas_completes_coarser_where_least_important_and_refines_with_room() {
+    let context = gpu();
+    let prepared = &*NOISE;
+    let (camera, full, whole) = the_whole_volume_in_view(&context);
     assert_eq!(whole.status.budget, None, "2× level 0 holds the view");
     let needed = whole.status.counters.view_slots;
     eprintln!("the view needs {needed} bricks at full detail");
@@ -341,24 +373,7 @@ fn a_view_three_times_the_atlas_completes_coarser_where_least_important_and_refi
     // times what it can hold. (The budget pays for the page table and request buffers too, and
     // a fifth of the slots is the frame's own room: grow it a slot at a time until it fits.)
     let slot_bytes = whole.status.counters.slot_bytes;
-    let mut budget = slot_bytes * (needed as u64 / 3);
-    let mut renderer = loop {
-        let Ok(mut renderer) = VolumeRenderer::new_stream(
-            &context,
-            PYRAMID.clone(),
-            options(budget),
-            &prepared.transfer,
-        ) else {
-            budget += slot_bytes; // too small for the pinned levels and a view yet
-            continue;
-        };
-        let counters = renderer.update(&context).expect("streaming").counters;
-        let unpinned = counters.slots - counters.slots_pinned;
-        if (unpinned - unpinned / 5) * 3 + 6 >= needed {
-            break renderer;
-        }
-        budget += slot_bytes;
-    };
+    let (mut renderer, budget) = a_third_of_the_view(&context, PYRAMID.clone(), needed, slot_bytes);
     let refined = refine(&context, &mut renderer, &camera, &full);
     let status = &refined.status;
     let counters = &status.counters;
@@ -456,6 +471,75 @@ fn a_view_three_times_the_atlas_completes_coarser_where_least_important_and_refi
         db >= 60.0,
         "room for the view: full detail again ({db:.1} dB)"
     );
+}
+
+/// The noise's pyramid, whose level-1 bricks a store's per-chunk ranges say hold only the
+/// lowest two value levels (invisible under the noise's transfer function) while level 0 is
+/// visible: as a mean of a thin bright structure can fall below what the transfer function
+/// shows while the voxels it averages do not.
+struct InvisibleParents(Arc<MemorySource>);
+
+impl BrickSource for InvisibleParents {
+    fn name(&self) -> &str {
+        "invisible parents"
+    }
+    fn shape(&self) -> &PyramidShape {
+        self.0.shape()
+    }
+    fn spacing(&self) -> [f64; 3] {
+        self.0.spacing()
+    }
+    fn quantization(&self) -> Quantization {
+        self.0.quantization()
+    }
+    fn max_value_level(&self) -> u16 {
+        self.0.max_value_level()
+    }
+    fn read_brick(&self, id: BrickId) -> Result<BrickData, BrickError> {
+        self.0.read_brick(id)
+    }
+    fn known_range(&self, id: BrickId) -> Option<ValueRange> {
+        (id.level == 1).then_some(ValueRange { min: 0, max: 1 })
+    }
+}
+
+#[test]
+fn a_view_larger_than_the_atlas_completes_where_the_coarser_bricks_are_invisible() {
+    let context = gpu();
+    let prepared = &*NOISE;
+    let table = prepared
+        .transfer
+        .lookup_table(prepared.quantized.quantization);
+    assert!(
+        table[..2]
+            .iter()
+            .all(|&packed| voxscope_octree::unpack_rgba(packed)[3] == 0),
+        "the premise: the lowest two levels are transparent"
+    );
+    let (camera, full, whole) = the_whole_volume_in_view(&context);
+    let needed = whole.status.counters.view_slots;
+    let source: Arc<dyn BrickSource> = Arc::new(InvisibleParents(PYRAMID.clone()));
+    let (mut renderer, _) =
+        a_third_of_the_view(&context, source, needed, whole.status.counters.slot_bytes);
+    // Before, the cut counted each invisible level-1 brick standing for left-out level-0 ones
+    // as a slot to load; never loaded, the cut never stood and the view never completed.
+    let refined = refine(&context, &mut renderer, &camera, &full);
+    let limit = refined.status.budget.expect("the budget limits the view");
+    eprintln!(
+        "complete after {} frames, {} bricks read; {}",
+        refined.frames,
+        refined.status.counters.loads,
+        limit.describe()
+    );
+    assert!(limit.left_out > 0);
+    // Each invisible brick enters the page table once, not once a frame.
+    for (level, counters) in refined.status.counters.levels.iter().enumerate() {
+        assert!(
+            counters.empty as u64 <= counters.total as u64,
+            "level {level}: {counters:?}"
+        );
+    }
+    save(&refined.image, "invisible-parents");
 }
 
 #[test]

@@ -1,16 +1,19 @@
 //! Channels and time points of the volume on screen (a multi-channel or time-lapse file):
 //! the composite of all channels or one channel, a time slider, play / pause at a chosen
 //! frame rate, and how many frames to prefetch. A change shows that frame with the view as it
-//! is: from the prefetch at once, else once loaded in the background.
+//! is: from the prefetch at once, else once loaded in the background. Where the image is one
+//! of a container's (an HCS plate's fields, a bioformats2raw root's series), the well and
+//! field, or the series, are picked here too: another image opens in the background.
 
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use egui::Ui;
 
 use super::command::{Command, CommandQueue};
 use super::settings::AppSettings;
-use voxscope_scene::MAX_PREFETCH_FRAMES;
-use voxscope_volume::{MAX_CHANNELS, Selection, Series};
+use voxscope_scene::{MAX_PREFETCH_FRAMES, VolumeSource};
+use voxscope_volume::{Container, MAX_CHANNELS, Selection, Series};
 
 /// Frames a second that playback may ask for.
 pub const FRAME_RATES: std::ops::RangeInclusive<f32> = 0.5..=30.0;
@@ -64,9 +67,50 @@ impl Playback {
     }
 }
 
+/// The container the image on screen is one of, and its root as opened: another of its
+/// images opens as `ROOT/PATH`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OpenContainer {
+    pub root: String,
+    pub container: Arc<Container>,
+}
+
+impl OpenContainer {
+    /// The container after `source` opened with `series`: the one it says it is in (opened
+    /// at its root), else `previous` where `source` is one of its images (picked here, and
+    /// opened at its own path), else none.
+    pub fn follow(previous: Option<Self>, source: &VolumeSource, series: &Series) -> Option<Self> {
+        let VolumeSource::Spec(spec) = source else {
+            return None;
+        };
+        if let Some(container) = &series.container {
+            return Some(Self {
+                root: spec.trim_end_matches('/').to_owned(),
+                container: container.clone(),
+            });
+        }
+        let previous = previous?;
+        let image = spec
+            .strip_prefix(previous.root.as_str())?
+            .strip_prefix('/')?
+            .trim_end_matches('/');
+        Some(Self {
+            container: Arc::new(previous.container.with_opened(image)?),
+            root: previous.root,
+        })
+    }
+
+    /// The source of the container's image `path`.
+    fn source(&self, path: &str) -> VolumeSource {
+        VolumeSource::Spec(format!("{}/{path}", self.root))
+    }
+}
+
 /// What the controls show of the frame on screen.
 pub struct Shown<'a> {
     pub series: &'a Series,
+    /// The container the image is one of, if any.
+    pub container: Option<&'a OpenContainer>,
     /// Every channel is shown as the composite.
     pub composite: bool,
     /// Frames held ready ahead.
@@ -87,16 +131,23 @@ pub fn show(
     queue: &mut CommandQueue,
 ) {
     let series = shown.series;
-    if series.channels.len() < 2 && series.time_points < 2 {
+    if series.channels.len() < 2 && series.time_points < 2 && shown.container.is_none() {
         return;
     }
     let selected = series.selected;
-    ui.heading("Channels and time");
+    ui.heading(match shown.container.map(|c| c.container.as_ref()) {
+        Some(Container::Plate(_)) => "Plate, channels and time",
+        Some(Container::Series(_)) => "Series, channels and time",
+        None => "Channels and time",
+    });
     ui.add_space(4.0);
     egui::Grid::new("frame_grid")
         .num_columns(2)
         .spacing([8.0, 6.0])
         .show(ui, |ui| {
+            if let Some(open) = shown.container {
+                container_rows(ui, open, queue);
+            }
             if series.channels.len() > 1 {
                 let label = ui.label("Channel");
                 let name = |index: usize| match &series.channels[index].name {
@@ -190,4 +241,91 @@ pub fn show(
             }
         });
     ui.separator();
+}
+
+/// The well and field of a plate, or the series of a bioformats2raw root: picking one opens
+/// that image.
+fn container_rows(ui: &mut Ui, open: &OpenContainer, queue: &mut CommandQueue) {
+    let opened = open.container.opened();
+    match open.container.as_ref() {
+        Container::Plate(plate) => {
+            let (well, field) = opened.rsplit_once('/').unwrap_or((opened.as_str(), ""));
+            let label = ui.label("Well");
+            egui::ComboBox::from_id_salt("well")
+                .selected_text(well)
+                .show_ui(ui, |ui| {
+                    for (path, fields) in &plate.wells {
+                        let text = format!("{path} ({} fields)", fields.len());
+                        let clicked = ui
+                            .add_enabled(
+                                !fields.is_empty(),
+                                egui::Button::selectable(path == well, text),
+                            )
+                            .clicked();
+                        if clicked && path != well {
+                            queue.send(Command::Open(open.source(&format!("{path}/{}", fields[0]))));
+                        }
+                    }
+                })
+                .response
+                .labelled_by(label.id)
+                .on_hover_text(format!(
+                    "The plate{}: rows {}, columns {}; {} wells. Another well opens its first field",
+                    plate.name.as_ref().map(|n| format!(" {n}")).unwrap_or_default(),
+                    plate.rows.join(" "),
+                    plate.columns.join(" "),
+                    plate.wells.len()
+                ));
+            ui.end_row();
+            let fields = plate
+                .wells
+                .iter()
+                .find(|(path, _)| path == well)
+                .map(|(_, fields)| fields.as_slice())
+                .unwrap_or_default();
+            let label = ui.label("Field");
+            egui::ComboBox::from_id_salt("field")
+                .selected_text(field)
+                .show_ui(ui, |ui| {
+                    for path in fields {
+                        if ui.selectable_label(path == field, path).clicked() && path != field {
+                            queue.send(Command::Open(open.source(&format!("{well}/{path}"))));
+                        }
+                    }
+                })
+                .response
+                .labelled_by(label.id)
+                .on_hover_text("The well's field (image) shown");
+            ui.end_row();
+        }
+        Container::Series(found) => {
+            let name = |index: usize| {
+                let entry = &found.series[index];
+                let mut text = index.to_string();
+                if let Some(name) = &entry.name {
+                    text.push_str(&format!(": {name}"));
+                }
+                if let Some((shape, _)) = &entry.dims {
+                    let shape: Vec<String> = shape.iter().map(u64::to_string).collect();
+                    text.push_str(&format!(" ({})", shape.join("×")));
+                }
+                text
+            };
+            let label = ui.label("Series");
+            egui::ComboBox::from_id_salt("series")
+                .selected_text(name(found.opened))
+                .show_ui(ui, |ui| {
+                    for index in 0..found.series.len() {
+                        let this = index == found.opened;
+                        if ui.selectable_label(this, name(index)).clicked() && !this {
+                            queue.send(Command::Open(open.source(&found.series[index].path)));
+                        }
+                    }
+                })
+                .response
+                .labelled_by(label.id)
+                .on_hover_text("The bioformats2raw container's image shown");
+            ui.end_row();
+        }
+    }
 }

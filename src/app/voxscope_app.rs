@@ -14,7 +14,7 @@ use super::channel_list;
 use super::command::{Command, CommandQueue};
 use super::dialogs::DialogKind;
 use super::file_browser::{BrowserOutcome, FileBrowser};
-use super::frame_controls::{self, Playback};
+use super::frame_controls::{self, OpenContainer, Playback};
 use super::jobs::{JobEvent, Jobs};
 use super::menu::{self, NOTICE_DURATION};
 use super::movie_panel::{self, MoviePlan, MoviePreview};
@@ -74,6 +74,8 @@ pub struct VoxscopeApp {
     /// Screenshots at a scale are drawn in tiles of this side even where the device draws
     /// them whole (tests; `None`: tiles only beyond the device's targets).
     pub screenshot_tile: Option<u32>,
+    /// The container (plate, bioformats2raw root) the image on screen is one of.
+    pub(super) container: Option<OpenContainer>,
 }
 
 impl VoxscopeApp {
@@ -127,6 +129,7 @@ impl VoxscopeApp {
             preview: None,
             screenshot_scale: 1,
             screenshot_tile: None,
+            container: None,
         };
         if app.gpu.is_none() {
             app.fail("voxscope needs the wgpu renderer; no GPU device was handed to the app");
@@ -169,6 +172,13 @@ impl VoxscopeApp {
     /// The frames of the time series held ready ahead of the one on screen.
     pub fn prefetched(&self) -> Vec<FrameKey> {
         self.prefetch.ready()
+    }
+
+    /// The container (plate, bioformats2raw root) the image on screen is one of, and the
+    /// path of that image in it.
+    pub fn container(&self) -> Option<(&voxscope_volume::Container, String)> {
+        let open = self.container.as_ref()?;
+        Some((open.container.as_ref(), open.container.opened()))
     }
 
     /// The frame on screen.
@@ -491,6 +501,11 @@ impl VoxscopeApp {
         if let VolumeSource::Spec(spec) = &scene.data.source {
             self.settings.remember(spec);
         }
+        self.container = OpenContainer::follow(
+            self.container.take(),
+            &scene.data.source,
+            &scene.data.volume.series,
+        );
         // The distance is in units of this volume's size, and a zoom chosen for another
         // volume's detail means nothing here: the direction stays, zoom and pan do not.
         self.settings.camera.pan = [0.0; 3];
@@ -619,6 +634,7 @@ impl eframe::App for VoxscopeApp {
                         if let Some(scene) = &self.scene {
                             let shown = frame_controls::Shown {
                                 series: &scene.data.volume.series,
+                                container: self.container.as_ref(),
                                 composite: scene.composite.is_some(),
                                 prefetched: self.prefetch.ready().len(),
                                 streamed: scene.renderer.stream().is_some(),

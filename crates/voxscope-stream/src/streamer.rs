@@ -36,6 +36,13 @@ const MOTION_LOOKAHEAD: f64 = 8.0;
 /// Prefetch neighbours only when a frame asked for at most this many bricks.
 const PREFETCH_AROUND: usize = 1024;
 
+/// Frames in a row in which bricks wait in RAM with no slot to go to and nothing is uploaded,
+/// after which the view stands on what the atlas holds (complete at the budget) rather than
+/// waiting for slots that nothing frees. A slot frees when a brick placed since replaces a
+/// stand-in the frame drew, so frames without any placement change nothing; a few frames
+/// cover the feedback's latency.
+const STALLED_FRAMES: u32 = 8;
+
 /// Bricks of the coarsest levels that stay in the atlas, so every ray has a fallback: every
 /// level of a single brick.
 fn pinned_levels(shape: &PyramidShape) -> Vec<u32> {
@@ -71,6 +78,9 @@ pub struct Streamer {
     missing: usize,
     /// Wanted bricks in RAM and not yet uploaded, best first.
     ready: Vec<Request>,
+    /// Frames in a row in which ready bricks found no slot and nothing was uploaded: every
+    /// slot holds a brick the frame drew, and nothing will free one (see [`STALLED_FRAMES`]).
+    no_room_frames: u32,
     /// Table entries that hold no slot, oldest first (dropped when the table is full).
     metadata: VecDeque<u32>,
     /// Bricks that could not be read (their table entries say so: rays draw a coarser level).
@@ -153,6 +163,7 @@ impl Streamer {
             frame: 0,
             feedback_frame: None,
             feedback_missing: 0,
+            no_room_frames: 0,
             changed_frame: 0,
             wanted: KeyMap::default(),
             missing: 0,
@@ -551,6 +562,10 @@ impl Streamer {
     /// function makes that range invisible; if so the brick enters the table without a slot
     /// (as an evicted one would), so that rays skip it and nothing is loaded.
     fn known_invisible(&mut self, key: u32, id: BrickId) -> bool {
+        if let Some(entry) = self.table.get(key) {
+            // Entered already (read, or known invisible before): its bit says.
+            return entry.cell & ENTRY_FAILED == 0 && entry.slot & ENTRY_VISIBLE == 0;
+        }
         let Some(range) = self.source.known_range(id) else {
             return false;
         };
@@ -582,6 +597,24 @@ impl Streamer {
             }
             None => false,
         }
+    }
+
+    /// Whether `key` takes no slot in a view: [`Self::satisfied`], or its range (known without
+    /// reading it, or from when it was last read) is invisible, so that rays skip it. A coarser
+    /// brick of a cut may be invisible while the finer ones it stands for are not (a mean of
+    /// a thin bright structure falls below the transfer function's visible values): counted as
+    /// a slot to load, it would never load, and the cut would never stand.
+    fn needs_no_slot(&self, key: u32) -> bool {
+        if self.satisfied(key) {
+            return true;
+        }
+        if let Some(entry) = self.table.get(key) {
+            return entry.slot & ENTRY_VISIBLE == 0;
+        }
+        self.shape
+            .brick_of(key)
+            .and_then(|id| self.source.known_range(id))
+            .is_some_and(|range| !self.range_visible(range.packed()))
     }
 
     fn take_feedback(&mut self, feedback: Feedback<'_>, view: Option<ViewPoint>) {
@@ -655,28 +688,32 @@ impl Streamer {
         // shortage, while stand-ins are drawn, delays bricks but leaves none out).
         let room = self.budget_slots().saturating_sub(committed.len());
         let cut = cut_within(&requests, room, &self.shape, &view, |key| {
-            self.satisfied(key)
+            self.needs_no_slot(key)
         });
         let available = self.slots.available(feedback.frame.max(1));
-        let cut_now = (available < room).then(|| {
-            cut_within(&requests, available, &self.shape, &view, |key| {
-                self.satisfied(key)
+        // Stalled: bricks wait in RAM for slots that nothing will free (the bricks a cut loads
+        // bring their coarser ancestors along, which the cut does not count). What the atlas
+        // holds is then the cut, as when stuck below.
+        let stalled = self.no_room_frames >= STALLED_FRAMES;
+        let cut_now = (available < room || stalled).then(|| {
+            let room_now = if stalled { 0 } else { available };
+            cut_within(&requests, room_now, &self.shape, &view, |key| {
+                self.needs_no_slot(key)
             })
         });
         let loads_now = cut_now.as_ref().map_or(&cut.load, |now| &now.load).clone();
         // The cut counts every asked brick as a slot; many turn out uniform (no slot) once
         // read. So the cut stands only once everything it loads is in: until then the rest is
         // just not loaded yet, and the next frame's cut knows more.
-        if !cut.standing.is_empty() && cut.load.iter().all(|r| self.satisfied(r.key)) {
+        if !cut.standing.is_empty() && cut.load.iter().all(|r| self.needs_no_slot(r.key)) {
             self.stand_in(&cut.standing, view);
         } else if let Some(now) = cut_now.filter(|now| {
             // Stuck: every slot holds a brick the frame drew (wanted, or drawn in place of a
             // finer one), nothing can be placed without evicting one, and nothing is on its
             // way. What the atlas holds is the cut: its coarser bricks stand for the rest.
             !now.standing.is_empty()
-                && now.load.iter().all(|r| self.satisfied(r.key))
-                && self.ready.is_empty()
-                && self.queue.counts() == (0, 0)
+                && now.load.iter().all(|r| self.needs_no_slot(r.key))
+                && (stalled || (self.ready.is_empty() && self.queue.counts() == (0, 0)))
         }) {
             self.stand_in(&now.standing, view);
         }
@@ -797,6 +834,7 @@ impl Streamer {
 
     /// `keys` stand for the bricks below them in `view` from now on.
     fn stand_in(&mut self, keys: &[u32], view: ViewPoint) {
+        self.no_room_frames = 0;
         self.standing.extend(keys.iter().copied());
         self.standing_view = Some(view);
         self.changed_frame = self.frame;
@@ -834,6 +872,7 @@ impl Streamer {
 
     /// Forgets what stands for what: rays' asks load again and the next cut decides.
     fn cut_anew(&mut self) {
+        self.no_room_frames = 0;
         self.standing.clear();
         for level in &mut self.counters.levels {
             level.left_out = 0;
@@ -921,6 +960,11 @@ impl Streamer {
             }
         }
         self.ready = waiting;
+        if !uploads.is_empty() {
+            self.no_room_frames = 0;
+        } else if overflow {
+            self.no_room_frames = self.no_room_frames.saturating_add(1);
+        }
         self.counters.bytes_uploaded += bytes;
         let now = Instant::now();
         self.uploads_recent.push_back((now, bytes));

@@ -37,7 +37,7 @@ pub use raw::RawLayout;
 pub use raw::parse_dims;
 pub use registry::{LoadOptions, load};
 pub use sample::{SAMPLE_NAME, sample};
-pub use series::{ChannelInfo, Selection, Series};
+pub use series::{ChannelInfo, Container, Selection, Series};
 pub use synthetic::SyntheticKind;
 pub use values::{Histogram, LEVELS, Quantization, QuantizedVolume, ValueWindow, format_value};
 pub use voxel_type::{Endian, Scalar, VoxelData, VoxelType};

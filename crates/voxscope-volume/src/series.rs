@@ -2,8 +2,11 @@
 //! reads ([`Selection`]), and what the file holds besides it ([`Series`]), so that `info` can
 //! list the channels and the app can offer the others.
 
+use std::sync::Arc;
+
 use super::ValueWindow;
 use super::error::Problem;
+use super::ome_zarr::{Bioformats2raw, Plate};
 
 /// Which 3-D frame of a multi-channel, time-lapse file is read (both default to 0). Every
 /// loader honours it; a file without such axes has one channel and one time point.
@@ -57,6 +60,63 @@ pub struct Series {
     pub time_points: usize,
     /// The frame the volume holds.
     pub selected: Selection,
+    /// The container the image is one of (an HCS plate's field, a bioformats2raw root's
+    /// series), where it was opened through the container's root.
+    pub container: Option<Arc<Container>>,
+}
+
+/// A store holding several images, opened at its root: an HCS plate (OME-Zarr `plate`, each
+/// well's fields an image) or a bioformats2raw root of several series.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Container {
+    Plate(Plate),
+    Series(Bioformats2raw),
+}
+
+impl Container {
+    /// Each image's path below the root, in the container's order: `ROW/COLUMN/FIELD` for a
+    /// plate's fields, the series' groups for a bioformats2raw root.
+    pub fn images(&self) -> Vec<String> {
+        match self {
+            Self::Plate(plate) => plate
+                .wells
+                .iter()
+                .flat_map(|(well, fields)| fields.iter().map(move |f| format!("{well}/{f}")))
+                .collect(),
+            Self::Series(found) => found.series.iter().map(|s| s.path.clone()).collect(),
+        }
+    }
+
+    /// The path below the root of the image open.
+    pub fn opened(&self) -> String {
+        match self {
+            Self::Plate(plate) => plate.field.clone(),
+            Self::Series(found) => found
+                .series
+                .get(found.opened)
+                .map(|s| s.path.clone())
+                .unwrap_or_default(),
+        }
+    }
+
+    /// The same container with `image` (one of [`Self::images`]) open instead; `None` where
+    /// it holds no such image.
+    pub fn with_opened(&self, image: &str) -> Option<Self> {
+        if !self.images().iter().any(|i| i == image) {
+            return None;
+        }
+        Some(match self {
+            Self::Plate(plate) => Self::Plate(Plate {
+                field: image.to_owned(),
+                ..plate.clone()
+            }),
+            Self::Series(found) => Self::Series(Bioformats2raw {
+                opened: found.series.iter().position(|s| s.path == image)?,
+                chosen: true,
+                ..found.clone()
+            }),
+        })
+    }
 }
 
 impl Default for Series {
@@ -73,6 +133,7 @@ impl Series {
             channels: vec![ChannelInfo::default(); channels.max(1)],
             time_points: time_points.max(1),
             selected,
+            container: None,
         }
     }
 

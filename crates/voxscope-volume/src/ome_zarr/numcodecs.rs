@@ -32,65 +32,75 @@ use zarrs::metadata::v2::MetadataV2;
 use zarrs::metadata::v3::MetadataV3;
 use zarrs::plugin::{PluginCreateError, ZarrVersion};
 
+/// The plugin boilerplate of a numcodecs compressor `$codec` (a struct holding its JSON
+/// `configuration`): its Zarr v3 and v2 names, its registration, its creation from either
+/// version's metadata and the codec traits every such compressor shares (its configuration
+/// written back as read; no partial decoding or encoding).
+macro_rules! numcodecs_plugin {
+    ($codec:ident, v3: $v3:literal, v2: $v2:literal) => {
+        zarrs::plugin::impl_extension_aliases!($codec,
+            v3: $v3, [],
+            v2: $v2, []
+        );
+
+        inventory::submit! {
+            CodecPluginV3::new::<$codec>()
+        }
+
+        inventory::submit! {
+            CodecPluginV2::new::<$codec>()
+        }
+
+        impl CodecTraitsV3 for $codec {
+            fn create(metadata: &MetadataV3) -> Result<Codec, PluginCreateError> {
+                let configuration = metadata.configuration().cloned().unwrap_or_default().into();
+                Ok(Codec::BytesToBytes(Arc::new(Self { configuration })))
+            }
+        }
+
+        impl CodecTraitsV2 for $codec {
+            fn create(metadata: &MetadataV2) -> Result<Codec, PluginCreateError> {
+                let configuration = metadata.configuration().clone().into();
+                Ok(Codec::BytesToBytes(Arc::new(Self { configuration })))
+            }
+        }
+
+        impl CodecTraits for $codec {
+            fn as_any(&self) -> &dyn Any {
+                self
+            }
+
+            fn configuration(
+                &self,
+                _version: ZarrVersion,
+                _options: &CodecMetadataOptions,
+            ) -> Option<Configuration> {
+                Some(self.configuration.clone().into())
+            }
+
+            fn partial_decoder_capability(&self) -> PartialDecoderCapability {
+                PartialDecoderCapability {
+                    partial_read: false,
+                    partial_decode: false,
+                }
+            }
+
+            fn partial_encoder_capability(&self) -> PartialEncoderCapability {
+                PartialEncoderCapability {
+                    partial_encode: false,
+                }
+            }
+        }
+    };
+}
+
 /// numcodecs' LZ4: the decoded size as a 4-byte little-endian integer, then one LZ4 block.
 #[derive(Debug, Clone)]
 pub struct Lz4Codec {
     configuration: Map<String, Value>,
 }
 
-zarrs::plugin::impl_extension_aliases!(Lz4Codec,
-    v3: "numcodecs.lz4", [],
-    v2: "lz4", []
-);
-
-inventory::submit! {
-    CodecPluginV3::new::<Lz4Codec>()
-}
-
-inventory::submit! {
-    CodecPluginV2::new::<Lz4Codec>()
-}
-
-impl CodecTraitsV3 for Lz4Codec {
-    fn create(metadata: &MetadataV3) -> Result<Codec, PluginCreateError> {
-        let configuration = metadata.configuration().cloned().unwrap_or_default().into();
-        Ok(Codec::BytesToBytes(Arc::new(Self { configuration })))
-    }
-}
-
-impl CodecTraitsV2 for Lz4Codec {
-    fn create(metadata: &MetadataV2) -> Result<Codec, PluginCreateError> {
-        let configuration = metadata.configuration().clone().into();
-        Ok(Codec::BytesToBytes(Arc::new(Self { configuration })))
-    }
-}
-
-impl CodecTraits for Lz4Codec {
-    fn as_any(&self) -> &dyn Any {
-        self
-    }
-
-    fn configuration(
-        &self,
-        _version: ZarrVersion,
-        _options: &CodecMetadataOptions,
-    ) -> Option<Configuration> {
-        Some(self.configuration.clone().into())
-    }
-
-    fn partial_decoder_capability(&self) -> PartialDecoderCapability {
-        PartialDecoderCapability {
-            partial_read: false,
-            partial_decode: false,
-        }
-    }
-
-    fn partial_encoder_capability(&self) -> PartialEncoderCapability {
-        PartialEncoderCapability {
-            partial_encode: false,
-        }
-    }
-}
+numcodecs_plugin!(Lz4Codec, v3: "numcodecs.lz4", v2: "lz4");
 
 impl BytesToBytesCodecTraits for Lz4Codec {
     fn into_dyn(self: Arc<Self>) -> Arc<dyn BytesToBytesCodecTraits> {
@@ -181,32 +191,7 @@ pub struct LzmaCodec {
     configuration: Map<String, Value>,
 }
 
-zarrs::plugin::impl_extension_aliases!(LzmaCodec,
-    v3: "numcodecs.lzma", [],
-    v2: "lzma", []
-);
-
-inventory::submit! {
-    CodecPluginV3::new::<LzmaCodec>()
-}
-
-inventory::submit! {
-    CodecPluginV2::new::<LzmaCodec>()
-}
-
-impl CodecTraitsV3 for LzmaCodec {
-    fn create(metadata: &MetadataV3) -> Result<Codec, PluginCreateError> {
-        let configuration = metadata.configuration().cloned().unwrap_or_default().into();
-        Ok(Codec::BytesToBytes(Arc::new(Self { configuration })))
-    }
-}
-
-impl CodecTraitsV2 for LzmaCodec {
-    fn create(metadata: &MetadataV2) -> Result<Codec, PluginCreateError> {
-        let configuration = metadata.configuration().clone().into();
-        Ok(Codec::BytesToBytes(Arc::new(Self { configuration })))
-    }
-}
+numcodecs_plugin!(LzmaCodec, v3: "numcodecs.lzma", v2: "lzma");
 
 /// Python's `lzma.FORMAT_RAW`.
 const FORMAT_RAW: i64 = 3;
@@ -231,33 +216,6 @@ impl LzmaCodec {
                     && filters[0].get("id").and_then(Value::as_i64) == Some(FILTER_LZMA2)
             }
             None => false,
-        }
-    }
-}
-
-impl CodecTraits for LzmaCodec {
-    fn as_any(&self) -> &dyn Any {
-        self
-    }
-
-    fn configuration(
-        &self,
-        _version: ZarrVersion,
-        _options: &CodecMetadataOptions,
-    ) -> Option<Configuration> {
-        Some(self.configuration.clone().into())
-    }
-
-    fn partial_decoder_capability(&self) -> PartialDecoderCapability {
-        PartialDecoderCapability {
-            partial_read: false,
-            partial_decode: false,
-        }
-    }
-
-    fn partial_encoder_capability(&self) -> PartialEncoderCapability {
-        PartialEncoderCapability {
-            partial_encode: false,
         }
     }
 }

@@ -1,12 +1,14 @@
 //! Reading regions of a [`Pyramid`]'s levels: bounds checked, the selected channel and time
 //! point, a remote store's chunks fetched together, and the failing chunk named.
 
+use std::sync::Arc;
+
 use zarrs::array::data_type::Float64DataType;
 use zarrs::array::{Array, ArrayError, ArraySubset, CodecError};
 use zarrs::storage::{ReadableStorageTraits, StoreKey};
 
 use super::super::error::{Problem, escape, printable, quoted};
-use super::super::series::{ChannelInfo, Series, parse_hex_color};
+use super::super::series::{ChannelInfo, Container, Series, parse_hex_color};
 use super::super::{
     LoadError, LoadErrorKind, MAX_VOXELS, ValueWindow, VoxelData, VoxelType, format_dims,
 };
@@ -131,10 +133,16 @@ impl Pyramid {
                 }
             })
             .collect();
+        let container = match (&self.plate, &self.bioformats2raw) {
+            (Some(plate), _) => Some(Container::Plate(plate.clone())),
+            (None, Some(found)) if found.series.len() > 1 => Some(Container::Series(found.clone())),
+            (None, _) => None,
+        };
         Series {
             channels,
             time_points: self.time_points,
             selected: self.selected,
+            container: container.map(Arc::new),
         }
     }
 
