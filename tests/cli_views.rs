@@ -1,7 +1,8 @@
 //! Showing a volume to others, through the real binary: `render --save-view` and `render --view`
 //! reproduce each other, `movie --turntable` and `movie --keyframes` start (and end) at the
-//! stills of their views, every movie format holds the frames drawn, and a still drawn in
-//! tiles equals the one drawn whole.
+//! stills of their views (a composite's with each channel's color and window), every movie
+//! format holds the frames drawn, and a still drawn in tiles equals the one drawn whole (the
+//! streaming renderer's too).
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -219,6 +220,53 @@ fn a_keyframe_movie_starts_at_its_first_view_and_ends_at_its_last() {
 }
 
 #[test]
+fn a_composite_keyframe_movie_follows_each_channels_window_and_color() {
+    let dir = tempfile::tempdir().unwrap();
+    let composite = "tests/data/channels/hyperstack.tif";
+    let (a, b) = (dir.path().join("a.ron"), dir.path().join("b.ron"));
+    let draw = |name: &str, extra: &[&str]| {
+        let out = dir.path().join(name);
+        let mut args = vec!["render", composite, "--size", "32x24", "-o", text(&out)];
+        args.extend_from_slice(extra);
+        run(&args);
+        png(&out)
+    };
+    let first = draw(
+        "a.png",
+        &["--channel-window", "1:0:1700", "--save-view", text(&a)],
+    );
+    let last = draw(
+        "b.png",
+        &[
+            "--azimuth",
+            "80",
+            "--channel-window",
+            "1:0:300",
+            "--channel-colors",
+            "cyan,red",
+            "--save-view",
+            text(&b),
+        ],
+    );
+    let folder = dir.path().join("path");
+    let keyframes = format!("{},{}", text(&a), text(&b));
+    run(&[
+        "movie",
+        "--keyframes",
+        &keyframes,
+        "--frames",
+        "2",
+        "-o",
+        text(&folder),
+    ]);
+    let movie = frames(&folder);
+    assert_eq!(movie.len(), 3);
+    assert_eq!(movie[0], first, "starts with the first view's channels");
+    assert_eq!(movie[2], last, "ends with the last view's channels");
+    assert!(movie[1] != first && movie[1] != last);
+}
+
+#[test]
 fn gif_webp_and_apng_hold_every_frame_and_mp4_without_ffmpeg_says_how_to_get_it() {
     let dir = tempfile::tempdir().unwrap();
     let folder = dir.path().join("frames");
@@ -306,6 +354,8 @@ fn a_still_drawn_in_tiles_equals_the_one_drawn_whole() {
         &["--pixel-lod"][..],
         &["--renderer", "dense"],
         &["--renderer", "bricks"],
+        // Each tile refined until complete before it is read.
+        &["--renderer", "stream"],
     ] {
         let draw = |name: &str, tiles: &[&str]| {
             let out = dir.path().join(name);

@@ -535,7 +535,7 @@ fn a_view_larger_than_the_atlas_completes_where_the_coarser_bricks_are_invisible
     // Each invisible brick enters the page table once, not once a frame.
     for (level, counters) in refined.status.counters.levels.iter().enumerate() {
         assert!(
-            counters.empty as u64 <= counters.total as u64,
+            counters.empty as u64 <= counters.total,
             "level {level}: {counters:?}"
         );
     }

@@ -1,6 +1,7 @@
-//! Drawing the rulers into a saved screenshot: lines, end points, and their lengths in a small
-//! built-in pixel font (digits, a point, a space and the letters of units), so a PNG carries
-//! its measurements without a font renderer.
+//! Drawing the rulers and the axes gizmo into a saved screenshot: lines, end points, their
+//! lengths and the axes' names in a small built-in pixel font (digits, a point, a space, the
+//! letters of units and of the axes), so a PNG carries its measurements without a font
+//! renderer.
 
 use image::{Rgba, RgbaImage};
 
@@ -25,6 +26,13 @@ fn glyph(c: char) -> Option<[u8; 5]> {
         'c' => [0b000, 0b000, 0b111, 0b100, 0b111],
         'µ' => [0b000, 0b101, 0b101, 0b111, 0b100],
         'Å' => [0b010, 0b000, 0b111, 0b101, 0b101],
+        // The axes gizmo's names.
+        'x' => [0b000, 0b000, 0b101, 0b010, 0b101],
+        'y' => [0b000, 0b101, 0b111, 0b001, 0b110],
+        'z' => [0b000, 0b111, 0b011, 0b110, 0b111],
+        'R' => [0b110, 0b101, 0b110, 0b101, 0b101],
+        'A' => [0b010, 0b101, 0b111, 0b101, 0b101],
+        'S' => [0b111, 0b100, 0b111, 0b001, 0b111],
         _ => return None,
     })
 }
@@ -46,6 +54,38 @@ pub fn line(image: &mut RgbaImage, a: [f32; 2], b: [f32; 2], width: f32, color: 
         let center = [a[0] + (b[0] - a[0]) * t, a[1] + (b[1] - a[1]) * t];
         disc(image, center, radius, color);
     }
+}
+
+/// Darkens the pixels within `radius` of `center` to `keep` (0…1) of their color: the
+/// gizmo's backdrop, as the window draws it.
+pub fn shade_disc(image: &mut RgbaImage, center: [f32; 2], radius: f32, keep: f32) {
+    let reach = radius.ceil() as i64;
+    let (cx, cy) = (center[0].floor() as i64, center[1].floor() as i64);
+    for dy in -reach..=reach {
+        for dx in -reach..=reach {
+            let (x, y) = (cx + dx, cy + dy);
+            let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
+            let inside = (px - center[0]).powi(2) + (py - center[1]).powi(2) <= radius * radius;
+            if inside
+                && x >= 0
+                && y >= 0
+                && (x as u32) < image.width()
+                && (y as u32) < image.height()
+            {
+                let pixel = image.get_pixel_mut(x as u32, y as u32);
+                for channel in &mut pixel.0[..3] {
+                    *channel = (*channel as f32 * keep).round() as u8;
+                }
+            }
+        }
+    }
+}
+
+/// The width and height in pixels of `text` drawn at `scale` (without its box).
+pub fn text_size(text: &str, scale: u32) -> [f32; 2] {
+    let count = text.chars().filter(|&c| glyph(c).is_some()).count() as f32;
+    let scale = scale.max(1) as f32;
+    [(count * 4.0 - 1.0).max(0.0) * scale, 5.0 * scale]
 }
 
 /// A filled disc of `radius` pixels around `center`.

@@ -9,7 +9,7 @@ use std::time::Instant;
 use egui::{Align2, Color32, Rect, Ui, UiBuilder, vec2};
 
 use super::AppGpu;
-use super::overlays::{draw_rulers, paint_overlays_3d};
+use super::overlays::{draw_axis_gizmo, draw_rulers, paint_overlays_3d};
 use super::pane_header::{grid_strip, pair_strip, pane_label};
 use super::picking::Picking;
 use super::settings::{AppSettings, Layout, Tool};
@@ -419,6 +419,7 @@ impl CentralView {
         pixels_per_point: f32,
         scene: Option<&Scene>,
         view: &ViewState,
+        with_gizmo: bool,
     ) -> Result<image::RgbaImage, String> {
         let size = viewport::pixel_size(self.view_rect, pixels_per_point);
         let mut canvas =
@@ -442,6 +443,16 @@ impl CentralView {
                     vec2(target.width as f32, target.height as f32),
                 );
                 draw_rulers(&mut canvas, in_canvas, &drawn, scene, view);
+                // The window paints the gizmo over the first pane.
+                if let (true, false, DrawKey::Volume { camera, .. }) = (with_gizmo, any, drawn) {
+                    draw_axis_gizmo(
+                        &mut canvas,
+                        in_canvas,
+                        &camera,
+                        axis_labels(scene),
+                        pixels_per_point,
+                    );
+                }
             }
             any = true;
         }
@@ -480,7 +491,7 @@ pub fn pane_kinds(settings: &AppSettings) -> Vec<PaneKind> {
 }
 
 /// The gizmo's names for +x, +y, +z: `R A S` for patient data (the slices' rule).
-fn axis_labels(scene: &Scene) -> [&'static str; 3] {
+pub fn axis_labels(scene: &Scene) -> [&'static str; 3] {
     match SliceConvention::of_volume(&scene.data.volume) {
         SliceConvention::Radiological => ["R", "A", "S"],
         SliceConvention::Image => ["x", "y", "z"],

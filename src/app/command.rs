@@ -36,12 +36,40 @@ pub enum Command {
     CancelOpen,
     /// Save what the central view shows as PNG.
     SaveScreenshot(PathBuf),
+    /// Save the 3D view drawn again at `scale` times its pixels as PNG, in the background.
+    SaveScaledScreenshot { path: PathBuf, scale: u32 },
+    /// The scale the next screenshot chosen in the file dialog is saved at (1, 2 or 4).
+    SetScreenshotScale(u32),
     /// Save the transfer function as RON.
     SaveTransfer(PathBuf),
     /// Load a transfer function saved by [`Command::SaveTransfer`].
     LoadTransfer(PathBuf),
     /// Add a label file on the image's grid to the Labels section, drawn over the image.
     OpenLabels(PathBuf),
+    /// Save the view (data, camera, transfer functions, settings, rulers, layout) as a view
+    /// file (RON, voxscope-scene's `SavedView`), in the background.
+    SaveView(PathBuf),
+    /// Save the view to the view file saved or opened last in this session, else ask where
+    /// (Ctrl+S).
+    SaveViewAgain,
+    /// Open a view file: its data in the background, then the rest of the view.
+    OpenView(PathBuf),
+    /// Add the view on screen as the movie's last keyframe.
+    AddKeyframe,
+    /// Move the movie's keyframe `from` to place `to`.
+    MoveKeyframe { from: usize, to: usize },
+    /// Delete the movie's keyframe.
+    DeleteKeyframe(usize),
+    /// Where the movie goes (the Movie panel's output).
+    SetMovieOutput(PathBuf),
+    /// Play the movie's camera path in the central view.
+    PreviewMovie,
+    /// Stop the preview and show the view before it.
+    StopPreview,
+    /// Draw and write the movie in the background.
+    ExportMovie,
+    /// Stop the movie being written.
+    CancelExport,
     /// Split the central view another way.
     SetLayout(Layout),
     /// Look from the front, side or top.
@@ -102,14 +130,19 @@ impl Command {
             Self::ShowDialog(DialogKind::Open) => {
                 Some(KeyboardShortcut::new(Modifiers::COMMAND, Key::O))
             }
+            Self::SaveViewAgain => Some(KeyboardShortcut::new(Modifiers::COMMAND, Key::S)),
             Self::Quit => Some(KeyboardShortcut::new(Modifiers::COMMAND, Key::Q)),
             _ => None,
         }
     }
 
     /// The commands that have a keyboard shortcut.
-    pub fn with_shortcuts() -> [Self; 2] {
-        [Self::ShowDialog(DialogKind::Open), Self::Quit]
+    pub fn with_shortcuts() -> [Self; 3] {
+        [
+            Self::ShowDialog(DialogKind::Open),
+            Self::SaveViewAgain,
+            Self::Quit,
+        ]
     }
 }
 

@@ -9,6 +9,7 @@ use super::command::Command;
 use super::dialogs::DialogAnswer;
 use super::dialogs::{self, DialogKind, NOT_SHOWN_WITHIN};
 use super::file_browser::FileBrowser;
+use super::saved_view;
 use super::settings::AppSettings;
 use super::url_dialog::UrlDialog;
 use super::viewport;
@@ -86,6 +87,13 @@ impl VoxscopeApp {
             Command::SaveScreenshot(path) => self
                 .save_screenshot(&path, ctx.pixels_per_point())
                 .map(|()| Some(self.saved(&path, "screenshot"))),
+            Command::SaveScaledScreenshot { path, scale } => {
+                self.save_scaled_screenshot(path, scale, ctx).map(|()| None)
+            }
+            Command::SetScreenshotScale(scale) => {
+                self.screenshot_scale = scale.max(1);
+                Ok(None)
+            }
             Command::SaveTransfer(path) => self
                 .save_transfer(&path)
                 .map(|()| Some(self.saved(&path, "transfer function"))),
@@ -94,6 +102,48 @@ impl VoxscopeApp {
                 .map(|()| Some(format!("loaded {}", path.display()))),
             Command::OpenLabels(path) => {
                 self.labels.add_file(&path.display().to_string());
+                Ok(None)
+            }
+            Command::SaveView(path) => self.save_view(path, ctx).map(|()| None),
+            Command::SaveViewAgain => match self.last_view_file.clone() {
+                Some(path) => self.save_view(path, ctx).map(|()| None),
+                None => {
+                    self.commands
+                        .send(Command::ShowDialog(DialogKind::SaveView));
+                    Ok(None)
+                }
+            },
+            Command::OpenView(path) => {
+                let wake = ctx.clone();
+                self.jobs.view_file =
+                    Some(saved_view::read_job(path, move || wake.request_repaint()));
+                Ok(None)
+            }
+            Command::AddKeyframe => self.add_keyframe().map(|()| None),
+            Command::MoveKeyframe { from, to } => {
+                self.move_keyframe(from, to);
+                Ok(None)
+            }
+            Command::DeleteKeyframe(index) => {
+                if index < self.movie.keyframes.len() {
+                    self.movie.keyframes.remove(index);
+                }
+                Ok(None)
+            }
+            Command::SetMovieOutput(path) => {
+                self.movie.output = path.display().to_string();
+                Ok(None)
+            }
+            Command::PreviewMovie => self.start_preview().map(|()| None),
+            Command::StopPreview => {
+                self.stop_preview();
+                Ok(None)
+            }
+            Command::ExportMovie => self.export_movie(ctx).map(|()| None),
+            Command::CancelExport => {
+                if let Some(job) = &self.jobs.exporting {
+                    job.progress.cancel();
+                }
                 Ok(None)
             }
             Command::SetLayout(layout) => {
@@ -264,9 +314,26 @@ impl VoxscopeApp {
         ));
     }
 
+    /// Writes the view on screen to `path` in the background; the status bar says when it is
+    /// written, and Ctrl+S saves there from then on.
+    fn save_view(&mut self, path: PathBuf, ctx: &egui::Context) -> Result<(), String> {
+        let view = self
+            .saved_view()
+            .ok_or("no volume is shown: there is no view to save")?;
+        let absolute = std::path::absolute(&path).unwrap_or_else(|_| path.clone());
+        if let Some(folder) = absolute.parent() {
+            self.settings.last_save_folder = Some(folder.to_path_buf());
+        }
+        let wake = ctx.clone();
+        self.jobs.view_file = Some(saved_view::write_job(view, path, move || {
+            wake.request_repaint()
+        }));
+        Ok(())
+    }
+
     /// Remembers `path`'s folder for the next save, and says what was saved where: the
     /// status bar's confirmation.
-    fn saved(&mut self, path: &Path, what: &str) -> String {
+    pub(super) fn saved(&mut self, path: &Path, what: &str) -> String {
         let absolute = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
         if let Some(folder) = absolute.parent() {
             self.settings.last_save_folder = Some(folder.to_path_buf());
@@ -298,10 +365,16 @@ impl VoxscopeApp {
             DialogKind::Open | DialogKind::OpenFolder => {
                 Command::Open(VolumeSource::from_spec(&path.display().to_string()))
             }
-            DialogKind::SaveScreenshot => Command::SaveScreenshot(path),
+            DialogKind::SaveScreenshot => match std::mem::replace(&mut self.screenshot_scale, 1) {
+                1 => Command::SaveScreenshot(path),
+                scale => Command::SaveScaledScreenshot { path, scale },
+            },
             DialogKind::SaveTransfer => Command::SaveTransfer(path),
             DialogKind::LoadTransfer => Command::LoadTransfer(path),
             DialogKind::OpenLabels => Command::OpenLabels(path),
+            DialogKind::SaveView => Command::SaveView(path),
+            DialogKind::OpenView => Command::OpenView(path),
+            DialogKind::MovieOutput => Command::SetMovieOutput(path),
         };
         self.run_command(command, ctx);
     }
@@ -338,14 +411,17 @@ pub(super) fn start_directory(settings: &AppSettings, kind: DialogKind) -> Optio
             .and_then(|spec| Path::new(spec).parent().map(Path::to_path_buf))
     };
     match kind {
-        // Transfer functions are loaded from where they were saved.
-        DialogKind::SaveScreenshot | DialogKind::SaveTransfer | DialogKind::LoadTransfer => {
-            settings
-                .last_save_folder
-                .clone()
-                .filter(|folder| folder.is_dir())
-                .or_else(recent)
-        }
+        // Transfer functions and views are opened from where they were saved.
+        DialogKind::SaveScreenshot
+        | DialogKind::SaveTransfer
+        | DialogKind::LoadTransfer
+        | DialogKind::SaveView
+        | DialogKind::OpenView
+        | DialogKind::MovieOutput => settings
+            .last_save_folder
+            .clone()
+            .filter(|folder| folder.is_dir())
+            .or_else(recent),
         DialogKind::Open | DialogKind::OpenFolder | DialogKind::OpenLabels => recent(),
     }
 }

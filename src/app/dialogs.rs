@@ -25,6 +25,12 @@ pub enum DialogKind {
     LoadTransfer,
     /// File ▸ Open labels…: a label volume on the image's grid, drawn over it.
     OpenLabels,
+    /// File ▸ Save view… (and Ctrl+S before a view file was saved or opened).
+    SaveView,
+    /// File ▸ Open view…
+    OpenView,
+    /// The Movie panel's output: a movie file (or a folder, typed).
+    MovieOutput,
 }
 
 /// The title of File ▸ Open folder…'s dialog: what a folder can be.
@@ -93,5 +99,19 @@ fn show(kind: DialogKind, directory: Option<&Path>) -> Option<PathBuf> {
             .set_title("Load transfer function")
             .add_filter("Transfer function (RON)", &["ron"])
             .pick_file(),
+        DialogKind::SaveView => dialog
+            .set_title("Save view")
+            .add_filter("voxscope view (RON)", &["ron"])
+            .set_file_name("view.ron")
+            .save_file(),
+        DialogKind::OpenView => dialog
+            .set_title("Open view")
+            .add_filter("voxscope view (RON)", &["ron"])
+            .pick_file(),
+        DialogKind::MovieOutput => dialog
+            .set_title("Write the movie to")
+            .add_filter("Movie", &["webp", "gif", "png", "mp4"])
+            .set_file_name("movie.webp")
+            .save_file(),
     }
 }

@@ -65,6 +65,8 @@ impl FileBrowser {
         let path_text = match kind {
             DialogKind::SaveScreenshot => "voxscope.png".to_owned(),
             DialogKind::SaveTransfer => "transfer.ron".to_owned(),
+            DialogKind::SaveView => "view.ron".to_owned(),
+            DialogKind::MovieOutput => "movie.webp".to_owned(),
             _ => String::new(),
         };
         let mut browser = Self {
@@ -189,6 +191,9 @@ impl FileBrowser {
             DialogKind::SaveTransfer => "Save transfer function (RON)",
             DialogKind::LoadTransfer => "Load transfer function (RON)",
             DialogKind::OpenLabels => "Open labels on the image's grid",
+            DialogKind::SaveView => "Save view (RON)",
+            DialogKind::OpenView => "Open view (RON)",
+            DialogKind::MovieOutput => "Movie: .webp, .gif, .png, .mp4, or a folder of PNGs",
         }
     }
 
@@ -202,7 +207,11 @@ impl FileBrowser {
         ui.horizontal(|ui| {
             let label = ui.label("Path");
             let hint = match self.kind {
-                DialogKind::SaveScreenshot | DialogKind::SaveTransfer => "file name or path",
+                DialogKind::SaveScreenshot
+                | DialogKind::SaveTransfer
+                | DialogKind::SaveView
+                | DialogKind::MovieOutput => "file name or path",
+                DialogKind::OpenView => "view.ron",
                 _ => "/path/to/volume.nii.gz, a folder, or synthetic:sphere:64",
             };
             let edit = ui
@@ -263,8 +272,10 @@ impl FileBrowser {
     fn action_name(&self) -> &'static str {
         match self.kind {
             DialogKind::Open | DialogKind::OpenFolder | DialogKind::OpenLabels => "Open",
-            DialogKind::SaveScreenshot | DialogKind::SaveTransfer => "Save",
+            DialogKind::SaveScreenshot | DialogKind::SaveTransfer | DialogKind::SaveView => "Save",
+            DialogKind::MovieOutput => "Choose",
             DialogKind::LoadTransfer => "Load",
+            DialogKind::OpenView => "Open",
         }
     }
 
@@ -280,7 +291,13 @@ impl FileBrowser {
             DialogKind::Open | DialogKind::OpenLabels => self.show_all || is_volume_file(name),
             DialogKind::OpenFolder => false,
             DialogKind::SaveScreenshot => has_extension(name, "png"),
-            DialogKind::SaveTransfer | DialogKind::LoadTransfer => has_extension(name, "ron"),
+            DialogKind::SaveTransfer
+            | DialogKind::LoadTransfer
+            | DialogKind::SaveView
+            | DialogKind::OpenView => has_extension(name, "ron"),
+            DialogKind::MovieOutput => ["webp", "gif", "png", "mp4"]
+                .iter()
+                .any(|extension| has_extension(name, extension)),
         };
         egui::ScrollArea::vertical()
             .id_salt("file_browser_entries")
@@ -322,7 +339,10 @@ impl FileBrowser {
                     let text = format!("{name}  ·  {}", format_bytes(*bytes));
                     if ui.selectable_label(false, text).clicked() {
                         match self.kind {
-                            DialogKind::SaveScreenshot | DialogKind::SaveTransfer => {
+                            DialogKind::SaveScreenshot
+                            | DialogKind::SaveTransfer
+                            | DialogKind::SaveView
+                            | DialogKind::MovieOutput => {
                                 self.path_text = name.clone();
                             }
                             _ => {

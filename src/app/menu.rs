@@ -86,13 +86,41 @@ fn file_menu(ui: &mut Ui, settings: &AppSettings, has_scene: bool, queue: &mut C
     );
     ui.separator();
     ui.add_enabled_ui(has_scene, |ui| {
-        command_button(
-            ui,
-            "Save screenshot…",
-            Command::ShowDialog(DialogKind::SaveScreenshot),
-            queue,
-        );
+        for (scale, text, hover) in [
+            (1, "Save screenshot…", "The view as shown, at the window's pixels"),
+            (2, "Save screenshot at 2×…", "The 3D view drawn again at twice its pixels, rulers and axes to scale"),
+            (4, "Save screenshot at 4×…", "The 3D view drawn again at four times its pixels, in tiles beyond the GPU's limits"),
+        ] {
+            if ui.button(text).on_hover_text(hover).clicked() {
+                queue.send(Command::SetScreenshotScale(scale));
+                queue.send(Command::ShowDialog(DialogKind::SaveScreenshot));
+            }
+        }
     });
+    ui.separator();
+    command_button(
+        ui,
+        "Open view…",
+        Command::ShowDialog(DialogKind::OpenView),
+        queue,
+    )
+    .on_hover_text("A view file: its data, camera, transfer functions, settings and layout");
+    ui.add_enabled_ui(has_scene, |ui| {
+        // Always asks where; Ctrl+S saves again to the view file of this session.
+        let shortcut = Command::SaveViewAgain.shortcut().map(|s| ui.ctx().format_shortcut(&s));
+        let mut button = egui::Button::new("Save view…");
+        if let Some(text) = shortcut {
+            button = button.shortcut_text(text);
+        }
+        if ui
+            .add(button)
+            .on_hover_text("What is shown and how, as a file that Open view… and `voxscope render --view` read")
+            .clicked()
+        {
+            queue.send(Command::ShowDialog(DialogKind::SaveView));
+        }
+    });
+    ui.separator();
     command_button(
         ui,
         "Save transfer function…",
@@ -169,6 +197,23 @@ pub fn status_bar(
     queue: &mut CommandQueue,
 ) {
     ui.horizontal(|ui| {
+        if let Some((title, stage, fraction)) = jobs.export_progress() {
+            ui.spinner();
+            if ui
+                .button("Cancel")
+                .on_hover_text("Stop writing the movie")
+                .clicked()
+            {
+                queue.send(Command::CancelExport);
+            }
+            ui.add(
+                egui::ProgressBar::new(fraction)
+                    .desired_width(160.0)
+                    .show_percentage(),
+            );
+            ui.label(format!("{title}: {stage}"));
+            ui.separator();
+        }
         if let Some((title, stage, fraction)) = jobs.open_progress() {
             // Fixed-width items first, so Cancel does not move as the text changes.
             ui.spinner();
@@ -181,6 +226,10 @@ pub fn status_bar(
                     .show_percentage(),
             );
             ui.label(format!("{title}: {stage}"));
+            ui.separator();
+        } else if let Some(job) = &jobs.screenshot {
+            ui.spinner();
+            ui.label(format!("{}: {}", job.title, job.progress.get().0));
             ui.separator();
         } else if let Some((options, _)) = &jobs.uploading {
             ui.spinner();

@@ -21,12 +21,17 @@ mod frame_controls;
 mod jobs;
 mod label_list;
 mod menu;
+mod movie_export;
+mod movie_panel;
 mod numbers;
 mod octree_panel;
+mod offscreen;
 mod overlays;
 mod pane_header;
 mod picking;
 mod prefetch;
+mod saved_view;
+mod screenshot;
 mod settings;
 mod slice_pane;
 mod stream_panel;
@@ -42,8 +47,9 @@ use std::sync::Arc;
 
 pub use command::{Command, ViewPreset};
 pub use dialogs::DialogKind;
+pub use movie_panel::MoviePlan;
 pub use settings::{AppSettings, Layout, Panel, STORAGE_KEY};
-pub use view_state::ViewState;
+pub use view_state::{Ruler, ViewState};
 pub use voxscope_app::VoxscopeApp;
 
 use voxscope_render::GpuContext;
@@ -86,14 +92,25 @@ pub fn native_options() -> eframe::NativeOptions {
     }
 }
 
-/// Opens the window on `source` (the sample when `None`), clipped by `clip`, and runs until
-/// it is closed.
-pub fn run(source: Option<VolumeSource>, clip: voxscope_octree::Clip) -> Result<(), String> {
+/// What the window opens on.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Start {
+    /// A volume (the sample when `None`): `voxscope [FILE]`.
+    Open(Option<VolumeSource>),
+    /// A view file: `voxscope --view V.ron`.
+    View(std::path::PathBuf),
+}
+
+/// Opens the window on `start`, clipped by `clip`, and runs until it is closed.
+pub fn run(start: Start, clip: voxscope_octree::Clip) -> Result<(), String> {
     eframe::run_native(
         "voxscope",
         native_options(),
         Box::new(move |cc| {
-            let mut app = VoxscopeApp::new(cc, source);
+            let mut app = match start {
+                Start::Open(source) => VoxscopeApp::new(cc, source),
+                Start::View(view) => VoxscopeApp::with_view(cc, view),
+            };
             app.clip_first_volume(clip);
             Ok(Box::new(app))
         }),

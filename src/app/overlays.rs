@@ -2,6 +2,7 @@
 //! view, the rulers drawn into a saved screenshot, and the error banner.
 
 use egui::{Align2, Color32, Pos2, Rect, Ui, vec2};
+use glam::DVec3;
 
 use super::settings::{AppSettings, Layout};
 use super::view_state::ViewState;
@@ -96,7 +97,6 @@ pub fn draw_rulers(
     view: &ViewState,
 ) {
     let volume = &scene.data.volume;
-    let color = image::Rgba(RULER_COLOR.to_array());
     let unit = volume.spatial_unit();
     for ruler in &view.rulers {
         let ends = match drawn {
@@ -123,19 +123,80 @@ pub fn draw_rulers(
             }
         };
         let Some((from, to)) = ends else { continue };
-        super::annotate::line(canvas, [from.x, from.y], [to.x, to.y], 2.0, color);
-        super::annotate::disc(canvas, [from.x, from.y], 3.0, color);
-        super::annotate::disc(canvas, [to.x, to.y], 3.0, color);
-        let middle = from.lerp(to, 0.5);
-        super::annotate::text(
-            canvas,
-            [middle.x + 6.0, middle.y - 16.0],
-            &format!("{:.1} {unit}", ruler.length(volume.spacing)),
-            2,
-            color,
-        );
+        let label = format!("{:.1} {unit}", ruler.length(volume.spacing));
+        draw_ruler(canvas, [from.x, from.y], [to.x, to.y], &label, 1);
     }
 }
+
+/// One ruler from `from` to `to` (pixels) labelled `label`, its line, ends and text `scale`
+/// times their size in a screenshot at 1×.
+pub fn draw_ruler(
+    canvas: &mut image::RgbaImage,
+    from: [f32; 2],
+    to: [f32; 2],
+    label: &str,
+    scale: u32,
+) {
+    let color = image::Rgba(RULER_COLOR.to_array());
+    let s = scale.max(1) as f32;
+    super::annotate::line(canvas, from, to, 2.0 * s, color);
+    super::annotate::disc(canvas, from, 3.0 * s, color);
+    super::annotate::disc(canvas, to, 3.0 * s, color);
+    let middle = [(from[0] + to[0]) / 2.0, (from[1] + to[1]) / 2.0];
+    super::annotate::text(
+        canvas,
+        [middle[0] + 6.0 * s, middle[1] - 16.0 * s],
+        label,
+        2 * scale.max(1),
+        color,
+    );
+}
+
+/// The world axes as `camera` sees them in the bottom-left corner of `rect` (pixels of
+/// `canvas`), as the window paints them ([`super::viewport::paint_axis_gizmo`]) at `scale`
+/// pixels per point: +x, +y, +z named `labels`, far axes first.
+pub fn draw_axis_gizmo(
+    canvas: &mut image::RgbaImage,
+    rect: Rect,
+    camera: &voxscope_render::Camera,
+    labels: [&str; 3],
+    scale: f32,
+) {
+    let frame = camera.frame([1.0, 1.0, 1.0], 1.0);
+    let length = 28.0 * scale;
+    let center = [
+        rect.left() + 14.0 * scale + length,
+        rect.bottom() - (14.0 * scale + length),
+    ];
+    super::annotate::shade_disc(canvas, center, length + 10.0 * scale, 1.0 - 110.0 / 255.0);
+    let mut axes: Vec<(f64, [f32; 2], usize)> = [DVec3::X, DVec3::Y, DVec3::Z]
+        .iter()
+        .enumerate()
+        .map(|(i, axis)| {
+            let screen = [axis.dot(frame.right) as f32, -(axis.dot(frame.up) as f32)];
+            (axis.dot(frame.forward), screen, i)
+        })
+        .collect();
+    axes.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let font = (2.0 * scale).round().max(1.0) as u32;
+    for (_, screen, i) in axes {
+        let color = image::Rgba(GIZMO_COLORS[i]);
+        let tip = [
+            center[0] + screen[0] * length,
+            center[1] + screen[1] * length,
+        ];
+        super::annotate::line(canvas, center, tip, 2.5 * scale, color);
+        let [w, h] = super::annotate::text_size(labels[i], font);
+        let at = [
+            center[0] + screen[0] * (length + 8.0 * scale) - w / 2.0,
+            center[1] + screen[1] * (length + 8.0 * scale) - h / 2.0,
+        ];
+        super::annotate::text(canvas, at, labels[i], font, color);
+    }
+}
+
+/// The gizmo's colors of +x, +y, +z (as [`super::viewport::paint_axis_gizmo`]'s).
+const GIZMO_COLORS: [[u8; 4]; 3] = [[230, 70, 70, 255], [80, 200, 90, 255], [90, 140, 255, 255]];
 
 /// The error banner over the bottom of `view_rect`, as tall as its wrapped message needs;
 /// returns true when Dismiss was clicked.

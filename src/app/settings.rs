@@ -5,9 +5,9 @@ use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 
-use voxscope_octree::{Colormap, OpacityMode, TransferFunction};
+use voxscope_octree::{Clip, Colormap, OpacityMode, TransferFunction};
 use voxscope_render::{
-    Camera, DEFAULT_BRICK_SIZE, RenderMode, RendererKind, RendererOptions, Shading,
+    Camera, DEFAULT_BRICK_SIZE, RenderMode, RenderSettings, RendererKind, RendererOptions, Shading,
 };
 use voxscope_scene::TransferChoice;
 
@@ -66,16 +66,19 @@ pub enum Panel {
     Transfer,
     /// Right: the octree, renderer and numbers.
     Octree,
+    /// A window: keyframes and movie export.
+    Movie,
 }
 
 impl Panel {
-    pub const ALL: [Self; 2] = [Self::Transfer, Self::Octree];
+    pub const ALL: [Self; 3] = [Self::Transfer, Self::Octree, Self::Movie];
 
     /// The View menu's name for it.
     pub fn name(self) -> &'static str {
         match self {
             Self::Transfer => "Transfer function panel",
             Self::Octree => "Octree panel",
+            Self::Movie => "Movie panel",
         }
     }
 }
@@ -116,6 +119,8 @@ pub struct AppSettings {
     pub continuous: bool,
     pub show_transfer_panel: bool,
     pub show_octree_panel: bool,
+    /// The Movie panel (keyframes, preview, export).
+    pub show_movie_panel: bool,
     /// What a click in a view does.
     pub tool: Tool,
     /// Slices sample linearly (else the nearest voxel).
@@ -177,6 +182,7 @@ impl Default for AppSettings {
             continuous: false,
             show_transfer_panel: true,
             show_octree_panel: true,
+            show_movie_panel: false,
             tool: Tool::Navigate,
             slice_linear: false,
             show_slice_planes: true,
@@ -189,11 +195,28 @@ impl Default for AppSettings {
 }
 
 impl AppSettings {
+    /// What the 3D views draw with, at level `max_level` clipped by `clip` (those two belong
+    /// to the volume on screen, in [`super::ViewState`]).
+    pub fn render_settings(&self, max_level: u32, clip: Clip) -> RenderSettings {
+        RenderSettings {
+            mode: self.mode,
+            max_level,
+            pixel_lod: self.pixel_lod,
+            opacity_correction: self.opacity_correction,
+            density: self.density,
+            heatmap: self.heatmap,
+            trilinear: self.trilinear,
+            shading: self.shading,
+            clip,
+        }
+    }
+
     /// Whether the side panel `panel` is shown.
     pub fn panel_shown(&self, panel: Panel) -> bool {
         match panel {
             Panel::Transfer => self.show_transfer_panel,
             Panel::Octree => self.show_octree_panel,
+            Panel::Movie => self.show_movie_panel,
         }
     }
 
@@ -202,6 +225,7 @@ impl AppSettings {
         match panel {
             Panel::Transfer => self.show_transfer_panel ^= true,
             Panel::Octree => self.show_octree_panel ^= true,
+            Panel::Movie => self.show_movie_panel ^= true,
         }
     }
 

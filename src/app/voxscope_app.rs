@@ -2,7 +2,7 @@
 //! background jobs, the central view) and the one place where [`Command`]s and finished jobs
 //! change it. The panels, menus and central view draw themselves in their own modules.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -18,8 +18,10 @@ use super::frame_controls::{self, OpenContainer, Playback};
 use super::jobs::{JobEvent, Jobs};
 use super::label_list::{self, LabelLayers};
 use super::menu::{self, NOTICE_DURATION};
+use super::movie_panel::{self, MoviePlan, MoviePreview};
 use super::octree_panel::{self, OctreeFacts};
 use super::overlays;
+use super::saved_view::ViewFile;
 use super::settings::{AppSettings, DEFAULT_COMPARE_TRANSFER, STORAGE_KEY};
 use super::transfer_panel;
 use super::url_dialog::{UrlDialog, UrlOutcome};
@@ -62,6 +64,17 @@ pub struct VoxscopeApp {
     pub(super) first_clip: Option<Clip>,
     /// The time point of the scene the 3D views last showed whole.
     pub(super) shown_time: Option<usize>,
+    /// The view file saved or opened last in this session: where Ctrl+S saves.
+    pub(super) last_view_file: Option<PathBuf>,
+    /// The Movie panel's keyframes and output.
+    pub movie: MoviePlan,
+    /// The movie's camera path playing in the central view.
+    pub(super) preview: Option<MoviePreview>,
+    /// The scale the screenshot being chosen in a file dialog is saved at.
+    pub(super) screenshot_scale: u32,
+    /// Screenshots at a scale are drawn in tiles of this side even where the device draws
+    /// them whole (tests; `None`: tiles only beyond the device's targets).
+    pub screenshot_tile: Option<u32>,
     /// The container (plate, bioformats2raw root) the image on screen is one of.
     pub(super) container: Option<OpenContainer>,
     /// The label images drawn over the image, and their overlay.
@@ -71,6 +84,18 @@ pub struct VoxscopeApp {
 impl VoxscopeApp {
     /// The app in `cc`'s window, opening `source` (the sample when `None`).
     pub fn new(cc: &eframe::CreationContext<'_>, source: Option<VolumeSource>) -> Self {
+        Self::starting(cc, Command::Open(source.unwrap_or(VolumeSource::Sample)))
+    }
+
+    /// The app in `cc`'s window, opening the view file `view` (`voxscope --view V.ron`): its
+    /// data, then the rest of the view. A view that cannot be read, or whose data is missing,
+    /// leaves the window empty with one line saying why.
+    pub fn with_view(cc: &eframe::CreationContext<'_>, view: PathBuf) -> Self {
+        Self::starting(cc, Command::OpenView(view))
+    }
+
+    /// The app in `cc`'s window, carrying out `first` (an open) at once.
+    fn starting(cc: &eframe::CreationContext<'_>, first: Command) -> Self {
         let settings: AppSettings = cc
             .storage
             .and_then(|storage| eframe::get_value(storage, STORAGE_KEY))
@@ -102,16 +127,18 @@ impl VoxscopeApp {
             no_desktop_dialogs: false,
             first_clip: None,
             shown_time: None,
+            last_view_file: None,
+            movie: MoviePlan::default(),
+            preview: None,
+            screenshot_scale: 1,
+            screenshot_tile: None,
             container: None,
             labels: LabelLayers::default(),
         };
         if app.gpu.is_none() {
             app.fail("voxscope needs the wgpu renderer; no GPU device was handed to the app");
         } else {
-            app.run_command(
-                Command::Open(source.unwrap_or(VolumeSource::Sample)),
-                &cc.egui_ctx,
-            );
+            app.run_command(first, &cc.egui_ctx);
         }
         app
     }
@@ -248,16 +275,25 @@ impl VoxscopeApp {
         self.settings.transfer.with_window(self.view.window)
     }
 
-    /// What is drawn: the panes' images composed as laid out, at full pixel resolution.
+    /// What is drawn: the panes' images composed as laid out, at full pixel resolution, with
+    /// the rulers.
     pub fn view_image(&self, pixels_per_point: f32) -> Result<image::RgbaImage, String> {
         let gpu = self.gpu.as_ref().ok_or("no GPU device")?;
-        self.central
-            .image(gpu, pixels_per_point, self.scene.as_ref(), &self.view)
+        self.central.image(
+            gpu,
+            pixels_per_point,
+            self.scene.as_ref(),
+            &self.view,
+            false,
+        )
     }
 
-    /// Saves [`Self::view_image`] as PNG.
+    /// Saves [`Self::view_image`] with the axes gizmo as PNG (File ▸ Save screenshot…, 1×).
     pub fn save_screenshot(&self, path: &Path, pixels_per_point: f32) -> Result<(), String> {
-        let image = self.view_image(pixels_per_point)?;
+        let gpu = self.gpu.as_ref().ok_or("no GPU device")?;
+        let image =
+            self.central
+                .image(gpu, pixels_per_point, self.scene.as_ref(), &self.view, true)?;
         image
             .save_with_format(path, image::ImageFormat::Png)
             .map_err(|e| format!("{}: cannot write the screenshot: {e}", path.display()))
@@ -348,6 +384,33 @@ impl VoxscopeApp {
         for event in self.jobs.poll() {
             match event {
                 JobEvent::Opened(opened) => self.show_opened(*opened),
+                JobEvent::ViewOpened(opened, view) => self.show_view_opened(*opened, &view),
+                JobEvent::ViewFile(ViewFile::Written(path)) => {
+                    let notice = self.view_file_done(&path, "view saved");
+                    self.notify(notice);
+                }
+                JobEvent::ViewFile(ViewFile::Read(path, view)) => {
+                    self.view_file_done(&path, "view opened");
+                    if let Err(message) = self.open_view(*view, ctx) {
+                        self.fail(format!("{}: {message}", path.display()));
+                    }
+                }
+                JobEvent::ViewFileFailed(error) => self.fail(error.to_string()),
+                JobEvent::MovieExported(exported) => self.notify(format!(
+                    "movie written: {} ({} frames in {:.1} s)",
+                    exported.output.display(),
+                    exported.frames,
+                    exported.seconds
+                )),
+                JobEvent::MovieEnded(SceneError::Cancelled) => {
+                    self.notify("writing the movie cancelled")
+                }
+                JobEvent::MovieEnded(error) => self.fail(error.to_string()),
+                JobEvent::ScreenshotSaved(path) => {
+                    let notice = self.saved(&path, "screenshot");
+                    self.notify(notice);
+                }
+                JobEvent::ScreenshotFailed(error) => self.fail(error.to_string()),
                 JobEvent::OpenEnded(SceneError::Cancelled) => self.notify("opening cancelled"),
                 JobEvent::OpenEnded(error) => self.fail(error.to_string()),
                 JobEvent::Uploaded(mut scene) => {
@@ -549,6 +612,7 @@ impl eframe::App for VoxscopeApp {
         let ctx = ui.ctx().clone();
         self.handle_job_events(&ctx);
         self.step_playback(&ctx);
+        self.step_preview(&ctx);
 
         let has_scene = self.scene.is_some();
         egui::Panel::top("menu_bar").show(ui, |ui| {
@@ -673,6 +737,19 @@ impl eframe::App for VoxscopeApp {
             }
         });
 
+        if self.settings.show_movie_panel {
+            let state = movie_panel::PanelState {
+                has_scene,
+                previewing: self.preview.is_some(),
+                exporting: self.jobs.exporting.is_some(),
+            };
+            let mut open = true;
+            movie_panel::show(&ctx, &mut self.movie, &mut open, state, &mut self.commands);
+            if !open {
+                self.commands
+                    .send(Command::TogglePanel(super::Panel::Movie));
+            }
+        }
         if let Some(browser) = &mut self.browser
             && let Some(outcome) = browser.show(&ctx, &self.settings.recent)
         {

@@ -14,7 +14,7 @@ use voxscope_render::{
 use voxscope_scene::{
     ChannelState, Refinement, StreamedVolume, UploadedLabels, beyond_octree, refine,
 };
-use voxscope_volume::{Volume, format_dims};
+use voxscope_volume::{QuantizedVolume, Volume, format_dims};
 
 use super::args::{ChannelArg, RendererArg};
 use super::composite::PreparedChannel;
@@ -37,6 +37,9 @@ pub struct Drawing {
     /// The label overlays drawn over each image (`--labels`), in order.
     pub labels: Vec<UploadedLabels>,
     max_wait: Duration,
+    /// The composite's channels' values (what its tables are rewritten over when the
+    /// channels' colors or windows change); empty for one volume.
+    composite_values: Vec<QuantizedVolume>,
 }
 
 /// What a [`Drawing`] holds.
@@ -185,6 +188,7 @@ impl Drawing {
             name,
             labels,
             max_wait,
+            composite_values: Vec::new(),
         })
     }
 
@@ -220,17 +224,19 @@ impl Drawing {
         let name = prepared[0].volume.name.clone();
         let renderer = VolumeRenderer::new_composite(&context, &layers, prepared[0].volume.spacing)
             .map_err(|e| format!("{name}: {e}"))?;
+        let transfer = prepared[0].state.transfer;
+        let (channels, composite_values) =
+            prepared.into_iter().map(|c| (c.state, c.quantized)).unzip();
         Ok(Self {
             context,
             renderer,
             settings,
-            transfer: prepared[0].state.transfer,
-            content: Content::Composite {
-                channels: prepared.into_iter().map(|c| c.state).collect(),
-            },
+            transfer,
+            content: Content::Composite { channels },
             name,
             labels: Vec::new(),
             max_wait,
+            composite_values,
         })
     }
 
@@ -261,6 +267,7 @@ impl Drawing {
             name,
             labels: Vec::new(),
             max_wait,
+            composite_values: Vec::new(),
         })
     }
 
@@ -302,44 +309,24 @@ impl Drawing {
     /// exceeds what one target may be (its largest 2D texture, storage buffer or buffer), or
     /// `asked` (`--tile-size`); `None` where it is drawn whole.
     pub fn tile_side(&self, size: (u32, u32), asked: Option<u32>) -> Option<u32> {
-        if asked.is_some() {
-            return asked;
-        }
-        let limits = &self.context.limits;
-        let fits = |width: u32, height: u32| {
-            let row_bytes = (width as u64 * 4).div_ceil(256) * 256;
-            width <= limits.max_texture_dimension_2d
-                && height <= limits.max_texture_dimension_2d
-                && width as u64 * height as u64 * 4 <= self.context.max_storage_bytes()
-                && row_bytes * height as u64 <= limits.max_buffer_size
-        };
-        if fits(size.0, size.1) {
-            return None;
-        }
-        let mut side = (limits.max_texture_dimension_2d.min(4096) / 16 * 16).max(16);
-        while side > 16 && !fits(side, side) {
-            side /= 2;
-        }
-        Some(side)
+        asked.or_else(|| self.context.tile_side([size.0, size.1]))
     }
 
     /// Draws an image of `size` in tiles of `side` pixels (see [`RenderTarget::tile`]), each
     /// drawn, waited for and read back before the next: the image one target of the whole
-    /// size would hold. The streaming renderer draws whole frames only (its rays' requests
-    /// are a frame's) and is refused.
+    /// size would hold. A streamed pyramid's tile is a target of its own to the streaming
+    /// renderer: its rays' requests are the tile's, and [`refine`] draws it until nothing it
+    /// shows is missing (or `--max-wait`) before it is read; the bricks it loaded stay cached
+    /// for the tiles after it. Returns the image and the refinements of a streamed one's
+    /// tiles.
     pub fn draw_tiled(
         &mut self,
         size: (u32, u32),
         side: u32,
         camera: &Camera,
         settings: &RenderSettings,
-    ) -> Result<RgbaImage, String> {
-        if let Content::Streamed { .. } = self.content {
-            return Err(format!(
-                "{}: {}x{} is beyond what this device draws at once ({} pixels a side) and the streaming renderer does not draw in tiles; choose a smaller --size or another --renderer",
-                self.name, size.0, size.1, self.context.limits.max_texture_dimension_2d
-            ));
-        }
+    ) -> Result<(RgbaImage, Vec<Refinement>), String> {
+        let mut refinements = Vec::new();
         let (width, height) = size;
         let side = side.max(1);
         let mut image = RgbaImage::new(width, height);
@@ -347,14 +334,41 @@ impl Drawing {
             for x in (0..width).step_by(side as usize) {
                 let part_size = [side.min(width - x), side.min(height - y)];
                 let target = RenderTarget::tile(&self.context, part_size, [x, y], [width, height]);
-                self.draw(&target, camera, settings)?;
+                refinements.extend(self.draw(&target, camera, settings)?);
                 let part = read_image(&self.context, &target).map_err(|e| e.to_string())?;
                 image
                     .copy_from(&part, x, y)
                     .map_err(|e| format!("{}: a tile does not fit: {e}", self.name))?;
             }
         }
-        Ok(image)
+        Ok((image, refinements))
+    }
+
+    /// Draws the composite's channels as `states` say (their colors, windows and transfer
+    /// functions; as many as it has): a movie's frame between keyframes. One volume ignores
+    /// them.
+    pub fn set_channels(&mut self, states: &[ChannelState]) {
+        let Content::Composite { channels } = &mut self.content else {
+            return;
+        };
+        if states == channels.as_slice() || states.len() != self.composite_values.len() {
+            return;
+        }
+        if let Some(composite) = self.renderer.composite() {
+            let layers: Vec<ChannelLayer<'_>> = self
+                .composite_values
+                .iter()
+                .zip(states)
+                .map(|(quantized, state)| ChannelLayer {
+                    quantized,
+                    transfer: &state.transfer,
+                    color: state.color.map(|c| c as f32 / 255.0),
+                })
+                .collect();
+            let shown: Vec<bool> = states.iter().map(|s| s.visible).collect();
+            composite.set_shown_layers(&self.context, &layers, &shown);
+        }
+        *channels = states.to_vec();
     }
 
     /// Draws the label overlays (`--labels`) over `image`, the frame of `camera` and

@@ -11,7 +11,6 @@ mod info;
 mod labels;
 mod memory;
 mod movie;
-mod movie_writer;
 mod prepare;
 mod probe;
 mod render;
@@ -40,6 +39,10 @@ pub struct Cli {
     /// Volume to open in the app (any format `info` reads, a folder, or synthetic:KIND:SIZE).
     /// Without a command and a file, the app opens the built-in sample head MRI.
     pub file: Option<String>,
+    /// A view file (RON, as File ▸ Save view… and `render --save-view` write it) to open the
+    /// app on: its data, camera, transfer functions, settings, rulers and layout.
+    #[arg(long, value_name = "V.ron", conflicts_with = "file")]
+    pub view: Option<std::path::PathBuf>,
     /// The app's starting crop box and clip plane.
     #[command(flatten)]
     pub clip: ClipArgs,
@@ -129,7 +132,10 @@ where
         Some(Command::Slice(args)) => slice::run(&args),
         Some(Command::Convert(args)) => convert::run(&args),
         None => crate::app::run(
-            cli.file.map(voxscope_scene::VolumeSource::Spec),
+            match cli.view {
+                Some(view) => crate::app::Start::View(view),
+                None => crate::app::Start::Open(cli.file.map(voxscope_scene::VolumeSource::Spec)),
+            },
             cli.clip.clip(),
         ),
     };

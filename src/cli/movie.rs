@@ -9,11 +9,11 @@ use std::time::{Duration, Instant};
 use clap::Args;
 
 use super::drawing::{Content, Drawing};
-use super::movie_writer::MovieFormat;
 use super::view::{self, Given};
 use super::{RenderOptions, VolumeArgs};
+use crate::movie_writer::MovieFormat;
 use voxscope_render::{RenderTarget, read_image};
-use voxscope_scene::{SavedView, Shot, keyframe_path, turntable};
+use voxscope_scene::{ChannelState, SavedView, Shot, keyframe_channels, keyframe_path, turntable};
 
 /// Frames of a turntable without `--frames`.
 const TURNTABLE_FRAMES: u32 = 120;
@@ -83,6 +83,18 @@ pub fn run(args: &MovieArgs, given: &Given) -> Result<(), String> {
     }
     options.check()?;
     let mut drawing = Drawing::open(&volume, &options)?;
+    // The composite's channels per frame, each channel's color and window following the
+    // keyframes (empty for one volume).
+    let channel_frames = match &drawing.content {
+        Content::Composite { channels } if keyframes.len() > 1 => {
+            let keys: Vec<Vec<ChannelState>> = keyframes
+                .iter()
+                .map(|(_, saved)| key_channels(channels, saved, given))
+                .collect();
+            keyframe_channels(&keys, args.frames.unwrap_or(SEGMENT_FRAMES) as usize)
+        }
+        _ => Vec::new(),
+    };
     let shots = if keyframes.is_empty() {
         let first = Shot {
             camera: options.camera(),
@@ -112,6 +124,9 @@ pub fn run(args: &MovieArgs, given: &Given) -> Result<(), String> {
     for (index, shot) in shots.iter().enumerate() {
         let frame_started = Instant::now();
         drawing.set_transfer(&shot.transfer).map_err(ended)?;
+        if let Some(channels) = channel_frames.get(index) {
+            drawing.set_channels(channels);
+        }
         let drawn = drawing
             .draw(&target, &shot.camera, &shot.settings)
             .map_err(ended)?;
@@ -207,6 +222,24 @@ fn read_keyframes(args: &MovieArgs) -> Result<Vec<(PathBuf, SavedView)>, String>
         }
     }
     Ok(views)
+}
+
+/// The composite's channels keyframe `saved` shows: `opened`'s (as the first keyframe and the
+/// options opened them) with the view's colors and windows, where no `--channel-colors` or
+/// `--channel-window` was given beside it (a view of other channels: `opened`'s).
+fn key_channels(opened: &[ChannelState], saved: &SavedView, given: &Given) -> Vec<ChannelState> {
+    let mut channels = opened.to_vec();
+    if saved.channels.len() == channels.len() {
+        for (state, key) in channels.iter_mut().zip(&saved.channels) {
+            if !given.has("channel_colors") {
+                state.color = key.color;
+            }
+            if !given.has("channel_window") {
+                state.transfer.window = key.transfer.window;
+            }
+        }
+    }
+    channels
 }
 
 /// What keyframe `saved` shows, under the options given beside it: its camera, its settings

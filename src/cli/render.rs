@@ -56,7 +56,7 @@ pub fn run(args: &RenderArgs, given: &Given) -> Result<Rendered, String> {
     let side = drawing.tile_side(options.size, args.tile_size);
     let (mut image, refinement) = match side {
         Some(side) => {
-            let image = drawing.draw_tiled(options.size, side, &camera, &settings)?;
+            let (image, tiles) = drawing.draw_tiled(options.size, side, &camera, &settings)?;
             let why = if args.tile_size.is_some() {
                 "as --tile-size asks".to_owned()
             } else {
@@ -66,7 +66,7 @@ pub fn run(args: &RenderArgs, given: &Given) -> Result<Rendered, String> {
                 )
             };
             eprintln!("drawn in tiles of {side}x{side} pixels ({why})");
-            (image, None)
+            (image, merged(tiles))
         }
         None => {
             let target = RenderTarget::new(&drawing.context, options.size.0, options.size.1);
@@ -137,6 +137,22 @@ pub fn run(args: &RenderArgs, given: &Given) -> Result<Rendered, String> {
             Ok(Rendered::Complete)
         }
     }
+}
+
+/// A streamed image's tiles' refinements as one: complete when every tile is, every tile's
+/// frames, time and failures; the streamer's status after the last. `None` for no tiles (an
+/// image that does not stream).
+fn merged(tiles: Vec<Refinement>) -> Option<Refinement> {
+    tiles.into_iter().reduce(|mut all, tile| {
+        all.frames += tile.frames;
+        all.seconds += tile.seconds;
+        all.complete &= tile.complete;
+        all.errors.extend(tile.errors);
+        all.unreadable.extend(tile.unreadable);
+        all.other_failures += tile.other_failures;
+        all.status = tile.status;
+        all
+    })
 }
 
 /// The volume and options of `args` under its `--view` (the options `given` on the command

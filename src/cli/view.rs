@@ -271,6 +271,7 @@ pub fn view_of(volume: &VolumeArgs, options: &RenderOptions, drawing: &Drawing) 
             .map(|c| ViewChannel {
                 color: c.color,
                 transfer: c.transfer,
+                visible: c.visible,
             })
             .collect(),
         _ => Vec::new(),

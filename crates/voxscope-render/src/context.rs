@@ -124,6 +124,29 @@ impl GpuContext {
             .min(self.limits.max_buffer_size)
     }
 
+    /// The side of the square tiles an image of `size` pixels is drawn in on this device,
+    /// where it exceeds what one render target may be (the largest 2D texture, storage buffer
+    /// or buffer, with the readback's rows padded); `None` where one target holds it. A tile
+    /// is a [`crate::RenderTarget::tile`] of the whole image.
+    pub fn tile_side(&self, size: [u32; 2]) -> Option<u32> {
+        let limits = &self.limits;
+        let fits = |width: u32, height: u32| {
+            let row_bytes = (width as u64 * 4).div_ceil(256) * 256;
+            width <= limits.max_texture_dimension_2d
+                && height <= limits.max_texture_dimension_2d
+                && width as u64 * height as u64 * 4 <= self.max_storage_bytes()
+                && row_bytes * height as u64 <= limits.max_buffer_size
+        };
+        if fits(size[0], size[1]) {
+            return None;
+        }
+        let mut side = (limits.max_texture_dimension_2d.min(4096) / 16 * 16).max(16);
+        while side > 16 && !fits(side, side) {
+            side /= 2;
+        }
+        Some(side)
+    }
+
     /// `NVIDIA H100 80GB HBM3 (Vulkan)`.
     pub fn describe(&self) -> String {
         format!(

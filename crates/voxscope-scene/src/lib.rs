@@ -34,7 +34,7 @@ pub use label_overlay::{
     DEFAULT_LABEL_OPACITY, LabelLayer, LabelOverlay, MAX_LABEL_VALUES, SlotPass, UploadedLabels,
     blend_slots, label_color, label_pass_settings,
 };
-pub use movie_path::{Shot, keyframe_path, turntable};
+pub use movie_path::{Shot, keyframe_channels, keyframe_path, turntable};
 pub use opening::{
     TransferChoice, TransferRequest, beyond_octree, default_window, file_window, opening_transfer,
     renderer_for_octree,

@@ -10,6 +10,8 @@ use voxscope_octree::{Clip, ClipPlane, ControlPoint, OpacityCurve, OpacityMode, 
 use voxscope_render::{Camera, RenderSettings, Shading};
 use voxscope_volume::ValueWindow;
 
+use crate::ChannelState;
+
 /// What one frame draws.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Shot {
@@ -82,6 +84,45 @@ pub fn keyframe_path(keys: &[Shot], frames_per_segment: usize) -> Vec<Shot> {
     }
     shots.push(*last);
     shots
+}
+
+/// The composite's channels for each shot of [`keyframe_path`] through keys whose channels are
+/// `keys`: each channel's window and transfer function interpolated as the keys' own, its
+/// color blended, its visibility switched at the segment's midpoint; keys of different channel
+/// counts switch there whole.
+pub fn keyframe_channels(
+    keys: &[Vec<ChannelState>],
+    frames_per_segment: usize,
+) -> Vec<Vec<ChannelState>> {
+    let Some(last) = keys.last() else {
+        return Vec::new();
+    };
+    let mut frames = Vec::with_capacity((keys.len() - 1) * frames_per_segment + 1);
+    for pair in keys.windows(2) {
+        let (a, b) = (&pair[0], &pair[1]);
+        for frame in 0..frames_per_segment {
+            let s = smoothstep(frame as f64 / frames_per_segment as f64);
+            frames.push(if frame == 0 {
+                a.clone()
+            } else if a.len() == b.len() {
+                a.iter()
+                    .zip(b)
+                    .map(|(x, y)| ChannelState {
+                        name: x.name.clone(),
+                        color: std::array::from_fn(|c| {
+                            lerp(x.color[c] as f64, y.color[c] as f64, s).round() as u8
+                        }),
+                        visible: switch(x.visible, y.visible, s),
+                        transfer: transfer_between(&x.transfer, &y.transfer, s),
+                    })
+                    .collect()
+            } else {
+                switch(a, b, s).clone()
+            });
+        }
+    }
+    frames.push(last.clone());
+    frames
 }
 
 /// The Catmull-Rom spline through `p[1]` (t = 0) and `p[2]` (t = 1).
@@ -253,6 +294,33 @@ mod tests {
         let middle = shots[5];
         assert!(middle.camera.distance > 2.0 && middle.camera.distance < 4.0);
         assert!(middle.transfer.window.low > 0.0 && middle.transfer.window.low < 50.0);
+    }
+
+    #[test]
+    fn each_channel_of_a_composite_path_follows_its_own_keys() {
+        let channel = |color: [u8; 3], low: f64, visible: bool| ChannelState {
+            name: "c".into(),
+            color,
+            visible,
+            transfer: shot(0.0, 3.0, low).transfer,
+        };
+        let a = vec![
+            channel([0, 255, 0], 0.0, true),
+            channel([255, 0, 255], 10.0, true),
+        ];
+        let b = vec![
+            channel([0, 255, 0], 40.0, true),
+            channel([255, 0, 0], 10.0, false),
+        ];
+        let frames = keyframe_channels(&[a.clone(), b.clone()], 4);
+        assert_eq!(frames.len(), 5);
+        assert_eq!(frames[0], a);
+        assert_eq!(frames[4], b);
+        let middle = &frames[2];
+        assert!(middle[0].transfer.window.low > 0.0 && middle[0].transfer.window.low < 40.0);
+        assert_eq!(middle[1].transfer.window.low, 10.0);
+        assert!(middle[1].color[2] > 0 && middle[1].color[2] < 255);
+        assert!(frames[1][1].visible && !frames[3][1].visible);
     }
 
     #[test]

@@ -45,7 +45,10 @@ pub struct SavedView {
     pub layout: Option<String>,
 }
 
-/// What a view shows: a source and which of its frames.
+/// What a view shows: a source and which of its frames. An HCS plate's field and a
+/// bioformats2raw container's series are part of the source's path, as they are opened
+/// (`plate.ome.zarr/B/3/0`, `container.zarr/1`: the command line's `--field` and `--series`
+/// append them before the view is written), so one path names the image in every front end.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct ViewData {
@@ -71,6 +74,14 @@ pub struct ViewChannel {
     pub color: [u8; 3],
     /// Its transfer function (its window; the opacity all channels share).
     pub transfer: TransferFunction,
+    /// Drawn at all (the app's eye toggle); a file without it shows every channel.
+    #[serde(default = "shown")]
+    pub visible: bool,
+}
+
+/// A channel's visibility where a file does not say.
+fn shown() -> bool {
+    true
 }
 
 /// The streaming renderer's budgets.

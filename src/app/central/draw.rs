@@ -16,7 +16,7 @@ use super::super::viewport::DrawKey;
 use super::pacing::{FRAME_BUDGET, IDLE_AFTER, IDLE_BUDGET, IN_FLIGHT_POLL, Work};
 use super::pane::Banding;
 use super::{CentralView, Measured, PaneKind, pane_kinds};
-use voxscope_render::{ImageRegion, RenderError, RenderSettings, RenderTarget, SliceSettings};
+use voxscope_render::{ImageRegion, RenderError, RenderTarget, SliceSettings};
 use voxscope_scene::{NetworkState, Scene};
 
 /// The preview's scale (of each side) before any frame was measured: a sixteenth of the pixels.
@@ -143,17 +143,7 @@ impl CentralView {
                     let key = DrawKey::Volume {
                         size,
                         camera: settings.camera,
-                        settings: RenderSettings {
-                            mode: settings.mode,
-                            max_level: level,
-                            pixel_lod: settings.pixel_lod,
-                            opacity_correction: settings.opacity_correction,
-                            density: settings.density,
-                            heatmap: settings.heatmap,
-                            trilinear: settings.trilinear,
-                            shading: settings.shading,
-                            clip: view.clipping.clip(),
-                        },
+                        settings: settings.render_settings(level, view.clipping.clip()),
                         transfer,
                         scene: serial,
                         layers,

@@ -1,4 +1,5 @@
-//! Where `voxscope movie` writes its frames, chosen by the output's extension: an animated GIF,
+//! Where `voxscope movie` and the app's Movie panel write their frames, chosen by the
+//! output's extension: an animated GIF,
 //! an animated WebP (lossless frames), an animated PNG, a folder of numbered PNGs, or an MP4
 //! (H.264) made by `ffmpeg` from raw RGBA frames piped to it.
 

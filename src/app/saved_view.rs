@@ -1,0 +1,369 @@
+//! The one place where the app's state and a [`SavedView`] (voxscope-scene's view file, the
+//! same the command line's `render --view` and `--save-view` read and write) meet: File ▸ Save
+//! view… writes [`VoxscopeApp::saved_view`]; File ▸ Open view… and `voxscope --view V.ron` read
+//! the file on a job thread, open its data like any open (in the background) and, once that is
+//! on screen, apply the rest ([`VoxscopeApp::show_view_opened`]).
+//!
+//! What a view holds of the app: the data as given (the path or URL the volume was opened
+//! from; an HCS plate's field and a container's series are part of that path), the channel
+//! (`all` for the composite) and time point, the camera, the transfer function (for the
+//! composite every channel's color, visibility and transfer function), the render settings
+//! (mode, level, opacity scale and correction, shading, interpolation, heat map, clip box and
+//! plane), the renderer and brick size, the rulers and the layout. The size is the 3D pane's.
+
+use std::path::{Path, PathBuf};
+
+use voxscope_octree::TransferFunction;
+use voxscope_render::{RenderSettings, RendererKind, RendererOptions};
+use voxscope_scene::{
+    ChannelState, FrameChange, Job, Opened, SavedView, SceneError, Shot, TransferChoice,
+    TransferRequest, VIEW_VERSION, ViewChannel, ViewData, ViewRuler, VolumeSource,
+    opening_transfer,
+};
+use voxscope_volume::{Selection, ValueWindow};
+
+use super::settings::Layout;
+use super::view_state::{Clipping, Ruler};
+use super::voxscope_app::VoxscopeApp;
+
+/// A view file's job ended: what it did.
+pub enum ViewFile {
+    /// The view was written to this file.
+    Written(PathBuf),
+    /// This file was read and its data exists.
+    Read(PathBuf, Box<SavedView>),
+}
+
+/// Writes `view` to `path` on a job thread (the UI thread never waits on disk).
+pub fn write_job(
+    view: SavedView,
+    path: PathBuf,
+    wake: impl Fn() + Send + 'static,
+) -> Job<ViewFile> {
+    Job::spawn(format!("saving {}", path.display()), wake, move |_| {
+        view.write(&path).map_err(SceneError::failed)?;
+        Ok(ViewFile::Written(path))
+    })
+}
+
+/// Reads the view file `path` on a job thread, and checks that the data it names exists: a
+/// view whose data is missing is one line naming both.
+pub fn read_job(path: PathBuf, wake: impl Fn() + Send + 'static) -> Job<ViewFile> {
+    Job::spawn(format!("reading {}", path.display()), wake, move |_| {
+        let view = SavedView::read(&path).map_err(SceneError::failed)?;
+        if let Some(missing) = view.data.missing_path() {
+            return Err(SceneError::failed(format!(
+                "{}: its data {missing} does not exist",
+                path.display()
+            )));
+        }
+        Ok(ViewFile::Read(path, Box::new(view)))
+    })
+}
+
+/// The view file's name of a layout (as `render --save-view` leaves it for the app).
+pub fn layout_name(layout: Layout) -> &'static str {
+    match layout {
+        Layout::Single => "single",
+        Layout::LevelGrid => "level-grid",
+        Layout::TransferPair => "transfer-pair",
+        Layout::Slices => "slices",
+    }
+}
+
+/// The layout a view file names, if it names one this app knows.
+pub fn layout_named(name: &str) -> Option<Layout> {
+    Layout::ALL.into_iter().find(|&l| layout_name(l) == name)
+}
+
+/// The frame a view's data names: its selection, and whether the composite of every channel
+/// is shown (`channel` left out or `all`). An error for a channel that is no number.
+fn view_selection(data: &ViewData) -> Result<(Selection, bool), String> {
+    let (channel, composite) = match data.channel.as_deref().map(str::trim) {
+        None | Some("all") => (0, true),
+        Some(text) => (
+            text.parse::<usize>()
+                .map_err(|_| format!("the channel '{text}' is not a number or 'all'"))?,
+            false,
+        ),
+    };
+    Ok((
+        Selection {
+            channel,
+            time: data.time,
+        },
+        composite,
+    ))
+}
+
+impl VoxscopeApp {
+    /// The view on screen as a view file holds it (`None` before a volume is shown).
+    pub fn saved_view(&self) -> Option<SavedView> {
+        let scene = self.scene.as_ref()?;
+        let volume = &scene.data.volume;
+        let channel = if scene.composite.is_some() {
+            Some("all".to_owned())
+        } else if volume.series.channel_count() > 1 {
+            Some(volume.series.selected.channel.to_string())
+        } else {
+            None
+        };
+        let source = match &scene.data.source {
+            VolumeSource::Sample => None,
+            VolumeSource::Spec(spec) => Some(ViewData::stored_source(spec)),
+        };
+        let live = self.transfer();
+        let channels: Vec<ViewChannel> = match &scene.composite {
+            Some(_) => self
+                .view
+                .composite_channels(live)
+                .into_iter()
+                .map(|state| ViewChannel {
+                    color: state.color,
+                    transfer: state.transfer,
+                    visible: state.visible,
+                })
+                .collect(),
+            None => Vec::new(),
+        };
+        // A composite's own function is channel 0's (the command line draws it so).
+        let transfer = channels.first().map_or(live, |channel| channel.transfer);
+        let size = self
+            .central
+            .pane_sizes()
+            .first()
+            .copied()
+            .filter(|&[w, h]| w > 0 && h > 0)
+            .unwrap_or(SavedView::default().size);
+        let kind = if scene.composite.is_some() {
+            RendererKind::Composite
+        } else {
+            scene.options.kind
+        };
+        Some(SavedView {
+            version: VIEW_VERSION,
+            data: ViewData {
+                source,
+                channel,
+                time: volume.series.selected.time,
+                ..ViewData::default()
+            },
+            camera: self.settings.camera,
+            size,
+            transfer: Some(transfer),
+            channels,
+            settings: Some(
+                self.settings
+                    .render_settings(self.view.max_level, self.view.clipping.clip()),
+            ),
+            renderer: Some(kind),
+            brick_size: Some(self.settings.brick_size),
+            stream: None,
+            rulers: self
+                .view
+                .rulers
+                .iter()
+                .map(|r| ViewRuler {
+                    from: r.from,
+                    to: r.to,
+                })
+                .collect(),
+            layout: Some(layout_name(self.settings.layout).to_owned()),
+        })
+    }
+
+    /// Opens `view`'s data in the background (the frame it names, with its renderer and
+    /// transfer function); the rest of the view is applied when it is on screen.
+    pub(super) fn open_view(&mut self, view: SavedView, ctx: &egui::Context) -> Result<(), String> {
+        let gpu = self.gpu.as_ref().ok_or("no GPU device")?;
+        let (selection, composite) = view_selection(&view.data)?;
+        let source = view
+            .data
+            .source
+            .as_deref()
+            .map_or(VolumeSource::Sample, VolumeSource::from_spec);
+        // The frame, where it is not the first: drawn with the view's function at once (a
+        // view without one takes the data's own once open).
+        let frame = (selection != Selection::default() || !composite).then(|| FrameChange {
+            selection,
+            transfer: view.transfer.unwrap_or(TransferFunction::gray(ValueWindow {
+                low: 0.0,
+                high: 1.0,
+            })),
+            composite,
+            channels: Vec::new(),
+        });
+        let request = TransferRequest {
+            saved: view.transfer,
+            ..TransferRequest::default()
+        };
+        let options = RendererOptions {
+            kind: view_renderer(&view).unwrap_or(self.settings.renderer),
+            brick_size: view.brick_size.unwrap_or(self.settings.brick_size),
+            gpu_memory: self.settings.stream_gpu_memory,
+        };
+        let context = std::sync::Arc::clone(&gpu.context);
+        let wake = ctx.clone();
+        let job = Job::spawn(
+            format!("opening {}", source.spec()),
+            move || wake.request_repaint(),
+            move |progress| {
+                voxscope_scene::prepare_scene(&source, frame, &request, &context, options, progress)
+            },
+        );
+        self.jobs.open_view(job, view);
+        Ok(())
+    }
+
+    /// Shows the data a view file opened, then everything else the view holds.
+    pub(super) fn show_view_opened(&mut self, mut opened: Opened, view: &SavedView) {
+        // The view's renderer is the user's choice now, so that the renderer the data opened
+        // with is not replaced by the one chosen before.
+        if let Some(kind) = view_renderer(view) {
+            self.settings.renderer = kind;
+        }
+        if let Some(size) = view.brick_size {
+            self.settings.brick_size = size;
+        }
+        // A new volume, whatever frame of it the view shows.
+        opened.frame_change = false;
+        self.show_opened(opened);
+        let Some(scene) = &self.scene else {
+            return;
+        };
+        let depth = scene.depth();
+        let transfer = view.transfer.unwrap_or_else(|| {
+            let data = &scene.data;
+            opening_transfer(
+                &data.quantized,
+                data.kind,
+                data.default_window,
+                &TransferRequest::default(),
+            )
+        });
+        if scene.composite.is_some() && view.channels.len() == self.view.channels.len() {
+            for (state, saved) in self.view.channels.iter_mut().zip(&view.channels) {
+                state.color = saved.color;
+                state.transfer = saved.transfer;
+                state.visible = saved.visible;
+            }
+            self.view.active_channel = 0;
+            let first = view.channels.first().map_or(transfer, |c| c.transfer);
+            self.set_panel_transfer(first);
+        } else {
+            self.set_panel_transfer(transfer);
+        }
+        self.settings.camera = view.camera;
+        if let Some(settings) = view.settings {
+            self.apply_render_settings(&settings, depth);
+        }
+        self.view.rulers = view
+            .rulers
+            .iter()
+            .map(|r| Ruler {
+                from: r.from,
+                to: r.to,
+            })
+            .collect();
+        if let Some(layout) = view.layout.as_deref().and_then(layout_named) {
+            self.settings.layout = layout;
+        }
+    }
+
+    /// Shows `shot` (a movie's frame: its camera, settings and transfer function) and, for the
+    /// composite, its `channels`.
+    pub(super) fn apply_shot(&mut self, shot: &Shot, channels: &[ChannelState]) {
+        let Some(scene) = &self.scene else {
+            return;
+        };
+        let (depth, composite) = (scene.depth(), scene.composite.is_some());
+        self.settings.camera = shot.camera;
+        self.apply_render_settings(&shot.settings, depth);
+        if composite && channels.len() == self.view.channels.len() {
+            self.view.channels = channels.to_vec();
+            let active = channels
+                .get(self.view.active_channel)
+                .map_or(shot.transfer, |c| c.transfer);
+            self.set_panel_transfer(active);
+        } else {
+            self.set_panel_transfer(shot.transfer);
+        }
+    }
+
+    /// Takes what `settings` holds into the app's settings and view state (the level at most
+    /// `depth`).
+    fn apply_render_settings(&mut self, settings: &RenderSettings, depth: u32) {
+        self.settings.mode = settings.mode;
+        self.settings.density = settings.density;
+        self.settings.pixel_lod = settings.pixel_lod;
+        self.settings.opacity_correction = settings.opacity_correction;
+        self.settings.trilinear = settings.trilinear;
+        self.settings.heatmap = settings.heatmap;
+        self.settings.shading = settings.shading;
+        self.view.max_level = settings.max_level.min(depth);
+        self.view.clipping = Clipping::from(settings.clip);
+    }
+
+    /// Makes `transfer` the one the Transfer function panel shows and edits.
+    fn set_panel_transfer(&mut self, transfer: TransferFunction) {
+        self.settings.transfer = TransferChoice::from(transfer);
+        self.view.window = transfer.window;
+    }
+
+    /// Remembers `path` as the view file Ctrl+S saves to, and says what was done with it.
+    pub(super) fn view_file_done(&mut self, path: &Path, what: &str) -> String {
+        self.last_view_file = Some(path.to_path_buf());
+        let absolute = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
+        format!("{what}: {}", absolute.display())
+    }
+}
+
+/// The renderer of one volume a view asks for (`None`: the composite's, or none).
+fn view_renderer(view: &SavedView) -> Option<RendererKind> {
+    view.renderer
+        .filter(|kind| *kind != RendererKind::Composite)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn layouts_round_trip_through_their_view_names() {
+        for layout in Layout::ALL {
+            assert_eq!(layout_named(layout_name(layout)), Some(layout));
+        }
+        assert_eq!(layout_named("mosaic"), None);
+    }
+
+    #[test]
+    fn a_view_names_its_frame_and_a_bad_channel_is_one_line() {
+        let data = |channel: Option<&str>, time| ViewData {
+            channel: channel.map(str::to_owned),
+            time,
+            ..ViewData::default()
+        };
+        assert_eq!(
+            view_selection(&data(None, 2)),
+            Ok((
+                Selection {
+                    channel: 0,
+                    time: 2
+                },
+                true
+            ))
+        );
+        assert_eq!(
+            view_selection(&data(Some("1"), 0)),
+            Ok((
+                Selection {
+                    channel: 1,
+                    time: 0
+                },
+                false
+            ))
+        );
+        let error = view_selection(&data(Some("red"), 0)).expect_err("not a channel");
+        assert!(error.contains("'red'"), "{error}");
+    }
+}
