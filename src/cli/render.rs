@@ -104,8 +104,10 @@ pub fn run(args: &RenderArgs, given: &Given) -> Result<Rendered, String> {
             *depth,
             &settings,
             &refinement,
-            seconds,
-            drawing_began + refinement.first_frame_seconds,
+            Seconds {
+                whole: seconds,
+                first_image: drawing_began + refinement.first_frame_seconds,
+            },
         )),
         (Content::Composite { channels }, _) => {
             let colors: Vec<String> = channels
@@ -166,6 +168,12 @@ fn resolved(args: &RenderArgs, given: &Given) -> Result<(VolumeArgs, RenderOptio
     Ok((volume, options))
 }
 
+/// How long a streamed render took, and until its first image.
+struct Seconds {
+    whole: f64,
+    first_image: f64,
+}
+
 /// What a streamed render says on stderr (each brick that could not be read, then the
 /// summary) and how it ended.
 fn report_stream(
@@ -175,8 +183,10 @@ fn report_stream(
     depth: u32,
     settings: &voxscope_render::RenderSettings,
     refinement: &Refinement,
-    seconds: f64,
-    first_image_seconds: f64,
+    Seconds {
+        whole: seconds,
+        first_image: first_image_seconds,
+    }: Seconds,
 ) -> Rendered {
     // Each brick that could not be read once (or, when many, one line per cause).
     for line in refinement.failure_lines() {
