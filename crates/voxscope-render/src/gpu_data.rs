@@ -209,6 +209,9 @@ pub(crate) const FLAG_PIXEL_LOD: u32 = 2;
 pub(crate) const FLAG_HEATMAP: u32 = 4;
 /// The values are labels: MIP draws the first visible label (`first_label`, ray_common.wgsl).
 pub(crate) const FLAG_LABELS: u32 = 8;
+/// [`RaycastParams::mode`] of DVR and of MIP (keep in sync with `ray_common.wgsl`).
+pub(crate) const MODE_DVR: u32 = 0;
+pub(crate) const MODE_MIP: u32 = 1;
 
 #[cfg(test)]
 mod tests {

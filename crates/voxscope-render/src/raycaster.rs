@@ -3,7 +3,8 @@
 use glam::DVec3;
 
 use super::gpu_data::{
-    FLAG_HEATMAP, FLAG_LABELS, FLAG_OPACITY_CORRECTION, FLAG_PIXEL_LOD, ProbeResult, RaycastParams,
+    FLAG_HEATMAP, FLAG_LABELS, FLAG_OPACITY_CORRECTION, FLAG_PIXEL_LOD, MODE_DVR, MODE_MIP,
+    ProbeResult, RaycastParams,
 };
 use super::pipeline::{
     Variant, VariantPipelines, atlas_entry, atlas_sampler_entry, clamped_sampler, dispatch_probe,
@@ -655,8 +656,8 @@ pub(crate) fn raycast_params(
         depth: volume.depth(),
         max_level,
         mode: match settings.mode {
-            RenderMode::Dvr => 0,
-            RenderMode::Mip => 1,
+            RenderMode::Dvr => MODE_DVR,
+            RenderMode::Mip => MODE_MIP,
         },
         flags,
         density: settings.density.max(0.0),

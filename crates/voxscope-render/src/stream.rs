@@ -15,7 +15,7 @@ use std::time::Instant;
 
 use wgpu::util::DeviceExt;
 
-use super::gpu_data::{RaycastParams, STREAM_LEVELS, StreamParams};
+use super::gpu_data::{MODE_MIP, RaycastParams, STREAM_LEVELS, StreamParams};
 use super::pipeline::{
     Variant, VariantPipelines, atlas_entry, atlas_sampler_entry, clamped_sampler,
     numbered_bind_group, output_image_entry, storage_entry, uniform_entry,
@@ -79,6 +79,9 @@ pub struct StreamVolume {
     drawn: AtomicBool,
     /// The camera of the latest frame drawn, for the load order.
     view: Mutex<Option<ViewPoint>>,
+    /// Whether the latest frame drawn took the maximum (MIP): the loads follow (brightest
+    /// bricks first).
+    max_projection: AtomicBool,
     spacing: [f64; 3],
 }
 
@@ -238,6 +241,7 @@ impl StreamVolume {
             ring,
             drawn: AtomicBool::new(false),
             view: Mutex::new(None),
+            max_projection: AtomicBool::new(false),
             spacing: source.spacing(),
         };
         volume.write(context, &pinned);
@@ -330,6 +334,7 @@ impl StreamVolume {
                     requests,
                     asked: *asked,
                     usage,
+                    max_projection: self.max_projection.load(Ordering::Acquire),
                 }),
                 view,
             ),
@@ -585,6 +590,9 @@ impl RayPass<StreamVolume> for StreamRaycaster {
             eye: [params.eye[0], params.eye[1], params.eye[2]].map(f64::from),
             forward: forward.to_array().map(f64::from),
         });
+        volume
+            .max_projection
+            .store(params.mode == MODE_MIP, Ordering::Release);
         volume.drawn.store(true, Ordering::Release);
     }
 

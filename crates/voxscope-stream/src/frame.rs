@@ -59,6 +59,9 @@ pub struct Feedback<'a> {
     /// Per atlas slot, the last frame a ray used it as `2·frame + 1` where the ray wanted the
     /// brick's level, `2·frame` where it drew it in place of a missing finer brick (0: never).
     pub usage: &'a [u32],
+    /// The frame's rays took the maximum (MIP): a ray needs a brick only where the brick's
+    /// largest value is above the ray's so far.
+    pub max_projection: bool,
 }
 
 /// A brick to copy into the atlas this frame.

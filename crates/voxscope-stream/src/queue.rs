@@ -26,16 +26,24 @@ impl Priority {
     /// Tier first, then coarser levels, then the angle from the view's center (`off_center`,
     /// ≥ 0: 1 − cos of it, say).
     pub fn new(tier: Tier, level: u32, off_center: f32) -> Self {
+        Self::with_maximum(tier, level, 0, off_center)
+    }
+
+    /// As [`Self::new`], bricks of a larger `maximum` value level first within a level (MIP:
+    /// the brightest bricks raise the rays' maxima soonest, after which the rays need fewer of
+    /// the others; 0 where it is not known or not asked).
+    pub fn with_maximum(tier: Tier, level: u32, maximum: u16, off_center: f32) -> Self {
         let tier = (tier == Tier::Prefetch) as u64;
         let coarse_first = (MAX_LEVELS as u64 - 1).saturating_sub(level as u64);
+        let brightest_first = u64::from(u16::MAX - maximum);
         // A non-negative float's bits sort as the float does.
         let distance = off_center.max(0.0).to_bits() as u64;
-        Self(tier << 40 | coarse_first << 32 | distance)
+        Self(tier << 56 | coarse_first << 48 | brightest_first << 32 | distance)
     }
 
     /// The tier it was made with.
     pub fn tier(self) -> Tier {
-        if self.0 >> 40 == 0 {
+        if self.0 >> 56 == 0 {
             Tier::Visible
         } else {
             Tier::Prefetch

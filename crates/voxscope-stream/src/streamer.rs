@@ -78,6 +78,8 @@ pub struct Streamer {
     missing: usize,
     /// Wanted bricks in RAM and not yet uploaded, best first.
     ready: Vec<Request>,
+    /// The latest feedback's rays took the maximum (MIP): requests are ordered brightest first.
+    max_projection: bool,
     /// Frames in a row in which ready bricks found no slot and nothing was uploaded: every
     /// slot holds a brick the frame drew, and nothing will free one (see [`STALLED_FRAMES`]).
     no_room_frames: u32,
@@ -164,6 +166,7 @@ impl Streamer {
             feedback_frame: None,
             feedback_missing: 0,
             no_room_frames: 0,
+            max_projection: false,
             changed_frame: 0,
             wanted: KeyMap::default(),
             missing: 0,
@@ -599,6 +602,38 @@ impl Streamer {
         }
     }
 
+    /// The load priority of the visible brick `key`: coarse first, then (MIP) the brightest
+    /// first, then nearest the view's center. Under MIP a brick whose range the source knows
+    /// without reading it enters the table with that range (as an evicted brick stays), so
+    /// that a ray whose maximum is already above it stops asking for it: once the brightest
+    /// bricks are in, most of the rest are never read.
+    fn visible_priority(&mut self, key: u32, id: BrickId, off_center: f32) -> Priority {
+        if !self.max_projection {
+            return Priority::new(Tier::Visible, id.level, off_center);
+        }
+        let maximum = match self.table.get(key) {
+            Some(entry) => (entry.range >> 16) as u16,
+            None => match self.source.known_range(id) {
+                Some(range) => {
+                    let entry = TableEntry {
+                        key,
+                        cell: 0,
+                        range: range.packed(),
+                        slot: 0,
+                    };
+                    if self.insert_entry(entry).is_ok() {
+                        self.empty[id.level as usize] += 1;
+                        self.metadata.push_back(key);
+                        self.changed_frame = self.frame;
+                    }
+                    range.max
+                }
+                None => 0,
+            },
+        };
+        Priority::with_maximum(Tier::Visible, id.level, maximum, off_center)
+    }
+
     /// Whether `key` takes no slot in a view: [`Self::satisfied`], or its range (known without
     /// reading it, or from when it was last read) is invisible, so that rays skip it. A coarser
     /// brick of a cut may be invisible while the finer ones it stands for are not (a mean of
@@ -624,6 +659,7 @@ impl Streamer {
             }
         }
         self.feedback_frame = Some(feedback.frame);
+        self.max_projection = feedback.max_projection;
         let view = view.unwrap_or(ViewPoint {
             eye: [0.0; 3],
             forward: [0.0, 0.0, 1.0],
@@ -663,7 +699,7 @@ impl Streamer {
             }
             let off_center = view.off_center(self.shape.brick_center(id));
             requests.push(Request {
-                priority: Priority::new(Tier::Visible, id.level, off_center),
+                priority: self.visible_priority(key, id, off_center),
                 id,
                 key,
             });
@@ -758,7 +794,7 @@ impl Streamer {
                 wanted.insert(
                     key,
                     Request {
-                        priority: Priority::new(Tier::Visible, id.level, off_center),
+                        priority: self.visible_priority(key, id, off_center),
                         id,
                         key,
                     },
