@@ -43,6 +43,15 @@ const PREFETCH_AROUND: usize = 1024;
 /// cover the feedback's latency.
 const STALLED_FRAMES: u32 = 8;
 
+/// Frames, and [`NO_PROGRESS_TIME`], during which a view under the budget's pressure lacks no
+/// fewer bricks than it once did, after which it stands on what the atlas holds. A view that
+/// fits is never cut so (a slow network store only delays it); one whose bricks are placed and
+/// evicted again in turn would otherwise refine forever (run 66: once in four near MIP views,
+/// 18 bricks missing after 30 s). Well beyond what a view that converges takes (≤ 200 frames
+/// and ≤ 4.5 s in runs 60–66) without new bricks.
+const NO_PROGRESS_FRAMES: u32 = 90;
+const NO_PROGRESS_TIME: Duration = Duration::from_secs(2);
+
 /// Bricks of the coarsest levels that stay in the atlas, so every ray has a fallback: every
 /// level of a single brick.
 fn pinned_levels(shape: &PyramidShape) -> Vec<u32> {
@@ -83,6 +92,10 @@ pub struct Streamer {
     /// Frames in a row in which ready bricks found no slot and nothing was uploaded: every
     /// slot holds a brick the frame drew, and nothing will free one (see [`STALLED_FRAMES`]).
     no_room_frames: u32,
+    /// The fewest bricks the view lacked since it was last cut anew, and the frame and time
+    /// it first lacked that few (see [`NO_PROGRESS_FRAMES`]).
+    fewest_missing: usize,
+    progress_at: (u32, Instant),
     /// Table entries that hold no slot, oldest first (dropped when the table is full).
     metadata: VecDeque<u32>,
     /// Bricks that could not be read (their table entries say so: rays draw a coarser level).
@@ -166,6 +179,8 @@ impl Streamer {
             feedback_frame: None,
             feedback_missing: 0,
             no_room_frames: 0,
+            fewest_missing: usize::MAX,
+            progress_at: (0, Instant::now()),
             max_projection: false,
             changed_frame: 0,
             wanted: KeyMap::default(),
@@ -730,7 +745,18 @@ impl Streamer {
         // Stalled: bricks wait in RAM for slots that nothing will free (the bricks a cut loads
         // bring their coarser ancestors along, which the cut does not count). What the atlas
         // holds is then the cut, as when stuck below.
-        let stalled = self.no_room_frames >= STALLED_FRAMES;
+        // Or, under the budget's pressure, the view has lacked no fewer bricks for a while:
+        // bricks are placed and evicted again in turn (a livelock), and waiting longer
+        // changes nothing.
+        if requests.len() < self.fewest_missing {
+            self.fewest_missing = requests.len();
+            self.progress_at = (self.frame, Instant::now());
+        }
+        let pressed = !cut.left_out.is_empty() || available < room;
+        let no_progress = pressed
+            && self.frame.saturating_sub(self.progress_at.0) >= NO_PROGRESS_FRAMES
+            && self.progress_at.1.elapsed() >= NO_PROGRESS_TIME;
+        let stalled = self.no_room_frames >= STALLED_FRAMES || no_progress;
         let cut_now = (available < room || stalled).then(|| {
             let room_now = if stalled { 0 } else { available };
             cut_within(&requests, room_now, &self.shape, &view, |key| {
@@ -875,6 +901,7 @@ impl Streamer {
     /// `keys` stand for the bricks below them in `view` from now on.
     fn stand_in(&mut self, keys: &[u32], view: ViewPoint) {
         self.no_room_frames = 0;
+        self.forget_progress();
         self.standing.extend(keys.iter().copied());
         self.standing_view = Some(view);
         self.changed_frame = self.frame;
@@ -900,6 +927,12 @@ impl Streamer {
         });
     }
 
+    /// Progress is counted from now (a new cut, or one that stands).
+    fn forget_progress(&mut self) {
+        self.fewest_missing = usize::MAX;
+        self.progress_at = (self.frame, Instant::now());
+    }
+
     /// A view other than the one bricks stand in is cut anew.
     fn follow_view(&mut self, view: ViewPoint) {
         if self
@@ -913,6 +946,7 @@ impl Streamer {
     /// Forgets what stands for what: rays' asks load again and the next cut decides.
     fn cut_anew(&mut self) {
         self.no_room_frames = 0;
+        self.forget_progress();
         self.standing.clear();
         for level in &mut self.counters.levels {
             level.left_out = 0;
