@@ -91,6 +91,8 @@ pub const FETCH_AHEAD_BRICKS: usize = 96;
 /// The worker threads and the channel their results arrive on.
 pub struct Loader {
     source: Arc<dyn BrickSource>,
+    /// The source reads over a network: the queue's next bricks are fetched ahead.
+    remote: bool,
     queue: Arc<RequestQueue>,
     results: Receiver<LoadResult>,
 }
@@ -104,16 +106,18 @@ impl Loader {
         workers: usize,
     ) -> Self {
         let (sender, results) = channel();
+        let remote = source.remote_stats().is_some();
         for index in 0..workers.max(1) {
             let (source, queue, sender) = (Arc::clone(&source), Arc::clone(&queue), sender.clone());
             // Detached: see the module's documentation.
             let _detached: JoinHandle<()> = std::thread::Builder::new()
                 .name(format!("voxscope-brick-loader-{index}"))
-                .spawn(move || work(&*source, &queue, texels, &sender))
+                .spawn(move || work(&*source, remote, &queue, texels, &sender))
                 .expect("the system starts a thread");
         }
         Self {
             source,
+            remote,
             queue,
             results,
         }
@@ -122,7 +126,9 @@ impl Loader {
     /// Starts the network reads of the queue's next bricks without waiting
     /// ([`BrickSource::fetch_ahead`]; nothing for a source on disk or in memory).
     pub fn fetch_ahead(&self) {
-        fetch_ahead(&*self.source, &self.queue);
+        if self.remote {
+            fetch_ahead(&*self.source, &self.queue);
+        }
     }
 
     /// Every result that has arrived, without waiting.
@@ -186,13 +192,17 @@ fn fetch_ahead(source: &dyn BrickSource, queue: &RequestQueue) {
 
 fn work(
     source: &dyn BrickSource,
+    remote: bool,
     queue: &RequestQueue,
     texels: AtlasTexels,
     results: &Sender<LoadResult>,
 ) {
     while let Some(request) = queue.take() {
-        // What comes after this brick goes on the wire while this one is read and decoded.
-        fetch_ahead(source, queue);
+        // What comes after this brick goes on the wire while this one is read and decoded
+        // (a source on disk or in memory has no wire: the queue is not even looked at).
+        if remote {
+            fetch_ahead(source, queue);
+        }
         let started = std::time::Instant::now();
         let (brick, bytes_read) = load_brick(source, request.id, texels);
         let result = LoadResult {
