@@ -24,7 +24,7 @@ use super::queue::{Priority, Request, RequestQueue, Tier};
 use super::ram_cache::RamCache;
 use super::slots::SlotPool;
 use super::status::{BudgetLimit, LevelCounters, StreamCounters, StreamStatus};
-use crate::{BrickId, BrickSource, PADDED_BRICK_VOXELS};
+use crate::{BrickId, BrickSource, PADDED_BRICK_VOXELS, ValueRange};
 
 /// What a frame may spend putting uploads on their way (the upload allowance follows from it
 /// and the measured cost): a few milliseconds of a 16 ms frame.
@@ -590,18 +590,27 @@ impl Streamer {
         if self.range_visible(range.packed()) {
             return false;
         }
+        if self.enter_known_range(key, id, range) {
+            self.counters.skipped_unread += 1;
+        }
+        true
+    }
+
+    /// Enters brick `key` in the table without a slot, with the range its source knows
+    /// without reading it (rays skip it where that range says they may); whether it entered.
+    fn enter_known_range(&mut self, key: u32, id: BrickId, range: ValueRange) -> bool {
         let entry = TableEntry {
             key,
             cell: 0,
             range: range.packed(),
             slot: 0,
         };
-        if self.insert_entry(entry).is_ok() {
-            self.empty[id.level as usize] += 1;
-            self.metadata.push_back(key);
-            self.changed_frame = self.frame;
-            self.counters.skipped_unread += 1;
+        if self.insert_entry(entry).is_err() {
+            return false;
         }
+        self.empty[id.level as usize] += 1;
+        self.metadata.push_back(key);
+        self.changed_frame = self.frame;
         true
     }
 
@@ -630,17 +639,7 @@ impl Streamer {
             Some(entry) => (entry.range >> 16) as u16,
             None => match self.source.known_range(id) {
                 Some(range) => {
-                    let entry = TableEntry {
-                        key,
-                        cell: 0,
-                        range: range.packed(),
-                        slot: 0,
-                    };
-                    if self.insert_entry(entry).is_ok() {
-                        self.empty[id.level as usize] += 1;
-                        self.metadata.push_back(key);
-                        self.changed_frame = self.frame;
-                    }
+                    self.enter_known_range(key, id, range);
                     range.max
                 }
                 None => 0,
