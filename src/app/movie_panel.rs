@@ -328,15 +328,7 @@ impl VoxscopeApp {
         let (Some(scene), Some(gpu)) = (&self.scene, &self.gpu) else {
             return Err("no volume is shown".into());
         };
-        let source = match &scene.composite {
-            Some(composite) => OffscreenSource::Composite {
-                channels: composite.channels.clone(),
-            },
-            None => OffscreenSource::Volume {
-                data: Arc::clone(&scene.data),
-                options: scene.options,
-            },
-        };
+        let source = OffscreenSource::of_scene(scene);
         let export = Export {
             context: Arc::clone(&gpu.context),
             source,

@@ -32,6 +32,22 @@ pub enum OffscreenSource {
     Composite { channels: Vec<Arc<VolumeData>> },
 }
 
+impl OffscreenSource {
+    /// What `scene` shows: its composite's channels, or its volume with its renderer's
+    /// options.
+    pub fn of_scene(scene: &Scene) -> Self {
+        match &scene.composite {
+            Some(composite) => Self::Composite {
+                channels: composite.channels.clone(),
+            },
+            None => Self::Volume {
+                data: Arc::clone(&scene.data),
+                options: scene.options,
+            },
+        }
+    }
+}
+
 /// A renderer of its own for pictures drawn on a job thread.
 pub struct OffscreenDrawer {
     context: Arc<GpuContext>,

@@ -130,15 +130,7 @@ impl super::VoxscopeApp {
                 })
             })
             .collect();
-        let source = match &scene.composite {
-            Some(composite) => OffscreenSource::Composite {
-                channels: composite.channels.clone(),
-            },
-            None => OffscreenSource::Volume {
-                data: Arc::clone(&scene.data),
-                options: scene.options,
-            },
-        };
+        let source = OffscreenSource::of_scene(scene);
         let job = ScaledScreenshot {
             context: Arc::clone(&gpu.context),
             source,
