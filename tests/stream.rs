@@ -548,42 +548,62 @@ fn uploads_through_the_staging_ring_draw_what_queue_writes_draw() {
     let prepared = &*NOISE;
     let camera = close_camera(30.0);
     let settings = settings(prepared.octree.depth);
-    let image = |staging_ring: bool| {
-        let mut renderer = streaming(
-            &context,
-            PYRAMID.clone(),
-            StreamOptions {
-                staging_ring,
-                ..options(level0_bytes())
+    // The noise as 8-bit texels too: the ring lays seven such bricks side by side in a
+    // copy's rows (three of 16 bits).
+    let quantization = prepared.quantized.quantization;
+    let eight_bit = Arc::new(
+        MemorySource::from_levels(
+            "noise8",
+            prepared.quantized.levels.iter().map(|&l| l >> 8).collect(),
+            prepared.quantized.dims,
+            Quantization {
+                offset: quantization.offset,
+                step: quantization.step * 256.0,
             },
-            &prepared.transfer,
-        );
-        let refined = refine(&context, &mut renderer, &camera, &settings);
-        let counters = &refined.status.counters;
-        assert!(counters.bytes_uploaded > 0 && counters.upload_seconds > 0.0);
-        assert!(counters.upload_allowance >= counters.slot_bytes);
-        eprintln!(
-            "ring {staging_ring}: {} bricks in {} frames, {:.0} MB/s to upload, {:.0} MB/s a loader",
-            counters.loads,
-            refined.frames,
-            counters.bytes_uploaded as f64 / counters.upload_seconds / 1e6,
-            counters.bytes_read as f64 / counters.read_seconds / 1e6
-        );
-        refined.image
-    };
-    let through_ring = image(true);
-    let through_queue = image(false);
-    save(&through_ring, "ring");
-    save(&through_queue, "queue");
-    assert!(coverage(&through_ring) > 0.5, "the view shows the volume");
-    // The same bricks, in other slots where they arrived in another order: a sample's atlas
-    // coordinate rounds differently there (about 90 dB); a misplaced row or a brick written
-    // over before its copy ran would be tens of dB lower.
-    let db = psnr(&through_ring, &through_queue);
-    assert!(
-        db >= 80.0,
-        "the ring's uploads differ from the queue's: {db:.1} dB"
+            prepared.volume.spacing,
+            Downsampling::Mean,
+        )
+        .expect("pyramid"),
     );
+    for (source, texels) in [(PYRAMID.clone(), 16), (eight_bit, 8)] {
+        let image = |staging_ring: bool| {
+            let mut renderer = streaming(
+                &context,
+                source.clone(),
+                StreamOptions {
+                    staging_ring,
+                    ..options(level0_bytes())
+                },
+                &prepared.transfer,
+            );
+            let refined = refine(&context, &mut renderer, &camera, &settings);
+            let counters = &refined.status.counters;
+            assert!(counters.bytes_uploaded > 0 && counters.upload_seconds > 0.0);
+            assert!(counters.upload_allowance >= counters.slot_bytes);
+            assert_eq!(counters.slot_bytes, PADDED_BRICK_VOXELS as u64 * texels / 8);
+            eprintln!(
+                "{texels}-bit, ring {staging_ring}: {} bricks in {} frames, {:.0} MB/s to upload, {:.0} MB/s a loader",
+                counters.loads,
+                refined.frames,
+                counters.bytes_uploaded as f64 / counters.upload_seconds / 1e6,
+                counters.bytes_read as f64 / counters.read_seconds / 1e6
+            );
+            refined.image
+        };
+        let through_ring = image(true);
+        let through_queue = image(false);
+        save(&through_ring, &format!("ring-{texels}bit"));
+        save(&through_queue, &format!("queue-{texels}bit"));
+        assert!(coverage(&through_ring) > 0.5, "the view shows the volume");
+        // The same bricks, in other slots where they arrived in another order: a sample's atlas
+        // coordinate rounds differently there (about 90 dB); a misplaced row or a brick written
+        // over before its copy ran would be tens of dB lower.
+        let db = psnr(&through_ring, &through_queue);
+        assert!(
+            db >= 80.0,
+            "{texels}-bit: the ring's uploads differ from the queue's: {db:.1} dB"
+        );
+    }
 }
 
 #[test]

@@ -82,6 +82,10 @@ for n in r["near_stopped_views"]:
 for o in r["orbits"]:
     print("orbit", o["camera"], "wall", {k: round(v, 2) for k, v in o["wall_ms"].items()},
           "over16", o["frames_over_16ms_wall"], "missing", o["missing_bricks"])
+    print("   update", {k: round(v, 2) for k, v in o["update_ms"].items()},
+          "wait", {k: round(v, 2) for k, v in o.get("wait_ms", {}).items()},
+          "uploaded MB", round(o["uploaded_bytes"] / 1e6, 1),
+          "upload s", round(o["counters"]["upload_seconds"], 3))
 for row in r["resident"]["rows"]:
     print("resident", row["mode"], row["camera"], row["complete"], round(row["stream_over_bricks"], 2))
 PY

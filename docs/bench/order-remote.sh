@@ -6,7 +6,8 @@
 # of the same store over docs/bench/slow_http.py at 50 ms a request and one 100 MB/s link, with
 # the link's floor for what crossed it: max(bytes / 100 MB/s, requests / 32 × 50 ms).
 # Expects out/zarr-bench/brain-pd-dicom/, .bench/ and the Vulkan loader's .deb files in .gl.
-# Usage: bash docs/bench/order-remote.sh RUN_NAME   (files RUN_NAME-… go to $OUT)
+# Usage: bash docs/bench/order-remote.sh RUN_NAME   (files RUN_NAME-… go to $OUT; BINS=voxscope
+# measures the one binary, without voxscope-base.gz)
 set -uo pipefail
 started=$SECONDS
 RUN=${1:-run66}
@@ -17,7 +18,8 @@ export WGPU_BACKEND=vulkan
 if [ ! -e /usr/share/vulkan/icd.d/nvidia_icd.json ]; then
     export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
 fi
-for bin in voxscope voxscope-base; do gunzip -kf $D/$bin.gz && chmod +x $D/$bin; done
+BINS=${BINS:-voxscope-base voxscope}
+for bin in $BINS; do gunzip -kf $D/$bin.gz && chmod +x $D/$bin; done
 OUTDIR=${OUT:-/tmp/out}; mkdir -p "$OUTDIR"
 NAME=pd4096x1040.ome.zarr
 STORE=$PWD/out/$NAME
@@ -29,7 +31,7 @@ if [ ! -e "$STORE/.zattrs" ]; then
 fi
 drop() { sync; echo 3 >/proc/sys/vm/drop_caches 2>/dev/null || echo "page cache NOT dropped"; }
 for take in $(seq 1 "${TAKES:-2}"); do
-    for bin in voxscope-base voxscope; do
+    for bin in $BINS; do
         for distance in 0.6 1.0; do
             drop
             name=$RUN-$bin-mip-$distance-$take
@@ -43,17 +45,17 @@ done
 python3 docs/bench/slow_http.py out 8123 0.05 100e6 2>"$OUTDIR/$RUN-server.err" &
 SERVER=$!
 sleep 1
-for bin in voxscope-base voxscope; do
+for bin in $BINS; do
     drop
     timeout 150 $D/$bin bench "http://127.0.0.1:8123/$NAME" --stream --json --gpu-memory 512MiB \
         --ram-cache 2GiB >"$OUTDIR/$RUN-$bin-http.json" 2>"$OUTDIR/$RUN-$bin-http.err"
     echo "$bin bench (HTTP) exit $? after $((SECONDS - started)) s"
 done
 kill $SERVER; wait $SERVER 2>/dev/null; tail -5 "$OUTDIR/$RUN-server.err"
-python3 - "$OUTDIR" "$RUN" <<'PY'
+python3 - "$OUTDIR" "$RUN" $BINS <<'PY'
 import json, sys, pathlib
 out, run = pathlib.Path(sys.argv[1]), sys.argv[2]
-for bin in ("voxscope-base", "voxscope"):
+for bin in sys.argv[3:]:
     try:
         r = json.loads((out / f"{run}-{bin}-http.json").read_text())
     except Exception as e:

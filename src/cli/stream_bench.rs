@@ -201,6 +201,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
         .map_err(|e| format!("{name}: {e}"))?;
         let mut wall = Vec::new();
         let mut update_ms = Vec::new();
+        let mut wait_ms = Vec::new();
         let mut missing = Vec::new();
         let mut uploaded = 0u64;
         let gpu = time_passes(&context, timer.as_ref(), args.frames, |i, writes| {
@@ -223,8 +224,10 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
             renderer.encode(&context, &mut encoder, &target, &camera, &gray, writes);
             context.queue.submit([encoder.finish()]);
             // As an app that waits for its frame (a presented swap chain): the wall time
-            // includes the GPU's completion.
+            // includes the GPU's completion (of the frame and of its uploads' copies).
+            let waiting = Instant::now();
             let _ = context.wait_idle();
+            wait_ms.push(waiting.elapsed().as_secs_f64() * 1e3);
             wall.push(started.elapsed().as_secs_f64() * 1e3);
         })
         .map_err(|e| e.to_string())?;
@@ -236,6 +239,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
             "gpu_ms": summary(&gpu),
             "wall_ms": summary(&wall),
             "update_ms": summary(&update_ms),
+            "wait_ms": summary(&wait_ms),
             "frames_over_16ms_wall": wall.iter().filter(|&&w| w > 16.0).count(),
             "slowest_frame": wall
                 .iter()

@@ -217,11 +217,11 @@ impl StreamVolume {
                 "the GPU has no room for the streaming atlas: {error}"
             )));
         }
-        // A ring buffer holds what a frame may upload, up to 64 bricks (about 19 MB: a brick's
-        // rows sit at the copy's 256-byte row alignment).
+        // A ring buffer holds what a frame may upload, within the ring's own bound (24 MB a
+        // buffer: 255 bricks of 16-bit texels, 595 of 8-bit).
         let per_frame = (options.upload_bytes_per_frame / slot_bytes).max(1) as usize;
         let ring_bricks = if options.staging_ring {
-            per_frame.min(slots).min(64)
+            per_frame.min(slots)
         } else {
             0
         };

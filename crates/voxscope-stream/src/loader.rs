@@ -82,11 +82,12 @@ pub struct LoadResult {
     pub seconds: f64,
 }
 
-/// Bricks of the queue's best whose network reads are started ahead
-/// ([`BrickSource::fetch_ahead`]) each frame and as a worker takes one: with 64³ chunks a
-/// brick reads one to eight chunks, so this is several round trips' requests at the default
-/// limit of 32 in flight.
-pub const FETCH_AHEAD_BRICKS: usize = 96;
+/// Bricks of the queue's best whose network reads may be started ahead
+/// ([`BrickSource::fetch_ahead`]) each frame and as a worker takes one. The source starts what
+/// its fetch limit has room for, in this order; the window is wide because eight bricks share
+/// a 64³ chunk: 96 bricks were 12–30 chunks, all of one level, so a view's finer level waited
+/// a round trip for its coarser one to be taken from the queue.
+pub const FETCH_AHEAD_BRICKS: usize = 512;
 
 /// The worker threads and the channel their results arrive on.
 pub struct Loader {

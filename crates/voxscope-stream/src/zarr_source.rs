@@ -65,6 +65,10 @@ pub struct ZarrSource {
 /// The most chunks a [`ZarrSource`] remembers having fetched ahead.
 const MAX_FETCHED_AHEAD: usize = 1 << 16;
 
+/// Most chunks one [`BrickSource::fetch_ahead`] call hands the store (which starts what its
+/// limit has room for: twice `--max-requests`, 64 by default, and the rest on later calls).
+const MAX_CHUNKS_AHEAD: usize = 256;
+
 /// The most stored voxels [`ZarrSource::warm_first_image`] reads as one region (16 Mi: 32 MiB
 /// as value levels, 128 MiB while a 64-bit type is converted).
 pub const WARM_VOXELS: u64 = 1 << 24;
@@ -599,6 +603,9 @@ impl BrickSource for ZarrSource {
                         sharded.push((source.stored, origin, size));
                     }
                     continue;
+                }
+                if chunks.len() >= MAX_CHUNKS_AHEAD {
+                    break;
                 }
                 for chunk in missing {
                     let key = (source.stored, chunk);
