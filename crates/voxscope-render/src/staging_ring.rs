@@ -12,6 +12,7 @@
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU8, Ordering};
+use std::time::Instant;
 
 use voxscope_stream::PADDED_BRICK;
 
@@ -99,6 +100,16 @@ pub(crate) struct StagedBrick<'a> {
     pub origin: wgpu::Origin3d,
 }
 
+/// What [`StagingRing::stage`] staged and what that took.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Staged {
+    pub bricks: usize,
+    /// Laying the bricks out and copying them into the mapped buffer (and unmapping it).
+    pub staging_seconds: f64,
+    /// Recording their copies.
+    pub record_seconds: f64,
+}
+
 /// The ring. Bricks per buffer bound a frame's uploads through it; more go through the queue.
 pub(crate) struct StagingRing {
     buffers: Vec<StagingBuffer>,
@@ -142,24 +153,26 @@ impl StagingRing {
     }
 
     /// Records the copy of as many of `bricks` as the next mapped buffer holds into `atlas`,
-    /// in `encoder`; returns how many. Call [`Self::submitted`] once the encoder is submitted.
+    /// in `encoder`: how many, and what that took. Call [`Self::submitted`] once the encoder
+    /// is submitted.
     pub(crate) fn stage(
         &mut self,
         encoder: &mut wgpu::CommandEncoder,
         atlas: &wgpu::Texture,
         bricks: &[StagedBrick<'_>],
-    ) -> usize {
+    ) -> Staged {
+        let started = Instant::now();
         let Some(staging) = self.buffers.get(self.next) else {
-            return 0;
+            return Staged::default();
         };
         if bricks.is_empty() || staging.state.load(Ordering::Acquire) != MAPPED {
-            return 0;
+            return Staged::default();
         }
         let count = bricks.len().min(self.bricks_per_buffer);
         let side = PADDED_BRICK as u32;
         {
             let Ok(mut mapped) = staging.buffer.slice(..).get_mapped_range_mut() else {
-                return 0;
+                return Staged::default();
             };
             // A group's rows are laid out in ordinary memory first, then written to the mapped
             // (possibly write-combining) memory in one sequential copy.
@@ -175,6 +188,7 @@ impl StagingRing {
             }
         }
         staging.buffer.unmap();
+        let staging_seconds = started.elapsed().as_secs_f64();
         for (index, brick) in bricks[..count].iter().enumerate() {
             encoder.copy_buffer_to_texture(
                 wgpu::TexelCopyBufferInfo {
@@ -199,7 +213,11 @@ impl StagingRing {
             );
         }
         staging.state.store(IN_FLIGHT, Ordering::Release);
-        count
+        Staged {
+            bricks: count,
+            staging_seconds,
+            record_seconds: started.elapsed().as_secs_f64() - staging_seconds,
+        }
     }
 
     /// Maps the buffer [`Self::stage`] wrote again, for a later frame, once the GPU has copied

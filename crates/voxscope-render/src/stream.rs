@@ -33,7 +33,7 @@ use super::{
 use voxscope_octree::TransferFunction;
 use voxscope_stream::{
     AtlasTexels, BRICK_SIZE, BrickSource, Feedback, PADDED_BRICK, PADDED_BRICK_VOXELS,
-    StreamOptions, StreamStatus, Streamer, TableEntry, Upload, ViewPoint,
+    StreamOptions, StreamStatus, Streamer, TableEntry, Upload, UploadParts, ViewPoint,
 };
 
 /// Keys the request buffer holds per frame: more asks than this in one frame are counted but
@@ -260,6 +260,7 @@ impl StreamVolume {
             y: ((slot / gx) % gy) * side,
             z: (slot / (gx * gy)) * side,
         };
+        let mut parts = UploadParts::default();
         let mut staged = 0;
         if !uploads.is_empty() {
             let bricks: Vec<StagedBrick<'_>> = uploads
@@ -276,12 +277,17 @@ impl StreamVolume {
                     .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                         label: Some("voxscope::stream_uploads"),
                     });
-            staged = self.ring.stage(&mut encoder, &self.atlas, &bricks);
+            let staging = self.ring.stage(&mut encoder, &self.atlas, &bricks);
+            staged = staging.bricks;
+            parts.staging_seconds = staging.staging_seconds;
+            let submitting = Instant::now();
             if staged > 0 {
                 context.queue.submit([encoder.finish()]);
                 self.ring.submitted();
             }
+            parts.submit_seconds = staging.record_seconds + submitting.elapsed().as_secs_f64();
         }
+        let queueing = Instant::now();
         for upload in &uploads[staged..] {
             context.queue.write_texture(
                 wgpu::TexelCopyTextureInfo {
@@ -303,9 +309,12 @@ impl StreamVolume {
                 },
             );
         }
+        parts.queue_seconds = queueing.elapsed().as_secs_f64();
+        parts.ring_bricks = staged as u64;
+        parts.queue_bricks = (uploads.len() - staged) as u64;
         let bytes: u64 = uploads.iter().map(|u| u.texels.len() as u64).sum();
         self.streamer
-            .set_upload_cost(bytes, started.elapsed().as_secs_f64());
+            .set_upload_cost(bytes, started.elapsed().as_secs_f64(), &parts);
         let entry_bytes = std::mem::size_of::<TableEntry>() as u64;
         for (start, entries) in self.streamer.table_mut().take_dirty() {
             context.queue.write_buffer(

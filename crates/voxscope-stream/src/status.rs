@@ -50,6 +50,8 @@ pub struct StreamCounters {
     /// Seconds the frames spent putting uploads on their way (copying into the staging ring,
     /// recording the copies): bytes uploaded ÷ this is that step's rate.
     pub upload_seconds: f64,
+    /// Where that time went, part by part.
+    pub upload_parts: UploadParts,
     /// Bytes a frame may upload now: chosen from the measured upload cost so that a frame
     /// spends at most a few milliseconds on it, within `--upload-budget`.
     pub upload_allowance: u64,
@@ -62,6 +64,32 @@ pub struct StreamCounters {
     /// Bricks never read because their known range ([`BrickSource::known_range`]) is
     /// invisible under the transfer function.
     pub skipped_unread: u64,
+}
+
+/// The frames' uploads part by part (`bench --stream --json`'s pipeline): bricks through the
+/// staging ring and through `Queue::write_texture` (while no ring buffer is mapped, or beyond
+/// what one holds), and the seconds of each step.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct UploadParts {
+    pub ring_bricks: u64,
+    pub queue_bricks: u64,
+    /// Laying bricks out and copying them into mapped ring buffers.
+    pub staging_seconds: f64,
+    /// Recording the ring's copies, submitting them and mapping the buffer again.
+    pub submit_seconds: f64,
+    /// `Queue::write_texture` of the rest.
+    pub queue_seconds: f64,
+}
+
+impl UploadParts {
+    /// Adds `other`'s bricks and seconds.
+    pub fn add(&mut self, other: &UploadParts) {
+        self.ring_bricks += other.ring_bricks;
+        self.queue_bricks += other.queue_bricks;
+        self.staging_seconds += other.staging_seconds;
+        self.submit_seconds += other.submit_seconds;
+        self.queue_seconds += other.queue_seconds;
+    }
 }
 
 impl StreamCounters {

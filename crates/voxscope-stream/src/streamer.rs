@@ -23,7 +23,7 @@ use super::pyramid::PyramidShape;
 use super::queue::{Priority, Request, RequestQueue, Tier};
 use super::ram_cache::RamCache;
 use super::slots::SlotPool;
-use super::status::{BudgetLimit, LevelCounters, StreamCounters, StreamStatus};
+use super::status::{BudgetLimit, LevelCounters, StreamCounters, StreamStatus, UploadParts};
 use crate::{BrickId, BrickSource, PADDED_BRICK_VOXELS, ValueRange};
 
 /// What a frame may spend putting uploads on their way (the upload allowance follows from it
@@ -276,8 +276,9 @@ impl Streamer {
 
     /// What the last frame's uploads cost: `seconds` for `bytes`. The allowance follows, so
     /// that a frame spends about [`UPLOAD_SECONDS_PER_FRAME`] on uploads whatever the device.
-    pub fn set_upload_cost(&mut self, bytes: u64, seconds: f64) {
+    pub fn set_upload_cost(&mut self, bytes: u64, seconds: f64, parts: &UploadParts) {
         self.counters.upload_seconds += seconds;
+        self.counters.upload_parts.add(parts);
         if bytes == 0 || seconds <= 0.0 {
             return;
         }
