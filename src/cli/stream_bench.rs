@@ -232,6 +232,9 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
         })
         .map_err(|e| e.to_string())?;
         let status = renderer.update(&context).expect("a streaming renderer");
+        // The waits beyond the frames' own passes (the uploads' copies, mostly), per byte.
+        let beyond_pass_s = (wait_ms.iter().sum::<f64>() - gpu.iter().sum::<f64>()) / 1e3;
+        let wait_beyond_pass = (beyond_pass_s > 0.0).then(|| uploaded as f64 / beyond_pass_s);
         orbits.push(json!({
             "camera": camera_name,
             "frames": args.frames,
@@ -240,6 +243,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
             "wall_ms": summary(&wall),
             "update_ms": summary(&update_ms),
             "wait_ms": summary(&wait_ms),
+            "wait_beyond_pass_bytes_per_s": wait_beyond_pass,
             "frames_over_16ms_wall": wall.iter().filter(|&&w| w > 16.0).count(),
             "slowest_frame": wall
                 .iter()

@@ -14,6 +14,8 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicU8, Ordering};
 use std::time::Instant;
 
+use rayon::prelude::*;
+
 use voxscope_stream::PADDED_BRICK;
 
 use super::GpuContext;
@@ -24,6 +26,11 @@ const FAILED: u8 = 2;
 
 /// Buffers in the ring: one being written, one or two the GPU is still reading.
 const BUFFERS: usize = 3;
+
+/// Bytes of one group of bricks sharing rows: a brick's 34 × 34 rows at the copy's row
+/// alignment.
+const GROUP_BYTES: usize =
+    PADDED_BRICK * PADDED_BRICK * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as usize;
 
 /// The most bytes one ring buffer takes (the ring holds three).
 const MAX_BUFFER_BYTES: u64 = 24 << 20;
@@ -57,7 +64,7 @@ impl RingLayout {
 
     /// Bytes of one group: a brick's 34 × 34 rows at the copy's row alignment.
     pub(crate) fn group_bytes(self) -> usize {
-        PADDED_BRICK * PADDED_BRICK * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as usize
+        GROUP_BYTES
     }
 
     /// Bricks one buffer of at most [`MAX_BUFFER_BYTES`] holds, at most `wanted` (rounded up
@@ -116,8 +123,6 @@ pub(crate) struct StagingRing {
     next: usize,
     bricks_per_buffer: usize,
     layout: RingLayout,
-    /// One group's rows, laid out before they are copied into a mapped buffer.
-    scratch: Vec<u8>,
 }
 
 impl StagingRing {
@@ -148,7 +153,6 @@ impl StagingRing {
             next: 0,
             bricks_per_buffer,
             layout,
-            scratch: Vec::new(),
         }
     }
 
@@ -175,17 +179,22 @@ impl StagingRing {
                 return Staged::default();
             };
             // A group's rows are laid out in ordinary memory first, then written to the mapped
-            // (possibly write-combining) memory in one sequential copy.
-            let group_bytes = self.layout.group_bytes();
-            self.scratch.resize(group_bytes, 0);
-            let groups = bricks[..count].chunks(self.layout.bricks_per_group);
-            for (group, group_bricks) in groups.enumerate() {
-                self.layout.write_group(&mut self.scratch, group_bricks);
-                let base = group * group_bytes;
-                mapped
-                    .slice(base..base + group_bytes)
-                    .copy_from_slice(&self.scratch);
-            }
+            // (possibly write-combining) memory in one sequential copy; the groups on several
+            // cores at once (one core writes mapped memory at about 4–5 GB/s on the H200).
+            let groups: Vec<&[StagedBrick<'_>]> =
+                bricks[..count].chunks(self.layout.bricks_per_group).collect();
+            let (pieces, _) = mapped
+                .slice(..groups.len() * GROUP_BYTES)
+                .into_chunks::<GROUP_BYTES>();
+            let pieces: Vec<wgpu::WriteOnly<'_, [u8; GROUP_BYTES]>> = pieces.into_iter().collect();
+            let layout = self.layout;
+            pieces.into_par_iter().zip(groups).with_min_len(2).for_each_init(
+                || vec![0u8; GROUP_BYTES],
+                |scratch, (piece, group)| {
+                    layout.write_group(scratch, group);
+                    wgpu::WriteOnly::<'_, [u8]>::from(piece).copy_from_slice(scratch);
+                },
+            );
         }
         staging.buffer.unmap();
         let staging_seconds = started.elapsed().as_secs_f64();
