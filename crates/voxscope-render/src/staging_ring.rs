@@ -14,8 +14,6 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicU8, Ordering};
 use std::time::Instant;
 
-use rayon::prelude::*;
-
 use voxscope_stream::PADDED_BRICK;
 
 use super::GpuContext;
@@ -123,6 +121,8 @@ pub(crate) struct StagingRing {
     next: usize,
     bricks_per_buffer: usize,
     layout: RingLayout,
+    /// One group's rows, laid out before they are copied into a mapped buffer.
+    scratch: Vec<u8>,
 }
 
 impl StagingRing {
@@ -153,6 +153,7 @@ impl StagingRing {
             next: 0,
             bricks_per_buffer,
             layout,
+            scratch: Vec::new(),
         }
     }
 
@@ -179,22 +180,17 @@ impl StagingRing {
                 return Staged::default();
             };
             // A group's rows are laid out in ordinary memory first, then written to the mapped
-            // (possibly write-combining) memory in one sequential copy; the groups on several
-            // cores at once (one core writes mapped memory at about 4–5 GB/s on the H200).
-            let groups: Vec<&[StagedBrick<'_>]> =
-                bricks[..count].chunks(self.layout.bricks_per_group).collect();
-            let (pieces, _) = mapped
-                .slice(..groups.len() * GROUP_BYTES)
-                .into_chunks::<GROUP_BYTES>();
-            let pieces: Vec<wgpu::WriteOnly<'_, [u8; GROUP_BYTES]>> = pieces.into_iter().collect();
-            let layout = self.layout;
-            pieces.into_par_iter().zip(groups).with_min_len(2).for_each_init(
-                || vec![0u8; GROUP_BYTES],
-                |scratch, (piece, group)| {
-                    layout.write_group(scratch, group);
-                    wgpu::WriteOnly::<'_, [u8]>::from(piece).copy_from_slice(scratch);
-                },
-            );
+            // (possibly write-combining) memory in one sequential copy. (On several cores at
+            // once it was slower on the H200, run 71: the loaders hold every other core.)
+            self.scratch.resize(GROUP_BYTES, 0);
+            let groups = bricks[..count].chunks(self.layout.bricks_per_group);
+            for (group, group_bricks) in groups.enumerate() {
+                self.layout.write_group(&mut self.scratch, group_bricks);
+                let base = group * GROUP_BYTES;
+                mapped
+                    .slice(base..base + GROUP_BYTES)
+                    .copy_from_slice(&self.scratch);
+            }
         }
         staging.buffer.unmap();
         let staging_seconds = started.elapsed().as_secs_f64();
@@ -273,7 +269,10 @@ mod tests {
     fn bricks_of_a_group_share_its_rows_without_overlapping() {
         for (bytes_per_texel, per_group) in [(1, 7), (2, 3), (4, 1)] {
             let layout = RingLayout::new(bytes_per_texel);
-            assert_eq!(layout.bricks_per_group, per_group, "{bytes_per_texel} bytes");
+            assert_eq!(
+                layout.bricks_per_group, per_group,
+                "{bytes_per_texel} bytes"
+            );
             let bricks = layout.bricks_per_buffer(2 * per_group + 1);
             assert_eq!(bricks, 3 * per_group, "whole groups");
             let buffer_bytes = bricks / per_group * layout.group_bytes();
@@ -282,7 +281,12 @@ mod tests {
                 assert_eq!(layout.offset(index) % 4, 0);
                 for byte in read_by(layout, index) {
                     assert!(byte < buffer_bytes, "brick {index} reads past the buffer");
-                    assert_eq!(owner[byte], usize::MAX, "bricks {index} and {} overlap", owner[byte]);
+                    assert_eq!(
+                        owner[byte],
+                        usize::MAX,
+                        "bricks {index} and {} overlap",
+                        owner[byte]
+                    );
                     owner[byte] = index;
                 }
             }
@@ -305,7 +309,10 @@ mod tests {
             layout.write_group(&mut group, &staged);
             for (index, texels) in texels.iter().enumerate() {
                 let read: Vec<u8> = read_by(layout, index).iter().map(|&b| group[b]).collect();
-                assert_eq!(&read, texels, "brick {index} of {bytes_per_texel}-byte texels");
+                assert_eq!(
+                    &read, texels,
+                    "brick {index} of {bytes_per_texel}-byte texels"
+                );
             }
         }
         let layout = RingLayout::new(2);
