@@ -581,9 +581,23 @@ fn uploads_through_the_staging_ring_draw_what_queue_writes_draw() {
             assert!(counters.bytes_uploaded > 0 && counters.upload_seconds > 0.0);
             assert!(counters.upload_allowance >= counters.slot_bytes);
             assert_eq!(counters.slot_bytes, PADDED_BRICK_VOXELS as u64 * texels / 8);
+            let parts = &counters.upload_parts;
+            if staging_ring {
+                // Bricks placed in cells along x go in one copy a run.
+                assert!(
+                    parts.ring_copies < parts.ring_bricks,
+                    "{texels}-bit: {parts:?}"
+                );
+            } else {
+                assert!(
+                    parts.ring_bricks == 0 && parts.queue_bricks > 0,
+                    "{parts:?}"
+                );
+            }
             eprintln!(
-                "{texels}-bit, ring {staging_ring}: {} bricks in {} frames, {:.0} MB/s to upload, {:.0} MB/s a loader",
+                "{texels}-bit, ring {staging_ring}: {} bricks ({} copies) in {} frames, {:.0} MB/s to upload, {:.0} MB/s a loader",
                 counters.loads,
+                parts.ring_copies,
                 refined.frames,
                 counters.bytes_uploaded as f64 / counters.upload_seconds / 1e6,
                 counters.bytes_read as f64 / counters.read_seconds / 1e6

@@ -5,10 +5,12 @@
 //! through `Queue::write_texture` instead).
 //!
 //! A copy's rows sit 256 bytes apart (`COPY_BYTES_PER_ROW_ALIGNMENT`) and a brick's row is 34
-//! texels: 34 or 68 bytes. Rather than pad each row to 256, the bricks of a *group* share the
-//! rows: brick `i` of a group starts `i × row` bytes into them, so three 16-bit or seven 8-bit
-//! bricks fill what one brick would, and the mapped memory is written front to back, a group at a
-//! time (a frame's bytes written are 1.1–1.3× its texels, not 3.8–7.5×).
+//! texels: 34 or 68 bytes. The bricks a frame uploads are sorted by atlas cell and cut into
+//! *runs*: up to three 16-bit or seven 8-bit bricks whose cells follow each other along x. A
+//! run's bricks share one group of rows (brick `i` starts `i × row` bytes into each), so its
+//! rows are the rows of one box of the atlas, and one copy fills the whole run. On the H200 the
+//! GPU's copies, not the CPU, bound the uploads: a copy per brick moved 1.35 GB/s, a copy per
+//! run 1.9–3.4 (docs/benchmarks.md, run 72).
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU8, Ordering};
@@ -25,71 +27,77 @@ const FAILED: u8 = 2;
 /// Buffers in the ring: one being written, one or two the GPU is still reading.
 const BUFFERS: usize = 3;
 
-/// Bytes of one group of bricks sharing rows: a brick's 34 × 34 rows at the copy's row
-/// alignment.
+/// Bytes of one run's group of rows: a brick's 34 × 34 rows at the copy's row alignment.
 const GROUP_BYTES: usize =
     PADDED_BRICK * PADDED_BRICK * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as usize;
 
 /// The most bytes one ring buffer takes (the ring holds three).
 const MAX_BUFFER_BYTES: u64 = 24 << 20;
 
-/// How bricks of `bytes_per_texel` sit in a ring buffer.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) struct RingLayout {
-    /// Bytes of one brick's row.
-    row_bytes: usize,
-    /// Bricks sharing one group's rows.
-    bricks_per_group: usize,
+/// Where one staged brick goes: its texels, and the atlas cell it fills.
+pub(crate) struct StagedBrick<'a> {
+    pub texels: &'a [u8],
+    pub origin: wgpu::Origin3d,
 }
 
-impl RingLayout {
-    /// The layout for texels of `bytes_per_texel` bytes.
-    pub(crate) fn new(bytes_per_texel: u32) -> Self {
-        let row_bytes = PADDED_BRICK * bytes_per_texel as usize;
-        let stride = wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as usize;
-        // A copy's offset is a multiple of 4 on some backends: each brick's row starts so.
-        let row_pitch = row_bytes.next_multiple_of(4);
-        Self {
-            row_bytes,
-            bricks_per_group: (stride / row_pitch).max(1),
-        }
-    }
+/// What [`StagingRing::stage`] staged and what that took.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Staged {
+    /// Per brick given, whether it was staged (the rest go through the queue).
+    pub staged: Vec<bool>,
+    /// Copies recorded: one per run.
+    pub copies: usize,
+    /// Laying the bricks out and copying them into the mapped buffer (and unmapping it).
+    pub staging_seconds: f64,
+    /// Recording their copies.
+    pub record_seconds: f64,
+}
 
-    /// Where brick `i` of its group starts within each of the group's rows.
-    fn brick_offset(self, index_in_group: usize) -> usize {
-        index_in_group * self.row_bytes.next_multiple_of(4)
-    }
-
-    /// Bytes of one group: a brick's 34 × 34 rows at the copy's row alignment.
-    pub(crate) fn group_bytes(self) -> usize {
-        GROUP_BYTES
-    }
-
-    /// Bricks one buffer of at most [`MAX_BUFFER_BYTES`] holds, at most `wanted` (rounded up
-    /// to whole groups).
-    fn bricks_per_buffer(self, wanted: usize) -> usize {
-        let most_groups = (MAX_BUFFER_BYTES / self.group_bytes() as u64).max(1) as usize;
-        let groups = wanted.div_ceil(self.bricks_per_group).min(most_groups);
-        groups * self.bricks_per_group
-    }
-
-    /// Writes one group's bricks (their 34 × 34 rows in order each) into `group`, a group's
-    /// bytes.
-    fn write_group(self, group: &mut [u8], bricks: &[StagedBrick<'_>]) {
-        let stride = wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as usize;
-        for (index, brick) in bricks.iter().enumerate() {
-            let start = self.brick_offset(index);
-            for (row, texels) in brick.texels.chunks_exact(self.row_bytes).enumerate() {
-                let at = start + row * stride;
-                group[at..at + self.row_bytes].copy_from_slice(texels);
+/// The runs of `origins` (atlas cells of `side` texels): indices into `origins`, sorted by
+/// cell (z, then y, then x), each run at most `per_run` bricks whose cells follow each other
+/// along x; at most `most_runs` runs. Whether each brick is in one.
+fn plan_runs(
+    origins: &[wgpu::Origin3d],
+    side: u32,
+    per_run: usize,
+    most_runs: usize,
+) -> (Vec<Vec<usize>>, Vec<bool>) {
+    let mut order: Vec<usize> = (0..origins.len()).collect();
+    order.sort_unstable_by_key(|&i| {
+        let o = origins[i];
+        (o.z, o.y, o.x)
+    });
+    let mut runs: Vec<Vec<usize>> = Vec::new();
+    let mut staged = vec![false; origins.len()];
+    for i in order {
+        let here = origins[i];
+        if let Some(run) = runs.last_mut() {
+            let last = origins[run[run.len() - 1]];
+            let follows = last.z == here.z && last.y == here.y && last.x + side == here.x;
+            if follows && run.len() < per_run {
+                run.push(i);
+                staged[i] = true;
+                continue;
             }
         }
+        if runs.len() < most_runs {
+            runs.push(vec![i]);
+            staged[i] = true;
+        }
     }
+    (runs, staged)
+}
 
-    /// Where brick `index` of a buffer starts in it.
-    fn offset(self, index: usize) -> usize {
-        index / self.bricks_per_group * self.group_bytes()
-            + self.brick_offset(index % self.bricks_per_group)
+/// Writes a run's bricks (their 34 × 34 rows of `row_bytes` each, in order) into `group`: row
+/// `r` of brick `i` at `r × 256 + i × row_bytes`.
+fn write_run(group: &mut [u8], bricks: &[&[u8]], row_bytes: usize) {
+    let stride = wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as usize;
+    for (index, texels) in bricks.iter().enumerate() {
+        let start = index * row_bytes;
+        for (row, texels) in texels.chunks_exact(row_bytes).enumerate() {
+            let at = start + row * stride;
+            group[at..at + row_bytes].copy_from_slice(texels);
+        }
     }
 }
 
@@ -99,49 +107,33 @@ struct StagingBuffer {
     state: Arc<AtomicU8>,
 }
 
-/// Where one staged brick goes: its texels, and the atlas cell it fills.
-pub(crate) struct StagedBrick<'a> {
-    pub texels: &'a [u8],
-    pub origin: wgpu::Origin3d,
-}
-
-/// What [`StagingRing::stage`] staged and what that took.
-#[derive(Clone, Copy, Debug, Default)]
-pub(crate) struct Staged {
-    pub bricks: usize,
-    /// Laying the bricks out and copying them into the mapped buffer (and unmapping it).
-    pub staging_seconds: f64,
-    /// Recording their copies.
-    pub record_seconds: f64,
-}
-
-/// The ring. Bricks per buffer bound a frame's uploads through it; more go through the queue.
+/// The ring. Runs per buffer bound a frame's uploads through it; more go through the queue.
 pub(crate) struct StagingRing {
     buffers: Vec<StagingBuffer>,
     next: usize,
-    bricks_per_buffer: usize,
-    layout: RingLayout,
-    /// One group's rows, laid out before they are copied into a mapped buffer.
+    /// Runs (groups of rows) one buffer holds.
+    runs_per_buffer: usize,
+    /// Bytes of a brick's row, and bricks a run holds.
+    row_bytes: usize,
+    per_run: usize,
+    /// One run's rows, laid out before they are copied into a mapped buffer.
     scratch: Vec<u8>,
 }
 
 impl StagingRing {
-    /// A ring whose buffers hold about `bricks` bricks of `bytes_per_texel` each (whole groups,
-    /// within [`MAX_BUFFER_BYTES`]), mapped from the start (none for 0: every brick goes
+    /// A ring whose buffers hold runs for about `bricks` bricks of `bytes_per_texel` each
+    /// (within [`MAX_BUFFER_BYTES`]), mapped from the start (none for 0: every brick goes
     /// through the queue).
     pub(crate) fn new(context: &GpuContext, bricks: usize, bytes_per_texel: u32) -> Self {
-        let layout = RingLayout::new(bytes_per_texel);
-        let bricks_per_buffer = if bricks > 0 {
-            layout.bricks_per_buffer(bricks)
-        } else {
-            0
-        };
-        let size = (bricks_per_buffer / layout.bricks_per_group * layout.group_bytes()) as u64;
-        let buffers = (0..if bricks_per_buffer > 0 { BUFFERS } else { 0 })
+        let row_bytes = PADDED_BRICK * bytes_per_texel as usize;
+        let per_run = (wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as usize / row_bytes).max(1);
+        let most_runs = (MAX_BUFFER_BYTES / GROUP_BYTES as u64).max(1) as usize;
+        let runs_per_buffer = bricks.div_ceil(per_run).min(most_runs);
+        let buffers = (0..if runs_per_buffer > 0 { BUFFERS } else { 0 })
             .map(|_| StagingBuffer {
                 buffer: context.device.create_buffer(&wgpu::BufferDescriptor {
                     label: Some("voxscope::stream_staging"),
-                    size,
+                    size: (runs_per_buffer * GROUP_BYTES) as u64,
                     usage: wgpu::BufferUsages::MAP_WRITE | wgpu::BufferUsages::COPY_SRC,
                     mapped_at_creation: true,
                 }),
@@ -151,15 +143,16 @@ impl StagingRing {
         Self {
             buffers,
             next: 0,
-            bricks_per_buffer,
-            layout,
+            runs_per_buffer,
+            row_bytes,
+            per_run,
             scratch: Vec::new(),
         }
     }
 
-    /// Records the copy of as many of `bricks` as the next mapped buffer holds into `atlas`,
-    /// in `encoder`: how many, and what that took. Call [`Self::submitted`] once the encoder
-    /// is submitted.
+    /// Records the copies of as many of `bricks` as the next mapped buffer's runs hold into
+    /// `atlas`, in `encoder`: which, and what that took. Call [`Self::submitted`] once the
+    /// encoder is submitted.
     pub(crate) fn stage(
         &mut self,
         encoder: &mut wgpu::CommandEncoder,
@@ -173,19 +166,24 @@ impl StagingRing {
         if bricks.is_empty() || staging.state.load(Ordering::Acquire) != MAPPED {
             return Staged::default();
         }
-        let count = bricks.len().min(self.bricks_per_buffer);
         let side = PADDED_BRICK as u32;
+        // The frame's first bricks (its most important) that the buffer could hold in full
+        // runs; of those, the ones that make fewer runs than it holds.
+        let count = bricks.len().min(self.runs_per_buffer * self.per_run);
+        let origins: Vec<wgpu::Origin3d> = bricks[..count].iter().map(|b| b.origin).collect();
+        let (runs, mut staged) = plan_runs(&origins, side, self.per_run, self.runs_per_buffer);
+        staged.resize(bricks.len(), false);
         {
             let Ok(mut mapped) = staging.buffer.slice(..).get_mapped_range_mut() else {
                 return Staged::default();
             };
-            // A group's rows are laid out in ordinary memory first, then written to the mapped
+            // A run's rows are laid out in ordinary memory first, then written to the mapped
             // (possibly write-combining) memory in one sequential copy. (On several cores at
-            // once it was slower on the H200, run 71: the loaders hold every other core.)
+            // once it was slower on the H200, run 71: the loaders hold the other cores.)
             self.scratch.resize(GROUP_BYTES, 0);
-            let groups = bricks[..count].chunks(self.layout.bricks_per_group);
-            for (group, group_bricks) in groups.enumerate() {
-                self.layout.write_group(&mut self.scratch, group_bricks);
+            for (group, run) in runs.iter().enumerate() {
+                let texels: Vec<&[u8]> = run.iter().map(|&i| bricks[i].texels).collect();
+                write_run(&mut self.scratch, &texels, self.row_bytes);
                 let base = group * GROUP_BYTES;
                 mapped
                     .slice(base..base + GROUP_BYTES)
@@ -194,12 +192,12 @@ impl StagingRing {
         }
         staging.buffer.unmap();
         let staging_seconds = started.elapsed().as_secs_f64();
-        for (index, brick) in bricks[..count].iter().enumerate() {
+        for (group, run) in runs.iter().enumerate() {
             encoder.copy_buffer_to_texture(
                 wgpu::TexelCopyBufferInfo {
                     buffer: &staging.buffer,
                     layout: wgpu::TexelCopyBufferLayout {
-                        offset: self.layout.offset(index) as u64,
+                        offset: (group * GROUP_BYTES) as u64,
                         bytes_per_row: Some(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT),
                         rows_per_image: Some(side),
                     },
@@ -207,11 +205,11 @@ impl StagingRing {
                 wgpu::TexelCopyTextureInfo {
                     texture: atlas,
                     mip_level: 0,
-                    origin: brick.origin,
+                    origin: bricks[run[0]].origin,
                     aspect: wgpu::TextureAspect::All,
                 },
                 wgpu::Extent3d {
-                    width: side,
+                    width: side * run.len() as u32,
                     height: side,
                     depth_or_array_layers: side,
                 },
@@ -219,7 +217,8 @@ impl StagingRing {
         }
         staging.state.store(IN_FLIGHT, Ordering::Release);
         Staged {
-            bricks: count,
+            staged,
+            copies: runs.len(),
             staging_seconds,
             record_seconds: started.elapsed().as_secs_f64() - staging_seconds,
         }
@@ -245,9 +244,9 @@ impl StagingRing {
         self.next = (self.next + 1) % self.buffers.len();
     }
 
-    /// Bricks one buffer holds: a frame's uploads through the ring at most.
+    /// Bricks one buffer holds at most (in full runs): a frame's uploads through the ring.
     pub(crate) fn bricks_per_buffer(&self) -> usize {
-        self.bricks_per_buffer
+        self.runs_per_buffer * self.per_run
     }
 }
 
@@ -255,68 +254,74 @@ impl StagingRing {
 mod tests {
     use super::*;
 
-    /// Every byte a brick's copy reads (34 × 34 rows of `row_bytes`, 256 apart from its
-    /// offset) within a buffer of `bricks`.
-    fn read_by(layout: RingLayout, index: usize) -> Vec<usize> {
-        let stride = wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as usize;
-        let start = layout.offset(index);
-        (0..PADDED_BRICK * PADDED_BRICK)
-            .flat_map(|row| start + row * stride..start + row * stride + layout.row_bytes)
-            .collect()
+    fn cell(x: u32, y: u32, z: u32) -> wgpu::Origin3d {
+        let side = PADDED_BRICK as u32;
+        wgpu::Origin3d {
+            x: x * side,
+            y: y * side,
+            z: z * side,
+        }
     }
 
     #[test]
-    fn bricks_of_a_group_share_its_rows_without_overlapping() {
-        for (bytes_per_texel, per_group) in [(1, 7), (2, 3), (4, 1)] {
-            let layout = RingLayout::new(bytes_per_texel);
-            assert_eq!(
-                layout.bricks_per_group, per_group,
-                "{bytes_per_texel} bytes"
-            );
-            let bricks = layout.bricks_per_buffer(2 * per_group + 1);
-            assert_eq!(bricks, 3 * per_group, "whole groups");
-            let buffer_bytes = bricks / per_group * layout.group_bytes();
-            let mut owner = vec![usize::MAX; buffer_bytes];
-            for index in 0..bricks {
-                assert_eq!(layout.offset(index) % 4, 0);
-                for byte in read_by(layout, index) {
-                    assert!(byte < buffer_bytes, "brick {index} reads past the buffer");
-                    assert_eq!(
-                        owner[byte],
-                        usize::MAX,
-                        "bricks {index} and {} overlap",
-                        owner[byte]
-                    );
-                    owner[byte] = index;
-                }
-            }
-            // What write_group writes is what each copy reads.
-            let mut group = vec![0u8; layout.group_bytes()];
-            let texels: Vec<Vec<u8>> = (0..per_group)
+    fn runs_are_cells_that_follow_each_other_along_x_up_to_a_groups_bricks() {
+        let side = PADDED_BRICK as u32;
+        // Given out of order: cells 0–4 of row (0, 0), cell 7 of it, cell 1 of row (1, 0)
+        // and cell 0 of slice 1.
+        let origins = [
+            cell(3, 0, 0),
+            cell(0, 0, 1),
+            cell(1, 0, 0),
+            cell(7, 0, 0),
+            cell(0, 0, 0),
+            cell(1, 1, 0),
+            cell(2, 0, 0),
+            cell(4, 0, 0),
+        ];
+        let (runs, staged) = plan_runs(&origins, side, 3, 10);
+        // x 0–2, then 3–4 (a run holds three), 7, row y = 1, slice z = 1.
+        assert_eq!(
+            runs,
+            vec![vec![4, 2, 6], vec![0, 7], vec![3], vec![5], vec![1]]
+        );
+        assert!(staged.iter().all(|&s| s));
+        // Three runs at most: the last two cells wait for the queue.
+        let (runs, staged) = plan_runs(&origins, side, 3, 3);
+        assert_eq!(runs.len(), 3);
+        assert_eq!(
+            staged,
+            vec![true, false, true, true, true, false, true, true]
+        );
+    }
+
+    #[test]
+    fn a_runs_rows_are_the_rows_of_its_box_in_the_atlas() {
+        let stride = wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as usize;
+        for (bytes_per_texel, per_run) in [(1, 7), (2, 3), (4, 1)] {
+            let row_bytes = PADDED_BRICK * bytes_per_texel;
+            assert_eq!(stride / row_bytes, per_run, "{bytes_per_texel} bytes");
+            let bricks: Vec<Vec<u8>> = (0..per_run)
                 .map(|brick| {
-                    (0..PADDED_BRICK * PADDED_BRICK * layout.row_bytes)
+                    (0..PADDED_BRICK * PADDED_BRICK * row_bytes)
                         .map(|byte| (byte * 7 + brick * 31) as u8)
                         .collect()
                 })
                 .collect();
-            let staged: Vec<StagedBrick<'_>> = texels
-                .iter()
-                .map(|texels| StagedBrick {
-                    texels,
-                    origin: wgpu::Origin3d::ZERO,
-                })
-                .collect();
-            layout.write_group(&mut group, &staged);
-            for (index, texels) in texels.iter().enumerate() {
-                let read: Vec<u8> = read_by(layout, index).iter().map(|&b| group[b]).collect();
-                assert_eq!(
-                    &read, texels,
-                    "brick {index} of {bytes_per_texel}-byte texels"
-                );
+            let texels: Vec<&[u8]> = bricks.iter().map(|b| b.as_slice()).collect();
+            let mut group = vec![0u8; GROUP_BYTES];
+            write_run(&mut group, &texels, row_bytes);
+            // The copy reads row r (y and z of the box) as `per_run × row_bytes` bytes at
+            // r × 256: brick i's row r, for i in order.
+            for row in 0..PADDED_BRICK * PADDED_BRICK {
+                let read = &group[row * stride..row * stride + per_run * row_bytes];
+                for (index, brick) in bricks.iter().enumerate() {
+                    assert_eq!(
+                        &read[index * row_bytes..(index + 1) * row_bytes],
+                        &brick[row * row_bytes..(row + 1) * row_bytes],
+                        "row {row} of brick {index}, {bytes_per_texel}-byte texels"
+                    );
+                }
             }
         }
-        let layout = RingLayout::new(2);
-        let most = layout.bricks_per_buffer(usize::MAX / 2);
-        assert!(most / layout.bricks_per_group * layout.group_bytes() <= MAX_BUFFER_BYTES as usize);
     }
 }

@@ -218,7 +218,7 @@ impl StreamVolume {
             )));
         }
         // A ring buffer holds what a frame may upload, within the ring's own bound (24 MB a
-        // buffer: 255 bricks of 16-bit texels, 595 of 8-bit).
+        // buffer: 85 runs of bricks along x, up to 255 bricks of 16-bit texels, 595 of 8-bit).
         let per_frame = (options.upload_bytes_per_frame / slot_bytes).max(1) as usize;
         let ring_bricks = if options.staging_ring {
             per_frame.min(slots)
@@ -261,7 +261,7 @@ impl StreamVolume {
             z: (slot / (gx * gy)) * side,
         };
         let mut parts = UploadParts::default();
-        let mut staged = 0;
+        let mut staged = Vec::new();
         if !uploads.is_empty() {
             let bricks: Vec<StagedBrick<'_>> = uploads
                 .iter()
@@ -278,17 +278,20 @@ impl StreamVolume {
                         label: Some("voxscope::stream_uploads"),
                     });
             let staging = self.ring.stage(&mut encoder, &self.atlas, &bricks);
-            staged = staging.bricks;
+            staged = staging.staged;
+            parts.ring_copies = staging.copies as u64;
             parts.staging_seconds = staging.staging_seconds;
             let submitting = Instant::now();
-            if staged > 0 {
+            if staged.contains(&true) {
                 context.queue.submit([encoder.finish()]);
                 self.ring.submitted();
             }
             parts.submit_seconds = staging.record_seconds + submitting.elapsed().as_secs_f64();
         }
         let queueing = Instant::now();
-        for upload in &uploads[staged..] {
+        staged.resize(uploads.len(), false);
+        let to_queue = uploads.iter().zip(&staged).filter(|(_, staged)| !**staged);
+        for (upload, _) in to_queue {
             context.queue.write_texture(
                 wgpu::TexelCopyTextureInfo {
                     texture: &self.atlas,
@@ -310,8 +313,8 @@ impl StreamVolume {
             );
         }
         parts.queue_seconds = queueing.elapsed().as_secs_f64();
-        parts.ring_bricks = staged as u64;
-        parts.queue_bricks = (uploads.len() - staged) as u64;
+        parts.ring_bricks = staged.iter().filter(|&&s| s).count() as u64;
+        parts.queue_bricks = uploads.len() as u64 - parts.ring_bricks;
         let bytes: u64 = uploads.iter().map(|u| u.texels.len() as u64).sum();
         self.streamer
             .set_upload_cost(bytes, started.elapsed().as_secs_f64(), &parts);

@@ -72,6 +72,8 @@ pub struct StreamCounters {
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
 pub struct UploadParts {
     pub ring_bricks: u64,
+    /// Copies the ring's bricks took: one per run of atlas cells along x.
+    pub ring_copies: u64,
     pub queue_bricks: u64,
     /// Laying bricks out and copying them into mapped ring buffers.
     pub staging_seconds: f64,
@@ -85,6 +87,7 @@ impl UploadParts {
     /// Adds `other`'s bricks and seconds.
     pub fn add(&mut self, other: &UploadParts) {
         self.ring_bricks += other.ring_bricks;
+        self.ring_copies += other.ring_copies;
         self.queue_bricks += other.queue_bricks;
         self.staging_seconds += other.staging_seconds;
         self.submit_seconds += other.submit_seconds;
