@@ -291,4 +291,19 @@ fn bricks_fetched_ahead_go_out_in_their_order_many_at_once_without_waiting() {
         .unwrap_or_else(|e| panic!("{e}"));
     std::thread::sleep(latency * 2);
     assert_eq!(requests(&server) - opened, 32);
+    // A window whose first bricks were handed over before: passed over, and the coarser
+    // brick behind them fetched (its level's chunk at the origin: one request).
+    let mut window = bricks.clone();
+    window.push(brick(2, 0, 0, 0));
+    source.fetch_ahead(&window);
+    settle(&server, opened + 33);
+    std::thread::sleep(latency * 2);
+    let arrivals = server.counters.arrivals();
+    assert_eq!(
+        requests(&server) - opened,
+        33,
+        "{:?}",
+        &arrivals[opened as usize..]
+    );
+    assert_eq!(arrivals[arrivals.len() - 1].0, key_of(brick(2, 0, 0, 0)));
 }

@@ -7,7 +7,7 @@
 # close-ups whose bricks outgrow the atlas), `bench --stream` under the same budget (first image,
 # the stopped medium view, the near stopped views, the orbits, the pipeline's rates, resident
 # against in-memory bricks), and finally run.sh's `head` job (this binary against
-# voxscope-base on the 256³ head, where .bench has voxscope-base.gz).
+# voxscope-base on the 256³ head, where .bench has voxscope-base.gz and HEAD_AB is not 0).
 #
 # It builds nothing: it expects out/zarr-bench/brain-pd-dicom/, .bench/ with voxscope.gz,
 # voxscope-base.gz and mri-head-256.nii.gz, and the Vulkan loader's .deb files in .gl. Usage: bash docs/bench/budget.sh RUN_NAME   (RUN_NAME.tar.gz of every file goes to $OUT;
@@ -89,7 +89,7 @@ for o in r["orbits"]:
 for row in r["resident"]["rows"]:
     print("resident", row["mode"], row["camera"], row["complete"], round(row["stream_over_bricks"], 2))
 PY
-if [ -e $D/voxscope-base.gz ]; then
+if [ -e $D/voxscope-base.gz ] && [ "${HEAD_AB:-1}" = 1 ]; then
     echo "== head A/B after $((SECONDS - started)) s"
     BENCH_DIR=.bench bash docs/bench/run.sh "$RUN" head 2>&1 | tail -12
 fi

@@ -84,10 +84,11 @@ pub struct LoadResult {
 
 /// Bricks of the queue's best whose network reads may be started ahead
 /// ([`BrickSource::fetch_ahead`]) each frame and as a worker takes one. The source starts what
-/// its fetch limit has room for, in this order; the window is wide because eight bricks share
-/// a 64³ chunk: 96 bricks were 12–30 chunks, all of one level, so a view's finer level waited
-/// a round trip for its coarser one to be taken from the queue.
-pub const FETCH_AHEAD_BRICKS: usize = 512;
+/// its fetch limit has room for, in this order, and passes over bricks it handed over before;
+/// the window is wide because eight bricks share a 64³ chunk: 96 bricks were 12–30 chunks, all
+/// of one level, so a view's finer level waited for its coarser one to leave the queue, and
+/// 512 still held one level of run 72's view at a time (the link half idle meanwhile).
+pub const FETCH_AHEAD_BRICKS: usize = 2048;
 
 /// The worker threads and the channel their results arrive on.
 pub struct Loader {

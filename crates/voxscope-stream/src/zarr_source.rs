@@ -59,7 +59,17 @@ pub struct ZarrSource {
     /// Chunks of unsharded levels handed to a network store to fetch ahead
     /// ([`BrickSource::fetch_ahead`]): not asked for again (at most [`MAX_FETCHED_AHEAD`],
     /// then forgotten all at once).
-    fetched_ahead: Mutex<std::collections::HashSet<ChunkKey>>,
+    fetched_ahead: Mutex<FetchedAhead>,
+}
+
+/// What [`BrickSource::fetch_ahead`] handed a network store already.
+#[derive(Default)]
+struct FetchedAhead {
+    /// Chunks of unsharded levels.
+    chunks: std::collections::HashSet<ChunkKey>,
+    /// Bricks whose chunks were all handed over or decoded: passed over at once when a later
+    /// call's window holds them again.
+    bricks: std::collections::HashSet<BrickId>,
 }
 
 /// The most chunks a [`ZarrSource`] remembers having fetched ahead.
@@ -573,12 +583,18 @@ impl BrickSource for ZarrSource {
         }
         let mut sharded = Vec::new();
         let mut chunks: Vec<ChunkKey> = Vec::new();
+        // Per brick with chunks to fetch: how many of `chunks` it needs handled.
+        let mut bricks: Vec<(BrickId, usize)> = Vec::new();
         {
-            let (Ok(decoded), Ok(asked)) = (self.chunks.lock(), self.fetched_ahead.lock()) else {
+            let (Ok(decoded), Ok(mut asked)) = (self.chunks.lock(), self.fetched_ahead.lock())
+            else {
                 return;
             };
             let mut seen = std::collections::HashSet::new();
             for &id in ids {
+                if asked.bricks.contains(&id) {
+                    continue;
+                }
                 let (Some(level), Some(source)) = (
                     self.shape.levels.get(id.level as usize),
                     self.sources.get(id.level as usize),
@@ -610,12 +626,22 @@ impl BrickSource for ZarrSource {
                 for chunk in missing {
                     let key = (source.stored, chunk);
                     if !decoded.chunks.contains_key(&key)
-                        && !asked.contains(&key)
+                        && !asked.chunks.contains(&key)
                         && seen.insert(key)
                     {
                         chunks.push(key);
                     }
                 }
+                if chunks.is_empty() {
+                    // Every chunk decoded or asked for already.
+                    asked.bricks.insert(id);
+                } else {
+                    // Handed over once the first `chunks.len()` are.
+                    bricks.push((id, chunks.len()));
+                }
+            }
+            if asked.bricks.len() > MAX_FETCHED_AHEAD {
+                asked.bricks.clear();
             }
         }
         if !sharded.is_empty() {
@@ -624,10 +650,13 @@ impl BrickSource for ZarrSource {
         if !chunks.is_empty() {
             let handled = self.pyramid.fetch_ahead_chunks(&chunks);
             if let Ok(mut asked) = self.fetched_ahead.lock() {
-                if asked.len() + handled > MAX_FETCHED_AHEAD {
-                    asked.clear();
+                if asked.chunks.len() + handled > MAX_FETCHED_AHEAD {
+                    asked.chunks.clear();
+                    asked.bricks.clear();
                 }
-                asked.extend(chunks[..handled].iter().copied());
+                asked.chunks.extend(chunks[..handled].iter().copied());
+                let done = bricks.iter().take_while(|&&(_, needs)| needs <= handled);
+                asked.bricks.extend(done.map(|&(id, _)| id));
             }
         }
     }
