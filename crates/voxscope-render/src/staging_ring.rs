@@ -4,13 +4,13 @@
 //! write per brick; a frame never waits for a buffer (while none is mapped, its bricks go
 //! through `Queue::write_texture` instead).
 //!
-//! A copy's rows sit 256 bytes apart (`COPY_BYTES_PER_ROW_ALIGNMENT`) and a brick's row is 34
-//! texels: 34 or 68 bytes. The bricks a frame uploads are sorted by atlas cell and cut into
-//! *runs*: up to three 16-bit or seven 8-bit bricks whose cells follow each other along x. A
-//! run's bricks share one group of rows (brick `i` starts `i × row` bytes into each), so its
-//! rows are the rows of one box of the atlas, and one copy fills the whole run. On the H200 the
-//! GPU's copies, not the CPU, bound the uploads: a copy per brick moved 1.35 GB/s, a copy per
-//! run 1.9–3.4 (docs/benchmarks.md, run 72).
+//! A copy's rows sit a multiple of 256 bytes apart (`COPY_BYTES_PER_ROW_ALIGNMENT`) and a
+//! brick's row is 34 texels: 34 or 68 bytes. The bricks a frame uploads are sorted by atlas cell
+//! and cut into *runs* of bricks whose cells follow each other along x. A run's bricks share its
+//! rows (brick `i` starts `i × row` bytes into each), so they are the rows of one box of the
+//! atlas, and one copy fills the whole run. On the H200 the GPU's copies, not the CPU, bound the
+//! uploads: a copy per brick moved 1.35 GB/s, a copy per run of up to three 1.9–3.4
+//! (docs/benchmarks.md, run 72).
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU8, Ordering};
@@ -27,12 +27,18 @@ const FAILED: u8 = 2;
 /// Buffers in the ring: one being written, one or two the GPU is still reading.
 const BUFFERS: usize = 3;
 
-/// Bytes of one run's group of rows: a brick's 34 × 34 rows at the copy's row alignment.
-const GROUP_BYTES: usize =
-    PADDED_BRICK * PADDED_BRICK * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as usize;
-
 /// The most bytes one ring buffer takes (the ring holds three).
-const MAX_BUFFER_BYTES: u64 = 24 << 20;
+const MAX_BUFFER_BYTES: usize = 24 << 20;
+
+/// Bytes between a run's rows: its bricks' rows side by side, at the copy's row alignment.
+fn run_pitch(bricks: usize, row_bytes: usize) -> usize {
+    (bricks * row_bytes).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as usize)
+}
+
+/// Bytes of a run of `bricks` in a ring buffer: 34 × 34 rows at [`run_pitch`].
+fn run_bytes(bricks: usize, row_bytes: usize) -> usize {
+    PADDED_BRICK * PADDED_BRICK * run_pitch(bricks, row_bytes)
+}
 
 /// Where one staged brick goes: its texels, and the atlas cell it fills.
 pub(crate) struct StagedBrick<'a> {
@@ -54,13 +60,14 @@ pub(crate) struct Staged {
 }
 
 /// The runs of `origins` (atlas cells of `side` texels): indices into `origins`, sorted by
-/// cell (z, then y, then x), each run at most `per_run` bricks whose cells follow each other
-/// along x; at most `most_runs` runs. Whether each brick is in one.
+/// cell (z, then y, then x), each run bricks whose cells follow each other along x, all within
+/// `capacity` bytes of runs of rows of `row_bytes` ([`run_bytes`]). Whether each brick is in
+/// one.
 fn plan_runs(
     origins: &[wgpu::Origin3d],
     side: u32,
-    per_run: usize,
-    most_runs: usize,
+    row_bytes: usize,
+    capacity: usize,
 ) -> (Vec<Vec<usize>>, Vec<bool>) {
     let mut order: Vec<usize> = (0..origins.len()).collect();
     order.sort_unstable_by_key(|&i| {
@@ -69,18 +76,23 @@ fn plan_runs(
     });
     let mut runs: Vec<Vec<usize>> = Vec::new();
     let mut staged = vec![false; origins.len()];
+    let mut used = 0;
     for i in order {
         let here = origins[i];
         if let Some(run) = runs.last_mut() {
             let last = origins[run[run.len() - 1]];
-            let follows = last.z == here.z && last.y == here.y && last.x + side == here.x;
-            if follows && run.len() < per_run {
+            let grown =
+                used - run_bytes(run.len(), row_bytes) + run_bytes(run.len() + 1, row_bytes);
+            if last.z == here.z && last.y == here.y && last.x + side == here.x && grown <= capacity
+            {
+                used = grown;
                 run.push(i);
                 staged[i] = true;
                 continue;
             }
         }
-        if runs.len() < most_runs {
+        if used + run_bytes(1, row_bytes) <= capacity {
+            used += run_bytes(1, row_bytes);
             runs.push(vec![i]);
             staged[i] = true;
         }
@@ -88,15 +100,14 @@ fn plan_runs(
     (runs, staged)
 }
 
-/// Writes a run's bricks (their 34 × 34 rows of `row_bytes` each, in order) into `group`: row
-/// `r` of brick `i` at `r × 256 + i × row_bytes`.
-fn write_run(group: &mut [u8], bricks: &[&[u8]], row_bytes: usize) {
-    let stride = wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as usize;
+/// Writes a run's bricks (their 34 × 34 rows of `row_bytes` each, in order) into `rows`, the
+/// run's bytes: row `r` of brick `i` at `r × pitch + i × row_bytes`.
+fn write_run(rows: &mut [u8], bricks: &[&[u8]], row_bytes: usize, pitch: usize) {
     for (index, texels) in bricks.iter().enumerate() {
         let start = index * row_bytes;
         for (row, texels) in texels.chunks_exact(row_bytes).enumerate() {
-            let at = start + row * stride;
-            group[at..at + row_bytes].copy_from_slice(texels);
+            let at = start + row * pitch;
+            rows[at..at + row_bytes].copy_from_slice(texels);
         }
     }
 }
@@ -107,33 +118,32 @@ struct StagingBuffer {
     state: Arc<AtomicU8>,
 }
 
-/// The ring. Runs per buffer bound a frame's uploads through it; more go through the queue.
+/// The ring. A buffer's bytes bound a frame's uploads through it; more go through the queue.
 pub(crate) struct StagingRing {
     buffers: Vec<StagingBuffer>,
     next: usize,
-    /// Runs (groups of rows) one buffer holds.
-    runs_per_buffer: usize,
-    /// Bytes of a brick's row, and bricks a run holds.
+    /// Bytes of one buffer.
+    capacity: usize,
+    /// Bytes of a brick's row.
     row_bytes: usize,
-    per_run: usize,
     /// One run's rows, laid out before they are copied into a mapped buffer.
     scratch: Vec<u8>,
 }
 
 impl StagingRing {
-    /// A ring whose buffers hold runs for about `bricks` bricks of `bytes_per_texel` each
-    /// (within [`MAX_BUFFER_BYTES`]), mapped from the start (none for 0: every brick goes
-    /// through the queue).
+    /// A ring whose buffers hold `bricks` bricks of `bytes_per_texel` each as runs of one
+    /// (within [`MAX_BUFFER_BYTES`]; longer runs take less room), mapped from the start (none
+    /// for 0: every brick goes through the queue).
     pub(crate) fn new(context: &GpuContext, bricks: usize, bytes_per_texel: u32) -> Self {
         let row_bytes = PADDED_BRICK * bytes_per_texel as usize;
-        let per_run = (wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as usize / row_bytes).max(1);
-        let most_runs = (MAX_BUFFER_BYTES / GROUP_BYTES as u64).max(1) as usize;
-        let runs_per_buffer = bricks.div_ceil(per_run).min(most_runs);
-        let buffers = (0..if runs_per_buffer > 0 { BUFFERS } else { 0 })
+        let capacity = bricks
+            .saturating_mul(run_bytes(1, row_bytes))
+            .min(MAX_BUFFER_BYTES);
+        let buffers = (0..if capacity > 0 { BUFFERS } else { 0 })
             .map(|_| StagingBuffer {
                 buffer: context.device.create_buffer(&wgpu::BufferDescriptor {
                     label: Some("voxscope::stream_staging"),
-                    size: (runs_per_buffer * GROUP_BYTES) as u64,
+                    size: capacity as u64,
                     usage: wgpu::BufferUsages::MAP_WRITE | wgpu::BufferUsages::COPY_SRC,
                     mapped_at_creation: true,
                 }),
@@ -143,9 +153,8 @@ impl StagingRing {
         Self {
             buffers,
             next: 0,
-            runs_per_buffer,
+            capacity,
             row_bytes,
-            per_run,
             scratch: Vec::new(),
         }
     }
@@ -167,12 +176,13 @@ impl StagingRing {
             return Staged::default();
         }
         let side = PADDED_BRICK as u32;
-        // The frame's first bricks (its most important) that the buffer could hold in full
-        // runs; of those, the ones that make fewer runs than it holds.
-        let count = bricks.len().min(self.runs_per_buffer * self.per_run);
+        // The frame's first bricks (its most important) that could fit; of those, the runs
+        // the buffer holds.
+        let count = bricks.len().min(self.bricks_per_buffer());
         let origins: Vec<wgpu::Origin3d> = bricks[..count].iter().map(|b| b.origin).collect();
-        let (runs, mut staged) = plan_runs(&origins, side, self.per_run, self.runs_per_buffer);
+        let (runs, mut staged) = plan_runs(&origins, side, self.row_bytes, self.capacity);
         staged.resize(bricks.len(), false);
+        let mut offsets = Vec::with_capacity(runs.len());
         {
             let Ok(mut mapped) = staging.buffer.slice(..).get_mapped_range_mut() else {
                 return Staged::default();
@@ -180,25 +190,29 @@ impl StagingRing {
             // A run's rows are laid out in ordinary memory first, then written to the mapped
             // (possibly write-combining) memory in one sequential copy. (On several cores at
             // once it was slower on the H200, run 71: the loaders hold the other cores.)
-            self.scratch.resize(GROUP_BYTES, 0);
-            for (group, run) in runs.iter().enumerate() {
+            let mut base = 0;
+            for run in &runs {
+                let pitch = run_pitch(run.len(), self.row_bytes);
+                let bytes = run_bytes(run.len(), self.row_bytes);
+                self.scratch.resize(bytes, 0);
                 let texels: Vec<&[u8]> = run.iter().map(|&i| bricks[i].texels).collect();
-                write_run(&mut self.scratch, &texels, self.row_bytes);
-                let base = group * GROUP_BYTES;
+                write_run(&mut self.scratch[..bytes], &texels, self.row_bytes, pitch);
                 mapped
-                    .slice(base..base + GROUP_BYTES)
-                    .copy_from_slice(&self.scratch);
+                    .slice(base..base + bytes)
+                    .copy_from_slice(&self.scratch[..bytes]);
+                offsets.push((base, pitch));
+                base += bytes;
             }
         }
         staging.buffer.unmap();
         let staging_seconds = started.elapsed().as_secs_f64();
-        for (group, run) in runs.iter().enumerate() {
+        for (run, &(offset, pitch)) in runs.iter().zip(&offsets) {
             encoder.copy_buffer_to_texture(
                 wgpu::TexelCopyBufferInfo {
                     buffer: &staging.buffer,
                     layout: wgpu::TexelCopyBufferLayout {
-                        offset: (group * GROUP_BYTES) as u64,
-                        bytes_per_row: Some(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT),
+                        offset: offset as u64,
+                        bytes_per_row: Some(pitch as u32),
                         rows_per_image: Some(side),
                     },
                 },
@@ -244,9 +258,9 @@ impl StagingRing {
         self.next = (self.next + 1) % self.buffers.len();
     }
 
-    /// Bricks one buffer holds at most (in full runs): a frame's uploads through the ring.
+    /// Bricks one buffer holds at most (in long runs): a frame's uploads through the ring.
     pub(crate) fn bricks_per_buffer(&self) -> usize {
-        self.runs_per_buffer * self.per_run
+        self.capacity / (PADDED_BRICK * PADDED_BRICK * self.row_bytes)
     }
 }
 
@@ -264,8 +278,9 @@ mod tests {
     }
 
     #[test]
-    fn runs_are_cells_that_follow_each_other_along_x_up_to_a_groups_bricks() {
+    fn runs_are_cells_that_follow_each_other_along_x_within_the_buffer() {
         let side = PADDED_BRICK as u32;
+        let row_bytes = 2 * PADDED_BRICK;
         // Given out of order: cells 0–4 of row (0, 0), cell 7 of it, cell 1 of row (1, 0)
         // and cell 0 of slice 1.
         let origins = [
@@ -278,48 +293,52 @@ mod tests {
             cell(2, 0, 0),
             cell(4, 0, 0),
         ];
-        let (runs, staged) = plan_runs(&origins, side, 3, 10);
-        // x 0–2, then 3–4 (a run holds three), 7, row y = 1, slice z = 1.
-        assert_eq!(
-            runs,
-            vec![vec![4, 2, 6], vec![0, 7], vec![3], vec![5], vec![1]]
-        );
+        let (runs, staged) = plan_runs(&origins, side, row_bytes, MAX_BUFFER_BYTES);
+        // x 0–4, then 7, row y = 1, slice z = 1.
+        assert_eq!(runs, vec![vec![4, 2, 6, 0, 7], vec![3], vec![5], vec![1]]);
         assert!(staged.iter().all(|&s| s));
-        // Three runs at most: the last two cells wait for the queue.
-        let (runs, staged) = plan_runs(&origins, side, 3, 3);
-        assert_eq!(runs.len(), 3);
+        // Five bricks' rows (340 bytes) take two of a copy's 256-byte rows: with room for four
+        // such, the run and one more; the last two cells wait for the queue.
+        let (runs, staged) = plan_runs(&origins, side, row_bytes, 4 * run_bytes(1, row_bytes));
+        assert_eq!(runs, vec![vec![4, 2, 6, 0, 7], vec![3], vec![5]]);
         assert_eq!(
             staged,
-            vec![true, false, true, true, true, false, true, true]
+            vec![true, false, true, true, true, true, true, true]
         );
+        // Room for one brick: the first cell alone.
+        let (runs, _) = plan_runs(&origins, side, row_bytes, run_bytes(1, row_bytes));
+        assert_eq!(runs, vec![vec![4, 2, 6]]);
     }
 
     #[test]
     fn a_runs_rows_are_the_rows_of_its_box_in_the_atlas() {
-        let stride = wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as usize;
-        for (bytes_per_texel, per_run) in [(1, 7), (2, 3), (4, 1)] {
+        for bytes_per_texel in [1, 2, 4] {
             let row_bytes = PADDED_BRICK * bytes_per_texel;
-            assert_eq!(stride / row_bytes, per_run, "{bytes_per_texel} bytes");
-            let bricks: Vec<Vec<u8>> = (0..per_run)
-                .map(|brick| {
-                    (0..PADDED_BRICK * PADDED_BRICK * row_bytes)
-                        .map(|byte| (byte * 7 + brick * 31) as u8)
-                        .collect()
-                })
-                .collect();
-            let texels: Vec<&[u8]> = bricks.iter().map(|b| b.as_slice()).collect();
-            let mut group = vec![0u8; GROUP_BYTES];
-            write_run(&mut group, &texels, row_bytes);
-            // The copy reads row r (y and z of the box) as `per_run × row_bytes` bytes at
-            // r × 256: brick i's row r, for i in order.
-            for row in 0..PADDED_BRICK * PADDED_BRICK {
-                let read = &group[row * stride..row * stride + per_run * row_bytes];
-                for (index, brick) in bricks.iter().enumerate() {
-                    assert_eq!(
-                        &read[index * row_bytes..(index + 1) * row_bytes],
-                        &brick[row * row_bytes..(row + 1) * row_bytes],
-                        "row {row} of brick {index}, {bytes_per_texel}-byte texels"
-                    );
+            for count in [1, 3, 8] {
+                let pitch = run_pitch(count, row_bytes);
+                assert_eq!(pitch % 256, 0);
+                assert!(pitch >= count * row_bytes && pitch < count * row_bytes + 256);
+                let bricks: Vec<Vec<u8>> = (0..count)
+                    .map(|brick| {
+                        (0..PADDED_BRICK * PADDED_BRICK * row_bytes)
+                            .map(|byte| (byte * 7 + brick * 31) as u8)
+                            .collect()
+                    })
+                    .collect();
+                let texels: Vec<&[u8]> = bricks.iter().map(|b| b.as_slice()).collect();
+                let mut rows = vec![0u8; run_bytes(count, row_bytes)];
+                write_run(&mut rows, &texels, row_bytes, pitch);
+                // The copy reads row r (y and z of the box) as `count × row_bytes` bytes at
+                // r × pitch: brick i's row r, for i in order.
+                for row in 0..PADDED_BRICK * PADDED_BRICK {
+                    let read = &rows[row * pitch..row * pitch + count * row_bytes];
+                    for (index, brick) in bricks.iter().enumerate() {
+                        assert_eq!(
+                            &read[index * row_bytes..(index + 1) * row_bytes],
+                            &brick[row * row_bytes..(row + 1) * row_bytes],
+                            "row {row} of brick {index} of {count}, {bytes_per_texel}-byte texels"
+                        );
+                    }
                 }
             }
         }

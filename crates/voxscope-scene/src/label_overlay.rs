@@ -549,6 +549,14 @@ impl BrickSource for SlotBricks {
         self.inner.remote_stats()
     }
 
+    fn can_fetch_ahead(&self) -> bool {
+        self.inner.can_fetch_ahead()
+    }
+
+    fn fetch_ahead(&self, ids: &[BrickId]) {
+        self.inner.fetch_ahead(ids);
+    }
+
     fn reserve_caches(&self, ram: u64) -> u64 {
         self.inner.reserve_caches(ram)
     }

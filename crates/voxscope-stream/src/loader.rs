@@ -186,6 +186,9 @@ pub fn load_brick(
 }
 
 fn fetch_ahead(source: &dyn BrickSource, queue: &RequestQueue) {
+    if !source.can_fetch_ahead() {
+        return;
+    }
     let upcoming = queue.upcoming(FETCH_AHEAD_BRICKS);
     if !upcoming.is_empty() {
         source.fetch_ahead(&upcoming);

@@ -131,6 +131,12 @@ pub trait BrickSource: Send + Sync {
     /// reads nothing over a network does nothing.
     fn fetch_ahead(&self, _ids: &[BrickId]) {}
 
+    /// Whether [`Self::fetch_ahead`] may start anything now (its store has room for more
+    /// fetches under way): cheap, asked before the load queue's next bricks are looked up.
+    fn can_fetch_ahead(&self) -> bool {
+        true
+    }
+
     /// Requests, bytes and errors of the network store behind the source, if it reads from
     /// one (what the app shows while a URL streams).
     fn remote_stats(&self) -> Option<RemoteStats> {

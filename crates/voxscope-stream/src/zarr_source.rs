@@ -75,6 +75,11 @@ struct FetchedAhead {
 /// The most chunks a [`ZarrSource`] remembers having fetched ahead.
 const MAX_FETCHED_AHEAD: usize = 1 << 16;
 
+/// Most regions of sharded levels one [`BrickSource::fetch_ahead`] call hands the store in a
+/// batch (each a brick's: up to 27 inner chunks of 32³, and a batch past 4 096 inner chunks is
+/// not fetched ahead at all).
+const MAX_SHARDED_REGIONS_AHEAD: usize = 96;
+
 /// Most chunks one [`BrickSource::fetch_ahead`] call hands the store (which starts what its
 /// limit has room for: twice `--max-requests`, 64 by default, and the rest on later calls).
 const MAX_CHUNKS_AHEAD: usize = 256;
@@ -577,6 +582,10 @@ impl BrickSource for ZarrSource {
     /// sharded level's inner chunks shard by shard, coalesced
     /// ([`Pyramid::fetch_ahead_regions`]). The chunks already handed to the store are
     /// remembered, so that a call costs little once a view's chunks are on their way.
+    fn can_fetch_ahead(&self) -> bool {
+        self.pyramid.can_fetch_ahead()
+    }
+
     fn fetch_ahead(&self, ids: &[BrickId]) {
         if !self.pyramid.can_fetch_ahead() {
             return;
@@ -615,34 +624,45 @@ impl BrickSource for ZarrSource {
                     (low[1]..=high[1]).flat_map(move |y| (low[0]..=high[0]).map(move |x| [x, y, z]))
                 });
                 if info.shard.is_some() {
-                    if missing.any(|c| !decoded.chunks.contains_key(&(source.stored, c))) {
+                    // (A batch's regions are bounded: a shard batch of too many inner chunks
+                    // is not fetched ahead at all.)
+                    if sharded.len() < MAX_SHARDED_REGIONS_AHEAD
+                        && missing.any(|c| !decoded.chunks.contains_key(&(source.stored, c)))
+                    {
                         sharded.push((source.stored, origin, size));
                     }
                     continue;
                 }
                 if chunks.len() >= MAX_CHUNKS_AHEAD {
-                    break;
+                    continue;
                 }
+                // Whether every chunk was handed to the store (by this call or one before): a
+                // chunk only decoded may leave the chunk cache, and the brick is then looked
+                // at again.
+                let mut all_handed = true;
                 for chunk in missing {
                     let key = (source.stored, chunk);
-                    if !decoded.chunks.contains_key(&key)
-                        && !asked.chunks.contains(&key)
-                        && seen.insert(key)
-                    {
+                    if asked.chunks.contains(&key) || seen.contains(&key) {
+                        continue;
+                    }
+                    if decoded.chunks.contains_key(&key) {
+                        all_handed = false;
+                    } else {
+                        seen.insert(key);
                         chunks.push(key);
                     }
                 }
-                if chunks.is_empty() {
-                    // Every chunk decoded or asked for already.
-                    asked.bricks.insert(id);
-                } else {
-                    // Handed over once the first `chunks.len()` are.
+                if all_handed {
+                    // Handed over once the first `chunks.len()` are (at once for none).
                     bricks.push((id, chunks.len()));
                 }
             }
             if asked.bricks.len() > MAX_FETCHED_AHEAD {
                 asked.bricks.clear();
             }
+            let now = bricks.iter().take_while(|&&(_, needs)| needs == 0);
+            let now: Vec<BrickId> = now.map(|&(id, _)| id).collect();
+            asked.bricks.extend(now);
         }
         if !sharded.is_empty() {
             self.pyramid.fetch_ahead_regions(&sharded);
