@@ -9,8 +9,8 @@
 //! and cut into *runs* of bricks whose cells follow each other along x. A run's bricks share its
 //! rows (brick `i` starts `i × row` bytes into each), so they are the rows of one box of the
 //! atlas, and one copy fills the whole run. On the H200 the GPU's copies, not the CPU, bound the
-//! uploads: a copy per brick moved 1.35 GB/s, a copy per run of up to three 1.9–3.4
-//! (docs/benchmarks.md, run 72).
+//! uploads: a copy per brick moved 1.35 GB/s, runs of up to three 1.9–3.4, runs of any
+//! length 3.0–6.9 (docs/benchmarks.md, runs 72 and 74).
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU8, Ordering};
