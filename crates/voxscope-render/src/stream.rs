@@ -218,7 +218,7 @@ impl StreamVolume {
             )));
         }
         // A ring buffer holds what a frame may upload, within the ring's own bound (24 MB a
-        // buffer: 85 runs of bricks along x, up to 255 bricks of 16-bit texels, 595 of 8-bit).
+        // buffer: 85 bricks alone, more in runs along x).
         let per_frame = (options.upload_bytes_per_frame / slot_bytes).max(1) as usize;
         let ring_bricks = if options.staging_ring {
             per_frame.min(slots)

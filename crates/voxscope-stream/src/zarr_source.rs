@@ -67,8 +67,8 @@ pub struct ZarrSource {
 struct FetchedAhead {
     /// Chunks of unsharded levels.
     chunks: std::collections::HashSet<ChunkKey>,
-    /// Bricks whose chunks were all handed over or decoded: passed over at once when a later
-    /// call's window holds them again.
+    /// Bricks whose chunks were all handed over: passed over at once when a later call's
+    /// window holds them again.
     bricks: std::collections::HashSet<BrickId>,
 }
 
@@ -581,11 +581,8 @@ impl BrickSource for ZarrSource {
     /// before, in the bricks' order: whole chunks ([`Pyramid::fetch_ahead_chunks`]), or a
     /// sharded level's inner chunks shard by shard, coalesced
     /// ([`Pyramid::fetch_ahead_regions`]). The chunks already handed to the store are
-    /// remembered, so that a call costs little once a view's chunks are on their way.
-    fn can_fetch_ahead(&self) -> bool {
-        self.pyramid.can_fetch_ahead()
-    }
-
+    /// remembered, and so are the bricks whose chunks all were, so that a call costs little
+    /// once a view's chunks are on their way.
     fn fetch_ahead(&self, ids: &[BrickId]) {
         if !self.pyramid.can_fetch_ahead() {
             return;
@@ -679,6 +676,10 @@ impl BrickSource for ZarrSource {
                 asked.bricks.extend(done.map(|&(id, _)| id));
             }
         }
+    }
+
+    fn can_fetch_ahead(&self) -> bool {
+        self.pyramid.can_fetch_ahead()
     }
 
     fn read_brick(&self, id: BrickId) -> Result<BrickData, BrickError> {
