@@ -11,7 +11,7 @@
 #
 # It builds nothing: it expects out/zarr-bench/brain-pd-dicom/, .bench/ with voxscope.gz,
 # voxscope-base.gz and mri-head-256.nii.gz, and the Vulkan loader's .deb files in .gl. Usage: bash docs/bench/budget.sh RUN_NAME   (RUN_NAME.tar.gz of every file goes to $OUT;
-# a summary to stdout)
+# a summary to stdout; BASE_STREAM=1 runs voxscope-base's bench --stream too)
 set -uo pipefail
 started=$SECONDS
 D=.bench
@@ -58,13 +58,8 @@ for mode in mip dvr; do
     done
 done
 done
-drop
-t0=$SECONDS
-timeout "${LIMIT:-180}" $D/voxscope bench "$STORE" --stream --json --gpu-memory 512MiB \
-    --ram-cache 2GiB >"$OUTDIR/$RUN-stream-pd4096x1040.json" 2>"$OUTDIR/$RUN-stream-pd4096x1040.err"
-echo "bench --stream exit $? after $((SECONDS - t0)) s"
-tail -2 "$OUTDIR/$RUN-stream-pd4096x1040.err"
-python3 - "$OUTDIR/$RUN-stream-pd4096x1040.json" <<'PY'
+summary() {
+python3 - "$1" <<'PY'
 import json, sys
 try:
     r = json.load(open(sys.argv[1]))
@@ -86,9 +81,32 @@ for o in r["orbits"]:
           "wait", {k: round(v, 2) for k, v in o.get("wait_ms", {}).items()},
           "uploaded MB", round(o["uploaded_bytes"] / 1e6, 1),
           "upload s", round(o["counters"]["upload_seconds"], 3))
+    if o.get("update_preempted_ms"):
+        print("   update preempted", {k: round(v, 2) for k, v in o["update_preempted_ms"].items()})
+if r.get("decode"):
+    d = r["decode"]
+    print("decode", d["bricks"], "bricks,", d["workers"], "threads:", round(d["bytes_per_s"] / 1e9, 2), "GB/s,",
+          round(d["bytes_per_s_per_thread"] / 1e6), "MB/s a thread; first read", round(d["first_read_bytes_per_s"] / 1e9, 2), "GB/s")
 for row in r["resident"]["rows"]:
     print("resident", row["mode"], row["camera"], row["complete"], round(row["stream_over_bricks"], 2))
 PY
+}
+# bench --stream of the binary $1 (a .gz in .bench) into $RUN-stream-pd4096x1040$2.json.
+stream_bench() {
+    gunzip -kf "$D/$1.gz" && chmod +x "$D/$1"
+    drop
+    t0=$SECONDS
+    timeout "${LIMIT:-180}" "$D/$1" bench "$STORE" --stream --json --gpu-memory 512MiB \
+        --ram-cache 2GiB >"$OUTDIR/$RUN-stream-pd4096x1040$2.json" 2>"$OUTDIR/$RUN-stream-pd4096x1040$2.err"
+    echo "bench --stream ($1) exit $? after $((SECONDS - t0)) s"
+    tail -2 "$OUTDIR/$RUN-stream-pd4096x1040$2.err"
+    summary "$OUTDIR/$RUN-stream-pd4096x1040$2.json"
+}
+stream_bench voxscope ""
+# The base binary's bench --stream in the same call, where asked.
+if [ -e $D/voxscope-base.gz ] && [ "${BASE_STREAM:-0}" = 1 ]; then
+    stream_bench voxscope-base -base
+fi
 if [ -e $D/voxscope-base.gz ] && [ "${HEAD_AB:-1}" = 1 ]; then
     echo "== head A/B after $((SECONDS - started)) s"
     BENCH_DIR=.bench bash docs/bench/run.sh "$RUN" head 2>&1 | tail -12

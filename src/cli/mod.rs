@@ -6,6 +6,7 @@ mod bench;
 mod ceilings;
 mod composite;
 mod convert;
+mod decode_bench;
 mod drawing;
 mod info;
 mod labels;

@@ -11,6 +11,7 @@ use serde_json::json;
 
 use super::args::{OpacityArg, TransferArgs};
 use super::bench::BenchArgs;
+use super::decode_bench::decode_rate;
 use super::memory;
 use super::stream::open_streamed;
 use voxscope_octree::{BuildOptions, TransferFunction};
@@ -204,10 +205,15 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
         let mut wait_ms = Vec::new();
         let mut missing = Vec::new();
         let mut uploaded = 0u64;
+        let mut preempted_ms = Vec::new();
         let gpu = time_passes(&context, timer.as_ref(), args.frames, |i, writes| {
             let started = Instant::now();
+            let runnable = runnable_seconds();
             let status = renderer.update(&context).expect("a streaming renderer");
             update_ms.push(started.elapsed().as_secs_f64() * 1e3);
+            if let (Some(before), Some(after)) = (runnable, runnable_seconds()) {
+                preempted_ms.push((after - before) * 1e3);
+            }
             uploaded += status.upload_bytes;
             missing.push(status.missing as f64);
             let camera = Camera {
@@ -243,6 +249,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
             "wall_ms": summary(&wall),
             "update_ms": summary(&update_ms),
             "wait_ms": summary(&wait_ms),
+            "update_preempted_ms": (!preempted_ms.is_empty()).then(|| summary(&preempted_ms)),
             "wait_beyond_pass_bytes_per_s": wait_beyond_pass,
             "frames_over_16ms_wall": wall.iter().filter(|&&w| w > 16.0).count(),
             "slowest_frame": wall
@@ -256,6 +263,14 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
         }));
         memory.phase(&format!("orbit_{camera_name}"), Some(&status.counters));
     }
+
+    // The loaders' rate on their own, from the page cache.
+    let decode = decode_rate(
+        || Ok(open_streamed(&args.volume, &transfer_args)?.0.source),
+        options.ram_cache,
+        options.workers,
+    )?;
+    memory.phase("decode", None);
 
     let resident =
         resident_comparison(&context, args, &prepared, &target, options, timer.as_ref())?;
@@ -288,6 +303,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
         "stopped_view": stopped,
         "near_stopped_views": near,
         "orbits": orbits,
+        "decode": decode,
         "resident": resident,
         "memory": memory.report(options.ram_cache),
     });
@@ -356,6 +372,14 @@ impl Memory {
 /// The near stopped views' camera distance, in bounding-sphere radii (the issue that asked for
 /// views to complete within the budget measured at 0.6).
 const NEAR_STOPPED: f64 = 0.6;
+
+/// Seconds this thread has spent ready to run but not running (waiting for a core), where the
+/// system says (Linux's scheduler statistics).
+fn runnable_seconds() -> Option<f64> {
+    let stats = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    let waited: u64 = stats.split_whitespace().nth(1)?.parse().ok()?;
+    Some(waited as f64 / 1e9)
+}
 
 /// What each part of the upload pipeline did: the loader threads' rate (read and decode,
 /// per thread and for all of them), the frames' upload rate (into the staging ring and

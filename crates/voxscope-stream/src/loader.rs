@@ -42,10 +42,10 @@ impl AtlasTexels {
     }
 
     /// `levels` as texel bytes.
-    pub fn encode(self, levels: &[u16]) -> Vec<u8> {
+    pub fn encode(self, levels: &[u16]) -> Arc<[u8]> {
         match self {
             Self::Unorm8 => levels.iter().map(|&l| l.min(255) as u8).collect(),
-            Self::Unorm16 => bytemuck::cast_slice(levels).to_vec(),
+            Self::Unorm16 => Arc::from(bytemuck::cast_slice::<u16, u8>(levels)),
             Self::Float16 => levels
                 .iter()
                 .flat_map(|&l| half::f16::from_f32(l as f32).to_le_bytes())
@@ -114,7 +114,10 @@ impl Loader {
             // Detached: see the module's documentation.
             let _detached: JoinHandle<()> = std::thread::Builder::new()
                 .name(format!("voxscope-brick-loader-{index}"))
-                .spawn(move || work(&*source, remote, &queue, texels, &sender))
+                .spawn(move || {
+                    yield_to_frames();
+                    work(&*source, remote, &queue, texels, &sender)
+                })
                 .expect("the system starts a thread");
         }
         Self {
@@ -136,6 +139,24 @@ impl Loader {
     /// Every result that has arrived, without waiting.
     pub fn received(&self) -> Vec<LoadResult> {
         self.results.try_iter().collect()
+    }
+}
+
+/// How much less this system's scheduler favours a loader thread than the others (Linux's
+/// nice value): the loaders take every core the frames leave, and a frame's update never
+/// waits for a core behind them.
+pub const LOADER_NICENESS: i32 = 10;
+
+/// Lowers the calling thread's priority by [`LOADER_NICENESS`] where the system has
+/// per-thread priorities (Linux); elsewhere the loaders run at the frames' priority.
+fn yield_to_frames() {
+    #[cfg(target_os = "linux")]
+    // SAFETY: setpriority and gettid only read their arguments; on Linux the nice value is
+    // the thread's own, named by its id.
+    unsafe {
+        let thread = libc::gettid() as libc::id_t;
+        let niceness = libc::getpriority(libc::PRIO_PROCESS, thread) + LOADER_NICENESS;
+        libc::setpriority(libc::PRIO_PROCESS, thread, niceness.min(19));
     }
 }
 
@@ -172,7 +193,7 @@ pub fn load_brick(
                     bytes_read,
                 );
             }
-            let texels = (!data.range.is_uniform()).then(|| Arc::from(texels.encode(&data.levels)));
+            let texels = (!data.range.is_uniform()).then(|| texels.encode(&data.levels));
             (
                 Ok(LoadedBrick {
                     range: data.range,
@@ -329,6 +350,71 @@ mod tests {
         while queue.try_take().is_some() {}
         fetch_ahead(&source, &queue);
         assert_eq!(source.1.lock().expect("not poisoned").len(), 2);
+    }
+
+    /// A source whose reads record the reading thread's nice value.
+    #[cfg(target_os = "linux")]
+    struct Niceness(PyramidShape, std::sync::Mutex<Vec<i32>>);
+
+    #[cfg(target_os = "linux")]
+    impl BrickSource for Niceness {
+        fn name(&self) -> &str {
+            "niceness"
+        }
+        fn shape(&self) -> &PyramidShape {
+            &self.0
+        }
+        fn spacing(&self) -> [f64; 3] {
+            [1.0; 3]
+        }
+        fn quantization(&self) -> Quantization {
+            Quantization {
+                offset: 0.0,
+                step: 1.0,
+            }
+        }
+        fn max_value_level(&self) -> u16 {
+            255
+        }
+        fn read_brick(&self, id: BrickId) -> Result<BrickData, BrickError> {
+            // The 19th field of the thread's stat line, after the parenthesized name.
+            let stat = std::fs::read_to_string("/proc/thread-self/stat").expect("Linux");
+            let after_name = &stat[stat.rfind(')').expect("a name") + 2..];
+            let nice = after_name.split_whitespace().nth(16).expect("a nice field");
+            self.1
+                .lock()
+                .expect("not poisoned")
+                .push(nice.parse().expect("a number"));
+            Err(BrickError::invalid(format!("{id} is not read here")))
+        }
+    }
+
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn loaders_run_below_the_frames_priority() {
+        let source = Arc::new(Niceness(
+            PyramidShape::new([40, 40, 40]).expect("a shape"),
+            Default::default(),
+        ));
+        let queue = Arc::new(RequestQueue::default());
+        let loader = Loader::start(source.clone(), Arc::clone(&queue), AtlasTexels::Unorm8, 2);
+        queue.replace(vec![crate::Request {
+            priority: crate::Priority::new(Tier::Visible, 0, 0.0),
+            id: BrickId {
+                level: 0,
+                brick: [0, 0, 0],
+            },
+            key: 0,
+        }]);
+        let started = std::time::Instant::now();
+        while loader.received().is_empty() && started.elapsed() < std::time::Duration::from_secs(10)
+        {
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        }
+        // SAFETY: getpriority only reads its arguments.
+        let ours = unsafe { libc::getpriority(libc::PRIO_PROCESS, libc::gettid() as libc::id_t) };
+        let read = source.1.lock().expect("not poisoned").clone();
+        assert_eq!(read, [(ours + LOADER_NICENESS).min(19)]);
     }
 
     #[test]

@@ -52,6 +52,11 @@ pub struct ZarrSource {
     /// Decoded chunks as value levels: neighbouring bricks share a chunk (and every brick's
     /// apron reaches into its neighbours'), so each chunk is decoded once while it is used.
     chunks: Mutex<ChunkCache>,
+    /// Chunks being read and decoded now, each with a lock its reader holds meanwhile: a
+    /// loader that needs one waits for that reader rather than decoding it again (the
+    /// loaders take neighbouring bricks at once, and eight bricks and their aprons share a
+    /// chunk).
+    decoding: Mutex<HashMap<ChunkKey, Arc<Mutex<()>>>>,
     /// Per stored level, every chunk's smallest and largest value where the store has them
     /// (`voxscope convert` writes them), x fastest: what [`BrickSource::known_range`] answers
     /// from.
@@ -91,6 +96,9 @@ pub const WARM_VOXELS: u64 = 1 << 24;
 /// Bytes of decoded chunks a [`ZarrSource`] keeps at most (value levels, 2 bytes a voxel),
 /// and less where the streamer's RAM budget is smaller ([`BrickSource::reserve_caches`]).
 pub const CHUNK_CACHE_BYTES: usize = 512 << 20;
+
+/// Row parts of a chunk at most this long are copied a value at a time, not by a call.
+const SHORT_RUN: usize = 8;
 
 /// A decoded chunk: stored level and chunk index.
 type ChunkKey = (usize, [usize; 3]);
@@ -253,6 +261,7 @@ impl ZarrSource {
             how,
             labels: how == Downsampling::Mode,
             chunks: Mutex::default(),
+            decoding: Mutex::default(),
             chunk_ranges,
             fetched_ahead: Mutex::default(),
         })
@@ -294,22 +303,7 @@ impl ZarrSource {
                     let start: [usize; 3] = std::array::from_fn(|a| index[a] * chunk[a]);
                     let extent: [usize; 3] =
                         std::array::from_fn(|a| chunk[a].min(info.dims[a] - start[a]));
-                    let cached = self
-                        .chunks
-                        .lock()
-                        .ok()
-                        .and_then(|mut c| c.get((stored, index)));
-                    let levels = match cached {
-                        Some(levels) => levels,
-                        None => {
-                            let data = self.pyramid.read_region(stored, start, extent)?;
-                            let levels = Arc::new(to_levels(&data, self.quantization));
-                            if let Ok(mut cache) = self.chunks.lock() {
-                                cache.insert((stored, index), Arc::clone(&levels));
-                            }
-                            levels
-                        }
-                    };
+                    let levels = self.chunk_levels((stored, index), start, extent)?;
                     // The part of the chunk inside the region.
                     let lo: [usize; 3] = std::array::from_fn(|a| origin[a].max(start[a]));
                     let hi: [usize; 3] =
@@ -321,13 +315,71 @@ impl ZarrSource {
                                 + extent[0] * ((y - start[1]) + extent[1] * (z - start[2]));
                             let to = (lo[0] - origin[0])
                                 + size[0] * ((y - origin[1]) + size[1] * (z - origin[2]));
-                            out[to..to + run].copy_from_slice(&levels[from..from + run]);
+                            let (out, levels) = (&mut out[to..to + run], &levels[from..from + run]);
+                            if run <= SHORT_RUN {
+                                // A brick's apron in the next chunk: a call to copy costs more.
+                                for (o, l) in out.iter_mut().zip(levels) {
+                                    *o = *l;
+                                }
+                            } else {
+                                out.copy_from_slice(levels);
+                            }
                         }
                     }
                 }
             }
         }
         Ok(out)
+    }
+
+    /// The value levels of one chunk (`start` and `extent` in the stored level's voxels):
+    /// from the decoded-chunk cache, else read and decoded here, or by the loader already
+    /// decoding it (waited for).
+    fn chunk_levels(
+        &self,
+        key: ChunkKey,
+        start: [usize; 3],
+        extent: [usize; 3],
+    ) -> Result<Arc<Vec<u16>>, voxscope_volume::LoadError> {
+        let cached = |chunks: &Mutex<ChunkCache>| chunks.lock().ok().and_then(|mut c| c.get(key));
+        if let Some(levels) = cached(&self.chunks) {
+            return Ok(levels);
+        }
+        let Ok(mut decoding) = self.decoding.lock() else {
+            return self.decode_chunk(key, start, extent);
+        };
+        let reader = Arc::clone(decoding.entry(key).or_default());
+        drop(decoding);
+        // The first here reads it; the others wait for it and then find it in the cache (a
+        // reader that failed, or a cache that has let it go, leaves them to read it).
+        let _reading = reader
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner());
+        let levels = match cached(&self.chunks) {
+            Some(levels) => Ok(levels),
+            None => self.decode_chunk(key, start, extent),
+        };
+        if let Ok(mut decoding) = self.decoding.lock()
+            && decoding.get(&key).is_some_and(|r| Arc::ptr_eq(r, &reader))
+        {
+            decoding.remove(&key);
+        }
+        levels
+    }
+
+    /// Reads and decodes one chunk into the decoded-chunk cache.
+    fn decode_chunk(
+        &self,
+        (stored, index): ChunkKey,
+        start: [usize; 3],
+        extent: [usize; 3],
+    ) -> Result<Arc<Vec<u16>>, voxscope_volume::LoadError> {
+        let data = self.pyramid.read_region(stored, start, extent)?;
+        let levels = Arc::new(to_levels(&data, self.quantization));
+        if let Ok(mut cache) = self.chunks.lock() {
+            cache.insert((stored, index), Arc::clone(&levels));
+        }
+        Ok(levels)
     }
 
     /// Whether every chunk of the stored level's region `[origin, origin + size)` is in the
@@ -697,67 +749,21 @@ impl BrickSource for ZarrSource {
         let stored = self
             .read_levels(source.stored, origin, size)
             .map_err(|e| BrickError::of_load(id, &e))?;
-        // Each distinct pyramid voxel (the apron and the part past the level's end repeat the
-        // edge ones): the mean (or max) of the stored voxels it covers, computed once.
-        let distinct: [Vec<usize>; 3] = std::array::from_fn(|a| {
-            let mut values = voxels[a].clone();
-            values.dedup();
-            values
-        });
-        let boxes: [Vec<(usize, usize)>; 3] = std::array::from_fn(|a| {
-            distinct[a]
-                .iter()
-                .map(|&c| {
-                    let (lo, hi) = covered(c, c, source.ratio[a], stored_dims[a]);
-                    (lo - origin[a], hi - origin[a])
-                })
-                .collect()
-        });
-        let [sx, sy, _] = size;
-        let mut reduced = Vec::with_capacity(boxes.iter().map(Vec::len).product());
-        for &(z0, z1) in &boxes[2] {
-            for &(y0, y1) in &boxes[1] {
-                for &(x0, x1) in &boxes[0] {
-                    let (mut sum, mut max, mut count) = (0u64, 0u16, 0u64);
-                    let mut block = Vec::new();
-                    for z in z0..=z1 {
-                        for y in y0..=y1 {
-                            let row = sx * (y + sy * z);
-                            for &v in &stored[row + x0..=row + x1] {
-                                sum += v as u64;
-                                max = max.max(v);
-                                count += 1;
-                                if self.how == Downsampling::Mode {
-                                    block.push(v);
-                                }
-                            }
-                        }
-                    }
-                    reduced.push(match self.how {
-                        Downsampling::Mean => ((sum + count / 2) / count) as u16,
-                        Downsampling::Max => max,
-                        Downsampling::Mode => mode_of_block(&mut block),
-                    });
-                }
-            }
-        }
-        // Where each padded voxel's pyramid voxel sits among the distinct ones.
-        let index: [Vec<usize>; 3] = std::array::from_fn(|a| {
-            voxels[a]
-                .iter()
-                .map(|c| distinct[a].partition_point(|d| d < c))
-                .collect()
-        });
-        let [dx, dy] = [distinct[0].len(), distinct[1].len()];
-        let mut levels = Vec::with_capacity(PADDED_BRICK_VOXELS);
-        for &k in &index[2] {
-            for &j in &index[1] {
-                for &i in &index[0] {
-                    levels.push(reduced[i + dx * (j + dy * k)]);
-                }
-            }
-        }
         let inside = std::array::from_fn(|a| level.dims[a].saturating_sub(first[a]));
+        let levels = if source.ratio == [1, 1, 1] {
+            // One stored voxel a pyramid voxel (its mean, max and mode alike): rows copied.
+            gather_padded(stored, origin, size, &voxels, stored_dims)
+        } else {
+            reduce_padded(
+                &stored,
+                origin,
+                size,
+                &voxels,
+                source.ratio,
+                stored_dims,
+                self.how,
+            )
+        };
         Ok(BrickData::new(levels, inside))
     }
 
@@ -774,6 +780,122 @@ fn padded_voxels(first: [usize; 3], dims: [usize; 3]) -> [Vec<usize>; 3] {
             .map(|i| (first[a] + i).saturating_sub(1).min(dims[a] - 1))
             .collect()
     })
+}
+
+/// The padded brick of the pyramid voxels `voxels` (x, y, z), each the mean, max or mode
+/// (`how`) of the `ratio` stored voxels per axis it covers within the stored level's `dims`,
+/// from `stored`, the stored region `[origin, origin + size)` that [`stored_region`] gave.
+fn reduce_padded(
+    stored: &[u16],
+    origin: [usize; 3],
+    size: [usize; 3],
+    voxels: &[Vec<usize>; 3],
+    ratio: [usize; 3],
+    stored_dims: [usize; 3],
+    how: Downsampling,
+) -> Vec<u16> {
+    // Each distinct pyramid voxel (the apron and the part past the level's end repeat the
+    // edge ones): the mean (or max) of the stored voxels it covers, computed once.
+    let distinct: [Vec<usize>; 3] = std::array::from_fn(|a| {
+        let mut values = voxels[a].clone();
+        values.dedup();
+        values
+    });
+    let boxes: [Vec<(usize, usize)>; 3] = std::array::from_fn(|a| {
+        distinct[a]
+            .iter()
+            .map(|&c| {
+                let (lo, hi) = covered(c, c, ratio[a], stored_dims[a]);
+                (lo - origin[a], hi - origin[a])
+            })
+            .collect()
+    });
+    let [sx, sy, _] = size;
+    let mut reduced = Vec::with_capacity(boxes.iter().map(Vec::len).product());
+    for &(z0, z1) in &boxes[2] {
+        for &(y0, y1) in &boxes[1] {
+            for &(x0, x1) in &boxes[0] {
+                let (mut sum, mut max, mut count) = (0u64, 0u16, 0u64);
+                let mut block = Vec::new();
+                for z in z0..=z1 {
+                    for y in y0..=y1 {
+                        let row = sx * (y + sy * z);
+                        for &v in &stored[row + x0..=row + x1] {
+                            sum += v as u64;
+                            max = max.max(v);
+                            count += 1;
+                            if how == Downsampling::Mode {
+                                block.push(v);
+                            }
+                        }
+                    }
+                }
+                reduced.push(match how {
+                    Downsampling::Mean => ((sum + count / 2) / count) as u16,
+                    Downsampling::Max => max,
+                    Downsampling::Mode => mode_of_block(&mut block),
+                });
+            }
+        }
+    }
+    // Where each padded voxel's pyramid voxel sits among the distinct ones.
+    let index: [Vec<usize>; 3] = std::array::from_fn(|a| {
+        voxels[a]
+            .iter()
+            .map(|c| distinct[a].partition_point(|d| d < c))
+            .collect()
+    });
+    let [dx, dy] = [distinct[0].len(), distinct[1].len()];
+    let mut levels = Vec::with_capacity(PADDED_BRICK_VOXELS);
+    for &k in &index[2] {
+        for &j in &index[1] {
+            for &i in &index[0] {
+                levels.push(reduced[i + dx * (j + dy * k)]);
+            }
+        }
+    }
+    levels
+}
+
+/// The padded brick of the pyramid voxels `voxels` (x, y, z; each clamped to the stored
+/// level's `dims`) where each is one stored voxel, from `stored`, the stored region `[origin,
+/// origin + size)` that [`stored_region`] gave for them: x rows copied where they are
+/// contiguous (every brick but the level's first and last along x).
+fn gather_padded(
+    stored: Vec<u16>,
+    origin: [usize; 3],
+    size: [usize; 3],
+    voxels: &[Vec<usize>; 3],
+    dims: [usize; 3],
+) -> Vec<u16> {
+    let local: [Vec<usize>; 3] = std::array::from_fn(|a| {
+        voxels[a]
+            .iter()
+            .map(|&c| c.min(dims[a] - 1) - origin[a])
+            .collect()
+    });
+    let [xs, ys, zs] = &local;
+    if size == [PADDED_BRICK; 3]
+        && local
+            .iter()
+            .all(|axis| axis.iter().enumerate().all(|(i, &c)| i == c))
+    {
+        // The region is the padded brick (every brick inside the level).
+        return stored;
+    }
+    let contiguous = xs.windows(2).all(|pair| pair[1] == pair[0] + 1);
+    let mut levels = Vec::with_capacity(PADDED_BRICK_VOXELS);
+    for &z in zs {
+        for &y in ys {
+            let row = &stored[size[0] * (y + size[1] * z)..][..size[0]];
+            if contiguous {
+                levels.extend_from_slice(&row[xs[0]..=xs[xs.len() - 1]]);
+            } else {
+                levels.extend(xs.iter().map(|&x| row[x]));
+            }
+        }
+    }
+    levels
 }
 
 /// The stored voxels (origin and size) that the pyramid voxels `voxels` cover, `ratio`
@@ -795,6 +917,24 @@ fn stored_region(
 
 /// Each stored value's level (non-finite values as level 0).
 fn to_levels(data: &VoxelData, quantization: Quantization) -> Vec<u16> {
+    // Integers one level apart: each level is the value less the offset, in integers (what
+    // the rounding below gives them, at a fraction of its cost).
+    if quantization.step == 1.0
+        && quantization.offset.fract() == 0.0
+        && quantization.offset.abs() <= i32::MAX as f64
+    {
+        let offset = quantization.offset as i64;
+        match data {
+            // In 32 bits where the values fit (four times as many a vector instruction).
+            VoxelData::U8(values) => return narrow_integer_levels(values, offset),
+            VoxelData::I8(values) => return narrow_integer_levels(values, offset),
+            VoxelData::U16(values) => return narrow_integer_levels(values, offset),
+            VoxelData::I16(values) => return narrow_integer_levels(values, offset),
+            VoxelData::U32(values) => return integer_levels(values, offset),
+            VoxelData::I32(values) => return integer_levels(values, offset),
+            VoxelData::F32(_) | VoxelData::F64(_) => {}
+        }
+    }
     with_voxel_slice!(data, values => values
         .iter()
         .map(|v| {
@@ -802,6 +942,24 @@ fn to_levels(data: &VoxelData, quantization: Quantization) -> Vec<u16> {
             if value.is_finite() { quantization.level(value) } else { 0 }
         })
         .collect())
+}
+
+/// [`integer_levels`] of values of at most 16 bits.
+fn narrow_integer_levels<T: Copy + Into<i32>>(values: &[T], offset: i64) -> Vec<u16> {
+    // An offset outside ±2³¹ leaves every level at one end.
+    let offset = offset.clamp(-(1 << 20), 1 << 20) as i32;
+    values
+        .iter()
+        .map(|&v| (v.into() - offset).clamp(0, u16::MAX as i32) as u16)
+        .collect()
+}
+
+/// Integer values' levels at step 1: the value less `offset`, clamped to the 16-bit range.
+fn integer_levels<T: Copy + Into<i64>>(values: &[T], offset: i64) -> Vec<u16> {
+    values
+        .iter()
+        .map(|&v| (v.into() - offset).clamp(0, u16::MAX as i64) as u16)
+        .collect()
 }
 
 /// The most frequent value of `block` (ties to the larger), sorting it.
@@ -819,6 +977,73 @@ fn mode_of_block(block: &mut [u16]) -> u16 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn copied_rows_are_the_reduction_of_one_voxel_each() {
+        // A level of 70 × 70 × 67 voxels stored as 69 × 70 × 67 (a floored level): bricks at
+        // the start, inside and past the end along each axis, whose aprons and clamped voxels
+        // repeat edge ones, and one inside the level along every axis.
+        let level = [70, 70, 67];
+        let stored_dims = [69, 70, 67];
+        let voxel_count: usize = stored_dims.iter().product();
+        let values: Vec<u16> = (0..voxel_count)
+            .map(|i| (i as u32).wrapping_mul(2_654_435_761).rotate_right(7) as u16)
+            .collect();
+        for brick in [
+            [0, 0, 0],
+            [1, 0, 0],
+            [2, 1, 1],
+            [1, 1, 0],
+            [1, 1, 1],
+            [2, 2, 2],
+        ] {
+            let first = brick.map(|c: usize| c * BRICK_SIZE);
+            let voxels = padded_voxels(first, level);
+            let (origin, size) = stored_region(&voxels, [1; 3], stored_dims);
+            let mut region = Vec::with_capacity(size.iter().product());
+            for z in origin[2]..origin[2] + size[2] {
+                for y in origin[1]..origin[1] + size[1] {
+                    let row = stored_dims[0] * (y + stored_dims[1] * z);
+                    region.extend_from_slice(&values[row + origin[0]..row + origin[0] + size[0]]);
+                }
+            }
+            let copied = gather_padded(region.clone(), origin, size, &voxels, stored_dims);
+            for how in [Downsampling::Mean, Downsampling::Max, Downsampling::Mode] {
+                let reduced =
+                    reduce_padded(&region, origin, size, &voxels, [1; 3], stored_dims, how);
+                assert_eq!(copied, reduced, "brick {brick:?}, {how:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn integer_levels_are_the_rounded_levels() {
+        let cases = [
+            (VoxelData::I16((i16::MIN..=i16::MAX).collect()), -32768.0),
+            (VoxelData::I16((i16::MIN..=i16::MAX).collect()), -1024.0),
+            (VoxelData::U16((0..=u16::MAX).collect()), 0.0),
+            (VoxelData::U16((0..=u16::MAX).collect()), 100.0),
+            (VoxelData::U8((0..=u8::MAX).collect()), 3.0),
+            (VoxelData::I8((i8::MIN..=i8::MAX).collect()), -128.0),
+            (
+                VoxelData::I32(vec![i32::MIN, -70_000, -5, 0, 65_530, 65_541, i32::MAX]),
+                -5.0,
+            ),
+            (VoxelData::U32(vec![0, 7, 65_535, 65_536, u32::MAX]), 0.0),
+        ];
+        for (data, offset) in cases {
+            let quantization = Quantization { offset, step: 1.0 };
+            let rounded: Vec<u16> = with_voxel_slice!(&data, values => values
+                .iter()
+                .map(|v| quantization.level(v.to_f64()))
+                .collect());
+            assert_eq!(
+                to_levels(&data, quantization),
+                rounded,
+                "{data:?} at {offset}"
+            );
+        }
+    }
 
     #[test]
     fn covered_voxels_stay_inside_the_stored_level() {
