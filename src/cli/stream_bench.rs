@@ -391,6 +391,10 @@ fn pipeline_json(counters: &StreamCounters, workers: usize) -> serde_json::Value
         "read_decode_bytes_per_s_per_thread": per_thread,
         "read_decode_bytes_per_s": per_thread.map(|r| r * workers as f64),
         "upload_bytes_per_s": rate(counters.bytes_uploaded, counters.upload_seconds),
+        "copy_bytes_per_s": rate(
+            counters.upload_parts.copy_timed_bytes,
+            counters.upload_parts.copy_gpu_seconds
+        ),
         "upload_allowance_bytes": counters.upload_allowance,
         "upload_parts": counters.upload_parts,
         "bytes_read": counters.bytes_read,

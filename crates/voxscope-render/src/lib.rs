@@ -7,6 +7,7 @@ mod camera;
 mod ceilings;
 mod composite;
 mod context;
+mod copy_timer;
 mod dense;
 mod frame_probe;
 mod gpu_data;

@@ -15,6 +15,7 @@ use std::time::Instant;
 
 use wgpu::util::DeviceExt;
 
+use super::copy_timer::CopyTimer;
 use super::gpu_data::{MODE_MIP, RaycastParams, STREAM_LEVELS, StreamParams};
 use super::pipeline::{
     Variant, VariantPipelines, atlas_entry, atlas_sampler_entry, clamped_sampler,
@@ -75,6 +76,8 @@ pub struct StreamVolume {
     readbacks: Vec<Readback>,
     /// Where uploads are staged on their way into the atlas.
     ring: StagingRing,
+    /// The GPU's time for the ring's copies (where it has timestamps).
+    copy_timer: Option<CopyTimer>,
     /// Whether a frame was drawn since the last update (its requests are then read back).
     drawn: AtomicBool,
     /// The camera of the latest frame drawn, for the load order.
@@ -239,6 +242,7 @@ impl StreamVolume {
             usage,
             readbacks,
             ring,
+            copy_timer: CopyTimer::new(context),
             drawn: AtomicBool::new(false),
             view: Mutex::new(None),
             max_projection: AtomicBool::new(false),
@@ -277,14 +281,27 @@ impl StreamVolume {
                     .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                         label: Some("voxscope::stream_uploads"),
                     });
+            let timing = self.copy_timer.as_mut().and_then(|t| t.begin(&mut encoder));
             let staging = self.ring.stage(&mut encoder, &self.atlas, &bricks);
             staged = staging.staged;
             parts.ring_copies = staging.copies as u64;
             parts.staging_seconds = staging.staging_seconds;
             let submitting = Instant::now();
             if staged.contains(&true) {
+                if let (Some(timer), Some(timing)) = (self.copy_timer.as_mut(), timing) {
+                    let bytes = bricks
+                        .iter()
+                        .zip(&staged)
+                        .filter(|(_, staged)| **staged)
+                        .map(|(brick, _)| brick.texels.len() as u64)
+                        .sum();
+                    timer.end(&mut encoder, timing, bytes);
+                }
                 context.queue.submit([encoder.finish()]);
                 self.ring.submitted();
+                if let Some(timer) = self.copy_timer.as_mut() {
+                    timer.submitted();
+                }
             }
             parts.submit_seconds = staging.record_seconds + submitting.elapsed().as_secs_f64();
         }
@@ -334,6 +351,11 @@ impl StreamVolume {
     /// does).
     pub fn step(&mut self, context: &GpuContext) -> StreamStatus {
         let _ = context.device.poll(wgpu::PollType::Poll);
+        if let Some(timer) = self.copy_timer.as_mut() {
+            for (bytes, seconds) in timer.take() {
+                self.streamer.set_upload_gpu_cost(bytes, seconds);
+            }
+        }
         let feedback = self.take_readbacks();
         if self.drawn.swap(false, Ordering::AcqRel) {
             self.record_readback(context);

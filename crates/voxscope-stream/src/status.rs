@@ -81,6 +81,10 @@ pub struct UploadParts {
     pub submit_seconds: f64,
     /// `Queue::write_texture` of the rest.
     pub queue_seconds: f64,
+    /// Bytes of the ring's copies the GPU timed (where it has timestamps), and the GPU's
+    /// seconds for them: the copies' own rate.
+    pub copy_timed_bytes: u64,
+    pub copy_gpu_seconds: f64,
 }
 
 impl UploadParts {
@@ -92,6 +96,8 @@ impl UploadParts {
         self.staging_seconds += other.staging_seconds;
         self.submit_seconds += other.submit_seconds;
         self.queue_seconds += other.queue_seconds;
+        self.copy_timed_bytes += other.copy_timed_bytes;
+        self.copy_gpu_seconds += other.copy_gpu_seconds;
     }
 }
 

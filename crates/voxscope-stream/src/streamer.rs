@@ -26,9 +26,10 @@ use super::slots::SlotPool;
 use super::status::{BudgetLimit, LevelCounters, StreamCounters, StreamStatus, UploadParts};
 use crate::{BrickId, BrickSource, PADDED_BRICK_VOXELS, ValueRange};
 
-/// What a frame may spend putting uploads on their way (the upload allowance follows from it
-/// and the measured cost): a few milliseconds of a 16 ms frame.
-pub const UPLOAD_SECONDS_PER_FRAME: f64 = 0.004;
+/// What a frame may spend on uploads (the upload allowance follows from it and the measured
+/// cost): the CPU's staging and, where the GPU times them, its copies, which a frame waits for
+/// before it is drawn. A third of a 16 ms frame.
+pub const UPLOAD_SECONDS_PER_FRAME: f64 = 0.0055;
 
 /// Frames ahead the prefetch follows the camera's motion.
 const MOTION_LOOKAHEAD: f64 = 8.0;
@@ -112,8 +113,10 @@ pub struct Streamer {
     standing_view: Option<ViewPoint>,
     /// What the latest cut came to, while anything is left out.
     budget: Option<BudgetLimit>,
-    /// The uploads' measured cost, a moving average (0 before the first).
+    /// The uploads' measured cost on the CPU, a moving average (0 before the first).
     upload_seconds_per_byte: f64,
+    /// The GPU's copies' measured cost, likewise (0 where the GPU does not time them).
+    upload_gpu_seconds_per_byte: f64,
     /// The view of the last frame drawn, and how it moved since the one before.
     last_view: Option<ViewPoint>,
     motion: Option<ViewPoint>,
@@ -195,6 +198,7 @@ impl Streamer {
             standing_view: None,
             budget: None,
             upload_seconds_per_byte: 0.0,
+            upload_gpu_seconds_per_byte: 0.0,
             last_view: None,
             motion: None,
             visible_below,
@@ -289,7 +293,34 @@ impl Streamer {
         } else {
             per_byte
         };
-        let allowance = (UPLOAD_SECONDS_PER_FRAME / self.upload_seconds_per_byte) as u64;
+        self.set_allowance();
+    }
+
+    /// What the GPU's copies of earlier uploads took: `seconds` for `bytes` (measured by GPU
+    /// timestamps a frame or two late). The allowance counts them with the CPU's cost.
+    pub fn set_upload_gpu_cost(&mut self, bytes: u64, seconds: f64) {
+        self.counters.upload_parts.copy_timed_bytes += bytes;
+        self.counters.upload_parts.copy_gpu_seconds += seconds;
+        if bytes == 0 || seconds <= 0.0 {
+            return;
+        }
+        let per_byte = seconds / bytes as f64;
+        self.upload_gpu_seconds_per_byte = if self.upload_gpu_seconds_per_byte > 0.0 {
+            self.upload_gpu_seconds_per_byte * 0.75 + per_byte * 0.25
+        } else {
+            per_byte
+        };
+        self.set_allowance();
+    }
+
+    /// The allowance from the measured costs per byte: [`UPLOAD_SECONDS_PER_FRAME`] of the
+    /// CPU's and the GPU's work together, at least one brick.
+    fn set_allowance(&mut self) {
+        let per_byte = self.upload_seconds_per_byte + self.upload_gpu_seconds_per_byte;
+        if per_byte <= 0.0 {
+            return;
+        }
+        let allowance = (UPLOAD_SECONDS_PER_FRAME / per_byte) as u64;
         self.counters.upload_allowance = allowance.max(self.counters.slot_bytes);
     }
 
@@ -1142,5 +1173,53 @@ impl Streamer {
         let queued = self.queue.replace(requests);
         self.loader.fetch_ahead();
         queued
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::NoiseSource;
+
+    #[test]
+    fn the_upload_allowance_counts_the_gpus_copies_with_the_cpus_staging() {
+        let source = Arc::new(NoiseSource::new("noise", [128, 128, 128]).expect("a source"));
+        let options = StreamOptions {
+            workers: 1,
+            ..StreamOptions::default()
+        };
+        let (mut streamer, _) = Streamer::new(
+            source,
+            [8, 8, 8],
+            AtlasTexels::Unorm16,
+            options,
+            vec![0; (1 << 16) + 1],
+        )
+        .expect("a streamer");
+        let megabyte = 1u64 << 20;
+        // The CPU: 1 ms a megabyte.
+        streamer.set_upload_cost(megabyte, 0.001, &UploadParts::default());
+        let cpu_only = streamer.counters.upload_allowance;
+        let expected = UPLOAD_SECONDS_PER_FRAME / 0.001 * megabyte as f64;
+        assert!(
+            (cpu_only as f64 - expected).abs() < 2.0,
+            "{cpu_only} ≠ {expected}"
+        );
+        // The GPU's copies take as long again: half the bytes fit.
+        streamer.set_upload_gpu_cost(2 * megabyte, 0.002);
+        let both = streamer.counters.upload_allowance;
+        assert!(
+            (both as f64 - expected / 2.0).abs() < 2.0,
+            "{both} ≠ {}",
+            expected / 2.0
+        );
+        let parts = streamer.counters.upload_parts;
+        assert_eq!(
+            (parts.copy_timed_bytes, parts.copy_gpu_seconds),
+            (2 * megabyte, 0.002)
+        );
+        // A copy the GPU did not time leaves the allowance as it was.
+        streamer.set_upload_gpu_cost(megabyte, 0.0);
+        assert_eq!(streamer.counters.upload_allowance, both);
     }
 }
