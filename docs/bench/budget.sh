@@ -81,6 +81,8 @@ for o in r["orbits"]:
           "wait", {k: round(v, 2) for k, v in o.get("wait_ms", {}).items()},
           "uploaded MB", round(o["uploaded_bytes"] / 1e6, 1),
           "upload s", round(o["counters"]["upload_seconds"], 3))
+    for name, part in (o.get("update_phases_ms") or {}).items():
+        print("   phase", name, {k: round(v, 2) for k, v in part.items()})
     if o.get("update_preempted_ms"):
         print("   update preempted", {k: round(v, 2) for k, v in o["update_preempted_ms"].items()})
 if r.get("decode"):

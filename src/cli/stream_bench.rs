@@ -20,7 +20,9 @@ use voxscope_render::{
     RendererOptions, Shading, VolumeRenderer, time_passes, timing_name,
 };
 use voxscope_scene::{StreamedVolume, refine};
-use voxscope_stream::{Downsampling, MemorySource, StreamCounters, StreamOptions, preview};
+use voxscope_stream::{
+    Downsampling, MemorySource, StreamCounters, StreamOptions, UpdatePhases, preview,
+};
 
 /// The paper's cameras, in bounding-sphere radii.
 const CAMERAS: [(&str, f64); 3] = [("near", 1.5), ("medium", 3.0), ("far", 6.0)];
@@ -206,11 +208,13 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
         let mut missing = Vec::new();
         let mut uploaded = 0u64;
         let mut preempted_ms = Vec::new();
+        let mut phases: Vec<UpdatePhases> = Vec::new();
         let gpu = time_passes(&context, timer.as_ref(), args.frames, |i, writes| {
             let started = Instant::now();
             let runnable = runnable_seconds();
             let status = renderer.update(&context).expect("a streaming renderer");
             update_ms.push(started.elapsed().as_secs_f64() * 1e3);
+            phases.push(status.phases);
             if let (Some(before), Some(after)) = (runnable, runnable_seconds()) {
                 preempted_ms.push((after - before) * 1e3);
             }
@@ -250,6 +254,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
             "update_ms": summary(&update_ms),
             "wait_ms": summary(&wait_ms),
             "update_preempted_ms": (!preempted_ms.is_empty()).then(|| summary(&preempted_ms)),
+            "update_phases_ms": phases_json(&phases),
             "wait_beyond_pass_bytes_per_s": wait_beyond_pass,
             "frames_over_16ms_wall": wall.iter().filter(|&&w| w > 16.0).count(),
             "slowest_frame": wall
@@ -372,6 +377,20 @@ impl Memory {
 /// The near stopped views' camera distance, in bounding-sphere radii (the issue that asked for
 /// views to complete within the budget measured at 0.6).
 const NEAR_STOPPED: f64 = 0.6;
+
+/// Each update phase's milliseconds over the frames (median, p99, max).
+fn phases_json(phases: &[UpdatePhases]) -> serde_json::Value {
+    let of = |part: fn(&UpdatePhases) -> f64| {
+        summary(&phases.iter().map(|p| part(p) * 1e3).collect::<Vec<_>>())
+    };
+    json!({
+        "readback": of(|p| p.readback),
+        "results": of(|p| p.results),
+        "feedback": of(|p| p.feedback),
+        "choose_uploads": of(|p| p.choose_uploads),
+        "write": of(|p| p.write),
+    })
+}
 
 /// Seconds this thread has spent ready to run but not running (waiting for a core), where the
 /// system says (Linux's scheduler statistics).

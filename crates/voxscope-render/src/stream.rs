@@ -350,6 +350,7 @@ impl StreamVolume {
     /// next frame. Call once per displayed frame, before drawing it ([`Renderer::update`]
     /// does).
     pub fn step(&mut self, context: &GpuContext) -> StreamStatus {
+        let reading = Instant::now();
         let _ = context.device.poll(wgpu::PollType::Poll);
         if let Some(timer) = self.copy_timer.as_mut() {
             for (bytes, seconds) in timer.take() {
@@ -360,6 +361,7 @@ impl StreamVolume {
         if self.drawn.swap(false, Ordering::AcqRel) {
             self.record_readback(context);
         }
+        let readback = reading.elapsed().as_secs_f64();
         let view = *self.view.lock().unwrap_or_else(|p| p.into_inner());
         let (uploads, status) = match &feedback {
             Some((frame, requests, asked, usage)) => self.streamer.begin_frame(
@@ -374,7 +376,11 @@ impl StreamVolume {
             ),
             None => self.streamer.begin_frame(None, view),
         };
+        let writing = Instant::now();
         self.write(context, &uploads);
+        let mut status = status;
+        status.phases.readback = readback;
+        status.phases.write = writing.elapsed().as_secs_f64();
         status
     }
 

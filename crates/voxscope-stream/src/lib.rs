@@ -52,6 +52,8 @@ pub use queue::{Priority, Request, RequestQueue, Tier};
 pub use ram_cache::RamCache;
 pub use slots::{Allocation, SlotPool};
 pub use source::{BrickError, BrickFault, BrickSource};
-pub use status::{BudgetLimit, LevelCounters, StreamCounters, StreamStatus, UploadParts};
+pub use status::{
+    BudgetLimit, LevelCounters, StreamCounters, StreamStatus, UpdatePhases, UploadParts,
+};
 pub use streamer::{Streamer, UPLOAD_SECONDS_PER_FRAME};
 pub use zarr_source::{MAX_BRICK_READ, MAX_REMOTE_BRICK_CHUNKS, ZarrSource};

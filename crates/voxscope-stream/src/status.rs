@@ -150,6 +150,24 @@ pub struct StreamStatus {
     /// bricks failing the same way are counted, not repeated: `Streamer::failures`).
     pub errors: Vec<String>,
     pub counters: StreamCounters,
+    /// What this update's steps took.
+    pub phases: UpdatePhases,
+}
+
+/// A frame's update step by step, in seconds (`bench --stream`'s `update_phases_ms`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct UpdatePhases {
+    /// Reading the requests and usage marks of drawn frames back from mapped buffers, and
+    /// recording the next copy.
+    pub readback: f64,
+    /// Taking in the loaders' results.
+    pub results: f64,
+    /// The requests read back: the view's bricks, the cut within the budget, the load queue.
+    pub feedback: f64,
+    /// Choosing this frame's uploads and their slots.
+    pub choose_uploads: f64,
+    /// Writing them (staging ring or queue) and the page table's changed entries.
+    pub write: f64,
 }
 
 /// A view larger than the atlas: the least important of its bricks (the finest, farthest from

@@ -23,7 +23,9 @@ use super::pyramid::PyramidShape;
 use super::queue::{Priority, Request, RequestQueue, Tier};
 use super::ram_cache::RamCache;
 use super::slots::SlotPool;
-use super::status::{BudgetLimit, LevelCounters, StreamCounters, StreamStatus, UploadParts};
+use super::status::{
+    BudgetLimit, LevelCounters, StreamCounters, StreamStatus, UpdatePhases, UploadParts,
+};
 use crate::{BrickId, BrickSource, PADDED_BRICK_VOXELS, ValueRange};
 
 /// What a frame may spend on uploads (the upload allowance follows from it and the measured
@@ -507,10 +509,18 @@ impl Streamer {
         feedback: Option<Feedback<'_>>,
         view: Option<ViewPoint>,
     ) -> (Vec<Upload>, StreamStatus) {
+        let mut phases = UpdatePhases::default();
+        let mut step = Instant::now();
+        let mut lap = |into: &mut f64| {
+            let now = Instant::now();
+            *into = (now - step).as_secs_f64();
+            step = now;
+        };
         self.frame += 1;
         self.slots.new_frame();
         self.retry_failed();
         self.receive_results();
+        lap(&mut phases.results);
         if let Some(view) = view {
             self.follow_view(view);
             self.motion = self.last_view.map(|last| view.since(&last));
@@ -519,11 +529,14 @@ impl Streamer {
         if let Some(feedback) = feedback {
             self.take_feedback(feedback, view);
         }
+        lap(&mut phases.feedback);
         let (uploads, upload_bytes) = self.upload_ready();
         if !uploads.is_empty() {
             self.changed_frame = self.frame;
         }
-        let status = self.status(uploads.len(), upload_bytes);
+        let mut status = self.status(uploads.len(), upload_bytes);
+        lap(&mut phases.choose_uploads);
+        status.phases = phases;
         (uploads, status)
     }
 
@@ -1119,6 +1132,7 @@ impl Streamer {
             upload_bytes,
             errors: std::mem::take(&mut self.new_errors),
             counters: self.counters.clone(),
+            phases: UpdatePhases::default(),
         }
     }
 
