@@ -8,12 +8,8 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicU8, Ordering};
 
 use super::GpuContext;
-
-const IDLE: u8 = 0;
-const RECORDED: u8 = 1;
-const MAPPING: u8 = 2;
-const MAPPED: u8 = 3;
-const FAILED: u8 = 4;
+use super::readback::map_state::{FAILED, IDLE, MAPPED, RECORDED};
+use super::readback::start_map_read;
 
 /// Bytes of the two resolved timestamps.
 const TIMESTAMP_BYTES: u64 = 16;
@@ -117,15 +113,7 @@ impl CopyTimer {
             if readback.state.load(Ordering::Acquire) != RECORDED {
                 continue;
             }
-            readback.state.store(MAPPING, Ordering::Release);
-            let state = Arc::clone(&readback.state);
-            readback
-                .buffer
-                .slice(..)
-                .map_async(wgpu::MapMode::Read, move |result| {
-                    let next = if result.is_ok() { MAPPED } else { FAILED };
-                    state.store(next, Ordering::Release);
-                });
+            start_map_read(&readback.buffer, &readback.state);
         }
     }
 

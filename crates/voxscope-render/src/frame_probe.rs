@@ -5,6 +5,8 @@
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU8, Ordering};
 
+use super::readback::map_state::{FAILED, IDLE, MAPPED, MAPPING, RECORDED};
+use super::readback::start_map_read;
 use super::{GpuContext, RenderTarget};
 
 /// The measured cost of one frame.
@@ -17,12 +19,6 @@ pub struct FrameReport {
     pub nodes_per_ray_max: u32,
     pub pixels: u64,
 }
-
-const IDLE: u8 = 0;
-const RECORDED: u8 = 1;
-const MAPPING: u8 = 2;
-const MAPPED: u8 = 3;
-const FAILED: u8 = 4;
 
 /// Timestamps and a staging buffer for one frame's report at a time.
 pub struct FrameProbe {
@@ -116,14 +112,7 @@ impl FrameProbe {
             return;
         }
         let Some(staging) = &self.staging else { return };
-        self.state.store(MAPPING, Ordering::Release);
-        let state = Arc::clone(&self.state);
-        staging
-            .slice(..)
-            .map_async(wgpu::MapMode::Read, move |result| {
-                let next = if result.is_ok() { MAPPED } else { FAILED };
-                state.store(next, Ordering::Release);
-            });
+        start_map_read(staging, &self.state);
     }
 
     /// The report of the last measured frame, once the GPU has delivered it; never waits.

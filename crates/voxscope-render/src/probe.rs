@@ -15,6 +15,8 @@ use std::sync::atomic::{AtomicU8, Ordering};
 
 use super::gpu_data::ProbeResult;
 use super::raycaster::ProbeTarget;
+use super::readback::map_state::{FAILED, IDLE, MAPPED, MAPPING, RECORDED};
+use super::readback::start_map_read;
 use super::{Camera, GpuContext, RenderError, RenderSettings, VolumeRenderer};
 
 /// The accumulated opacity a DVR probe looks for. Keep in sync with `PROBE_ALPHA` in
@@ -74,12 +76,6 @@ pub struct ProbeOutcome {
     /// below [`PROBE_ALPHA`], or in MIP saw nothing above the lowest value).
     pub hit: Option<ProbeHit>,
 }
-
-const IDLE: u8 = 0;
-const RECORDED: u8 = 1;
-const MAPPING: u8 = 2;
-const MAPPED: u8 = 3;
-const FAILED: u8 = 4;
 
 const RESULT_BYTES: u64 = std::mem::size_of::<ProbeResult>() as u64;
 
@@ -167,14 +163,7 @@ impl GpuProbe {
         if self.state.load(Ordering::Acquire) != RECORDED {
             return;
         }
-        self.state.store(MAPPING, Ordering::Release);
-        let state = Arc::clone(&self.state);
-        self.staging
-            .slice(..)
-            .map_async(wgpu::MapMode::Read, move |result| {
-                let next = if result.is_ok() { MAPPED } else { FAILED };
-                state.store(next, Ordering::Release);
-            });
+        start_map_read(&self.staging, &self.state);
     }
 
     /// The answer of the last recorded probe once the GPU has delivered it; never waits.

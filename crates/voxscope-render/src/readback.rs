@@ -1,6 +1,40 @@
 //! Copies from the GPU back to the CPU: rendered images, per-pixel visit counts, buffers.
 
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU8, Ordering};
+
 use super::{GpuContext, RenderError, RenderTarget};
+
+/// Where a buffer read back without waiting stands (the frame's requests, a probe, a frame's
+/// report, upload timestamps), kept in an `AtomicU8` that the map callback sets.
+pub(crate) mod map_state {
+    /// Free: nothing recorded into it.
+    pub const IDLE: u8 = 0;
+    /// A copy into it is recorded; mapping starts once the encoder is submitted.
+    pub const RECORDED: u8 = 1;
+    pub const MAPPING: u8 = 2;
+    /// Mapped: its bytes can be read, then it is unmapped and idle again.
+    pub const MAPPED: u8 = 3;
+    pub const FAILED: u8 = 4;
+}
+
+/// Starts mapping `buffer` for reading without waiting: `state` is [`map_state::MAPPING`]
+/// until the device is polled past the copy, then [`map_state::MAPPED`] or
+/// [`map_state::FAILED`].
+pub(crate) fn start_map_read(buffer: &wgpu::Buffer, state: &Arc<AtomicU8>) {
+    state.store(map_state::MAPPING, Ordering::Release);
+    let state = Arc::clone(state);
+    buffer
+        .slice(..)
+        .map_async(wgpu::MapMode::Read, move |result| {
+            let next = if result.is_ok() {
+                map_state::MAPPED
+            } else {
+                map_state::FAILED
+            };
+            state.store(next, Ordering::Release);
+        });
+}
 
 /// Waits for `buffer` (MAP_READ) to map and returns its bytes.
 fn map_and_read(context: &GpuContext, buffer: &wgpu::Buffer) -> Result<Vec<u8>, RenderError> {

@@ -25,6 +25,8 @@ use super::raycaster::{
     BrickShape, ProbeTarget, RayPass, StandIns, VolumeShape, encode_frame, encode_probe_ray,
     frame_params_buffer,
 };
+use super::readback::map_state::{FAILED, IDLE, MAPPED, RECORDED};
+use super::readback::start_map_read;
 use super::renderer::{Renderer, level_detail, pipeline_variants};
 use super::staging_ring::{StagedBrick, StagingRing};
 use super::{
@@ -47,12 +49,6 @@ const READBACKS: usize = 3;
 /// Page-table bytes counted per atlas slot when sizing the atlas: the table has up to 16
 /// entries of 16 bytes per slot, rounded up to a power of two (so at most twice that).
 const TABLE_BYTES_PER_SLOT: u64 = 2 * 16 * 16;
-
-const IDLE: u8 = 0;
-const RECORDED: u8 = 1;
-const MAPPING: u8 = 2;
-const MAPPED: u8 = 3;
-const FAILED: u8 = 4;
 
 /// One staging buffer for a frame's requests and usage marks.
 struct Readback {
@@ -455,17 +451,7 @@ impl StreamVolume {
         encoder.clear_buffer(&self.requests, requests_bytes, Some(REQUEST_SET as u64 * 4));
         context.queue.submit([encoder.finish()]);
         if let Some(readback) = recorded {
-            readback.state.store(MAPPING, Ordering::Release);
-            let state = Arc::clone(&readback.state);
-            readback
-                .buffer
-                .slice(..)
-                .map_async(wgpu::MapMode::Read, move |result| {
-                    state.store(
-                        if result.is_ok() { MAPPED } else { FAILED },
-                        Ordering::Release,
-                    );
-                });
+            start_map_read(&readback.buffer, &readback.state);
         }
     }
 

@@ -257,42 +257,32 @@ mod tests {
     use crate::{BrickData, PyramidShape};
     use voxscope_volume::Quantization;
 
-    /// A source whose reads panic (a library's bug met by a loader).
-    struct Panicking(PyramidShape);
+    /// A source whose reads do what `read` says, and that records what it is asked to fetch
+    /// ahead.
+    struct Scripted<R> {
+        name: &'static str,
+        shape: PyramidShape,
+        read: R,
+        fetched: std::sync::Mutex<Vec<Vec<BrickId>>>,
+    }
 
-    impl BrickSource for Panicking {
-        fn name(&self) -> &str {
-            "panicking"
-        }
-        fn shape(&self) -> &PyramidShape {
-            &self.0
-        }
-        fn spacing(&self) -> [f64; 3] {
-            [1.0; 3]
-        }
-        fn quantization(&self) -> Quantization {
-            Quantization {
-                offset: 0.0,
-                step: 1.0,
+    impl<R: Fn(BrickId) -> Result<BrickData, BrickError> + Send + Sync> Scripted<R> {
+        fn new(name: &'static str, dims: [usize; 3], read: R) -> Self {
+            Self {
+                name,
+                shape: PyramidShape::new(dims).expect("a shape"),
+                read,
+                fetched: Default::default(),
             }
-        }
-        fn max_value_level(&self) -> u16 {
-            255
-        }
-        fn read_brick(&self, _: BrickId) -> Result<BrickData, BrickError> {
-            panic!("index out of bounds: the len is 3 but the index is 7")
         }
     }
 
-    /// A source that records what it is asked to fetch ahead.
-    struct Recording(PyramidShape, std::sync::Mutex<Vec<Vec<BrickId>>>);
-
-    impl BrickSource for Recording {
+    impl<R: Fn(BrickId) -> Result<BrickData, BrickError> + Send + Sync> BrickSource for Scripted<R> {
         fn name(&self) -> &str {
-            "recording"
+            self.name
         }
         fn shape(&self) -> &PyramidShape {
-            &self.0
+            &self.shape
         }
         fn spacing(&self) -> [f64; 3] {
             [1.0; 3]
@@ -307,19 +297,24 @@ mod tests {
             255
         }
         fn read_brick(&self, id: BrickId) -> Result<BrickData, BrickError> {
-            Err(BrickError::invalid(format!("{id} is not read here")))
+            (self.read)(id)
         }
         fn fetch_ahead(&self, ids: &[BrickId]) {
-            self.1.lock().expect("not poisoned").push(ids.to_vec());
+            self.fetched
+                .lock()
+                .expect("not poisoned")
+                .push(ids.to_vec());
         }
+    }
+
+    /// A read that fails, naming the brick.
+    fn not_read(id: BrickId) -> Result<BrickData, BrickError> {
+        Err(BrickError::invalid(format!("{id} is not read here")))
     }
 
     #[test]
     fn the_queues_next_bricks_are_fetched_ahead_in_its_order() {
-        let source = Recording(
-            PyramidShape::new([256, 256, 256]).expect("a shape"),
-            Default::default(),
-        );
+        let source = Scripted::new("recording", [256, 256, 256], not_read);
         let queue = RequestQueue::default();
         let request = |tier, level, off_center, x| crate::Request {
             priority: crate::Priority::new(tier, level, off_center),
@@ -336,7 +331,7 @@ mod tests {
             request(Tier::Visible, 1, 0.9, 3),
         ]);
         fetch_ahead(&source, &queue);
-        let asked: Vec<(u32, u32)> = source.1.lock().expect("not poisoned")[0]
+        let asked: Vec<(u32, u32)> = source.fetched.lock().expect("not poisoned")[0]
             .iter()
             .map(|id| (id.level, id.brick[0]))
             .collect();
@@ -345,57 +340,32 @@ mod tests {
         // A worker takes the best; the next call asks for the rest.
         assert_eq!(queue.try_take().map(|r| r.id.brick[0]), Some(3));
         fetch_ahead(&source, &queue);
-        assert_eq!(source.1.lock().expect("not poisoned")[1].len(), 3);
+        assert_eq!(source.fetched.lock().expect("not poisoned")[1].len(), 3);
         // Nothing waiting: nothing asked.
         while queue.try_take().is_some() {}
         fetch_ahead(&source, &queue);
-        assert_eq!(source.1.lock().expect("not poisoned").len(), 2);
+        assert_eq!(source.fetched.lock().expect("not poisoned").len(), 2);
     }
 
-    /// A source whose reads record the reading thread's nice value.
+    /// The calling thread's nice value: the 19th field of its stat line, after the
+    /// parenthesized name.
     #[cfg(target_os = "linux")]
-    struct Niceness(PyramidShape, std::sync::Mutex<Vec<i32>>);
-
-    #[cfg(target_os = "linux")]
-    impl BrickSource for Niceness {
-        fn name(&self) -> &str {
-            "niceness"
-        }
-        fn shape(&self) -> &PyramidShape {
-            &self.0
-        }
-        fn spacing(&self) -> [f64; 3] {
-            [1.0; 3]
-        }
-        fn quantization(&self) -> Quantization {
-            Quantization {
-                offset: 0.0,
-                step: 1.0,
-            }
-        }
-        fn max_value_level(&self) -> u16 {
-            255
-        }
-        fn read_brick(&self, id: BrickId) -> Result<BrickData, BrickError> {
-            // The 19th field of the thread's stat line, after the parenthesized name.
-            let stat = std::fs::read_to_string("/proc/thread-self/stat").expect("Linux");
-            let after_name = &stat[stat.rfind(')').expect("a name") + 2..];
-            let nice = after_name.split_whitespace().nth(16).expect("a nice field");
-            self.1
-                .lock()
-                .expect("not poisoned")
-                .push(nice.parse().expect("a number"));
-            Err(BrickError::invalid(format!("{id} is not read here")))
-        }
+    fn thread_niceness() -> i32 {
+        let stat = std::fs::read_to_string("/proc/thread-self/stat").expect("Linux");
+        let after_name = &stat[stat.rfind(')').expect("a name") + 2..];
+        let nice = after_name.split_whitespace().nth(16).expect("a nice field");
+        nice.parse().expect("a number")
     }
 
     #[cfg(target_os = "linux")]
     #[test]
     fn loaders_run_below_the_frames_priority() {
-        let source = Arc::new(Niceness(
-            PyramidShape::new([40, 40, 40]).expect("a shape"),
-            Default::default(),
-        ));
+        let niceness = Arc::new(std::sync::Mutex::new(Vec::new()));
+        let read = Arc::clone(&niceness);
+        let source = Arc::new(Scripted::new("niceness", [40, 40, 40], move |id| {
+            read.lock().expect("not poisoned").push(thread_niceness());
+            not_read(id)
+        }));
         let queue = Arc::new(RequestQueue::default());
         let loader = Loader::start(source.clone(), Arc::clone(&queue), AtlasTexels::Unorm8, 2);
         queue.replace(vec![crate::Request {
@@ -413,13 +383,19 @@ mod tests {
         }
         // SAFETY: getpriority only reads its arguments.
         let ours = unsafe { libc::getpriority(libc::PRIO_PROCESS, libc::gettid() as libc::id_t) };
-        let read = source.1.lock().expect("not poisoned").clone();
+        let read = niceness.lock().expect("not poisoned").clone();
         assert_eq!(read, [(ours + LOADER_NICENESS).min(19)]);
     }
 
     #[test]
     fn a_panic_while_reading_a_brick_is_that_bricks_error() {
-        let source = Panicking(PyramidShape::new([40, 40, 40]).expect("a shape"));
+        let source = Scripted::new(
+            "panicking",
+            [40, 40, 40],
+            |_| -> Result<BrickData, BrickError> {
+                panic!("index out of bounds: the len is 3 but the index is 7")
+            },
+        );
         let id = BrickId {
             level: 0,
             brick: [1, 0, 0],

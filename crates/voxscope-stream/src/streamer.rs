@@ -33,6 +33,16 @@ use crate::{BrickId, BrickSource, PADDED_BRICK_VOXELS, ValueRange};
 /// before it is drawn. A third of a 16 ms frame.
 pub const UPLOAD_SECONDS_PER_FRAME: f64 = 0.0055;
 
+/// A cost's moving average over a few frames (one slow frame does not halve the next
+/// allowance), `average` 0 before the first `sample`.
+fn moving_average(average: f64, sample: f64) -> f64 {
+    if average > 0.0 {
+        average * 0.75 + sample * 0.25
+    } else {
+        sample
+    }
+}
+
 /// Frames ahead the prefetch follows the camera's motion.
 const MOTION_LOOKAHEAD: f64 = 8.0;
 
@@ -288,13 +298,8 @@ impl Streamer {
         if bytes == 0 || seconds <= 0.0 {
             return;
         }
-        let per_byte = seconds / bytes as f64;
-        // A moving average over a few frames: one slow frame does not halve the next.
-        self.upload_seconds_per_byte = if self.upload_seconds_per_byte > 0.0 {
-            self.upload_seconds_per_byte * 0.75 + per_byte * 0.25
-        } else {
-            per_byte
-        };
+        self.upload_seconds_per_byte =
+            moving_average(self.upload_seconds_per_byte, seconds / bytes as f64);
         self.set_allowance();
     }
 
@@ -306,12 +311,8 @@ impl Streamer {
         if bytes == 0 || seconds <= 0.0 {
             return;
         }
-        let per_byte = seconds / bytes as f64;
-        self.upload_gpu_seconds_per_byte = if self.upload_gpu_seconds_per_byte > 0.0 {
-            self.upload_gpu_seconds_per_byte * 0.75 + per_byte * 0.25
-        } else {
-            per_byte
-        };
+        self.upload_gpu_seconds_per_byte =
+            moving_average(self.upload_gpu_seconds_per_byte, seconds / bytes as f64);
         self.set_allowance();
     }
 
