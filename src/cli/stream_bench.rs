@@ -269,12 +269,16 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
         memory.phase(&format!("orbit_{camera_name}"), Some(&status.counters));
     }
 
-    // The loaders' rate on their own, from the page cache.
-    let decode = decode_rate(
-        || Ok(open_streamed(&args.volume, &transfer_args)?.0.source),
-        options.ram_cache,
-        options.workers,
-    )?;
+    // The loaders' rate on their own, from the page cache (a URL's store has none: its
+    // reads are the link's, measured above).
+    let decode = match prepared.source.remote_stats() {
+        Some(_) => serde_json::Value::Null,
+        None => decode_rate(
+            || Ok(open_streamed(&args.volume, &transfer_args)?.0.source),
+            options.ram_cache,
+            options.workers,
+        )?,
+    };
     memory.phase("decode", None);
 
     let resident =

@@ -63,6 +63,11 @@ pub struct LoadedBrick {
 }
 
 impl LoadedBrick {
+    /// Bytes of its texels (0 for a uniform brick): what uploading it moves.
+    pub fn texel_bytes(&self) -> u64 {
+        self.texels.as_ref().map_or(0, |t| t.len() as u64)
+    }
+
     /// Bytes this brick takes in the RAM cache.
     pub fn bytes(&self) -> u64 {
         self.texels.as_ref().map_or(0, |t| t.len() as u64) + 32

@@ -73,6 +73,11 @@ impl RamCache {
         Some(cached.brick.clone())
     }
 
+    /// The cached brick of `key`, without counting as a use.
+    pub fn peek(&self, key: u32) -> Option<&LoadedBrick> {
+        self.bricks.get(&key).map(|cached| &cached.brick)
+    }
+
     /// Whether `key` is cached (without counting as a use).
     pub fn contains(&self, key: u32) -> bool {
         self.bricks.contains_key(&key)

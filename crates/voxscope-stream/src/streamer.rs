@@ -1046,17 +1046,20 @@ impl Streamer {
             if self.satisfied(request.key) || self.failed.contains(&request.key) {
                 continue;
             }
-            let Some(brick) = self.ram.get(request.key) else {
+            let Some(cost) = self.ram.peek(request.key).map(LoadedBrick::texel_bytes) else {
                 continue; // evicted from RAM since: it will be asked for again
             };
-            let cost = brick.texels.as_ref().map_or(0, |t| t.len() as u64);
             // Past the budget (at least one brick a frame, whatever the budget) or once the
-            // atlas is full, bricks with texels wait; uniform ones cost nothing to place.
+            // atlas is full, bricks with texels wait (not counted as a use of the RAM cache:
+            // thousands may wait a frame); uniform ones cost nothing to place.
             let over_budget = bytes > 0 && bytes + cost > self.upload_allowance();
             if cost > 0 && (overflow || over_budget) {
                 waiting.push(request);
                 continue;
             }
+            let Some(brick) = self.ram.get(request.key) else {
+                continue;
+            };
             match self.place(request.key, request.id, &brick, Some(protect_from)) {
                 Ok(Some(upload)) => {
                     bytes += cost;
