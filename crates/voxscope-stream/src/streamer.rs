@@ -38,6 +38,10 @@ pub const UPLOAD_SECONDS_PER_FRAME: f64 = 0.0055;
 /// completes sooner (a near MIP view's copies move a third of a DVR view's bytes per second).
 pub const UPLOAD_SECONDS_STILL: f64 = 0.011;
 
+/// Every this many frames, bricks waiting for the upload allowance count as a use of the RAM
+/// cache (`upload_ready`).
+const WAITING_TOUCH_FRAMES: u32 = 8;
+
 /// A cost's moving average over a few frames (one slow frame does not halve the next
 /// allowance), `average` 0 before the first `sample`.
 fn moving_average(average: f64, sample: f64) -> f64 {
@@ -1066,10 +1070,14 @@ impl Streamer {
                 continue; // evicted from RAM since: it will be asked for again
             };
             // Past the budget (at least one brick a frame, whatever the budget) or once the
-            // atlas is full, bricks with texels wait (not counted as a use of the RAM cache:
-            // thousands may wait a frame); uniform ones cost nothing to place.
+            // atlas is full, bricks with texels wait; uniform ones cost nothing to place. A
+            // waiting brick counts as a use of the RAM cache every few frames, not every frame
+            // (thousands may wait): enough that bricks uploaded since are evicted before it.
             let over_budget = bytes > 0 && bytes + cost > self.upload_allowance();
             if cost > 0 && (overflow || over_budget) {
+                if self.frame % WAITING_TOUCH_FRAMES == 0 {
+                    self.ram.get(request.key);
+                }
                 waiting.push(request);
                 continue;
             }

@@ -53,7 +53,8 @@ pub struct ZarrSource {
     /// apron reaches into its neighbours'), so each chunk is decoded once while it is used.
     chunks: Mutex<ChunkCache>,
     /// Chunks being read and decoded now, each with a lock its reader holds meanwhile: a
-    /// loader that needs one waits for that reader rather than decoding it again (the
+    /// loader that needs one waits for that reader rather than decoding it again (a thread of
+    /// a rayon pool never waits) (the
     /// loaders take neighbouring bricks at once, and eight bricks and their aprons share a
     /// chunk).
     decoding: Mutex<HashMap<ChunkKey, Arc<Mutex<()>>>>,
@@ -344,6 +345,12 @@ impl ZarrSource {
         let cached = |chunks: &Mutex<ChunkCache>| chunks.lock().ok().and_then(|mut c| c.get(key));
         if let Some(levels) = cached(&self.chunks) {
             return Ok(levels);
+        }
+        // A thread of a rayon pool (the preview, the pinned levels) decodes on its own: while
+        // it waits inside a read it may run another brick of its pool, which would then wait
+        // for the lock this thread holds.
+        if rayon::current_thread_index().is_some() {
+            return self.decode_chunk(key, start, extent);
         }
         let Ok(mut decoding) = self.decoding.lock() else {
             return self.decode_chunk(key, start, extent);
@@ -946,7 +953,7 @@ fn to_levels(data: &VoxelData, quantization: Quantization) -> Vec<u16> {
 
 /// [`integer_levels`] of values of at most 16 bits.
 fn narrow_integer_levels<T: Copy + Into<i32>>(values: &[T], offset: i64) -> Vec<u16> {
-    // An offset outside ±2³¹ leaves every level at one end.
+    // An offset beyond ±2²⁰ leaves every level of a 16-bit value at one end, as beyond it.
     let offset = offset.clamp(-(1 << 20), 1 << 20) as i32;
     values
         .iter()
