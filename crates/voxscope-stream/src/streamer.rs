@@ -1075,7 +1075,7 @@ impl Streamer {
             // (thousands may wait): enough that bricks uploaded since are evicted before it.
             let over_budget = bytes > 0 && bytes + cost > self.upload_allowance();
             if cost > 0 && (overflow || over_budget) {
-                if self.frame % WAITING_TOUCH_FRAMES == 0 {
+                if self.frame.is_multiple_of(WAITING_TOUCH_FRAMES) {
                     self.ram.get(request.key);
                 }
                 waiting.push(request);
