@@ -38,8 +38,8 @@ pub const UPLOAD_SECONDS_PER_FRAME: f64 = 0.0055;
 /// completes sooner (a near MIP view's copies move a third of a DVR view's bytes per second).
 pub const UPLOAD_SECONDS_STILL: f64 = 0.011;
 
-/// Every this many frames, bricks waiting for the upload allowance count as a use of the RAM
-/// cache (`upload_ready`).
+/// Every this many frames, a brick waiting for the upload allowance counts as a use of the
+/// RAM cache (`upload_ready`; a different share of the waiting bricks each frame).
 const WAITING_TOUCH_FRAMES: u32 = 8;
 
 /// A cost's moving average over a few frames (one slow frame does not halve the next
@@ -1072,10 +1072,15 @@ impl Streamer {
             // Past the budget (at least one brick a frame, whatever the budget) or once the
             // atlas is full, bricks with texels wait; uniform ones cost nothing to place. A
             // waiting brick counts as a use of the RAM cache every few frames, not every frame
-            // (thousands may wait): enough that bricks uploaded since are evicted before it.
+            // (thousands may wait), an eighth of them a frame (all at once made run 79's
+            // frames slow): enough that bricks uploaded since are evicted before it.
             let over_budget = bytes > 0 && bytes + cost > self.upload_allowance();
             if cost > 0 && (overflow || over_budget) {
-                if self.frame.is_multiple_of(WAITING_TOUCH_FRAMES) {
+                if request
+                    .key
+                    .wrapping_add(self.frame)
+                    .is_multiple_of(WAITING_TOUCH_FRAMES)
+                {
                     self.ram.get(request.key);
                 }
                 waiting.push(request);
