@@ -42,17 +42,21 @@ for take in $(seq 1 "${TAKES:-2}"); do
         done
     done
 done
-python3 docs/bench/slow_http.py out 8123 0.05 100e6 2>"$OUTDIR/$RUN-server.err" &
+# SERVERS: the slow servers to measure over, each a script as slow_http.py (its file name
+# tags the results: run 81 compared the server before its TCP_NODELAY with the one now).
+for server in ${SERVERS:-docs/bench/slow_http.py}; do
+tag=$(basename "$server" .py)
+python3 "$server" out 8123 0.05 100e6 2>"$OUTDIR/$RUN-$tag-server.err" &
 SERVER=$!
 sleep 1
 for bin in $BINS; do
     drop
     timeout 150 $D/$bin bench "http://127.0.0.1:8123/$NAME" --stream --json --gpu-memory 512MiB \
-        --ram-cache 2GiB >"$OUTDIR/$RUN-$bin-http.json" 2>"$OUTDIR/$RUN-$bin-http.err"
-    echo "$bin bench (HTTP) exit $? after $((SECONDS - started)) s"
+        --ram-cache 2GiB >"$OUTDIR/$RUN-$tag-$bin-http.json" 2>"$OUTDIR/$RUN-$tag-$bin-http.err"
+    echo "$bin bench (HTTP, $tag) exit $? after $((SECONDS - started)) s"
 done
-kill $SERVER; wait $SERVER 2>/dev/null; tail -5 "$OUTDIR/$RUN-server.err"
-python3 - "$OUTDIR" "$RUN" $BINS <<'PY'
+kill $SERVER; wait $SERVER 2>/dev/null; tail -5 "$OUTDIR/$RUN-$tag-server.err"
+python3 - "$OUTDIR" "$RUN-$tag" $BINS <<'PY'
 import json, sys, pathlib
 out, run = pathlib.Path(sys.argv[1]), sys.argv[2]
 for bin in sys.argv[3:]:
@@ -70,4 +74,5 @@ for bin in sys.argv[3:]:
     for n in r["near_stopped_views"]:
         print("  near", n["mode"], n["complete"], round(n["seconds"], 2), "s,", n["bricks_read"], "read")
 PY
+done
 echo "done after $((SECONDS - started)) s"
