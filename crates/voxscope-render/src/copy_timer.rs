@@ -9,7 +9,7 @@ use std::sync::atomic::{AtomicU8, Ordering};
 
 use super::GpuContext;
 use super::readback::map_state::{FAILED, IDLE, MAPPED, RECORDED};
-use super::readback::start_map_read;
+use super::readback::{read_mapped, start_map_read};
 
 /// Bytes of the two resolved timestamps.
 const TIMESTAMP_BYTES: u64 = 16;
@@ -130,13 +130,14 @@ impl CopyTimer {
                 }
                 _ => continue,
             }
-            if let Ok(bytes) = readback.buffer.slice(..).get_mapped_range() {
-                let ticks: &[u64] = bytemuck::cast_slice(&bytes);
-                let seconds = ticks[1].saturating_sub(ticks[0]) as f64 * self.period_ns * 1e-9;
+            let period_ns = self.period_ns;
+            let seconds = read_mapped(&readback.buffer, &readback.state, |bytes| {
+                let ticks: &[u64] = bytemuck::cast_slice(bytes);
+                ticks[1].saturating_sub(ticks[0]) as f64 * period_ns * 1e-9
+            });
+            if let Some(seconds) = seconds {
                 measured.push((readback.bytes, seconds));
             }
-            readback.buffer.unmap();
-            readback.state.store(IDLE, Ordering::Release);
         }
         measured
     }

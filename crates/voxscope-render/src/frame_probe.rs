@@ -6,7 +6,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicU8, Ordering};
 
 use super::readback::map_state::{FAILED, IDLE, MAPPED, MAPPING, RECORDED};
-use super::readback::start_map_read;
+use super::readback::{read_mapped, start_map_read};
 use super::{GpuContext, RenderTarget};
 
 /// The measured cost of one frame.
@@ -129,8 +129,7 @@ impl FrameProbe {
             _ => return None,
         }
         let staging = self.staging.as_ref()?;
-        let report = {
-            let bytes = staging.slice(..).get_mapped_range().ok()?;
+        read_mapped(staging, &self.state, |bytes| {
             let gpu_ms = self.timestamps.as_ref().map(|(_, _, period_ns)| {
                 let ticks: &[u64] = bytemuck::cast_slice(&bytes[..TIMESTAMP_BYTES as usize]);
                 ticks[1].saturating_sub(ticks[0]) as f64 * period_ns * 1e-6
@@ -144,10 +143,7 @@ impl FrameProbe {
                 nodes_per_ray_max: visits.iter().copied().max().unwrap_or(0),
                 pixels: self.pixels,
             }
-        };
-        staging.unmap();
-        self.state.store(IDLE, Ordering::Release);
-        Some(report)
+        })
     }
 
     fn take_failure(&mut self) -> Option<FrameReport> {

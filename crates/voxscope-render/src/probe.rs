@@ -16,7 +16,7 @@ use std::sync::atomic::{AtomicU8, Ordering};
 use super::gpu_data::ProbeResult;
 use super::raycaster::ProbeTarget;
 use super::readback::map_state::{FAILED, IDLE, MAPPED, MAPPING, RECORDED};
-use super::readback::start_map_read;
+use super::readback::{read_mapped, start_map_read};
 use super::{Camera, GpuContext, RenderError, RenderSettings, VolumeRenderer};
 
 /// The accumulated opacity a DVR probe looks for. Keep in sync with `PROBE_ALPHA` in
@@ -182,12 +182,9 @@ impl GpuProbe {
             FAILED => return self.take_failure(),
             _ => return None,
         }
-        let result = {
-            let bytes = self.staging.slice(..).get_mapped_range().ok()?;
-            *bytemuck::from_bytes::<ProbeResult>(&bytes)
-        };
-        self.staging.unmap();
-        self.state.store(IDLE, Ordering::Release);
+        let result = read_mapped(&self.staging, &self.state, |bytes| {
+            *bytemuck::from_bytes::<ProbeResult>(bytes)
+        })?;
         Some(ProbeOutcome {
             pixel: self.pixel,
             hit: (result.found != 0).then_some(ProbeHit {

@@ -26,7 +26,7 @@ use super::raycaster::{
     frame_params_buffer,
 };
 use super::readback::map_state::{FAILED, IDLE, MAPPED, RECORDED};
-use super::readback::start_map_read;
+use super::readback::{read_mapped, start_map_read};
 use super::renderer::{Renderer, level_detail, pipeline_variants};
 use super::staging_ring::{StagedBrick, StagingRing};
 use super::{
@@ -395,11 +395,8 @@ impl StreamVolume {
                 }
                 _ => continue,
             }
-            {
-                let Ok(bytes) = readback.buffer.slice(..).get_mapped_range() else {
-                    continue;
-                };
-                let words: &[u32] = bytemuck::cast_slice(&bytes);
+            read_mapped(&readback.buffer, &readback.state, |bytes| {
+                let words: &[u32] = bytemuck::cast_slice(bytes);
                 let asked = words[0];
                 let keys = &words[1..1 + (asked.min(REQUEST_CAPACITY)) as usize];
                 let marks = &words[1 + REQUEST_CAPACITY as usize..];
@@ -412,9 +409,7 @@ impl StreamVolume {
                 {
                     newest = Some((readback.frame, keys.to_vec(), asked, Vec::new()));
                 }
-            }
-            readback.buffer.unmap();
-            readback.state.store(IDLE, Ordering::Release);
+            });
         }
         newest.map(|(frame, keys, asked, _)| (frame, keys, asked, usage))
     }
