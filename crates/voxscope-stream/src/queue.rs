@@ -95,12 +95,13 @@ impl RequestQueue {
     }
 
     /// Replaces the queue with `requests` (any order; those already being loaded are left
-    /// out). Returns how many are queued.
+    /// out). Returns how many are queued. The requests are sorted before the lock is taken:
+    /// the loaders wait for it only while those in flight are left out.
     pub fn replace(&self, mut requests: Vec<Request>) -> usize {
-        let mut state = self.lock();
-        requests.retain(|r| !state.in_flight.contains(&r.key));
         requests.sort_unstable_by_key(|r| std::cmp::Reverse(r.priority));
         requests.dedup_by_key(|r| r.key);
+        let mut state = self.lock();
+        requests.retain(|r| !state.in_flight.contains(&r.key));
         state.pending = requests;
         let queued = state.pending.len();
         drop(state);

@@ -42,6 +42,14 @@ pub const UPLOAD_SECONDS_STILL: f64 = 0.011;
 /// RAM cache (`upload_ready`; a different share of the waiting bricks each frame).
 const WAITING_TOUCH_FRAMES: u32 = 8;
 
+/// Whether a brick with table entry `entry` needs nothing more: in the atlas, uniform (drawn
+/// from its value) or failed.
+fn entry_satisfies(entry: &TableEntry) -> bool {
+    entry.is_resident()
+        || entry.cell & ENTRY_FAILED != 0
+        || (entry.range & 0xffff) == (entry.range >> 16)
+}
+
 /// A cost's moving average over a few frames (one slow frame does not halve the next
 /// allowance), `average` 0 before the first `sample`.
 fn moving_average(average: f64, sample: f64) -> f64 {
@@ -662,6 +670,14 @@ impl Streamer {
         true
     }
 
+    /// [`Self::satisfied`] or [`Self::known_invisible`], with one look in the table.
+    fn satisfied_or_invisible(&mut self, key: u32, id: BrickId) -> bool {
+        match self.table.get(key) {
+            Some(entry) => entry_satisfies(&entry) || entry.slot & ENTRY_VISIBLE == 0,
+            None => self.known_invisible(key, id),
+        }
+    }
+
     /// Enters brick `key` in the table without a slot, with the range its source knows
     /// without reading it (rays skip it where that range says they may); whether it entered.
     fn enter_known_range(&mut self, key: u32, id: BrickId, range: ValueRange) -> bool {
@@ -682,14 +698,9 @@ impl Streamer {
 
     /// Whether `key` needs nothing more: in the atlas, uniform (drawn from its value) or failed.
     fn satisfied(&self, key: u32) -> bool {
-        match self.table.get(key) {
-            Some(entry) => {
-                entry.is_resident()
-                    || entry.cell & ENTRY_FAILED != 0
-                    || (entry.range & 0xffff) == (entry.range >> 16)
-            }
-            None => false,
-        }
+        self.table
+            .get(key)
+            .is_some_and(|entry| entry_satisfies(&entry))
     }
 
     /// The load priority of the visible brick `key`: coarse first, then (MIP) the brightest
@@ -720,11 +731,8 @@ impl Streamer {
     /// a thin bright structure falls below the transfer function's visible values): counted as
     /// a slot to load, it would never load, and the cut would never stand.
     fn needs_no_slot(&self, key: u32) -> bool {
-        if self.satisfied(key) {
-            return true;
-        }
         if let Some(entry) = self.table.get(key) {
-            return entry.slot & ENTRY_VISIBLE == 0;
+            return entry_satisfies(&entry) || entry.slot & ENTRY_VISIBLE == 0;
         }
         self.shape
             .brick_of(key)
@@ -774,7 +782,7 @@ impl Streamer {
                 }
                 None => (key, id),
             };
-            if !seen.insert(key) || self.satisfied(key) || self.known_invisible(key, id) {
+            if !seen.insert(key) || self.satisfied_or_invisible(key, id) {
                 continue;
             }
             let off_center = view.off_center(self.shape.brick_center(id));
@@ -803,9 +811,15 @@ impl Streamer {
         // never more than can be placed without evicting what the frame drew (a passing
         // shortage, while stand-ins are drawn, delays bricks but leaves none out).
         let room = self.budget_slots().saturating_sub(committed.len());
-        let cut = cut_within(&requests, room, &self.shape, &view, |key| {
-            self.needs_no_slot(key)
-        });
+        if requests.len() < self.fewest_missing {
+            self.fewest_missing = requests.len();
+            self.progress_at = (self.frame, Instant::now());
+        }
+        // The requests need a slot each (they passed `satisfied` and `known_invisible` above);
+        // only the coarser bricks a cut brings in are looked up.
+        let requested: KeySet = requests.iter().map(|r| r.key).collect();
+        let needs_no_slot = |key: u32| !requested.contains(&key) && self.needs_no_slot(key);
+        let cut = cut_within(&requests, room, &self.shape, &view, needs_no_slot);
         let available = self.slots.available(feedback.frame.max(1));
         // Stalled: bricks wait in RAM for slots that nothing will free (the bricks a cut loads
         // bring their coarser ancestors along, which the cut does not count). What the atlas
@@ -813,10 +827,6 @@ impl Streamer {
         // Or, under the budget's pressure, the view has lacked no fewer bricks for a while:
         // bricks are placed and evicted again in turn (a livelock), and waiting longer
         // changes nothing.
-        if requests.len() < self.fewest_missing {
-            self.fewest_missing = requests.len();
-            self.progress_at = (self.frame, Instant::now());
-        }
         let pressed = !cut.left_out.is_empty() || available < room;
         let no_progress = pressed
             && self.frame.saturating_sub(self.progress_at.0) >= NO_PROGRESS_FRAMES
@@ -824,9 +834,7 @@ impl Streamer {
         let stalled = self.no_room_frames >= STALLED_FRAMES || no_progress;
         let cut_now = (available < room || stalled).then(|| {
             let room_now = if stalled { 0 } else { available };
-            cut_within(&requests, room_now, &self.shape, &view, |key| {
-                self.needs_no_slot(key)
-            })
+            cut_within(&requests, room_now, &self.shape, &view, needs_no_slot)
         });
         let loads_now = cut_now.as_ref().map_or(&cut.load, |now| &now.load).clone();
         // The cut counts every asked brick as a slot; many turn out uniform (no slot) once
@@ -874,11 +882,9 @@ impl Streamer {
                     key = self.shape.key(id).expect("a parent is in the pyramid");
                     continue;
                 }
-                if wanted.contains_key(&key) || self.satisfied(key) {
-                    break;
-                }
-                if self.known_invisible(key, id) {
-                    // Its range, known without reading it, cannot show: the rays skip it.
+                // In the atlas, uniform, or its range (known without reading it) cannot show:
+                // the rays skip it.
+                if wanted.contains_key(&key) || self.satisfied_or_invisible(key, id) {
                     break;
                 }
                 let off_center = view.off_center(self.shape.brick_center(id));
