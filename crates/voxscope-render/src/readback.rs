@@ -37,21 +37,21 @@ pub(crate) fn start_map_read(buffer: &wgpu::Buffer, state: &Arc<AtomicU8>) {
 }
 
 /// `read` of the bytes of `buffer`, which [`start_map_read`] mapped (`state` is
-/// [`map_state::MAPPED`]); then the buffer is unmapped and idle again, whether or not its range
-/// could be had (then `None`: dropped as a failed mapping is, not tried again each frame).
+/// [`map_state::MAPPED`]); then the buffer is unmapped and idle again. Where its range cannot be
+/// had, `None`, and the buffer is left as it is: unmapping a buffer that is not mapped is a
+/// validation error (which panics), and one left mapped must not be copied into again.
 pub(crate) fn read_mapped<T>(
     buffer: &wgpu::Buffer,
     state: &AtomicU8,
     read: impl FnOnce(&[u8]) -> T,
 ) -> Option<T> {
-    let result = buffer
-        .slice(..)
-        .get_mapped_range()
-        .ok()
-        .map(|bytes| read(&bytes));
+    let result = {
+        let bytes = buffer.slice(..).get_mapped_range().ok()?;
+        read(&bytes)
+    };
     buffer.unmap();
     state.store(map_state::IDLE, Ordering::Release);
-    result
+    Some(result)
 }
 
 /// Waits for `buffer` (MAP_READ) to map and returns its bytes.

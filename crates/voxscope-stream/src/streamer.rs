@@ -786,11 +786,13 @@ impl Streamer {
                 continue;
             }
             let off_center = view.off_center(self.shape.brick_center(id));
-            requests.push(Request {
-                priority: self.visible_priority(key, id, off_center),
-                id,
-                key,
-            });
+            let priority = self.visible_priority(key, id, off_center);
+            // Under MIP that entered the range the source knows: a uniform one is drawn from
+            // its value and needs nothing (the cut below counts every request as a slot).
+            if self.max_projection && self.satisfied(key) {
+                continue;
+            }
+            requests.push(Request { priority, id, key });
         }
         // Failed bricks are asked for no more; left-out ones are drawn from what stands for
         // them: what still lacks is what the view misses.
