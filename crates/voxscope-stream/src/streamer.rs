@@ -50,6 +50,12 @@ fn entry_satisfies(entry: &TableEntry) -> bool {
         || (entry.range & 0xffff) == (entry.range >> 16)
 }
 
+/// Whether a brick with table entry `entry` takes no slot in a view: it needs nothing more
+/// ([`entry_satisfies`]) or its range is invisible under the transfer function.
+fn entry_needs_no_slot(entry: &TableEntry) -> bool {
+    entry_satisfies(entry) || entry.slot & ENTRY_VISIBLE == 0
+}
+
 /// A cost's moving average over a few frames (one slow frame does not halve the next
 /// allowance), `average` 0 before the first `sample`.
 fn moving_average(average: f64, sample: f64) -> f64 {
@@ -673,7 +679,7 @@ impl Streamer {
     /// [`Self::satisfied`] or [`Self::known_invisible`], with one look in the table.
     fn satisfied_or_invisible(&mut self, key: u32, id: BrickId) -> bool {
         match self.table.get(key) {
-            Some(entry) => entry_satisfies(&entry) || entry.slot & ENTRY_VISIBLE == 0,
+            Some(entry) => entry_needs_no_slot(&entry),
             None => self.known_invisible(key, id),
         }
     }
@@ -732,7 +738,7 @@ impl Streamer {
     /// a slot to load, it would never load, and the cut would never stand.
     fn needs_no_slot(&self, key: u32) -> bool {
         if let Some(entry) = self.table.get(key) {
-            return entry_satisfies(&entry) || entry.slot & ENTRY_VISIBLE == 0;
+            return entry_needs_no_slot(&entry);
         }
         self.shape
             .brick_of(key)
@@ -1069,6 +1075,7 @@ impl Streamer {
         let mut overflow = false;
         let protect_from = self.feedback_frame.map_or(u32::MAX, |f| f.max(1));
         let mut waiting = Vec::new();
+        let allowance = self.upload_allowance();
         let ready = std::mem::take(&mut self.ready);
         for request in ready {
             if self.satisfied(request.key) || self.failed.contains(&request.key) {
@@ -1082,7 +1089,7 @@ impl Streamer {
             // waiting brick counts as a use of the RAM cache every few frames, not every frame
             // (thousands may wait), an eighth of them a frame (all at once made run 79's
             // frames slow): enough that bricks uploaded since are evicted before it.
-            let over_budget = bytes > 0 && bytes + cost > self.upload_allowance();
+            let over_budget = bytes > 0 && bytes + cost > allowance;
             if cost > 0 && (overflow || over_budget) {
                 if request
                     .key

@@ -53,10 +53,9 @@ pub struct ZarrSource {
     /// apron reaches into its neighbours'), so each chunk is decoded once while it is used.
     chunks: Mutex<ChunkCache>,
     /// Chunks being read and decoded now, each with a lock its reader holds meanwhile: a
-    /// loader that needs one waits for that reader rather than decoding it again (a thread of
-    /// a rayon pool never waits) (the
-    /// loaders take neighbouring bricks at once, and eight bricks and their aprons share a
-    /// chunk).
+    /// loader that needs one waits for that reader rather than decoding it again (the loaders
+    /// take neighbouring bricks at once, and eight bricks and their aprons share a chunk). A
+    /// thread of a rayon pool never waits: it decodes on its own.
     decoding: Mutex<HashMap<ChunkKey, Arc<Mutex<()>>>>,
     /// Per stored level, every chunk's smallest and largest value where the store has them
     /// (`voxscope convert` writes them), x fastest: what [`BrickSource::known_range`] answers
