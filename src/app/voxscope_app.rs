@@ -104,7 +104,7 @@ impl VoxscopeApp {
             context: Arc::new(GpuContext::from_device(
                 state.device.clone(),
                 state.queue.clone(),
-                state.adapter.get_info(),
+                &state.adapter,
             )),
             render_state: state.clone(),
         });

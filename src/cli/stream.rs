@@ -6,7 +6,7 @@ use clap::Args;
 
 use super::{TransferArgs, VolumeArgs};
 use voxscope_scene::{SavedTransfer, SceneError, StreamedVolume, VolumeSource};
-use voxscope_stream::StreamOptions;
+use voxscope_stream::{StreamOptions, UploadPath};
 
 /// The streaming renderer's budgets (`--renderer stream`, `bench --stream`).
 #[derive(Debug, Clone, Args)]
@@ -27,6 +27,29 @@ pub struct StreamArgs {
     /// max level).
     #[arg(long, value_name = "F", default_value_t = 1.0, value_parser = parse_lod_scale)]
     pub lod_scale: f32,
+    /// Streaming renderer: how bricks reach the GPU's atlas. scatter: staged whole, written
+    /// into their cells by a compute pass (copies where the GPU cannot); copies: one copy
+    /// command per run of cells; queue: a queue write per brick.
+    #[arg(long, value_name = "PATH", default_value = "scatter")]
+    pub uploads: UploadsArg,
+}
+
+/// `--uploads`: [`UploadPath`] on the command line.
+#[derive(Debug, Clone, Copy, clap::ValueEnum)]
+pub enum UploadsArg {
+    Scatter,
+    Copies,
+    Queue,
+}
+
+impl From<UploadsArg> for UploadPath {
+    fn from(arg: UploadsArg) -> Self {
+        match arg {
+            UploadsArg::Scatter => UploadPath::Scatter,
+            UploadsArg::Copies => UploadPath::Copies,
+            UploadsArg::Queue => UploadPath::Queue,
+        }
+    }
 }
 
 impl StreamArgs {
@@ -37,6 +60,7 @@ impl StreamArgs {
             ram_cache: self.ram_cache,
             upload_bytes_per_frame: self.upload_budget,
             lod_scale: self.lod_scale,
+            uploads: self.uploads.into(),
             ..StreamOptions::default()
         }
     }

@@ -302,6 +302,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
             "gpu_memory": options.gpu_memory,
             "ram_cache": options.ram_cache,
             "upload_bytes_per_frame": options.upload_bytes_per_frame,
+            "uploads": format!("{:?}", options.uploads),
             "lod_scale": options.lod_scale,
             "workers": options.workers,
             "prefetch": options.prefetch,

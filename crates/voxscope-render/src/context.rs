@@ -36,15 +36,21 @@ pub struct GpuContext {
     /// Whether 16-bit normalized textures (`R16Unorm`) can be sampled: value levels above
     /// 255 are then stored exactly (`LevelTexture`), else as 16-bit floats.
     pub has_norm16_textures: bool,
+    /// The streaming atlas's texel formats a compute shader can write here: uploads are
+    /// scattered into the atlas by a dispatch where its format is one of them.
+    pub(crate) atlas_storage_formats: Vec<wgpu::TextureFormat>,
     pub(crate) pipelines: PipelineCache,
 }
 
 impl GpuContext {
     /// The features voxscope asks for when the adapter has them: timestamp queries (GPU time
-    /// per pass) and 16-bit normalized textures (exact value levels above 255).
+    /// per pass), 16-bit normalized textures (exact value levels above 255) and the adapter's
+    /// own format features (a shader writing the streaming atlas's 8- and 16-bit texels).
     pub fn wanted_features(adapter_features: wgpu::Features) -> wgpu::Features {
         adapter_features
-            & (wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::TEXTURE_FORMAT_16BIT_NORM)
+            & (wgpu::Features::TIMESTAMP_QUERY
+                | wgpu::Features::TEXTURE_FORMAT_16BIT_NORM
+                | wgpu::Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES)
     }
 
     /// What voxscope asks of `adapter`: all of its limits (large storage buffers and 3D
@@ -87,24 +93,44 @@ impl GpuContext {
         let descriptor = Self::device_descriptor(adapter);
         let (device, queue) = pollster::block_on(adapter.request_device(&descriptor))
             .map_err(|e| RenderError::NoDevice(format!("the GPU refused a device: {e}")))?;
-        Ok(Self::from_device(device, queue, adapter.get_info()))
+        Ok(Self::from_device(device, queue, adapter))
     }
 
-    /// Wraps a device created elsewhere (the app's, from egui-wgpu).
-    pub fn from_device(
-        device: wgpu::Device,
-        queue: wgpu::Queue,
-        adapter_info: wgpu::AdapterInfo,
-    ) -> Self {
+    /// Wraps a device of `adapter` created elsewhere (the app's, from egui-wgpu).
+    pub fn from_device(device: wgpu::Device, queue: wgpu::Queue, adapter: &wgpu::Adapter) -> Self {
         let limits = device.limits();
         let features = device.features();
+        let atlas_storage_formats =
+            if features.contains(wgpu::Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES) {
+                let writable = |format: wgpu::TextureFormat| {
+                    let supported = adapter.get_texture_format_features(format);
+                    supported
+                        .flags
+                        .contains(wgpu::TextureFormatFeatureFlags::STORAGE_WRITE_ONLY)
+                        && supported
+                            .allowed_usages
+                            .contains(wgpu::TextureUsages::STORAGE_BINDING)
+                        && format.required_features().difference(features).is_empty()
+                };
+                [
+                    wgpu::TextureFormat::R8Unorm,
+                    wgpu::TextureFormat::R16Unorm,
+                    wgpu::TextureFormat::R16Float,
+                ]
+                .into_iter()
+                .filter(|&format| writable(format))
+                .collect()
+            } else {
+                Vec::new()
+            };
         Self {
             device,
             queue,
-            adapter_info,
+            adapter_info: adapter.get_info(),
             limits,
             has_timestamps: features.contains(wgpu::Features::TIMESTAMP_QUERY),
             has_norm16_textures: features.contains(wgpu::Features::TEXTURE_FORMAT_16BIT_NORM),
+            atlas_storage_formats,
             pipelines: PipelineCache::default(),
         }
     }

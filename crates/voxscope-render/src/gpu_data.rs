@@ -90,6 +90,17 @@ pub(crate) struct GridCell {
 
 const _: () = assert!(std::mem::size_of::<GridCell>() == 16);
 
+/// Where `atlas_scatter.wgsl` writes one staged brick: the atlas texel of its cell's corner.
+/// Keep in sync with `struct BrickPlacement` there.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]
+pub(crate) struct BrickPlacement {
+    pub origin: [u32; 3],
+    pub _pad: u32,
+}
+
+const _: () = assert!(std::mem::size_of::<BrickPlacement>() == 16);
+
 /// Uniforms of one level's dispatch of `recolor.wgsl` and of `brick_grid.wgsl`. Keep in sync
 /// with `struct LevelParams` in `node_common.wgsl`.
 #[repr(C)]
@@ -315,6 +326,10 @@ mod tests {
         })
     }
 
+    fn brick_placement() -> Layout {
+        rust_layout!(BrickPlacement { origin, _pad })
+    }
+
     fn probe_result() -> Layout {
         rust_layout!(ProbeResult { point, found })
     }
@@ -410,6 +425,9 @@ mod tests {
                 ("GridCell", grid_cell()),
             ],
             "ceilings" => vec![("CeilingParams", ceiling_params())],
+            "atlas_scatter_r8unorm" | "atlas_scatter_r16unorm" | "atlas_scatter_r16float" => {
+                vec![("BrickPlacement", brick_placement())]
+            }
             "slice" => vec![
                 ("SliceParams", slice_params()),
                 ("Node", node()),

@@ -2,6 +2,7 @@
 //! and slice compute pipelines, the camera. Knows nothing about the UI: the app and the command
 //! line both drive it.
 
+mod atlas_scatter;
 mod bricks;
 mod camera;
 mod ceilings;

@@ -13,6 +13,7 @@
 use std::sync::OnceLock;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
+use super::atlas_scatter::{self, AtlasScatter};
 use super::{
     CompositeRaycaster, DenseRaycaster, GpuBrickRecolor, GpuContext, GpuRecolor, Raycaster, Slicer,
     StreamRaycaster,
@@ -28,6 +29,8 @@ pub(crate) struct PipelineCache {
     slicer: OnceLock<Slicer>,
     stream_raycaster: OnceLock<StreamRaycaster>,
     composite_raycaster: OnceLock<CompositeRaycaster>,
+    /// Per format of [`atlas_scatter::FORMATS`].
+    atlas_scatter: [OnceLock<AtlasScatter>; 3],
     /// Compute pipelines built with this device so far.
     built: AtomicUsize,
 }
@@ -80,6 +83,16 @@ impl GpuContext {
         self.pipelines
             .composite_raycaster
             .get_or_init(|| CompositeRaycaster::new(self))
+    }
+
+    /// The pipeline writing staged bricks into a streaming atlas of `format`, built on first
+    /// use; `None` where this device cannot write `format` from a shader.
+    pub(crate) fn atlas_scatter(&self, format: wgpu::TextureFormat) -> Option<&AtlasScatter> {
+        if !self.atlas_storage_formats.contains(&format) {
+            return None;
+        }
+        let index = atlas_scatter::FORMATS.iter().position(|&f| f == format)?;
+        Some(self.pipelines.atlas_scatter[index].get_or_init(|| AtlasScatter::new(self, format)))
     }
 
     /// The slice pipeline of this device (every renderer's slices), built on first use.

@@ -53,6 +53,10 @@ shaders! {
     BRICK_GRID = "brick_grid" ["node_common.wgsl", "grid_cell.wgsl", "brick_grid.wgsl"];
     /// Planar slices of the dense texture, the brick atlas or the octree.
     SLICE = "slice" ["node_common.wgsl", "grid_cell.wgsl", "slice.wgsl"];
+    /// The streaming atlas's uploads written into their cells, one shader per texel format.
+    ATLAS_SCATTER_R8UNORM = "atlas_scatter_r8unorm" ["atlas_r8unorm.wgsl", "atlas_scatter.wgsl"];
+    ATLAS_SCATTER_R16UNORM = "atlas_scatter_r16unorm" ["atlas_r16unorm.wgsl", "atlas_scatter.wgsl"];
+    ATLAS_SCATTER_R16FLOAT = "atlas_scatter_r16float" ["atlas_r16float.wgsl", "atlas_scatter.wgsl"];
     /// The measurements of the GPU's own ceilings (`voxscope ceilings`).
     CEILINGS = "ceilings" ["ceilings.wgsl"];
 }

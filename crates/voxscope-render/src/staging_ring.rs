@@ -1,16 +1,20 @@
 //! The streaming renderer's uploads into its atlas: a ring of host-visible buffers made once,
-//! each written while mapped with every brick of a frame, copied into the atlas's slots by one
-//! encoder, and mapped again once the GPU has read it. No buffer, staging allocation or queue
-//! write per brick; a frame never waits for a buffer (while none is mapped, its bricks go
-//! through `Queue::write_texture` instead).
+//! each written while mapped with every brick of a frame, recorded into one encoder, and mapped
+//! again once the GPU has read it. No buffer, staging allocation or queue write per brick; a
+//! frame never waits for a buffer (while none is mapped, its bricks go through
+//! `Queue::write_texture` instead).
 //!
-//! A copy's rows sit a multiple of 256 bytes apart (`COPY_BYTES_PER_ROW_ALIGNMENT`) and a
-//! brick's row is 34 texels: 34 or 68 bytes. The bricks a frame uploads are sorted by atlas cell
-//! and cut into *runs* of bricks whose cells follow each other along x. A run's bricks share its
-//! rows (brick `i` starts `i × row` bytes into each), so they are the rows of one box of the
-//! atlas, and one copy fills the whole run. On the H200 the GPU's copies, not the CPU, bound the
-//! uploads: a copy per brick moved 1.35 GB/s, runs of up to three 1.9–3.4, runs of any
-//! length 3.0–6.9 (docs/benchmarks.md, runs 72 and 74).
+//! Two layouts. Where the device can write the atlas's texel format from a shader (every
+//! desktop GPU we met, and lavapipe), each brick is staged whole after the last, behind the
+//! frame's [`BrickPlacement`]s: one copy takes them to a buffer on the GPU and one dispatch of
+//! `atlas_scatter.wgsl` writes every texel into its cell. Elsewhere, bricks are copied into
+//! the atlas by copy commands: a copy's rows sit a multiple of 256 bytes apart
+//! (`COPY_BYTES_PER_ROW_ALIGNMENT`) and a brick's row is 34 texels (34 or 68 bytes), so the
+//! bricks are sorted by atlas cell and cut into *runs* whose cells follow each other along x.
+//! A run's bricks share its rows (brick `i` starts `i × row` bytes into each), so they are
+//! the rows of one box of the atlas, and one copy fills the whole run. On the H200 the copy
+//! commands bound the uploads: a copy per brick moved 1.35 GB/s, runs of up to three
+//! 1.9–3.4, runs of any length 3.0–6.9 (docs/benchmarks.md, runs 72 and 74).
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU8, Ordering};
@@ -19,6 +23,8 @@ use std::time::Instant;
 use voxscope_stream::PADDED_BRICK;
 
 use super::GpuContext;
+use super::atlas_scatter::{self, AtlasScatter};
+use super::gpu_data::BrickPlacement;
 
 const MAPPED: u8 = 0;
 const IN_FLIGHT: u8 = 1;
@@ -29,6 +35,37 @@ const BUFFERS: usize = 3;
 
 /// The most bytes one ring buffer takes (the ring holds three).
 const MAX_BUFFER_BYTES: usize = 24 << 20;
+
+/// The share of the GPU budget a scattering ring's buffer on the GPU may take (it counts in
+/// the budget, as the atlas does): 1/16.
+const SCATTER_BUDGET_SHARE: u64 = 16;
+
+/// Bytes of the placements of `bricks` bricks, to where the bricks start (a storage binding's
+/// offset alignment: 256 bytes at most on every device).
+fn placement_bytes(bricks: usize) -> usize {
+    (bricks * std::mem::size_of::<BrickPlacement>()).next_multiple_of(256)
+}
+
+/// Bytes of a buffer holding `bricks` whole bricks of `brick_bytes` behind their placements.
+fn whole_bytes(bricks: usize, brick_bytes: usize) -> usize {
+    placement_bytes(bricks) + bricks * brick_bytes
+}
+
+/// Bricks of `brick_bytes` a scattering ring's buffer holds: a frame's `per_frame` at most,
+/// within [`MAX_BUFFER_BYTES`] and [`SCATTER_BUDGET_SHARE`] of `gpu_budget`; and its GPU-side
+/// buffer's bytes. `None` where not one brick fits (the ring then copies in runs).
+pub(crate) fn scatter_size(
+    per_frame: usize,
+    brick_bytes: usize,
+    gpu_budget: u64,
+) -> Option<(usize, u64)> {
+    let room = (MAX_BUFFER_BYTES as u64).min(gpu_budget / SCATTER_BUDGET_SHARE) as usize;
+    let mut bricks = per_frame.min(room / (brick_bytes + std::mem::size_of::<BrickPlacement>()));
+    while bricks > 0 && whole_bytes(bricks, brick_bytes) > room {
+        bricks -= 1;
+    }
+    (bricks > 0).then(|| (bricks, whole_bytes(bricks, brick_bytes) as u64))
+}
 
 /// Bytes between a run's rows: its bricks' rows side by side, at the copy's row alignment.
 fn run_pitch(bricks: usize, row_bytes: usize) -> usize {
@@ -51,8 +88,10 @@ pub(crate) struct StagedBrick<'a> {
 pub(crate) struct Staged {
     /// Per brick given, whether it was staged (the rest go through the queue).
     pub staged: Vec<bool>,
-    /// Copies recorded: one per run.
+    /// Copies recorded: one per run, or two (placements and bricks) before a dispatch.
     pub copies: usize,
+    /// Dispatches recorded that scatter the bricks into their cells.
+    pub dispatches: usize,
     /// Laying the bricks out and copying them into the mapped buffer (and unmapping it).
     pub staging_seconds: f64,
     /// Recording their copies.
@@ -118,6 +157,18 @@ struct StagingBuffer {
     state: Arc<AtomicU8>,
 }
 
+/// Bricks staged whole and scattered into their cells by a dispatch.
+struct Scatter {
+    /// Bricks a buffer holds.
+    bricks: usize,
+    /// Bytes of one brick (34³ texels).
+    brick_bytes: usize,
+    /// The ring buffer's bytes on the GPU, which the dispatch reads.
+    source: wgpu::Buffer,
+    bind_group: wgpu::BindGroup,
+    pipeline: wgpu::ComputePipeline,
+}
+
 /// The ring. A buffer's bytes bound a frame's uploads through it; more go through the queue.
 pub(crate) struct StagingRing {
     buffers: Vec<StagingBuffer>,
@@ -128,6 +179,8 @@ pub(crate) struct StagingRing {
     row_bytes: usize,
     /// One run's rows, laid out before they are copied into a mapped buffer.
     scratch: Vec<u8>,
+    /// Where the bricks are scattered by a dispatch; `None`: copied in runs.
+    scatter: Option<Scatter>,
 }
 
 impl StagingRing {
@@ -139,6 +192,73 @@ impl StagingRing {
         let capacity = bricks
             .saturating_mul(run_bytes(1, row_bytes))
             .min(MAX_BUFFER_BYTES);
+        Self::with_buffers(context, capacity, row_bytes, None)
+    }
+
+    /// A ring whose buffers hold `bricks` whole bricks (sized by [`scatter_size`]), which
+    /// `scatter` writes into their cells of `atlas` (made with `STORAGE_BINDING`).
+    pub(crate) fn scattering(
+        context: &GpuContext,
+        bricks: usize,
+        bytes_per_texel: u32,
+        atlas: &wgpu::Texture,
+        scatter: &AtlasScatter,
+    ) -> Self {
+        let row_bytes = PADDED_BRICK * bytes_per_texel as usize;
+        let brick_bytes = PADDED_BRICK * PADDED_BRICK * row_bytes;
+        let capacity = whole_bytes(bricks, brick_bytes);
+        let source = context.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("voxscope::stream_scatter_source"),
+            size: capacity as u64,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let atlas_view = atlas.create_view(&wgpu::TextureViewDescriptor::default());
+        let placements = placement_bytes(bricks) as u64;
+        let bind_group = context
+            .device
+            .create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("voxscope::stream_scatter"),
+                layout: &scatter.layout,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                            buffer: &source,
+                            offset: 0,
+                            size: wgpu::BufferSize::new(placements),
+                        }),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                            buffer: &source,
+                            offset: placements,
+                            size: wgpu::BufferSize::new(capacity as u64 - placements),
+                        }),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: wgpu::BindingResource::TextureView(&atlas_view),
+                    },
+                ],
+            });
+        let scatter = Scatter {
+            bricks,
+            brick_bytes,
+            source,
+            bind_group,
+            pipeline: scatter.pipeline.clone(),
+        };
+        Self::with_buffers(context, capacity, row_bytes, Some(scatter))
+    }
+
+    fn with_buffers(
+        context: &GpuContext,
+        capacity: usize,
+        row_bytes: usize,
+        scatter: Option<Scatter>,
+    ) -> Self {
         let buffers = (0..if capacity > 0 { BUFFERS } else { 0 })
             .map(|_| StagingBuffer {
                 buffer: context.device.create_buffer(&wgpu::BufferDescriptor {
@@ -156,7 +276,13 @@ impl StagingRing {
             capacity,
             row_bytes,
             scratch: Vec::new(),
+            scatter,
         }
+    }
+
+    /// Bytes the ring holds on the GPU: the buffer a scattering ring's dispatch reads.
+    pub(crate) fn gpu_bytes(&self) -> u64 {
+        self.scatter.as_ref().map_or(0, |s| s.source.size())
     }
 
     /// Records the copies of as many of `bricks` as the next mapped buffer's runs hold into
@@ -174,6 +300,9 @@ impl StagingRing {
         };
         if bricks.is_empty() || staging.state.load(Ordering::Acquire) != MAPPED {
             return Staged::default();
+        }
+        if let Some(scatter) = &self.scatter {
+            return stage_whole(staging, scatter, encoder, bricks, started);
         }
         let side = PADDED_BRICK as u32;
         // The frame's first bricks (its most important) that could fit; of those, the runs
@@ -233,6 +362,7 @@ impl StagingRing {
         Staged {
             staged,
             copies: runs.len(),
+            dispatches: 0,
             staging_seconds,
             record_seconds: started.elapsed().as_secs_f64() - staging_seconds,
         }
@@ -258,15 +388,93 @@ impl StagingRing {
         self.next = (self.next + 1) % self.buffers.len();
     }
 
-    /// Bricks one buffer holds at most (in long runs): a frame's uploads through the ring.
+    /// Bricks one buffer holds at most (whole, or in long runs): a frame's uploads through the
+    /// ring.
     pub(crate) fn bricks_per_buffer(&self) -> usize {
-        self.capacity / (PADDED_BRICK * PADDED_BRICK * self.row_bytes)
+        match &self.scatter {
+            Some(scatter) => scatter.bricks,
+            None => self.capacity / (PADDED_BRICK * PADDED_BRICK * self.row_bytes),
+        }
+    }
+}
+
+/// Stages the first of `bricks` that `staging` holds whole, behind their placements, and
+/// records their copy to the GPU and the dispatch writing them into their cells.
+fn stage_whole(
+    staging: &StagingBuffer,
+    scatter: &Scatter,
+    encoder: &mut wgpu::CommandEncoder,
+    bricks: &[StagedBrick<'_>],
+    started: Instant,
+) -> Staged {
+    let mut staged = vec![false; bricks.len()];
+    let mut placements = Vec::with_capacity(scatter.bricks);
+    let texels_start = placement_bytes(scatter.bricks);
+    {
+        let Ok(mut mapped) = staging.buffer.slice(..).get_mapped_range_mut() else {
+            return Staged::default();
+        };
+        for (index, brick) in bricks.iter().enumerate() {
+            if placements.len() == scatter.bricks {
+                break;
+            }
+            if brick.texels.len() != scatter.brick_bytes {
+                continue; // not a padded brick of the atlas's texels: the queue writes it
+            }
+            let at = texels_start + placements.len() * scatter.brick_bytes;
+            mapped
+                .slice(at..at + scatter.brick_bytes)
+                .copy_from_slice(brick.texels);
+            placements.push(BrickPlacement {
+                origin: [brick.origin.x, brick.origin.y, brick.origin.z],
+                _pad: 0,
+            });
+            staged[index] = true;
+        }
+        let placement_bytes: &[u8] = bytemuck::cast_slice(&placements);
+        mapped
+            .slice(..placement_bytes.len())
+            .copy_from_slice(placement_bytes);
+    }
+    if placements.is_empty() {
+        return Staged::default(); // the buffer stays mapped
+    }
+    staging.buffer.unmap();
+    let staging_seconds = started.elapsed().as_secs_f64();
+    let count = placements.len();
+    let placement_size = (count * std::mem::size_of::<BrickPlacement>()) as u64;
+    encoder.copy_buffer_to_buffer(&staging.buffer, 0, &scatter.source, 0, placement_size);
+    encoder.copy_buffer_to_buffer(
+        &staging.buffer,
+        texels_start as u64,
+        &scatter.source,
+        texels_start as u64,
+        (count * scatter.brick_bytes) as u64,
+    );
+    {
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("voxscope::stream_scatter"),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&scatter.pipeline);
+        pass.set_bind_group(0, &scatter.bind_group, &[]);
+        let words = (scatter.brick_bytes / 4) as u32;
+        pass.dispatch_workgroups(words.div_ceil(atlas_scatter::WORKGROUP), count as u32, 1);
+    }
+    staging.state.store(IN_FLIGHT, Ordering::Release);
+    Staged {
+        staged,
+        copies: 2,
+        dispatches: 1,
+        staging_seconds,
+        record_seconds: started.elapsed().as_secs_f64() - staging_seconds,
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::readback::read_buffer;
 
     fn cell(x: u32, y: u32, z: u32) -> wgpu::Origin3d {
         let side = PADDED_BRICK as u32;
@@ -340,6 +548,169 @@ mod tests {
                         );
                     }
                 }
+            }
+        }
+    }
+
+    /// A brick of `bytes_per_texel` texels numbered by `seed`: every byte differs from its
+    /// neighbours and from other seeds' bricks; 16-bit texels are finite half floats (normal
+    /// and subnormal), so each format stores them as they are.
+    fn numbered_brick(seed: usize, bytes_per_texel: usize) -> Vec<u8> {
+        let texels = PADDED_BRICK * PADDED_BRICK * PADDED_BRICK;
+        let mut bytes = Vec::with_capacity(texels * bytes_per_texel);
+        for texel in 0..texels {
+            let n = (texel * 2654435761 + seed * 40503) as u32;
+            match bytes_per_texel {
+                1 => bytes.push((n >> 13) as u8),
+                _ => {
+                    // Exponent 0–30 (31 is infinity and NaN), any sign and mantissa.
+                    let half = ((n >> 7) as u16) % (31 << 10) | ((n as u16) & 0x8000);
+                    bytes.extend_from_slice(&half.to_le_bytes());
+                }
+            }
+        }
+        bytes
+    }
+
+    /// The atlas's texels, as `format`'s bytes, x fastest.
+    fn read_atlas(context: &GpuContext, atlas: &wgpu::Texture, bytes_per_texel: usize) -> Vec<u8> {
+        let size = atlas.size();
+        let row = size.width as usize * bytes_per_texel;
+        let pitch = row.next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as usize);
+        let rows = (size.height * size.depth_or_array_layers) as usize;
+        let buffer = context.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("test_atlas_copy"),
+            size: (pitch * rows) as u64,
+            usage: wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut encoder = context
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
+        encoder.copy_texture_to_buffer(
+            atlas.as_image_copy(),
+            wgpu::TexelCopyBufferInfo {
+                buffer: &buffer,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(pitch as u32),
+                    rows_per_image: Some(size.height),
+                },
+            },
+            size,
+        );
+        context.queue.submit([encoder.finish()]);
+        let padded = read_buffer(context, &buffer, buffer.size()).expect("atlas read back");
+        padded
+            .chunks_exact(pitch)
+            .flat_map(|r| &r[..row])
+            .copied()
+            .collect()
+    }
+
+    #[test]
+    fn scattered_and_copied_bricks_land_in_their_cells_bit_for_bit() {
+        let context = GpuContext::new_headless()
+            .expect("a GPU adapter (lavapipe: mesa-vulkan-drivers, WGPU_BACKEND=vulkan)");
+        let side = PADDED_BRICK as u32;
+        let grid = [3u32, 2, 2];
+        // Two frames: five bricks (three cells in a run along x), then two more, one of them
+        // over a cell the first frame filled.
+        let frames: [&[(usize, [u32; 3])]; 2] = [
+            &[
+                (0, [1, 0, 0]),
+                (1, [0, 1, 1]),
+                (2, [0, 0, 0]),
+                (3, [2, 1, 0]),
+                (4, [2, 0, 0]),
+            ],
+            &[(5, [1, 0, 0]), (6, [1, 1, 1])],
+        ];
+        for (format, bytes_per_texel) in [
+            (wgpu::TextureFormat::R8Unorm, 1),
+            (wgpu::TextureFormat::R16Unorm, 2),
+            (wgpu::TextureFormat::R16Float, 2),
+        ] {
+            if format == wgpu::TextureFormat::R16Unorm && !context.has_norm16_textures {
+                // No atlas of this device has this format (16-bit values go as half floats).
+                continue;
+            }
+            let scatter = context
+                .atlas_scatter(format)
+                .unwrap_or_else(|| panic!("{format:?}: the device cannot write it from a shader"));
+            let size = wgpu::Extent3d {
+                width: grid[0] * side,
+                height: grid[1] * side,
+                depth_or_array_layers: grid[2] * side,
+            };
+            // What the atlas holds after both frames.
+            let row = size.width as usize * bytes_per_texel;
+            let mut expected = vec![0u8; row * (size.height * size.depth_or_array_layers) as usize];
+            let bricks: Vec<Vec<u8>> = (0..7)
+                .map(|seed| numbered_brick(seed, bytes_per_texel))
+                .collect();
+            for &(seed, cell) in frames.iter().flat_map(|f| f.iter()) {
+                let brick_row = PADDED_BRICK * bytes_per_texel;
+                for (r, texels) in bricks[seed].chunks_exact(brick_row).enumerate() {
+                    let y = cell[1] as usize * PADDED_BRICK + r % PADDED_BRICK;
+                    let z = cell[2] as usize * PADDED_BRICK + r / PADDED_BRICK;
+                    let at = (z * size.height as usize + y) * row + cell[0] as usize * brick_row;
+                    expected[at..at + brick_row].copy_from_slice(texels);
+                }
+            }
+            eprintln!("{format:?}: {} bytes checked", expected.len());
+            for scattering in [true, false] {
+                let atlas = context.device.create_texture(&wgpu::TextureDescriptor {
+                    label: Some("test_atlas"),
+                    size,
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D3,
+                    format,
+                    usage: wgpu::TextureUsages::COPY_DST
+                        | wgpu::TextureUsages::COPY_SRC
+                        | wgpu::TextureUsages::STORAGE_BINDING,
+                    view_formats: &[],
+                });
+                let mut ring = if scattering {
+                    StagingRing::scattering(&context, 8, bytes_per_texel as u32, &atlas, scatter)
+                } else {
+                    StagingRing::new(&context, 8, bytes_per_texel as u32)
+                };
+                for frame in frames {
+                    // Wait for the ring's buffer to be mapped again (the app never does: it
+                    // writes through the queue meanwhile).
+                    context.wait_idle().expect("GPU");
+                    let staged: Vec<StagedBrick<'_>> = frame
+                        .iter()
+                        .map(|&(seed, cell)| StagedBrick {
+                            texels: &bricks[seed],
+                            origin: wgpu::Origin3d {
+                                x: cell[0] * side,
+                                y: cell[1] * side,
+                                z: cell[2] * side,
+                            },
+                        })
+                        .collect();
+                    let mut encoder = context
+                        .device
+                        .create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
+                    let done = ring.stage(&mut encoder, &atlas, &staged);
+                    assert!(
+                        done.staged.len() == frame.len() && done.staged.iter().all(|&s| s),
+                        "{format:?}, scattering {scattering}: {:?}",
+                        done.staged
+                    );
+                    assert_eq!(done.dispatches, scattering as usize);
+                    context.queue.submit([encoder.finish()]);
+                    ring.submitted();
+                }
+                let atlas_bytes = read_atlas(&context, &atlas, bytes_per_texel);
+                let wrong = atlas_bytes.iter().zip(&expected).position(|(a, b)| a != b);
+                assert!(
+                    wrong.is_none(),
+                    "{format:?}, scattering {scattering}: byte {wrong:?} of the atlas differs"
+                );
             }
         }
     }

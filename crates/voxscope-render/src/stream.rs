@@ -28,7 +28,7 @@ use super::raycaster::{
 use super::readback::map_state::{FAILED, IDLE, MAPPED, RECORDED};
 use super::readback::{read_mapped, start_map_read};
 use super::renderer::{Renderer, level_detail, pipeline_variants};
-use super::staging_ring::{StagedBrick, StagingRing};
+use super::staging_ring::{self, StagedBrick, StagingRing};
 use super::{
     Camera, Frame, GpuContext, GpuTransferTable, ImageRegion, LevelDetail, RenderError,
     RenderSettings, RenderTarget, RendererKind,
@@ -36,7 +36,7 @@ use super::{
 use voxscope_octree::TransferFunction;
 use voxscope_stream::{
     AtlasTexels, BRICK_SIZE, BrickSource, Feedback, PADDED_BRICK, PADDED_BRICK_VOXELS,
-    StreamOptions, StreamStatus, Streamer, TableEntry, Upload, UploadParts, ViewPoint,
+    StreamOptions, StreamStatus, Streamer, TableEntry, Upload, UploadParts, UploadPath, ViewPoint,
 };
 
 /// Keys the request buffer holds per frame: more asks than this in one frame are counted but
@@ -89,12 +89,14 @@ pub struct StreamVolume {
 fn atlas_grid(
     context: &GpuContext,
     budget: u64,
+    staging_bytes: u64,
     slot_bytes: u64,
     bricks_in_pyramid: u64,
 ) -> Result<[usize; 3], RenderError> {
-    // The lookup table, the request buffer and its set, and each readback's copy of the
-    // requests (the usage marks are counted per slot).
-    let fixed = 65536 * 4
+    // The lookup table, the request buffer and its set, each readback's copy of the requests
+    // (the usage marks are counted per slot), and the uploads' staging on the GPU.
+    let fixed = staging_bytes
+        + 65536 * 4
         + (1 + REQUEST_CAPACITY as u64 + REQUEST_SET as u64) * 4
         + READBACKS as u64 * (1 + REQUEST_CAPACITY as u64) * 4;
     let per_slot = slot_bytes + TABLE_BYTES_PER_SLOT + 4 + READBACKS as u64 * 4;
@@ -148,8 +150,30 @@ impl StreamVolume {
             AtlasTexels::Float16
         };
         let slot_bytes = (PADDED_BRICK_VOXELS * texels.bytes()) as u64;
+        let format = match texels {
+            AtlasTexels::Unorm8 => wgpu::TextureFormat::R8Unorm,
+            AtlasTexels::Unorm16 => wgpu::TextureFormat::R16Unorm,
+            AtlasTexels::Float16 => wgpu::TextureFormat::R16Float,
+        };
+        // What a frame may upload; through the ring's buffers, scattered into the atlas by a
+        // dispatch where the device can (their copy on the GPU counts in the budget).
+        let per_frame = (options.upload_bytes_per_frame / slot_bytes).max(1) as usize;
+        let scatter = match options.uploads {
+            UploadPath::Scatter => context.atlas_scatter(format).and_then(|pipeline| {
+                staging_ring::scatter_size(per_frame, slot_bytes as usize, options.gpu_memory)
+                    .map(|size| (pipeline, size))
+            }),
+            UploadPath::Copies | UploadPath::Queue => None,
+        };
+        let scatter_bytes = scatter.map_or(0, |(_, (_, bytes))| bytes);
         let bricks: u64 = source.shape().levels.iter().map(|l| l.brick_count()).sum();
-        let grid = atlas_grid(context, options.gpu_memory, slot_bytes, bricks)?;
+        let grid = atlas_grid(
+            context,
+            options.gpu_memory,
+            scatter_bytes,
+            slot_bytes,
+            bricks,
+        )?;
         let quantization = source.quantization();
         let visible = visible_below(&transfer.lookup_table(quantization));
         let (streamer, pinned) = Streamer::new(Arc::clone(&source), grid, texels, options, visible)
@@ -167,12 +191,14 @@ impl StreamVolume {
             mip_level_count: 1,
             sample_count: 1,
             dimension: wgpu::TextureDimension::D3,
-            format: match texels {
-                AtlasTexels::Unorm8 => wgpu::TextureFormat::R8Unorm,
-                AtlasTexels::Unorm16 => wgpu::TextureFormat::R16Unorm,
-                AtlasTexels::Float16 => wgpu::TextureFormat::R16Float,
+            format,
+            usage: if scatter.is_some() {
+                wgpu::TextureUsages::TEXTURE_BINDING
+                    | wgpu::TextureUsages::COPY_DST
+                    | wgpu::TextureUsages::STORAGE_BINDING
+            } else {
+                wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST
             },
-            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
             view_formats: &[],
         });
         let atlas_view = atlas.create_view(&wgpu::TextureViewDescriptor::default());
@@ -211,20 +237,23 @@ impl StreamVolume {
             })
             .collect();
         let transfer_table = GpuTransferTable::new(context, quantization, transfer);
+        let bytes_per_texel = texels.bytes() as u32;
+        let ring = match (scatter, options.uploads) {
+            (Some((pipeline, (bricks, _))), _) => {
+                StagingRing::scattering(context, bricks, bytes_per_texel, &atlas, pipeline)
+            }
+            // A ring buffer holds what a frame may upload, within the ring's own bound (24 MB
+            // a buffer: 85 bricks alone, more in runs along x).
+            (None, UploadPath::Scatter | UploadPath::Copies) => {
+                StagingRing::new(context, per_frame.min(slots), bytes_per_texel)
+            }
+            (None, UploadPath::Queue) => StagingRing::new(context, 0, bytes_per_texel),
+        };
         if let Some(error) = pollster::block_on(out_of_memory.pop()) {
             return Err(RenderError::DoesNotFit(format!(
                 "the GPU has no room for the streaming atlas: {error}"
             )));
         }
-        // A ring buffer holds what a frame may upload, within the ring's own bound (24 MB a
-        // buffer: 85 bricks alone, more in runs along x).
-        let per_frame = (options.upload_bytes_per_frame / slot_bytes).max(1) as usize;
-        let ring_bricks = if options.staging_ring {
-            per_frame.min(slots)
-        } else {
-            0
-        };
-        let ring = StagingRing::new(context, ring_bricks, texels.bytes() as u32);
         let mut volume = Self {
             streamer,
             atlas,
@@ -281,6 +310,7 @@ impl StreamVolume {
             let staging = self.ring.stage(&mut encoder, &self.atlas, &bricks);
             staged = staging.staged;
             parts.ring_copies = staging.copies as u64;
+            parts.scatter_dispatches = staging.dispatches as u64;
             parts.staging_seconds = staging.staging_seconds;
             let submitting = Instant::now();
             if staged.contains(&true) {
@@ -742,6 +772,7 @@ impl Renderer for StreamVolume {
                 self.readbacks.iter().map(|r| r.buffer.size()).sum(),
             ),
             ("lookup_table", self.transfer.size()),
+            ("upload_staging", self.ring.gpu_bytes()),
         ]
     }
 

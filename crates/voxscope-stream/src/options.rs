@@ -18,9 +18,8 @@ pub struct StreamOptions {
     /// 46–47 on an H200 kept 199 of 200 frames under 16 ms, and 32 MiB took up to 100 ms a
     /// frame: docs/performance-log.md, "What bounds the misses".)
     pub upload_bytes_per_frame: u64,
-    /// Upload through the staging ring (buffers mapped once, a frame's bricks in one copy
-    /// encoder) rather than a queue write per brick. Default on.
-    pub staging_ring: bool,
+    /// How bricks reach the atlas (`--uploads`). Default [`UploadPath::Scatter`].
+    pub uploads: UploadPath,
     /// Worker threads loading bricks. Default: the machine's cores less one (at least one).
     pub workers: usize,
     /// The pixel footprint is multiplied by this before it picks a level: 1 takes the level
@@ -42,11 +41,26 @@ impl Default for StreamOptions {
             gpu_memory: 1 << 30,
             ram_cache: 2 << 30,
             upload_bytes_per_frame: 256 << 20,
-            staging_ring: true,
+            uploads: UploadPath::Scatter,
             workers: cores.saturating_sub(1).max(1),
             lod_scale: 1.0,
             prefetch: true,
             retry_after: Duration::from_secs(5),
         }
     }
+}
+
+/// How a frame's bricks reach the atlas.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum UploadPath {
+    /// Through the staging ring (buffers mapped once), each brick whole after the last; one
+    /// copy takes them to the GPU and one compute dispatch writes them into their cells.
+    /// Where the device cannot write the atlas's texel format from a shader, as
+    /// [`Self::Copies`].
+    #[default]
+    Scatter,
+    /// Through the staging ring, one copy command per run of cells along x.
+    Copies,
+    /// A queue write per brick.
+    Queue,
 }

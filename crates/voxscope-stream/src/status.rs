@@ -72,8 +72,12 @@ pub struct StreamCounters {
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
 pub struct UploadParts {
     pub ring_bricks: u64,
-    /// Copies the ring's bricks took: one per run of atlas cells along x.
+    /// Copies the ring's bricks took: one per run of atlas cells along x, or two a frame (the
+    /// placements and the bricks) where a dispatch scatters them into their cells.
     pub ring_copies: u64,
+    /// Dispatches that wrote the ring's bricks into their cells: one a frame where the atlas
+    /// takes its uploads that way (`UploadPath::Scatter`).
+    pub scatter_dispatches: u64,
     pub queue_bricks: u64,
     /// Laying bricks out and copying them into mapped ring buffers.
     pub staging_seconds: f64,
@@ -92,6 +96,7 @@ impl UploadParts {
     pub fn add(&mut self, other: &UploadParts) {
         self.ring_bricks += other.ring_bricks;
         self.ring_copies += other.ring_copies;
+        self.scatter_dispatches += other.scatter_dispatches;
         self.queue_bricks += other.queue_bricks;
         self.staging_seconds += other.staging_seconds;
         self.submit_seconds += other.submit_seconds;

@@ -1,0 +1,65 @@
+//! The compute pipeline that writes a frame's staged bricks into their cells of the streaming
+//! atlas (`atlas_scatter.wgsl`), one per atlas texel format and device, where the device can
+//! write that format from a shader ([`GpuContext::atlas_scatter`]). The staging ring lays the
+//! bricks out for it and records its dispatch (`staging_ring.rs`).
+
+use super::GpuContext;
+use super::pipeline::{compute_pipeline, storage_entry};
+
+/// Threads per workgroup; keep in sync with `@workgroup_size` in `atlas_scatter.wgsl`.
+pub(crate) const WORKGROUP: u32 = 64;
+
+/// The scatter pipeline of one atlas format.
+pub(crate) struct AtlasScatter {
+    pub pipeline: wgpu::ComputePipeline,
+    pub layout: wgpu::BindGroupLayout,
+}
+
+impl AtlasScatter {
+    /// Builds the pipeline for an atlas of `format` (8- or 16-bit normalized, or half float);
+    /// [`GpuContext::atlas_scatter`] does, once per device and format.
+    pub(crate) fn new(context: &GpuContext, format: wgpu::TextureFormat) -> Self {
+        let (label, source) = match format {
+            wgpu::TextureFormat::R8Unorm => (
+                "atlas_scatter_r8unorm",
+                super::shaders::ATLAS_SCATTER_R8UNORM,
+            ),
+            wgpu::TextureFormat::R16Unorm => (
+                "atlas_scatter_r16unorm",
+                super::shaders::ATLAS_SCATTER_R16UNORM,
+            ),
+            _ => (
+                "atlas_scatter_r16float",
+                super::shaders::ATLAS_SCATTER_R16FLOAT,
+            ),
+        };
+        let (pipeline, layout) = compute_pipeline(
+            context,
+            label,
+            source,
+            &[
+                storage_entry(0, true),
+                storage_entry(1, true),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 2,
+                    visibility: wgpu::ShaderStages::COMPUTE,
+                    ty: wgpu::BindingType::StorageTexture {
+                        access: wgpu::StorageTextureAccess::WriteOnly,
+                        format,
+                        view_dimension: wgpu::TextureViewDimension::D3,
+                    },
+                    count: None,
+                },
+            ],
+        );
+        Self { pipeline, layout }
+    }
+}
+
+/// The atlas formats with a scatter shader, in the order of [`GpuContext::atlas_scatter`]'s
+/// cache.
+pub(crate) const FORMATS: [wgpu::TextureFormat; 3] = [
+    wgpu::TextureFormat::R8Unorm,
+    wgpu::TextureFormat::R16Unorm,
+    wgpu::TextureFormat::R16Float,
+];
