@@ -176,8 +176,9 @@ impl StreamVolume {
         )?;
         let quantization = source.quantization();
         let visible = visible_below(&transfer.lookup_table(quantization));
-        let (streamer, pinned) = Streamer::new(Arc::clone(&source), grid, texels, options, visible)
-            .map_err(RenderError::DoesNotFit)?;
+        let (mut streamer, pinned) =
+            Streamer::new(Arc::clone(&source), grid, texels, options, visible)
+                .map_err(RenderError::DoesNotFit)?;
         let device = &context.device;
         let out_of_memory = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let size = wgpu::Extent3d {
@@ -253,6 +254,9 @@ impl StreamVolume {
             return Err(RenderError::DoesNotFit(format!(
                 "the GPU has no room for the streaming atlas: {error}"
             )));
+        }
+        if ring.bricks_per_buffer() > 0 {
+            streamer.set_upload_ceiling(ring.bricks_per_buffer() as u64 * slot_bytes);
         }
         let mut volume = Self {
             streamer,

@@ -152,6 +152,9 @@ pub struct Streamer {
     upload_seconds_per_byte: f64,
     /// The GPU's copies' measured cost, likewise (0 where the GPU does not time them).
     upload_gpu_seconds_per_byte: f64,
+    /// The most a frame's uploads take through the renderer's staging at once
+    /// ([`Self::set_upload_ceiling`]); `u64::MAX` until it says.
+    upload_ceiling: u64,
     /// The view of the last frame drawn, and how it moved since the one before.
     last_view: Option<ViewPoint>,
     motion: Option<ViewPoint>,
@@ -234,6 +237,7 @@ impl Streamer {
             budget: None,
             upload_seconds_per_byte: 0.0,
             upload_gpu_seconds_per_byte: 0.0,
+            upload_ceiling: u64::MAX,
             last_view: None,
             motion: None,
             visible_below,
@@ -306,16 +310,26 @@ impl Streamer {
 
     /// Bytes a frame may upload: the allowance set from the measured cost
     /// ([`Self::set_upload_cost`]), [`UPLOAD_SECONDS_STILL`]'s worth while the view has not
-    /// moved since the last frame, never more than `--upload-budget`.
+    /// moved since the last frame, never more than `--upload-budget` or the renderer's
+    /// staging holds ([`Self::set_upload_ceiling`]).
     fn upload_allowance(&self) -> u64 {
         let allowance = match self.counters.upload_allowance {
-            0 => return self.options.upload_bytes_per_frame,
+            0 => u64::MAX,
             moving if self.view_is_still() => {
                 (moving as f64 * UPLOAD_SECONDS_STILL / UPLOAD_SECONDS_PER_FRAME) as u64
             }
             moving => moving,
         };
-        allowance.min(self.options.upload_bytes_per_frame)
+        allowance
+            .min(self.options.upload_bytes_per_frame)
+            .min(self.upload_ceiling)
+    }
+
+    /// The most bytes one frame's uploads take through the renderer's staging (its ring
+    /// buffer: what does not fit goes a slower way). A frame uploads no more; at least one
+    /// brick.
+    pub fn set_upload_ceiling(&mut self, bytes: u64) {
+        self.upload_ceiling = bytes.max(self.counters.slot_bytes);
     }
 
     /// Whether the view is where it was a frame ago (its motion is known and nothing).
@@ -1294,5 +1308,10 @@ mod tests {
         streamer.begin_frame(None, Some(view(0.1)));
         let still = (both as f64 * UPLOAD_SECONDS_STILL / UPLOAD_SECONDS_PER_FRAME) as u64;
         assert_eq!(streamer.upload_allowance(), still);
+        // Never more than the renderer's staging holds at once, and never less than a brick.
+        streamer.set_upload_ceiling(both / 3);
+        assert_eq!(streamer.upload_allowance(), both / 3);
+        streamer.set_upload_ceiling(1);
+        assert_eq!(streamer.upload_allowance(), streamer.counters.slot_bytes);
     }
 }
