@@ -7,7 +7,8 @@
 # cache dropped before each, under --gpu-memory 512MiB --ram-cache 2GiB.
 # Expects out/zarr-bench/brain-pd-dicom/, .bench/ and the Vulkan loader's .deb files in .gl.
 # Usage: bash docs/bench/upload-paths.sh RUN_NAME   (RUN_NAME.tar.gz of the JSON to $OUT; a
-# summary line per run and orbit to stdout)
+# summary line per run and orbit to stdout; ARGS are added to each bench's options, e.g.
+# ARGS="--upload-budget 16MiB")
 set -uo pipefail
 started=$SECONDS
 D=.bench
@@ -40,7 +41,7 @@ for take in $(seq 1 "${TAKES:-2}"); do
         drop
         t0=$SECONDS
         timeout "${LIMIT:-150}" $D/voxscope bench "$STORE" --stream --json --gpu-memory 512MiB \
-            --ram-cache 2GiB --uploads "$path" >"$OUTDIR/$name.json" 2>"$OUTDIR/$name.err"
+            --ram-cache 2GiB --uploads "$path" ${ARGS:-} >"$OUTDIR/$name.json" 2>"$OUTDIR/$name.err"
         echo "$name: exit $? after $((SECONDS - t0)) s"
         python3 - "$OUTDIR/$name.json" <<'PY'
 import json, sys

@@ -36,6 +36,12 @@ const BUFFERS: usize = 3;
 /// The most bytes one ring buffer takes (the ring holds three).
 const MAX_BUFFER_BYTES: usize = 24 << 20;
 
+/// The most bytes one buffer of a scattering ring takes, and so a frame's uploads: one core
+/// stages them at about 7 GB/s, 2.3 ms. On the H200, frames of 24 MB took the near orbit's
+/// p99 to 12 ms, of 16 MB to 8.8–10.8 ms, while the bricks it missed rose from 5 % of the
+/// view to 10 % (docs/benchmarks.md, runs 89–90).
+const MAX_SCATTER_BYTES: usize = 16 << 20;
+
 /// The share of the GPU budget a scattering ring's buffer on the GPU may take (it counts in
 /// the budget, as the atlas does): 1/16.
 const SCATTER_BUDGET_SHARE: u64 = 16;
@@ -52,14 +58,14 @@ fn whole_bytes(bricks: usize, brick_bytes: usize) -> usize {
 }
 
 /// Bricks of `brick_bytes` a scattering ring's buffer holds: a frame's `per_frame` at most,
-/// within [`MAX_BUFFER_BYTES`] and [`SCATTER_BUDGET_SHARE`] of `gpu_budget`; and its GPU-side
+/// within [`MAX_SCATTER_BYTES`] and [`SCATTER_BUDGET_SHARE`] of `gpu_budget`; and its GPU-side
 /// buffer's bytes. `None` where not one brick fits (the ring then copies in runs).
 pub(crate) fn scatter_size(
     per_frame: usize,
     brick_bytes: usize,
     gpu_budget: u64,
 ) -> Option<(usize, u64)> {
-    let room = (MAX_BUFFER_BYTES as u64).min(gpu_budget / SCATTER_BUDGET_SHARE) as usize;
+    let room = (MAX_SCATTER_BYTES as u64).min(gpu_budget / SCATTER_BUDGET_SHARE) as usize;
     let mut bricks = per_frame.min(room / (brick_bytes + std::mem::size_of::<BrickPlacement>()));
     while bricks > 0 && whole_bytes(bricks, brick_bytes) > room {
         bricks -= 1;
@@ -550,6 +556,23 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn a_scattering_ring_holds_a_frame_within_its_bound_and_its_share_of_the_budget() {
+        let brick = PADDED_BRICK * PADDED_BRICK * PADDED_BRICK; // 8-bit texels
+        // 512 MiB: the bound (16 MB) holds 426 bricks behind their placements.
+        let (bricks, bytes) = scatter_size(10_000, brick, 512 << 20).expect("room");
+        assert_eq!(bricks, 426);
+        assert_eq!(bytes as usize, whole_bytes(426, brick));
+        assert!(bytes as usize <= MAX_SCATTER_BYTES);
+        assert!(whole_bytes(427, brick) > MAX_SCATTER_BYTES);
+        // A frame's own allowance of bricks, when smaller.
+        assert_eq!(scatter_size(100, brick, 512 << 20).map(|s| s.0), Some(100));
+        // 16 MiB: a sixteenth, 1 MiB, holds 26.
+        assert_eq!(scatter_size(10_000, brick, 16 << 20).map(|s| s.0), Some(26));
+        // Not one brick in a sixteenth of 512 KiB: the ring copies instead.
+        assert_eq!(scatter_size(10_000, brick, 512 << 10), None);
     }
 
     /// A brick of `bytes_per_texel` texels numbered by `seed`: every byte differs from its
