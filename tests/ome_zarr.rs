@@ -1137,6 +1137,107 @@ fn mutated_fixtures_fail_cleanly_never_panic() {
 }
 
 #[test]
+fn convert_upsample_interpolates_the_input_onto_a_finer_grid() {
+    let dir = tempfile::tempdir().expect("a temporary folder");
+    let input = fixtures().join("plain-v3-none.zarr");
+    let convert = |name: &str, options: &[&str]| {
+        let output = dir.path().join(name);
+        let run = Command::new(env!("CARGO_BIN_EXE_voxscope"))
+            .arg("convert")
+            .arg(&input)
+            .arg(&output)
+            .args(options)
+            .output()
+            .expect("voxscope runs");
+        (output, run)
+    };
+    let original = voxscope_volume::load(input.to_str().expect("UTF-8"), &LoadOptions::default())
+        .expect("the fixture loads");
+    let [dx, dy, dz] = original.dims;
+    let VoxelData::I32(source) = &original.data else {
+        panic!("the fixture is i32");
+    };
+    let at = |x: usize, y: usize, z: usize| source[x + dx * (y + dy * z)];
+    let read = |name: &str, options: &[&str]| {
+        let (output, run) = convert(name, options);
+        assert!(
+            run.status.success(),
+            "{}",
+            String::from_utf8_lossy(&run.stderr)
+        );
+        let pyramid = Pyramid::open(&output, PyramidOptions::default()).expect("the output opens");
+        assert_eq!(pyramid.levels[0].dims, [3 * dx, 3 * dy, 3 * dz]);
+        let spacing = pyramid.levels[0].spacing;
+        for axis in 0..3 {
+            assert!(
+                (spacing[axis] * 3.0 - original.spacing[axis]).abs() < 1e-9,
+                "{spacing:?} against {:?}",
+                original.spacing
+            );
+        }
+        let VoxelData::I32(finer) = pyramid.read_level(0).expect("level 0 reads") else {
+            panic!("the output keeps i32");
+        };
+        finer
+    };
+    let finer = read("smooth.ome.zarr", &["--upsample", "3", "--chunk", "8"]);
+    let (fx, fy) = (3 * dx, 3 * dy);
+    for z in 0..3 * dz {
+        for y in 0..fy {
+            for x in 0..fx {
+                let value = finer[x + fx * (y + fy * z)];
+                let (i, j, k) = (x / 3, y / 3, z / 3);
+                if x % 3 == 1 && y % 3 == 1 && z % 3 == 1 {
+                    // A finer voxel's centre on an input voxel's centre: its value.
+                    assert_eq!(value, at(i, j, k), "voxel ({x}, {y}, {z})");
+                }
+                // Otherwise between the values of the input voxels around it.
+                let near = |c: usize, n: usize| [c.saturating_sub(1), c, (c + 1).min(n - 1)];
+                let around: Vec<i32> = near(i, dx)
+                    .into_iter()
+                    .flat_map(|a| near(j, dy).into_iter().map(move |b| (a, b)))
+                    .flat_map(|(a, b)| near(k, dz).into_iter().map(move |c| at(a, b, c)))
+                    .collect();
+                let (low, high) = (around.iter().min().unwrap(), around.iter().max().unwrap());
+                assert!(
+                    (*low..=*high).contains(&value),
+                    "voxel ({x}, {y}, {z}): {value} outside {low}..={high}"
+                );
+            }
+        }
+    }
+    // Noise: within its bound of the smooth values, not all zero, the same each time.
+    let noisy = read(
+        "noisy.ome.zarr",
+        &["--upsample", "3", "--noise", "4", "--chunk", "8"],
+    );
+    let again = read(
+        "again.ome.zarr",
+        &["--upsample", "3", "--noise", "4", "--chunk", "8"],
+    );
+    assert_eq!(noisy, again, "the noise is fixed by the voxel's place");
+    let offsets: Vec<i32> = noisy.iter().zip(&finer).map(|(n, s)| n - s).collect();
+    assert!(offsets.iter().all(|o| o.abs() <= 5), "within ±4, rounded");
+    assert!(offsets.iter().filter(|&&o| o != 0).count() > offsets.len() / 2);
+    // Refused: a zero factor, noise without upsampling, upsampled tiles.
+    for (name, options, named) in [
+        ("zero.ome.zarr", &["--upsample", "0"][..], "--upsample"),
+        ("noise.ome.zarr", &["--noise", "1"][..], "--upsample"),
+        (
+            "both.ome.zarr",
+            &["--upsample", "2", "--tile", "2"][..],
+            "--tile",
+        ),
+    ] {
+        let (output, run) = convert(name, options);
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert!(!run.status.success(), "{options:?}");
+        assert!(stderr.contains(named), "{options:?}: {stderr}");
+        assert!(!output.exists(), "{options:?} wrote nothing");
+    }
+}
+
+#[test]
 fn convert_tile_repeats_the_input_along_each_axis() {
     let dir = tempfile::tempdir().expect("a temporary folder");
     let input = fixtures().join("plain-v3-none.zarr");

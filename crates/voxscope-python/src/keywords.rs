@@ -35,7 +35,7 @@ pub enum Form {
     ClipPlane,
     /// (sz, sy, sx), or one number for all three: `SX,SY,SZ`.
     Spacing,
-    /// (x, y, z) copies, or one number: `X,Y,Z` (`convert`'s `tile`).
+    /// (x, y, z) counts, or one number: `X,Y,Z` (`convert`'s `tile` and `upsample`).
     Triple,
     /// Names, `#rrggbb` or (r, g, b) triples: `C0,C1,…` (`channel_colors`).
     Colors,
@@ -142,6 +142,8 @@ pub const CONVERT: &[Keyword] = &[
     keyword("labels", Form::Flag),
     keyword("unit", Form::Value),
     keyword("tile", Form::Triple),
+    keyword("upsample", Form::Triple),
+    keyword("noise", Form::Value),
 ];
 
 /// Keywords given to a call, each already written as its command-line words, in the order

@@ -158,15 +158,17 @@ impl StreamVolume {
         // What a frame may upload; through the ring's buffers, scattered into the atlas by a
         // dispatch where the device can (their copy on the GPU counts in the budget).
         let per_frame = (options.upload_bytes_per_frame / slot_bytes).max(1) as usize;
+        let bricks: u64 = source.shape().levels.iter().map(|l| l.brick_count()).sum();
         let scatter = match options.uploads {
             UploadPath::Scatter => context.atlas_scatter(format).and_then(|pipeline| {
-                staging_ring::scatter_size(per_frame, slot_bytes as usize, options.gpu_memory)
+                // A frame uploads no more bricks than the pyramid has.
+                let most = per_frame.min(bricks.min(usize::MAX as u64) as usize);
+                staging_ring::scatter_size(most, slot_bytes as usize, options.gpu_memory)
                     .map(|size| (pipeline, size))
             }),
             UploadPath::Copies | UploadPath::Queue => None,
         };
         let scatter_bytes = scatter.map_or(0, |(_, (_, bytes))| bytes);
-        let bricks: u64 = source.shape().levels.iter().map(|l| l.brick_count()).sum();
         let grid = atlas_grid(
             context,
             options.gpu_memory,

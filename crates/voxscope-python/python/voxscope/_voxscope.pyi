@@ -93,6 +93,8 @@ class ConvertOptions(TypedDict, total=False):
     labels: bool
     unit: str
     tile: Union[int, Tuple[int, int, int]]
+    upsample: Union[int, Tuple[int, int, int]]
+    noise: float
     name: str
 
 class VoxscopeError(Exception):
