@@ -228,6 +228,62 @@ fn bad_input_exits_non_zero_with_one_line_naming_the_file() {
 }
 
 #[test]
+fn bench_stream_reports_its_orbits_paced_and_the_uploads_scattered() {
+    let output = voxscope(&[
+        "bench",
+        "synthetic:sphere:64",
+        "--stream",
+        "--size",
+        "64x48",
+        "--frames",
+        "3",
+        "--orbit-fps",
+        "500",
+        "--gpu-memory",
+        "64MiB",
+        "--json",
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let json: serde_json::Value = serde_json::from_slice(&output.stdout).expect("one JSON object");
+    for key in [
+        "first_image_s",
+        "stopped_view",
+        "near_stopped_views",
+        "decode",
+        "resident",
+    ] {
+        assert!(!json[key].is_null(), "missing {key}");
+    }
+    assert_eq!(json["options"]["uploads"], "Scatter");
+    let orbits = json["orbits"].as_array().expect("orbits");
+    assert_eq!(orbits.len(), 2, "medium and near");
+    let mut dispatches = 0;
+    for orbit in orbits {
+        assert_eq!(orbit["paced_fps"], 500.0, "{orbit}");
+        assert!(orbit["wall_ms"]["median"].as_f64().unwrap() > 0.0);
+        // lavapipe writes the atlas's texels from a shader: one dispatch a frame that uploads.
+        let parts = &orbit["counters"]["upload_parts"];
+        assert_eq!(parts["queue_bricks"], 0, "{parts}");
+        assert_eq!(
+            parts["ring_copies"].as_u64().unwrap(),
+            2 * parts["scatter_dispatches"].as_u64().unwrap(),
+            "{parts}"
+        );
+        dispatches += parts["scatter_dispatches"].as_u64().unwrap();
+    }
+    assert!(dispatches > 0, "the orbits uploaded through the dispatch");
+    // The staging the dispatch reads counts in the GPU budget.
+    assert!(json["gpu_bytes"]["upload_staging"].as_u64().unwrap() > 0);
+    let total: u64 = json["gpu_bytes"]
+        .as_object()
+        .unwrap()
+        .values()
+        .map(|v| v.as_u64().unwrap())
+        .sum();
+    assert!(total <= 64 << 20, "{total} bytes within 64 MiB");
+}
+
+#[test]
 fn bench_runs_briefly_on_any_device_and_reports_every_case() {
     let output = voxscope(&[
         "bench",

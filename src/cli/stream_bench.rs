@@ -239,6 +239,11 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
             let _ = context.wait_idle();
             wait_ms.push(waiting.elapsed().as_secs_f64() * 1e3);
             wall.push(started.elapsed().as_secs_f64() * 1e3);
+            // Paced as a display would: the loaders go on meanwhile.
+            if args.orbit_fps > 0.0 {
+                let period = std::time::Duration::from_secs_f64(1.0 / args.orbit_fps);
+                std::thread::sleep(period.saturating_sub(started.elapsed()));
+            }
         })
         .map_err(|e| e.to_string())?;
         let status = renderer.update(&context).expect("a streaming renderer");
@@ -249,6 +254,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
             "camera": camera_name,
             "frames": args.frames,
             "turn_degrees": 360,
+            "paced_fps": (args.orbit_fps > 0.0).then_some(args.orbit_fps),
             "gpu_ms": summary(&gpu),
             "wall_ms": summary(&wall),
             "update_ms": summary(&update_ms),
