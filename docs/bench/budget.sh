@@ -12,7 +12,8 @@
 # It builds nothing: it expects out/zarr-bench/brain-pd-dicom/, .bench/ with voxscope.gz,
 # voxscope-base.gz and mri-head-256.nii.gz, and the Vulkan loader's .deb files in .gl. Usage: bash docs/bench/budget.sh RUN_NAME   (RUN_NAME.tar.gz of every file goes to $OUT;
 # a summary to stdout; BASE_STREAM=1 runs voxscope-base's bench --stream too; WARM_PATHS
-# runs bench --stream again from the page cache for each upload path named)
+# runs bench --stream again from the page cache for each upload path named, with WARM_ARGS,
+# e.g. "--orbit-fps 60")
 set -uo pipefail
 started=$SECONDS
 D=.bench
@@ -130,7 +131,7 @@ stream_bench voxscope ""
 for path in ${WARM_PATHS:-}; do
     t0=$SECONDS
     timeout "${LIMIT:-180}" $D/voxscope bench "$STORE" --stream --json --gpu-memory 512MiB \
-        --ram-cache 2GiB --uploads "$path" >"$OUTDIR/$RUN-stream-$STORE_NAME-warm-$path.json" \
+        --ram-cache 2GiB --uploads "$path" ${WARM_ARGS:-} >"$OUTDIR/$RUN-stream-$STORE_NAME-warm-$path.json" \
         2>"$OUTDIR/$RUN-stream-$STORE_NAME-warm-$path.err"
     echo "bench --stream from the page cache, --uploads $path: exit $? after $((SECONDS - t0)) s"
     summary "$OUTDIR/$RUN-stream-$STORE_NAME-warm-$path.json"
