@@ -21,10 +21,11 @@ fi
 BINS=${BINS:-voxscope-base voxscope}
 for bin in $BINS; do gunzip -kf $D/$bin.gz && chmod +x $D/$bin; done
 OUTDIR=${OUT:-/tmp/out}; mkdir -p "$OUTDIR"
-NAME=pd4096x1040.ome.zarr
+# STORE_NAME: another store already on the machine (budget.sh makes the upsampled one).
+NAME=${STORE_NAME:-pd4096x1040}.ome.zarr
 STORE=$PWD/out/$NAME
 nvidia-smi --query-gpu=name,driver_version --format=csv,noheader
-if [ ! -e "$STORE/.zattrs" ]; then
+if [ ! -e "$STORE/.zattrs" ] && [ -z "${STORE_NAME:-}" ]; then
     timeout 240 $D/voxscope convert out/zarr-bench/brain-pd-dicom "$STORE" --tile 16,16,52 \
         --spacing 1,1,1 --chunk 64 --compression zstd 2>/dev/null
     echo "convert exit $? after $((SECONDS - started)) s"
