@@ -587,7 +587,7 @@ mod tests {
                 1 => bytes.push((n >> 13) as u8),
                 _ => {
                     // Exponent 0–30 (31 is infinity and NaN), any sign and mantissa.
-                    let half = ((n >> 7) as u16) % (31 << 10) | ((n as u16) & 0x8000);
+                    let half = (((n >> 7) as u16) % (31 << 10)) | ((n as u16) & 0x8000);
                     bytes.extend_from_slice(&half.to_le_bytes());
                 }
             }
