@@ -229,6 +229,21 @@ fn bad_input_exits_non_zero_with_one_line_naming_the_file() {
 
 #[test]
 fn bench_stream_reports_its_orbits_paced_and_the_uploads_scattered() {
+    // A frame rate below 1 (but 0) is refused, and it paces only the streaming bench.
+    for (options, named) in [
+        (&["--stream", "--orbit-fps", "0.001"][..], "frame rate"),
+        (&["--orbit-fps", "30"][..], "--stream"),
+    ] {
+        let mut args = vec!["bench", "synthetic:sphere:32"];
+        args.extend_from_slice(options);
+        let output = voxscope(&args);
+        assert!(!output.status.success(), "{options:?}");
+        assert!(
+            stderr(&output).contains(named),
+            "{options:?}: {}",
+            stderr(&output)
+        );
+    }
     let output = voxscope(&[
         "bench",
         "synthetic:sphere:64",
@@ -238,7 +253,7 @@ fn bench_stream_reports_its_orbits_paced_and_the_uploads_scattered() {
         "--frames",
         "3",
         "--orbit-fps",
-        "500",
+        "2",
         "--gpu-memory",
         "64MiB",
         "--json",
@@ -259,8 +274,11 @@ fn bench_stream_reports_its_orbits_paced_and_the_uploads_scattered() {
     assert_eq!(orbits.len(), 2, "medium and near");
     let mut dispatches = 0;
     for orbit in orbits {
-        assert_eq!(orbit["paced_fps"], 500.0, "{orbit}");
+        assert_eq!(orbit["paced_fps"], 2.0, "{orbit}");
         assert!(orbit["wall_ms"]["median"].as_f64().unwrap() > 0.0);
+        // Three frames at two a second: a turn of at least 1.5 s, however fast the frames.
+        let turn = orbit["turn_seconds"].as_f64().unwrap();
+        assert!(turn >= 1.45, "{turn} s");
         // lavapipe writes the atlas's texels from a shader: one dispatch a frame that uploads.
         let parts = &orbit["counters"]["upload_parts"];
         assert_eq!(parts["queue_bricks"], 0, "{parts}");
@@ -272,6 +290,24 @@ fn bench_stream_reports_its_orbits_paced_and_the_uploads_scattered() {
         dispatches += parts["scatter_dispatches"].as_u64().unwrap();
     }
     assert!(dispatches > 0, "the orbits uploaded through the dispatch");
+    // Where the scatter's staging would leave the atlas too small for the always-resident
+    // levels and a view, the ring copies instead (and says so).
+    let tight = voxscope(&[
+        "bench",
+        "synthetic:sphere:256",
+        "--stream",
+        "--size",
+        "32x24",
+        "--frames",
+        "1",
+        "--gpu-memory",
+        "1200KiB",
+        "--json",
+    ]);
+    assert!(tight.status.success(), "{}", stderr(&tight));
+    let tight: serde_json::Value = serde_json::from_slice(&tight.stdout).expect("one JSON object");
+    assert_eq!(tight["options"]["uploads"], "Copies");
+    assert_eq!(tight["gpu_bytes"]["upload_staging"], 0);
     // The staging the dispatch reads counts in the GPU budget.
     assert!(json["gpu_bytes"]["upload_staging"].as_u64().unwrap() > 0);
     let total: u64 = json["gpu_bytes"]

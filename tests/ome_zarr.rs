@@ -1206,6 +1206,40 @@ fn convert_upsample_interpolates_the_input_onto_a_finer_grid() {
             }
         }
     }
+    // Along one axis, every voxel: a third of the way between two input voxels is their
+    // weighted mean (1/3, 2/3, rounded; never a half), and the edges hold the end values.
+    let (output, run) = convert("along-x.ome.zarr", &["--upsample", "3,1,1", "--chunk", "8"]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let along_x = Pyramid::open(&output, PyramidOptions::default()).expect("the output opens");
+    let VoxelData::I32(along_x) = along_x.read_level(0).expect("level 0 reads") else {
+        panic!("the output keeps i32");
+    };
+    for z in 0..dz {
+        for y in 0..dy {
+            for x in 0..3 * dx {
+                let i = x / 3;
+                let mean = |low: usize, high: usize| {
+                    (at(low, y, z) as f64 * 2.0 / 3.0 + at(high, y, z) as f64 / 3.0).round() as i32
+                };
+                let expected = match x % 3 {
+                    1 => at(i, y, z),
+                    0 if i == 0 => at(0, y, z),
+                    0 => mean(i, i - 1),
+                    _ if i + 1 == dx => at(i, y, z),
+                    _ => mean(i, i + 1),
+                };
+                assert_eq!(
+                    along_x[x + 3 * dx * (y + dy * z)],
+                    expected,
+                    "voxel ({x}, {y}, {z})"
+                );
+            }
+        }
+    }
     // Noise: within its bound of the smooth values, not all zero, the same each time.
     let noisy = read(
         "noisy.ome.zarr",
@@ -1219,7 +1253,8 @@ fn convert_upsample_interpolates_the_input_onto_a_finer_grid() {
     let offsets: Vec<i32> = noisy.iter().zip(&finer).map(|(n, s)| n - s).collect();
     assert!(offsets.iter().all(|o| o.abs() <= 5), "within ±4, rounded");
     assert!(offsets.iter().filter(|&&o| o != 0).count() > offsets.len() / 2);
-    // Refused: a zero factor, noise without upsampling, upsampled tiles.
+    // Refused: a zero factor, noise without upsampling, upsampled tiles, upsampled labels
+    // (interpolation would invent ids).
     for (name, options, named) in [
         ("zero.ome.zarr", &["--upsample", "0"][..], "--upsample"),
         ("noise.ome.zarr", &["--noise", "1"][..], "--upsample"),

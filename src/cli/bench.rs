@@ -62,7 +62,7 @@ pub struct BenchArgs {
     pub stream_options: StreamArgs,
     /// With --stream: draw the orbits' frames at most F a second, as a display does (60: a
     /// full turn of 200 frames in 3.3 s); 0 draws each as soon as the last is done.
-    #[arg(long, value_name = "F", default_value_t = 0.0, value_parser = parse_orbit_fps)]
+    #[arg(long, value_name = "F", default_value_t = 0.0, value_parser = parse_orbit_fps, requires = "stream")]
     pub orbit_fps: f64,
     /// Also time the composite of channels: the volume as N channels (each a copy, its own
     /// table and color) for each N listed (1 to 8), DVR and MIP, renderer `composite`.
@@ -70,12 +70,12 @@ pub struct BenchArgs {
     pub composite_channels: Option<Vec<usize>>,
 }
 
-/// Frames a second for --orbit-fps: 0 (unpaced) or up to 1000.
+/// Frames a second for --orbit-fps: 0 (unpaced), or from 1 up to 1000.
 fn parse_orbit_fps(text: &str) -> Result<f64, String> {
     match text.parse::<f64>() {
-        Ok(fps) if (0.0..=1000.0).contains(&fps) => Ok(fps),
+        Ok(fps) if fps == 0.0 || (1.0..=1000.0).contains(&fps) => Ok(fps),
         _ => Err(format!(
-            "frame rate '{text}' is not a number from 0 to 1000"
+            "frame rate '{text}' is not 0 or a number from 1 to 1000"
         )),
     }
 }

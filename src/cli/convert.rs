@@ -64,8 +64,8 @@ pub struct ConvertArgs {
     /// Interpolate the input (trilinear) onto a grid N times finer along each axis, or X, Y
     /// and Z times (large test volumes from real data that, unlike tiles, repeat nothing; the
     /// input is held in memory, the output written slab by slab). The spacing becomes as much
-    /// finer.
-    #[arg(long, value_name = "N|X,Y,Z", value_parser = parse_copies, conflicts_with = "tile")]
+    /// finer. Not for labels (interpolation would invent ids).
+    #[arg(long, value_name = "N|X,Y,Z", value_parser = parse_copies, conflicts_with_all = ["tile", "labels"])]
     pub upsample: Option<[usize; 3]>,
     /// With --upsample: add to each voxel a uniform value in ±NOISE (the data's units), fixed
     /// by the voxel's place, so that the finer grid is not smooth.

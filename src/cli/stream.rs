@@ -11,8 +11,9 @@ use voxscope_stream::{StreamOptions, UploadPath};
 /// The streaming renderer's budgets (`--renderer stream`, `bench --stream`).
 #[derive(Debug, Clone, Args)]
 pub struct StreamArgs {
-    /// Streaming renderer: GPU memory for everything it holds (the brick atlas, page table and
-    /// request buffers), e.g. 2GiB or 512MiB; bounded by the GPU's largest 3D texture.
+    /// Streaming renderer: GPU memory for everything it holds (the brick atlas, page table,
+    /// request buffers and the uploads' staging), e.g. 2GiB or 512MiB; bounded by the GPU's
+    /// largest 3D texture.
     #[arg(long, value_name = "SIZE", default_value = "1GiB", value_parser = parse_bytes)]
     pub gpu_memory: u64,
     /// Streaming renderer: decoded bricks kept in RAM.

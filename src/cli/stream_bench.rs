@@ -145,6 +145,9 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
         .into_iter()
         .map(|(name, bytes)| (name.to_owned(), bytes.into()))
         .collect();
+    // The path the uploads took: a device that cannot write the atlas's format from a shader
+    // copies instead.
+    let upload_path = renderer.stream().map(|volume| volume.upload_path());
     drop(renderer);
 
     // Near stopped views, DVR and MIP, each from a cold start: where a view's bricks outgrow
@@ -209,6 +212,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
         let mut uploaded = 0u64;
         let mut preempted_ms = Vec::new();
         let mut phases: Vec<UpdatePhases> = Vec::new();
+        let turn_started = Instant::now();
         let gpu = time_passes(&context, timer.as_ref(), args.frames, |i, writes| {
             let started = Instant::now();
             let runnable = runnable_seconds();
@@ -246,6 +250,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
             }
         })
         .map_err(|e| e.to_string())?;
+        let turn_seconds = turn_started.elapsed().as_secs_f64();
         let status = renderer.update(&context).expect("a streaming renderer");
         // The waits beyond the frames' own passes (the uploads' copies, mostly), per byte.
         let beyond_pass_s = (wait_ms.iter().sum::<f64>() - gpu.iter().sum::<f64>()) / 1e3;
@@ -254,6 +259,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
             "camera": camera_name,
             "frames": args.frames,
             "turn_degrees": 360,
+            "turn_seconds": turn_seconds,
             "paced_fps": (args.orbit_fps > 0.0).then_some(args.orbit_fps),
             "gpu_ms": summary(&gpu),
             "wall_ms": summary(&wall),
@@ -308,7 +314,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
             "gpu_memory": options.gpu_memory,
             "ram_cache": options.ram_cache,
             "upload_bytes_per_frame": options.upload_bytes_per_frame,
-            "uploads": format!("{:?}", options.uploads),
+            "uploads": upload_path.map(|path| format!("{path:?}")),
             "lod_scale": options.lod_scale,
             "workers": options.workers,
             "prefetch": options.prefetch,

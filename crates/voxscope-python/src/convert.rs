@@ -19,8 +19,8 @@ use crate::opened::spec_of;
 /// Writes `source` (a path or URL voxscope opens, a `voxscope.Volume`, or a numpy array (z,
 /// y, x) with `spacing=` in the same order) as the OME-Zarr image `output`, which must not
 /// exist. Options are `voxscope convert`'s: `format` ("0.4" or "0.5"), `chunk`, `shard`,
-/// `compression`, `labels`, `unit`, `tile`, `upsample`, `noise`, and for a path `raw`, `spacing`, `channel`,
-/// `time`, `max_requests`. Returns each level's shape (z, y, x), finest first.
+/// `compression`, `labels`, `unit`, `tile`, `upsample`, `noise`, and for a path `raw`,
+/// `spacing`, `channel`, `time`, `max_requests`. Returns each level's shape (z, y, x), finest first.
 #[pyfunction]
 #[pyo3(signature = (source, output, **options))]
 pub fn convert(

@@ -2,6 +2,12 @@
 //! atlas (`atlas_scatter.wgsl`), one per atlas texel format and device, where the device can
 //! write that format from a shader ([`GpuContext::atlas_scatter`]). The staging ring lays the
 //! bricks out for it and records its dispatch (`staging_ring.rs`).
+//!
+//! A normalized texel `n` is stored as `n / 255` (or `/ 65535`), which the store converts back
+//! to `n` where it rounds to nearest (Vulkan says it should). A half-float texel goes through
+//! 32 bits exactly; a device that flushed half subnormals would store those below 2⁻¹⁴ as 0.
+//! lavapipe and the H200 keep every texel: the staging ring's test compares the atlas byte for
+//! byte in all three formats, subnormals included.
 
 use super::GpuContext;
 use super::pipeline::{compute_pipeline, storage_entry};
@@ -28,10 +34,11 @@ impl AtlasScatter {
                 "atlas_scatter_r16unorm",
                 super::shaders::ATLAS_SCATTER_R16UNORM,
             ),
-            _ => (
+            wgpu::TextureFormat::R16Float => (
                 "atlas_scatter_r16float",
                 super::shaders::ATLAS_SCATTER_R16FLOAT,
             ),
+            other => unreachable!("no scatter shader for {other:?}: FORMATS lists those with one"),
         };
         let (pipeline, layout) = compute_pipeline(
             context,

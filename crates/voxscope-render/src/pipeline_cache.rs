@@ -30,7 +30,7 @@ pub(crate) struct PipelineCache {
     stream_raycaster: OnceLock<StreamRaycaster>,
     composite_raycaster: OnceLock<CompositeRaycaster>,
     /// Per format of [`atlas_scatter::FORMATS`].
-    atlas_scatter: [OnceLock<AtlasScatter>; 3],
+    atlas_scatter: [OnceLock<AtlasScatter>; atlas_scatter::FORMATS.len()],
     /// Compute pipelines built with this device so far.
     built: AtomicUsize,
 }

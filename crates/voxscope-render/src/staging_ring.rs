@@ -6,7 +6,8 @@
 //!
 //! Two layouts. Where the device can write the atlas's texel format from a shader (every
 //! desktop GPU we met, and lavapipe), each brick is staged whole after the last, behind the
-//! frame's [`BrickPlacement`]s: one copy takes them to a buffer on the GPU and one dispatch of
+//! frame's [`BrickPlacement`]s: two copies (placements, bricks) take them to a buffer on the GPU
+//! and one dispatch of
 //! `atlas_scatter.wgsl` writes every texel into its cell. Elsewhere, bricks are copied into
 //! the atlas by copy commands: a copy's rows sit a multiple of 256 bytes apart
 //! (`COPY_BYTES_PER_ROW_ALIGNMENT`) and a brick's row is 34 texels (34 or 68 bytes), so the
@@ -100,7 +101,7 @@ pub(crate) struct Staged {
     pub dispatches: usize,
     /// Laying the bricks out and copying them into the mapped buffer (and unmapping it).
     pub staging_seconds: f64,
-    /// Recording their copies.
+    /// Recording their copies (and the dispatch that scatters them).
     pub record_seconds: f64,
 }
 
@@ -286,14 +287,20 @@ impl StagingRing {
         }
     }
 
+    /// Whether the ring's bricks are scattered into their cells by a dispatch (else copied).
+    pub(crate) fn scatters(&self) -> bool {
+        self.scatter.is_some()
+    }
+
     /// Bytes the ring holds on the GPU: the buffer a scattering ring's dispatch reads.
     pub(crate) fn gpu_bytes(&self) -> u64 {
         self.scatter.as_ref().map_or(0, |s| s.source.size())
     }
 
-    /// Records the copies of as many of `bricks` as the next mapped buffer's runs hold into
-    /// `atlas`, in `encoder`: which, and what that took. Call [`Self::submitted`] once the
-    /// encoder is submitted.
+    /// Records the uploads of as many of `bricks` as the next mapped buffer holds into
+    /// `encoder`: their copies into `atlas` run by run, or (a scattering ring) their copy to
+    /// the GPU and the dispatch that writes them into the atlas it was made with. Which were
+    /// staged, and what that took. Call [`Self::submitted`] once the encoder is submitted.
     pub(crate) fn stage(
         &mut self,
         encoder: &mut wgpu::CommandEncoder,
@@ -637,9 +644,12 @@ mod tests {
             .expect("a GPU adapter (lavapipe: mesa-vulkan-drivers, WGPU_BACKEND=vulkan)");
         let side = PADDED_BRICK as u32;
         let grid = [3u32, 2, 2];
-        // Two frames: five bricks (three cells in a run along x), then two more, one of them
-        // over a cell the first frame filled.
-        let frames: [&[(usize, [u32; 3])]; 2] = [
+        // Five frames through the three buffers (the first two mapped again and written a
+        // second time): five bricks (three cells in a run along x); one over a cell the first
+        // filled, while the GPU's staging still holds the first frame's later placements (a
+        // dispatch over more than this frame's bricks would write them again); then more,
+        // over cells already filled.
+        let frames: [&[(usize, [u32; 3])]; 5] = [
             &[
                 (0, [1, 0, 0]),
                 (1, [0, 1, 1]),
@@ -647,7 +657,10 @@ mod tests {
                 (3, [2, 1, 0]),
                 (4, [2, 0, 0]),
             ],
-            &[(5, [1, 0, 0]), (6, [1, 1, 1])],
+            &[(5, [0, 1, 1])],
+            &[(6, [1, 1, 1]), (7, [2, 0, 0])],
+            &[(8, [0, 0, 0])],
+            &[(9, [1, 0, 0]), (10, [2, 1, 1]), (11, [1, 1, 1])],
         ];
         for (format, bytes_per_texel) in [
             (wgpu::TextureFormat::R8Unorm, 1),
@@ -669,7 +682,7 @@ mod tests {
             // What the atlas holds after both frames.
             let row = size.width as usize * bytes_per_texel;
             let mut expected = vec![0u8; row * (size.height * size.depth_or_array_layers) as usize];
-            let bricks: Vec<Vec<u8>> = (0..7)
+            let bricks: Vec<Vec<u8>> = (0..12)
                 .map(|seed| numbered_brick(seed, bytes_per_texel))
                 .collect();
             for &(seed, cell) in frames.iter().flat_map(|f| f.iter()) {
@@ -701,8 +714,8 @@ mod tests {
                     StagingRing::new(&context, 8, bytes_per_texel as u32)
                 };
                 for frame in frames {
-                    // Wait for the ring's buffer to be mapped again (the app never does: it
-                    // writes through the queue meanwhile).
+                    // Wait for the ring's next buffer to be mapped again (the app never does:
+                    // it writes through the queue meanwhile).
                     context.wait_idle().expect("GPU");
                     let staged: Vec<StagedBrick<'_>> = frame
                         .iter()

@@ -168,19 +168,36 @@ impl StreamVolume {
             }),
             UploadPath::Copies | UploadPath::Queue => None,
         };
-        let scatter_bytes = scatter.map_or(0, |(_, (_, bytes))| bytes);
-        let grid = atlas_grid(
-            context,
-            options.gpu_memory,
-            scatter_bytes,
-            slot_bytes,
-            bricks,
-        )?;
         let quantization = source.quantization();
         let visible = visible_below(&transfer.lookup_table(quantization));
-        let (mut streamer, pinned) =
-            Streamer::new(Arc::clone(&source), grid, texels, options, visible)
-                .map_err(RenderError::DoesNotFit)?;
+        // The scatter's staging takes its bytes from the atlas; where the rest cannot hold the
+        // always-resident levels and a view, the ring copies instead (it needs none).
+        let (scatter, grid, mut streamer, pinned) = {
+            let scatter_bytes = scatter.map_or(0, |(_, (_, bytes))| bytes);
+            let attempt = atlas_grid(
+                context,
+                options.gpu_memory,
+                scatter_bytes,
+                slot_bytes,
+                bricks,
+            )
+            .and_then(|grid| {
+                Streamer::new(Arc::clone(&source), grid, texels, options, visible.clone())
+                    .map(|(streamer, pinned)| (grid, streamer, pinned))
+                    .map_err(RenderError::DoesNotFit)
+            });
+            match attempt {
+                Ok((grid, streamer, pinned)) => (scatter, grid, streamer, pinned),
+                Err(_) if scatter.is_some() => {
+                    let grid = atlas_grid(context, options.gpu_memory, 0, slot_bytes, bricks)?;
+                    let (streamer, pinned) =
+                        Streamer::new(Arc::clone(&source), grid, texels, options, visible)
+                            .map_err(RenderError::DoesNotFit)?;
+                    (None, grid, streamer, pinned)
+                }
+                Err(error) => return Err(error),
+            }
+        };
         let device = &context.device;
         let out_of_memory = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let size = wgpu::Extent3d {
@@ -257,7 +274,9 @@ impl StreamVolume {
                 "the GPU has no room for the streaming atlas: {error}"
             )));
         }
-        if ring.bricks_per_buffer() > 0 {
+        if ring.scatters() {
+            // A frame uploads no more than the ring's buffer holds: the rest would wait for
+            // queue writes, a GPU copy each (run 88).
             streamer.set_upload_ceiling(ring.bricks_per_buffer() as u64 * slot_bytes);
         }
         let mut volume = Self {
@@ -374,6 +393,18 @@ impl StreamVolume {
                 start as u64 * entry_bytes,
                 bytemuck::cast_slice(entries),
             );
+        }
+    }
+
+    /// The path its uploads take: [`UploadPath::Scatter`] only where the device writes the
+    /// atlas's format from a shader and the budget left room for the staging.
+    pub fn upload_path(&self) -> UploadPath {
+        if self.ring.scatters() {
+            UploadPath::Scatter
+        } else if self.ring.bricks_per_buffer() > 0 {
+            UploadPath::Copies
+        } else {
+            UploadPath::Queue
         }
     }
 

@@ -7,7 +7,7 @@ use std::time::Duration;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StreamOptions {
     /// GPU memory for everything the streaming renderer holds (atlas, page table, request and
-    /// usage buffers, lookup tables), in bytes (`--gpu-memory`). Default 1 GiB; never more
+    /// usage buffers, lookup tables, the uploads' staging on the GPU), in bytes (`--gpu-memory`). Default 1 GiB; never more
     /// than the device allows (its largest 3D texture bounds the atlas).
     pub gpu_memory: u64,
     /// Bytes of decoded bricks kept in RAM (`--ram-cache`). Default 2 GiB.
@@ -53,8 +53,9 @@ impl Default for StreamOptions {
 /// How a frame's bricks reach the atlas.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum UploadPath {
-    /// Through the staging ring (buffers mapped once), each brick whole after the last; one
-    /// copy takes them to the GPU and one compute dispatch writes them into their cells.
+    /// Through the staging ring (buffers mapped once), each brick whole after the last; two
+    /// copies (placements, bricks) take them to the GPU and one compute dispatch writes them
+    /// into their cells. A frame uploads no more than a ring buffer holds (16 MB).
     /// Where the device cannot write the atlas's texel format from a shader, as
     /// [`Self::Copies`].
     #[default]

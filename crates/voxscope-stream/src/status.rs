@@ -85,8 +85,8 @@ pub struct UploadParts {
     pub submit_seconds: f64,
     /// `Queue::write_texture` of the rest.
     pub queue_seconds: f64,
-    /// Bytes of the ring's copies the GPU timed (where it has timestamps), and the GPU's
-    /// seconds for them: the copies' own rate.
+    /// Bytes of the ring's uploads the GPU timed (where it has timestamps), and the GPU's
+    /// seconds for their copies and scatter: the GPU side's own rate.
     pub copy_timed_bytes: u64,
     pub copy_gpu_seconds: f64,
 }

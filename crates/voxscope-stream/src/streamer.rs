@@ -326,10 +326,11 @@ impl Streamer {
     }
 
     /// The most bytes one frame's uploads take through the renderer's staging (its ring
-    /// buffer: what does not fit goes a slower way). A frame uploads no more; at least one
-    /// brick.
+    /// buffer: what does not fit goes a slower way). A frame uploads no more, whether it moves
+    /// or stands still; at least one brick.
     pub fn set_upload_ceiling(&mut self, bytes: u64) {
         self.upload_ceiling = bytes.max(self.counters.slot_bytes);
+        self.counters.upload_allowance = self.counters.upload_allowance.min(self.upload_ceiling);
     }
 
     /// Whether the view is where it was a frame ago (its motion is known and nothing).
@@ -372,7 +373,9 @@ impl Streamer {
             return;
         }
         let allowance = (UPLOAD_SECONDS_PER_FRAME / per_byte) as u64;
-        self.counters.upload_allowance = allowance.max(self.counters.slot_bytes);
+        self.counters.upload_allowance = allowance
+            .min(self.upload_ceiling)
+            .max(self.counters.slot_bytes);
     }
 
     /// The pyramid's shape.
