@@ -12,12 +12,8 @@ set -uo pipefail
 started=$SECONDS
 RUN=${1:-run66}
 D=.bench
-for deb in .gl/*.deb; do dpkg -x "$deb" /; done
-ldconfig
-export WGPU_BACKEND=vulkan
-if [ ! -e /usr/share/vulkan/icd.d/nvidia_icd.json ]; then
-    export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
-fi
+# shellcheck source=docs/bench/device-setup.sh
+source docs/bench/device-setup.sh
 BINS=${BINS:-voxscope-base voxscope}
 for bin in $BINS; do gunzip -kf $D/$bin.gz && chmod +x $D/$bin; done
 OUTDIR=${OUT:-/tmp/out}; mkdir -p "$OUTDIR"

@@ -13,12 +13,8 @@ set -uo pipefail
 started=$SECONDS
 D=.bench
 RUN=${1:-run88}
-for deb in .gl/*.deb; do dpkg -x "$deb" /; done
-ldconfig
-export WGPU_BACKEND=vulkan
-if [ ! -e /usr/share/vulkan/icd.d/nvidia_icd.json ]; then
-    export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
-fi
+# shellcheck source=docs/bench/device-setup.sh
+source docs/bench/device-setup.sh
 gunzip -kf $D/voxscope.gz && chmod +x $D/voxscope
 OUTDIR=/tmp/$RUN
 mkdir -p "$OUTDIR"

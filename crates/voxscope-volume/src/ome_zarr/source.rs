@@ -75,6 +75,23 @@ fn interpolation_weights(n: usize, factor: usize, count: usize) -> Vec<(usize, u
         .collect()
 }
 
+/// Slices `z0..z0 + count` of a `dims` grid, each filled by `fill(z, slice)`, slice by slice in
+/// parallel (a 4096² slab is gigabytes, which one thread wrote, and faulted in, while the
+/// others waited).
+fn slices_in_parallel<T: Default + Clone + Send>(
+    dims: [usize; 3],
+    z0: usize,
+    count: usize,
+    fill: impl Fn(usize, &mut [T]) + Sync,
+) -> Vec<T> {
+    let plane = dims[0] * dims[1];
+    let mut out = vec![T::default(); plane * count];
+    out.par_chunks_mut(plane)
+        .enumerate()
+        .for_each(|(i, slice)| fill(z0 + i, slice));
+    out
+}
+
 /// A value in [-1, 1) fixed by `index` (SplitMix64's finalizer).
 fn unit_noise(index: u64) -> f64 {
     let mut z = index.wrapping_add(0x9e37_79b9_7f4a_7c15);
@@ -142,26 +159,44 @@ impl SlabSource {
         matches!(self.input, Input::Raw { .. } | Input::Slices(_))
     }
 
+    /// The dimensions `counts` times the input's along x, y and z, for `option` (`--tile`,
+    /// `--upsample`, whose counts are `noun`): only of an input held in memory, and within
+    /// [`MAX_AXIS`] voxels per axis.
+    fn multiplied_dims(
+        &self,
+        option: &str,
+        counts: [usize; 3],
+        noun: &str,
+    ) -> Result<[usize; 3], LoadError> {
+        if !matches!(self.input, Input::Memory(_)) {
+            return Err(LoadError::new(
+                &self.name,
+                format!(
+                    "{option} needs an input that is loaded whole (not raw, raw NRRD, slices or tiles)"
+                ),
+            ));
+        }
+        let dims: [usize; 3] = std::array::from_fn(|a| self.dims[a].saturating_mul(counts[a]));
+        if counts.contains(&0) || dims.iter().any(|&d| d > MAX_AXIS) {
+            return Err(LoadError::new(
+                &self.name,
+                format!(
+                    "{option} {}: {noun} from 1 up to {MAX_AXIS} voxels per axis",
+                    format_dims(counts)
+                ),
+            ));
+        }
+        Ok(dims)
+    }
+
     /// The input repeated `copies` times along x, y and z (`convert --tile`): large test
     /// volumes with the structure of real data, written slab by slab (only the input is held
     /// in memory). Refused for inputs read slab by slab from the file.
     pub fn tiled(self, copies: [usize; 3]) -> Result<Self, LoadError> {
+        let dims = self.multiplied_dims("--tile", copies, "copies")?;
         let Input::Memory(data) = self.input else {
-            return Err(LoadError::new(
-                &self.name,
-                "--tile needs an input that is loaded whole (not raw, raw NRRD or slices)",
-            ));
+            unreachable!("multiplied_dims refuses inputs not held in memory");
         };
-        let dims: [usize; 3] = std::array::from_fn(|a| self.dims[a].saturating_mul(copies[a]));
-        if copies.contains(&0) || dims.iter().any(|&d| d > MAX_AXIS) {
-            return Err(LoadError::new(
-                &self.name,
-                format!(
-                    "--tile {}: copies from 1 up to {MAX_AXIS} voxels per axis",
-                    format_dims(copies)
-                ),
-            ));
-        }
         Ok(Self {
             dims,
             input: Input::Tiled {
@@ -177,28 +212,16 @@ impl SlabSource {
     /// ±`noise` (in the data's units) fixed by its place: large test volumes from real data
     /// that, unlike tiles, repeat nothing. For inputs loaded whole.
     pub fn upsampled(self, factor: [usize; 3], noise: f64) -> Result<Self, LoadError> {
-        let Input::Memory(data) = self.input else {
-            return Err(LoadError::new(
-                &self.name,
-                "--upsample needs an input that is loaded whole (not raw, raw NRRD, slices or tiles)",
-            ));
-        };
-        let dims: [usize; 3] = std::array::from_fn(|a| self.dims[a].saturating_mul(factor[a]));
-        if factor.contains(&0) || dims.iter().any(|&d| d > MAX_AXIS) {
-            return Err(LoadError::new(
-                &self.name,
-                format!(
-                    "--upsample {}: factors from 1 up to {MAX_AXIS} voxels per axis",
-                    format_dims(factor)
-                ),
-            ));
-        }
+        let dims = self.multiplied_dims("--upsample", factor, "factors")?;
         if !(noise.is_finite() && noise >= 0.0) {
             return Err(LoadError::new(
                 &self.name,
                 format!("--noise {noise}: a value from 0 up"),
             ));
         }
+        let Input::Memory(data) = self.input else {
+            unreachable!("multiplied_dims refuses inputs not held in memory");
+        };
         Ok(Self {
             dims,
             spacing: std::array::from_fn(|a| self.spacing[a] / factor[a] as f64),
@@ -362,23 +385,15 @@ impl SlabSource {
                     z0: usize,
                     count: usize,
                 ) -> VoxelData {
-                    // Slice by slice in parallel: a 4096² slab is gigabytes, which one
-                    // thread copied (and faulted in) while the others waited.
-                    let plane = dims[0] * dims[1];
-                    let mut out = vec![T::default(); plane * count];
-                    out.par_chunks_mut(plane)
-                        .enumerate()
-                        .for_each(|(i, slice)| {
-                            let z = z0 + i;
-                            for (y, line) in slice.chunks_exact_mut(dims[0]).enumerate() {
-                                let row = tile[0] * ((y % tile[1]) + tile[1] * (z % tile[2]));
-                                let row = &values[row..row + tile[0]];
-                                for copy in line.chunks_exact_mut(tile[0]) {
-                                    copy.copy_from_slice(row);
-                                }
+                    T::wrap(slices_in_parallel(dims, z0, count, |z, slice| {
+                        for (y, line) in slice.chunks_exact_mut(dims[0]).enumerate() {
+                            let row = tile[0] * ((y % tile[1]) + tile[1] * (z % tile[2]));
+                            let row = &values[row..row + tile[0]];
+                            for copy in line.chunks_exact_mut(tile[0]) {
+                                copy.copy_from_slice(row);
                             }
-                        });
-                    T::wrap(out)
+                        }
+                    }))
                 }
                 let (tile, dims) = (*tile, self.dims);
                 Ok(with_voxel_slice!(&*data, values => repeat(values, tile, dims, z0, count)))
@@ -405,34 +420,25 @@ impl SlabSource {
                     let at = |x: usize, y: usize, z: usize| {
                         values[x + from[0] * (y + from[1] * z)].to_f64()
                     };
-                    let plane = dims[0] * dims[1];
-                    let mut out = vec![T::default(); plane * count];
-                    out.par_chunks_mut(plane)
-                        .enumerate()
-                        .for_each(|(i, slice)| {
-                            let z = z0 + i;
-                            let (z_low, z_high, wz) = zs[z];
-                            for (y, line) in slice.chunks_exact_mut(dims[0]).enumerate() {
-                                let (y_low, y_high, wy) = ys[y];
-                                for (x, voxel) in line.iter_mut().enumerate() {
-                                    let (x_low, x_high, wx) = xs[x];
-                                    let along_x =
-                                        |y, z| at(x_low, y, z) * (1.0 - wx) + at(x_high, y, z) * wx;
-                                    let along_y = |z| {
-                                        along_x(y_low, z) * (1.0 - wy) + along_x(y_high, z) * wy
-                                    };
-                                    let mut value =
-                                        along_y(z_low) * (1.0 - wz) + along_y(z_high) * wz;
-                                    if noise > 0.0 {
-                                        let index = x + dims[0] * (y + dims[1] * z);
-                                        value += noise * unit_noise(index as u64);
-                                    }
-                                    *voxel =
-                                        T::from_f64(if integer { value.round() } else { value });
+                    T::wrap(slices_in_parallel(dims, z0, count, |z, slice| {
+                        let (z_low, z_high, wz) = zs[z];
+                        for (y, line) in slice.chunks_exact_mut(dims[0]).enumerate() {
+                            let (y_low, y_high, wy) = ys[y];
+                            for (x, voxel) in line.iter_mut().enumerate() {
+                                let (x_low, x_high, wx) = xs[x];
+                                let along_x =
+                                    |y, z| at(x_low, y, z) * (1.0 - wx) + at(x_high, y, z) * wx;
+                                let along_y =
+                                    |z| along_x(y_low, z) * (1.0 - wy) + along_x(y_high, z) * wy;
+                                let mut value = along_y(z_low) * (1.0 - wz) + along_y(z_high) * wz;
+                                if noise > 0.0 {
+                                    let index = x + dims[0] * (y + dims[1] * z);
+                                    value += noise * unit_noise(index as u64);
                                 }
+                                *voxel = T::from_f64(if integer { value.round() } else { value });
                             }
-                        });
-                    T::wrap(out)
+                        }
+                    }))
                 }
                 let (from, factor, noise, dims) = (*from, *factor, *noise, self.dims);
                 Ok(
