@@ -60,13 +60,14 @@ const fn keyword(name: &'static str, form: Form) -> Keyword {
 pub const TRANSFER_CHOICE: [&str; 4] = ["opacity", "opacity_points", "preset", "tf"];
 
 /// Keywords fixed when a [`crate::renderer::Renderer`] is made (they choose what is uploaded).
-pub const STRUCTURAL: [&str; 6] = [
+pub const STRUCTURAL: [&str; 7] = [
     "renderer",
     "brick_size",
     "gpu_memory",
     "ram_cache",
     "upload_budget",
     "lod_scale",
+    "uploads",
 ];
 
 /// Keywords that change neither the transfer function nor the channels' tables.
@@ -110,6 +111,7 @@ pub const RENDER: &[Keyword] = &[
     keyword("gpu_memory", Form::Value),
     keyword("ram_cache", Form::Value),
     keyword("upload_budget", Form::Value),
+    keyword("uploads", Form::Value),
     keyword("lod_scale", Form::Value),
     keyword("max_wait", Form::Value),
     keyword("size", Form::Pair("x")),

@@ -232,7 +232,8 @@ impl Renderer {
     /// Uploads `data` to the GPU once for frame after frame. `data`: a numpy array (z, y, x)
     /// (channels and time as leading axes), a `voxscope.Volume`, or a path or URL. Options:
     /// every keyword of `render()`; `renderer`, `brick_size`, `gpu_memory`, `ram_cache`,
-    /// `upload_budget` and `lod_scale` are fixed here, the rest are each frame's defaults.
+    /// `upload_budget`, `lod_scale` and `uploads` are fixed here, the rest are each frame's
+    /// defaults.
     #[new]
     #[pyo3(signature = (data, **options))]
     fn new(

@@ -50,6 +50,7 @@ class RenderOptions(TypedDict, total=False):
     ram_cache: _Bytes
     upload_budget: _Bytes
     lod_scale: float
+    uploads: Literal["scatter", "copies", "queue"]
     max_wait: float
     size: Union[Tuple[int, int], str]
     azimuth: float
