@@ -72,6 +72,9 @@ pub struct StreamVolume {
     readbacks: Vec<Readback>,
     /// Where uploads are staged on their way into the atlas.
     ring: StagingRing,
+    /// The always-resident levels' bricks, read when the volume was made and written by the
+    /// first [`Self::step`].
+    unwritten: Vec<Upload>,
     /// The GPU's time for the ring's copies (where it has timestamps).
     copy_timer: Option<CopyTimer>,
     /// Whether a frame was drawn since the last update (its requests are then read back).
@@ -135,7 +138,10 @@ fn visible_below(table: &[u32]) -> Vec<u32> {
 
 impl StreamVolume {
     /// Allocates the atlas and buffers within `options.gpu_memory` and reads the coarsest
-    /// levels (always resident) into it.
+    /// levels (always resident), which the first [`Self::step`] writes into it. Nothing is
+    /// submitted here, so that a thread other than the one drawing can make it: a submission
+    /// from another thread while egui-wgpu configures its surface fails the configuration
+    /// (wgpu waits for an empty queue), which panicked the app opening a store at start.
     pub fn new(
         context: &GpuContext,
         source: Arc<dyn BrickSource>,
@@ -279,7 +285,7 @@ impl StreamVolume {
             // queue writes, a GPU copy each (run 88).
             streamer.set_upload_ceiling(ring.bricks_per_buffer() as u64 * slot_bytes);
         }
-        let mut volume = Self {
+        let volume = Self {
             streamer,
             atlas,
             atlas_view,
@@ -297,8 +303,8 @@ impl StreamVolume {
             view: Mutex::new(None),
             max_projection: AtomicBool::new(false),
             spacing: source.spacing(),
+            unwritten: pinned,
         };
-        volume.write(context, &pinned);
         Ok(volume)
     }
 
@@ -413,6 +419,10 @@ impl StreamVolume {
     /// next frame. Call once per displayed frame, before drawing it ([`Renderer::update`]
     /// does).
     pub fn step(&mut self, context: &GpuContext) -> StreamStatus {
+        if !self.unwritten.is_empty() {
+            let unwritten = std::mem::take(&mut self.unwritten);
+            self.write(context, &unwritten);
+        }
         let reading = Instant::now();
         let _ = context.device.poll(wgpu::PollType::Poll);
         if let Some(timer) = self.copy_timer.as_mut() {
