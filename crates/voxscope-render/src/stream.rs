@@ -178,32 +178,24 @@ impl StreamVolume {
         let visible = visible_below(&transfer.lookup_table(quantization));
         // The scatter's staging takes its bytes from the atlas; where the rest cannot hold the
         // always-resident levels and a view, the ring copies instead (it needs none).
-        let (scatter, grid, mut streamer, pinned) = {
-            let scatter_bytes = scatter.map_or(0, |(_, (_, bytes))| bytes);
-            let attempt = atlas_grid(
+        let fit = |staging_bytes: u64| -> Result<_, RenderError> {
+            let grid = atlas_grid(
                 context,
                 options.gpu_memory,
-                scatter_bytes,
+                staging_bytes,
                 slot_bytes,
                 bricks,
-            )
-            .and_then(|grid| {
+            )?;
+            let (streamer, pinned) =
                 Streamer::new(Arc::clone(&source), grid, texels, options, visible.clone())
-                    .map(|(streamer, pinned)| (grid, streamer, pinned))
-                    .map_err(RenderError::DoesNotFit)
-            });
-            match attempt {
-                Ok((grid, streamer, pinned)) => (scatter, grid, streamer, pinned),
-                Err(_) if scatter.is_some() => {
-                    let grid = atlas_grid(context, options.gpu_memory, 0, slot_bytes, bricks)?;
-                    let (streamer, pinned) =
-                        Streamer::new(Arc::clone(&source), grid, texels, options, visible)
-                            .map_err(RenderError::DoesNotFit)?;
-                    (None, grid, streamer, pinned)
-                }
-                Err(error) => return Err(error),
-            }
+                    .map_err(RenderError::DoesNotFit)?;
+            Ok((grid, streamer, pinned))
         };
+        let (scatter, (grid, mut streamer, pinned)) =
+            match scatter.map(|scatter| (scatter, fit(scatter.1.1))) {
+                Some((scatter, Ok(fitted))) => (Some(scatter), fitted),
+                _ => (None, fit(0)?),
+            };
         let device = &context.device;
         let out_of_memory = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let size = wgpu::Extent3d {

@@ -7,8 +7,9 @@ use std::time::Duration;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StreamOptions {
     /// GPU memory for everything the streaming renderer holds (atlas, page table, request and
-    /// usage buffers, lookup tables, the uploads' staging on the GPU), in bytes (`--gpu-memory`). Default 1 GiB; never more
-    /// than the device allows (its largest 3D texture bounds the atlas).
+    /// usage buffers, lookup tables, the uploads' staging on the GPU), in bytes
+    /// (`--gpu-memory`). Default 1 GiB; never more than the device allows (its largest 3D
+    /// texture bounds the atlas).
     pub gpu_memory: u64,
     /// Bytes of decoded bricks kept in RAM (`--ram-cache`). Default 2 GiB.
     pub ram_cache: u64,
