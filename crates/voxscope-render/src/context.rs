@@ -112,14 +112,10 @@ impl GpuContext {
                             .contains(wgpu::TextureUsages::STORAGE_BINDING)
                         && format.required_features().difference(features).is_empty()
                 };
-                [
-                    wgpu::TextureFormat::R8Unorm,
-                    wgpu::TextureFormat::R16Unorm,
-                    wgpu::TextureFormat::R16Float,
-                ]
-                .into_iter()
-                .filter(|&format| writable(format))
-                .collect()
+                super::atlas_scatter::FORMATS
+                    .into_iter()
+                    .filter(|&format| writable(format))
+                    .collect()
             } else {
                 Vec::new()
             };
