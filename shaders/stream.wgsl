@@ -285,7 +285,10 @@ struct RayResult {
 // One ray through the pyramid. One flat loop: each iteration starts a segment where the last
 // one ended (looking its brick up and skipping or compositing what needs no marching at once),
 // then marches a batch pair of the current segment's samples, so a warp's lanes never wait for
-// each other at nested loops' ends (the grid walk's lesson, raycast.wgsl).
+// each other at nested loops' ends (the grid walk's lesson, raycast.wgsl). While the ray wants
+// the same level from one brick to the next, it steps through that level's grid of bricks as
+// the grid walk does (Amanatides & Woo), each brick's page-table entry read a segment ahead;
+// where the level it wants changes, it finds the brick from the ray's point.
 fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, jitter: f32) -> RayResult {
     var result = RayResult(vec3<f32>(0.0), 0u, -1.0);
     let inv = safe_inverse(dir);
@@ -316,7 +319,8 @@ fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, jitter: f32)
     var k = 0.0;
     var k_level = 0xffffffffu;
     var exponent = 1.0;
-    var scale = vec3<f32>(1.0);
+    // The ray's origin in the level's voxels.
+    var origin_level = origin;
     var atlas_here = vec3<f32>(0.0);
     var atlas_dir = vec3<f32>(0.0);
     var brick_max = 0u;
@@ -325,30 +329,40 @@ fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, jitter: f32)
     var usage_slot = 0u;
     var usage_pending = 0u;
     var usage_seen = 0xffffffffu;
-    // The next brick's key and page-table entry, read ahead (`EMPTY_KEY`: none).
+    // The next brick along the ray at the level of the current one (which is also the level
+    // drawn): its key (`EMPTY_KEY`: none, the next segment finds its brick from the ray's
+    // point), its page-table entry read ahead from its home slot, its cell and the distances
+    // where the ray leaves it across each axis' planes.
     var next_key = EMPTY_KEY;
     var next_entry = vec4<u32>(EMPTY_KEY, 0u, 0u, 0u);
     var next_cell = vec3<u32>(0u);
-    var next_out = 0.0;
+    var next_exits = vec3<f32>(0.0);
     for (var i = 0u; i < MAX_STEPS; i++) {
         if !marching {
             if t >= t_leave {
                 break;
             }
             let ahead = max(nudge, abs(t) * 5e-7);
-            let p = origin + (t + ahead) * dir;
-            let wanted = wanted_level(max(t, 0.0), lod_per_t);
-            let cell = brick_of(wanted, p);
-            let side = BRICK * stream.level_scale[wanted].xyz;
-            let far = (vec3<f32>(cell) + select(vec3<f32>(0.0), vec3<f32>(1.0), positive)) * side;
-            let exits = (far - origin) * inv;
+            // The segment's brick: the one read ahead, else the one of the wanted level at
+            // the ray's point.
+            var wanted = k_level;
+            var cell = next_cell;
+            var exits = next_exits;
+            var key = next_key;
+            var entry = next_entry;
+            if key == EMPTY_KEY {
+                let p = origin + (t + ahead) * dir;
+                wanted = wanted_level(max(t, 0.0), lod_per_t);
+                cell = brick_of(wanted, p);
+                let side = BRICK * stream.level_scale[wanted].xyz;
+                let far = (vec3<f32>(cell) + select(vec3<f32>(0.0), vec3<f32>(1.0), positive)) * side;
+                exits = (far - origin) * inv;
+                key = brick_key(wanted, cell);
+            }
             // (At least `ahead` past t, whatever the rounding: every segment moves the ray on.)
             let t_out = max(min(min_component(exits), t_leave), t + ahead);
-            let key = brick_key(wanted, cell);
-            // The entry read while the last brick was marched, if it is this brick's (its home
-            // slot held it); else the lookup.
-            var entry = next_entry;
-            if next_key != key || entry[TABLE_KEY] != key {
+            // The entry read ahead, if its home slot held it; else the lookup.
+            if entry[TABLE_KEY] != key {
                 entry = table_lookup(key);
             }
             next_key = EMPTY_KEY;
@@ -372,6 +386,7 @@ fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, jitter: f32)
             if !skip && (entry[TABLE_KEY] != key || !drawable(entry)) {
                 // The finest coarser level the table has here.
                 skip = true;
+                let p = origin + (t + ahead) * dir;
                 for (var l = wanted + 1u; l < stream.level_count; l++) {
                     let c = brick_of(l, p);
                     let k2 = brick_key(l, c);
@@ -390,21 +405,46 @@ fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, jitter: f32)
                 skip = !entry_visible(entry, acc.running_max);
             }
             // The samples of the level drawn: t_enter + (k + jitter)·step, k continuing while
-            // the level stays the same.
-            scale = stream.level_scale[level].xyz;
-            step = 1.0 / max(length(dir / scale), 1e-20);
+            // the level stays the same; what depends on the level only, worked out when it
+            // changes.
             if level != k_level {
+                let scale = stream.level_scale[level].xyz;
+                origin_level = origin / scale;
+                step = 1.0 / max(length(dir / scale), 1e-20);
+                // (Exactly 1 for level-0 voxels, as the bricks renderer's: the product's
+                // rounding would otherwise cost a `pow` per sample.)
+                exponent = select(1.0, step * voxels_per_t, correct && any(scale != vec3<f32>(1.0)));
+                atlas_dir = dir / scale * params.atlas_texel.xyz;
                 k = max(ceil((t - t_enter) / step - 0.5 - shift), 0.0);
                 k_level = level;
             }
-            let end = max(ceil((t_out - t_enter) / step - 0.5 - shift), k);
-            exponent = select(1.0, step * voxels_per_t, correct);
-            if skip {
-                k = end;
-                t = t_out;
-            } else if (entry[TABLE_CELL] & ENTRY_RESIDENT) == 0u {
-                accumulate_run(&acc, entry[TABLE_RANGE] & 0xffffu, end - k,
-                               t_enter + (k + 0.5 + shift) * step, step, exponent);
+            // The next brick at this level, where the ray wants this level there too: its
+            // entry read now, so that its latency hides behind this segment (the grid walk's
+            // prefetch, raycast.wgsl).
+            if level == wanted && t_out < t_leave && wanted_level(t_out, lod_per_t) == wanted {
+                var axis = 2u;
+                if exits.x <= exits.y && exits.x <= exits.z {
+                    axis = 0u;
+                } else if exits.y <= exits.z {
+                    axis = 1u;
+                }
+                var next = vec3<i32>(cell);
+                next[axis] += select(-1, 1, positive[axis]);
+                let grid = vec3<i32>(stream.level_grid[wanted].xyz);
+                if all(next >= vec3<i32>(0)) && all(next < grid) {
+                    next_cell = vec3<u32>(next);
+                    next_key = brick_key(wanted, next_cell);
+                    next_entry = page_table[table_hash(next_key) & stream.table_mask];
+                    next_exits = exits;
+                    next_exits[axis] += BRICK * stream.level_scale[wanted][axis] * abs(inv[axis]);
+                }
+            }
+            if skip || (entry[TABLE_CELL] & ENTRY_RESIDENT) == 0u {
+                let end = max(ceil((t_out - t_enter) / step - 0.5 - shift), k);
+                if !skip {
+                    accumulate_run(&acc, entry[TABLE_RANGE] & 0xffffu, end - k,
+                                   t_enter + (k + 0.5 + shift) * step, step, exponent);
+                }
                 k = end;
                 t = t_out;
             } else {
@@ -417,35 +457,10 @@ fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, jitter: f32)
                 let atlas_cell = vec3<u32>(packed & 0x3ffu, (packed >> 10u) & 0x3ffu,
                                            (packed >> 20u) & 0x3ffu);
                 let offset = vec3<f32>(atlas_cell * 34u) + 1.0 - vec3<f32>(used_cell) * BRICK;
-                atlas_here = (origin / scale + offset) * params.atlas_texel.xyz;
-                atlas_dir = dir / scale * params.atlas_texel.xyz;
+                atlas_here = (origin_level + offset) * params.atlas_texel.xyz;
                 segment_out = t_out;
                 brick_max = entry[TABLE_RANGE] >> 16u;
                 marching = true;
-                // Read the next brick's entry now (its home slot), so that its latency hides
-                // behind this brick's samples (the grid walk's prefetch, raycast.wgsl); where
-                // the ray wants the same level there and this brick is the wanted one, the last
-                // batch may go on into it.
-                if t_out < t_leave && level == wanted
-                    && wanted_level(t_out, lod_per_t) == wanted {
-                    var axis = 2u;
-                    if exits.x <= exits.y && exits.x <= exits.z {
-                        axis = 0u;
-                    } else if exits.y <= exits.z {
-                        axis = 1u;
-                    }
-                    var next = vec3<i32>(cell);
-                    next[axis] += select(-1, 1, positive[axis]);
-                    let grid = vec3<i32>(stream.level_grid[wanted].xyz);
-                    if all(next >= vec3<i32>(0)) && all(next < grid) {
-                        next_cell = vec3<u32>(next);
-                        next_key = brick_key(wanted, next_cell);
-                        next_entry = page_table[table_hash(next_key) & stream.table_mask];
-                        var next_exits = exits;
-                        next_exits[axis] += side[axis] * abs(inv[axis]);
-                        next_out = min(min_component(next_exits), t_leave);
-                    }
-                }
             }
         }
         if marching {
@@ -462,12 +477,13 @@ fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, jitter: f32)
                 if next_entry[TABLE_KEY] == next_key
                     && (next_entry[TABLE_CELL] & ENTRY_RESIDENT) != 0u
                     && entry_visible(next_entry, acc.running_max) {
+                    let next_out = min(min_component(next_exits), t_leave);
                     count = count_before(ts, next_out) + count_before(ts2, next_out);
                     let packed = next_entry[TABLE_CELL];
                     let next_atlas = vec3<u32>(packed & 0x3ffu, (packed >> 10u) & 0x3ffu,
                                                (packed >> 20u) & 0x3ffu);
                     let offset = vec3<f32>(next_atlas * 34u) + 1.0 - vec3<f32>(next_cell) * BRICK;
-                    atlas_next = (origin / scale + offset) * params.atlas_texel.xyz;
+                    atlas_next = (origin_level + offset) * params.atlas_texel.xyz;
                 }
             }
             if count > 0u {
@@ -486,10 +502,10 @@ fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, jitter: f32)
                 let frame = SampleFrame(atlas_here, atlas_next, segment_out, atlas_dir,
                                         half_texel, light);
                 var taken = accumulate_level(&acc, first, min(count, BATCH), ts, frame, exponent,
-                                             scale);
+                                             stream.level_scale[k_level].xyz);
                 if !acc.done && count > BATCH {
                     taken += accumulate_level(&acc, second, count - BATCH, ts2, frame, exponent,
-                                              scale);
+                                              stream.level_scale[k_level].xyz);
                 }
                 result.visited += taken;
                 k += f32(count);
