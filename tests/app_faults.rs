@@ -193,6 +193,12 @@ fn a_renderer_the_data_called_for_is_not_the_users_and_zoom_starts_over() {
         "{notice}"
     );
     assert_ne!(harness.state().settings.camera.distance, 0.6, "zoom reset");
+    // The status bar gives the volume's own size, and the coarser level the panels read.
+    let panels = harness.state().volume_data().expect("a volume").volume.dims;
+    assert!(panels[0] < 1040, "the panels' level: {panels:?}");
+    let [x, y, z] = panels;
+    harness.get_by_label_contains("1040×40×36 ");
+    harness.get_by_label_contains(&format!("streamed; panels at {x}×{y}×{z}"));
     // A small two-channel store opens as the composite of its channels, not streamed.
     let store =
         Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/ome-zarr/tczyx-v04.ome.zarr");

@@ -10,6 +10,7 @@ use super::dialogs::DialogKind;
 use super::jobs::Jobs;
 use super::settings::Panel;
 use super::settings::{AppSettings, Layout, Tool};
+use voxscope_render::VolumeShape;
 use voxscope_scene::{Scene, VolumeSource};
 
 /// How long a notice (`saved …`) stays in the status bar.
@@ -269,22 +270,38 @@ pub fn status_bar(
         {
             ui.add(egui::Label::new(text).truncate());
         } else if let Some(scene) = scene {
-            let volume = &scene.data.volume;
-            let description = format!(
-                "{} · {} · {}×{}×{} {} · spacing {:.3}×{:.3}×{:.3} · {}",
-                volume.name,
-                volume.format,
-                volume.dims[0],
-                volume.dims[1],
-                volume.dims[2],
-                volume.data.voxel_type().name(),
-                volume.spacing[0],
-                volume.spacing[1],
-                volume.spacing[2],
-                volume.orientation.describe(),
-            );
+            let description = volume_description(scene);
             ui.add(egui::Label::new(&description).truncate())
                 .on_hover_text(&description);
         }
     });
+}
+
+/// The volume on screen in a line: name, format, size, voxel type, spacing, orientation. A
+/// store streamed gives its own size and spacing; the level held in memory for the panels
+/// (histogram, slices, probe) follows where it is coarser.
+fn volume_description(scene: &Scene) -> String {
+    let volume = &scene.data.volume;
+    let (dims, spacing) = match scene.renderer.stream() {
+        Some(stream) => (stream.dims(), stream.spacing()),
+        None => (volume.dims, volume.spacing),
+    };
+    let mut description = format!(
+        "{} · {} · {}×{}×{} {} · spacing {:.3}×{:.3}×{:.3} · {}",
+        volume.name,
+        volume.format,
+        dims[0],
+        dims[1],
+        dims[2],
+        volume.data.voxel_type().name(),
+        spacing[0],
+        spacing[1],
+        spacing[2],
+        volume.orientation.describe(),
+    );
+    if dims != volume.dims {
+        let [x, y, z] = volume.dims;
+        description.push_str(&format!(" · streamed; panels at {x}×{y}×{z}"));
+    }
+    description
 }
