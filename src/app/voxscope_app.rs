@@ -27,7 +27,9 @@ use super::transfer_panel;
 use super::url_dialog::{UrlDialog, UrlOutcome};
 use super::view_state::{Clipping, ViewState};
 use voxscope_octree::{Clip, LevelStatistics, OpacityMode, TransferFunction};
-use voxscope_render::{Camera, FrameReport, GpuContext, RendererKind, RendererOptions};
+use voxscope_render::{
+    Camera, FrameReport, GpuContext, RendererKind, RendererOptions, VolumeShape,
+};
 use voxscope_scene::{FrameKey, Prefetch};
 use voxscope_scene::{Job, Opened, SceneError};
 use voxscope_scene::{SavedTransfer, TransferChoice};
@@ -524,10 +526,21 @@ impl VoxscopeApp {
             self.settings.compare_transfer = DEFAULT_COMPARE_TRANSFER;
         }
         let volume = &scene.data.volume;
+        // A streamed store: its own size, then the level held for the panels.
+        let streamed = scene.renderer.stream().map(|s| s.dims());
+        let dims = voxscope_volume::format_dims(streamed.unwrap_or(volume.dims));
+        let panels = match streamed {
+            Some(dims) if dims != volume.dims => {
+                format!(
+                    ", streamed; panels at {}",
+                    voxscope_volume::format_dims(volume.dims)
+                )
+            }
+            _ => String::new(),
+        };
         eprintln!(
-            "voxscope: opened {} ({}, octree depth {depth}, {} nodes) in {:.2} s",
+            "voxscope: opened {} ({dims}{panels}, octree depth {depth}, {} nodes) in {:.2} s",
             volume.name,
-            voxscope_volume::format_dims(volume.dims),
             scene.data.octree.nodes.len(),
             scene.data.load_seconds + scene.upload_seconds,
         );
