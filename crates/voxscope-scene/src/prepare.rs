@@ -13,9 +13,10 @@ use voxscope_volume::progress::Progress;
 use voxscope_volume::remote::RemoteOptions;
 use voxscope_volume::{MAX_CHANNELS, QuantizedVolume, Selection, ValueScale, Volume, VoxelData};
 
+use crate::scene::{OctreeColors, upload_colored};
 use crate::{
     ChannelState, CompositeScene, Scene, SceneError, TransferRequest, VolumeData, VolumeSource,
-    opening_transfer, upload,
+    opening_transfer,
 };
 
 /// Voxels of the level the app reads whole beside a streamed OME-Zarr store, for what the
@@ -144,19 +145,22 @@ pub fn prepare_scene(
     data.load_seconds = started.elapsed().as_secs_f64();
     progress.check()?;
     let data = Arc::new(data);
-    let mut scene = match upload(Arc::clone(&data), gpu, options, transfer, progress) {
-        Ok(scene) => scene,
-        // The voxel octree of a large volume can exceed a storage buffer; bricks store the
-        // same volume in a fraction of the memory.
-        Err(error) if error.does_not_fit() && options.kind == RendererKind::Octree => {
-            let bricks = RendererOptions {
-                kind: RendererKind::Bricks,
-                ..options
-            };
-            upload(data, gpu, bricks, transfer, progress)?
-        }
-        Err(error) => return Err(error),
-    };
+    // (The octree was colored by `transfer` just now: the upload recolors nothing.)
+    let colored = OctreeColors::Uploaded;
+    let mut scene =
+        match upload_colored(Arc::clone(&data), gpu, options, transfer, colored, progress) {
+            Ok(scene) => scene,
+            // The voxel octree of a large volume can exceed a storage buffer; bricks store the
+            // same volume in a fraction of the memory.
+            Err(error) if error.does_not_fit() && options.kind == RendererKind::Octree => {
+                let bricks = RendererOptions {
+                    kind: RendererKind::Bricks,
+                    ..options
+                };
+                upload_colored(data, gpu, bricks, transfer, colored, progress)?
+            }
+            Err(error) => return Err(error),
+        };
     if composite {
         progress.begin("uploading the composite");
         channels.insert(0, Arc::clone(&scene.data));

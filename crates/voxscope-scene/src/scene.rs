@@ -110,12 +110,37 @@ impl Scene {
     }
 }
 
-/// Uploads `data` for the renderer `options` names, colored by `transfer`.
+/// Uploads `data` for the renderer `options` names, colored by `transfer` (recolored on the
+/// GPU: `data.octree`'s colors may follow another transfer function).
 pub fn upload(
     data: Arc<VolumeData>,
     gpu: &GpuContext,
     options: RendererOptions,
     transfer: TransferFunction,
+    progress: &Progress,
+) -> Result<Scene, SceneError> {
+    upload_colored(data, gpu, options, transfer, OctreeColors::Other, progress)
+}
+
+/// What `data.octree`'s colors follow, for [`upload_colored`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum OctreeColors {
+    /// The transfer function uploaded: nothing to recolor, and nothing submitted.
+    Uploaded,
+    /// Another one (or not known): recolored on the GPU, one submission.
+    Other,
+}
+
+/// [`upload`], recoloring only where `colors` says the octree's colors are another transfer
+/// function's. An open job uploads an octree it has just colored: it submits nothing then, as
+/// a job thread's submission while the window's surface is configured fails the
+/// configuration (docs/architecture.md).
+pub(crate) fn upload_colored(
+    data: Arc<VolumeData>,
+    gpu: &GpuContext,
+    options: RendererOptions,
+    transfer: TransferFunction,
+    colors: OctreeColors,
     progress: &Progress,
 ) -> Result<Scene, SceneError> {
     progress.begin("uploading to the GPU");
@@ -156,15 +181,17 @@ pub fn upload(
     };
     // The CPU colors of `data.octree` follow the transfer function of the load, which may not
     // be `transfer` (after a renderer switch): recolor on the GPU so the scene matches it.
-    let mut encoder = gpu
-        .device
-        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-            label: Some("voxscope::scene_recolor"),
-        });
-    renderer
-        .set_transfer(gpu, &mut encoder, &transfer, None)
-        .map_err(failed)?;
-    gpu.queue.submit([encoder.finish()]);
+    if colors == OctreeColors::Other {
+        let mut encoder = gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("voxscope::scene_recolor"),
+            });
+        renderer
+            .set_transfer(gpu, &mut encoder, &transfer, None)
+            .map_err(failed)?;
+        gpu.queue.submit([encoder.finish()]);
+    }
     Ok(Scene {
         data,
         renderer,
