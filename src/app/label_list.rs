@@ -208,14 +208,16 @@ impl LabelLayers {
             .filter(|layer| layer.enabled)
             .map(|layer| (layer.name.clone(), layer.source.clone()))
             .collect();
-        let context = Arc::clone(&gpu.context);
+        let device = gpu.offscreen.clone();
         let wake = ctx.clone();
         self.drawing = Some(Job::spawn(
             "label overlay".to_owned(),
             move || wake.request_repaint(),
             move |_| {
                 let mut cache = cache;
-                let drawn = draw_overlay(&context, &mut cache, &sources, key);
+                let drawn = device
+                    .context()
+                    .and_then(|context| draw_overlay(&context, &mut cache, &sources, key));
                 Ok::<_, SceneError>((cache, drawn))
             },
         ));

@@ -43,7 +43,7 @@ mod viewport;
 mod voxscope_app;
 mod wheel;
 
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 pub use command::{Command, ViewPreset};
 pub use dialogs::DialogKind;
@@ -56,10 +56,43 @@ use voxscope_render::GpuContext;
 use voxscope_scene::VolumeSource;
 
 /// The GPU as the app shares it with egui-wgpu: the ray casters' context on egui's device,
-/// and egui-wgpu's renderer, which shows the render targets as textures.
+/// and egui-wgpu's renderer, which shows the render targets as textures; and the device of
+/// the pictures job threads draw.
 pub struct AppGpu {
     pub context: Arc<GpuContext>,
     pub render_state: egui_wgpu::RenderState,
+    pub offscreen: OffscreenDevice,
+}
+
+/// A second device of the window's adapter, for what job threads draw and read back
+/// (screenshots at a scale, movies, label overlays), made by the first job that needs it and
+/// kept for the next. The window's device takes submissions from the UI thread alone: a job's
+/// submission while egui-wgpu configures the window's surface (at start, on a resize) fails the
+/// configuration, since wgpu waits for that device's queue to empty first.
+#[derive(Clone)]
+pub struct OffscreenDevice {
+    adapter: wgpu::Adapter,
+    context: Arc<OnceLock<Result<Arc<GpuContext>, String>>>,
+}
+
+impl OffscreenDevice {
+    pub fn new(adapter: wgpu::Adapter) -> Self {
+        Self {
+            adapter,
+            context: Arc::default(),
+        }
+    }
+
+    /// The device's context, made on first use (on a job thread: it waits for the driver).
+    pub fn context(&self) -> Result<Arc<GpuContext>, String> {
+        self.context
+            .get_or_init(|| {
+                GpuContext::from_adapter(&self.adapter)
+                    .map(Arc::new)
+                    .map_err(|e| format!("a device for drawing away from the window: {e}"))
+            })
+            .clone()
+    }
 }
 
 /// How the app (and its tests) ask egui-wgpu for a device: the adapter's own limits and the

@@ -4,10 +4,9 @@
 //! only polls the job; Cancel stops it between frames.
 
 use std::path::PathBuf;
-use std::sync::Arc;
 use std::time::Instant;
 
-use voxscope_render::GpuContext;
+use super::OffscreenDevice;
 use voxscope_scene::{ChannelState, Job, SceneError, Shot};
 
 use super::offscreen::{OffscreenDrawer, OffscreenSource};
@@ -15,7 +14,7 @@ use crate::movie_writer::MovieFormat;
 
 /// Everything a movie export needs, owned by its thread.
 pub struct Export {
-    pub context: Arc<GpuContext>,
+    pub device: OffscreenDevice,
     pub source: OffscreenSource,
     /// What each frame draws.
     pub shots: Vec<Shot>,
@@ -41,7 +40,7 @@ pub fn spawn(export: Export, wake: impl Fn() + Send + 'static) -> Job<Exported> 
         let started = Instant::now();
         let failed = |e: String| SceneError::failed(e);
         let Export {
-            context,
+            device,
             source,
             shots,
             channels,
@@ -56,6 +55,7 @@ pub fn spawn(export: Export, wake: impl Fn() + Send + 'static) -> Job<Exported> 
         let channels_of = |index: usize| channels.get(index).unwrap_or(&no_channels);
         let format = MovieFormat::of(&output).map_err(failed)?;
         progress.begin("uploading");
+        let context = device.context().map_err(failed)?;
         let mut drawer =
             OffscreenDrawer::new(context, source, first.transfer, channels_of(0), progress)?;
         let mut writer = format

@@ -6,7 +6,6 @@
 //! frames); two or more a path through them, as `voxscope movie --keyframes` draws it.
 
 use std::path::PathBuf;
-use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use egui::Ui;
@@ -330,7 +329,7 @@ impl VoxscopeApp {
         };
         let source = OffscreenSource::of_scene(scene);
         let export = Export {
-            context: Arc::clone(&gpu.context),
+            device: gpu.offscreen.clone(),
             source,
             shots,
             channels,

@@ -1,7 +1,7 @@
 //! Pictures of the data on screen drawn away from the window, on a job thread: a movie's
 //! frames and a screenshot at a scale. An [`OffscreenDrawer`] has a renderer of its own,
-//! uploaded from the data on screen onto the app's device (the panes' renderers and render
-//! targets are the UI thread's), draws a frame of any camera, settings and transfer function,
+//! uploaded from the data on screen onto the app's offscreen device ([`super::OffscreenDevice`]:
+//! the window's device and the panes' renderers and render targets are the UI thread's), draws a frame of any camera, settings and transfer function,
 //! waits for it and reads it back on its thread; an image larger than one render target of
 //! the device is drawn in tiles, each the whole image's rays through its pixels, as `render`
 //! draws it.

@@ -5,9 +5,8 @@
 //! [`super::VoxscopeApp::save_screenshot`].)
 
 use std::path::PathBuf;
-use std::sync::Arc;
 
-use voxscope_render::GpuContext;
+use super::OffscreenDevice;
 use voxscope_scene::{ChannelState, Job, SceneError, Shot};
 
 use super::offscreen::{OffscreenDrawer, OffscreenSource};
@@ -22,7 +21,7 @@ pub struct RulerMark {
 
 /// Everything a scaled screenshot needs, owned by its thread.
 pub struct ScaledScreenshot {
-    pub context: Arc<GpuContext>,
+    pub device: OffscreenDevice,
     pub source: OffscreenSource,
     pub shot: Shot,
     /// The composite's channels (empty for one volume).
@@ -43,7 +42,7 @@ pub fn spawn(shot: ScaledScreenshot, wake: impl Fn() + Send + 'static) -> Job<Pa
     let title = format!("screenshot at {}×", shot.scale);
     Job::spawn(title, wake, move |progress| {
         let ScaledScreenshot {
-            context,
+            device,
             source,
             shot,
             channels,
@@ -54,6 +53,7 @@ pub fn spawn(shot: ScaledScreenshot, wake: impl Fn() + Send + 'static) -> Job<Pa
             tile,
             path,
         } = shot;
+        let context = device.context().map_err(SceneError::failed)?;
         let mut drawer = OffscreenDrawer::new(context, source, shot.transfer, &channels, progress)?;
         progress.begin("drawing");
         let mut image = drawer.draw(&shot, &channels, size, tile)?;
@@ -132,7 +132,7 @@ impl super::VoxscopeApp {
             .collect();
         let source = OffscreenSource::of_scene(scene);
         let job = ScaledScreenshot {
-            context: Arc::clone(&gpu.context),
+            device: gpu.offscreen.clone(),
             source,
             shot,
             channels: if scene.composite.is_some() {

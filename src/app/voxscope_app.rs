@@ -109,6 +109,7 @@ impl VoxscopeApp {
                 &state.adapter,
             )),
             render_state: state.clone(),
+            offscreen: super::OffscreenDevice::new(state.adapter.clone()),
         });
         let central = CentralView::new(gpu.as_ref());
         let mut app = Self {
