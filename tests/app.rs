@@ -5,8 +5,8 @@
 mod support;
 
 use support::app_harness::{
-    MemoryStorage, SIZE, differing_pixels, harness, harness_with, lit_pixels, scratch, settle,
-    snapshot, view,
+    MemoryStorage, SIZE, choose_renderer, differing_pixels, harness, harness_with, lit_pixels,
+    scratch, settle, snapshot, view,
 };
 
 use std::path::{Path, PathBuf};
@@ -474,4 +474,29 @@ fn a_long_error_wraps_inside_the_view() {
     harness.get_by_label("Dismiss").click();
     settle(&mut harness);
     assert_eq!(harness.state().error(), None);
+}
+
+#[test]
+fn a_renderer_switch_draws_the_transfer_function_on_screen() {
+    // The octree's CPU colors follow the transfer function the volume opened with; the new
+    // renderer is recolored to the one on screen before it is drawn, as after an edit. The
+    // full value range shows values the opening window hid: without the recolor the octree
+    // renderer drew its uniform regions in the opening window's colors (27.6 dB).
+    let mut harness = harness();
+    choose_renderer(&mut harness, "bricks");
+    harness.get_by_label("Full range").click();
+    settle(&mut harness);
+    choose_renderer(&mut harness, "octree");
+    assert_eq!(
+        harness.state().renderer_kind(),
+        Some(voxscope_render::RendererKind::Octree)
+    );
+    let switched = view(&harness);
+    harness.get_by_label("Binary").click();
+    settle(&mut harness);
+    harness.get_by_label("Gray").click();
+    settle(&mut harness);
+    let recolored = view(&harness);
+    let db = support::reference::psnr(&switched, &recolored);
+    assert!(db >= 60.0, "the switch against a recolor: {db:.1} dB");
 }

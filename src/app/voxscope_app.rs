@@ -32,8 +32,8 @@ use voxscope_render::{
 };
 use voxscope_scene::{FrameKey, Prefetch};
 use voxscope_scene::{Job, Opened, SceneError};
+use voxscope_scene::{OctreeColors, Scene, VolumeData, VolumeSource};
 use voxscope_scene::{SavedTransfer, TransferChoice};
-use voxscope_scene::{Scene, VolumeData, VolumeSource};
 
 /// The voxscope window.
 pub struct VoxscopeApp {
@@ -382,6 +382,16 @@ impl VoxscopeApp {
         }
     }
 
+    /// A renderer switch that failed: back to the renderer on screen (or the switch would be
+    /// retried forever), and the error shown.
+    fn switch_failed(&mut self, error: String) {
+        if let Some(scene) = &self.scene {
+            self.settings.renderer = scene.options.kind;
+            self.settings.brick_size = scene.options.brick_size;
+        }
+        self.fail(error);
+    }
+
     /// Applies what finished in the background since the last frame.
     pub(super) fn handle_job_events(&mut self, ctx: &egui::Context) {
         for event in self.jobs.poll() {
@@ -417,6 +427,17 @@ impl VoxscopeApp {
                 JobEvent::OpenEnded(SceneError::Cancelled) => self.notify("opening cancelled"),
                 JobEvent::OpenEnded(error) => self.fail(error.to_string()),
                 JobEvent::Uploaded(mut scene) => {
+                    // The upload recolored nothing (its thread submits nothing to the window's
+                    // device), so the octree's colors follow the load's transfer function:
+                    // recolored here to the scene's before it is drawn.
+                    let recolored = self
+                        .gpu
+                        .as_ref()
+                        .map_or(Ok(()), |gpu| recolor(&gpu.context, &mut scene));
+                    if let Err(error) = recolored {
+                        self.switch_failed(error);
+                        continue;
+                    }
                     // The composite does not depend on the renderer of one channel: it stays.
                     if let Some(old) = self.scene.take()
                         && Arc::ptr_eq(&old.data, &scene.data)
@@ -426,14 +447,7 @@ impl VoxscopeApp {
                     self.scene = Some(*scene);
                     self.scene_serial += 1;
                 }
-                JobEvent::UploadFailed(error) => {
-                    // Back to the renderer on screen, or the switch would be retried forever.
-                    if let Some(scene) = &self.scene {
-                        self.settings.renderer = scene.options.kind;
-                        self.settings.brick_size = scene.options.brick_size;
-                    }
-                    self.fail(error.to_string());
-                }
+                JobEvent::UploadFailed(error) => self.switch_failed(error.to_string()),
                 JobEvent::Counted(counted) => {
                     let (transfer, clip, statistics) = *counted;
                     self.view.statistics = statistics;
@@ -597,8 +611,12 @@ impl VoxscopeApp {
                 Job::spawn(
                     format!("{} renderer", wanted.kind.name()),
                     move || wake.request_repaint(),
+                    // (Recolored when it arrives, by the UI thread.)
                     move |progress| {
-                        voxscope_scene::upload(data, &context, wanted, transfer, progress)
+                        let colors = OctreeColors::Uploaded;
+                        voxscope_scene::upload_colored(
+                            data, &context, wanted, transfer, colors, progress,
+                        )
                     },
                 ),
             ));
@@ -856,4 +874,21 @@ fn data_renderer_notice(scene: &Scene) -> String {
             kind.name()
         ),
     }
+}
+
+/// Recolors `scene`'s renderer to the scene's transfer function on the GPU: one submission,
+/// on the UI thread (a renderer switch's upload leaves it to this thread).
+fn recolor(context: &GpuContext, scene: &mut Scene) -> Result<(), String> {
+    let mut encoder = context
+        .device
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("voxscope::switch_recolor"),
+        });
+    let transfer = scene.applied_transfer;
+    scene
+        .renderer
+        .set_transfer(context, &mut encoder, &transfer, None)
+        .map_err(|e| format!("{}: {e}", scene.data.volume.name))?;
+    context.queue.submit([encoder.finish()]);
+    Ok(())
 }

@@ -45,7 +45,9 @@ pub use prefetch::{
 };
 pub use prepare::{FrameChange, Opened, PANEL_LEVEL_VOXELS, prepare_scene};
 pub use saved_transfer::SavedTransfer;
-pub use scene::{Counted, NetworkState, Scene, statistics_job, upload};
+pub use scene::{
+    Counted, NetworkState, OctreeColors, Scene, statistics_job, upload, upload_colored,
+};
 pub use source::VolumeSource;
 pub use streaming::{
     PREVIEW_BRICKS, REMOTE_WORKERS, Refinement, StreamedVolume, describe_missing, refine,

@@ -124,18 +124,21 @@ pub fn upload(
 
 /// What `data.octree`'s colors follow, for [`upload_colored`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum OctreeColors {
-    /// The transfer function uploaded: nothing to recolor, and nothing submitted.
+pub enum OctreeColors {
+    /// The transfer function uploaded, or the caller recolors the scene's renderer
+    /// (`set_transfer` to its `applied_transfer`) before drawing it: nothing recolored or
+    /// submitted here.
     Uploaded,
     /// Another one (or not known): recolored on the GPU, one submission.
     Other,
 }
 
 /// [`upload`], recoloring only where `colors` says the octree's colors are another transfer
-/// function's. An open job uploads an octree it has just colored: it submits nothing then, as
-/// a job thread's submission while the window's surface is configured fails the
-/// configuration (docs/architecture.md).
-pub(crate) fn upload_colored(
+/// function's. A job thread of the app submits nothing to the window's device, as a
+/// submission while its surface is configured fails the configuration (docs/architecture.md):
+/// an open job uploads an octree it has just colored, a renderer switch leaves the recolor to
+/// the UI thread.
+pub fn upload_colored(
     data: Arc<VolumeData>,
     gpu: &GpuContext,
     options: RendererOptions,
