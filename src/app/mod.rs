@@ -43,7 +43,7 @@ mod viewport;
 mod voxscope_app;
 mod wheel;
 
-use std::sync::{Arc, OnceLock};
+use std::sync::{Arc, Mutex, PoisonError};
 
 pub use command::{Command, ViewPreset};
 pub use dialogs::DialogKind;
@@ -72,7 +72,7 @@ pub struct AppGpu {
 #[derive(Clone)]
 pub struct OffscreenDevice {
     adapter: wgpu::Adapter,
-    context: Arc<OnceLock<Result<Arc<GpuContext>, String>>>,
+    context: Arc<Mutex<Option<Arc<GpuContext>>>>,
 }
 
 impl OffscreenDevice {
@@ -83,15 +83,18 @@ impl OffscreenDevice {
         }
     }
 
-    /// The device's context, made on first use (on a job thread: it waits for the driver).
+    /// The device's context, made on first use (on a job thread: it waits for the driver); a
+    /// device the driver refused is asked for again by the next job.
     pub fn context(&self) -> Result<Arc<GpuContext>, String> {
-        self.context
-            .get_or_init(|| {
-                GpuContext::from_adapter(&self.adapter)
-                    .map(Arc::new)
-                    .map_err(|e| format!("a device for drawing away from the window: {e}"))
-            })
-            .clone()
+        let mut context = self.context.lock().unwrap_or_else(PoisonError::into_inner);
+        if let Some(context) = context.as_ref() {
+            return Ok(Arc::clone(context));
+        }
+        let made = GpuContext::from_adapter(&self.adapter)
+            .map(Arc::new)
+            .map_err(|e| format!("a device for drawing away from the window: {e}"))?;
+        *context = Some(Arc::clone(&made));
+        Ok(made)
     }
 }
 

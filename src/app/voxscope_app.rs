@@ -427,6 +427,15 @@ impl VoxscopeApp {
                 JobEvent::OpenEnded(SceneError::Cancelled) => self.notify("opening cancelled"),
                 JobEvent::OpenEnded(error) => self.fail(error.to_string()),
                 JobEvent::Uploaded(mut scene) => {
+                    // A switch for a volume no longer on screen (another opened meanwhile):
+                    // dropped; the next frame switches the one on screen if it must.
+                    if !self
+                        .scene
+                        .as_ref()
+                        .is_some_and(|on_screen| Arc::ptr_eq(&on_screen.data, &scene.data))
+                    {
+                        continue;
+                    }
                     // The upload recolored nothing (its thread submits nothing to the window's
                     // device), so the octree's colors follow the load's transfer function:
                     // recolored here to the scene's before it is drawn.
@@ -471,13 +480,23 @@ impl VoxscopeApp {
     pub(super) fn show_opened(
         &mut self,
         Opened {
-            scene,
+            mut scene,
             statistics,
             frame_change,
             channels,
             notice,
         }: Opened,
     ) {
+        // The open job recolored nothing on the GPU (its thread submits nothing to the
+        // window's device). The octree's CPU colors follow the transfer function uploaded, but
+        // the bricks renderer's coarse colors are the GPU recolor's (it averages a brick's
+        // voxels, the CPU its children): recolored here before it is drawn, as a switch's is.
+        if let Some(gpu) = &self.gpu
+            && let Err(error) = recolor(&gpu.context, &mut scene)
+        {
+            self.fail(error);
+            return;
+        }
         if let Some(notice) = notice {
             self.notify(notice);
         }

@@ -145,7 +145,9 @@ pub fn prepare_scene(
     data.load_seconds = started.elapsed().as_secs_f64();
     progress.check()?;
     let data = Arc::new(data);
-    // (The octree was colored by `transfer` just now: the upload recolors nothing.)
+    // (The octree was colored by `transfer` just now; the upload recolors nothing, and the
+    // app recolors the renderer on its UI thread as it takes the scene: the bricks
+    // renderer's coarse colors are the GPU recolor's.)
     let colored = OctreeColors::Uploaded;
     let mut scene =
         match upload_colored(Arc::clone(&data), gpu, options, transfer, colored, progress) {

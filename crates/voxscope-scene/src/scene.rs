@@ -136,8 +136,7 @@ pub enum OctreeColors {
 /// [`upload`], recoloring only where `colors` says the octree's colors are another transfer
 /// function's. A job thread of the app submits nothing to the window's device, as a
 /// submission while its surface is configured fails the configuration (docs/architecture.md):
-/// an open job uploads an octree it has just colored, a renderer switch leaves the recolor to
-/// the UI thread.
+/// its open and renderer-switch jobs leave the recolor to the UI thread.
 pub fn upload_colored(
     data: Arc<VolumeData>,
     gpu: &GpuContext,
