@@ -442,9 +442,9 @@ impl VoxscopeApp {
                     let recolored = self
                         .gpu
                         .as_ref()
-                        .map_or(Ok(()), |gpu| recolor(&gpu.context, &mut scene));
+                        .map_or(Ok(()), |gpu| scene.recolor(&gpu.context));
                     if let Err(error) = recolored {
-                        self.switch_failed(error);
+                        self.switch_failed(error.to_string());
                         continue;
                     }
                     // The composite does not depend on the renderer of one channel: it stays.
@@ -492,9 +492,9 @@ impl VoxscopeApp {
         // the bricks renderer's coarse colors are the GPU recolor's (it averages a brick's
         // voxels, the CPU its children): recolored here before it is drawn, as a switch's is.
         if let Some(gpu) = &self.gpu
-            && let Err(error) = recolor(&gpu.context, &mut scene)
+            && let Err(error) = scene.recolor(&gpu.context)
         {
-            self.fail(error);
+            self.fail(error.to_string());
             return;
         }
         if let Some(notice) = notice {
@@ -893,21 +893,4 @@ fn data_renderer_notice(scene: &Scene) -> String {
             kind.name()
         ),
     }
-}
-
-/// Recolors `scene`'s renderer to the scene's transfer function on the GPU: one submission,
-/// on the UI thread (a renderer switch's upload leaves it to this thread).
-fn recolor(context: &GpuContext, scene: &mut Scene) -> Result<(), String> {
-    let mut encoder = context
-        .device
-        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-            label: Some("voxscope::switch_recolor"),
-        });
-    let transfer = scene.applied_transfer;
-    scene
-        .renderer
-        .set_transfer(context, &mut encoder, &transfer, None)
-        .map_err(|e| format!("{}: {e}", scene.data.volume.name))?;
-    context.queue.submit([encoder.finish()]);
-    Ok(())
 }

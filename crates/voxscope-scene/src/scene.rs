@@ -84,6 +84,23 @@ impl Scene {
         gpu + composite
     }
 
+    /// Recolors the renderer on the GPU to [`Self::applied_transfer`] (one submission): the
+    /// octree's CPU colors may follow another transfer function (the load's), and the bricks
+    /// renderer's coarse colors are the GPU recolor's (a brick's voxels averaged).
+    pub fn recolor(&mut self, gpu: &GpuContext) -> Result<(), SceneError> {
+        let mut encoder = gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("voxscope::scene_recolor"),
+            });
+        let transfer = self.applied_transfer;
+        self.renderer
+            .set_transfer(gpu, &mut encoder, &transfer, None)
+            .map_err(|e| SceneError::render(&self.data.volume.name, e))?;
+        gpu.queue.submit([encoder.finish()]);
+        Ok(())
+    }
+
     /// The renderer the 3D views draw: the composite where one is shown, else the volume's.
     pub fn view_renderer(&self) -> &VolumeRenderer {
         self.composite
@@ -152,7 +169,7 @@ pub fn upload_colored(
         gpu_memory: options.gpu_memory,
         ..StreamOptions::default()
     };
-    let mut renderer = match (&data.pyramid, data.source.zarr_spec()) {
+    let renderer = match (&data.pyramid, data.source.zarr_spec()) {
         // A volume longer than the octree holds streams from its pyramid in memory.
         (Some(pyramid), _) if options.kind == RendererKind::Stream => {
             let pyramid: Arc<dyn BrickSource> = pyramid.clone();
@@ -181,20 +198,7 @@ pub fn upload_colored(
         )
         .map_err(failed)?,
     };
-    // The CPU colors of `data.octree` follow the transfer function of the load, which may not
-    // be `transfer` (after a renderer switch): recolor on the GPU so the scene matches it.
-    if colors == OctreeColors::Other {
-        let mut encoder = gpu
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("voxscope::scene_recolor"),
-            });
-        renderer
-            .set_transfer(gpu, &mut encoder, &transfer, None)
-            .map_err(failed)?;
-        gpu.queue.submit([encoder.finish()]);
-    }
-    Ok(Scene {
+    let mut scene = Scene {
         data,
         renderer,
         options,
@@ -203,7 +207,13 @@ pub fn upload_colored(
         stream_status: None,
         network: None,
         composite: None,
-    })
+    };
+    // The CPU colors of `data.octree` follow the transfer function of the load, which may not
+    // be `transfer` (after a renderer switch): recolor on the GPU so the scene matches it.
+    if colors == OctreeColors::Other {
+        scene.recolor(gpu)?;
+    }
+    Ok(scene)
 }
 
 /// Per-level statistics counted under a transfer function, within a clip.
