@@ -282,90 +282,133 @@ struct RayResult {
     probe_t: f32,
 }
 
-// One ray through the pyramid. One flat loop: each iteration starts a segment where the last
-// one ended (looking its brick up and skipping or compositing what needs no marching at once),
-// then marches a batch pair of the current segment's samples, so a warp's lanes never wait for
-// each other at nested loops' ends (the grid walk's lesson, raycast.wgsl). While the ray wants
-// the same level from one brick to the next, it steps through that level's grid of bricks as
-// the grid walk does (Amanatides & Woo), each brick's page-table entry read a segment ahead;
-// where the level it wants changes, it finds the brick from the ray's point.
+// The usage mark's kind, kept in the top bit of the marched slot (above SLOT_MASK): the ray
+// wanted the slot's level there (`usage_mark`).
+const USAGE_WANTED: u32 = 0x80000000u;
+// `next_cell.x` while no brick is read ahead.
+const NO_CELL: u32 = 0xffffffffu;
+
+// The distances where a ray (`origin`, `inv` = 1 / its direction) leaves brick `cell` of
+// `level` across each axis' planes.
+fn brick_exits(level: u32, cell: vec3<u32>, origin: vec3<f32>, inv: vec3<f32>) -> vec3<f32> {
+    let side = BRICK * stream.level_scale[level].xyz;
+    let far = (vec3<f32>(cell) + select(vec3<f32>(0.0), vec3<f32>(1.0), inv >= vec3<f32>(0.0)))
+        * side;
+    return (far - origin) * inv;
+}
+
+// The brick after `cell` of `level` along a ray of direction `dir` that leaves it across the
+// nearest of the planes at `exits`; NO_CELL in x where that is outside the level's grid.
+fn next_brick(level: u32, cell: vec3<u32>, exits: vec3<f32>, dir: vec3<f32>) -> vec3<u32> {
+    var axis = 2u;
+    if exits.x <= exits.y && exits.x <= exits.z {
+        axis = 0u;
+    } else if exits.y <= exits.z {
+        axis = 1u;
+    }
+    var next = vec3<i32>(cell);
+    next[axis] += select(-1, 1, dir[axis] >= 0.0);
+    if all(next >= vec3<i32>(0)) && all(next < vec3<i32>(stream.level_grid[level].xyz)) {
+        return vec3<u32>(next);
+    }
+    return vec3<u32>(NO_CELL, 0u, 0u);
+}
+
+// The ray's origin (level-0 voxels) in the normalized atlas coordinates of brick `cell` of
+// `level`, whose atlas cell is packed in `packed` (TABLE_CELL): origin + t·atlas_dir is then
+// the atlas place of the ray's point at t in that brick.
+fn atlas_origin(level: u32, cell: vec3<u32>, packed: u32, origin: vec3<f32>) -> vec3<f32> {
+    let atlas_cell = vec3<u32>(packed & 0x3ffu, (packed >> 10u) & 0x3ffu, (packed >> 20u) & 0x3ffu);
+    let offset = vec3<f32>(atlas_cell * 34u) + 1.0 - vec3<f32>(cell) * BRICK;
+    return (origin / stream.level_scale[level].xyz + offset) * params.atlas_texel.xyz;
+}
+
+// Whether a brick read ahead can be marched at once: its entry is the one for `key`, in the
+// atlas, and can change the pixel.
+fn marchable(entry: vec4<u32>, key: u32, running_max: u32) -> bool {
+    return entry[TABLE_KEY] == key && (entry[TABLE_CELL] & ENTRY_RESIDENT) != 0u
+        && entry_visible(entry, running_max);
+}
+
+// One ray through the pyramid. One flat loop: each iteration that finds the ray between
+// segments starts one where the last ended (looking its brick up and skipping or compositing
+// what needs no marching at once), then marches a batch pair of the current segment's samples,
+// so a warp's lanes never wait for each other at nested loops' ends (the grid walk's lesson,
+// raycast.wgsl). While the ray wants the same level from one brick to the next, it steps
+// through that level's grid of bricks as the grid walk does (Amanatides & Woo), each brick's
+// page-table entry read a segment ahead; where the level it wants changes, it finds the brick
+// from the ray's point.
+//
+// The common step, from a brick in the atlas to the next one that is too, is taken where the
+// batch reaching the brick's exit ends, in a few instructions: a segment's start is long (the
+// lookup, requests, the fallback to coarser levels), and a warp runs it whenever any of its
+// lanes needs it, so taking it at every brick cost the other lanes that time (runs 99–100).
+// Ray-long values that the segment's start alone needs (1 / dir, the origin in the level's
+// voxels) are worked out there again rather than held through the marching: 72 registers,
+// against 80 when held.
 fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, jitter: f32) -> RayResult {
     var result = RayResult(vec3<f32>(0.0), 0u, -1.0);
-    let inv = safe_inverse(dir);
-    let interval = volume_interval(origin, dir, inv);
+    let interval = volume_interval(origin, dir, safe_inverse(dir));
     let t_enter = interval.x;
     let t_leave = interval.y;
     if t_enter >= t_leave {
         return result;
     }
-    let positive = inv >= vec3<f32>(0.0);
     let mip = max_projection();
     // Sample k of a level sits at t_enter + (k + jitter)·step: (k + ½ + shift)·step.
     let shift = jitter - 0.5;
-    let voxels_per_t = length(dir);
     let lod_per_t = world_length * params.lod_factor * stream.lod_scale;
-    let correct = (params.flags & FLAG_OPACITY_CORRECTION) != 0u;
-    let nudge = 1e-3 / max(voxels_per_t, 1e-20);
     let light = headlight(dir);
     let half_texel = 0.5 * params.atlas_texel.xyz;
     var acc = new_accumulation();
 
     var t = t_enter;
-    // The segment being marched: its exit, sample step and index, where its samples are in
-    // the atlas, the level's scale, and the brick's maximum (MIP).
+    // The segment being marched: its exit, sample step and index, the level drawn, the
+    // opacity correction's exponent, where its samples are in the atlas, and the brick's
+    // maximum (MIP).
     var marching = false;
     var segment_out = 0.0;
     var step = 1.0;
     var k = 0.0;
     var k_level = 0xffffffffu;
     var exponent = 1.0;
-    // The ray's origin in the level's voxels.
-    var origin_level = origin;
     var atlas_here = vec3<f32>(0.0);
     var atlas_dir = vec3<f32>(0.0);
     var brick_max = 0u;
-    // The slot being marched, the mark it gets when the segment ends, and its mark as read when
-    // the segment began.
+    // The slot being marched (USAGE_WANTED: at the level the ray wanted) and its usage mark as
+    // read when the segment began.
     var usage_slot = 0u;
-    var usage_pending = 0u;
     var usage_seen = 0xffffffffu;
-    // The next brick along the ray at the level of the current one (which is also the level
-    // drawn): its key (`EMPTY_KEY`: none, the next segment finds its brick from the ray's
-    // point), its page-table entry read ahead from its home slot, its cell and the distances
-    // where the ray leaves it across each axis' planes.
-    var next_key = EMPTY_KEY;
+    // The next brick along the ray at the level drawn, where the ray wants that level there
+    // too (NO_CELL: none; the next segment finds its brick from the ray's point), and its
+    // page-table entry read ahead from its home slot.
+    var next_cell = vec3<u32>(NO_CELL, 0u, 0u);
     var next_entry = vec4<u32>(EMPTY_KEY, 0u, 0u, 0u);
-    var next_cell = vec3<u32>(0u);
-    var next_exits = vec3<f32>(0.0);
     for (var i = 0u; i < MAX_STEPS; i++) {
         if !marching {
             if t >= t_leave {
                 break;
             }
-            let ahead = max(nudge, abs(t) * 5e-7);
+            let inv = safe_inverse(dir);
+            let ahead = max(1e-3 / max(length(dir), 1e-20), abs(t) * 5e-7);
             // The segment's brick: the one read ahead, else the one of the wanted level at
             // the ray's point.
             var wanted = k_level;
             var cell = next_cell;
-            var exits = next_exits;
-            var key = next_key;
-            var entry = next_entry;
-            if key == EMPTY_KEY {
-                let p = origin + (t + ahead) * dir;
+            if cell.x == NO_CELL {
                 wanted = wanted_level(max(t, 0.0), lod_per_t);
-                cell = brick_of(wanted, p);
-                let side = BRICK * stream.level_scale[wanted].xyz;
-                let far = (vec3<f32>(cell) + select(vec3<f32>(0.0), vec3<f32>(1.0), positive)) * side;
-                exits = (far - origin) * inv;
-                key = brick_key(wanted, cell);
+                cell = brick_of(wanted, origin + (t + ahead) * dir);
             }
+            let exits = brick_exits(wanted, cell, origin, inv);
+            let key = brick_key(wanted, cell);
             // (At least `ahead` past t, whatever the rounding: every segment moves the ray on.)
             let t_out = max(min(min_component(exits), t_leave), t + ahead);
             // The entry read ahead, if its home slot held it; else the lookup.
+            var entry = next_entry;
             if entry[TABLE_KEY] != key {
                 entry = table_lookup(key);
             }
-            next_key = EMPTY_KEY;
+            next_cell.x = NO_CELL;
             var level = wanted;
             var used_cell = cell;
             var skip = false;
@@ -409,11 +452,11 @@ fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, jitter: f32)
             // changes.
             if level != k_level {
                 let scale = stream.level_scale[level].xyz;
-                origin_level = origin / scale;
                 step = 1.0 / max(length(dir / scale), 1e-20);
                 // (Exactly 1 for level-0 voxels, as the bricks renderer's: the product's
                 // rounding would otherwise cost a `pow` per sample.)
-                exponent = select(1.0, step * voxels_per_t, correct && any(scale != vec3<f32>(1.0)));
+                let correct = (params.flags & FLAG_OPACITY_CORRECTION) != 0u;
+                exponent = select(1.0, step * length(dir), correct && any(scale != vec3<f32>(1.0)));
                 atlas_dir = dir / scale * params.atlas_texel.xyz;
                 k = max(ceil((t - t_enter) / step - 0.5 - shift), 0.0);
                 k_level = level;
@@ -422,21 +465,9 @@ fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, jitter: f32)
             // entry read now, so that its latency hides behind this segment (the grid walk's
             // prefetch, raycast.wgsl).
             if level == wanted && t_out < t_leave && wanted_level(t_out, lod_per_t) == wanted {
-                var axis = 2u;
-                if exits.x <= exits.y && exits.x <= exits.z {
-                    axis = 0u;
-                } else if exits.y <= exits.z {
-                    axis = 1u;
-                }
-                var next = vec3<i32>(cell);
-                next[axis] += select(-1, 1, positive[axis]);
-                let grid = vec3<i32>(stream.level_grid[wanted].xyz);
-                if all(next >= vec3<i32>(0)) && all(next < grid) {
-                    next_cell = vec3<u32>(next);
-                    next_key = brick_key(wanted, next_cell);
-                    next_entry = page_table[table_hash(next_key) & stream.table_mask];
-                    next_exits = exits;
-                    next_exits[axis] += BRICK * stream.level_scale[wanted][axis] * abs(inv[axis]);
+                next_cell = next_brick(wanted, cell, exits, dir);
+                if next_cell.x != NO_CELL {
+                    next_entry = page_table[table_hash(brick_key(wanted, next_cell)) & stream.table_mask];
                 }
             }
             if skip || (entry[TABLE_CELL] & ENTRY_RESIDENT) == 0u {
@@ -448,16 +479,12 @@ fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, jitter: f32)
                 k = end;
                 t = t_out;
             } else {
-                usage_slot = entry[TABLE_SLOT] & SLOT_MASK;
-                usage_pending = usage_mark(level == wanted);
+                let slot = entry[TABLE_SLOT] & SLOT_MASK;
+                usage_slot = slot | select(0u, USAGE_WANTED, level == wanted);
                 if !PROBE {
-                    usage_seen = atomicLoad(&usage[usage_slot]);
+                    usage_seen = atomicLoad(&usage[slot]);
                 }
-                let packed = entry[TABLE_CELL];
-                let atlas_cell = vec3<u32>(packed & 0x3ffu, (packed >> 10u) & 0x3ffu,
-                                           (packed >> 20u) & 0x3ffu);
-                let offset = vec3<f32>(atlas_cell * 34u) + 1.0 - vec3<f32>(used_cell) * BRICK;
-                atlas_here = (origin_level + offset) * params.atlas_texel.xyz;
+                atlas_here = atlas_origin(level, used_cell, entry[TABLE_CELL], origin);
                 segment_out = t_out;
                 brick_max = entry[TABLE_RANGE] >> 16u;
                 marching = true;
@@ -473,17 +500,12 @@ fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, jitter: f32)
             // a batch at the exit looks at the next entry.)
             var count = count_here;
             var atlas_next = atlas_here;
-            if count_here < BATCH_PAIR && next_key != EMPTY_KEY {
-                if next_entry[TABLE_KEY] == next_key
-                    && (next_entry[TABLE_CELL] & ENTRY_RESIDENT) != 0u
-                    && entry_visible(next_entry, acc.running_max) {
+            if count_here < BATCH_PAIR && next_cell.x != NO_CELL {
+                if marchable(next_entry, brick_key(k_level, next_cell), acc.running_max) {
+                    let next_exits = brick_exits(k_level, next_cell, origin, safe_inverse(dir));
                     let next_out = min(min_component(next_exits), t_leave);
                     count = count_before(ts, next_out) + count_before(ts2, next_out);
-                    let packed = next_entry[TABLE_CELL];
-                    let next_atlas = vec3<u32>(packed & 0x3ffu, (packed >> 10u) & 0x3ffu,
-                                               (packed >> 20u) & 0x3ffu);
-                    let offset = vec3<f32>(next_atlas * 34u) + 1.0 - vec3<f32>(next_cell) * BRICK;
-                    atlas_next = (origin_level + offset) * params.atlas_texel.xyz;
+                    atlas_next = atlas_origin(k_level, next_cell, next_entry[TABLE_CELL], origin);
                 }
             }
             if count > 0u {
@@ -510,17 +532,45 @@ fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, jitter: f32)
                 result.visited += taken;
                 k += f32(count);
             }
-            if count_here < BATCH_PAIR {
-                marching = false;
-                t = segment_out;
-            } else if mip && acc.running_max >= brick_max {
-                // Nothing further in this brick can raise the maximum.
-                k = max(ceil((segment_out - t_enter) / step - 0.5 - shift), k);
-                marching = false;
-                t = segment_out;
+            // The brick is done at its exit, or (MIP) once nothing further in it can raise the
+            // maximum.
+            let leaving = count_here < BATCH_PAIR || (mip && acc.running_max >= brick_max);
+            if leaving || acc.done {
+                mark_used(usage_slot & SLOT_MASK, usage_mark((usage_slot & USAGE_WANTED) != 0u),
+                          usage_seen);
             }
-            if !marching || acc.done {
-                mark_used(usage_slot, usage_pending, usage_seen);
+            if leaving {
+                if count_here == BATCH_PAIR {
+                    k = max(ceil((segment_out - t_enter) / step - 0.5 - shift), k);
+                }
+                t = segment_out;
+                marching = false;
+                // The next brick read ahead, where it can be marched at once, is the next
+                // segment (its level the ray's wanted one): a step of the grid walk, without
+                // the segment's start.
+                if !acc.done && next_cell.x != NO_CELL
+                    && marchable(next_entry, brick_key(k_level, next_cell), acc.running_max) {
+                    let cell = next_cell;
+                    let exits = brick_exits(k_level, cell, origin, safe_inverse(dir));
+                    segment_out = min(min_component(exits), t_leave);
+                    atlas_here = atlas_origin(k_level, cell, next_entry[TABLE_CELL], origin);
+                    brick_max = next_entry[TABLE_RANGE] >> 16u;
+                    let slot = next_entry[TABLE_SLOT] & SLOT_MASK;
+                    usage_slot = slot | USAGE_WANTED;
+                    if !PROBE {
+                        usage_seen = atomicLoad(&usage[slot]);
+                    }
+                    result.visited += 1u;
+                    next_cell.x = NO_CELL;
+                    if segment_out < t_leave && wanted_level(segment_out, lod_per_t) == k_level {
+                        next_cell = next_brick(k_level, cell, exits, dir);
+                        if next_cell.x != NO_CELL {
+                            next_entry = page_table[table_hash(brick_key(k_level, next_cell))
+                                                    & stream.table_mask];
+                        }
+                    }
+                    marching = true;
+                }
             }
         }
         if acc.done {
