@@ -9,7 +9,7 @@
 //! streamer decide; it then writes the uploads into their atlas slots and the changed page-table
 //! entries. Then any number of frames draw with what is resident.
 
-use std::sync::atomic::{AtomicBool, AtomicU8, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU8, AtomicU32, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
@@ -49,6 +49,14 @@ const READBACKS: usize = 3;
 /// Page-table bytes counted per atlas slot when sizing the atlas: the table has up to 16
 /// entries of 16 bytes per slot, rounded up to a power of two (so at most twice that).
 const TABLE_BYTES_PER_SLOT: u64 = 2 * 16 * 16;
+/// The most bricks a level may have for the page table to copy it flat, so that frames which
+/// want that level walk it (`main_level`): 1 MiB of entries at most.
+const LEVEL_WALK_BRICKS: u64 = 1 << 16;
+/// No level walked.
+const NO_LEVEL: u32 = u32::MAX;
+/// The entry points of `stream.wgsl`, in the order [`VariantPipelines`] numbers them.
+const SEGMENTS: usize = 0;
+const LEVEL_WALK: usize = 1;
 
 /// One staging buffer for a frame's requests and usage marks.
 struct Readback {
@@ -70,6 +78,12 @@ pub struct StreamVolume {
     requests: wgpu::Buffer,
     usage: wgpu::Buffer,
     readbacks: Vec<Readback>,
+    /// The flat copy of one level's page-table entries ([`voxscope_stream::PageTable::copy_level`]),
+    /// sized for the largest level of at most [`LEVEL_WALK_BRICKS`].
+    level_cells: wgpu::Buffer,
+    /// The level the latest frame drawn wanted to walk ([`NO_LEVEL`]: none); the next
+    /// [`Self::step`] has the table copy it.
+    walk_wanted: AtomicU32,
     /// Where uploads are staged on their way into the atlas.
     ring: StagingRing,
     /// The always-resident levels' bricks, read when the volume was made and written by the
@@ -97,7 +111,8 @@ fn atlas_grid(
     bricks_in_pyramid: u64,
 ) -> Result<[usize; 3], RenderError> {
     // The lookup table, the request buffer and its set, each readback's copy of the requests
-    // (the usage marks are counted per slot), and the uploads' staging on the GPU.
+    // (the usage marks are counted per slot), and the uploads' staging on the GPU (with the
+    // level copy's buffer).
     let fixed = staging_bytes
         + 65536 * 4
         + (1 + REQUEST_CAPACITY as u64 + REQUEST_SET as u64) * 4
@@ -176,13 +191,23 @@ impl StreamVolume {
         };
         let quantization = source.quantization();
         let visible = visible_below(&transfer.lookup_table(quantization));
+        let level_cells_bytes = source
+            .shape()
+            .levels
+            .iter()
+            .map(|l| l.brick_count())
+            .filter(|&bricks| bricks <= LEVEL_WALK_BRICKS)
+            .max()
+            .unwrap_or(1)
+            .max(1)
+            * std::mem::size_of::<TableEntry>() as u64;
         // The scatter's staging takes its bytes from the atlas; where the rest cannot hold the
         // always-resident levels and a view, the ring copies instead (it needs none).
         let fit = |staging_bytes: u64| -> Result<_, RenderError> {
             let grid = atlas_grid(
                 context,
                 options.gpu_memory,
-                staging_bytes,
+                staging_bytes + level_cells_bytes,
                 slot_bytes,
                 bricks,
             )?;
@@ -241,6 +266,12 @@ impl StreamVolume {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
+        let level_cells = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("voxscope::stream_level_cells"),
+            size: level_cells_bytes,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
         let readback_bytes = (1 + REQUEST_CAPACITY as u64 + slots as u64) * 4;
         let readbacks = (0..READBACKS)
             .map(|_| Readback {
@@ -289,6 +320,8 @@ impl StreamVolume {
             requests,
             usage,
             readbacks,
+            level_cells,
+            walk_wanted: AtomicU32::new(NO_LEVEL),
             ring,
             copy_timer: CopyTimer::new(context),
             drawn: AtomicBool::new(false),
@@ -392,6 +425,13 @@ impl StreamVolume {
                 bytemuck::cast_slice(entries),
             );
         }
+        if let Some((start, cells)) = self.streamer.table_mut().take_level_dirty() {
+            context.queue.write_buffer(
+                &self.level_cells,
+                start as u64 * entry_bytes,
+                bytemuck::cast_slice(cells),
+            );
+        }
     }
 
     /// The path its uploads take: [`UploadPath::Scatter`] only where the device writes the
@@ -441,6 +481,13 @@ impl StreamVolume {
             ),
             None => self.streamer.begin_frame(None, view),
         };
+        // The level the latest frame wanted to walk: copied flat from now on (until another
+        // is wanted), so that the next frames walk it.
+        let walk = self.walk_wanted.load(Ordering::Acquire);
+        if let Some(level) = self.streamer.shape().levels.get(walk as usize) {
+            let bricks = level.brick_count() as usize;
+            self.streamer.table_mut().copy_level(Some((walk, bricks)));
+        }
         let writing = Instant::now();
         self.write(context, &uploads);
         let mut status = status;
@@ -539,8 +586,38 @@ impl StreamVolume {
         &mut self.streamer
     }
 
+    /// The level a frame of `params` would walk (`main_level`): the level the ray through the
+    /// volume's center wants there (the pixel LOD's, `wanted_level` in `stream.wgsl`), where
+    /// the page table may copy it flat (at most [`LEVEL_WALK_BRICKS`] bricks). Rays that want
+    /// another level go on as `main`'s do, so this only needs to be the level most rays want.
+    fn walk_level(&self, params: &RaycastParams) -> Option<u32> {
+        if !self.streamer.options().level_walk {
+            return None;
+        }
+        let shape = self.streamer.shape();
+        let finest = shape.depth().saturating_sub(params.max_level);
+        let eye = glam::Vec3::from_slice(&params.eye[..3]);
+        let forward = glam::Vec3::from_slice(&params.forward[..3]);
+        let center = glam::Vec3::from_slice(&params.volume[..3]) * 0.5;
+        let t = ((center - eye).dot(forward) / forward.length_squared().max(1e-20)).max(0.0);
+        let footprint = t * params.lod_factor * self.streamer.options().lod_scale.max(0.0);
+        let mut level = finest as usize;
+        while level + 1 < shape.levels.len() && shape.levels[level + 1].scale as f32 <= footprint {
+            level += 1;
+        }
+        let bricks = shape.levels.get(level)?.brick_count();
+        (bricks <= LEVEL_WALK_BRICKS).then_some(level as u32)
+    }
+
+    /// The level a frame of `params` walks: [`Self::walk_level`], once the table copies it.
+    fn walked_level(&self, params: &RaycastParams) -> Option<u32> {
+        self.walk_level(params)
+            .filter(|&level| self.streamer.table().copied_level() == Some(level))
+    }
+
     /// The uniforms of a frame drawn with `params`.
-    fn stream_params(&self, max_level: u32) -> StreamParams {
+    fn stream_params(&self, params: &RaycastParams) -> StreamParams {
+        let max_level = params.max_level;
         let shape = self.streamer.shape();
         let mut level_grid = [[0u32; 4]; STREAM_LEVELS];
         let mut level_scale = [[1f32; 4]; STREAM_LEVELS];
@@ -560,7 +637,7 @@ impl StreamVolume {
             request_capacity: REQUEST_CAPACITY,
             request_set_mask: REQUEST_SET - 1,
             lod_scale: self.streamer.options().lod_scale.max(0.0),
-            _pad: 0,
+            walk_level: self.walked_level(params).unwrap_or(NO_LEVEL),
         }
     }
 }
@@ -618,7 +695,7 @@ impl StreamRaycaster {
             context,
             "stream",
             super::shaders::STREAM,
-            &["main"],
+            &["main", "main_level"],
             &[
                 uniform_entry(0, false),
                 uniform_entry(1, false),
@@ -631,6 +708,7 @@ impl StreamRaycaster {
                 storage_entry(8, false),
                 storage_entry(9, false),
                 storage_entry(10, false),
+                storage_entry(11, true),
             ],
         );
         Self {
@@ -650,9 +728,11 @@ impl StreamRaycaster {
         }
     }
 
-    /// Builds, where not built yet, the pipeline of `variant`.
+    /// Builds, where not built yet, the pipelines of `variant` (both entry points).
     pub(crate) fn prepare(&self, context: &GpuContext, variant: Variant) {
-        self.pipelines.get(context, 0, variant);
+        for entry in [SEGMENTS, LEVEL_WALK] {
+            self.pipelines.get(context, entry, variant);
+        }
     }
 }
 
@@ -665,6 +745,16 @@ impl RayPass<StreamVolume> for StreamRaycaster {
 
     fn stand_ins(&self) -> &StandIns {
         &self.stand_ins
+    }
+
+    /// The level walk where the table copies the level the frame wants, else segment by
+    /// segment.
+    fn entry_point(&self, volume: &StreamVolume, params: &RaycastParams) -> usize {
+        if volume.walked_level(params).is_some() {
+            LEVEL_WALK
+        } else {
+            SEGMENTS
+        }
     }
 
     /// Each segment picks its own level from the page table: no coarse variant.
@@ -683,6 +773,10 @@ impl RayPass<StreamVolume> for StreamRaycaster {
         volume
             .max_projection
             .store(params.mode == MODE_MIP, Ordering::Release);
+        volume.walk_wanted.store(
+            volume.walk_level(params).unwrap_or(NO_LEVEL),
+            Ordering::Release,
+        );
         volume.drawn.store(true, Ordering::Release);
     }
 
@@ -704,7 +798,7 @@ impl RayPass<StreamVolume> for StreamRaycaster {
         let params_buffer = frame_params_buffer(context, "voxscope::stream_params", params);
         let stream_params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("voxscope::stream_level_params"),
-            contents: bytemuck::bytes_of(&volume.stream_params(params.max_level)),
+            contents: bytemuck::bytes_of(&volume.stream_params(params)),
             usage: wgpu::BufferUsages::UNIFORM,
         });
         numbered_bind_group(
@@ -723,6 +817,7 @@ impl RayPass<StreamVolume> for StreamRaycaster {
                 volume.requests.as_entire_binding(),
                 volume.usage.as_entire_binding(),
                 probe.as_entire_binding(),
+                volume.level_cells.as_entire_binding(),
             ],
         )
     }
@@ -812,6 +907,7 @@ impl Renderer for StreamVolume {
             ),
             ("lookup_table", self.transfer.size()),
             ("upload_staging", self.ring.gpu_bytes()),
+            ("level_cells", self.level_cells.size()),
         ]
     }
 
