@@ -53,6 +53,11 @@ struct StreamParams {
 // low bits), EMPTY_KEY where the table has none (src/stream/page_table.rs's level copy). Read
 // by `level_walk` only.
 @group(0) @binding(11) var<storage, read> level_cells: array<vec4<u32>>;
+// Whether `main_level` handed rays over to `main_handed_over`: [0] how many, [1..4) the second
+// dispatch's workgroups x, y, z (copied to its indirect arguments: none, or the first
+// dispatch's). A ray handed over is marked in `visits` (HANDED_OVER).
+@group(0) @binding(12) var<storage, read_write> handover: array<atomic<u32>, 4>;
+const HANDED_OVER: u32 = 0xffffffffu;
 
 // Keep in sync with src/stream (page_table.rs, pyramid.rs, source.rs).
 const MAX_PROBES: u32 = 32u;
@@ -799,11 +804,14 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
 }
 
 // Frames whose rays mostly want one level that the page table copies flat
-// (src/render/stream.rs decides): each ray walks that level (`level_walk`) and goes on
-// through `stream_ray` where the walk stops. Its own pipeline, so `main`'s rays carry none of
-// the walk.
+// (src/render/stream.rs decides), first of two dispatches: each ray walks that level
+// (`level_walk`); a ray the walk cannot finish is marked in `visits` and drawn from its start,
+// segment by segment, by `main_handed_over`, so this pipeline carries none of `stream_ray`'s
+// code and registers (runs 103–104, docs/performance-log.md: 8–10 % of the frame). A probe
+// traces its one ray on through `stream_ray` here.
 @compute @workgroup_size(8, 8, 1)
-fn main_level(@builtin(global_invocation_id) id: vec3<u32>) {
+fn main_level(@builtin(global_invocation_id) id: vec3<u32>,
+              @builtin(num_workgroups) groups: vec3<u32>) {
     let pixel = ray_pixel(id.xy);
     if pixel.x >= params.image_size.x || pixel.y >= params.image_size.y {
         return;
@@ -811,14 +819,42 @@ fn main_level(@builtin(global_invocation_id) id: vec3<u32>) {
     let ray = pixel_ray(pixel);
     let jitter = pixel_jitter(pixel);
     let walk = level_walk(params.eye.xyz, ray.dir, ray.world_length, jitter);
-    var result = RayResult(final_color(walk.start.acc), walk.start.visited,
-                           walk.start.acc.probe_t);
-    if !walk.finished {
-        result = stream_ray(params.eye.xyz, ray.dir, ray.world_length, jitter, walk.start);
-    }
     if PROBE {
-        write_probe(params.eye.xyz, ray.dir, result.probe_t);
-    } else {
-        write_pixel(pixel, result.color, result.visited);
+        var probe_t = walk.start.acc.probe_t;
+        if !walk.finished {
+            probe_t = stream_ray(params.eye.xyz, ray.dir, ray.world_length, jitter,
+                                 walk.start).probe_t;
+        }
+        write_probe(params.eye.xyz, ray.dir, probe_t);
+        return;
     }
+    if walk.finished {
+        write_pixel(pixel, final_color(walk.start.acc), walk.start.visited);
+        return;
+    }
+    let texel = pixel - params.placement.xy;
+    visits[texel.y * params.placement.z + texel.x] = HANDED_OVER;
+    if atomicAdd(&handover[0], 1u) == 0u {
+        atomicStore(&handover[1], groups.x);
+        atomicStore(&handover[2], groups.y);
+    }
+}
+
+// The second dispatch of a level-walk frame, over the same workgroups where `main_level`
+// handed rays over (none otherwise): each ray marked in `visits` drawn from its start as
+// `main` draws it.
+@compute @workgroup_size(8, 8, 1)
+fn main_handed_over(@builtin(global_invocation_id) id: vec3<u32>) {
+    let pixel = ray_pixel(id.xy);
+    if pixel.x >= params.image_size.x || pixel.y >= params.image_size.y {
+        return;
+    }
+    let texel = pixel - params.placement.xy;
+    if visits[texel.y * params.placement.z + texel.x] != HANDED_OVER {
+        return;
+    }
+    let ray = pixel_ray(pixel);
+    let result = stream_ray(params.eye.xyz, ray.dir, ray.world_length, pixel_jitter(pixel),
+                            RayStart(0.0, new_accumulation(), 0u));
+    write_pixel(pixel, result.color, result.visited);
 }

@@ -991,13 +991,13 @@ fn the_level_walk_draws_what_the_segments_draw_and_hands_rays_over_where_it_must
             let target = RenderTarget::new(&context, SIZE.0, SIZE.1);
             renderer.render(&context, &target, &camera, &settings);
             let visits = voxscope_render::read_visits(&context, &target).expect("visits");
-            let copied = renderer
-                .stream()
-                .and_then(|s| s.streamer().table().copied_level());
-            (refined, visits, copied)
+            let stream = renderer.stream().expect("a streaming renderer");
+            let copied = stream.streamer().table().copied_level();
+            let handed_over = stream.rays_handed_over(&context).expect("readback");
+            (refined, visits, copied, handed_over)
         };
-        let (walked, walked_visits, copied) = draw(true);
-        let (segments, segments_visits, none) = draw(false);
+        let (walked, walked_visits, copied, handed_over) = draw(true);
+        let (segments, segments_visits, none, _) = draw(false);
         save(&walked.image, &format!("level-walk-{name}"));
         let differing = differing_pixels(&walked.image, &segments.image);
         let visits_differing = walked_visits
@@ -1012,8 +1012,9 @@ fn the_level_walk_draws_what_the_segments_draw_and_hands_rays_over_where_it_must
             .max()
             .unwrap_or(0);
         eprintln!(
-            "{name}: level {copied:?} walked, {differing} pixels differ, {visits_differing} \
-             rays' counts of segments and samples (by {most_apart} at most), coverage {:.3}",
+            "{name}: level {copied:?} walked, {handed_over} rays handed over, {differing} \
+             pixels differ, {visits_differing} rays' counts of segments and samples (by \
+             {most_apart} at most), coverage {:.3}",
             coverage(&segments.image)
         );
         assert!(
@@ -1022,6 +1023,12 @@ fn the_level_walk_draws_what_the_segments_draw_and_hands_rays_over_where_it_must
         );
         assert_eq!(none, None, "{name}: no level copied without the walk");
         assert!(copied.is_some(), "{name}: a level was walked");
+        if lod_scale == 0.0 && budget > level0_bytes() {
+            assert_eq!(
+                handed_over, 0,
+                "{name}: every ray walks a resident level to its end"
+            );
+        }
         assert_eq!(
             differing, 0,
             "{name}: the walk's image is the segments' bit for bit"

@@ -465,6 +465,34 @@ pub(crate) trait RayPass<V: VolumeShape> {
         target: &RenderTarget,
         probe: &wgpu::Buffer,
     ) -> wgpu::BindGroup;
+
+    /// Records a frame's dispatch over `region` with `bind_group`: one compute pass of the
+    /// entry point and variant the frame runs (the streaming renderer's level walk adds a
+    /// second, for the rays it hands over).
+    #[allow(clippy::too_many_arguments)]
+    fn dispatch(
+        &self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        volume: &V,
+        params: &RaycastParams,
+        variant: Variant,
+        bind_group: &wgpu::BindGroup,
+        region: ImageRegion,
+        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
+        let pipeline = self
+            .pipelines()
+            .get(context, self.entry_point(volume, params), variant);
+        dispatch_region(
+            encoder,
+            Self::NAME,
+            pipeline,
+            bind_group,
+            region,
+            timestamp_writes,
+        );
+    }
 }
 
 /// Records one frame of `frame.volume` with `pass` into `encoder`, its parameters in a buffer
@@ -510,15 +538,13 @@ pub(crate) fn encode_frame_region<V: VolumeShape, P: RayPass<V>>(
         target,
         &pass.stand_ins().probe,
     );
-    let pipeline = pass.pipelines().get(
+    let variant = pass.variant(frame_variant(settings), &params);
+    pass.dispatch(
         context,
-        pass.entry_point(volume, &params),
-        pass.variant(frame_variant(settings), &params),
-    );
-    dispatch_region(
         encoder,
-        P::NAME,
-        pipeline,
+        volume,
+        &params,
+        variant,
         &bind_group,
         region,
         timestamp_writes,

@@ -18,8 +18,8 @@ use wgpu::util::DeviceExt;
 use super::copy_timer::CopyTimer;
 use super::gpu_data::{MODE_MIP, RaycastParams, STREAM_LEVELS, StreamParams};
 use super::pipeline::{
-    Variant, VariantPipelines, atlas_entry, atlas_sampler_entry, clamped_sampler,
-    numbered_bind_group, output_image_entry, storage_entry, uniform_entry,
+    Variant, VariantPipelines, atlas_entry, atlas_sampler_entry, clamped_sampler, dispatch_region,
+    numbered_bind_group, output_image_entry, split_timestamps, storage_entry, uniform_entry,
 };
 use super::raycaster::{
     BrickShape, ProbeTarget, RayPass, StandIns, VolumeShape, encode_frame, encode_probe_ray,
@@ -57,6 +57,12 @@ const NO_LEVEL: u32 = u32::MAX;
 /// The entry points of `stream.wgsl`, in the order [`VariantPipelines`] numbers them.
 const SEGMENTS: usize = 0;
 const LEVEL_WALK: usize = 1;
+const HANDED_OVER: usize = 2;
+/// `handover` in `stream.wgsl` before a level walk: no ray handed over, and no workgroups
+/// (x, y, z) for the second dispatch.
+const HANDOVER_RESET: [u32; 4] = [0, 0, 0, 1];
+/// `handover`, its reset and the indirect arguments.
+const HANDOVER_BYTES: u64 = 16 + 16 + 12;
 
 /// One staging buffer for a frame's requests and usage marks.
 struct Readback {
@@ -84,6 +90,13 @@ pub struct StreamVolume {
     /// The level the latest frame drawn wanted to walk ([`NO_LEVEL`]: none); the next
     /// [`Self::step`] has the table copy it.
     walk_wanted: AtomicU32,
+    /// Whether a level walk handed rays over (`handover` in `stream.wgsl`), and the second
+    /// dispatch's workgroups.
+    handover: wgpu::Buffer,
+    /// [`HANDOVER_RESET`], copied over `handover` before each level walk.
+    handover_reset: wgpu::Buffer,
+    /// The second dispatch's indirect arguments, copied from `handover`.
+    handover_args: wgpu::Buffer,
     /// Where uploads are staged on their way into the atlas.
     ring: StagingRing,
     /// The always-resident levels' bricks, read when the volume was made and written by the
@@ -207,7 +220,7 @@ impl StreamVolume {
             let grid = atlas_grid(
                 context,
                 options.gpu_memory,
-                staging_bytes + level_cells_bytes,
+                staging_bytes + level_cells_bytes + HANDOVER_BYTES,
                 slot_bytes,
                 bricks,
             )?;
@@ -322,6 +335,25 @@ impl StreamVolume {
             readbacks,
             level_cells,
             walk_wanted: AtomicU32::new(NO_LEVEL),
+            handover: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("voxscope::stream_handover"),
+                size: 16,
+                usage: wgpu::BufferUsages::STORAGE
+                    | wgpu::BufferUsages::COPY_SRC
+                    | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
+            handover_reset: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("voxscope::stream_handover_reset"),
+                contents: bytemuck::cast_slice(&HANDOVER_RESET),
+                usage: wgpu::BufferUsages::COPY_SRC,
+            }),
+            handover_args: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("voxscope::stream_handover_args"),
+                size: 12,
+                usage: wgpu::BufferUsages::INDIRECT | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
             ring,
             copy_timer: CopyTimer::new(context),
             drawn: AtomicBool::new(false),
@@ -576,6 +608,14 @@ impl StreamVolume {
         self.write(context, &[]);
     }
 
+    /// How many rays the latest level walk drawn handed over to the segment loop (waits for
+    /// the GPU: for tests and benchmarks, never the frame path). 0 where no frame walked a
+    /// level yet.
+    pub fn rays_handed_over(&self, context: &GpuContext) -> Result<u32, RenderError> {
+        let bytes = super::read_buffer(context, &self.handover, 4)?;
+        Ok(u32::from_le_bytes([bytes[0], bytes[1], bytes[2], bytes[3]]))
+    }
+
     /// The streamer (its counters, options and shape).
     pub fn streamer(&self) -> &Streamer {
         &self.streamer
@@ -695,7 +735,7 @@ impl StreamRaycaster {
             context,
             "stream",
             super::shaders::STREAM,
-            &["main", "main_level"],
+            &["main", "main_level", "main_handed_over"],
             &[
                 uniform_entry(0, false),
                 uniform_entry(1, false),
@@ -709,6 +749,7 @@ impl StreamRaycaster {
                 storage_entry(9, false),
                 storage_entry(10, false),
                 storage_entry(11, true),
+                storage_entry(12, false),
             ],
         );
         Self {
@@ -730,7 +771,7 @@ impl StreamRaycaster {
 
     /// Builds, where not built yet, the pipelines of `variant` (both entry points).
     pub(crate) fn prepare(&self, context: &GpuContext, variant: Variant) {
-        for entry in [SEGMENTS, LEVEL_WALK] {
+        for entry in [SEGMENTS, LEVEL_WALK, HANDED_OVER] {
             self.pipelines.get(context, entry, variant);
         }
     }
@@ -818,8 +859,49 @@ impl RayPass<StreamVolume> for StreamRaycaster {
                 volume.usage.as_entire_binding(),
                 probe.as_entire_binding(),
                 volume.level_cells.as_entire_binding(),
+                volume.handover.as_entire_binding(),
             ],
         )
+    }
+
+    /// A level walk is two dispatches: `main_level` over the region, then `main_handed_over`
+    /// over it again where the walk handed rays over (indirect: no workgroups otherwise).
+    fn dispatch(
+        &self,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        volume: &StreamVolume,
+        params: &RaycastParams,
+        variant: Variant,
+        bind_group: &wgpu::BindGroup,
+        region: ImageRegion,
+        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
+        let entry = self.entry_point(volume, params);
+        let pipeline = self.pipelines.get(context, entry, variant);
+        if entry != LEVEL_WALK {
+            dispatch_region(
+                encoder,
+                "stream",
+                pipeline,
+                bind_group,
+                region,
+                timestamp_writes,
+            );
+            return;
+        }
+        let bytes = std::mem::size_of_val(&HANDOVER_RESET) as u64;
+        encoder.copy_buffer_to_buffer(&volume.handover_reset, 0, &volume.handover, 0, bytes);
+        let (first, last) = split_timestamps(&timestamp_writes);
+        dispatch_region(encoder, "stream_level", pipeline, bind_group, region, first);
+        encoder.copy_buffer_to_buffer(&volume.handover, 4, &volume.handover_args, 0, bytes - 4);
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("voxscope::stream_handed_over_pass"),
+            timestamp_writes: last,
+        });
+        pass.set_pipeline(self.pipelines.get(context, HANDED_OVER, variant));
+        pass.set_bind_group(0, bind_group, &[]);
+        pass.dispatch_workgroups_indirect(&volume.handover_args, 0);
     }
 }
 
@@ -908,6 +990,10 @@ impl Renderer for StreamVolume {
             ("lookup_table", self.transfer.size()),
             ("upload_staging", self.ring.gpu_bytes()),
             ("level_cells", self.level_cells.size()),
+            (
+                "handover",
+                self.handover.size() + self.handover_reset.size() + self.handover_args.size(),
+            ),
         ]
     }
 
