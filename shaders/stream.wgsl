@@ -323,14 +323,6 @@ struct RayResult {
     probe_t: f32,
 }
 
-// Where a ray goes on from: its distance, what it has composited, the segments and samples
-// it has visited (`level_walk` hands a ray over to `stream_ray` with these).
-struct RayStart {
-    t: f32,
-    acc: Accumulation,
-    visited: u32,
-}
-
 // The usage mark's kind, kept in the top bit of the marched slot (above SLOT_MASK): the ray
 // wanted the slot's level there (`usage_mark`).
 const USAGE_WANTED: u32 = 0x80000000u;
@@ -396,12 +388,8 @@ fn marchable(entry: vec4<u32>, key: u32, running_max: u32) -> bool {
 // there again rather than held through the marching. (Runs 99–100, docs/performance-log.md:
 // 2–4 % faster than holding them and starting a segment at every brick; the register count,
 // 64 to 80 in the variants tried, changed the frame time little.)
-//
-// A ray starts at `start`: its entry into the volume with nothing composited (`ray_start`), or
-// where `level_walk` handed it over.
-fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, jitter: f32,
-              start: RayStart) -> RayResult {
-    var result = RayResult(vec3<f32>(0.0), start.visited, -1.0);
+fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, jitter: f32) -> RayResult {
+    var result = RayResult(vec3<f32>(0.0), 0u, -1.0);
     let interval = volume_interval(origin, dir, safe_inverse(dir));
     let t_enter = interval.x;
     let t_leave = interval.y;
@@ -414,9 +402,9 @@ fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, jitter: f32,
     let lod_per_t = world_length * params.lod_factor * stream.lod_scale;
     let light = headlight(dir);
     let half_texel = 0.5 * params.atlas_texel.xyz;
-    var acc = start.acc;
+    var acc = new_accumulation();
 
-    var t = max(t_enter, start.t);
+    var t = t_enter;
     // The segment being marched: its exit, sample step and index, the level drawn, the
     // opacity correction's exponent, where its samples are in the atlas, and the brick's
     // maximum (MIP).
@@ -618,10 +606,11 @@ fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, jitter: f32,
     return result;
 }
 
-// Where a level walk ended: the ray's state, and whether the ray is done (else `stream_ray`
-// goes on from there).
+// Where a level walk ended: what the ray composited and visited, and whether it is done (else
+// `main_handed_over` draws it).
 struct LevelWalk {
-    start: RayStart,
+    acc: Accumulation,
+    visited: u32,
     finished: bool,
 }
 
@@ -653,7 +642,7 @@ fn walkable(entry: vec4<u32>, running_max: u32) -> bool {
 // `stream_ray` takes at that level (its segment ends, the short step's included), so the
 // image is the same.
 fn level_walk(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, jitter: f32) -> LevelWalk {
-    var walk = LevelWalk(RayStart(0.0, new_accumulation(), 0u), true);
+    var walk = LevelWalk(new_accumulation(), 0u, true);
     let inv = safe_inverse(dir);
     let interval = volume_interval(origin, dir, inv);
     let t_enter = interval.x;
@@ -783,7 +772,8 @@ fn level_walk(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, jitter: f32)
             deciding = true;
         }
     }
-    walk.start = RayStart(t, acc, visited);
+    walk.acc = acc;
+    walk.visited = visited;
     return walk;
 }
 
@@ -794,8 +784,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let ray = pixel_ray(pixel);
-    let result = stream_ray(params.eye.xyz, ray.dir, ray.world_length, pixel_jitter(pixel),
-                            RayStart(0.0, new_accumulation(), 0u));
+    let result = stream_ray(params.eye.xyz, ray.dir, ray.world_length, pixel_jitter(pixel));
     if PROBE {
         write_probe(params.eye.xyz, ray.dir, result.probe_t);
     } else {
@@ -807,8 +796,8 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
 // (src/render/stream.rs decides), first of two dispatches: each ray walks that level
 // (`level_walk`); a ray the walk cannot finish is marked in `visits` and drawn from its start,
 // segment by segment, by `main_handed_over`, so this pipeline carries none of `stream_ray`'s
-// code and registers (runs 103–104, docs/performance-log.md: 8–10 % of the frame). A probe
-// traces its one ray on through `stream_ray` here.
+// code and registers (runs 103–104, docs/performance-log.md: 8–10 % of the frame). Probes
+// take `main` (src/render/stream.rs).
 @compute @workgroup_size(8, 8, 1)
 fn main_level(@builtin(global_invocation_id) id: vec3<u32>,
               @builtin(num_workgroups) groups: vec3<u32>) {
@@ -819,17 +808,8 @@ fn main_level(@builtin(global_invocation_id) id: vec3<u32>,
     let ray = pixel_ray(pixel);
     let jitter = pixel_jitter(pixel);
     let walk = level_walk(params.eye.xyz, ray.dir, ray.world_length, jitter);
-    if PROBE {
-        var probe_t = walk.start.acc.probe_t;
-        if !walk.finished {
-            probe_t = stream_ray(params.eye.xyz, ray.dir, ray.world_length, jitter,
-                                 walk.start).probe_t;
-        }
-        write_probe(params.eye.xyz, ray.dir, probe_t);
-        return;
-    }
     if walk.finished {
-        write_pixel(pixel, final_color(walk.start.acc), walk.start.visited);
+        write_pixel(pixel, final_color(walk.acc), walk.visited);
         return;
     }
     let texel = pixel - params.placement.xy;
@@ -854,7 +834,6 @@ fn main_handed_over(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let ray = pixel_ray(pixel);
-    let result = stream_ray(params.eye.xyz, ray.dir, ray.world_length, pixel_jitter(pixel),
-                            RayStart(0.0, new_accumulation(), 0u));
+    let result = stream_ray(params.eye.xyz, ray.dir, ray.world_length, pixel_jitter(pixel));
     write_pixel(pixel, result.color, result.visited);
 }

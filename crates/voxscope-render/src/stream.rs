@@ -798,6 +798,12 @@ impl RayPass<StreamVolume> for StreamRaycaster {
         }
     }
 
+    /// Segment by segment: a probe is one dispatch, and the level walk hands rays over to a
+    /// second.
+    fn probe_entry_point(&self, _volume: &StreamVolume, _params: &RaycastParams) -> usize {
+        SEGMENTS
+    }
+
     /// Each segment picks its own level from the page table: no coarse variant.
     fn variant(&self, base: Variant, _params: &RaycastParams) -> Variant {
         base
