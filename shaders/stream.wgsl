@@ -53,10 +53,8 @@ struct StreamParams {
 // low bits), EMPTY_KEY where the table has none (src/stream/page_table.rs's level copy). Read
 // by `level_walk` only.
 @group(0) @binding(11) var<storage, read> level_cells: array<vec4<u32>>;
-// Whether `main_level` handed rays over to `main_handed_over`: [0] how many, [1..4) the second
-// dispatch's workgroups x, y, z (copied to its indirect arguments: none, or the first
-// dispatch's). A ray handed over is marked in `visits` (HANDED_OVER).
-@group(0) @binding(12) var<storage, read_write> handover: array<atomic<u32>, 4>;
+// How many rays `main_handed_over` drew (`main_level` marks them in `visits`: HANDED_OVER).
+@group(0) @binding(12) var<storage, read_write> handed_over: atomic<u32>;
 const HANDED_OVER: u32 = 0xffffffffu;
 
 // Keep in sync with src/stream (page_table.rs, pyramid.rs, source.rs).
@@ -799,8 +797,10 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
 // code and registers (runs 103–104, docs/performance-log.md: 8–10 % of the frame). Probes
 // take `main` (src/render/stream.rs).
 @compute @workgroup_size(8, 8, 1)
-fn main_level(@builtin(global_invocation_id) id: vec3<u32>,
-              @builtin(num_workgroups) groups: vec3<u32>) {
+fn main_level(@builtin(global_invocation_id) id: vec3<u32>) {
+    if all(id.xy == vec2<u32>(0u)) {
+        atomicStore(&handed_over, 0u);
+    }
     let pixel = ray_pixel(id.xy);
     if pixel.x >= params.image_size.x || pixel.y >= params.image_size.y {
         return;
@@ -814,15 +814,10 @@ fn main_level(@builtin(global_invocation_id) id: vec3<u32>,
     }
     let texel = pixel - params.placement.xy;
     visits[texel.y * params.placement.z + texel.x] = HANDED_OVER;
-    if atomicAdd(&handover[0], 1u) == 0u {
-        atomicStore(&handover[1], groups.x);
-        atomicStore(&handover[2], groups.y);
-    }
 }
 
-// The second dispatch of a level-walk frame, over the same workgroups where `main_level`
-// handed rays over (none otherwise): each ray marked in `visits` drawn from its start as
-// `main` draws it.
+// The second dispatch of a level-walk frame, over the same pixels: each ray `main_level`
+// marked in `visits` drawn from its start as `main` draws it.
 @compute @workgroup_size(8, 8, 1)
 fn main_handed_over(@builtin(global_invocation_id) id: vec3<u32>) {
     let pixel = ray_pixel(id.xy);
@@ -833,6 +828,7 @@ fn main_handed_over(@builtin(global_invocation_id) id: vec3<u32>) {
     if visits[texel.y * params.placement.z + texel.x] != HANDED_OVER {
         return;
     }
+    atomicAdd(&handed_over, 1u);
     let ray = pixel_ray(pixel);
     let result = stream_ray(params.eye.xyz, ray.dir, ray.world_length, pixel_jitter(pixel));
     write_pixel(pixel, result.color, result.visited);

@@ -58,11 +58,8 @@ const NO_LEVEL: u32 = u32::MAX;
 const SEGMENTS: usize = 0;
 const LEVEL_WALK: usize = 1;
 const HANDED_OVER: usize = 2;
-/// `handover` in `stream.wgsl` before a level walk: no ray handed over, and no workgroups
-/// (x, y, z) for the second dispatch.
-const HANDOVER_RESET: [u32; 4] = [0, 0, 0, 1];
-/// `handover`, its reset and the indirect arguments.
-const HANDOVER_BYTES: u64 = 16 + 16 + 12;
+/// `handed_over` in `stream.wgsl`.
+const HANDOVER_BYTES: u64 = 4;
 
 /// One staging buffer for a frame's requests and usage marks.
 struct Readback {
@@ -90,13 +87,8 @@ pub struct StreamVolume {
     /// The level the latest frame drawn wanted to walk ([`NO_LEVEL`]: none); the next
     /// [`Self::step`] has the table copy it.
     walk_wanted: AtomicU32,
-    /// Whether a level walk handed rays over (`handover` in `stream.wgsl`), and the second
-    /// dispatch's workgroups.
+    /// How many rays the latest level walk handed over (`handed_over` in `stream.wgsl`).
     handover: wgpu::Buffer,
-    /// [`HANDOVER_RESET`], copied over `handover` before each level walk.
-    handover_reset: wgpu::Buffer,
-    /// The second dispatch's indirect arguments, copied from `handover`.
-    handover_args: wgpu::Buffer,
     /// Where uploads are staged on their way into the atlas.
     ring: StagingRing,
     /// The always-resident levels' bricks, read when the volume was made and written by the
@@ -336,22 +328,9 @@ impl StreamVolume {
             level_cells,
             walk_wanted: AtomicU32::new(NO_LEVEL),
             handover: device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("voxscope::stream_handover"),
-                size: 16,
-                usage: wgpu::BufferUsages::STORAGE
-                    | wgpu::BufferUsages::COPY_SRC
-                    | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            }),
-            handover_reset: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("voxscope::stream_handover_reset"),
-                contents: bytemuck::cast_slice(&HANDOVER_RESET),
-                usage: wgpu::BufferUsages::COPY_SRC,
-            }),
-            handover_args: device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("voxscope::stream_handover_args"),
-                size: 12,
-                usage: wgpu::BufferUsages::INDIRECT | wgpu::BufferUsages::COPY_DST,
+                label: Some("voxscope::stream_handed_over"),
+                size: HANDOVER_BYTES,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
                 mapped_at_creation: false,
             }),
             ring,
@@ -870,8 +849,9 @@ impl RayPass<StreamVolume> for StreamRaycaster {
         )
     }
 
-    /// A level walk is two dispatches: `main_level` over the region, then `main_handed_over`
-    /// over it again where the walk handed rays over (indirect: no workgroups otherwise).
+    /// A level walk is two dispatches over the region, each in a pass of its own (the second
+    /// reads what the first wrote): `main_level`, then `main_handed_over` for the rays the walk
+    /// handed over.
     fn dispatch(
         &self,
         context: &GpuContext,
@@ -896,18 +876,17 @@ impl RayPass<StreamVolume> for StreamRaycaster {
             );
             return;
         }
-        let bytes = std::mem::size_of_val(&HANDOVER_RESET) as u64;
-        encoder.copy_buffer_to_buffer(&volume.handover_reset, 0, &volume.handover, 0, bytes);
         let (first, last) = split_timestamps(&timestamp_writes);
         dispatch_region(encoder, "stream_level", pipeline, bind_group, region, first);
-        encoder.copy_buffer_to_buffer(&volume.handover, 4, &volume.handover_args, 0, bytes - 4);
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("voxscope::stream_handed_over_pass"),
-            timestamp_writes: last,
-        });
-        pass.set_pipeline(self.pipelines.get(context, HANDED_OVER, variant));
-        pass.set_bind_group(0, bind_group, &[]);
-        pass.dispatch_workgroups_indirect(&volume.handover_args, 0);
+        let handed_over = self.pipelines.get(context, HANDED_OVER, variant);
+        dispatch_region(
+            encoder,
+            "stream_handed_over",
+            handed_over,
+            bind_group,
+            region,
+            last,
+        );
     }
 }
 
@@ -996,10 +975,7 @@ impl Renderer for StreamVolume {
             ("lookup_table", self.transfer.size()),
             ("upload_staging", self.ring.gpu_bytes()),
             ("level_cells", self.level_cells.size()),
-            (
-                "handover",
-                self.handover.size() + self.handover_reset.size() + self.handover_args.size(),
-            ),
+            ("handed_over", self.handover.size()),
         ]
     }
 
