@@ -88,7 +88,6 @@ fn options(gpu_memory: u64) -> StreamOptions {
         workers: 2,
         lod_scale: 0.0,
         prefetch: false,
-        level_walk: true,
         retry_after: Duration::from_secs(3600),
     }
 }
@@ -941,107 +940,6 @@ fn a_far_view_streams_the_levels_its_pixels_resolve() {
         db >= 25.0,
         "the far view at its pixels' levels against full detail: {db:.1} dB"
     );
-}
-
-/// Pixels of `a` and `b` that differ.
-fn differing_pixels(a: &RgbaImage, b: &RgbaImage) -> usize {
-    a.pixels().zip(b.pixels()).filter(|(p, q)| p != q).count()
-}
-
-#[test]
-fn the_level_walk_draws_what_the_segments_draw_and_hands_rays_over_where_it_must() {
-    let context = gpu();
-    let prepared = &*NOISE;
-    let depth = prepared.octree.depth;
-    let mip = RenderSettings {
-        mode: voxscope_render::RenderMode::Mip,
-        ..settings(depth)
-    };
-    let shaded = RenderSettings {
-        shading: voxscope_render::Shading::default(),
-        ..settings(depth)
-    };
-    // (name, camera distance, pixel LOD scale, settings, budget): close at level 0 (the whole
-    // level walked); nearer, where the front wants level 0 and the back level 1 (rays handed
-    // over where they want another level); far (most rays want level 1 or coarser); a
-    // quarter of level 0 in the atlas (bricks missing while the view refines, evicted ones).
-    let cases = [
-        ("close-dvr", 1.6, 0.0, settings(depth), 2 * level0_bytes()),
-        ("close-mip", 1.6, 0.0, mip, 2 * level0_bytes()),
-        ("close-shaded", 1.6, 0.0, shaded, 2 * level0_bytes()),
-        ("lod-dvr", 2.2, 1.0, settings(depth), 2 * level0_bytes()),
-        ("lod-mip", 2.2, 1.0, mip, 2 * level0_bytes()),
-        ("far-dvr", 5.0, 1.0, settings(depth), 2 * level0_bytes()),
-        ("quarter-dvr", 1.6, 0.0, settings(depth), level0_bytes() / 4),
-    ];
-    for (name, distance, lod_scale, settings, budget) in cases {
-        let camera = Camera {
-            distance,
-            ..close_camera(30.0)
-        };
-        let draw = |level_walk: bool| {
-            let options = StreamOptions {
-                lod_scale,
-                level_walk,
-                ..options(budget)
-            };
-            let mut renderer = streaming(&context, PYRAMID.clone(), options, &prepared.transfer);
-            let refined = refine(&context, &mut renderer, &camera, &settings);
-            // Each ray's segments and samples (the heat map's count).
-            let target = RenderTarget::new(&context, SIZE.0, SIZE.1);
-            renderer.render(&context, &target, &camera, &settings);
-            let visits = voxscope_render::read_visits(&context, &target).expect("visits");
-            let stream = renderer.stream().expect("a streaming renderer");
-            let copied = stream.streamer().table().copied_level();
-            let handed_over = stream.rays_handed_over(&context).expect("readback");
-            (refined, visits, copied, handed_over)
-        };
-        let (walked, walked_visits, copied, handed_over) = draw(true);
-        let (segments, segments_visits, none, _) = draw(false);
-        save(&walked.image, &format!("level-walk-{name}"));
-        let differing = differing_pixels(&walked.image, &segments.image);
-        let visits_differing = walked_visits
-            .iter()
-            .zip(&segments_visits)
-            .filter(|(a, b)| a != b)
-            .count();
-        let most_apart = walked_visits
-            .iter()
-            .zip(&segments_visits)
-            .map(|(&a, &b)| a.abs_diff(b))
-            .max()
-            .unwrap_or(0);
-        eprintln!(
-            "{name}: level {copied:?} walked, {handed_over} rays handed over, {differing} \
-             pixels differ, {visits_differing} rays' counts of segments and samples (by \
-             {most_apart} at most), coverage {:.3}",
-            coverage(&segments.image)
-        );
-        assert!(
-            coverage(&segments.image) > 0.2,
-            "{name}: the view shows the volume"
-        );
-        assert_eq!(none, None, "{name}: no level copied without the walk");
-        assert!(copied.is_some(), "{name}: a level was walked");
-        if lod_scale == 0.0 && budget > level0_bytes() {
-            assert_eq!(
-                handed_over, 0,
-                "{name}: every ray walks a resident level to its end"
-            );
-        }
-        assert_eq!(
-            differing, 0,
-            "{name}: the walk's image is the segments' bit for bit"
-        );
-        // The same samples (the images are equal bit for bit); a ray's count of segments may
-        // differ by one (seen in 0–0.3 % of the rays here, none in the views without LOD,
-        // MIP or refinement).
-        assert!(most_apart <= 1, "{name}: counts {most_apart} apart");
-        assert!(
-            visits_differing * 100 <= walked_visits.len(),
-            "{name}: {visits_differing} rays count differently"
-        );
-    }
 }
 
 /// `voxscope render --renderer stream`, run as a user would.

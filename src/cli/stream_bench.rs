@@ -528,21 +528,10 @@ fn resident_comparison(
             )?;
             let (stream_ms, bricks_ms) =
                 (percentile(&stream_gpu, 50.0), percentile(&bricks_gpu, 50.0));
-            // Whether the frames walked one level's flat table, and how many rays the walk
-            // handed over to the segment loop.
-            let walked = stream
-                .stream()
-                .and_then(|s| s.streamer().table().copied_level());
-            let handed_over = match stream.stream() {
-                Some(s) => s.rays_handed_over(context).map_err(|e| e.to_string())?,
-                None => 0,
-            };
             rows.push(json!({
                 "mode": mode_name,
                 "camera": camera_name,
                 "complete": refinement.complete,
-                "walked_level": walked,
-                "rays_handed_over": handed_over,
                 "stream_gpu_ms": stream_ms,
                 "stream_gpu_p95_ms": percentile(&stream_gpu, 95.0),
                 "bricks_gpu_ms": bricks_ms,

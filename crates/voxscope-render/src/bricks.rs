@@ -13,8 +13,7 @@ use wgpu::util::DeviceExt;
 use super::gpu_data::{BrickRecolorParams, GridCell, RecolorParams};
 use super::level_texture::LevelTexture;
 use super::pipeline::{
-    atlas_entry, compute_pipeline, numbered_bind_group, split_timestamps, storage_entry,
-    uniform_entry,
+    atlas_entry, compute_pipeline, numbered_bind_group, storage_entry, uniform_entry,
 };
 use super::raycaster::{
     BrickShape, OctreeOnGpu, ProbeTarget, VolumeShape, encode_frame_region, encode_probe_ray,
@@ -464,7 +463,21 @@ impl GpuBrickRecolor {
             ],
         );
         // Time the whole recolor: the first pass starts the clock, the grid's stops it.
-        let (first, last) = split_timestamps(&timestamp_writes);
+        let (first, last) = match &timestamp_writes {
+            Some(w) => (
+                Some(wgpu::ComputePassTimestampWrites {
+                    query_set: w.query_set,
+                    beginning_of_pass_write_index: w.beginning_of_pass_write_index,
+                    end_of_pass_write_index: None,
+                }),
+                Some(wgpu::ComputePassTimestampWrites {
+                    query_set: w.query_set,
+                    beginning_of_pass_write_index: None,
+                    end_of_pass_write_index: w.end_of_pass_write_index,
+                }),
+            ),
+            None => (None, None),
+        };
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("voxscope::brick_recolor_pass"),

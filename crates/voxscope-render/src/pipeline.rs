@@ -352,31 +352,6 @@ fn dispatch(
     pass.dispatch_workgroups(workgroups[0], workgroups[1], 1);
 }
 
-/// `writes` split for work recorded in several passes: the first pass starts the clock, the
-/// last stops it.
-pub(crate) fn split_timestamps<'a>(
-    writes: &Option<wgpu::ComputePassTimestampWrites<'a>>,
-) -> (
-    Option<wgpu::ComputePassTimestampWrites<'a>>,
-    Option<wgpu::ComputePassTimestampWrites<'a>>,
-) {
-    match writes {
-        Some(w) => (
-            Some(wgpu::ComputePassTimestampWrites {
-                query_set: w.query_set,
-                beginning_of_pass_write_index: w.beginning_of_pass_write_index,
-                end_of_pass_write_index: None,
-            }),
-            Some(wgpu::ComputePassTimestampWrites {
-                query_set: w.query_set,
-                beginning_of_pass_write_index: None,
-                end_of_pass_write_index: w.end_of_pass_write_index,
-            }),
-        ),
-        None => (None, None),
-    }
-}
-
 /// A filterable 3D float texture (the dense volume, the brick atlas).
 pub(crate) fn atlas_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {

@@ -444,12 +444,6 @@ pub(crate) trait RayPass<V: VolumeShape> {
         0
     }
 
-    /// The entry point that probes a pixel of a frame of `volume` with `params` (one ray, one
-    /// dispatch).
-    fn probe_entry_point(&self, volume: &V, params: &RaycastParams) -> usize {
-        self.entry_point(volume, params)
-    }
-
     /// The variant of `base` that frames of `params` run: the `COARSE` one where they sample
     /// a coarser pyramid level ([`level_variant`]).
     fn variant(&self, base: Variant, params: &RaycastParams) -> Variant {
@@ -471,34 +465,6 @@ pub(crate) trait RayPass<V: VolumeShape> {
         target: &RenderTarget,
         probe: &wgpu::Buffer,
     ) -> wgpu::BindGroup;
-
-    /// Records a frame's dispatch over `region` with `bind_group`: one compute pass of the
-    /// entry point and variant the frame runs (the streaming renderer's level walk adds a
-    /// second, for the rays it hands over).
-    #[allow(clippy::too_many_arguments)]
-    fn dispatch(
-        &self,
-        context: &GpuContext,
-        encoder: &mut wgpu::CommandEncoder,
-        volume: &V,
-        params: &RaycastParams,
-        variant: Variant,
-        bind_group: &wgpu::BindGroup,
-        region: ImageRegion,
-        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
-    ) {
-        let pipeline = self
-            .pipelines()
-            .get(context, self.entry_point(volume, params), variant);
-        dispatch_region(
-            encoder,
-            Self::NAME,
-            pipeline,
-            bind_group,
-            region,
-            timestamp_writes,
-        );
-    }
 }
 
 /// Records one frame of `frame.volume` with `pass` into `encoder`, its parameters in a buffer
@@ -544,13 +510,15 @@ pub(crate) fn encode_frame_region<V: VolumeShape, P: RayPass<V>>(
         target,
         &pass.stand_ins().probe,
     );
-    let variant = pass.variant(frame_variant(settings), &params);
-    pass.dispatch(
+    let pipeline = pass.pipelines().get(
         context,
+        pass.entry_point(volume, &params),
+        pass.variant(frame_variant(settings), &params),
+    );
+    dispatch_region(
         encoder,
-        volume,
-        &params,
-        variant,
+        P::NAME,
+        pipeline,
         &bind_group,
         region,
         timestamp_writes,
@@ -579,7 +547,7 @@ pub(crate) fn encode_probe_ray<V: VolumeShape, P: RayPass<V>>(
     );
     let pipeline = pass.pipelines().get(
         context,
-        pass.probe_entry_point(volume, &params),
+        pass.entry_point(volume, &params),
         pass.variant(probe_variant(probe.settings), &params),
     );
     dispatch_probe(

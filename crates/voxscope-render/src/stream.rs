@@ -9,7 +9,7 @@
 //! streamer decide; it then writes the uploads into their atlas slots and the changed page-table
 //! entries. Then any number of frames draw with what is resident.
 
-use std::sync::atomic::{AtomicBool, AtomicU8, AtomicU32, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU8, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
@@ -18,8 +18,8 @@ use wgpu::util::DeviceExt;
 use super::copy_timer::CopyTimer;
 use super::gpu_data::{MODE_MIP, RaycastParams, STREAM_LEVELS, StreamParams};
 use super::pipeline::{
-    Variant, VariantPipelines, atlas_entry, atlas_sampler_entry, clamped_sampler, dispatch_region,
-    numbered_bind_group, output_image_entry, split_timestamps, storage_entry, uniform_entry,
+    Variant, VariantPipelines, atlas_entry, atlas_sampler_entry, clamped_sampler,
+    numbered_bind_group, output_image_entry, storage_entry, uniform_entry,
 };
 use super::raycaster::{
     BrickShape, ProbeTarget, RayPass, StandIns, VolumeShape, encode_frame, encode_probe_ray,
@@ -49,17 +49,6 @@ const READBACKS: usize = 3;
 /// Page-table bytes counted per atlas slot when sizing the atlas: the table has up to 16
 /// entries of 16 bytes per slot, rounded up to a power of two (so at most twice that).
 const TABLE_BYTES_PER_SLOT: u64 = 2 * 16 * 16;
-/// The most bricks a level may have for the page table to copy it flat, so that frames which
-/// want that level walk it (`main_level`): 1 MiB of entries at most.
-const LEVEL_WALK_BRICKS: u64 = 1 << 16;
-/// No level walked.
-const NO_LEVEL: u32 = u32::MAX;
-/// The entry points of `stream.wgsl`, in the order [`VariantPipelines`] numbers them.
-const SEGMENTS: usize = 0;
-const LEVEL_WALK: usize = 1;
-const HANDED_OVER: usize = 2;
-/// `handed_over` in `stream.wgsl`.
-const HANDOVER_BYTES: u64 = 4;
 
 /// One staging buffer for a frame's requests and usage marks.
 struct Readback {
@@ -81,14 +70,6 @@ pub struct StreamVolume {
     requests: wgpu::Buffer,
     usage: wgpu::Buffer,
     readbacks: Vec<Readback>,
-    /// The flat copy of one level's page-table entries ([`voxscope_stream::PageTable::copy_level`]),
-    /// sized for the largest level of at most [`LEVEL_WALK_BRICKS`].
-    level_cells: wgpu::Buffer,
-    /// The level the latest frame drawn wanted to walk ([`NO_LEVEL`]: none); the next
-    /// [`Self::step`] has the table copy it.
-    walk_wanted: AtomicU32,
-    /// How many rays the latest level walk handed over (`handed_over` in `stream.wgsl`).
-    handover: wgpu::Buffer,
     /// Where uploads are staged on their way into the atlas.
     ring: StagingRing,
     /// The always-resident levels' bricks, read when the volume was made and written by the
@@ -116,8 +97,7 @@ fn atlas_grid(
     bricks_in_pyramid: u64,
 ) -> Result<[usize; 3], RenderError> {
     // The lookup table, the request buffer and its set, each readback's copy of the requests
-    // (the usage marks are counted per slot), and the uploads' staging on the GPU (with the
-    // level copy's buffer).
+    // (the usage marks are counted per slot), and the uploads' staging on the GPU.
     let fixed = staging_bytes
         + 65536 * 4
         + (1 + REQUEST_CAPACITY as u64 + REQUEST_SET as u64) * 4
@@ -196,23 +176,13 @@ impl StreamVolume {
         };
         let quantization = source.quantization();
         let visible = visible_below(&transfer.lookup_table(quantization));
-        let level_cells_bytes = source
-            .shape()
-            .levels
-            .iter()
-            .map(|l| l.brick_count())
-            .filter(|&bricks| bricks <= LEVEL_WALK_BRICKS)
-            .max()
-            .unwrap_or(1)
-            .max(1)
-            * std::mem::size_of::<TableEntry>() as u64;
         // The scatter's staging takes its bytes from the atlas; where the rest cannot hold the
         // always-resident levels and a view, the ring copies instead (it needs none).
         let fit = |staging_bytes: u64| -> Result<_, RenderError> {
             let grid = atlas_grid(
                 context,
                 options.gpu_memory,
-                staging_bytes + level_cells_bytes + HANDOVER_BYTES,
+                staging_bytes,
                 slot_bytes,
                 bricks,
             )?;
@@ -271,12 +241,6 @@ impl StreamVolume {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
-        let level_cells = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("voxscope::stream_level_cells"),
-            size: level_cells_bytes,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
         let readback_bytes = (1 + REQUEST_CAPACITY as u64 + slots as u64) * 4;
         let readbacks = (0..READBACKS)
             .map(|_| Readback {
@@ -325,14 +289,6 @@ impl StreamVolume {
             requests,
             usage,
             readbacks,
-            level_cells,
-            walk_wanted: AtomicU32::new(NO_LEVEL),
-            handover: device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("voxscope::stream_handed_over"),
-                size: HANDOVER_BYTES,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            }),
             ring,
             copy_timer: CopyTimer::new(context),
             drawn: AtomicBool::new(false),
@@ -436,13 +392,6 @@ impl StreamVolume {
                 bytemuck::cast_slice(entries),
             );
         }
-        if let Some((start, cells)) = self.streamer.table_mut().take_level_dirty() {
-            context.queue.write_buffer(
-                &self.level_cells,
-                start as u64 * entry_bytes,
-                bytemuck::cast_slice(cells),
-            );
-        }
     }
 
     /// The path its uploads take: [`UploadPath::Scatter`] only where the device writes the
@@ -492,13 +441,6 @@ impl StreamVolume {
             ),
             None => self.streamer.begin_frame(None, view),
         };
-        // The level the latest frame wanted to walk: copied flat from now on (until another
-        // is wanted), so that the next frames walk it.
-        let walk = self.walk_wanted.load(Ordering::Acquire);
-        if let Some(level) = self.streamer.shape().levels.get(walk as usize) {
-            let bricks = level.brick_count() as usize;
-            self.streamer.table_mut().copy_level(Some((walk, bricks)));
-        }
         let writing = Instant::now();
         self.write(context, &uploads);
         let mut status = status;
@@ -587,14 +529,6 @@ impl StreamVolume {
         self.write(context, &[]);
     }
 
-    /// How many rays the latest level walk drawn handed over to the segment loop (waits for
-    /// the GPU: for tests and benchmarks, never the frame path). 0 where no frame walked a
-    /// level yet.
-    pub fn rays_handed_over(&self, context: &GpuContext) -> Result<u32, RenderError> {
-        let bytes = super::read_buffer(context, &self.handover, 4)?;
-        Ok(u32::from_le_bytes([bytes[0], bytes[1], bytes[2], bytes[3]]))
-    }
-
     /// The streamer (its counters, options and shape).
     pub fn streamer(&self) -> &Streamer {
         &self.streamer
@@ -605,38 +539,8 @@ impl StreamVolume {
         &mut self.streamer
     }
 
-    /// The level a frame of `params` would walk (`main_level`): the level the ray through the
-    /// volume's center wants there (the pixel LOD's, `wanted_level` in `stream.wgsl`), where
-    /// the page table may copy it flat (at most [`LEVEL_WALK_BRICKS`] bricks). Rays that want
-    /// another level go on as `main`'s do, so this only needs to be the level most rays want.
-    fn walk_level(&self, params: &RaycastParams) -> Option<u32> {
-        if !self.streamer.options().level_walk {
-            return None;
-        }
-        let shape = self.streamer.shape();
-        let finest = shape.depth().saturating_sub(params.max_level);
-        let eye = glam::Vec3::from_slice(&params.eye[..3]);
-        let forward = glam::Vec3::from_slice(&params.forward[..3]);
-        let center = glam::Vec3::from_slice(&params.volume[..3]) * 0.5;
-        let t = ((center - eye).dot(forward) / forward.length_squared().max(1e-20)).max(0.0);
-        let footprint = t * params.lod_factor * self.streamer.options().lod_scale.max(0.0);
-        let mut level = finest as usize;
-        while level + 1 < shape.levels.len() && shape.levels[level + 1].scale as f32 <= footprint {
-            level += 1;
-        }
-        let bricks = shape.levels.get(level)?.brick_count();
-        (bricks <= LEVEL_WALK_BRICKS).then_some(level as u32)
-    }
-
-    /// The level a frame of `params` walks: [`Self::walk_level`], once the table copies it.
-    fn walked_level(&self, params: &RaycastParams) -> Option<u32> {
-        self.walk_level(params)
-            .filter(|&level| self.streamer.table().copied_level() == Some(level))
-    }
-
     /// The uniforms of a frame drawn with `params`.
-    fn stream_params(&self, params: &RaycastParams) -> StreamParams {
-        let max_level = params.max_level;
+    fn stream_params(&self, max_level: u32) -> StreamParams {
         let shape = self.streamer.shape();
         let mut level_grid = [[0u32; 4]; STREAM_LEVELS];
         let mut level_scale = [[1f32; 4]; STREAM_LEVELS];
@@ -656,7 +560,7 @@ impl StreamVolume {
             request_capacity: REQUEST_CAPACITY,
             request_set_mask: REQUEST_SET - 1,
             lod_scale: self.streamer.options().lod_scale.max(0.0),
-            walk_level: self.walked_level(params).unwrap_or(NO_LEVEL),
+            _pad: 0,
         }
     }
 }
@@ -714,7 +618,7 @@ impl StreamRaycaster {
             context,
             "stream",
             super::shaders::STREAM,
-            &["main", "main_level", "main_handed_over"],
+            &["main"],
             &[
                 uniform_entry(0, false),
                 uniform_entry(1, false),
@@ -727,8 +631,6 @@ impl StreamRaycaster {
                 storage_entry(8, false),
                 storage_entry(9, false),
                 storage_entry(10, false),
-                storage_entry(11, true),
-                storage_entry(12, false),
             ],
         );
         Self {
@@ -748,11 +650,9 @@ impl StreamRaycaster {
         }
     }
 
-    /// Builds, where not built yet, the pipelines of `variant` (both entry points).
+    /// Builds, where not built yet, the pipeline of `variant`.
     pub(crate) fn prepare(&self, context: &GpuContext, variant: Variant) {
-        for entry in [SEGMENTS, LEVEL_WALK, HANDED_OVER] {
-            self.pipelines.get(context, entry, variant);
-        }
+        self.pipelines.get(context, 0, variant);
     }
 }
 
@@ -765,22 +665,6 @@ impl RayPass<StreamVolume> for StreamRaycaster {
 
     fn stand_ins(&self) -> &StandIns {
         &self.stand_ins
-    }
-
-    /// The level walk where the table copies the level the frame wants, else segment by
-    /// segment.
-    fn entry_point(&self, volume: &StreamVolume, params: &RaycastParams) -> usize {
-        if volume.walked_level(params).is_some() {
-            LEVEL_WALK
-        } else {
-            SEGMENTS
-        }
-    }
-
-    /// Segment by segment: a probe is one dispatch, and the level walk hands rays over to a
-    /// second.
-    fn probe_entry_point(&self, _volume: &StreamVolume, _params: &RaycastParams) -> usize {
-        SEGMENTS
     }
 
     /// Each segment picks its own level from the page table: no coarse variant.
@@ -799,10 +683,6 @@ impl RayPass<StreamVolume> for StreamRaycaster {
         volume
             .max_projection
             .store(params.mode == MODE_MIP, Ordering::Release);
-        volume.walk_wanted.store(
-            volume.walk_level(params).unwrap_or(NO_LEVEL),
-            Ordering::Release,
-        );
         volume.drawn.store(true, Ordering::Release);
     }
 
@@ -824,7 +704,7 @@ impl RayPass<StreamVolume> for StreamRaycaster {
         let params_buffer = frame_params_buffer(context, "voxscope::stream_params", params);
         let stream_params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("voxscope::stream_level_params"),
-            contents: bytemuck::bytes_of(&volume.stream_params(params)),
+            contents: bytemuck::bytes_of(&volume.stream_params(params.max_level)),
             usage: wgpu::BufferUsages::UNIFORM,
         });
         numbered_bind_group(
@@ -843,50 +723,8 @@ impl RayPass<StreamVolume> for StreamRaycaster {
                 volume.requests.as_entire_binding(),
                 volume.usage.as_entire_binding(),
                 probe.as_entire_binding(),
-                volume.level_cells.as_entire_binding(),
-                volume.handover.as_entire_binding(),
             ],
         )
-    }
-
-    /// A level walk is two dispatches over the region, each in a pass of its own (the second
-    /// reads what the first wrote): `main_level`, then `main_handed_over` for the rays the walk
-    /// handed over.
-    fn dispatch(
-        &self,
-        context: &GpuContext,
-        encoder: &mut wgpu::CommandEncoder,
-        volume: &StreamVolume,
-        params: &RaycastParams,
-        variant: Variant,
-        bind_group: &wgpu::BindGroup,
-        region: ImageRegion,
-        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
-    ) {
-        let entry = self.entry_point(volume, params);
-        let pipeline = self.pipelines.get(context, entry, variant);
-        if entry != LEVEL_WALK {
-            dispatch_region(
-                encoder,
-                "stream",
-                pipeline,
-                bind_group,
-                region,
-                timestamp_writes,
-            );
-            return;
-        }
-        let (first, last) = split_timestamps(&timestamp_writes);
-        dispatch_region(encoder, "stream_level", pipeline, bind_group, region, first);
-        let handed_over = self.pipelines.get(context, HANDED_OVER, variant);
-        dispatch_region(
-            encoder,
-            "stream_handed_over",
-            handed_over,
-            bind_group,
-            region,
-            last,
-        );
     }
 }
 
@@ -974,8 +812,6 @@ impl Renderer for StreamVolume {
             ),
             ("lookup_table", self.transfer.size()),
             ("upload_staging", self.ring.gpu_bytes()),
-            ("level_cells", self.level_cells.size()),
-            ("handed_over", self.handover.size()),
         ]
     }
 

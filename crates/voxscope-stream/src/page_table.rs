@@ -11,12 +11,8 @@
 //! Linear probing, no tombstones: removal shifts the entries after the removed one back
 //! towards their home, so a key is always found before the first empty entry, and never more
 //! than [`MAX_PROBES`] entries from home (an insert that would go further fails instead).
-//!
-//! Where one level's grid is small, the table also keeps a flat copy of that level's entries,
-//! brick by brick ([`PageTable::copy_level`]): the shader's level walk (`stream.wgsl`,
-//! `level_walk`) reads a brick's entry there at its index, with no hash and no probing.
 
-use super::pyramid::{EMPTY_KEY, KEY_LEVEL_SHIFT};
+use super::pyramid::EMPTY_KEY;
 
 /// The most entries a lookup reads. Keep in sync with `MAX_PROBES` in `stream.wgsl`.
 pub const MAX_PROBES: u32 = 32;
@@ -81,34 +77,6 @@ pub fn table_hash(key: u32) -> u32 {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct TableFull;
 
-/// One level's entries in the order of its bricks (x fastest: a key's low bits), the bricks the
-/// table does not hold as [`TableEntry::EMPTY`]; the cells changed since the last upload.
-struct LevelCopy {
-    level: u32,
-    cells: Vec<TableEntry>,
-    /// Changed cells, as one range (first, end).
-    dirty: Option<(usize, usize)>,
-}
-
-impl LevelCopy {
-    fn set(&mut self, key: u32, entry: TableEntry) {
-        if key >> KEY_LEVEL_SHIFT != self.level {
-            return;
-        }
-        let index = (key & ((1 << KEY_LEVEL_SHIFT) - 1)) as usize;
-        let Some(cell) = self.cells.get_mut(index) else {
-            return;
-        };
-        if *cell != entry {
-            *cell = entry;
-            self.dirty = Some(match self.dirty {
-                Some((first, end)) => (first.min(index), end.max(index + 1)),
-                None => (index, index + 1),
-            });
-        }
-    }
-}
-
 /// The CPU's copy of the GPU's page table, and which entries changed since the last upload.
 pub struct PageTable {
     entries: Vec<TableEntry>,
@@ -120,8 +88,6 @@ pub struct PageTable {
     /// Indices changed since [`Self::take_dirty`], each once (`is_dirty` marks them).
     dirty: Vec<u32>,
     is_dirty: Vec<bool>,
-    /// The flat copy of one level, if one is kept.
-    level_copy: Option<LevelCopy>,
 }
 
 impl PageTable {
@@ -136,7 +102,6 @@ impl PageTable {
             len: 0,
             dirty: (0..size as u32).collect(),
             is_dirty: vec![true; size],
-            level_copy: None,
         }
     }
 
@@ -192,9 +157,6 @@ impl PageTable {
                 self.entries[index] = entry;
                 self.keys[index] = entry.key;
                 self.mark(index);
-                if let Some(copy) = self.level_copy.as_mut() {
-                    copy.set(entry.key, entry);
-                }
                 return Ok(());
             }
         }
@@ -228,9 +190,6 @@ impl PageTable {
         self.keys[hole] = EMPTY_KEY;
         self.mark(hole);
         self.len -= 1;
-        if let Some(copy) = self.level_copy.as_mut() {
-            copy.set(key, TableEntry::EMPTY);
-        }
         Some(removed)
     }
 
@@ -272,9 +231,6 @@ impl PageTable {
                 debug_assert_eq!(changed.key, self.entries[index].key);
                 self.entries[index] = changed;
                 self.mark(index);
-                if let Some(copy) = self.level_copy.as_mut() {
-                    copy.set(changed.key, changed);
-                }
             }
         }
     }
@@ -282,46 +238,6 @@ impl PageTable {
     /// Every entry (for tests and the first upload).
     pub fn entries(&self) -> &[TableEntry] {
         &self.entries
-    }
-
-    /// Keeps a flat copy of level `level`'s entries, `bricks` of them (the level's bricks), or
-    /// none. A new level's copy is made from the table (every cell dirty); the same level
-    /// again keeps the copy as it is.
-    pub fn copy_level(&mut self, level: Option<(u32, usize)>) {
-        let Some((level, bricks)) = level else {
-            self.level_copy = None;
-            return;
-        };
-        if self
-            .level_copy
-            .as_ref()
-            .is_some_and(|copy| copy.level == level && copy.cells.len() == bricks)
-        {
-            return;
-        }
-        let mut copy = LevelCopy {
-            level,
-            cells: vec![TableEntry::EMPTY; bricks],
-            dirty: None,
-        };
-        for entry in self.entries.iter().filter(|e| e.key != EMPTY_KEY) {
-            copy.set(entry.key, *entry);
-        }
-        copy.dirty = (bricks > 0).then_some((0, bricks));
-        self.level_copy = Some(copy);
-    }
-
-    /// The level whose flat copy is kept, if any.
-    pub fn copied_level(&self) -> Option<u32> {
-        self.level_copy.as_ref().map(|copy| copy.level)
-    }
-
-    /// The copied level's cells changed since the last call: (first cell, the cells), one
-    /// range. What to copy to the GPU after [`Self::take_dirty`]'s runs.
-    pub fn take_level_dirty(&mut self) -> Option<(usize, &[TableEntry])> {
-        let copy = self.level_copy.as_mut()?;
-        let (first, end) = copy.dirty.take()?;
-        Some((first, &copy.cells[first..end]))
     }
 }
 
@@ -421,71 +337,6 @@ mod tests {
             table.insert(entry(keys[MAX_PROBES as usize])),
             Err(TableFull)
         );
-    }
-
-    /// A key of level `level`, brick `index`.
-    fn level_key(level: u32, index: u32) -> u32 {
-        level << KEY_LEVEL_SHIFT | index
-    }
-
-    #[test]
-    fn a_level_copy_follows_inserts_removals_and_updates_of_its_level_only() {
-        let mut table = PageTable::new(1024);
-        table.insert(entry(level_key(2, 5))).expect("room");
-        table.insert(entry(level_key(1, 5))).expect("room");
-        table.copy_level(Some((2, 8)));
-        assert_eq!(table.copied_level(), Some(2));
-        let (first, cells) = table.take_level_dirty().expect("all cells, once");
-        assert_eq!((first, cells.len()), (0, 8));
-        assert_eq!(cells[5], entry(level_key(2, 5)));
-        assert!(
-            cells
-                .iter()
-                .enumerate()
-                .all(|(i, c)| i == 5 || *c == TableEntry::EMPTY)
-        );
-        assert!(table.take_level_dirty().is_none());
-
-        // Another level's changes leave the copy as it is.
-        table.insert(entry(level_key(1, 6))).expect("room");
-        table.remove(level_key(1, 5));
-        assert!(table.take_level_dirty().is_none());
-
-        // The copied level's: an insert, a removal (of an entry a collision chain moves, too),
-        // an update.
-        let keys: Vec<u32> = (0..8).map(|i| level_key(2, i)).collect();
-        table.insert(entry(keys[2])).expect("room");
-        table.insert(entry(keys[7])).expect("room");
-        table.remove(keys[5]);
-        let (first, cells) = table.take_level_dirty().expect("changed");
-        assert_eq!((first, cells.len()), (2, 6));
-        assert_eq!(cells[0], entry(keys[2]));
-        assert_eq!(cells[3], TableEntry::EMPTY);
-        assert_eq!(cells[5], entry(keys[7]));
-        table.update_each(|e| {
-            (e.key == keys[7]).then_some(TableEntry {
-                slot: e.slot | ENTRY_VISIBLE,
-                ..*e
-            })
-        });
-        let (first, cells) = table.take_level_dirty().expect("updated");
-        assert_eq!(
-            (first, cells[0].slot),
-            (7, entry(keys[7]).slot | ENTRY_VISIBLE)
-        );
-        // Each cell equals the table's own entry for its key.
-        table.copy_level(Some((2, 8)));
-        table.copy_level(None);
-        table.copy_level(Some((2, 8)));
-        let cells = table.take_level_dirty().expect("made again").1.to_vec();
-        for (index, cell) in cells.iter().enumerate() {
-            let key = level_key(2, index as u32);
-            assert_eq!(
-                *cell,
-                table.get(key).unwrap_or(TableEntry::EMPTY),
-                "cell {index}"
-            );
-        }
     }
 
     #[test]
