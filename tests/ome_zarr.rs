@@ -327,6 +327,55 @@ fn read_error(path: &Path) -> String {
     pyramid.read_level(0).map(|_| ()).unwrap_err().to_string()
 }
 
+/// A folder's chunk files are read ahead (Linux): every chunk asked for whose file exists is
+/// advised, whatever its key's form (`/`, `.`, v3's `c/`); a sharded store reads nothing ahead.
+#[cfg(target_os = "linux")]
+#[test]
+fn a_folder_s_chunk_files_are_read_ahead_by_their_keys() {
+    for name in [
+        "head-v04-zstd.ome.zarr",
+        "plain-v2-gzip.zarr",
+        "plain-v3-none.zarr",
+    ] {
+        let pyramid = open(name, PyramidOptions::default());
+        let level = &pyramid.levels[0];
+        let grid = level.chunk_grid();
+        let chunks: Vec<(usize, [usize; 3])> = (0..grid[2])
+            .flat_map(|z| (0..grid[1]).flat_map(move |y| (0..grid[0]).map(move |x| [x, y, z])))
+            .map(|chunk| (0, chunk))
+            .collect();
+        let present = chunks
+            .iter()
+            .filter(|(_, chunk)| {
+                let voxel = std::array::from_fn(|a| chunk[a] * level.chunk[a]);
+                let key = pyramid.chunk_key(0, voxel).unwrap();
+                fixtures().join(name).join(key).is_file()
+            })
+            .count() as u64;
+        assert!(present > 0, "{name}");
+        assert!(pyramid.can_fetch_ahead(), "{name}");
+        assert_eq!(pyramid.fetch_ahead_chunks(&chunks), chunks.len(), "{name}");
+        let started = std::time::Instant::now();
+        while pyramid.files_read_ahead() < present {
+            assert!(
+                started.elapsed().as_secs() < 10,
+                "{name}: {} of {present} read ahead",
+                pyramid.files_read_ahead()
+            );
+            std::thread::sleep(std::time::Duration::from_millis(2));
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+        assert_eq!(pyramid.files_read_ahead(), present, "{name}");
+    }
+    let sharded = open(
+        "head-v05-sharded-blosc-zstd.ome.zarr",
+        PyramidOptions::default(),
+    );
+    assert!(!sharded.can_fetch_ahead());
+    assert_eq!(sharded.fetch_ahead_chunks(&[(0, [0, 0, 0])]), 0);
+    assert_eq!(sharded.files_read_ahead(), 0);
+}
+
 #[test]
 fn missing_chunks_read_as_the_fill_value() {
     // The reference writer skipped the head's all-zero corner chunks.

@@ -152,6 +152,7 @@ fn merged(tiles: Vec<Refinement>) -> Option<Refinement> {
         all.errors.extend(tile.errors);
         all.unreadable.extend(tile.unreadable);
         all.other_failures += tile.other_failures;
+        all.parts.add(&tile.parts);
         all.status = tile.status;
         all
     })

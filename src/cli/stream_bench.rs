@@ -129,6 +129,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
         "seconds_from_open": complete_s,
         "seconds_after_first_image": complete_s - first_image_s,
         "frames": refinement.frames,
+        "frame_parts_s": refinement.parts,
         "bricks_read": counters.loads,
         "bytes_read": counters.bytes_read,
         "view_bricks": counters.view_slots,
@@ -188,6 +189,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
             "view_bricks": counters.view_slots,
             "slots": counters.slots,
             "read_over_slots": counters.loads as f64 / counters.slots.max(1) as f64,
+            "frame_parts_s": refinement.parts,
             "budget": refinement.status.budget,
             "pipeline": pipeline_json(counters, options.workers),
         }));

@@ -10,7 +10,7 @@ use voxscope_octree::{DataKind, TransferFunction};
 use voxscope_render::{Camera, GpuContext, RenderSettings, RenderTarget, VolumeRenderer};
 use voxscope_stream::{
     BrickSource, FailedBrick, FailureGroup, MemorySource, NoiseSource, StreamOptions, StreamStatus,
-    ZarrSource, group, preview,
+    UpdatePhases, ZarrSource, group, preview,
 };
 use voxscope_volume::ome_zarr::Pyramid;
 use voxscope_volume::{LoadOptions, QuantizedVolume, ValueWindow, Volume, parse_dims};
@@ -193,6 +193,48 @@ pub struct Refinement {
     pub unreadable: Vec<FailedBrick>,
     /// Bricks that failed besides those (not needed by the final view).
     pub other_failures: usize,
+    /// Where the refinement's time went, frame part by frame part.
+    pub parts: FrameParts,
+}
+
+/// Where a refinement's time went, summed over its frames, in seconds: what bounds a view's
+/// completion (`bench --stream`'s near stopped views report it).
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct FrameParts {
+    /// The streamer's updates (their steps in `phases`).
+    pub update: f64,
+    /// Recording and submitting the frames' draws.
+    pub draw: f64,
+    /// Waiting for the GPU to finish each frame (its pass and its uploads' copies).
+    pub wait: f64,
+    /// Pausing between frames that had nothing to upload while bricks were being loaded.
+    pub pause: f64,
+    /// The updates' steps, summed.
+    pub phases: UpdatePhases,
+    /// Frames that uploaded nothing while bricks were queued or being loaded: frames the
+    /// loaders were behind.
+    pub frames_waiting_for_loads: u32,
+}
+
+impl FrameParts {
+    /// Adds `other`'s (another refinement's: a tile's).
+    pub fn add(&mut self, other: &FrameParts) {
+        self.update += other.update;
+        self.draw += other.draw;
+        self.wait += other.wait;
+        self.pause += other.pause;
+        self.add_phases(&other.phases);
+        self.frames_waiting_for_loads += other.frames_waiting_for_loads;
+    }
+
+    fn add_phases(&mut self, phases: &UpdatePhases) {
+        let sum = &mut self.phases;
+        sum.readback += phases.readback;
+        sum.results += phases.results;
+        sum.feedback += phases.feedback;
+        sum.choose_uploads += phases.choose_uploads;
+        sum.write += phases.write;
+    }
 }
 
 impl Refinement {
@@ -236,16 +278,24 @@ pub fn refine(
     let mut first_frame = None;
     let mut first_frame_seconds = None;
     let mut errors = Vec::new();
+    let mut parts = FrameParts::default();
     for frames in 1.. {
+        let updating = Instant::now();
         let status = renderer
             .update(context)
             .ok_or_else(|| SceneError::failed("refine needs the streaming renderer"))?;
+        parts.update += updating.elapsed().as_secs_f64();
+        parts.add_phases(&status.phases);
         errors.extend(status.errors.iter().cloned());
         let first = *first_frame.get_or_insert(status.frame);
+        let drawing = Instant::now();
         renderer.render(context, target, camera, settings);
+        let waiting = Instant::now();
+        parts.draw += (waiting - drawing).as_secs_f64();
         context
             .wait_idle()
             .map_err(|e| SceneError::failed(e.to_string()))?;
+        parts.wait += waiting.elapsed().as_secs_f64();
         let first_frame_seconds =
             *first_frame_seconds.get_or_insert_with(|| started.elapsed().as_secs_f64());
         let complete = status.complete && status.judged_frame.is_some_and(|f| f >= first);
@@ -264,10 +314,14 @@ pub fn refine(
                 errors,
                 other_failures: failed.saturating_sub(unreadable.len()),
                 unreadable,
+                parts,
             });
         }
         if status.uploads == 0 && status.queued + status.loading > 0 {
+            parts.frames_waiting_for_loads += 1;
+            let pausing = Instant::now();
             std::thread::sleep(Duration::from_millis(1));
+            parts.pause += pausing.elapsed().as_secs_f64();
         }
     }
     unreachable!("the loop returns")

@@ -98,8 +98,6 @@ pub const FETCH_AHEAD_BRICKS: usize = 2048;
 /// The worker threads and the channel their results arrive on.
 pub struct Loader {
     source: Arc<dyn BrickSource>,
-    /// The source reads over a network: the queue's next bricks are fetched ahead.
-    remote: bool,
     queue: Arc<RequestQueue>,
     results: Receiver<LoadResult>,
 }
@@ -130,18 +128,16 @@ impl Loader {
         }
         Self {
             source,
-            remote,
             queue,
             results,
         }
     }
 
-    /// Starts the network reads of the queue's next bricks without waiting
-    /// ([`BrickSource::fetch_ahead`]; nothing for a source on disk or in memory).
+    /// Starts the reads of the queue's next bricks without waiting
+    /// ([`BrickSource::fetch_ahead`]: a network store's requests, a folder's files read ahead
+    /// into the page cache; nothing for a source in memory).
     pub fn fetch_ahead(&self) {
-        if self.remote {
-            fetch_ahead(&*self.source, &self.queue);
-        }
+        fetch_ahead(&*self.source, &self.queue);
     }
 
     /// Every result that has arrived, without waiting.
@@ -232,8 +228,9 @@ fn work(
     results: &Sender<LoadResult>,
 ) {
     while let Some(request) = queue.take() {
-        // What comes after this brick goes on the wire while this one is read and decoded
-        // (a source on disk or in memory has no wire: the queue is not even looked at).
+        // What comes after this brick goes on the wire while this one is read and decoded (a
+        // folder's reads ahead are asked for each frame, hundreds of chunks ahead of the
+        // loaders, enough for a disk: the queue is not looked at here).
         if remote {
             fetch_ahead(source, queue);
         }
@@ -306,6 +303,9 @@ mod tests {
         }
         fn read_brick(&self, id: BrickId) -> Result<BrickData, BrickError> {
             (self.read)(id)
+        }
+        fn can_fetch_ahead(&self) -> bool {
+            true
         }
         fn fetch_ahead(&self, ids: &[BrickId]) {
             self.fetched

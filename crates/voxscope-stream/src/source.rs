@@ -125,16 +125,17 @@ pub trait BrickSource: Send + Sync {
     }
 
     /// Starts fetching, without waiting, what reading the bricks `ids` will need from a
-    /// network (the first soonest): the load queue's next bricks, asked for while the loaders
-    /// still decode what came before, so that enough requests are in flight to fill the link.
-    /// Called on the frame's thread and by loaders: it must return at once. A source that
-    /// reads nothing over a network does nothing.
+    /// network or a disk (the first soonest): the load queue's next bricks, asked for while
+    /// the loaders still decode what came before, so that enough requests are in flight to
+    /// fill the link or the disk's queue. Called on the frame's thread and by loaders: it
+    /// must return at once. A source in memory does nothing.
     fn fetch_ahead(&self, _ids: &[BrickId]) {}
 
     /// Whether [`Self::fetch_ahead`] may start anything now (its store has room for more
     /// fetches under way): cheap, asked before the load queue's next bricks are looked up.
+    /// A source that never fetches ahead says no.
     fn can_fetch_ahead(&self) -> bool {
-        true
+        false
     }
 
     /// Requests, bytes and errors of the network store behind the source, if it reads from

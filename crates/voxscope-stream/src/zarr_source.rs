@@ -61,13 +61,13 @@ pub struct ZarrSource {
     /// (`voxscope convert` writes them), x fastest: what [`BrickSource::known_range`] answers
     /// from.
     chunk_ranges: Vec<Option<Vec<[f64; 2]>>>,
-    /// Chunks of unsharded levels handed to a network store to fetch ahead
-    /// ([`BrickSource::fetch_ahead`]): not asked for again (at most [`MAX_FETCHED_AHEAD`],
+    /// Chunks of unsharded levels handed to the store to fetch ahead (a network's requests, a
+    /// folder's files read ahead; [`BrickSource::fetch_ahead`]): not asked for again (at most [`MAX_FETCHED_AHEAD`],
     /// then forgotten all at once).
     fetched_ahead: Mutex<FetchedAhead>,
 }
 
-/// What [`BrickSource::fetch_ahead`] handed a network store already.
+/// What [`BrickSource::fetch_ahead`] handed the store already.
 #[derive(Default)]
 struct FetchedAhead {
     /// Chunks of unsharded levels.

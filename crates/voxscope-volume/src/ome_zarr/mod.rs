@@ -20,6 +20,7 @@ mod metadata;
 mod numcodecs;
 mod open;
 mod read;
+mod read_ahead;
 mod shard_index;
 mod source;
 mod write;
@@ -204,6 +205,8 @@ pub struct Pyramid {
     image_prefix: String,
     /// The store again, where it is remote: a region's chunks are fetched together.
     remote: Option<Arc<RemoteStore>>,
+    /// Where the store is a folder: its chunk files are read ahead of a streamer's reads.
+    read_ahead: Option<read_ahead::ReadAhead>,
     /// Where a remote store's reads run: zarrs reads a region's chunks (a sharded array's
     /// shards) on rayon threads, each blocked on the network while it waits, so they get a
     /// pool of their own as large as the request limit, not the cores' global pool.
@@ -302,8 +305,10 @@ impl Pyramid {
             let store = zarrs::filesystem::FilesystemStore::new(&root)
                 .map_err(|e| LoadError::new(&source, format!("cannot open: {e}")))?;
             guard::register();
-            return open_root(Arc::new(store), &source, options, &|_| {}, Some(&series))
-                .map_err(|problem| LoadError::new(&source, problem));
+            let mut pyramid = open_root(Arc::new(store), &source, options, &|_| {}, Some(&series))
+                .map_err(|problem| LoadError::new(&source, problem))?;
+            pyramid.read_ahead = read_ahead::ReadAhead::for_folder(root);
+            return Ok(pyramid);
         }
         if !path.is_dir() {
             return Err(LoadError::new(
@@ -316,7 +321,9 @@ impl Pyramid {
         }
         let store = zarrs::filesystem::FilesystemStore::new(path)
             .map_err(|e| LoadError::new(&source, format!("cannot open: {e}")))?;
-        Self::open_store(Arc::new(store), &source, options)
+        let mut pyramid = Self::open_store(Arc::new(store), &source, options)?;
+        pyramid.read_ahead = read_ahead::ReadAhead::for_folder(path.to_path_buf());
+        Ok(pyramid)
     }
 
     /// Opens the Zarr store at `url` (`http://`, `https://`, `s3://BUCKET/PATH`; see

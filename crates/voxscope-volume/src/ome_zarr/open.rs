@@ -616,6 +616,7 @@ fn open_levels(
         label_image: metadata::ome_attributes(&attributes).contains_key("image-label"),
         store,
         remote: None,
+        read_ahead: None,
         reader_pool: None,
         shard_batch_busy: std::sync::Arc::default(),
         plate: None,

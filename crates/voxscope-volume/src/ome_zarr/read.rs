@@ -220,13 +220,27 @@ impl Pyramid {
     }
 
     /// Starts fetching the unsharded chunks `chunks` (stored level and chunk indices x, y,
-    /// z) of a URL's store in this order without waiting ([`RemoteStore::fetch_ahead`]).
-    /// Returns how many of them, from the first, are fetched, being fetched or settled:
-    /// those need not be asked for again. Chunks of sharded levels, or outside their level,
-    /// end the run; a folder's store handles nothing.
+    /// z) in this order without waiting: a URL's store's ([`RemoteStore::fetch_ahead`]), or
+    /// a folder's chunk files read ahead into the page cache ([`read_ahead`]). Returns how
+    /// many of them, from the first, are fetched, being fetched or settled: those need not
+    /// be asked for again. Chunks of sharded levels, or outside their level, end the run.
+    ///
+    /// [`read_ahead`]: super::read_ahead
     pub fn fetch_ahead_chunks(&self, chunks: &[(usize, [usize; 3])]) -> usize {
-        let Some(remote) = &self.remote else { return 0 };
-        let keys: Vec<StoreKey> = chunks
+        match (&self.remote, &self.read_ahead) {
+            (Some(remote), _) => remote.fetch_ahead(&self.unsharded_keys_of(chunks)),
+            (None, Some(ahead)) => {
+                let keys = self.unsharded_keys_of(chunks);
+                ahead.advise(keys.iter().map(StoreKey::as_str))
+            }
+            (None, None) => 0,
+        }
+    }
+
+    /// The store keys of `chunks` (as [`Self::fetch_ahead_chunks`] takes them) up to the first
+    /// of a sharded level or outside its level.
+    fn unsharded_keys_of(&self, chunks: &[(usize, [usize; 3])]) -> Vec<StoreKey> {
+        chunks
             .iter()
             .map_while(|&(level, chunk)| {
                 let info = self.levels.get(level)?;
@@ -235,14 +249,23 @@ impl Pyramid {
                 }
                 self.chunk_store_key(level, chunk.map(|c| c as u64))
             })
-            .collect();
-        remote.fetch_ahead(&keys)
+            .collect()
     }
 
-    /// Whether [`Self::fetch_ahead_regions`] may start anything now: a URL's store with room
-    /// for more fetches ahead, or sharded levels and no batch under way. Cheap: a streamer
-    /// asks before it works out its bricks' regions.
+    /// Chunk files of a folder's store read ahead so far ([`Self::fetch_ahead_chunks`]; 0 for
+    /// a URL's store, and where the system cannot read ahead).
+    pub fn files_read_ahead(&self) -> u64 {
+        self.read_ahead.as_ref().map_or(0, |ahead| ahead.advised())
+    }
+
+    /// Whether [`Self::fetch_ahead_regions`] or [`Self::fetch_ahead_chunks`] may start
+    /// anything now: a URL's store with room for more fetches ahead, or sharded levels and no
+    /// batch under way; a folder with unsharded levels and room to read more ahead. Cheap: a
+    /// streamer asks before it works out its bricks' regions.
     pub fn can_fetch_ahead(&self) -> bool {
+        if let Some(ahead) = &self.read_ahead {
+            return ahead.has_room() && self.levels.iter().any(|l| l.shard.is_none());
+        }
         self.remote.as_ref().is_some_and(|remote| {
             remote.can_fetch_ahead()
                 || (self.levels.iter().any(|l| l.shard.is_some())
