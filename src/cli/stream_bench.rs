@@ -189,6 +189,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
             "view_bricks": counters.view_slots,
             "slots": counters.slots,
             "read_over_slots": counters.loads as f64 / counters.slots.max(1) as f64,
+            "chunks_decoded": counters.chunks_decoded,
             "frame_parts_s": refinement.parts,
             "budget": refinement.status.budget,
             "pipeline": pipeline_json(counters, options.workers),

@@ -565,6 +565,10 @@ impl BrickSource for SlotBricks {
         self.inner.cached_bytes()
     }
 
+    fn chunks_decoded(&self) -> u64 {
+        self.inner.chunks_decoded()
+    }
+
     fn labels(&self) -> bool {
         true
     }

@@ -157,6 +157,12 @@ pub trait BrickSource: Send + Sync {
         0
     }
 
+    /// Chunks the source has read and decoded so far, each time it did (0 for a source
+    /// without chunks).
+    fn chunks_decoded(&self) -> u64 {
+        0
+    }
+
     /// Whether the values are labels (categories): the renderer samples them at the nearest
     /// voxel, and the levels the source computes keep each block's most frequent label
     /// ([`crate::Downsampling::Mode`]).

@@ -36,6 +36,9 @@ pub struct StreamCounters {
     /// Bytes the source's own caches (decoded chunks, fetched bytes) hold, and may hold.
     pub source_cache_bytes: u64,
     pub source_cache_capacity: u64,
+    /// Chunks the source has read and decoded (a chunk decoded again after its cache let it
+    /// go counts again; 0 for a source without chunks).
+    pub chunks_decoded: u64,
     /// Wanted bricks found in the RAM cache / loaded from the source.
     pub ram_hits: u64,
     pub loads: u64,

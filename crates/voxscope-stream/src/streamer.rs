@@ -1175,6 +1175,7 @@ impl Streamer {
         self.counters.slots_pinned = self.slots.pinned();
         self.counters.ram_bytes = self.ram.bytes();
         self.counters.source_cache_bytes = self.source.cached_bytes();
+        self.counters.chunks_decoded = self.source.chunks_decoded();
         self.counters.failed = self.failed.len();
         let next_retry = self
             .failures

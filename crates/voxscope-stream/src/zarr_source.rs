@@ -52,6 +52,10 @@ pub struct ZarrSource {
     /// Decoded chunks as value levels: neighbouring bricks share a chunk (and every brick's
     /// apron reaches into its neighbours'), so each chunk is decoded once while it is used.
     chunks: Mutex<ChunkCache>,
+    /// The six one-voxel faces of decoded chunks, kept longer than the chunks for a tenth of
+    /// their bytes: a brick's apron reaches one voxel into the chunks beside its own, and is
+    /// taken from there rather than by decoding those chunks again ([`chunk_faces`]).
+    faces: Mutex<ChunkCache>,
     /// Chunks being read and decoded now, each with a lock its reader holds meanwhile: a
     /// loader that needs one waits for that reader rather than decoding it again (the loaders
     /// take neighbouring bricks at once, and eight bricks and their aprons share a chunk). A
@@ -65,6 +69,8 @@ pub struct ZarrSource {
     /// folder's files read ahead; [`BrickSource::fetch_ahead`]): not asked for again (at most [`MAX_FETCHED_AHEAD`],
     /// then forgotten all at once).
     fetched_ahead: Mutex<FetchedAhead>,
+    /// Chunks read and decoded so far ([`BrickSource::chunks_decoded`]).
+    decoded: std::sync::atomic::AtomicU64,
 }
 
 /// What [`BrickSource::fetch_ahead`] handed the store already.
@@ -88,6 +94,10 @@ const MAX_SHARDED_REGIONS_AHEAD: usize = 96;
 /// Most chunks one [`BrickSource::fetch_ahead`] call hands the store (which starts what its
 /// limit has room for: twice `--max-requests`, 64 by default, and the rest on later calls).
 const MAX_CHUNKS_AHEAD: usize = 256;
+
+/// Bytes of chunks' faces a [`ZarrSource`] keeps at most, and less where the streamer's RAM
+/// budget is smaller ([`BrickSource::reserve_caches`]): 2 700 chunks' of 64³.
+pub const FACE_CACHE_BYTES: usize = 128 << 20;
 
 /// The most stored voxels [`ZarrSource::warm_first_image`] reads as one region (16 Mi: 32 MiB
 /// as value levels, 128 MiB while a 64-bit type is converted).
@@ -124,6 +134,13 @@ impl Default for ChunkCache {
 }
 
 impl ChunkCache {
+    fn with_capacity(capacity: usize) -> Self {
+        Self {
+            capacity,
+            ..Self::default()
+        }
+    }
+
     fn set_capacity(&mut self, capacity: usize) {
         self.capacity = capacity;
         self.shrink();
@@ -261,9 +278,11 @@ impl ZarrSource {
             how,
             labels: how == Downsampling::Mode,
             chunks: Mutex::default(),
+            faces: Mutex::new(ChunkCache::with_capacity(FACE_CACHE_BYTES)),
             decoding: Mutex::default(),
             chunk_ranges,
             fetched_ahead: Mutex::default(),
+            decoded: std::sync::atomic::AtomicU64::new(0),
         })
     }
 
@@ -303,11 +322,18 @@ impl ZarrSource {
                     let start: [usize; 3] = std::array::from_fn(|a| index[a] * chunk[a]);
                     let extent: [usize; 3] =
                         std::array::from_fn(|a| chunk[a].min(info.dims[a] - start[a]));
-                    let levels = self.chunk_levels((stored, index), start, extent)?;
                     // The part of the chunk inside the region.
                     let lo: [usize; 3] = std::array::from_fn(|a| origin[a].max(start[a]));
                     let hi: [usize; 3] =
                         std::array::from_fn(|a| (origin[a] + size[a]).min(start[a] + extent[a]));
+                    // An apron one voxel into this chunk: from its faces where they are kept.
+                    if let Some(face) = face_of(lo, hi, start, extent)
+                        && let Some(faces) = self.cached_faces((stored, index))
+                    {
+                        copy_from_face(&faces, face, start, extent, lo, hi, origin, size, &mut out);
+                        continue;
+                    }
+                    let levels = self.chunk_levels((stored, index), start, extent)?;
                     let run = hi[0] - lo[0];
                     for z in lo[2]..hi[2] {
                         for y in lo[1]..hi[1] {
@@ -381,11 +407,21 @@ impl ZarrSource {
         extent: [usize; 3],
     ) -> Result<Arc<Vec<u16>>, voxscope_volume::LoadError> {
         let data = self.pyramid.read_region(stored, start, extent)?;
+        self.decoded
+            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         let levels = Arc::new(to_levels(&data, self.quantization));
         if let Ok(mut cache) = self.chunks.lock() {
             cache.insert((stored, index), Arc::clone(&levels));
         }
+        if let Ok(mut faces) = self.faces.lock() {
+            faces.insert((stored, index), Arc::new(chunk_faces(&levels, extent)));
+        }
         Ok(levels)
+    }
+
+    /// The faces of chunk `key` ([`chunk_faces`]), if they are kept.
+    fn cached_faces(&self, key: ChunkKey) -> Option<Arc<Vec<u16>>> {
+        self.faces.lock().ok().and_then(|mut cache| cache.get(key))
     }
 
     /// Whether every chunk of the stored level's region `[origin, origin + size)` is in the
@@ -543,6 +579,97 @@ fn quantization_of(pyramid: &Pyramid) -> Result<(Quantization, u16), String> {
 
 /// The stored voxels `[first, last]` along one axis that the pyramid voxels `[c0, c1]` cover,
 /// `ratio` stored voxels each, within `dims`.
+/// The six one-voxel faces of a chunk of `extent` voxels (`levels` x fastest), one after the
+/// other: for each axis a (x, y, z) its low face then its high face, each a plane over the
+/// other two axes in their order (the lower one fastest).
+fn chunk_faces(levels: &[u16], extent: [usize; 3]) -> Vec<u16> {
+    let at = |v: [usize; 3]| levels[v[0] + extent[0] * (v[1] + extent[1] * v[2])];
+    let mut faces = Vec::with_capacity((0..3).map(|a| 2 * face_len(extent, a)).sum());
+    for axis in 0..3 {
+        let (b, c) = other_axes(axis);
+        for side in [0, extent[axis] - 1] {
+            for v in 0..extent[c] {
+                for u in 0..extent[b] {
+                    let mut voxel = [0; 3];
+                    voxel[axis] = side;
+                    voxel[b] = u;
+                    voxel[c] = v;
+                    faces.push(at(voxel));
+                }
+            }
+        }
+    }
+    faces
+}
+
+/// The two axes other than `axis`, lower first.
+fn other_axes(axis: usize) -> (usize, usize) {
+    match axis {
+        0 => (1, 2),
+        1 => (0, 2),
+        _ => (0, 1),
+    }
+}
+
+/// Voxels of one face of a chunk of `extent` across `axis`.
+fn face_len(extent: [usize; 3], axis: usize) -> usize {
+    let (b, c) = other_axes(axis);
+    extent[b] * extent[c]
+}
+
+/// The face (axis, high side) of the chunk at `start` of `extent` voxels that holds all of
+/// `[lo, hi)` (a part of it one voxel thick at the chunk's low or high end along an axis), if
+/// one does.
+fn face_of(
+    lo: [usize; 3],
+    hi: [usize; 3],
+    start: [usize; 3],
+    extent: [usize; 3],
+) -> Option<(usize, bool)> {
+    (0..3).find_map(|a| {
+        if hi[a] - lo[a] != 1 {
+            return None;
+        }
+        let local = lo[a] - start[a];
+        if local == 0 {
+            Some((a, false))
+        } else if local == extent[a] - 1 {
+            Some((a, true))
+        } else {
+            None
+        }
+    })
+}
+
+/// Copies `[lo, hi)` (inside one face of the chunk at `start`, [`face_of`]) from the chunk's
+/// `faces` into `out`, the region at `origin` of `size` voxels.
+#[allow(clippy::too_many_arguments)]
+fn copy_from_face(
+    faces: &[u16],
+    (axis, high): (usize, bool),
+    start: [usize; 3],
+    extent: [usize; 3],
+    lo: [usize; 3],
+    hi: [usize; 3],
+    origin: [usize; 3],
+    size: [usize; 3],
+    out: &mut [u16],
+) {
+    let before: usize = (0..axis).map(|a| 2 * face_len(extent, a)).sum();
+    let face = &faces[before + usize::from(high) * face_len(extent, axis)..];
+    let (b, c) = other_axes(axis);
+    for z in lo[2]..hi[2] {
+        for y in lo[1]..hi[1] {
+            for x in lo[0]..hi[0] {
+                let voxel = [x, y, z];
+                let (u, v) = (voxel[b] - start[b], voxel[c] - start[c]);
+                let to = (x - origin[0]) + size[0] * ((y - origin[1]) + size[1] * (z - origin[2]));
+                out[to] = face[u + extent[b] * v];
+            }
+        }
+    }
+}
+
 fn covered(c0: usize, c1: usize, ratio: usize, dims: usize) -> (usize, usize) {
     let first = (c0 * ratio).min(dims - 1);
     let last = ((c1 + 1) * ratio - 1).min(dims - 1).max(first);
@@ -574,13 +701,19 @@ impl BrickSource for ZarrSource {
         self.pyramid.remote_stats()
     }
 
-    /// Decoded chunks get a quarter of `ram` (at most [`CHUNK_CACHE_BYTES`]); a network
-    /// store's fetched bytes an eighth (at most [`voxscope_volume::remote::FETCH_CACHE_BYTES`]).
+    /// Decoded chunks get a quarter of `ram` (at most [`CHUNK_CACHE_BYTES`]), their faces a
+    /// sixteenth (at most [`FACE_CACHE_BYTES`]); a network store's fetched bytes an eighth (at
+    /// most [`voxscope_volume::remote::FETCH_CACHE_BYTES`]).
     fn reserve_caches(&self, ram: u64) -> u64 {
         let chunks = (ram / 4).min(CHUNK_CACHE_BYTES as u64);
         if let Ok(mut cache) = self.chunks.lock() {
             cache.set_capacity(chunks as usize);
         }
+        let faces = (ram / 16).min(FACE_CACHE_BYTES as u64);
+        if let Ok(mut cache) = self.faces.lock() {
+            cache.set_capacity(faces as usize);
+        }
+        let chunks = chunks + faces;
         let fetched = if self.pyramid.remote_stats().is_some() {
             let fetched = (ram / 8).min(voxscope_volume::remote::FETCH_CACHE_BYTES);
             self.pyramid.set_fetch_cache_bytes(fetched);
@@ -593,7 +726,12 @@ impl BrickSource for ZarrSource {
 
     fn cached_bytes(&self) -> u64 {
         let chunks = self.chunks.lock().map_or(0, |cache| cache.bytes as u64);
-        chunks + self.pyramid.fetch_cached_bytes()
+        let faces = self.faces.lock().map_or(0, |cache| cache.bytes as u64);
+        chunks + faces + self.pyramid.fetch_cached_bytes()
+    }
+
+    fn chunks_decoded(&self) -> u64 {
+        self.decoded.load(std::sync::atomic::Ordering::Relaxed)
     }
 
     fn known_range(&self, id: BrickId) -> Option<ValueRange> {
