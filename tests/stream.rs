@@ -1048,18 +1048,15 @@ fn an_ome_zarr_streams_from_its_own_levels_brick_for_brick() {
     }
 }
 
-#[test]
-fn aprons_taken_from_the_faces_of_chunks_beside_a_brick_equal_their_decoded_voxels() {
-    // 128³ noise in chunks of 64³: each brick's interior lies in one chunk and its apron one
-    // voxel into up to seven others. Read brick by brick with a decoded-chunk cache of three
-    // chunks, the aprons come from the faces kept of chunks decoded before; the bricks equal
-    // those of a source that keeps every chunk.
+/// 128³ noise written by `voxscope convert` in chunks of `chunk`³ into a temporary folder
+/// (kept while the folder is), and the store's path.
+fn converted_noise(chunk: &str) -> (tempfile::TempDir, std::path::PathBuf) {
     let dir = tempfile::tempdir().expect("a temporary folder");
     let store = dir.path().join("noise.ome.zarr");
     let output = std::process::Command::new(env!("CARGO_BIN_EXE_voxscope"))
         .args(["convert", "synthetic:noise:128"])
         .arg(&store)
-        .args(["--chunk", "64"])
+        .args(["--chunk", chunk])
         .output()
         .expect("voxscope runs");
     assert!(
@@ -1067,6 +1064,16 @@ fn aprons_taken_from_the_faces_of_chunks_beside_a_brick_equal_their_decoded_voxe
         "{}",
         String::from_utf8_lossy(&output.stderr)
     );
+    (dir, store)
+}
+
+#[test]
+fn aprons_taken_from_the_faces_of_chunks_beside_a_brick_equal_their_decoded_voxels() {
+    // 128³ noise in chunks of 64³: each brick's interior lies in one chunk and its apron one
+    // voxel into up to seven others. Read brick by brick with a decoded-chunk cache of three
+    // chunks, the aprons come from the faces kept of chunks decoded before; the bricks equal
+    // those of a source that keeps every chunk.
+    let (_dir, store) = converted_noise("64");
     let open = || {
         let pyramid = Pyramid::open(&store, PyramidOptions::default()).expect("the store opens");
         ZarrSource::new(Arc::new(pyramid)).expect("a brick source")
@@ -1105,19 +1112,7 @@ fn aprons_taken_from_the_faces_of_chunks_beside_a_brick_equal_their_decoded_voxe
 fn a_converted_volume_streams_from_disk_equal_to_the_bricks_render() {
     // 128³ noise written by `voxscope convert` (chunks of 32³, its own levels and chunk ranges),
     // streamed region by region in a budget below the whole pyramid.
-    let dir = tempfile::tempdir().expect("a temporary folder");
-    let store = dir.path().join("noise.ome.zarr");
-    let output = std::process::Command::new(env!("CARGO_BIN_EXE_voxscope"))
-        .args(["convert", "synthetic:noise:128"])
-        .arg(&store)
-        .args(["--chunk", "32"])
-        .output()
-        .expect("voxscope runs");
-    assert!(
-        output.status.success(),
-        "{}",
-        String::from_utf8_lossy(&output.stderr)
-    );
+    let (_dir, store) = converted_noise("32");
     let pyramid = Pyramid::open(&store, PyramidOptions::default()).expect("the store opens");
     assert!(pyramid.levels.len() > 1, "convert wrote levels");
     let source = Arc::new(ZarrSource::new(Arc::new(pyramid)).expect("a brick source"));
