@@ -130,8 +130,10 @@ mod tests {
         let keys: Vec<String> = (0..READ_AHEAD_FILES * 3)
             .map(|i| format!("/1.0.{i}"))
             .collect();
+        // It takes its room, and more as the thread advises some meanwhile, never more than
+        // asked for.
         let taken = ahead.advise(keys.iter().map(String::as_str));
-        assert!((1..=READ_AHEAD_FILES).contains(&taken), "{taken}");
+        assert!((READ_AHEAD_FILES..=keys.len()).contains(&taken), "{taken}");
         // The thread advises them (missing files passed over) and the room comes back.
         let started = std::time::Instant::now();
         while !ahead.has_room() || ahead.waiting.load(Ordering::Relaxed) > 0 {
