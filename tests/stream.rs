@@ -11,6 +11,7 @@ use std::time::{Duration, Instant};
 
 use glam::DVec3;
 use image::RgbaImage;
+use support::http_server::{Faults, FileServer};
 use support::reference::{coverage, psnr};
 use support::{Prepared, gpu, image_dir};
 use voxscope_octree::{BuildOptions, TransferFunction};
@@ -23,6 +24,7 @@ use voxscope_stream::{
     ZarrSource,
 };
 use voxscope_volume::ome_zarr::{Pyramid, PyramidOptions};
+use voxscope_volume::remote::RemoteOptions;
 use voxscope_volume::{
     Histogram, Quantization, QuantizedVolume, SyntheticKind, ValueWindow, Volume,
 };
@@ -1072,15 +1074,29 @@ fn aprons_taken_from_the_faces_of_chunks_beside_a_brick_equal_their_decoded_voxe
     // 128³ noise in chunks of 64³: each brick's interior lies in one chunk and its apron one
     // voxel into up to seven others. Read brick by brick with a decoded-chunk cache of three
     // chunks, the aprons come from the faces kept of chunks decoded before; the bricks equal
-    // those of a source that keeps every chunk.
-    let (_dir, store) = converted_noise("64");
+    // those of a source that keeps every chunk. Over HTTP, a chunk whose faces serve is not
+    // fetched either.
+    let (dir, store) = converted_noise("64");
     let open = || {
         let pyramid = Pyramid::open(&store, PyramidOptions::default()).expect("the store opens");
         ZarrSource::new(Arc::new(pyramid)).expect("a brick source")
     };
+    let server = FileServer::start(dir.path(), Faults::default());
+    let over_http = Arc::new(
+        Pyramid::open_url(
+            &server.url("noise.ome.zarr"),
+            PyramidOptions::default(),
+            RemoteOptions::default(),
+        )
+        .expect("the store opens over HTTP"),
+    );
+    let remote = ZarrSource::new(Arc::clone(&over_http)).expect("a brick source");
     let (roomy, tight) = (open(), open());
     // 1.5 MiB of decoded chunks (three of 64³), 384 KiB of faces (all eight chunks').
     tight.reserve_caches(6 << 20);
+    remote.reserve_caches(6 << 20);
+    over_http.set_fetch_cache_bytes(4 << 20);
+    let opened = server.counters.arrivals().len();
     let grid = tight.shape().levels[0].grid;
     assert_eq!(grid, [4, 4, 4]);
     let mut bricks = 0u64;
@@ -1094,6 +1110,8 @@ fn aprons_taken_from_the_faces_of_chunks_beside_a_brick_equal_their_decoded_voxe
                 let expected = roomy.read_brick(id).expect("a brick");
                 let read = tight.read_brick(id).expect("a brick");
                 assert!(read.levels == expected.levels, "{id} differs");
+                let read = remote.read_brick(id).expect("a brick over HTTP");
+                assert!(read.levels == expected.levels, "{id} differs over HTTP");
                 bricks += 1;
             }
         }
@@ -1105,6 +1123,30 @@ fn aprons_taken_from_the_faces_of_chunks_beside_a_brick_equal_their_decoded_voxe
     assert!(
         decoded <= 40,
         "{decoded} chunks decoded for {bricks} bricks"
+    );
+    // Over HTTP (4 MiB of fetched bytes kept: four chunks of this noise, 0.9 MB each) the
+    // same decodes, and each chunk fetched is one decoded (some decodes find their bytes
+    // still kept): 15 requests for 23 decodes (measured); fetching every chunk of a brick's
+    // region whose decoded voxels were not kept, faces or not, took 74.
+    let requests = server.counters.arrivals()[opened..].to_vec();
+    let chunk_requests = requests
+        .iter()
+        .filter(|(path, _)| path.starts_with("noise.ome.zarr/0/"))
+        .count() as u64;
+    assert_eq!(
+        requests.len() as u64,
+        chunk_requests,
+        "only level 0's chunks asked for: {requests:?}"
+    );
+    assert!(
+        remote.chunks_decoded() <= 40,
+        "{} chunks decoded over HTTP",
+        remote.chunks_decoded()
+    );
+    assert!(
+        chunk_requests <= remote.chunks_decoded(),
+        "{chunk_requests} chunk requests for {} decodes: {requests:?}",
+        remote.chunks_decoded()
     );
 }
 

@@ -86,10 +86,10 @@ struct FetchedAhead {
 /// The most chunks a [`ZarrSource`] remembers having fetched ahead.
 const MAX_FETCHED_AHEAD: usize = 1 << 16;
 
-/// Most regions of sharded levels one [`BrickSource::fetch_ahead`] call hands the store in a
-/// batch (each a brick's: up to 27 inner chunks of 32³, and a batch past 4 096 inner chunks is
+/// Most inner chunks of sharded levels one [`BrickSource::fetch_ahead`] call hands the store
+/// in a batch (96 bricks' at 27 inner chunks of 32³ each; a batch past 4 096 inner chunks is
 /// not fetched ahead at all).
-const MAX_SHARDED_REGIONS_AHEAD: usize = 96;
+const MAX_SHARDED_CHUNKS_AHEAD: usize = 96 * 27;
 
 /// Most chunks one [`BrickSource::fetch_ahead`] call hands the store (which starts what its
 /// limit has room for: twice `--max-requests`, 64 by default, and the rest on later calls).
@@ -112,6 +112,29 @@ const SHORT_RUN: usize = 8;
 
 /// A decoded chunk: stored level and chunk index.
 type ChunkKey = (usize, [usize; 3]);
+
+/// A chunk that a region read from a stored level reaches ([`ZarrSource::region_parts`]):
+/// its index, first voxel and size, the part `[lo, hi)` of it inside the region, and where
+/// that part comes from.
+struct RegionPart {
+    index: [usize; 3],
+    start: [usize; 3],
+    extent: [usize; 3],
+    lo: [usize; 3],
+    hi: [usize; 3],
+    from: PartFrom,
+}
+
+/// Where a [`RegionPart`]'s voxels come from.
+enum PartFrom {
+    /// The kept faces of the chunk ([`chunk_faces`]): the part is one voxel thick at the
+    /// chunk's end along the face's axis (which, and whether its high end).
+    Faces((usize, bool), Arc<Vec<u16>>),
+    /// The decoded chunk, kept.
+    Decoded(Arc<Vec<u16>>),
+    /// Neither: the chunk is read and decoded.
+    Missing,
+}
 
 /// The least recently used decoded chunks, each with the clock of its last use, within a
 /// byte capacity (the last chunk used is kept even when it alone is larger).
@@ -298,64 +321,99 @@ impl ZarrSource {
     }
 
     /// The value levels of the stored level's voxels `[origin, origin + size)`, x fastest,
-    /// assembled from whole decoded chunks (cached).
+    /// assembled from whole decoded chunks (cached) and the faces kept of chunks the region
+    /// only reaches one voxel into.
     fn read_levels(
         &self,
         stored: usize,
         origin: [usize; 3],
         size: [usize; 3],
     ) -> Result<Vec<u16>, voxscope_volume::LoadError> {
-        let info = &self.pyramid.levels[stored];
-        let chunk = info.chunk;
-        let first: [usize; 3] = std::array::from_fn(|a| origin[a] / chunk[a]);
-        let last: [usize; 3] = std::array::from_fn(|a| (origin[a] + size[a] - 1) / chunk[a]);
-        let mut out = vec![0u16; size.iter().product()];
-        // Over a network, the brick's chunks are asked for together (a folder's store does
-        // nothing here).
-        if !self.chunks_decoded(stored, origin, size) {
-            self.pyramid.prefetch_regions(&[(stored, origin, size)]);
+        let parts = self.region_parts(stored, origin, size);
+        // Over a network, the chunks still to decode are asked for together (a folder's store
+        // does nothing here); a chunk whose kept faces or decoded voxels serve is not.
+        let missing: Vec<(usize, [usize; 3], [usize; 3])> = parts
+            .iter()
+            .filter(|part| matches!(part.from, PartFrom::Missing))
+            .map(|part| (stored, part.start, part.extent))
+            .collect();
+        if !missing.is_empty() {
+            self.pyramid.prefetch_regions(&missing);
         }
-        for cz in first[2]..=last[2] {
-            for cy in first[1]..=last[1] {
-                for cx in first[0]..=last[0] {
-                    let index = [cx, cy, cz];
-                    let start: [usize; 3] = std::array::from_fn(|a| index[a] * chunk[a]);
-                    let extent: [usize; 3] =
-                        std::array::from_fn(|a| chunk[a].min(info.dims[a] - start[a]));
-                    // The part of the chunk inside the region.
-                    let lo: [usize; 3] = std::array::from_fn(|a| origin[a].max(start[a]));
-                    let hi: [usize; 3] =
-                        std::array::from_fn(|a| (origin[a] + size[a]).min(start[a] + extent[a]));
-                    // An apron one voxel into this chunk: from its faces where they are kept.
-                    if let Some(face) = face_of(lo, hi, start, extent)
-                        && let Some(faces) = self.cached_faces((stored, index))
-                    {
-                        copy_from_face(&faces, face, start, extent, lo, hi, origin, size, &mut out);
-                        continue;
-                    }
-                    let levels = self.chunk_levels((stored, index), start, extent)?;
-                    let run = hi[0] - lo[0];
-                    for z in lo[2]..hi[2] {
-                        for y in lo[1]..hi[1] {
-                            let from = (lo[0] - start[0])
-                                + extent[0] * ((y - start[1]) + extent[1] * (z - start[2]));
-                            let to = (lo[0] - origin[0])
-                                + size[0] * ((y - origin[1]) + size[1] * (z - origin[2]));
-                            let (out, levels) = (&mut out[to..to + run], &levels[from..from + run]);
-                            if run <= SHORT_RUN {
-                                // A brick's apron in the next chunk: a call to copy costs more.
-                                for (o, l) in out.iter_mut().zip(levels) {
-                                    *o = *l;
-                                }
-                            } else {
-                                out.copy_from_slice(levels);
-                            }
-                        }
-                    }
+        let mut out = vec![0u16; size.iter().product()];
+        for part in parts {
+            let RegionPart {
+                index,
+                start,
+                extent,
+                lo,
+                hi,
+                from,
+            } = part;
+            let levels = match from {
+                PartFrom::Faces(face, faces) => {
+                    copy_from_face(&faces, face, start, extent, lo, hi, origin, size, &mut out);
+                    continue;
+                }
+                PartFrom::Decoded(levels) => levels,
+                PartFrom::Missing => self.chunk_levels((stored, index), start, extent)?,
+            };
+            let run = hi[0] - lo[0];
+            for z in lo[2]..hi[2] {
+                for y in lo[1]..hi[1] {
+                    let from = (lo[0] - start[0])
+                        + extent[0] * ((y - start[1]) + extent[1] * (z - start[2]));
+                    let to = (lo[0] - origin[0])
+                        + size[0] * ((y - origin[1]) + size[1] * (z - origin[2]));
+                    copy_run(&mut out[to..to + run], &levels[from..from + run]);
                 }
             }
         }
         Ok(out)
+    }
+
+    /// The chunks of the stored level that the region `[origin, origin + size)` reaches,
+    /// each with the part of it inside the region and where that part comes from now.
+    fn region_parts(&self, stored: usize, origin: [usize; 3], size: [usize; 3]) -> Vec<RegionPart> {
+        let info = &self.pyramid.levels[stored];
+        let chunk = info.chunk;
+        let first: [usize; 3] = std::array::from_fn(|a| origin[a] / chunk[a]);
+        let last: [usize; 3] = std::array::from_fn(|a| (origin[a] + size[a] - 1) / chunk[a]);
+        // (Locked in this order everywhere: the decoded chunks, then the faces.)
+        let mut decoded = self.chunks.lock().ok();
+        let mut kept_faces = self.faces.lock().ok();
+        let mut parts = Vec::new();
+        for cz in first[2]..=last[2] {
+            for cy in first[1]..=last[1] {
+                for cx in first[0]..=last[0] {
+                    let index = [cx, cy, cz];
+                    let ChunkPart {
+                        start,
+                        extent,
+                        lo,
+                        hi,
+                    } = chunk_part(chunk, info.dims, index, origin, size);
+                    let key = (stored, index);
+                    // An apron one voxel into this chunk: from its faces where they are kept.
+                    let faces = face_of(lo, hi, start, extent).and_then(|face| {
+                        let faces = kept_faces.as_mut()?.get(key)?;
+                        Some(PartFrom::Faces(face, faces))
+                    });
+                    let from = faces
+                        .or_else(|| decoded.as_mut()?.get(key).map(PartFrom::Decoded))
+                        .unwrap_or(PartFrom::Missing);
+                    parts.push(RegionPart {
+                        index,
+                        start,
+                        extent,
+                        lo,
+                        hi,
+                        from,
+                    });
+                }
+            }
+        }
+        parts
     }
 
     /// The value levels of one chunk (`start` and `extent` in the stored level's voxels):
@@ -417,27 +475,6 @@ impl ZarrSource {
             faces.insert((stored, index), Arc::new(chunk_faces(&levels, extent)));
         }
         Ok(levels)
-    }
-
-    /// The faces of chunk `key` ([`chunk_faces`]), if they are kept.
-    fn cached_faces(&self, key: ChunkKey) -> Option<Arc<Vec<u16>>> {
-        self.faces.lock().ok().and_then(|mut cache| cache.get(key))
-    }
-
-    /// Whether every chunk of the stored level's region `[origin, origin + size)` is in the
-    /// decoded-chunk cache.
-    fn chunks_decoded(&self, stored: usize, origin: [usize; 3], size: [usize; 3]) -> bool {
-        let chunk = self.pyramid.levels[stored].chunk;
-        let first: [usize; 3] = std::array::from_fn(|a| origin[a] / chunk[a]);
-        let last: [usize; 3] = std::array::from_fn(|a| (origin[a] + size[a] - 1) / chunk[a]);
-        self.chunks.lock().is_ok_and(|cache| {
-            (first[2]..=last[2]).all(|cz| {
-                (first[1]..=last[1]).all(|cy| {
-                    (first[0]..=last[0])
-                        .all(|cx| cache.chunks.contains_key(&(stored, [cx, cy, cz])))
-                })
-            })
-        })
     }
 
     /// Reads, before the first image, what it needs from the store: the stored voxels of the
@@ -577,8 +614,32 @@ fn quantization_of(pyramid: &Pyramid) -> Result<(Quantization, u16), String> {
     Ok((Quantization { offset: min, step }, u16::MAX))
 }
 
-/// The stored voxels `[first, last]` along one axis that the pyramid voxels `[c0, c1]` cover,
-/// `ratio` stored voxels each, within `dims`.
+/// Where chunk `index` of a stored level (of `dims` voxels in chunks of `chunk`) lies, and
+/// the part of it inside the region `[origin, origin + size)`.
+struct ChunkPart {
+    start: [usize; 3],
+    extent: [usize; 3],
+    lo: [usize; 3],
+    hi: [usize; 3],
+}
+
+fn chunk_part(
+    chunk: [usize; 3],
+    dims: [usize; 3],
+    index: [usize; 3],
+    origin: [usize; 3],
+    size: [usize; 3],
+) -> ChunkPart {
+    let start: [usize; 3] = std::array::from_fn(|a| index[a] * chunk[a]);
+    let extent: [usize; 3] = std::array::from_fn(|a| chunk[a].min(dims[a] - start[a]));
+    ChunkPart {
+        start,
+        extent,
+        lo: std::array::from_fn(|a| origin[a].max(start[a])),
+        hi: std::array::from_fn(|a| (origin[a] + size[a]).min(start[a] + extent[a])),
+    }
+}
+
 /// The six one-voxel faces of a chunk of `extent` voxels (`levels` x fastest), one after the
 /// other: for each axis a (x, y, z) its low face then its high face, each a plane over the
 /// other two axes in their order (the lower one fastest).
@@ -642,7 +703,8 @@ fn face_of(
 }
 
 /// Copies `[lo, hi)` (inside one face of the chunk at `start`, [`face_of`]) from the chunk's
-/// `faces` into `out`, the region at `origin` of `size` voxels.
+/// `faces` into `out`, the region at `origin` of `size` voxels: rows along x where the face
+/// spans x, a voxel at a time across x.
 #[allow(clippy::too_many_arguments)]
 fn copy_from_face(
     faces: &[u16],
@@ -658,18 +720,33 @@ fn copy_from_face(
     let before: usize = (0..axis).map(|a| 2 * face_len(extent, a)).sum();
     let face = &faces[before + usize::from(high) * face_len(extent, axis)..];
     let (b, c) = other_axes(axis);
+    // A face across x is one voxel wide in x: its rows are one voxel long.
+    let run = hi[0] - lo[0];
     for z in lo[2]..hi[2] {
         for y in lo[1]..hi[1] {
-            for x in lo[0]..hi[0] {
-                let voxel = [x, y, z];
-                let (u, v) = (voxel[b] - start[b], voxel[c] - start[c]);
-                let to = (x - origin[0]) + size[0] * ((y - origin[1]) + size[1] * (z - origin[2]));
-                out[to] = face[u + extent[b] * v];
-            }
+            let to = (lo[0] - origin[0]) + size[0] * ((y - origin[1]) + size[1] * (z - origin[2]));
+            let voxel = [lo[0], y, z];
+            let (u, v) = (voxel[b] - start[b], voxel[c] - start[c]);
+            let from = u + extent[b] * v;
+            copy_run(&mut out[to..to + run], &face[from..from + run]);
         }
     }
 }
 
+/// Copies one row part: value by value where it is short (a brick's apron in the next
+/// chunk: a call to copy costs more), else by a call.
+fn copy_run(out: &mut [u16], levels: &[u16]) {
+    if out.len() <= SHORT_RUN {
+        for (o, l) in out.iter_mut().zip(levels) {
+            *o = *l;
+        }
+    } else {
+        out.copy_from_slice(levels);
+    }
+}
+
+/// The stored voxels `[first, last]` along one axis that the pyramid voxels `[c0, c1]` cover,
+/// `ratio` stored voxels each, within `dims`.
 fn covered(c0: usize, c1: usize, ratio: usize, dims: usize) -> (usize, usize) {
     let first = (c0 * ratio).min(dims - 1);
     let last = ((c1 + 1) * ratio - 1).min(dims - 1).max(first);
@@ -788,8 +865,12 @@ impl BrickSource for ZarrSource {
         // Per brick with chunks to fetch: how many of `chunks` it needs handled.
         let mut bricks: Vec<(BrickId, usize)> = Vec::new();
         {
-            let (Ok(decoded), Ok(mut asked)) = (self.chunks.lock(), self.fetched_ahead.lock())
-            else {
+            // (Locked in the order of `region_parts`: decoded chunks, faces, then these.)
+            let (Ok(decoded), Ok(kept_faces), Ok(mut asked)) = (
+                self.chunks.lock(),
+                self.faces.lock(),
+                self.fetched_ahead.lock(),
+            ) else {
                 return;
             };
             let mut seen = std::collections::HashSet::new();
@@ -813,16 +894,31 @@ impl BrickSource for ZarrSource {
                 let low: [usize; 3] = std::array::from_fn(|a| origin[a] / info.chunk[a]);
                 let high: [usize; 3] =
                     std::array::from_fn(|a| (origin[a] + size[a] - 1) / info.chunk[a]);
-                let mut missing = (low[2]..=high[2]).flat_map(|z| {
+                let reached = (low[2]..=high[2]).flat_map(|z| {
                     (low[1]..=high[1]).flat_map(move |y| (low[0]..=high[0]).map(move |x| [x, y, z]))
                 });
+                // Whether the brick's read takes the chunk's part without decoding it: the
+                // chunk is decoded, or the part lies in its faces, kept.
+                let served = |index: [usize; 3]| {
+                    let key = (source.stored, index);
+                    decoded.chunks.contains_key(&key)
+                        || kept_faces.chunks.contains_key(&key) && {
+                            let part = chunk_part(info.chunk, info.dims, index, origin, size);
+                            face_of(part.lo, part.hi, part.start, part.extent).is_some()
+                        }
+                };
                 if info.shard.is_some() {
-                    // (A batch's regions are bounded: a shard batch of too many inner chunks
-                    // is not fetched ahead at all.)
-                    if sharded.len() < MAX_SHARDED_REGIONS_AHEAD
-                        && missing.any(|c| !decoded.chunks.contains_key(&(source.stored, c)))
-                    {
-                        sharded.push((source.stored, origin, size));
+                    // Each inner chunk to decode as a region of its own (the batch coalesces
+                    // a shard's), their number bounded: a shard batch of too many inner
+                    // chunks is not fetched ahead at all.
+                    for index in reached.filter(|&index| !served(index)) {
+                        if sharded.len() >= MAX_SHARDED_CHUNKS_AHEAD {
+                            break;
+                        }
+                        if seen.insert((source.stored, index)) {
+                            let part = chunk_part(info.chunk, info.dims, index, origin, size);
+                            sharded.push((source.stored, part.start, part.extent));
+                        }
                     }
                     continue;
                 }
@@ -830,15 +926,15 @@ impl BrickSource for ZarrSource {
                     continue;
                 }
                 // Whether every chunk was handed to the store (by this call or one before): a
-                // chunk only decoded may leave the chunk cache, and the brick is then looked
-                // at again.
+                // chunk only decoded, or whose faces only are kept, may leave its cache, and
+                // the brick is then looked at again.
                 let mut all_handed = true;
-                for chunk in missing {
-                    let key = (source.stored, chunk);
+                for index in reached {
+                    let key = (source.stored, index);
                     if asked.chunks.contains(&key) || seen.contains(&key) {
                         continue;
                     }
-                    if decoded.chunks.contains_key(&key) {
+                    if served(index) {
                         all_handed = false;
                     } else {
                         seen.insert(key);
