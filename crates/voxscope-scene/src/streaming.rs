@@ -223,17 +223,8 @@ impl FrameParts {
         self.draw += other.draw;
         self.wait += other.wait;
         self.pause += other.pause;
-        self.add_phases(&other.phases);
+        self.phases += other.phases;
         self.frames_waiting_for_loads += other.frames_waiting_for_loads;
-    }
-
-    fn add_phases(&mut self, phases: &UpdatePhases) {
-        let sum = &mut self.phases;
-        sum.readback += phases.readback;
-        sum.results += phases.results;
-        sum.feedback += phases.feedback;
-        sum.choose_uploads += phases.choose_uploads;
-        sum.write += phases.write;
     }
 }
 
@@ -285,7 +276,7 @@ pub fn refine(
             .update(context)
             .ok_or_else(|| SceneError::failed("refine needs the streaming renderer"))?;
         parts.update += updating.elapsed().as_secs_f64();
-        parts.add_phases(&status.phases);
+        parts.phases += status.phases;
         errors.extend(status.errors.iter().cloned());
         let first = *first_frame.get_or_insert(status.frame);
         let drawing = Instant::now();

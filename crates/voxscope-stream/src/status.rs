@@ -178,6 +178,17 @@ pub struct UpdatePhases {
     pub write: f64,
 }
 
+impl std::ops::AddAssign for UpdatePhases {
+    /// Sums frames' steps (a view's, `bench --stream`'s `frame_parts_s`).
+    fn add_assign(&mut self, other: Self) {
+        self.readback += other.readback;
+        self.results += other.results;
+        self.feedback += other.feedback;
+        self.choose_uploads += other.choose_uploads;
+        self.write += other.write;
+    }
+}
+
 /// A view larger than the atlas: the least important of its bricks (the finest, farthest from
 /// the view's center) are drawn from coarser levels so that the rest fits and the view
 /// completes at the resolution the budget allows.
