@@ -111,18 +111,14 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
     let counters = &refinement.status.counters;
     let floor_bytes = counters.view_slots as u64 * counters.slot_bytes;
     // A URL's store: what crossed the network by then (metadata, indexes and chunks).
-    let remote = prepared
-        .pyramid
-        .as_ref()
-        .and_then(|p| p.remote_stats())
-        .map(|stats| {
-            json!({
-                "requests": stats.requests,
-                "bytes": stats.bytes,
-                "errors": stats.errors,
-                "peak_in_flight": stats.peak_in_flight,
-            })
-        });
+    let remote = remote_stats(&prepared).map(|stats| {
+        json!({
+            "requests": stats.requests,
+            "bytes": stats.bytes,
+            "errors": stats.errors,
+            "peak_in_flight": stats.peak_in_flight,
+        })
+    });
     let stopped = json!({
         "camera": "medium",
         "complete": refinement.complete,
@@ -166,6 +162,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
             &prepared.transfer,
         )
         .map_err(|e| format!("{name}: {e}"))?;
+        let fetched_before = remote_stats(&prepared);
         let started = Instant::now();
         let settings = settings(depth, mode);
         let refinement = refine(
@@ -190,6 +187,14 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
             "slots": counters.slots,
             "read_over_slots": counters.loads as f64 / counters.slots.max(1) as f64,
             "chunks_decoded": counters.chunks_decoded,
+            // A URL's store: what this view fetched (its decoded chunks and fetched bytes
+            // kept from the views before).
+            "fetched": remote_stats(&prepared).zip(fetched_before).map(|(after, before)| {
+                json!({
+                    "requests": after.requests - before.requests,
+                    "bytes": after.bytes - before.bytes,
+                })
+            }),
             "frame_parts_s": refinement.parts,
             "budget": refinement.status.budget,
             "pipeline": pipeline_json(counters, options.workers),
@@ -588,4 +593,9 @@ fn time_view(
     let gpu = time_passes(context, timer, frames, |_, writes| submit(writes))
         .map_err(|e| e.to_string())?;
     Ok((gpu, wall))
+}
+
+/// A URL's store's counters so far (none for a folder's or an in-memory volume).
+fn remote_stats(prepared: &StreamedVolume) -> Option<voxscope_volume::remote::RemoteStats> {
+    prepared.pyramid.as_ref().and_then(|p| p.remote_stats())
 }
