@@ -114,14 +114,11 @@ const SHORT_RUN: usize = 8;
 type ChunkKey = (usize, [usize; 3]);
 
 /// A chunk that a region read from a stored level reaches ([`ZarrSource::region_parts`]):
-/// its index, first voxel and size, the part `[lo, hi)` of it inside the region, and where
-/// that part comes from.
+/// its index, where it lies and the part of it inside the region, and where that part comes
+/// from.
 struct RegionPart {
     index: [usize; 3],
-    start: [usize; 3],
-    extent: [usize; 3],
-    lo: [usize; 3],
-    hi: [usize; 3],
+    part: ChunkPart,
     from: PartFrom,
 }
 
@@ -335,20 +332,19 @@ impl ZarrSource {
         let missing: Vec<(usize, [usize; 3], [usize; 3])> = parts
             .iter()
             .filter(|part| matches!(part.from, PartFrom::Missing))
-            .map(|part| (stored, part.start, part.extent))
+            .map(|part| (stored, part.part.start, part.part.extent))
             .collect();
         if !missing.is_empty() {
             self.pyramid.prefetch_regions(&missing);
         }
         let mut out = vec![0u16; size.iter().product()];
         for part in parts {
-            let RegionPart {
-                index,
+            let RegionPart { index, part, from } = part;
+            let ChunkPart {
                 start,
                 extent,
                 lo,
                 hi,
-                from,
             } = part;
             let levels = match from {
                 PartFrom::Faces(face, faces) => {
@@ -387,29 +383,18 @@ impl ZarrSource {
             for cy in first[1]..=last[1] {
                 for cx in first[0]..=last[0] {
                     let index = [cx, cy, cz];
-                    let ChunkPart {
-                        start,
-                        extent,
-                        lo,
-                        hi,
-                    } = chunk_part(chunk, info.dims, index, origin, size);
+                    let part = chunk_part(chunk, info.dims, index, origin, size);
                     let key = (stored, index);
                     // An apron one voxel into this chunk: from its faces where they are kept.
-                    let faces = face_of(lo, hi, start, extent).and_then(|face| {
+                    let face = face_of(part.lo, part.hi, part.start, part.extent);
+                    let faces = face.and_then(|face| {
                         let faces = kept_faces.as_mut()?.get(key)?;
                         Some(PartFrom::Faces(face, faces))
                     });
                     let from = faces
                         .or_else(|| decoded.as_mut()?.get(key).map(PartFrom::Decoded))
                         .unwrap_or(PartFrom::Missing);
-                    parts.push(RegionPart {
-                        index,
-                        start,
-                        extent,
-                        lo,
-                        hi,
-                        from,
-                    });
+                    parts.push(RegionPart { index, part, from });
                 }
             }
         }
