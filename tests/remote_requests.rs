@@ -2,7 +2,8 @@
 //! (tests/support/http_server.rs): byte ranges of one object asked for together are coalesced
 //! (adjacent ones one request, far-apart ones apart), a sharded region's inner chunks are
 //! fetched shard by shard in one batch, and a streamer's next bricks are fetched ahead in its
-//! order (coarse before fine), many in flight at once, without waiting.
+//! order (coarse before fine), many in flight at once, without waiting (a sharded level's a
+//! request per shard).
 
 mod support;
 
@@ -306,4 +307,61 @@ fn bricks_fetched_ahead_go_out_in_their_order_many_at_once_without_waiting() {
         &arrivals[opened as usize..]
     );
     assert_eq!(arrivals[arrivals.len() - 1].0, key_of(brick(2, 0, 0, 0)));
+}
+
+#[test]
+fn a_sharded_levels_bricks_fetched_ahead_come_in_one_request_per_shard() {
+    // Level 0 of the fixture: 64x64x31 voxels, inner chunks of 16³ in shards of 32³ (2x2x1
+    // shards), read as 2x2x1 bricks whose aprons reach into every shard. Fetched ahead, each
+    // shard's index and then its inner chunks in one request; the bricks' reads then ask for
+    // nothing more.
+    let name = "head-v05-sharded-blosc-zstd.ome.zarr";
+    let server = FileServer::start(&fixtures(), Faults::default());
+    let pyramid = Pyramid::open_url(
+        &server.url(name),
+        PyramidOptions::default(),
+        RemoteOptions::default(),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let info = pyramid.levels[0].clone();
+    assert_eq!(info.shard, Some([32, 32, 32]), "{info:?}");
+    assert_eq!(info.chunk, [16, 16, 16], "{info:?}");
+    let source = ZarrSource::new(Arc::new(pyramid)).unwrap_or_else(|e| panic!("{e}"));
+    let grid = source.shape().levels[0].grid;
+    assert_eq!(grid, [2, 2, 1]);
+    let bricks: Vec<BrickId> = (0..2)
+        .flat_map(|y| {
+            (0..2).map(move |x| BrickId {
+                level: 0,
+                brick: [x, y, 0],
+            })
+        })
+        .collect();
+    let opened = requests(&server);
+    source.fetch_ahead(&bricks);
+    // Four shards: an index and a run of inner chunks each.
+    settle(&server, opened + 8);
+    std::thread::sleep(Duration::from_millis(200));
+    let asked = &server.counters.arrivals()[opened as usize..];
+    assert_eq!(asked.len(), 8, "{asked:?}");
+    for shard in ["c/0/0/0", "c/0/0/1", "c/0/1/0", "c/0/1/1"] {
+        let of_shard = asked.iter().filter(|(path, _)| path.ends_with(shard));
+        assert_eq!(of_shard.count(), 2, "{shard}: {asked:?}");
+    }
+    let local = ZarrSource::new(Arc::new(
+        Pyramid::open(&fixtures().join(name), PyramidOptions::default())
+            .unwrap_or_else(|e| panic!("{e}")),
+    ))
+    .unwrap_or_else(|e| panic!("{e}"));
+    for &id in &bricks {
+        let read = source.read_brick(id).unwrap_or_else(|e| panic!("{e}"));
+        let expected = local.read_brick(id).unwrap_or_else(|e| panic!("{e}"));
+        assert!(read.levels == expected.levels, "{id} differs");
+    }
+    assert_eq!(
+        requests(&server) - opened,
+        8,
+        "{:?}",
+        &server.counters.arrivals()[opened as usize..]
+    );
 }
