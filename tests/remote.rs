@@ -14,7 +14,7 @@ use std::sync::Arc;
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
-use support::http_server::{Faults, FileServer};
+use support::http_server::{Faults, FileServer, fixture_over_http};
 use voxscope_stream::{BrickId, BrickSource, ZarrSource, preview};
 use voxscope_volume::ome_zarr::{Pyramid, PyramidOptions};
 use voxscope_volume::remote::{RemoteOptions, Timing, is_url};
@@ -102,13 +102,7 @@ fn every_fixture_reads_over_http_equal_to_its_folder() {
 #[test]
 fn a_region_of_a_sharded_level_reads_only_its_inner_chunks() {
     let name = "head-v05-sharded-blosc-zstd.ome.zarr";
-    let server = FileServer::start(&fixtures(), Faults::default());
-    let pyramid = Pyramid::open_url(
-        &server.url(name),
-        PyramidOptions::default(),
-        RemoteOptions::default(),
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
+    let (server, pyramid) = fixture_over_http(name);
     let info = pyramid.levels[0].clone();
     let shard = info.shard.expect("level 0 is sharded");
     assert!(

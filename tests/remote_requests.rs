@@ -13,7 +13,7 @@ use std::sync::Arc;
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
-use support::http_server::{Faults, FileServer};
+use support::http_server::{Faults, FileServer, fixture_over_http};
 use voxscope_stream::{BrickId, BrickSource, ZarrSource};
 use voxscope_volume::ome_zarr::{Pyramid, PyramidOptions};
 use voxscope_volume::remote::{COALESCE_GAP, RemoteOptions, RemoteStore};
@@ -119,13 +119,7 @@ fn adjacent_byte_ranges_of_one_object_are_one_request_far_apart_ones_are_not() {
 #[test]
 fn a_sharded_regions_inner_chunks_come_in_one_request_per_shard() {
     let name = "head-v05-sharded-blosc-zstd.ome.zarr";
-    let server = FileServer::start(&fixtures(), Faults::default());
-    let pyramid = Pyramid::open_url(
-        &server.url(name),
-        PyramidOptions::default(),
-        RemoteOptions::default(),
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
+    let (server, pyramid) = fixture_over_http(name);
     let info = pyramid.levels[0].clone();
     let shard = info.shard.expect("level 0 is sharded");
     let inner: usize = (0..3)
@@ -316,13 +310,7 @@ fn a_sharded_levels_bricks_fetched_ahead_come_in_one_request_per_shard() {
     // shard's index and then its inner chunks in one request; the bricks' reads then ask for
     // nothing more.
     let name = "head-v05-sharded-blosc-zstd.ome.zarr";
-    let server = FileServer::start(&fixtures(), Faults::default());
-    let pyramid = Pyramid::open_url(
-        &server.url(name),
-        PyramidOptions::default(),
-        RemoteOptions::default(),
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
+    let (server, pyramid) = fixture_over_http(name);
     let info = pyramid.levels[0].clone();
     assert_eq!(info.shard, Some([32, 32, 32]), "{info:?}");
     assert_eq!(info.chunk, [16, 16, 16], "{info:?}");

@@ -362,3 +362,17 @@ fn send(
     }
     Ok(())
 }
+
+/// The OME-Zarr fixture `name` (under tests/data/ome-zarr) served by a faultless server of its
+/// own, and opened from its URL.
+pub fn fixture_over_http(name: &str) -> (FileServer, voxscope_volume::ome_zarr::Pyramid) {
+    let fixtures = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/ome-zarr");
+    let server = FileServer::start(&fixtures, Faults::default());
+    let pyramid = voxscope_volume::ome_zarr::Pyramid::open_url(
+        &server.url(name),
+        voxscope_volume::ome_zarr::PyramidOptions::default(),
+        voxscope_volume::remote::RemoteOptions::default(),
+    )
+    .unwrap_or_else(|e| panic!("{name}: {e}"));
+    (server, pyramid)
+}
