@@ -340,20 +340,20 @@ impl ZarrSource {
         let mut out = vec![0u16; size.iter().product()];
         for part in parts {
             let RegionPart { index, part, from } = part;
+            let levels = match from {
+                PartFrom::Faces(face, faces) => {
+                    copy_from_face(&faces, face, &part, origin, size, &mut out);
+                    continue;
+                }
+                PartFrom::Decoded(levels) => levels,
+                PartFrom::Missing => self.chunk_levels((stored, index), part.start, part.extent)?,
+            };
             let ChunkPart {
                 start,
                 extent,
                 lo,
                 hi,
             } = part;
-            let levels = match from {
-                PartFrom::Faces(face, faces) => {
-                    copy_from_face(&faces, face, start, extent, lo, hi, origin, size, &mut out);
-                    continue;
-                }
-                PartFrom::Decoded(levels) => levels,
-                PartFrom::Missing => self.chunk_levels((stored, index), start, extent)?,
-            };
             let run = hi[0] - lo[0];
             for z in lo[2]..hi[2] {
                 for y in lo[1]..hi[1] {
@@ -372,33 +372,24 @@ impl ZarrSource {
     /// each with the part of it inside the region and where that part comes from now.
     fn region_parts(&self, stored: usize, origin: [usize; 3], size: [usize; 3]) -> Vec<RegionPart> {
         let info = &self.pyramid.levels[stored];
-        let chunk = info.chunk;
-        let first: [usize; 3] = std::array::from_fn(|a| origin[a] / chunk[a]);
-        let last: [usize; 3] = std::array::from_fn(|a| (origin[a] + size[a] - 1) / chunk[a]);
         // (Locked in this order everywhere: the decoded chunks, then the faces.)
         let mut decoded = self.chunks.lock().ok();
         let mut kept_faces = self.faces.lock().ok();
-        let mut parts = Vec::new();
-        for cz in first[2]..=last[2] {
-            for cy in first[1]..=last[1] {
-                for cx in first[0]..=last[0] {
-                    let index = [cx, cy, cz];
-                    let part = chunk_part(chunk, info.dims, index, origin, size);
-                    let key = (stored, index);
-                    // An apron one voxel into this chunk: from its faces where they are kept.
-                    let face = face_of(part.lo, part.hi, part.start, part.extent);
-                    let faces = face.and_then(|face| {
-                        let faces = kept_faces.as_mut()?.get(key)?;
-                        Some(PartFrom::Faces(face, faces))
-                    });
-                    let from = faces
-                        .or_else(|| decoded.as_mut()?.get(key).map(PartFrom::Decoded))
-                        .unwrap_or(PartFrom::Missing);
-                    parts.push(RegionPart { index, part, from });
-                }
-            }
-        }
-        parts
+        chunks_reached(info.chunk, origin, size)
+            .map(|index| {
+                let part = ChunkPart::of(info.chunk, info.dims, index, origin, size);
+                let key = (stored, index);
+                // An apron one voxel into this chunk: from its faces where they are kept.
+                let faces = part.face().and_then(|face| {
+                    let faces = kept_faces.as_mut()?.get(key)?;
+                    Some(PartFrom::Faces(face, faces))
+                });
+                let from = faces
+                    .or_else(|| decoded.as_mut()?.get(key).map(PartFrom::Decoded))
+                    .unwrap_or(PartFrom::Missing);
+                RegionPart { index, part, from }
+            })
+            .collect()
     }
 
     /// The value levels of one chunk (`start` and `extent` in the stored level's voxels):
@@ -601,6 +592,7 @@ fn quantization_of(pyramid: &Pyramid) -> Result<(Quantization, u16), String> {
 
 /// Where chunk `index` of a stored level (of `dims` voxels in chunks of `chunk`) lies, and
 /// the part of it inside the region `[origin, origin + size)`.
+#[derive(Clone, Copy)]
 struct ChunkPart {
     start: [usize; 3],
     extent: [usize; 3],
@@ -608,21 +600,55 @@ struct ChunkPart {
     hi: [usize; 3],
 }
 
-fn chunk_part(
+impl ChunkPart {
+    fn of(
+        chunk: [usize; 3],
+        dims: [usize; 3],
+        index: [usize; 3],
+        origin: [usize; 3],
+        size: [usize; 3],
+    ) -> Self {
+        let start: [usize; 3] = std::array::from_fn(|a| index[a] * chunk[a]);
+        let extent: [usize; 3] = std::array::from_fn(|a| chunk[a].min(dims[a] - start[a]));
+        Self {
+            start,
+            extent,
+            lo: std::array::from_fn(|a| origin[a].max(start[a])),
+            hi: std::array::from_fn(|a| (origin[a] + size[a]).min(start[a] + extent[a])),
+        }
+    }
+
+    /// The chunk's face (axis, high side) that holds all of the part, if one does: the part
+    /// is one voxel thick at the chunk's low or high end along an axis.
+    fn face(&self) -> Option<(usize, bool)> {
+        (0..3).find_map(|a| {
+            if self.hi[a] - self.lo[a] != 1 {
+                return None;
+            }
+            let local = self.lo[a] - self.start[a];
+            if local == 0 {
+                Some((a, false))
+            } else if local == self.extent[a] - 1 {
+                Some((a, true))
+            } else {
+                None
+            }
+        })
+    }
+}
+
+/// The indices of the chunks (of `chunk` voxels) that the region `[origin, origin + size)`
+/// reaches, x fastest.
+fn chunks_reached(
     chunk: [usize; 3],
-    dims: [usize; 3],
-    index: [usize; 3],
     origin: [usize; 3],
     size: [usize; 3],
-) -> ChunkPart {
-    let start: [usize; 3] = std::array::from_fn(|a| index[a] * chunk[a]);
-    let extent: [usize; 3] = std::array::from_fn(|a| chunk[a].min(dims[a] - start[a]));
-    ChunkPart {
-        start,
-        extent,
-        lo: std::array::from_fn(|a| origin[a].max(start[a])),
-        hi: std::array::from_fn(|a| (origin[a] + size[a]).min(start[a] + extent[a])),
-    }
+) -> impl Iterator<Item = [usize; 3]> {
+    let first: [usize; 3] = std::array::from_fn(|a| origin[a] / chunk[a]);
+    let last: [usize; 3] = std::array::from_fn(|a| (origin[a] + size[a] - 1) / chunk[a]);
+    (first[2]..=last[2]).flat_map(move |z| {
+        (first[1]..=last[1]).flat_map(move |y| (first[0]..=last[0]).map(move |x| [x, y, z]))
+    })
 }
 
 /// The six one-voxel faces of a chunk of `extent` voxels (`levels` x fastest), one after the
@@ -663,45 +689,23 @@ fn face_len(extent: [usize; 3], axis: usize) -> usize {
     extent[b] * extent[c]
 }
 
-/// The face (axis, high side) of the chunk at `start` of `extent` voxels that holds all of
-/// `[lo, hi)` (a part of it one voxel thick at the chunk's low or high end along an axis), if
-/// one does.
-fn face_of(
-    lo: [usize; 3],
-    hi: [usize; 3],
-    start: [usize; 3],
-    extent: [usize; 3],
-) -> Option<(usize, bool)> {
-    (0..3).find_map(|a| {
-        if hi[a] - lo[a] != 1 {
-            return None;
-        }
-        let local = lo[a] - start[a];
-        if local == 0 {
-            Some((a, false))
-        } else if local == extent[a] - 1 {
-            Some((a, true))
-        } else {
-            None
-        }
-    })
-}
-
-/// Copies `[lo, hi)` (inside one face of the chunk at `start`, [`face_of`]) from the chunk's
-/// `faces` into `out`, the region at `origin` of `size` voxels: rows along x where the face
-/// spans x, a voxel at a time across x.
-#[allow(clippy::too_many_arguments)]
+/// Copies a chunk's `part` that lies in its face `(axis, high)` ([`ChunkPart::face`]) from the
+/// chunk's `faces` into `out`, the region at `origin` of `size` voxels: rows along x where the
+/// face spans x, a voxel at a time across x.
 fn copy_from_face(
     faces: &[u16],
     (axis, high): (usize, bool),
-    start: [usize; 3],
-    extent: [usize; 3],
-    lo: [usize; 3],
-    hi: [usize; 3],
+    part: &ChunkPart,
     origin: [usize; 3],
     size: [usize; 3],
     out: &mut [u16],
 ) {
+    let ChunkPart {
+        start,
+        extent,
+        lo,
+        hi,
+    } = *part;
     let before: usize = (0..axis).map(|a| 2 * face_len(extent, a)).sum();
     let face = &faces[before + usize::from(high) * face_len(extent, axis)..];
     let (b, c) = other_axes(axis);
@@ -876,32 +880,25 @@ impl BrickSource for ZarrSource {
                 }
                 let voxels = padded_voxels(first, level.dims);
                 let (origin, size) = stored_region(&voxels, source.ratio, info.dims);
-                let low: [usize; 3] = std::array::from_fn(|a| origin[a] / info.chunk[a]);
-                let high: [usize; 3] =
-                    std::array::from_fn(|a| (origin[a] + size[a] - 1) / info.chunk[a]);
-                let reached = (low[2]..=high[2]).flat_map(|z| {
-                    (low[1]..=high[1]).flat_map(move |y| (low[0]..=high[0]).map(move |x| [x, y, z]))
-                });
+                let reached = chunks_reached(info.chunk, origin, size);
                 // Whether the brick's read takes the chunk's part without decoding it: the
                 // chunk is decoded, or the part lies in its faces, kept.
-                let served = |index: [usize; 3]| {
+                let served = |index: [usize; 3], part: &ChunkPart| {
                     let key = (source.stored, index);
                     decoded.chunks.contains_key(&key)
-                        || kept_faces.chunks.contains_key(&key) && {
-                            let part = chunk_part(info.chunk, info.dims, index, origin, size);
-                            face_of(part.lo, part.hi, part.start, part.extent).is_some()
-                        }
+                        || kept_faces.chunks.contains_key(&key) && part.face().is_some()
                 };
+                let part_of = |index| ChunkPart::of(info.chunk, info.dims, index, origin, size);
                 if info.shard.is_some() {
                     // Each inner chunk to decode as a region of its own (the batch coalesces
                     // a shard's), their number bounded: a shard batch of too many inner
                     // chunks is not fetched ahead at all.
-                    for index in reached.filter(|&index| !served(index)) {
+                    for index in reached {
                         if sharded.len() >= MAX_SHARDED_CHUNKS_AHEAD {
                             break;
                         }
-                        if seen.insert((source.stored, index)) {
-                            let part = chunk_part(info.chunk, info.dims, index, origin, size);
+                        let part = part_of(index);
+                        if !served(index, &part) && seen.insert((source.stored, index)) {
                             sharded.push((source.stored, part.start, part.extent));
                         }
                     }
@@ -919,7 +916,7 @@ impl BrickSource for ZarrSource {
                     if asked.chunks.contains(&key) || seen.contains(&key) {
                         continue;
                     }
-                    if served(index) {
+                    if served(index, &part_of(index)) {
                         all_handed = false;
                     } else {
                         seen.insert(key);
