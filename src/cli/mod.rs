@@ -16,6 +16,7 @@ mod prepare;
 mod probe;
 mod render;
 mod render_options;
+mod resident_bench;
 mod slice;
 mod stream;
 mod stream_bench;

@@ -1,0 +1,172 @@
+//! `voxscope bench --stream`'s last figures: the streaming renderer once everything a view
+//! needs is resident, against the in-memory bricks renderer on the same views.
+
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use serde_json::json;
+
+use super::bench::BenchArgs;
+use super::stream_bench::{MAX_WAIT, percentile};
+use voxscope_octree::{BuildOptions, TransferFunction};
+use voxscope_render::{
+    Camera, GpuContext, GpuTimer, RenderMode, RenderSettings, RenderTarget, RendererKind,
+    RendererOptions, Shading, VolumeRenderer, time_passes,
+};
+use voxscope_scene::{StreamedVolume, refine};
+use voxscope_stream::{Downsampling, MemorySource, StreamOptions, preview};
+
+/// The paper's cameras, in bounding-sphere radii.
+const CAMERAS: [(&str, f64); 3] = [("near", 1.5), ("medium", 3.0), ("far", 6.0)];
+/// Bricks of the level read into memory for the comparison with the bricks renderer when the
+/// pyramid is not in memory (512³ voxels).
+const RESIDENT_BRICKS: u64 = 4096;
+
+/// The streaming renderer, once everything a view needs is resident, against the bricks
+/// renderer of the same volume in memory on the same views: the pyramid's finest level of at
+/// most 512³ voxels (the whole volume when it is that small), both at full detail.
+pub(super) fn resident_comparison(
+    context: &GpuContext,
+    args: &BenchArgs,
+    prepared: &StreamedVolume,
+    target: &RenderTarget,
+    options: StreamOptions,
+    timer: Option<&GpuTimer>,
+) -> Result<serde_json::Value, String> {
+    let (mut volume, level) = preview(&*prepared.source, RESIDENT_BRICKS)
+        .map_err(|e| format!("{}: {e}", prepared.source.name()))?;
+    let scale = prepared.source.shape().levels[level].scale as f64;
+    let spacing = prepared.source.spacing().map(|s| s * scale);
+    let mut octree = voxscope_octree::build(&volume, BuildOptions::default())
+        .map_err(|e| format!("{}: {e}", prepared.source.name()))?;
+    let transfer: TransferFunction = prepared.transfer;
+    voxscope_octree::recolor(&mut octree, &transfer);
+    let bricks = VolumeRenderer::new(
+        context,
+        RendererOptions {
+            kind: RendererKind::Bricks,
+            brick_size: 32,
+            ..Default::default()
+        },
+        &octree,
+        &volume,
+        spacing,
+        octree.depth,
+        &transfer,
+    )
+    .map_err(|e| e.to_string())?;
+    // The bricks renderer holds its own copy on the GPU: the octree and the voxels in RAM go
+    // now (the voxels to the streaming renderer's source), not kept twice.
+    let depth = octree.depth;
+    drop(octree);
+    let source = MemorySource::from_levels(
+        "resident",
+        std::mem::take(&mut volume.levels),
+        volume.dims,
+        volume.quantization,
+        spacing,
+        Downsampling::Mean,
+    )?;
+    let mut stream = VolumeRenderer::new_stream(
+        context,
+        Arc::new(source),
+        StreamOptions {
+            lod_scale: 0.0,
+            ..options
+        },
+        &transfer,
+    )
+    .map_err(|e| e.to_string())?;
+    let mut rows = Vec::new();
+    for (mode_name, mode) in [("dvr-gray", RenderMode::Dvr), ("mip", RenderMode::Mip)] {
+        let settings = RenderSettings {
+            mode,
+            density: args.density,
+            shading: Shading::OFF,
+            ..RenderSettings::full_detail(depth)
+        };
+        for (camera_name, distance) in CAMERAS {
+            let camera = Camera {
+                distance,
+                ..Camera::default()
+            };
+            let refinement = refine(context, &mut stream, target, &camera, &settings, MAX_WAIT)
+                .map_err(|e| e.to_string())?;
+            let (stream_gpu, stream_wall) = time_view(
+                context,
+                &stream,
+                target,
+                &camera,
+                &settings,
+                args.frames,
+                timer,
+            )?;
+            let (bricks_gpu, bricks_wall) = time_view(
+                context,
+                &bricks,
+                target,
+                &camera,
+                &settings,
+                args.frames,
+                timer,
+            )?;
+            let (stream_ms, bricks_ms) =
+                (percentile(&stream_gpu, 50.0), percentile(&bricks_gpu, 50.0));
+            rows.push(json!({
+                "mode": mode_name,
+                "camera": camera_name,
+                "complete": refinement.complete,
+                "stream_gpu_ms": stream_ms,
+                "stream_gpu_p95_ms": percentile(&stream_gpu, 95.0),
+                "bricks_gpu_ms": bricks_ms,
+                "bricks_gpu_p95_ms": percentile(&bricks_gpu, 95.0),
+                "stream_over_bricks": stream_ms / bricks_ms,
+                "stream_wall_ms_per_frame": stream_wall,
+                "bricks_wall_ms_per_frame": bricks_wall,
+            }));
+        }
+    }
+    Ok(json!({
+        "dims": volume.dims,
+        "pyramid_level": level,
+        "rows": rows,
+    }))
+}
+
+/// GPU milliseconds of `frames` frames of one fixed view (after a warm-up), and the wall time
+/// per frame of a batch of them as an app sees it (encode, submit, and the GPU's completion).
+fn time_view(
+    context: &GpuContext,
+    renderer: &VolumeRenderer,
+    target: &RenderTarget,
+    camera: &Camera,
+    settings: &RenderSettings,
+    frames: u32,
+    timer: Option<&GpuTimer>,
+) -> Result<(Vec<f64>, f64), String> {
+    let submit = |writes| {
+        let mut encoder = context
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("voxscope::bench_resident_frame"),
+            });
+        renderer.encode(context, &mut encoder, target, camera, settings, writes);
+        context.queue.submit([encoder.finish()]);
+    };
+    let warming = Instant::now();
+    while warming.elapsed() < Duration::from_millis(200) {
+        for _ in 0..5 {
+            submit(None);
+        }
+        context.wait_idle().map_err(|e| e.to_string())?;
+    }
+    let started = Instant::now();
+    for _ in 0..frames {
+        submit(None);
+    }
+    context.wait_idle().map_err(|e| e.to_string())?;
+    let wall = started.elapsed().as_secs_f64() * 1e3 / frames.max(1) as f64;
+    let gpu = time_passes(context, timer, frames, |_, writes| submit(writes))
+        .map_err(|e| e.to_string())?;
+    Ok((gpu, wall))
+}
