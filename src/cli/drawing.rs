@@ -8,8 +8,8 @@ use std::time::{Duration, Instant};
 use image::{GenericImage, RgbaImage};
 use voxscope_octree::{MAX_DEPTH, TransferFunction};
 use voxscope_render::{
-    Camera, ChannelLayer, GpuContext, RenderSettings, RenderTarget, RendererKind, RendererOptions,
-    VolumeRenderer, read_image,
+    Camera, ChannelLayer, GpuContext, HeadlessStart, RenderSettings, RenderTarget, RendererKind,
+    RendererOptions, VolumeRenderer, read_image,
 };
 use voxscope_scene::{
     ChannelState, Refinement, StreamedVolume, UploadedLabels, beyond_octree, refine,
@@ -57,6 +57,8 @@ impl Drawing {
     /// `--renderer stream`, the composite of several channels, a volume beyond the octree
     /// streamed from memory, or one volume for its renderer.
     pub fn open(volume: &VolumeArgs, options: &RenderOptions) -> Result<Self, String> {
+        // The GPU starts while the volume is read.
+        let gpu = HeadlessStart::begin();
         let max_wait = Duration::from_secs_f64(options.max_wait);
         let refuse_labels = |what: &str| -> Result<(), String> {
             match options.labels.labels.first() {
@@ -69,7 +71,7 @@ impl Drawing {
         if options.renderer == Some(RendererArg::Stream) {
             let (streamed, saved) = open_streamed(volume, &options.transfer)?;
             let image_dims = streamed.source.shape().dims();
-            let mut drawing = Self::streamed(streamed, saved.as_ref(), options, max_wait)?;
+            let mut drawing = Self::streamed(gpu, streamed, saved.as_ref(), options, max_wait)?;
             drawing.labels = open_streamed_overlays(
                 &options.labels,
                 volume,
@@ -83,7 +85,7 @@ impl Drawing {
         let loaded = match volume.composite_channels()? {
             Some(channels) if channels.len() > 1 => {
                 refuse_labels("the composite of several channels (--channel N draws one)")?;
-                return Self::composite(channels, options, max_wait);
+                return Self::composite(gpu, channels, options, max_wait);
             }
             Some(mut channels) => channels.pop().ok_or("no channel was read")?,
             None => volume.load()?,
@@ -101,7 +103,7 @@ impl Drawing {
                     let channel = options
                         .channels
                         .prepare_one(loaded, index, &options.transfer)?;
-                    return Self::composite_of(vec![channel], options, max_wait);
+                    return Self::composite_of(gpu, vec![channel], options, max_wait);
                 }
                 eprintln!(
                     "channel {index} is drawn in grays: its color needs the dense renderer (--renderer dense)"
@@ -133,7 +135,7 @@ impl Drawing {
                 Instant::now(),
             )
             .map_err(|e| e.to_string())?;
-            return Self::streamed(streamed, saved.as_ref(), options, max_wait);
+            return Self::streamed(gpu, streamed, saved.as_ref(), options, max_wait);
         }
         let prepared = Prepared::from_volume(loaded, &options.transfer)?;
         let depth = prepared.data.octree.depth;
@@ -141,7 +143,7 @@ impl Drawing {
             .transfer
             .render_settings(depth, prepared.saved.as_ref());
         settings.clip = options.clip.clip();
-        let context = GpuContext::new_headless().map_err(|e| e.to_string())?;
+        let context = gpu.finish().map_err(|e| e.to_string())?;
         let kind = match options.renderer {
             Some(renderer) => renderer.into(),
             None => default_renderer(
@@ -193,6 +195,7 @@ impl Drawing {
     }
 
     fn composite(
+        gpu: HeadlessStart,
         channels: Vec<Volume>,
         options: &RenderOptions,
         max_wait: Duration,
@@ -207,11 +210,12 @@ impl Drawing {
             ));
         }
         let prepared = options.channels.prepare(channels, &options.transfer)?;
-        Self::composite_of(prepared, options, max_wait)
+        Self::composite_of(gpu, prepared, options, max_wait)
     }
 
     /// `prepared` (one channel or several) drawn by the dense renderer's composite.
     fn composite_of(
+        gpu: HeadlessStart,
         prepared: Vec<PreparedChannel>,
         options: &RenderOptions,
         max_wait: Duration,
@@ -219,7 +223,7 @@ impl Drawing {
         let saved = options.transfer.saved()?;
         let mut settings = options.transfer.render_settings(0, saved.as_ref());
         settings.clip = options.clip.clip();
-        let context = GpuContext::new_headless().map_err(|e| e.to_string())?;
+        let context = gpu.finish().map_err(|e| e.to_string())?;
         let layers: Vec<ChannelLayer<'_>> = prepared.iter().map(|c| c.layer()).collect();
         let name = prepared[0].volume.name.clone();
         let renderer = VolumeRenderer::new_composite(&context, &layers, prepared[0].volume.spacing)
@@ -241,6 +245,7 @@ impl Drawing {
     }
 
     fn streamed(
+        gpu: HeadlessStart,
         prepared: StreamedVolume,
         saved: Option<&voxscope_scene::SavedTransfer>,
         options: &RenderOptions,
@@ -250,7 +255,7 @@ impl Drawing {
         let depth = prepared.depth();
         let mut settings = options.transfer.render_settings(depth, saved);
         settings.clip = options.clip.clip();
-        let context = GpuContext::new_headless().map_err(|e| e.to_string())?;
+        let context = gpu.finish().map_err(|e| e.to_string())?;
         let renderer = VolumeRenderer::new_stream(
             &context,
             prepared.source.clone(),

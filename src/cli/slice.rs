@@ -12,7 +12,7 @@ use super::render::check_output;
 use super::{Prepared, TransferArgs, VolumeArgs};
 use voxscope_octree::Colormap;
 use voxscope_render::{
-    DEFAULT_BRICK_SIZE, GpuContext, RenderTarget, RendererOptions, SliceConvention, SliceFrame,
+    DEFAULT_BRICK_SIZE, HeadlessStart, RenderTarget, RendererOptions, SliceConvention, SliceFrame,
     SliceSettings, VolumeRenderer, read_image,
 };
 use voxscope_volume::ValueWindow;
@@ -87,6 +87,8 @@ pub fn run(args: &SliceArgs) -> Result<(), String> {
         colormap: args.colormap,
         ..TransferArgs::defaults()
     };
+    // The GPU starts while the volume is read.
+    let gpu = HeadlessStart::begin();
     let prepared = Prepared::new(&args.volume, &transfer_args)?;
     let volume = &prepared.data.volume;
     let axis = args.axis.index();
@@ -102,7 +104,7 @@ pub fn run(args: &SliceArgs) -> Result<(), String> {
     }
     let convention = SliceConvention::of_volume(volume);
     let (frame, size) = SliceFrame::voxel_grid(convention, axis, index, volume.dims);
-    let context = GpuContext::new_headless().map_err(|e| e.to_string())?;
+    let context = gpu.finish().map_err(|e| e.to_string())?;
     let limit = context.limits.max_texture_dimension_2d;
     if size.iter().any(|&s| s > limit) {
         return Err(format!(

@@ -177,3 +177,40 @@ impl GpuContext {
         )
     }
 }
+
+/// A headless [`GpuContext`] being made on a thread of its own ([`Self::begin`]) while the
+/// caller reads its volume: the driver's start (a fraction of a second, longer from a cold
+/// disk) and the reading overlap. [`Self::finish`] waits for it; dropped unfinished, it still
+/// waits, so that no driver is left starting while the process ends.
+pub struct HeadlessStart(Option<std::thread::JoinHandle<Result<GpuContext, RenderError>>>);
+
+impl HeadlessStart {
+    /// Starts making the context; where no thread can be made, [`Self::finish`] makes it.
+    pub fn begin() -> Self {
+        let thread = std::thread::Builder::new()
+            .name("voxscope-gpu-start".into())
+            .spawn(GpuContext::new_headless)
+            .ok();
+        Self(thread)
+    }
+
+    /// The context, made as [`GpuContext::new_headless`] makes it.
+    pub fn finish(mut self) -> Result<GpuContext, RenderError> {
+        match self.0.take() {
+            Some(thread) => thread.join().unwrap_or_else(|_| {
+                Err(RenderError::NoDevice(
+                    "the GPU's start failed (its thread panicked)".into(),
+                ))
+            }),
+            None => GpuContext::new_headless(),
+        }
+    }
+}
+
+impl Drop for HeadlessStart {
+    fn drop(&mut self) {
+        if let Some(thread) = self.0.take() {
+            let _ = thread.join();
+        }
+    }
+}

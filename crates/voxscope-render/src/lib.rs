@@ -35,7 +35,7 @@ pub use bricks::{GpuBrickRecolor, GpuBricks};
 pub use camera::{Camera, ViewFrame};
 pub use ceilings::{CeilingSizes, Ceilings, measure_ceilings};
 pub use composite::{ChannelLayer, CompositeRaycaster, CompositeVolume, tinted_lookup_table};
-pub use context::{GpuContext, RenderError};
+pub use context::{GpuContext, HeadlessStart, RenderError};
 pub use dense::{DenseRaycaster, DenseVolume};
 pub use frame_probe::{FrameProbe, FrameReport};
 pub use gpu_volume::GpuVolume;
