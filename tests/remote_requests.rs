@@ -130,7 +130,7 @@ fn a_sharded_regions_inner_chunks_come_in_one_request_per_shard() {
     // by side in the shard), where each inner chunk was a request of its own.
     let size: [usize; 3] = std::array::from_fn(|a| shard[a].min(info.dims[a]));
     let before = requests(&server);
-    pyramid.prefetch_regions(&[(0, [0; 3], size)]);
+    let _held = pyramid.prefetch_regions(&[(0, [0; 3], size)]);
     let arrivals = server.counters.arrivals();
     let key = pyramid.chunk_key(0, [0; 3]).expect("the shard's key");
     let asked: Vec<_> = arrivals[before as usize..]
@@ -156,6 +156,59 @@ fn a_sharded_regions_inner_chunks_come_in_one_request_per_shard() {
     let local = Pyramid::open(&fixtures().join(name), PyramidOptions::default())
         .unwrap_or_else(|e| panic!("{e}"));
     assert!(region == local.read_region(0, [0; 3], size).unwrap());
+}
+
+#[test]
+fn what_a_batch_fetched_is_read_without_a_second_request_even_where_no_fetched_byte_is_kept() {
+    // No fetched byte is kept (a fetch cache of none): a region's chunks fetched together are
+    // still what its read gets, held while the batch's answer lives, both for whole chunks
+    // and for a shard's index and inner chunks. Without the hold the read fetched each again,
+    // one request a chunk. Once the answer is dropped, nothing stays held.
+    for name in [
+        "head-v04-zstd.ome.zarr",
+        "head-v05-sharded-blosc-zstd.ome.zarr",
+    ] {
+        let (server, pyramid) = fixture_over_http(name);
+        pyramid.set_fetch_cache_bytes(0);
+        let info = pyramid.levels[0].clone();
+        let size: [usize; 3] = std::array::from_fn(|a| info.dims[a].min(48));
+        let before = requests(&server);
+        let held = pyramid.prefetch_regions(&[(0, [0; 3], size)]);
+        let fetched = requests(&server) - before;
+        assert!(fetched >= 2, "{name}: {fetched} requests");
+        assert!(held.len() >= 2, "{name}: {} held", held.len());
+        let region = pyramid
+            .read_region(0, [0; 3], size)
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(
+            requests(&server) - before,
+            fetched,
+            "{name}: the read asked again: {:?}",
+            &server.counters.arrivals()[before as usize..]
+        );
+        assert!(
+            pyramid.fetch_cached_bytes() > 0,
+            "{name}: what is held counts as fetched bytes in RAM"
+        );
+        let local = Pyramid::open(&fixtures().join(name), PyramidOptions::default())
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert!(
+            region == local.read_region(0, [0; 3], size).unwrap(),
+            "{name}"
+        );
+        // Let go of, the bytes are fetched again by the next read.
+        drop(held);
+        assert_eq!(pyramid.fetch_cached_bytes(), 0, "{name}: nothing stays");
+        let before = requests(&server);
+        let again = pyramid
+            .read_region(0, [0; 3], size)
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert!(again == region, "{name}");
+        assert!(
+            requests(&server) > before,
+            "{name}: nothing was fetched again"
+        );
+    }
 }
 
 /// A 240x200x120 CT phantom as OME-Zarr 0.4 in 64³ chunks: level 0 is 4x4x2 chunks.

@@ -334,9 +334,8 @@ impl ZarrSource {
             .filter(|part| matches!(part.from, PartFrom::Missing))
             .map(|part| (stored, part.part.start, part.part.extent))
             .collect();
-        if !missing.is_empty() {
-            self.pyramid.prefetch_regions(&missing);
-        }
+        // What they fetched is held for the reads below, whatever the fetch cache keeps.
+        let _held = (!missing.is_empty()).then(|| self.pyramid.prefetch_regions(&missing));
         let mut out = vec![0u16; size.iter().product()];
         for part in parts {
             let RegionPart { index, part, from } = part;
@@ -486,7 +485,7 @@ impl ZarrSource {
             .filter(|(_, end)| end.iter().map(|&e| e as u64).product::<u64>() <= WARM_VOXELS)
             .map(|(stored, end)| (stored, [0; 3], end))
             .collect();
-        self.pyramid.prefetch_regions(&regions);
+        let _held = self.pyramid.prefetch_regions(&regions);
         regions.par_iter().for_each(|&(stored, _, end)| {
             if let Ok(data) = self.pyramid.read_region(stored, [0; 3], end) {
                 self.cache_chunks(stored, end, &to_levels(&data, self.quantization));

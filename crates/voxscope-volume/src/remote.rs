@@ -64,6 +64,7 @@ use super::error::{Problem, escape};
 use cache::{FetchCache, Piece};
 use documents::Known;
 use fault::{Failure, Health};
+use held::HeldPieces;
 use http::{Answer, HttpTransport};
 use s3::S3Transport;
 use url::{Scheme, StoreUrl};
@@ -72,12 +73,14 @@ mod aws;
 mod cache;
 mod documents;
 mod fault;
+mod held;
 mod http;
 mod remembered;
 mod s3;
 mod url;
 
 pub use fault::Timing;
+pub use held::HeldFetches;
 pub use url::redact_url;
 
 /// Requests in flight at once by default: enough to fill a fast link at 50–100 ms of latency
@@ -210,6 +213,8 @@ struct Inner {
     opened: AtomicBool,
     counters: Counters,
     cache: Mutex<FetchCache>,
+    /// What batch fetches hold for the reads after them ([`RemoteStore::prefetch`]).
+    held: Arc<Mutex<HeldPieces>>,
     /// What document batches learned besides bytes ([`RemoteStore::prefetch_documents`]).
     known: Mutex<HashMap<String, Known>>,
     remembered: remembered::Remembered,
@@ -309,6 +314,7 @@ impl RemoteStore {
                 opened: AtomicBool::new(false),
                 counters: Counters::default(),
                 cache: Mutex::new(FetchCache::default()),
+                held: Arc::default(),
                 known: Mutex::default(),
                 remembered: remembered::Remembered::default(),
                 health: Health::default(),
@@ -341,9 +347,13 @@ impl RemoteStore {
         }
     }
 
-    /// Bytes of fetched objects kept in RAM now.
+    /// Bytes of fetched objects kept in RAM now: the fetch cache's, and what batch fetches
+    /// hold beyond it for the reads after them ([`Self::prefetch`]).
     pub fn cached_bytes(&self) -> u64 {
-        self.inner.cache.lock().map_or(0, |cache| cache.bytes())
+        let (Ok(cache), Ok(held)) = (self.inner.cache.lock(), self.inner.held.lock()) else {
+            return 0;
+        };
+        cache.bytes() + held.bytes_besides(|key, piece| cache.get(key, piece).is_some())
     }
 
     /// The counters so far.
@@ -382,27 +392,39 @@ impl RemoteStore {
 
     /// Fetches `keys` (whole objects: unsharded chunks) all at once, up to the request limit,
     /// into the fetch cache that [`ReadableStorageTraits::get`] reads first; missing objects
-    /// are remembered as missing, failed ones as failed.
-    pub fn prefetch(&self, keys: &[StoreKey]) {
-        let wanted: Vec<String> = match self.inner.cache.lock() {
-            Ok(cache) => keys
-                .iter()
-                .map(|key| key.as_str())
-                .filter(|key| cache.get(key, Piece::Whole).is_none() && !cache.is_missing(key))
-                .map(str::to_owned)
-                .collect(),
-            Err(_) => return,
-        };
+    /// are remembered as missing, failed ones as failed. What it fetched, and what of `keys`
+    /// the cache kept already, stays readable while the answer lives, whatever the cache
+    /// drops meanwhile ([`HeldFetches`]). One object to fetch is left to its read.
+    pub fn prefetch(&self, keys: &[StoreKey]) -> HeldFetches {
+        let inner = &self.inner;
+        let mut held = HeldFetches::default();
+        let mut wanted: Vec<String> = Vec::new();
+        match inner.cache.lock() {
+            Ok(cache) => {
+                for key in keys.iter().map(|key| key.as_str()) {
+                    if let Some(bytes) = cache.get(key, Piece::Whole) {
+                        held.hold(&inner.held, key, Piece::Whole, &bytes);
+                    } else if !cache.is_missing(key) {
+                        wanted.push(key.to_owned());
+                    }
+                }
+            }
+            Err(_) => return held,
+        }
         if wanted.len() < 2 {
-            return;
+            return held;
         }
         let reads = wanted
-            .into_iter()
-            .map(|key| self.inner.clone().read(key, Piece::Whole, None));
-        let _ = block_on(async {
-            futures::future::join_all(reads).await;
-            Ok(())
-        });
+            .iter()
+            .map(|key| inner.clone().read(key.clone(), Piece::Whole, None));
+        let answers =
+            block_on(async { Ok(futures::future::join_all(reads).await) }).unwrap_or_default();
+        for (key, answer) in wanted.iter().zip(answers) {
+            if let Ok(Some(bytes)) = answer {
+                held.hold(&inner.held, key, Piece::Whole, &bytes);
+            }
+        }
+        held
     }
 
     /// Whether [`Self::fetch_ahead`] has room for another fetch now (cheap: a caller asks
@@ -474,16 +496,23 @@ impl RemoteStore {
     /// Fetches the byte ranges `ranges` of each object (a shard's inner chunks) into the fetch
     /// cache, every object's at once and each object's ranges coalesced ([`coalesce`]), and
     /// returns when they are in: a sharded region read then finds its inner chunks kept, one
-    /// request for the adjacent ones instead of one each. Failures are remembered as a read's
-    /// are; what they cost shows when the region is read.
-    pub fn prefetch_ranges(&self, ranges: &[(StoreKey, Vec<ByteRange>)]) {
-        self.get_ranges(ranges);
+    /// request for the adjacent ones instead of one each. They stay readable while the
+    /// answer lives, as [`Self::prefetch`]'s do. Failures are remembered as a read's are; what
+    /// they cost shows when the region is read.
+    pub fn prefetch_ranges(&self, ranges: &[(StoreKey, Vec<ByteRange>)]) -> HeldFetches {
+        let mut held = HeldFetches::default();
+        self.get_ranges(ranges, &mut held);
+        held
     }
 
-    /// The byte ranges `ranges` of each object, fetched as [`Self::prefetch_ranges`] does:
-    /// per object its pieces in order, or `None` where the object is missing or could not
-    /// be fetched (remembered as a read's failure is).
-    pub fn get_ranges(&self, ranges: &[(StoreKey, Vec<ByteRange>)]) -> Vec<Option<Vec<Bytes>>> {
+    /// The byte ranges `ranges` of each object, fetched as [`Self::prefetch_ranges`] does
+    /// and held by `held`: per object its pieces in order, or `None` where the object is
+    /// missing or could not be fetched (remembered as a read's failure is).
+    pub fn get_ranges(
+        &self,
+        ranges: &[(StoreKey, Vec<ByteRange>)],
+        held: &mut HeldFetches,
+    ) -> Vec<Option<Vec<Bytes>>> {
         let reads = ranges.iter().map(|(key, ranges)| {
             let pieces = ranges.iter().map(|&r| Piece::of(r)).collect();
             self.inner
@@ -497,6 +526,11 @@ impl RemoteStore {
             .map(|answer| answer.ok()?.into_iter().collect())
             .collect();
         answers.resize(ranges.len(), None);
+        for ((key, ranges), pieces) in ranges.iter().zip(&answers) {
+            for (&range, bytes) in ranges.iter().zip(pieces.iter().flatten()) {
+                held.hold(&self.inner.held, key.as_str(), Piece::of(range), bytes);
+            }
+        }
         answers
     }
 }
@@ -583,6 +617,14 @@ impl Inner {
                 return cut.map(Some);
             }
         }
+        if let Some(cut) = self
+            .held
+            .lock()
+            .ok()
+            .and_then(|held| held.piece(&key, piece))
+        {
+            return cut.map(Some);
+        }
         if let Some(failure) = self.remembered.get(&key) {
             return Err(failure);
         }
@@ -630,9 +672,10 @@ impl Inner {
         pieces: Vec<Piece>,
     ) -> Result<Vec<Option<Bytes>>, Failure> {
         let mut parts: Vec<Option<Option<Bytes>>> = vec![None; pieces.len()];
-        if let Ok(cache) = self.cache.lock() {
+        if let (Ok(cache), Ok(held)) = (self.cache.lock(), self.held.lock()) {
             for (part, &piece) in parts.iter_mut().zip(&pieces) {
-                if let Some(Ok(bytes)) = cache.piece(&key, piece) {
+                let kept = cache.piece(&key, piece).or_else(|| held.piece(&key, piece));
+                if let Some(Ok(bytes)) = kept {
                     *part = Some(Some(bytes));
                 }
             }

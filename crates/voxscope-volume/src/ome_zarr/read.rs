@@ -11,6 +11,7 @@ use zarrs::storage::byte_range::ByteRange;
 use zarrs::storage::{ReadableStorageTraits, StoreKey};
 
 use super::super::error::{Problem, escape, printable, quoted};
+use super::super::remote::HeldFetches;
 use super::super::series::{ChannelInfo, Container, Series, parse_hex_color};
 use super::super::{
     LoadError, LoadErrorKind, MAX_VOXELS, ValueWindow, VoxelData, VoxelType, format_dims,
@@ -163,14 +164,19 @@ impl Pyramid {
     /// by shard: the shards' indexes together, then each shard's inner chunks of the regions
     /// as one batch of byte ranges, adjacent ones coalesced into one request
     /// ([`RemoteStore::prefetch_ranges`]). Regions outside their level, and anything beyond
-    /// [`MAX_PREFETCH_CHUNKS`] chunks, are skipped; a folder's store does nothing.
-    pub fn prefetch_regions(&self, regions: &[(usize, [usize; 3], [usize; 3])]) {
-        let Some(remote) = &self.remote else { return };
-        remote.prefetch(&self.unsharded_chunk_keys(regions));
-        let ranges = self.shard_ranges(regions);
+    /// [`MAX_PREFETCH_CHUNKS`] chunks, are skipped; a folder's store does nothing. What was
+    /// fetched (and the shards' indexes) stays readable while the answer lives, whatever the
+    /// fetch cache keeps: the regions' reads, made while it lives, fetch none of it again.
+    pub fn prefetch_regions(&self, regions: &[(usize, [usize; 3], [usize; 3])]) -> HeldFetches {
+        let Some(remote) = &self.remote else {
+            return HeldFetches::default();
+        };
+        let mut held = remote.prefetch(&self.unsharded_chunk_keys(regions));
+        let ranges = self.shard_ranges(regions, &mut held);
         if !ranges.is_empty() {
-            remote.prefetch_ranges(&ranges);
+            held.join(remote.prefetch_ranges(&ranges));
         }
+        held
     }
 
     /// Starts fetching the chunks of `regions` of a URL's store in this order, the first
@@ -201,11 +207,12 @@ impl Pyramid {
             let spawned = std::thread::Builder::new()
                 .name("voxscope-shard-batch".into())
                 .spawn(move || {
-                    let ranges = pyramid.shard_ranges(&sharded);
+                    // Fetched ahead into the fetch cache, for reads to come: nothing is held.
+                    let ranges = pyramid.shard_ranges(&sharded, &mut HeldFetches::default());
                     if let Some(remote) = &pyramid.remote
                         && !ranges.is_empty()
                     {
-                        remote.prefetch_ranges(&ranges);
+                        drop(remote.prefetch_ranges(&ranges));
                     }
                     pyramid.shard_batch_busy.store(false, Ordering::Release);
                 });
@@ -322,12 +329,13 @@ impl Pyramid {
     }
 
     /// Per shard, the byte ranges of the inner chunks that the regions of sharded levels read
-    /// (every shard's index fetched first, all at once): what [`RemoteStore::prefetch_ranges`]
-    /// fetches in one batch per shard. Only levels whose index voxscope reads itself
+    /// (every shard's index fetched first, all at once, and held by `held`): what
+    /// [`RemoteStore::prefetch_ranges`] fetches in one batch per shard. Only levels whose index voxscope reads itself
     /// ([`ShardIndexLayout`]); inner chunks never written have no range.
     fn shard_ranges(
         &self,
         regions: &[(usize, [usize; 3], [usize; 3])],
+        held: &mut HeldFetches,
     ) -> Vec<(StoreKey, Vec<ByteRange>)> {
         let Some(remote) = &self.remote else {
             return Vec::new();
@@ -385,7 +393,7 @@ impl Pyramid {
         if index_ranges.is_empty() {
             return Vec::new();
         }
-        let indexes = remote.get_ranges(&index_ranges);
+        let indexes = remote.get_ranges(&index_ranges, held);
         shards
             .iter()
             .zip(indexes)
@@ -517,20 +525,22 @@ impl Pyramid {
     fn read_subset(&self, level: usize, subset: &ArraySubset) -> Result<VoxelData, ReadFailure> {
         let info = &self.levels[level];
         let array = &self.arrays[level];
-        if let Some(remote) = &self.remote
-            && info.shard.is_none()
-        {
-            // zarrs asks for one chunk per reading thread at a time: over a network all of
-            // the region's chunks are asked for at once first.
-            if let Ok(Some(chunks)) = array.chunks_in_array_subset(subset) {
-                let keys: Vec<StoreKey> = chunks
-                    .indices()
-                    .into_iter()
-                    .map(|indices| array.chunk_key(&indices))
-                    .collect();
-                remote.prefetch(&keys);
-            }
-        }
+        // zarrs asks for one chunk per reading thread at a time: over a network all of the
+        // region's chunks are asked for at once first, and held until the read ends.
+        let _held = match (&self.remote, info.shard) {
+            (Some(remote), None) => match array.chunks_in_array_subset(subset) {
+                Ok(Some(chunks)) => {
+                    let keys: Vec<StoreKey> = chunks
+                        .indices()
+                        .into_iter()
+                        .map(|indices| array.chunk_key(&indices))
+                        .collect();
+                    remote.prefetch(&keys)
+                }
+                _ => HeldFetches::default(),
+            },
+            _ => HeldFetches::default(),
+        };
         let read = || match self.stored {
             Stored::Native(VoxelType::U8) => array.retrieve_array_subset(subset).map(VoxelData::U8),
             Stored::Native(VoxelType::I8) => array.retrieve_array_subset(subset).map(VoxelData::I8),
