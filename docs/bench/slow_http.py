@@ -6,7 +6,9 @@ of BANDWIDTH bytes a second. Serves single byte ranges (`Range: bytes=A-B`, `byt
 once, the seconds from the first request's arrival to the last answer's end (`active_s`) and
 the round trips one after another (`waves`: the longest chain of requests each of which arrived
 after the one before it was answered), printed when stopped: a client that keeps the link full
-makes few waves, one that waits for each batch before asking the next makes many.
+makes few waves, one that waits for each batch before asking the next makes many. Also the
+distinct objects and pieces asked for (`distinct`: path and range): requests beyond them fetched
+the same bytes again.
 
 Usage: slow_http.py ROOT PORT LATENCY_S BANDWIDTH_BYTES_PER_S
 """
@@ -24,6 +26,8 @@ counts = {"requests": 0, "bytes": 0, "peak_in_flight": 0}
 in_flight = [0]
 # (arrival, end) of every answered GET.
 spans = []
+# (path, range) of every GET answered with bytes.
+asked = set()
 
 
 def reserve(nbytes):
@@ -90,6 +94,7 @@ class Handler(http.server.SimpleHTTPRequestHandler):
         with lock:
             counts["requests"] += 1
             counts["bytes"] += len(body)
+            asked.add((self.path, wanted))
         self.send_response(status)
         for key, value in extra.items():
             self.send_header(key, value)
@@ -132,4 +137,5 @@ finally:
                 before = [depth[j] for j in range(i) if spans[j][1] <= start]
                 depth.append(1 + max(before, default=0))
             counts["waves"] = max(depth)
+        counts["distinct"] = len(asked)
     print("served", counts, file=sys.stderr)

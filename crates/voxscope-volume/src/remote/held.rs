@@ -11,10 +11,13 @@ use zarrs::storage::Bytes;
 use super::cache::Piece;
 use super::fault::Failure;
 
+/// An object's piece, as the fetch cache names it too.
+type PieceOf = (String, Piece);
+
 /// The pieces held now, each with how many [`HeldFetches`] hold it.
 #[derive(Default)]
 pub(super) struct HeldPieces {
-    pieces: HashMap<(String, Piece), (Bytes, usize)>,
+    pieces: HashMap<PieceOf, (Bytes, usize)>,
 }
 
 impl HeldPieces {
@@ -48,7 +51,7 @@ impl HeldPieces {
             .1 += 1;
     }
 
-    fn release(&mut self, entry: &(String, Piece)) {
+    fn release(&mut self, entry: &PieceOf) {
         if let Some((_, holders)) = self.pieces.get_mut(entry) {
             *holders -= 1;
             if *holders == 0 {
@@ -63,7 +66,7 @@ impl HeldPieces {
 #[must_use = "the fetched bytes are held only while this lives"]
 #[derive(Default)]
 pub struct HeldFetches {
-    entries: Vec<(Arc<Mutex<HeldPieces>>, (String, Piece))>,
+    entries: Vec<(Arc<Mutex<HeldPieces>>, PieceOf)>,
 }
 
 impl HeldFetches {
