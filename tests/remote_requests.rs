@@ -162,8 +162,9 @@ fn a_sharded_regions_inner_chunks_come_in_one_request_per_shard() {
 fn what_a_batch_fetched_is_read_without_a_second_request_even_where_no_fetched_byte_is_kept() {
     // No fetched byte is kept (a fetch cache of none): a region's chunks fetched together are
     // still what its read gets, held while the batch's answer lives, both for whole chunks
-    // and for a shard's index and inner chunks. Without the hold the read fetched each again,
-    // one request a chunk. Once the answer is dropped, nothing stays held.
+    // and for a shard's index and inner chunks. Without the hold the read fetched each chunk
+    // again (three requests a chunk in all, measured). Once the answer is dropped, nothing
+    // stays held.
     for name in [
         "head-v04-zstd.ome.zarr",
         "head-v05-sharded-blosc-zstd.ome.zarr",

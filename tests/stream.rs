@@ -1148,6 +1148,41 @@ fn aprons_taken_from_the_faces_of_chunks_beside_a_brick_equal_their_decoded_voxe
         "{chunk_requests} chunk requests for {} decodes: {requests:?}",
         remote.chunks_decoded()
     );
+    // With no fetched byte kept at all, the chunks a brick's read fetches in one batch are
+    // held for that read: each decode's chunk crosses the link once. Dropped at once, the
+    // read fetched them again, a request more for each chunk of a batch.
+    let bare_store = Arc::new(
+        Pyramid::open_url(
+            &server.url("noise.ome.zarr"),
+            PyramidOptions::default(),
+            RemoteOptions::default(),
+        )
+        .expect("the store opens over HTTP"),
+    );
+    let bare = ZarrSource::new(Arc::clone(&bare_store)).expect("a brick source");
+    bare.reserve_caches(6 << 20);
+    bare_store.set_fetch_cache_bytes(0);
+    let opened = server.counters.arrivals().len();
+    for z in 0..grid[2] as u32 {
+        for y in 0..grid[1] as u32 {
+            for x in 0..grid[0] as u32 {
+                let id = BrickId {
+                    level: 0,
+                    brick: [x, y, z],
+                };
+                let read = bare.read_brick(id).expect("a brick over HTTP");
+                let expected = roomy.read_brick(id).expect("a brick");
+                assert!(read.levels == expected.levels, "{id} differs, nothing kept");
+            }
+        }
+    }
+    let requests = server.counters.arrivals()[opened..].to_vec();
+    assert!(
+        requests.len() as u64 == bare.chunks_decoded() && bare.chunks_decoded() >= 8,
+        "{} requests for {} decodes, nothing kept: {requests:?}",
+        requests.len(),
+        bare.chunks_decoded()
+    );
 }
 
 #[test]

@@ -7,8 +7,8 @@ once, the seconds from the first request's arrival to the last answer's end (`ac
 the round trips one after another (`waves`: the longest chain of requests each of which arrived
 after the one before it was answered), printed when stopped: a client that keeps the link full
 makes few waves, one that waits for each batch before asking the next makes many. Also the
-distinct objects and pieces asked for (`distinct`: path and range): requests beyond them fetched
-the same bytes again.
+distinct paths and `Range` headers answered (`distinct`): requests beyond them fetched the same
+bytes again (the same bytes asked for under another range count apart).
 
 Usage: slow_http.py ROOT PORT LATENCY_S BANDWIDTH_BYTES_PER_S
 """

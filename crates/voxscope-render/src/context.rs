@@ -180,8 +180,10 @@ impl GpuContext {
 
 /// A headless [`GpuContext`] being made on a thread of its own ([`Self::begin`]) while the
 /// caller reads its volume: the driver's start (a fraction of a second, longer from a cold
-/// disk) and the reading overlap. [`Self::finish`] waits for it; dropped unfinished, it still
-/// waits, so that no driver is left starting while the process ends.
+/// disk) and the reading overlap. [`Self::finish`] waits for it; dropped unfinished (the
+/// volume could not be read), it still waits, so that no driver is left starting while the
+/// process ends: an error found before the GPU is needed is told once the device has started.
+#[must_use = "the context is made for finish(); dropped, it is waited for and thrown away"]
 pub struct HeadlessStart(Option<std::thread::JoinHandle<Result<GpuContext, RenderError>>>);
 
 impl HeadlessStart {

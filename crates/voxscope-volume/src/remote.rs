@@ -348,12 +348,13 @@ impl RemoteStore {
     }
 
     /// Bytes of fetched objects kept in RAM now: the fetch cache's, and what batch fetches
-    /// hold beyond it for the reads after them ([`Self::prefetch`]).
+    /// hold beyond it for the reads after them ([`Self::prefetch`]). About: a held piece
+    /// cut from a larger answer keeps all of that answer alive, and counts its own bytes.
     pub fn cached_bytes(&self) -> u64 {
         let (Ok(cache), Ok(held)) = (self.inner.cache.lock(), self.inner.held.lock()) else {
             return 0;
         };
-        cache.bytes() + held.bytes_besides(|key, piece| cache.get(key, piece).is_some())
+        cache.bytes() + held.bytes_besides(|key, piece| cache.piece(key, piece).is_some())
     }
 
     /// The counters so far.
@@ -393,23 +394,29 @@ impl RemoteStore {
     /// Fetches `keys` (whole objects: unsharded chunks) all at once, up to the request limit,
     /// into the fetch cache that [`ReadableStorageTraits::get`] reads first; missing objects
     /// are remembered as missing, failed ones as failed. What it fetched, and what of `keys`
-    /// the cache kept already, stays readable while the answer lives, whatever the cache
-    /// drops meanwhile ([`HeldFetches`]). One object to fetch is left to its read.
+    /// the cache kept or a batch held already, stays readable while the answer lives,
+    /// whatever the cache drops meanwhile ([`HeldFetches`]). One object to fetch is left to
+    /// its read.
     pub fn prefetch(&self, keys: &[StoreKey]) -> HeldFetches {
         let inner = &self.inner;
         let mut held = HeldFetches::default();
         let mut wanted: Vec<String> = Vec::new();
-        match inner.cache.lock() {
-            Ok(cache) => {
+        match (inner.cache.lock(), inner.held.lock()) {
+            (Ok(cache), Ok(mut held_now)) => {
                 for key in keys.iter().map(|key| key.as_str()) {
-                    if let Some(bytes) = cache.get(key, Piece::Whole) {
-                        held.hold(&inner.held, key, Piece::Whole, &bytes);
-                    } else if !cache.is_missing(key) {
-                        wanted.push(key.to_owned());
+                    let kept = cache
+                        .get(key, Piece::Whole)
+                        .or_else(|| held_now.piece(key, Piece::Whole)?.ok());
+                    match kept {
+                        Some(bytes) => {
+                            held.hold_locked(&mut held_now, &inner.held, key, Piece::Whole, &bytes)
+                        }
+                        None if !cache.is_missing(key) => wanted.push(key.to_owned()),
+                        None => {}
                     }
                 }
             }
-            Err(_) => return held,
+            _ => return held,
         }
         if wanted.len() < 2 {
             return held;
@@ -453,12 +460,15 @@ impl RemoteStore {
         let mut wanted: Vec<String> = Vec::new();
         let mut handled = 0;
         {
-            let (Ok(cache), Ok(flights)) = (inner.cache.lock(), inner.flights.lock()) else {
+            let (Ok(cache), Ok(flights), Ok(held)) =
+                (inner.cache.lock(), inner.flights.lock(), inner.held.lock())
+            else {
                 return 0;
             };
             for key in keys {
                 let key = key.as_str();
                 let busy = cache.get(key, Piece::Whole).is_some()
+                    || held.piece(key, Piece::Whole).is_some()
                     || cache.is_missing(key)
                     || flights.contains_key(&(key.to_owned(), Piece::Whole))
                     || wanted.iter().any(|w| w == key);

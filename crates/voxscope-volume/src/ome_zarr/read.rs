@@ -525,22 +525,23 @@ impl Pyramid {
     fn read_subset(&self, level: usize, subset: &ArraySubset) -> Result<VoxelData, ReadFailure> {
         let info = &self.levels[level];
         let array = &self.arrays[level];
-        // zarrs asks for one chunk per reading thread at a time: over a network all of the
-        // region's chunks are asked for at once first, and held until the read ends.
-        let _held = match (&self.remote, info.shard) {
-            (Some(remote), None) => match array.chunks_in_array_subset(subset) {
-                Ok(Some(chunks)) => {
-                    let keys: Vec<StoreKey> = chunks
-                        .indices()
-                        .into_iter()
-                        .map(|indices| array.chunk_key(&indices))
-                        .collect();
-                    remote.prefetch(&keys)
-                }
-                _ => HeldFetches::default(),
-            },
-            _ => HeldFetches::default(),
-        };
+        if let Some(remote) = &self.remote
+            && info.shard.is_none()
+        {
+            // zarrs asks for one chunk per reading thread at a time: over a network all of
+            // the region's chunks are asked for at once first, into the fetch cache. They are
+            // not held for the read: a whole volume loaded over the network would hold all of
+            // its compressed chunks beside its voxels (a brick's read holds its own batch,
+            // [`Self::prefetch_regions`]).
+            if let Ok(Some(chunks)) = array.chunks_in_array_subset(subset) {
+                let keys: Vec<StoreKey> = chunks
+                    .indices()
+                    .into_iter()
+                    .map(|indices| array.chunk_key(&indices))
+                    .collect();
+                drop(remote.prefetch(&keys));
+            }
+        }
         let read = || match self.stored {
             Stored::Native(VoxelType::U8) => array.retrieve_array_subset(subset).map(VoxelData::U8),
             Stored::Native(VoxelType::I8) => array.retrieve_array_subset(subset).map(VoxelData::I8),

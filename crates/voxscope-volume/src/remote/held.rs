@@ -79,10 +79,22 @@ impl HeldFetches {
         bytes: &Bytes,
     ) {
         if let Ok(mut pieces) = held.lock() {
-            pieces.hold(key, piece, bytes);
-            self.entries
-                .push((Arc::clone(held), (key.to_owned(), piece)));
+            self.hold_locked(&mut pieces, held, key, piece, bytes);
         }
+    }
+
+    /// [`Self::hold`] where the caller has locked `held` already (as `pieces`).
+    pub(super) fn hold_locked(
+        &mut self,
+        pieces: &mut HeldPieces,
+        held: &Arc<Mutex<HeldPieces>>,
+        key: &str,
+        piece: Piece,
+        bytes: &Bytes,
+    ) {
+        pieces.hold(key, piece, bytes);
+        self.entries
+            .push((Arc::clone(held), (key.to_owned(), piece)));
     }
 
     /// What `other` holds, held by this from now on.
