@@ -1069,6 +1069,18 @@ fn converted_noise(chunk: &str) -> (tempfile::TempDir, std::path::PathBuf) {
     (dir, store)
 }
 
+/// Level 0's bricks of a grid of `grid` bricks, x fastest.
+fn level_zero_bricks(grid: [usize; 3]) -> impl Iterator<Item = BrickId> {
+    (0..grid[2] as u32).flat_map(move |z| {
+        (0..grid[1] as u32).flat_map(move |y| {
+            (0..grid[0] as u32).map(move |x| BrickId {
+                level: 0,
+                brick: [x, y, z],
+            })
+        })
+    })
+}
+
 #[test]
 fn aprons_taken_from_the_faces_of_chunks_beside_a_brick_equal_their_decoded_voxels() {
     // 128³ noise in chunks of 64³: each brick's interior lies in one chunk and its apron one
@@ -1100,21 +1112,13 @@ fn aprons_taken_from_the_faces_of_chunks_beside_a_brick_equal_their_decoded_voxe
     let grid = tight.shape().levels[0].grid;
     assert_eq!(grid, [4, 4, 4]);
     let mut bricks = 0u64;
-    for z in 0..grid[2] as u32 {
-        for y in 0..grid[1] as u32 {
-            for x in 0..grid[0] as u32 {
-                let id = BrickId {
-                    level: 0,
-                    brick: [x, y, z],
-                };
-                let expected = roomy.read_brick(id).expect("a brick");
-                let read = tight.read_brick(id).expect("a brick");
-                assert!(read.levels == expected.levels, "{id} differs");
-                let read = remote.read_brick(id).expect("a brick over HTTP");
-                assert!(read.levels == expected.levels, "{id} differs over HTTP");
-                bricks += 1;
-            }
-        }
+    for id in level_zero_bricks(grid) {
+        let expected = roomy.read_brick(id).expect("a brick");
+        let read = tight.read_brick(id).expect("a brick");
+        assert!(read.levels == expected.levels, "{id} differs");
+        let read = remote.read_brick(id).expect("a brick over HTTP");
+        assert!(read.levels == expected.levels, "{id} differs over HTTP");
+        bricks += 1;
     }
     assert_eq!(roomy.chunks_decoded(), 8);
     // A brick's own chunk where the three kept lack it, and each chunk once for its faces:
@@ -1163,18 +1167,10 @@ fn aprons_taken_from_the_faces_of_chunks_beside_a_brick_equal_their_decoded_voxe
     bare.reserve_caches(6 << 20);
     bare_store.set_fetch_cache_bytes(0);
     let opened = server.counters.arrivals().len();
-    for z in 0..grid[2] as u32 {
-        for y in 0..grid[1] as u32 {
-            for x in 0..grid[0] as u32 {
-                let id = BrickId {
-                    level: 0,
-                    brick: [x, y, z],
-                };
-                let read = bare.read_brick(id).expect("a brick over HTTP");
-                let expected = roomy.read_brick(id).expect("a brick");
-                assert!(read.levels == expected.levels, "{id} differs, nothing kept");
-            }
-        }
+    for id in level_zero_bricks(grid) {
+        let read = bare.read_brick(id).expect("a brick over HTTP");
+        let expected = roomy.read_brick(id).expect("a brick");
+        assert!(read.levels == expected.levels, "{id} differs, nothing kept");
     }
     let requests = server.counters.arrivals()[opened..].to_vec();
     assert!(
