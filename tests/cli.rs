@@ -270,6 +270,27 @@ fn bench_stream_reports_its_orbits_paced_and_the_uploads_scattered() {
         assert!(!json[key].is_null(), "missing {key}");
     }
     assert_eq!(json["options"]["uploads"], "Scatter");
+    let near: Vec<(f64, &str)> = json["near_stopped_views"]
+        .as_array()
+        .expect("near views")
+        .iter()
+        .map(|view| {
+            assert_eq!(view["complete"], true, "{view}");
+            (
+                view["distance"].as_f64().unwrap(),
+                view["mode"].as_str().unwrap(),
+            )
+        })
+        .collect();
+    assert_eq!(
+        near,
+        [
+            (0.6, "dvr-gray"),
+            (0.6, "mip"),
+            (1.0, "dvr-gray"),
+            (1.0, "mip")
+        ]
+    );
     let orbits = json["orbits"].as_array().expect("orbits");
     assert_eq!(orbits.len(), 2, "medium and near");
     let mut dispatches = 0;
