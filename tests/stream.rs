@@ -1094,14 +1094,17 @@ fn aprons_taken_from_the_faces_of_chunks_beside_a_brick_equal_their_decoded_voxe
         ZarrSource::new(Arc::new(pyramid)).expect("a brick source")
     };
     let server = FileServer::start(dir.path(), Faults::default());
-    let over_http = Arc::new(
-        Pyramid::open_url(
-            &server.url("noise.ome.zarr"),
-            PyramidOptions::default(),
-            RemoteOptions::default(),
+    let open_over_http = || {
+        Arc::new(
+            Pyramid::open_url(
+                &server.url("noise.ome.zarr"),
+                PyramidOptions::default(),
+                RemoteOptions::default(),
+            )
+            .expect("the store opens over HTTP"),
         )
-        .expect("the store opens over HTTP"),
-    );
+    };
+    let over_http = open_over_http();
     let remote = ZarrSource::new(Arc::clone(&over_http)).expect("a brick source");
     let (roomy, tight) = (open(), open());
     // 1.5 MiB of decoded chunks (three of 64³), 384 KiB of faces (all eight chunks').
@@ -1155,14 +1158,7 @@ fn aprons_taken_from_the_faces_of_chunks_beside_a_brick_equal_their_decoded_voxe
     // With no fetched byte kept at all, the chunks a brick's read fetches in one batch are
     // held for that read: each decode's chunk crosses the link once. Dropped at once, the
     // read fetched them again, a request more for each chunk of a batch.
-    let bare_store = Arc::new(
-        Pyramid::open_url(
-            &server.url("noise.ome.zarr"),
-            PyramidOptions::default(),
-            RemoteOptions::default(),
-        )
-        .expect("the store opens over HTTP"),
-    );
+    let bare_store = open_over_http();
     let bare = ZarrSource::new(Arc::clone(&bare_store)).expect("a brick source");
     bare.reserve_caches(6 << 20);
     bare_store.set_fetch_cache_bytes(0);

@@ -330,8 +330,9 @@ impl Pyramid {
 
     /// Per shard, the byte ranges of the inner chunks that the regions of sharded levels read
     /// (every shard's index fetched first, all at once, and held by `held`): what
-    /// [`RemoteStore::prefetch_ranges`] fetches in one batch per shard. Only levels whose index voxscope reads itself
-    /// ([`ShardIndexLayout`]); inner chunks never written have no range.
+    /// [`RemoteStore::prefetch_ranges`] fetches in one batch per shard. Only levels whose
+    /// index voxscope reads itself ([`ShardIndexLayout`]); inner chunks never written have no
+    /// range.
     fn shard_ranges(
         &self,
         regions: &[(usize, [usize; 3], [usize; 3])],
