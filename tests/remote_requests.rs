@@ -357,6 +357,80 @@ fn bricks_fetched_ahead_go_out_in_their_order_many_at_once_without_waiting() {
     assert_eq!(arrivals[arrivals.len() - 1].0, key_of(brick(2, 0, 0, 0)));
 }
 
+/// Sizes of the files under `folder` and its subfolders, metadata (dot files) left out.
+fn file_sizes(folder: &Path) -> Vec<u64> {
+    let mut sizes = Vec::new();
+    for entry in std::fs::read_dir(folder).expect("a folder").flatten() {
+        let path = entry.path();
+        if path.is_dir() {
+            sizes.extend(file_sizes(&path));
+        } else if !entry.file_name().to_string_lossy().starts_with('.') {
+            sizes.push(entry.metadata().expect("a file").len());
+        }
+    }
+    sizes
+}
+
+#[test]
+fn bricks_fetched_ahead_through_a_small_fetch_cache_cross_the_link_once() {
+    // A fetch cache with room for six of the phantom's level-0 chunks, and a loader's way
+    // through level 0: before each brick's read, the bricks from it on are handed to fetch
+    // ahead. What is fetched ahead and not yet read stays within half the cache, so nothing
+    // is dropped before its read: each chunk crosses the link once. Fetching the window's
+    // 32 chunks at once, as before, dropped most of them before their reads, which fetched
+    // them again.
+    let folder = tempfile::tempdir().expect("a temporary folder");
+    let name = converted_phantom(folder.path());
+    let chunks = file_sizes(&folder.path().join(&name).join("0"));
+    assert_eq!(chunks.len(), 32, "level 0 is 4x4x2 chunks");
+    let largest = *chunks.iter().max().expect("chunks");
+    let server = FileServer::start(
+        folder.path(),
+        Faults {
+            latency: Duration::from_millis(20),
+            ..Faults::default()
+        },
+    );
+    let pyramid = Pyramid::open_url(
+        &server.url(&name),
+        PyramidOptions::default(),
+        RemoteOptions::default(),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    // Every chunk is small enough to keep (a piece over a quarter of the cache is not).
+    pyramid.set_fetch_cache_bytes(6 * largest);
+    let source = ZarrSource::new(Arc::new(pyramid)).unwrap_or_else(|e| panic!("{e}"));
+    let opened = requests(&server) as usize;
+    let bricks: Vec<BrickId> = (0..4)
+        .flat_map(|z| {
+            (0..7).flat_map(move |y| {
+                (0..8).map(move |x| BrickId {
+                    level: 0,
+                    brick: [x, y, z],
+                })
+            })
+        })
+        .collect();
+    for (i, &id) in bricks.iter().enumerate() {
+        source.fetch_ahead(&bricks[i..]);
+        source.read_brick(id).unwrap_or_else(|e| panic!("{e}"));
+    }
+    answered(&server);
+    let asked: Vec<String> = server.counters.arrivals()[opened..]
+        .iter()
+        .map(|(path, _)| path.clone())
+        .collect();
+    let distinct: std::collections::HashSet<&String> = asked.iter().collect();
+    assert_eq!(distinct.len(), 32, "level 0's chunks: {asked:?}");
+    assert_eq!(
+        asked.len(),
+        distinct.len(),
+        "each chunk once: {} requests for {} chunks",
+        asked.len(),
+        distinct.len()
+    );
+}
+
 #[test]
 fn a_sharded_levels_bricks_fetched_ahead_come_in_one_request_per_shard() {
     // Level 0 of the fixture: 64x64x31 voxels, inner chunks of 16³ in shards of 32³ (2x2x1

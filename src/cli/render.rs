@@ -245,8 +245,14 @@ fn report_stream(
             )
         })
         .unwrap_or_default();
+    // A store's chunks: each brick's read decodes those not kept from the bricks before.
+    let decoded = match counters.chunks_decoded {
+        0 => String::new(),
+        1 => " from 1 chunk decoded".to_string(),
+        n => format!(" from {n} chunks decoded"),
+    };
     eprintln!(
-        "{written}, stream renderer, level {}/{depth}{labels}) on {} in {seconds:.2} s (first image after {first_image_seconds:.2} s): {} bricks read ({:.1} MiB), {} of {} atlas slots used{peak}{network}; {state}{ending}",
+        "{written}, stream renderer, level {}/{depth}{labels}) on {} in {seconds:.2} s (first image after {first_image_seconds:.2} s): {} bricks read ({:.1} MiB){decoded}, {} of {} atlas slots used{peak}{network}; {state}{ending}",
         settings.max_level,
         drawing.context.describe(),
         counters.loads,

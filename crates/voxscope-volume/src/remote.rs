@@ -402,8 +402,10 @@ impl RemoteStore {
         let mut held = HeldFetches::default();
         let mut wanted: Vec<String> = Vec::new();
         match (inner.cache.lock(), inner.held.lock()) {
-            (Ok(cache), Ok(mut held_now)) => {
+            (Ok(mut cache), Ok(mut held_now)) => {
                 for key in keys.iter().map(|key| key.as_str()) {
+                    // Held for its read from now on: what was fetched ahead of it is used.
+                    cache.mark_read(key);
                     let kept = cache
                         .get(key, Piece::Whole)
                         .or_else(|| held_now.piece(key, Piece::Whole)?.ok());
@@ -437,7 +439,7 @@ impl RemoteStore {
     /// Whether [`Self::fetch_ahead`] has room for another fetch now (cheap: a caller asks
     /// before it works out keys).
     pub fn can_fetch_ahead(&self) -> bool {
-        self.inner.ahead.load(Ordering::Relaxed) < self.inner.max_ahead
+        self.inner.ahead_room() > 0
     }
 
     /// Starts fetching `keys` (whole objects: unsharded chunks) in this order, the first
@@ -445,14 +447,14 @@ impl RemoteStore {
     /// its loaders still decode what came before. Objects kept, known missing, remembered as
     /// failed or being fetched are skipped; at most twice the request limit of these fetches
     /// are under way at once (one round trip's in flight, the next waiting for a permit in
-    /// this order), the rest left for a later call. A reader of a key fetched ahead waits for
+    /// this order), and no more than half the fetch cache holds, with what was fetched ahead
+    /// and not read yet, is coming (a small cache dropped what it fetched ahead before its
+    /// read, which fetched it again); the rest is left for a later call. A reader of a key fetched ahead waits for
     /// that fetch. Returns how many of `keys`, from the first, are fetched, being fetched or
     /// settled (missing, failed): those need not be asked for again.
     pub fn fetch_ahead(&self, keys: &[StoreKey]) -> usize {
         let inner = &self.inner;
-        let room = inner
-            .max_ahead
-            .saturating_sub(inner.ahead.load(Ordering::Relaxed));
+        let room = inner.ahead_room();
         if room == 0 || keys.is_empty() {
             return 0;
         }
@@ -492,7 +494,10 @@ impl RemoteStore {
         let flights: Vec<_> = wanted
             .into_iter()
             .map(|key| {
-                let (flight, ahead) = (inner.flight(&key, Piece::Whole, None), inner.ahead.clone());
+                let (flight, ahead) = (
+                    inner.flight(&key, Piece::Whole, None, Fetched::Ahead),
+                    inner.ahead.clone(),
+                );
                 async move {
                     let _ = flight.await;
                     ahead.fetch_sub(1, Ordering::Relaxed);
@@ -583,7 +588,29 @@ pub(crate) fn coalesce(pieces: &[Piece]) -> Vec<(Piece, Vec<usize>)> {
     groups
 }
 
+/// Why an object is fetched.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Fetched {
+    /// For a read waiting on it.
+    ForRead,
+    /// Ahead of its read ([`RemoteStore::fetch_ahead`]): kept as unread until a read takes it.
+    Ahead,
+}
+
 impl Inner {
+    /// How many more fetches ahead may start now: at most twice the request limit under way,
+    /// and no more than the fetch cache keeps until they are read ([`FetchCache::ahead_room`]).
+    fn ahead_room(&self) -> usize {
+        let in_flight = self.ahead.load(Ordering::Relaxed);
+        let room = self.max_ahead.saturating_sub(in_flight);
+        if room == 0 {
+            return 0;
+        }
+        self.cache
+            .lock()
+            .map_or(0, |cache| room.min(cache.ahead_room(in_flight)))
+    }
+
     fn deadline(&self) -> Duration {
         if self.opened.load(Ordering::Relaxed) {
             self.timing.read_deadline
@@ -619,11 +646,12 @@ impl Inner {
         if piece.is_empty() {
             return Ok(Some(Bytes::new()));
         }
-        if let Ok(cache) = self.cache.lock() {
+        if let Ok(mut cache) = self.cache.lock() {
             if cache.is_missing(&key) {
                 return Ok(None);
             }
             if let Some(cut) = cache.piece(&key, piece) {
+                cache.mark_read(&key);
                 return cut.map(Some);
             }
         }
@@ -658,8 +686,13 @@ impl Inner {
                 }
             };
         }
-        let flight = self.flight(&key, fetched, bound);
-        match flight.await? {
+        let flight = self.flight(&key, fetched, bound, Fetched::ForRead);
+        let answer = flight.await?;
+        // A fetch ahead's flight, joined: its bytes are used.
+        if let Ok(mut cache) = self.cache.lock() {
+            cache.mark_read(&key);
+        }
+        match answer {
             Answer::Missing => Ok(None),
             Answer::Body { bytes, whole } => {
                 if piece == Piece::Whole || (!whole && fetched == piece) {
@@ -761,12 +794,18 @@ impl Inner {
     }
 
     /// The fetch of `piece` of `key` in flight, started now if there is none.
-    fn flight(self: &Arc<Self>, key: &str, piece: Piece, bound: Option<u64>) -> Flight {
+    fn flight(
+        self: &Arc<Self>,
+        key: &str,
+        piece: Piece,
+        bound: Option<u64>,
+        fetched: Fetched,
+    ) -> Flight {
         let id = (key.to_owned(), piece);
         let Ok(mut flights) = self.flights.lock() else {
             return self
                 .clone()
-                .fetch(key.to_owned(), piece, bound)
+                .fetch(key.to_owned(), piece, bound, fetched)
                 .boxed()
                 .shared();
         };
@@ -775,7 +814,10 @@ impl Inner {
         }
         let inner = self.clone();
         let flight = async move {
-            let result = inner.clone().fetch(id.0.clone(), piece, bound).await;
+            let result = inner
+                .clone()
+                .fetch(id.0.clone(), piece, bound, fetched)
+                .await;
             if let Ok(mut flights) = inner.flights.lock() {
                 flights.remove(&id);
             }
@@ -794,6 +836,7 @@ impl Inner {
         key: String,
         piece: Piece,
         bound: Option<u64>,
+        fetched: Fetched,
     ) -> Result<Answer, Failure> {
         let bound = bound.unwrap_or_else(|| self.bound(&key));
         let result = self
@@ -829,7 +872,13 @@ impl Inner {
                 }
                 if let Ok(mut cache) = self.cache.lock() {
                     let kept = if *whole { Piece::Whole } else { piece };
-                    cache.insert(&key, kept, bytes);
+                    if kept == Piece::Whole && self.opened.load(Ordering::Relaxed) {
+                        cache.note_object(bytes.len() as u64);
+                    }
+                    match fetched {
+                        Fetched::Ahead if kept == Piece::Whole => cache.insert_ahead(&key, bytes),
+                        _ => cache.insert(&key, kept, bytes),
+                    }
                 }
             }
             Err(failure) => {

@@ -75,15 +75,26 @@ impl Piece {
 /// chunks: a brick's reads and a prefetch's would each ask again).
 const MAX_MISSING: usize = 1 << 20;
 
+/// Objects a fetch ahead starts while it knows no object's size yet: enough to learn it (a
+/// first image's chunks are fetched before the streamer fetches ahead, so this is rare).
+const FIRST_AHEAD: usize = 4;
+
 /// Fetched bytes by object and piece, the oldest dropped first beyond its capacity
 /// ([`FETCH_CACHE_BYTES`] unless the streamer's RAM budget sets less); and objects found
-/// missing.
+/// missing. It also knows what fetching ahead may add: whole objects fetched ahead of their
+/// reads wait here to be read, and are fetched again if dropped first.
 pub(super) struct FetchCache {
     pieces: HashMap<(String, Piece), Bytes>,
     order: VecDeque<(String, Piece)>,
     bytes: u64,
     capacity: u64,
     missing: HashSet<String>,
+    /// Whole objects fetched ahead and not read since, and their bytes.
+    unread: HashSet<String>,
+    unread_bytes: u64,
+    /// Whole objects fetched since the store opened (chunks, mostly): how many, and their
+    /// bytes.
+    objects: (u64, u64),
 }
 
 impl Default for FetchCache {
@@ -94,6 +105,9 @@ impl Default for FetchCache {
             bytes: 0,
             capacity: FETCH_CACHE_BYTES,
             missing: HashSet::new(),
+            unread: HashSet::new(),
+            unread_bytes: 0,
+            objects: (0, 0),
         }
     }
 }
@@ -115,10 +129,63 @@ impl FetchCache {
             let Some(oldest) = self.order.pop_front() else {
                 break;
             };
-            if let Some(dropped) = self.pieces.remove(&oldest) {
-                self.bytes -= dropped.len() as u64;
+            self.drop_piece(&oldest);
+        }
+    }
+
+    fn drop_piece(&mut self, entry: &(String, Piece)) {
+        if let Some(dropped) = self.pieces.remove(entry) {
+            self.bytes -= dropped.len() as u64;
+            if entry.1 == Piece::Whole && self.unread.remove(&entry.0) {
+                self.unread_bytes -= dropped.len() as u64;
             }
         }
+    }
+
+    /// Keeps the whole object `key` fetched ahead of its read: unread until
+    /// [`Self::mark_read`] (or dropped).
+    pub(super) fn insert_ahead(&mut self, key: &str, bytes: &Bytes) {
+        self.insert(key, Piece::Whole, bytes);
+        if self.pieces.contains_key(&(key.to_owned(), Piece::Whole))
+            && self.unread.insert(key.to_owned())
+        {
+            self.unread_bytes += bytes.len() as u64;
+        }
+    }
+
+    /// A read took the object `key`: what was fetched ahead of it is used.
+    pub(super) fn mark_read(&mut self, key: &str) {
+        if self.unread.remove(key)
+            && let Some(bytes) = self.pieces.get(&(key.to_owned(), Piece::Whole))
+        {
+            self.unread_bytes -= bytes.len() as u64;
+        }
+    }
+
+    /// Bytes of whole objects fetched ahead and not read yet.
+    pub(super) fn unread_bytes(&self) -> u64 {
+        self.unread_bytes
+    }
+
+    /// Counts a whole object of `bytes` fetched (what [`Self::ahead_room`] expects of the
+    /// next).
+    pub(super) fn note_object(&mut self, bytes: u64) {
+        self.objects.0 += 1;
+        self.objects.1 += bytes;
+    }
+
+    /// How many more whole objects may be fetched ahead with `in_flight` on their way: what
+    /// is fetched ahead and unread, and what is coming, stay within half the capacity (the
+    /// rest for what the reads fetch themselves), so that nothing is dropped before it is
+    /// read. Each object is expected to be as large as those fetched so far on average.
+    pub(super) fn ahead_room(&self, in_flight: usize) -> usize {
+        let (count, bytes) = self.objects;
+        if count == 0 {
+            return FIRST_AHEAD.saturating_sub(in_flight);
+        }
+        let each = (bytes / count).max(1);
+        let coming = self.unread_bytes + in_flight as u64 * each;
+        ((self.capacity / 2).saturating_sub(coming) / each) as usize
     }
 
     pub(super) fn get(&self, key: &str, piece: Piece) -> Option<Bytes> {
@@ -149,8 +216,8 @@ impl FetchCache {
     /// Drops `piece` of `key` (a coalesced run, once its pieces are kept on their own).
     pub(super) fn remove(&mut self, key: &str, piece: Piece) {
         let entry = (key.to_owned(), piece);
-        if let Some(dropped) = self.pieces.remove(&entry) {
-            self.bytes -= dropped.len() as u64;
+        if self.pieces.contains_key(&entry) {
+            self.drop_piece(&entry);
             self.order.retain(|kept| kept != &entry);
         }
     }
@@ -195,5 +262,42 @@ mod tests {
         cache.set_capacity(300);
         assert!(cache.bytes() <= 300, "{}", cache.bytes());
         assert!(cache.get("0/9", Piece::Whole).is_some());
+    }
+
+    #[test]
+    fn what_is_fetched_ahead_and_unread_bounds_what_may_be_fetched_ahead() {
+        let mut cache = FetchCache::default();
+        cache.set_capacity(2000);
+        // No object's size known yet: a few to learn it.
+        assert_eq!(cache.ahead_room(0), FIRST_AHEAD);
+        assert_eq!(cache.ahead_room(FIRST_AHEAD), 0);
+        cache.note_object(100);
+        cache.note_object(300);
+        // Half the capacity, 200 bytes an object: five, less those on their way.
+        assert_eq!(cache.ahead_room(0), 5);
+        assert_eq!(cache.ahead_room(2), 3);
+        cache.insert_ahead("0/0", &bytes(200));
+        cache.insert_ahead("0/1", &bytes(200));
+        assert_eq!(cache.unread_bytes(), 400);
+        assert_eq!(cache.ahead_room(0), 3);
+        // Read: room again.
+        cache.mark_read("0/0");
+        cache.mark_read("0/0");
+        assert_eq!(cache.unread_bytes(), 200);
+        assert_eq!(cache.ahead_room(0), 4);
+        // Dropped unread (the oldest first): no longer waiting to be read.
+        for i in 2..12 {
+            cache.insert(&format!("1/{i}"), Piece::Whole, &bytes(200));
+        }
+        assert!(cache.get("0/1", Piece::Whole).is_none());
+        assert_eq!(cache.unread_bytes(), 0);
+        cache.mark_read("0/1");
+        assert_eq!(cache.unread_bytes(), 0);
+        cache.insert_ahead("0/2", &bytes(200));
+        cache.remove("0/2", Piece::Whole);
+        assert_eq!(cache.unread_bytes(), 0);
+        // Too large to keep: never waiting.
+        cache.insert_ahead("big", &bytes(600));
+        assert_eq!(cache.unread_bytes(), 0);
     }
 }
