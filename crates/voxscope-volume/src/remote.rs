@@ -439,7 +439,8 @@ impl RemoteStore {
     /// Whether [`Self::fetch_ahead`] has room for another fetch now (cheap: a caller asks
     /// before it works out keys).
     pub fn can_fetch_ahead(&self) -> bool {
-        self.inner.ahead_room() > 0
+        // Before any object's size is known, what `fetch_ahead` is given decides.
+        self.inner.ahead_room(1) > 0
     }
 
     /// Starts fetching `keys` (whole objects: unsharded chunks) in this order, the first
@@ -454,8 +455,9 @@ impl RemoteStore {
     /// settled (missing, failed): those need not be asked for again.
     pub fn fetch_ahead(&self, keys: &[StoreKey]) -> usize {
         let inner = &self.inner;
-        let room = inner.ahead_room();
-        if room == 0 || keys.is_empty() {
+        let Some(first) = keys.first() else { return 0 };
+        let room = inner.ahead_room(inner.bound(first.as_str()));
+        if room == 0 {
             return 0;
         }
         let Ok(runtime) = runtime() else { return 0 };
@@ -599,8 +601,10 @@ enum Fetched {
 
 impl Inner {
     /// How many more fetches ahead may start now: at most twice the request limit under way,
-    /// and no more than the fetch cache keeps until they are read ([`FetchCache::ahead_room`]).
-    fn ahead_room(&self) -> usize {
+    /// and no more than the fetch cache keeps until they are read ([`FetchCache::ahead_room`];
+    /// `bound`: the most bytes each may have, what is expected of each before any object was
+    /// fetched).
+    fn ahead_room(&self, bound: u64) -> usize {
         let in_flight = self.ahead.load(Ordering::Relaxed);
         let room = self.max_ahead.saturating_sub(in_flight);
         if room == 0 {
@@ -608,7 +612,7 @@ impl Inner {
         }
         self.cache
             .lock()
-            .map_or(0, |cache| room.min(cache.ahead_room(in_flight)))
+            .map_or(0, |cache| room.min(cache.ahead_room(in_flight, bound)))
     }
 
     fn deadline(&self) -> Duration {

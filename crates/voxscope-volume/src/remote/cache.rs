@@ -75,10 +75,6 @@ impl Piece {
 /// chunks: a brick's reads and a prefetch's would each ask again).
 const MAX_MISSING: usize = 1 << 20;
 
-/// Objects a fetch ahead starts while it knows no object's size yet: enough to learn it (a
-/// first image's chunks are fetched before the streamer fetches ahead, so this is rare).
-const FIRST_AHEAD: usize = 4;
-
 /// Fetched bytes by object and piece, the oldest dropped first beyond its capacity
 /// ([`FETCH_CACHE_BYTES`] unless the streamer's RAM budget sets less); and objects found
 /// missing. It also knows what fetching ahead may add: whole objects fetched ahead of their
@@ -177,13 +173,11 @@ impl FetchCache {
     /// How many more whole objects may be fetched ahead with `in_flight` on their way: what
     /// is fetched ahead and unread, and what is coming, stay within half the capacity (the
     /// rest for what the reads fetch themselves), so that nothing is dropped before it is
-    /// read. Each object is expected to be as large as those fetched so far on average.
-    pub(super) fn ahead_room(&self, in_flight: usize) -> usize {
+    /// read. Each object is expected to be as large as those fetched so far on average, or,
+    /// before any was, as large as `bound` (the most one may have).
+    pub(super) fn ahead_room(&self, in_flight: usize, bound: u64) -> usize {
         let (count, bytes) = self.objects;
-        if count == 0 {
-            return FIRST_AHEAD.saturating_sub(in_flight);
-        }
-        let each = (bytes / count).max(1);
+        let each = if count == 0 { bound } else { bytes / count }.max(1);
         let coming = self.unread_bytes + in_flight as u64 * each;
         ((self.capacity / 2).saturating_sub(coming) / each) as usize
     }
@@ -268,23 +262,24 @@ mod tests {
     fn what_is_fetched_ahead_and_unread_bounds_what_may_be_fetched_ahead() {
         let mut cache = FetchCache::default();
         cache.set_capacity(2000);
-        // No object's size known yet: a few to learn it.
-        assert_eq!(cache.ahead_room(0), FIRST_AHEAD);
-        assert_eq!(cache.ahead_room(FIRST_AHEAD), 0);
+        // No object's size known yet: each as large as it may be.
+        assert_eq!(cache.ahead_room(0, 250), 4);
+        assert_eq!(cache.ahead_room(3, 250), 1);
+        assert_eq!(cache.ahead_room(0, 1 << 40), 0);
         cache.note_object(100);
         cache.note_object(300);
         // Half the capacity, 200 bytes an object: five, less those on their way.
-        assert_eq!(cache.ahead_room(0), 5);
-        assert_eq!(cache.ahead_room(2), 3);
+        assert_eq!(cache.ahead_room(0, 1 << 40), 5);
+        assert_eq!(cache.ahead_room(2, 1 << 40), 3);
         cache.insert_ahead("0/0", &bytes(200));
         cache.insert_ahead("0/1", &bytes(200));
         assert_eq!(cache.unread_bytes(), 400);
-        assert_eq!(cache.ahead_room(0), 3);
+        assert_eq!(cache.ahead_room(0, 1 << 40), 3);
         // Read: room again.
         cache.mark_read("0/0");
         cache.mark_read("0/0");
         assert_eq!(cache.unread_bytes(), 200);
-        assert_eq!(cache.ahead_room(0), 4);
+        assert_eq!(cache.ahead_room(0, 1 << 40), 4);
         // Dropped unread (the oldest first): no longer waiting to be read.
         for i in 2..12 {
             cache.insert(&format!("1/{i}"), Piece::Whole, &bytes(200));
