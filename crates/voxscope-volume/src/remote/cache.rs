@@ -158,11 +158,6 @@ impl FetchCache {
         }
     }
 
-    /// Bytes of whole objects fetched ahead and not read yet.
-    pub(super) fn unread_bytes(&self) -> u64 {
-        self.unread_bytes
-    }
-
     /// Counts a whole object of `bytes` fetched (what [`Self::ahead_room`] expects of the
     /// next).
     pub(super) fn note_object(&mut self, bytes: u64) {
@@ -177,7 +172,7 @@ impl FetchCache {
     /// before any was, as large as `bound` (the most one may have).
     pub(super) fn ahead_room(&self, in_flight: usize, bound: u64) -> usize {
         let (count, bytes) = self.objects;
-        let each = if count == 0 { bound } else { bytes / count }.max(1);
+        let each = bytes.checked_div(count).unwrap_or(bound).max(1);
         let coming = self.unread_bytes + in_flight as u64 * each;
         ((self.capacity / 2).saturating_sub(coming) / each) as usize
     }
@@ -273,26 +268,26 @@ mod tests {
         assert_eq!(cache.ahead_room(2, 1 << 40), 3);
         cache.insert_ahead("0/0", &bytes(200));
         cache.insert_ahead("0/1", &bytes(200));
-        assert_eq!(cache.unread_bytes(), 400);
+        assert_eq!(cache.unread_bytes, 400);
         assert_eq!(cache.ahead_room(0, 1 << 40), 3);
         // Read: room again.
         cache.mark_read("0/0");
         cache.mark_read("0/0");
-        assert_eq!(cache.unread_bytes(), 200);
+        assert_eq!(cache.unread_bytes, 200);
         assert_eq!(cache.ahead_room(0, 1 << 40), 4);
         // Dropped unread (the oldest first): no longer waiting to be read.
         for i in 2..12 {
             cache.insert(&format!("1/{i}"), Piece::Whole, &bytes(200));
         }
         assert!(cache.get("0/1", Piece::Whole).is_none());
-        assert_eq!(cache.unread_bytes(), 0);
+        assert_eq!(cache.unread_bytes, 0);
         cache.mark_read("0/1");
-        assert_eq!(cache.unread_bytes(), 0);
+        assert_eq!(cache.unread_bytes, 0);
         cache.insert_ahead("0/2", &bytes(200));
         cache.remove("0/2", Piece::Whole);
-        assert_eq!(cache.unread_bytes(), 0);
+        assert_eq!(cache.unread_bytes, 0);
         // Too large to keep: never waiting.
         cache.insert_ahead("big", &bytes(600));
-        assert_eq!(cache.unread_bytes(), 0);
+        assert_eq!(cache.unread_bytes, 0);
     }
 }
