@@ -411,7 +411,22 @@ fn bricks_fetched_ahead_through_a_small_fetch_cache_cross_the_link_once() {
             })
         })
         .collect();
-    for (i, &id) in bricks.iter().enumerate() {
+    // The first brick read (the chunks' size known), the rest fetched ahead: some go out
+    // before their reads, as many as half the cache holds.
+    source
+        .read_brick(bricks[0])
+        .unwrap_or_else(|e| panic!("{e}"));
+    let (before, bytes_before) = (requests(&server), bytes(&server));
+    source.fetch_ahead(&bricks[1..]);
+    std::thread::sleep(Duration::from_millis(100));
+    settle(&server, before + 1);
+    let ahead = requests(&server) - before;
+    let ahead_bytes = bytes(&server) - bytes_before;
+    assert!(
+        (1..=6).contains(&ahead) && ahead_bytes <= 3 * largest,
+        "{ahead} chunks ({ahead_bytes} bytes) fetched ahead into a cache of six of {largest}"
+    );
+    for (i, &id) in bricks.iter().enumerate().skip(1) {
         source.fetch_ahead(&bricks[i..]);
         source.read_brick(id).unwrap_or_else(|e| panic!("{e}"));
     }

@@ -92,7 +92,8 @@ const MAX_FETCHED_AHEAD: usize = 1 << 16;
 const MAX_SHARDED_CHUNKS_AHEAD: usize = 96 * 27;
 
 /// Most chunks one [`BrickSource::fetch_ahead`] call hands the store (which starts what its
-/// limit has room for: twice `--max-requests`, 64 by default, and the rest on later calls).
+/// limit has room for: twice `--max-requests`, 64 by default, within half its fetch cache
+/// with what it fetched ahead and is not read yet; the rest on later calls).
 const MAX_CHUNKS_AHEAD: usize = 256;
 
 /// Bytes of chunks' faces a [`ZarrSource`] keeps at most, and less where the streamer's RAM

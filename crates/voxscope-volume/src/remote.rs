@@ -448,27 +448,30 @@ impl RemoteStore {
     /// its loaders still decode what came before. Objects kept, known missing, remembered as
     /// failed or being fetched are skipped; at most twice the request limit of these fetches
     /// are under way at once (one round trip's in flight, the next waiting for a permit in
-    /// this order), and no more than half the fetch cache holds, with what was fetched ahead
-    /// and not read yet, is coming (a small cache dropped what it fetched ahead before its
+    /// this order), and only while these and what was fetched ahead and not read yet fit in
+    /// half the fetch cache (before, a small cache dropped what was fetched ahead before its
     /// read, which fetched it again); the rest is left for a later call. A reader of a key fetched ahead waits for
     /// that fetch. Returns how many of `keys`, from the first, are fetched, being fetched or
     /// settled (missing, failed): those need not be asked for again.
     pub fn fetch_ahead(&self, keys: &[StoreKey]) -> usize {
         let inner = &self.inner;
         let Some(first) = keys.first() else { return 0 };
-        let room = inner.ahead_room(inner.bound(first.as_str()));
-        if room == 0 {
-            return 0;
-        }
+        let bound = inner.bound(first.as_str());
         let Ok(runtime) = runtime() else { return 0 };
         let mut wanted: Vec<String> = Vec::new();
         let mut handled = 0;
         {
-            let (Ok(cache), Ok(flights), Ok(held)) =
+            let (Ok(mut cache), Ok(flights), Ok(held)) =
                 (inner.cache.lock(), inner.flights.lock(), inner.held.lock())
             else {
                 return 0;
             };
+            // The room, and the fetches counted in it, under the cache's lock: loaders calling
+            // at once share it.
+            let room = inner.ahead_room_locked(&mut cache, bound);
+            if room == 0 {
+                return 0;
+            }
             for key in keys {
                 let key = key.as_str();
                 let busy = cache.get(key, Piece::Whole).is_some()
@@ -484,12 +487,16 @@ impl RemoteStore {
                 }
                 handled += 1;
             }
+            inner.ahead.fetch_add(wanted.len(), Ordering::Relaxed);
         }
+        let counted = wanted.len();
         wanted.retain(|key| inner.remembered.get(key).is_none());
+        inner
+            .ahead
+            .fetch_sub(counted - wanted.len(), Ordering::Relaxed);
         if wanted.is_empty() {
             return handled;
         }
-        inner.ahead.fetch_add(wanted.len(), Ordering::Relaxed);
         // The flights are made here, in order, so that a reader asking for one of them from
         // now on waits for it; `join_all` polls them in this order, so they queue for the
         // request limit in this order.
@@ -605,14 +612,19 @@ impl Inner {
     /// `bound`: the most bytes each may have, what is expected of each before any object was
     /// fetched).
     fn ahead_room(&self, bound: u64) -> usize {
+        self.cache
+            .lock()
+            .map_or(0, |mut cache| self.ahead_room_locked(&mut cache, bound))
+    }
+
+    /// [`Self::ahead_room`] with the cache's lock held.
+    fn ahead_room_locked(&self, cache: &mut FetchCache, bound: u64) -> usize {
         let in_flight = self.ahead.load(Ordering::Relaxed);
         let room = self.max_ahead.saturating_sub(in_flight);
         if room == 0 {
             return 0;
         }
-        self.cache
-            .lock()
-            .map_or(0, |cache| room.min(cache.ahead_room(in_flight, bound)))
+        room.min(cache.ahead_room(in_flight, bound))
     }
 
     fn deadline(&self) -> Duration {
@@ -881,7 +893,9 @@ impl Inner {
                     }
                     match fetched {
                         Fetched::Ahead if kept == Piece::Whole => cache.insert_ahead(&key, bytes),
-                        _ => cache.insert(&key, kept, bytes),
+                        _ => {
+                            cache.insert(&key, kept, bytes);
+                        }
                     }
                 }
             }

@@ -2,6 +2,7 @@
 //! also cut from the whole object where that is kept (a server that ignores `Range` sends it).
 
 use std::collections::{HashMap, HashSet, VecDeque};
+use std::time::{Duration, Instant};
 
 use zarrs::storage::Bytes;
 use zarrs::storage::byte_range::ByteRange;
@@ -75,6 +76,17 @@ impl Piece {
 /// chunks: a brick's reads and a prefetch's would each ask again).
 const MAX_MISSING: usize = 1 << 20;
 
+/// How long an object fetched ahead counts as waiting for its read: one the streamer stopped
+/// wanting (a MIP ray saturated by brighter bricks, a view turned away) is never read, and
+/// would hold back fetching ahead until the cache dropped it.
+const UNREAD_FOR: Duration = Duration::from_secs(2);
+
+/// Whole objects whose sizes decide what each object fetched ahead is expected to bring: the
+/// largest of the latest this many (a store's chunks range from a few kilobytes of background
+/// to hundreds of tissue, and the first read are often the small ones); until this many were
+/// fetched, the most an object may have.
+const SIZES_KNOWN: usize = 16;
+
 /// Fetched bytes by object and piece, the oldest dropped first beyond its capacity
 /// ([`FETCH_CACHE_BYTES`] unless the streamer's RAM budget sets less); and objects found
 /// missing. It also knows what fetching ahead may add: whole objects fetched ahead of their
@@ -85,12 +97,14 @@ pub(super) struct FetchCache {
     bytes: u64,
     capacity: u64,
     missing: HashSet<String>,
-    /// Whole objects fetched ahead and not read since, and their bytes.
-    unread: HashSet<String>,
+    /// Whole objects fetched ahead and not read since, with their bytes and when they came
+    /// (also in that order, some read or dropped since), and their bytes in all.
+    unread: HashMap<String, (u64, Instant)>,
+    unread_order: VecDeque<(String, Instant)>,
     unread_bytes: u64,
-    /// Whole objects fetched since the store opened (chunks, mostly): how many, and their
-    /// bytes.
-    objects: (u64, u64),
+    /// Sizes of the latest whole objects fetched since the store opened (chunks, mostly), at
+    /// most [`SIZES_KNOWN`].
+    sizes: VecDeque<u64>,
 }
 
 impl Default for FetchCache {
@@ -101,9 +115,10 @@ impl Default for FetchCache {
             bytes: 0,
             capacity: FETCH_CACHE_BYTES,
             missing: HashSet::new(),
-            unread: HashSet::new(),
+            unread: HashMap::new(),
+            unread_order: VecDeque::new(),
             unread_bytes: 0,
-            objects: (0, 0),
+            sizes: VecDeque::new(),
         }
     }
 }
@@ -132,48 +147,71 @@ impl FetchCache {
     fn drop_piece(&mut self, entry: &(String, Piece)) {
         if let Some(dropped) = self.pieces.remove(entry) {
             self.bytes -= dropped.len() as u64;
-            if entry.1 == Piece::Whole && self.unread.remove(&entry.0) {
-                self.unread_bytes -= dropped.len() as u64;
+            if entry.1 == Piece::Whole {
+                self.mark_read(&entry.0);
             }
         }
     }
 
     /// Keeps the whole object `key` fetched ahead of its read: unread until
-    /// [`Self::mark_read`] (or dropped).
+    /// [`Self::mark_read`], dropped, or [`UNREAD_FOR`] old. An object kept already (a read
+    /// fetched it meanwhile) is not marked.
     pub(super) fn insert_ahead(&mut self, key: &str, bytes: &Bytes) {
-        self.insert(key, Piece::Whole, bytes);
-        if self.pieces.contains_key(&(key.to_owned(), Piece::Whole))
-            && self.unread.insert(key.to_owned())
-        {
-            self.unread_bytes += bytes.len() as u64;
+        if self.insert(key, Piece::Whole, bytes) {
+            let (size, now) = (bytes.len() as u64, Instant::now());
+            self.unread.insert(key.to_owned(), (size, now));
+            self.unread_order.push_back((key.to_owned(), now));
+            self.unread_bytes += size;
         }
     }
 
     /// A read took the object `key`: what was fetched ahead of it is used.
     pub(super) fn mark_read(&mut self, key: &str) {
-        if self.unread.remove(key)
-            && let Some(bytes) = self.pieces.get(&(key.to_owned(), Piece::Whole))
-        {
-            self.unread_bytes -= bytes.len() as u64;
+        if let Some((size, _)) = self.unread.remove(key) {
+            self.unread_bytes -= size;
+        }
+    }
+
+    /// Forgets the marks of objects fetched ahead before `now` − [`UNREAD_FOR`].
+    fn expire_unread(&mut self, now: Instant) {
+        while let Some((key, came)) = self.unread_order.front() {
+            if now.saturating_duration_since(*came) < UNREAD_FOR {
+                break;
+            }
+            // The mark of this arrival, unless it was read (and perhaps fetched again) since.
+            if self.unread.get(key).is_some_and(|&(_, at)| at == *came) {
+                let key = key.clone();
+                self.mark_read(&key);
+            }
+            self.unread_order.pop_front();
         }
     }
 
     /// Counts a whole object of `bytes` fetched (what [`Self::ahead_room`] expects of the
     /// next).
     pub(super) fn note_object(&mut self, bytes: u64) {
-        self.objects.0 += 1;
-        self.objects.1 += bytes;
+        if self.sizes.len() == SIZES_KNOWN {
+            self.sizes.pop_front();
+        }
+        self.sizes.push_back(bytes);
     }
 
     /// How many more whole objects may be fetched ahead with `in_flight` on their way: what
-    /// is fetched ahead and unread, and what is coming, stay within half the capacity (the
-    /// rest for what the reads fetch themselves), so that nothing is dropped before it is
-    /// read. Each object is expected to be as large as those fetched so far on average, or,
-    /// before any was, as large as `bound` (the most one may have).
-    pub(super) fn ahead_room(&self, in_flight: usize, bound: u64) -> usize {
-        let (count, bytes) = self.objects;
-        let each = bytes.checked_div(count).unwrap_or(bound).max(1);
-        let coming = self.unread_bytes + in_flight as u64 * each;
+    /// was fetched ahead and is unread, and what is coming, stay within half the capacity
+    /// (the rest for what the reads fetch themselves), so that what is fetched ahead is
+    /// seldom dropped before its read. Each object coming is expected to be as large as the
+    /// largest of the latest [`SIZES_KNOWN`] fetched, or, before that many were, as large as
+    /// `bound` (the most one may have).
+    pub(super) fn ahead_room(&mut self, in_flight: usize, bound: u64) -> usize {
+        self.expire_unread(Instant::now());
+        let each = match self.sizes.iter().max() {
+            Some(&largest) if self.sizes.len() == SIZES_KNOWN => largest,
+            _ => bound,
+        }
+        .max(1);
+        let coming = self
+            .unread_bytes
+            .saturating_add((in_flight as u64).saturating_mul(each));
         ((self.capacity / 2).saturating_sub(coming) / each) as usize
     }
 
@@ -211,18 +249,19 @@ impl FetchCache {
         }
     }
 
-    pub(super) fn insert(&mut self, key: &str, piece: Piece, bytes: &Bytes) {
+    /// Keeps `piece` of `key`; whether it was not kept before and is now (a piece over a
+    /// quarter of the capacity is never kept; one kept already stays as it was).
+    pub(super) fn insert(&mut self, key: &str, piece: Piece, bytes: &Bytes) -> bool {
         let size = bytes.len() as u64;
-        if size > self.capacity / 4 {
-            return;
-        }
         let entry = (key.to_owned(), piece);
-        if self.pieces.insert(entry.clone(), bytes.clone()).is_some() {
-            return;
+        if size > self.capacity / 4 || self.pieces.contains_key(&entry) {
+            return false;
         }
-        self.order.push_back(entry);
+        self.pieces.insert(entry.clone(), bytes.clone());
+        self.order.push_back(entry.clone());
         self.bytes += size;
         self.shrink();
+        self.pieces.contains_key(&entry)
     }
 }
 
@@ -257,12 +296,19 @@ mod tests {
     fn what_is_fetched_ahead_and_unread_bounds_what_may_be_fetched_ahead() {
         let mut cache = FetchCache::default();
         cache.set_capacity(2000);
-        // No object's size known yet: each as large as it may be.
+        // Too few objects' sizes known yet: each as large as it may be.
         assert_eq!(cache.ahead_room(0, 250), 4);
         assert_eq!(cache.ahead_room(3, 250), 1);
         assert_eq!(cache.ahead_room(0, 1 << 40), 0);
-        cache.note_object(100);
-        cache.note_object(300);
+        for size in 1..SIZES_KNOWN as u64 {
+            cache.note_object(1000 + size);
+        }
+        assert_eq!(cache.ahead_room(0, 250), 4);
+        // The largest of the latest: 200 bytes an object once the larger ones are older.
+        for _ in 0..SIZES_KNOWN {
+            cache.note_object(50);
+        }
+        cache.note_object(200);
         // Half the capacity, 200 bytes an object: five, less those on their way.
         assert_eq!(cache.ahead_room(0, 1 << 40), 5);
         assert_eq!(cache.ahead_room(2, 1 << 40), 3);
@@ -289,5 +335,21 @@ mod tests {
         // Too large to keep: never waiting.
         cache.insert_ahead("big", &bytes(600));
         assert_eq!(cache.unread_bytes, 0);
+        // Kept already (a read fetched it meanwhile): not waiting either.
+        cache.insert("0/3", Piece::Whole, &bytes(200));
+        cache.insert_ahead("0/3", &bytes(200));
+        assert_eq!(cache.unread_bytes, 0);
+        // Never read (the streamer stopped wanting it): waiting no longer after a while.
+        cache.insert_ahead("0/4", &bytes(200));
+        cache.insert_ahead("0/5", &bytes(200));
+        cache.mark_read("0/5");
+        cache.insert_ahead("0/6", &bytes(100));
+        assert_eq!(cache.unread_bytes, 300);
+        cache.expire_unread(Instant::now());
+        assert_eq!(cache.unread_bytes, 300);
+        cache.expire_unread(Instant::now() + UNREAD_FOR);
+        assert_eq!(cache.unread_bytes, 0);
+        assert!(cache.unread.is_empty() && cache.unread_order.is_empty());
+        assert!(cache.get("0/4", Piece::Whole).is_some(), "still kept");
     }
 }
