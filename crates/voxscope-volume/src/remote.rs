@@ -449,9 +449,9 @@ impl RemoteStore {
     /// failed or being fetched are skipped; at most twice the request limit of these fetches
     /// are under way at once (one round trip's in flight, the next waiting for a permit in
     /// this order), and only while these and what was fetched ahead and not read yet fit in
-    /// half the fetch cache (before, a small cache dropped what was fetched ahead before its
-    /// read, which fetched it again); the rest is left for a later call. A reader of a key fetched ahead waits for
-    /// that fetch. Returns how many of `keys`, from the first, are fetched, being fetched or
+    /// half the fetch cache (a small cache dropped what was fetched ahead before its read,
+    /// which fetched it again); the rest is left for a later call. A reader of a key fetched
+    /// ahead waits for that fetch. Returns how many of `keys`, from the first, are fetched, being fetched or
     /// settled (missing, failed): those need not be asked for again.
     pub fn fetch_ahead(&self, keys: &[StoreKey]) -> usize {
         let inner = &self.inner;
@@ -891,11 +891,10 @@ impl Inner {
                     if kept == Piece::Whole && self.opened.load(Ordering::Relaxed) {
                         cache.note_object(bytes.len() as u64);
                     }
-                    match fetched {
-                        Fetched::Ahead if kept == Piece::Whole => cache.insert_ahead(&key, bytes),
-                        _ => {
-                            cache.insert(&key, kept, bytes);
-                        }
+                    if fetched == Fetched::Ahead && kept == Piece::Whole {
+                        cache.insert_ahead(&key, bytes);
+                    } else {
+                        cache.insert(&key, kept, bytes);
                     }
                 }
             }

@@ -182,10 +182,10 @@ impl Pyramid {
     /// Starts fetching the chunks of `regions` of a URL's store in this order, the first
     /// soonest, and returns without waiting: what a streamer will read next. Unsharded
     /// levels' chunks go to [`RemoteStore::fetch_ahead`] (whole objects, up to twice the
-    /// request limit under way, within half the fetch cache). Sharded levels' regions are fetched as
-    /// [`Self::prefetch_regions`] does, on a thread of their own, one batch at a time (the
-    /// shards' indexes, then each shard's inner chunks coalesced): a call while a batch is
-    /// under way leaves its sharded regions to the next call. Returns how many unsharded
+    /// request limit under way, within half the fetch cache). Sharded levels' regions are
+    /// fetched as [`Self::prefetch_regions`] does, on a thread of their own, one batch at a
+    /// time (the shards' indexes, then each shard's inner chunks coalesced): a call while a
+    /// batch is under way leaves its sharded regions to the next call. Returns how many unsharded
     /// fetches it started; a folder's store does nothing.
     pub fn fetch_ahead_regions(
         self: &Arc<Self>,
