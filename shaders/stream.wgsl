@@ -28,7 +28,7 @@ struct StreamParams {
     request_capacity: u32,  // keys the request buffer holds
     request_set_mask: u32,  // entries of its deduplicating set − 1
     lod_scale: f32,         // footprint multiplier (0: no pixel LOD)
-    _pad: u32,
+    walk_level: u32,        // the level `level_cells` copies (main_level)
 }
 
 @group(0) @binding(0) var<uniform> params: Params;
@@ -49,6 +49,10 @@ struct StreamParams {
 @group(0) @binding(9) var<storage, read_write> usage: array<atomic<u32>>;
 // What a PROBE pipeline found (ray_common.wgsl).
 @group(0) @binding(10) var<storage, read_write> probe_out: ProbeResult;
+// The page table's entries of level `stream.walk_level`, brick by brick (x fastest: a key's
+// low bits), EMPTY_KEY where the table has none (src/stream/page_table.rs's level copy). Read
+// by `level_walk` only.
+@group(0) @binding(11) var<storage, read> level_cells: array<vec4<u32>>;
 
 // Keep in sync with src/stream (page_table.rs, pyramid.rs, source.rs).
 const MAX_PROBES: u32 = 32u;
@@ -281,6 +285,31 @@ fn accumulate_run(acc: ptr<function, Accumulation>, level: u32, samples: f32, fi
         let j = clamp(ceil(needed) - 1.0, 0.0, samples - 1.0);
         (*acc).probe_t = first_t + j * step;
     }
+}
+
+// Marches `count` samples of a batch pair at `ts` then `ts2` (the level's, `exponent` and
+// `level_scale` as in `accumulate_level`): those before `frame.split` in the brick whose
+// atlas origin is `frame.here`, the rest in the next one's at `frame.next`. Returns the
+// samples taken (fewer where the ray became opaque or saturated).
+fn march_pair(acc: ptr<function, Accumulation>, ts: vec4<f32>, ts2: vec4<f32>, count: u32,
+              frame: SampleFrame, exponent: f32, level_scale: vec3<f32>) -> u32 {
+    let here = ts < vec4<f32>(frame.split);
+    let there = ts2 < vec4<f32>(frame.split);
+    let first = vec4<u32>(
+        atlas_level_at(select(frame.next, frame.here, here.x) + ts.x * frame.dir),
+        atlas_level_at(select(frame.next, frame.here, here.y) + ts.y * frame.dir),
+        atlas_level_at(select(frame.next, frame.here, here.z) + ts.z * frame.dir),
+        atlas_level_at(select(frame.next, frame.here, here.w) + ts.w * frame.dir));
+    let second = vec4<u32>(
+        atlas_level_at(select(frame.next, frame.here, there.x) + ts2.x * frame.dir),
+        atlas_level_at(select(frame.next, frame.here, there.y) + ts2.y * frame.dir),
+        atlas_level_at(select(frame.next, frame.here, there.z) + ts2.z * frame.dir),
+        atlas_level_at(select(frame.next, frame.here, there.w) + ts2.w * frame.dir));
+    var taken = accumulate_level(acc, first, min(count, BATCH), ts, frame, exponent, level_scale);
+    if !(*acc).done && count > BATCH {
+        taken += accumulate_level(acc, second, count - BATCH, ts2, frame, exponent, level_scale);
+    }
+    return taken;
 }
 
 struct RayResult {
@@ -517,27 +546,10 @@ fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, jitter: f32)
                 }
             }
             if count > 0u {
-                let here = ts < vec4<f32>(segment_out);
-                let there = ts2 < vec4<f32>(segment_out);
-                let first = vec4<u32>(
-                    atlas_level_at(select(atlas_next, atlas_here, here.x) + ts.x * atlas_dir),
-                    atlas_level_at(select(atlas_next, atlas_here, here.y) + ts.y * atlas_dir),
-                    atlas_level_at(select(atlas_next, atlas_here, here.z) + ts.z * atlas_dir),
-                    atlas_level_at(select(atlas_next, atlas_here, here.w) + ts.w * atlas_dir));
-                let second = vec4<u32>(
-                    atlas_level_at(select(atlas_next, atlas_here, there.x) + ts2.x * atlas_dir),
-                    atlas_level_at(select(atlas_next, atlas_here, there.y) + ts2.y * atlas_dir),
-                    atlas_level_at(select(atlas_next, atlas_here, there.z) + ts2.z * atlas_dir),
-                    atlas_level_at(select(atlas_next, atlas_here, there.w) + ts2.w * atlas_dir));
                 let frame = SampleFrame(atlas_here, atlas_next, segment_out, atlas_dir,
                                         half_texel, light);
-                var taken = accumulate_level(&acc, first, min(count, BATCH), ts, frame, exponent,
+                result.visited += march_pair(&acc, ts, ts2, count, frame, exponent,
                                              stream.level_scale[k_level].xyz);
-                if !acc.done && count > BATCH {
-                    taken += accumulate_level(&acc, second, count - BATCH, ts2, frame, exponent,
-                                              stream.level_scale[k_level].xyz);
-                }
-                result.visited += taken;
                 k += f32(count);
             }
             // The brick is done at its exit, or (MIP) once nothing further in it can raise the
@@ -589,6 +601,155 @@ fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, jitter: f32)
     return result;
 }
 
+// The entry of brick `cell` of the walked level (`level_cells`).
+fn level_cell(cell: vec3<u32>) -> vec4<u32> {
+    let grid = stream.level_grid[stream.walk_level].xyz;
+    return level_cells[cell.x + grid.x * (cell.y + grid.y * cell.z)];
+}
+
+// Whether a brick in the atlas whose entry is `entry` can change the pixel (marched).
+fn resident_visible(entry: vec4<u32>, running_max: u32) -> bool {
+    return (entry[TABLE_CELL] & ENTRY_RESIDENT) != 0u && entry_visible(entry, running_max);
+}
+
+// Whether the level walk can take a brick as it is: known and readable, and drawable (in the
+// atlas, or uniform) or unable to change the pixel. Keep in sync with `walkable` in
+// src/stream/page_table.rs, which counts the level's bricks that are not (at a running
+// maximum of 0, where the most bricks are visible).
+fn walkable(entry: vec4<u32>, running_max: u32) -> bool {
+    return entry[TABLE_KEY] != EMPTY_KEY && (entry[TABLE_CELL] & ENTRY_FAILED) == 0u
+        && (drawable(entry) || !entry_visible(entry, running_max));
+}
+
+// A ray through level `stream.walk_level`, whose entries `level_cells` holds flat: the grid
+// walk of the bricks renderer (raycast.wgsl's `walk_bricks`) over that level's bricks, each
+// entry read at its index a brick ahead, with none of `stream_ray`'s per-segment work (the
+// hash, the requests, the fallback to coarser levels, the level each segment wants, the usage
+// marks: the CPU marks every brick of the level used in a frame the walk drew). Its samples
+// and segments are those `stream_ray` takes at that level (its segment ends, the short step's
+// included), so the image is the same where every ray wants that level and every brick of it
+// is walkable: src/render/stream.rs runs it only then. Should a ray still meet a brick it
+// cannot take, it asks for the brick and ends there.
+fn level_walk(origin: vec3<f32>, dir: vec3<f32>, jitter: f32) -> RayResult {
+    var result = RayResult(vec3<f32>(0.0), 0u, -1.0);
+    let inv = safe_inverse(dir);
+    let interval = volume_interval(origin, dir, inv);
+    let t_enter = interval.x;
+    let t_leave = interval.y;
+    if t_enter >= t_leave {
+        return result;
+    }
+    let level = stream.walk_level;
+    let mip = max_projection();
+    let shift = jitter - 0.5;
+    let scale = stream.level_scale[level].xyz;
+    let step = 1.0 / max(length(dir / scale), 1e-20);
+    let correct = (params.flags & FLAG_OPACITY_CORRECTION) != 0u;
+    let exponent = select(1.0, step * length(dir), correct && any(scale != vec3<f32>(1.0)));
+    let atlas_dir = dir / scale * params.atlas_texel.xyz;
+    let light = headlight(dir);
+    let half_texel = 0.5 * params.atlas_texel.xyz;
+    var acc = new_accumulation();
+    var visited = 0u;
+    var t = t_enter;
+    var k = 0.0;
+    let ahead = max(1e-3 / max(length(dir), 1e-20), abs(t) * 5e-7);
+    var cell = brick_of(level, origin + (t + ahead) * dir);
+    var entry = level_cell(cell);
+    // The brick being walked: where the ray leaves it, the next brick (NO_CELL: none) and its
+    // entry.
+    var t_out = t;
+    var next = vec3<u32>(NO_CELL, 0u, 0u);
+    var next_entry = vec4<u32>(EMPTY_KEY, 0u, 0u, 0u);
+    // A brick being marched: its atlas origin and maximum (MIP).
+    var marching = false;
+    var atlas_here = vec3<f32>(0.0);
+    var brick_max = 0u;
+    // The ray came into `cell` from a brick it marched (`stream_ray`'s short step).
+    var marched_in = false;
+    var deciding = true;
+    for (var i = 0u; i < MAX_STEPS; i++) {
+        if deciding {
+            deciding = false;
+            let short = marched_in && resident_visible(entry, acc.running_max);
+            if !short && !walkable(entry, acc.running_max) {
+                request_brick(brick_key(level, cell));
+                break;
+            }
+            let exits = brick_exits(level, cell, origin, inv);
+            let t_exit = min(min_component(exits), t_leave);
+            // (A segment's start moves the ray on at least a little: `stream_ray`'s.)
+            let nudge = max(1e-3 / max(length(dir), 1e-20), abs(t) * 5e-7);
+            t_out = select(max(t_exit, t + nudge), t_exit, short);
+            visited += 1u;
+            next.x = NO_CELL;
+            if t_out < t_leave {
+                next = next_brick(level, cell, exits, dir);
+                if next.x != NO_CELL {
+                    next_entry = level_cell(next);
+                }
+            }
+            marching = resident_visible(entry, acc.running_max);
+            if marching {
+                atlas_here = atlas_origin(level, cell, entry[TABLE_CELL], origin);
+                brick_max = entry[TABLE_RANGE] >> 16u;
+            } else {
+                // Unable to change the pixel, or uniform (drawn from its value).
+                let end = max(ceil((t_out - t_enter) / step - 0.5 - shift), k);
+                if entry_visible(entry, acc.running_max) {
+                    accumulate_run(&acc, entry[TABLE_RANGE] & 0xffffu, end - k,
+                                   t_enter + (k + 0.5 + shift) * step, step, exponent);
+                }
+                k = end;
+            }
+        }
+        var leaving = !marching;
+        if marching {
+            let ts = t_enter + (vec4<f32>(k + shift) + BATCH_OFFSETS) * step;
+            let ts2 = t_enter + (vec4<f32>(k + shift + f32(BATCH)) + BATCH_OFFSETS) * step;
+            let count_here = count_before(ts, t_out) + count_before(ts2, t_out);
+            var count = count_here;
+            var atlas_next = atlas_here;
+            if count_here < BATCH_PAIR && next.x != NO_CELL {
+                if resident_visible(next_entry, acc.running_max) {
+                    let next_out = min(min_component(brick_exits(level, next, origin, inv)),
+                                       t_leave);
+                    count = count_before(ts, next_out) + count_before(ts2, next_out);
+                    atlas_next = atlas_origin(level, next, next_entry[TABLE_CELL], origin);
+                }
+            }
+            if count > 0u {
+                let frame = SampleFrame(atlas_here, atlas_next, t_out, atlas_dir, half_texel,
+                                        light);
+                visited += march_pair(&acc, ts, ts2, count, frame, exponent, scale);
+                k += f32(count);
+            }
+            leaving = count_here < BATCH_PAIR || (mip && acc.running_max >= brick_max);
+            if leaving && count_here == BATCH_PAIR {
+                k = max(ceil((t_out - t_enter) / step - 0.5 - shift), k);
+            }
+        }
+        if acc.done {
+            break;
+        }
+        if leaving {
+            marched_in = marching;
+            marching = false;
+            t = t_out;
+            if next.x == NO_CELL {
+                break;
+            }
+            cell = next;
+            entry = next_entry;
+            deciding = true;
+        }
+    }
+    result.color = final_color(acc);
+    result.visited = visited;
+    result.probe_t = acc.probe_t;
+    return result;
+}
+
 @compute @workgroup_size(8, 8, 1)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let pixel = ray_pixel(id.xy);
@@ -597,6 +758,26 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let ray = pixel_ray(pixel);
     let result = stream_ray(params.eye.xyz, ray.dir, ray.world_length, pixel_jitter(pixel));
+    if PROBE {
+        write_probe(params.eye.xyz, ray.dir, result.probe_t);
+    } else {
+        write_pixel(pixel, result.color, result.visited);
+    }
+}
+
+// Frames whose rays all want one level that the page table copies flat, every brick of it
+// walkable (src/render/stream.rs decides): each ray walks that level (`level_walk`). Its own
+// pipeline, so that neither entry point carries the other's code (runs 103–107,
+// docs/performance-log.md: carrying the segment loop behind the walk cost what the walk saved).
+// Frames only: a probe takes `main`.
+@compute @workgroup_size(8, 8, 1)
+fn main_level(@builtin(global_invocation_id) id: vec3<u32>) {
+    let pixel = ray_pixel(id.xy);
+    if pixel.x >= params.image_size.x || pixel.y >= params.image_size.y {
+        return;
+    }
+    let ray = pixel_ray(pixel);
+    let result = level_walk(params.eye.xyz, ray.dir, pixel_jitter(pixel));
     if PROBE {
         write_probe(params.eye.xyz, ray.dir, result.probe_t);
     } else {

@@ -90,6 +90,7 @@ fn options(gpu_memory: u64) -> StreamOptions {
         workers: 2,
         lod_scale: 0.0,
         prefetch: false,
+        level_walk: true,
         retry_after: Duration::from_secs(3600),
     }
 }
@@ -942,6 +943,154 @@ fn a_far_view_streams_the_levels_its_pixels_resolve() {
         db >= 25.0,
         "the far view at its pixels' levels against full detail: {db:.1} dB"
     );
+}
+
+/// Pixels of `a` and `b` that differ.
+fn differing_pixels(a: &RgbaImage, b: &RgbaImage) -> usize {
+    a.pixels().zip(b.pixels()).filter(|(p, q)| p != q).count()
+}
+
+/// Updates and draws `renderer` on one view until the streamer's level fill is done, as a
+/// window does once the view is complete; returns the frames the level walk drew then.
+fn settle_fill(
+    context: &GpuContext,
+    renderer: &mut VolumeRenderer,
+    camera: &Camera,
+    settings: &RenderSettings,
+) -> u64 {
+    let target = RenderTarget::new(context, SIZE.0, SIZE.1);
+    let started = Instant::now();
+    loop {
+        let status = renderer.update(context).expect("a streaming renderer");
+        if status.filling == 0 && status.uploads == 0 && status.complete {
+            break;
+        }
+        assert!(
+            started.elapsed() < Duration::from_secs(120),
+            "the level fill not done: {status:?}"
+        );
+        renderer.render(context, &target, camera, settings);
+        context.wait_idle().expect("GPU");
+    }
+    let walked = |r: &VolumeRenderer| r.stream().map_or(0, |s| s.level_walk_frames());
+    let before = walked(renderer);
+    renderer.render(context, &target, camera, settings);
+    context.wait_idle().expect("GPU");
+    walked(renderer) - before
+}
+
+#[test]
+fn the_level_walk_draws_what_the_segments_draw_once_its_level_is_filled() {
+    let context = gpu();
+    let prepared = &*NOISE;
+    let depth = prepared.octree.depth;
+    let mip = RenderSettings {
+        mode: voxscope_render::RenderMode::Mip,
+        ..settings(depth)
+    };
+    let shaded = RenderSettings {
+        shading: voxscope_render::Shading::default(),
+        ..settings(depth)
+    };
+    let opaque = RenderSettings {
+        density: 4.0,
+        ..settings(depth)
+    };
+    // (name, camera distance, pixel LOD scale, settings, budget, walked): close at level 0,
+    // see-through, MIP, shaded and nearly opaque (the bricks behind never asked for, filled);
+    // nearer with pixel LOD, where the front wants level 0 and the back level 1 (no one level:
+    // segment by segment); far, where every ray wants one coarser level; a quarter of level 0
+    // in the atlas (it cannot be filled: segment by segment).
+    let cases = [
+        ("close-dvr", 1.6, 0.0, settings(depth), 2 * level0_bytes(), true),
+        ("close-mip", 1.6, 0.0, mip, 2 * level0_bytes(), true),
+        ("close-shaded", 1.6, 0.0, shaded, 2 * level0_bytes(), true),
+        ("close-opaque", 1.6, 0.0, opaque, 2 * level0_bytes(), true),
+        ("lod-dvr", 2.2, 1.0, settings(depth), 2 * level0_bytes(), false),
+        ("far-dvr", 12.0, 1.0, settings(depth), 2 * level0_bytes(), true),
+        ("quarter-dvr", 1.6, 0.0, settings(depth), level0_bytes() / 4, false),
+    ];
+    for (name, distance, lod_scale, settings, budget, expect_walk) in cases {
+        let camera = Camera {
+            distance,
+            ..close_camera(30.0)
+        };
+        let draw = |level_walk: bool| {
+            let options = StreamOptions {
+                lod_scale,
+                level_walk,
+                ..options(budget)
+            };
+            let mut renderer = streaming(&context, PYRAMID.clone(), options, &prepared.transfer);
+            refine(&context, &mut renderer, &camera, &settings);
+            let walked = settle_fill(&context, &mut renderer, &camera, &settings);
+            // The image, and each ray's segments and samples (the heat map's count).
+            let target = RenderTarget::new(&context, SIZE.0, SIZE.1);
+            renderer.render(&context, &target, &camera, &settings);
+            let image = read_image(&context, &target).expect("readback");
+            let visits = voxscope_render::read_visits(&context, &target).expect("visits");
+            let copied = renderer
+                .stream()
+                .and_then(|s| s.streamer().table().copied_level());
+            // The walk leaves no usage marks: the level's bricks in the atlas count as the
+            // view's once the CPU has taken in that a frame walked it.
+            let status = renderer.update(&context).expect("a streaming renderer");
+            let level_slots = renderer
+                .stream()
+                .map_or(0, |s| s.streamer().table().level_slots().count());
+            if walked > 0 {
+                assert!(
+                    status.counters.view_slots >= level_slots && level_slots > 0,
+                    "{name}: {} slots counted as the view's, {level_slots} of its level",
+                    status.counters.view_slots
+                );
+            }
+            (image, visits, copied, walked)
+        };
+        let (walked, walked_visits, copied, walk_frames) = draw(true);
+        let (segments, segments_visits, none, segment_walks) = draw(false);
+        save(&walked, &format!("level-walk-{name}"));
+        let differing = differing_pixels(&walked, &segments);
+        let visits_differing = walked_visits
+            .iter()
+            .zip(&segments_visits)
+            .filter(|(a, b)| a != b)
+            .count();
+        let most_apart = walked_visits
+            .iter()
+            .zip(&segments_visits)
+            .map(|(&a, &b)| a.abs_diff(b))
+            .max()
+            .unwrap_or(0);
+        eprintln!(
+            "{name}: level {copied:?} copied, {walk_frames} frame walked, {differing} pixels \
+             differ, {visits_differing} rays' counts of segments and samples (by {most_apart} \
+             at most), coverage {:.3}",
+            coverage(&segments)
+        );
+        assert!(coverage(&segments) > 0.02, "{name}: the view shows the volume");
+        assert_eq!(
+            (none, segment_walks),
+            (None, 0),
+            "{name}: no level copied or walked without the walk"
+        );
+        assert_eq!(
+            walk_frames > 0,
+            expect_walk,
+            "{name}: walked {walk_frames} frames, level {copied:?} copied"
+        );
+        assert_eq!(
+            differing, 0,
+            "{name}: the walk's image is the segments' bit for bit"
+        );
+        // The same samples (the images are equal bit for bit); a ray's count of segments may
+        // differ by one where a segment ends at a brick's face.
+        assert!(most_apart <= 1, "{name}: counts {most_apart} apart");
+        assert!(
+            visits_differing * 100 <= walked_visits.len(),
+            "{name}: {visits_differing} rays count differently"
+        );
+    }
 }
 
 /// `voxscope render --renderer stream`, run as a user would.

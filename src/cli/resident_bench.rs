@@ -92,6 +92,10 @@ pub(super) fn resident_comparison(
             };
             let refinement = refine(context, &mut stream, target, &camera, &settings, MAX_WAIT)
                 .map_err(|e| e.to_string())?;
+            // What a window does next: it keeps updating while the streamer fills the level
+            // every ray wants, after which frames walk it (`main_level`).
+            let filled = settle_fill(context, &mut stream, target, &camera, &settings)?;
+            let walked_before = stream.stream().map_or(0, |s| s.level_walk_frames());
             let (stream_gpu, stream_wall) = time_view(
                 context,
                 &stream,
@@ -101,6 +105,7 @@ pub(super) fn resident_comparison(
                 args.frames,
                 timer,
             )?;
+            let walked = stream.stream().map_or(0, |s| s.level_walk_frames()) - walked_before;
             let (bricks_gpu, bricks_wall) = time_view(
                 context,
                 &bricks,
@@ -116,6 +121,8 @@ pub(super) fn resident_comparison(
                 "mode": mode_name,
                 "camera": camera_name,
                 "complete": refinement.complete,
+                "level_filled": filled,
+                "level_walk_frames": walked,
                 "stream_gpu_ms": stream_ms,
                 "stream_gpu_p95_ms": percentile(&stream_gpu, 95.0),
                 "bricks_gpu_ms": bricks_ms,
@@ -131,6 +138,33 @@ pub(super) fn resident_comparison(
         "pyramid_level": level,
         "rows": rows,
     }))
+}
+
+/// Draws and updates `stream` on one view until its level fill is done (at most [`MAX_WAIT`]),
+/// as a window does; returns the bricks the fill placed.
+fn settle_fill(
+    context: &GpuContext,
+    stream: &mut VolumeRenderer,
+    target: &RenderTarget,
+    camera: &Camera,
+    settings: &RenderSettings,
+) -> Result<u64, String> {
+    let started = Instant::now();
+    let before = stream.stream().map_or(0, |s| s.streamer().resident_keys().count() as u64);
+    loop {
+        let status = stream
+            .update(context)
+            .ok_or("the resident comparison needs the streaming renderer")?;
+        if (status.filling == 0 && status.uploads == 0 && status.complete)
+            || started.elapsed() >= MAX_WAIT
+        {
+            break;
+        }
+        stream.render(context, target, camera, settings);
+        context.wait_idle().map_err(|e| e.to_string())?;
+    }
+    let after = stream.stream().map_or(0, |s| s.streamer().resident_keys().count() as u64);
+    Ok(after.saturating_sub(before))
 }
 
 /// GPU milliseconds of `frames` frames of one fixed view (after a warm-up), and the wall time

@@ -33,6 +33,10 @@ pub struct StreamArgs {
     /// command per run of cells; queue: a queue write per brick.
     #[arg(long, value_name = "PATH", default_value = "scatter")]
     pub uploads: UploadsArg,
+    /// Streaming renderer: draw every ray segment by segment through the hashed page table,
+    /// never walking a level's entries copied flat (the same image; for comparison).
+    #[arg(long)]
+    pub no_level_walk: bool,
 }
 
 /// `--uploads`: [`UploadPath`] on the command line.
@@ -62,6 +66,7 @@ impl StreamArgs {
             upload_bytes_per_frame: self.upload_budget,
             lod_scale: self.lod_scale,
             uploads: self.uploads.into(),
+            level_walk: !self.no_level_walk,
             ..StreamOptions::default()
         }
     }

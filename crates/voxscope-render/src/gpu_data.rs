@@ -210,7 +210,8 @@ pub(crate) struct StreamParams {
     pub request_set_mask: u32,
     /// The pixel footprint's multiplier (0: always the finest allowed level).
     pub lod_scale: f32,
-    pub _pad: u32,
+    /// The level whose page-table entries the level walk reads flat (`main_level`).
+    pub walk_level: u32,
 }
 
 const _: () = assert!(std::mem::size_of::<StreamParams>() == 544);
@@ -322,7 +323,7 @@ mod tests {
             request_capacity,
             request_set_mask,
             lod_scale,
-            _pad,
+            walk_level,
         })
     }
 

@@ -444,6 +444,11 @@ pub(crate) trait RayPass<V: VolumeShape> {
         0
     }
 
+    /// The entry point that probes a pixel of a frame of `volume` with `params` (one ray).
+    fn probe_entry_point(&self, volume: &V, params: &RaycastParams) -> usize {
+        self.entry_point(volume, params)
+    }
+
     /// The variant of `base` that frames of `params` run: the `COARSE` one where they sample
     /// a coarser pyramid level ([`level_variant`]).
     fn variant(&self, base: Variant, params: &RaycastParams) -> Variant {
@@ -547,7 +552,7 @@ pub(crate) fn encode_probe_ray<V: VolumeShape, P: RayPass<V>>(
     );
     let pipeline = pass.pipelines().get(
         context,
-        pass.entry_point(volume, &params),
+        pass.probe_entry_point(volume, &params),
         pass.variant(probe_variant(probe.settings), &params),
     );
     dispatch_probe(

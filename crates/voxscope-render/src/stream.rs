@@ -9,7 +9,7 @@
 //! streamer decide; it then writes the uploads into their atlas slots and the changed page-table
 //! entries. Then any number of frames draw with what is resident.
 
-use std::sync::atomic::{AtomicBool, AtomicU8, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU8, AtomicU32, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
@@ -49,6 +49,16 @@ const READBACKS: usize = 3;
 /// Page-table bytes counted per atlas slot when sizing the atlas: the table has up to 16
 /// entries of 16 bytes per slot, rounded up to a power of two (so at most twice that).
 const TABLE_BYTES_PER_SLOT: u64 = 2 * 16 * 16;
+/// The most bricks a level may have for the page table to copy it flat, so that frames which
+/// want that level walk it (`main_level`): 1 MiB of entries at most.
+const LEVEL_WALK_BRICKS: u64 = 1 << 16;
+/// No level walked.
+const NO_LEVEL: u32 = u32::MAX;
+/// No frame drawn by the level walk.
+const NO_FRAME: u32 = u32::MAX;
+/// The entry points of `stream.wgsl`, in the order [`VariantPipelines`] numbers them.
+const SEGMENTS: usize = 0;
+const LEVEL_WALK: usize = 1;
 
 /// One staging buffer for a frame's requests and usage marks.
 struct Readback {
@@ -70,6 +80,17 @@ pub struct StreamVolume {
     requests: wgpu::Buffer,
     usage: wgpu::Buffer,
     readbacks: Vec<Readback>,
+    /// The flat copy of one level's page-table entries ([`voxscope_stream::PageTable::copy_level`]),
+    /// sized for the largest level of at most [`LEVEL_WALK_BRICKS`].
+    level_cells: wgpu::Buffer,
+    /// The level the latest frame drawn wanted to walk ([`NO_LEVEL`]: none); the next
+    /// [`Self::step`] has the table copy it.
+    walk_wanted: AtomicU32,
+    /// Frames drawn by the level walk (`main_level`) so far.
+    walked_frames: AtomicU64,
+    /// The streamer's frame the level walk drew last, until the next [`Self::step`] marks the
+    /// level's bricks used then ([`NO_FRAME`]: none since).
+    walk_drew: AtomicU32,
     /// Where uploads are staged on their way into the atlas.
     ring: StagingRing,
     /// The always-resident levels' bricks, read when the volume was made and written by the
@@ -97,7 +118,8 @@ fn atlas_grid(
     bricks_in_pyramid: u64,
 ) -> Result<[usize; 3], RenderError> {
     // The lookup table, the request buffer and its set, each readback's copy of the requests
-    // (the usage marks are counted per slot), and the uploads' staging on the GPU.
+    // (the usage marks are counted per slot), and the uploads' staging on the GPU (with the
+    // level copy's buffer).
     let fixed = staging_bytes
         + 65536 * 4
         + (1 + REQUEST_CAPACITY as u64 + REQUEST_SET as u64) * 4
@@ -176,13 +198,23 @@ impl StreamVolume {
         };
         let quantization = source.quantization();
         let visible = visible_below(&transfer.lookup_table(quantization));
+        let level_cells_bytes = source
+            .shape()
+            .levels
+            .iter()
+            .map(|l| l.brick_count())
+            .filter(|&bricks| bricks <= LEVEL_WALK_BRICKS)
+            .max()
+            .unwrap_or(1)
+            .max(1)
+            * std::mem::size_of::<TableEntry>() as u64;
         // The scatter's staging takes its bytes from the atlas; where the rest cannot hold the
         // always-resident levels and a view, the ring copies instead (it needs none).
         let fit = |staging_bytes: u64| -> Result<_, RenderError> {
             let grid = atlas_grid(
                 context,
                 options.gpu_memory,
-                staging_bytes,
+                staging_bytes + level_cells_bytes,
                 slot_bytes,
                 bricks,
             )?;
@@ -241,6 +273,12 @@ impl StreamVolume {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
+        let level_cells = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("voxscope::stream_level_cells"),
+            size: level_cells_bytes,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
         let readback_bytes = (1 + REQUEST_CAPACITY as u64 + slots as u64) * 4;
         let readbacks = (0..READBACKS)
             .map(|_| Readback {
@@ -289,6 +327,10 @@ impl StreamVolume {
             requests,
             usage,
             readbacks,
+            level_cells,
+            walk_wanted: AtomicU32::new(NO_LEVEL),
+            walked_frames: AtomicU64::new(0),
+            walk_drew: AtomicU32::new(NO_FRAME),
             ring,
             copy_timer: CopyTimer::new(context),
             drawn: AtomicBool::new(false),
@@ -392,6 +434,13 @@ impl StreamVolume {
                 bytemuck::cast_slice(entries),
             );
         }
+        if let Some((start, cells)) = self.streamer.table_mut().take_level_dirty() {
+            context.queue.write_buffer(
+                &self.level_cells,
+                start as u64 * entry_bytes,
+                bytemuck::cast_slice(cells),
+            );
+        }
     }
 
     /// The path its uploads take: [`UploadPath::Scatter`] only where the device writes the
@@ -427,6 +476,10 @@ impl StreamVolume {
             self.record_readback(context);
         }
         let readback = reading.elapsed().as_secs_f64();
+        let walked = self.walk_drew.swap(NO_FRAME, Ordering::AcqRel);
+        if walked != NO_FRAME {
+            self.streamer.mark_level_walked(walked);
+        }
         let view = *self.view.lock().unwrap_or_else(|p| p.into_inner());
         let (uploads, status) = match &feedback {
             Some((frame, requests, asked, usage)) => self.streamer.begin_frame(
@@ -441,6 +494,12 @@ impl StreamVolume {
             ),
             None => self.streamer.begin_frame(None, view),
         };
+        // The level every ray of the latest frame wanted: copied flat from now on (until
+        // another is wanted, or several), so that the next frames may walk it.
+        let walk = self.walk_wanted.load(Ordering::Acquire);
+        let copy = (self.streamer.shape().levels.get(walk as usize))
+            .map(|level| (walk, level.brick_count() as usize));
+        self.streamer.table_mut().copy_level(copy);
         let writing = Instant::now();
         self.write(context, &uploads);
         let mut status = status;
@@ -539,8 +598,86 @@ impl StreamVolume {
         &mut self.streamer
     }
 
+    /// The level every ray of a frame of `params` wants wherever it meets the volume (the
+    /// pixel LOD's, `wanted_level` in `stream.wgsl`), where the page table may copy it flat (at
+    /// most [`LEVEL_WALK_BRICKS`] bricks); `None` where rays want more than one level. Worked
+    /// out from the depths of the volume box's corners and the widest pixel's footprint, with a
+    /// margin, so that it never names a level some ray would not want.
+    fn walk_level(&self, params: &RaycastParams) -> Option<u32> {
+        if !self.streamer.options().level_walk {
+            return None;
+        }
+        let shape = self.streamer.shape();
+        let finest = shape.depth().saturating_sub(params.max_level) as usize;
+        let per_depth = params.lod_factor * self.streamer.options().lod_scale.max(0.0);
+        let level = if per_depth > 0.0 {
+            // A point's depth (its ray's t: the world distance along the image center's
+            // direction) is linear in its voxel coordinates; a ray's footprint at depth t is
+            // t · its world length · `per_depth`, the world length 1 at the center and largest
+            // at the image's corners.
+            let vector = |v: [f32; 4]| glam::Vec3::new(v[0], v[1], v[2]);
+            let camera = glam::Mat3::from_cols(
+                vector(params.forward),
+                vector(params.right),
+                vector(params.up),
+            );
+            if camera.determinant().abs() < 1e-20 {
+                return None;
+            }
+            let depth_of = camera.inverse().row(0);
+            let eye = vector(params.eye);
+            let dims = vector(params.volume);
+            let depths = (0..8).map(|corner| {
+                let select = glam::Vec3::new(
+                    (corner & 1) as f32,
+                    (corner >> 1 & 1) as f32,
+                    (corner >> 2 & 1) as f32,
+                );
+                depth_of.dot(dims * select - eye)
+            });
+            let (nearest, farthest) = depths.fold((f32::MAX, f32::MIN), |(lo, hi), depth| {
+                (lo.min(depth), hi.max(depth))
+            });
+            let widest = (1.0 + params.right[3].powi(2) + params.up[3].powi(2)).sqrt();
+            let wanted_at = |footprint: f32| {
+                let mut level = finest;
+                while level + 1 < shape.levels.len()
+                    && shape.levels[level + 1].scale as f32 <= footprint
+                {
+                    level += 1;
+                }
+                level
+            };
+            let level = wanted_at(nearest.max(0.0) * per_depth * 0.999);
+            if wanted_at(farthest.max(0.0) * widest * per_depth * 1.001) != level {
+                return None;
+            }
+            level
+        } else {
+            finest
+        };
+        let bricks = shape.levels.get(level)?.brick_count();
+        (bricks <= LEVEL_WALK_BRICKS).then_some(level as u32)
+    }
+
+    /// The level a frame of `params` walks (`main_level`): [`Self::walk_level`], once the
+    /// table copies it and every brick of it there is walkable in the frame's mode.
+    fn walked_level(&self, params: &RaycastParams) -> Option<u32> {
+        let table = self.streamer.table();
+        let mip = params.mode == MODE_MIP;
+        self.walk_level(params).filter(|&level| {
+            table.copied_level() == Some(level) && table.level_unwalkable(mip) == Some(0)
+        })
+    }
+
+    /// How many frames (a band of one counts too) the level walk has drawn.
+    pub fn level_walk_frames(&self) -> u64 {
+        self.walked_frames.load(Ordering::Relaxed)
+    }
+
     /// The uniforms of a frame drawn with `params`.
-    fn stream_params(&self, max_level: u32) -> StreamParams {
+    fn stream_params(&self, params: &RaycastParams) -> StreamParams {
+        let max_level = params.max_level;
         let shape = self.streamer.shape();
         let mut level_grid = [[0u32; 4]; STREAM_LEVELS];
         let mut level_scale = [[1f32; 4]; STREAM_LEVELS];
@@ -560,7 +697,7 @@ impl StreamVolume {
             request_capacity: REQUEST_CAPACITY,
             request_set_mask: REQUEST_SET - 1,
             lod_scale: self.streamer.options().lod_scale.max(0.0),
-            _pad: 0,
+            walk_level: self.walked_level(params).unwrap_or(NO_LEVEL),
         }
     }
 }
@@ -618,7 +755,7 @@ impl StreamRaycaster {
             context,
             "stream",
             super::shaders::STREAM,
-            &["main"],
+            &["main", "main_level"],
             &[
                 uniform_entry(0, false),
                 uniform_entry(1, false),
@@ -631,6 +768,7 @@ impl StreamRaycaster {
                 storage_entry(8, false),
                 storage_entry(9, false),
                 storage_entry(10, false),
+                storage_entry(11, true),
             ],
         );
         Self {
@@ -650,9 +788,11 @@ impl StreamRaycaster {
         }
     }
 
-    /// Builds, where not built yet, the pipeline of `variant`.
+    /// Builds, where not built yet, the pipelines of `variant` (both entry points).
     pub(crate) fn prepare(&self, context: &GpuContext, variant: Variant) {
-        self.pipelines.get(context, 0, variant);
+        for entry in [SEGMENTS, LEVEL_WALK] {
+            self.pipelines.get(context, entry, variant);
+        }
     }
 }
 
@@ -665,6 +805,21 @@ impl RayPass<StreamVolume> for StreamRaycaster {
 
     fn stand_ins(&self) -> &StandIns {
         &self.stand_ins
+    }
+
+    /// The level walk where every ray wants one level and the table can show that the walk
+    /// takes each of its bricks ([`StreamVolume::walked_level`]), else segment by segment.
+    fn entry_point(&self, volume: &StreamVolume, params: &RaycastParams) -> usize {
+        if volume.walked_level(params).is_some() {
+            LEVEL_WALK
+        } else {
+            SEGMENTS
+        }
+    }
+
+    /// Segment by segment: the level walk draws frames only.
+    fn probe_entry_point(&self, _volume: &StreamVolume, _params: &RaycastParams) -> usize {
+        SEGMENTS
     }
 
     /// Each segment picks its own level from the page table: no coarse variant.
@@ -683,6 +838,16 @@ impl RayPass<StreamVolume> for StreamRaycaster {
         volume
             .max_projection
             .store(params.mode == MODE_MIP, Ordering::Release);
+        volume.walk_wanted.store(
+            volume.walk_level(params).unwrap_or(NO_LEVEL),
+            Ordering::Release,
+        );
+        if volume.walked_level(params).is_some() {
+            volume.walked_frames.fetch_add(1, Ordering::Relaxed);
+            volume
+                .walk_drew
+                .store(volume.streamer.frame(), Ordering::Release);
+        }
         volume.drawn.store(true, Ordering::Release);
     }
 
@@ -704,7 +869,7 @@ impl RayPass<StreamVolume> for StreamRaycaster {
         let params_buffer = frame_params_buffer(context, "voxscope::stream_params", params);
         let stream_params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("voxscope::stream_level_params"),
-            contents: bytemuck::bytes_of(&volume.stream_params(params.max_level)),
+            contents: bytemuck::bytes_of(&volume.stream_params(params)),
             usage: wgpu::BufferUsages::UNIFORM,
         });
         numbered_bind_group(
@@ -723,6 +888,7 @@ impl RayPass<StreamVolume> for StreamRaycaster {
                 volume.requests.as_entire_binding(),
                 volume.usage.as_entire_binding(),
                 probe.as_entire_binding(),
+                volume.level_cells.as_entire_binding(),
             ],
         )
     }
@@ -812,6 +978,7 @@ impl Renderer for StreamVolume {
             ),
             ("lookup_table", self.transfer.size()),
             ("upload_staging", self.ring.gpu_bytes()),
+            ("level_cells", self.level_cells.size()),
         ]
     }
 

@@ -29,6 +29,11 @@ pub struct StreamOptions {
     pub lod_scale: f32,
     /// Load the neighbours of wanted bricks into RAM while nothing visible waits.
     pub prefetch: bool,
+    /// Frames whose rays mostly want one level of at most 65 536 bricks walk that level's
+    /// page-table entries copied flat (the bricks renderer's grid walk) until a ray meets a
+    /// brick that needs a request or a fallback; off (`--no-level-walk`), every ray goes
+    /// segment by segment through the hashed table. The images are the same. Default on.
+    pub level_walk: bool,
     /// A brick that failed to load (a dead server, a damaged chunk) is asked for again after
     /// this long, then after twice as long each time it fails again (at most 5 minutes): a
     /// view recovers when the server returns. Default 5 s.
@@ -46,6 +51,7 @@ impl Default for StreamOptions {
             workers: cores.saturating_sub(1).max(1),
             lod_scale: 1.0,
             prefetch: true,
+            level_walk: true,
             retry_after: Duration::from_secs(5),
         }
     }

@@ -11,8 +11,14 @@
 //! Linear probing, no tombstones: removal shifts the entries after the removed one back
 //! towards their home, so a key is always found before the first empty entry, and never more
 //! than [`MAX_PROBES`] entries from home (an insert that would go further fails instead).
+//!
+//! Where one level's grid is small, the table also keeps a flat copy of that level's entries,
+//! brick by brick ([`PageTable::copy_level`]), and counts the bricks there that the shader's
+//! level walk (`stream.wgsl`, `level_walk`) could not take ([`walkable`]). Where there are
+//! none, and every ray wants that level, frames walk it as the bricks renderer walks its grid:
+//! a brick's entry read at its index, with no hash, no probing and no per-segment work.
 
-use super::pyramid::EMPTY_KEY;
+use super::pyramid::{EMPTY_KEY, KEY_LEVEL_SHIFT};
 
 /// The most entries a lookup reads. Keep in sync with `MAX_PROBES` in `stream.wgsl`.
 pub const MAX_PROBES: u32 = 32;
@@ -66,6 +72,23 @@ impl TableEntry {
     }
 }
 
+/// Whether the shader's level walk can take a brick with entry `entry` under maximum intensity
+/// projection (`max_projection`) or not, whatever the ray has seen before it: known and
+/// readable, and drawable (in the atlas, or uniform: one value) or unable to change any pixel
+/// (DVR: no value of its range visible; MIP: a maximum of 0). Keep in sync with `walkable` in
+/// `stream.wgsl` (at a running maximum of 0, where a MIP ray skips the fewest bricks).
+pub fn walkable(entry: &TableEntry, max_projection: bool) -> bool {
+    let failed = entry.cell & ENTRY_FAILED != 0;
+    let uniform = (entry.range & 0xffff) == (entry.range >> 16);
+    let drawable = entry.is_resident() || (!failed && uniform);
+    let visible = if max_projection {
+        entry.range >> 16 > 0
+    } else {
+        entry.slot & ENTRY_VISIBLE != 0
+    };
+    entry.key != EMPTY_KEY && !failed && (drawable || !visible)
+}
+
 /// Where `key`'s probe sequence starts (before masking). Keep in sync with `table_hash` in
 /// `stream.wgsl`.
 pub fn table_hash(key: u32) -> u32 {
@@ -76,6 +99,50 @@ pub fn table_hash(key: u32) -> u32 {
 /// An insert found no empty entry within [`MAX_PROBES`] of the key's home.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct TableFull;
+
+/// One level's entries in the order of its bricks (x fastest: a key's low bits), the bricks the
+/// table does not hold as [`TableEntry::EMPTY`]; the cells changed since the last upload.
+struct LevelCopy {
+    level: u32,
+    cells: Vec<TableEntry>,
+    /// Changed cells, as one range (first, end).
+    dirty: Option<(usize, usize)>,
+    /// The cells not [`walkable`] under DVR (0) and under MIP (1).
+    unwalkable: [usize; 2],
+}
+
+impl LevelCopy {
+    /// A copy of `bricks` cells, none known yet.
+    fn new(level: u32, bricks: usize) -> Self {
+        Self {
+            level,
+            cells: vec![TableEntry::EMPTY; bricks],
+            dirty: None,
+            unwalkable: [bricks; 2],
+        }
+    }
+
+    fn set(&mut self, key: u32, entry: TableEntry) {
+        if key >> KEY_LEVEL_SHIFT != self.level {
+            return;
+        }
+        let index = (key & ((1 << KEY_LEVEL_SHIFT) - 1)) as usize;
+        let Some(cell) = self.cells.get_mut(index) else {
+            return;
+        };
+        if *cell != entry {
+            for (count, mip) in self.unwalkable.iter_mut().zip([false, true]) {
+                *count = *count + usize::from(!walkable(&entry, mip))
+                    - usize::from(!walkable(cell, mip));
+            }
+            *cell = entry;
+            self.dirty = Some(match self.dirty {
+                Some((first, end)) => (first.min(index), end.max(index + 1)),
+                None => (index, index + 1),
+            });
+        }
+    }
+}
 
 /// The CPU's copy of the GPU's page table, and which entries changed since the last upload.
 pub struct PageTable {
@@ -88,6 +155,8 @@ pub struct PageTable {
     /// Indices changed since [`Self::take_dirty`], each once (`is_dirty` marks them).
     dirty: Vec<u32>,
     is_dirty: Vec<bool>,
+    /// The flat copy of one level, if one is kept.
+    level_copy: Option<LevelCopy>,
 }
 
 impl PageTable {
@@ -102,6 +171,7 @@ impl PageTable {
             len: 0,
             dirty: (0..size as u32).collect(),
             is_dirty: vec![true; size],
+            level_copy: None,
         }
     }
 
@@ -157,6 +227,9 @@ impl PageTable {
                 self.entries[index] = entry;
                 self.keys[index] = entry.key;
                 self.mark(index);
+                if let Some(copy) = self.level_copy.as_mut() {
+                    copy.set(entry.key, entry);
+                }
                 return Ok(());
             }
         }
@@ -190,6 +263,9 @@ impl PageTable {
         self.keys[hole] = EMPTY_KEY;
         self.mark(hole);
         self.len -= 1;
+        if let Some(copy) = self.level_copy.as_mut() {
+            copy.set(key, TableEntry::EMPTY);
+        }
         Some(removed)
     }
 
@@ -231,6 +307,9 @@ impl PageTable {
                 debug_assert_eq!(changed.key, self.entries[index].key);
                 self.entries[index] = changed;
                 self.mark(index);
+                if let Some(copy) = self.level_copy.as_mut() {
+                    copy.set(changed.key, changed);
+                }
             }
         }
     }
@@ -238,6 +317,70 @@ impl PageTable {
     /// Every entry (for tests and the first upload).
     pub fn entries(&self) -> &[TableEntry] {
         &self.entries
+    }
+
+    /// Keeps a flat copy of level `level`'s entries, `bricks` of them (the level's bricks), or
+    /// none. A new level's copy is made from the table (every cell dirty); the same level
+    /// again keeps the copy as it is.
+    pub fn copy_level(&mut self, level: Option<(u32, usize)>) {
+        let Some((level, bricks)) = level else {
+            self.level_copy = None;
+            return;
+        };
+        if self
+            .level_copy
+            .as_ref()
+            .is_some_and(|copy| copy.level == level && copy.cells.len() == bricks)
+        {
+            return;
+        }
+        let mut copy = LevelCopy::new(level, bricks);
+        for entry in self.entries.iter().filter(|e| e.key != EMPTY_KEY) {
+            copy.set(entry.key, *entry);
+        }
+        copy.dirty = (bricks > 0).then_some((0, bricks));
+        self.level_copy = Some(copy);
+    }
+
+    /// The level whose flat copy is kept, if any.
+    pub fn copied_level(&self) -> Option<u32> {
+        self.level_copy.as_ref().map(|copy| copy.level)
+    }
+
+    /// How many bricks of the copied level the level walk could not take ([`walkable`]) under
+    /// MIP (`max_projection`) or DVR; `None` where no level is copied.
+    pub fn level_unwalkable(&self, max_projection: bool) -> Option<usize> {
+        let copy = self.level_copy.as_ref()?;
+        Some(copy.unwalkable[usize::from(max_projection)])
+    }
+
+    /// The atlas slots of the copied level's bricks in the atlas.
+    pub fn level_slots(&self) -> impl Iterator<Item = u32> + '_ {
+        self.level_copy.iter().flat_map(|copy| {
+            copy.cells
+                .iter()
+                .filter(|cell| cell.is_resident())
+                .map(|cell| cell.slot & !ENTRY_VISIBLE)
+        })
+    }
+
+    /// The keys of the copied level's bricks that the level walk could not take, brick order.
+    pub fn level_unwalkable_keys(&self, max_projection: bool) -> impl Iterator<Item = u32> + '_ {
+        self.level_copy.iter().flat_map(move |copy| {
+            copy.cells
+                .iter()
+                .enumerate()
+                .filter(move |(_, cell)| !walkable(cell, max_projection))
+                .map(move |(index, _)| copy.level << KEY_LEVEL_SHIFT | index as u32)
+        })
+    }
+
+    /// The copied level's cells changed since the last call: (first cell, the cells), one
+    /// range. What to copy to the GPU after [`Self::take_dirty`]'s runs.
+    pub fn take_level_dirty(&mut self) -> Option<(usize, &[TableEntry])> {
+        let copy = self.level_copy.as_mut()?;
+        let (first, end) = copy.dirty.take()?;
+        Some((first, &copy.cells[first..end]))
     }
 }
 
@@ -337,6 +480,121 @@ mod tests {
             table.insert(entry(keys[MAX_PROBES as usize])),
             Err(TableFull)
         );
+    }
+
+    /// A key of level `level`, brick `index`.
+    fn level_key(level: u32, index: u32) -> u32 {
+        level << KEY_LEVEL_SHIFT | index
+    }
+
+    #[test]
+    fn a_level_copy_follows_inserts_removals_and_updates_of_its_level_only() {
+        let mut table = PageTable::new(1024);
+        table.insert(entry(level_key(2, 5))).expect("room");
+        table.insert(entry(level_key(1, 5))).expect("room");
+        table.copy_level(Some((2, 8)));
+        assert_eq!(table.copied_level(), Some(2));
+        let (first, cells) = table.take_level_dirty().expect("all cells, once");
+        assert_eq!((first, cells.len()), (0, 8));
+        assert_eq!(cells[5], entry(level_key(2, 5)));
+        assert!(
+            cells
+                .iter()
+                .enumerate()
+                .all(|(i, c)| i == 5 || *c == TableEntry::EMPTY)
+        );
+        assert!(table.take_level_dirty().is_none());
+
+        // Another level's changes leave the copy as it is.
+        table.insert(entry(level_key(1, 6))).expect("room");
+        table.remove(level_key(1, 5));
+        assert!(table.take_level_dirty().is_none());
+
+        // The copied level's: an insert, a removal (of an entry a collision chain moves, too),
+        // an update.
+        let keys: Vec<u32> = (0..8).map(|i| level_key(2, i)).collect();
+        table.insert(entry(keys[2])).expect("room");
+        table.insert(entry(keys[7])).expect("room");
+        table.remove(keys[5]);
+        let (first, cells) = table.take_level_dirty().expect("changed");
+        assert_eq!((first, cells.len()), (2, 6));
+        assert_eq!(cells[0], entry(keys[2]));
+        assert_eq!(cells[3], TableEntry::EMPTY);
+        assert_eq!(cells[5], entry(keys[7]));
+        table.update_each(|e| {
+            (e.key == keys[7]).then_some(TableEntry {
+                slot: e.slot | ENTRY_VISIBLE,
+                ..*e
+            })
+        });
+        let (first, cells) = table.take_level_dirty().expect("updated");
+        assert_eq!(
+            (first, cells[0].slot),
+            (7, entry(keys[7]).slot | ENTRY_VISIBLE)
+        );
+        // Each cell equals the table's own entry for its key.
+        table.copy_level(Some((2, 8)));
+        table.copy_level(None);
+        table.copy_level(Some((2, 8)));
+        let cells = table.take_level_dirty().expect("made again").1.to_vec();
+        for (index, cell) in cells.iter().enumerate() {
+            let key = level_key(2, index as u32);
+            assert_eq!(
+                *cell,
+                table.get(key).unwrap_or(TableEntry::EMPTY),
+                "cell {index}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_level_copy_counts_the_bricks_the_level_walk_cannot_take() {
+        let mut table = PageTable::new(1024);
+        table.copy_level(Some((1, 6)));
+        assert_eq!(table.level_unwalkable(false), Some(6), "none known yet");
+        let key = |index| level_key(1, index);
+        // In the atlas; uniform; visible under DVR, not in the atlas; its maximum 0, not in
+        // the atlas; failed. The sixth stays unknown.
+        table.insert(entry(key(0))).expect("room");
+        let slotless = |index, range, slot| TableEntry {
+            key: key(index),
+            cell: 0,
+            range,
+            slot,
+        };
+        table.insert(slotless(1, 7 << 16 | 7, 0)).expect("room");
+        table.insert(slotless(2, 9 << 16 | 3, ENTRY_VISIBLE)).expect("room");
+        table.insert(slotless(3, 0, 0)).expect("room");
+        table
+            .insert(TableEntry {
+                cell: ENTRY_FAILED,
+                ..slotless(4, 9 << 16, ENTRY_VISIBLE)
+            })
+            .expect("room");
+        // DVR: 2 (visible), 4 (failed), 5 (unknown); MIP: 2 (its maximum above 0) as well.
+        assert_eq!(table.level_unwalkable(false), Some(3));
+        assert_eq!(table.level_unwalkable(true), Some(3));
+        let dvr: Vec<u32> = table.level_unwalkable_keys(false).collect();
+        assert_eq!(dvr, [key(2), key(4), key(5)]);
+        // Invisible under DVR: walkable there, not under MIP.
+        table.insert(slotless(2, 9 << 16 | 3, 0)).expect("room");
+        assert_eq!(table.level_unwalkable(false), Some(2));
+        assert_eq!(table.level_unwalkable(true), Some(3));
+        // Placed in the atlas, read, and removed again.
+        table.insert(entry(key(2))).expect("room");
+        table.insert(entry(key(5))).expect("room");
+        assert_eq!(table.level_unwalkable(true), Some(1));
+        table.remove(key(0));
+        assert_eq!(table.level_unwalkable(false), Some(2));
+        assert_eq!(
+            table.level_unwalkable_keys(true).collect::<Vec<_>>(),
+            [key(0), key(4)]
+        );
+        // Made again from the table: the same counts.
+        table.copy_level(None);
+        assert_eq!(table.level_unwalkable(false), None);
+        table.copy_level(Some((1, 6)));
+        assert_eq!(table.level_unwalkable(false), Some(2));
     }
 
     #[test]

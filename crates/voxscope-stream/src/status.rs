@@ -138,6 +138,10 @@ pub struct StreamStatus {
     /// Loads waiting and in progress.
     pub queued: usize,
     pub loading: usize,
+    /// Bricks of the one level every ray wants still to be placed so that frames may walk that
+    /// level as the bricks renderer walks its grid (`Streamer`'s level fill, once the view
+    /// lacks nothing); 0 when none are coming. A window keeps updating while this is above 0.
+    pub filling: usize,
     /// What the view needs against what fits, while the budget leaves bricks out (`None`: the
     /// view fits at the levels its rays chose).
     pub budget: Option<BudgetLimit>,

@@ -117,6 +117,9 @@ pub struct Streamer {
     feedback_missing: usize,
     /// The last frame whose page table differed from the one before.
     changed_frame: u32,
+    /// Bricks the latest feedback queued to fill the level frames may walk
+    /// ([`Self::level_fill`]).
+    fill: KeySet,
     /// The latest frame's wanted visible bricks, by key.
     wanted: KeyMap<Request>,
     /// Of those, how many are not on the GPU yet.
@@ -224,6 +227,7 @@ impl Streamer {
             progress_at: (0, Instant::now()),
             max_projection: false,
             changed_frame: 0,
+            fill: KeySet::default(),
             wanted: KeyMap::default(),
             missing: 0,
             ready: Vec::new(),
@@ -582,8 +586,10 @@ impl Streamer {
             self.take_feedback(feedback, view);
         }
         lap(&mut phases.feedback);
-        let (uploads, upload_bytes) = self.upload_ready();
-        if !uploads.is_empty() {
+        let (uploads, upload_bytes, asked_for) = self.upload_ready();
+        // A brick only the level fill wants changes no ray's samples (no ray reached it, or
+        // one skipped it): the view stays complete.
+        if asked_for > 0 {
             self.changed_frame = self.frame;
         }
         let mut status = self.status(uploads.len(), upload_bytes);
@@ -931,8 +937,14 @@ impl Streamer {
                 key = self.shape.key(id).expect("a parent is in the pyramid");
             }
         }
+        let fill = if requests.is_empty() && self.standing.is_empty() {
+            self.level_fill()
+        } else {
+            Vec::new()
+        };
+        self.fill = fill.iter().map(|r| r.key).collect();
         // One pass: per-level counts; ready (in RAM: a hit, unless it was ready already) or
-        // to load; then the prefetch after them.
+        // to load; then the level's fill, then the prefetch after them.
         for level in &mut self.counters.levels {
             level.requested = 0;
         }
@@ -947,6 +959,13 @@ impl Streamer {
                 ready.push(*request);
             } else {
                 loads.push(*request);
+            }
+        }
+        for request in fill {
+            if self.ram.contains(request.key) {
+                ready.push(request);
+            } else {
+                loads.push(request);
             }
         }
         ready.sort_unstable_by_key(|r| r.priority);
@@ -966,6 +985,40 @@ impl Streamer {
         self.loader.fetch_ahead();
         self.missing = wanted.len();
         self.wanted = wanted;
+    }
+
+    /// The bricks that would let frames walk the level the page table copies flat (every ray
+    /// wants it: `voxscope-render`'s stream.rs), loaded once the view lacks nothing: those the
+    /// table does not know yet, and visible ones not in the atlas (behind opaque matter, or
+    /// below a MIP ray's maximum, so never asked for). Then each frame walks that level's grid
+    /// as the bricks renderer does, and turning the camera needs nothing more. None where one
+    /// of its bricks is unreadable, or where they might not fit in the atlas's free slots
+    /// (nothing is evicted for them) or in half the RAM cache on their way.
+    fn level_fill(&self) -> Vec<Request> {
+        let Some(unwalkable) = self.table.level_unwalkable(self.max_projection) else {
+            return Vec::new();
+        };
+        let free = self.slots.capacity() - self.slots.occupied();
+        // Held in RAM on their way, with room to spare for what the view asks for next.
+        let ram_room = self.ram.capacity() / 2 / self.counters.slot_bytes.max(1);
+        if unwalkable == 0 || unwalkable > free || unwalkable as u64 > ram_room {
+            return Vec::new();
+        }
+        let mut fill = Vec::with_capacity(unwalkable);
+        for key in self.table.level_unwalkable_keys(self.max_projection) {
+            if self.failed.contains(&key) {
+                return Vec::new();
+            }
+            let Some(id) = self.shape.brick_of(key) else {
+                continue;
+            };
+            fill.push(Request {
+                priority: Priority::new(Tier::Prefetch, id.level, 0.0),
+                id,
+                key,
+            });
+        }
+        fill
     }
 
     /// Unpinned slots a view may fill with bricks at the levels its rays want: the rest of the
@@ -1086,8 +1139,11 @@ impl Streamer {
     /// uploads and their bytes. A brick that finds no slot (every slot holds what the last
     /// frame drew) waits: the cut keeps the view within the atlas, so the stand-ins its
     /// bricks replace free slots as they arrive.
-    fn upload_ready(&mut self) -> (Vec<Upload>, u64) {
+    /// Places what waits in RAM, within the upload allowance: the uploads, their bytes, and
+    /// how many of them some ray asked for (not the level fill's alone).
+    fn upload_ready(&mut self) -> (Vec<Upload>, u64, usize) {
         let mut uploads = Vec::new();
+        let mut asked_for = 0;
         let mut bytes = 0u64;
         let mut overflow = false;
         let protect_from = self.feedback_frame.map_or(u32::MAX, |f| f.max(1));
@@ -1125,16 +1181,20 @@ impl Streamer {
                 Ok(Some(upload)) => {
                     bytes += cost;
                     uploads.push(upload);
-                    self.missing = self.missing.saturating_sub(1);
+                    if !self.fill.contains(&request.key) {
+                        asked_for += 1;
+                        self.missing = self.missing.saturating_sub(1);
+                    }
                 }
                 Ok(None) if cost > 0 => {
                     overflow = true;
                     waiting.push(request);
                 }
-                Ok(None) => {
+                Ok(None) if !self.fill.contains(&request.key) => {
                     self.changed_frame = self.frame;
                     self.missing = self.missing.saturating_sub(1);
                 }
+                Ok(None) => {}
                 Err(message) => {
                     self.failed.insert(request.key);
                     self.new_errors.push(message);
@@ -1158,7 +1218,7 @@ impl Streamer {
         {
             self.uploads_recent.pop_front();
         }
-        (uploads, bytes)
+        (uploads, bytes, asked_for)
     }
 
     fn status(&mut self, uploads: usize, upload_bytes: u64) -> StreamStatus {
@@ -1190,6 +1250,7 @@ impl Streamer {
             missing,
             queued,
             loading,
+            filling: self.fill.len(),
             budget: self.budget,
             unreadable: self.unreadable.len(),
             table_changed: self.changed_frame == self.frame,
@@ -1199,6 +1260,16 @@ impl Streamer {
             errors: std::mem::take(&mut self.new_errors),
             counters: self.counters.clone(),
             phases: UpdatePhases::default(),
+        }
+    }
+
+    /// Frame `frame` was drawn by the level walk, which leaves no usage marks: every brick of
+    /// the level it walked (the table's flat copy) counts as used by the view then. (No ray of
+    /// such a frame asks for anything, so nothing is evicted on the strength of these marks
+    /// while it draws; they keep the level's bricks from looking unused afterwards.)
+    pub fn mark_level_walked(&mut self, frame: u32) {
+        for slot in self.table.level_slots() {
+            self.slots.mark_used(slot, frame, true);
         }
     }
 

@@ -73,6 +73,7 @@ impl CentralView {
         let mut refining = stream.as_ref().is_some_and(|s| {
             !s.complete
                 || s.uploads > 0
+                || s.filling > 0
                 || s.judged_frame
                     .is_none_or(|judged| judged < self.stream_view_frame)
         });
