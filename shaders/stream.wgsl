@@ -661,10 +661,11 @@ fn level_walk(origin: vec3<f32>, dir: vec3<f32>, jitter: f32) -> RayResult {
     var t_out = t;
     var next = vec3<u32>(NO_CELL, 0u, 0u);
     var next_entry = vec4<u32>(EMPTY_KEY, 0u, 0u, 0u);
-    // A brick being marched: its atlas origin and maximum (MIP).
+    // A brick being marched: its atlas origin and maximum (MIP), and its usage mark (below).
     var marching = false;
     var atlas_here = vec3<f32>(0.0);
     var brick_max = 0u;
+    var mark_seen = 0u;
     // The ray came into `cell` from a brick it marched (`stream_ray`'s short step).
     var marched_in = false;
     var deciding = true;
@@ -691,6 +692,12 @@ fn level_walk(origin: vec3<f32>, dir: vec3<f32>, jitter: f32) -> RayResult {
             }
             marching = resident_visible(entry, acc.running_max);
             if marching {
+                // The brick's usage mark, read and not used (the CPU marks the level): with
+                // this read NVIDIA's driver (580) gives the entry point 80 registers, without
+                // it 96, and frames took 7–10 % longer (run 126, docs/performance-log.md).
+                if !PROBE {
+                    mark_seen = atomicLoad(&usage[entry[TABLE_SLOT] & SLOT_MASK]);
+                }
                 atlas_here = atlas_origin(level, cell, entry[TABLE_CELL], origin);
                 brick_max = entry[TABLE_RANGE] >> 16u;
             } else {
