@@ -35,6 +35,8 @@ fn the_streaming_renderer_refines_the_head_to_the_bricks_picture() {
     harness.get_by_label("Streaming");
     harness.get_by_label("GPU budget");
     harness.get_by_label("complete: nothing visible is missing");
+    // Without the pixel LOD every ray wants the finest level: loaded whole, then walked.
+    harness.get_by_label("walking level 7 whole");
     // Measured times and what the loads raced to (prefetches, slots, upload rate) vary: masked.
     let right = harness.ctx.content_rect().right();
     let values = harness.get_by_label("RAM cache").rect().right() + 4.0;

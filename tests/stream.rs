@@ -1002,13 +1002,41 @@ fn the_level_walk_draws_what_the_segments_draw_once_its_level_is_filled() {
     // segment by segment); far, where every ray wants one coarser level; a quarter of level 0
     // in the atlas (it cannot be filled: segment by segment).
     let cases = [
-        ("close-dvr", 1.6, 0.0, settings(depth), 2 * level0_bytes(), true),
+        (
+            "close-dvr",
+            1.6,
+            0.0,
+            settings(depth),
+            2 * level0_bytes(),
+            true,
+        ),
         ("close-mip", 1.6, 0.0, mip, 2 * level0_bytes(), true),
         ("close-shaded", 1.6, 0.0, shaded, 2 * level0_bytes(), true),
         ("close-opaque", 1.6, 0.0, opaque, 2 * level0_bytes(), true),
-        ("lod-dvr", 2.2, 1.0, settings(depth), 2 * level0_bytes(), false),
-        ("far-dvr", 12.0, 1.0, settings(depth), 2 * level0_bytes(), true),
-        ("quarter-dvr", 1.6, 0.0, settings(depth), level0_bytes() / 4, false),
+        (
+            "lod-dvr",
+            2.2,
+            1.0,
+            settings(depth),
+            2 * level0_bytes(),
+            false,
+        ),
+        (
+            "far-dvr",
+            12.0,
+            1.0,
+            settings(depth),
+            2 * level0_bytes(),
+            true,
+        ),
+        (
+            "quarter-dvr",
+            1.6,
+            0.0,
+            settings(depth),
+            level0_bytes() / 4,
+            false,
+        ),
     ];
     for (name, distance, lod_scale, settings, budget, expect_walk) in cases {
         let camera = Camera {
@@ -1068,7 +1096,10 @@ fn the_level_walk_draws_what_the_segments_draw_once_its_level_is_filled() {
              at most), coverage {:.3}",
             coverage(&segments)
         );
-        assert!(coverage(&segments) > 0.02, "{name}: the view shows the volume");
+        assert!(
+            coverage(&segments) > 0.02,
+            "{name}: the view shows the volume"
+        );
         assert_eq!(
             (none, segment_walks),
             (None, 0),
@@ -1091,6 +1122,77 @@ fn the_level_walk_draws_what_the_segments_draw_once_its_level_is_filled() {
             "{name}: {visits_differing} rays count differently"
         );
     }
+}
+
+#[test]
+fn a_folder_store_fills_the_walked_level_and_a_url_reads_only_what_the_view_needs() {
+    // 128³ noise, converted, nearly opaque and seen close: rays stop in the front bricks and
+    // never ask for those behind. From the folder, once the view lacks nothing, the rest of
+    // level 0 is loaded and frames walk it; over HTTP nothing more is fetched.
+    let (dir, store) = converted_noise("32");
+    let volume = voxscope_volume::load(store.to_str().expect("UTF-8"), &Default::default())
+        .expect("the store loads");
+    let prepared = Prepared::new(volume, None);
+    let context = gpu();
+    let server = FileServer::start(dir.path(), Faults::default());
+    let settings = RenderSettings {
+        density: 4.0,
+        ..settings(prepared.octree.depth)
+    };
+    let camera = close_camera(30.0);
+    // The view refined, then settled as a window settles it: (the image, bricks read and
+    // requests by then, bricks read, requests and bricks the walk cannot take once settled,
+    // frames walked then).
+    let draw = |source: Arc<dyn BrickSource>, requests: &dyn Fn() -> usize| {
+        let budget = 2 * source.shape().levels[0].brick_count() * (PADDED_BRICK_VOXELS * 2) as u64;
+        let mut renderer = streaming(&context, source, options(budget), &prepared.transfer);
+        let refined = refine(&context, &mut renderer, &camera, &settings);
+        let complete = (refined.status.counters.loads, requests());
+        let walked = settle_fill(&context, &mut renderer, &camera, &settings);
+        let status = renderer.update(&context).expect("a streaming renderer");
+        // Bricks of level 0 (copied flat) the walk could not take as they are.
+        let unwalkable = renderer
+            .stream()
+            .and_then(|s| s.streamer().table().level_unwalkable(false));
+        let settled = (status.counters.loads, requests(), unwalkable);
+        (refined.image, complete, settled, walked)
+    };
+    let folder = Pyramid::open(&store, PyramidOptions::default()).expect("the store opens");
+    let (from_folder, folder_complete, folder_settled, folder_walked) = draw(
+        Arc::new(ZarrSource::new(Arc::new(folder)).expect("a brick source")),
+        &|| 0,
+    );
+    let url = Pyramid::open_url(
+        &server.url("noise.ome.zarr"),
+        PyramidOptions::default(),
+        RemoteOptions::default(),
+    )
+    .expect("the store opens over HTTP");
+    let (over_http, http_complete, http_settled, http_walked) = draw(
+        Arc::new(ZarrSource::new(Arc::new(url)).expect("a brick source")),
+        &|| server.counters.arrivals().len(),
+    );
+    eprintln!(
+        "folder: (bricks read, requests) {folder_complete:?} complete, {folder_settled:?} \
+         settled, {folder_walked} frame walked; HTTP: {http_complete:?}, {http_settled:?}, \
+         {http_walked}"
+    );
+    // The same view (the folder's possibly walked already, where its fill was quick: a
+    // sample at a brick's face may then round a value level apart).
+    let db = psnr(&from_folder, &over_http);
+    assert!(db >= 60.0, "the same view: {db:.1} dB");
+    assert_eq!(
+        (folder_settled.2, folder_walked),
+        (Some(0), 1),
+        "the folder's level filled and walked"
+    );
+    let behind = http_settled.2.expect("level 0 copied");
+    assert!(behind > 0, "bricks behind the front are never asked for");
+    assert_eq!(
+        (http_settled.0, http_settled.1, http_walked),
+        (http_complete.0, http_complete.1, 0),
+        "nothing more read or fetched over HTTP"
+    );
 }
 
 /// `voxscope render --renderer stream`, run as a user would.

@@ -112,6 +112,10 @@ pub fn show(ui: &mut Ui, scene: &Scene) {
             ui.label("State");
             ui.label(state_text(status));
             ui.end_row();
+            ui.label("Rays");
+            ui.label(walk_text(status, stream.walk_level_state(), depth))
+                .on_hover_text("Where every ray wants one pyramid level and each of its bricks is in the atlas (or drawn without it), rays walk that level's grid as the bricks renderer does; otherwise segment by segment. Once a view lacks nothing, the rest of such a level is loaded into free atlas slots");
+            ui.end_row();
             ui.label("Atlas");
             ui.label(format!(
                 "{} of {} slots ({} pinned), {} each",
@@ -301,6 +305,24 @@ fn failed_bricks(ui: &mut Ui, failures: &Failures, depth: u32) {
 
 /// Failed bricks listed one by one, at most.
 const LISTED_FAILURES: usize = 200;
+
+/// How the rays are drawn: walking one level whole, or segment by segment and why. Levels
+/// as the table below numbers them (max level `depth − pyramid level`).
+fn walk_text(status: &StreamStatus, walk: Option<(u32, usize)>, depth: u32) -> String {
+    let walk = walk.map(|(pyramid_level, left)| (depth.saturating_sub(pyramid_level), left));
+    match walk {
+        Some((level, 0)) => format!("walking level {level} whole"),
+        Some((level, _)) if status.filling > 0 => format!(
+            "by segment; level {level} loading, {} to go",
+            group_digits(status.filling as u64)
+        ),
+        Some((level, left)) => format!(
+            "by segment; {} bricks of level {level} out",
+            group_digits(left as u64)
+        ),
+        None => "by segment".to_owned(),
+    }
+}
 
 fn state_text(status: &StreamStatus) -> String {
     let budget = status

@@ -150,7 +150,9 @@ fn settle_fill(
     settings: &RenderSettings,
 ) -> Result<u64, String> {
     let started = Instant::now();
-    let before = stream.stream().map_or(0, |s| s.streamer().resident_keys().count() as u64);
+    let before = stream
+        .stream()
+        .map_or(0, |s| s.streamer().resident_keys().count() as u64);
     loop {
         let status = stream
             .update(context)
@@ -163,7 +165,9 @@ fn settle_fill(
         stream.render(context, target, camera, settings);
         context.wait_idle().map_err(|e| e.to_string())?;
     }
-    let after = stream.stream().map_or(0, |s| s.streamer().resident_keys().count() as u64);
+    let after = stream
+        .stream()
+        .map_or(0, |s| s.streamer().resident_keys().count() as u64);
     Ok(after.saturating_sub(before))
 }
 

@@ -670,6 +670,15 @@ impl StreamVolume {
         })
     }
 
+    /// The level whose bricks the page table copies flat (every ray of the latest frame wanted
+    /// it), with how many of them the level walk could not take in that frame's mode: 0 when
+    /// frames walk it. `None` where rays want several levels, or a level too large to copy.
+    pub fn walk_level_state(&self) -> Option<(u32, usize)> {
+        let table = self.streamer.table();
+        let mip = self.max_projection.load(Ordering::Acquire);
+        Some((table.copied_level()?, table.level_unwalkable(mip)?))
+    }
+
     /// How many frames (a band of one counts too) the level walk has drawn.
     pub fn level_walk_frames(&self) -> u64 {
         self.walked_frames.load(Ordering::Relaxed)

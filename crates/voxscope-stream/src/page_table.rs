@@ -563,7 +563,9 @@ mod tests {
             slot,
         };
         table.insert(slotless(1, 7 << 16 | 7, 0)).expect("room");
-        table.insert(slotless(2, 9 << 16 | 3, ENTRY_VISIBLE)).expect("room");
+        table
+            .insert(slotless(2, 9 << 16 | 3, ENTRY_VISIBLE))
+            .expect("room");
         table.insert(slotless(3, 0, 0)).expect("room");
         table
             .insert(TableEntry {

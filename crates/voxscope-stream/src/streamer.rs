@@ -993,8 +993,13 @@ impl Streamer {
     /// below a MIP ray's maximum, so never asked for). Then each frame walks that level's grid
     /// as the bricks renderer does, and turning the camera needs nothing more. None where one
     /// of its bricks is unreadable, or where they might not fit in the atlas's free slots
-    /// (nothing is evicted for them) or in half the RAM cache on their way.
+    /// (nothing is evicted for them) or in half the RAM cache on their way; none from a store
+    /// over a network, where what a view reads is what it needs (the link is the bound, and
+    /// may be metered).
     fn level_fill(&self) -> Vec<Request> {
+        if self.source.remote_stats().is_some() {
+            return Vec::new();
+        }
         let Some(unwalkable) = self.table.level_unwalkable(self.max_projection) else {
             return Vec::new();
         };
