@@ -54,6 +54,8 @@ const TABLE_BYTES_PER_SLOT: u64 = 2 * 16 * 16;
 const LEVEL_WALK_BRICKS: u64 = 1 << 16;
 /// No level walked.
 const NO_LEVEL: u32 = u32::MAX;
+/// No frame drawn since the last [`StreamVolume::step`] (`walk_wanted`).
+const NOT_DRAWN: u32 = u32::MAX - 1;
 /// No frame drawn by the level walk.
 const NO_FRAME: u32 = u32::MAX;
 /// The entry points of `stream.wgsl`, in the order [`VariantPipelines`] numbers them.
@@ -83,8 +85,9 @@ pub struct StreamVolume {
     /// The flat copy of one level's page-table entries ([`voxscope_stream::PageTable::copy_level`]),
     /// sized for the largest level of at most [`LEVEL_WALK_BRICKS`].
     level_cells: wgpu::Buffer,
-    /// The level the latest frame drawn wanted to walk ([`NO_LEVEL`]: none); the next
-    /// [`Self::step`] has the table copy it.
+    /// The level every frame drawn since the last [`Self::step`] wanted to walk ([`NO_LEVEL`]:
+    /// none, or frames (panes of other max levels) that wanted different ones; [`NOT_DRAWN`]:
+    /// no frame); the next step has the table copy it.
     walk_wanted: AtomicU32,
     /// Frames drawn by the level walk (`main_level`) so far.
     walked_frames: AtomicU64,
@@ -328,7 +331,7 @@ impl StreamVolume {
             usage,
             readbacks,
             level_cells,
-            walk_wanted: AtomicU32::new(NO_LEVEL),
+            walk_wanted: AtomicU32::new(NOT_DRAWN),
             walked_frames: AtomicU64::new(0),
             walk_drew: AtomicU32::new(NO_FRAME),
             ring,
@@ -494,12 +497,15 @@ impl StreamVolume {
             ),
             None => self.streamer.begin_frame(None, view),
         };
-        // The level every ray of the latest frame wanted: copied flat from now on (until
-        // another is wanted, or several), so that the next frames may walk it.
-        let walk = self.walk_wanted.load(Ordering::Acquire);
-        let copy = (self.streamer.shape().levels.get(walk as usize))
-            .map(|level| (walk, level.brick_count() as usize));
-        self.streamer.table_mut().copy_level(copy);
+        // The level every ray of the frames drawn since wanted: copied flat from now on (until
+        // another is wanted, or several), so that the next frames may walk it. Without a frame
+        // drawn the copy stays as it is.
+        let walk = self.walk_wanted.swap(NOT_DRAWN, Ordering::AcqRel);
+        if walk != NOT_DRAWN {
+            let copy = (self.streamer.shape().levels.get(walk as usize))
+                .map(|level| (walk, level.brick_count() as usize));
+            self.streamer.table_mut().copy_level(copy);
+        }
         let writing = Instant::now();
         self.write(context, &uploads);
         let mut status = status;
@@ -847,10 +853,16 @@ impl RayPass<StreamVolume> for StreamRaycaster {
         volume
             .max_projection
             .store(params.mode == MODE_MIP, Ordering::Release);
-        volume.walk_wanted.store(
-            volume.walk_level(params).unwrap_or(NO_LEVEL),
-            Ordering::Release,
-        );
+        // Panes of different max levels on one volume want different levels: none is copied
+        // (copying each in turn would rebuild the copy at every step).
+        let wanted = volume.walk_level(params).unwrap_or(NO_LEVEL);
+        let _ = volume
+            .walk_wanted
+            .fetch_update(Ordering::AcqRel, Ordering::Acquire, |drawn| match drawn {
+                NOT_DRAWN => Some(wanted),
+                same if same == wanted => None,
+                _ => Some(NO_LEVEL),
+            });
         if volume.walked_level(params).is_some() {
             volume.walked_frames.fetch_add(1, Ordering::Relaxed);
             volume
