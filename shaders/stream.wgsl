@@ -785,9 +785,5 @@ fn main_level(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let ray = pixel_ray(pixel);
     let result = level_walk(params.eye.xyz, ray.dir, pixel_jitter(pixel));
-    if PROBE {
-        write_probe(params.eye.xyz, ray.dir, result.probe_t);
-    } else {
-        write_pixel(pixel, result.color, result.visited);
-    }
+    write_pixel(pixel, result.color, result.visited);
 }

@@ -140,8 +140,8 @@ pub(super) fn resident_comparison(
     }))
 }
 
-/// Draws and updates `stream` on one view until its level fill is done (at most [`MAX_WAIT`]),
-/// as a window does; returns the bricks the fill placed.
+/// Updates `stream` on one view until its level fill is done (at most [`MAX_WAIT`]), drawing
+/// only when an update changed what frames draw, as a window does; returns the bricks placed.
 fn settle_fill(
     context: &GpuContext,
     stream: &mut VolumeRenderer,
@@ -162,8 +162,13 @@ fn settle_fill(
         {
             break;
         }
-        stream.render(context, target, camera, settings);
-        context.wait_idle().map_err(|e| e.to_string())?;
+        // A window draws again only when the update changed what frames draw.
+        if status.uploads > 0 || status.table_changed {
+            stream.render(context, target, camera, settings);
+            context.wait_idle().map_err(|e| e.to_string())?;
+        } else {
+            std::thread::sleep(Duration::from_millis(1));
+        }
     }
     let after = stream
         .stream()

@@ -16,7 +16,7 @@ use std::time::Instant;
 use wgpu::util::DeviceExt;
 
 use super::copy_timer::CopyTimer;
-use super::gpu_data::{MODE_MIP, RaycastParams, STREAM_LEVELS, StreamParams};
+use super::gpu_data::{FLAG_LABELS, MODE_MIP, RaycastParams, STREAM_LEVELS, StreamParams};
 use super::pipeline::{
     Variant, VariantPipelines, atlas_entry, atlas_sampler_entry, clamped_sampler,
     numbered_bind_group, output_image_entry, storage_entry, uniform_entry,
@@ -58,9 +58,16 @@ const NO_LEVEL: u32 = u32::MAX;
 const NOT_DRAWN: u32 = u32::MAX - 1;
 /// No frame drawn by the level walk.
 const NO_FRAME: u32 = u32::MAX;
-/// The entry points of `stream.wgsl`, in the order [`VariantPipelines`] numbers them.
+/// `stream.wgsl`'s `main` (segment by segment), as [`VariantPipelines`] numbers it.
 const SEGMENTS: usize = 0;
+/// `stream.wgsl`'s `main_level` (the level walk), as [`VariantPipelines`] numbers it.
 const LEVEL_WALK: usize = 1;
+
+/// Whether frames of `params` composite by maximum intensity (`max_projection` in
+/// ray_common.wgsl: MIP, but not of labels, which composite as DVR).
+fn max_projection(params: &RaycastParams) -> bool {
+    params.mode == MODE_MIP && params.flags & FLAG_LABELS == 0
+}
 
 /// One staging buffer for a frame's requests and usage marks.
 struct Readback {
@@ -201,12 +208,13 @@ impl StreamVolume {
         };
         let quantization = source.quantization();
         let visible = visible_below(&transfer.lookup_table(quantization));
+        // The flat copy of one level (none kept without the level walk: one entry bound).
         let level_cells_bytes = source
             .shape()
             .levels
             .iter()
             .map(|l| l.brick_count())
-            .filter(|&bricks| bricks <= LEVEL_WALK_BRICKS)
+            .filter(|&bricks| options.level_walk && bricks <= LEVEL_WALK_BRICKS)
             .max()
             .unwrap_or(1)
             .max(1)
@@ -670,7 +678,7 @@ impl StreamVolume {
     /// table copies it and every brick of it there is walkable in the frame's mode.
     fn walked_level(&self, params: &RaycastParams) -> Option<u32> {
         let table = self.streamer.table();
-        let mip = params.mode == MODE_MIP;
+        let mip = max_projection(params);
         self.walk_level(params).filter(|&level| {
             table.copied_level() == Some(level) && table.level_unwalkable(mip) == Some(0)
         })
@@ -803,10 +811,12 @@ impl StreamRaycaster {
         }
     }
 
-    /// Builds, where not built yet, the pipelines of `variant` (both entry points).
-    pub(crate) fn prepare(&self, context: &GpuContext, variant: Variant) {
-        for entry in [SEGMENTS, LEVEL_WALK] {
-            self.pipelines.get(context, entry, variant);
+    /// Builds, where not built yet, the pipelines of `variant`: the segment loop's, and the
+    /// level walk's where frames of `variant` may walk (not probes; `level_walk` on).
+    pub(crate) fn prepare(&self, context: &GpuContext, variant: Variant, level_walk: bool) {
+        self.pipelines.get(context, SEGMENTS, variant);
+        if level_walk && !variant.probe {
+            self.pipelines.get(context, LEVEL_WALK, variant);
         }
     }
 }
@@ -852,7 +862,7 @@ impl RayPass<StreamVolume> for StreamRaycaster {
         });
         volume
             .max_projection
-            .store(params.mode == MODE_MIP, Ordering::Release);
+            .store(max_projection(params), Ordering::Release);
         // Panes of different max levels on one volume want different levels: none is copied
         // (copying each in turn would rebuild the copy at every step).
         let wanted = volume.walk_level(params).unwrap_or(NO_LEVEL);
@@ -982,7 +992,11 @@ impl Renderer for StreamVolume {
 
     fn prepare_pipelines(&self, context: &GpuContext, settings: &RenderSettings, probe: bool) {
         for variant in pipeline_variants(settings, probe, false) {
-            context.stream_raycaster().prepare(context, variant);
+            context.stream_raycaster().prepare(
+                context,
+                variant,
+                self.streamer.options().level_walk,
+            );
         }
     }
 

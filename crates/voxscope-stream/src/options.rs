@@ -29,10 +29,12 @@ pub struct StreamOptions {
     pub lod_scale: f32,
     /// Load the neighbours of wanted bricks into RAM while nothing visible waits.
     pub prefetch: bool,
-    /// Frames whose rays mostly want one level of at most 65 536 bricks walk that level's
-    /// page-table entries copied flat (the bricks renderer's grid walk) until a ray meets a
-    /// brick that needs a request or a fallback; off (`--no-level-walk`), every ray goes
-    /// segment by segment through the hashed table. The images are the same. Default on.
+    /// Frames whose rays all want one level of at most 65 536 bricks, every brick of it in the
+    /// atlas or drawn without it, walk that level's page-table entries copied flat (the bricks
+    /// renderer's grid walk), and once a view lacks nothing the rest of such a level is loaded
+    /// into free atlas slots (not over a network); off (`--no-level-walk`), every ray goes
+    /// segment by segment through the hashed table and no level is loaded whole. The images
+    /// are the same. Default on.
     pub level_walk: bool,
     /// A brick that failed to load (a dead server, a damaged chunk) is asked for again after
     /// this long, then after twice as long each time it fails again (at most 5 minutes): a

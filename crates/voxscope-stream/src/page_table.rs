@@ -109,6 +109,8 @@ struct LevelCopy {
     dirty: Option<(usize, usize)>,
     /// The cells not [`walkable`] under DVR (0) and under MIP (1).
     unwalkable: [usize; 2],
+    /// The cells the table holds no entry for.
+    unknown: usize,
 }
 
 impl LevelCopy {
@@ -119,6 +121,7 @@ impl LevelCopy {
             cells: vec![TableEntry::EMPTY; bricks],
             dirty: None,
             unwalkable: [bricks; 2],
+            unknown: bricks,
         }
     }
 
@@ -135,6 +138,8 @@ impl LevelCopy {
                 *count = *count + usize::from(!walkable(&entry, mip))
                     - usize::from(!walkable(cell, mip));
             }
+            self.unknown = self.unknown + usize::from(entry.key == EMPTY_KEY)
+                - usize::from(cell.key == EMPTY_KEY);
             *cell = entry;
             self.dirty = Some(match self.dirty {
                 Some((first, end)) => (first.min(index), end.max(index + 1)),
@@ -364,6 +369,12 @@ impl PageTable {
         })
     }
 
+    /// How many bricks of the copied level the table holds no entry for; `None` where no
+    /// level is copied.
+    pub fn level_unknown(&self) -> Option<usize> {
+        self.level_copy.as_ref().map(|copy| copy.unknown)
+    }
+
     /// The keys of the copied level's bricks that the level walk could not take, brick order.
     pub fn level_unwalkable_keys(&self, max_projection: bool) -> impl Iterator<Item = u32> + '_ {
         self.level_copy.iter().flat_map(move |copy| {
@@ -552,6 +563,7 @@ mod tests {
         let mut table = PageTable::new(1024);
         table.copy_level(Some((1, 6)));
         assert_eq!(table.level_unwalkable(false), Some(6), "none known yet");
+        assert_eq!(table.level_unknown(), Some(6));
         let key = |index| level_key(1, index);
         // In the atlas; uniform; visible under DVR, not in the atlas; its maximum 0, not in
         // the atlas; failed. The sixth stays unknown.
@@ -573,6 +585,7 @@ mod tests {
                 ..slotless(4, 9 << 16, ENTRY_VISIBLE)
             })
             .expect("room");
+        assert_eq!(table.level_unknown(), Some(1));
         // DVR: 2 (visible), 4 (failed), 5 (unknown); MIP: 2 (its maximum above 0) as well.
         assert_eq!(table.level_unwalkable(false), Some(3));
         assert_eq!(table.level_unwalkable(true), Some(3));
@@ -588,6 +601,7 @@ mod tests {
         assert_eq!(table.level_unwalkable(true), Some(1));
         table.remove(key(0));
         assert_eq!(table.level_unwalkable(false), Some(2));
+        assert_eq!(table.level_unknown(), Some(1), "5 known, 0 unknown again");
         assert_eq!(
             table.level_unwalkable_keys(true).collect::<Vec<_>>(),
             [key(0), key(4)]

@@ -140,7 +140,8 @@ pub struct StreamStatus {
     pub loading: usize,
     /// Bricks of the one level every ray wants still to be placed so that frames may walk that
     /// level as the bricks renderer walks its grid (`Streamer`'s level fill, once the view
-    /// lacks nothing); 0 when none are coming. A window keeps updating while this is above 0.
+    /// lacks nothing): those chosen, less those placed, unreadable, or no longer coming; 0 when
+    /// none are coming. A window keeps updating while this is above 0.
     pub filling: usize,
     /// What the view needs against what fits, while the budget leaves bricks out (`None`: the
     /// view fits at the levels its rays chose).

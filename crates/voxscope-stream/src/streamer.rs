@@ -117,9 +117,12 @@ pub struct Streamer {
     feedback_missing: usize,
     /// The last frame whose page table differed from the one before.
     changed_frame: u32,
-    /// Bricks the latest feedback queued to fill the level frames may walk
-    /// ([`Self::level_fill`]).
-    fill: KeySet,
+    /// Bricks of the level fill ([`Self::level_fill`]) not placed yet: those the latest
+    /// feedback chose, each gone once placed or unreadable.
+    fill: KeyMap<Request>,
+    /// The view the level fill was chosen in: once the view differs, its placements count as
+    /// changes (a brick the new view's rays asked for may be among them).
+    fill_view: Option<ViewPoint>,
     /// The latest frame's wanted visible bricks, by key.
     wanted: KeyMap<Request>,
     /// Of those, how many are not on the GPU yet.
@@ -227,7 +230,8 @@ impl Streamer {
             progress_at: (0, Instant::now()),
             max_projection: false,
             changed_frame: 0,
-            fill: KeySet::default(),
+            fill: KeyMap::default(),
+            fill_view: None,
             wanted: KeyMap::default(),
             missing: 0,
             ready: Vec::new(),
@@ -587,6 +591,11 @@ impl Streamer {
         }
         lap(&mut phases.feedback);
         let (uploads, upload_bytes, asked_for) = self.upload_ready();
+        // Nothing more is coming for the level fill once nothing is queued, loading or ready
+        // (a load its queue dropped, or one evicted from RAM, waits for a later feedback's fill).
+        if self.queue.counts() == (0, 0) && self.ready.is_empty() {
+            self.fill.clear();
+        }
         // A brick only the level fill wants changes no ray's samples (no ray reached it, or
         // one skipped it): the view stays complete.
         if asked_for > 0 {
@@ -659,7 +668,11 @@ impl Streamer {
                     self.counters.loads += 1;
                     self.counters.prefetch_loads += result.prefetch as u64;
                     self.ram.insert(result.key, brick);
-                    if let Some(request) = self.wanted.get(&result.key) {
+                    if let Some(request) = self
+                        .wanted
+                        .get(&result.key)
+                        .or_else(|| self.fill.get(&result.key))
+                    {
                         self.ready.push(*request);
                     }
                 }
@@ -667,6 +680,7 @@ impl Streamer {
                     if self.wanted.contains_key(&result.key) {
                         self.missing = self.missing.saturating_sub(1);
                     }
+                    self.fill.remove(&result.key);
                     if let Some(id) = self.shape.brick_of(result.key)
                         && !self.failed.contains(&result.key)
                     {
@@ -942,7 +956,8 @@ impl Streamer {
         } else {
             Vec::new()
         };
-        self.fill = fill.iter().map(|r| r.key).collect();
+        self.fill = fill.iter().map(|r| (r.key, *r)).collect();
+        self.fill_view = Some(view);
         // One pass: per-level counts; ready (in RAM: a hit, unless it was ready already) or
         // to load; then the level's fill, then the prefetch after them.
         for level in &mut self.counters.levels {
@@ -993,7 +1008,8 @@ impl Streamer {
     /// below a MIP ray's maximum, so never asked for). Then each frame walks that level's grid
     /// as the bricks renderer does, and turning the camera needs nothing more. None where one
     /// of its bricks is unreadable, or where they might not fit in the atlas's free slots
-    /// (nothing is evicted for them) or in half the RAM cache on their way; none from a store
+    /// (nothing is evicted for them), in half the RAM cache on their way, or in the page table
+    /// (with an eighth to spare); none from a store
     /// over a network, where what a view reads is what it needs (the link is the bound, and
     /// may be metered).
     fn level_fill(&self) -> Vec<Request> {
@@ -1006,7 +1022,15 @@ impl Streamer {
         let free = self.slots.capacity() - self.slots.occupied();
         // Held in RAM on their way, with room to spare for what the view asks for next.
         let ram_room = self.ram.capacity() / 2 / self.counters.slot_bytes.max(1);
-        if unwalkable == 0 || unwalkable > free || unwalkable as u64 > ram_room {
+        // Each brick the table does not know yet takes an entry: they must fit without the
+        // table dropping slotless entries (`insert_entry`), the level's own among them.
+        let new_entries = self.table.level_unknown().unwrap_or(0);
+        let table_room = (self.max_entries - self.max_entries / 8).saturating_sub(self.table.len());
+        if unwalkable == 0
+            || unwalkable > free
+            || unwalkable as u64 > ram_room
+            || new_entries > table_room
+        {
             return Vec::new();
         }
         let mut fill = Vec::with_capacity(unwalkable);
@@ -1141,11 +1165,10 @@ impl Streamer {
     }
 
     /// Uploads ready bricks in priority order within the frame's byte budget. Returns the
-    /// uploads and their bytes. A brick that finds no slot (every slot holds what the last
-    /// frame drew) waits: the cut keeps the view within the atlas, so the stand-ins its
-    /// bricks replace free slots as they arrive.
-    /// Places what waits in RAM, within the upload allowance: the uploads, their bytes, and
-    /// how many of them some ray asked for (not the level fill's alone).
+    /// uploads, their bytes, and how many bricks placed can change what a ray draws (not the
+    /// level fill's, while the view is the one it was chosen in). A brick that finds no slot
+    /// (every slot holds what the last frame drew) waits: the cut keeps the view within the
+    /// atlas, so the stand-ins its bricks replace free slots as they arrive.
     fn upload_ready(&mut self) -> (Vec<Upload>, u64, usize) {
         let mut uploads = Vec::new();
         let mut asked_for = 0;
@@ -1155,12 +1178,18 @@ impl Streamer {
         let mut waiting = Vec::new();
         let allowance = self.upload_allowance();
         let ready = std::mem::take(&mut self.ready);
+        // The level fill's bricks change no ray's samples in the view it was chosen in.
+        let fill_unseen = self.fill_view.is_some() && self.fill_view == self.last_view;
         for request in ready {
             if self.satisfied(request.key) || self.failed.contains(&request.key) {
+                self.fill.remove(&request.key);
                 continue;
             }
             let Some(cost) = self.ram.peek(request.key).map(LoadedBrick::texel_bytes) else {
-                continue; // evicted from RAM since: it will be asked for again
+                // Evicted from RAM since: it will be asked for again (the fill's, by a later
+                // feedback's fill).
+                self.fill.remove(&request.key);
+                continue;
             };
             // Past the budget (at least one brick a frame, whatever the budget) or once the
             // atlas is full, bricks with texels wait; uniform ones cost nothing to place. A
@@ -1182,28 +1211,29 @@ impl Streamer {
             let Some(brick) = self.ram.get(request.key) else {
                 continue;
             };
-            match self.place(request.key, request.id, &brick, Some(protect_from)) {
+            let placed = self.place(request.key, request.id, &brick, Some(protect_from));
+            if matches!(placed, Ok(None)) && cost > 0 {
+                // No slot free now.
+                overflow = true;
+                waiting.push(request);
+                continue;
+            }
+            let fill = self.fill.remove(&request.key).is_some();
+            let unseen = fill && fill_unseen;
+            if !fill {
+                self.missing = self.missing.saturating_sub(1);
+            }
+            match placed {
                 Ok(Some(upload)) => {
                     bytes += cost;
                     uploads.push(upload);
-                    if !self.fill.contains(&request.key) {
-                        asked_for += 1;
-                        self.missing = self.missing.saturating_sub(1);
-                    }
+                    asked_for += usize::from(!unseen);
                 }
-                Ok(None) if cost > 0 => {
-                    overflow = true;
-                    waiting.push(request);
-                }
-                Ok(None) if !self.fill.contains(&request.key) => {
-                    self.changed_frame = self.frame;
-                    self.missing = self.missing.saturating_sub(1);
-                }
+                Ok(None) if !unseen => self.changed_frame = self.frame,
                 Ok(None) => {}
                 Err(message) => {
                     self.failed.insert(request.key);
                     self.new_errors.push(message);
-                    self.missing = self.missing.saturating_sub(1);
                 }
             }
         }
@@ -1269,12 +1299,13 @@ impl Streamer {
     }
 
     /// Frame `frame` was drawn by the level walk, which leaves no usage marks: every brick of
-    /// the level it walked (the table's flat copy) counts as used by the view then. (No ray of
-    /// such a frame asks for anything, so nothing is evicted on the strength of these marks
-    /// while it draws; they keep the level's bricks from looking unused afterwards.)
+    /// the level it walked (the table's flat copy) is marked used then as a stand-in is, kept
+    /// from eviction as what a ray drew, but not counted as a brick the view wants (most of the
+    /// level may lie behind what the rays reach; `view_slots` and the budget's room count what
+    /// frames drawn segment by segment marked).
     pub fn mark_level_walked(&mut self, frame: u32) {
         for slot in self.table.level_slots() {
-            self.slots.mark_used(slot, frame, true);
+            self.slots.mark_used(slot, frame, false);
         }
     }
 
@@ -1393,5 +1424,111 @@ mod tests {
         assert_eq!(streamer.upload_allowance(), both / 3);
         streamer.set_upload_ceiling(1);
         assert_eq!(streamer.upload_allowance(), streamer.counters.slot_bytes);
+    }
+
+    /// A streamer of `dims` of mostly zeros (one corner brick of a ramp) in an atlas of
+    /// `cells` slots, level 0 copied flat as the renderer copies the level its rays all want.
+    fn sparse_streamer(dims: usize, cells: [usize; 3]) -> Streamer {
+        let mut values = vec![0u16; dims * dims * dims];
+        for z in 0..32 {
+            for y in 0..32 {
+                for x in 0..32 {
+                    values[x + dims * (y + dims * z)] = (x * 100) as u16;
+                }
+            }
+        }
+        let quantization = voxscope_volume::Quantization {
+            offset: 0.0,
+            step: 1.0,
+        };
+        let source = crate::MemorySource::from_levels(
+            "sparse",
+            values,
+            [dims; 3],
+            quantization,
+            [1.0; 3],
+            crate::Downsampling::Mean,
+        )
+        .expect("a source");
+        let options = StreamOptions {
+            workers: 1,
+            prefetch: false,
+            ..StreamOptions::default()
+        };
+        let every_level_visible = (0..=(1u32 << 16)).collect();
+        let (mut streamer, _) = Streamer::new(
+            Arc::new(source),
+            cells,
+            AtlasTexels::Unorm16,
+            options,
+            every_level_visible,
+        )
+        .expect("a streamer");
+        let bricks = streamer.shape.levels[0].brick_count() as usize;
+        streamer.table_mut().copy_level(Some((0, bricks)));
+        streamer
+    }
+
+    /// One update with a readback of the frame before, whose rays asked for `requests`.
+    fn step_with(streamer: &mut Streamer, requests: &[u32]) -> StreamStatus {
+        let usage = vec![0u32; streamer.slots.capacity()];
+        let feedback = Feedback {
+            frame: streamer.frame(),
+            requests,
+            asked: requests.len() as u32,
+            usage: &usage,
+            max_projection: false,
+        };
+        streamer.begin_frame(Some(feedback), None).1
+    }
+
+    #[test]
+    fn the_level_fill_completes_without_readbacks_and_never_outgrows_the_page_table() {
+        // 128³: level 0 has 64 bricks, 63 of them zeros; 128 slots hold them. One readback
+        // that asks for nothing chooses the fill; later updates without readbacks (a window
+        // that draws nothing new) place it as its loads arrive.
+        let mut streamer = sparse_streamer(128, [8, 4, 4]);
+        step_with(&mut streamer, &[]);
+        assert_eq!(streamer.fill.len(), 64, "every brick of level 0 chosen");
+        let started = Instant::now();
+        loop {
+            let (_, status) = streamer.begin_frame(None, None);
+            if status.filling == 0 {
+                break;
+            }
+            assert!(
+                started.elapsed() < Duration::from_secs(20),
+                "the fill stalled: {status:?}"
+            );
+            std::thread::sleep(Duration::from_millis(2));
+        }
+        assert_eq!(streamer.table().level_unwalkable(false), Some(0));
+        assert_eq!(
+            streamer.resident_keys().count(),
+            1 + streamer.slots.pinned()
+        );
+
+        // 256³ in 120 slots: the table keeps 480 entries, level 0 has 512 bricks, nearly all
+        // uniform (entries without slots). Once a view has made the table hold what it can,
+        // no fill starts: it would drop entries the table holds to make room for others.
+        let mut streamer = sparse_streamer(256, [10, 12, 1]);
+        let keys: Vec<u32> = (0..512).collect();
+        let started = Instant::now();
+        while streamer.table.len() + 8 < streamer.max_entries {
+            for batch in keys.chunks(64) {
+                step_with(&mut streamer, batch);
+            }
+            assert!(
+                started.elapsed() < Duration::from_secs(20),
+                "the table never filled: {} entries",
+                streamer.table.len()
+            );
+            std::thread::sleep(Duration::from_millis(2));
+        }
+        for _ in 0..20 {
+            let status = step_with(&mut streamer, &[]);
+            assert_eq!(status.filling, 0, "no fill beyond the table's room");
+            std::thread::sleep(Duration::from_millis(2));
+        }
     }
 }
