@@ -321,7 +321,9 @@ fn uncorrected(max_level: u32) -> RenderSettings {
 }
 
 /// The whole noise in view, rays through it (most of level 0 is needed), refined with room
-/// for all of its bricks at full detail: the camera, the settings and what was drawn.
+/// for all of its bricks at full detail: the camera, the settings and what was drawn. Segment
+/// by segment, so that the view's bricks are those its rays marked (a level walked counts all
+/// of the level's bricks in the atlas).
 fn the_whole_volume_in_view(context: &GpuContext) -> (Camera, RenderSettings, Refined) {
     let camera = Camera {
         distance: 2.5,
@@ -331,7 +333,10 @@ fn the_whole_volume_in_view(context: &GpuContext) -> (Camera, RenderSettings, Re
     let mut roomy = streaming(
         context,
         PYRAMID.clone(),
-        options(level0_bytes() * 2),
+        StreamOptions {
+            level_walk: false,
+            ..options(level0_bytes() * 2)
+        },
         &NOISE.transfer,
     );
     let whole = refine(context, &mut roomy, &camera, &full);

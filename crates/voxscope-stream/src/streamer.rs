@@ -123,6 +123,8 @@ pub struct Streamer {
     /// The view the level fill was chosen in: once the view differs, its placements count as
     /// changes (a brick the new view's rays asked for may be among them).
     fill_view: Option<ViewPoint>,
+    /// The latest frame the level walk drew ([`Self::mark_level_walked`]).
+    level_walked_at: Option<u32>,
     /// The latest frame's wanted visible bricks, by key.
     wanted: KeyMap<Request>,
     /// Of those, how many are not on the GPU yet.
@@ -232,6 +234,7 @@ impl Streamer {
             changed_frame: 0,
             fill: KeyMap::default(),
             fill_view: None,
+            level_walked_at: None,
             wanted: KeyMap::default(),
             missing: 0,
             ready: Vec::new(),
@@ -1266,7 +1269,11 @@ impl Streamer {
             counters.empty = self.empty[level];
         }
         self.counters.slots_used = self.slots.occupied();
-        self.counters.view_slots = self.feedback_frame.map_or(0, |f| self.slots.used_since(f));
+        self.counters.view_slots = match self.feedback_frame {
+            Some(frame) if self.level_walked_at == Some(frame) => self.table.level_slots().count(),
+            Some(frame) => self.slots.used_since(frame),
+            None => 0,
+        };
         self.counters.slots_pinned = self.slots.pinned();
         self.counters.ram_bytes = self.ram.bytes();
         self.counters.source_cache_bytes = self.source.cached_bytes();
@@ -1301,9 +1308,11 @@ impl Streamer {
     /// Frame `frame` was drawn by the level walk, which leaves no usage marks: every brick of
     /// the level it walked (the table's flat copy) is marked used then as a stand-in is, kept
     /// from eviction as what a ray drew, but not counted as a brick the view wants (most of the
-    /// level may lie behind what the rays reach; `view_slots` and the budget's room count what
-    /// frames drawn segment by segment marked).
+    /// level may lie behind what the rays reach: the budget's room counts what frames drawn
+    /// segment by segment marked). A walked frame's `view_slots` are the level's bricks in the
+    /// atlas, every one the walk may draw.
     pub fn mark_level_walked(&mut self, frame: u32) {
+        self.level_walked_at = Some(frame);
         for slot in self.table.level_slots() {
             self.slots.mark_used(slot, frame, false);
         }
