@@ -220,25 +220,39 @@ impl StreamVolume {
             .max(1)
             * std::mem::size_of::<TableEntry>() as u64;
         // The scatter's staging takes its bytes from the atlas; where the rest cannot hold the
-        // always-resident levels and a view, the ring copies instead (it needs none).
-        let fit = |staging_bytes: u64| -> Result<_, RenderError> {
+        // always-resident levels and a view, the ring copies instead (it needs none), and
+        // where even then it cannot, the level walk goes (its level copy's bytes too).
+        let fit = |staging_bytes: u64, walk: bool| -> Result<_, RenderError> {
+            let cells = if walk { level_cells_bytes } else { 0 };
             let grid = atlas_grid(
                 context,
                 options.gpu_memory,
-                staging_bytes + level_cells_bytes,
+                staging_bytes + cells,
                 slot_bytes,
                 bricks,
             )?;
+            let options = StreamOptions {
+                level_walk: options.level_walk && walk,
+                ..options
+            };
             let (streamer, pinned) =
                 Streamer::new(Arc::clone(&source), grid, texels, options, visible.clone())
                     .map_err(RenderError::DoesNotFit)?;
             Ok((grid, streamer, pinned))
         };
         let (scatter, (grid, mut streamer, pinned)) =
-            match scatter.map(|scatter| (scatter, fit(scatter.1.1))) {
+            match scatter.map(|scatter| (scatter, fit(scatter.1.1, true))) {
                 Some((scatter, Ok(fitted))) => (Some(scatter), fitted),
-                _ => (None, fit(0)?),
+                _ => match fit(0, true) {
+                    Ok(fitted) => (None, fitted),
+                    Err(_) => (None, fit(0, false)?),
+                },
             };
+        let level_cells_bytes = if streamer.options().level_walk {
+            level_cells_bytes
+        } else {
+            std::mem::size_of::<TableEntry>() as u64
+        };
         let device = &context.device;
         let out_of_memory = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let size = wgpu::Extent3d {
