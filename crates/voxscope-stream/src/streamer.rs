@@ -1012,9 +1012,8 @@ impl Streamer {
     /// as the bricks renderer does, and turning the camera needs nothing more. None where one
     /// of its bricks is unreadable, or where they might not fit in the atlas's free slots
     /// (nothing is evicted for them), in half the RAM cache on their way, or in the page table
-    /// (with an eighth to spare); none from a store
-    /// over a network, where what a view reads is what it needs (the link is the bound, and
-    /// may be metered).
+    /// (with an eighth to spare); none from a store over a network, where what a view reads is
+    /// what it needs (the link is the bound, and may be metered).
     fn level_fill(&self) -> Vec<Request> {
         if self.source.remote_stats().is_some() {
             return Vec::new();
