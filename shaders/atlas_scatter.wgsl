@@ -35,3 +35,14 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         textureStore(atlas, origin + at, vec4<f32>(texel(value, k), 0.0, 0.0, 1.0));
     }
 }
+
+// Writes 0 into every texel of the atlas: its first use, where it was made without wgpu's zero
+// fill (`uncleared_texture.rs`). One invocation per texel; x counts along a row, y and z are
+// the row's.
+@compute @workgroup_size(64)
+fn zero(@builtin(global_invocation_id) id: vec3<u32>) {
+    if any(id >= textureDimensions(atlas)) {
+        return;
+    }
+    textureStore(atlas, id, vec4<f32>(0.0, 0.0, 0.0, 1.0));
+}

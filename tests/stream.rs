@@ -19,7 +19,7 @@ use voxscope_render::{
     Camera, GpuContext, RenderSettings, RenderTarget, RendererKind, VolumeRenderer, read_image,
 };
 use voxscope_stream::{
-    BRICK_SIZE, BrickData, BrickError, BrickId, BrickSource, Downsampling, MemorySource,
+    AtlasZero, BRICK_SIZE, BrickData, BrickError, BrickId, BrickSource, Downsampling, MemorySource,
     PADDED_BRICK_VOXELS, PyramidShape, StreamOptions, StreamStatus, UploadPath, ValueRange,
     ZarrSource,
 };
@@ -87,6 +87,7 @@ fn options(gpu_memory: u64) -> StreamOptions {
         ram_cache: 256 << 20,
         upload_bytes_per_frame: 8 << 20,
         uploads: UploadPath::Scatter,
+        atlas_zero: AtlasZero::Auto,
         workers: 2,
         lod_scale: 0.0,
         prefetch: false,
@@ -552,7 +553,8 @@ fn a_view_larger_than_the_atlas_completes_where_the_coarser_bricks_are_invisible
 }
 
 #[test]
-fn uploads_scattered_or_copied_through_the_staging_ring_draw_what_queue_writes_draw() {
+fn uploads_scattered_or_copied_through_the_staging_ring_draw_what_queue_writes_draw_whoever_zeroed_the_atlas()
+ {
     let context = gpu();
     let prepared = &*NOISE;
     let camera = close_camera(30.0);
@@ -575,15 +577,27 @@ fn uploads_scattered_or_copied_through_the_staging_ring_draw_what_queue_writes_d
         .expect("pyramid"),
     );
     for (source, texels) in [(PYRAMID.clone(), 16), (eight_bit, 8)] {
-        let image = |uploads: UploadPath| {
+        let image = |uploads: UploadPath, atlas_zero: AtlasZero| {
             let mut renderer = streaming(
                 &context,
                 source.clone(),
                 StreamOptions {
                     uploads,
+                    atlas_zero,
                     ..options(level0_bytes())
                 },
                 &prepared.transfer,
+            );
+            // lavapipe is Vulkan: an atlas that zeroes itself is made so there too, and
+            // `auto` leaves its zeroing to wgpu on a CPU.
+            let zeroed = renderer.stream().expect("a stream renderer").atlas_zero();
+            assert_eq!(
+                zeroed,
+                match (uploads, atlas_zero) {
+                    (UploadPath::Scatter, AtlasZero::Shader) => AtlasZero::Shader,
+                    _ => AtlasZero::Wgpu,
+                },
+                "{texels}-bit, {uploads:?}, {atlas_zero:?}"
             );
             let refined = refine(&context, &mut renderer, &camera, &settings);
             let counters = &refined.status.counters;
@@ -622,19 +636,26 @@ fn uploads_scattered_or_copied_through_the_staging_ring_draw_what_queue_writes_d
             );
             refined.image
         };
-        let through_queue = image(UploadPath::Queue);
+        let through_queue = image(UploadPath::Queue, AtlasZero::Auto);
         save(&through_queue, &format!("queue-{texels}bit"));
         assert!(coverage(&through_queue) > 0.5, "the view shows the volume");
-        for uploads in [UploadPath::Scatter, UploadPath::Copies] {
-            let through_ring = image(uploads);
-            save(&through_ring, &format!("ring-{uploads:?}-{texels}bit"));
+        for (uploads, atlas_zero) in [
+            (UploadPath::Scatter, AtlasZero::Auto),
+            (UploadPath::Scatter, AtlasZero::Shader),
+            (UploadPath::Copies, AtlasZero::Shader),
+        ] {
+            let through_ring = image(uploads, atlas_zero);
+            save(
+                &through_ring,
+                &format!("ring-{uploads:?}-{atlas_zero:?}-{texels}bit"),
+            );
             // The same bricks, in other slots where they arrived in another order: a sample's
             // atlas coordinate rounds differently there (about 90 dB); a misplaced row or a
             // brick written over before its copy ran would be tens of dB lower.
             let db = psnr(&through_ring, &through_queue);
             assert!(
                 db >= 80.0,
-                "{texels}-bit, {uploads:?}: the ring's uploads differ from the queue's: {db:.1} dB"
+                "{texels}-bit, {uploads:?}, atlas zeroed {atlas_zero:?}: the ring's uploads differ from the queue's: {db:.1} dB"
             );
         }
     }

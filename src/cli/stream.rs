@@ -6,7 +6,7 @@ use clap::Args;
 
 use super::{TransferArgs, VolumeArgs};
 use voxscope_scene::{SavedTransfer, SceneError, StreamedVolume, VolumeSource};
-use voxscope_stream::{StreamOptions, UploadPath};
+use voxscope_stream::{AtlasZero, StreamOptions, UploadPath};
 
 /// The streaming renderer's budgets (`--renderer stream`, `bench --stream`).
 #[derive(Debug, Clone, Args)]
@@ -33,6 +33,12 @@ pub struct StreamArgs {
     /// command per run of cells; queue: a queue write per brick.
     #[arg(long, value_name = "PATH", default_value = "scatter")]
     pub uploads: UploadsArg,
+    /// Streaming renderer: how the GPU's atlas is zeroed before its first use. shader: a
+    /// compute pass over an atlas made without wgpu's zero fill (Vulkan, scattered uploads);
+    /// wgpu: wgpu's fill at its first use, buffer copies slice by slice; auto: shader on a GPU,
+    /// wgpu on a CPU (lavapipe). The same image.
+    #[arg(long, value_name = "HOW", default_value = "auto")]
+    pub atlas_zero: AtlasZeroArg,
     /// Streaming renderer: draw every ray segment by segment through the hashed page table,
     /// never walking a level's entries copied flat (the same image; for comparison).
     #[arg(long)]
@@ -57,6 +63,24 @@ impl From<UploadsArg> for UploadPath {
     }
 }
 
+/// `--atlas-zero`: [`AtlasZero`] on the command line.
+#[derive(Debug, Clone, Copy, clap::ValueEnum)]
+pub enum AtlasZeroArg {
+    Auto,
+    Shader,
+    Wgpu,
+}
+
+impl From<AtlasZeroArg> for AtlasZero {
+    fn from(arg: AtlasZeroArg) -> Self {
+        match arg {
+            AtlasZeroArg::Auto => AtlasZero::Auto,
+            AtlasZeroArg::Shader => AtlasZero::Shader,
+            AtlasZeroArg::Wgpu => AtlasZero::Wgpu,
+        }
+    }
+}
+
 impl StreamArgs {
     /// The streamer's options (workers: the machine's cores less one).
     pub fn options(&self) -> StreamOptions {
@@ -66,6 +90,7 @@ impl StreamArgs {
             upload_bytes_per_frame: self.upload_budget,
             lod_scale: self.lod_scale,
             uploads: self.uploads.into(),
+            atlas_zero: self.atlas_zero.into(),
             level_walk: !self.no_level_walk,
             ..StreamOptions::default()
         }

@@ -137,6 +137,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
     // The path the uploads took: a device that cannot write the atlas's format from a shader
     // copies instead.
     let upload_path = renderer.stream().map(|volume| volume.upload_path());
+    let atlas_zero = renderer.stream().map(|volume| volume.atlas_zero());
     drop(renderer);
 
     // Near stopped views, DVR and MIP at each distance, each from a cold start of its renderer
@@ -326,6 +327,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
             "ram_cache": options.ram_cache,
             "upload_bytes_per_frame": options.upload_bytes_per_frame,
             "uploads": upload_path.map(|path| format!("{path:?}")),
+            "atlas_zero": atlas_zero.map(|how| format!("{how:?}")),
             "lod_scale": options.lod_scale,
             "workers": options.workers,
             "prefetch": options.prefetch,

@@ -10,14 +10,17 @@
 //! byte in all three formats, subnormals included.
 
 use super::GpuContext;
-use super::pipeline::{compute_pipeline, storage_entry};
+use super::pipeline::{compute_pipelines, storage_entry};
 
-/// Threads per workgroup; keep in sync with `@workgroup_size` in `atlas_scatter.wgsl`.
+/// Threads per workgroup; keep in sync with `@workgroup_size` in `atlas_scatter.wgsl` (both
+/// entry points).
 pub(crate) const WORKGROUP: u32 = 64;
 
-/// The scatter pipeline of one atlas format.
+/// The scatter pipeline of one atlas format, and the pass that zeroes an atlas made without
+/// wgpu's zero fill (`zero`), with one bind group layout.
 pub(crate) struct AtlasScatter {
     pub pipeline: wgpu::ComputePipeline,
+    pub zero: wgpu::ComputePipeline,
     pub layout: wgpu::BindGroupLayout,
 }
 
@@ -40,10 +43,11 @@ impl AtlasScatter {
             ),
             other => unreachable!("no scatter shader for {other:?}: FORMATS lists those with one"),
         };
-        let (pipeline, layout) = compute_pipeline(
+        let (mut pipelines, layout) = compute_pipelines(
             context,
             label,
             source,
+            &["main", "zero"],
             &[
                 storage_entry(0, true),
                 storage_entry(1, true),
@@ -59,7 +63,13 @@ impl AtlasScatter {
                 },
             ],
         );
-        Self { pipeline, layout }
+        let zero = pipelines.remove(1);
+        let pipeline = pipelines.remove(0);
+        Self {
+            pipeline,
+            zero,
+            layout,
+        }
     }
 }
 

@@ -29,6 +29,7 @@ mod staging_ring;
 mod stream;
 mod timer;
 mod transfer_table;
+mod uncleared_texture;
 mod volume_renderer;
 
 pub use bricks::{GpuBrickRecolor, GpuBricks};

@@ -174,6 +174,10 @@ struct Scatter {
     source: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
     pipeline: wgpu::ComputePipeline,
+    /// Writes 0 into every texel of the atlas (`atlas_scatter.wgsl`'s `zero`).
+    zero: wgpu::ComputePipeline,
+    /// The atlas's size in texels.
+    atlas_size: wgpu::Extent3d,
 }
 
 /// The ring. A buffer's bytes bound a frame's uploads through it; more go through the queue.
@@ -256,6 +260,8 @@ impl StagingRing {
             source,
             bind_group,
             pipeline: scatter.pipeline.clone(),
+            zero: scatter.zero.clone(),
+            atlas_size: atlas.size(),
         };
         Self::with_buffers(context, capacity, row_bytes, Some(scatter))
     }
@@ -290,6 +296,28 @@ impl StagingRing {
     /// Whether the ring's bricks are scattered into their cells by a dispatch (else copied).
     pub(crate) fn scatters(&self) -> bool {
         self.scatter.is_some()
+    }
+
+    /// Records a pass that writes 0 into every texel of the atlas a scattering ring was made
+    /// with: the first use of an atlas made without wgpu's zero fill (`uncleared_texture.rs`).
+    /// Whether it did (a copying ring has no shader that writes the atlas).
+    pub(crate) fn zero_atlas(&self, encoder: &mut wgpu::CommandEncoder) -> bool {
+        let Some(scatter) = &self.scatter else {
+            return false;
+        };
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("voxscope::stream_atlas_zero"),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&scatter.zero);
+        pass.set_bind_group(0, &scatter.bind_group, &[]);
+        let size = scatter.atlas_size;
+        pass.dispatch_workgroups(
+            size.width.div_ceil(atlas_scatter::WORKGROUP),
+            size.height,
+            size.depth_or_array_layers,
+        );
+        true
     }
 
     /// Bytes the ring holds on the GPU: the buffer a scattering ring's dispatch reads.
@@ -488,6 +516,7 @@ fn stage_whole(
 mod tests {
     use super::*;
     use crate::readback::read_buffer;
+    use crate::uncleared_texture::uncleared_texture;
 
     fn cell(x: u32, y: u32, z: u32) -> wgpu::Origin3d {
         let side = PADDED_BRICK as u32;
@@ -639,7 +668,7 @@ mod tests {
     }
 
     #[test]
-    fn scattered_and_copied_bricks_land_in_their_cells_bit_for_bit() {
+    fn scattered_and_copied_bricks_land_in_their_cells_bit_for_bit_the_rest_zeroed() {
         let context = GpuContext::new_headless()
             .expect("a GPU adapter (lavapipe: mesa-vulkan-drivers, WGPU_BACKEND=vulkan)");
         let side = PADDED_BRICK as u32;
@@ -696,7 +725,7 @@ mod tests {
             }
             eprintln!("{format:?}: {} bytes checked", expected.len());
             for scattering in [true, false] {
-                let atlas = context.device.create_texture(&wgpu::TextureDescriptor {
+                let desc = wgpu::TextureDescriptor {
                     label: Some("test_atlas"),
                     size,
                     mip_level_count: 1,
@@ -707,9 +736,50 @@ mod tests {
                         | wgpu::TextureUsages::COPY_SRC
                         | wgpu::TextureUsages::STORAGE_BINDING,
                     view_formats: &[],
-                });
+                };
+                // A scattering ring's atlas is made as the stream renderer makes it on Vulkan,
+                // without wgpu's zero fill; the bytes it may hold are written first, then the
+                // ring's pass zeroes them, and the cells no frame fills must read 0.
+                // SAFETY: every texel is written (by the queue) before anything reads it.
+                let atlas = match scattering
+                    .then(|| unsafe { uncleared_texture(&context.device, &desc) })
+                {
+                    Some(Some(made)) => made.expect("room for a test atlas"),
+                    Some(None) => {
+                        assert_ne!(
+                            context.adapter_info.backend,
+                            wgpu::Backend::Vulkan,
+                            "a Vulkan device makes the atlas without wgpu's zero fill"
+                        );
+                        context.device.create_texture(&desc)
+                    }
+                    None => context.device.create_texture(&desc),
+                };
                 let mut ring = if scattering {
-                    StagingRing::scattering(&context, 8, bytes_per_texel as u32, &atlas, scatter)
+                    let garbage = vec![0xa5u8; expected.len()];
+                    context.queue.write_texture(
+                        atlas.as_image_copy(),
+                        &garbage,
+                        wgpu::TexelCopyBufferLayout {
+                            offset: 0,
+                            bytes_per_row: Some(row as u32),
+                            rows_per_image: Some(size.height),
+                        },
+                        size,
+                    );
+                    let ring = StagingRing::scattering(
+                        &context,
+                        8,
+                        bytes_per_texel as u32,
+                        &atlas,
+                        scatter,
+                    );
+                    let mut encoder = context
+                        .device
+                        .create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
+                    assert!(ring.zero_atlas(&mut encoder));
+                    context.queue.submit([encoder.finish()]);
+                    ring
                 } else {
                     StagingRing::new(&context, 8, bytes_per_texel as u32)
                 };

@@ -29,13 +29,14 @@ use super::readback::map_state::{FAILED, IDLE, MAPPED, RECORDED};
 use super::readback::{read_mapped, start_map_read};
 use super::renderer::{Renderer, level_detail, pipeline_variants};
 use super::staging_ring::{self, StagedBrick, StagingRing};
+use super::uncleared_texture::uncleared_texture;
 use super::{
     Camera, Frame, GpuContext, GpuTransferTable, ImageRegion, LevelDetail, RenderError,
     RenderSettings, RenderTarget, RendererKind,
 };
 use voxscope_octree::TransferFunction;
 use voxscope_stream::{
-    AtlasTexels, BRICK_SIZE, BrickSource, Feedback, PADDED_BRICK, PADDED_BRICK_VOXELS,
+    AtlasTexels, AtlasZero, BRICK_SIZE, BrickSource, Feedback, PADDED_BRICK, PADDED_BRICK_VOXELS,
     StreamOptions, StreamStatus, Streamer, TableEntry, Upload, UploadParts, UploadPath, ViewPoint,
 };
 
@@ -106,6 +107,11 @@ pub struct StreamVolume {
     /// The always-resident levels' bricks, read when the volume was made and written by the
     /// first [`Self::step`].
     unwritten: Vec<Upload>,
+    /// The atlas was made without wgpu's zero fill and is not zeroed yet: the first
+    /// [`Self::write`] records the pass that does.
+    unzeroed: bool,
+    /// How the atlas was zeroed: [`AtlasZero::Shader`] or [`AtlasZero::Wgpu`].
+    atlas_zero: AtlasZero,
     /// The GPU's time for the ring's copies (where it has timestamps).
     copy_timer: Option<CopyTimer>,
     /// Whether a frame was drawn since the last update (its requests are then read back).
@@ -260,7 +266,7 @@ impl StreamVolume {
             height: (grid[1] * PADDED_BRICK) as u32,
             depth_or_array_layers: (grid[2] * PADDED_BRICK) as u32,
         };
-        let atlas = device.create_texture(&wgpu::TextureDescriptor {
+        let atlas_desc = wgpu::TextureDescriptor {
             label: Some("voxscope::stream_atlas"),
             size,
             mip_level_count: 1,
@@ -275,7 +281,34 @@ impl StreamVolume {
                 wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST
             },
             view_formats: &[],
-        });
+        };
+        // Where the scatter pass can write the atlas, a GPU's atlas is made without wgpu's zero
+        // fill and a pass zeroes it instead (`write`, before the first uploads). A CPU
+        // (lavapipe) stores texels from a shader more slowly than it copies them (80 ms against
+        // a few for 17 M texels), and its next submission waits for that: wgpu fills it there.
+        let zeroes_itself = scatter.is_some()
+            && match options.atlas_zero {
+                AtlasZero::Auto => context.adapter_info.device_type != wgpu::DeviceType::Cpu,
+                AtlasZero::Shader => true,
+                AtlasZero::Wgpu => false,
+            };
+        // SAFETY: the zero pass is the first command submitted that uses the atlas (`write`
+        // records it before any upload; before the first upload no page-table entry points
+        // into the atlas, so no frame reads it).
+        let uncleared = if zeroes_itself {
+            unsafe { uncleared_texture(device, &atlas_desc) }
+        } else {
+            None
+        };
+        let (atlas, uncleared) = match uncleared {
+            Some(Ok(atlas)) => (atlas, true),
+            Some(Err(error)) => {
+                return Err(RenderError::DoesNotFit(format!(
+                    "the GPU has no room for the streaming atlas: {error}"
+                )));
+            }
+            None => (device.create_texture(&atlas_desc), false),
+        };
         let atlas_view = atlas.create_view(&wgpu::TextureViewDescriptor::default());
         let slots = grid.iter().product::<usize>();
         let table = device.create_buffer(&wgpu::BufferDescriptor {
@@ -363,6 +396,12 @@ impl StreamVolume {
             max_projection: AtomicBool::new(false),
             spacing: source.spacing(),
             unwritten: pinned,
+            unzeroed: uncleared,
+            atlas_zero: if uncleared {
+                AtlasZero::Shader
+            } else {
+                AtlasZero::Wgpu
+            },
         };
         Ok(volume)
     }
@@ -371,6 +410,20 @@ impl StreamVolume {
     /// queue while no ring buffer is mapped) and the page table's changed entries; tells the
     /// streamer what that cost.
     fn write(&mut self, context: &GpuContext, uploads: &[Upload]) {
+        let zeroing = std::mem::take(&mut self.unzeroed);
+        if zeroing {
+            // On the frame's thread: an app's loading thread, which made the volume, submits
+            // nothing to the window's device (docs/architecture.md).
+            let mut encoder =
+                context
+                    .device
+                    .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                        label: Some("voxscope::stream_atlas_zero"),
+                    });
+            let zeroed = self.ring.zero_atlas(&mut encoder);
+            debug_assert!(zeroed, "an atlas zeroes itself only with a scattering ring");
+            context.queue.submit([encoder.finish()]);
+        }
         let started = Instant::now();
         let side = PADDED_BRICK as u32;
         let [gx, gy, _] = self.atlas_grid.map(|g| g as u32);
@@ -448,7 +501,13 @@ impl StreamVolume {
         parts.queue_seconds = queueing.elapsed().as_secs_f64();
         parts.ring_bricks = staged.iter().filter(|&&s| s).count() as u64;
         parts.queue_bricks = uploads.len() as u64 - parts.ring_bricks;
-        let bytes: u64 = uploads.iter().map(|u| u.texels.len() as u64).sum();
+        // The write after the zero pass counts its time but sets no rate: where a submission
+        // waits for the one before (lavapipe), its time is mostly the zero pass's.
+        let bytes: u64 = if zeroing {
+            0
+        } else {
+            uploads.iter().map(|u| u.texels.len() as u64).sum()
+        };
         self.streamer
             .set_upload_cost(bytes, started.elapsed().as_secs_f64(), &parts);
         let entry_bytes = std::mem::size_of::<TableEntry>() as u64;
@@ -478,6 +537,12 @@ impl StreamVolume {
         } else {
             UploadPath::Queue
         }
+    }
+
+    /// How its atlas is zeroed before its first use: [`AtlasZero::Shader`] where it was made
+    /// without wgpu's fill, else [`AtlasZero::Wgpu`].
+    pub fn atlas_zero(&self) -> AtlasZero {
+        self.atlas_zero
     }
 
     /// The per-frame step: reads back what earlier frames asked for and used (without

@@ -37,7 +37,7 @@ pub use frame::{Feedback, Upload, ViewPoint};
 pub use key_hash::{KeyHasher, KeyMap, KeySet};
 pub use loader::{AtlasTexels, LoadedBrick, load_brick};
 pub use memory::MemorySource;
-pub use options::{StreamOptions, UploadPath};
+pub use options::{AtlasZero, StreamOptions, UploadPath};
 pub use page_table::{
     ENTRY_FAILED, ENTRY_RESIDENT, ENTRY_VISIBLE, MAX_PROBES, PageTable, TableEntry, TableFull,
     table_hash,

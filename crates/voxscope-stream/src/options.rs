@@ -21,6 +21,9 @@ pub struct StreamOptions {
     pub upload_bytes_per_frame: u64,
     /// How bricks reach the atlas (`--uploads`). Default [`UploadPath::Scatter`].
     pub uploads: UploadPath,
+    /// How the atlas is zeroed before its first use (`--atlas-zero`). Default
+    /// [`AtlasZero::Auto`].
+    pub atlas_zero: AtlasZero,
     /// Worker threads loading bricks. Default: the machine's cores less one (at least one).
     pub workers: usize,
     /// The pixel footprint is multiplied by this before it picks a level: 1 takes the level
@@ -50,6 +53,7 @@ impl Default for StreamOptions {
             ram_cache: 2 << 30,
             upload_bytes_per_frame: 256 << 20,
             uploads: UploadPath::Scatter,
+            atlas_zero: AtlasZero::Auto,
             workers: cores.saturating_sub(1).max(1),
             lod_scale: 1.0,
             prefetch: true,
@@ -73,4 +77,19 @@ pub enum UploadPath {
     Copies,
     /// A queue write per brick.
     Queue,
+}
+
+/// How the atlas is zeroed before its first use. The images are the same.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum AtlasZero {
+    /// [`Self::Shader`] on a GPU, [`Self::Wgpu`] on a CPU's Vulkan (lavapipe), which stores
+    /// texels from a shader more slowly than it copies them.
+    #[default]
+    Auto,
+    /// The atlas is made without wgpu's zero fill (on Vulkan) and a compute pass writes 0 into
+    /// every texel before the first uploads. Where the device is not Vulkan, or the uploads are
+    /// not scattered ([`UploadPath::Scatter`]: no shader writes the atlas), as [`Self::Wgpu`].
+    Shader,
+    /// wgpu zeroes the atlas at its first use, with buffer copies slice by slice.
+    Wgpu,
 }
