@@ -291,12 +291,20 @@ fn bench_stream_reports_its_orbits_paced_and_the_uploads_scattered() {
             (1.0, "mip")
         ]
     );
+    // `auto` leaves a CPU's atlas (lavapipe's) to wgpu's zero fill.
+    assert_eq!(json["options"]["atlas_zero"], "Wgpu", "{}", json["options"]);
     let orbits = json["orbits"].as_array().expect("orbits");
     assert_eq!(orbits.len(), 2, "medium and near");
     let mut dispatches = 0;
     for orbit in orbits {
         assert_eq!(orbit["paced_fps"], 2.0, "{orbit}");
         assert!(orbit["wall_ms"]["median"].as_f64().unwrap() > 0.0);
+        let first = &orbit["first_frame_ms"];
+        assert!(
+            first["wall"].as_f64().unwrap() >= first["update"].as_f64().unwrap()
+                && first["update"].as_f64().unwrap() > 0.0,
+            "{first}"
+        );
         // Three frames at two a second: a turn of at least 1.5 s, however fast the frames.
         let turn = orbit["turn_seconds"].as_f64().unwrap();
         assert!(turn >= 1.45, "{turn} s");

@@ -274,6 +274,14 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
             "update_preempted_ms": (!preempted_ms.is_empty()).then(|| summary(&preempted_ms)),
             "update_phases_ms": phases_json(&phases),
             "wait_beyond_pass_bytes_per_s": wait_beyond_pass,
+            // The first frame of a renderer just made: its update (the always-resident
+            // levels' uploads), the GPU's time for its pass, and its wait beyond.
+            "first_frame_ms": {
+                "wall": wall.first(),
+                "update": update_ms.first(),
+                "gpu": gpu.first(),
+                "wait": wait_ms.first(),
+            },
             "frames_over_16ms_wall": wall.iter().filter(|&&w| w > 16.0).count(),
             "slowest_frame": wall
                 .iter()
