@@ -270,6 +270,15 @@ fn bench_stream_reports_its_orbits_paced_and_the_uploads_scattered() {
         assert!(!json[key].is_null(), "missing {key}");
     }
     assert_eq!(json["options"]["uploads"], "Scatter");
+    // Resident frames are timed once the loaders are idle.
+    for row in json["resident"]["rows"].as_array().expect("resident rows") {
+        assert_eq!(row["loaders_busy"], 0, "{row}");
+        let halves = row["stream_gpu_halves_ms"].as_array().expect("two halves");
+        assert!(
+            halves.len() == 2 && halves.iter().all(|h| h.as_f64().unwrap() > 0.0),
+            "{row}"
+        );
+    }
     let near: Vec<(f64, &str)> = json["near_stopped_views"]
         .as_array()
         .expect("near views")

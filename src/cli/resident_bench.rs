@@ -94,7 +94,8 @@ pub(super) fn resident_comparison(
                 .map_err(|e| e.to_string())?;
             // What a window does next: it keeps updating while the streamer fills the level
             // every ray wants, after which frames walk it (`main_level`).
-            let filled = settle_fill(context, &mut stream, target, &camera, &settings)?;
+            let (filled, loaders_busy) =
+                settle_fill(context, &mut stream, target, &camera, &settings)?;
             let walked_before = stream.stream().map_or(0, |s| s.level_walk_frames());
             let (stream_gpu, stream_wall) = time_view(
                 context,
@@ -122,9 +123,14 @@ pub(super) fn resident_comparison(
                 "camera": camera_name,
                 "complete": refinement.complete,
                 "level_filled": filled,
+                // Bricks still queued or loading when the timing began (0: the loaders idle).
+                "loaders_busy": loaders_busy,
                 "level_walk_frames": walked,
                 "stream_gpu_ms": stream_ms,
                 "stream_gpu_p95_ms": percentile(&stream_gpu, 95.0),
+                // The first and second half's medians: a GPU whose clocks rise during the
+                // frames shows the first one higher.
+                "stream_gpu_halves_ms": halves(&stream_gpu),
                 "bricks_gpu_ms": bricks_ms,
                 "bricks_gpu_p95_ms": percentile(&bricks_gpu, 95.0),
                 "stream_over_bricks": stream_ms / bricks_ms,
@@ -140,27 +146,36 @@ pub(super) fn resident_comparison(
     }))
 }
 
-/// Updates `stream` on one view until its level fill is done (at most [`MAX_WAIT`]), drawing
-/// only when an update changed what frames draw, as a window does; returns the bricks placed.
+/// The medians of the first and the second half of `values`.
+fn halves(values: &[f64]) -> [f64; 2] {
+    let (first, second) = values.split_at(values.len() / 2);
+    [percentile(first, 50.0), percentile(second, 50.0)]
+}
+
+/// Updates `stream` on one view until its level fill is done and its loaders are idle (at
+/// most [`MAX_WAIT`]), drawing only when an update changed what frames draw, as a window does;
+/// returns the bricks placed, and how many were still queued or loading at the end (loaders
+/// busy on the CPU while the GPU is timed slow its frames' submission).
 fn settle_fill(
     context: &GpuContext,
     stream: &mut VolumeRenderer,
     target: &RenderTarget,
     camera: &Camera,
     settings: &RenderSettings,
-) -> Result<u64, String> {
+) -> Result<(u64, usize), String> {
     let started = Instant::now();
     let before = stream
         .stream()
         .map_or(0, |s| s.streamer().resident_keys().count() as u64);
-    loop {
+    let busy = loop {
         let status = stream
             .update(context)
             .ok_or("the resident comparison needs the streaming renderer")?;
-        if (status.filling == 0 && status.uploads == 0 && status.complete)
+        let busy = status.queued + status.loading;
+        if (status.filling == 0 && status.uploads == 0 && status.complete && busy == 0)
             || started.elapsed() >= MAX_WAIT
         {
-            break;
+            break busy;
         }
         // A window draws again only when the update changed what frames draw.
         if status.uploads > 0 || status.table_changed {
@@ -169,11 +184,11 @@ fn settle_fill(
         } else {
             std::thread::sleep(Duration::from_millis(1));
         }
-    }
+    };
     let after = stream
         .stream()
         .map_or(0, |s| s.streamer().resident_keys().count() as u64);
-    Ok(after.saturating_sub(before))
+    Ok((after.saturating_sub(before), busy))
 }
 
 /// GPU milliseconds of `frames` frames of one fixed view (after a warm-up), and the wall time
@@ -196,9 +211,11 @@ fn time_view(
         renderer.encode(context, &mut encoder, target, camera, settings, writes);
         context.queue.submit([encoder.finish()]);
     };
+    // 200 ms of frames, nearly back to back, so that the GPU's clocks are up (a few frames
+    // between waits left it idle a tenth of the time).
     let warming = Instant::now();
     while warming.elapsed() < Duration::from_millis(200) {
-        for _ in 0..5 {
+        for _ in 0..20 {
             submit(None);
         }
         context.wait_idle().map_err(|e| e.to_string())?;
