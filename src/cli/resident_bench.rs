@@ -146,9 +146,10 @@ pub(super) fn resident_comparison(
     }))
 }
 
-/// The medians of the first and the second half of `values`.
+/// The medians of the first and the second half of `values` (of a single value, it twice).
 fn halves(values: &[f64]) -> [f64; 2] {
     let (first, second) = values.split_at(values.len() / 2);
+    let first = if first.is_empty() { second } else { first };
     [percentile(first, 50.0), percentile(second, 50.0)]
 }
 
@@ -214,12 +215,15 @@ fn time_view(
     // 200 ms of frames, nearly back to back, so that the GPU's clocks are up (a few frames
     // between waits left it idle a tenth of the time).
     let warming = Instant::now();
+    let mut queued = 0;
     while warming.elapsed() < Duration::from_millis(200) {
-        for _ in 0..20 {
-            submit(None);
+        submit(None);
+        queued += 1;
+        if queued % 20 == 0 {
+            context.wait_idle().map_err(|e| e.to_string())?;
         }
-        context.wait_idle().map_err(|e| e.to_string())?;
     }
+    context.wait_idle().map_err(|e| e.to_string())?;
     let started = Instant::now();
     for _ in 0..frames {
         submit(None);

@@ -513,7 +513,7 @@ fn stage_whole(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::readback::read_buffer;
     use crate::uncleared_texture::uncleared_texture;
@@ -632,7 +632,11 @@ mod tests {
     }
 
     /// The atlas's texels, as `format`'s bytes, x fastest.
-    fn read_atlas(context: &GpuContext, atlas: &wgpu::Texture, bytes_per_texel: usize) -> Vec<u8> {
+    pub(crate) fn read_atlas(
+        context: &GpuContext,
+        atlas: &wgpu::Texture,
+        bytes_per_texel: usize,
+    ) -> Vec<u8> {
         let size = atlas.size();
         let row = size.width as usize * bytes_per_texel;
         let pitch = row.next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as usize);
@@ -672,7 +676,8 @@ mod tests {
         let context = GpuContext::new_headless()
             .expect("a GPU adapter (lavapipe: mesa-vulkan-drivers, WGPU_BACKEND=vulkan)");
         let side = PADDED_BRICK as u32;
-        let grid = [3u32, 2, 2];
+        // Height and depth differ: a dispatch that swapped them would leave texels unwritten.
+        let grid = [3u32, 3, 2];
         // Five frames through the three buffers (the first two mapped again and written a
         // second time): five bricks (three cells in a run along x); one over a cell the first
         // filled, while the GPU's staging still holds the first frame's later placements (a

@@ -29,7 +29,7 @@ use super::readback::map_state::{FAILED, IDLE, MAPPED, RECORDED};
 use super::readback::{read_mapped, start_map_read};
 use super::renderer::{Renderer, level_detail, pipeline_variants};
 use super::staging_ring::{self, StagedBrick, StagingRing};
-use super::uncleared_texture::uncleared_texture;
+use super::uncleared_texture::{OutOfMemory, uncleared_texture};
 use super::{
     Camera, Frame, GpuContext, GpuTransferTable, ImageRegion, LevelDetail, RenderError,
     RenderSettings, RenderTarget, RendererKind,
@@ -53,6 +53,12 @@ const TABLE_BYTES_PER_SLOT: u64 = 2 * 16 * 16;
 /// The most bricks a level may have for the page table to copy it flat, so that frames which
 /// want that level walk it (`main_level`): 1 MiB of entries at most.
 const LEVEL_WALK_BRICKS: u64 = 1 << 16;
+/// The atlas's usage beyond what drawing needs: a copy from it, for the tests that read it
+/// back.
+#[cfg(not(test))]
+const ATLAS_READ_BACK: wgpu::TextureUsages = wgpu::TextureUsages::empty();
+#[cfg(test)]
+const ATLAS_READ_BACK: wgpu::TextureUsages = wgpu::TextureUsages::COPY_SRC;
 /// No level walked.
 const NO_LEVEL: u32 = u32::MAX;
 /// No frame drawn since the last [`StreamVolume::step`] (`walk_wanted`).
@@ -110,6 +116,9 @@ pub struct StreamVolume {
     /// The atlas was made without wgpu's zero fill and is not zeroed yet: the first
     /// [`Self::write`] records the pass that does.
     unzeroed: bool,
+    /// The next write with uploads follows the zero pass: it sets no upload rate (where a
+    /// submission waits for the one before, lavapipe, its time is mostly the pass's).
+    skip_upload_rate: bool,
     /// How the atlas was zeroed: [`AtlasZero::Shader`] or [`AtlasZero::Wgpu`].
     atlas_zero: AtlasZero,
     /// The GPU's time for the ring's copies (where it has timestamps).
@@ -277,8 +286,11 @@ impl StreamVolume {
                 wgpu::TextureUsages::TEXTURE_BINDING
                     | wgpu::TextureUsages::COPY_DST
                     | wgpu::TextureUsages::STORAGE_BINDING
+                    | ATLAS_READ_BACK
             } else {
-                wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST
+                wgpu::TextureUsages::TEXTURE_BINDING
+                    | wgpu::TextureUsages::COPY_DST
+                    | ATLAS_READ_BACK
             },
             view_formats: &[],
         };
@@ -292,9 +304,10 @@ impl StreamVolume {
                 AtlasZero::Shader => true,
                 AtlasZero::Wgpu => false,
             };
-        // SAFETY: the zero pass is the first command submitted that uses the atlas (`write`
-        // records it before any upload; before the first upload no page-table entry points
-        // into the atlas, so no frame reads it).
+        // SAFETY: no texel is read before the zero pass: every sample is of a brick the page
+        // table (or its level copy) says is in the atlas, and the first `write` submits the
+        // pass before its uploads, the first that put one there; the format is one the device
+        // writes from a shader (`atlas_storage_formats`, as the scatter needs).
         let uncleared = if zeroes_itself {
             unsafe { uncleared_texture(device, &atlas_desc) }
         } else {
@@ -302,10 +315,10 @@ impl StreamVolume {
         };
         let (atlas, uncleared) = match uncleared {
             Some(Ok(atlas)) => (atlas, true),
-            Some(Err(error)) => {
-                return Err(RenderError::DoesNotFit(format!(
-                    "the GPU has no room for the streaming atlas: {error}"
-                )));
+            Some(Err(OutOfMemory)) => {
+                return Err(RenderError::DoesNotFit(
+                    "the GPU has no room for the streaming atlas: out of memory".to_owned(),
+                ));
             }
             None => (device.create_texture(&atlas_desc), false),
         };
@@ -397,6 +410,7 @@ impl StreamVolume {
             spacing: source.spacing(),
             unwritten: pinned,
             unzeroed: uncleared,
+            skip_upload_rate: false,
             atlas_zero: if uncleared {
                 AtlasZero::Shader
             } else {
@@ -410,8 +424,7 @@ impl StreamVolume {
     /// queue while no ring buffer is mapped) and the page table's changed entries; tells the
     /// streamer what that cost.
     fn write(&mut self, context: &GpuContext, uploads: &[Upload]) {
-        let zeroing = std::mem::take(&mut self.unzeroed);
-        if zeroing {
+        if std::mem::take(&mut self.unzeroed) {
             // On the frame's thread: an app's loading thread, which made the volume, submits
             // nothing to the window's device (docs/architecture.md).
             let mut encoder =
@@ -421,8 +434,9 @@ impl StreamVolume {
                         label: Some("voxscope::stream_atlas_zero"),
                     });
             let zeroed = self.ring.zero_atlas(&mut encoder);
-            debug_assert!(zeroed, "an atlas zeroes itself only with a scattering ring");
+            assert!(zeroed, "an atlas zeroes itself only with a scattering ring");
             context.queue.submit([encoder.finish()]);
+            self.skip_upload_rate = true;
         }
         let started = Instant::now();
         let side = PADDED_BRICK as u32;
@@ -501,9 +515,9 @@ impl StreamVolume {
         parts.queue_seconds = queueing.elapsed().as_secs_f64();
         parts.ring_bricks = staged.iter().filter(|&&s| s).count() as u64;
         parts.queue_bricks = uploads.len() as u64 - parts.ring_bricks;
-        // The write after the zero pass counts its time but sets no rate: where a submission
-        // waits for the one before (lavapipe), its time is mostly the zero pass's.
-        let bytes: u64 = if zeroing {
+        // The first uploads after the zero pass count their time but set no rate.
+        let skip_rate = !uploads.is_empty() && std::mem::take(&mut self.skip_upload_rate);
+        let bytes: u64 = if skip_rate {
             0
         } else {
             uploads.iter().map(|u| u.texels.len() as u64).sum()
@@ -1106,5 +1120,95 @@ impl Renderer for StreamVolume {
 
     fn stream_mut(&mut self) -> Option<&mut StreamVolume> {
         Some(self)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::collections::HashSet;
+
+    use super::*;
+    use crate::staging_ring::tests::read_atlas;
+    use voxscope_stream::{Downsampling, ENTRY_VISIBLE, MemorySource};
+    use voxscope_volume::{Quantization, ValueWindow};
+
+    #[test]
+    fn an_atlas_made_without_wgpus_fill_reads_zero_wherever_the_first_step_put_no_brick() {
+        let context = GpuContext::new_headless()
+            .expect("a GPU adapter (lavapipe: mesa-vulkan-drivers, WGPU_BACKEND=vulkan)");
+        // Value levels up to 251: an 8-bit atlas, one byte a texel.
+        let dims = [96, 64, 40];
+        let levels = (0..dims.iter().product::<usize>())
+            .map(|i| (i % 251) as u16 + 1)
+            .collect();
+        let quantization = Quantization {
+            offset: 0.0,
+            step: 1.0,
+        };
+        let source = MemorySource::from_levels(
+            "ramp",
+            levels,
+            dims,
+            quantization,
+            [1.0; 3],
+            Downsampling::Mean,
+        )
+        .expect("a pyramid");
+        let options = StreamOptions {
+            gpu_memory: 8 << 20,
+            atlas_zero: AtlasZero::Shader,
+            ..StreamOptions::default()
+        };
+        let transfer = TransferFunction::gray(ValueWindow {
+            low: 0.0,
+            high: 252.0,
+        });
+        let mut volume = StreamVolume::new(&context, Arc::new(source), options, &transfer)
+            .expect("a streaming volume");
+        assert_eq!(
+            volume.atlas_zero(),
+            AtlasZero::Shader,
+            "lavapipe is Vulkan and writes 8-bit texels from a shader"
+        );
+        // What the memory may hold: every texel written before the first step.
+        let size = volume.atlas.size();
+        let texels = (size.width * size.height * size.depth_or_array_layers) as usize;
+        context.queue.write_texture(
+            volume.atlas.as_image_copy(),
+            &vec![0xa5u8; texels],
+            wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(size.width),
+                rows_per_image: Some(size.height),
+            },
+            size,
+        );
+        volume.step(&context);
+        let atlas = read_atlas(&context, &volume.atlas, 1);
+        let held: HashSet<u32> = (volume.streamer.table().entries().iter())
+            .filter(|entry| entry.is_resident())
+            .map(|entry| entry.slot & !ENTRY_VISIBLE)
+            .collect();
+        let [gx, gy, gz] = volume.atlas_grid;
+        let slots = gx * gy * gz;
+        assert!(
+            !held.is_empty() && held.len() < slots,
+            "{} of {slots} slots hold a brick",
+            held.len()
+        );
+        let (width, height) = (size.width as usize, size.height as usize);
+        for slot in (0..slots).filter(|&s| !held.contains(&(s as u32))) {
+            let corner = [slot % gx, (slot / gx) % gy, slot / (gx * gy)].map(|c| c * PADDED_BRICK);
+            for z in 0..PADDED_BRICK {
+                for y in 0..PADDED_BRICK {
+                    let row = ((corner[2] + z) * height + corner[1] + y) * width + corner[0];
+                    assert!(
+                        atlas[row..row + PADDED_BRICK].iter().all(|&t| t == 0),
+                        "slot {slot} (no brick), row {y} of slice {z}: {:?}",
+                        &atlas[row..row + PADDED_BRICK]
+                    );
+                }
+            }
+        }
     }
 }
