@@ -29,6 +29,10 @@ struct StreamParams {
     request_set_mask: u32,  // entries of its deduplicating set − 1
     lod_scale: f32,         // footprint multiplier (0: no pixel LOD)
     walk_level: u32,        // the level `level_cells` copies (main_level)
+    walk_next: u32,         // where the next coarser level's cells begin there (main_levels)
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 @group(0) @binding(0) var<uniform> params: Params;
@@ -601,10 +605,12 @@ fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, jitter: f32)
     return result;
 }
 
-// The entry of brick `cell` of the walked level (`level_cells`).
-fn level_cell(cell: vec3<u32>) -> vec4<u32> {
-    let grid = stream.level_grid[stream.walk_level].xyz;
-    return level_cells[cell.x + grid.x * (cell.y + grid.y * cell.z)];
+// The entry of brick `cell` of `level`, a walked level (`level_cells`: the walked level's
+// cells, then from `walk_next` the next coarser level's).
+fn level_cell(level: u32, cell: vec3<u32>) -> vec4<u32> {
+    let grid = stream.level_grid[level].xyz;
+    let first = select(0u, stream.walk_next, level != stream.walk_level);
+    return level_cells[first + cell.x + grid.x * (cell.y + grid.y * cell.z)];
 }
 
 // Whether a brick in the atlas whose entry is `entry` can change the pixel (marched).
@@ -630,7 +636,12 @@ fn walkable(entry: vec4<u32>, running_max: u32) -> bool {
 // included), so the image is the same where every ray wants that level and every brick of it
 // is walkable: src/render/stream.rs runs it only then. Should a ray still meet a brick it
 // cannot take, it asks for the brick and ends there.
-fn level_walk(origin: vec3<f32>, dir: vec3<f32>, jitter: f32) -> RayResult {
+// With `two_levels` (`main_levels`), rays want the next coarser level from some distance on:
+// the ray goes on in that level's bricks where `stream_ray` would (at the first brick exit
+// where the footprint reaches that level's voxel, as `wanted_level` tests it), its samples
+// from there that level's, as `stream_ray`'s next segment takes them.
+fn level_walk(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, jitter: f32,
+              two_levels: bool) -> RayResult {
     var result = RayResult(vec3<f32>(0.0), 0u, -1.0);
     let inv = safe_inverse(dir);
     let interval = volume_interval(origin, dir, inv);
@@ -639,14 +650,25 @@ fn level_walk(origin: vec3<f32>, dir: vec3<f32>, jitter: f32) -> RayResult {
     if t_enter >= t_leave {
         return result;
     }
-    let level = stream.walk_level;
+    // Two levels: the footprint per unit of t (`stream_ray`'s), and the voxel of the coarser
+    // level, which the ray goes on in once its footprint reaches it (from its start, where
+    // it does there already).
+    let lod_per_t = world_length * params.lod_factor * stream.lod_scale;
+    var coarser_from = 0.0;
+    var level = stream.walk_level;
+    if two_levels {
+        coarser_from = stream.level_scale[level + 1u].w;
+        if coarser_from <= max(t_enter, 0.0) * lod_per_t {
+            level += 1u;
+        }
+    }
     let mip = max_projection();
     let shift = jitter - 0.5;
-    let scale = stream.level_scale[level].xyz;
-    let step = 1.0 / max(length(dir / scale), 1e-20);
+    var scale = stream.level_scale[level].xyz;
+    var step = 1.0 / max(length(dir / scale), 1e-20);
     let correct = (params.flags & FLAG_OPACITY_CORRECTION) != 0u;
-    let exponent = select(1.0, step * length(dir), correct && any(scale != vec3<f32>(1.0)));
-    let atlas_dir = dir / scale * params.atlas_texel.xyz;
+    var exponent = select(1.0, step * length(dir), correct && any(scale != vec3<f32>(1.0)));
+    var atlas_dir = dir / scale * params.atlas_texel.xyz;
     let light = headlight(dir);
     let half_texel = 0.5 * params.atlas_texel.xyz;
     var acc = new_accumulation();
@@ -655,7 +677,7 @@ fn level_walk(origin: vec3<f32>, dir: vec3<f32>, jitter: f32) -> RayResult {
     var k = 0.0;
     let ahead = max(1e-3 / max(length(dir), 1e-20), abs(t) * 5e-7);
     var cell = brick_of(level, origin + (t + ahead) * dir);
-    var entry = level_cell(cell);
+    var entry = level_cell(level, cell);
     // The brick being walked: where the ray leaves it, the next brick (NO_CELL: none) and its
     // entry.
     var t_out = t;
@@ -684,10 +706,13 @@ fn level_walk(origin: vec3<f32>, dir: vec3<f32>, jitter: f32) -> RayResult {
             t_out = select(max(t_exit, t + nudge), t_exit, short);
             visited += 1u;
             next.x = NO_CELL;
-            if t_out < t_leave {
+            // The next brick at this level, where the ray still wants it there.
+            let stays = !two_levels || level != stream.walk_level
+                || !(coarser_from <= t_out * lod_per_t);
+            if t_out < t_leave && stays {
                 next = next_brick(level, cell, exits, dir);
                 if next.x != NO_CELL {
-                    next_entry = level_cell(next);
+                    next_entry = level_cell(level, next);
                 }
             }
             marching = resident_visible(entry, acc.running_max);
@@ -743,12 +768,28 @@ fn level_walk(origin: vec3<f32>, dir: vec3<f32>, jitter: f32) -> RayResult {
             marched_in = marching;
             marching = false;
             t = t_out;
-            if next.x == NO_CELL {
+            if next.x != NO_CELL {
+                cell = next;
+                entry = next_entry;
+                deciding = true;
+            } else if two_levels && level == stream.walk_level && t < t_leave {
+                // On in the coarser level, as `stream_ray`'s next segment: its brick at the
+                // ray's point, its samples' step, and the index of the first at or after t.
+                level += 1u;
+                scale = stream.level_scale[level].xyz;
+                step = 1.0 / max(length(dir / scale), 1e-20);
+                exponent = select(1.0, step * length(dir),
+                                  correct && any(scale != vec3<f32>(1.0)));
+                atlas_dir = dir / scale * params.atlas_texel.xyz;
+                k = max(ceil((t - t_enter) / step - 0.5 - shift), 0.0);
+                let ahead_here = max(1e-3 / max(length(dir), 1e-20), abs(t) * 5e-7);
+                cell = brick_of(level, origin + (t + ahead_here) * dir);
+                entry = level_cell(level, cell);
+                marched_in = false;
+                deciding = true;
+            } else {
                 break;
             }
-            cell = next;
-            entry = next_entry;
-            deciding = true;
         }
     }
     result.color = final_color(acc);
@@ -784,6 +825,23 @@ fn main_level(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let ray = pixel_ray(pixel);
-    let result = level_walk(params.eye.xyz, ray.dir, pixel_jitter(pixel));
+    let result = level_walk(params.eye.xyz, ray.dir, ray.world_length, pixel_jitter(pixel),
+                            false);
+    write_pixel(pixel, result.color, result.visited);
+}
+
+// Frames whose rays all want one level up to some distance and the next coarser one beyond
+// (each ray its own distance), the page table copying both flat, every brick of them walkable:
+// each ray walks the one level, then the other (`level_walk`'s `two_levels`). Its own
+// pipeline, so that `main_level` carries none of the switch.
+@compute @workgroup_size(8, 8, 1)
+fn main_levels(@builtin(global_invocation_id) id: vec3<u32>) {
+    let pixel = ray_pixel(id.xy);
+    if pixel.x >= params.image_size.x || pixel.y >= params.image_size.y {
+        return;
+    }
+    let ray = pixel_ray(pixel);
+    let result = level_walk(params.eye.xyz, ray.dir, ray.world_length, pixel_jitter(pixel),
+                            true);
     write_pixel(pixel, result.color, result.visited);
 }

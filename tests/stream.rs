@@ -1027,11 +1027,12 @@ fn the_level_walk_draws_what_the_segments_draw_once_its_level_is_filled() {
         density: 4.0,
         ..settings(depth)
     };
-    // (name, camera distance, pixel LOD scale, settings, budget, walked): close at level 0,
-    // see-through, MIP, shaded and nearly opaque (the bricks behind never asked for, filled);
-    // nearer with pixel LOD, where the front wants level 0 and the back level 1 (no one level:
-    // segment by segment); far, where every ray wants one coarser level; a quarter of level 0
-    // in the atlas (it cannot be filled: segment by segment).
+    // (name, camera distance, pixel LOD scale, settings, budget, levels walked): close at
+    // level 0, see-through, MIP, shaded and nearly opaque (the bricks behind never asked for,
+    // filled); nearer with pixel LOD, where the front wants level 0 and the back level 1 (both
+    // walked, each ray switching where its segments would), in DVR and MIP; far, where every
+    // ray wants one coarser level; a quarter of level 0 in the atlas (it cannot be filled:
+    // segment by segment).
     let cases = [
         (
             "close-dvr",
@@ -1039,37 +1040,24 @@ fn the_level_walk_draws_what_the_segments_draw_once_its_level_is_filled() {
             0.0,
             settings(depth),
             2 * level0_bytes(),
-            true,
+            1,
         ),
-        ("close-mip", 1.6, 0.0, mip, 2 * level0_bytes(), true),
-        ("close-shaded", 1.6, 0.0, shaded, 2 * level0_bytes(), true),
-        ("close-opaque", 1.6, 0.0, opaque, 2 * level0_bytes(), true),
-        (
-            "lod-dvr",
-            2.2,
-            1.0,
-            settings(depth),
-            2 * level0_bytes(),
-            false,
-        ),
-        (
-            "far-dvr",
-            12.0,
-            1.0,
-            settings(depth),
-            2 * level0_bytes(),
-            true,
-        ),
+        ("close-mip", 1.6, 0.0, mip, 2 * level0_bytes(), 1),
+        ("close-shaded", 1.6, 0.0, shaded, 2 * level0_bytes(), 1),
+        ("close-opaque", 1.6, 0.0, opaque, 2 * level0_bytes(), 1),
+        ("lod-dvr", 2.2, 1.0, settings(depth), 2 * level0_bytes(), 2),
+        ("lod-mip", 2.2, 1.0, mip, 2 * level0_bytes(), 2),
+        ("far-dvr", 12.0, 1.0, settings(depth), 2 * level0_bytes(), 1),
         (
             "quarter-dvr",
             1.6,
             0.0,
             settings(depth),
             level0_bytes() / 4,
-            false,
+            0,
         ),
     ];
-    for (name, distance, lod_scale, settings, budget, expect_walk) in cases {
+    for (name, distance, lod_scale, settings, budget, expect_levels) in cases {
         let camera = Camera {
             distance,
             ..close_camera(30.0)
@@ -1098,7 +1086,7 @@ fn the_level_walk_draws_what_the_segments_draw_once_its_level_is_filled() {
             if walked > 0 {
                 assert_eq!(
                     state,
-                    copied.map(|level| (level, 0)),
+                    copied.map(|(level, levels)| (level, levels, 0)),
                     "{name}: still walkable"
                 );
             }
@@ -1120,7 +1108,7 @@ fn the_level_walk_draws_what_the_segments_draw_once_its_level_is_filled() {
             .max()
             .unwrap_or(0);
         eprintln!(
-            "{name}: level {copied:?} copied, {walk_frames} frame walked, {differing} pixels \
+            "{name}: levels {copied:?} copied, {walk_frames} frame walked, {differing} pixels \
              differ, {visits_differing} rays' counts of segments and samples (by {most_apart} \
              at most), coverage {:.3}",
             coverage(&segments)
@@ -1135,9 +1123,13 @@ fn the_level_walk_draws_what_the_segments_draw_once_its_level_is_filled() {
             "{name}: no level copied or walked without the walk"
         );
         assert_eq!(
-            walk_frames > 0,
-            expect_walk,
-            "{name}: walked {walk_frames} frames, level {copied:?} copied"
+            if walk_frames > 0 {
+                copied.map_or(0, |(_, levels)| levels)
+            } else {
+                0
+            },
+            expect_levels,
+            "{name}: walked {walk_frames} frames, levels {copied:?} copied"
         );
         assert_eq!(
             differing, 0,

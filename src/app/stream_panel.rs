@@ -308,16 +308,24 @@ const LISTED_FAILURES: usize = 200;
 
 /// How the rays are drawn: walking one level whole, or segment by segment and why. Levels
 /// as the table below numbers them (max level `depth − pyramid level`).
-fn walk_text(status: &StreamStatus, walk: Option<(u32, usize)>, depth: u32) -> String {
-    let walk = walk.map(|(pyramid_level, left)| (depth.saturating_sub(pyramid_level), left));
+fn walk_text(status: &StreamStatus, walk: Option<(u32, u32, usize)>, depth: u32) -> String {
+    // The panel's levels (depth − pyramid level): the finer one, and the coarser beyond it.
+    let walk = walk.map(|(pyramid_level, levels, left)| {
+        let level = depth.saturating_sub(pyramid_level);
+        let named = match levels {
+            1 => format!("level {level}"),
+            _ => format!("levels {level} and {}", level.saturating_sub(1)),
+        };
+        (named, left)
+    });
     match walk {
-        Some((level, 0)) => format!("walking level {level} whole"),
-        Some((level, _)) if status.filling > 0 => format!(
-            "by segment; level {level} loading, {} to go",
+        Some((levels, 0)) => format!("walking {levels} whole"),
+        Some((levels, _)) if status.filling > 0 => format!(
+            "by segment; {levels} loading, {} to go",
             group_digits(status.filling as u64)
         ),
-        Some((level, left)) => format!(
-            "by segment; {} bricks of level {level} out",
+        Some((levels, left)) => format!(
+            "by segment; {} bricks of {levels} out",
             group_digits(left as u64)
         ),
         None => "by segment".to_owned(),
@@ -353,5 +361,34 @@ fn state_text(status: &StreamStatus) -> String {
         "complete: nothing visible is missing".to_owned()
     } else {
         "checking the view…".to_owned()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_rays_row_names_the_walked_levels_in_the_panels_numbering() {
+        let idle = StreamStatus::default();
+        let filling = StreamStatus {
+            filling: 1_234,
+            ..StreamStatus::default()
+        };
+        // Pyramid level 0 of a depth-8 octree is the panel's level 8; the next coarser, 7.
+        assert_eq!(walk_text(&idle, Some((0, 1, 0)), 8), "walking level 8 whole");
+        assert_eq!(
+            walk_text(&idle, Some((0, 2, 0)), 8),
+            "walking levels 8 and 7 whole"
+        );
+        assert_eq!(
+            walk_text(&filling, Some((1, 2, 40)), 8),
+            "by segment; levels 7 and 6 loading, 1\u{202f}234 to go"
+        );
+        assert_eq!(
+            walk_text(&idle, Some((1, 1, 40)), 8),
+            "by segment; 40 bricks of level 7 out"
+        );
+        assert_eq!(walk_text(&idle, None, 8), "by segment");
     }
 }

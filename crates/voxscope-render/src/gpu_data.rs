@@ -212,9 +212,15 @@ pub(crate) struct StreamParams {
     pub lod_scale: f32,
     /// The level whose page-table entries the level walk reads flat (`main_level`).
     pub walk_level: u32,
+    /// Where the next coarser level's entries begin in the flat copy, where the walk takes it
+    /// too (`main_levels`): the walked level's brick count; else 0.
+    pub walk_next: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+    pub _pad2: u32,
 }
 
-const _: () = assert!(std::mem::size_of::<StreamParams>() == 544);
+const _: () = assert!(std::mem::size_of::<StreamParams>() == 560);
 
 pub(crate) const FLAG_OPACITY_CORRECTION: u32 = 1;
 pub(crate) const FLAG_PIXEL_LOD: u32 = 2;
@@ -324,6 +330,10 @@ mod tests {
             request_set_mask,
             lod_scale,
             walk_level,
+            walk_next,
+            _pad0,
+            _pad1,
+            _pad2,
         })
     }
 

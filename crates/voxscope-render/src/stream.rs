@@ -69,6 +69,47 @@ const NO_FRAME: u32 = u32::MAX;
 const SEGMENTS: usize = 0;
 /// `stream.wgsl`'s `main_level` (the level walk), as [`VariantPipelines`] numbers it.
 const LEVEL_WALK: usize = 1;
+/// `stream.wgsl`'s `main_levels` (the walk of a level and the next coarser one), as
+/// [`VariantPipelines`] numbers it.
+const LEVELS_WALK: usize = 2;
+
+/// The levels every ray of a frame wants wherever it meets the volume: `level`, and where
+/// `two`, the next coarser one too (from some distance on, each ray from its own).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct WalkLevels {
+    level: u32,
+    two: bool,
+}
+
+impl WalkLevels {
+    /// As `walk_wanted` holds it (far below its [`NO_LEVEL`] and [`NOT_DRAWN`]).
+    fn code(self) -> u32 {
+        self.level * 2 + u32::from(self.two)
+    }
+
+    fn from_code(code: u32) -> Self {
+        Self {
+            level: code / 2,
+            two: code % 2 == 1,
+        }
+    }
+
+    /// How many levels: 1 or 2.
+    fn count(self) -> u32 {
+        1 + u32::from(self.two)
+    }
+
+    /// The bricks of the level and of the next coarser one (0 where it is not walked).
+    fn bricks(self, shape: &voxscope_stream::PyramidShape) -> Option<[usize; 2]> {
+        let bricks = |level: u32| {
+            (shape.levels.get(level as usize)).map(|level| level.brick_count() as usize)
+        };
+        Some([
+            bricks(self.level)?,
+            if self.two { bricks(self.level + 1)? } else { 0 },
+        ])
+    }
+}
 
 /// Whether frames of `params` composite by maximum intensity (`max_projection` in
 /// ray_common.wgsl: MIP, but not of labels, which composite as DVR).
@@ -96,12 +137,13 @@ pub struct StreamVolume {
     requests: wgpu::Buffer,
     usage: wgpu::Buffer,
     readbacks: Vec<Readback>,
-    /// The flat copy of one level's page-table entries ([`voxscope_stream::PageTable::copy_level`]),
-    /// sized for the largest level of at most [`LEVEL_WALK_BRICKS`].
+    /// The flat copy of one level's page-table entries, or of two levels'
+    /// ([`voxscope_stream::PageTable::copy_level`]), sized for the largest of at most
+    /// [`LEVEL_WALK_BRICKS`].
     level_cells: wgpu::Buffer,
-    /// The level every frame drawn since the last [`Self::step`] wanted to walk ([`NO_LEVEL`]:
-    /// none, or frames (panes of other max levels) that wanted different ones; [`NOT_DRAWN`]:
-    /// no frame); the next step has the table copy it.
+    /// The levels every frame drawn since the last [`Self::step`] wanted to walk
+    /// ([`WalkLevels::code`]; [`NO_LEVEL`]: none, or frames (panes of other max levels) that
+    /// wanted different ones; [`NOT_DRAWN`]: no frame); the next step has the table copy them.
     walk_wanted: AtomicU32,
     /// Frames drawn by the level walk (`main_level`) so far.
     walked_frames: AtomicU64,
@@ -223,12 +265,18 @@ impl StreamVolume {
         };
         let quantization = source.quantization();
         let visible = visible_below(&transfer.lookup_table(quantization));
-        // The flat copy of one level (none kept without the level walk: one entry bound).
-        let level_cells_bytes = source
-            .shape()
-            .levels
-            .iter()
-            .map(|l| l.brick_count())
+        // The flat copy of one level, or of one and the next coarser one (none kept without
+        // the level walk: one entry bound).
+        let levels = &source.shape().levels;
+        let level_cells_bytes = (0..levels.len())
+            .flat_map(|l| {
+                let one = levels[l].brick_count();
+                [
+                    Some(one),
+                    levels.get(l + 1).map(|next| one + next.brick_count()),
+                ]
+            })
+            .flatten()
             .filter(|&bricks| options.level_walk && bricks <= LEVEL_WALK_BRICKS)
             .max()
             .unwrap_or(1)
@@ -603,8 +651,9 @@ impl StreamVolume {
         // drawn the copy stays as it is.
         let walk = self.walk_wanted.swap(NOT_DRAWN, Ordering::AcqRel);
         if walk != NOT_DRAWN {
-            let copy = (self.streamer.shape().levels.get(walk as usize))
-                .map(|level| (walk, level.brick_count() as usize));
+            let copy = (walk != NO_LEVEL)
+                .then(|| WalkLevels::from_code(walk))
+                .and_then(|w| Some((w.level, w.bricks(self.streamer.shape())?)));
             self.streamer.table_mut().copy_level(copy);
         }
         let writing = Instant::now();
@@ -706,11 +755,12 @@ impl StreamVolume {
     }
 
     /// The level every ray of a frame of `params` wants wherever it meets the volume (the
-    /// pixel LOD's, `wanted_level` in `stream.wgsl`), where the page table may copy it flat (at
-    /// most [`LEVEL_WALK_BRICKS`] bricks); `None` where rays want more than one level. Worked
+    /// pixel LOD's, `wanted_level` in `stream.wgsl`), or the two levels (one and the next
+    /// coarser) between which every ray's wanted level lies, where the page table may copy them
+    /// flat (at most [`LEVEL_WALK_BRICKS`] bricks); `None` where rays want more levels. Worked
     /// out from the depths of the volume box's corners and the widest pixel's footprint, with a
-    /// margin, so that it never names a level some ray would not want.
-    fn walk_level(&self, params: &RaycastParams) -> Option<u32> {
+    /// margin, so that it never leaves out a level some ray would want.
+    fn walk_level(&self, params: &RaycastParams) -> Option<WalkLevels> {
         if !self.streamer.options().level_walk {
             return None;
         }
@@ -756,34 +806,48 @@ impl StreamVolume {
                 level
             };
             let level = wanted_at(nearest.max(0.0) * per_depth * 0.999);
-            if wanted_at(farthest.max(0.0) * widest * per_depth * 1.001) != level {
-                return None;
+            match wanted_at(farthest.max(0.0) * widest * per_depth * 1.001) - level {
+                0 => WalkLevels {
+                    level: level as u32,
+                    two: false,
+                },
+                1 => WalkLevels {
+                    level: level as u32,
+                    two: true,
+                },
+                _ => return None,
             }
-            level
         } else {
-            finest
+            WalkLevels {
+                level: finest as u32,
+                two: false,
+            }
         };
-        let bricks = shape.levels.get(level)?.brick_count();
-        (bricks <= LEVEL_WALK_BRICKS).then_some(level as u32)
+        let bricks: usize = level.bricks(shape)?.iter().sum();
+        (bricks as u64 <= LEVEL_WALK_BRICKS).then_some(level)
     }
 
-    /// The level a frame of `params` walks (`main_level`): [`Self::walk_level`], once the
-    /// table copies it and every brick of it there is walkable in the frame's mode.
-    fn walked_level(&self, params: &RaycastParams) -> Option<u32> {
+    /// The levels a frame of `params` walks (`main_level`, `main_levels`):
+    /// [`Self::walk_level`], once the table copies them and every brick of them there is
+    /// walkable in the frame's mode.
+    fn walked_level(&self, params: &RaycastParams) -> Option<WalkLevels> {
         let table = self.streamer.table();
         let mip = max_projection(params);
-        self.walk_level(params).filter(|&level| {
-            table.copied_level() == Some(level) && table.level_unwalkable(mip) == Some(0)
+        self.walk_level(params).filter(|walk| {
+            table.copied_level() == Some((walk.level, walk.count()))
+                && table.level_unwalkable(mip) == Some(0)
         })
     }
 
-    /// The level whose bricks the page table copies flat (every ray of the latest frame wanted
-    /// it), with how many of them the level walk could not take in that frame's mode: 0 when
-    /// frames walk it. `None` where rays want several levels, or a level too large to copy.
-    pub fn walk_level_state(&self) -> Option<(u32, usize)> {
+    /// The finest level whose bricks the page table copies flat (every ray of the latest frame
+    /// wanted it, or it and the next coarser one), how many levels it copies (1 or 2), and how
+    /// many of their bricks the level walk could not take in that frame's mode: 0 when frames
+    /// walk them. `None` where rays want more levels, or levels too large to copy.
+    pub fn walk_level_state(&self) -> Option<(u32, u32, usize)> {
         let table = self.streamer.table();
         let mip = self.max_projection.load(Ordering::Acquire);
-        Some((table.copied_level()?, table.level_unwalkable(mip)?))
+        let (level, levels) = table.copied_level()?;
+        Some((level, levels, table.level_unwalkable(mip)?))
     }
 
     /// How many frames (a band of one counts too) the level walk has drawn.
@@ -795,6 +859,7 @@ impl StreamVolume {
     fn stream_params(&self, params: &RaycastParams) -> StreamParams {
         let max_level = params.max_level;
         let shape = self.streamer.shape();
+        let walked = self.walked_level(params);
         let mut level_grid = [[0u32; 4]; STREAM_LEVELS];
         let mut level_scale = [[1f32; 4]; STREAM_LEVELS];
         for (level, info) in shape.levels.iter().enumerate() {
@@ -813,7 +878,14 @@ impl StreamVolume {
             request_capacity: REQUEST_CAPACITY,
             request_set_mask: REQUEST_SET - 1,
             lod_scale: self.streamer.options().lod_scale.max(0.0),
-            walk_level: self.walked_level(params).unwrap_or(NO_LEVEL),
+            walk_level: walked.map_or(NO_LEVEL, |walk| walk.level),
+            walk_next: match walked.and_then(|walk| walk.bricks(shape)) {
+                Some([bricks, next]) if next > 0 => bricks as u32,
+                _ => 0,
+            },
+            _pad0: 0,
+            _pad1: 0,
+            _pad2: 0,
         }
     }
 }
@@ -871,7 +943,7 @@ impl StreamRaycaster {
             context,
             "stream",
             super::shaders::STREAM,
-            &["main", "main_level"],
+            &["main", "main_level", "main_levels"],
             &[
                 uniform_entry(0, false),
                 uniform_entry(1, false),
@@ -910,6 +982,7 @@ impl StreamRaycaster {
         self.pipelines.get(context, SEGMENTS, variant);
         if level_walk && !variant.probe {
             self.pipelines.get(context, LEVEL_WALK, variant);
+            self.pipelines.get(context, LEVELS_WALK, variant);
         }
     }
 }
@@ -928,10 +1001,10 @@ impl RayPass<StreamVolume> for StreamRaycaster {
     /// The level walk where every ray wants one level and the table can show that the walk
     /// takes each of its bricks ([`StreamVolume::walked_level`]), else segment by segment.
     fn entry_point(&self, volume: &StreamVolume, params: &RaycastParams) -> usize {
-        if volume.walked_level(params).is_some() {
-            LEVEL_WALK
-        } else {
-            SEGMENTS
+        match volume.walked_level(params) {
+            Some(walk) if walk.two => LEVELS_WALK,
+            Some(_) => LEVEL_WALK,
+            None => SEGMENTS,
         }
     }
 
@@ -958,7 +1031,7 @@ impl RayPass<StreamVolume> for StreamRaycaster {
             .store(max_projection(params), Ordering::Release);
         // Panes of different max levels on one volume want different levels: none is copied
         // (copying each in turn would rebuild the copy at every step).
-        let wanted = volume.walk_level(params).unwrap_or(NO_LEVEL);
+        let wanted = volume.walk_level(params).map_or(NO_LEVEL, WalkLevels::code);
         let _ = volume
             .walk_wanted
             .fetch_update(Ordering::AcqRel, Ordering::Acquire, |drawn| match drawn {

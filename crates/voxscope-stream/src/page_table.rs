@@ -100,10 +100,13 @@ pub fn table_hash(key: u32) -> u32 {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct TableFull;
 
-/// One level's entries in the order of its bricks (x fastest: a key's low bits), the bricks the
-/// table does not hold as [`TableEntry::EMPTY`]; the cells changed since the last upload.
+/// One level's entries in the order of its bricks (x fastest: a key's low bits), then, where two
+/// levels are copied, the next coarser level's; the bricks the table does not hold as
+/// [`TableEntry::EMPTY`]; the cells changed since the last upload.
 struct LevelCopy {
     level: u32,
+    /// The cells of `level`; those after them are `level + 1`'s.
+    split: usize,
     cells: Vec<TableEntry>,
     /// Changed cells, as one range (first, end).
     dirty: Option<(usize, usize)>,
@@ -114,25 +117,50 @@ struct LevelCopy {
 }
 
 impl LevelCopy {
-    /// A copy of `bricks` cells, none known yet.
-    fn new(level: u32, bricks: usize) -> Self {
+    /// A copy of `bricks[0]` cells of `level` and `bricks[1]` of the next coarser one, none
+    /// known yet.
+    fn new(level: u32, bricks: [usize; 2]) -> Self {
+        let cells = bricks[0] + bricks[1];
         Self {
             level,
-            cells: vec![TableEntry::EMPTY; bricks],
+            split: bricks[0],
+            cells: vec![TableEntry::EMPTY; cells],
             dirty: None,
-            unwalkable: [bricks; 2],
-            unknown: bricks,
+            unwalkable: [cells; 2],
+            unknown: cells,
+        }
+    }
+
+    /// How many levels it copies: 1, or 2 (`level` and the next coarser one).
+    fn levels(&self) -> u32 {
+        1 + u32::from(self.cells.len() > self.split)
+    }
+
+    /// The cell of brick `key`, where it is one of the copied levels'.
+    fn index(&self, key: u32) -> Option<usize> {
+        let brick = (key & ((1 << KEY_LEVEL_SHIFT) - 1)) as usize;
+        let index = match key >> KEY_LEVEL_SHIFT {
+            level if level == self.level => (brick < self.split).then_some(brick)?,
+            level if level == self.level + 1 => self.split + brick,
+            _ => return None,
+        };
+        (index < self.cells.len()).then_some(index)
+    }
+
+    /// The key of cell `index`.
+    fn key(&self, index: usize) -> u32 {
+        if index < self.split {
+            self.level << KEY_LEVEL_SHIFT | index as u32
+        } else {
+            (self.level + 1) << KEY_LEVEL_SHIFT | (index - self.split) as u32
         }
     }
 
     fn set(&mut self, key: u32, entry: TableEntry) {
-        if key >> KEY_LEVEL_SHIFT != self.level {
-            return;
-        }
-        let index = (key & ((1 << KEY_LEVEL_SHIFT) - 1)) as usize;
-        let Some(cell) = self.cells.get_mut(index) else {
+        let Some(index) = self.index(key) else {
             return;
         };
+        let cell = &mut self.cells[index];
         if *cell != entry {
             for (count, mip) in self.unwalkable.iter_mut().zip([false, true]) {
                 *count = *count + usize::from(!walkable(&entry, mip))
@@ -324,42 +352,44 @@ impl PageTable {
         &self.entries
     }
 
-    /// Keeps a flat copy of level `level`'s entries, `bricks` of them (the level's bricks), or
-    /// none. A new level's copy is made from the table (every cell dirty); the same level
-    /// again keeps the copy as it is.
-    pub fn copy_level(&mut self, level: Option<(u32, usize)>) {
+    /// Keeps a flat copy of level `level`'s entries, `bricks[0]` of them (the level's bricks),
+    /// followed by the next coarser level's, `bricks[1]` (0: that level is not copied); or
+    /// none. A new copy is made from the table (every cell dirty); the same levels again keep
+    /// the copy as it is.
+    pub fn copy_level(&mut self, level: Option<(u32, [usize; 2])>) {
         let Some((level, bricks)) = level else {
             self.level_copy = None;
             return;
         };
-        if self
-            .level_copy
-            .as_ref()
-            .is_some_and(|copy| copy.level == level && copy.cells.len() == bricks)
-        {
+        if self.level_copy.as_ref().is_some_and(|copy| {
+            copy.level == level && [copy.split, copy.cells.len() - copy.split] == bricks
+        }) {
             return;
         }
         let mut copy = LevelCopy::new(level, bricks);
         for entry in self.entries.iter().filter(|e| e.key != EMPTY_KEY) {
             copy.set(entry.key, *entry);
         }
-        copy.dirty = (bricks > 0).then_some((0, bricks));
+        let cells = copy.cells.len();
+        copy.dirty = (cells > 0).then_some((0, cells));
         self.level_copy = Some(copy);
     }
 
-    /// The level whose flat copy is kept, if any.
-    pub fn copied_level(&self) -> Option<u32> {
-        self.level_copy.as_ref().map(|copy| copy.level)
+    /// The finest level whose flat copy is kept, and how many levels are (1 or 2), if any.
+    pub fn copied_level(&self) -> Option<(u32, u32)> {
+        self.level_copy
+            .as_ref()
+            .map(|copy| (copy.level, copy.levels()))
     }
 
-    /// How many bricks of the copied level the level walk could not take ([`walkable`]) under
+    /// How many bricks of the copied levels the level walk could not take ([`walkable`]) under
     /// MIP (`max_projection`) or DVR; `None` where no level is copied.
     pub fn level_unwalkable(&self, max_projection: bool) -> Option<usize> {
         let copy = self.level_copy.as_ref()?;
         Some(copy.unwalkable[usize::from(max_projection)])
     }
 
-    /// The atlas slots of the copied level's bricks in the atlas.
+    /// The atlas slots of the copied levels' bricks in the atlas.
     pub fn level_slots(&self) -> impl Iterator<Item = u32> + '_ {
         self.level_copy.iter().flat_map(|copy| {
             copy.cells
@@ -369,24 +399,25 @@ impl PageTable {
         })
     }
 
-    /// How many bricks of the copied level the table holds no entry for; `None` where no
+    /// How many bricks of the copied levels the table holds no entry for; `None` where no
     /// level is copied.
     pub fn level_unknown(&self) -> Option<usize> {
         self.level_copy.as_ref().map(|copy| copy.unknown)
     }
 
-    /// The keys of the copied level's bricks that the level walk could not take, brick order.
+    /// The keys of the copied levels' bricks that the level walk could not take, brick order
+    /// (the finer level's first).
     pub fn level_unwalkable_keys(&self, max_projection: bool) -> impl Iterator<Item = u32> + '_ {
         self.level_copy.iter().flat_map(move |copy| {
             copy.cells
                 .iter()
                 .enumerate()
                 .filter(move |(_, cell)| !walkable(cell, max_projection))
-                .map(move |(index, _)| copy.level << KEY_LEVEL_SHIFT | index as u32)
+                .map(move |(index, _)| copy.key(index))
         })
     }
 
-    /// The copied level's cells changed since the last call: (first cell, the cells), one
+    /// The copied levels' cells changed since the last call: (first cell, the cells), one
     /// range. What to copy to the GPU after [`Self::take_dirty`]'s runs.
     pub fn take_level_dirty(&mut self) -> Option<(usize, &[TableEntry])> {
         let copy = self.level_copy.as_mut()?;
@@ -503,8 +534,8 @@ mod tests {
         let mut table = PageTable::new(1024);
         table.insert(entry(level_key(2, 5))).expect("room");
         table.insert(entry(level_key(1, 5))).expect("room");
-        table.copy_level(Some((2, 8)));
-        assert_eq!(table.copied_level(), Some(2));
+        table.copy_level(Some((2, [8, 0])));
+        assert_eq!(table.copied_level(), Some((2, 1)));
         let (first, cells) = table.take_level_dirty().expect("all cells, once");
         assert_eq!((first, cells.len()), (0, 8));
         assert_eq!(cells[5], entry(level_key(2, 5)));
@@ -544,9 +575,9 @@ mod tests {
             (7, entry(keys[7]).slot | ENTRY_VISIBLE)
         );
         // Each cell equals the table's own entry for its key.
-        table.copy_level(Some((2, 8)));
+        table.copy_level(Some((2, [8, 0])));
         table.copy_level(None);
-        table.copy_level(Some((2, 8)));
+        table.copy_level(Some((2, [8, 0])));
         let cells = table.take_level_dirty().expect("made again").1.to_vec();
         for (index, cell) in cells.iter().enumerate() {
             let key = level_key(2, index as u32);
@@ -561,7 +592,7 @@ mod tests {
     #[test]
     fn a_level_copy_counts_the_bricks_the_level_walk_cannot_take() {
         let mut table = PageTable::new(1024);
-        table.copy_level(Some((1, 6)));
+        table.copy_level(Some((1, [6, 0])));
         assert_eq!(table.level_unwalkable(false), Some(6), "none known yet");
         assert_eq!(table.level_unknown(), Some(6));
         let key = |index| level_key(1, index);
@@ -609,8 +640,43 @@ mod tests {
         // Made again from the table: the same counts.
         table.copy_level(None);
         assert_eq!(table.level_unwalkable(false), None);
-        table.copy_level(Some((1, 6)));
+        table.copy_level(Some((1, [6, 0])));
         assert_eq!(table.level_unwalkable(false), Some(2));
+    }
+
+    #[test]
+    fn a_copy_of_two_levels_holds_the_coarser_levels_cells_after_the_finer_ones() {
+        let mut table = PageTable::new(1024);
+        table.insert(entry(level_key(1, 3))).expect("room");
+        table.insert(entry(level_key(2, 1))).expect("room");
+        table.insert(entry(level_key(3, 0))).expect("room");
+        table.copy_level(Some((1, [6, 2])));
+        assert_eq!(table.copied_level(), Some((1, 2)));
+        let (first, cells) = table.take_level_dirty().expect("all cells");
+        assert_eq!((first, cells.len()), (0, 8));
+        assert_eq!(cells[3], entry(level_key(1, 3)));
+        assert_eq!(cells[6 + 1], entry(level_key(2, 1)));
+        assert_eq!(cells.iter().filter(|c| c.key != EMPTY_KEY).count(), 2);
+        // Level 3 is not copied; a change of the coarser copied level is.
+        table.insert(entry(level_key(3, 1))).expect("room");
+        assert!(table.take_level_dirty().is_none());
+        table.insert(entry(level_key(2, 0))).expect("room");
+        assert_eq!(
+            table.take_level_dirty().map(|(first, c)| (first, c.len())),
+            Some((6, 1))
+        );
+        assert_eq!(table.level_unknown(), Some(5));
+        assert_eq!(table.level_slots().count(), 3);
+        let keys: Vec<u32> = table.level_unwalkable_keys(false).collect();
+        assert_eq!(
+            keys,
+            [0, 1, 2, 4, 5].map(|i| level_key(1, i)),
+            "the finer level's unknown five; the coarser level's two are in the atlas"
+        );
+        // One level of the same first level is another copy.
+        table.copy_level(Some((1, [6, 0])));
+        assert_eq!(table.copied_level(), Some((1, 1)));
+        assert_eq!(table.level_unknown(), Some(5));
     }
 
     #[test]

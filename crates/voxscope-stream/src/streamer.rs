@@ -1473,7 +1473,7 @@ mod tests {
         )
         .expect("a streamer");
         let bricks = streamer.shape.levels[0].brick_count() as usize;
-        streamer.table_mut().copy_level(Some((0, bricks)));
+        streamer.table_mut().copy_level(Some((0, [bricks, 0])));
         streamer
     }
 
