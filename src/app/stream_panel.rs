@@ -376,7 +376,10 @@ mod tests {
             ..StreamStatus::default()
         };
         // Pyramid level 0 of a depth-8 octree is the panel's level 8; the next coarser, 7.
-        assert_eq!(walk_text(&idle, Some((0, 1, 0)), 8), "walking level 8 whole");
+        assert_eq!(
+            walk_text(&idle, Some((0, 1, 0)), 8),
+            "walking level 8 whole"
+        );
         assert_eq!(
             walk_text(&idle, Some((0, 2, 0)), 8),
             "walking levels 8 and 7 whole"

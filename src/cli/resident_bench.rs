@@ -24,7 +24,9 @@ const RESIDENT_BRICKS: u64 = 4096;
 
 /// The streaming renderer, once everything a view needs is resident, against the bricks
 /// renderer of the same volume in memory on the same views: the pyramid's finest level of at
-/// most 512³ voxels (the whole volume when it is that small), both at full detail.
+/// most 512³ voxels (the whole volume when it is that small), both at full detail; then the
+/// streaming renderer with the options' pixel LOD (`lod_scale` in the rows) beside the same
+/// bricks renderer's figures.
 pub(super) fn resident_comparison(
     context: &GpuContext,
     args: &BenchArgs,
@@ -59,84 +61,103 @@ pub(super) fn resident_comparison(
     // now (the voxels to the streaming renderer's source), not kept twice.
     let depth = octree.depth;
     drop(octree);
-    let source = MemorySource::from_levels(
+    let source: Arc<dyn voxscope_stream::BrickSource> = Arc::new(MemorySource::from_levels(
         "resident",
         std::mem::take(&mut volume.levels),
         volume.dims,
         volume.quantization,
         spacing,
         Downsampling::Mean,
-    )?;
-    let mut stream = VolumeRenderer::new_stream(
-        context,
-        Arc::new(source),
-        StreamOptions {
-            lod_scale: 0.0,
-            ..options
-        },
-        &transfer,
-    )
-    .map_err(|e| e.to_string())?;
+    )?);
     let mut rows = Vec::new();
-    for (mode_name, mode) in [("dvr-gray", RenderMode::Dvr), ("mip", RenderMode::Mip)] {
-        let settings = RenderSettings {
-            mode,
-            density: args.density,
-            shading: Shading::OFF,
-            ..RenderSettings::full_detail(depth)
-        };
-        for (camera_name, distance) in CAMERAS {
-            let camera = Camera {
-                distance,
-                ..Camera::default()
+    // At full detail (no pixel LOD), as the bricks renderer draws; then, where the options ask
+    // for it, with their pixel LOD (its far parts coarser: fewer samples than the bricks
+    // renderer's, and rays that may want two levels).
+    let lod_scales = if options.lod_scale > 0.0 {
+        vec![0.0, options.lod_scale]
+    } else {
+        vec![0.0]
+    };
+    for lod_scale in lod_scales {
+        let mut stream = VolumeRenderer::new_stream(
+            context,
+            source.clone(),
+            StreamOptions {
+                lod_scale,
+                ..options
+            },
+            &transfer,
+        )
+        .map_err(|e| e.to_string())?;
+        for (mode_name, mode) in [("dvr-gray", RenderMode::Dvr), ("mip", RenderMode::Mip)] {
+            let settings = RenderSettings {
+                mode,
+                density: args.density,
+                shading: Shading::OFF,
+                ..RenderSettings::full_detail(depth)
             };
-            let refinement = refine(context, &mut stream, target, &camera, &settings, MAX_WAIT)
-                .map_err(|e| e.to_string())?;
-            // What a window does next: it keeps updating while the streamer fills the level
-            // every ray wants, after which frames walk it (`main_level`).
-            let (filled, loaders_busy) =
-                settle_fill(context, &mut stream, target, &camera, &settings)?;
-            let walked_before = stream.stream().map_or(0, |s| s.level_walk_frames());
-            let (stream_gpu, stream_wall) = time_view(
-                context,
-                &stream,
-                target,
-                &camera,
-                &settings,
-                args.frames,
-                timer,
-            )?;
-            let walked = stream.stream().map_or(0, |s| s.level_walk_frames()) - walked_before;
-            let (bricks_gpu, bricks_wall) = time_view(
-                context,
-                &bricks,
-                target,
-                &camera,
-                &settings,
-                args.frames,
-                timer,
-            )?;
-            let (stream_ms, bricks_ms) =
-                (percentile(&stream_gpu, 50.0), percentile(&bricks_gpu, 50.0));
-            rows.push(json!({
-                "mode": mode_name,
-                "camera": camera_name,
-                "complete": refinement.complete,
-                "level_filled": filled,
-                // Bricks still queued or loading when the timing began (0: the loaders idle).
-                "loaders_busy": loaders_busy,
-                "level_walk_frames": walked,
-                "stream_gpu_ms": stream_ms,
-                "stream_gpu_p95_ms": percentile(&stream_gpu, 95.0),
-                // The first and second half's medians: a GPU whose clocks rise during the
-                // frames shows the first one higher.
-                "stream_gpu_halves_ms": halves(&stream_gpu),
-                "bricks_gpu_ms": bricks_ms,
-                "bricks_gpu_p95_ms": percentile(&bricks_gpu, 95.0),
-                "stream_over_bricks": stream_ms / bricks_ms,
-                "stream_wall_ms_per_frame": stream_wall,
-                "bricks_wall_ms_per_frame": bricks_wall,
-            }));
+            for (camera_name, distance) in CAMERAS {
+                let camera = Camera {
+                    distance,
+                    ..Camera::default()
+                };
+                let refinement = refine(context, &mut stream, target, &camera, &settings, MAX_WAIT)
+                    .map_err(|e| e.to_string())?;
+                // What a window does next: it keeps updating while the streamer fills the level
+                // every ray wants, after which frames walk it (`main_level`).
+                let (filled, loaders_busy) =
+                    settle_fill(context, &mut stream, target, &camera, &settings)?;
+                let walked_before = stream.stream().map_or(0, |s| s.level_walk_frames());
+                let (stream_gpu, stream_wall) = time_view(
+                    context,
+                    &stream,
+                    target,
+                    &camera,
+                    &settings,
+                    args.frames,
+                    timer,
+                )?;
+                let walked = stream.stream().map_or(0, |s| s.level_walk_frames()) - walked_before;
+                let walked_levels = stream
+                    .stream()
+                    .and_then(|s| s.walk_level_state())
+                    .map_or(0, |(_, levels, unwalkable)| {
+                        levels * u32::from(unwalkable == 0)
+                    });
+                let (bricks_gpu, bricks_wall) = time_view(
+                    context,
+                    &bricks,
+                    target,
+                    &camera,
+                    &settings,
+                    args.frames,
+                    timer,
+                )?;
+                let (stream_ms, bricks_ms) =
+                    (percentile(&stream_gpu, 50.0), percentile(&bricks_gpu, 50.0));
+                rows.push(json!({
+                    "mode": mode_name,
+                    "camera": camera_name,
+                    "lod_scale": lod_scale,
+                    "complete": refinement.complete,
+                    "level_filled": filled,
+                    // Bricks still queued or loading when the timing began (0: the loaders idle).
+                    "loaders_busy": loaders_busy,
+                    "level_walk_frames": walked,
+                    // How many levels the timed frames walked (0: segment by segment).
+                    "walked_levels": if walked > 0 { walked_levels } else { 0 },
+                    "stream_gpu_ms": stream_ms,
+                    "stream_gpu_p95_ms": percentile(&stream_gpu, 95.0),
+                    // The first and second half's medians: a GPU whose clocks rise during the
+                    // frames shows the first one higher.
+                    "stream_gpu_halves_ms": halves(&stream_gpu),
+                    "bricks_gpu_ms": bricks_ms,
+                    "bricks_gpu_p95_ms": percentile(&bricks_gpu, 95.0),
+                    "stream_over_bricks": stream_ms / bricks_ms,
+                    "stream_wall_ms_per_frame": stream_wall,
+                    "bricks_wall_ms_per_frame": bricks_wall,
+                }));
+            }
         }
     }
     Ok(json!({

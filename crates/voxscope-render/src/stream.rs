@@ -806,7 +806,8 @@ impl StreamVolume {
                 level
             };
             let level = wanted_at(nearest.max(0.0) * per_depth * 0.999);
-            match wanted_at(farthest.max(0.0) * widest * per_depth * 1.001) - level {
+            let far = wanted_at(farthest.max(0.0) * widest * per_depth * 1.001);
+            match far.checked_sub(level)? {
                 0 => WalkLevels {
                     level: level as u32,
                     two: false,
