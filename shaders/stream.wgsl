@@ -5,8 +5,7 @@
 //
 // A ray goes segment by segment. At the start of each it picks the level it wants there (the
 // finest allowed by the max-level slider, coarser where a pixel's footprint covers several
-// voxels, as the octree's pixel LOD does, plus the streamer's bias when the atlas cannot hold
-// the view), and the segment is that level's brick the ray is in, up to where the ray leaves it.
+// voxels, as the octree's pixel LOD does), and the segment is that level's brick the ray is in, up to where the ray leaves it.
 // If the page table has that brick in the atlas, the ray marches it; if the brick is uniform it
 // composites a run of its value; if the table says its range is invisible under the transfer
 // function it skips it. Otherwise it asks for the brick (the request buffer, read back by the
@@ -54,8 +53,9 @@ struct StreamParams {
 // What a PROBE pipeline found (ray_common.wgsl).
 @group(0) @binding(10) var<storage, read_write> probe_out: ProbeResult;
 // The page table's entries of level `stream.walk_level`, brick by brick (x fastest: a key's
-// low bits), EMPTY_KEY where the table has none (src/stream/page_table.rs's level copy). Read
-// by `level_walk` only.
+// low bits), EMPTY_KEY where the table has none (src/stream/page_table.rs's level copy), then
+// from `stream.walk_next` (where it is above 0) the next coarser level's. Read by `level_walk`
+// only.
 @group(0) @binding(11) var<storage, read> level_cells: array<vec4<u32>>;
 
 // Keep in sync with src/stream (page_table.rs, pyramid.rs, source.rs).
@@ -163,7 +163,7 @@ fn entry_visible(entry: vec4<u32>, running_max: u32) -> bool {
 
 // The level a segment starting at distance `t` wants: the coarsest whose voxel is no larger
 // than the pixel's footprint there (`lod_per_t` · t level-0 voxels), never finer than the
-// slider's, then the streamer's bias.
+// slider's.
 fn wanted_level(t: f32, lod_per_t: f32) -> u32 {
     let footprint = t * lod_per_t;
     var level = stream.finest_level;
@@ -690,6 +690,8 @@ fn level_walk(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, jitter: f32,
     var mark_seen = 0u;
     // The ray came into `cell` from a brick it marched (`stream_ray`'s short step).
     var marched_in = false;
+    // Two levels: the ray wants the coarser level from this brick's exit on.
+    var to_coarser = false;
     var deciding = true;
     for (var i = 0u; i < MAX_STEPS; i++) {
         if deciding {
@@ -709,6 +711,7 @@ fn level_walk(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, jitter: f32,
             // The next brick at this level, where the ray still wants it there.
             let stays = !two_levels || level != stream.walk_level
                 || !(coarser_from <= t_out * lod_per_t);
+            to_coarser = !stays && t_out < t_leave;
             if t_out < t_leave && stays {
                 next = next_brick(level, cell, exits, dir);
                 if next.x != NO_CELL {
@@ -772,7 +775,7 @@ fn level_walk(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, jitter: f32,
                 cell = next;
                 entry = next_entry;
                 deciding = true;
-            } else if two_levels && level == stream.walk_level && t < t_leave {
+            } else if to_coarser {
                 // On in the coarser level, as `stream_ray`'s next segment: its brick at the
                 // ray's point, its samples' step, and the index of the first at or after t.
                 level += 1u;
@@ -786,6 +789,7 @@ fn level_walk(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, jitter: f32,
                 cell = brick_of(level, origin + (t + ahead_here) * dir);
                 entry = level_cell(level, cell);
                 marched_in = false;
+                to_coarser = false;
                 deciding = true;
             } else {
                 break;

@@ -273,7 +273,15 @@ fn bench_stream_reports_its_orbits_paced_and_the_uploads_scattered() {
     }
     assert_eq!(json["options"]["uploads"], "Scatter");
     // Resident frames are timed once the loaders are idle.
-    for row in json["resident"]["rows"].as_array().expect("resident rows") {
+    let rows = json["resident"]["rows"].as_array().expect("resident rows");
+    // At full detail, then at the default pixel LOD: two modes by three cameras each.
+    let lod_scales: Vec<f64> = rows
+        .iter()
+        .map(|r| r["lod_scale"].as_f64().unwrap())
+        .collect();
+    assert_eq!(lod_scales, [[0.0; 6], [1.0; 6]].concat(), "{lod_scales:?}");
+    for row in rows {
+        assert!(row["walked_levels"].as_u64().unwrap() <= 2, "{row}");
         assert_eq!(row["loaders_busy"], 0, "{row}");
         let halves = row["stream_gpu_halves_ms"].as_array().expect("two halves");
         assert!(

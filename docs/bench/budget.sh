@@ -107,7 +107,8 @@ if r.get("decode"):
     print("decode", d["bricks"], "bricks,", d["workers"], "threads:", round(d["bytes_per_s"] / 1e9, 2), "GB/s,",
           round(d["bytes_per_s_per_thread"] / 1e6), "MB/s a thread; first read", round(d["first_read_bytes_per_s"] / 1e9, 2), "GB/s")
 for row in r["resident"]["rows"]:
-    print("resident", row["mode"], row["camera"], row["complete"], round(row["stream_over_bricks"], 2))
+    print("resident", "lod", row.get("lod_scale", 0), row["mode"], row["camera"], row["complete"],
+          round(row["stream_over_bricks"], 2), "levels walked", row.get("walked_levels"))
 PY
 }
 # bench --stream of the binary $1 (a .gz in .bench) into $RUN-stream-$STORE_NAME$2.json.

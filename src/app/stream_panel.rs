@@ -114,7 +114,7 @@ pub fn show(ui: &mut Ui, scene: &Scene) {
             ui.end_row();
             ui.label("Rays");
             ui.label(walk_text(status, stream.walk_level_state(), depth))
-                .on_hover_text("Where every ray wants one pyramid level and each of its bricks is in the atlas (or drawn without it), rays walk that level's grid as the bricks renderer does; otherwise segment by segment. Once a view lacks nothing, the rest of such a level is loaded into free atlas slots");
+                .on_hover_text("Where every ray wants one pyramid level (or one near and the next coarser one far) and each of its bricks is in the atlas (or drawn without it), rays walk that level's grid as the bricks renderer does (then the coarser one's); otherwise segment by segment. Once a view lacks nothing, the rest of such a level (or of both) is loaded into free atlas slots");
             ui.end_row();
             ui.label("Atlas");
             ui.label(format!(

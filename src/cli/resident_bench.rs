@@ -104,7 +104,8 @@ pub(super) fn resident_comparison(
                 let refinement = refine(context, &mut stream, target, &camera, &settings, MAX_WAIT)
                     .map_err(|e| e.to_string())?;
                 // What a window does next: it keeps updating while the streamer fills the level
-                // every ray wants, after which frames walk it (`main_level`).
+                // every ray wants (or the two), after which frames walk it (`main_level`,
+                // `main_levels`).
                 let (filled, loaders_busy) =
                     settle_fill(context, &mut stream, target, &camera, &settings)?;
                 let walked_before = stream.stream().map_or(0, |s| s.level_walk_frames());

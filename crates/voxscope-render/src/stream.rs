@@ -50,8 +50,9 @@ const READBACKS: usize = 3;
 /// Page-table bytes counted per atlas slot when sizing the atlas: the table has up to 16
 /// entries of 16 bytes per slot, rounded up to a power of two (so at most twice that).
 const TABLE_BYTES_PER_SLOT: u64 = 2 * 16 * 16;
-/// The most bricks a level may have for the page table to copy it flat, so that frames which
-/// want that level walk it (`main_level`): 1 MiB of entries at most.
+/// The most bricks a level (or two adjacent levels together) may have for the page table to
+/// copy it flat, so that frames which want that level walk it (`main_level`, `main_levels`):
+/// 1 MiB of entries at most.
 const LEVEL_WALK_BRICKS: u64 = 1 << 16;
 /// The atlas's usage beyond what drawing needs: a copy from it, for the tests that read it
 /// back.
@@ -94,9 +95,33 @@ impl WalkLevels {
         }
     }
 
-    /// How many levels: 1 or 2.
-    fn count(self) -> u32 {
-        1 + u32::from(self.two)
+    /// The coarsest of them.
+    fn last(self) -> u32 {
+        self.level + u32::from(self.two)
+    }
+
+    /// Whether these levels include all of `other`'s: a copy of these serves frames that want
+    /// those (`main_levels`: a ray that wants only the coarser level starts in it).
+    fn covers(self, other: Self) -> bool {
+        self.level <= other.level && other.last() <= self.last()
+    }
+
+    /// The levels of both, where they make one level or two adjacent ones.
+    fn union(self, other: Self) -> Option<Self> {
+        let (first, last) = (self.level.min(other.level), self.last().max(other.last()));
+        (last - first <= 1).then_some(Self {
+            level: first,
+            two: last > first,
+        })
+    }
+
+    /// The levels the page table copies, if any.
+    fn copied(table: &voxscope_stream::PageTable) -> Option<Self> {
+        let (level, levels) = table.copied_level()?;
+        Some(Self {
+            level,
+            two: levels == 2,
+        })
     }
 
     /// The bricks of the level and of the next coarser one (0 where it is not walked).
@@ -145,7 +170,7 @@ pub struct StreamVolume {
     /// ([`WalkLevels::code`]; [`NO_LEVEL`]: none, or frames (panes of other max levels) that
     /// wanted different ones; [`NOT_DRAWN`]: no frame); the next step has the table copy them.
     walk_wanted: AtomicU32,
-    /// Frames drawn by the level walk (`main_level`) so far.
+    /// Frames drawn by the level walk (`main_level`, `main_levels`) so far.
     walked_frames: AtomicU64,
     /// The streamer's frame the level walk drew last, until the next [`Self::step`] marks the
     /// level's bricks used then ([`NO_FRAME`]: none since).
@@ -651,10 +676,16 @@ impl StreamVolume {
         // drawn the copy stays as it is.
         let walk = self.walk_wanted.swap(NOT_DRAWN, Ordering::AcqRel);
         if walk != NOT_DRAWN {
-            let copy = (walk != NO_LEVEL)
-                .then(|| WalkLevels::from_code(walk))
-                .and_then(|w| Some((w.level, w.bricks(self.streamer.shape())?)));
-            self.streamer.table_mut().copy_level(copy);
+            let wanted = (walk != NO_LEVEL).then(|| WalkLevels::from_code(walk));
+            // A copy of two levels serves frames that want either alone: it stays, so that a
+            // view whose far corner crosses a level's boundary does not rebuild it each time.
+            let covered = wanted
+                .zip(WalkLevels::copied(self.streamer.table()))
+                .is_some_and(|(wanted, copied)| copied.covers(wanted));
+            if !covered {
+                let copy = wanted.and_then(|w| Some((w.level, w.bricks(self.streamer.shape())?)));
+                self.streamer.table_mut().copy_level(copy);
+            }
         }
         let writing = Instant::now();
         self.write(context, &uploads);
@@ -828,16 +859,14 @@ impl StreamVolume {
         (bricks as u64 <= LEVEL_WALK_BRICKS).then_some(level)
     }
 
-    /// The levels a frame of `params` walks (`main_level`, `main_levels`):
-    /// [`Self::walk_level`], once the table copies them and every brick of them there is
+    /// The levels a frame of `params` walks (`main_level`, `main_levels`): those the table
+    /// copies, where they include [`Self::walk_level`]'s and every brick of them there is
     /// walkable in the frame's mode.
     fn walked_level(&self, params: &RaycastParams) -> Option<WalkLevels> {
         let table = self.streamer.table();
-        let mip = max_projection(params);
-        self.walk_level(params).filter(|walk| {
-            table.copied_level() == Some((walk.level, walk.count()))
-                && table.level_unwalkable(mip) == Some(0)
-        })
+        let copied = WalkLevels::copied(table)?;
+        let walkable = table.level_unwalkable(max_projection(params)) == Some(0);
+        (walkable && copied.covers(self.walk_level(params)?)).then_some(copied)
     }
 
     /// The finest level whose bricks the page table copies flat (every ray of the latest frame
@@ -1030,15 +1059,22 @@ impl RayPass<StreamVolume> for StreamRaycaster {
         volume
             .max_projection
             .store(max_projection(params), Ordering::Release);
-        // Panes of different max levels on one volume want different levels: none is copied
-        // (copying each in turn would rebuild the copy at every step).
+        // Panes of different max levels on one volume want different levels: two adjacent
+        // ones are copied together, else none (copying each in turn would rebuild the copy at
+        // every step).
         let wanted = volume.walk_level(params).map_or(NO_LEVEL, WalkLevels::code);
         let _ = volume
             .walk_wanted
             .fetch_update(Ordering::AcqRel, Ordering::Acquire, |drawn| match drawn {
                 NOT_DRAWN => Some(wanted),
                 same if same == wanted => None,
-                _ => Some(NO_LEVEL),
+                NO_LEVEL => None,
+                _ if wanted == NO_LEVEL => Some(NO_LEVEL),
+                other => Some(
+                    WalkLevels::from_code(other)
+                        .union(WalkLevels::from_code(wanted))
+                        .map_or(NO_LEVEL, WalkLevels::code),
+                ),
             });
         if volume.walked_level(params).is_some() {
             volume.walked_frames.fetch_add(1, Ordering::Relaxed);
@@ -1205,6 +1241,23 @@ mod tests {
     use crate::staging_ring::tests::read_atlas;
     use voxscope_stream::{Downsampling, ENTRY_VISIBLE, MemorySource};
     use voxscope_volume::{Quantization, ValueWindow};
+
+    #[test]
+    fn walked_levels_cover_and_join_only_adjacent_levels() {
+        let one = |level| WalkLevels { level, two: false };
+        let two = |level| WalkLevels { level, two: true };
+        for walk in [one(0), two(0), one(7), two(14)] {
+            assert_eq!(WalkLevels::from_code(walk.code()), walk);
+            assert!(walk.code() < NOT_DRAWN && walk.code() < NO_LEVEL);
+        }
+        assert!(two(3).covers(one(3)) && two(3).covers(one(4)) && two(3).covers(two(3)));
+        assert!(!two(3).covers(one(5)) && !two(3).covers(two(4)) && !one(3).covers(two(3)));
+        assert_eq!(one(3).union(one(4)), Some(two(3)));
+        assert_eq!(one(4).union(two(3)), Some(two(3)));
+        assert_eq!(one(3).union(one(3)), Some(one(3)));
+        assert_eq!(one(3).union(one(5)), None);
+        assert_eq!(two(3).union(one(5)), None);
+    }
 
     #[test]
     fn an_atlas_made_without_wgpus_fill_reads_zero_wherever_the_first_step_put_no_brick() {

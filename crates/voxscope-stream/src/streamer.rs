@@ -1005,11 +1005,13 @@ impl Streamer {
         self.wanted = wanted;
     }
 
-    /// The bricks that would let frames walk the level the page table copies flat (every ray
-    /// wants it: `voxscope-render`'s stream.rs), loaded once the view lacks nothing: those the
-    /// table does not know yet, and visible ones not in the atlas (behind opaque matter, or
-    /// below a MIP ray's maximum, so never asked for). Then each frame walks that level's grid
-    /// as the bricks renderer does, and turning the camera needs nothing more. None where one
+    /// The bricks that would let frames walk the level (or the two levels) the page table
+    /// copies flat (every ray wants it, or one near and the other far: `voxscope-render`'s
+    /// stream.rs), loaded once the view lacks nothing: those the table does not know yet, and
+    /// visible ones not in the atlas (behind opaque matter, below a MIP ray's maximum, or,
+    /// of two levels, where the rays want the other, so never asked for). Then each frame walks
+    /// that level's grid as the bricks renderer does, and turning the camera needs nothing
+    /// more. None where one
     /// of its bricks is unreadable, or where they might not fit in the atlas's free slots
     /// (nothing is evicted for them), in half the RAM cache on their way, or in the page table
     /// (with an eighth to spare); none from a store over a network, where what a view reads is
@@ -1305,7 +1307,7 @@ impl Streamer {
     }
 
     /// Frame `frame` was drawn by the level walk, which leaves no usage marks: every brick of
-    /// the level it walked (the table's flat copy) is marked used then as a stand-in is, kept
+    /// the levels it walked (the table's flat copy) is marked used then as a stand-in is, kept
     /// from eviction as what a ray drew, but not counted as a brick the view wants (most of the
     /// level may lie behind what the rays reach: the budget's room counts what frames drawn
     /// segment by segment marked). A walked frame's `view_slots` are the level's bricks in the
