@@ -817,6 +817,18 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     }
 }
 
+// The level walk's pixel `xy` (`main_level`, `main_levels`).
+fn walk_pixel(xy: vec2<u32>, two_levels: bool) {
+    let pixel = ray_pixel(xy);
+    if pixel.x >= params.image_size.x || pixel.y >= params.image_size.y {
+        return;
+    }
+    let ray = pixel_ray(pixel);
+    let result = level_walk(params.eye.xyz, ray.dir, ray.world_length, pixel_jitter(pixel),
+                            two_levels);
+    write_pixel(pixel, result.color, result.visited);
+}
+
 // Frames whose rays all want one level that the page table copies flat, every brick of it
 // walkable (src/render/stream.rs decides): each ray walks that level (`level_walk`). Its own
 // pipeline, so that neither entry point carries the other's code (runs 103–107,
@@ -824,14 +836,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
 // Frames only: a probe takes `main`.
 @compute @workgroup_size(8, 8, 1)
 fn main_level(@builtin(global_invocation_id) id: vec3<u32>) {
-    let pixel = ray_pixel(id.xy);
-    if pixel.x >= params.image_size.x || pixel.y >= params.image_size.y {
-        return;
-    }
-    let ray = pixel_ray(pixel);
-    let result = level_walk(params.eye.xyz, ray.dir, ray.world_length, pixel_jitter(pixel),
-                            false);
-    write_pixel(pixel, result.color, result.visited);
+    walk_pixel(id.xy, false);
 }
 
 // Frames whose rays all want one level up to some distance and the next coarser one beyond
@@ -840,12 +845,5 @@ fn main_level(@builtin(global_invocation_id) id: vec3<u32>) {
 // pipeline, so that `main_level` carries none of the switch.
 @compute @workgroup_size(8, 8, 1)
 fn main_levels(@builtin(global_invocation_id) id: vec3<u32>) {
-    let pixel = ray_pixel(id.xy);
-    if pixel.x >= params.image_size.x || pixel.y >= params.image_size.y {
-        return;
-    }
-    let ray = pixel_ray(pixel);
-    let result = level_walk(params.eye.xyz, ray.dir, ray.world_length, pixel_jitter(pixel),
-                            true);
-    write_pixel(pixel, result.color, result.visited);
+    walk_pixel(id.xy, true);
 }

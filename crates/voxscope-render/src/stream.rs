@@ -355,16 +355,14 @@ impl StreamVolume {
             sample_count: 1,
             dimension: wgpu::TextureDimension::D3,
             format,
-            usage: if scatter.is_some() {
-                wgpu::TextureUsages::TEXTURE_BINDING
-                    | wgpu::TextureUsages::COPY_DST
-                    | wgpu::TextureUsages::STORAGE_BINDING
-                    | ATLAS_READ_BACK
-            } else {
-                wgpu::TextureUsages::TEXTURE_BINDING
-                    | wgpu::TextureUsages::COPY_DST
-                    | ATLAS_READ_BACK
-            },
+            usage: wgpu::TextureUsages::TEXTURE_BINDING
+                | wgpu::TextureUsages::COPY_DST
+                | ATLAS_READ_BACK
+                | if scatter.is_some() {
+                    wgpu::TextureUsages::STORAGE_BINDING
+                } else {
+                    wgpu::TextureUsages::empty()
+                },
             view_formats: &[],
         };
         // Where the scatter pass can write the atlas, a GPU's atlas is made without wgpu's zero
@@ -838,16 +836,14 @@ impl StreamVolume {
             };
             let level = wanted_at(nearest.max(0.0) * per_depth * 0.999);
             let far = wanted_at(farthest.max(0.0) * widest * per_depth * 1.001);
-            match far.checked_sub(level)? {
-                0 => WalkLevels {
-                    level: level as u32,
-                    two: false,
-                },
-                1 => WalkLevels {
-                    level: level as u32,
-                    two: true,
-                },
+            let two = match far.checked_sub(level)? {
+                0 => false,
+                1 => true,
                 _ => return None,
+            };
+            WalkLevels {
+                level: level as u32,
+                two,
             }
         } else {
             WalkLevels {
