@@ -19,9 +19,9 @@ use voxscope_render::{
     Camera, GpuContext, RenderSettings, RenderTarget, RendererKind, VolumeRenderer, read_image,
 };
 use voxscope_stream::{
-    AtlasZero, BRICK_SIZE, BrickData, BrickError, BrickId, BrickSource, Downsampling, MemorySource,
-    PADDED_BRICK_VOXELS, PyramidShape, StreamOptions, StreamStatus, UploadPath, ValueRange,
-    ZarrSource,
+    AtlasTexels, AtlasZero, BRICK_SIZE, BrickData, BrickError, BrickId, BrickSource, Downsampling,
+    Loader, MemorySource, PADDED_BRICK_VOXELS, Priority, PyramidShape, Request, RequestQueue,
+    StreamOptions, StreamStatus, Tier, UploadPath, ValueRange, ZarrSource, load_brick,
 };
 use voxscope_volume::ome_zarr::{Pyramid, PyramidOptions};
 use voxscope_volume::remote::RemoteOptions;
@@ -1356,6 +1356,65 @@ fn converted_noise(chunk: &str) -> (tempfile::TempDir, std::path::PathBuf) {
         String::from_utf8_lossy(&output.stderr)
     );
     (dir, store)
+}
+
+#[test]
+fn loaders_meeting_a_chunk_another_decodes_read_other_bricks_meanwhile_and_each_brick_as_one_reader_does()
+ {
+    // 128³ noise in chunks of 64³, every brick of every level read by eight loaders in the
+    // order of the grid (x fastest): neighbours one after the other, which most often need a
+    // chunk another loader is decoding (a brick's own, or the one its apron reaches into).
+    // Each brick equals what one reader alone reads, and each chunk is decoded once.
+    let (_dir, store) = converted_noise("64");
+    let open = || {
+        let pyramid = Pyramid::open(&store, PyramidOptions::default()).expect("the store opens");
+        ZarrSource::new(Arc::new(pyramid)).expect("a brick source")
+    };
+    let alone = open();
+    let shared: Arc<dyn BrickSource> = Arc::new(open());
+    let shape = alone.shape().clone();
+    let ids: Vec<BrickId> = shape
+        .levels
+        .iter()
+        .enumerate()
+        .flat_map(|(level, info)| {
+            level_zero_bricks(info.grid).map(move |id| BrickId {
+                level: level as u32,
+                ..id
+            })
+        })
+        .collect();
+    let queue = Arc::new(RequestQueue::default());
+    queue.replace(
+        ids.iter()
+            .enumerate()
+            .map(|(order, &id)| Request {
+                priority: Priority::new(Tier::Visible, 0, order as f32),
+                id,
+                key: shape.key(id).expect("a brick of the pyramid"),
+            })
+            .collect(),
+    );
+    let loader = Loader::start(Arc::clone(&shared), queue, AtlasTexels::Unorm16, 8);
+    let mut read = std::collections::HashMap::new();
+    for _ in &ids {
+        let result = loader
+            .next_received(Duration::from_secs(60))
+            .expect("every brick arrives");
+        let brick = result.brick.unwrap_or_else(|e| panic!("{e}"));
+        assert!(
+            read.insert(result.key, brick).is_none(),
+            "a brick read twice"
+        );
+    }
+    for &id in &ids {
+        let (expected, _) = load_brick(&alone, id, AtlasTexels::Unorm16);
+        let expected = expected.unwrap_or_else(|e| panic!("{e}"));
+        let brick = &read[&shape.key(id).expect("a brick")];
+        assert_eq!(brick.range, expected.range, "{id}");
+        assert!(brick.texels == expected.texels, "{id} differs");
+    }
+    assert_eq!(shared.chunks_decoded(), alone.chunks_decoded());
 }
 
 /// Level 0's bricks of a grid of `grid` bricks, x fastest.

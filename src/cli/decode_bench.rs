@@ -1,17 +1,18 @@
 //! The loaders' read-and-decode rate on their own, from the page cache (`bench --stream`'s
-//! `decode`): a block of finest-level bricks around the volume's center read by as many threads
-//! as the streamer's loaders, in the order its queue hands them out (nearest the center first),
-//! each brick read as a loader reads it (the source's read and decode, then the atlas's texel
-//! conversion). The block is read twice, each time by a fresh source (its decoded-chunk cache
-//! empty): the first read puts the files in the page cache, the second is measured.
+//! `decode`): a block of finest-level bricks around the volume's center read by the
+//! streamer's loaders (as many threads, the same queue and the same reads: the source's read
+//! and decode, then the atlas's texel conversion), nearest the center first. The block is read
+//! twice, each time by a fresh source (its decoded-chunk cache empty): the first read puts the
+//! files in the page cache, the second is measured.
 
 use std::sync::Arc;
-use std::sync::atomic::{AtomicUsize, Ordering};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use serde_json::json;
 
-use voxscope_stream::{AtlasTexels, BrickId, BrickSource, load_brick};
+use voxscope_stream::{
+    AtlasTexels, BrickId, BrickSource, Loader, Priority, Request, RequestQueue, Tier,
+};
 
 /// Finest-level bricks read at most (a block of 32 × 32 × 8 around the center: 8 192 bricks,
 /// 644 MB of padded 16-bit voxels).
@@ -58,42 +59,58 @@ struct BlockRead {
     failed: usize,
 }
 
-/// Reads `bricks` with `workers` threads, each taking the next brick of the list.
+/// How long the block's read may take before the benchmark gives up on the bricks left.
+const MAX_BLOCK_SECONDS: Duration = Duration::from_secs(120);
+
+/// Reads `bricks` (nearest the center first) with `workers` loaders, as the streamer's
+/// loaders read them.
 fn read_block(
     source: &Arc<dyn BrickSource>,
     bricks: &[BrickId],
     workers: usize,
     texels: AtlasTexels,
-) -> BlockRead {
-    let next = AtomicUsize::new(0);
-    let started = Instant::now();
-    let per_thread: Vec<(u64, f64, usize)> = std::thread::scope(|scope| {
-        let threads: Vec<_> = (0..workers.max(1))
-            .map(|_| {
-                scope.spawn(|| {
-                    let (mut bytes, mut busy, mut failed) = (0u64, 0.0f64, 0usize);
-                    while let Some(&id) = bricks.get(next.fetch_add(1, Ordering::Relaxed)) {
-                        let reading = Instant::now();
-                        let (brick, read) = load_brick(&**source, id, texels);
-                        busy += reading.elapsed().as_secs_f64();
-                        bytes += read;
-                        failed += usize::from(brick.is_err());
-                    }
-                    (bytes, busy, failed)
-                })
+) -> Result<BlockRead, String> {
+    let queue = Arc::new(RequestQueue::default());
+    let requests = bricks
+        .iter()
+        .enumerate()
+        .map(|(order, &id)| {
+            let key = source
+                .shape()
+                .key(id)
+                .ok_or_else(|| format!("{}: no {id}", source.name()))?;
+            Ok(Request {
+                priority: Priority::new(Tier::Visible, 0, order as f32),
+                id,
+                key,
             })
-            .collect();
-        threads
-            .into_iter()
-            .map(|t| t.join().unwrap_or((0, 0.0, 1)))
-            .collect()
-    });
-    BlockRead {
-        seconds: started.elapsed().as_secs_f64(),
-        bytes: per_thread.iter().map(|t| t.0).sum(),
-        busy_seconds: per_thread.iter().map(|t| t.1).sum(),
-        failed: per_thread.iter().map(|t| t.2).sum(),
+        })
+        .collect::<Result<Vec<_>, String>>()?;
+    let started = Instant::now();
+    queue.replace(requests);
+    let loader = Loader::start(Arc::clone(source), queue, texels, workers);
+    let (mut bytes, mut busy_seconds, mut failed, mut received) = (0u64, 0.0f64, 0usize, 0usize);
+    while received < bricks.len() {
+        let left = MAX_BLOCK_SECONDS.saturating_sub(started.elapsed());
+        let Some(result) = loader.next_received(left) else {
+            return Err(format!(
+                "{}: the loaders read {received} of {} bricks in {} s",
+                source.name(),
+                bricks.len(),
+                MAX_BLOCK_SECONDS.as_secs()
+            ));
+        };
+        received += 1;
+        bytes += result.bytes_read;
+        busy_seconds += result.seconds;
+        failed += usize::from(result.brick.is_err());
     }
+    Ok(BlockRead {
+        seconds: started.elapsed().as_secs_f64(),
+        bytes,
+        busy_seconds,
+        failed,
+    })
 }
 
 /// The read-and-decode rate of the sources `open` makes (each call a fresh one, its caches
@@ -112,9 +129,9 @@ pub fn decode_rate(
     let bricks = center_block(&*source);
     let texels = AtlasTexels::Unorm16;
     // Into the page cache.
-    let warm = read_block(&source, &bricks, workers, texels);
+    let warm = read_block(&source, &bricks, workers, texels)?;
     drop(source);
-    let measured = read_block(&fresh()?, &bricks, workers, texels);
+    let measured = read_block(&fresh()?, &bricks, workers, texels)?;
     let rate = |bytes: u64, seconds: f64| (seconds > 0.0).then(|| bytes as f64 / seconds);
     Ok(json!({
         "bricks": bricks.len(),

@@ -35,7 +35,7 @@ pub use budget::{Cut, cut_within};
 pub use failures::{FailedBrick, FailureGroup, Failures, MAX_BRICK_ATTEMPTS, group};
 pub use frame::{Feedback, Upload, ViewPoint};
 pub use key_hash::{KeyHasher, KeyMap, KeySet};
-pub use loader::{AtlasTexels, LoadedBrick, load_brick};
+pub use loader::{AtlasTexels, LoadResult, LoadedBrick, Loader, load_brick};
 pub use memory::MemorySource;
 pub use options::{AtlasZero, StreamOptions, UploadPath};
 pub use page_table::{

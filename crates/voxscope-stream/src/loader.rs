@@ -9,7 +9,7 @@ use std::sync::Arc;
 use std::sync::mpsc::{Receiver, Sender, channel};
 use std::thread::JoinHandle;
 
-use super::queue::{RequestQueue, Tier};
+use super::queue::{Request, RequestQueue, Tier};
 use crate::{BrickError, BrickId, BrickSource, PADDED_BRICK_VOXELS, ValueRange};
 
 /// How value levels are stored in the atlas's texels.
@@ -95,6 +95,10 @@ pub struct LoadResult {
 /// 512 still held one level of run 72's view at a time (the link half idle meanwhile).
 pub const FETCH_AHEAD_BRICKS: usize = 2048;
 
+/// Bricks a loader puts aside at most while other loaders decode chunks they need, before it
+/// waits for the oldest ([`work`]).
+const PUT_ASIDE: usize = 4;
+
 /// The worker threads and the channel their results arrive on.
 pub struct Loader {
     source: Arc<dyn BrickSource>,
@@ -144,6 +148,11 @@ impl Loader {
     pub fn received(&self) -> Vec<LoadResult> {
         self.results.try_iter().collect()
     }
+
+    /// The next result, waiting up to `timeout` for it (a benchmark's; a frame never waits).
+    pub fn next_received(&self, timeout: std::time::Duration) -> Option<LoadResult> {
+        self.results.recv_timeout(timeout).ok()
+    }
 }
 
 /// How much less this system's scheduler favours a loader thread than the others (Linux's
@@ -171,31 +180,48 @@ pub fn load_brick(
     id: BrickId,
     texels: AtlasTexels,
 ) -> (Result<LoadedBrick, BrickError>, u64) {
-    let read = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| source.read_brick(id)))
-        .unwrap_or_else(|panic| {
-            let text = panic
-                .downcast_ref::<&str>()
-                .map(|s| s.to_string())
-                .or_else(|| panic.downcast_ref::<String>().cloned())
-                .unwrap_or_default();
-            Err(BrickError::invalid(format!(
-                "{}: reading {id} failed inside voxscope ({})",
-                source.name(),
-                text.split_whitespace().collect::<Vec<_>>().join(" ")
-            )))
-        });
-    match read {
+    load_brick_unless_busy(source, id, texels, true).expect("a read that waits reads")
+}
+
+/// [`load_brick`], or `None` where `wait` is off and the read would wait for another loader
+/// ([`BrickSource::read_brick_unless_busy`]).
+fn load_brick_unless_busy(
+    source: &dyn BrickSource,
+    id: BrickId,
+    texels: AtlasTexels,
+    wait: bool,
+) -> Option<(Result<LoadedBrick, BrickError>, u64)> {
+    let read = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        if wait {
+            Some(source.read_brick(id))
+        } else {
+            source.read_brick_unless_busy(id)
+        }
+    }))
+    .unwrap_or_else(|panic| {
+        let text = panic
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| panic.downcast_ref::<String>().cloned())
+            .unwrap_or_default();
+        Some(Err(BrickError::invalid(format!(
+            "{}: reading {id} failed inside voxscope ({})",
+            source.name(),
+            text.split_whitespace().collect::<Vec<_>>().join(" ")
+        ))))
+    });
+    Some(match read? {
         Ok(data) => {
             let bytes_read = (data.levels.len() * texels.bytes()) as u64;
             if data.levels.len() != PADDED_BRICK_VOXELS {
-                return (
+                return Some((
                     Err(BrickError::invalid(format!(
                         "{}: {id} has {} value levels, not {PADDED_BRICK_VOXELS}",
                         source.name(),
                         data.levels.len()
                     ))),
                     bytes_read,
-                );
+                ));
             }
             let texels = (!data.range.is_uniform()).then(|| texels.encode(&data.levels));
             (
@@ -207,7 +233,7 @@ pub fn load_brick(
             )
         }
         Err(error) => (Err(error), 0),
-    }
+    })
 }
 
 fn fetch_ahead(source: &dyn BrickSource, queue: &RequestQueue) {
@@ -227,15 +253,11 @@ fn work(
     texels: AtlasTexels,
     results: &Sender<LoadResult>,
 ) {
-    while let Some(request) = queue.take() {
-        // What comes after this brick goes on the wire while this one is read and decoded (a
-        // folder's reads ahead are asked for each frame, hundreds of chunks ahead of the
-        // loaders, enough for a disk: the queue is not looked at here).
-        if remote {
-            fetch_ahead(source, queue);
-        }
+    // Reads `request`'s brick and sends it; `None` (nothing sent) where `wait` is off and the
+    // read would wait for another loader; `Some(false)` once the streamer is gone.
+    let load = |request: &Request, wait: bool| -> Option<bool> {
         let started = std::time::Instant::now();
-        let (brick, bytes_read) = load_brick(source, request.id, texels);
+        let (brick, bytes_read) = load_brick_unless_busy(source, request.id, texels, wait)?;
         let result = LoadResult {
             key: request.key,
             prefetch: request.priority.tier() == Tier::Prefetch,
@@ -243,8 +265,55 @@ fn work(
             bytes_read,
             seconds: started.elapsed().as_secs_f64(),
         };
-        if results.send(result).is_err() {
-            return; // the streamer is gone
+        Some(results.send(result).is_ok())
+    };
+    // Bricks put aside because another loader was decoding a chunk they need (neighbouring
+    // bricks share chunks, and the queue hands out neighbours together), oldest first: asked
+    // for again, without waiting, after each other brick read, by when their chunks are
+    // usually decoded; waited for once there are PUT_ASIDE of them, or nothing else to read.
+    let mut aside: Vec<Request> = Vec::new();
+    loop {
+        let next = if aside.len() >= PUT_ASIDE {
+            None
+        } else if aside.is_empty() {
+            // Waits while the queue is empty; `None` once it is closed.
+            Some(queue.take())
+        } else {
+            queue.try_take().map(Some)
+        };
+        match next {
+            Some(Some(request)) => {
+                // What comes after this brick goes on the wire while this one is read and
+                // decoded (a folder's reads ahead are asked for each frame, hundreds of chunks
+                // ahead of the loaders, enough for a disk: the queue is not looked at here).
+                if remote {
+                    fetch_ahead(source, queue);
+                }
+                match load(&request, false) {
+                    Some(true) => {}
+                    Some(false) => return, // the streamer is gone
+                    None => {
+                        aside.push(request);
+                        continue;
+                    }
+                }
+            }
+            Some(None) => return, // closed
+            None => {
+                let oldest = aside.remove(0);
+                if load(&oldest, true) != Some(true) {
+                    return;
+                }
+            }
+        }
+        // A brick was read meanwhile: those put aside are asked for again.
+        let mut index = 0;
+        while index < aside.len() {
+            match load(&aside[index], false) {
+                Some(true) => drop(aside.remove(index)),
+                Some(false) => return,
+                None => index += 1,
+            }
         }
     }
 }
@@ -436,5 +505,123 @@ mod tests {
         }
         assert_eq!(results.len(), 2);
         assert!(results.iter().all(|r| r.brick.is_err()));
+    }
+
+    /// A source whose brick x is busy (another loader decoding a chunk it needs) the first
+    /// `busy[x]` times it is asked without waiting; it records each read: the brick, and
+    /// whether it waited.
+    struct Contended {
+        shape: PyramidShape,
+        busy: std::sync::Mutex<Vec<usize>>,
+        reads: std::sync::Mutex<Vec<(u32, bool)>>,
+    }
+
+    impl Contended {
+        fn new(busy: Vec<usize>) -> Self {
+            Self {
+                shape: PyramidShape::new([256, 32, 32]).expect("a shape"),
+                busy: std::sync::Mutex::new(busy),
+                reads: Default::default(),
+            }
+        }
+
+        fn read(&self, id: BrickId, waited: bool) -> Result<BrickData, BrickError> {
+            self.reads
+                .lock()
+                .expect("not poisoned")
+                .push((id.brick[0], waited));
+            Ok(BrickData::new(
+                vec![id.brick[0] as u16; PADDED_BRICK_VOXELS],
+                [32; 3],
+            ))
+        }
+    }
+
+    impl BrickSource for Contended {
+        fn name(&self) -> &str {
+            "contended"
+        }
+        fn shape(&self) -> &PyramidShape {
+            &self.shape
+        }
+        fn spacing(&self) -> [f64; 3] {
+            [1.0; 3]
+        }
+        fn quantization(&self) -> Quantization {
+            Quantization {
+                offset: 0.0,
+                step: 1.0,
+            }
+        }
+        fn max_value_level(&self) -> u16 {
+            255
+        }
+        fn read_brick(&self, id: BrickId) -> Result<BrickData, BrickError> {
+            self.read(id, true)
+        }
+        fn read_brick_unless_busy(&self, id: BrickId) -> Option<Result<BrickData, BrickError>> {
+            let mut busy = self.busy.lock().expect("not poisoned");
+            let left = &mut busy[id.brick[0] as usize];
+            if *left > 0 {
+                *left -= 1;
+                return None;
+            }
+            drop(busy);
+            Some(self.read(id, false))
+        }
+    }
+
+    /// What one loader reads of bricks 0, 1, … (best first) from `source`, in order.
+    fn read_in_order(source: Arc<Contended>, bricks: u32) -> Vec<(u32, bool)> {
+        let queue = Arc::new(RequestQueue::default());
+        queue.replace(
+            (0..bricks)
+                .map(|x| crate::Request {
+                    priority: crate::Priority::new(Tier::Visible, 0, x as f32),
+                    id: BrickId {
+                        level: 0,
+                        brick: [x, 0, 0],
+                    },
+                    key: x,
+                })
+                .collect(),
+        );
+        let loader = Loader::start(source.clone(), queue, AtlasTexels::Unorm8, 1);
+        let mut keys: Vec<u32> = (0..bricks)
+            .map(|_| {
+                let result = loader
+                    .next_received(std::time::Duration::from_secs(10))
+                    .expect("every brick arrives");
+                assert!(result.brick.is_ok());
+                result.key
+            })
+            .collect();
+        keys.sort_unstable();
+        assert_eq!(keys, (0..bricks).collect::<Vec<_>>(), "each brick once");
+        source.reads.lock().expect("not poisoned").clone()
+    }
+
+    #[test]
+    fn a_loader_reads_the_next_brick_while_another_decodes_what_its_brick_needs() {
+        // Brick 0 is busy once: brick 1 is read meanwhile, then 0, without waiting.
+        let reads = read_in_order(Arc::new(Contended::new(vec![1, 0, 0])), 3);
+        assert_eq!(reads, [(1, false), (0, false), (2, false)]);
+        // Busy for a while: 0 and 2 are put aside, 1 and 3 read, then 0 and 2 once free.
+        let reads = read_in_order(Arc::new(Contended::new(vec![2, 0, 1, 0])), 4);
+        assert_eq!(reads, [(1, false), (3, false), (0, false), (2, false)]);
+    }
+
+    #[test]
+    fn a_loader_waits_for_the_oldest_brick_once_it_has_put_aside_enough() {
+        // Never free without waiting: PUT_ASIDE bricks are put aside, then the oldest is
+        // waited for, and each after it as the next one is put aside; the last ones, with
+        // nothing left to read meanwhile, are waited for in order. None is lost, none is
+        // read twice.
+        let bricks = PUT_ASIDE as u32 + 2;
+        let reads = read_in_order(
+            Arc::new(Contended::new(vec![usize::MAX; bricks as usize])),
+            bricks,
+        );
+        assert_eq!(reads, (0..bricks).map(|x| (x, true)).collect::<Vec<_>>());
     }
 }

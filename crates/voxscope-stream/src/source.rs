@@ -116,6 +116,14 @@ pub trait BrickSource: Send + Sync {
     /// threads, several at once.
     fn read_brick(&self, id: BrickId) -> Result<BrickData, BrickError>;
 
+    /// [`Self::read_brick`], unless it would wait for another reader (another loader
+    /// decoding a chunk the brick needs): then `None`, after doing what it could meanwhile,
+    /// so that the loader reads another brick before it asks again. A source without such
+    /// waits reads.
+    fn read_brick_unless_busy(&self, id: BrickId) -> Option<Result<BrickData, BrickError>> {
+        Some(self.read_brick(id))
+    }
+
     /// A range that holds every value level of brick `id`'s own voxels, if the source knows one
     /// without reading the brick (a store's per-chunk minima and maxima): a brick whose range
     /// the transfer function makes invisible is then never read. Called on the frame's thread:

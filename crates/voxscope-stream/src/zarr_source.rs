@@ -321,12 +321,15 @@ impl ZarrSource {
     /// The value levels of the stored level's voxels `[origin, origin + size)`, x fastest,
     /// assembled from whole decoded chunks (cached) and the faces kept of chunks the region
     /// only reaches one voxel into.
+    /// `None` where another loader decodes a chunk it needs and `wait` is off (the chunks
+    /// no other loader decodes are decoded and cached meanwhile).
     fn read_levels(
         &self,
         stored: usize,
         origin: [usize; 3],
         size: [usize; 3],
-    ) -> Result<Vec<u16>, voxscope_volume::LoadError> {
+        wait: bool,
+    ) -> Result<Option<Vec<u16>>, voxscope_volume::LoadError> {
         let parts = self.region_parts(stored, origin, size);
         // Over a network, the chunks still to decode are asked for together (a folder's store
         // does nothing here); a chunk whose kept faces or decoded voxels serve is not.
@@ -337,16 +340,40 @@ impl ZarrSource {
             .collect();
         // What they fetched is held for the reads below, whatever the fetch cache keeps.
         let _held = (!missing.is_empty()).then(|| self.pyramid.prefetch_regions(&missing));
+        // The chunks no other loader is decoding first, then those that one is (waited for
+        // last, by when it has usually finished): neighbouring bricks share chunks, and a
+        // loader that waited for each in turn would idle while it could decode its own.
+        let mut decoded: Vec<Option<Arc<Vec<u16>>>> = Vec::with_capacity(parts.len());
+        for part in &parts {
+            decoded.push(match &part.from {
+                PartFrom::Missing => self.chunk_levels(
+                    (stored, part.index),
+                    part.part.start,
+                    part.part.extent,
+                    false,
+                )?,
+                PartFrom::Faces(..) | PartFrom::Decoded(_) => None,
+            });
+        }
+        let busy = parts
+            .iter()
+            .zip(&decoded)
+            .any(|(part, decoded)| matches!(part.from, PartFrom::Missing) && decoded.is_none());
+        if busy && !wait {
+            return Ok(None);
+        }
         let mut out = vec![0u16; size.iter().product()];
-        for part in parts {
+        for (part, decoded) in parts.into_iter().zip(decoded) {
             let RegionPart { index, part, from } = part;
-            let levels = match from {
-                PartFrom::Faces(face, faces) => {
+            let levels = match (from, decoded) {
+                (PartFrom::Faces(face, faces), _) => {
                     copy_from_face(&faces, face, &part, origin, size, &mut out);
                     continue;
                 }
-                PartFrom::Decoded(levels) => levels,
-                PartFrom::Missing => self.chunk_levels((stored, index), part.start, part.extent)?,
+                (PartFrom::Decoded(levels), _) | (PartFrom::Missing, Some(levels)) => levels,
+                (PartFrom::Missing, None) => self
+                    .chunk_levels((stored, index), part.start, part.extent, true)?
+                    .expect("a chunk waited for is read"),
             };
             let ChunkPart {
                 start,
@@ -365,7 +392,7 @@ impl ZarrSource {
                 }
             }
         }
-        Ok(out)
+        Ok(Some(out))
     }
 
     /// The chunks of the stored level that the region `[origin, origin + size)` reaches,
@@ -394,36 +421,43 @@ impl ZarrSource {
 
     /// The value levels of one chunk (`start` and `extent` in the stored level's voxels):
     /// from the decoded-chunk cache, else read and decoded here, or by the loader already
-    /// decoding it (waited for).
+    /// decoding it: waited for where `wait`, else `None`.
     fn chunk_levels(
         &self,
         key: ChunkKey,
         start: [usize; 3],
         extent: [usize; 3],
-    ) -> Result<Arc<Vec<u16>>, voxscope_volume::LoadError> {
+        wait: bool,
+    ) -> Result<Option<Arc<Vec<u16>>>, voxscope_volume::LoadError> {
         let cached = |chunks: &Mutex<ChunkCache>| chunks.lock().ok().and_then(|mut c| c.get(key));
         if let Some(levels) = cached(&self.chunks) {
-            return Ok(levels);
+            return Ok(Some(levels));
         }
         // A thread of a rayon pool (the preview, the pinned levels) decodes on its own: while
         // it waits inside a read it may run another brick of its pool, which would then wait
         // for the lock this thread holds.
         if rayon::current_thread_index().is_some() {
-            return self.decode_chunk(key, start, extent);
+            return self.decode_chunk(key, start, extent).map(Some);
         }
         let Ok(mut decoding) = self.decoding.lock() else {
-            return self.decode_chunk(key, start, extent);
+            return self.decode_chunk(key, start, extent).map(Some);
         };
         let reader = Arc::clone(decoding.entry(key).or_default());
         drop(decoding);
-        // The first here reads it; the others wait for it and then find it in the cache (a
-        // reader that failed, or a cache that has let it go, leaves them to read it).
-        let _reading = reader
-            .lock()
-            .unwrap_or_else(|poisoned| poisoned.into_inner());
+        // The first here reads it; the others wait for it (or come back later) and then find
+        // it in the cache (a reader that failed, or a cache that has let it go, leaves them to
+        // read it).
+        let _reading = match reader.try_lock() {
+            Ok(reading) => reading,
+            Err(std::sync::TryLockError::Poisoned(poisoned)) => poisoned.into_inner(),
+            Err(std::sync::TryLockError::WouldBlock) if !wait => return Ok(None),
+            Err(std::sync::TryLockError::WouldBlock) => reader
+                .lock()
+                .unwrap_or_else(|poisoned| poisoned.into_inner()),
+        };
         let levels = match cached(&self.chunks) {
-            Some(levels) => Ok(levels),
-            None => self.decode_chunk(key, start, extent),
+            Some(levels) => Ok(Some(levels)),
+            None => self.decode_chunk(key, start, extent).map(Some),
         };
         if let Ok(mut decoding) = self.decoding.lock()
             && decoding.get(&key).is_some_and(|r| Arc::ptr_eq(r, &reader))
@@ -443,7 +477,7 @@ impl ZarrSource {
         let data = self.pyramid.read_region(stored, start, extent)?;
         self.decoded
             .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        let levels = Arc::new(to_levels(&data, self.quantization));
+        let levels = Arc::new(to_levels(data, self.quantization));
         if let Ok(mut cache) = self.chunks.lock() {
             cache.insert((stored, index), Arc::clone(&levels));
         }
@@ -489,7 +523,7 @@ impl ZarrSource {
         let _held = self.pyramid.prefetch_regions(&regions);
         regions.par_iter().for_each(|&(stored, _, end)| {
             if let Ok(data) = self.pyramid.read_region(stored, [0; 3], end) {
-                self.cache_chunks(stored, end, &to_levels(&data, self.quantization));
+                self.cache_chunks(stored, end, &to_levels(data, self.quantization));
             }
         });
     }
@@ -957,20 +991,38 @@ impl BrickSource for ZarrSource {
     }
 
     fn read_brick(&self, id: BrickId) -> Result<BrickData, BrickError> {
+        self.read_brick_waiting(id, true)
+            .expect("a read that waits reads")
+    }
+
+    fn read_brick_unless_busy(&self, id: BrickId) -> Option<Result<BrickData, BrickError>> {
+        self.read_brick_waiting(id, false)
+    }
+
+    fn labels(&self) -> bool {
+        self.labels
+    }
+}
+
+impl ZarrSource {
+    /// A brick's read: `None` where another loader decodes a chunk it needs and `wait` is off.
+    fn read_brick_waiting(&self, id: BrickId, wait: bool) -> Option<Result<BrickData, BrickError>> {
         let (Some(level), Some(source), Some(_)) = (
             self.shape.levels.get(id.level as usize),
             self.sources.get(id.level as usize),
             self.shape.key(id),
         ) else {
-            return Err(BrickError::invalid(format!("{}: no {id}", self.name)));
+            return Some(Err(BrickError::invalid(format!("{}: no {id}", self.name))));
         };
         let stored_dims = self.pyramid.levels[source.stored].dims;
         let first = id.brick.map(|c| c as usize * BRICK_SIZE);
         let voxels = padded_voxels(first, level.dims);
         let (origin, size) = stored_region(&voxels, source.ratio, stored_dims);
-        let stored = self
-            .read_levels(source.stored, origin, size)
-            .map_err(|e| BrickError::of_load(id, &e))?;
+        let stored = match self.read_levels(source.stored, origin, size, wait) {
+            Ok(Some(stored)) => stored,
+            Ok(None) => return None,
+            Err(e) => return Some(Err(BrickError::of_load(id, &e))),
+        };
         let inside = std::array::from_fn(|a| level.dims[a].saturating_sub(first[a]));
         let levels = if source.ratio == [1, 1, 1] {
             // One stored voxel a pyramid voxel (its mean, max and mode alike): rows copied.
@@ -986,11 +1038,7 @@ impl BrickSource for ZarrSource {
                 self.how,
             )
         };
-        Ok(BrickData::new(levels, inside))
-    }
-
-    fn labels(&self) -> bool {
-        self.labels
+        Some(Ok(BrickData::new(levels, inside)))
     }
 }
 
@@ -1137,16 +1185,19 @@ fn stored_region(
     )
 }
 
-/// Each stored value's level (non-finite values as level 0).
-fn to_levels(data: &VoxelData, quantization: Quantization) -> Vec<u16> {
+/// Each stored value's level (non-finite values as level 0), in the values' own buffer where
+/// they are 16-bit (a chunk's half a megabyte neither allocated nor copied again).
+fn to_levels(data: VoxelData, quantization: Quantization) -> Vec<u16> {
     // Integers one level apart: each level is the value less the offset, in integers (what
     // the rounding below gives them, at a fraction of its cost).
-    if quantization.step == 1.0
+    let data = if quantization.step == 1.0
         && quantization.offset.fract() == 0.0
         && quantization.offset.abs() <= i32::MAX as f64
     {
         let offset = quantization.offset as i64;
         match data {
+            // Already the levels.
+            VoxelData::U16(values) if offset == 0 => return values,
             // In 32 bits where the values fit (four times as many a vector instruction).
             VoxelData::U8(values) => return narrow_integer_levels(values, offset),
             VoxelData::I8(values) => return narrow_integer_levels(values, offset),
@@ -1154,10 +1205,12 @@ fn to_levels(data: &VoxelData, quantization: Quantization) -> Vec<u16> {
             VoxelData::I16(values) => return narrow_integer_levels(values, offset),
             VoxelData::U32(values) => return integer_levels(values, offset),
             VoxelData::I32(values) => return integer_levels(values, offset),
-            VoxelData::F32(_) | VoxelData::F64(_) => {}
+            data @ (VoxelData::F32(_) | VoxelData::F64(_)) => data,
         }
-    }
-    with_voxel_slice!(data, values => values
+    } else {
+        data
+    };
+    with_voxel_slice!(&data, values => values
         .iter()
         .map(|v| {
             let value = v.to_f64();
@@ -1166,21 +1219,22 @@ fn to_levels(data: &VoxelData, quantization: Quantization) -> Vec<u16> {
         .collect())
 }
 
-/// [`integer_levels`] of values of at most 16 bits.
-fn narrow_integer_levels<T: Copy + Into<i32>>(values: &[T], offset: i64) -> Vec<u16> {
+/// [`integer_levels`] of values of at most 16 bits (16-bit values' levels written over them:
+/// the collect reuses their buffer).
+fn narrow_integer_levels<T: Copy + Into<i32>>(values: Vec<T>, offset: i64) -> Vec<u16> {
     // An offset beyond ±2²⁰ leaves every level of a 16-bit value at one end, as beyond it.
     let offset = offset.clamp(-(1 << 20), 1 << 20) as i32;
     values
-        .iter()
-        .map(|&v| (v.into() - offset).clamp(0, u16::MAX as i32) as u16)
+        .into_iter()
+        .map(|v| (v.into() - offset).clamp(0, u16::MAX as i32) as u16)
         .collect()
 }
 
 /// Integer values' levels at step 1: the value less `offset`, clamped to the 16-bit range.
-fn integer_levels<T: Copy + Into<i64>>(values: &[T], offset: i64) -> Vec<u16> {
+fn integer_levels<T: Copy + Into<i64>>(values: Vec<T>, offset: i64) -> Vec<u16> {
     values
-        .iter()
-        .map(|&v| (v.into() - offset).clamp(0, u16::MAX as i64) as u16)
+        .into_iter()
+        .map(|v| (v.into() - offset).clamp(0, u16::MAX as i64) as u16)
         .collect()
 }
 
@@ -1259,11 +1313,8 @@ mod tests {
                 .iter()
                 .map(|v| quantization.level(v.to_f64()))
                 .collect());
-            assert_eq!(
-                to_levels(&data, quantization),
-                rounded,
-                "{data:?} at {offset}"
-            );
+            let described = format!("{data:?} at {offset}");
+            assert_eq!(to_levels(data, quantization), rounded, "{described}");
         }
     }
 
