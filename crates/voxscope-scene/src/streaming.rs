@@ -9,8 +9,8 @@ use std::time::{Duration, Instant};
 use voxscope_octree::{DataKind, TransferFunction};
 use voxscope_render::{Camera, GpuContext, RenderSettings, RenderTarget, VolumeRenderer};
 use voxscope_stream::{
-    BrickSource, FailedBrick, FailureGroup, MemorySource, NoiseSource, StreamOptions, StreamStatus,
-    UpdatePhases, ZarrSource, group, preview,
+    BrickSource, FailedBrick, FailureGroup, MemorySource, NoiseSource, StillUploads, StreamOptions,
+    StreamStatus, UpdatePhases, ZarrSource, group, preview,
 };
 use voxscope_volume::ome_zarr::Pyramid;
 use voxscope_volume::{LoadOptions, QuantizedVolume, ValueWindow, Volume, parse_dims};
@@ -256,8 +256,31 @@ impl Refinement {
 }
 
 /// Draws `camera`'s view into `target` frame after frame (update, draw, wait for the GPU)
-/// until nothing visible is missing or `max_wait` has passed.
+/// until nothing visible is missing or `max_wait` has passed. No one watches these frames: a
+/// still one uploads every brick ready ([`StillUploads::AllReady`]).
 pub fn refine(
+    context: &GpuContext,
+    renderer: &mut VolumeRenderer,
+    target: &RenderTarget,
+    camera: &Camera,
+    settings: &RenderSettings,
+    max_wait: Duration,
+) -> Result<Refinement, SceneError> {
+    let set_still = |renderer: &mut VolumeRenderer, still| {
+        renderer
+            .stream_mut()
+            .map(|stream| stream.streamer_mut().set_still_uploads(still))
+    };
+    let before = set_still(renderer, StillUploads::AllReady);
+    let refined = refine_frames(context, renderer, target, camera, settings, max_wait);
+    if let Some(before) = before {
+        set_still(renderer, before);
+    }
+    refined
+}
+
+/// [`refine`]'s frames.
+fn refine_frames(
     context: &GpuContext,
     renderer: &mut VolumeRenderer,
     target: &RenderTarget,

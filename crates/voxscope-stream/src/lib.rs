@@ -55,5 +55,5 @@ pub use source::{BrickError, BrickFault, BrickSource};
 pub use status::{
     BudgetLimit, LevelCounters, StreamCounters, StreamStatus, UpdatePhases, UploadParts,
 };
-pub use streamer::{Streamer, UPLOAD_SECONDS_PER_FRAME, UPLOAD_SECONDS_STILL};
+pub use streamer::{StillUploads, Streamer, UPLOAD_SECONDS_PER_FRAME, UPLOAD_SECONDS_STILL};
 pub use zarr_source::{MAX_BRICK_READ, MAX_REMOTE_BRICK_CHUNKS, ZarrSource};

@@ -38,15 +38,19 @@ pub const UPLOAD_SECONDS_PER_FRAME: f64 = 0.0055;
 /// completes sooner (a near MIP view's copies move a third of a DVR view's bytes per second).
 pub const UPLOAD_SECONDS_STILL: f64 = 0.011;
 
-/// While the view stands still, a frame's uploads may also take this share of the time
-/// between frames, where that is longer than [`UPLOAD_SECONDS_STILL`]: on a slow device (a
-/// software one, lavapipe, drew a near view's frames in 0.8 s) 11 ms a frame left the view
-/// coarse for over a minute, with nothing on screen moving.
-const STILL_UPLOAD_SHARE: f64 = 0.5;
-
-/// The longest time between frames counted ([`STILL_UPLOAD_SHARE`]): a window idle for a
-/// while before its next frame does not upload for longer than half a second in it.
-const FRAME_INTERVAL_COUNTED: f64 = 1.0;
+/// What a frame may upload while the view stands still.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum StillUploads {
+    /// [`UPLOAD_SECONDS_STILL`]'s worth of the measured cost: frames on a screen, where the
+    /// interface's responsiveness counts.
+    #[default]
+    Paced,
+    /// Every brick ready, within the renderer's staging and `--upload-budget`: frames that no
+    /// one watches (`refine`: `render`, the benchmarks' stopped views, movies, the Python
+    /// module), where only the view's completion counts. On a slow device (lavapipe drew a near
+    /// view's frames in 0.8 s) [`Self::Paced`] left a near MIP view coarse for over a minute.
+    AllReady,
+}
 
 /// Every this many frames, a brick waiting for the upload allowance counts as a use of the
 /// RAM cache (`upload_ready`; a different share of the waiting bricks each frame).
@@ -173,10 +177,8 @@ pub struct Streamer {
     /// The most a frame's uploads take through the renderer's staging at once
     /// ([`Self::set_upload_ceiling`]); `u64::MAX` until it says.
     upload_ceiling: u64,
-    /// When the last frame began ([`Self::begin_frame`]), and the time between frames, a
-    /// moving average (each interval at most [`FRAME_INTERVAL_COUNTED`]; 0 before the second).
-    frame_began: Option<Instant>,
-    frame_interval: f64,
+    /// What a frame uploads while the view stands still.
+    still_uploads: StillUploads,
     /// The view of the last frame drawn, and how it moved since the one before.
     last_view: Option<ViewPoint>,
     motion: Option<ViewPoint>,
@@ -263,8 +265,7 @@ impl Streamer {
             upload_seconds_per_byte: 0.0,
             upload_gpu_seconds_per_byte: 0.0,
             upload_ceiling: u64::MAX,
-            frame_began: None,
-            frame_interval: 0.0,
+            still_uploads: StillUploads::default(),
             last_view: None,
             motion: None,
             visible_below,
@@ -337,15 +338,14 @@ impl Streamer {
 
     /// Bytes a frame may upload: the allowance set from the measured cost
     /// ([`Self::set_upload_cost`]); while the view has not moved since the last frame,
-    /// [`UPLOAD_SECONDS_STILL`]'s worth or [`STILL_UPLOAD_SHARE`] of the time between frames,
-    /// whichever is longer; never more than `--upload-budget` or the renderer's staging holds
-    /// ([`Self::set_upload_ceiling`]).
+    /// [`UPLOAD_SECONDS_STILL`]'s worth, or all that is ready ([`StillUploads`]); never more
+    /// than `--upload-budget` or the renderer's staging holds ([`Self::set_upload_ceiling`]).
     fn upload_allowance(&self) -> u64 {
         let allowance = match self.counters.upload_allowance {
             0 => u64::MAX,
+            _ if self.view_is_still() && self.still_uploads == StillUploads::AllReady => u64::MAX,
             moving if self.view_is_still() => {
-                let seconds = UPLOAD_SECONDS_STILL.max(STILL_UPLOAD_SHARE * self.frame_interval);
-                (moving as f64 * seconds / UPLOAD_SECONDS_PER_FRAME) as u64
+                (moving as f64 * UPLOAD_SECONDS_STILL / UPLOAD_SECONDS_PER_FRAME) as u64
             }
             moving => moving,
         };
@@ -360,6 +360,11 @@ impl Streamer {
     pub fn set_upload_ceiling(&mut self, bytes: u64) {
         self.upload_ceiling = bytes.max(self.counters.slot_bytes);
         self.counters.upload_allowance = self.counters.upload_allowance.min(self.upload_ceiling);
+    }
+
+    /// Sets what a frame uploads while the view stands still; returns what it was.
+    pub fn set_still_uploads(&mut self, still: StillUploads) -> StillUploads {
+        std::mem::replace(&mut self.still_uploads, still)
     }
 
     /// Whether the view is where it was a frame ago (its motion is known and nothing).
@@ -592,11 +597,6 @@ impl Streamer {
     ) -> (Vec<Upload>, StreamStatus) {
         let mut phases = UpdatePhases::default();
         let mut step = Instant::now();
-        if let Some(began) = self.frame_began {
-            let interval = (step - began).as_secs_f64().min(FRAME_INTERVAL_COUNTED);
-            self.frame_interval = moving_average(self.frame_interval, interval);
-        }
-        self.frame_began = Some(step);
         let mut lap = |into: &mut f64| {
             let now = Instant::now();
             *into = (now - step).as_secs_f64();
@@ -1450,22 +1450,19 @@ mod tests {
         streamer.begin_frame(None, Some(view(0.1)));
         assert_eq!(streamer.upload_allowance(), both);
         streamer.begin_frame(None, Some(view(0.1)));
-        // Frames a display's 4 ms apart (the time between them is measured; set here).
-        streamer.frame_interval = 0.004;
         let still = (both as f64 * UPLOAD_SECONDS_STILL / UPLOAD_SECONDS_PER_FRAME) as u64;
         assert_eq!(streamer.upload_allowance(), still);
-        // A slow device's frames, 0.8 s apart: uploads may take half of that.
-        streamer.frame_interval = 0.8;
-        let slow = (both as f64 * 0.4 / UPLOAD_SECONDS_PER_FRAME) as u64;
-        assert_eq!(streamer.upload_allowance(), slow);
-        // Moving, as fast as ever.
+        // Frames no one watches: all that is ready while still (within the upload budget),
+        // as much as ever while moving.
+        assert_eq!(
+            streamer.set_still_uploads(StillUploads::AllReady),
+            StillUploads::Paced
+        );
+        assert_eq!(streamer.upload_allowance(), options.upload_bytes_per_frame);
         streamer.begin_frame(None, Some(view(0.2)));
         assert_eq!(streamer.upload_allowance(), both);
-        // A window idle for a minute before its next frame counts a second of it.
-        streamer.frame_interval = 0.0;
-        streamer.frame_began = Instant::now().checked_sub(Duration::from_secs(60));
         streamer.begin_frame(None, Some(view(0.2)));
-        assert_eq!(streamer.frame_interval, FRAME_INTERVAL_COUNTED);
+        streamer.set_still_uploads(StillUploads::Paced);
         // Never more than the renderer's staging holds at once, and never less than a brick.
         streamer.set_upload_ceiling(both / 3);
         assert_eq!(streamer.upload_allowance(), both / 3);
