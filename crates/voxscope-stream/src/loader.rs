@@ -253,33 +253,42 @@ fn work(
     texels: AtlasTexels,
     results: &Sender<LoadResult>,
 ) {
-    // Reads `request`'s brick and sends it; `None` (nothing sent) where `wait` is off and the
-    // read would wait for another loader; `Some(false)` once the streamer is gone.
-    let load = |request: &Request, wait: bool| -> Option<bool> {
+    // Reads `request`'s brick and sends it, its time the attempt's and `spent` (earlier ones');
+    // `Err` with the attempt's time (nothing sent) where `wait` is off and the read would wait
+    // for another loader; `Ok(false)` once the streamer is gone.
+    let load = |request: &Request, wait: bool, spent: f64| -> Result<bool, f64> {
         let started = std::time::Instant::now();
-        let (brick, bytes_read) = load_brick_unless_busy(source, request.id, texels, wait)?;
+        let Some((brick, bytes_read)) = load_brick_unless_busy(source, request.id, texels, wait)
+        else {
+            return Err(started.elapsed().as_secs_f64());
+        };
         let result = LoadResult {
             key: request.key,
             prefetch: request.priority.tier() == Tier::Prefetch,
             brick,
             bytes_read,
-            seconds: started.elapsed().as_secs_f64(),
+            seconds: spent + started.elapsed().as_secs_f64(),
         };
-        Some(results.send(result).is_ok())
+        Ok(results.send(result).is_ok())
     };
     // Bricks put aside because another loader was decoding a chunk they need (neighbouring
-    // bricks share chunks, and the queue hands out neighbours together), oldest first: asked
-    // for again, without waiting, after each other brick read, by when their chunks are
-    // usually decoded; waited for once there are PUT_ASIDE of them, or nothing else to read.
-    let mut aside: Vec<Request> = Vec::new();
+    // bricks share chunks, and the queue hands out neighbours together), oldest first, each
+    // with the seconds its attempts took: asked for again, without waiting, after each other
+    // brick read, by when their chunks are usually decoded; waited for once there are
+    // PUT_ASIDE of them, or nothing else of their tier to read (a visible brick does not wait
+    // behind prefetches).
+    let mut aside: Vec<(Request, f64)> = Vec::new();
     loop {
-        let next = if aside.len() >= PUT_ASIDE {
-            None
-        } else if aside.is_empty() {
+        let next = match aside.first() {
+            _ if aside.len() >= PUT_ASIDE => None,
             // Waits while the queue is empty; `None` once it is closed.
-            Some(queue.take())
-        } else {
-            queue.try_take().map(Some)
+            None => Some(queue.take()),
+            Some((oldest, _)) => {
+                let tier = oldest.priority.tier();
+                queue
+                    .try_take_if(|next| next.priority.tier() == tier)
+                    .map(Some)
+            }
         };
         match next {
             Some(Some(request)) => {
@@ -289,19 +298,19 @@ fn work(
                 if remote {
                     fetch_ahead(source, queue);
                 }
-                match load(&request, false) {
-                    Some(true) => {}
-                    Some(false) => return, // the streamer is gone
-                    None => {
-                        aside.push(request);
+                match load(&request, false, 0.0) {
+                    Ok(true) => {}
+                    Ok(false) => return, // the streamer is gone
+                    Err(spent) => {
+                        aside.push((request, spent));
                         continue;
                     }
                 }
             }
             Some(None) => return, // closed
             None => {
-                let oldest = aside.remove(0);
-                if load(&oldest, true) != Some(true) {
+                let (oldest, spent) = aside.remove(0);
+                if load(&oldest, true, spent) != Ok(true) {
                     return;
                 }
             }
@@ -309,10 +318,14 @@ fn work(
         // A brick was read meanwhile: those put aside are asked for again.
         let mut index = 0;
         while index < aside.len() {
-            match load(&aside[index], false) {
-                Some(true) => drop(aside.remove(index)),
-                Some(false) => return,
-                None => index += 1,
+            let (request, spent) = aside[index];
+            match load(&request, false, spent) {
+                Ok(true) => drop(aside.remove(index)),
+                Ok(false) => return,
+                Err(more) => {
+                    aside[index].1 += more;
+                    index += 1;
+                }
             }
         }
     }
@@ -571,13 +584,22 @@ mod tests {
         }
     }
 
-    /// What one loader reads of bricks 0, 1, … (best first) from `source`, in order.
-    fn read_in_order(source: Arc<Contended>, bricks: u32) -> Vec<(u32, bool)> {
+    /// What one loader reads of bricks 0, 1, … (best first; those from `prefetch_from` on
+    /// prefetches) from `source`, in order.
+    fn read_in_order(source: Arc<Contended>, bricks: u32, prefetch_from: u32) -> Vec<(u32, bool)> {
         let queue = Arc::new(RequestQueue::default());
         queue.replace(
             (0..bricks)
                 .map(|x| crate::Request {
-                    priority: crate::Priority::new(Tier::Visible, 0, x as f32),
+                    priority: crate::Priority::new(
+                        if x < prefetch_from {
+                            Tier::Visible
+                        } else {
+                            Tier::Prefetch
+                        },
+                        0,
+                        x as f32,
+                    ),
                     id: BrickId {
                         level: 0,
                         brick: [x, 0, 0],
@@ -604,11 +626,14 @@ mod tests {
     #[test]
     fn a_loader_reads_the_next_brick_while_another_decodes_what_its_brick_needs() {
         // Brick 0 is busy once: brick 1 is read meanwhile, then 0, without waiting.
-        let reads = read_in_order(Arc::new(Contended::new(vec![1, 0, 0])), 3);
+        let reads = read_in_order(Arc::new(Contended::new(vec![1, 0, 0])), 3, 3);
         assert_eq!(reads, [(1, false), (0, false), (2, false)]);
         // Busy for a while: 0 and 2 are put aside, 1 and 3 read, then 0 and 2 once free.
-        let reads = read_in_order(Arc::new(Contended::new(vec![2, 0, 1, 0])), 4);
+        let reads = read_in_order(Arc::new(Contended::new(vec![2, 0, 1, 0])), 4, 4);
         assert_eq!(reads, [(1, false), (3, false), (0, false), (2, false)]);
+        // A visible brick is not put behind a prefetch: it is waited for.
+        let reads = read_in_order(Arc::new(Contended::new(vec![1, 0])), 2, 1);
+        assert_eq!(reads, [(0, true), (1, false)]);
     }
 
     #[test]
@@ -620,6 +645,7 @@ mod tests {
         let bricks = PUT_ASIDE as u32 + 2;
         let reads = read_in_order(
             Arc::new(Contended::new(vec![usize::MAX; bricks as usize])),
+            bricks,
             bricks,
         );
         assert_eq!(reads, (0..bricks).map(|x| (x, true)).collect::<Vec<_>>());

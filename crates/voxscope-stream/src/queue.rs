@@ -127,9 +127,17 @@ impl RequestQueue {
         }
     }
 
-    /// The best request without waiting (tests; a worker uses [`Self::take`]).
+    /// The best request without waiting; `None` once closed.
     pub fn try_take(&self) -> Option<Request> {
+        self.try_take_if(|_| true)
+    }
+
+    /// The best request without waiting, where `wanted` takes it; `None` once closed.
+    pub fn try_take_if(&self, wanted: impl FnOnce(&Request) -> bool) -> Option<Request> {
         let mut state = self.lock();
+        if state.closed || !state.pending.last().is_some_and(wanted) {
+            return None;
+        }
         let request = state.pending.pop()?;
         state.in_flight.insert(request.key);
         Some(request)

@@ -333,9 +333,12 @@ impl ZarrSource {
         let parts = self.region_parts(stored, origin, size);
         // Over a network, the chunks still to decode are asked for together (a folder's store
         // does nothing here); a chunk whose kept faces or decoded voxels serve is not.
+        // A read that does not wait leaves out the chunks another loader is decoding (their
+        // fetch under way would be waited for).
         let missing: Vec<(usize, [usize; 3], [usize; 3])> = parts
             .iter()
             .filter(|part| matches!(part.from, PartFrom::Missing))
+            .filter(|part| wait || !self.being_decoded((stored, part.index)))
             .map(|part| (stored, part.part.start, part.part.extent))
             .collect();
         // What they fetched is held for the reads below, whatever the fetch cache keeps.
@@ -417,6 +420,14 @@ impl ZarrSource {
                 RegionPart { index, part, from }
             })
             .collect()
+    }
+
+    /// Whether another loader is reading and decoding chunk `key` now (its reader's entry
+    /// stays from before it takes the chunk's lock until it has put the chunk in the cache).
+    fn being_decoded(&self, key: ChunkKey) -> bool {
+        self.decoding
+            .lock()
+            .is_ok_and(|decoding| decoding.contains_key(&key))
     }
 
     /// The value levels of one chunk (`start` and `extent` in the stored level's voxels):

@@ -310,8 +310,11 @@ fn decompress_zstd(encoded: &[u8], expected: u64) -> Result<Vec<u8>, CodecError>
             ),
         };
         context.decompress(&mut decoded, encoded).map_err(|code| {
+            use zstd_safe::zstd_sys::{ZSTD_ErrorCode, ZSTD_getErrorCode};
+            // SAFETY: ZSTD_getErrorCode only reads the number it is given.
+            let kind = unsafe { ZSTD_getErrorCode(code) };
             // One that would write past `expected` bytes stops there.
-            if zstd_safe::get_error_name(code) == "Destination buffer is too small" {
+            if kind == ZSTD_ErrorCode::ZSTD_error_dstSize_tooSmall {
                 too_large()
             } else {
                 CodecError::Other(format!("zstd: {}", zstd_safe::get_error_name(code)))
