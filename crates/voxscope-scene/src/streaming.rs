@@ -272,73 +272,64 @@ pub fn refine(
             .map(|stream| stream.streamer_mut().set_still_uploads(still))
     };
     let before = set_still(renderer, StillUploads::AllReady);
-    let refined = refine_frames(context, renderer, target, camera, settings, max_wait);
+    let mut draw = || -> Result<Refinement, SceneError> {
+        let started = Instant::now();
+        let mut first_frame = None;
+        let mut first_frame_seconds = None;
+        let mut errors = Vec::new();
+        let mut parts = FrameParts::default();
+        for frames in 1.. {
+            let updating = Instant::now();
+            let status = renderer
+                .update(context)
+                .ok_or_else(|| SceneError::failed("refine needs the streaming renderer"))?;
+            parts.update += updating.elapsed().as_secs_f64();
+            parts.phases += status.phases;
+            errors.extend(status.errors.iter().cloned());
+            let first = *first_frame.get_or_insert(status.frame);
+            let drawing = Instant::now();
+            renderer.render(context, target, camera, settings);
+            let waiting = Instant::now();
+            parts.draw += (waiting - drawing).as_secs_f64();
+            context
+                .wait_idle()
+                .map_err(|e| SceneError::failed(e.to_string()))?;
+            parts.wait += waiting.elapsed().as_secs_f64();
+            let first_frame_seconds =
+                *first_frame_seconds.get_or_insert_with(|| started.elapsed().as_secs_f64());
+            let complete = status.complete && status.judged_frame.is_some_and(|f| f >= first);
+            if complete || started.elapsed() >= max_wait {
+                let (unreadable, failed) = renderer.stream().map_or((Vec::new(), 0), |stream| {
+                    let streamer = stream.streamer();
+                    let unreadable: Vec<FailedBrick> = streamer.unreadable().cloned().collect();
+                    (unreadable, streamer.failures().count())
+                });
+                return Ok(Refinement {
+                    status,
+                    frames,
+                    seconds: started.elapsed().as_secs_f64(),
+                    first_frame_seconds,
+                    complete,
+                    errors,
+                    other_failures: failed.saturating_sub(unreadable.len()),
+                    unreadable,
+                    parts,
+                });
+            }
+            if status.uploads == 0 && status.queued + status.loading > 0 {
+                parts.frames_waiting_for_loads += 1;
+                let pausing = Instant::now();
+                std::thread::sleep(Duration::from_millis(1));
+                parts.pause += pausing.elapsed().as_secs_f64();
+            }
+        }
+        unreachable!("the loop returns")
+    };
+    let refined = draw();
     if let Some(before) = before {
         set_still(renderer, before);
     }
     refined
-}
-
-/// [`refine`]'s frames.
-fn refine_frames(
-    context: &GpuContext,
-    renderer: &mut VolumeRenderer,
-    target: &RenderTarget,
-    camera: &Camera,
-    settings: &RenderSettings,
-    max_wait: Duration,
-) -> Result<Refinement, SceneError> {
-    let started = Instant::now();
-    let mut first_frame = None;
-    let mut first_frame_seconds = None;
-    let mut errors = Vec::new();
-    let mut parts = FrameParts::default();
-    for frames in 1.. {
-        let updating = Instant::now();
-        let status = renderer
-            .update(context)
-            .ok_or_else(|| SceneError::failed("refine needs the streaming renderer"))?;
-        parts.update += updating.elapsed().as_secs_f64();
-        parts.phases += status.phases;
-        errors.extend(status.errors.iter().cloned());
-        let first = *first_frame.get_or_insert(status.frame);
-        let drawing = Instant::now();
-        renderer.render(context, target, camera, settings);
-        let waiting = Instant::now();
-        parts.draw += (waiting - drawing).as_secs_f64();
-        context
-            .wait_idle()
-            .map_err(|e| SceneError::failed(e.to_string()))?;
-        parts.wait += waiting.elapsed().as_secs_f64();
-        let first_frame_seconds =
-            *first_frame_seconds.get_or_insert_with(|| started.elapsed().as_secs_f64());
-        let complete = status.complete && status.judged_frame.is_some_and(|f| f >= first);
-        if complete || started.elapsed() >= max_wait {
-            let (unreadable, failed) = renderer.stream().map_or((Vec::new(), 0), |stream| {
-                let streamer = stream.streamer();
-                let unreadable: Vec<FailedBrick> = streamer.unreadable().cloned().collect();
-                (unreadable, streamer.failures().count())
-            });
-            return Ok(Refinement {
-                status,
-                frames,
-                seconds: started.elapsed().as_secs_f64(),
-                first_frame_seconds,
-                complete,
-                errors,
-                other_failures: failed.saturating_sub(unreadable.len()),
-                unreadable,
-                parts,
-            });
-        }
-        if status.uploads == 0 && status.queued + status.loading > 0 {
-            parts.frames_waiting_for_loads += 1;
-            let pausing = Instant::now();
-            std::thread::sleep(Duration::from_millis(1));
-            parts.pause += pausing.elapsed().as_secs_f64();
-        }
-    }
-    unreachable!("the loop returns")
 }
 
 /// `12 bricks missing (level 0: 10, level 1: 2)`.

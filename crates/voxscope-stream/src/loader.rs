@@ -345,13 +345,21 @@ mod tests {
     use voxscope_volume::Quantization;
 
     /// A source whose reads do what `read` says, and that records what it is asked to fetch
-    /// ahead.
+    /// ahead; brick x is busy (another loader decoding a chunk it needs) the first `busy[x]`
+    /// times it is asked without waiting, and each read is recorded: the brick's x, and
+    /// whether it waited.
     struct Scripted<R> {
         name: &'static str,
         shape: PyramidShape,
         read: R,
         fetched: std::sync::Mutex<Vec<Vec<BrickId>>>,
+        busy: std::sync::Mutex<Vec<usize>>,
+        reads: std::sync::Mutex<Vec<(u32, bool)>>,
     }
+
+    /// What a [`Scripted`] source reads with.
+    trait ReadBrick: Fn(BrickId) -> Result<BrickData, BrickError> + Send + Sync {}
+    impl<R: Fn(BrickId) -> Result<BrickData, BrickError> + Send + Sync> ReadBrick for R {}
 
     impl<R: Fn(BrickId) -> Result<BrickData, BrickError> + Send + Sync> Scripted<R> {
         fn new(name: &'static str, dims: [usize; 3], read: R) -> Self {
@@ -360,7 +368,17 @@ mod tests {
                 shape: PyramidShape::new(dims).expect("a shape"),
                 read,
                 fetched: Default::default(),
+                busy: Default::default(),
+                reads: Default::default(),
             }
+        }
+
+        fn read(&self, id: BrickId, waited: bool) -> Result<BrickData, BrickError> {
+            self.reads
+                .lock()
+                .expect("not poisoned")
+                .push((id.brick[0], waited));
+            (self.read)(id)
         }
     }
 
@@ -384,7 +402,18 @@ mod tests {
             255
         }
         fn read_brick(&self, id: BrickId) -> Result<BrickData, BrickError> {
-            (self.read)(id)
+            self.read(id, true)
+        }
+        fn read_brick_unless_busy(&self, id: BrickId) -> Option<Result<BrickData, BrickError>> {
+            let mut busy = self.busy.lock().expect("not poisoned");
+            if let Some(left) = busy.get_mut(id.brick[0] as usize)
+                && *left > 0
+            {
+                *left -= 1;
+                return None;
+            }
+            drop(busy);
+            Some(self.read(id, false))
         }
         fn can_fetch_ahead(&self) -> bool {
             true
@@ -520,73 +549,25 @@ mod tests {
         assert!(results.iter().all(|r| r.brick.is_err()));
     }
 
-    /// A source whose brick x is busy (another loader decoding a chunk it needs) the first
-    /// `busy[x]` times it is asked without waiting; it records each read: the brick, and
-    /// whether it waited.
-    struct Contended {
-        shape: PyramidShape,
-        busy: std::sync::Mutex<Vec<usize>>,
-        reads: std::sync::Mutex<Vec<(u32, bool)>>,
-    }
-
-    impl Contended {
-        fn new(busy: Vec<usize>) -> Self {
-            Self {
-                shape: PyramidShape::new([256, 32, 32]).expect("a shape"),
-                busy: std::sync::Mutex::new(busy),
-                reads: Default::default(),
-            }
-        }
-
-        fn read(&self, id: BrickId, waited: bool) -> Result<BrickData, BrickError> {
-            self.reads
-                .lock()
-                .expect("not poisoned")
-                .push((id.brick[0], waited));
+    /// A source of bricks of their x, busy as `busy` says ([`Scripted`]).
+    fn contended(busy: Vec<usize>) -> Arc<Scripted<impl ReadBrick>> {
+        let source = Scripted::new("contended", [256, 32, 32], |id: BrickId| {
             Ok(BrickData::new(
                 vec![id.brick[0] as u16; PADDED_BRICK_VOXELS],
                 [32; 3],
             ))
-        }
-    }
-
-    impl BrickSource for Contended {
-        fn name(&self) -> &str {
-            "contended"
-        }
-        fn shape(&self) -> &PyramidShape {
-            &self.shape
-        }
-        fn spacing(&self) -> [f64; 3] {
-            [1.0; 3]
-        }
-        fn quantization(&self) -> Quantization {
-            Quantization {
-                offset: 0.0,
-                step: 1.0,
-            }
-        }
-        fn max_value_level(&self) -> u16 {
-            255
-        }
-        fn read_brick(&self, id: BrickId) -> Result<BrickData, BrickError> {
-            self.read(id, true)
-        }
-        fn read_brick_unless_busy(&self, id: BrickId) -> Option<Result<BrickData, BrickError>> {
-            let mut busy = self.busy.lock().expect("not poisoned");
-            let left = &mut busy[id.brick[0] as usize];
-            if *left > 0 {
-                *left -= 1;
-                return None;
-            }
-            drop(busy);
-            Some(self.read(id, false))
-        }
+        });
+        *source.busy.lock().expect("not poisoned") = busy;
+        Arc::new(source)
     }
 
     /// What one loader reads of bricks 0, 1, … (best first; those from `prefetch_from` on
     /// prefetches) from `source`, in order.
-    fn read_in_order(source: Arc<Contended>, bricks: u32, prefetch_from: u32) -> Vec<(u32, bool)> {
+    fn read_in_order(
+        source: Arc<Scripted<impl ReadBrick + 'static>>,
+        bricks: u32,
+        prefetch_from: u32,
+    ) -> Vec<(u32, bool)> {
         let queue = Arc::new(RequestQueue::default());
         queue.replace(
             (0..bricks)
@@ -626,13 +607,13 @@ mod tests {
     #[test]
     fn a_loader_reads_the_next_brick_while_another_decodes_what_its_brick_needs() {
         // Brick 0 is busy once: brick 1 is read meanwhile, then 0, without waiting.
-        let reads = read_in_order(Arc::new(Contended::new(vec![1, 0, 0])), 3, 3);
+        let reads = read_in_order(contended(vec![1, 0, 0]), 3, 3);
         assert_eq!(reads, [(1, false), (0, false), (2, false)]);
         // Busy for a while: 0 and 2 are put aside, 1 and 3 read, then 0 and 2 once free.
-        let reads = read_in_order(Arc::new(Contended::new(vec![2, 0, 1, 0])), 4, 4);
+        let reads = read_in_order(contended(vec![2, 0, 1, 0]), 4, 4);
         assert_eq!(reads, [(1, false), (3, false), (0, false), (2, false)]);
         // A visible brick is not put behind a prefetch: it is waited for.
-        let reads = read_in_order(Arc::new(Contended::new(vec![1, 0])), 2, 1);
+        let reads = read_in_order(contended(vec![1, 0]), 2, 1);
         assert_eq!(reads, [(0, true), (1, false)]);
     }
 
@@ -643,11 +624,7 @@ mod tests {
         // nothing left to read meanwhile, are waited for in order. None is lost, none is
         // read twice.
         let bricks = PUT_ASIDE as u32 + 2;
-        let reads = read_in_order(
-            Arc::new(Contended::new(vec![usize::MAX; bricks as usize])),
-            bricks,
-            bricks,
-        );
+        let reads = read_in_order(contended(vec![usize::MAX; bricks as usize]), bricks, bricks);
         assert_eq!(reads, (0..bricks).map(|x| (x, true)).collect::<Vec<_>>());
     }
 }
