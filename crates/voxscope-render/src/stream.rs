@@ -200,6 +200,16 @@ pub struct StreamVolume {
     spacing: [f64; 3],
 }
 
+/// The level a ray wants where its footprint is `footprint` finest-level voxels: the coarsest
+/// from `finest` on whose voxel is no larger (`stream.wgsl`'s `wanted_level`).
+fn wanted_level(shape: &voxscope_stream::PyramidShape, finest: usize, footprint: f32) -> usize {
+    let mut level = finest;
+    while level + 1 < shape.levels.len() && shape.levels[level + 1].scale as f32 <= footprint {
+        level += 1;
+    }
+    level
+}
+
 /// Slots an atlas of `budget` bytes holds (after the renderer's other buffers), bounded by
 /// what the pyramid can use and the device's 3D texture size; as a grid of slots.
 fn atlas_grid(
@@ -825,17 +835,12 @@ impl StreamVolume {
                 (lo.min(depth), hi.max(depth))
             });
             let widest = (1.0 + params.right[3].powi(2) + params.up[3].powi(2)).sqrt();
-            let wanted_at = |footprint: f32| {
-                let mut level = finest;
-                while level + 1 < shape.levels.len()
-                    && shape.levels[level + 1].scale as f32 <= footprint
-                {
-                    level += 1;
-                }
-                level
-            };
-            let level = wanted_at(nearest.max(0.0) * per_depth * 0.999);
-            let far = wanted_at(farthest.max(0.0) * widest * per_depth * 1.001);
+            let level = wanted_level(shape, finest, nearest.max(0.0) * per_depth * 0.999);
+            let far = wanted_level(
+                shape,
+                finest,
+                farthest.max(0.0) * widest * per_depth * 1.001,
+            );
             let two = match far.checked_sub(level)? {
                 0 => false,
                 1 => true,
@@ -1263,15 +1268,7 @@ mod tests {
         let shape = volume.streamer.shape();
         let finest = shape.depth().saturating_sub(params.max_level) as usize;
         let per_t = params.lod_factor * volume.streamer.options().lod_scale;
-        let wanted = |footprint: f32| {
-            let mut level = finest;
-            while level + 1 < shape.levels.len()
-                && shape.levels[level + 1].scale as f32 <= footprint
-            {
-                level += 1;
-            }
-            level as u32
-        };
+        let wanted = |footprint: f32| wanted_level(shape, finest, footprint) as u32;
         let v = |a: [f32; 4]| glam::Vec3::new(a[0], a[1], a[2]);
         let [width, height] = params.image_size;
         let mut levels: Option<(u32, u32)> = None;

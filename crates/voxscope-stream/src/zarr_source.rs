@@ -320,9 +320,8 @@ impl ZarrSource {
 
     /// The value levels of the stored level's voxels `[origin, origin + size)`, x fastest,
     /// assembled from whole decoded chunks (cached) and the faces kept of chunks the region
-    /// only reaches one voxel into.
-    /// `None` where another loader decodes a chunk it needs and `wait` is off (the chunks
-    /// no other loader decodes are decoded and cached meanwhile).
+    /// only reaches one voxel into; `None` where another loader decodes a chunk it needs and
+    /// `wait` is off (the chunks no other loader decodes are decoded and cached meanwhile).
     fn read_levels(
         &self,
         stored: usize,
@@ -330,11 +329,11 @@ impl ZarrSource {
         size: [usize; 3],
         wait: bool,
     ) -> Result<Option<Vec<u16>>, voxscope_volume::LoadError> {
-        let parts = self.region_parts(stored, origin, size);
+        let mut parts = self.region_parts(stored, origin, size);
         // Over a network, the chunks still to decode are asked for together (a folder's store
-        // does nothing here); a chunk whose kept faces or decoded voxels serve is not.
-        // A read that does not wait leaves out the chunks another loader is decoding (their
-        // fetch under way would be waited for).
+        // does nothing here); a chunk whose kept faces or decoded voxels serve is not. A read
+        // that does not wait leaves out the chunks another loader is decoding (their fetch
+        // under way would be waited for).
         let missing: Vec<(usize, [usize; 3], [usize; 3])> = parts
             .iter()
             .filter(|part| matches!(part.from, PartFrom::Missing))
@@ -346,35 +345,35 @@ impl ZarrSource {
         // The chunks no other loader is decoding first, then those that one is (waited for
         // last, by when it has usually finished): neighbouring bricks share chunks, and a
         // loader that waited for each in turn would idle while it could decode its own.
-        let mut decoded: Vec<Option<Arc<Vec<u16>>>> = Vec::with_capacity(parts.len());
-        for part in &parts {
-            decoded.push(match &part.from {
-                PartFrom::Missing => self.chunk_levels(
+        for part in parts.iter_mut() {
+            if matches!(part.from, PartFrom::Missing)
+                && let Some(levels) = self.chunk_levels(
                     (stored, part.index),
                     part.part.start,
                     part.part.extent,
                     false,
-                )?,
-                PartFrom::Faces(..) | PartFrom::Decoded(_) => None,
-            });
+                )?
+            {
+                part.from = PartFrom::Decoded(levels);
+            }
         }
-        let busy = parts
-            .iter()
-            .zip(&decoded)
-            .any(|(part, decoded)| matches!(part.from, PartFrom::Missing) && decoded.is_none());
-        if busy && !wait {
+        if !wait
+            && parts
+                .iter()
+                .any(|part| matches!(part.from, PartFrom::Missing))
+        {
             return Ok(None);
         }
         let mut out = vec![0u16; size.iter().product()];
-        for (part, decoded) in parts.into_iter().zip(decoded) {
+        for part in parts {
             let RegionPart { index, part, from } = part;
-            let levels = match (from, decoded) {
-                (PartFrom::Faces(face, faces), _) => {
+            let levels = match from {
+                PartFrom::Faces(face, faces) => {
                     copy_from_face(&faces, face, &part, origin, size, &mut out);
                     continue;
                 }
-                (PartFrom::Decoded(levels), _) | (PartFrom::Missing, Some(levels)) => levels,
-                (PartFrom::Missing, None) => self
+                PartFrom::Decoded(levels) => levels,
+                PartFrom::Missing => self
                     .chunk_levels((stored, index), part.start, part.extent, true)?
                     .expect("a chunk waited for is read"),
             };
