@@ -288,6 +288,12 @@ fn bench_stream_reports_its_orbits_paced_and_the_uploads_scattered() {
             halves.len() == 2 && halves.iter().all(|h| h.as_f64().unwrap() > 0.0),
             "{row}"
         );
+        // Each renderer warmed up before it was timed (on lavapipe, one batch of frames).
+        let warm_up = row["warm_up_s"].as_array().expect("two warm-ups");
+        assert!(
+            warm_up.len() == 2 && warm_up.iter().all(|s| s.as_f64().unwrap() > 0.0),
+            "{row}"
+        );
     }
     let near: Vec<(f64, &str)> = json["near_stopped_views"]
         .as_array()

@@ -1,7 +1,7 @@
 //! `voxscope bench`: GPU time per frame for the paper's three camera distances and the three
 //! transfer modes (and gray DVR shaded), plus build, recolor and memory figures.
 
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use clap::Args;
 use serde::Serialize;
@@ -14,7 +14,7 @@ use voxscope_octree::{OpacityMode, TransferFunction};
 use voxscope_render::{
     Camera, ChannelLayer, DEFAULT_BRICK_SIZE, GpuContext, GpuTimer, RenderMode, RenderSettings,
     RenderTarget, RendererKind, RendererOptions, Shading, VolumeRenderer, read_visits, time_passes,
-    timing_name,
+    timing_name, warm_up,
 };
 use voxscope_volume::ValueWindow;
 
@@ -124,12 +124,6 @@ pub struct BenchResult {
 
 /// The paper's three cases: near, medium and far, in bounding-sphere radii.
 const CAMERAS: [(&str, f64); 3] = [("near", 1.5), ("medium", 3.0), ("far", 6.0)];
-/// Frames rendered and thrown away before each configuration is timed: at least this many, in
-/// rounds of this many, until `WARMUP_TIME` has passed. A GPU that sat idle while the octree was
-/// built starts at idle clocks; five frames alone left the first configuration of a 1024³ run
-/// up to 30 % slow in some processes (docs/performance-log.md, attempt 23).
-const WARMUP_FRAMES: u32 = 5;
-const WARMUP_TIME: Duration = Duration::from_millis(200);
 const RECOLOR_RUNS: u32 = 20;
 
 impl BenchArgs {
@@ -487,16 +481,11 @@ fn time_frames(
         );
         context.queue.submit([encoder.finish()]);
     };
-    let warming = Instant::now();
-    loop {
-        for i in 0..WARMUP_FRAMES {
-            submit(&at_azimuth(i * count / WARMUP_FRAMES), None);
-        }
-        wait(context)?;
-        if warming.elapsed() >= WARMUP_TIME {
-            break;
-        }
-    }
+    // A full turn every 16 passes, so that the warm-up's timed batches compare alike.
+    warm_up(context, timer, |i, writes| {
+        submit(&at_azimuth((i % 16) * count / 16), writes)
+    })
+    .map_err(|e| e.to_string())?;
     time_passes(context, timer, count, |i, writes| {
         submit(&at_azimuth(i), writes)
     })

@@ -11,7 +11,7 @@ use super::stream_bench::{MAX_WAIT, percentile};
 use voxscope_octree::{BuildOptions, TransferFunction};
 use voxscope_render::{
     Camera, GpuContext, GpuTimer, RenderMode, RenderSettings, RenderTarget, RendererKind,
-    RendererOptions, Shading, VolumeRenderer, time_passes,
+    RendererOptions, Shading, VolumeRenderer, WarmUp, time_passes, warm_up,
 };
 use voxscope_scene::{StreamedVolume, refine};
 use voxscope_stream::{Downsampling, MemorySource, StreamOptions, preview};
@@ -109,7 +109,7 @@ pub(super) fn resident_comparison(
                 let (filled, loaders_busy) =
                     settle_fill(context, &mut stream, target, &camera, &settings)?;
                 let walked_before = stream.stream().map_or(0, |s| s.level_walk_frames());
-                let (stream_gpu, stream_wall) = time_view(
+                let stream_times = time_view(
                     context,
                     &stream,
                     target,
@@ -125,7 +125,7 @@ pub(super) fn resident_comparison(
                     .map_or(0, |(_, levels, unwalkable)| {
                         levels * u32::from(unwalkable == 0)
                     });
-                let (bricks_gpu, bricks_wall) = time_view(
+                let bricks_times = time_view(
                     context,
                     &bricks,
                     target,
@@ -134,8 +134,11 @@ pub(super) fn resident_comparison(
                     args.frames,
                     timer,
                 )?;
+                let (stream_gpu, bricks_gpu) = (&stream_times.gpu, &bricks_times.gpu);
                 let (stream_ms, bricks_ms) =
-                    (percentile(&stream_gpu, 50.0), percentile(&bricks_gpu, 50.0));
+                    (percentile(stream_gpu, 50.0), percentile(bricks_gpu, 50.0));
+                let warm_up_s = [stream_times.warmed, bricks_times.warmed]
+                    .map(|warmed| warmed.steady.then_some(warmed.seconds));
                 rows.push(json!({
                     "mode": mode_name,
                     "camera": camera_name,
@@ -148,15 +151,18 @@ pub(super) fn resident_comparison(
                     // How many levels the timed frames walked (0: segment by segment).
                     "walked_levels": if walked > 0 { walked_levels } else { 0 },
                     "stream_gpu_ms": stream_ms,
-                    "stream_gpu_p95_ms": percentile(&stream_gpu, 95.0),
+                    "stream_gpu_p95_ms": percentile(stream_gpu, 95.0),
                     // The first and second half's medians: a GPU whose clocks rise during the
                     // frames shows the first one higher.
-                    "stream_gpu_halves_ms": halves(&stream_gpu),
+                    "stream_gpu_halves_ms": halves(stream_gpu),
+                    // Seconds each renderer's warm-up took until its frames' time was steady
+                    // (null: it gave up at the limit).
+                    "warm_up_s": warm_up_s,
                     "bricks_gpu_ms": bricks_ms,
-                    "bricks_gpu_p95_ms": percentile(&bricks_gpu, 95.0),
+                    "bricks_gpu_p95_ms": percentile(bricks_gpu, 95.0),
                     "stream_over_bricks": stream_ms / bricks_ms,
-                    "stream_wall_ms_per_frame": stream_wall,
-                    "bricks_wall_ms_per_frame": bricks_wall,
+                    "stream_wall_ms_per_frame": stream_times.wall,
+                    "bricks_wall_ms_per_frame": bricks_times.wall,
                 }));
             }
         }
@@ -214,8 +220,19 @@ fn settle_fill(
     Ok((after.saturating_sub(before), busy))
 }
 
-/// GPU milliseconds of `frames` frames of one fixed view (after a warm-up), and the wall time
-/// per frame of a batch of them as an app sees it (encode, submit, and the GPU's completion).
+/// What [`time_view`] measured.
+struct ViewTimes {
+    /// GPU milliseconds of each frame.
+    gpu: Vec<f64>,
+    /// Wall milliseconds per frame of a batch of them as an app sees it (encode, submit, and the
+    /// GPU's completion).
+    wall: f64,
+    /// The warm-up before them.
+    warmed: WarmUp,
+}
+
+/// GPU milliseconds of `frames` frames of one fixed view, after [`warm_up`], and the wall time
+/// per frame of a batch of them.
 fn time_view(
     context: &GpuContext,
     renderer: &VolumeRenderer,
@@ -224,7 +241,7 @@ fn time_view(
     settings: &RenderSettings,
     frames: u32,
     timer: Option<&GpuTimer>,
-) -> Result<(Vec<f64>, f64), String> {
+) -> Result<ViewTimes, String> {
     let submit = |writes| {
         let mut encoder = context
             .device
@@ -234,18 +251,8 @@ fn time_view(
         renderer.encode(context, &mut encoder, target, camera, settings, writes);
         context.queue.submit([encoder.finish()]);
     };
-    // 200 ms of frames, nearly back to back, so that the GPU's clocks are up (a few frames
-    // between waits left it idle a tenth of the time).
-    let warming = Instant::now();
-    let mut queued = 0;
-    while warming.elapsed() < Duration::from_millis(200) {
-        submit(None);
-        queued += 1;
-        if queued % 20 == 0 {
-            context.wait_idle().map_err(|e| e.to_string())?;
-        }
-    }
-    context.wait_idle().map_err(|e| e.to_string())?;
+    // Until the frames' time is steady: the GPU idled at low clocks while the level filled.
+    let warmed = warm_up(context, timer, |_, writes| submit(writes)).map_err(|e| e.to_string())?;
     let started = Instant::now();
     for _ in 0..frames {
         submit(None);
@@ -254,5 +261,5 @@ fn time_view(
     let wall = started.elapsed().as_secs_f64() * 1e3 / frames.max(1) as f64;
     let gpu = time_passes(context, timer, frames, |_, writes| submit(writes))
         .map_err(|e| e.to_string())?;
-    Ok((gpu, wall))
+    Ok(ViewTimes { gpu, wall, warmed })
 }

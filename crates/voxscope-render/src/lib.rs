@@ -54,7 +54,7 @@ pub use slice::{
     EdgeLabels, SliceConvention, SliceFrame, SliceSettings, SliceSource, SliceView, Slicer,
 };
 pub use stream::{StreamRaycaster, StreamVolume};
-pub use timer::{GpuTimer, time_passes, timing_name};
+pub use timer::{GpuTimer, WarmUp, time_passes, timing_name, warm_up};
 pub use transfer_table::GpuTransferTable;
 pub use volume_renderer::{
     DEFAULT_BRICK_SIZE, LevelDetail, RendererKind, RendererOptions, VolumeRenderer,

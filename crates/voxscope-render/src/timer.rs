@@ -1,7 +1,7 @@
 //! GPU time of compute passes, from timestamp queries written at each pass's start and end, or
 //! wall time with a device wait per pass where the device has no timestamps.
 
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use super::{GpuContext, RenderError, read_buffer};
 
@@ -38,6 +38,11 @@ impl GpuTimer {
             capacity,
             period_ns: context.queue.get_timestamp_period() as f64,
         })
+    }
+
+    /// How many passes one timing can hold.
+    pub fn capacity(&self) -> u32 {
+        self.capacity
     }
 
     /// Timestamp writes for pass number `pass` (0-based, below the capacity).
@@ -104,4 +109,89 @@ pub fn time_passes<'timer>(
             })
             .collect(),
     }
+}
+
+/// How [`warm_up`] ended.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WarmUp {
+    /// Seconds from its start to its end.
+    pub seconds: f64,
+    /// Whether the passes' time had settled, or the device is a CPU, whose clocks no GPU driver
+    /// lowers (false: it gave up at [`WARM_UP_LIMIT`]).
+    pub steady: bool,
+    /// The median milliseconds of a pass in its last timed batch (none on a CPU).
+    pub last_ms: Option<f64>,
+}
+
+/// The least time [`warm_up`] keeps the GPU busy before it times anything.
+pub const WARM_UP_BUSY: Duration = Duration::from_millis(400);
+/// The most time [`warm_up`] takes.
+pub const WARM_UP_LIMIT: Duration = Duration::from_secs(3);
+/// Passes in each of [`warm_up`]'s timed batches (fewer where the timer holds fewer).
+const WARM_UP_TIMED: u32 = 16;
+/// Two batches whose medians differ by less than this fraction are steady.
+const WARM_UP_TOLERANCE: f64 = 0.03;
+/// A batch of [`warm_up`]'s busy phase is grown until it keeps the GPU this long.
+const WARM_UP_BATCH: Duration = Duration::from_millis(10);
+
+/// Keeps the GPU busy with `submit`'s passes until their time is steady, so that what is timed
+/// next runs at a busy GPU's clocks. A GPU lowers its clocks within seconds of idling (an H200
+/// from 1 980 to 345 MHz in about 2 s while a benchmark waited on its loaders) and raises them
+/// again only after a few hundred milliseconds of load, longer when the load is light: a
+/// benchmark's first configuration was timed 3.7× slow at 345–645 MHz.
+///
+/// First [`WARM_UP_BUSY`] of batches, each grown until it keeps the GPU busy for
+/// [`WARM_UP_BATCH`] (passes of a tenth of a millisecond, a few at a time, leave it idle between
+/// waits), then timed batches until two medians in a row agree within 3 %, or
+/// [`WARM_UP_LIMIT`] passed. On a CPU's Vulkan (lavapipe) one batch of 5 passes: its speed
+/// does not ramp with load. `submit` is called as for [`time_passes`], with pass numbers from 0.
+pub fn warm_up<'timer>(
+    context: &GpuContext,
+    timer: Option<&'timer GpuTimer>,
+    mut submit: impl FnMut(u32, Option<wgpu::ComputePassTimestampWrites<'timer>>),
+) -> Result<WarmUp, RenderError> {
+    let started = Instant::now();
+    if context.adapter_info.device_type == wgpu::DeviceType::Cpu {
+        for pass in 0..5 {
+            submit(pass, None);
+        }
+        context.wait_idle()?;
+        return Ok(WarmUp {
+            seconds: started.elapsed().as_secs_f64(),
+            steady: true,
+            last_ms: None,
+        });
+    }
+    let mut batch = 5u32;
+    while started.elapsed() < WARM_UP_BUSY {
+        let batch_started = Instant::now();
+        for pass in 0..batch {
+            submit(pass, None);
+        }
+        context.wait_idle()?;
+        if batch_started.elapsed() < WARM_UP_BATCH {
+            batch = (batch * 2).min(4096);
+        }
+    }
+    let timed = timer.map_or(WARM_UP_TIMED, |timer| WARM_UP_TIMED.min(timer.capacity()));
+    let mut previous: Option<f64> = None;
+    loop {
+        let last_ms = median(time_passes(context, timer, timed, &mut submit)?);
+        let steady = previous
+            .is_some_and(|previous| (last_ms - previous).abs() <= WARM_UP_TOLERANCE * previous);
+        if steady || started.elapsed() >= WARM_UP_LIMIT {
+            return Ok(WarmUp {
+                seconds: started.elapsed().as_secs_f64(),
+                steady,
+                last_ms: Some(last_ms),
+            });
+        }
+        previous = Some(last_ms);
+    }
+}
+
+/// The middle value of `values` (the upper one of an even count; 0 of none).
+fn median(mut values: Vec<f64>) -> f64 {
+    values.sort_by(f64::total_cmp);
+    values.get(values.len() / 2).copied().unwrap_or(0.0)
 }
