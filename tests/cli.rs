@@ -336,6 +336,8 @@ fn bench_stream_reports_its_orbits_paced_and_the_uploads_scattered() {
             part("update") > 0.0 && part("wall") >= part("update") + part("wait"),
             "{first}"
         );
+        // The renderer's teardown after the turn, timed apart from the next one's frames.
+        assert!(orbit["teardown_ms"].as_f64().unwrap() > 0.0, "{orbit}");
         // Three frames at two a second: a turn of at least 1.5 s, however fast the frames.
         let turn = orbit["turn_seconds"].as_f64().unwrap();
         assert!(turn >= 1.45, "{turn} s");

@@ -258,6 +258,15 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
         .map_err(|e| e.to_string())?;
         let turn_seconds = turn_started.elapsed().as_secs_f64();
         let status = renderer.update(&context).expect("a streaming renderer");
+        memory.phase(&format!("orbit_{camera_name}"), Some(&status.counters));
+        // The renderer goes before the next orbit's is made, once its last update's uploads are
+        // done: a GPU resource dropped while in use is freed at the device's next poll, which
+        // would be the next renderer's first update (the near orbit's first frame took 10-17
+        // ms of update after an orbit that ended uploading in run 131, 1.1 ms otherwise).
+        let teardown = Instant::now();
+        context.wait_idle().map_err(|e| e.to_string())?;
+        drop(renderer);
+        let teardown_ms = teardown.elapsed().as_secs_f64() * 1e3;
         // The waits beyond the frames' own passes (the uploads' copies, mostly), per byte.
         let beyond_pass_s = (wait_ms.iter().sum::<f64>() - gpu.iter().sum::<f64>()) / 1e3;
         let wait_beyond_pass = (beyond_pass_s > 0.0).then(|| uploaded as f64 / beyond_pass_s);
@@ -291,8 +300,8 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
             "missing_bricks": summary(&missing),
             "uploaded_bytes": uploaded,
             "counters": status.counters,
+            "teardown_ms": teardown_ms,
         }));
-        memory.phase(&format!("orbit_{camera_name}"), Some(&status.counters));
     }
 
     // The loaders' rate on their own, from the page cache (a URL's store has none: its
