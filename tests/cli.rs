@@ -264,6 +264,7 @@ fn bench_stream_reports_its_orbits_paced_and_the_uploads_scattered() {
     let json: serde_json::Value = serde_json::from_slice(&output.stdout).expect("one JSON object");
     for key in [
         "first_image_s",
+        "first_image_parts",
         "stopped_view",
         "near_stopped_views",
         "decode",
@@ -272,6 +273,16 @@ fn bench_stream_reports_its_orbits_paced_and_the_uploads_scattered() {
         assert!(!json[key].is_null(), "missing {key}");
     }
     assert_eq!(json["options"]["uploads"], "Scatter");
+    // The first image's parts add up to no more than it.
+    let parts = &json["first_image_parts"];
+    let summed: f64 = ["open_s", "renderer_s", "first_frame_s"]
+        .iter()
+        .map(|part| parts[part].as_f64().expect("a part's seconds"))
+        .sum();
+    assert!(
+        summed > 0.0 && summed <= json["first_image_s"].as_f64().unwrap(),
+        "{parts}"
+    );
     // Resident frames are timed once the loaders are idle.
     let rows = json["resident"]["rows"].as_array().expect("resident rows");
     // At full detail, then at the default pixel LOD: two modes by three cameras each.

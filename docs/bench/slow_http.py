@@ -8,7 +8,9 @@ the round trips one after another (`waves`: the longest chain of requests each o
 after the one before it was answered), printed when stopped: a client that keeps the link full
 makes few waves, one that waits for each batch before asking the next makes many. Also the
 distinct paths and `Range` headers answered (`distinct`): requests beyond them fetched the same
-bytes again (the same bytes asked for under another range count apart).
+bytes again (the same bytes asked for under another range count apart). And the link over
+time: per 50 ms from the first request, the requests that arrived and the MB sent, and the first
+40 requests' arrival and path (the round trips of an open).
 
 Usage: slow_http.py ROOT PORT LATENCY_S BANDWIDTH_BYTES_PER_S
 """
@@ -28,6 +30,9 @@ in_flight = [0]
 spans = []
 # (path, range) of every GET answered with bytes.
 asked = set()
+# (arrival, path) of every GET, and (time, bytes) of every piece of a body written.
+arrivals = []
+sent = []
 
 
 def reserve(nbytes):
@@ -56,6 +61,7 @@ class Handler(http.server.SimpleHTTPRequestHandler):
     def do_GET(self):
         arrived = time.monotonic()
         with lock:
+            arrivals.append((arrived, self.path))
             in_flight[0] += 1
             counts["peak_in_flight"] = max(counts["peak_in_flight"], in_flight[0])
         try:
@@ -107,6 +113,8 @@ class Handler(http.server.SimpleHTTPRequestHandler):
             if wait > 0:
                 time.sleep(wait)
             self.wfile.write(piece)
+            with lock:
+                sent.append((time.monotonic(), len(piece)))
 
     def do_HEAD(self):
         time.sleep(latency)
@@ -139,3 +147,18 @@ finally:
             counts["waves"] = max(depth)
         counts["distinct"] = len(asked)
     print("served", counts, file=sys.stderr)
+    if arrivals:
+        # The link over time: per 50 ms from the first request, the requests that arrived and
+        # the MB sent; and the first requests' paths, which show the open's round trips.
+        t0 = min(t for t, _ in arrivals)
+        bins = int((max([t for t, _ in sent] + [t for t, _ in arrivals]) - t0) / 0.05) + 1
+        asks, mb = [0] * bins, [0.0] * bins
+        for t, _ in arrivals:
+            asks[int((t - t0) / 0.05)] += 1
+        for t, n in sent:
+            mb[int((t - t0) / 0.05)] += n / 1e6
+        print("timeline per 50 ms: requests", asks, file=sys.stderr)
+        print("timeline per 50 ms: MB", [round(x, 2) for x in mb], file=sys.stderr)
+        first = sorted(arrivals)[:40]
+        print("first requests:", " ".join(f"{t - t0:.3f}:{path}" for t, path in first),
+              file=sys.stderr)
