@@ -57,19 +57,55 @@ impl PartialOrd for Group {
     }
 }
 
+/// What a brick of a cut takes of the room the view has in the atlas.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SlotNeed {
+    /// Nothing of the room: drawn from its value (uniform), failed, invisible, pinned, or in
+    /// a slot the room counts already (a brick the view's rays want).
+    Nothing,
+    /// In a slot the room does not count: drawn in place of finer bricks (a stand-in). As a
+    /// brick of the cut it keeps that slot; as an ancestor of one it gives it up once the
+    /// finer bricks are in (the frame's own share of the atlas holds it until then).
+    Held,
+    /// Not in the atlas: a slot to load it into.
+    Load,
+}
+
 /// The cut of `asked` (the bricks a frame's rays lacked, each missing) within `room` slots
-/// for bricks not yet in the atlas. `satisfied(key)`: the brick needs no slot of its own (in
-/// the atlas, uniform, or failed). Asked bricks are only ever replaced by ancestors, so every
+/// of the atlas. `need(key)`: what a brick takes of the room ([`SlotNeed`]). A brick of the
+/// cut takes a slot unless it needs [`SlotNeed::Nothing`]; so does each ancestor not in the
+/// atlas that is loaded with it (the loader brings the coarser bricks above a brick down to
+/// the first the atlas holds, so the picture refines level by level, and frames draw them
+/// until the finer ones are in). Asked bricks are only ever replaced by ancestors, so every
 /// region stays drawn, at its own level where it fits and coarser where it does not.
 pub fn cut_within(
     asked: &[Request],
     room: usize,
     shape: &PyramidShape,
     view: &ViewPoint,
-    satisfied: impl Fn(u32) -> bool,
+    need: impl Fn(u32) -> SlotNeed,
 ) -> Cut {
     let mut targets: KeyMap<Request> = asked.iter().map(|r| (r.key, *r)).collect();
-    let mut cost = targets.keys().filter(|&&k| !satisfied(k)).count();
+    let takes_slot = |key: u32| need(key) != SlotNeed::Nothing;
+    let mut cost = targets.keys().filter(|&&k| takes_slot(k)).count();
+    // The ancestors to load along with the targets (not targets themselves), each counted once.
+    let mut ancestors = KeySet::default();
+    for &key in targets.keys() {
+        let mut id = shape.brick_of(key);
+        while let Some(parent) = id.and_then(|id| shape.parent(id)) {
+            let Some(parent_key) = shape.key(parent) else {
+                break;
+            };
+            if targets.contains_key(&parent_key) || need(parent_key) != SlotNeed::Load {
+                break;
+            }
+            if !ancestors.insert(parent_key) {
+                break; // counted with a sibling, and the rest above it too
+            }
+            cost += 1;
+            id = Some(parent);
+        }
+    }
     if cost <= room {
         return Cut {
             load: sorted(targets.into_values().collect()),
@@ -116,7 +152,7 @@ pub fn cut_within(
             continue;
         };
         for key in members {
-            if targets.remove(&key).is_some() && !satisfied(key) {
+            if targets.remove(&key).is_some() && takes_slot(key) {
                 cost -= 1;
             }
             if asked_keys.contains(&key) {
@@ -134,7 +170,8 @@ pub fn cut_within(
                 id: parent_id,
                 key: group.parent,
             });
-            if !satisfied(group.parent) {
+            // An ancestor counted already is now a brick of the cut instead.
+            if !ancestors.remove(&group.parent) && takes_slot(group.parent) {
                 cost += 1;
             }
         }
@@ -211,26 +248,76 @@ mod tests {
         }
     }
 
+    /// The root (level 3, one brick) is pinned: it takes nothing of a view's room.
+    fn root(shape: &PyramidShape) -> u32 {
+        shape
+            .key(BrickId {
+                level: 3,
+                brick: [0; 3],
+            })
+            .expect("the root")
+    }
+
+    /// Nothing in the atlas but the pinned root.
+    fn empty_atlas(shape: &PyramidShape) -> impl Fn(u32) -> SlotNeed {
+        let root = root(shape);
+        move |key| {
+            if key == root {
+                SlotNeed::Nothing
+            } else {
+                SlotNeed::Load
+            }
+        }
+    }
+
+    /// The slots the cut's bricks take once loaded, with the ancestors loaded along with
+    /// them (the pinned root aside), in an atlas that holds nothing else.
+    fn slots_taken(shape: &PyramidShape, cut: &Cut) -> usize {
+        let root = root(shape);
+        let mut taken = KeySet::default();
+        for request in &cut.load {
+            let mut id = Some(request.id);
+            while let Some(brick) = id {
+                let key = shape.key(brick).expect("in the pyramid");
+                if key == root || !taken.insert(key) {
+                    break;
+                }
+                id = shape.parent(brick);
+            }
+        }
+        taken.len()
+    }
+
     #[test]
-    fn what_fits_is_loaded_whole() {
+    fn what_fits_is_loaded_whole_with_the_ancestors_it_brings() {
         let (shape, view) = (shape(), view());
         let asked = level0_block(&shape, &view, 4);
-        let cut = cut_within(&asked, 64, &shape, &view, |_| false);
+        // 64 asked, their 8 parents and one grandparent loaded with them.
+        let cut = cut_within(&asked, 73, &shape, &view, empty_atlas(&shape));
         assert_eq!(cut.load.len(), 64);
         assert!(cut.left_out.is_empty());
         assert_eq!(cut.coarsest, None);
+        // One slot fewer: the ancestors count, so a group gives way.
+        let cut = cut_within(&asked, 72, &shape, &view, empty_atlas(&shape));
+        assert_eq!(cut.left_out.len(), 8);
+        assert!(slots_taken(&shape, &cut) <= 72);
     }
 
     #[test]
     fn the_farthest_groups_of_the_finest_level_give_way_to_their_parents_until_it_fits() {
         let (shape, view) = (shape(), view());
-        // 8³ = 512 level-0 bricks asked, 200 slots: groups of 8 become one parent each.
+        // 8³ = 512 level-0 bricks asked, 200 slots: their 64 parents and 8 grandparents are
+        // loaded with them, and each group that gives way saves its 8 (its parent was loaded
+        // anyway): (512 + 72 − 200) / 8 → 48 groups, 384 bricks left out.
         let asked = level0_block(&shape, &view, 8);
-        let cut = cut_within(&asked, 200, &shape, &view, |_| false);
-        assert!(cut.load.len() <= 200, "{}", cut.load.len());
-        // Each group left out saves 7: (512 − 200) / 7 → 45 groups, 360 bricks left out.
-        assert_eq!(cut.left_out.len(), 45 * 8);
-        assert_eq!(cut.standing.len(), 45);
+        let cut = cut_within(&asked, 200, &shape, &view, empty_atlas(&shape));
+        assert!(
+            slots_taken(&shape, &cut) <= 200,
+            "{}",
+            slots_taken(&shape, &cut)
+        );
+        assert_eq!(cut.left_out.len(), 48 * 8);
+        assert_eq!(cut.standing.len(), 48);
         assert_eq!(cut.coarsest, Some(1));
         // What stayed fine is nearest the view's center: every kept group's parent is
         // nearer it than every parent that replaced a group.
@@ -266,8 +353,8 @@ mod tests {
         let asked = level0_block(&shape, &view, 8);
         // 9 slots: the 512 asks become level 2's eight bricks (and then the root would do
         // too, but 8 fit).
-        let cut = cut_within(&asked, 9, &shape, &view, |_| false);
-        assert!(cut.load.len() <= 9, "{:?}", cut.load.len());
+        let cut = cut_within(&asked, 9, &shape, &view, empty_atlas(&shape));
+        assert!(slots_taken(&shape, &cut) <= 9, "{:?}", cut.load.len());
         assert_eq!(cut.left_out.len(), 512);
         assert_eq!(cut.coarsest, Some(2));
         // Level 2's eight stand for everything; the level-1 parents between gave way too.
@@ -278,24 +365,53 @@ mod tests {
                 .all(|&k| shape.brick_of(k).unwrap().level == 2)
         );
         // No room at all: everything gives way to the root, which the atlas always holds.
-        let root = shape
-            .key(BrickId {
-                level: 3,
-                brick: [0; 3],
-            })
-            .unwrap();
-        let cut = cut_within(&asked, 0, &shape, &view, |k| k == root);
+        let cut = cut_within(&asked, 0, &shape, &view, empty_atlas(&shape));
         assert_eq!(cut.coarsest, Some(3));
         assert_eq!(cut.load.len(), 1);
-        assert_eq!(cut.load[0].key, root);
+        assert_eq!(cut.load[0].key, root(&shape));
     }
 
     #[test]
     fn bricks_already_satisfied_cost_nothing() {
         let (shape, view) = (shape(), view());
         let asked = level0_block(&shape, &view, 4);
-        // Half of them are satisfied (say uniform): 32 missing fit in 40.
-        let cut = cut_within(&asked, 40, &shape, &view, |k| k % 2 == 0);
+        // Half of them are satisfied (say uniform): 32 missing and their 9 ancestors fit in
+        // 41.
+        let root = root(&shape);
+        let need = |k: u32| {
+            if k == root || (shape.brick_of(k).unwrap().level == 0 && k % 2 == 0) {
+                SlotNeed::Nothing
+            } else {
+                SlotNeed::Load
+            }
+        };
+        let cut = cut_within(&asked, 41, &shape, &view, need);
         assert!(cut.left_out.is_empty());
+        let cut = cut_within(&asked, 40, &shape, &view, need);
+        assert!(!cut.left_out.is_empty());
+    }
+
+    #[test]
+    fn stand_ins_in_the_atlas_count_where_the_cut_keeps_them_and_not_as_ancestors() {
+        let (shape, view) = (shape(), view());
+        let asked = level0_block(&shape, &view, 8);
+        // Level 1's 64 bricks are in the atlas, drawn in place of the 512 asked (the
+        // frame's stand-ins); level 2's are in it too.
+        let root = root(&shape);
+        let need = |k: u32| match shape.brick_of(k).unwrap().level {
+            _ if k == root => SlotNeed::Nothing,
+            0 => SlotNeed::Load,
+            _ => SlotNeed::Held,
+        };
+        // The ancestors cost nothing to load: all 512 fit in 512 slots.
+        let cut = cut_within(&asked, 512, &shape, &view, need);
+        assert!(cut.left_out.is_empty());
+        // In 64 slots, each group that gives way keeps its parent's slot (7 saved, not 8):
+        // every group gives way, and the 64 stand-ins are what the view keeps.
+        let cut = cut_within(&asked, 64, &shape, &view, need);
+        assert_eq!(cut.left_out.len(), 512);
+        assert_eq!(cut.standing.len(), 64);
+        assert_eq!(cut.load.len(), 64);
+        assert_eq!(cut.coarsest, Some(1));
     }
 }

@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
 
-use super::budget::{Cut, cut_within};
+use super::budget::{Cut, SlotNeed, cut_within};
 use super::failures::Failures;
 use super::frame::{Feedback, Upload, ViewPoint};
 use super::key_hash::{KeyMap, KeySet};
@@ -809,6 +809,35 @@ impl Streamer {
             .is_some_and(|range| !self.range_visible(range.packed()))
     }
 
+    /// What brick `key` takes of a view's room in the atlas ([`cut_within`]): a slot to load
+    /// it into where it is `requested` or not in the atlas and visible; none where the room
+    /// counts it already (`committed`), or it is pinned, uniform, failed or invisible; its
+    /// slot where the atlas holds it for rays that draw it in place of finer bricks.
+    fn slot_need(&self, key: u32, requested: &KeySet, committed: &KeySet) -> SlotNeed {
+        if requested.contains(&key) {
+            return SlotNeed::Load;
+        }
+        if committed.contains(&key) {
+            return SlotNeed::Nothing;
+        }
+        let pinned = |key: u32| {
+            self.shape
+                .brick_of(key)
+                .is_some_and(|id| self.shape.levels[id.level as usize].brick_count() == 1)
+        };
+        match self.table.get(key) {
+            Some(entry) if entry.is_resident() && entry.slot & ENTRY_VISIBLE != 0 => {
+                if pinned(key) {
+                    SlotNeed::Nothing
+                } else {
+                    SlotNeed::Held
+                }
+            }
+            _ if self.needs_no_slot(key) => SlotNeed::Nothing,
+            _ => SlotNeed::Load,
+        }
+    }
+
     fn take_feedback(&mut self, feedback: Feedback<'_>, view: Option<ViewPoint>) {
         for (slot, &mark) in feedback.usage.iter().enumerate() {
             if mark != 0 {
@@ -887,14 +916,14 @@ impl Streamer {
             self.progress_at = (self.frame, Instant::now());
         }
         // The requests need a slot each (they passed `satisfied` and `known_invisible` above);
-        // only the coarser bricks a cut brings in are looked up.
+        // only the coarser bricks a cut brings in, and their ancestors, are looked up.
         let requested: KeySet = requests.iter().map(|r| r.key).collect();
-        let needs_no_slot = |key: u32| !requested.contains(&key) && self.needs_no_slot(key);
-        let cut = cut_within(&requests, room, &self.shape, &view, needs_no_slot);
+        let slot_need = |key: u32| self.slot_need(key, &requested, &committed);
+        let cut = cut_within(&requests, room, &self.shape, &view, slot_need);
         let available = self.slots.available(feedback.frame.max(1));
-        // Stalled: bricks wait in RAM for slots that nothing will free (the bricks a cut loads
-        // bring their coarser ancestors along, which the cut does not count). What the atlas
-        // holds is then the cut, as when stuck below.
+        // Stalled: bricks wait in RAM for slots that nothing will free (the stand-ins frames
+        // draw hold more than the fifth of the atlas left to them). What the atlas holds is
+        // then the cut, as when stuck below.
         // Or, under the budget's pressure, the view has lacked no fewer bricks for a while:
         // bricks are placed and evicted again in turn (a livelock), and waiting longer
         // changes nothing.
@@ -905,7 +934,7 @@ impl Streamer {
         let stalled = self.no_room_frames >= STALLED_FRAMES || no_progress;
         let cut_now = (available < room || stalled).then(|| {
             let room_now = if stalled { 0 } else { available };
-            cut_within(&requests, room_now, &self.shape, &view, needs_no_slot)
+            cut_within(&requests, room_now, &self.shape, &view, slot_need)
         });
         let loads_now = cut_now.as_ref().map_or(&cut.load, |now| &now.load).clone();
         // The cut counts every asked brick as a slot; many turn out uniform (no slot) once
