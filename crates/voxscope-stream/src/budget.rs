@@ -379,7 +379,7 @@ mod tests {
         // 41.
         let root = root(&shape);
         let need = |k: u32| {
-            if k == root || (shape.brick_of(k).unwrap().level == 0 && k % 2 == 0) {
+            if k == root || (shape.brick_of(k).unwrap().level == 0 && k.is_multiple_of(2)) {
                 SlotNeed::Nothing
             } else {
                 SlotNeed::Load
