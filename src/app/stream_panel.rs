@@ -110,7 +110,9 @@ pub fn show(ui: &mut Ui, scene: &Scene) {
         .spacing([8.0, 3.0])
         .show(ui, |ui| {
             ui.label("State");
-            ui.label(state_text(status));
+            // Wrapped within the panel: a budget-limited view's state is a sentence, which
+            // would otherwise widen the panel over the image.
+            ui.add(egui::Label::new(state_text(status)).wrap());
             ui.end_row();
             ui.label("Rays");
             ui.label(walk_text(status, stream.walk_level_state(), depth))
