@@ -104,10 +104,15 @@ const NO_PROGRESS_TIME: Duration = Duration::from_secs(2);
 
 /// Bricks of the coarsest levels that stay in the atlas, so every ray has a fallback: every
 /// level of a single brick.
-fn pinned_levels(shape: &PyramidShape) -> Vec<u32> {
+pub(crate) fn pinned_levels(shape: &PyramidShape) -> Vec<u32> {
     (0..shape.levels.len() as u32)
-        .filter(|&l| shape.levels[l as usize].brick_count() == 1)
+        .filter(|&l| is_pinned_level(shape, l))
         .collect()
+}
+
+/// Whether level `level` of `shape` is one [`pinned_levels`] keeps in the atlas.
+fn is_pinned_level(shape: &PyramidShape, level: u32) -> bool {
+    shape.levels[level as usize].brick_count() == 1
 }
 
 /// The CPU state of one streamed pyramid.
@@ -820,21 +825,23 @@ impl Streamer {
         if committed.contains(&key) {
             return SlotNeed::Nothing;
         }
-        let pinned = |key: u32| {
+        let pinned = || {
             self.shape
                 .brick_of(key)
-                .is_some_and(|id| self.shape.levels[id.level as usize].brick_count() == 1)
+                .is_some_and(|id| is_pinned_level(&self.shape, id.level))
         };
         match self.table.get(key) {
             Some(entry) if entry.is_resident() && entry.slot & ENTRY_VISIBLE != 0 => {
-                if pinned(key) {
+                if pinned() {
                     SlotNeed::Nothing
                 } else {
                     SlotNeed::Held
                 }
             }
-            _ if self.needs_no_slot(key) => SlotNeed::Nothing,
-            _ => SlotNeed::Load,
+            Some(entry) if entry_needs_no_slot(&entry) => SlotNeed::Nothing,
+            Some(_) => SlotNeed::Load,
+            None if self.needs_no_slot(key) => SlotNeed::Nothing,
+            None => SlotNeed::Load,
         }
     }
 

@@ -12,6 +12,7 @@ use rayon::prelude::*;
 
 use super::preview::preview_level;
 use super::pyramid::{Downsampling, PyramidShape};
+use super::streamer::pinned_levels;
 use crate::{
     BRICK_SIZE, BrickData, BrickError, BrickId, BrickSource, PADDED_BRICK, PADDED_BRICK_VOXELS,
     ValueRange,
@@ -506,9 +507,7 @@ impl ZarrSource {
     /// a read that fails is too (they report it, naming the chunk).
     pub fn warm_first_image(&self, preview_bricks: u64) {
         let mut levels = vec![preview_level(&self.shape, preview_bricks)];
-        levels.extend(
-            (0..self.shape.levels.len()).filter(|&l| self.shape.levels[l].brick_count() == 1),
-        );
+        levels.extend(pinned_levels(&self.shape).into_iter().map(|l| l as usize));
         // Per stored level, the end (exclusive, whole chunks) of what the levels' bricks read.
         let mut ends: HashMap<usize, [usize; 3]> = HashMap::new();
         for level in levels {
