@@ -14,7 +14,7 @@ use support::app_harness::{differing_pixels, harness_with, lit_pixels, scratch, 
 use voxscope::app::{Command, VoxscopeApp};
 use voxscope_octree::{Colormap, OpacityMode};
 use voxscope_render::Camera;
-use voxscope_scene::{SavedView, TransferChoice, VolumeSource};
+use voxscope_scene::{SavedView, TransferChoice, ViewStream, VolumeSource};
 use voxscope_volume::ValueWindow;
 
 /// Small and asymmetric: a turn or a window changes the picture.
@@ -73,6 +73,8 @@ fn a_saved_view_opens_in_a_fresh_app_as_it_was_and_render_draws_the_same_picture
         app.view.max_level = depth - 1;
         app.view.clipping.box_on = true;
         app.view.clipping.bounds = [[0.0, 0.8], [0.1, 1.0], [0.0, 1.0]];
+        // A GPU budget other than the one a fresh app streams with.
+        app.settings.stream_gpu_memory = 128 << 20;
     }
     settle(&mut first);
     run(&mut first, Command::SaveView(path.clone()));
@@ -84,6 +86,7 @@ fn a_saved_view_opens_in_a_fresh_app_as_it_was_and_render_draws_the_same_picture
     assert_eq!(saved.data.source.as_deref(), Some(VOLUME));
     assert_eq!(saved.camera.azimuth_deg, 63.0);
     assert_eq!(saved.settings.map(|s| s.max_level), Some(depth - 1));
+    assert_eq!(saved.stream, Some(ViewStream::with_gpu_memory(128 << 20)));
     let shown = view(&first);
     assert!(lit_pixels(&shown) > 500, "the view shows the volume");
     shown
@@ -92,6 +95,7 @@ fn a_saved_view_opens_in_a_fresh_app_as_it_was_and_render_draws_the_same_picture
 
     // A fresh app showing something else opens the view: the same state, the same picture.
     let mut second = app("synthetic:sphere:16");
+    let second_budget = second.state().settings.stream_gpu_memory;
     run(&mut second, Command::OpenView(path.clone()));
     assert_eq!(second.state().error(), None);
     let reopened = second.state();
@@ -103,6 +107,8 @@ fn a_saved_view_opens_in_a_fresh_app_as_it_was_and_render_draws_the_same_picture
     assert_eq!(reopened.transfer(), first.state().transfer());
     assert_eq!(reopened.view.max_level, depth - 1);
     assert_eq!(reopened.view.clipping, first.state().view.clipping);
+    assert_ne!(second_budget, 128 << 20);
+    assert_eq!(reopened.settings.stream_gpu_memory, 128 << 20);
     assert_eq!(reopened.saved_view(), Some(saved.clone()));
     let drawn = view(&second);
     assert_eq!(
@@ -146,6 +152,7 @@ fn a_saved_view_opens_in_a_fresh_app_as_it_was_and_render_draws_the_same_picture
     assert_eq!(rendered.transfer, saved.transfer);
     assert_eq!(rendered.settings, saved.settings);
     assert_eq!(rendered.size, saved.size);
+    assert_eq!(rendered.stream, saved.stream);
     let still = image::open(&png).expect("render wrote a PNG").to_rgba8();
     assert_eq!(still.dimensions(), shown.dimensions());
     let differing = differing_pixels(&still, &shown);

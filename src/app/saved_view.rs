@@ -17,7 +17,7 @@ use voxscope_octree::TransferFunction;
 use voxscope_render::{RenderSettings, RendererKind, RendererOptions};
 use voxscope_scene::{
     ChannelState, FrameChange, Job, Opened, SavedView, SceneError, Shot, TransferChoice,
-    TransferRequest, VIEW_VERSION, ViewChannel, ViewData, ViewRuler, VolumeSource,
+    TransferRequest, VIEW_VERSION, ViewChannel, ViewData, ViewRuler, ViewStream, VolumeSource,
     opening_transfer,
 };
 use voxscope_volume::{Selection, ValueWindow};
@@ -158,7 +158,10 @@ impl VoxscopeApp {
             ),
             renderer: Some(kind),
             brick_size: Some(self.settings.brick_size),
-            stream: None,
+            // The GPU budget the user chose; the rest is as the app streams (its defaults).
+            stream: Some(ViewStream::with_gpu_memory(
+                self.settings.stream_gpu_memory,
+            )),
             rulers: self
                 .view
                 .rulers
@@ -200,7 +203,9 @@ impl VoxscopeApp {
         let options = RendererOptions {
             kind: view_renderer(&view).unwrap_or(self.settings.renderer),
             brick_size: view.brick_size.unwrap_or(self.settings.brick_size),
-            gpu_memory: self.settings.stream_gpu_memory,
+            gpu_memory: view
+                .stream
+                .map_or(self.settings.stream_gpu_memory, |s| s.gpu_memory),
         };
         let context = std::sync::Arc::clone(&gpu.context);
         let wake = ctx.clone();
@@ -224,6 +229,11 @@ impl VoxscopeApp {
         }
         if let Some(size) = view.brick_size {
             self.settings.brick_size = size;
+        }
+        // Its GPU budget too (the app's other streaming budgets are its defaults; `render
+        // --view` takes them all).
+        if let Some(stream) = view.stream {
+            self.settings.stream_gpu_memory = stream.gpu_memory;
         }
         // A new volume, whatever frame of it the view shows.
         opened.frame_change = false;

@@ -11,6 +11,7 @@ use super::labels::LabelArgs;
 use super::stream::StreamArgs;
 use super::{ClipArgs, TransferArgs};
 use voxscope_render::{Camera, DEFAULT_BRICK_SIZE};
+use voxscope_scene::DEFAULT_MAX_WAIT_SECONDS;
 
 /// Every option of `render` but the volume and the output.
 #[derive(Debug, Clone, Args)]
@@ -34,7 +35,7 @@ pub struct RenderOptions {
     pub stream: StreamArgs,
     /// Streaming renderer: draw until nothing visible is missing, at most this long (then the
     /// image is written as it is, and what was still coarse is said).
-    #[arg(long, value_name = "SECONDS", default_value_t = 30.0)]
+    #[arg(long, value_name = "SECONDS", default_value_t = DEFAULT_MAX_WAIT_SECONDS)]
     pub max_wait: f64,
     /// Image size WxH.
     #[arg(long, default_value = "1024x768", value_parser = parse_size)]

@@ -52,5 +52,7 @@ pub use source::VolumeSource;
 pub use streaming::{
     PREVIEW_BRICKS, REMOTE_WORKERS, Refinement, StreamedVolume, describe_missing, refine,
 };
-pub use view::{SavedView, VIEW_VERSION, ViewChannel, ViewData, ViewRuler, ViewStream};
+pub use view::{
+    DEFAULT_MAX_WAIT_SECONDS, SavedView, VIEW_VERSION, ViewChannel, ViewData, ViewRuler, ViewStream,
+};
 pub use voxscope_volume::progress::{Cancelled, Progress};

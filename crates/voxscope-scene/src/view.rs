@@ -95,6 +95,24 @@ pub struct ViewStream {
     pub max_wait: f64,
 }
 
+/// Seconds `render` waits at most for a streamed still to complete (`--max-wait`'s default).
+pub const DEFAULT_MAX_WAIT_SECONDS: f64 = 30.0;
+
+impl ViewStream {
+    /// The budgets of a streaming renderer that holds `gpu_memory` and is otherwise as it
+    /// opens by default (the app's: its GPU budget is the one it lets a user choose).
+    pub fn with_gpu_memory(gpu_memory: u64) -> Self {
+        let defaults = voxscope_stream::StreamOptions::default();
+        Self {
+            gpu_memory,
+            ram_cache: defaults.ram_cache,
+            upload_budget: defaults.upload_bytes_per_frame,
+            lod_scale: defaults.lod_scale,
+            max_wait: DEFAULT_MAX_WAIT_SECONDS,
+        }
+    }
+}
+
 /// A measured distance between two points in voxel space.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct ViewRuler {
