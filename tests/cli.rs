@@ -202,6 +202,37 @@ fn a_near_mip_beyond_the_budget_completes_at_the_budget_within_a_few_frames() {
         .expect("the frames it took");
     assert!(frames <= 25, "{frames} frames: {err}");
     assert!(support::reference::coverage(&image::open(&out).unwrap().to_rgba8()) > 0.2);
+    // It names the budget that holds the view at full detail, and that budget does.
+    let holds = err
+        .split("a GPU budget of ")
+        .nth(1)
+        .and_then(|rest| rest.split(" holds it all").next())
+        .expect("the budget that holds it");
+    let suggested = holds.replace(' ', "");
+    let output = voxscope(&[
+        "render",
+        "synthetic:ct:256",
+        "--renderer",
+        "stream",
+        "--mode",
+        "mip",
+        "--distance",
+        "0.6",
+        "--gpu-memory",
+        &suggested,
+        "--max-wait",
+        "60",
+        "--size",
+        "256x192",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    let err = stderr(&output);
+    assert!(output.status.success(), "{err}");
+    assert!(
+        err.contains("; complete after") && !err.contains("budget-limited"),
+        "{suggested}: {err}"
+    );
 }
 
 #[test]

@@ -20,8 +20,9 @@ use voxscope_render::{
 };
 use voxscope_stream::{
     AtlasTexels, AtlasZero, BRICK_SIZE, BrickData, BrickError, BrickId, BrickSource, Downsampling,
-    Loader, MemorySource, PADDED_BRICK_VOXELS, Priority, PyramidShape, Request, RequestQueue,
-    StreamOptions, StreamStatus, Tier, UploadPath, ValueRange, ZarrSource, load_brick,
+    FullDetailBudget, Loader, MemorySource, PADDED_BRICK_VOXELS, Priority, PyramidShape, Request,
+    RequestQueue, StreamOptions, StreamStatus, Tier, UploadPath, ValueRange, ZarrSource,
+    load_brick,
 };
 use voxscope_volume::ome_zarr::{Pyramid, PyramidOptions};
 use voxscope_volume::remote::RemoteOptions;
@@ -480,6 +481,24 @@ fn a_view_three_times_the_atlas_completes_coarser_where_least_important_and_refi
     assert!(
         db >= 60.0,
         "room for the view: full detail again ({db:.1} dB)"
+    );
+    // The budget the limited view said holds it all does: the view completes at full detail,
+    // and it is no more than twice what the view's bricks and their coarser ones take.
+    let FullDetailBudget::Bytes(suggested) = limit.full_detail else {
+        panic!("no budget named: {}", limit.describe());
+    };
+    assert!(suggested > budget, "{suggested} for {budget}");
+    let mut holding = streaming(
+        &context,
+        PYRAMID.clone(),
+        options(suggested),
+        &prepared.transfer,
+    );
+    let held = refine(&context, &mut holding, &camera, &full);
+    assert_eq!(held.status.budget, None, "{suggested} bytes");
+    assert!(
+        suggested <= 2 * (budget + (needed * 8 / 7) as u64 * slot_bytes * 5 / 4),
+        "{suggested} bytes named for {needed} bricks of {slot_bytes}"
     );
 }
 

@@ -159,9 +159,7 @@ impl VoxscopeApp {
             renderer: Some(kind),
             brick_size: Some(self.settings.brick_size),
             // The GPU budget the user chose; the rest is as the app streams (its defaults).
-            stream: Some(ViewStream::with_gpu_memory(
-                self.settings.stream_gpu_memory,
-            )),
+            stream: Some(ViewStream::with_gpu_memory(self.settings.stream_gpu_memory)),
             rulers: self
                 .view
                 .rulers

@@ -7,11 +7,17 @@ use egui::Ui;
 
 use super::numbers::{format_bytes, group_digits};
 use super::settings::AppSettings;
+use voxscope_render::BUDGET_STEPS;
 use voxscope_scene::Scene;
 use voxscope_stream::{Failures, StreamStatus};
 
-/// The GPU budgets offered, in MiB (the device's largest 3D texture bounds the atlas anyway).
-const GPU_BUDGETS_MIB: [u64; 7] = [64, 128, 256, 512, 1024, 2048, 4096];
+/// The GPU budgets offered: the steps a budget-limited view's status names, from 64 MiB to
+/// 16 GiB (the device's largest 3D texture bounds the atlas anyway).
+fn gpu_budgets() -> impl Iterator<Item = u64> {
+    BUDGET_STEPS
+        .into_iter()
+        .filter(|&bytes| (64 << 20..=16 << 30).contains(&bytes))
+}
 
 /// The budget row of the renderer grid (shown when the streaming renderer is chosen).
 pub fn budget_row(ui: &mut Ui, settings: &mut AppSettings) {
@@ -19,12 +25,8 @@ pub fn budget_row(ui: &mut Ui, settings: &mut AppSettings) {
     egui::ComboBox::from_id_salt("stream_gpu_memory")
         .selected_text(format_bytes(settings.stream_gpu_memory))
         .show_ui(ui, |ui| {
-            for mib in GPU_BUDGETS_MIB {
-                ui.selectable_value(
-                    &mut settings.stream_gpu_memory,
-                    mib << 20,
-                    format_bytes(mib << 20),
-                );
+            for bytes in gpu_budgets() {
+                ui.selectable_value(&mut settings.stream_gpu_memory, bytes, format_bytes(bytes));
             }
         })
         .response

@@ -36,8 +36,9 @@ use super::{
 };
 use voxscope_octree::TransferFunction;
 use voxscope_stream::{
-    AtlasTexels, AtlasZero, BRICK_SIZE, BrickSource, Feedback, PADDED_BRICK, PADDED_BRICK_VOXELS,
-    StreamOptions, StreamStatus, Streamer, TableEntry, Upload, UploadParts, UploadPath, ViewPoint,
+    AtlasTexels, AtlasZero, BRICK_SIZE, BrickSource, Feedback, FullDetailBudget, PADDED_BRICK,
+    PADDED_BRICK_VOXELS, StreamOptions, StreamStatus, Streamer, TableEntry, Upload, UploadParts,
+    UploadPath, ViewPoint,
 };
 
 /// Keys the request buffer holds per frame: more asks than this in one frame are counted but
@@ -198,6 +199,10 @@ pub struct StreamVolume {
     /// bricks first).
     max_projection: AtomicBool,
     spacing: [f64; 3],
+    /// How the budget became the atlas, and the latest budget-limited view's size at full
+    /// detail with the budget that would hold it.
+    sizing: AtlasSizing,
+    full_detail: Option<(usize, FullDetailBudget)>,
 }
 
 /// The level a ray wants where its footprint is `footprint` finest-level voxels: the coarsest
@@ -246,6 +251,80 @@ fn atlas_grid(
         )));
     }
     Ok(grid)
+}
+
+/// The GPU budgets a budget-limited view's status may name: from 1 MiB on, each power of two
+/// and the step halfway to the next (64, 96, 128, 192 MiB, …), as the app offers them.
+pub const BUDGET_STEPS: [u64; 50] = {
+    let mut steps = [0u64; 50];
+    let mut i = 0;
+    while i < 25 {
+        steps[2 * i] = 1 << (20 + i);
+        steps[2 * i + 1] = 3 << (19 + i);
+        i += 1;
+    }
+    steps
+};
+
+/// How a GPU budget becomes this volume's atlas, as [`StreamVolume::new`] chose it: to size
+/// the budget a view larger than the atlas would need.
+#[derive(Debug, Clone, Copy)]
+struct AtlasSizing {
+    slot_bytes: u64,
+    bricks_in_pyramid: u64,
+    /// Bricks a frame uploads through the scattering ring, whose buffer the budget holds
+    /// (`None`: the ring copies, out of no share of the budget).
+    scatter_per_frame: Option<usize>,
+    /// The level copy's bytes (0 without the level walk).
+    level_cells_bytes: u64,
+    /// Slots of the always-resident levels.
+    pinned: usize,
+}
+
+impl AtlasSizing {
+    /// Slots a view may fill ([`Streamer`]'s: the unpinned ones less the frame's fifth) in
+    /// the atlas a budget of `budget` bytes gives, and whether the device's largest 3D
+    /// texture bounded it; `None` where it holds no atlas.
+    fn view_slots(&self, context: &GpuContext, budget: u64) -> Option<(usize, bool)> {
+        let staging = self
+            .scatter_per_frame
+            .and_then(|most| staging_ring::scatter_size(most, self.slot_bytes as usize, budget))
+            .map_or(0, |(_, bytes)| bytes);
+        let grid = atlas_grid(
+            context,
+            budget,
+            staging + self.level_cells_bytes,
+            self.slot_bytes,
+            self.bricks_in_pyramid,
+        )
+        .ok()?;
+        let max_side = (context.limits.max_texture_dimension_3d as usize / PADDED_BRICK).min(1024);
+        let at_device_limit = grid[0] == max_side && grid[2] == max_side;
+        let unpinned = grid.iter().product::<usize>().saturating_sub(self.pinned);
+        Some((unpinned - unpinned / 5, at_device_limit))
+    }
+
+    /// The smallest of [`BUDGET_STEPS`] whose atlas holds a view of `needed` bricks at full
+    /// detail, with the coarser bricks its refinement loads on the way (an eighth more for
+    /// each finer level: a seventh in all).
+    fn full_detail_budget(&self, context: &GpuContext, needed: usize) -> FullDetailBudget {
+        let wanted = needed + needed.div_ceil(7);
+        let mut at_device_limit = false;
+        for budget in BUDGET_STEPS {
+            let Some((slots, at_limit)) = self.view_slots(context, budget) else {
+                continue;
+            };
+            if slots >= wanted {
+                return FullDetailBudget::Bytes(budget);
+            }
+            at_device_limit = at_limit;
+        }
+        if at_device_limit {
+            FullDetailBudget::BeyondDevice
+        } else {
+            FullDetailBudget::Unknown
+        }
+    }
 }
 
 /// `visible_below[i]`: how many value levels below `i` the lookup table makes visible.
@@ -467,6 +546,19 @@ impl StreamVolume {
             // queue writes, a GPU copy each (run 88).
             streamer.set_upload_ceiling(ring.bricks_per_buffer() as u64 * slot_bytes);
         }
+        let sizing = AtlasSizing {
+            slot_bytes,
+            bricks_in_pyramid: bricks,
+            scatter_per_frame: scatter
+                .as_ref()
+                .map(|_| per_frame.min(bricks.min(usize::MAX as u64) as usize)),
+            level_cells_bytes: if streamer.options().level_walk {
+                level_cells_bytes
+            } else {
+                0
+            },
+            pinned: streamer.pinned_slots(),
+        };
         let volume = Self {
             streamer,
             atlas,
@@ -489,6 +581,8 @@ impl StreamVolume {
             view: Mutex::new(None),
             max_projection: AtomicBool::new(false),
             spacing: source.spacing(),
+            sizing,
+            full_detail: None,
             unwritten: pinned,
             unzeroed: uncleared,
             skip_upload_rate: false,
@@ -698,9 +792,25 @@ impl StreamVolume {
         let writing = Instant::now();
         self.write(context, &uploads);
         let mut status = status;
+        if let Some(budget) = status.budget.as_mut() {
+            budget.full_detail = self.full_detail_budget(context, budget.needed);
+        }
         status.phases.readback = readback;
         status.phases.write = writing.elapsed().as_secs_f64();
         status
+    }
+
+    /// The GPU budget that would hold a view of `needed` bricks at full detail (sized again
+    /// only when that count changes).
+    fn full_detail_budget(&mut self, context: &GpuContext, needed: usize) -> FullDetailBudget {
+        match self.full_detail {
+            Some((sized, budget)) if sized == needed => budget,
+            _ => {
+                let budget = self.sizing.full_detail_budget(context, needed);
+                self.full_detail = Some((needed, budget));
+                budget
+            }
+        }
     }
 
     /// The newest mapped readback's requests, with every mapped one's usage marks merged.

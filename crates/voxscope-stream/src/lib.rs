@@ -53,7 +53,8 @@ pub use ram_cache::RamCache;
 pub use slots::{Allocation, SlotPool};
 pub use source::{BrickError, BrickFault, BrickSource};
 pub use status::{
-    BudgetLimit, LevelCounters, StreamCounters, StreamStatus, UpdatePhases, UploadParts,
+    BudgetLimit, FullDetailBudget, LevelCounters, StreamCounters, StreamStatus, UpdatePhases,
+    UploadParts,
 };
 pub use streamer::{StillUploads, Streamer, UPLOAD_SECONDS_PER_FRAME, UPLOAD_SECONDS_STILL};
 pub use zarr_source::{MAX_BRICK_READ, MAX_REMOTE_BRICK_CHUNKS, ZarrSource};

@@ -210,6 +210,21 @@ pub struct BudgetLimit {
     pub finest: Option<u32>,
     /// The coarsest level a left-out region is drawn from.
     pub coarsest: Option<u32>,
+    /// The GPU budget that would hold the view at full detail (the renderer sizes it).
+    pub full_detail: FullDetailBudget,
+}
+
+/// The GPU budget whose atlas would hold a budget-limited view at full detail.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FullDetailBudget {
+    /// Not sized (the streamer alone does not know how a budget becomes an atlas).
+    #[default]
+    Unknown,
+    /// This many bytes (a power of two, or halfway to the next).
+    Bytes(u64),
+    /// More than this device's largest atlas holds.
+    BeyondDevice,
 }
 
 impl BudgetLimit {
@@ -224,11 +239,32 @@ impl BudgetLimit {
             (None, Some(coarsest)) => format!("level {coarsest}"),
             (None, None) => "coarser levels".to_owned(),
         };
+        let full_detail = match self.full_detail {
+            FullDetailBudget::Unknown => String::new(),
+            FullDetailBudget::Bytes(bytes) => {
+                format!(" (a GPU budget of {} holds it all)", format_budget(bytes))
+            }
+            FullDetailBudget::BeyondDevice => " (more than this GPU's largest atlas)".to_owned(),
+        };
         format!(
-            "budget-limited: {levels}; the view needs {} bricks at full detail, {} fit",
+            "budget-limited: {levels}; the view needs {} bricks at full detail{full_detail}, {} fit",
             group_thousands(self.needed),
             group_thousands(self.fit)
         )
+    }
+}
+
+/// `96 MiB`, `1.5 GiB`: a budget as `--gpu-memory` reads it and the app's GPU budget shows it.
+fn format_budget(bytes: u64) -> String {
+    let (value, unit) = if bytes >= 1 << 30 {
+        (bytes as f64 / (1u64 << 30) as f64, "GiB")
+    } else {
+        (bytes as f64 / (1u64 << 20) as f64, "MiB")
+    };
+    if value.fract() == 0.0 {
+        format!("{value:.0} {unit}")
+    } else {
+        format!("{value:.1} {unit}")
     }
 }
 
@@ -243,4 +279,45 @@ fn group_thousands(n: usize) -> String {
         out.push(c);
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_budget_limit_names_the_budget_that_holds_the_view() {
+        let limit = BudgetLimit {
+            needed: 9412,
+            fit: 6480,
+            left_out: 2932,
+            finest: Some(0),
+            coarsest: Some(2),
+            full_detail: FullDetailBudget::Unknown,
+        };
+        assert_eq!(
+            limit.describe(),
+            "budget-limited: finest level 0, level 2 where least important; the view needs \
+             9 412 bricks at full detail, 6 480 fit"
+        );
+        let holding = |bytes| {
+            BudgetLimit {
+                full_detail: FullDetailBudget::Bytes(bytes),
+                ..limit
+            }
+            .describe()
+        };
+        assert!(holding(96 << 20).contains("full detail (a GPU budget of 96 MiB holds it all), "));
+        assert!(holding(1 << 30).contains("(a GPU budget of 1 GiB holds it all)"));
+        assert!(holding(3 << 29).contains("(a GPU budget of 1.5 GiB holds it all)"));
+        let beyond = BudgetLimit {
+            full_detail: FullDetailBudget::BeyondDevice,
+            ..limit
+        };
+        assert!(
+            beyond
+                .describe()
+                .contains("(more than this GPU's largest atlas)")
+        );
+    }
 }

@@ -24,7 +24,8 @@ use super::queue::{Priority, Request, RequestQueue, Tier};
 use super::ram_cache::RamCache;
 use super::slots::SlotPool;
 use super::status::{
-    BudgetLimit, LevelCounters, StreamCounters, StreamStatus, UpdatePhases, UploadParts,
+    BudgetLimit, FullDetailBudget, LevelCounters, StreamCounters, StreamStatus, UpdatePhases,
+    UploadParts,
 };
 use crate::{BrickId, BrickSource, PADDED_BRICK_VOXELS, ValueRange};
 
@@ -425,6 +426,11 @@ impl Streamer {
     /// The source.
     pub fn source(&self) -> &Arc<dyn BrickSource> {
         &self.source
+    }
+
+    /// Slots the always-resident coarse levels hold.
+    pub fn pinned_slots(&self) -> usize {
+        self.slots.pinned()
     }
 
     /// How the atlas stores texels.
@@ -908,6 +914,8 @@ impl Streamer {
         // The view's bricks in the atlas: those its rays wanted, and those standing for
         // bricks left out (drawn in their place).
         let mut committed: KeySet = self.slots.wanted_unpinned_since(feedback.frame).collect();
+        // Of those, the ones its rays wanted at their own levels (the rest stand in).
+        let wanted_in_atlas = committed.len();
         committed.extend(
             self.standing
                 .iter()
@@ -961,7 +969,7 @@ impl Streamer {
         }
         if !self.standing.is_empty() {
             let left_out: usize = left_out.iter().sum::<usize>() + cut.left_out.len();
-            self.note_budget(&cut, &committed, requests.len(), left_out);
+            self.note_budget(&cut, &committed, wanted_in_atlas + requests.len(), left_out);
         }
         // What the cut loads, and the coarser bricks above each down to the first one the GPU
         // has (so the picture refines level by level).
@@ -1148,9 +1156,10 @@ impl Streamer {
         self.changed_frame = self.frame;
     }
 
-    /// What the view needs against what fits, for the status: the bricks it draws from the
-    /// atlas (`committed`), `asked` more, `left_out` of them drawn coarser.
-    fn note_budget(&mut self, cut: &Cut, committed: &KeySet, asked: usize, left_out: usize) {
+    /// What the view needs against what fits, for the status: `wanted` bricks at the levels
+    /// its rays chose (in the atlas or asked for, the stand-ins drawn from `committed` aside),
+    /// `left_out` more drawn coarser.
+    fn note_budget(&mut self, cut: &Cut, committed: &KeySet, wanted: usize, left_out: usize) {
         let level_of = |key: &u32| self.shape.brick_of(*key).map(|id| id.level);
         let finest = committed.iter().filter_map(level_of).min();
         let coarsest = self
@@ -1160,11 +1169,12 @@ impl Streamer {
             .max()
             .max(cut.coarsest);
         self.budget = Some(BudgetLimit {
-            needed: committed.len() + asked + left_out,
+            needed: wanted + left_out,
             fit: self.budget_slots(),
             left_out,
             finest,
             coarsest,
+            full_detail: FullDetailBudget::Unknown,
         });
     }
 
