@@ -173,24 +173,27 @@ fn a_near_mip_beyond_the_budget_completes_at_the_budget_within_a_few_frames() {
     // (45 frames on lavapipe); one that counts them completes once its bricks are in (13).
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("near-mip.png");
-    let output = voxscope(&[
-        "render",
-        "synthetic:ct:256",
-        "--renderer",
-        "stream",
-        "--mode",
-        "mip",
-        "--distance",
-        "0.6",
-        "--gpu-memory",
-        "4MiB",
-        "--max-wait",
-        "60",
-        "--size",
-        "256x192",
-        "-o",
-        out.to_str().unwrap(),
-    ]);
+    let near_mip = |budget: &str| {
+        voxscope(&[
+            "render",
+            "synthetic:ct:256",
+            "--renderer",
+            "stream",
+            "--mode",
+            "mip",
+            "--distance",
+            "0.6",
+            "--gpu-memory",
+            budget,
+            "--max-wait",
+            "60",
+            "--size",
+            "256x192",
+            "-o",
+            out.to_str().unwrap(),
+        ])
+    };
+    let output = near_mip("4MiB");
     let err = stderr(&output);
     assert!(output.status.success(), "{err}");
     assert!(err.contains("complete at the budget after"), "{err}");
@@ -209,24 +212,7 @@ fn a_near_mip_beyond_the_budget_completes_at_the_budget_within_a_few_frames() {
         .and_then(|rest| rest.split(" holds it all").next())
         .expect("the budget that holds it");
     let suggested = holds.replace(' ', "");
-    let output = voxscope(&[
-        "render",
-        "synthetic:ct:256",
-        "--renderer",
-        "stream",
-        "--mode",
-        "mip",
-        "--distance",
-        "0.6",
-        "--gpu-memory",
-        &suggested,
-        "--max-wait",
-        "60",
-        "--size",
-        "256x192",
-        "-o",
-        out.to_str().unwrap(),
-    ]);
+    let output = near_mip(&suggested);
     let err = stderr(&output);
     assert!(output.status.success(), "{err}");
     assert!(
