@@ -38,7 +38,7 @@ use voxscope_octree::TransferFunction;
 use voxscope_stream::{
     AtlasTexels, AtlasZero, BRICK_SIZE, BrickSource, Feedback, FullDetailBudget, PADDED_BRICK,
     PADDED_BRICK_VOXELS, StreamOptions, StreamStatus, Streamer, TableEntry, Upload, UploadParts,
-    UploadPath, ViewPoint,
+    UploadPath, ViewPoint, view_slots,
 };
 
 /// Keys the request buffer holds per frame: more asks than this in one frame are counted but
@@ -282,10 +282,9 @@ struct AtlasSizing {
 }
 
 impl AtlasSizing {
-    /// Slots a view may fill ([`Streamer`]'s: the unpinned ones less the frame's fifth) in
-    /// the atlas a budget of `budget` bytes gives, and whether the device's largest 3D
-    /// texture bounded it; `None` where it holds no atlas.
-    fn view_slots(&self, context: &GpuContext, budget: u64) -> Option<(usize, bool)> {
+    /// Of the atlas a budget of `budget` bytes gives, the slots a view may fill
+    /// ([`view_slots`]) and all its slots; `None` where it holds no atlas.
+    fn slots(&self, context: &GpuContext, budget: u64) -> Option<(usize, usize)> {
         let staging = self
             .scatter_per_frame
             .and_then(|most| staging_ring::scatter_size(most, self.slot_bytes as usize, budget))
@@ -298,28 +297,28 @@ impl AtlasSizing {
             self.bricks_in_pyramid,
         )
         .ok()?;
-        let max_side = (context.limits.max_texture_dimension_3d as usize / PADDED_BRICK).min(1024);
-        let at_device_limit = grid[0] == max_side && grid[2] == max_side;
-        let unpinned = grid.iter().product::<usize>().saturating_sub(self.pinned);
-        Some((unpinned - unpinned / 5, at_device_limit))
+        let slots = grid.iter().product::<usize>();
+        Some((view_slots(slots, self.pinned), slots))
     }
 
     /// The smallest of [`BUDGET_STEPS`] whose atlas holds a view of `needed` bricks at full
     /// detail, with the coarser bricks its refinement loads on the way (an eighth more for
-    /// each finer level: a seventh in all).
+    /// each finer level: a seventh in all). Where none does, the largest atlas this device
+    /// makes is too small, unless even that one holds every brick of the pyramid (then the
+    /// frame's own room is what the view lacks, and no budget is named).
     fn full_detail_budget(&self, context: &GpuContext, needed: usize) -> FullDetailBudget {
         let wanted = needed + needed.div_ceil(7);
-        let mut at_device_limit = false;
+        let mut largest = 0;
         for budget in BUDGET_STEPS {
-            let Some((slots, at_limit)) = self.view_slots(context, budget) else {
+            let Some((view, slots)) = self.slots(context, budget) else {
                 continue;
             };
-            if slots >= wanted {
+            if view >= wanted {
                 return FullDetailBudget::Bytes(budget);
             }
-            at_device_limit = at_limit;
+            largest = slots;
         }
-        if at_device_limit {
+        if (largest as u64) < self.bricks_in_pyramid.saturating_add(8) {
             FullDetailBudget::BeyondDevice
         } else {
             FullDetailBudget::Unknown

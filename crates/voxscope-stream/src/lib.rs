@@ -56,5 +56,7 @@ pub use status::{
     BudgetLimit, FullDetailBudget, LevelCounters, StreamCounters, StreamStatus, UpdatePhases,
     UploadParts,
 };
-pub use streamer::{StillUploads, Streamer, UPLOAD_SECONDS_PER_FRAME, UPLOAD_SECONDS_STILL};
+pub use streamer::{
+    StillUploads, Streamer, UPLOAD_SECONDS_PER_FRAME, UPLOAD_SECONDS_STILL, view_slots,
+};
 pub use zarr_source::{MAX_BRICK_READ, MAX_REMOTE_BRICK_CHUNKS, ZarrSource};

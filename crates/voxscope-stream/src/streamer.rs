@@ -116,6 +116,14 @@ fn is_pinned_level(shape: &PyramidShape, level: u32) -> bool {
     shape.levels[level as usize].brick_count() == 1
 }
 
+/// Of an atlas of `slots` with `pinned` of them held by the always-resident levels, the slots a
+/// view may fill with bricks at the levels its rays want: the rest of the unpinned ones (a
+/// fifth) is the frame's own room, for the coarser stand-ins drawn while finer bricks arrive.
+pub fn view_slots(slots: usize, pinned: usize) -> usize {
+    let unpinned = slots.saturating_sub(pinned);
+    unpinned - unpinned / 5
+}
+
 /// The CPU state of one streamed pyramid.
 pub struct Streamer {
     source: Arc<dyn BrickSource>,
@@ -1121,12 +1129,9 @@ impl Streamer {
         fill
     }
 
-    /// Unpinned slots a view may fill with bricks at the levels its rays want: the rest of the
-    /// atlas (a fifth) is the frame's own room, for the coarser stand-ins drawn while finer
-    /// bricks arrive.
+    /// Slots a view may fill with bricks at the levels its rays want ([`view_slots`]).
     fn budget_slots(&self) -> usize {
-        let unpinned = self.slots.capacity() - self.slots.pinned();
-        unpinned - unpinned / 5
+        view_slots(self.slots.capacity(), self.slots.pinned())
     }
 
     /// The brick that stands for `id` in the view on screen (the coarsest of its ancestors
