@@ -9,7 +9,7 @@ use super::drawing::{Content, Drawing};
 use super::view::{self, Given};
 use super::{RenderOptions, VolumeArgs};
 use voxscope_render::{RenderTarget, read_image};
-use voxscope_scene::{Refinement, SavedView, describe_missing};
+use voxscope_scene::{Refinement, SavedView, describe_budget_limit, describe_missing};
 
 #[derive(Debug, Args)]
 pub struct RenderArgs {
@@ -198,12 +198,10 @@ fn report_stream(
     let state = if refinement.complete && unreadable > 0 {
         format!("settled after {} frames", refinement.frames)
     } else if refinement.complete {
-        match &refinement.status.budget {
-            Some(budget) => format!(
-                "complete at the budget after {} frames ({} in {} MiB of atlas)",
-                refinement.frames,
-                budget.describe(),
-                (counters.slot_bytes * budget.fit as u64) >> 20
+        match describe_budget_limit(&refinement.status) {
+            Some(limit) => format!(
+                "complete at the budget after {} frames ({limit})",
+                refinement.frames
             ),
             None => format!("complete after {} frames", refinement.frames),
         }

@@ -1,9 +1,12 @@
 """`voxscope.Renderer` keeps a volume on the GPU: its frames differ as the camera moves and
 equal single `render` calls of the same keywords, whatever it drew before (a transfer function
 recolored on the GPU, another size); draw/finish/read give what render gives; the streaming
-renderer refines a store to its complete picture."""
+renderer refines a store to its complete picture, and a view beyond its budget warns that it is
+budget-limited, naming the budget that holds it (which then draws it without a warning)."""
 
+import re
 import threading
+import warnings
 
 import numpy as np
 import pytest
@@ -94,6 +97,22 @@ def test_a_store_streams_to_its_complete_picture(images):
     in_memory = voxscope.render(store, renderer="bricks", size=SIZE, azimuth=200, preset="ramp")
     assert lit(frame) > 0.02
     assert psnr(frame, in_memory) >= 35, f"{psnr(frame, in_memory):.1f} dB"
+
+
+def test_a_view_beyond_the_budget_says_so_and_the_budget_it_names_holds_it(images):
+    near_mip = dict(renderer="stream", mode="mip", distance=0.6, size=(128, 96))
+    with pytest.warns(UserWarning, match="complete at the budget") as caught:
+        limited = voxscope.render("synthetic:ct:256", gpu_memory="4MiB", **near_mip)
+    said = str(caught[0].message)
+    assert "budget-limited: finest level" in said, said
+    named = re.search(r"a GPU budget of ([0-9.]+) (MiB|GiB) holds it all", said)
+    assert named, said
+    save(images, "renderer_budget_limited", limited)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        full = voxscope.render("synthetic:ct:256", gpu_memory=named[1] + named[2], **near_mip)
+    assert lit(full) > 0.05
+    assert not np.array_equal(full, limited)
 
 
 def test_renderers_in_threads_draw_as_alone(small):

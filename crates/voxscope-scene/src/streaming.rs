@@ -332,6 +332,18 @@ pub fn refine(
     refined
 }
 
+/// Where the budget limits the view: `budget-limited: finest level 1, level 2 where least
+/// important; the view needs 227 bricks at full detail (a GPU budget of 32 MiB holds it all),
+/// 25 fit in 1 MiB of atlas`.
+pub fn describe_budget_limit(status: &StreamStatus) -> Option<String> {
+    let budget = status.budget.as_ref()?;
+    Some(format!(
+        "{} in {} MiB of atlas",
+        budget.describe(),
+        (status.counters.slot_bytes * budget.fit as u64) >> 20
+    ))
+}
+
 /// `12 bricks missing (level 0: 10, level 1: 2)`.
 pub fn describe_missing(status: &StreamStatus) -> String {
     let per_level: Vec<String> = status
