@@ -1,7 +1,8 @@
 //! The streaming renderer in the app, driven through egui_kittest on the software Vulkan
 //! device: chosen in the Octree panel it refines the view without blocking (the app keeps
 //! stepping while bricks load), ends equal to the in-memory bricks renderer, reports its state
-//! in the panel and the status bar; an OME-Zarr store streams from the file.
+//! in the panel and the status bar; an OME-Zarr store streams from the file; a budget-limited
+//! view offers the budget that holds it, and takes it on a click.
 
 mod support;
 
@@ -13,6 +14,7 @@ use egui_kittest::kittest::Queryable;
 use voxscope::app::Command;
 use voxscope_render::RendererKind;
 use voxscope_scene::VolumeSource;
+use voxscope_stream::FullDetailBudget;
 
 #[test]
 fn the_streaming_renderer_refines_the_head_to_the_bricks_picture() {
@@ -141,4 +143,51 @@ fn a_url_streams_over_a_slow_server_and_the_panel_shows_the_network() {
         "remembered without the user name and password"
     );
     assert!(recent.iter().all(|spec| !spec.contains("secret")));
+}
+
+#[test]
+fn a_budget_limited_view_offers_the_budget_that_holds_it_and_takes_it_on_a_click() {
+    let mut harness = harness();
+    let ctx = harness.ctx.clone();
+    // Under 4 MiB the CT's view needs about twenty times the slots the atlas has for it.
+    harness.state_mut().settings.stream_gpu_memory = 4 << 20;
+    harness.state_mut().run_command(
+        Command::Open(VolumeSource::Spec("synthetic:ct:256".into())),
+        &ctx,
+    );
+    settle(&mut harness);
+    choose_renderer(&mut harness, "stream");
+    let status = harness.state().stream_status().expect("a streaming status");
+    let limit = status.budget.expect("the budget limits the near view");
+    assert!(status.complete, "complete at the budget: {status:?}");
+    let FullDetailBudget::Bytes(holding) = limit.full_detail else {
+        panic!("no budget named: {}", limit.describe());
+    };
+    assert!(holding > 4 << 20);
+    // The status bar and the panel's state say so.
+    assert_eq!(
+        harness
+            .query_all_by_label_contains(&limit.describe())
+            .count(),
+        2
+    );
+    let coarse = view(&harness);
+    // The button next to the budget takes the one named: the view refines to full detail.
+    let label = format!("Use {:.1} MiB", holding as f64 / (1 << 20) as f64);
+    harness.get_by_label(&label).click();
+    settle(&mut harness);
+    assert_eq!(harness.state().settings.stream_gpu_memory, holding);
+    let status = harness.state().stream_status().expect("a streaming status");
+    assert!(status.complete && status.budget.is_none(), "{status:?}");
+    assert!(
+        harness.query_by_label(&label).is_none(),
+        "nothing left to offer"
+    );
+    let full = view(&harness);
+    full.save(support::image_dir().join("app-stream-budget-held.png"))
+        .expect("write the view");
+    coarse
+        .save(support::image_dir().join("app-stream-budget-limited.png"))
+        .expect("write the view");
+    assert!(support::app_harness::differing_pixels(&coarse, &full) > 100);
 }

@@ -90,7 +90,7 @@ pub fn show(
             ui.end_row();
 
             if shown == RendererKind::Stream {
-                stream_panel::budget_row(ui, settings);
+                stream_panel::budget_row(ui, settings, facts.scene);
             }
 
             if shown == RendererKind::Bricks {

@@ -9,7 +9,7 @@ use super::numbers::{format_bytes, group_digits};
 use super::settings::AppSettings;
 use voxscope_render::BUDGET_STEPS;
 use voxscope_scene::Scene;
-use voxscope_stream::{Failures, StreamStatus};
+use voxscope_stream::{Failures, FullDetailBudget, StreamStatus};
 
 /// The GPU budgets offered: the steps a budget-limited view's status names, from 64 MiB to
 /// 16 GiB (the device's largest 3D texture bounds the atlas anyway).
@@ -19,19 +19,37 @@ fn gpu_budgets() -> impl Iterator<Item = u64> {
         .filter(|&bytes| (64 << 20..=16 << 30).contains(&bytes))
 }
 
-/// The budget row of the renderer grid (shown when the streaming renderer is chosen).
-pub fn budget_row(ui: &mut Ui, settings: &mut AppSettings) {
+/// The budget row of the renderer grid (shown when the streaming renderer is chosen); where
+/// the view on screen is budget-limited, a button that takes the budget holding it whole.
+pub fn budget_row(ui: &mut Ui, settings: &mut AppSettings, scene: Option<&Scene>) {
     let label = ui.label("GPU budget");
-    egui::ComboBox::from_id_salt("stream_gpu_memory")
-        .selected_text(format_bytes(settings.stream_gpu_memory))
-        .show_ui(ui, |ui| {
-            for bytes in gpu_budgets() {
-                ui.selectable_value(&mut settings.stream_gpu_memory, bytes, format_bytes(bytes));
-            }
-        })
-        .response
-        .labelled_by(label.id)
-        .on_hover_text("GPU memory the streaming renderer holds: its brick atlas, page table and buffers (applied by uploading again)");
+    ui.horizontal(|ui| {
+        egui::ComboBox::from_id_salt("stream_gpu_memory")
+            .selected_text(format_bytes(settings.stream_gpu_memory))
+            .show_ui(ui, |ui| {
+                for bytes in gpu_budgets() {
+                    ui.selectable_value(&mut settings.stream_gpu_memory, bytes, format_bytes(bytes));
+                }
+            })
+            .response
+            .labelled_by(label.id)
+            .on_hover_text("GPU memory the streaming renderer holds: its brick atlas, page table and buffers (applied by uploading again)");
+        let holding = scene
+            .and_then(|scene| scene.stream_status.as_ref()?.budget)
+            .and_then(|limit| match limit.full_detail {
+                FullDetailBudget::Bytes(bytes) => Some(bytes),
+                _ => None,
+            })
+            .filter(|&bytes| bytes != settings.stream_gpu_memory);
+        if let Some(bytes) = holding
+            && ui
+                .button(format!("Use {}", format_bytes(bytes)))
+                .on_hover_text("The view on screen is budget-limited (coarser where least important); this budget holds it at full detail")
+                .clicked()
+        {
+            settings.stream_gpu_memory = bytes;
+        }
+    });
     ui.end_row();
 }
 

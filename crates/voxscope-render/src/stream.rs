@@ -298,31 +298,26 @@ impl AtlasSizing {
         )
         .ok()?;
         let slots = grid.iter().product::<usize>();
-        Some((view_slots(slots, self.pinned), slots))
+        Some((
+            view_slots(slots, self.pinned, self.bricks_in_pyramid),
+            slots,
+        ))
     }
 
     /// The smallest of [`BUDGET_STEPS`] whose atlas holds a view of `needed` bricks at full
     /// detail, with the coarser bricks its refinement loads on the way (an eighth more for
-    /// each finer level: a seventh in all). Where none does, the largest atlas this device
-    /// makes is too small, unless even that one holds every brick of the pyramid (then the
-    /// frame's own room is what the view lacks, and no budget is named).
+    /// each finer level: a seventh in all), or every brick of the pyramid; where none does,
+    /// more than the largest atlas this device makes.
     fn full_detail_budget(&self, context: &GpuContext, needed: usize) -> FullDetailBudget {
         let wanted = needed + needed.div_ceil(7);
-        let mut largest = 0;
-        for budget in BUDGET_STEPS {
-            let Some((view, slots)) = self.slots(context, budget) else {
-                continue;
-            };
-            if view >= wanted {
-                return FullDetailBudget::Bytes(budget);
-            }
-            largest = slots;
-        }
-        if (largest as u64) < self.bricks_in_pyramid.saturating_add(8) {
-            FullDetailBudget::BeyondDevice
-        } else {
-            FullDetailBudget::Unknown
-        }
+        BUDGET_STEPS
+            .into_iter()
+            .find(|&budget| {
+                self.slots(context, budget).is_some_and(|(view, slots)| {
+                    view >= wanted || slots as u64 >= self.bricks_in_pyramid
+                })
+            })
+            .map_or(FullDetailBudget::BeyondDevice, FullDetailBudget::Bytes)
     }
 }
 
