@@ -14,7 +14,7 @@
 use std::path::{Path, PathBuf};
 
 use voxscope_octree::TransferFunction;
-use voxscope_render::{RenderSettings, RendererKind, RendererOptions};
+use voxscope_render::{BUDGET_STEPS, RenderSettings, RendererKind, RendererOptions};
 use voxscope_scene::{
     ChannelState, FrameChange, Job, Opened, SavedView, SceneError, Shot, TransferChoice,
     TransferRequest, VIEW_VERSION, ViewChannel, ViewData, ViewRuler, ViewStream, VolumeSource,
@@ -201,9 +201,7 @@ impl VoxscopeApp {
         let options = RendererOptions {
             kind: view_renderer(&view).unwrap_or(self.settings.renderer),
             brick_size: view.brick_size.unwrap_or(self.settings.brick_size),
-            gpu_memory: view
-                .stream
-                .map_or(self.settings.stream_gpu_memory, |s| s.gpu_memory),
+            gpu_memory: view_gpu_memory(&view).unwrap_or(self.settings.stream_gpu_memory),
         };
         let context = std::sync::Arc::clone(&gpu.context);
         let wake = ctx.clone();
@@ -230,8 +228,8 @@ impl VoxscopeApp {
         }
         // Its GPU budget too (the app's other streaming budgets are its defaults; `render
         // --view` takes them all).
-        if let Some(stream) = view.stream {
-            self.settings.stream_gpu_memory = stream.gpu_memory;
+        if let Some(bytes) = view_gpu_memory(view) {
+            self.settings.stream_gpu_memory = bytes;
         }
         // A new volume, whatever frame of it the view shows.
         opened.frame_change = false;
@@ -327,6 +325,15 @@ impl VoxscopeApp {
 }
 
 /// The renderer of one volume a view asks for (`None`: the composite's, or none).
+/// The GPU budget a view names, where it is one a streaming renderer can use (a file edited to
+/// less than the smallest step the budget-limited status names is ignored, as a file from
+/// before budgets were saved).
+fn view_gpu_memory(view: &SavedView) -> Option<u64> {
+    view.stream
+        .map(|stream| stream.gpu_memory)
+        .filter(|&bytes| bytes >= BUDGET_STEPS[0])
+}
+
 fn view_renderer(view: &SavedView) -> Option<RendererKind> {
     view.renderer
         .filter(|kind| *kind != RendererKind::Composite)

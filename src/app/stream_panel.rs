@@ -44,7 +44,7 @@ pub fn budget_row(ui: &mut Ui, settings: &mut AppSettings, scene: Option<&Scene>
         if let Some(bytes) = holding
             && ui
                 .button(format!("Use {}", format_bytes(bytes)))
-                .on_hover_text("The view on screen is budget-limited (coarser where least important); this budget holds it at full detail")
+                .on_hover_text("The view on screen is budget-limited (coarser where least important); an atlas of this budget holds it at full detail, where the GPU has the memory")
                 .clicked()
         {
             settings.stream_gpu_memory = bytes;

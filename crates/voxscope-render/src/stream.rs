@@ -254,7 +254,8 @@ fn atlas_grid(
 }
 
 /// The GPU budgets a budget-limited view's status may name: from 1 MiB on, each power of two
-/// and the step halfway to the next (64, 96, 128, 192 MiB, …), as the app offers them.
+/// and the step halfway to the next (64, 96, 128, 192 MiB, …); the app offers those from
+/// 64 MiB to 16 GiB.
 pub const BUDGET_STEPS: [u64; 50] = {
     let mut steps = [0u64; 50];
     let mut i = 0;
@@ -266,16 +267,19 @@ pub const BUDGET_STEPS: [u64; 50] = {
     steps
 };
 
-/// How a GPU budget becomes this volume's atlas, as [`StreamVolume::new`] chose it: to size
+/// How a GPU budget becomes this volume's atlas, as [`StreamVolume::new`] makes it: to size
 /// the budget a view larger than the atlas would need.
 #[derive(Debug, Clone, Copy)]
 struct AtlasSizing {
+    /// The budget the atlas was made in: a larger one is named, never this or less.
+    budget: u64,
     slot_bytes: u64,
     bricks_in_pyramid: u64,
-    /// Bricks a frame uploads through the scattering ring, whose buffer the budget holds
-    /// (`None`: the ring copies, out of no share of the budget).
+    /// Bricks a frame uploads through the scattering ring, whose buffer the budget holds,
+    /// where the options ask for it and the device can (`None`: the ring copies, out of no
+    /// share of the budget).
     scatter_per_frame: Option<usize>,
-    /// The level copy's bytes (0 without the level walk).
+    /// The level copy's bytes where the options ask for the level walk (else 0).
     level_cells_bytes: u64,
     /// Slots of the always-resident levels.
     pinned: usize,
@@ -283,35 +287,45 @@ struct AtlasSizing {
 
 impl AtlasSizing {
     /// Of the atlas a budget of `budget` bytes gives, the slots a view may fill
-    /// ([`view_slots`]) and all its slots; `None` where it holds no atlas.
+    /// ([`view_slots`]) and all its slots; `None` where it holds no atlas. The same steps as
+    /// [`StreamVolume::new`]: the scattering ring's staging and the level copy out of the
+    /// budget, else without the staging, else without the level copy too, each where the
+    /// atlas holds the pinned levels and a view ([`Streamer::new`]).
     fn slots(&self, context: &GpuContext, budget: u64) -> Option<(usize, usize)> {
         let staging = self
             .scatter_per_frame
             .and_then(|most| staging_ring::scatter_size(most, self.slot_bytes as usize, budget))
             .map_or(0, |(_, bytes)| bytes);
-        let grid = atlas_grid(
-            context,
-            budget,
-            staging + self.level_cells_bytes,
-            self.slot_bytes,
-            self.bricks_in_pyramid,
-        )
-        .ok()?;
-        let slots = grid.iter().product::<usize>();
+        let fits = |reserved: u64| {
+            let grid = atlas_grid(
+                context,
+                budget,
+                reserved,
+                self.slot_bytes,
+                self.bricks_in_pyramid,
+            )
+            .ok()?;
+            let slots = grid.iter().product::<usize>();
+            (slots >= self.pinned + 8).then_some(slots)
+        };
+        let slots = fits(staging + self.level_cells_bytes)
+            .or_else(|| fits(self.level_cells_bytes))
+            .or_else(|| fits(0))?;
         Some((
             view_slots(slots, self.pinned, self.bricks_in_pyramid),
             slots,
         ))
     }
 
-    /// The smallest of [`BUDGET_STEPS`] whose atlas holds a view of `needed` bricks at full
-    /// detail, with the coarser bricks its refinement loads on the way (an eighth more for
-    /// each finer level: a seventh in all), or every brick of the pyramid; where none does,
-    /// more than the largest atlas this device makes.
+    /// The smallest of [`BUDGET_STEPS`] above the budget in use whose atlas holds a view of
+    /// `needed` bricks at full detail, with the coarser bricks its refinement loads on the
+    /// way (an eighth more for each finer level: a seventh in all), or every brick of the
+    /// pyramid; where none does, more than the largest atlas this device makes.
     fn full_detail_budget(&self, context: &GpuContext, needed: usize) -> FullDetailBudget {
         let wanted = needed + needed.div_ceil(7);
         BUDGET_STEPS
             .into_iter()
+            .filter(|&budget| budget > self.budget)
             .find(|&budget| {
                 self.slots(context, budget).is_some_and(|(view, slots)| {
                     view >= wanted || slots as u64 >= self.bricks_in_pyramid
@@ -419,6 +433,22 @@ impl StreamVolume {
                     Err(_) => (None, fit(0, false)?),
                 },
             };
+        // How the budget became the atlas, as asked (a larger budget may scatter, or walk,
+        // where this one fell back).
+        let sizing = AtlasSizing {
+            budget: options.gpu_memory,
+            slot_bytes,
+            bricks_in_pyramid: bricks,
+            scatter_per_frame: (options.uploads == UploadPath::Scatter
+                && context.atlas_scatter(format).is_some())
+            .then(|| per_frame.min(bricks.min(usize::MAX as u64) as usize)),
+            level_cells_bytes: if options.level_walk {
+                level_cells_bytes
+            } else {
+                0
+            },
+            pinned: streamer.pinned_slots(),
+        };
         let level_cells_bytes = if streamer.options().level_walk {
             level_cells_bytes
         } else {
@@ -540,19 +570,6 @@ impl StreamVolume {
             // queue writes, a GPU copy each (run 88).
             streamer.set_upload_ceiling(ring.bricks_per_buffer() as u64 * slot_bytes);
         }
-        let sizing = AtlasSizing {
-            slot_bytes,
-            bricks_in_pyramid: bricks,
-            scatter_per_frame: scatter
-                .as_ref()
-                .map(|_| per_frame.min(bricks.min(usize::MAX as u64) as usize)),
-            level_cells_bytes: if streamer.options().level_walk {
-                level_cells_bytes
-            } else {
-                0
-            },
-            pinned: streamer.pinned_slots(),
-        };
         let volume = Self {
             streamer,
             atlas,

@@ -334,13 +334,13 @@ pub fn refine(
 
 /// Where the budget limits the view: `budget-limited: finest level 1, level 2 where least
 /// important; the view needs 227 bricks at full detail (a GPU budget of 32 MiB holds it all),
-/// 25 fit in 1 MiB of atlas`.
+/// 25 fit in 1.9 MiB of atlas`.
 pub fn describe_budget_limit(status: &StreamStatus) -> Option<String> {
     let budget = status.budget.as_ref()?;
     Some(format!(
-        "{} in {} MiB of atlas",
+        "{} in {:.1} MiB of atlas",
         budget.describe(),
-        (status.counters.slot_bytes * budget.fit as u64) >> 20
+        (status.counters.slot_bytes * budget.fit as u64) as f64 / (1u64 << 20) as f64
     ))
 }
 
