@@ -311,10 +311,7 @@ impl AtlasSizing {
         let slots = fits(staging + self.level_cells_bytes)
             .or_else(|| fits(self.level_cells_bytes))
             .or_else(|| fits(0))?;
-        Some((
-            view_slots(slots, self.pinned, self.bricks_in_pyramid),
-            slots,
-        ))
+        Some((view_slots(slots, self.pinned), slots))
     }
 
     /// The smallest of [`BUDGET_STEPS`] above the budget in use whose atlas holds a view of

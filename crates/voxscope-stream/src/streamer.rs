@@ -116,18 +116,12 @@ fn is_pinned_level(shape: &PyramidShape, level: u32) -> bool {
     shape.levels[level as usize].brick_count() == 1
 }
 
-/// Of an atlas of `slots` with `pinned` of them held by the always-resident levels, for a
-/// pyramid of `pyramid_bricks`, the slots a view may fill with bricks at the levels its rays
-/// want: the rest of the unpinned ones (a fifth) is the frame's own room, for the coarser
-/// stand-ins drawn while finer bricks arrive; all of them where the atlas holds every brick of
-/// the pyramid (nothing ever has to make room).
-pub fn view_slots(slots: usize, pinned: usize, pyramid_bricks: u64) -> usize {
+/// Of an atlas of `slots` with `pinned` of them held by the always-resident levels, the slots a
+/// view may fill with bricks at the levels its rays want: the rest of the unpinned ones (a
+/// fifth) is the frame's own room, for the coarser stand-ins drawn while finer bricks arrive.
+pub fn view_slots(slots: usize, pinned: usize) -> usize {
     let unpinned = slots.saturating_sub(pinned);
-    if slots as u64 >= pyramid_bricks {
-        unpinned
-    } else {
-        unpinned - unpinned / 5
-    }
+    unpinned - unpinned / 5
 }
 
 /// The CPU state of one streamed pyramid.
@@ -1137,8 +1131,7 @@ impl Streamer {
 
     /// Slots a view may fill with bricks at the levels its rays want ([`view_slots`]).
     fn budget_slots(&self) -> usize {
-        let pyramid_bricks = self.shape.levels.iter().map(|l| l.brick_count()).sum();
-        view_slots(self.slots.capacity(), self.slots.pinned(), pyramid_bricks)
+        view_slots(self.slots.capacity(), self.slots.pinned())
     }
 
     /// The brick that stands for `id` in the view on screen (the coarsest of its ancestors
