@@ -140,6 +140,14 @@ impl VolumeArgs {
         .map_err(|e| load_error_text(&e))
     }
 
+    /// FILE, or the built-in sample without one, as the scene layer opens it.
+    pub fn source(&self) -> voxscope_scene::VolumeSource {
+        match &self.file {
+            Some(spec) => voxscope_scene::VolumeSource::from_spec(spec),
+            None => voxscope_scene::VolumeSource::Sample,
+        }
+    }
+
     /// The options for [`voxscope_volume::load`].
     pub fn load_options(&self) -> LoadOptions {
         LoadOptions {

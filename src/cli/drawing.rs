@@ -12,7 +12,7 @@ use voxscope_render::{
     RendererOptions, VolumeRenderer, read_image,
 };
 use voxscope_scene::{
-    ChannelState, Refinement, StreamedVolume, UploadedLabels, beyond_octree, refine,
+    ChannelState, OpenedStream, Refinement, StreamedVolume, UploadedLabels, beyond_octree, refine,
 };
 use voxscope_volume::{QuantizedVolume, Volume, format_dims};
 
@@ -20,7 +20,7 @@ use super::args::{ChannelArg, RendererArg};
 use super::composite::PreparedChannel;
 use super::labels::{open_overlays, open_streamed_overlays};
 use super::prepare::default_renderer;
-use super::stream::open_streamed;
+use super::stream::open_streamed_with_renderer;
 use super::{Prepared, RenderOptions, VolumeArgs};
 
 /// One volume on the GPU, ready to draw frames of.
@@ -57,8 +57,9 @@ impl Drawing {
     /// `--renderer stream`, the composite of several channels, a volume beyond the octree
     /// streamed from memory, or one volume for its renderer.
     pub fn open(volume: &VolumeArgs, options: &RenderOptions) -> Result<Self, String> {
-        // The GPU starts while the volume is read.
-        let gpu = HeadlessStart::begin();
+        // The GPU starts while the volume is read, and builds the pipelines of the renderer
+        // asked for.
+        let gpu = HeadlessStart::begin_for(options.renderer.map(RendererKind::from));
         let max_wait = Duration::from_secs_f64(options.max_wait);
         let refuse_labels = |what: &str| -> Result<(), String> {
             match options.labels.labels.first() {
@@ -69,9 +70,15 @@ impl Drawing {
             }
         };
         if options.renderer == Some(RendererArg::Stream) {
-            let (streamed, saved) = open_streamed(volume, &options.transfer)?;
-            let image_dims = streamed.source.shape().dims();
-            let mut drawing = Self::streamed(gpu, streamed, saved.as_ref(), options, max_wait)?;
+            // The renderer is made while the store's first chunks are on their way.
+            let (opened, saved) = open_streamed_with_renderer(
+                volume,
+                &options.transfer,
+                options.stream.options(),
+                || gpu.finish().map_err(|e| e.to_string()),
+            )?;
+            let image_dims = opened.volume.source.shape().dims();
+            let mut drawing = Self::streamed(opened, saved.as_ref(), options, max_wait);
             drawing.labels = open_streamed_overlays(
                 &options.labels,
                 volume,
@@ -135,7 +142,11 @@ impl Drawing {
                 Instant::now(),
             )
             .map_err(|e| e.to_string())?;
-            return Self::streamed(gpu, streamed, saved.as_ref(), options, max_wait);
+            let context = gpu.finish().map_err(|e| e.to_string())?;
+            let opened = streamed
+                .with_renderer(context, options.stream.options())
+                .map_err(|e| e.to_string())?;
+            return Ok(Self::streamed(opened, saved.as_ref(), options, max_wait));
         }
         let prepared = Prepared::from_volume(loaded, &options.transfer)?;
         let depth = prepared.data.octree.depth;
@@ -245,35 +256,31 @@ impl Drawing {
     }
 
     fn streamed(
-        gpu: HeadlessStart,
-        prepared: StreamedVolume,
+        opened: OpenedStream<GpuContext>,
         saved: Option<&voxscope_scene::SavedTransfer>,
         options: &RenderOptions,
         max_wait: Duration,
-    ) -> Result<Self, String> {
-        let name = prepared.source.name().to_owned();
-        let depth = prepared.depth();
+    ) -> Self {
+        let OpenedStream {
+            volume,
+            gpu: context,
+            renderer,
+            ..
+        } = opened;
+        let depth = volume.depth();
         let mut settings = options.transfer.render_settings(depth, saved);
         settings.clip = options.clip.clip();
-        let context = gpu.finish().map_err(|e| e.to_string())?;
-        let renderer = VolumeRenderer::new_stream(
-            &context,
-            prepared.source.clone(),
-            prepared.stream_options(options.stream.options()),
-            &prepared.transfer,
-        )
-        .map_err(|e| format!("{name}: {e}"))?;
-        Ok(Self {
+        Self {
             context,
             renderer,
             settings,
-            transfer: prepared.transfer,
+            transfer: volume.transfer,
             content: Content::Streamed { depth },
-            name,
+            name: volume.source.name().to_owned(),
             labels: Vec::new(),
             max_wait,
             composite_values: Vec::new(),
-        })
+        }
     }
 
     /// The octree's (or pyramid's) depth; 0 for the composite.

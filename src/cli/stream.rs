@@ -2,10 +2,13 @@
 //! …) and opening what the volume options name as a pyramid (the scene layer's
 //! [`StreamedVolume`]).
 
+use std::borrow::Borrow;
+
 use clap::Args;
 
 use super::{TransferArgs, VolumeArgs};
-use voxscope_scene::{SavedTransfer, SceneError, StreamedVolume, VolumeSource};
+use voxscope_render::GpuContext;
+use voxscope_scene::{OpenedStream, SavedTransfer, SceneError, StreamedVolume};
 use voxscope_stream::{AtlasZero, StreamOptions, UploadPath};
 
 /// The streaming renderer's budgets (`--renderer stream`, `bench --stream`).
@@ -144,20 +147,42 @@ pub fn open_streamed(
 ) -> Result<(StreamedVolume, Option<SavedTransfer>), String> {
     // A bad --tf file fails before the volume is read.
     let saved = transfer_args.saved()?;
-    let source = match &volume_args.file {
-        Some(spec) => VolumeSource::from_spec(spec),
-        None => VolumeSource::Sample,
-    };
     let streamed = StreamedVolume::open(
-        &source,
+        &volume_args.source(),
         &volume_args.load_options(),
         &transfer_args.request(saved.as_ref()),
     )
-    .map_err(|error| match &error {
+    .map_err(|error| open_error_text(&error))?;
+    Ok((streamed, saved))
+}
+
+/// [`open_streamed`] with the stream renderer of the volume, made with `stream`'s options on
+/// the GPU `gpu` gives while the first image's chunks are on their way
+/// ([`StreamedVolume::open_with_renderer`]).
+pub fn open_streamed_with_renderer<G: Borrow<GpuContext>>(
+    volume_args: &VolumeArgs,
+    transfer_args: &TransferArgs,
+    stream: StreamOptions,
+    gpu: impl FnOnce() -> Result<G, String>,
+) -> Result<(OpenedStream<G>, Option<SavedTransfer>), String> {
+    let saved = transfer_args.saved()?;
+    let opened = StreamedVolume::open_with_renderer(
+        &volume_args.source(),
+        &volume_args.load_options(),
+        &transfer_args.request(saved.as_ref()),
+        stream,
+        gpu,
+    )
+    .map_err(|error| open_error_text(&error))?;
+    Ok((opened, saved))
+}
+
+/// The one line that tells why a volume could not be opened for streaming.
+fn open_error_text(error: &SceneError) -> String {
+    match error {
         SceneError::Load(load) => super::args::load_error_text(load),
         _ => error.to_string(),
-    })?;
-    Ok((streamed, saved))
+    }
 }
 
 #[cfg(test)]

@@ -13,12 +13,12 @@ use super::bench::BenchArgs;
 use super::decode_bench::decode_rate;
 use super::memory;
 use super::resident_bench;
-use super::stream::open_streamed;
+use super::stream::{open_streamed, open_streamed_with_renderer};
 use voxscope_render::{
-    Camera, GpuContext, GpuTimer, RenderMode, RenderSettings, RenderTarget, Shading,
+    Camera, GpuContext, GpuTimer, RenderMode, RenderSettings, RenderTarget, RendererKind, Shading,
     VolumeRenderer, time_passes, timing_name,
 };
-use voxscope_scene::refine;
+use voxscope_scene::{OpenedStream, refine};
 use voxscope_stream::{StreamCounters, UpdatePhases};
 
 /// How long a stopped view may take to complete before the benchmark says it did not.
@@ -62,32 +62,32 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
     };
     let medium = Camera::default();
 
-    // The pipeline, as an app has it once it has drawn any volume (its build is reported
-    // apart).
+    // The pipelines, as an app has them once it has drawn any volume, and as `render`
+    // builds them while it reads (their build is reported apart).
     let building = Instant::now();
-    context.stream_raycaster();
+    context.build_pipelines(RendererKind::Stream);
     let pipeline_build_s = building.elapsed().as_secs_f64();
     // Memory: what the process holds with a device and its pipelines, then the most it holds
     // in each phase (the streaming ones bounded by the budgets, the last one the in-memory
     // renderer's).
     let mut memory = Memory::start();
     // Open, and the first image: the pyramid opened (a coarse level read for the transfer
-    // function's defaults), the renderer made (the always-resident levels read), one frame
-    // drawn and finished.
+    // function's defaults) and the renderer made meanwhile (the always-resident levels read),
+    // one frame drawn and finished.
     let opened = Instant::now();
-    let (prepared, _) = open_streamed(&args.volume, &transfer_args)?;
+    let (
+        OpenedStream {
+            volume: prepared,
+            mut renderer,
+            renderer_seconds,
+            ..
+        },
+        _,
+    ) = open_streamed_with_renderer(&args.volume, &transfer_args, options, || Ok(&context))?;
     let options = prepared.stream_options(options);
     let name = prepared.source.name().to_owned();
     let depth = prepared.depth();
     let gray = settings(depth, RenderMode::Dvr);
-    let making = Instant::now();
-    let mut renderer = VolumeRenderer::new_stream(
-        &context,
-        prepared.source.clone(),
-        options,
-        &prepared.transfer,
-    )
-    .map_err(|e| format!("{name}: {e}"))?;
     let drawing = Instant::now();
     let first_update = renderer.update(&context);
     renderer.render(&context, &target, &medium, &gray);
@@ -97,10 +97,11 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
     let finished = Instant::now();
     let first_image_s = (finished - opened).as_secs_f64();
     // Where the first image's time went: the open (metadata, the preview and pinned levels'
-    // chunks, the transfer function), the renderer made, its first frame drawn and finished.
+    // chunks, the transfer function; the renderer made meanwhile, within it), its first frame
+    // drawn and finished.
     let first_image_parts = json!({
         "open_s": prepared.open_seconds,
-        "renderer_s": (drawing - making).as_secs_f64(),
+        "renderer_s": renderer_seconds,
         "first_frame_s": (finished - drawing).as_secs_f64(),
     });
     memory.phase(

@@ -14,8 +14,8 @@ use voxscope_render::{
     VolumeRenderer,
 };
 use voxscope_scene::{
-    ChannelState, Progress, SavedTransfer, StreamedVolume, VolumeData, VolumeSource, beyond_octree,
-    opening_transfer, refine, renderer_for_octree,
+    ChannelState, OpenedStream, Progress, SavedTransfer, StreamedVolume, VolumeData, VolumeSource,
+    beyond_octree, opening_transfer, refine, renderer_for_octree,
 };
 use voxscope_volume::{QuantizedVolume, Volume};
 
@@ -130,7 +130,8 @@ impl Drawn {
                 &request,
                 started,
             )?;
-            return Self::stream(context, streamed, options).map(|d| (d, None));
+            let opened = streamed.with_renderer(context, options.stream.options())?;
+            return Ok((Self::stream(opened), None));
         }
         let mut data = VolumeData::from_quantized(
             source,
@@ -214,26 +215,16 @@ impl Drawn {
         })
     }
 
-    /// The streaming renderer of `streamed`, within `options`' budgets.
-    pub fn stream(
-        context: &GpuContext,
-        streamed: StreamedVolume,
-        options: &RenderOptions,
-    ) -> Result<Self, Failure> {
-        let name = streamed.source.name().to_owned();
-        let renderer = VolumeRenderer::new_stream(
-            context,
-            streamed.source.clone(),
-            streamed.stream_options(options.stream.options()),
-            &streamed.transfer,
-        )
-        .map_err(|e| Failure::Render(format!("{name}: {e}")))?;
-        let applied = streamed.transfer;
-        Ok(Self::Stream {
-            streamed,
+    /// A streamed volume with its renderer.
+    pub fn stream<G>(opened: OpenedStream<G>) -> Self {
+        let OpenedStream {
+            volume, renderer, ..
+        } = opened;
+        Self::Stream {
+            applied: volume.transfer,
+            streamed: volume,
             renderer,
-            applied,
-        })
+        }
     }
 
     /// The renderer drawing it.

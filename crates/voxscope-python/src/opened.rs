@@ -132,12 +132,15 @@ impl Opened {
             || (large_store && options.renderer.is_none());
         if streams {
             let saved = options.transfer.saved().map_err(Failure::Load)?;
-            let streamed = StreamedVolume::open(
+            // The renderer is made while a store's first chunks are on their way.
+            let opened = StreamedVolume::open_with_renderer(
                 &source,
                 &self.args.load_options(),
                 &options.transfer.request(saved.as_ref()),
+                options.stream.options(),
+                || Ok(context),
             )?;
-            return Drawn::stream(context, streamed, options).map(|d| (d, None));
+            return Ok((Drawn::stream(opened), None));
         }
         let composite =
             self.channel_count() > 1 && !matches!(self.args.channel, Some(ChannelArg::Index(_)));

@@ -1,5 +1,6 @@
 //! The wgpu device: created headless here (CLI, tests, benchmarks), or handed over by the app.
 
+use super::RendererKind;
 use super::pipeline_cache::PipelineCache;
 
 /// Why rendering could not start or go on; each displays as one line. Callers branch on the
@@ -189,9 +190,21 @@ pub struct HeadlessStart(Option<std::thread::JoinHandle<Result<GpuContext, Rende
 impl HeadlessStart {
     /// Starts making the context; where no thread can be made, [`Self::finish`] makes it.
     pub fn begin() -> Self {
+        Self::begin_for(None)
+    }
+
+    /// [`Self::begin`], then, on the same thread, the pipelines of `kind`'s renderer
+    /// ([`GpuContext::build_pipelines`]): their compile overlaps the reading too.
+    pub fn begin_for(kind: Option<RendererKind>) -> Self {
         let thread = std::thread::Builder::new()
             .name("voxscope-gpu-start".into())
-            .spawn(GpuContext::new_headless)
+            .spawn(move || {
+                let context = GpuContext::new_headless()?;
+                if let Some(kind) = kind {
+                    context.build_pipelines(kind);
+                }
+                Ok(context)
+            })
             .ok();
         Self(thread)
     }

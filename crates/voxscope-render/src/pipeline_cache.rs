@@ -15,8 +15,8 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use super::atlas_scatter::{self, AtlasScatter};
 use super::{
-    CompositeRaycaster, DenseRaycaster, GpuBrickRecolor, GpuContext, GpuRecolor, Raycaster, Slicer,
-    StreamRaycaster,
+    CompositeRaycaster, DenseRaycaster, GpuBrickRecolor, GpuContext, GpuRecolor, Raycaster,
+    RendererKind, Slicer, StreamRaycaster,
 };
 
 /// The pipeline families of one device, each built on first use.
@@ -83,6 +83,37 @@ impl GpuContext {
         self.pipelines
             .composite_raycaster
             .get_or_init(|| CompositeRaycaster::new(self))
+    }
+
+    /// Builds the pipelines that a renderer of `kind` draws, recolors and (streaming) uploads
+    /// with on this device, where not built yet: each renderer calls it when it is made, and
+    /// a thread may call it while the volume is read ([`super::HeadlessStart::begin_for`]),
+    /// so that the first image waits for no compile.
+    pub fn build_pipelines(&self, kind: RendererKind) {
+        match kind {
+            RendererKind::Octree => {
+                self.raycaster();
+                self.recolor();
+            }
+            RendererKind::Dense => {
+                self.dense_raycaster();
+            }
+            RendererKind::Bricks => {
+                self.raycaster();
+                self.recolor();
+                self.brick_recolor();
+            }
+            RendererKind::Stream => {
+                self.stream_raycaster();
+                // Both atlas formats (a byte's, two bytes'): the source's values choose.
+                for format in super::stream::atlas_formats(self) {
+                    self.atlas_scatter(format);
+                }
+            }
+            RendererKind::Composite => {
+                self.composite_raycaster();
+            }
+        }
     }
 
     /// The pipeline writing staged bricks into a streaming atlas of `format`, built on first

@@ -344,6 +344,32 @@ fn visible_below(table: &[u32]) -> Vec<u32> {
     counts
 }
 
+/// How an atlas on `context`'s device stores value levels up to `max_level`: a byte where
+/// they fit in one, else two (normalized where the device filters such textures).
+fn atlas_texels(context: &GpuContext, max_level: u16) -> AtlasTexels {
+    if max_level <= 255 {
+        AtlasTexels::Unorm8
+    } else if context.has_norm16_textures {
+        AtlasTexels::Unorm16
+    } else {
+        AtlasTexels::Float16
+    }
+}
+
+/// The atlas texture's format for `texels`.
+fn atlas_format(texels: AtlasTexels) -> wgpu::TextureFormat {
+    match texels {
+        AtlasTexels::Unorm8 => wgpu::TextureFormat::R8Unorm,
+        AtlasTexels::Unorm16 => wgpu::TextureFormat::R16Unorm,
+        AtlasTexels::Float16 => wgpu::TextureFormat::R16Float,
+    }
+}
+
+/// The formats an atlas on `context`'s device may have: a byte's, and two bytes'.
+pub(crate) fn atlas_formats(context: &GpuContext) -> [wgpu::TextureFormat; 2] {
+    [0, u16::MAX].map(|max_level| atlas_format(atlas_texels(context, max_level)))
+}
+
 impl StreamVolume {
     /// Allocates the atlas and buffers within `options.gpu_memory` and reads the coarsest
     /// levels (always resident), which the first [`Self::step`] writes into it. Nothing is
@@ -356,19 +382,9 @@ impl StreamVolume {
         options: StreamOptions,
         transfer: &TransferFunction,
     ) -> Result<Self, RenderError> {
-        let texels = if source.max_value_level() <= 255 {
-            AtlasTexels::Unorm8
-        } else if context.has_norm16_textures {
-            AtlasTexels::Unorm16
-        } else {
-            AtlasTexels::Float16
-        };
+        let texels = atlas_texels(context, source.max_value_level());
         let slot_bytes = (PADDED_BRICK_VOXELS * texels.bytes()) as u64;
-        let format = match texels {
-            AtlasTexels::Unorm8 => wgpu::TextureFormat::R8Unorm,
-            AtlasTexels::Unorm16 => wgpu::TextureFormat::R16Unorm,
-            AtlasTexels::Float16 => wgpu::TextureFormat::R16Float,
-        };
+        let format = atlas_format(texels);
         // What a frame may upload; through the ring's buffers, scattered into the atlas by a
         // dispatch where the device can (their copy on the GPU counts in the budget).
         let per_frame = (options.upload_bytes_per_frame / slot_bytes).max(1) as usize;
@@ -417,12 +433,12 @@ impl StreamVolume {
                 level_walk: options.level_walk && walk,
                 ..options
             };
-            let (streamer, pinned) =
+            let streamer =
                 Streamer::new(Arc::clone(&source), grid, texels, options, visible.clone())
                     .map_err(RenderError::DoesNotFit)?;
-            Ok((grid, streamer, pinned))
+            Ok((grid, streamer))
         };
-        let (scatter, (grid, mut streamer, pinned)) =
+        let (scatter, (grid, mut streamer)) =
             match scatter.map(|scatter| (scatter, fit(scatter.1.1, true))) {
                 Some((scatter, Ok(fitted))) => (Some(scatter), fitted),
                 _ => match fit(0, true) {
@@ -431,8 +447,8 @@ impl StreamVolume {
                 },
             };
         // How the budget became the atlas, as asked (a larger budget may scatter, or walk,
-        // where this one fell back).
-        let sizing = AtlasSizing {
+        // where this one fell back); its pinned slots once they are read, below.
+        let mut sizing = AtlasSizing {
             budget: options.gpu_memory,
             slot_bytes,
             bricks_in_pyramid: bricks,
@@ -444,7 +460,7 @@ impl StreamVolume {
             } else {
                 0
             },
-            pinned: streamer.pinned_slots(),
+            pinned: 0,
         };
         let level_cells_bytes = if streamer.options().level_walk {
             level_cells_bytes
@@ -567,6 +583,11 @@ impl StreamVolume {
             // queue writes, a GPU copy each (run 88).
             streamer.set_upload_ceiling(ring.bricks_per_buffer() as u64 * slot_bytes);
         }
+        // The coarse levels read last: a store's chunks of them may still be on their way
+        // (`ZarrSource::warm_first_image` on another thread), and the
+        // atlas, buffers and ring above were made meanwhile.
+        let pinned = streamer.load_pinned().map_err(RenderError::DoesNotFit)?;
+        sizing.pinned = streamer.pinned_slots();
         let volume = Self {
             streamer,
             atlas,

@@ -102,30 +102,6 @@ pub struct VolumeRenderer {
     slice_colors: SliceColorCache,
 }
 
-/// Builds the device's pipelines that `kind` draws and recolors with, where not built yet.
-fn build_pipelines(context: &GpuContext, kind: RendererKind) {
-    match kind {
-        RendererKind::Octree => {
-            context.raycaster();
-            context.recolor();
-        }
-        RendererKind::Dense => {
-            context.dense_raycaster();
-        }
-        RendererKind::Bricks => {
-            context.raycaster();
-            context.recolor();
-            context.brick_recolor();
-        }
-        RendererKind::Stream => {
-            context.stream_raycaster();
-        }
-        RendererKind::Composite => {
-            context.composite_raycaster();
-        }
-    }
-}
-
 impl VolumeRenderer {
     /// Uploads what `kind` needs: the octree (colored as it is, through `max_level`) or the
     /// quantized voxels. Builds the device's pipelines for `kind` if this is its first use, so
@@ -141,7 +117,7 @@ impl VolumeRenderer {
         transfer: &TransferFunction,
     ) -> Result<Self, RenderError> {
         let options = options.into();
-        build_pipelines(context, options.kind);
+        context.build_pipelines(options.kind);
         let renderer: Box<dyn Renderer> = match options.kind {
             RendererKind::Octree => Box::new(GpuVolume::upload(
                 context, octree, spacing, max_level, transfer,
@@ -203,7 +179,7 @@ impl VolumeRenderer {
         options: StreamOptions,
         transfer: &TransferFunction,
     ) -> Result<Self, RenderError> {
-        build_pipelines(context, RendererKind::Stream);
+        context.build_pipelines(RendererKind::Stream);
         let quantization = source.quantization();
         let volume = StreamVolume::new(context, source, options, transfer)?;
         Ok(Self::from_renderer(Box::new(volume), quantization))
@@ -217,7 +193,7 @@ impl VolumeRenderer {
         layers: &[ChannelLayer<'_>],
         spacing: [f64; 3],
     ) -> Result<Self, RenderError> {
-        build_pipelines(context, RendererKind::Composite);
+        context.build_pipelines(RendererKind::Composite);
         let volume = CompositeVolume::upload(context, layers, spacing)?;
         let quantization = layers.first().map_or(
             Quantization {

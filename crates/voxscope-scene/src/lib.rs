@@ -50,8 +50,8 @@ pub use scene::{
 };
 pub use source::VolumeSource;
 pub use streaming::{
-    PREVIEW_BRICKS, REMOTE_WORKERS, Refinement, StreamedVolume, describe_budget_limit,
-    describe_missing, refine,
+    OpenedStream, PREVIEW_BRICKS, REMOTE_WORKERS, Refinement, StreamedVolume,
+    describe_budget_limit, describe_missing, refine, stream_options_for,
 };
 pub use view::{
     DEFAULT_MAX_WAIT_SECONDS, SavedView, VIEW_VERSION, ViewChannel, ViewData, ViewRuler, ViewStream,

@@ -182,10 +182,14 @@ pub fn upload_colored(
             let source = ZarrSource::new(Arc::new(pyramid))
                 .map_err(SceneError::Failed)?
                 .of_labels(data.kind.is_labels());
+            let source = Arc::new(source);
             // The coarse levels the first frames draw, their chunks fetched together (a URL's
-            // round trips), on this loading thread.
-            source.warm_first_image(FIRST_IMAGE_BRICKS);
-            VolumeRenderer::new_stream(gpu, Arc::new(source), stream, &transfer).map_err(failed)?
+            // round trips) on a thread of their own, while this loading thread makes the
+            // renderer (which reads the pinned ones last).
+            crate::streaming::while_first_image_warms(&source, FIRST_IMAGE_BRICKS, || {
+                VolumeRenderer::new_stream(gpu, source.clone(), stream, &transfer)
+            })
+            .map_err(failed)?
         }
         _ => VolumeRenderer::new(
             gpu,

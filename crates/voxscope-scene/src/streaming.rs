@@ -3,10 +3,11 @@
 //! levels, or any readable volume's, whose coarser levels are computed in memory) with its
 //! transfer function, and drawing one view until nothing visible is missing.
 
+use std::borrow::Borrow;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use voxscope_octree::{DataKind, TransferFunction};
+use voxscope_octree::{Colormap, DataKind, OpacityMode, TransferFunction};
 use voxscope_render::{Camera, GpuContext, RenderSettings, RenderTarget, VolumeRenderer};
 use voxscope_stream::{
     BrickSource, FailedBrick, FailureGroup, MemorySource, NoiseSource, StillUploads, StreamOptions,
@@ -32,13 +33,27 @@ pub struct StreamedVolume {
     /// The Zarr pyramid the source reads, where it reads one (its remote counters).
     pub pyramid: Option<Arc<Pyramid>>,
     pub transfer: TransferFunction,
-    /// How long opening took (reading a volume and computing its levels, or the preview).
+    /// How long opening took (reading a volume and computing its levels, or the preview; and
+    /// what was made alongside, [`StreamedVolume::open_alongside`]).
     pub open_seconds: f64,
     /// The coarse level read whole for the transfer function's defaults, its data kind and
     /// default window: what [`Self::transfer_for`] chooses another transfer function from.
     pub preview: QuantizedVolume,
     pub kind: DataKind,
     pub default_window: ValueWindow,
+}
+
+/// A pyramid opened for streaming with its stream renderer
+/// ([`StreamedVolume::open_with_renderer`]).
+pub struct OpenedStream<G> {
+    pub volume: StreamedVolume,
+    /// The GPU the renderer was made on.
+    pub gpu: G,
+    /// Drawing with `volume.transfer`.
+    pub renderer: VolumeRenderer,
+    /// How long making the renderer took: within `volume.open_seconds`, where it overlapped
+    /// the open.
+    pub renderer_seconds: f64,
 }
 
 impl StreamedVolume {
@@ -51,10 +66,68 @@ impl StreamedVolume {
         options: &LoadOptions,
         request: &TransferRequest,
     ) -> Result<Self, SceneError> {
+        Self::open_alongside(source, options, request, |_| ()).map(|(volume, ())| volume)
+    }
+
+    /// [`Self::open`] with the stream renderer of the volume (`stream`'s options, as
+    /// [`stream_options_for`] gives them to the source), made on the GPU that `gpu` gives
+    /// once the source is known: for a store, while its first image's chunks are on their way
+    /// ([`Self::open_alongside`]), so that the making (pipelines, atlas, buffers and staging:
+    /// tens of milliseconds, more where a driver compiles) overlaps the open's last round trip.
+    pub fn open_with_renderer<G: Borrow<GpuContext>>(
+        source: &VolumeSource,
+        options: &LoadOptions,
+        request: &TransferRequest,
+        stream: StreamOptions,
+        gpu: impl FnOnce() -> Result<G, String>,
+    ) -> Result<OpenedStream<G>, SceneError> {
+        let (volume, made) = Self::open_alongside(source, options, request, |source| {
+            let started = Instant::now();
+            let gpu = gpu().map_err(SceneError::Failed)?;
+            // The transfer function comes from the preview, still on its way: every value is
+            // visible until it is set below (the always-resident bricks are all read).
+            let renderer = VolumeRenderer::new_stream(
+                gpu.borrow(),
+                source.clone(),
+                stream_options_for(&**source, stream),
+                &every_value_visible(),
+            )
+            .map_err(|e| SceneError::render(source.name(), e))?;
+            Ok::<_, SceneError>((gpu, renderer, started.elapsed().as_secs_f64()))
+        })?;
+        let (gpu, mut renderer, renderer_seconds) = made?;
+        let context: &GpuContext = gpu.borrow();
+        let mut encoder = context
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("voxscope::opening_transfer"),
+            });
+        renderer
+            .set_transfer(context, &mut encoder, &volume.transfer, None)
+            .map_err(|e| SceneError::render(volume.source.name(), e))?;
+        context.queue.submit([encoder.finish()]);
+        Ok(OpenedStream {
+            volume,
+            gpu,
+            renderer,
+            renderer_seconds,
+        })
+    }
+
+    /// [`Self::open`], calling `alongside` with the volume's brick source as soon as it is
+    /// known, on this thread: for a Zarr store, once its metadata is read, while the chunks
+    /// of its first image (the preview's and the always-resident levels', in one batch) are
+    /// fetched on another; else once the volume is read. Its result comes back with the volume.
+    pub fn open_alongside<R>(
+        source: &VolumeSource,
+        options: &LoadOptions,
+        request: &TransferRequest,
+        alongside: impl FnOnce(&Arc<dyn BrickSource>) -> R,
+    ) -> Result<(Self, R), SceneError> {
         let started = Instant::now();
         let spec = source.spec();
         let headered = options.raw.is_none();
-        match spec.strip_prefix("synthetic:noise:") {
+        let (mut volume, made) = match spec.strip_prefix("synthetic:noise:") {
             Some(size) if headered => {
                 let dims = parse_dims(size).ok_or_else(|| {
                     SceneError::failed(format!(
@@ -63,7 +136,9 @@ impl StreamedVolume {
                 })?;
                 let name = format!("synthetic:noise:{size}");
                 let source = Arc::new(NoiseSource::new(&name, dims).map_err(SceneError::Failed)?);
-                Self::finish(source, None, None, None, request, started)
+                let volume = Self::finish(source, None, None, None, request, started)?;
+                let made = alongside(&volume.source);
+                (volume, made)
             }
             _ if source.zarr_spec().is_some() && headered => {
                 // Read region by region from the file's own levels (a folder's or a URL's),
@@ -71,21 +146,21 @@ impl StreamedVolume {
                 let pyramid = Pyramid::open_spec(spec, options.select, options.remote)?;
                 let window = pyramid.omero_window();
                 let pyramid = Arc::new(pyramid);
-                let source = ZarrSource::new(pyramid.clone()).map_err(SceneError::Failed)?;
-                // The preview's and the pinned levels' chunks in one batch, not a chunk at a
-                // time (a URL's round trips).
-                source.warm_first_image(PREVIEW_BRICKS);
-                Self::finish(
-                    Arc::new(source),
-                    None,
-                    window,
-                    Some(pyramid),
-                    request,
-                    started,
-                )
+                let zarr = Arc::new(ZarrSource::new(pyramid.clone()).map_err(SceneError::Failed)?);
+                let source: Arc<dyn BrickSource> = zarr.clone();
+                let made = while_first_image_warms(&zarr, PREVIEW_BRICKS, || alongside(&source));
+                let volume = Self::finish(source, None, window, Some(pyramid), request, started)?;
+                (volume, made)
             }
-            _ => Self::from_volume(source.load_with(options)?, request, started),
-        }
+            _ => {
+                let volume = Self::from_volume(source.load_with(options)?, request, started)?;
+                let made = alongside(&volume.source);
+                (volume, made)
+            }
+        };
+        // What was made alongside is part of the open.
+        volume.open_seconds = started.elapsed().as_secs_f64();
+        Ok((volume, made))
     }
 
     /// A volume read whole already (since `started`), its coarser levels computed in memory
@@ -153,25 +228,83 @@ impl StreamedVolume {
         opening_transfer(&self.preview, self.kind, self.default_window, request)
     }
 
-    /// `options` for this source: a URL's pyramid gets at least [`REMOTE_WORKERS`] loaders.
+    /// The stream renderer of this volume (`stream`'s options, as [`stream_options_for`]
+    /// gives them to its source) on `gpu`, made now.
+    pub fn with_renderer<G: Borrow<GpuContext>>(
+        self,
+        gpu: G,
+        stream: StreamOptions,
+    ) -> Result<OpenedStream<G>, SceneError> {
+        let started = Instant::now();
+        let renderer = VolumeRenderer::new_stream(
+            gpu.borrow(),
+            self.source.clone(),
+            self.stream_options(stream),
+            &self.transfer,
+        )
+        .map_err(|e| SceneError::render(self.source.name(), e))?;
+        Ok(OpenedStream {
+            volume: self,
+            gpu,
+            renderer,
+            renderer_seconds: started.elapsed().as_secs_f64(),
+        })
+    }
+
+    /// `options` for this source ([`stream_options_for`]).
     pub fn stream_options(&self, options: StreamOptions) -> StreamOptions {
-        let remote = self
-            .pyramid
-            .as_ref()
-            .is_some_and(|p| p.remote_stats().is_some());
-        StreamOptions {
-            workers: if remote {
-                options.workers.max(REMOTE_WORKERS)
-            } else {
-                options.workers
-            },
-            ..options
-        }
+        stream_options_for(&*self.source, options)
     }
 
     /// The octree depth of the pyramid (levels − 1): the max level's range.
     pub fn depth(&self) -> u32 {
         self.source.shape().depth()
+    }
+}
+
+/// Runs `alongside` on this thread while `source`'s first image's chunks (the preview's of
+/// `preview_bricks` and the always-resident levels') are fetched on another, in one batch, not
+/// a chunk at a time (a URL's round trips: [`ZarrSource::warm_first_image`]); returns its
+/// result once both are done.
+pub(crate) fn while_first_image_warms<R>(
+    source: &ZarrSource,
+    preview_bricks: u64,
+    alongside: impl FnOnce() -> R,
+) -> R {
+    std::thread::scope(|scope| {
+        let warming = std::thread::Builder::new()
+            .name("voxscope-first-image".into())
+            .spawn_scoped(scope, || source.warm_first_image(preview_bricks));
+        if warming.is_err() {
+            source.warm_first_image(preview_bricks);
+        }
+        alongside()
+    })
+}
+
+/// `options` for `source`: a URL's pyramid gets at least [`REMOTE_WORKERS`] loaders.
+pub fn stream_options_for(source: &dyn BrickSource, options: StreamOptions) -> StreamOptions {
+    StreamOptions {
+        workers: if source.remote_stats().is_some() {
+            options.workers.max(REMOTE_WORKERS)
+        } else {
+            options.workers
+        },
+        ..options
+    }
+}
+
+/// A transfer function under which every value is visible (opaque white): a stream
+/// renderer's until the volume's own is known.
+fn every_value_visible() -> TransferFunction {
+    TransferFunction {
+        opacity: OpacityMode::Binary,
+        window: ValueWindow {
+            low: 0.0,
+            high: 1.0,
+        },
+        threshold: 0.0,
+        colormap: Colormap::Grays,
     }
 }
 

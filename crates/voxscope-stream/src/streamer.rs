@@ -209,15 +209,16 @@ pub struct Streamer {
 impl Streamer {
     /// A streamer of `source` into an atlas of `atlas_grid` slots (x, y, z) holding texels as
     /// `texels`, with the transfer function's visibility counts `visible_below`
-    /// ([`Self::set_visibility`]). Reads the pinned coarse levels now (on the caller's thread
-    /// and rayon's) and returns their uploads.
+    /// ([`Self::set_visibility`]). Reads nothing: [`Self::load_pinned`] reads the pinned coarse
+    /// levels (after a renderer has made its atlas, so that over a network the making and
+    /// their chunks' round trip overlap).
     pub fn new(
         source: Arc<dyn BrickSource>,
         atlas_grid: [usize; 3],
         texels: AtlasTexels,
         options: StreamOptions,
         visible_below: Vec<u32>,
-    ) -> Result<(Self, Vec<Upload>), String> {
+    ) -> Result<Self, String> {
         if visible_below.len() != (1 << 16) + 1 {
             return Err(format!(
                 "{} visibility counts, not 65 537",
@@ -247,7 +248,7 @@ impl Streamer {
             .reserve_caches(options.ram_cache)
             .min(options.ram_cache);
         let ram_capacity = options.ram_cache - source_caches;
-        let mut streamer = Self {
+        Ok(Self {
             table: PageTable::new(max_entries * 4),
             max_entries,
             slots: SlotPool::new(capacity),
@@ -306,15 +307,14 @@ impl Streamer {
             texels,
             options,
             atlas_grid,
-        };
-        let uploads = streamer.load_pinned(&pinned)?;
-        Ok((streamer, uploads))
+        })
     }
 
-    /// Reads every brick of the `pinned` levels and gives each a pinned slot. One that cannot
-    /// be read is a failed brick like any other (asked for again as its failure allows).
-    fn load_pinned(&mut self, pinned: &[u32]) -> Result<Vec<Upload>, String> {
-        let ids: Vec<BrickId> = pinned
+    /// Reads every brick of the always-resident coarse levels (on the caller's thread and
+    /// rayon's) and gives each a pinned slot; returns their uploads. One that cannot be read
+    /// is a failed brick like any other (asked for again as its failure allows).
+    pub fn load_pinned(&mut self) -> Result<Vec<Upload>, String> {
+        let ids: Vec<BrickId> = pinned_levels(&self.shape)
             .iter()
             .map(|&level| BrickId {
                 level,
@@ -1459,7 +1459,7 @@ mod tests {
             workers: 1,
             ..StreamOptions::default()
         };
-        let (mut streamer, _) = Streamer::new(
+        let mut streamer = Streamer::new(
             source,
             [8, 8, 8],
             AtlasTexels::Unorm16,
@@ -1467,6 +1467,7 @@ mod tests {
             vec![0; (1 << 16) + 1],
         )
         .expect("a streamer");
+        streamer.load_pinned().expect("the pinned levels");
         let megabyte = 1u64 << 20;
         // The CPU: 1 ms a megabyte.
         streamer.set_upload_cost(megabyte, 0.001, &UploadParts::default());
@@ -1551,7 +1552,7 @@ mod tests {
             ..StreamOptions::default()
         };
         let every_level_visible = (0..=(1u32 << 16)).collect();
-        let (mut streamer, _) = Streamer::new(
+        let mut streamer = Streamer::new(
             Arc::new(source),
             cells,
             AtlasTexels::Unorm16,
@@ -1559,6 +1560,7 @@ mod tests {
             every_level_visible,
         )
         .expect("a streamer");
+        streamer.load_pinned().expect("the pinned levels");
         let bricks = streamer.shape.levels[0].brick_count() as usize;
         streamer.table_mut().copy_level(Some((0, [bricks, 0])));
         streamer
