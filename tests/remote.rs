@@ -15,7 +15,9 @@ use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 use support::http_server::{Faults, FileServer, fixture_over_http};
-use voxscope_stream::{BrickId, BrickSource, ZarrSource, preview};
+use voxscope_render::{Camera, GpuContext, RenderSettings, RenderTarget, read_image};
+use voxscope_scene::{OpenedStream, StreamedVolume, TransferRequest, VolumeSource, refine};
+use voxscope_stream::{BrickId, BrickSource, StreamOptions, ZarrSource, preview};
 use voxscope_volume::ome_zarr::{Pyramid, PyramidOptions};
 use voxscope_volume::remote::{RemoteOptions, Timing, is_url};
 use voxscope_volume::{LoadOptions, load};
@@ -377,6 +379,87 @@ fn opening_and_the_first_image_take_a_few_round_trips_whatever_the_levels() {
             );
         }
     }
+}
+
+/// The stream renderer made while a store's first chunks are on their way
+/// (`StreamedVolume::open_with_renderer`, as `render`, `bench --stream` and the Python module
+/// open a store) draws the first image and the complete view that the renderer made after the
+/// open draws, bit for bit, and fetches nothing more in no more round trips: its pinned
+/// levels' reads wait for the batch's fetches instead of asking again.
+#[test]
+fn the_renderer_made_during_the_open_draws_the_same_and_fetches_nothing_more() {
+    let folder = tempfile::tempdir().expect("a temporary folder");
+    let name = "phantom-0.4.ome.zarr";
+    converted_phantom(folder.path(), name, "0.4");
+    let context = GpuContext::new_headless().expect("a GPU adapter (lavapipe on CI)");
+    let target = RenderTarget::new(&context, 160, 120);
+    let camera = Camera::default();
+    let stream = StreamOptions {
+        gpu_memory: 16 << 20,
+        ..StreamOptions::default()
+    };
+    let draw = |alongside: bool| {
+        let server = FileServer::start(
+            folder.path(),
+            Faults {
+                latency: Duration::from_millis(50),
+                ..Faults::default()
+            },
+        );
+        let source = VolumeSource::from_spec(&server.url(name));
+        let request = TransferRequest::default();
+        let options = LoadOptions::default();
+        let OpenedStream {
+            volume,
+            mut renderer,
+            renderer_seconds,
+            ..
+        } = if alongside {
+            StreamedVolume::open_with_renderer(&source, &options, &request, stream, || Ok(&context))
+        } else {
+            StreamedVolume::open(&source, &options, &request)
+                .and_then(|volume| volume.with_renderer(&context, stream))
+        }
+        .unwrap_or_else(|e| panic!("{e}"));
+        if alongside {
+            assert!(
+                renderer_seconds > 0.0 && renderer_seconds <= volume.open_seconds,
+                "made in {renderer_seconds} s of an open of {} s",
+                volume.open_seconds
+            );
+        }
+        let settings = RenderSettings::full_detail(volume.depth());
+        renderer.update(&context).expect("a streaming renderer");
+        renderer.render(&context, &target, &camera, &settings);
+        let first = read_image(&context, &target).expect("readback");
+        let trips = server.counters.sequential_round_trips();
+        let requests = server.counters.requests.load(Ordering::SeqCst);
+        let refined = refine(
+            &context,
+            &mut renderer,
+            &target,
+            &camera,
+            &settings,
+            Duration::from_secs(60),
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        assert!(refined.complete, "the view completes");
+        let complete = read_image(&context, &target).expect("readback");
+        (first, complete, trips, requests)
+    };
+    let (first_after, complete_after, trips_after, requests_after) = draw(false);
+    let (first_during, complete_during, trips_during, requests_during) = draw(true);
+    eprintln!(
+        "to the first image: {requests_during} requests in {trips_during} round trips (during the \
+         open), {requests_after} in {trips_after} (after)"
+    );
+    assert_same_image(&first_during, &first_after, "the first image");
+    assert_same_image(&complete_during, &complete_after, "the complete view");
+    assert!(
+        requests_during <= requests_after && trips_during <= trips_after,
+        "to the first image: {requests_during} requests in {trips_during} round trips made \
+         during the open, {requests_after} in {trips_after} after it"
+    );
 }
 
 /// The one line of a failed command, checked for the URL and against `secret`.
