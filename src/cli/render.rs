@@ -9,7 +9,7 @@ use super::drawing::{Content, Drawing};
 use super::view::{self, Given};
 use super::{RenderOptions, VolumeArgs};
 use voxscope_render::{RenderTarget, read_image};
-use voxscope_scene::{Refinement, SavedView, describe_budget_limit, describe_missing};
+use voxscope_scene::{Refinement, SavedView, describe_missing};
 
 #[derive(Debug, Args)]
 pub struct RenderArgs {
@@ -198,13 +198,9 @@ fn report_stream(
     let state = if refinement.complete && unreadable > 0 {
         format!("settled after {} frames", refinement.frames)
     } else if refinement.complete {
-        match describe_budget_limit(&refinement.status) {
-            Some(limit) => format!(
-                "complete at the budget after {} frames ({limit})",
-                refinement.frames
-            ),
-            None => format!("complete after {} frames", refinement.frames),
-        }
+        refinement
+            .completed_at_budget()
+            .unwrap_or_else(|| format!("complete after {} frames", refinement.frames))
     } else {
         format!(
             "still coarse after {:.1} s (--max-wait): {}",

@@ -361,14 +361,7 @@ impl Drawn {
                 )?;
                 let mut lines = refinement.errors.clone();
                 // Complete, but coarser than full detail where the budget left bricks out.
-                if refinement.complete
-                    && let Some(limit) = voxscope_scene::describe_budget_limit(&refinement.status)
-                {
-                    lines.push(format!(
-                        "complete at the budget after {} frames ({limit})",
-                        refinement.frames
-                    ));
-                }
+                lines.extend(refinement.completed_at_budget());
                 if !refinement.complete {
                     lines.push(format!(
                         "still coarse after {:.1} s (max_wait): {}",

@@ -362,6 +362,16 @@ impl FrameParts {
 }
 
 impl Refinement {
+    /// `complete at the budget after 16 frames (budget-limited: …)` where the view completed
+    /// coarser than full detail because the budget left bricks out ([`describe_budget_limit`]).
+    pub fn completed_at_budget(&self) -> Option<String> {
+        let limit = describe_budget_limit(&self.status).filter(|_| self.complete)?;
+        Some(format!(
+            "complete at the budget after {} frames ({limit})",
+            self.frames
+        ))
+    }
+
     /// What stderr says of the bricks that could not be read: each brick on a line of its own
     /// when there are few, else one summary line per cause; and how many others failed.
     pub fn failure_lines(&self) -> Vec<String> {
