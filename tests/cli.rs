@@ -333,7 +333,7 @@ fn bench_stream_reports_its_orbits_paced_and_the_uploads_scattered() {
     // open.
     let parts = &json["first_image_parts"];
     let part = |name: &str| parts[name].as_f64().expect("a part's seconds");
-    let summed = part("open_s") + part("first_frame_s");
+    let summed = part("open_s") + part("finish_s") + part("first_frame_s");
     assert!(
         summed > 0.0 && summed <= json["first_image_s"].as_f64().unwrap(),
         "{parts}"

@@ -57,9 +57,10 @@ impl Drawing {
     /// `--renderer stream`, the composite of several channels, a volume beyond the octree
     /// streamed from memory, or one volume for its renderer.
     pub fn open(volume: &VolumeArgs, options: &RenderOptions) -> Result<Self, String> {
-        // The GPU starts while the volume is read, and builds the pipelines of the renderer
-        // asked for.
-        let gpu = HeadlessStart::begin_for(options.renderer.map(RendererKind::from));
+        // The GPU starts while the volume is read; for the streaming renderer, which is what
+        // a store's `--renderer stream` always draws, it builds the renderer's pipelines too.
+        let streams = options.renderer == Some(RendererArg::Stream);
+        let gpu = HeadlessStart::begin_for(streams.then_some(RendererKind::Stream));
         let max_wait = Duration::from_secs_f64(options.max_wait);
         let refuse_labels = |what: &str| -> Result<(), String> {
             match options.labels.labels.first() {
@@ -69,7 +70,7 @@ impl Drawing {
                 None => Ok(()),
             }
         };
-        if options.renderer == Some(RendererArg::Stream) {
+        if streams {
             // The renderer is made while the store's first chunks are on their way.
             let (opened, saved) = open_streamed_with_renderer(
                 volume,

@@ -80,6 +80,7 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
             volume: prepared,
             mut renderer,
             renderer_seconds,
+            finish_seconds,
             ..
         },
         _,
@@ -97,11 +98,12 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
     let finished = Instant::now();
     let first_image_s = (finished - opened).as_secs_f64();
     // Where the first image's time went: the open (metadata, the preview and pinned levels'
-    // chunks, the transfer function; the renderer made meanwhile, within it), its first frame
-    // drawn and finished.
+    // chunks, the transfer function; the renderer made meanwhile, within it), the pinned
+    // levels read and the transfer function set, its first frame drawn and finished.
     let first_image_parts = json!({
         "open_s": prepared.open_seconds,
         "renderer_s": renderer_seconds,
+        "finish_s": finish_seconds,
         "first_frame_s": (finished - drawing).as_secs_f64(),
     });
     memory.phase(

@@ -372,11 +372,27 @@ pub(crate) fn atlas_formats(context: &GpuContext) -> [wgpu::TextureFormat; 2] {
 
 impl StreamVolume {
     /// Allocates the atlas and buffers within `options.gpu_memory` and reads the coarsest
-    /// levels (always resident), which the first [`Self::step`] writes into it. Nothing is
-    /// submitted here, so that a thread other than the one drawing can make it: a submission
-    /// from another thread while egui-wgpu configures its surface fails the configuration
-    /// (wgpu waits for an empty queue), which panicked the app opening a store at start.
+    /// levels (always resident), which the first [`Self::step`] writes into it:
+    /// [`Self::allocate`], then [`Self::read_pinned`]. Nothing is submitted here, so that a
+    /// thread other than the one drawing can make it: a submission from another thread while
+    /// egui-wgpu configures its surface fails the configuration (wgpu waits for an empty
+    /// queue), which panicked the app opening a store at start.
     pub fn new(
+        context: &GpuContext,
+        source: Arc<dyn BrickSource>,
+        options: StreamOptions,
+        transfer: &TransferFunction,
+    ) -> Result<Self, RenderError> {
+        let mut volume = Self::allocate(context, source, options, transfer)?;
+        volume.read_pinned()?;
+        Ok(volume)
+    }
+
+    /// The atlas, buffers and staging within `options.gpu_memory`, reading nothing from the
+    /// source: a store's first chunks may still be on their way (`ZarrSource::warm_first_image`
+    /// on another thread) while this is made. [`Self::read_pinned`] must follow before the
+    /// first [`Self::step`]. Submits nothing, as [`Self::new`].
+    pub fn allocate(
         context: &GpuContext,
         source: Arc<dyn BrickSource>,
         options: StreamOptions,
@@ -447,8 +463,8 @@ impl StreamVolume {
                 },
             };
         // How the budget became the atlas, as asked (a larger budget may scatter, or walk,
-        // where this one fell back); its pinned slots once they are read, below.
-        let mut sizing = AtlasSizing {
+        // where this one fell back); its pinned slots once they are read (`read_pinned`).
+        let sizing = AtlasSizing {
             budget: options.gpu_memory,
             slot_bytes,
             bricks_in_pyramid: bricks,
@@ -583,11 +599,6 @@ impl StreamVolume {
             // queue writes, a GPU copy each (run 88).
             streamer.set_upload_ceiling(ring.bricks_per_buffer() as u64 * slot_bytes);
         }
-        // The coarse levels read last: a store's chunks of them may still be on their way
-        // (`ZarrSource::warm_first_image` on another thread), and the
-        // atlas, buffers and ring above were made meanwhile.
-        let pinned = streamer.load_pinned().map_err(RenderError::DoesNotFit)?;
-        sizing.pinned = streamer.pinned_slots();
         let volume = Self {
             streamer,
             atlas,
@@ -612,7 +623,7 @@ impl StreamVolume {
             spacing: source.spacing(),
             sizing,
             full_detail: None,
-            unwritten: pinned,
+            unwritten: Vec::new(),
             unzeroed: uncleared,
             skip_upload_rate: false,
             atlas_zero: if uncleared {
@@ -622,6 +633,19 @@ impl StreamVolume {
             },
         };
         Ok(volume)
+    }
+
+    /// Reads the always-resident coarse levels ([`Streamer::load_pinned`]), which the first
+    /// [`Self::step`] writes into the atlas; once, after [`Self::allocate`] (again, nothing).
+    /// Submits nothing.
+    pub fn read_pinned(&mut self) -> Result<(), RenderError> {
+        let pinned = self
+            .streamer
+            .load_pinned()
+            .map_err(RenderError::DoesNotFit)?;
+        self.unwritten.extend(pinned);
+        self.sizing.pinned = self.streamer.pinned_slots();
+        Ok(())
     }
 
     /// Writes `uploads` into their atlas slots (through the staging ring, the rest through the

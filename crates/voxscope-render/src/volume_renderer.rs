@@ -179,9 +179,28 @@ impl VolumeRenderer {
         options: StreamOptions,
         transfer: &TransferFunction,
     ) -> Result<Self, RenderError> {
-        context.build_pipelines(RendererKind::Stream);
+        let mut renderer = Self::new_stream_unread(context, source, options, transfer)?;
+        if let Some(stream) = renderer.stream_mut() {
+            stream.read_pinned()?;
+        }
+        Ok(renderer)
+    }
+
+    /// [`Self::new_stream`] without reading anything ([`StreamVolume::allocate`]): a store's
+    /// first chunks may still be on their way while it is made. Its
+    /// [`StreamVolume::read_pinned`] (through [`Self::stream_mut`]) must follow before the
+    /// first [`Self::update`].
+    pub fn new_stream_unread(
+        context: &GpuContext,
+        source: Arc<dyn BrickSource>,
+        options: StreamOptions,
+        transfer: &TransferFunction,
+    ) -> Result<Self, RenderError> {
+        // The ray caster; the uploads' scatter pipeline of the atlas's format is built with
+        // the atlas.
+        context.stream_raycaster();
         let quantization = source.quantization();
-        let volume = StreamVolume::new(context, source, options, transfer)?;
+        let volume = StreamVolume::allocate(context, source, options, transfer)?;
         Ok(Self::from_renderer(Box::new(volume), quantization))
     }
 

@@ -185,11 +185,16 @@ pub fn upload_colored(
             let source = Arc::new(source);
             // The coarse levels the first frames draw, their chunks fetched together (a URL's
             // round trips) on a thread of their own, while this loading thread makes the
-            // renderer (which reads the pinned ones last).
-            crate::streaming::while_first_image_warms(&source, FIRST_IMAGE_BRICKS, || {
-                VolumeRenderer::new_stream(gpu, source.clone(), stream, &transfer)
-            })
-            .map_err(failed)?
+            // renderer; then it reads the always-resident ones from those chunks.
+            let mut renderer = source
+                .warm_first_image_while(FIRST_IMAGE_BRICKS, || {
+                    VolumeRenderer::new_stream_unread(gpu, source.clone(), stream, &transfer)
+                })
+                .map_err(failed)?;
+            if let Some(volume) = renderer.stream_mut() {
+                volume.read_pinned().map_err(failed)?;
+            }
+            renderer
         }
         _ => VolumeRenderer::new(
             gpu,

@@ -46,14 +46,17 @@ pub struct StreamedVolume {
 /// A pyramid opened for streaming with its stream renderer
 /// ([`StreamedVolume::open_with_renderer`]).
 pub struct OpenedStream<G> {
+    /// The pyramid and its transfer function.
     pub volume: StreamedVolume,
     /// The GPU the renderer was made on.
     pub gpu: G,
     /// Drawing with `volume.transfer`.
     pub renderer: VolumeRenderer,
-    /// How long making the renderer took: within `volume.open_seconds`, where it overlapped
-    /// the open.
+    /// How long making the renderer took (waiting for the GPU's start included): within
+    /// `volume.open_seconds`, where for a store it overlapped the open's last round trip.
     pub renderer_seconds: f64,
+    /// After the open: reading the always-resident levels and setting the transfer function.
+    pub finish_seconds: f64,
 }
 
 impl StreamedVolume {
@@ -72,8 +75,11 @@ impl StreamedVolume {
     /// [`Self::open`] with the stream renderer of the volume (`stream`'s options, as
     /// [`stream_options_for`] gives them to the source), made on the GPU that `gpu` gives
     /// once the source is known: for a store, while its first image's chunks are on their way
-    /// ([`Self::open_alongside`]), so that the making (pipelines, atlas, buffers and staging:
-    /// tens of milliseconds, more where a driver compiles) overlaps the open's last round trip.
+    /// ([`Self::open_alongside`]), so that the making (atlas, buffers and staging, and any
+    /// pipeline not built yet: tens of milliseconds, more where a driver compiles) overlaps
+    /// the open's last round trip. Then the always-resident levels are read from the chunks
+    /// the open fetched, and the volume's transfer function is set: this submits to the GPU
+    /// (the transfer function's table, the atlas's zeroing) on this thread.
     pub fn open_with_renderer<G: Borrow<GpuContext>>(
         source: &VolumeSource,
         options: &LoadOptions,
@@ -85,8 +91,8 @@ impl StreamedVolume {
             let started = Instant::now();
             let gpu = gpu().map_err(SceneError::Failed)?;
             // The transfer function comes from the preview, still on its way: every value is
-            // visible until it is set below (the always-resident bricks are all read).
-            let renderer = VolumeRenderer::new_stream(
+            // visible until it is set below.
+            let renderer = VolumeRenderer::new_stream_unread(
                 gpu.borrow(),
                 source.clone(),
                 stream_options_for(&**source, stream),
@@ -96,6 +102,11 @@ impl StreamedVolume {
             Ok::<_, SceneError>((gpu, renderer, started.elapsed().as_secs_f64()))
         })?;
         let (gpu, mut renderer, renderer_seconds) = made?;
+        let finishing = Instant::now();
+        let failed = |e| SceneError::render(volume.source.name(), e);
+        if let Some(stream) = renderer.stream_mut() {
+            stream.read_pinned().map_err(failed)?;
+        }
         let context: &GpuContext = gpu.borrow();
         let mut encoder = context
             .device
@@ -104,9 +115,10 @@ impl StreamedVolume {
             });
         renderer
             .set_transfer(context, &mut encoder, &volume.transfer, None)
-            .map_err(|e| SceneError::render(volume.source.name(), e))?;
+            .map_err(failed)?;
         context.queue.submit([encoder.finish()]);
         Ok(OpenedStream {
+            finish_seconds: finishing.elapsed().as_secs_f64(),
             volume,
             gpu,
             renderer,
@@ -117,7 +129,8 @@ impl StreamedVolume {
     /// [`Self::open`], calling `alongside` with the volume's brick source as soon as it is
     /// known, on this thread: for a Zarr store, once its metadata is read, while the chunks
     /// of its first image (the preview's and the always-resident levels', in one batch) are
-    /// fetched on another; else once the volume is read. Its result comes back with the volume.
+    /// fetched on another; else once the volume is read or its generator made. Its result
+    /// comes back with the volume, and its time counts in `open_seconds`.
     pub fn open_alongside<R>(
         source: &VolumeSource,
         options: &LoadOptions,
@@ -148,7 +161,7 @@ impl StreamedVolume {
                 let pyramid = Arc::new(pyramid);
                 let zarr = Arc::new(ZarrSource::new(pyramid.clone()).map_err(SceneError::Failed)?);
                 let source: Arc<dyn BrickSource> = zarr.clone();
-                let made = while_first_image_warms(&zarr, PREVIEW_BRICKS, || alongside(&source));
+                let made = zarr.warm_first_image_while(PREVIEW_BRICKS, || alongside(&source));
                 let volume = Self::finish(source, None, window, Some(pyramid), request, started)?;
                 (volume, made)
             }
@@ -248,6 +261,7 @@ impl StreamedVolume {
             gpu,
             renderer,
             renderer_seconds: started.elapsed().as_secs_f64(),
+            finish_seconds: 0.0,
         })
     }
 
@@ -260,26 +274,6 @@ impl StreamedVolume {
     pub fn depth(&self) -> u32 {
         self.source.shape().depth()
     }
-}
-
-/// Runs `alongside` on this thread while `source`'s first image's chunks (the preview's of
-/// `preview_bricks` and the always-resident levels') are fetched on another, in one batch, not
-/// a chunk at a time (a URL's round trips: [`ZarrSource::warm_first_image`]); returns its
-/// result once both are done.
-pub(crate) fn while_first_image_warms<R>(
-    source: &ZarrSource,
-    preview_bricks: u64,
-    alongside: impl FnOnce() -> R,
-) -> R {
-    std::thread::scope(|scope| {
-        let warming = std::thread::Builder::new()
-            .name("voxscope-first-image".into())
-            .spawn_scoped(scope, || source.warm_first_image(preview_bricks));
-        if warming.is_err() {
-            source.warm_first_image(preview_bricks);
-        }
-        alongside()
-    })
 }
 
 /// `options` for `source`: a URL's pyramid gets at least [`REMOTE_WORKERS`] loaders.

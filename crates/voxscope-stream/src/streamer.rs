@@ -177,6 +177,8 @@ pub struct Streamer {
     /// The bricks the rays of the latest frame read back asked for that could not be read.
     unreadable: Vec<u32>,
     new_errors: Vec<String>,
+    /// Whether [`Self::load_pinned`] has run.
+    pinned_loaded: bool,
     /// Bricks that stand for the finer ones the budget leaves out of the view on screen
     /// ([`crate::cut_within`]): whatever rays ask for below one is drawn from it, not loaded.
     standing: KeySet,
@@ -209,9 +211,9 @@ pub struct Streamer {
 impl Streamer {
     /// A streamer of `source` into an atlas of `atlas_grid` slots (x, y, z) holding texels as
     /// `texels`, with the transfer function's visibility counts `visible_below`
-    /// ([`Self::set_visibility`]). Reads nothing: [`Self::load_pinned`] reads the pinned coarse
-    /// levels (after a renderer has made its atlas, so that over a network the making and
-    /// their chunks' round trip overlap).
+    /// ([`Self::set_visibility`]). Reads nothing, and leaves the source's caches as they are:
+    /// [`Self::load_pinned`] does both, once, before the first frame (so that a store's first
+    /// chunks may still be on their way into those caches while a renderer makes its atlas).
     pub fn new(
         source: Arc<dyn BrickSource>,
         atlas_grid: [usize; 3],
@@ -243,16 +245,13 @@ impl Streamer {
             options.workers,
         );
         let levels = shape.levels.len();
-        // The RAM budget covers the source's caches too: the bricks' cache gets the rest.
-        let source_caches = source
-            .reserve_caches(options.ram_cache)
-            .min(options.ram_cache);
-        let ram_capacity = options.ram_cache - source_caches;
         Ok(Self {
             table: PageTable::new(max_entries * 4),
             max_entries,
             slots: SlotPool::new(capacity),
-            ram: RamCache::new(ram_capacity),
+            // Its share of the RAM budget once the source's caches have theirs (`load_pinned`).
+            ram: RamCache::new(0),
+            pinned_loaded: false,
             queue,
             loader,
             frame: 0,
@@ -295,8 +294,6 @@ impl Streamer {
                     .collect(),
                 slots: capacity,
                 slot_bytes: (PADDED_BRICK_VOXELS * texels.bytes()) as u64,
-                ram_capacity,
-                source_cache_capacity: source_caches,
                 ..Default::default()
             },
             resident: vec![0; levels],
@@ -310,10 +307,20 @@ impl Streamer {
         })
     }
 
-    /// Reads every brick of the always-resident coarse levels (on the caller's thread and
-    /// rayon's) and gives each a pinned slot; returns their uploads. One that cannot be read
-    /// is a failed brick like any other (asked for again as its failure allows).
+    /// Once, after [`Self::new`] and before the first frame: gives the source's caches their
+    /// share of the RAM budget (the bricks' cache gets the rest), then reads every brick of the
+    /// always-resident coarse levels (on the caller's thread and rayon's) and gives each a
+    /// pinned slot; returns their uploads (none when called again). One that cannot be read is
+    /// a failed brick like any other (asked for again as its failure allows).
     pub fn load_pinned(&mut self) -> Result<Vec<Upload>, String> {
+        if std::mem::replace(&mut self.pinned_loaded, true) {
+            return Ok(Vec::new());
+        }
+        let ram = self.options.ram_cache;
+        let source_caches = self.source.reserve_caches(ram).min(ram);
+        self.ram = RamCache::new(ram - source_caches);
+        self.counters.ram_capacity = ram - source_caches;
+        self.counters.source_cache_capacity = source_caches;
         let ids: Vec<BrickId> = pinned_levels(&self.shape)
             .iter()
             .map(|&level| BrickId {
@@ -1451,6 +1458,44 @@ impl Streamer {
 mod tests {
     use super::*;
     use crate::NoiseSource;
+
+    #[test]
+    fn the_pinned_levels_are_read_once_and_the_ram_budget_shared_then() {
+        let source = Arc::new(NoiseSource::new("noise", [128, 128, 128]).expect("a source"));
+        let options = StreamOptions {
+            workers: 1,
+            ram_cache: 64 << 20,
+            ..StreamOptions::default()
+        };
+        let mut streamer = Streamer::new(
+            source,
+            [8, 8, 8],
+            AtlasTexels::Unorm16,
+            options,
+            vec![0; (1 << 16) + 1],
+        )
+        .expect("a streamer");
+        assert_eq!(
+            streamer.pinned_slots(),
+            0,
+            "nothing read before load_pinned"
+        );
+        assert_eq!(streamer.counters.ram_capacity, 0);
+        let uploads = streamer.load_pinned().expect("the pinned levels");
+        let pinned = streamer.pinned_slots();
+        assert!(
+            pinned > 0 && uploads.len() == pinned,
+            "{pinned} slots, {} uploads",
+            uploads.len()
+        );
+        assert_eq!(
+            streamer.counters.ram_capacity + streamer.counters.source_cache_capacity,
+            64 << 20
+        );
+        // Again: nothing more read or pinned.
+        assert!(streamer.load_pinned().expect("no error").is_empty());
+        assert_eq!(streamer.pinned_slots(), pinned);
+    }
 
     #[test]
     fn the_upload_allowance_counts_the_gpus_copies_with_the_cpus_staging() {

@@ -537,6 +537,25 @@ impl ZarrSource {
         });
     }
 
+    /// Runs `alongside` on this thread while [`Self::warm_first_image`] fetches the first
+    /// image's chunks on another (a renderer's making overlaps the open's last round trip);
+    /// returns its result once both are done.
+    pub fn warm_first_image_while<R>(
+        &self,
+        preview_bricks: u64,
+        alongside: impl FnOnce() -> R,
+    ) -> R {
+        std::thread::scope(|scope| {
+            let warming = std::thread::Builder::new()
+                .name("voxscope-first-image".into())
+                .spawn_scoped(scope, || self.warm_first_image(preview_bricks));
+            if warming.is_err() {
+                self.warm_first_image(preview_bricks);
+            }
+            alongside()
+        })
+    }
+
     /// Puts the stored level's region `[0, end)` (whole chunks, x fastest, as value levels)
     /// into the chunk cache, chunk by chunk as [`Self::read_levels`] would have read them.
     fn cache_chunks(&self, stored: usize, end: [usize; 3], levels: &[u16]) {
