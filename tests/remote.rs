@@ -383,9 +383,10 @@ fn opening_and_the_first_image_take_a_few_round_trips_whatever_the_levels() {
 
 /// The stream renderer made while a store's first chunks are on their way
 /// (`StreamedVolume::open_with_renderer`, as `render`, `bench --stream` and the Python module
-/// open a store) draws the first image and the complete view that the renderer made after the
-/// open draws, bit for bit, and fetches nothing more in no more round trips: its pinned
-/// levels' reads wait for the batch's fetches instead of asking again.
+/// open a store) draws the first image that the renderer made after the open draws, bit for
+/// bit, and the same complete view (two runs of one build may differ in a pixel there: the
+/// order bricks arrive in), and fetches nothing more in no more round trips: its pinned
+/// levels are read from the batch's chunks.
 #[test]
 fn the_renderer_made_during_the_open_draws_the_same_and_fetches_nothing_more() {
     let folder = tempfile::tempdir().expect("a temporary folder");
@@ -446,7 +447,8 @@ fn the_renderer_made_during_the_open_draws_the_same_and_fetches_nothing_more() {
          open), {requests_after} in {trips_after} (after)"
     );
     assert_same_image(&first_during, &first_after, "the first image");
-    assert_same_image(&complete_during, &complete_after, "the complete view");
+    let psnr = support::reference::psnr(&complete_during, &complete_after);
+    assert!(psnr >= 60.0, "the complete views differ: PSNR {psnr:.1} dB");
     assert!(
         requests_during <= requests_after && trips_during <= trips_after,
         "to the first image: {requests_during} requests in {trips_during} round trips made \
