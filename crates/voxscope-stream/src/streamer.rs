@@ -1459,22 +1459,28 @@ mod tests {
     use super::*;
     use crate::NoiseSource;
 
-    #[test]
-    fn the_pinned_levels_are_read_once_and_the_ram_budget_shared_then() {
+    /// A streamer of 128³ noise into 8³ slots with one loader and `ram_cache` bytes of RAM,
+    /// nothing read yet.
+    fn noise_streamer(ram_cache: u64) -> Streamer {
         let source = Arc::new(NoiseSource::new("noise", [128, 128, 128]).expect("a source"));
         let options = StreamOptions {
             workers: 1,
-            ram_cache: 64 << 20,
+            ram_cache,
             ..StreamOptions::default()
         };
-        let mut streamer = Streamer::new(
+        Streamer::new(
             source,
             [8, 8, 8],
             AtlasTexels::Unorm16,
             options,
             vec![0; (1 << 16) + 1],
         )
-        .expect("a streamer");
+        .expect("a streamer")
+    }
+
+    #[test]
+    fn the_pinned_levels_are_read_once_and_the_ram_budget_shared_then() {
+        let mut streamer = noise_streamer(64 << 20);
         assert_eq!(
             streamer.pinned_slots(),
             0,
@@ -1499,19 +1505,7 @@ mod tests {
 
     #[test]
     fn the_upload_allowance_counts_the_gpus_copies_with_the_cpus_staging() {
-        let source = Arc::new(NoiseSource::new("noise", [128, 128, 128]).expect("a source"));
-        let options = StreamOptions {
-            workers: 1,
-            ..StreamOptions::default()
-        };
-        let mut streamer = Streamer::new(
-            source,
-            [8, 8, 8],
-            AtlasTexels::Unorm16,
-            options,
-            vec![0; (1 << 16) + 1],
-        )
-        .expect("a streamer");
+        let mut streamer = noise_streamer(StreamOptions::default().ram_cache);
         streamer.load_pinned().expect("the pinned levels");
         let megabyte = 1u64 << 20;
         // The CPU: 1 ms a megabyte.
@@ -1555,7 +1549,7 @@ mod tests {
             streamer.set_still_uploads(StillUploads::AllReady),
             StillUploads::Paced
         );
-        assert_eq!(streamer.upload_allowance(), options.upload_bytes_per_frame);
+        assert_eq!(streamer.upload_allowance(), streamer.options().upload_bytes_per_frame);
         streamer.begin_frame(None, Some(view(0.2)));
         assert_eq!(streamer.upload_allowance(), both);
         streamer.begin_frame(None, Some(view(0.2)));
