@@ -1549,7 +1549,10 @@ mod tests {
             streamer.set_still_uploads(StillUploads::AllReady),
             StillUploads::Paced
         );
-        assert_eq!(streamer.upload_allowance(), streamer.options().upload_bytes_per_frame);
+        assert_eq!(
+            streamer.upload_allowance(),
+            streamer.options().upload_bytes_per_frame
+        );
         streamer.begin_frame(None, Some(view(0.2)));
         assert_eq!(streamer.upload_allowance(), both);
         streamer.begin_frame(None, Some(view(0.2)));
