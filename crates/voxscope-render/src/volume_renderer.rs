@@ -180,16 +180,13 @@ impl VolumeRenderer {
         transfer: &TransferFunction,
     ) -> Result<Self, RenderError> {
         let mut renderer = Self::new_stream_unread(context, source, options, transfer)?;
-        if let Some(stream) = renderer.stream_mut() {
-            stream.read_pinned()?;
-        }
+        renderer.read_pinned()?;
         Ok(renderer)
     }
 
     /// [`Self::new_stream`] without reading anything ([`StreamVolume::allocate`]): a store's
-    /// first chunks may still be on their way while it is made. Its
-    /// [`StreamVolume::read_pinned`] (through [`Self::stream_mut`]) must follow before the
-    /// first [`Self::update`].
+    /// first chunks may still be on their way while it is made. [`Self::read_pinned`] must
+    /// follow before the first [`Self::update`].
     pub fn new_stream_unread(
         context: &GpuContext,
         source: Arc<dyn BrickSource>,
@@ -249,6 +246,12 @@ impl VolumeRenderer {
     /// The streaming renderer's GPU side (its streamer and counters), if this is one.
     pub fn stream(&self) -> Option<&StreamVolume> {
         self.renderer.stream()
+    }
+
+    /// A streaming renderer's always-resident levels read ([`StreamVolume::read_pinned`]);
+    /// nothing for the others.
+    pub fn read_pinned(&mut self) -> Result<(), RenderError> {
+        self.stream_mut().map_or(Ok(()), StreamVolume::read_pinned)
     }
 
     /// The streaming renderer's GPU side, to prefetch into, if this is one.

@@ -191,9 +191,7 @@ pub fn upload_colored(
                     VolumeRenderer::new_stream_unread(gpu, source.clone(), stream, &transfer)
                 })
                 .map_err(failed)?;
-            if let Some(volume) = renderer.stream_mut() {
-                volume.read_pinned().map_err(failed)?;
-            }
+            renderer.read_pinned().map_err(failed)?;
             renderer
         }
         _ => VolumeRenderer::new(

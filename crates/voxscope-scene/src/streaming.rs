@@ -104,9 +104,7 @@ impl StreamedVolume {
         let (gpu, mut renderer, renderer_seconds) = made?;
         let finishing = Instant::now();
         let failed = |e| SceneError::render(volume.source.name(), e);
-        if let Some(stream) = renderer.stream_mut() {
-            stream.read_pinned().map_err(failed)?;
-        }
+        renderer.read_pinned().map_err(failed)?;
         let context: &GpuContext = gpu.borrow();
         let mut encoder = context
             .device
