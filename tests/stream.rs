@@ -741,6 +741,14 @@ fn evicted_bricks_are_asked_for_again_from_ram_and_transfer_edits_apply_while_st
         behind.status.counters.evictions > 0,
         "the other side's view evicted bricks"
     );
+    // The Octree panel's per-level counts add up to the totals.
+    let counters = &behind.status.counters;
+    let per_level = |count: fn(&voxscope_stream::LevelCounters) -> u64| {
+        counters.levels.iter().map(count).sum::<u64>()
+    };
+    assert_eq!(per_level(|level| level.evicted), counters.evictions);
+    assert_eq!(per_level(|level| level.loaded), counters.loads);
+    assert!(counters.levels[0].evicted > 0, "level 0 bricks gave way");
     let again = refine(&context, &mut renderer, &front, &settings);
     let (before, after) = (&behind.status.counters, &again.status.counters);
     // The bricks asked for again come from the RAM cache. (A brick or two more may be read:

@@ -231,11 +231,12 @@ pub fn show(ui: &mut Ui, scene: &Scene) {
         .show(ui, |ui| {
             egui::Grid::new("stream_levels")
                 .striped(true)
-                .num_columns(7)
+                .num_columns(9)
                 .spacing([10.0, 2.0])
                 .show(ui, |ui| {
                     for header in [
                         "level", "voxels", "bricks", "resident", "empty", "wanted", "coarser",
+                        "read", "evicted",
                     ] {
                         ui.strong(header).on_hover_text(column_help(header));
                     }
@@ -251,6 +252,8 @@ pub fn show(ui: &mut Ui, scene: &Scene) {
                         ui.monospace(group_digits(level.empty as u64));
                         ui.monospace(group_digits(level.requested as u64));
                         ui.monospace(group_digits(level.left_out as u64));
+                        ui.monospace(group_digits(level.loaded));
+                        ui.monospace(group_digits(level.evicted));
                         ui.end_row();
                     }
                 });
@@ -270,6 +273,12 @@ fn column_help(header: &str) -> &'static str {
         "wanted" => "Bricks the view asks for that are not on the GPU yet",
         "coarser" => {
             "Bricks the view asks for that the GPU budget leaves out: drawn from a coarser level while the view stays"
+        }
+        "read" => {
+            "Bricks read from the source since the data was opened (read again after the RAM cache let them go: counted again)"
+        }
+        "evicted" => {
+            "Bricks that lost their GPU slot to another since the data was opened: many against the bricks read means the view outgrows the GPU budget"
         }
         _ => "",
     }

@@ -207,6 +207,8 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
             }),
             "frame_parts_s": refinement.parts,
             "budget": refinement.status.budget,
+            // Per level, finest first: bricks read, evicted, in the atlas at the end.
+            "levels": counters.levels,
             "pipeline": pipeline_json(counters, options.workers),
         }));
         memory.phase(

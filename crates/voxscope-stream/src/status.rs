@@ -14,6 +14,11 @@ pub struct LevelCounters {
     pub requested: usize,
     /// Asked for by the view on screen and left out by the budget: drawn from a coarser level.
     pub left_out: usize,
+    /// Bricks read from the source so far (a brick read again after the RAM cache let it go
+    /// counts again).
+    pub loaded: u64,
+    /// Bricks that lost their atlas slot to another so far.
+    pub evicted: u64,
 }
 
 /// Everything counted, for the app's panel and `bench --stream --json`.

@@ -346,6 +346,7 @@ impl Streamer {
             };
             self.counters.bytes_read += bytes_read;
             self.counters.loads += 1;
+            self.counters.levels[id.level as usize].loaded += 1;
             if let Some(upload) = self.place(key, id, &brick, None)? {
                 self.slots.pin(upload.slot);
                 uploads.push(upload);
@@ -600,6 +601,7 @@ impl Streamer {
         };
         self.resident[id.level as usize] = self.resident[id.level as usize].saturating_sub(1);
         self.counters.evictions += 1;
+        self.counters.levels[id.level as usize].evicted += 1;
         if let Some(entry) = self.table.get(key) {
             let demoted = TableEntry {
                 cell: 0,
@@ -718,6 +720,9 @@ impl Streamer {
                     self.counters.read_seconds += result.seconds;
                     self.failures.succeeded(result.key);
                     self.counters.loads += 1;
+                    if let Some(id) = self.shape.brick_of(result.key) {
+                        self.counters.levels[id.level as usize].loaded += 1;
+                    }
                     self.counters.prefetch_loads += result.prefetch as u64;
                     self.ram.insert(result.key, brick);
                     if let Some(request) = self
