@@ -173,7 +173,16 @@ fn a_budget_limited_view_offers_the_budget_that_holds_it_and_takes_it_on_a_click
     );
     let coarse = view(&harness);
     // The button next to the budget takes the one named: the view refines to full detail.
-    let label = format!("Use {:.1} MiB", holding as f64 / (1 << 20) as f64);
+    // The button and the status name the budget alike ("Use 96 MiB", "a GPU budget of 96 MiB").
+    let named = voxscope_stream::format_budget(holding);
+    assert!(
+        limit
+            .describe()
+            .contains(&format!("a GPU budget of {named} holds it all")),
+        "{}",
+        limit.describe()
+    );
+    let label = format!("Use {named}");
     harness.get_by_label(&label).click();
     settle(&mut harness);
     assert_eq!(harness.state().settings.stream_gpu_memory, holding);

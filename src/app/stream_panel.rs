@@ -9,7 +9,7 @@ use super::numbers::{format_bytes, group_digits};
 use super::settings::AppSettings;
 use voxscope_render::BUDGET_STEPS;
 use voxscope_scene::Scene;
-use voxscope_stream::{Failures, FullDetailBudget, StreamStatus};
+use voxscope_stream::{Failures, FullDetailBudget, StreamStatus, format_budget};
 
 /// The GPU budgets offered: the steps a budget-limited view's status names, from 64 MiB to
 /// 16 GiB (the device's largest 3D texture bounds the atlas anyway).
@@ -25,10 +25,10 @@ pub fn budget_row(ui: &mut Ui, settings: &mut AppSettings, scene: Option<&Scene>
     let label = ui.label("GPU budget");
     ui.horizontal(|ui| {
         egui::ComboBox::from_id_salt("stream_gpu_memory")
-            .selected_text(format_bytes(settings.stream_gpu_memory))
+            .selected_text(format_budget(settings.stream_gpu_memory))
             .show_ui(ui, |ui| {
                 for bytes in gpu_budgets() {
-                    ui.selectable_value(&mut settings.stream_gpu_memory, bytes, format_bytes(bytes));
+                    ui.selectable_value(&mut settings.stream_gpu_memory, bytes, format_budget(bytes));
                 }
             })
             .response
@@ -43,7 +43,7 @@ pub fn budget_row(ui: &mut Ui, settings: &mut AppSettings, scene: Option<&Scene>
             .filter(|&bytes| bytes != settings.stream_gpu_memory);
         if let Some(bytes) = holding
             && ui
-                .button(format!("Use {}", format_bytes(bytes)))
+                .button(format!("Use {}", format_budget(bytes)))
                 .on_hover_text("The view on screen is budget-limited (coarser where least important); an atlas of this budget holds it at full detail, where the GPU has the memory")
                 .clicked()
         {

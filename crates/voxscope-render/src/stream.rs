@@ -281,36 +281,74 @@ struct AtlasSizing {
     scatter_per_frame: Option<usize>,
     /// The level copy's bytes where the options ask for the level walk (else 0).
     level_cells_bytes: u64,
-    /// Slots of the always-resident levels.
+    /// Bricks of the always-resident levels, which every atlas must hold with a view.
+    pinned_levels: usize,
+    /// Slots of the always-resident levels once read (a uniform one takes none).
     pinned: usize,
 }
 
+/// What [`AtlasSizing::plan`] chose for a budget: the atlas's grid of slots, and whether the
+/// scattering ring's staging and the level copy took their bytes from the budget.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct AtlasPlan {
+    grid: [usize; 3],
+    scatter: bool,
+    level_walk: bool,
+}
+
 impl AtlasSizing {
-    /// Of the atlas a budget of `budget` bytes gives, the slots a view may fill
-    /// ([`view_slots`]) and all its slots; `None` where it holds no atlas. The same steps as
-    /// [`StreamVolume::new`]: the scattering ring's staging and the level copy out of the
-    /// budget, else without the staging, else without the level copy too, each where the
-    /// atlas holds the pinned levels and a view ([`Streamer::new`]).
-    fn slots(&self, context: &GpuContext, budget: u64) -> Option<(usize, usize)> {
+    /// The atlas a budget of `budget` bytes gives: with the scattering ring's staging and the
+    /// level copy out of the budget; where the rest cannot hold the always-resident levels and
+    /// a view ([`Streamer::check_capacity`]), without the staging (the ring copies, needing
+    /// none); where even then it cannot, without the level walk too (its copy's bytes).
+    fn plan(&self, context: &GpuContext, budget: u64) -> Result<AtlasPlan, RenderError> {
         let staging = self
             .scatter_per_frame
             .and_then(|most| staging_ring::scatter_size(most, self.slot_bytes as usize, budget))
-            .map_or(0, |(_, bytes)| bytes);
-        let fits = |reserved: u64| {
-            let grid = atlas_grid(
+            .map(|(_, bytes)| bytes);
+        let steps = [
+            staging.map(|bytes| (bytes, true, self.level_cells_bytes > 0)),
+            Some((0, false, self.level_cells_bytes > 0)),
+            Some((0, false, false)),
+        ];
+        let mut last = None;
+        for (staging_bytes, scatter, level_walk) in steps.into_iter().flatten() {
+            let cells = if level_walk {
+                self.level_cells_bytes
+            } else {
+                0
+            };
+            let fitted = atlas_grid(
                 context,
                 budget,
-                reserved,
+                staging_bytes + cells,
                 self.slot_bytes,
                 self.bricks_in_pyramid,
             )
-            .ok()?;
-            let slots = grid.iter().product::<usize>();
-            (slots >= self.pinned + 8).then_some(slots)
-        };
-        let slots = fits(staging + self.level_cells_bytes)
-            .or_else(|| fits(self.level_cells_bytes))
-            .or_else(|| fits(0))?;
+            .and_then(|grid| {
+                Streamer::check_capacity(self.pinned_levels, grid.iter().product())
+                    .map_err(RenderError::DoesNotFit)?;
+                Ok(grid)
+            });
+            match fitted {
+                Ok(grid) => {
+                    return Ok(AtlasPlan {
+                        grid,
+                        scatter,
+                        level_walk,
+                    });
+                }
+                Err(error) => last = Some(error),
+            }
+        }
+        Err(last.expect("the last step is always tried"))
+    }
+
+    /// Of the atlas a budget of `budget` bytes gives ([`Self::plan`]), the slots a view may
+    /// fill ([`view_slots`]) and all its slots; `None` where it holds no atlas.
+    fn slots(&self, context: &GpuContext, budget: u64) -> Option<(usize, usize)> {
+        let plan = self.plan(context, budget).ok()?;
+        let slots = plan.grid.iter().product::<usize>();
         Some((view_slots(slots, self.pinned), slots))
     }
 
@@ -405,11 +443,11 @@ impl StreamVolume {
         // dispatch where the device can (their copy on the GPU counts in the budget).
         let per_frame = (options.upload_bytes_per_frame / slot_bytes).max(1) as usize;
         let bricks: u64 = source.shape().levels.iter().map(|l| l.brick_count()).sum();
+        // A frame uploads no more bricks than the pyramid has.
+        let most_per_frame = per_frame.min(bricks.min(usize::MAX as u64) as usize);
         let scatter = match options.uploads {
             UploadPath::Scatter => context.atlas_scatter(format).and_then(|pipeline| {
-                // A frame uploads no more bricks than the pyramid has.
-                let most = per_frame.min(bricks.min(usize::MAX as u64) as usize);
-                staging_ring::scatter_size(most, slot_bytes as usize, options.gpu_memory)
+                staging_ring::scatter_size(most_per_frame, slot_bytes as usize, options.gpu_memory)
                     .map(|size| (pipeline, size))
             }),
             UploadPath::Copies | UploadPath::Queue => None,
@@ -433,51 +471,35 @@ impl StreamVolume {
             .unwrap_or(1)
             .max(1)
             * std::mem::size_of::<TableEntry>() as u64;
-        // The scatter's staging takes its bytes from the atlas; where the rest cannot hold the
-        // always-resident levels and a view, the ring copies instead (it needs none), and
-        // where even then it cannot, the level walk goes (its level copy's bytes too).
-        let fit = |staging_bytes: u64, walk: bool| -> Result<_, RenderError> {
-            let cells = if walk { level_cells_bytes } else { 0 };
-            let grid = atlas_grid(
-                context,
-                options.gpu_memory,
-                staging_bytes + cells,
-                slot_bytes,
-                bricks,
-            )?;
-            let options = StreamOptions {
-                level_walk: options.level_walk && walk,
-                ..options
-            };
-            let streamer =
-                Streamer::new(Arc::clone(&source), grid, texels, options, visible.clone())
-                    .map_err(RenderError::DoesNotFit)?;
-            Ok((grid, streamer))
-        };
-        let (scatter, (grid, mut streamer)) =
-            match scatter.map(|scatter| (scatter, fit(scatter.1.1, true))) {
-                Some((scatter, Ok(fitted))) => (Some(scatter), fitted),
-                _ => match fit(0, true) {
-                    Ok(fitted) => (None, fitted),
-                    Err(_) => (None, fit(0, false)?),
-                },
-            };
-        // How the budget became the atlas, as asked (a larger budget may scatter, or walk,
-        // where this one fell back); its pinned slots once they are read (`read_pinned`).
+        // How the budget becomes the atlas (`AtlasSizing::plan`): the scatter's staging and
+        // the level copy take their bytes from it where the rest still holds the
+        // always-resident levels and a view. Kept, as asked, to size the budget a larger view
+        // needs (a larger budget may scatter, or walk, where this one fell back); its pinned
+        // slots once they are read (`read_pinned`).
         let sizing = AtlasSizing {
             budget: options.gpu_memory,
             slot_bytes,
             bricks_in_pyramid: bricks,
             scatter_per_frame: (options.uploads == UploadPath::Scatter
                 && context.atlas_scatter(format).is_some())
-            .then(|| per_frame.min(bricks.min(usize::MAX as u64) as usize)),
+            .then_some(most_per_frame),
             level_cells_bytes: if options.level_walk {
                 level_cells_bytes
             } else {
                 0
             },
+            pinned_levels: voxscope_stream::pinned_level_count(source.shape()),
             pinned: 0,
         };
+        let plan = sizing.plan(context, options.gpu_memory)?;
+        let scatter = scatter.filter(|_| plan.scatter);
+        let grid = plan.grid;
+        let options = StreamOptions {
+            level_walk: options.level_walk && plan.level_walk,
+            ..options
+        };
+        let mut streamer = Streamer::new(Arc::clone(&source), grid, texels, options, visible)
+            .map_err(RenderError::DoesNotFit)?;
         let level_cells_bytes = if streamer.options().level_walk {
             level_cells_bytes
         } else {

@@ -54,9 +54,10 @@ pub use slots::{Allocation, SlotPool};
 pub use source::{BrickError, BrickFault, BrickSource};
 pub use status::{
     BudgetLimit, FullDetailBudget, LevelCounters, StreamCounters, StreamStatus, UpdatePhases,
-    UploadParts,
+    UploadParts, format_budget,
 };
 pub use streamer::{
-    StillUploads, Streamer, UPLOAD_SECONDS_PER_FRAME, UPLOAD_SECONDS_STILL, view_slots,
+    StillUploads, Streamer, UPLOAD_SECONDS_PER_FRAME, UPLOAD_SECONDS_STILL, pinned_level_count,
+    view_slots,
 };
 pub use zarr_source::{MAX_BRICK_READ, MAX_REMOTE_BRICK_CHUNKS, ZarrSource};

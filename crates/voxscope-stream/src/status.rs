@@ -260,7 +260,7 @@ impl BudgetLimit {
 }
 
 /// `96 MiB`, `1.5 GiB`: a budget as `--gpu-memory` reads it and the app's GPU budget shows it.
-fn format_budget(bytes: u64) -> String {
+pub fn format_budget(bytes: u64) -> String {
     let (value, unit) = if bytes >= 1 << 30 {
         (bytes as f64 / (1u64 << 30) as f64, "GiB")
     } else {

@@ -111,6 +111,11 @@ pub(crate) fn pinned_levels(shape: &PyramidShape) -> Vec<u32> {
         .collect()
 }
 
+/// Bricks of the levels [`pinned_levels`] keeps in the atlas (one each).
+pub fn pinned_level_count(shape: &PyramidShape) -> usize {
+    pinned_levels(shape).len()
+}
+
 /// Whether level `level` of `shape` is one [`pinned_levels`] keeps in the atlas.
 fn is_pinned_level(shape: &PyramidShape, level: u32) -> bool {
     shape.levels[level as usize].brick_count() == 1
@@ -209,6 +214,17 @@ pub struct Streamer {
 }
 
 impl Streamer {
+    /// Whether an atlas of `capacity` slots holds the `pinned_levels` bricks of the
+    /// always-resident levels ([`pinned_level_count`]) and a view: the error says not.
+    pub fn check_capacity(pinned_levels: usize, capacity: usize) -> Result<(), String> {
+        if capacity < pinned_levels + 8 {
+            return Err(format!(
+                "an atlas of {capacity} bricks cannot hold the {pinned_levels} always-resident coarse levels and a view; give the renderer more GPU memory"
+            ));
+        }
+        Ok(())
+    }
+
     /// A streamer of `source` into an atlas of `atlas_grid` slots (x, y, z) holding texels as
     /// `texels`, with the transfer function's visibility counts `visible_below`
     /// ([`Self::set_visibility`]). Reads nothing, and leaves the source's caches as they are:
@@ -229,13 +245,7 @@ impl Streamer {
         }
         let shape = source.shape().clone();
         let capacity = atlas_grid.iter().product::<usize>();
-        let pinned = pinned_levels(&shape);
-        if capacity < pinned.len() + 8 {
-            return Err(format!(
-                "an atlas of {capacity} bricks cannot hold the {} always-resident coarse levels and a view; give the renderer more GPU memory",
-                pinned.len()
-            ));
-        }
+        Self::check_capacity(pinned_level_count(&shape), capacity)?;
         let max_entries = capacity * 4;
         let queue = Arc::new(RequestQueue::default());
         let loader = Loader::start(
