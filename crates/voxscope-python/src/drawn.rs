@@ -90,6 +90,16 @@ pub struct Frame {
 /// A one-line remark for the user (the octree did not fit and bricks draw instead).
 pub type Notice = Option<String>;
 
+/// What a frame drawn to completion has to say ([`Drawn::draw_complete`]): what went wrong or
+/// stayed coarse (each frame it happens), and, apart, where the GPU budget limited the view:
+/// the line to say, and the limit alone (the same frame after frame while the view is), so
+/// that a Renderer says it once until it changes.
+#[derive(Debug, Default)]
+pub struct CompleteNotice {
+    pub lines: Vec<String>,
+    pub budget: Option<(String, String)>,
+}
+
 impl Drawn {
     /// The channels given (quantized already) drawn as `options` ask: one volume, or the
     /// composite of several.
@@ -348,7 +358,7 @@ impl Drawn {
         context: &GpuContext,
         target: &RenderTarget,
         frame: &Frame,
-    ) -> Result<Notice, Failure> {
+    ) -> Result<CompleteNotice, Failure> {
         match self {
             Self::Stream { renderer, .. } => {
                 let refinement = refine(
@@ -360,8 +370,6 @@ impl Drawn {
                     frame.max_wait,
                 )?;
                 let mut lines = refinement.errors.clone();
-                // Complete, but coarser than full detail where the budget left bricks out.
-                lines.extend(refinement.completed_at_budget());
                 if !refinement.complete {
                     lines.push(format!(
                         "still coarse after {:.1} s (max_wait): {}",
@@ -369,11 +377,15 @@ impl Drawn {
                         voxscope_scene::describe_missing(&refinement.status)
                     ));
                 }
-                Ok((!lines.is_empty()).then(|| lines.join("; ")))
+                // Complete, but coarser than full detail where the budget left bricks out.
+                let budget = refinement
+                    .completed_at_budget()
+                    .zip(voxscope_scene::describe_budget_limit(&refinement.status));
+                Ok(CompleteNotice { lines, budget })
             }
             _ => {
                 self.draw(context, target, frame);
-                Ok(None)
+                Ok(CompleteNotice::default())
             }
         }
     }

@@ -14,7 +14,7 @@ use voxscope_render::{GpuContext, RenderTarget, read_image};
 use voxscope_scene::{SavedTransfer, VolumeSource};
 
 use crate::arrays::{ArrayOptions, quantize, spacing_of, supported_array};
-use crate::drawn::{Drawn, Frame, Notice};
+use crate::drawn::{CompleteNotice, Drawn, Frame, Notice};
 use crate::errors::{LoadError, RenderError, VoxscopeError, gpu_error};
 use crate::gpu::device;
 use crate::keywords::{Given, OPEN, RENDER, STRUCTURAL};
@@ -41,6 +41,8 @@ struct Resident {
     /// The transfer keywords' words last applied, and their `tf` file as read then.
     applied: Option<(Vec<String>, Option<SavedTransfer>)>,
     target: Option<RenderTarget>,
+    /// The GPU budget's limit last said (`render()` says it again only once it changes).
+    budget_said: Option<String>,
 }
 
 impl Resident {
@@ -200,6 +202,7 @@ impl Renderer {
                 base_options: options,
                 applied: None,
                 target: None,
+                budget_said: None,
             }),
         })
     }
@@ -249,7 +252,8 @@ impl Renderer {
     /// Draws one frame with the Renderer's keywords and these on top (camera, transfer
     /// function, mode, level, shading, clipping, size, …) and returns it as a (height,
     /// width, 4) uint8 RGBA array. The streaming renderer draws until nothing visible is
-    /// missing (at most `max_wait` seconds; a warning says what stayed coarse).
+    /// missing (at most `max_wait` seconds; a warning says what stayed coarse, and where the
+    /// GPU budget limits the view: once, until a frame's limit differs).
     #[pyo3(signature = (**options))]
     fn render<'py>(
         &self,
@@ -267,7 +271,15 @@ impl Renderer {
                 ..
             } = &mut *resident;
             let target = target.as_ref().expect("prepare made the frame's target");
-            let notice: Notice = drawn.draw_complete(context, target, &prepared)?;
+            let CompleteNotice { mut lines, budget } =
+                drawn.draw_complete(context, target, &prepared)?;
+            // A view the budget limits as the last one did is not said again.
+            let limit = budget.as_ref().map(|(_, limit)| limit.clone());
+            if limit != resident.budget_said {
+                lines.extend(budget.map(|(line, _)| line));
+                resident.budget_said = limit;
+            }
+            let notice: Notice = (!lines.is_empty()).then(|| lines.join("; "));
             Ok((resident.read()?, notice))
         })?;
         if let Some(notice) = notice {

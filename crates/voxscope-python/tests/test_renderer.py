@@ -115,6 +115,32 @@ def test_a_view_beyond_the_budget_says_so_and_the_budget_it_names_holds_it(image
     assert not np.array_equal(full, limited)
 
 
+def test_a_renderer_says_the_budgets_limit_once_until_it_changes():
+    near_mip = dict(mode="mip", distance=0.6)
+    renderer = voxscope.Renderer(
+        "synthetic:ct:256", renderer="stream", gpu_memory="4MiB", size=(128, 96)
+    )
+    said = []
+    for azimuth in (30, 30, 30):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            renderer.render(azimuth=azimuth, **near_mip)
+        said.append([str(w.message) for w in caught if "complete at the budget" in str(w.message)])
+    assert len(said[0]) == 1, said
+    assert said[1] == [] and said[2] == [], said
+    # A view the budget limits otherwise (or not at all) is said anew.
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        renderer.render(azimuth=30, mode="mip", distance=3.0)
+    far = [str(w.message) for w in caught if "complete at the budget" in str(w.message)]
+    assert far != said[0], far
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        renderer.render(azimuth=30, **near_mip)
+    again = [str(w.message) for w in caught if "complete at the budget" in str(w.message)]
+    assert len(again) == 1, (far, again)
+
+
 def test_renderers_in_threads_draw_as_alone(small):
     voxels, spacing = small
     renderer = voxscope.Renderer(voxels, spacing=spacing, size=SIZE)
