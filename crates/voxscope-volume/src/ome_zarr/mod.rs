@@ -343,6 +343,9 @@ impl Pyramid {
             store.prefetch_documents(&keys, MAX_METADATA_BYTES);
         };
         guard::register();
+        // The root's documents with those of the levels most stores name `0`, `1`, … (what
+        // `open_root` then asks for is fetched already, or known missing).
+        warm(&open::first_documents(remote.max_requests));
         let mut pyramid = open_root(store.clone(), &source, options, &warm, None)
             .map_err(|problem| LoadError::new(&source, problem))?;
         pyramid.note_series();
