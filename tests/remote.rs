@@ -404,6 +404,63 @@ fn opening_and_the_first_image_take_a_few_round_trips_whatever_the_levels() {
     assert_eq!(pyramid.levels.len(), local.levels.len());
 }
 
+/// A server that lets nobody list the store answers 403 for what does not exist (an S3 bucket
+/// without `s3:ListBucket`): a store opens there as from any server, Zarr v2 and v3, in one
+/// round trip of metadata, its documents' other versions and the guessed levels taken for
+/// missing and nothing counted as an error; a server that denies everything still says so.
+#[test]
+fn a_server_that_denies_what_it_does_not_have_serves_a_store_as_any() {
+    let folder = tempfile::tempdir().expect("a temporary folder");
+    for format in ["0.4", "0.5"] {
+        let name = format!("phantom-{format}.ome.zarr");
+        converted_phantom(folder.path(), &name, format);
+        let server = FileServer::start(
+            folder.path(),
+            Faults {
+                latency: Duration::from_millis(20),
+                missing_forbidden: true,
+                ..Faults::default()
+            },
+        );
+        let pyramid = Pyramid::open_url(
+            &server.url(&name),
+            PyramidOptions::default(),
+            RemoteOptions::default(),
+        )
+        .unwrap_or_else(|e| panic!("{format}: {e}"));
+        let trips = server.counters.sequential_round_trips();
+        assert_eq!(trips, 1, "{format}: opening made {trips} round trips");
+        let stats = pyramid.remote_stats().expect("a URL's store");
+        assert_eq!(stats.errors, 0, "{format}: {stats:?}");
+        let local = Pyramid::open(&folder.path().join(&name), PyramidOptions::default())
+            .unwrap_or_else(|e| panic!("{e}"));
+        let coarsest = local.levels.len() - 1;
+        let read = |p: &Pyramid| p.level_volume(coarsest).unwrap_or_else(|e| panic!("{e}"));
+        assert!(
+            read(&pyramid).data == read(&local).data,
+            "{format}: the coarsest level differs from the folder's"
+        );
+    }
+    let denied = FileServer::start(
+        folder.path(),
+        Faults {
+            forbid: true,
+            ..Faults::default()
+        },
+    );
+    let error = Pyramid::open_url(
+        &denied.url("phantom-0.4.ome.zarr"),
+        PyramidOptions::default(),
+        RemoteOptions::default(),
+    )
+    .err()
+    .expect("a server that denies everything");
+    assert!(
+        error.to_string().contains("access denied (HTTP 403)"),
+        "{error}"
+    );
+}
+
 /// The stream renderer made while a store's first chunks are on their way
 /// (`StreamedVolume::open_with_renderer`, as `render`, `bench --stream` and the Python module
 /// open a store) draws the first image that the renderer made after the open draws, bit for

@@ -26,6 +26,9 @@ pub struct Faults {
     pub truncate_every: u64,
     /// Every request is answered `403 Forbidden`.
     pub forbid: bool,
+    /// A request for what does not exist is answered `403 Forbidden`, as an S3 bucket that
+    /// lets nobody list it answers (no `s3:ListBucket`).
+    pub missing_forbidden: bool,
 }
 
 /// Requests and bytes the server has seen.
@@ -279,7 +282,12 @@ fn answer(
         std::fs::read(&file).ok()
     };
     let Some(data) = data else {
-        let _ = write!(out, "HTTP/1.1 404 Not Found\r\nContent-Length: 0\r\n\r\n");
+        let status = if faults.missing_forbidden {
+            "403 Forbidden"
+        } else {
+            "404 Not Found"
+        };
+        let _ = write!(out, "HTTP/1.1 {status}\r\nContent-Length: 0\r\n\r\n");
         return true;
     };
     let len = data.len() as u64;

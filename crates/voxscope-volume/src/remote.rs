@@ -604,6 +604,15 @@ enum Fetched {
     ForRead,
     /// Ahead of its read ([`RemoteStore::fetch_ahead`]): kept as unread until a read takes it.
     Ahead,
+    /// A document of the open's batches ([`RemoteStore::prefetch_guessing`]): fetched with
+    /// its retries as a read is, but a failure is left to the batch to record (a 403 is
+    /// taken there for a missing object where another document of the batch was found).
+    Document,
+    /// A document the open guesses may exist (the levels' of a store not read yet): asked for
+    /// once, without retries; its bytes are kept and its absence remembered as any read's,
+    /// but a failure (a 403 where a server denies what it does not have, a 5xx) is not the
+    /// store's: not counted, not remembered, not the health's. A read asks again.
+    Guess,
 }
 
 impl Inner {
@@ -855,15 +864,23 @@ impl Inner {
         fetched: Fetched,
     ) -> Result<Answer, Failure> {
         let bound = bound.unwrap_or_else(|| self.bound(&key));
-        let result = self
-            .retrying(
-                || self.transport.get(&key, piece, bound),
-                |answer| match answer {
-                    Answer::Body { bytes, .. } => bytes.len() as u64,
-                    Answer::Missing => 0,
-                },
-            )
-            .await;
+        let attempt = || self.transport.get(&key, piece, bound);
+        let received = |answer: &Answer| match answer {
+            Answer::Body { bytes, .. } => bytes.len() as u64,
+            Answer::Missing => 0,
+        };
+        let result = match fetched {
+            Fetched::ForRead | Fetched::Ahead => self.retrying(attempt, received).await,
+            Fetched::Document => {
+                let retries = self.health.retries(self.timing.max_retries);
+                let result = self.retrying_unrecorded(attempt, received, retries).await;
+                if result.is_ok() {
+                    self.health.operation_ended(false);
+                }
+                result
+            }
+            Fetched::Guess => self.retrying_unrecorded(attempt, received, 0).await,
+        };
         match &result {
             Ok(Answer::Missing) => {
                 self.remembered.forget(&key);
@@ -898,6 +915,7 @@ impl Inner {
                     }
                 }
             }
+            Err(_) if matches!(fetched, Fetched::Document | Fetched::Guess) => {}
             Err(failure) => {
                 self.counters.errors.fetch_add(1, Ordering::Relaxed);
                 self.remembered.remember(&key, failure, &self.timing);
@@ -917,7 +935,8 @@ impl Inner {
     where
         F: Future<Output = Result<T, Failure>>,
     {
-        let result = self.retrying_unrecorded(attempt, received).await;
+        let retries = self.health.retries(self.timing.max_retries);
+        let result = self.retrying_unrecorded(attempt, received, retries).await;
         // A silent server is the health's own business; an operation that got an answer or
         // failed after its tries counts.
         if result
@@ -930,16 +949,18 @@ impl Inner {
         result
     }
 
+    /// [`Self::retrying`] with at most `max_retries` retries, the operation's end not
+    /// counted in the health.
     async fn retrying_unrecorded<T, F>(
         &self,
         attempt: impl Fn() -> F,
         received: impl Fn(&T) -> u64,
+        max_retries: u32,
     ) -> Result<T, Failure>
     where
         F: Future<Output = Result<T, Failure>>,
     {
         let timing = self.timing;
-        let max_retries = self.health.retries(timing.max_retries);
         let mut tries = 0u32;
         let mut deadline: Option<Instant> = None;
         loop {

@@ -343,9 +343,17 @@ impl Pyramid {
             store.prefetch_documents(&keys, MAX_METADATA_BYTES);
         };
         guard::register();
-        // The root's documents with those of the levels most stores name `0`, `1`, … (what
-        // `open_root` then asks for is fetched already, or known missing).
-        warm(&open::first_documents(remote.max_requests));
+        // The root's documents, and in the same round trip those of the levels most stores
+        // name `0`, `1`, … (what `open_root` then asks for is fetched already, or known
+        // missing; a guess that failed is asked for again).
+        let (root, guesses) = open::first_documents(remote.max_requests);
+        let keys = |names: Vec<String>| -> Vec<StoreKey> {
+            names
+                .iter()
+                .filter_map(|name| StoreKey::new(name).ok())
+                .collect()
+        };
+        store.prefetch_guessing(&keys(root), &keys(guesses), MAX_METADATA_BYTES);
         let mut pyramid = open_root(store.clone(), &source, options, &warm, None)
             .map_err(|problem| LoadError::new(&source, problem))?;
         pyramid.note_series();

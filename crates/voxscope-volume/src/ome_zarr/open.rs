@@ -102,23 +102,24 @@ fn node_documents(prefix: &str) -> Vec<String> {
 }
 
 /// Levels whose documents a URL's first round trip asks for beside the root's, at the paths
-/// most stores give them (`0`, `1`, …: ome-zarr-py's, `convert`'s, a bioformats2raw
-/// container's series): a store whose levels are named so opens in one round trip of
-/// metadata instead of two. The guesses that miss cost a request each, in the same round
-/// trip; levels past these, or named otherwise, are asked for in the second as before.
+/// most stores give them (`0`, `1`, …: ome-zarr-py's, `convert`'s): a store whose levels are
+/// named so opens in one round trip of metadata instead of two. The guesses that miss cost a
+/// request each, in the same round trip; levels past these, or named otherwise, are asked for
+/// in the second as before.
 const GUESSED_LEVELS: usize = 8;
 
 /// The documents of the first round trip of a URL's store that may have `max_requests` in
-/// flight: the root's ([`node_documents`]), and those of as many of the [`GUESSED_LEVELS`]
-/// (Zarr v3's `zarr.json`, v2's `.zarray` and `.zattrs`) as fit in one wave of requests.
-pub(super) fn first_documents(max_requests: usize) -> Vec<String> {
-    let mut documents = node_documents("");
+/// flight: the root's ([`node_documents`]), and the guesses, those of as many of the
+/// [`GUESSED_LEVELS`] (Zarr v3's `zarr.json`, v2's `.zarray` and `.zattrs`) as fit in the
+/// same wave of requests.
+pub(super) fn first_documents(max_requests: usize) -> (Vec<String>, Vec<String>) {
+    let root = node_documents("");
     let per_level = array_documents("0", 2).len();
-    let levels = (max_requests.saturating_sub(documents.len()) / per_level).min(GUESSED_LEVELS);
-    for level in 0..levels {
-        documents.extend(array_documents(&level.to_string(), 2));
-    }
-    documents
+    let levels = (max_requests.saturating_sub(root.len()) / per_level).min(GUESSED_LEVELS);
+    let guesses = (0..levels)
+        .flat_map(|level| array_documents(&level.to_string(), 2))
+        .collect();
+    (root, guesses)
 }
 
 /// The documents zarrs reads to open the array at `full` (a path in the store, `""` for the

@@ -6,8 +6,11 @@
 
 use zarrs::storage::{StorageError, StoreKey};
 
+use std::sync::atomic::Ordering;
+
 use super::cache::Piece;
-use super::{RemoteStore, block_on};
+use super::fault::Persistence;
+use super::{Answer, Fetched, RemoteStore, block_on};
 
 /// What a document batch learned about an object, other than its bytes (those go to the
 /// fetch cache).
@@ -26,10 +29,18 @@ impl RemoteStore {
     /// `max_bytes`, or failed is remembered, so that the reader's size checks and reads of
     /// these keys cost no further request. Failures are kept only until [`Self::mark_opened`].
     pub fn prefetch_documents(&self, keys: &[StoreKey], max_bytes: u64) {
+        self.prefetch_guessing(keys, &[], max_bytes);
+    }
+
+    /// [`Self::prefetch_documents`] of `keys`, and in the same round trip the documents
+    /// `guesses` that may not exist (the levels' of a store not yet read: `ome_zarr`'s
+    /// `first_documents`): each asked for once, its bytes or its absence kept, but its
+    /// failure forgotten (a server may deny what it does not have): a read asks again.
+    pub fn prefetch_guessing(&self, keys: &[StoreKey], guesses: &[StoreKey], max_bytes: u64) {
         let inner = &self.inner;
-        let wanted: Vec<&StoreKey> = {
+        let unknown = |keys: &'_ [StoreKey]| -> Vec<StoreKey> {
             let (Ok(cache), Ok(known)) = (inner.cache.lock(), self.inner.known.lock()) else {
-                return;
+                return Vec::new();
             };
             keys.iter()
                 .filter(|key| {
@@ -37,31 +48,74 @@ impl RemoteStore {
                         && !cache.is_missing(key.as_str())
                         && !known.contains_key(key.as_str())
                 })
+                .cloned()
                 .collect()
         };
-        if wanted.is_empty() {
+        let wanted = unknown(keys);
+        let guessed: Vec<StoreKey> = unknown(guesses)
+            .into_iter()
+            .filter(|key| !wanted.contains(key))
+            .collect();
+        if wanted.is_empty() && guessed.is_empty() {
             return;
         }
-        let reads = wanted.iter().map(|&key| {
-            let read = inner
-                .clone()
-                .read(key.as_str().to_owned(), Piece::Whole, Some(max_bytes));
-            async move { (key, read.await) }
-        });
-        let Ok(answers) = block_on(async { Ok(futures::future::join_all(reads).await) }) else {
+        let fetch = |key: &StoreKey, fetched: Fetched| {
+            inner.flight(key.as_str(), Piece::Whole, Some(max_bytes), fetched)
+        };
+        let documents = wanted.iter().map(|key| fetch(key, Fetched::Document));
+        let guesses = guessed.iter().map(|key| fetch(key, Fetched::Guess));
+        let Ok((documents, guesses)) = block_on(async {
+            Ok(futures::future::join(
+                futures::future::join_all(documents),
+                futures::future::join_all(guesses),
+            )
+            .await)
+        }) else {
             return;
         };
+        // A server that lets nobody list the store (an S3 bucket without `s3:ListBucket`)
+        // answers 403 for what does not exist: where the batch found a document, a denied one
+        // is taken for missing (its other Zarr version's, a level that is not there).
+        let found = documents
+            .iter()
+            .chain(&guesses)
+            .any(|answer| matches!(answer, Ok(Answer::Body { .. })));
         let Ok(mut known) = inner.known.lock() else {
             return;
         };
-        for (key, answer) in answers {
-            let learned = match answer {
-                // The bytes are in the fetch cache, the missing ones in its missing set.
-                Ok(_) => continue,
-                Err(failure) => match failure.too_large {
-                    Some(size) => Known::TooLarge(size),
-                    None => Known::Failed(inner.storage_error(failure).to_string()),
-                },
+        let answers = wanted
+            .iter()
+            .zip(documents)
+            .map(|(key, answer)| (key, answer, true));
+        let guessed = guessed
+            .iter()
+            .zip(guesses)
+            .map(|(key, answer)| (key, answer, false));
+        for (key, answer, asked) in answers.chain(guessed) {
+            // The bytes are in the fetch cache, the missing ones in its missing set.
+            let Err(failure) = answer else {
+                continue;
+            };
+            if found && failure.is_denied() {
+                if let Ok(mut cache) = inner.cache.lock() {
+                    cache.insert_missing(key.as_str());
+                }
+                continue;
+            }
+            if !asked {
+                continue; // a guess: a read asks again
+            }
+            // As a read's failure: counted, remembered, and answered while the store opens.
+            inner.counters.errors.fetch_add(1, Ordering::Relaxed);
+            if failure.persistence != Persistence::Silent {
+                inner.health.operation_ended(true);
+            }
+            inner
+                .remembered
+                .remember(key.as_str(), &failure, &inner.timing);
+            let learned = match failure.too_large {
+                Some(size) => Known::TooLarge(size),
+                None => Known::Failed(inner.storage_error(failure).to_string()),
             };
             known.insert(key.as_str().to_owned(), learned);
         }

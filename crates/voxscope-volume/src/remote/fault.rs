@@ -78,6 +78,9 @@ pub(crate) enum Persistence {
     Silent,
 }
 
+/// [`Failure::denied`]'s cause.
+const DENIED: &str = "access denied (HTTP 403)";
+
 /// One failure: the cause in words (no URL: callers name the object), and what it means.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub(crate) struct Failure {
@@ -114,6 +117,17 @@ impl Failure {
             persistence: Persistence::Permanent,
             ..Self::transient(cause, true)
         }
+    }
+
+    /// The server denies the object (HTTP 403): where it lets nobody list the store (an S3
+    /// bucket without `s3:ListBucket`), what an object that does not exist gets too.
+    pub(crate) fn denied() -> Self {
+        Self::permanent(DENIED)
+    }
+
+    /// Whether this is [`Self::denied`]'s failure.
+    pub(crate) fn is_denied(&self) -> bool {
+        self.cause == DENIED
     }
 
     /// An object of at least `size` bytes where at most `bound` may be.

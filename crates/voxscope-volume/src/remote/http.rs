@@ -178,7 +178,7 @@ fn status_failure(
     }
     let failure = match status {
         StatusCode::UNAUTHORIZED => Failure::permanent("not authenticated (HTTP 401)"),
-        StatusCode::FORBIDDEN => Failure::permanent("access denied (HTTP 403)"),
+        StatusCode::FORBIDDEN => Failure::denied(),
         StatusCode::REQUEST_TIMEOUT | StatusCode::TOO_MANY_REQUESTS => retried(status, response),
         s if s.is_server_error() => retried(status, response),
         s => Failure::permanent(format!("HTTP {}", describe_status(s))),

@@ -109,7 +109,7 @@ mod tests {
         assert!(remembered.get("c/0/0/0").is_some());
         remembered.forget("c/0/0/0");
         assert_eq!(remembered.get("c/0/0/0"), None);
-        let denied = Failure::permanent("access denied (HTTP 403)");
+        let denied = Failure::denied();
         remembered.remember("zarr.json", &denied, &timing);
         std::thread::sleep(std::time::Duration::from_millis(50));
         assert_eq!(remembered.get("zarr.json"), Some(denied));

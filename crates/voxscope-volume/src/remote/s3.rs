@@ -166,9 +166,7 @@ impl S3Transport {
                 )))
             }
             object_store::Error::NotFound { .. } => Ok(()),
-            object_store::Error::PermissionDenied { .. } => {
-                Err(Failure::permanent("access denied (HTTP 403)"))
-            }
+            object_store::Error::PermissionDenied { .. } => Err(Failure::denied()),
             object_store::Error::Unauthenticated { .. } => {
                 Err(Failure::permanent("not authenticated (HTTP 401)"))
             }
