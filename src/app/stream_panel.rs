@@ -275,10 +275,10 @@ fn column_help(header: &str) -> &'static str {
             "Bricks the view asks for that the GPU budget leaves out: drawn from a coarser level while the view stays"
         }
         "read" => {
-            "Bricks read from the source since the data was opened (read again after the RAM cache let them go: counted again)"
+            "Bricks read from the source since the streaming renderer was made (a new GPU budget makes it anew); read again after the RAM cache let them go: counted again"
         }
         "evicted" => {
-            "Bricks that lost their GPU slot to another since the data was opened: many against the bricks read means the view outgrows the GPU budget"
+            "Bricks that lost their GPU slot to another since the streaming renderer was made: many against the bricks read means the views outgrow the GPU budget"
         }
         _ => "",
     }

@@ -28,6 +28,9 @@ impl RemoteStore {
     /// `max_bytes`: what is present goes to the fetch cache; what is missing, larger than
     /// `max_bytes`, or failed is remembered, so that the reader's size checks and reads of
     /// these keys cost no further request. Failures are kept only until [`Self::mark_opened`].
+    /// Where one of them was found, a denied one (403) is taken for missing: a server that
+    /// lets nobody list the store (an S3 bucket without `s3:ListBucket`) answers so for what
+    /// does not exist, here the other Zarr version's documents.
     pub fn prefetch_documents(&self, keys: &[StoreKey], max_bytes: u64) {
         self.prefetch_guessing(keys, &[], max_bytes);
     }
