@@ -697,3 +697,27 @@ fn read_size_checked(store: &ReadableStorage, key: &str) -> Result<bool, Problem
         Err(e) => Err(format!("cannot read {key}: {}", printable(&e.to_string()))),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_first_round_trip_guesses_the_levels_that_fit_its_wave_of_requests() {
+        let root = node_documents("");
+        for (max_requests, levels) in [(0, 0), (4, 0), (6, 0), (7, 1), (16, 4), (28, 8), (1024, 8)]
+        {
+            let (asked, guesses) = first_documents(max_requests);
+            assert_eq!(asked, root);
+            assert_eq!(
+                guesses.len(),
+                3 * levels,
+                "{max_requests} requests in flight"
+            );
+            assert!(root.len() + guesses.len() <= max_requests.max(root.len()));
+        }
+        let (_, guesses) = first_documents(32);
+        assert_eq!(&guesses[..3], ["0/zarr.json", "0/.zarray", "0/.zattrs"]);
+        assert_eq!(guesses.last().map(String::as_str), Some("7/.zattrs"));
+    }
+}
