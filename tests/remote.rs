@@ -453,8 +453,7 @@ fn a_server_that_denies_what_it_does_not_have_serves_a_store_as_any() {
         PyramidOptions::default(),
         RemoteOptions::default(),
     )
-    .err()
-    .expect("a server that denies everything");
+    .expect_err("a server that denies everything");
     assert!(
         error.to_string().contains("access denied (HTTP 403)"),
         "{error}"
