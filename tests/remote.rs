@@ -265,6 +265,19 @@ fn latency_drops_500s_and_cut_bodies_are_retried_to_the_same_voxels_and_image() 
 /// `voxscope convert` of a 1000×60×50 CT phantom (i16) in 64³ chunks into `folder/NAME`:
 /// five levels (the coarsest 63×4×4), none a whole number of chunks; OME-Zarr `format` (0.5:
 /// shards of 2³ chunks).
+/// The phantom as OME-Zarr 0.4 and 0.5 ([`converted_phantom`]) in `folder`, served there by a
+/// test server with `faults`: each format with its store's name and its server.
+fn served_phantoms(folder: &Path, faults: Faults) -> Vec<(&'static str, String, FileServer)> {
+    ["0.4", "0.5"]
+        .into_iter()
+        .map(|format| {
+            let name = format!("phantom-{format}.ome.zarr");
+            converted_phantom(folder, &name, format);
+            (format, name, FileServer::start(folder, faults))
+        })
+        .collect()
+}
+
 fn converted_phantom(folder: &Path, name: &str, format: &str) {
     let output = folder.join(name);
     let out = voxscope(
@@ -289,16 +302,11 @@ fn opening_and_the_first_image_take_a_few_round_trips_whatever_the_levels() {
     const PREVIEW_BRICKS: u64 = 64;
     let latency = Duration::from_millis(100);
     let folder = tempfile::tempdir().expect("a temporary folder");
-    for format in ["0.4", "0.5"] {
-        let name = format!("phantom-{format}.ome.zarr");
-        converted_phantom(folder.path(), &name, format);
-        let server = FileServer::start(
-            folder.path(),
-            Faults {
-                latency,
-                ..Faults::default()
-            },
-        );
+    let faults = Faults {
+        latency,
+        ..Faults::default()
+    };
+    for (format, name, server) in served_phantoms(folder.path(), faults) {
         let started = Instant::now();
         let pyramid = Pyramid::open_url(
             &server.url(&name),
@@ -411,17 +419,12 @@ fn opening_and_the_first_image_take_a_few_round_trips_whatever_the_levels() {
 #[test]
 fn a_server_that_denies_what_it_does_not_have_serves_a_store_as_any() {
     let folder = tempfile::tempdir().expect("a temporary folder");
-    for format in ["0.4", "0.5"] {
-        let name = format!("phantom-{format}.ome.zarr");
-        converted_phantom(folder.path(), &name, format);
-        let server = FileServer::start(
-            folder.path(),
-            Faults {
-                latency: Duration::from_millis(20),
-                missing_forbidden: true,
-                ..Faults::default()
-            },
-        );
+    let faults = Faults {
+        latency: Duration::from_millis(20),
+        missing_forbidden: true,
+        ..Faults::default()
+    };
+    for (format, name, server) in served_phantoms(folder.path(), faults) {
         let pyramid = Pyramid::open_url(
             &server.url(&name),
             PyramidOptions::default(),
