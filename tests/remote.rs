@@ -444,6 +444,25 @@ fn a_server_that_denies_what_it_does_not_have_serves_a_store_as_any() {
             "{format}: the coarsest level differs from the folder's"
         );
     }
+    // A level behind a deny policy, on such a server: denied, not missing.
+    let policy = FileServer::start(
+        folder.path(),
+        Faults {
+            missing_forbidden: true,
+            deny_prefix: Some("/phantom-0.5.ome.zarr/2/"),
+            ..Faults::default()
+        },
+    );
+    let error = Pyramid::open_url(
+        &policy.url("phantom-0.5.ome.zarr"),
+        PyramidOptions::default(),
+        RemoteOptions::default(),
+    )
+    .expect_err("a level behind a deny policy");
+    assert!(
+        error.to_string().contains("access denied (HTTP 403)") && error.to_string().contains("2/"),
+        "{error}"
+    );
     let denied = FileServer::start(
         folder.path(),
         Faults {

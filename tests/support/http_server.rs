@@ -29,6 +29,8 @@ pub struct Faults {
     /// A request for what does not exist is answered `403 Forbidden`, as an S3 bucket that
     /// lets nobody list it answers (no `s3:ListBucket`).
     pub missing_forbidden: bool,
+    /// Requests whose path starts with this are answered `403 Forbidden` (a deny policy).
+    pub deny_prefix: Option<&'static str>,
 }
 
 /// Requests and bytes the server has seen.
@@ -259,7 +261,10 @@ fn answer(
         let _ = out.shutdown(Shutdown::Both);
         return false;
     }
-    if faults.forbid {
+    let denied = faults
+        .deny_prefix
+        .is_some_and(|prefix| request.path.starts_with(prefix));
+    if faults.forbid || denied {
         let _ = write!(out, "HTTP/1.1 403 Forbidden\r\nContent-Length: 0\r\n\r\n");
         return true;
     }

@@ -611,7 +611,9 @@ enum Fetched {
     /// A document the open guesses may exist (the levels' of a store not read yet): asked for
     /// once, without retries; its bytes are kept and its absence remembered as any read's,
     /// but a failure (a 403 where a server denies what it does not have, a 5xx) is not the
-    /// store's: not counted, not remembered, not the health's. A read asks again.
+    /// store's: not counted, not remembered, not a failed operation of the health's (whose
+    /// watch for a silent server still sees it). A read asks again. Guessed and document
+    /// fetches run only in the open's batches, before any read could share their flight.
     Guess,
 }
 

@@ -28,9 +28,9 @@ impl RemoteStore {
     /// `max_bytes`: what is present goes to the fetch cache; what is missing, larger than
     /// `max_bytes`, or failed is remembered, so that the reader's size checks and reads of
     /// these keys cost no further request. Failures are kept only until [`Self::mark_opened`].
-    /// Where one of them was found, a denied one (403) is taken for missing: a server that
-    /// lets nobody list the store (an S3 bucket without `s3:ListBucket`) answers so for what
-    /// does not exist, here the other Zarr version's documents.
+    /// A denied one (403) is taken for missing where another document of its node is there:
+    /// a server that lets nobody list the store (an S3 bucket without `s3:ListBucket`)
+    /// answers so for what does not exist, here the other Zarr version's documents.
     pub fn prefetch_documents(&self, keys: &[StoreKey], max_bytes: u64) {
         self.prefetch_guessing(keys, &[], max_bytes);
     }
@@ -77,37 +77,53 @@ impl RemoteStore {
             return;
         };
         // A server that lets nobody list the store (an S3 bucket without `s3:ListBucket`)
-        // answers 403 for what does not exist: where the batch found a document, a denied one
-        // is taken for missing (its other Zarr version's, a level that is not there).
-        let found = documents
+        // answers 403 for what does not exist: a denied document is taken for missing where
+        // another document of its node is there (found now, or fetched before: the other
+        // Zarr version's names, a guessed level's); one whose node shows nothing stays denied
+        // (a well or a level behind a deny policy says so).
+        let found: Vec<&str> = wanted
             .iter()
-            .chain(&guesses)
-            .any(|answer| matches!(answer, Ok(Answer::Body { .. })));
-        let Ok(mut known) = inner.known.lock() else {
-            return;
+            .zip(&documents)
+            .chain(guessed.iter().zip(&guesses))
+            .filter(|(_, answer)| matches!(answer, Ok(Answer::Body { .. })))
+            .map(|(key, _)| key.as_str())
+            .collect();
+        let node_shows = |key: &str| {
+            let node = node_of(key);
+            found.iter().any(|other| node_of(other) == node)
+                || inner.cache.lock().is_ok_and(|cache| {
+                    NODE_DOCUMENTS.iter().any(|name| {
+                        let other = format!("{node}{name}");
+                        other != key && cache.get(&other, Piece::Whole).is_some()
+                    })
+                })
         };
-        let answers = wanted
-            .iter()
-            .zip(documents)
-            .map(|(key, answer)| (key, answer, true));
-        let guessed = guessed
-            .iter()
-            .zip(guesses)
-            .map(|(key, answer)| (key, answer, false));
+        let mut missing = Vec::new();
+        let mut failed = Vec::new();
+        let answers = wanted.iter().zip(documents).map(|(key, a)| (key, a, true));
+        let guessed = guessed.iter().zip(guesses).map(|(key, a)| (key, a, false));
         for (key, answer, asked) in answers.chain(guessed) {
             // The bytes are in the fetch cache, the missing ones in its missing set.
             let Err(failure) = answer else {
                 continue;
             };
-            if found && failure.is_denied() {
-                if let Ok(mut cache) = inner.cache.lock() {
-                    cache.insert_missing(key.as_str());
-                }
-                continue;
+            if failure.is_denied() && node_shows(key.as_str()) {
+                missing.push(key);
+            } else if asked {
+                failed.push((key, failure));
             }
-            if !asked {
-                continue; // a guess: a read asks again
+            // A guess that failed otherwise: its read asks again.
+        }
+        if let Ok(mut cache) = inner.cache.lock() {
+            for key in missing {
+                inner.remembered.forget(key.as_str());
+                cache.insert_missing(key.as_str());
             }
+        }
+        let Ok(mut known) = inner.known.lock() else {
+            return;
+        };
+        for (key, failure) in failed {
             // As a read's failure: counted, remembered, and answered while the store opens.
             inner.counters.errors.fetch_add(1, Ordering::Relaxed);
             if failure.persistence != Persistence::Silent {
@@ -151,4 +167,12 @@ impl RemoteStore {
             Known::Failed(message) => Some(Err(StorageError::Other(message))),
         }
     }
+}
+
+/// The names of the documents that tell what sits at a node of a Zarr hierarchy.
+const NODE_DOCUMENTS: [&str; 4] = ["zarr.json", ".zgroup", ".zattrs", ".zarray"];
+
+/// The node a document `key` belongs to, with its trailing `/` (`""` for the root's).
+fn node_of(key: &str) -> &str {
+    key.rfind('/').map_or("", |slash| &key[..=slash])
 }
