@@ -606,7 +606,7 @@ enum Fetched {
     Ahead,
     /// A document of the open's batches ([`RemoteStore::prefetch_guessing`]): fetched with
     /// its retries as a read is, but a failure is left to the batch to record (a 403 is
-    /// taken there for a missing object where another document of the batch was found).
+    /// taken there for a missing object where another document of its node is there).
     Document,
     /// A document the open guesses may exist (the levels' of a store not read yet): asked for
     /// once, without retries; its bytes are kept and its absence remembered as any read's,
