@@ -31,6 +31,11 @@ const FIXTURES: [&str; 6] = [
     "tczyx-v04.ome.zarr",
 ];
 
+/// The store at `url` opened with the default options.
+fn open_url(url: &str) -> Result<Pyramid, voxscope_volume::LoadError> {
+    Pyramid::open_url(url, PyramidOptions::default(), RemoteOptions::default())
+}
+
 fn fixtures() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/ome-zarr")
 }
@@ -308,12 +313,7 @@ fn opening_and_the_first_image_take_a_few_round_trips_whatever_the_levels() {
     };
     for (format, name, server) in served_phantoms(folder.path(), faults) {
         let started = Instant::now();
-        let pyramid = Pyramid::open_url(
-            &server.url(&name),
-            PyramidOptions::default(),
-            RemoteOptions::default(),
-        )
-        .unwrap_or_else(|e| panic!("{e}"));
+        let pyramid = open_url(&server.url(&name)).unwrap_or_else(|e| panic!("{e}"));
         let levels = pyramid.levels.len();
         assert_eq!(levels, 5, "{format}: {:?}", pyramid.levels);
         let counters = &server.counters;
@@ -399,12 +399,7 @@ fn opening_and_the_first_image_take_a_few_round_trips_whatever_the_levels() {
         },
     );
     let named = "head-v04-zstd.ome.zarr";
-    let pyramid = Pyramid::open_url(
-        &server.url(named),
-        PyramidOptions::default(),
-        RemoteOptions::default(),
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
+    let pyramid = open_url(&server.url(named)).unwrap_or_else(|e| panic!("{e}"));
     let trips = server.counters.sequential_round_trips();
     assert_eq!(trips, 2, "{named}: opening made {trips} round trips");
     let local = Pyramid::open(&fixtures().join(named), PyramidOptions::default())
@@ -425,12 +420,7 @@ fn a_server_that_denies_what_it_does_not_have_serves_a_store_as_any() {
         ..Faults::default()
     };
     for (format, name, server) in served_phantoms(folder.path(), faults) {
-        let pyramid = Pyramid::open_url(
-            &server.url(&name),
-            PyramidOptions::default(),
-            RemoteOptions::default(),
-        )
-        .unwrap_or_else(|e| panic!("{format}: {e}"));
+        let pyramid = open_url(&server.url(&name)).unwrap_or_else(|e| panic!("{format}: {e}"));
         let trips = server.counters.sequential_round_trips();
         assert_eq!(trips, 1, "{format}: opening made {trips} round trips");
         let stats = pyramid.remote_stats().expect("a URL's store");
@@ -453,12 +443,8 @@ fn a_server_that_denies_what_it_does_not_have_serves_a_store_as_any() {
             ..Faults::default()
         },
     );
-    let error = Pyramid::open_url(
-        &policy.url("phantom-0.5.ome.zarr"),
-        PyramidOptions::default(),
-        RemoteOptions::default(),
-    )
-    .expect_err("a level behind a deny policy");
+    let error =
+        open_url(&policy.url("phantom-0.5.ome.zarr")).expect_err("a level behind a deny policy");
     assert!(
         error.to_string().contains("access denied (HTTP 403)") && error.to_string().contains("2/"),
         "{error}"
@@ -470,12 +456,8 @@ fn a_server_that_denies_what_it_does_not_have_serves_a_store_as_any() {
             ..Faults::default()
         },
     );
-    let error = Pyramid::open_url(
-        &denied.url("phantom-0.4.ome.zarr"),
-        PyramidOptions::default(),
-        RemoteOptions::default(),
-    )
-    .expect_err("a server that denies everything");
+    let error =
+        open_url(&denied.url("phantom-0.4.ome.zarr")).expect_err("a server that denies everything");
     assert!(
         error.to_string().contains("access denied (HTTP 403)"),
         "{error}"

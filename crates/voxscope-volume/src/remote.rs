@@ -72,6 +72,7 @@ use url::{Scheme, StoreUrl};
 mod aws;
 mod cache;
 mod documents;
+pub(crate) use documents::NODE_DOCUMENTS;
 mod fault;
 mod held;
 mod http;

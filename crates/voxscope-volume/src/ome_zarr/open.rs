@@ -95,7 +95,7 @@ pub(super) type Warm<'a> = &'a dyn Fn(&[String]);
 
 /// The documents that tell what sits at the node `prefix` (`""` or `"0/"`).
 fn node_documents(prefix: &str) -> Vec<String> {
-    ["zarr.json", ".zgroup", ".zattrs", ".zarray"]
+    crate::remote::NODE_DOCUMENTS
         .iter()
         .map(|name| format!("{prefix}{name}"))
         .collect()

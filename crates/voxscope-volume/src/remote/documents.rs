@@ -169,8 +169,9 @@ impl RemoteStore {
     }
 }
 
-/// The names of the documents that tell what sits at a node of a Zarr hierarchy.
-const NODE_DOCUMENTS: [&str; 4] = ["zarr.json", ".zgroup", ".zattrs", ".zarray"];
+/// The names of the documents that tell what sits at a node of a Zarr hierarchy (v3's, then
+/// v2's group, attributes and array documents).
+pub(crate) const NODE_DOCUMENTS: [&str; 4] = ["zarr.json", ".zgroup", ".zattrs", ".zarray"];
 
 /// The node a document `key` belongs to, with its trailing `/` (`""` for the root's).
 fn node_of(key: &str) -> &str {
