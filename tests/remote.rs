@@ -195,10 +195,63 @@ fn a_url_loads_as_a_volume_through_the_registry_and_renders_as_the_folder_does()
             assert!(psnr >= 40.0, "streamed from the URL: PSNR {psnr:.1} dB");
         }
     }
+    // `info` lists the store and reads a level from one open: each document asked for once.
+    let before = server.counters.arrivals().len();
     let info = voxscope(&["info", "--json", &url], &[]);
     assert!(info.status.success(), "{}", stderr(&info));
     let json: serde_json::Value = serde_json::from_slice(&info.stdout).expect("JSON");
     assert_eq!(json["pyramid"]["levels"].as_array().map(Vec::len), Some(3));
+    assert_each_document_asked_once(&server, before, "info");
+}
+
+/// Panics unless each metadata document the server was asked for since arrival `before` was
+/// asked for once.
+fn assert_each_document_asked_once(server: &FileServer, before: usize, what: &str) {
+    let arrivals = server.counters.arrivals();
+    let documents: Vec<&str> = arrivals[before..]
+        .iter()
+        .map(|(path, _)| path.as_str())
+        .filter(|path| {
+            [".zattrs", ".zarray", ".zgroup", "zarr.json"]
+                .iter()
+                .any(|name| path.ends_with(name))
+        })
+        .collect();
+    assert!(!documents.is_empty(), "{what} fetched no metadata");
+    for document in &documents {
+        let times = documents.iter().filter(|d| d == &document).count();
+        assert_eq!(times, 1, "{what} asked for {document} {times} times");
+    }
+}
+
+/// `info` of a store of several channels over HTTP says what it says of the folder, the
+/// channels read from one open of the store.
+#[test]
+fn info_of_a_url_with_channels_opens_the_store_once() {
+    let name = "tczyx-v04.ome.zarr";
+    let server = FileServer::start(&fixtures(), Faults::default());
+    let url = server.url(name);
+    let folder = fixtures().join(name);
+    let json = |spec: &str| -> serde_json::Value {
+        let out = voxscope(&["info", "--json", spec, "--time", "1"], &[]);
+        assert!(out.status.success(), "{spec}: {}", stderr(&out));
+        serde_json::from_slice(&out.stdout).expect("JSON")
+    };
+    let local = json(folder.to_str().unwrap());
+    let before = server.counters.arrivals().len();
+    let remote = json(&url);
+    assert_each_document_asked_once(&server, before, "info of several channels");
+    let channels = |json: &serde_json::Value| -> Vec<serde_json::Value> {
+        let mut channels = json["composite"].as_array().cloned().unwrap_or_default();
+        for channel in &mut channels {
+            channel["file"] = serde_json::Value::Null;
+        }
+        channels
+    };
+    assert_eq!(channels(&local).len(), 2, "{local}");
+    assert_eq!(channels(&remote), channels(&local));
+    assert_eq!(remote["octree"]["levels"], local["octree"]["levels"]);
+    assert_eq!(remote["pyramid"]["levels"], local["pyramid"]["levels"]);
 }
 
 #[test]

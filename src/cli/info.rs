@@ -3,7 +3,8 @@
 use clap::Args;
 use serde_json::json;
 
-use super::{Prepared, TransferArgs, VolumeArgs};
+use super::args::load_error_text;
+use super::{ChannelArg, Prepared, TransferArgs, VolumeArgs};
 use voxscope_octree::{MAX_DEPTH, Node, full_tree_nodes, level_statistics};
 use voxscope_scene::beyond_octree;
 use voxscope_volume::ome_zarr::{Pyramid, is_zarr_spec};
@@ -26,7 +27,7 @@ pub struct InfoArgs {
 
 pub fn run(args: &InfoArgs) -> Result<(), String> {
     // A Zarr store's pyramid first: its levels, channels and axes, whichever level opens.
-    let pyramid = match &args.volume.file {
+    let mut pyramid = match &args.volume.file {
         Some(spec) if is_zarr_spec(spec) => {
             let options = args.volume.load_options();
             Some(
@@ -36,8 +37,31 @@ pub fn run(args: &InfoArgs) -> Result<(), String> {
         }
         _ => None,
     };
+    // A store's channels are read from the pyramid opened above rather than opened again (a
+    // URL's metadata is fetched once).
+    let volume_args = &args.volume;
+    let from_opened = volume_args.channels_from.is_none() && volume_args.raw.is_none();
+    let read = match (pyramid.as_mut(), &volume_args.file) {
+        (Some(pyramid), Some(spec)) if from_opened => {
+            // A bad --tf file fails before the volume is read.
+            args.transfer.saved()?;
+            let options = volume_args.load_options();
+            if pyramid.channels > 1 && !matches!(volume_args.channel, Some(ChannelArg::Index(_))) {
+                Some(voxscope_volume::load_opened_channels(
+                    pyramid, spec, &options,
+                ))
+            } else {
+                Some(voxscope_volume::load_opened(pyramid, spec, &options).map(|v| vec![v]))
+            }
+        }
+        _ => None,
+    };
+    let read = match read {
+        Some(read) => Some(read.map_err(|e| load_error_text(&e))?),
+        None => volume_args.composite_channels()?,
+    };
     // Several channels: each one's range, window and color; the table below is channel 0's.
-    let (volume, channels) = match args.volume.composite_channels()? {
+    let (volume, channels) = match read {
         Some(channels) if channels.len() > 1 => {
             let first = channels[0].clone();
             (first, args.channels.prepare(channels, &args.transfer)?)
@@ -46,7 +70,7 @@ pub fn run(args: &InfoArgs) -> Result<(), String> {
         None => {
             // A bad --tf file fails before the volume is read.
             args.transfer.saved()?;
-            (args.volume.load()?, Vec::new())
+            (volume_args.load()?, Vec::new())
         }
     };
     if beyond_octree(volume.dims) {

@@ -53,19 +53,60 @@ pub fn load_all_channels(spec: &str, options: &LoadOptions) -> Result<Vec<Volume
     };
     let first = load(spec, &at(0))?;
     let count = first.series.channel_count();
-    if count > MAX_CHANNELS {
-        return Err(LoadError::new(
-            spec,
-            format!(
-                "has {count} channels; at most {MAX_CHANNELS} are shown together (choose one with --channel N)"
-            ),
-        ));
-    }
+    check_channel_count(spec, count)?;
     let mut channels = vec![first];
     for channel in 1..count {
         channels.push(load(spec, &at(channel))?);
     }
     Ok(channels)
+}
+
+/// [`load_all_channels`] of a Zarr store already opened as `pyramid`: each channel read from
+/// that one open (`pyramid`'s selection is put back after).
+pub fn load_opened_channels(
+    pyramid: &mut super::ome_zarr::Pyramid,
+    spec: &str,
+    options: &LoadOptions,
+) -> Result<Vec<Volume>, LoadError> {
+    check_channel_count(spec, pyramid.channels)?;
+    let selected = pyramid.selected;
+    let mut channels = Vec::with_capacity(pyramid.channels);
+    for channel in 0..pyramid.channels {
+        pyramid.selected = Selection {
+            channel,
+            time: options.select.time,
+        };
+        let read = super::registry::load_opened(
+            pyramid,
+            spec,
+            &LoadOptions {
+                select: pyramid.selected,
+                ..options.clone()
+            },
+        );
+        match read {
+            Ok(volume) => channels.push(volume),
+            Err(error) => {
+                pyramid.selected = selected;
+                return Err(error);
+            }
+        }
+    }
+    pyramid.selected = selected;
+    Ok(channels)
+}
+
+/// An error for more channels than are shown together.
+fn check_channel_count(spec: &str, count: usize) -> Result<(), LoadError> {
+    if count > MAX_CHANNELS {
+        return Err(LoadError::new(
+            super::remote::redact_url(spec),
+            format!(
+                "has {count} channels; at most {MAX_CHANNELS} are shown together (choose one with --channel N)"
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// The files `specs` (each its frame `options.select`) as the channels of one volume: they

@@ -27,7 +27,7 @@ mod vti;
 
 pub use channels::{
     DEFAULT_CHANNEL_COLORS, MAX_CHANNELS, channel_color, channel_color_by_name, load_all_channels,
-    load_as_channels,
+    load_as_channels, load_opened_channels,
 };
 pub use error::{LoadError, LoadErrorKind};
 pub use format::{Format, dialog_extensions, dialog_filter_name};
@@ -35,7 +35,7 @@ pub use nrrd::NrrdEncoding;
 pub use orientation::Orientation;
 pub use raw::RawLayout;
 pub use raw::parse_dims;
-pub use registry::{LoadOptions, load};
+pub use registry::{LoadOptions, load, load_opened};
 pub use sample::{SAMPLE_NAME, sample};
 pub use series::{ChannelInfo, Container, Selection, Series};
 pub use synthetic::SyntheticKind;

@@ -31,7 +31,7 @@ pub struct LoadOptions {
 /// `.zarray`, a DICOM series when it holds DICOM files, else a folder of slices. Nothing is ever written to
 /// `spec`.
 pub fn load(spec: &str, options: &LoadOptions) -> Result<Volume, LoadError> {
-    let mut volume = if let Some(rest) = spec.strip_prefix("synthetic:") {
+    let volume = if let Some(rest) = spec.strip_prefix("synthetic:") {
         super::synthetic::generate(rest).map_err(|p| LoadError::new(spec, p))?
     } else if super::remote::is_url(spec) {
         if options.raw.is_some() {
@@ -49,6 +49,21 @@ pub fn load(spec: &str, options: &LoadOptions) -> Result<Volume, LoadError> {
                 .with_kind(LoadErrorKind::Unrecognized),
         })?
     };
+    finish(volume, spec, options)
+}
+
+/// [`load`] of a Zarr store already opened as `pyramid` (what `info` lists, then reads): the
+/// same volume, without opening the store again.
+pub fn load_opened(
+    pyramid: &super::ome_zarr::Pyramid,
+    spec: &str,
+    options: &LoadOptions,
+) -> Result<Volume, LoadError> {
+    finish(pyramid.memory_volume()?, spec, options)
+}
+
+/// What every loaded volume passes: the frame asked for, and `--spacing`.
+fn finish(mut volume: Volume, spec: &str, options: &LoadOptions) -> Result<Volume, LoadError> {
     // Loaders of 4-D formats refuse a frame they lack before reading and record the one they
     // read; the others read the only one there is, which must be the one asked for.
     let series = &volume.series;

@@ -508,7 +508,7 @@ impl Pyramid {
 /// Says on stderr when a finer level exists.
 pub(crate) fn load(path: &Path, options: PyramidOptions) -> Result<Volume, Problem> {
     let pyramid = Pyramid::open(path, options).map_err(|e| e.problem)?;
-    load_pyramid(&pyramid)
+    pyramid.memory_volume().map_err(|e| e.problem)
 }
 
 /// [`load`] for a URL ([`Pyramid::open_url`]).
@@ -518,32 +518,37 @@ pub(crate) fn load_url(
     remote: RemoteOptions,
 ) -> Result<Volume, Problem> {
     let pyramid = Pyramid::open_url(url, options, remote).map_err(|e| e.problem)?;
-    load_pyramid(&pyramid)
-}
-
-fn load_pyramid(pyramid: &Pyramid) -> Result<Volume, Problem> {
-    // Each channel is listed (`Volume::series`): as many as an axis may have voxels.
-    if pyramid.channels > super::MAX_AXIS {
-        return Err(format!(
-            "the channel axis has {} entries, more than {}",
-            pyramid.channels,
-            super::MAX_AXIS
-        ));
-    }
-    let level = pyramid.finest_within(VOLUME_VOXEL_BUDGET as u64);
-    if level > 0 {
-        eprintln!(
-            "note: {}: opened level {level} ({}), the finest within {} voxels; level 0 is {}",
-            pyramid.source,
-            format_dims(pyramid.levels[level].dims),
-            VOLUME_VOXEL_BUDGET,
-            format_dims(pyramid.levels[0].dims)
-        );
-    }
-    pyramid.level_volume(level).map_err(|e| e.problem)
+    pyramid.memory_volume().map_err(|e| e.problem)
 }
 
 impl Pyramid {
+    /// The finest level within [`VOLUME_VOXEL_BUDGET`] read whole, as [`load`] reads a store
+    /// for the in-memory renderers; says on stderr when a finer level exists.
+    pub fn memory_volume(&self) -> Result<Volume, LoadError> {
+        // Each channel is listed (`Volume::series`): as many as an axis may have voxels.
+        if self.channels > super::MAX_AXIS {
+            return Err(LoadError::new(
+                &self.source,
+                format!(
+                    "the channel axis has {} entries, more than {}",
+                    self.channels,
+                    super::MAX_AXIS
+                ),
+            ));
+        }
+        let level = self.finest_within(VOLUME_VOXEL_BUDGET as u64);
+        if level > 0 {
+            eprintln!(
+                "note: {}: opened level {level} ({}), the finest within {} voxels; level 0 is {}",
+                self.source,
+                format_dims(self.levels[level].dims),
+                VOLUME_VOXEL_BUDGET,
+                format_dims(self.levels[0].dims)
+            );
+        }
+        self.level_volume(level)
+    }
+
     /// Level `level` read whole as a volume, with the file's facts and window: what the
     /// in-memory renderers draw, and what the app's panels (histogram, statistics, slices) read
     /// while the streaming renderer draws the full resolution.
