@@ -463,7 +463,8 @@ fn opening_and_the_first_image_take_a_few_round_trips_whatever_the_levels() {
 /// A server that lets nobody list the store answers 403 for what does not exist (an S3 bucket
 /// without `s3:ListBucket`): a store opens there as from any server, Zarr v2 and v3, in one
 /// round trip of metadata, its documents' other versions and the guessed levels taken for
-/// missing and nothing counted as an error; a server that denies everything still says so.
+/// missing and nothing counted as an error; its label images and a container's series are
+/// listed as from the folder; a server that denies everything still says so.
 #[test]
 fn a_server_that_denies_what_it_does_not_have_serves_a_store_as_any() {
     let folder = tempfile::tempdir().expect("a temporary folder");
@@ -487,6 +488,42 @@ fn a_server_that_denies_what_it_does_not_have_serves_a_store_as_any() {
             "{format}: the coarsest level differs from the folder's"
         );
     }
+    // Label images are listed there as from the folder, Zarr v2 and v3, in two round trips
+    // (the `labels` group, then every label's group).
+    let labels = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/labels-overlay");
+    for name in ["cells-v04.ome.zarr", "cells-v05.ome.zarr"] {
+        let server = FileServer::start(&labels, faults);
+        let pyramid = open_url(&server.url(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let opened = server.counters.sequential_round_trips();
+        let listed = pyramid.label_images();
+        let local = Pyramid::open(&labels.join(name), PyramidOptions::default())
+            .unwrap_or_else(|e| panic!("{e}"))
+            .label_images();
+        assert_eq!(local.len(), 2, "{name}: the fixture's labels");
+        assert_eq!(listed, local, "{name}: the labels listed over HTTP");
+        let trips = server.counters.sequential_round_trips() - opened;
+        assert!(
+            trips <= 2,
+            "{name}: listing the labels made {trips} round trips"
+        );
+        let stats = pyramid.remote_stats().expect("a URL's store");
+        assert_eq!(stats.errors, 0, "{name}: {stats:?}");
+    }
+    // A bioformats2raw container's series are described there as from the folder.
+    let series = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/series");
+    let server = FileServer::start(&series, faults);
+    let name = "two-series.zarr";
+    let pyramid = open_url(&server.url(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
+    let local = Pyramid::open(&series.join(name), PyramidOptions::default())
+        .unwrap_or_else(|e| panic!("{e}"));
+    let listed = pyramid
+        .bioformats2raw
+        .as_ref()
+        .expect("a container's series");
+    assert!(listed.series.iter().all(|s| s.dims.is_some()), "{listed:?}");
+    assert_eq!(Some(listed), local.bioformats2raw.as_ref());
+    let stats = pyramid.remote_stats().expect("a URL's store");
+    assert_eq!(stats.errors, 0, "{name}: {stats:?}");
     // A level behind a deny policy, on such a server: denied, not missing.
     let policy = FileServer::start(
         folder.path(),

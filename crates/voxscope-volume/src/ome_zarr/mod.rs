@@ -227,6 +227,14 @@ impl std::fmt::Debug for Pyramid {
     }
 }
 
+/// The store keys of `names` (paths in a store); a name that is no key is left out.
+fn store_keys(names: &[String]) -> Vec<StoreKey> {
+    names
+        .iter()
+        .filter_map(|name| StoreKey::new(name).ok())
+        .collect()
+}
+
 /// Whether `spec` names something [`Pyramid::open_spec`] opens: a URL
 /// ([`super::remote::is_url`]) or a Zarr folder.
 pub fn is_zarr_spec(spec: &str) -> bool {
@@ -338,22 +346,19 @@ impl Pyramid {
         let store =
             RemoteStore::open(url, remote).map_err(|problem| LoadError::new(&source, problem))?;
         // Each step of the walk (the root's documents, then every level's) in one round trip.
-        let warm = |keys: &[String]| {
-            let keys: Vec<StoreKey> = keys.iter().filter_map(|k| StoreKey::new(k).ok()).collect();
-            store.prefetch_documents(&keys, MAX_METADATA_BYTES);
+        let warm = |names: &[String]| {
+            store.prefetch_documents(&store_keys(names), MAX_METADATA_BYTES);
         };
         guard::register();
         // The root's documents, and in the same round trip those of the levels most stores
         // name `0`, `1`, … (what `open_root` then asks for is fetched already, or known
         // missing; a guess that failed is asked for again).
         let (root, guesses) = open::first_documents(remote.max_requests);
-        let keys = |names: Vec<String>| -> Vec<StoreKey> {
-            names
-                .iter()
-                .filter_map(|name| StoreKey::new(name).ok())
-                .collect()
-        };
-        store.prefetch_guessing(&keys(root), &keys(guesses), MAX_METADATA_BYTES);
+        store.prefetch_guessing(
+            &store_keys(&root),
+            &store_keys(&guesses),
+            MAX_METADATA_BYTES,
+        );
         let mut pyramid = open_root(store.clone(), &source, options, &warm, None)
             .map_err(|problem| LoadError::new(&source, problem))?;
         pyramid.note_series();
@@ -462,7 +467,15 @@ impl Pyramid {
         if self.format != "OME-Zarr" {
             return Vec::new();
         }
-        open::label_images(&self.store, &self.image_prefix)
+        // A URL's: the group's documents in one round trip, then every label's in one more
+        // (where a server denies what it lacks, a Zarr v2 group's `zarr.json` is then known
+        // missing rather than denied).
+        let warm = |names: &[String]| {
+            if let Some(remote) = &self.remote {
+                remote.prefetch_documents(&store_keys(names), MAX_METADATA_BYTES);
+            }
+        };
+        open::label_images(&self.store, &self.image_prefix, &warm)
     }
 
     /// The spec that opens label image `label` of this image: the store's root (the folder or

@@ -269,12 +269,24 @@ pub(super) fn open_root(
 /// The label images the `labels/` group of the image at `prefix` (`""` or `A/1/0/`) lists,
 /// each with its `image-label` (none where the group is missing or unreadable: labels are
 /// extras, never a reason the image does not open).
-pub(super) fn label_images(store: &ReadableStorage, prefix: &str) -> Vec<metadata::LabelImage> {
+/// `warm` fetches documents ahead (a URL's, each step in one round trip).
+pub(super) fn label_images(
+    store: &ReadableStorage,
+    prefix: &str,
+    warm: Warm,
+) -> Vec<metadata::LabelImage> {
     let group = format!("{prefix}labels/");
+    warm(&node_documents(&group));
     let Ok(Node::Group { attributes, .. }) = node(store, &group) else {
         return Vec::new();
     };
-    metadata::label_names(&attributes)
+    let names = metadata::label_names(&attributes);
+    let documents: Vec<String> = names
+        .iter()
+        .flat_map(|name| node_documents(&format!("{group}{name}/")))
+        .collect();
+    warm(&documents);
+    names
         .into_iter()
         .map(|name| {
             let mut label = metadata::LabelImage {
@@ -319,22 +331,35 @@ fn series_list(store: &ReadableStorage, warm: Warm) -> Result<metadata::Bioforma
         .flatten()
         .map(|text| metadata::ome_xml_image_names(&text))
         .unwrap_or_default();
+    // The described series' groups in one round trip, then their finest levels' documents in
+    // one more.
     let described: Vec<String> = paths
         .iter()
         .take(DESCRIBED_SERIES)
         .flat_map(|path| node_documents(&format!("{path}/")))
         .collect();
     warm(&described);
+    let finest: Vec<Option<(String, metadata::Multiscale)>> = paths
+        .iter()
+        .take(DESCRIBED_SERIES)
+        .map(|path| series_finest_level(store, path))
+        .collect();
+    let documents: Vec<String> = finest
+        .iter()
+        .flatten()
+        .flat_map(|(level, _)| array_documents(level, 2))
+        .collect();
+    warm(&documents);
+    let mut finest = finest.into_iter();
     let series = paths
         .into_iter()
         .enumerate()
         .map(|(index, path)| metadata::SeriesEntry {
             name: names.get(index).cloned().flatten(),
-            dims: if index < DESCRIBED_SERIES {
-                series_shape(store, &path)
-            } else {
-                None
-            },
+            dims: finest
+                .next()
+                .flatten()
+                .and_then(|(level, multiscale)| level_shape(store, &level, &multiscale)),
             path,
         })
         .collect();
@@ -349,14 +374,27 @@ fn series_list(store: &ReadableStorage, warm: Warm) -> Result<metadata::Bioforma
 /// requests each for a URL's store).
 const DESCRIBED_SERIES: usize = 64;
 
-/// A series' finest level's shape, x first, and its axes' names in that order (`None` when its
+/// A series' finest level's path in the store, and the series' multiscale (`None` when its
 /// metadata cannot be read).
-fn series_shape(store: &ReadableStorage, path: &str) -> Option<(Vec<u64>, Vec<String>)> {
+fn series_finest_level(
+    store: &ReadableStorage,
+    path: &str,
+) -> Option<(String, metadata::Multiscale)> {
     let Ok(Node::Group { attributes, .. }) = node(store, &format!("{path}/")) else {
         return None;
     };
     let multiscale = metadata::multiscale(&attributes).ok().flatten()?;
     let level = format!("{path}/{}", multiscale.datasets.first()?.path);
+    Some((level, multiscale))
+}
+
+/// The shape of the array at `level` of `multiscale`, x first, and its axes' names in that
+/// order (`None` when its metadata cannot be read).
+fn level_shape(
+    store: &ReadableStorage,
+    level: &str,
+    multiscale: &metadata::Multiscale,
+) -> Option<(Vec<u64>, Vec<String>)> {
     let document = match read_json(store, &format!("{level}/zarr.json")).ok()? {
         Some(document) => document,
         None => read_json(store, &format!("{level}/.zarray")).ok()??,
