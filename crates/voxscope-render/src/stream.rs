@@ -55,6 +55,8 @@ const TABLE_BYTES_PER_SLOT: u64 = 2 * 16 * 16;
 /// copy it flat, so that frames which want that level walk it (`main_level`, `main_levels`):
 /// 1 MiB of entries at most.
 const LEVEL_WALK_BRICKS: u64 = 1 << 16;
+/// The level walk's buffer without the walk: one entry (a binding is never empty).
+const UNWALKED_LEVEL_CELLS_BYTES: u64 = std::mem::size_of::<TableEntry>() as u64;
 /// The atlas's usage beyond what drawing needs: a copy from it, for the tests that read it
 /// back.
 #[cfg(not(test))]
@@ -316,7 +318,7 @@ impl AtlasSizing {
             let cells = if level_walk {
                 self.level_cells_bytes
             } else {
-                0
+                UNWALKED_LEVEL_CELLS_BYTES
             };
             let fitted = atlas_grid(
                 context,
@@ -503,7 +505,7 @@ impl StreamVolume {
         let level_cells_bytes = if streamer.options().level_walk {
             level_cells_bytes
         } else {
-            std::mem::size_of::<TableEntry>() as u64
+            UNWALKED_LEVEL_CELLS_BYTES
         };
         let device = &context.device;
         let out_of_memory = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
