@@ -198,12 +198,20 @@ impl VolumeArgs {
                 .map(Some)
                 .map_err(|e| load_error_text(&e));
         }
-        match (&self.file, self.channel) {
-            (_, Some(ChannelArg::Index(_))) | (None, _) => Ok(None),
-            (Some(spec), _) => voxscope_volume::load_all_channels(spec, &options)
-                .map(Some)
-                .map_err(|e| load_error_text(&e)),
+        match &self.file {
+            Some(spec) if self.wants_composite() => {
+                voxscope_volume::load_all_channels(spec, &options)
+                    .map(Some)
+                    .map_err(|e| load_error_text(&e))
+            }
+            _ => Ok(None),
         }
+    }
+
+    /// Whether these options leave the channels to the file (`--channel` not a number): a file
+    /// of several channels is then their composite.
+    pub fn wants_composite(&self) -> bool {
+        !matches!(self.channel, Some(ChannelArg::Index(_)))
     }
 }
 

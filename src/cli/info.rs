@@ -4,7 +4,7 @@ use clap::Args;
 use serde_json::json;
 
 use super::args::load_error_text;
-use super::{ChannelArg, Prepared, TransferArgs, VolumeArgs};
+use super::{Prepared, TransferArgs, VolumeArgs};
 use voxscope_octree::{MAX_DEPTH, Node, full_tree_nodes, level_statistics};
 use voxscope_scene::beyond_octree;
 use voxscope_volume::ome_zarr::{Pyramid, is_zarr_spec};
@@ -26,39 +26,34 @@ pub struct InfoArgs {
 }
 
 pub fn run(args: &InfoArgs) -> Result<(), String> {
-    // A Zarr store's pyramid first: its levels, channels and axes, whichever level opens.
-    let mut pyramid = match &args.volume.file {
-        Some(spec) if is_zarr_spec(spec) => {
-            let options = args.volume.load_options();
-            Some(
-                Pyramid::open_spec(spec, options.select, options.remote)
-                    .map_err(|e| e.to_string())?,
-            )
-        }
-        _ => None,
-    };
-    // A store's channels are read from the pyramid opened above rather than opened again (a
-    // URL's metadata is fetched once).
     let volume_args = &args.volume;
-    let from_opened = volume_args.channels_from.is_none() && volume_args.raw.is_none();
-    let read = match (pyramid.as_mut(), &volume_args.file) {
-        (Some(pyramid), Some(spec)) if from_opened => {
-            // A bad --tf file fails before the volume is read.
-            args.transfer.saved()?;
+    // A bad --tf file fails before anything is read.
+    args.transfer.saved()?;
+    // A Zarr store's pyramid first: its levels, channels and axes, whichever level opens.
+    let mut store = match &volume_args.file {
+        Some(spec) if is_zarr_spec(spec) => {
             let options = volume_args.load_options();
-            if pyramid.channels > 1 && !matches!(volume_args.channel, Some(ChannelArg::Index(_))) {
-                Some(voxscope_volume::load_opened_channels(
-                    pyramid, spec, &options,
-                ))
-            } else {
-                Some(voxscope_volume::load_opened(pyramid, spec, &options).map(|v| vec![v]))
-            }
+            let pyramid = Pyramid::open_spec(spec, options.select, options.remote)
+                .map_err(|e| e.to_string())?;
+            Some((pyramid, spec))
         }
         _ => None,
     };
-    let read = match read {
-        Some(read) => Some(read.map_err(|e| load_error_text(&e))?),
-        None => volume_args.composite_channels()?,
+    // A store's level, and each of its channels, are read from that one open (a URL's
+    // metadata is fetched once).
+    let read = match store.as_mut() {
+        Some((pyramid, spec))
+            if volume_args.channels_from.is_none() && volume_args.raw.is_none() =>
+        {
+            let options = volume_args.load_options();
+            let read = if pyramid.channels > 1 && volume_args.wants_composite() {
+                voxscope_volume::load_opened_channels(pyramid, spec, &options)
+            } else {
+                voxscope_volume::load_opened(pyramid, spec, &options).map(|v| vec![v])
+            };
+            Some(read.map_err(|e| load_error_text(&e))?)
+        }
+        _ => volume_args.composite_channels()?,
     };
     // Several channels: each one's range, window and color; the table below is channel 0's.
     let (volume, channels) = match read {
@@ -67,12 +62,9 @@ pub fn run(args: &InfoArgs) -> Result<(), String> {
             (first, args.channels.prepare(channels, &args.transfer)?)
         }
         Some(mut channels) => (channels.pop().ok_or("no channel was read")?, Vec::new()),
-        None => {
-            // A bad --tf file fails before the volume is read.
-            args.transfer.saved()?;
-            (volume_args.load()?, Vec::new())
-        }
+        None => (volume_args.load()?, Vec::new()),
     };
+    let pyramid = store.map(|(pyramid, _)| pyramid);
     if beyond_octree(volume.dims) {
         print_beyond_octree(&volume, pyramid.as_ref(), args.json);
         return Ok(());

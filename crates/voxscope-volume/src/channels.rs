@@ -68,6 +68,7 @@ pub fn load_opened_channels(
     spec: &str,
     options: &LoadOptions,
 ) -> Result<Vec<Volume>, LoadError> {
+    pyramid.check_channel_axis()?;
     check_channel_count(spec, pyramid.channels)?;
     let selected = pyramid.selected;
     let mut channels = Vec::with_capacity(pyramid.channels);

@@ -535,10 +535,9 @@ pub(crate) fn load_url(
 }
 
 impl Pyramid {
-    /// The finest level within [`VOLUME_VOXEL_BUDGET`] read whole, as [`load`] reads a store
-    /// for the in-memory renderers; says on stderr when a finer level exists.
-    pub fn memory_volume(&self) -> Result<Volume, LoadError> {
-        // Each channel is listed (`Volume::series`): as many as an axis may have voxels.
+    /// An error where the channel axis is longer than a volume lists its channels
+    /// (`Volume::series`: as many as an axis may have voxels).
+    pub fn check_channel_axis(&self) -> Result<(), LoadError> {
         if self.channels > super::MAX_AXIS {
             return Err(LoadError::new(
                 &self.source,
@@ -549,6 +548,13 @@ impl Pyramid {
                 ),
             ));
         }
+        Ok(())
+    }
+
+    /// The finest level within [`VOLUME_VOXEL_BUDGET`] read whole, as [`load`] reads a store
+    /// for the in-memory renderers; says on stderr when a finer level exists.
+    pub fn memory_volume(&self) -> Result<Volume, LoadError> {
+        self.check_channel_axis()?;
         let level = self.finest_within(VOLUME_VOXEL_BUDGET as u64);
         if level > 0 {
             eprintln!(

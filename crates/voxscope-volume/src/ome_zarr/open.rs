@@ -347,7 +347,7 @@ fn series_list(store: &ReadableStorage, warm: Warm) -> Result<metadata::Bioforma
     let documents: Vec<String> = finest
         .iter()
         .flatten()
-        .flat_map(|(level, _)| array_documents(level, 2))
+        .flat_map(|(level, _)| ["zarr.json", ".zarray"].map(|name| document_key(level, name)))
         .collect();
     warm(&documents);
     let mut finest = finest.into_iter();

@@ -27,7 +27,8 @@ impl RemoteStore {
     /// Fetches the documents `keys` all at once (up to the request limit), each bounded by
     /// `max_bytes`: what is present goes to the fetch cache; what is missing, larger than
     /// `max_bytes`, or failed is remembered, so that the reader's size checks and reads of
-    /// these keys cost no further request. Failures are kept only until [`Self::mark_opened`].
+    /// these keys cost no further request. Failures are kept only until [`Self::mark_opened`]
+    /// (after it, a batch's failures are remembered as a read's are).
     /// A denied one (403) is taken for missing where another document of its node is there:
     /// a server that lets nobody list the store (an S3 bucket without `s3:ListBucket`)
     /// answers so for what does not exist, here the other Zarr version's documents.
@@ -123,6 +124,9 @@ impl RemoteStore {
         let Ok(mut known) = inner.known.lock() else {
             return;
         };
+        // Once the store is open (a batch of its labels' documents), a failure is answered as
+        // a read's is, for as long as it is remembered, not for the store's life.
+        let opened = inner.opened.load(Ordering::Relaxed);
         for (key, failure) in failed {
             // As a read's failure: counted, remembered, and answered while the store opens.
             inner.counters.errors.fetch_add(1, Ordering::Relaxed);
@@ -134,6 +138,7 @@ impl RemoteStore {
                 .remember(key.as_str(), &failure, &inner.timing);
             let learned = match failure.too_large {
                 Some(size) => Known::TooLarge(size),
+                None if opened => continue,
                 None => Known::Failed(inner.storage_error(failure).to_string()),
             };
             known.insert(key.as_str().to_owned(), learned);
