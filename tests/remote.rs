@@ -509,6 +509,28 @@ fn a_server_that_denies_what_it_does_not_have_serves_a_store_as_any() {
         let stats = pyramid.remote_stats().expect("a URL's store");
         assert_eq!(stats.errors, 0, "{name}: {stats:?}");
     }
+    // A label behind a deny policy: listed without its colors, and listing again asks for
+    // none of its documents (their failures are remembered, as a read's are).
+    let server = FileServer::start(
+        &labels,
+        Faults {
+            deny_prefix: Some("/cells-v04.ome.zarr/labels/cells/"),
+            ..Faults::default()
+        },
+    );
+    let pyramid = open_url(&server.url("cells-v04.ome.zarr")).unwrap_or_else(|e| panic!("{e}"));
+    let listed = pyramid.label_images();
+    let names: Vec<&str> = listed.iter().map(|l| l.name.as_str()).collect();
+    assert_eq!(names, ["cells", "regions"]);
+    assert!(listed[0].colors.is_empty() && listed[1].version.is_some());
+    let before = server.counters.arrivals().len();
+    assert_eq!(pyramid.label_images(), listed);
+    let again: Vec<String> = server.counters.arrivals()[before..]
+        .iter()
+        .map(|(path, _)| path.clone())
+        .filter(|path| path.contains("labels/cells/"))
+        .collect();
+    assert!(again.is_empty(), "listed again, asked for {again:?}");
     // A bioformats2raw container's series are described there as from the folder.
     let series = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/series");
     let server = FileServer::start(&series, faults);

@@ -51,6 +51,7 @@ impl RemoteStore {
                     cache.get(key.as_str(), Piece::Whole).is_none()
                         && !cache.is_missing(key.as_str())
                         && !known.contains_key(key.as_str())
+                        && inner.remembered.get(key.as_str()).is_none()
                 })
                 .cloned()
                 .collect()
