@@ -71,30 +71,22 @@ pub fn load_opened_channels(
     pyramid.check_channel_axis()?;
     check_channel_count(spec, pyramid.channels)?;
     let selected = pyramid.selected;
-    let mut channels = Vec::with_capacity(pyramid.channels);
-    for channel in 0..pyramid.channels {
-        pyramid.selected = Selection {
-            channel,
-            time: options.select.time,
-        };
-        let read = super::registry::load_opened(
-            pyramid,
-            spec,
-            &LoadOptions {
-                select: pyramid.selected,
+    let channels = (0..pyramid.channels)
+        .map(|channel| {
+            let select = Selection {
+                channel,
+                time: options.select.time,
+            };
+            pyramid.selected = select;
+            let options = LoadOptions {
+                select,
                 ..options.clone()
-            },
-        );
-        match read {
-            Ok(volume) => channels.push(volume),
-            Err(error) => {
-                pyramid.selected = selected;
-                return Err(error);
-            }
-        }
-    }
+            };
+            super::registry::load_opened(pyramid, spec, &options)
+        })
+        .collect();
     pyramid.selected = selected;
-    Ok(channels)
+    channels
 }
 
 /// An error for more channels than are shown together.

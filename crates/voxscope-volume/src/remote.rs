@@ -919,12 +919,16 @@ impl Inner {
                 }
             }
             Err(_) if matches!(fetched, Fetched::Document | Fetched::Guess) => {}
-            Err(failure) => {
-                self.counters.errors.fetch_add(1, Ordering::Relaxed);
-                self.remembered.remember(&key, failure, &self.timing);
-            }
+            Err(failure) => self.record_failure(&key, failure),
         }
         result
+    }
+
+    /// A failed object as the store keeps it: counted among its errors, and remembered (for
+    /// a while, or for good) so that reads of it ask again only later.
+    fn record_failure(&self, key: &str, failure: &Failure) {
+        self.counters.errors.fetch_add(1, Ordering::Relaxed);
+        self.remembered.remember(key, failure, &self.timing);
     }
 
     /// Runs `attempt` until it succeeds, fails for good, or the operation's deadline (which

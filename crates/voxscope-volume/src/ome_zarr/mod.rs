@@ -235,6 +235,11 @@ fn store_keys(names: &[String]) -> Vec<StoreKey> {
         .collect()
 }
 
+/// Fetches the metadata documents `names` of the remote `store` together (one round trip).
+fn prefetch_named(store: &RemoteStore, names: &[String]) {
+    store.prefetch_documents(&store_keys(names), MAX_METADATA_BYTES);
+}
+
 /// Whether `spec` names something [`Pyramid::open_spec`] opens: a URL
 /// ([`super::remote::is_url`]) or a Zarr folder.
 pub fn is_zarr_spec(spec: &str) -> bool {
@@ -346,9 +351,7 @@ impl Pyramid {
         let store =
             RemoteStore::open(url, remote).map_err(|problem| LoadError::new(&source, problem))?;
         // Each step of the walk (the root's documents, then every level's) in one round trip.
-        let warm = |names: &[String]| {
-            store.prefetch_documents(&store_keys(names), MAX_METADATA_BYTES);
-        };
+        let warm = |names: &[String]| prefetch_named(&store, names);
         guard::register();
         // The root's documents, and in the same round trip those of the levels most stores
         // name `0`, `1`, … (what `open_root` then asks for is fetched already, or known
@@ -472,7 +475,7 @@ impl Pyramid {
         // missing rather than denied).
         let warm = |names: &[String]| {
             if let Some(remote) = &self.remote {
-                remote.prefetch_documents(&store_keys(names), MAX_METADATA_BYTES);
+                prefetch_named(remote, names);
             }
         };
         open::label_images(&self.store, &self.image_prefix, &warm)

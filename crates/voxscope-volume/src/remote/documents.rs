@@ -130,13 +130,10 @@ impl RemoteStore {
         let opened = inner.opened.load(Ordering::Relaxed);
         for (key, failure) in failed {
             // As a read's failure: counted, remembered, and answered while the store opens.
-            inner.counters.errors.fetch_add(1, Ordering::Relaxed);
+            inner.record_failure(key.as_str(), &failure);
             if failure.persistence != Persistence::Silent {
                 inner.health.operation_ended(true);
             }
-            inner
-                .remembered
-                .remember(key.as_str(), &failure, &inner.timing);
             let learned = match failure.too_large {
                 Some(size) => Known::TooLarge(size),
                 None if opened => continue,
