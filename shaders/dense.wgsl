@@ -35,6 +35,11 @@ fn level_at(p: vec3<f32>) -> u32 {
     return value_index(textureSampleLevel(levels, level_sampler, p / params.volume.xyz, 0.0).r);
 }
 
+// The label at normalized texture coordinates (`shade_label`, ray_common.wgsl).
+fn label_level_at(coords: vec3<f32>) -> u32 {
+    return value_index(textureSampleLevel(levels, level_sampler, coords, 0.0).r);
+}
+
 // The gradient of the filtered value levels at normalized texture coordinates `coords`,
 // central differences `half_texel` (half a voxel of the level) either side: levels per
 // level-0 voxel, voxel space.
@@ -51,7 +56,7 @@ fn level_gradient(coords: vec3<f32>, half_texel: vec3<f32>) -> vec3<f32> {
     return (high - low) * (params.atlas_scale / sample_voxels());
 }
 
-// `jitter` (`pixel_jitter`) places the samples in their steps.
+// `jitter` (`ray_jitter`) places the samples in their steps.
 fn march(origin: vec3<f32>, dir: vec3<f32>, jitter: f32) -> MarchResult {
     var result = MarchResult(vec3<f32>(0.0), 0u, -1.0);
     let interval = volume_interval(origin, dir, safe_inverse(dir));
@@ -97,7 +102,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let ray = pixel_ray(pixel);
-    let result = march(params.eye.xyz, ray.dir, pixel_jitter(pixel));
+    let result = march(params.eye.xyz, ray.dir, ray_jitter(pixel));
     if PROBE {
         write_probe(params.eye.xyz, ray.dir, result.probe_t);
     } else {

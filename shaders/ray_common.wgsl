@@ -111,6 +111,22 @@ fn pixel_jitter(pixel: vec2<u32>) -> f32 {
 }
 fn min_component(v: vec3<f32>) -> f32 { return min(v.x, min(v.y, v.z)); }
 
+// Whether the values are labels (categories), drawn unblended and undithered.
+fn labels() -> bool {
+    return (params.flags & FLAG_LABELS) != 0u;
+}
+
+// Where in a sample step pixel `pixel`'s samples sit: `pixel_jitter`, but for labels, which are
+// never dithered: the middle of the step for every pixel (a label's color does not depend on
+// where in its voxel a ray samples it, and a jittered first sample made its surfaces speckle).
+// Keep in sync with `ray_jitter` in tests/support/reference.rs.
+fn ray_jitter(pixel: vec2<u32>) -> f32 {
+    if labels() {
+        return 0.5;
+    }
+    return pixel_jitter(pixel);
+}
+
 // Inferno-like ramp for the nodes-visited heat map, x in 0…1.
 fn heat(x: f32) -> vec3<f32> {
     let c0 = vec3<f32>(0.0, 0.0, 0.02);
@@ -236,6 +252,58 @@ fn shade_sample(rgb: vec3<f32>, gradient: vec3<f32>, light: vec3<f32>) -> vec3<f
     return shade_with(rgb, cosine, weight);
 }
 
+// A label volume's sample of label `level` at normalized texture coordinates `coords`
+// (SHADING), lit as the octree lights a voxel (`shade_face`): the normal is the face by which
+// the ray entered this label's voxels, the weight 1 there and 0 inside one label. Samples are
+// one voxel apart, so the ray may have entered the label in a voxel between the last sample
+// and this one: the voxels the ray crossed since the sample before (`step` back, at most one
+// voxel along each axis; a voxel is a texel, `2 · frame.half_texel`) are walked in order, and
+// the face is the last crossing from another label into this one. A gradient of
+// nearest-sampled categories instead depended on where in its voxel each sample fell: noise
+// (docs/octree.md, "Shading").
+fn shade_label(rgb: vec3<f32>, level: u32, coords: vec3<f32>, step: f32,
+               frame: SampleFrame) -> vec3<f32> {
+    let texel = 2.0 * frame.half_texel;
+    let back = coords - frame.dir * step;
+    let start = floor(back / texel);
+    var previous = label_level_at((start + 0.5) * texel);
+    if previous == level {
+        return rgb; // inside the label since the sample before
+    }
+    let delta = clamp(floor(coords / texel) - start, vec3<f32>(-1.0), vec3<f32>(1.0));
+    let crossed = delta != vec3<f32>(0.0);
+    // Where along back → coords each crossed axis's voxel plane lies (0…1); 2: not crossed.
+    let planes = (start + max(delta, vec3<f32>(0.0))) * texel;
+    var at = select(vec3<f32>(2.0), (planes - back) / select(vec3<f32>(1.0), coords - back, crossed),
+                    crossed);
+    var voxel = start;
+    var face = vec3<f32>(0.0);
+    for (var i = 0u; i < 3u; i++) {
+        let next = min_component(at);
+        if next > 1.5 {
+            break;
+        }
+        var axis = vec3<f32>(0.0, 0.0, 1.0);
+        if at.x <= next {
+            axis = vec3<f32>(1.0, 0.0, 0.0);
+        } else if at.y <= next {
+            axis = vec3<f32>(0.0, 1.0, 0.0);
+        }
+        voxel += axis * delta;
+        at = select(at, vec3<f32>(2.0), axis > vec3<f32>(0.5));
+        let here = label_level_at((voxel + 0.5) * texel);
+        if here == level && previous != level {
+            face = axis;
+        }
+        previous = here;
+    }
+    if face.x + face.y + face.z == 0.0 {
+        return rgb; // no crossing into this label found (rounding at a voxel's plane)
+    }
+    let cosine = min(abs(dot(frame.light / params.shading_scale.xyz, face)), 1.0);
+    return shade_with(rgb, cosine, 1.0);
+}
+
 // Takes the first `count` of four value levels in order along the ray, as one-voxel samples at
 // distances `ts`, and returns how many it took before the ray was done. The four lookups are
 // issued before any is blended, for the same reason as the batched fetches. `frame` places the
@@ -277,7 +345,11 @@ fn accumulate(acc: ptr<function, Accumulation>, levels: vec4<u32>, count: u32, t
         var rgb = rgba.rgb;
         if SHADING && a > 0.0 {
             let coords = select(frame.next, frame.here, ts[j] < frame.split) + ts[j] * frame.dir;
-            rgb = shade_sample(rgb, level_gradient(coords, frame.half_texel), frame.light);
+            if labels() {
+                rgb = shade_label(rgb, levels[j], coords, ts.y - ts.x, frame);
+            } else {
+                rgb = shade_sample(rgb, level_gradient(coords, frame.half_texel), frame.light);
+            }
         }
         (*acc).color += (1.0 - (*acc).alpha) * a * rgb;
         (*acc).alpha += (1.0 - (*acc).alpha) * a;

@@ -121,6 +121,11 @@ fn atlas_level_at(coords: vec3<f32>) -> u32 {
     return value_index(textureSampleLevel(atlas, atlas_sampler, coords, 0.0).r);
 }
 
+// The label at normalized atlas coordinates (`shade_label`, ray_common.wgsl).
+fn label_level_at(coords: vec3<f32>) -> u32 {
+    return atlas_level_at(coords);
+}
+
 // The gradient of the filtered value levels at normalized atlas coordinates `coords` (a sample
 // inside its brick), central differences `half_texel` (half a voxel of the level sampled) either
 // side: levels per level-0 voxel, voxel space. Half a voxel, not one: the one-voxel apron makes the atlas equal the
@@ -303,9 +308,14 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, lane: u32,
                     var rgb = rgba.rgb;
                     if SHADING {
                         let level_here = node_level(node_bounds, previous_level);
-                        rgb = shade_face(rgb, corner, size, origin, ray, light,
-                                         abs(level_here - select(previous_level, level_here,
-                                                                 previous_level < 0.0)));
+                        var level_step = abs(level_here - select(previous_level, level_here,
+                                                                 previous_level < 0.0));
+                        // Labels: any other label across the face is a surface, lit fully
+                        // (their values' differences mean nothing).
+                        if labels() && level_step > 0.0 {
+                            level_step = 1e30;
+                        }
+                        rgb = shade_face(rgb, corner, size, origin, ray, light, level_step);
                         previous_level = level_here;
                     }
                     let alpha_before = acc.alpha;
@@ -579,7 +589,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>,
         return;
     }
     let ray = pixel_ray(pixel);
-    let result = trace_ray(params.eye.xyz, ray.dir, ray.world_length, lane, pixel_jitter(pixel));
+    let result = trace_ray(params.eye.xyz, ray.dir, ray.world_length, lane, ray_jitter(pixel));
     if PROBE {
         write_probe(params.eye.xyz, ray.dir, result.probe_t);
     } else {
@@ -597,7 +607,7 @@ fn main_bricks(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let ray = pixel_ray(pixel);
-    let result = walk_bricks(params.eye.xyz, ray.dir, pixel_jitter(pixel));
+    let result = walk_bricks(params.eye.xyz, ray.dir, ray_jitter(pixel));
     if PROBE {
         write_probe(params.eye.xyz, ray.dir, result.probe_t);
     } else {

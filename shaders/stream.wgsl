@@ -181,6 +181,11 @@ fn atlas_level_at(coords: vec3<f32>) -> u32 {
     return value_index(textureSampleLevel(atlas, atlas_sampler, coords, 0.0).r);
 }
 
+// The label at normalized atlas coordinates (`shade_label`, ray_common.wgsl).
+fn label_level_at(coords: vec3<f32>) -> u32 {
+    return atlas_level_at(coords);
+}
+
 // The gradient of the filtered levels at normalized atlas coordinates (raycast.wgsl's): levels
 // per voxel of the level marched.
 fn level_gradient(coords: vec3<f32>, half_texel: vec3<f32>) -> vec3<f32> {
@@ -239,8 +244,12 @@ fn accumulate_level(acc: ptr<function, Accumulation>, levels: vec4<u32>, count: 
         var rgb = rgba.rgb;
         if SHADING && a > 0.0 {
             let coords = select(frame.next, frame.here, ts[j] < frame.split) + ts[j] * frame.dir;
-            rgb = shade_sample(rgb, level_gradient(coords, frame.half_texel) / level_scale,
-                               frame.light);
+            if labels() {
+                rgb = shade_label(rgb, levels[j], coords, ts.y - ts.x, frame);
+            } else {
+                rgb = shade_sample(rgb, level_gradient(coords, frame.half_texel) / level_scale,
+                                   frame.light);
+            }
         }
         (*acc).color += (1.0 - (*acc).alpha) * a * rgb;
         (*acc).alpha += (1.0 - (*acc).alpha) * a;
@@ -809,7 +818,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let ray = pixel_ray(pixel);
-    let result = stream_ray(params.eye.xyz, ray.dir, ray.world_length, pixel_jitter(pixel));
+    let result = stream_ray(params.eye.xyz, ray.dir, ray.world_length, ray_jitter(pixel));
     if PROBE {
         write_probe(params.eye.xyz, ray.dir, result.probe_t);
     } else {
@@ -824,7 +833,7 @@ fn walk_pixel(xy: vec2<u32>, two_levels: bool) {
         return;
     }
     let ray = pixel_ray(pixel);
-    let result = level_walk(params.eye.xyz, ray.dir, ray.world_length, pixel_jitter(pixel),
+    let result = level_walk(params.eye.xyz, ray.dir, ray.world_length, ray_jitter(pixel),
                             two_levels);
     write_pixel(pixel, result.color, result.visited);
 }

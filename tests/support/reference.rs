@@ -5,7 +5,7 @@
 //!   level-of-detail, face-shading and clipping rules;
 //! - a trilinear ray marcher for `dense` and `bricks`: the same sample positions
 //!   (`t_enter + (k + jitter)·step`, one voxel apart, from the clipped entry, the pixel's
-//!   jitter [`pixel_jitter`]), the same filter (texel centers at voxel centers, clamped to the
+//!   jitter [`pixel_jitter`], the middle of the step for labels), the same filter (texel centers at voxel centers, clamped to the
 //!   edge) over the levels as the GPU texture holds them, and the same gradient rule for
 //!   shading; for a label volume ([`MarchVolume::into_labels`]) the nearest voxel's label, and
 //!   MIP the first visible label.
@@ -605,6 +605,8 @@ impl<'a> Marcher<'a> {
             return (DVec3::ZERO, probe);
         }
         let step = 1.0 / dir.length();
+        // `ray_jitter` of ray_common.wgsl: labels are never dithered.
+        let jitter = if self.volume.labels { 0.5 } else { jitter };
         let trilinear = self.settings.trilinear && !self.volume.labels;
         let first_label = self.volume.labels && self.settings.mode == RenderMode::Mip;
         let (mut color, mut alpha) = (DVec3::ZERO, 0.0);
