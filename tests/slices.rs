@@ -104,10 +104,10 @@ fn voxel_of_pixel(
         (SliceConvention::Radiological, 2) => [x - 1 - column, y - 1 - row, index],
         (SliceConvention::Radiological, 1) => [x - 1 - column, index, z - 1 - row],
         (SliceConvention::Radiological, _) => [index, y - 1 - column, z - 1 - row],
-        // The first voxel top-left; z down in the side views.
+        // The first voxel top-left across z; +z up in the side views, as in the 3D view.
         (SliceConvention::Image, 2) => [column, row, index],
-        (SliceConvention::Image, 1) => [column, index, row],
-        (SliceConvention::Image, _) => [index, column, row],
+        (SliceConvention::Image, 1) => [column, index, z - 1 - row],
+        (SliceConvention::Image, _) => [index, column, z - 1 - row],
     }
 }
 

@@ -59,11 +59,12 @@ pub enum SliceConvention {
     /// - sagittal (across x): anterior on the left (screen right is −y, posterior), superior
     ///   up (screen down is −z).
     Radiological,
-    /// Image stacks (microscopy, simulations), as Fiji and napari show them, the first voxel
-    /// in the top-left corner:
-    /// - across z: +x to the right, +y down (a TIFF page as stored);
-    /// - across y: +x to the right, +z down;
-    /// - across x: +y to the right, +z down.
+    /// Image stacks (microscopy, simulations): across z as Fiji and napari show a plane, the
+    /// first voxel in the top-left corner; the side views with +z up, as the 3D view stands
+    /// the volume (each view a true view from one side, none mirrored):
+    /// - across z: +x to the right, +y down (a TIFF page as stored; seen from −z);
+    /// - across y: +x to the right, +z up (seen from −y);
+    /// - across x: +y to the right, +z up (seen from +x).
     Image,
 }
 
@@ -89,8 +90,8 @@ impl SliceConvention {
             (Self::Radiological, 0) => [(1, -1.0), (2, -1.0)],
             (Self::Radiological, 1) => [(0, -1.0), (2, -1.0)],
             (Self::Radiological, _) => [(0, -1.0), (1, -1.0)],
-            (Self::Image, 0) => [(1, 1.0), (2, 1.0)],
-            (Self::Image, 1) => [(0, 1.0), (2, 1.0)],
+            (Self::Image, 0) => [(1, 1.0), (2, -1.0)],
+            (Self::Image, 1) => [(0, 1.0), (2, -1.0)],
             (Self::Image, _) => [(0, 1.0), (1, 1.0)],
         }
     }
@@ -663,8 +664,9 @@ mod tests {
             ([l.left, l.right, l.top, l.bottom], size)
         };
         assert_eq!(image(2), (["−x", "+x", "−y", "+y"], [10, 20]));
-        assert_eq!(image(1), (["−x", "+x", "−z", "+z"], [10, 30]));
-        assert_eq!(image(0), (["−y", "+y", "−z", "+z"], [20, 30]));
+        // The side views stand +z up, as the 3D view does.
+        assert_eq!(image(1), (["−x", "+x", "+z", "−z"], [10, 30]));
+        assert_eq!(image(0), (["−y", "+y", "+z", "−z"], [20, 30]));
     }
 
     #[test]
