@@ -162,3 +162,49 @@ fn shading_lights_the_surface_and_can_be_switched_off() {
     assert!(differing_pixels(&lit_view, &flat) > 5000);
     snapshot(&mut harness, "shading_off");
 }
+
+#[test]
+fn a_cts_mip_has_its_own_window_and_dvr_gets_its_curve_back() {
+    let mut harness = support::app_harness::harness_with(
+        Some(voxscope_scene::VolumeSource::Spec(
+            "synthetic:ct:128x128x64".into(),
+        )),
+        egui::vec2(1100.0, 720.0),
+    );
+    let dvr_transfer = harness.state().settings.transfer;
+    let dvr_window = harness.state().view.window;
+    harness.get_by_label("MIP").click();
+    settle(&mut harness);
+    let state = harness.state();
+    assert_eq!(state.settings.mode, voxscope_render::RenderMode::Mip);
+    // Grays over the CT's default window (as `render --mode mip` draws it), wider than the
+    // soft-tissue curve's, which a projection through bone saturates.
+    assert_eq!(
+        state.settings.transfer.colormap,
+        voxscope_octree::Colormap::Grays
+    );
+    assert_eq!(state.settings.transfer.opacity, OpacityMode::Gray);
+    let width = |w: voxscope_volume::ValueWindow| w.high - w.low;
+    assert!(
+        width(state.view.window) > 2.0 * width(dvr_window),
+        "MIP window {:?}, DVR's {dvr_window:?}",
+        state.view.window
+    );
+    let image = view(&harness);
+    let lit = lit_pixels(&image);
+    let white = image
+        .pixels()
+        .filter(|p| p.0[..3].iter().all(|&c| c >= 250))
+        .count();
+    assert!(lit > 5000, "the MIP draws the body: {lit} lit pixels");
+    assert!(
+        white * 10 < lit,
+        "the MIP saturates: {white} of {lit} lit pixels are white"
+    );
+    snapshot(&mut harness, "ct_mip");
+    // Back to DVR: the curve and window it had.
+    harness.get_by_label("DVR").click();
+    settle(&mut harness);
+    assert_eq!(harness.state().settings.transfer, dvr_transfer);
+    assert_eq!(harness.state().view.window, dvr_window);
+}

@@ -144,3 +144,26 @@ fn over_the_streaming_renderer_a_label_image_streams_too() {
     assert!(red_pixels(&drawn) > 50, "label 1 too");
     assert_eq!(harness.state().error(), None);
 }
+
+/// A label volume opens drawn as labels; the panel says so and offers its values instead (the
+/// "Show labels" button did nothing there), and back.
+#[test]
+fn a_label_volume_toggles_between_labels_and_values() {
+    let mut harness = fresh_app("synthetic:labels:48x40x36");
+    let colormap = |h: &Harness<'_, VoxscopeApp>| h.state().settings.transfer.colormap;
+    assert_eq!(colormap(&harness), voxscope_octree::Colormap::Labels);
+    harness.get_by_label("Drawn as labels.");
+    assert!(harness.query_by_label("Show labels").is_none());
+    harness.get_by_label("Show values").click();
+    settle(&mut harness);
+    assert_eq!(colormap(&harness), voxscope_octree::Colormap::Grays);
+    assert_eq!(
+        harness.state().settings.transfer.opacity,
+        voxscope_octree::OpacityMode::Gray
+    );
+    assert!(harness.query_by_label("Drawn as labels.").is_none());
+    harness.get_by_label("Show labels").click();
+    settle(&mut harness);
+    assert_eq!(colormap(&harness), voxscope_octree::Colormap::Labels);
+    harness.get_by_label("Drawn as labels.");
+}

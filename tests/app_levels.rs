@@ -59,11 +59,21 @@ fn every_level_below_the_voxels_is_a_picture_of_its_own_with_bricks_and_dense() 
 fn the_level_grid_with_bricks_shows_each_levels_resolution() {
     let mut harness = harness();
     choose_renderer(&mut harness, "bricks");
-    harness.get_by_label("Level grid").click();
-    settle(&mut harness);
     // At the brick level the bricks' nodes are drawn, one color each.
     set_max_level(&mut harness, 2);
     harness.get_by_label("nodes to level 2, one color each");
     set_max_level(&mut harness, 7);
+    harness.get_by_label("Level grid").click();
+    settle(&mut harness);
+    // The Octree panel describes the grid's panes, not the single view's max level.
+    harness.get_by_label("per pane: 4, 5, 6, 7");
+    harness.get_by_label("4: 16×8×16 voxels of 8³, filtered");
+    harness.get_by_label("7: every voxel");
+    assert!(
+        harness
+            .query_by_role_and_label(egui::accesskit::Role::Slider, "Max level")
+            .is_none(),
+        "the single view's max level slider is shown in the level grid"
+    );
     snapshot(&mut harness, "level_grid_bricks");
 }

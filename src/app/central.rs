@@ -73,6 +73,8 @@ pub struct CentralView {
 /// of how many, and whether it completed the pane's image.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Measured {
+    /// The scene drawn (its serial): a report of the volume before an open is not this one's.
+    pub scene: u64,
     pub pane: usize,
     pub panes: usize,
     /// The pane's max level (a 3D pane).
@@ -183,9 +185,13 @@ impl CentralView {
         self.last_report
     }
 
-    /// The last measured frame with the pane it was measured on.
-    pub fn frame_facts(&self) -> Option<FrameFacts> {
+    /// The last measured frame of scene `serial` with the pane it was measured on; `None`
+    /// until a frame of that scene was measured (the volume before an open has other numbers).
+    pub fn frame_facts(&self, serial: u64) -> Option<FrameFacts> {
         let (report, measured) = (self.last_report?, self.last_measured?);
+        if measured.scene != serial {
+            return None;
+        }
         let frame_ms = if self.last_bands > 0 {
             self.band_time
                 .get(measured.pane)
@@ -280,7 +286,9 @@ impl CentralView {
                 UiBuilder::new().max_rect(strip.shrink2(vec2(6.0, 2.0))),
                 |ui| {
                     ui.horizontal(|ui| match settings.layout {
-                        Layout::LevelGrid => grid_strip(ui, settings),
+                        Layout::LevelGrid => {
+                            grid_strip(ui, settings, view, scene.map_or(0, Scene::depth))
+                        }
                         _ => pair_strip(ui, settings, view.window),
                     });
                 },

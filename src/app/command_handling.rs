@@ -262,8 +262,11 @@ impl VoxscopeApp {
         let context = Arc::clone(&gpu.context);
         // A new volume opens with what fits its data, unless the user pinned the transfer
         // function; with the renderer the user chose, not one the last volume called for.
+        // In MIP, grays over the default window (a CT preset's colors say what its opacity
+        // hides, which a projection does not), as on the command line.
         let request = TransferRequest {
             saved: self.pinned_transfer(),
+            mip: self.settings.mode == voxscope_render::RenderMode::Mip,
             ..TransferRequest::default()
         };
         let options = match &frame {

@@ -7,9 +7,9 @@ use egui_plot::{Bar, BarChart, Legend, Plot};
 use super::central::FrameFacts;
 use super::clip_panel::{self, ClipContext};
 use super::numbers::{format_bytes, group_digits};
-use super::settings::AppSettings;
+use super::settings::{AppSettings, Layout};
 use super::stream_panel;
-use super::view_state::ViewState;
+use super::view_state::{MAX_GRID_PANES, ViewState};
 use voxscope_octree::{DataKind, LevelStatistics};
 use voxscope_render::{HEATMAP_SATURATION, LevelDetail, RendererKind, heatmap_color};
 use voxscope_scene::CompositeScene;
@@ -37,26 +37,49 @@ pub fn show(
     view: &mut ViewState,
     facts: &OctreeFacts<'_>,
 ) {
+    let depth = facts.scene.map_or(0, Scene::depth);
+    let grid_levels = view.grid_levels_shown(settings.grid_panes.clamp(2, MAX_GRID_PANES), depth);
     let max_level = &mut view.max_level;
     ui.heading("Octree");
     ui.add_space(4.0);
-    let depth = facts.scene.map_or(0, Scene::depth);
     let composite = facts.scene.and_then(|s| s.composite.as_ref());
     egui::Grid::new("octree_grid")
         .num_columns(2)
         .spacing([8.0, 6.0])
         .show(ui, |ui| {
+            let grid = (settings.layout == Layout::LevelGrid && composite.is_none())
+                .then(|| grid_levels.clone());
             let label = ui.label("Max level");
-            ui.add_enabled(depth > 0 && composite.is_none(), egui::Slider::new(max_level, 0..=depth))
-                .labelled_by(label.id)
-                .on_hover_text("Deepest level rays descend to: 0 is the root alone, the last level the voxels")
-                .on_disabled_hover_text("The composite is marched through the voxels by the dense renderer: it has no levels");
+            if let Some(levels) = &grid {
+                let shown: Vec<String> = levels.iter().map(u32::to_string).collect();
+                ui.label(format!("per pane: {}", shown.join(", ")))
+                    .labelled_by(label.id)
+                    .on_hover_text("The level grid draws each pane at its own max level: set it at the top of the pane. The single view's max level is kept for the other layouts");
+            } else {
+                ui.add_enabled(depth > 0 && composite.is_none(), egui::Slider::new(max_level, 0..=depth))
+                    .labelled_by(label.id)
+                    .on_hover_text("Deepest level rays descend to: 0 is the root alone, the last level the voxels")
+                    .on_disabled_hover_text("The composite is marched through the voxels by the dense renderer: it has no levels");
+            }
             ui.end_row();
 
             if let Some(scene) = facts.scene {
+                const DRAWN_HOVER: &str = "What this max level draws with this renderer: the octree's nodes (one color each, as in the paper), or a level of the volume's pyramid (the volume averaged 2× per level), filtered, one sample per voxel of that level";
                 ui.label("Drawn");
-                ui.label(level_detail_text(scene.renderer.level_detail(*max_level)))
-                    .on_hover_text("What this max level draws with this renderer: the octree's nodes (one color each, as in the paper), or a level of the volume's pyramid (the volume averaged 2× per level), filtered, one sample per voxel of that level");
+                match &grid {
+                    Some(levels) => {
+                        ui.vertical(|ui| {
+                            for &level in levels {
+                                let detail = level_detail_text(scene.renderer.level_detail(level));
+                                ui.label(format!("{level}: {detail}")).on_hover_text(DRAWN_HOVER);
+                            }
+                        });
+                    }
+                    None => {
+                        ui.label(level_detail_text(scene.renderer.level_detail(*max_level)))
+                            .on_hover_text(DRAWN_HOVER);
+                    }
+                }
                 ui.end_row();
             }
 

@@ -14,14 +14,20 @@ use voxscope_volume::{ValueWindow, format_value};
 
 use super::transfer_panel::threshold_slider;
 
-/// The level grid's strip: how many panes.
-pub fn grid_strip(ui: &mut Ui, settings: &mut AppSettings) {
+/// The level grid's strip: how many panes (at most one per level of an octree of `depth`).
+/// A new count keeps the levels shown and adds levels not shown yet
+/// ([`ViewState::resize_grid`]).
+pub fn grid_strip(ui: &mut Ui, settings: &mut AppSettings, view: &mut ViewState, depth: u32) {
     let label = ui.label("Panes");
-    ui.add(egui::Slider::new(
-        &mut settings.grid_panes,
-        2..=MAX_GRID_PANES,
-    ))
-    .labelled_by(label.id);
+    let most = (depth as usize + 1).clamp(2, MAX_GRID_PANES);
+    let before = settings.grid_panes.clamp(2, MAX_GRID_PANES);
+    let changed = ui
+        .add(egui::Slider::new(&mut settings.grid_panes, 2..=most))
+        .labelled_by(label.id)
+        .changed();
+    if changed && settings.grid_panes != before {
+        view.resize_grid(before, settings.grid_panes, depth);
+    }
     ui.label("· each pane: its own max level, one linked camera");
 }
 

@@ -299,6 +299,10 @@ impl VoxscopeApp {
     /// Takes what `settings` holds into the app's settings and view state (the level at most
     /// `depth`).
     fn apply_render_settings(&mut self, settings: &RenderSettings, depth: u32) {
+        if self.settings.mode != settings.mode {
+            // The view's transfer function is its mode's; the other mode's is not known.
+            self.view.other_mode = None;
+        }
         self.settings.mode = settings.mode;
         self.settings.density = settings.density;
         self.settings.pixel_lod = settings.pixel_lod;

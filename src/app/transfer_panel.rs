@@ -6,11 +6,12 @@ use egui::Ui;
 
 use super::settings::AppSettings;
 use super::transfer_editor;
+use super::view_state::{ModeLook, ViewState};
 use voxscope_octree::{
     Colormap, ControlPoint, DataKind, OpacityCurve, OpacityMode, Preset, labels_transfer,
 };
 use voxscope_render::RenderMode;
-use voxscope_scene::VolumeData;
+use voxscope_scene::{TransferChoice, TransferRequest, VolumeData, opening_transfer};
 use voxscope_volume::ValueWindow;
 
 /// 2-D windows for CT data (Hounsfield units) as level/width pairs radiologists use: they set
@@ -25,6 +26,50 @@ const CT_WINDOWS: [(&str, f64, f64); 4] = [
 /// Draws the panel; edits `settings` and `window` in place. `data` is the volume's, or with
 /// the `composite` shown, the channel being edited.
 pub fn show(
+    ui: &mut Ui,
+    settings: &mut AppSettings,
+    view: &mut ViewState,
+    data: Option<&VolumeData>,
+    composite: bool,
+) {
+    let mode_before = settings.mode;
+    show_panel(ui, settings, &mut view.window, data, composite);
+    if settings.mode != mode_before
+        && let Some(data) = data.filter(|_| !composite)
+    {
+        switch_mode_look(settings, view, data);
+    }
+}
+
+/// The mode changed to `settings.mode`: the panel takes that mode's transfer function (the
+/// one it had when last shown, else what a volume opening in that mode gets: for MIP, grays
+/// over the default window, [`opening_transfer`]) and keeps the other's for the way back. A
+/// label volume keeps its colors (its MIP draws the first label shown, in its color), and a
+/// transfer function the user pinned for every volume stays as it is.
+fn switch_mode_look(settings: &mut AppSettings, view: &mut ViewState, data: &VolumeData) {
+    if matches!(data.kind, DataKind::Labels(_)) || settings.pinned_transfer.is_some() {
+        return;
+    }
+    let next = view.other_mode.take().unwrap_or_else(|| {
+        let request = TransferRequest {
+            mip: settings.mode == RenderMode::Mip,
+            ..TransferRequest::default()
+        };
+        let transfer = opening_transfer(&data.quantized, data.kind, data.default_window, &request);
+        ModeLook {
+            transfer: TransferChoice::from(transfer),
+            window: transfer.window,
+        }
+    });
+    view.other_mode = Some(ModeLook {
+        transfer: settings.transfer,
+        window: view.window,
+    });
+    settings.transfer = next.transfer;
+    view.window = next.window;
+}
+
+fn show_panel(
     ui: &mut Ui,
     settings: &mut AppSettings,
     window: &mut ValueWindow,
@@ -88,19 +133,22 @@ pub fn show(
             ui.end_row();
 
             ui.label("Shading");
+            let mip = settings.mode == RenderMode::Mip;
             ui.add_enabled(
-                !composite,
+                !composite && !mip,
                 egui::Checkbox::new(&mut settings.shading.enabled, "Lit (headlight)"),
             )
             .on_hover_text(
-                "Blinn-Phong lighting from the eye: gradients of the filtered volume (dense, bricks), the voxels' faces (octree); DVR only",
+                "Blinn-Phong lighting from the eye: gradients of the filtered volume (dense, bricks), the voxels' faces (octree and label volumes); DVR only",
             )
-            .on_disabled_hover_text(
-                "The composite is unshaded: light would follow one channel's gradient, and which one is a choice it does not make. Choose one channel (Channels and time) to shade it.",
-            );
+            .on_disabled_hover_text(if mip {
+                "A maximum intensity projection is never shaded: it shows the brightest value along each ray, not a surface. Shading applies to DVR."
+            } else {
+                "The composite is unshaded: light would follow one channel's gradient, and which one is a choice it does not make. Choose one channel (Channels and time) to shade it."
+            });
             ui.end_row();
 
-            if settings.shading.enabled && !composite {
+            if settings.shading.enabled && !composite && !mip {
                 let shading = &mut settings.shading;
                 for (name, value, range) in [
                     ("Ambient", &mut shading.ambient, 0.0..=1.0),
@@ -189,14 +237,27 @@ pub fn show(
     if let DataKind::Labels(labels) = data.kind {
         ui.horizontal_wrapped(|ui| {
             ui.small(format!("Label volume: {labels} distinct values."));
-            if ui
+            let as_labels = labels_transfer(&data.quantized);
+            let shown = settings.transfer == TransferChoice::from(as_labels)
+                && *window == as_labels.window;
+            if shown {
+                ui.small("Drawn as labels.");
+                if ui
+                    .button("Show values")
+                    .on_hover_text("Alpha = gray over the volume's window: the values as numbers, not categories")
+                    .clicked()
+                {
+                    let values = voxscope_octree::TransferFunction::gray(data.default_window);
+                    *window = values.window;
+                    settings.transfer = values.into();
+                }
+            } else if ui
                 .button("Show labels")
                 .on_hover_text("Categorical colors per value, label 0 transparent")
                 .clicked()
             {
-                let labels = labels_transfer(&data.quantized);
-                *window = labels.window;
-                settings.transfer = labels.into();
+                *window = as_labels.window;
+                settings.transfer = as_labels.into();
             }
         });
     }

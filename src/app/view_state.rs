@@ -5,7 +5,7 @@
 
 use voxscope_octree::{Clip, ClipPlane, LevelStatistics, TransferFunction};
 use voxscope_render::{RendererKind, SliceView};
-use voxscope_scene::ChannelState;
+use voxscope_scene::{ChannelState, TransferChoice};
 use voxscope_volume::ValueWindow;
 
 /// The level grid's largest pane count.
@@ -44,6 +44,18 @@ pub struct ViewState {
     /// GPU's buffers is drawn with bricks), until the user chooses another. It is no choice
     /// of the user's: the next volume opens with theirs.
     pub data_renderer: Option<RendererKind>,
+    /// The transfer function of the rendering mode not on screen (DVR's while MIP is shown,
+    /// MIP's while DVR is): switching modes swaps it with the panel's, so a CT's MIP is not
+    /// drawn through the soft-tissue preset's narrow window and going back restores the DVR
+    /// curve as it was. `None` until the first switch (the mode then opens with what fits it).
+    pub other_mode: Option<ModeLook>,
+}
+
+/// A rendering mode's transfer function: the panel's choices and the window.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ModeLook {
+    pub transfer: TransferChoice,
+    pub window: ValueWindow,
 }
 
 /// The crop box and clip plane as the panel edits them: each kept while switched off, so
@@ -129,6 +141,7 @@ impl Default for ViewState {
             channels: Vec::new(),
             active_channel: 0,
             data_renderer: None,
+            other_mode: None,
         }
     }
 }
@@ -156,6 +169,7 @@ impl ViewState {
             channels: Vec::new(),
             active_channel: 0,
             data_renderer: None,
+            other_mode: None,
         }
     }
 
@@ -186,6 +200,46 @@ impl ViewState {
     /// The level of pane `index` of `count`, as an editable value.
     pub fn grid_level_mut(&mut self, index: usize, count: usize) -> Option<&mut u32> {
         self.grid_levels.get_mut(grid_slot(index, count))
+    }
+
+    /// The levels of a grid of `count` panes, capped at `depth`, pane by pane.
+    pub fn grid_levels_shown(&self, count: usize, depth: u32) -> Vec<u32> {
+        (0..count.min(MAX_GRID_PANES))
+            .map(|index| self.grid_level(index, count, depth))
+            .collect()
+    }
+
+    /// The level grid goes from `from` panes to `to`: its panes keep the levels shown (the
+    /// finest of them where there are fewer panes), and new panes take the deepest levels not
+    /// shown yet, so no level is drawn twice while the octree has levels enough
+    /// (`depth + 1`); panes in order of level.
+    pub fn resize_grid(&mut self, from: usize, to: usize, depth: u32) {
+        let to = to.clamp(1, MAX_GRID_PANES);
+        let mut levels = self.grid_levels_shown(from, depth);
+        levels.sort_unstable();
+        levels.dedup();
+        // Fewer panes: the finest levels stay.
+        let keep_from = levels.len().saturating_sub(to);
+        levels.drain(..keep_from);
+        for level in (0..=depth).rev() {
+            if levels.len() >= to {
+                break;
+            }
+            if !levels.contains(&level) {
+                levels.push(level);
+            }
+        }
+        levels.sort_unstable();
+        // Fewer levels than panes (a shallow octree): the coarsest repeats.
+        while levels.len() < to {
+            levels.insert(0, levels.first().copied().unwrap_or(0));
+        }
+        if self.grid_levels.len() < MAX_GRID_PANES {
+            self.grid_levels = default_grid_levels(depth);
+        }
+        for (index, level) in levels.into_iter().enumerate() {
+            self.grid_levels[grid_slot(index, to)] = level;
+        }
     }
 
     /// True when the statistics describe `transfer` within the current clip.
@@ -223,5 +277,32 @@ mod tests {
         let shallow = ViewState::new([8; 3], 3, transfer, Vec::new());
         let levels: Vec<u32> = (0..6).map(|i| shallow.grid_level(i, 6, 3)).collect();
         assert_eq!(levels, [0, 0, 0, 1, 2, 3]);
+    }
+
+    #[test]
+    fn a_grid_grown_or_shrunk_draws_no_level_twice() {
+        let transfer = TransferFunction::gray(ValueWindow {
+            low: 0.0,
+            high: 1.0,
+        });
+        let mut view = ViewState::new([256; 3], 8, transfer, Vec::new());
+        // Four panes, the first set to level 3 by the user: 3, 6, 7, 8.
+        *view.grid_level_mut(0, 4).unwrap() = 3;
+        assert_eq!(view.grid_levels_shown(4, 8), [3, 6, 7, 8]);
+        // Six panes keep those and add the deepest levels not shown (it showed 3, 4, 3, 6, 7, 8).
+        view.resize_grid(4, 6, 8);
+        assert_eq!(view.grid_levels_shown(6, 8), [3, 4, 5, 6, 7, 8]);
+        *view.grid_level_mut(5, 6).unwrap() = 1;
+        // Three panes keep the finest three shown.
+        view.resize_grid(6, 3, 8);
+        assert_eq!(view.grid_levels_shown(3, 8), [5, 6, 7]);
+        view.resize_grid(3, 2, 8);
+        assert_eq!(view.grid_levels_shown(2, 8), [6, 7]);
+        view.resize_grid(2, 5, 8);
+        assert_eq!(view.grid_levels_shown(5, 8), [4, 5, 6, 7, 8]);
+        // A shallow octree has four levels for six panes: the coarsest repeats, nothing else.
+        let mut shallow = ViewState::new([8; 3], 3, transfer, Vec::new());
+        shallow.resize_grid(4, 6, 3);
+        assert_eq!(shallow.grid_levels_shown(6, 3), [0, 0, 0, 1, 2, 3]);
     }
 }

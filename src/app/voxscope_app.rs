@@ -264,7 +264,7 @@ impl VoxscopeApp {
     /// What a whole frame of the measured 3D pane costs the GPU, in ms (estimated from its
     /// bands' wall time where a slow device drew it in bands), and in how many bands.
     pub fn frame_cost(&self) -> Option<(f64, u32)> {
-        let facts = self.central.frame_facts()?;
+        let facts = self.central.frame_facts(self.scene_serial)?;
         Some((facts.frame_ms?, facts.bands))
     }
 
@@ -319,6 +319,7 @@ impl VoxscopeApp {
         self.view.window = preset.transfer.window;
         self.settings.density = preset.density;
         self.settings.mode = preset.mode;
+        self.view.other_mode = None;
         Ok(())
     }
 
@@ -723,7 +724,7 @@ impl eframe::App for VoxscopeApp {
                         transfer_panel::show(
                             ui,
                             &mut self.settings,
-                            &mut self.view.window,
+                            &mut self.view,
                             data,
                             composite.is_some(),
                         );
@@ -744,7 +745,7 @@ impl eframe::App for VoxscopeApp {
                             scene: self.scene.as_ref(),
                             statistics: &statistics,
                             statistics_pending,
-                            frame: self.central.frame_facts(),
+                            frame: self.central.frame_facts(self.scene_serial),
                             fps: self.central.fps(self.settings.continuous),
                             adapter: self
                                 .gpu

@@ -372,6 +372,7 @@ impl CentralView {
             if measure && let Some(probe) = self.frame_probe.as_mut() {
                 probe.record(context, &mut encoder, drawn_to);
                 measured = Some(Measured {
+                    scene: serial,
                     pane: index,
                     panes: count,
                     level,
