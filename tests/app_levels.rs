@@ -77,3 +77,39 @@ fn the_level_grid_with_bricks_shows_each_levels_resolution() {
     );
     snapshot(&mut harness, "level_grid_bricks");
 }
+
+/// The Octree panel's GPU time and nodes per ray are the volume's own: after an open they
+/// showed the previous volume's numbers until a frame of the new one was measured.
+#[test]
+fn an_opened_volume_shows_no_numbers_of_the_one_before() {
+    let mut harness = harness();
+    assert!(
+        harness.state().frame_cost().is_some(),
+        "the sample measured"
+    );
+    let ctx = harness.ctx.clone();
+    harness.state_mut().run_command(
+        voxscope::app::Command::Open(voxscope_scene::VolumeSource::Spec(
+            "synthetic:sphere:40".into(),
+        )),
+        &ctx,
+    );
+    let started = std::time::Instant::now();
+    while !harness
+        .state()
+        .volume()
+        .is_some_and(|(name, _)| name.contains("sphere"))
+    {
+        assert!(started.elapsed().as_secs() < 60, "the sphere opens");
+        harness.step();
+    }
+    assert!(
+        harness.state().frame_cost().is_none(),
+        "the panel shows the sample's numbers for the sphere"
+    );
+    settle(&mut harness);
+    assert!(
+        harness.state().frame_cost().is_some(),
+        "the sphere measured"
+    );
+}
