@@ -110,10 +110,12 @@ impl MovieFormat {
                 })
             }
             Self::Folder => {
+                let made = !output.exists();
                 std::fs::create_dir_all(output).map_err(|e| cannot(&e))?;
                 Box::new(FolderWriter {
                     folder: output.to_owned(),
                     next: 0,
+                    made,
                 })
             }
             Self::Mp4 { ffmpeg } => Box::new(Mp4Writer::start(ffmpeg, output, size, fps)?),
@@ -127,6 +129,15 @@ pub trait MovieWriter {
     fn add(&mut self, frame: &RgbaImage) -> Result<(), String>;
     /// Ends the file.
     fn finish(self: Box<Self>) -> Result<(), String>;
+    /// Stops without a movie (cancelled, or a frame failed): removes what was written, the
+    /// file, or the frames written into the folder and the folder where this writer made it,
+    /// so that nothing half-written is left.
+    fn abandon(self: Box<Self>);
+}
+
+/// Removes a movie file left unfinished (a file that is not there is no error).
+fn remove_unfinished(path: &Path) {
+    let _ = std::fs::remove_file(path);
 }
 
 /// The folder's name for frame `index`.
@@ -177,6 +188,12 @@ impl MovieWriter for GifWriter {
         let mut file = self.encoder.into_inner().map_err(|e| cannot(&e))?;
         file.flush().map_err(|e| cannot(&e))
     }
+
+    fn abandon(self: Box<Self>) {
+        let path = self.path.clone();
+        drop(self);
+        remove_unfinished(&path);
+    }
 }
 
 struct ApngWriter {
@@ -198,11 +215,19 @@ impl MovieWriter for ApngWriter {
             .finish()
             .map_err(|e| format!("cannot write {}: {e}", self.path.display()))
     }
+
+    fn abandon(self: Box<Self>) {
+        let path = self.path.clone();
+        drop(self);
+        remove_unfinished(&path);
+    }
 }
 
 struct FolderWriter {
     folder: PathBuf,
     next: usize,
+    /// The folder was made for this movie (an abandoned one removes it when empty).
+    made: bool,
 }
 
 impl MovieWriter for FolderWriter {
@@ -216,6 +241,16 @@ impl MovieWriter for FolderWriter {
 
     fn finish(self: Box<Self>) -> Result<(), String> {
         Ok(())
+    }
+
+    fn abandon(self: Box<Self>) {
+        for index in 0..self.next {
+            remove_unfinished(&self.folder.join(frame_file_name(index)));
+        }
+        if self.made {
+            // Only where nothing else was put there meanwhile.
+            let _ = std::fs::remove_dir(&self.folder);
+        }
     }
 }
 
@@ -315,6 +350,12 @@ impl MovieWriter for WebpWriter {
         file.write_all(&riff_size.to_le_bytes()).map_err(cannot)?;
         file.flush().map_err(cannot)
     }
+
+    fn abandon(self: Box<Self>) {
+        let path = self.path.clone();
+        drop(self);
+        remove_unfinished(&path);
+    }
 }
 
 /// `ffmpeg` reading raw RGBA frames on its standard input.
@@ -397,6 +438,13 @@ impl MovieWriter for Mp4Writer {
             Ok(status) if status.success() => Ok(()),
             _ => Err(self.failure()),
         }
+    }
+
+    fn abandon(mut self: Box<Self>) {
+        drop(self.input.take());
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+        remove_unfinished(&self.path);
     }
 }
 

@@ -202,6 +202,15 @@ fn preview_plays_the_path_and_returns_and_cancel_stops_an_export() {
     }
     let ctx = harness.ctx.clone();
     harness.state_mut().run_command(Command::ExportMovie, &ctx);
+    // Cancelled once frames are written: they go, and the folder the export made with them.
+    let started = Instant::now();
+    while frames_in(&folder).len() < 3 {
+        assert!(
+            started.elapsed() < Duration::from_secs(60),
+            "no frame written"
+        );
+        std::thread::sleep(Duration::from_millis(5));
+    }
     harness.state_mut().run_command(Command::CancelExport, &ctx);
     settle(&mut harness);
     assert_eq!(harness.state().error(), None);
@@ -209,8 +218,26 @@ fn preview_plays_the_path_and_returns_and_cancel_stops_an_export() {
         harness.state().notice(),
         Some("writing the movie cancelled")
     );
-    assert!(
-        frames_in(&folder).len() < 5001,
-        "stopped before the last frame"
+    assert_eq!(
+        frames_in(&folder),
+        Vec::<PathBuf>::new(),
+        "a cancelled export left frames"
     );
+    assert!(!folder.exists(), "the folder the export made is left");
+    // A folder that was there keeps what it held before.
+    std::fs::create_dir_all(&folder).expect("folder");
+    let kept = folder.join("notes.txt");
+    std::fs::write(&kept, "mine").expect("write");
+    harness.state_mut().run_command(Command::ExportMovie, &ctx);
+    let started = Instant::now();
+    while frames_in(&folder).len() < 3 {
+        assert!(
+            started.elapsed() < Duration::from_secs(60),
+            "no frame written"
+        );
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    harness.state_mut().run_command(Command::CancelExport, &ctx);
+    settle(&mut harness);
+    assert_eq!(frames_in(&folder), vec![kept]);
 }

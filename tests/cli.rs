@@ -240,7 +240,8 @@ fn bad_input_exits_non_zero_with_one_line_naming_the_file() {
         ),
         (
             vec!["info".into(), dir.path().display().to_string()],
-            "is a folder without slice images",
+            // Every kind of folder that opens is named, not only slices.
+            "is a folder without slice images (.tif, .tiff, .png), DICOM files or a Zarr store",
         ),
         (
             vec!["info".into(), "synthetic:sphere:0".into()],
@@ -555,4 +556,93 @@ fn ceilings_checks_each_kernel_and_reports_every_figure() {
         );
     }
     assert_eq!(json["sizes"]["stream_bytes"], 1 << 20);
+}
+
+/// Without `XDG_RUNTIME_DIR` (ssh, cron, containers) a successful render prints nothing that
+/// looks like an error: Mesa's device-select layer printed libwayland's `error:
+/// XDG_RUNTIME_DIR is invalid or not set` twice.
+#[test]
+fn a_render_without_a_runtime_dir_prints_no_foreign_error() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = dir.path().join("sphere.png");
+    for runtime_dir in [None, Some("/nonexistent/voxscope-runtime")] {
+        let mut command = Command::new(env!("CARGO_BIN_EXE_voxscope"));
+        command
+            .args(["render", "synthetic:sphere:32", "--size", "64x48", "-o"])
+            .arg(&out)
+            .env_remove("NODEVICE_SELECT");
+        match runtime_dir {
+            None => command.env_remove("XDG_RUNTIME_DIR"),
+            Some(dir) => command.env("XDG_RUNTIME_DIR", dir),
+        };
+        let output = command.output().expect("the binary runs");
+        let text = stderr(&output);
+        assert!(output.status.success(), "{runtime_dir:?}: {text}");
+        assert!(
+            !text.contains("error"),
+            "{runtime_dir:?}: a successful render printed an error: {text}"
+        );
+        assert!(out.exists());
+    }
+}
+
+/// While bricks are on their way and none arrive, `render` draws nothing (it drew frame after
+/// frame of the same image: 254 in 31 s): level 0 of a store never answers, the coarser levels
+/// do, and `--max-wait 3` ends the render with a frame drawn for each arrival, not one a
+/// millisecond.
+#[test]
+fn render_draws_no_frame_while_nothing_arrives() {
+    use support::fault_server::{FaultPlan, FaultServer};
+    let dir = tempfile::tempdir().expect("temp dir");
+    let store = dir.path().join("ct.ome.zarr");
+    let store_arg = store.to_str().expect("UTF-8");
+    let convert = voxscope(&[
+        "convert",
+        "synthetic:ct:200x160x120",
+        store_arg,
+        "--chunk",
+        "32",
+        "--format",
+        "0.4",
+    ]);
+    assert!(convert.status.success(), "convert: {}", stderr(&convert));
+    let level0_chunk = |path: &str| {
+        path.split_once(".ome.zarr/").is_some_and(|(_, key)| {
+            key.starts_with("0/") && !support::damage::is_metadata(std::path::Path::new(key))
+        })
+    };
+    let server = FaultServer::start(
+        dir.path(),
+        FaultPlan {
+            silent: Some(level0_chunk),
+            ..FaultPlan::default()
+        },
+    );
+    let png = dir.path().join("waiting.png");
+    let output = voxscope(&[
+        "render",
+        &server.url("ct.ome.zarr"),
+        "--renderer",
+        "stream",
+        "--lod-scale",
+        "0",
+        "--size",
+        "160x120",
+        "--max-wait",
+        "3",
+        "-o",
+        png.to_str().expect("UTF-8"),
+    ]);
+    let text = stderr(&output);
+    assert!(png.exists(), "{text}");
+    let frames: u32 = text
+        .split_once("(--max-wait) and ")
+        .and_then(|(_, rest)| rest.split_once(" frames"))
+        .and_then(|(count, _)| count.parse().ok())
+        .unwrap_or_else(|| panic!("no frame count: {text}"));
+    eprintln!("{frames} frames drawn: {text}");
+    assert!(
+        (1..=24).contains(&frames),
+        "{frames} frames drawn in 3 s of waiting for bricks that never came: {text}"
+    );
 }

@@ -1,7 +1,7 @@
 //! The Movie panel's Export: a movie drawn on a job thread by an [`OffscreenDrawer`] (a
 //! renderer of its own, never the panes'), each frame complete and read back there, then
 //! written by the same writers as `voxscope movie` ([`crate::movie_writer`]). The UI thread
-//! only polls the job; Cancel stops it between frames.
+//! only polls the job; Cancel stops it between frames and removes what it wrote.
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -62,11 +62,20 @@ pub fn spawn(export: Export, wake: impl Fn() + Send + 'static) -> Job<Exported> 
             .create(&output, (size[0], size[1]), fps, shots.len())
             .map_err(failed)?;
         progress.begin("drawing frames");
-        for (index, shot) in shots.iter().enumerate() {
-            progress.check()?;
-            let image = drawer.draw(shot, channels_of(index), size, None)?;
-            writer.add(&image).map_err(failed)?;
-            progress.set_fraction((index + 1) as f32 / shots.len() as f32);
+        let mut drawn = || -> Result<(), SceneError> {
+            for (index, shot) in shots.iter().enumerate() {
+                progress.check()?;
+                let image = drawer.draw(shot, channels_of(index), size, None)?;
+                writer.add(&image).map_err(failed)?;
+                progress.set_fraction((index + 1) as f32 / shots.len() as f32);
+            }
+            Ok(())
+        };
+        if let Err(error) = drawn() {
+            // Cancelled or failed: nothing half-written is left (the frames written so far of
+            // a folder, the file of a movie).
+            writer.abandon();
+            return Err(error);
         }
         progress.begin("finishing");
         writer.finish().map_err(failed)?;

@@ -121,41 +121,50 @@ pub fn run(args: &MovieArgs, given: &Given) -> Result<(), String> {
         eprintln!();
         error
     };
-    for (index, shot) in shots.iter().enumerate() {
-        let frame_started = Instant::now();
-        drawing.set_transfer(&shot.transfer).map_err(ended)?;
-        if let Some(channels) = channel_frames.get(index) {
-            drawing.set_channels(channels);
+    // A frame that fails leaves no half-written movie.
+    let mut draw_frames = || -> Result<(), String> {
+        for (index, shot) in shots.iter().enumerate() {
+            let frame_started = Instant::now();
+            drawing.set_transfer(&shot.transfer).map_err(ended)?;
+            if let Some(channels) = channel_frames.get(index) {
+                drawing.set_channels(channels);
+            }
+            let drawn = drawing
+                .draw(&target, &shot.camera, &shot.settings)
+                .map_err(ended)?;
+            if let Some(refinement) = drawn {
+                coarse_frames += usize::from(!refinement.complete);
+                unreadable_frames += usize::from(!refinement.unreadable.is_empty());
+            }
+            let rendered = Instant::now();
+            let mut image =
+                read_image(&drawing.context, &target).map_err(|e| ended(e.to_string()))?;
+            drawing
+                .draw_labels_over(&mut image, None, &shot.camera, &shot.settings)
+                .map_err(ended)?;
+            let read = Instant::now();
+            writer.add(&image).map_err(ended)?;
+            let encoded = Instant::now();
+            times.render += rendered - frame_started;
+            times.readback += read - rendered;
+            times.encode += encoded - read;
+            let done = index + 1;
+            let rate = done as f64 / drawing_started.elapsed().as_secs_f64().max(1e-9);
+            let bar_width = 30;
+            let filled = done * bar_width / shots.len();
+            eprint!(
+                "\r[{}{}] frame {done}/{} ({rate:.1} frames/s)",
+                "#".repeat(filled),
+                " ".repeat(bar_width - filled),
+                shots.len()
+            );
+            let _ = std::io::stderr().flush();
         }
-        let drawn = drawing
-            .draw(&target, &shot.camera, &shot.settings)
-            .map_err(ended)?;
-        if let Some(refinement) = drawn {
-            coarse_frames += usize::from(!refinement.complete);
-            unreadable_frames += usize::from(!refinement.unreadable.is_empty());
-        }
-        let rendered = Instant::now();
-        let mut image = read_image(&drawing.context, &target).map_err(|e| ended(e.to_string()))?;
-        drawing
-            .draw_labels_over(&mut image, None, &shot.camera, &shot.settings)
-            .map_err(ended)?;
-        let read = Instant::now();
-        writer.add(&image).map_err(ended)?;
-        let encoded = Instant::now();
-        times.render += rendered - frame_started;
-        times.readback += read - rendered;
-        times.encode += encoded - read;
-        let done = index + 1;
-        let rate = done as f64 / drawing_started.elapsed().as_secs_f64().max(1e-9);
-        let bar_width = 30;
-        let filled = done * bar_width / shots.len();
-        eprint!(
-            "\r[{}{}] frame {done}/{} ({rate:.1} frames/s)",
-            "#".repeat(filled),
-            " ".repeat(bar_width - filled),
-            shots.len()
-        );
-        let _ = std::io::stderr().flush();
+        Ok(())
+    };
+    if let Err(error) = draw_frames() {
+        writer.abandon();
+        return Err(error);
     }
     eprintln!();
     let finish_started = Instant::now();

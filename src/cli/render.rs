@@ -203,8 +203,9 @@ fn report_stream(
             .unwrap_or_else(|| format!("complete after {} frames", refinement.frames))
     } else {
         format!(
-            "still coarse after {:.1} s (--max-wait): {}",
+            "still coarse after {:.1} s (--max-wait) and {} frames: {}",
             refinement.seconds,
+            refinement.frames,
             describe_missing(&refinement.status)
         )
     };

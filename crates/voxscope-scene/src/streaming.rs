@@ -392,7 +392,11 @@ impl Refinement {
 
 /// Draws `camera`'s view into `target` frame after frame (update, draw, wait for the GPU)
 /// until nothing visible is missing or `max_wait` has passed. No one watches these frames: a
-/// still one uploads every brick ready ([`StillUploads::AllReady`]).
+/// still one uploads every brick ready ([`StillUploads::AllReady`]). A frame is drawn only
+/// where it can differ from the last (the first, and after bricks arrived or the page table
+/// changed): while loads are under way and nothing arrives, the streamer is updated every
+/// [`IDLE_POLL`] and nothing is drawn (it drew frame after frame, 254 in 31 s on a CPU's
+/// Vulkan, for the same image).
 pub fn refine(
     context: &GpuContext,
     renderer: &mut VolumeRenderer,
@@ -413,7 +417,8 @@ pub fn refine(
         let mut first_frame_seconds = None;
         let mut errors = Vec::new();
         let mut parts = FrameParts::default();
-        for frames in 1.. {
+        let mut frames = 0;
+        loop {
             let updating = Instant::now();
             let status = renderer
                 .update(context)
@@ -422,14 +427,18 @@ pub fn refine(
             parts.phases += status.phases;
             errors.extend(status.errors.iter().cloned());
             let first = *first_frame.get_or_insert(status.frame);
-            let drawing = Instant::now();
-            renderer.render(context, target, camera, settings);
-            let waiting = Instant::now();
-            parts.draw += (waiting - drawing).as_secs_f64();
-            context
-                .wait_idle()
-                .map_err(|e| SceneError::failed(e.to_string()))?;
-            parts.wait += waiting.elapsed().as_secs_f64();
+            let differs = frames == 0 || status.uploads > 0 || status.table_changed;
+            if differs {
+                let drawing = Instant::now();
+                renderer.render(context, target, camera, settings);
+                let waiting = Instant::now();
+                parts.draw += (waiting - drawing).as_secs_f64();
+                context
+                    .wait_idle()
+                    .map_err(|e| SceneError::failed(e.to_string()))?;
+                parts.wait += waiting.elapsed().as_secs_f64();
+                frames += 1;
+            }
             let first_frame_seconds =
                 *first_frame_seconds.get_or_insert_with(|| started.elapsed().as_secs_f64());
             let complete = status.complete && status.judged_frame.is_some_and(|f| f >= first);
@@ -451,14 +460,17 @@ pub fn refine(
                     parts,
                 });
             }
-            if status.uploads == 0 && status.queued + status.loading > 0 {
+            if !differs {
+                let pausing = Instant::now();
+                std::thread::sleep(IDLE_POLL);
+                parts.pause += pausing.elapsed().as_secs_f64();
+            } else if status.uploads == 0 && status.queued + status.loading > 0 {
                 parts.frames_waiting_for_loads += 1;
                 let pausing = Instant::now();
                 std::thread::sleep(Duration::from_millis(1));
                 parts.pause += pausing.elapsed().as_secs_f64();
             }
         }
-        unreachable!("the loop returns")
     };
     let refined = draw();
     if let Some(before) = before {
@@ -466,6 +478,9 @@ pub fn refine(
     }
     refined
 }
+
+/// How often [`refine`] looks for bricks while none arrive and nothing is drawn.
+pub const IDLE_POLL: Duration = Duration::from_millis(2);
 
 /// Where the budget limits the view: `budget-limited: finest level 1, level 2 where least
 /// important; the view needs 227 bricks at full detail (a GPU budget of 32 MiB holds it all),

@@ -10,14 +10,22 @@ use super::{MAX_VOXELS, Volume, VoxelData};
 /// Files of these extensions are slices.
 const SLICE_EXTENSIONS: [&str; 3] = ["tif", "tiff", "png"];
 
+/// What a folder that holds no volume lacks: every kind of folder that opens (the last tried,
+/// slices, named first).
+pub(super) fn no_volume_in_folder() -> Problem {
+    format!(
+        "is a folder without slice images ({}), DICOM files or a Zarr store (.zgroup, .zarray \
+         or zarr.json); open a volume file, a folder of slices or of one DICOM series, or a \
+         Zarr store's folder",
+        SLICE_EXTENSIONS.map(|e| format!(".{e}")).join(", ")
+    )
+}
+
 /// Reads the slices of `dir` in name-number order into one volume.
 pub(super) fn load(dir: &Path) -> Result<Volume, Problem> {
     let files = slice_files(dir)?;
     if files.is_empty() {
-        return Err(format!(
-            "is a folder without slice images ({}); open a volume file or a folder of slices",
-            SLICE_EXTENSIONS.map(|e| format!(".{e}")).join(", ")
-        ));
+        return Err(no_volume_in_folder());
     }
     let mut stack: Option<(VoxelData, [usize; 2], Volume)> = None;
     for (index, file) in files.iter().enumerate() {

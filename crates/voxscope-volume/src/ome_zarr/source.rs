@@ -308,7 +308,9 @@ impl SlabSource {
 
     fn slices(dir: &Path, spacing: Option<[f64; 3]>) -> Result<Self, Problem> {
         let files = super::super::slices::slice_files(dir)?;
-        let first_file = files.first().ok_or("is a folder without slice images")?;
+        let first_file = files
+            .first()
+            .ok_or_else(super::super::slices::no_volume_in_folder)?;
         let first = super::super::slices::read_slice(first_file)
             .map_err(|p| format!("slice {}: {p}", first_file.display()))?;
         if files.len() > MAX_AXIS {
