@@ -259,6 +259,26 @@ fn save_dialogs_save_with_a_button_confirm_and_start_in_the_last_save_folder() {
     harness.get_by_label(&folder.display().to_string());
 }
 
+/// File ▸ Save screenshot at 2×… says 2× in its dialog's title and file name (it said
+/// "Save screenshot" whatever the scale).
+#[test]
+fn a_scaled_screenshots_dialog_names_its_scale() {
+    let mut harness = fresh_app(&mri());
+    let ctx = harness.ctx.clone();
+    harness
+        .state_mut()
+        .run_command(Command::SetScreenshotScale(2), &ctx);
+    harness
+        .state_mut()
+        .run_command(Command::Browse(DialogKind::SaveScreenshot), &ctx);
+    settle(&mut harness);
+    harness.get_by_label("Save screenshot at 2× (PNG)");
+    assert_eq!(
+        harness.get_by_label("Path").value().as_deref(),
+        Some("voxscope-2x.png")
+    );
+}
+
 #[test]
 fn the_url_window_sits_below_the_menus_and_enter_opens() {
     let mut harness = fresh_app(&mri());

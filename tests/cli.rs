@@ -635,6 +635,11 @@ fn render_draws_no_frame_while_nothing_arrives() {
     ]);
     let text = stderr(&output);
     assert!(png.exists(), "{text}");
+    assert_eq!(
+        output.status.code(),
+        Some(3),
+        "still coarse is incomplete: {text}"
+    );
     let frames: u32 = text
         .split_once("(--max-wait) and ")
         .and_then(|(_, rest)| rest.split_once(" frames"))

@@ -175,7 +175,8 @@ fn a_server_that_goes_silent_costs_one_timeout_and_never_a_renders_max_wait() {
     );
     let seconds = started.elapsed().as_secs_f64();
     let text = stderr(&out);
-    assert!(out.status.success(), "{text}");
+    // Written, and incomplete by its exit code.
+    assert_eq!(out.status.code(), Some(3), "{text}");
     assert!(text.contains("still coarse after"), "{text}");
     assert!(png.exists());
     assert!(

@@ -1304,11 +1304,15 @@ fn render_waits_until_nothing_is_missing_or_says_what_was_still_coarse() {
         "-o",
         out,
     ]);
-    assert!(status.success(), "{stderr}");
+    // The image is written, and the exit code says it is incomplete (as for unreadable bricks).
+    assert_eq!(status.code(), Some(3), "{stderr}");
     assert!(
-        stderr.contains("still coarse after") && stderr.contains("bricks missing (level"),
+        stderr.contains("still coarse after")
+            && stderr.contains("bricks missing (level")
+            && stderr.trim_end().ends_with("; incomplete: still coarse"),
         "{stderr}"
     );
+    assert!(std::path::Path::new(out).exists());
     // A budget below what the coarsest levels need is a one-line error.
     let (status, stderr) =
         render_stream(&["synthetic:noise:1024", "--gpu-memory", "1MiB", "-o", out]);

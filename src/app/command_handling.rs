@@ -301,9 +301,12 @@ impl VoxscopeApp {
             return;
         }
         let wake = ctx.clone();
-        let receiver = dialogs::spawn(kind, start_directory(&self.settings, kind), move || {
-            wake.request_repaint()
-        });
+        let receiver = dialogs::spawn(
+            kind,
+            start_directory(&self.settings, kind),
+            self.screenshot_scale,
+            move || wake.request_repaint(),
+        );
         self.jobs.dialog = Some((kind, receiver));
     }
 
@@ -313,6 +316,7 @@ impl VoxscopeApp {
         self.browser = Some(FileBrowser::new(
             kind,
             start_directory(&self.settings, kind),
+            self.screenshot_scale,
             ctx,
         ));
     }

@@ -40,17 +40,36 @@ pub const OPEN_FOLDER_TITLE: &str =
 /// A dialog that closes faster than this was never shown: nobody cancels one so quickly.
 pub const NOT_SHOWN_WITHIN: Duration = Duration::from_millis(300);
 
+/// What a screenshot's save dialog is called: `Save screenshot`, or `Save screenshot at 2×`
+/// (the 3D view drawn again at `scale` times its pixels).
+pub fn screenshot_title(scale: u32) -> String {
+    match scale {
+        0 | 1 => "Save screenshot".to_owned(),
+        scale => format!("Save screenshot at {scale}×"),
+    }
+}
+
+/// The file name a screenshot's save dialog offers: `voxscope.png`, `voxscope-2x.png`.
+pub fn screenshot_file_name(scale: u32) -> String {
+    match scale {
+        0 | 1 => "voxscope.png".to_owned(),
+        scale => format!("voxscope-{scale}x.png"),
+    }
+}
+
 /// Starts the dialog `kind` on its own thread, opening in `directory` when given; its answer
 /// arrives on the returned receiver, and `wake` is called then (to repaint the UI).
+/// `screenshot_scale` names a screenshot's scale in its title and file name.
 pub fn spawn(
     kind: DialogKind,
     directory: Option<PathBuf>,
+    screenshot_scale: u32,
     wake: impl Fn() + Send + 'static,
 ) -> mpsc::Receiver<DialogAnswer> {
     let (sender, receiver) = mpsc::channel();
     std::thread::spawn(move || {
         let started = Instant::now();
-        let path = show(kind, directory.as_deref());
+        let path = show(kind, directory.as_deref(), screenshot_scale);
         let _ = sender.send(DialogAnswer {
             path,
             open_for: started.elapsed(),
@@ -61,7 +80,7 @@ pub fn spawn(
 }
 
 /// Shows the dialog and waits for the user's answer (on the dialog's thread).
-fn show(kind: DialogKind, directory: Option<&Path>) -> Option<PathBuf> {
+fn show(kind: DialogKind, directory: Option<&Path>, screenshot_scale: u32) -> Option<PathBuf> {
     let mut dialog = rfd::FileDialog::new();
     if let Some(directory) = directory {
         dialog = dialog.set_directory(directory);
@@ -78,9 +97,9 @@ fn show(kind: DialogKind, directory: Option<&Path>) -> Option<PathBuf> {
             .pick_file(),
         DialogKind::OpenFolder => dialog.set_title(OPEN_FOLDER_TITLE).pick_folder(),
         DialogKind::SaveScreenshot => dialog
-            .set_title("Save screenshot")
+            .set_title(screenshot_title(screenshot_scale))
             .add_filter("PNG image", &["png"])
-            .set_file_name("voxscope.png")
+            .set_file_name(screenshot_file_name(screenshot_scale))
             .save_file(),
         DialogKind::SaveTransfer => dialog
             .set_title("Save transfer function")

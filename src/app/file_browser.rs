@@ -9,7 +9,7 @@ use std::sync::mpsc::{self, Receiver, TryRecvError};
 
 use egui::{Key, RichText, Ui};
 
-use super::dialogs::{DialogKind, OPEN_FOLDER_TITLE};
+use super::dialogs::{DialogKind, OPEN_FOLDER_TITLE, screenshot_file_name, screenshot_title};
 use super::numbers::format_bytes;
 use voxscope_volume::ome_zarr::is_zarr_folder;
 
@@ -44,6 +44,8 @@ struct Listing {
 /// The browser's state while it is open.
 pub struct FileBrowser {
     kind: DialogKind,
+    /// A screenshot's scale (1, 2 or 4).
+    screenshot_scale: u32,
     directory: PathBuf,
     /// The typed path: a folder to go to, a file to open, or a file name to save as.
     path_text: String,
@@ -56,14 +58,21 @@ pub struct FileBrowser {
 }
 
 impl FileBrowser {
-    /// A browser for `kind`, showing `directory` (the current folder if `None`).
-    pub fn new(kind: DialogKind, directory: Option<PathBuf>, ctx: &egui::Context) -> Self {
+    /// A browser for `kind`, showing `directory` (the current folder if `None`);
+    /// `screenshot_scale` is what a screenshot's pixels are multiplied by (its title and file
+    /// name say so above 1).
+    pub fn new(
+        kind: DialogKind,
+        directory: Option<PathBuf>,
+        screenshot_scale: u32,
+        ctx: &egui::Context,
+    ) -> Self {
         let directory = directory
             .filter(|d| d.is_absolute())
             .or_else(|| std::env::current_dir().ok())
             .unwrap_or_else(|| PathBuf::from("/"));
         let path_text = match kind {
-            DialogKind::SaveScreenshot => "voxscope.png".to_owned(),
+            DialogKind::SaveScreenshot => screenshot_file_name(screenshot_scale),
             DialogKind::SaveTransfer => "transfer.ron".to_owned(),
             DialogKind::SaveView => "view.ron".to_owned(),
             DialogKind::MovieOutput => "movie.webp".to_owned(),
@@ -71,6 +80,7 @@ impl FileBrowser {
         };
         let mut browser = Self {
             kind,
+            screenshot_scale,
             directory: PathBuf::new(),
             path_text,
             listing: None,
@@ -183,8 +193,17 @@ impl FileBrowser {
         outcome
     }
 
-    fn title(&self) -> &'static str {
+    fn title(&self) -> String {
         match self.kind {
+            DialogKind::SaveScreenshot => {
+                format!("{} (PNG)", screenshot_title(self.screenshot_scale))
+            }
+            kind => Self::fixed_title(kind).to_owned(),
+        }
+    }
+
+    fn fixed_title(kind: DialogKind) -> &'static str {
+        match kind {
             DialogKind::Open => "Open a volume: a file or an OME-Zarr store",
             DialogKind::OpenFolder => OPEN_FOLDER_TITLE,
             DialogKind::SaveScreenshot => "Save screenshot (PNG)",

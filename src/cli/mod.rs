@@ -70,10 +70,18 @@ pub enum Command {
     Convert(convert::ConvertArgs),
 }
 
-/// The exit code of `render` when it wrote its image but some bricks the view needed could
-/// not be read (drawn from a coarser level, listed on stderr): not 0, so that scripts notice,
-/// and not 1 (an error: no image).
+/// The exit code of `render` and `movie` when they wrote their output but some bricks a view
+/// needed could not be read (drawn from a coarser level, listed on stderr) or were still coarse
+/// when `--max-wait` ran out: not 0, so that scripts notice, and not 1 (an error: no output).
 pub const EXIT_INCOMPLETE: u8 = 3;
+
+/// The exit code of a render or movie that wrote its output: 0, or [`EXIT_INCOMPLETE`].
+fn exit_code(rendered: render::Rendered) -> u8 {
+    match rendered {
+        render::Rendered::Complete => 0,
+        render::Rendered::Incomplete => EXIT_INCOMPLETE,
+    }
+}
 
 /// Runs the command line; returns the process exit code: 0, 1 for an error (printed as one
 /// line), 2 for a usage error (clap's), [`EXIT_INCOMPLETE`] for an incomplete image.
@@ -120,12 +128,11 @@ where
     }
     let ran = match cli.command {
         Some(Command::Info(args)) => info::run(&args),
-        Some(Command::Movie(args)) => movie::run(&args, &given("movie")),
+        Some(Command::Movie(args)) => {
+            return movie::run(&args, &given("movie")).map(exit_code);
+        }
         Some(Command::Render(args)) => {
-            return render::run(&args, &given("render")).map(|rendered| match rendered {
-                render::Rendered::Complete => 0,
-                render::Rendered::Incomplete => EXIT_INCOMPLETE,
-            });
+            return render::run(&args, &given("render")).map(exit_code);
         }
         Some(Command::Bench(args)) if args.streams() => stream_bench::run(&args),
         Some(Command::Bench(args)) => bench::run(&args),

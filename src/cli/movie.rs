@@ -68,7 +68,7 @@ struct StageTimes {
     encode: Duration,
 }
 
-pub fn run(args: &MovieArgs, given: &Given) -> Result<(), String> {
+pub fn run(args: &MovieArgs, given: &Given) -> Result<super::render::Rendered, String> {
     let started = Instant::now();
     let format = MovieFormat::of(&args.output)?;
     let keyframes = read_keyframes(args)?;
@@ -177,17 +177,22 @@ pub fn run(args: &MovieArgs, given: &Given) -> Result<(), String> {
         Content::Composite { channels } => format!("composite of {} channels", channels.len()),
         _ => format!("{} renderer", drawing.renderer.kind().name()),
     };
-    let mut notes = String::new();
+    let mut incomplete = Vec::new();
     if coarse_frames > 0 {
-        notes.push_str(&format!(
-            "; {coarse_frames} frames still coarse after --max-wait"
+        incomplete.push(format!(
+            "{coarse_frames} frames still coarse after --max-wait"
         ));
     }
     if unreadable_frames > 0 {
-        notes.push_str(&format!(
-            "; {unreadable_frames} frames drawn with unreadable bricks from coarser levels"
+        incomplete.push(format!(
+            "{unreadable_frames} frames drawn with unreadable bricks from coarser levels"
         ));
     }
+    let notes = if incomplete.is_empty() {
+        String::new()
+    } else {
+        format!("; incomplete: {}", incomplete.join(", "))
+    };
     eprintln!(
         "wrote {} ({frames} frames, {}x{}, {} fps, {what}) on {} in {:.2} s: {written_rate:.1} frames/s written; per frame: render {:.1} ms, readback {:.1} ms, encode {:.1} ms{notes}",
         args.output.display(),
@@ -200,7 +205,13 @@ pub fn run(args: &MovieArgs, given: &Given) -> Result<(), String> {
         per_frame(times.readback),
         per_frame(times.encode),
     );
-    Ok(())
+    // Frames still coarse or drawn around unreadable bricks: the movie is incomplete, and the
+    // exit code says so as `render`'s does.
+    Ok(if coarse_frames + unreadable_frames > 0 {
+        super::render::Rendered::Incomplete
+    } else {
+        super::render::Rendered::Complete
+    })
 }
 
 /// The `--keyframes` views, read and checked: two or more, all of one volume.

@@ -32,13 +32,14 @@ pub struct RenderArgs {
     pub tile_size: Option<u32>,
 }
 
-/// How a render that wrote its image ended.
+/// How a render (or a movie) that wrote its image ended.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Rendered {
-    /// The image holds everything the view shows (or what `--max-wait` allowed).
+    /// The image holds everything the view shows (complete, or complete at the GPU budget).
     Complete,
-    /// Some bricks the view needed could not be read: drawn from a coarser level, listed on
-    /// stderr; the process exits with [`super::EXIT_INCOMPLETE`].
+    /// Some bricks the view needed could not be read (drawn from a coarser level, listed on
+    /// stderr), or were still on their way when `--max-wait` ran out: the process exits with
+    /// [`super::EXIT_INCOMPLETE`].
     Incomplete,
 }
 
@@ -215,6 +216,13 @@ fn report_stream(
                 "; incomplete: {unreadable} brick{} unreadable",
                 if unreadable == 1 { "" } else { "s" }
             ),
+            Rendered::Incomplete,
+        )
+    } else if !refinement.complete {
+        // --max-wait ran out with bricks on their way: a script must tell this image from a
+        // complete one as it tells one drawn around unreadable bricks.
+        (
+            "; incomplete: still coarse".to_owned(),
             Rendered::Incomplete,
         )
     } else {
