@@ -71,7 +71,7 @@ fn march(origin: vec3<f32>, dir: vec3<f32>, jitter: f32) -> MarchResult {
     var acc = new_accumulation();
     let texel = select(1.0 / params.volume.xyz, params.atlas_texel.xyz, COARSE);
     let frame = SampleFrame(origin * texel, origin * texel, 3.4e38, dir * texel,
-                            0.5 * sample_voxels() * texel, headlight(dir));
+                            0.5 * sample_voxels() * texel, headlight(dir), t_enter);
     // Sample k sits at t_enter + (k + jitter) · step (as in the bricks renderer, sample for
     // sample), fetched two batches at a time.
     for (var k = 0.0; ; k += f32(BATCH_PAIR)) {

@@ -224,6 +224,9 @@ struct SampleFrame {
     dir: vec3<f32>,
     half_texel: vec3<f32>,
     light: vec3<f32>,
+    // The ray distance where the ray enters the (clipped) volume: a label volume's first
+    // sample looks back to there, not outside it (`label_entry`).
+    t_enter: f32,
 }
 
 // The headlight of a ray of voxel-space direction `dir`: |n · l| of a world-space normal n
@@ -252,32 +255,55 @@ fn shade_sample(rgb: vec3<f32>, gradient: vec3<f32>, light: vec3<f32>) -> vec3<f
     return shade_with(rgb, cosine, weight);
 }
 
-// A label volume's sample of label `level` at normalized texture coordinates `coords`
-// (SHADING), lit as the octree lights a voxel (`shade_face`): the normal is the face by which
-// the ray entered this label's voxels, the weight 1 there and 0 inside one label. Samples are
-// one voxel apart, so the ray may have entered the label in a voxel between the last sample
-// and this one: the voxels the ray crossed since the sample before (`step` back, at most one
-// voxel along each axis; a voxel is a texel, `2 · frame.half_texel`) are walked in order, and
-// the face is the last crossing from another label into this one. A gradient of
-// nearest-sampled categories instead depended on where in its voxel each sample fell: noise
-// (docs/octree.md, "Shading").
-fn shade_label(rgb: vec3<f32>, level: u32, coords: vec3<f32>, step: f32,
-               frame: SampleFrame) -> vec3<f32> {
+// What a label volume's sample meets (`label_entry`).
+struct LabelEntry {
+    // The label: the first voxel the transfer function shows that the ray entered since the
+    // sample before, else the sample's own.
+    level: u32,
+    // The axis of the face it was entered by (the normal it is lit by); zero inside one label.
+    face: vec3<f32>,
+    // The ray distance just inside it (the sample's own where nothing was entered).
+    t: f32,
+}
+
+// A label volume's sample of label `level` at normalized texture coordinates `coords`, ray
+// distance `t`, samples `step` apart. Labels are voxel cubes, as the octree draws them: the
+// ray meets a label where it enters its voxel, not up to a step later where a sample happens
+// to fall (zoomed in, that moved the cubes' edges by up to a voxel, and a gradient of
+// nearest-sampled labels lit their faces as noise). So the voxels the ray crossed since the
+// sample before (at most one voxel back along each axis; a voxel is a texel,
+// `2 · frame.half_texel`) are walked in order, and the first one entered from another label
+// that the transfer function shows is what this sample stands for, lit by the face it was
+// entered by (docs/octree.md, "Shading"). Where the sample before was in the same label and
+// the ray crossed one voxel plane at most since, there is nothing to walk.
+fn label_entry(level: u32, coords: vec3<f32>, t: f32, step: f32,
+               frame: SampleFrame) -> LabelEntry {
+    var entry = LabelEntry(level, vec3<f32>(0.0), t);
     let texel = 2.0 * frame.half_texel;
-    let back = coords - frame.dir * step;
+    // Back to the sample before, or to where the ray entered the volume (just inside it).
+    let back_t = max(t - step, frame.t_enter + 0.001 * step);
+    let back = coords - frame.dir * (t - back_t);
     let start = floor(back / texel);
     var previous = label_level_at((start + 0.5) * texel);
-    if previous == level {
-        return rgb; // inside the label since the sample before
+    if back_t > t - step && previous != level && (lookup_table[previous] >> 24u) != 0u {
+        // The ray's first voxel is shown: met where the ray enters the volume, unlit (no
+        // voxel before it, as the octree's first node).
+        entry.level = previous;
+        entry.t = back_t;
+        return entry;
     }
     let delta = clamp(floor(coords / texel) - start, vec3<f32>(-1.0), vec3<f32>(1.0));
     let crossed = delta != vec3<f32>(0.0);
+    // From a voxel of the same label straight into this one (one plane crossed, or none):
+    // nothing in between to meet.
+    if previous == level && dot(abs(delta), vec3<f32>(1.0)) < 2.0 {
+        return entry;
+    }
     // Where along back → coords each crossed axis's voxel plane lies (0…1); 2: not crossed.
     let planes = (start + max(delta, vec3<f32>(0.0))) * texel;
     var at = select(vec3<f32>(2.0), (planes - back) / select(vec3<f32>(1.0), coords - back, crossed),
                     crossed);
     var voxel = start;
-    var face = vec3<f32>(0.0);
     for (var i = 0u; i < 3u; i++) {
         let next = min_component(at);
         if next > 1.5 {
@@ -292,16 +318,54 @@ fn shade_label(rgb: vec3<f32>, level: u32, coords: vec3<f32>, step: f32,
         voxel += axis * delta;
         at = select(at, vec3<f32>(2.0), axis > vec3<f32>(0.5));
         let here = label_level_at((voxel + 0.5) * texel);
-        if here == level && previous != level {
-            face = axis;
+        if here != previous && (lookup_table[here] >> 24u) != 0u {
+            entry.level = here;
+            entry.face = axis;
+            // Just inside the voxel (a thousandth of a step past its plane).
+            entry.t = min(back_t + (t - back_t) * next + 0.001 * step, t);
+            return entry;
         }
         previous = here;
     }
-    if face.x + face.y + face.z == 0.0 {
-        return rgb; // no crossing into this label found (rounding at a voxel's plane)
+    return entry;
+}
+
+// `accumulate` for a label volume (DVR, and MIP's first label): each sample stands for the
+// label it meets (`label_entry`), composited unblended with its neighbours' values and lit by
+// the face it was entered by (SHADING); `exponent` is a step's opacity-correction exponent.
+fn accumulate_labels(acc: ptr<function, Accumulation>, levels: vec4<u32>, count: u32,
+                     ts: vec4<f32>, frame: SampleFrame, exponent: f32) -> u32 {
+    let step = ts.y - ts.x;
+    for (var j = 0u; j < count; j++) {
+        let coords = select(frame.next, frame.here, ts[j] < frame.split) + ts[j] * frame.dir;
+        let entry = label_entry(levels[j], coords, ts[j], step, frame);
+        if first_label() {
+            if take_label(acc, entry.level, entry.t) {
+                return j + 1u;
+            }
+            continue;
+        }
+        let rgba = unpack4x8unorm(lookup_table[entry.level]);
+        var a = min(rgba.a * params.density, 1.0);
+        if exponent != 1.0 && a > 0.0 && a < 1.0 {
+            a = 1.0 - pow(1.0 - a, exponent);
+        }
+        var rgb = rgba.rgb;
+        if SHADING && a > 0.0 && dot(entry.face, entry.face) > 0.0 {
+            let cosine = min(abs(dot(frame.light / params.shading_scale.xyz, entry.face)), 1.0);
+            rgb = shade_with(rgb, cosine, 1.0);
+        }
+        (*acc).color += (1.0 - (*acc).alpha) * a * rgb;
+        (*acc).alpha += (1.0 - (*acc).alpha) * a;
+        if PROBE && (*acc).probe_t < 0.0 && (*acc).alpha >= PROBE_ALPHA {
+            (*acc).probe_t = entry.t;
+        }
+        if (*acc).alpha >= EARLY_TERMINATION_ALPHA {
+            (*acc).done = true;
+            return j + 1u;
+        }
     }
-    let cosine = min(abs(dot(frame.light / params.shading_scale.xyz, face)), 1.0);
-    return shade_with(rgb, cosine, 1.0);
+    return count;
 }
 
 // Takes the first `count` of four value levels in order along the ray, as one-voxel samples at
@@ -310,13 +374,9 @@ fn shade_label(rgb: vec3<f32>, level: u32, coords: vec3<f32>, step: f32,
 // samples for SHADING's gradient (unused, and compiled out, elsewhere).
 fn accumulate(acc: ptr<function, Accumulation>, levels: vec4<u32>, count: u32, ts: vec4<f32>,
               frame: SampleFrame) -> u32 {
-    if first_label() {
-        for (var j = 0u; j < count; j++) {
-            if take_label(acc, levels[j], ts[j]) {
-                return j + 1u;
-            }
-        }
-        return count;
+    // Labels, DVR and MIP (the first label shown): voxel cubes, never blended.
+    if labels() {
+        return accumulate_labels(acc, levels, count, ts, frame, select(1.0, sample_exponent(), COARSE));
     }
     if params.mode == MODE_MIP {
         for (var j = 0u; j < count; j++) {
@@ -345,11 +405,7 @@ fn accumulate(acc: ptr<function, Accumulation>, levels: vec4<u32>, count: u32, t
         var rgb = rgba.rgb;
         if SHADING && a > 0.0 {
             let coords = select(frame.next, frame.here, ts[j] < frame.split) + ts[j] * frame.dir;
-            if labels() {
-                rgb = shade_label(rgb, levels[j], coords, ts.y - ts.x, frame);
-            } else {
-                rgb = shade_sample(rgb, level_gradient(coords, frame.half_texel), frame.light);
-            }
+            rgb = shade_sample(rgb, level_gradient(coords, frame.half_texel), frame.light);
         }
         (*acc).color += (1.0 - (*acc).alpha) * a * rgb;
         (*acc).alpha += (1.0 - (*acc).alpha) * a;

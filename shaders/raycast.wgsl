@@ -78,8 +78,9 @@ fn march_brick(acc: ptr<function, Accumulation>, origin: vec3<f32>, dir: vec3<f3
     var k = max(ceil((t - t_first) / sample_step - 0.5), 0.0);
     let texel = params.atlas_texel.xyz;
     let here = (origin + to_atlas) * texel;
+    // (For labels, whose jitter is ½, `t_first` is the ray's entry.)
     let frame = SampleFrame(here, here, 3.4e38, dir * texel, 0.5 * sample_voxels() * texel,
-                            headlight(dir));
+                            headlight(dir), t_first);
     loop {
         let ts = t_first + (vec4<f32>(k) + BATCH_OFFSETS) * sample_step;
         let count = count_before(ts, t_out);
@@ -499,7 +500,8 @@ fn walk_bricks(origin: vec3<f32>, dir: vec3<f32>, jitter: f32) -> RayResult {
             }
             let first = brick_batch(atlas_dir, ts, here.t_out, atlas_here, atlas_next);
             let second = brick_batch(atlas_dir, ts2, here.t_out, atlas_here, atlas_next);
-            let frame = SampleFrame(atlas_here, atlas_next, here.t_out, atlas_dir, half_texel, light);
+            let frame = SampleFrame(atlas_here, atlas_next, here.t_out, atlas_dir, half_texel, light,
+                                    ray.t_enter);
             result.visited += accumulate_pair(&acc, first, second, count, ts, ts2, frame);
             k += f32(count);
             advance = count_here < BATCH_PAIR;

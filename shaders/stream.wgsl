@@ -215,13 +215,9 @@ fn step_alpha(alpha: f32, exponent: f32) -> f32 {
 fn accumulate_level(acc: ptr<function, Accumulation>, levels: vec4<u32>, count: u32,
                     ts: vec4<f32>, frame: SampleFrame, exponent: f32,
                     level_scale: vec3<f32>) -> u32 {
-    if first_label() {
-        for (var j = 0u; j < count; j++) {
-            if take_label(acc, levels[j], ts[j]) {
-                return j + 1u;
-            }
-        }
-        return count;
+    // Labels, DVR and MIP (the first label shown): voxel cubes, never blended.
+    if labels() {
+        return accumulate_labels(acc, levels, count, ts, frame, exponent);
     }
     if params.mode == MODE_MIP {
         for (var j = 0u; j < count; j++) {
@@ -244,12 +240,8 @@ fn accumulate_level(acc: ptr<function, Accumulation>, levels: vec4<u32>, count: 
         var rgb = rgba.rgb;
         if SHADING && a > 0.0 {
             let coords = select(frame.next, frame.here, ts[j] < frame.split) + ts[j] * frame.dir;
-            if labels() {
-                rgb = shade_label(rgb, levels[j], coords, ts.y - ts.x, frame);
-            } else {
-                rgb = shade_sample(rgb, level_gradient(coords, frame.half_texel) / level_scale,
-                                   frame.light);
-            }
+            rgb = shade_sample(rgb, level_gradient(coords, frame.half_texel) / level_scale,
+                               frame.light);
         }
         (*acc).color += (1.0 - (*acc).alpha) * a * rgb;
         (*acc).alpha += (1.0 - (*acc).alpha) * a;
@@ -560,7 +552,7 @@ fn stream_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, jitter: f32)
             }
             if count > 0u {
                 let frame = SampleFrame(atlas_here, atlas_next, segment_out, atlas_dir,
-                                        half_texel, light);
+                                        half_texel, light, t_enter);
                 result.visited += march_pair(&acc, ts, ts2, count, frame, exponent,
                                              stream.level_scale[k_level].xyz);
                 k += f32(count);
@@ -764,7 +756,7 @@ fn level_walk(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, jitter: f32,
             }
             if count > 0u {
                 let frame = SampleFrame(atlas_here, atlas_next, t_out, atlas_dir, half_texel,
-                                        light);
+                                        light, t_enter);
                 visited += march_pair(&acc, ts, ts2, count, frame, exponent, scale);
                 k += f32(count);
             }
