@@ -1110,8 +1110,6 @@ impl ReadableStorageTraits for RemoteStore {
 
 #[cfg(test)]
 mod tests {
-    use std::path::PathBuf;
-
     use super::*;
 
     #[test]
@@ -1123,70 +1121,6 @@ mod tests {
         assert!(!is_url("/data/http://x"));
         assert!(!is_url("synthetic:noise:64"));
         assert!(!is_url("C:\\data\\x.zarr"));
-    }
-
-    #[test]
-    fn credentials_come_from_the_environment_then_the_profile_else_none() {
-        use object_store::aws::AmazonS3ConfigKey as Key;
-        let home = tempfile::tempdir().expect("a temporary folder");
-        let aws = home.path().join(".aws");
-        std::fs::create_dir_all(&aws).expect("~/.aws");
-        std::fs::write(
-            aws.join("credentials"),
-            "[default]\naws_access_key_id = AKIDEFAULT\naws_secret_access_key = defaultsecret\n\n\
-             [lab]\naws_access_key_id=AKILAB\naws_secret_access_key=labsecret\n",
-        )
-        .expect("credentials");
-        std::fs::write(
-            aws.join("config"),
-            "[profile lab]\nregion = eu-west-3\nendpoint_url = http://127.0.0.1:9000\n",
-        )
-        .expect("config");
-        let found = |vars: &[(&str, &str)], home: Option<PathBuf>| {
-            let vars: Vec<(String, String)> = vars
-                .iter()
-                .map(|(k, v)| (k.to_string(), v.to_string()))
-                .collect();
-            aws::Credentials::find_with(
-                &move |name: &str| vars.iter().find(|(k, _)| k == name).map(|(_, v)| v.clone()),
-                home,
-            )
-        };
-        let home_path = Some(home.path().to_path_buf());
-        let lab = found(&[("AWS_PROFILE", "lab")], home_path.clone());
-        assert!(!lab.anonymous());
-        assert_eq!(lab.setting(Key::AccessKeyId), Some("AKILAB"));
-        assert_eq!(lab.setting(Key::Region), Some("eu-west-3"));
-        assert_eq!(lab.setting(Key::Endpoint), Some("http://127.0.0.1:9000"));
-        assert_eq!(lab.secrets(), vec!["labsecret".to_owned()]);
-        let default = found(&[], home_path.clone());
-        assert_eq!(default.setting(Key::AccessKeyId), Some("AKIDEFAULT"));
-        assert_eq!(default.setting(Key::Region), None);
-        // The environment's keys win over the files'; its region and endpoint too.
-        let env = found(
-            &[
-                ("AWS_ACCESS_KEY_ID", "AKIENV"),
-                ("AWS_SECRET_ACCESS_KEY", "envsecret"),
-                ("AWS_PROFILE", "lab"),
-                ("AWS_REGION", "us-west-2"),
-            ],
-            home_path,
-        );
-        assert!(!env.anonymous());
-        assert_eq!(env.setting(Key::AccessKeyId), None);
-        assert_eq!(env.setting(Key::Region), None);
-        assert_eq!(env.secrets(), vec!["envsecret".to_owned()]);
-        // Nothing anywhere: anonymous.
-        assert!(found(&[], None).anonymous());
-        let shared = tempfile::NamedTempFile::new().expect("a file");
-        let nowhere = found(
-            &[(
-                "AWS_SHARED_CREDENTIALS_FILE",
-                shared.path().to_str().unwrap_or_default(),
-            )],
-            None,
-        );
-        assert!(nowhere.anonymous());
     }
 
     #[test]

@@ -17,7 +17,7 @@ use super::aws;
 use super::cache::Piece;
 use super::fault::Failure;
 use super::http::Answer;
-use super::url::{StoreUrl, redact_text};
+use super::url::{StoreUrl, parse_endpoint, redact_text};
 
 /// An S3 bucket's store under a prefix.
 pub(crate) struct S3Transport {
@@ -43,27 +43,29 @@ impl S3Transport {
         let prefix = url.url.path().trim_matches('/').to_owned();
         let credentials = aws::Credentials::find();
         let mut secrets = credentials.secrets();
-        let builder = credentials.apply(
-            AmazonS3Builder::from_env()
-                .with_bucket_name(&bucket)
-                .with_retry(RetryConfig {
+        let mut builder =
+            credentials.apply(builder_from_env().with_bucket_name(&bucket).with_retry(
+                RetryConfig {
                     backoff: BackoffConfig::default(),
                     max_retries: 0,
                     retry_timeout: request,
-                }),
-        );
-        let endpoint = builder.get_config_value(&AmazonS3ConfigKey::Endpoint);
+                },
+            ));
         let mut http_endpoint = false;
-        if let Some(endpoint) = &endpoint {
-            // object_store builds each request's URL from the endpoint and panics on one the
-            // `http` crate rejects: it is checked here, as a store's URL is.
-            let checked = StoreUrl::parse(endpoint)
-                .map_err(|problem| format!("its S3 endpoint (AWS_ENDPOINT_URL) {problem}"))?;
+        if let Some(given) = credentials.endpoint() {
+            // object_store pastes the endpoint into each request's URL as it is: it panics on
+            // one the `http` crate rejects (a space, a CR from an env file) and puts a query
+            // into the path. It is trimmed and checked here, and handed over as parsed.
+            let (endpoint, checked) = parse_endpoint(&given.value)
+                .map_err(|problem| format!("its S3 endpoint ({}) {problem}", given.source))?;
             if let Some((user, password)) = checked.credentials() {
                 secrets.push(user);
                 secrets.extend(password);
             }
             http_endpoint = checked.url.scheme() == "http";
+            builder = builder
+                .with_config(AmazonS3ConfigKey::Endpoint, &endpoint)
+                .with_config(AmazonS3ConfigKey::S3Endpoint, endpoint);
         }
         let client = ClientOptions::new()
             .with_connect_timeout(connect)
@@ -176,6 +178,26 @@ impl S3Transport {
             _ => Err(Failure::transient(text, false)),
         }
     }
+}
+
+/// object_store's [`AmazonS3Builder::from_env`] but for the endpoint, which voxscope reads
+/// ([`aws::Credentials::endpoint`]) and checks itself: every `AWS_*` variable that names a
+/// setting.
+fn builder_from_env() -> AmazonS3Builder {
+    let mut builder = AmazonS3Builder::new();
+    for (name, value) in std::env::vars_os() {
+        let (Some(name), Some(value)) = (name.to_str(), value.to_str()) else {
+            continue;
+        };
+        if !name.starts_with("AWS_") {
+            continue;
+        }
+        match name.to_ascii_lowercase().parse::<AmazonS3ConfigKey>() {
+            Ok(AmazonS3ConfigKey::Endpoint | AmazonS3ConfigKey::S3Endpoint) | Err(_) => {}
+            Ok(key) => builder = builder.with_config(key, value),
+        }
+    }
+    builder
 }
 
 /// `error` on one line, at most 300 characters.

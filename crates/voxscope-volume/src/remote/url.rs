@@ -80,6 +80,47 @@ impl StoreUrl {
     }
 }
 
+/// An S3 endpoint (`AWS_ENDPOINT_URL` or the like) as object_store is to be given it, and
+/// parsed: `http(s)://HOST[:PORT][/PATH]`, whitespace around it trimmed (an env file's CR
+/// among it); whitespace inside it, a query or a fragment refused (object_store pastes the
+/// endpoint into every request's URL as it is: the `http` crate rejects a space, and a query
+/// would end up inside each request's path). What is handed over is the URL as parsed
+/// (percent-encoded where it needs to be), with no `/` added.
+pub(crate) fn parse_endpoint(text: &str) -> Result<(String, StoreUrl), String> {
+    let text = text.trim();
+    if let Some(c) = text.chars().find(|c| c.is_whitespace() || c.is_control()) {
+        return Err(format!(
+            "is not a valid URL: it holds {} inside",
+            match c {
+                ' ' => "a space".to_owned(),
+                c => format!("the character {}", escape(&c.escape_unicode().to_string())),
+            }
+        ));
+    }
+    const FORM: &str = "an endpoint is http(s)://HOST[:PORT][/PATH]";
+    if scheme_of(text) != Some(Scheme::Http) {
+        let shown: String = redact_url(text).chars().take(80).collect();
+        return Err(format!(
+            "is not an http:// or https:// URL ('{shown}'): {FORM}"
+        ));
+    }
+    let url = StoreUrl::parse(text)?;
+    if url.url.query().is_some() {
+        return Err(format!("has a query ('?…'): {FORM}"));
+    }
+    if url.url.fragment().is_some() {
+        return Err(format!("has a fragment ('#…'): {FORM}"));
+    }
+    let parsed = url.url.as_str();
+    // The parser writes `http://host` as `http://host/`; object_store takes a path's own `/`.
+    let endpoint = if parsed.ends_with('/') && !text.ends_with('/') {
+        &parsed[..parsed.len() - 1]
+    } else {
+        parsed
+    };
+    Ok((endpoint.to_owned(), url))
+}
+
 /// The scheme `spec` starts with, if voxscope reads stores from it.
 pub(crate) fn scheme_of(spec: &str) -> Option<Scheme> {
     let lower = spec.trim_start().to_ascii_lowercase();
@@ -252,6 +293,36 @@ mod tests {
             redact_text("see <https://a:b@h/p?q=1>", &[]),
             "see <https://h/p>"
         );
+    }
+
+    #[test]
+    fn an_endpoint_is_trimmed_and_one_with_whitespace_a_query_or_another_scheme_refused() {
+        for (given, handed) in [
+            ("http://127.0.0.1:9000 ", "http://127.0.0.1:9000"),
+            ("\t https://s3.example.org/\r\n", "https://s3.example.org/"),
+            ("http://minio:9000/prefix\r", "http://minio:9000/prefix"),
+        ] {
+            let (endpoint, url) =
+                parse_endpoint(given).unwrap_or_else(|e| panic!("{given:?}: {e}"));
+            assert_eq!(endpoint, handed);
+            assert_eq!(url.scheme, Scheme::Http);
+        }
+        for (bad, wanted) in [
+            ("http://127.0.0.1:9000/?x=1", "has a query"),
+            ("http://127.0.0.1:9000/#f", "has a fragment"),
+            ("http://127.0.0.1 :9000", "holds a space inside"),
+            ("http://h/a\r\nb", "holds the character"),
+            (
+                "s3://bucket",
+                "is not an http:// or https:// URL ('s3://bucket')",
+            ),
+            ("minio:9000", "is not an http:// or https:// URL"),
+            ("http://", "is not a valid URL"),
+            ("http://{bad}", "is no host name"),
+        ] {
+            let error = parse_endpoint(bad).expect_err(bad);
+            assert!(error.contains(wanted), "{bad:?}: {error}");
+        }
     }
 
     #[test]
