@@ -9,16 +9,18 @@ use std::net::TcpListener;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::Arc;
-use std::sync::atomic::Ordering;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
 use support::http_server::{Faults, FileServer, fixture_over_http};
 use voxscope_render::{Camera, RenderSettings, RenderTarget, read_image};
 use voxscope_scene::{OpenedStream, StreamedVolume, TransferRequest, VolumeSource, refine};
-use voxscope_stream::{BrickId, BrickSource, StreamOptions, ZarrSource, preview};
+use voxscope_stream::{
+    BrickData, BrickError, BrickId, BrickSource, PyramidShape, StreamOptions, ZarrSource, preview,
+};
 use voxscope_volume::ome_zarr::{Pyramid, PyramidOptions};
-use voxscope_volume::remote::{RemoteOptions, Timing, is_url};
-use voxscope_volume::{LoadOptions, load};
+use voxscope_volume::remote::{RemoteOptions, RemoteStats, Timing, is_url};
+use voxscope_volume::{LoadOptions, Quantization, load};
 
 const FIXTURES: [&str; 6] = [
     "head-v04-zstd.ome.zarr",
@@ -724,4 +726,121 @@ fn a_server_that_never_answers_fails_within_the_bounded_time() {
     let seconds = started.elapsed().as_secs_f64();
     one_line_error(&out, &url, "\u{0}");
     assert!(seconds < bound, "took {seconds:.1} s (bound {bound} s)");
+}
+
+thread_local! {
+    /// Brick reads under way on this thread, one inside another.
+    static READS_HERE: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+}
+
+/// A brick source that reads from another and counts how deeply its reads nest on one
+/// thread (a rayon worker that waits inside one read may run another). Unless `remote`, it
+/// does not say that it reads over a network (the preview then reads its bricks on rayon's
+/// pool, as it did for every source before issue 57, and as the pinned levels still do).
+struct NestingCounter<'a> {
+    inner: &'a dyn BrickSource,
+    remote: bool,
+    deepest: AtomicUsize,
+}
+
+impl BrickSource for NestingCounter<'_> {
+    fn name(&self) -> &str {
+        self.inner.name()
+    }
+
+    fn shape(&self) -> &PyramidShape {
+        self.inner.shape()
+    }
+
+    fn spacing(&self) -> [f64; 3] {
+        self.inner.spacing()
+    }
+
+    fn quantization(&self) -> Quantization {
+        self.inner.quantization()
+    }
+
+    fn max_value_level(&self) -> u16 {
+        self.inner.max_value_level()
+    }
+
+    fn remote_stats(&self) -> Option<RemoteStats> {
+        self.inner.remote_stats().filter(|_| self.remote)
+    }
+
+    fn read_brick(&self, id: BrickId) -> Result<BrickData, BrickError> {
+        let depth = READS_HERE.with(|reads| {
+            reads.set(reads.get() + 1);
+            reads.get()
+        });
+        self.deepest.fetch_max(depth, Ordering::SeqCst);
+        let read = self.inner.read_brick(id);
+        READS_HERE.with(|reads| reads.set(reads.get() - 1));
+        read
+    }
+}
+
+/// Issue 57: a preview of a URL's store (its bricks read in parallel on rayon's global pool)
+/// overflowed the stack: each read waited for the store's own reader pool inside `install`,
+/// and a rayon worker waiting there runs its pool's other jobs, each another brick whose
+/// read waited there in turn, without bound (18 000 frames). 64 bricks over a slow server,
+/// nothing warmed, read on rayon's pool and on the preview's own threads for a URL: no
+/// brick's read may run inside another's, and the preview equals the folder's.
+#[test]
+fn a_previews_brick_reads_over_a_url_never_nest() {
+    let folder = tempfile::tempdir().expect("a temporary folder");
+    let name = "ct.ome.zarr";
+    let out = voxscope(
+        &[
+            "convert",
+            "synthetic:ct:128",
+            folder.path().join(name).to_str().expect("a UTF-8 path"),
+            "--chunk",
+            "32",
+        ],
+        &[],
+    );
+    assert!(out.status.success(), "convert: {}", stderr(&out));
+    let local = Pyramid::open(&folder.path().join(name), PyramidOptions::default())
+        .unwrap_or_else(|e| panic!("{e}"));
+    let local = ZarrSource::new(Arc::new(local)).unwrap_or_else(|e| panic!("{e}"));
+    let (local, _) = preview(&local, 64).unwrap_or_else(|e| panic!("{e}"));
+    let server = FileServer::start(
+        folder.path(),
+        Faults {
+            latency: Duration::from_millis(5),
+            ..Faults::default()
+        },
+    );
+    for remote in [false, true] {
+        let pyramid = open_url(&server.url(name)).unwrap_or_else(|e| panic!("{e}"));
+        let source = ZarrSource::new(Arc::new(pyramid)).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(source.shape().levels[0].brick_count(), 64);
+        let counted = NestingCounter {
+            inner: &source,
+            remote,
+            deepest: AtomicUsize::new(0),
+        };
+        let started = Instant::now();
+        let (seen, level) = preview(&counted, 64).unwrap_or_else(|e| panic!("{e}"));
+        let deepest = counted.deepest.load(Ordering::SeqCst);
+        let threads = if remote {
+            "its own threads"
+        } else {
+            "rayon's pool"
+        };
+        eprintln!(
+            "preview of 64 bricks over HTTP on {threads}: {:.2} s, brick reads nested {deepest} deep",
+            started.elapsed().as_secs_f64()
+        );
+        assert_eq!(level, 0);
+        assert_eq!(
+            deepest, 1,
+            "on {threads}, brick reads ran inside other brick reads on one thread, {deepest} deep"
+        );
+        assert!(
+            seen.levels == local.levels,
+            "on {threads}, the preview differs from the folder's"
+        );
+    }
 }

@@ -2,10 +2,12 @@
 //! function's defaults (the robust window, the data kind) are taken from when the volume
 //! itself is never in memory.
 
+use std::sync::atomic::{AtomicUsize, Ordering};
+
 use rayon::prelude::*;
 
 use super::pyramid::PyramidShape;
-use crate::{BRICK_SIZE, BrickError, BrickId, BrickSource, PADDED_BRICK};
+use crate::{BRICK_SIZE, BrickData, BrickError, BrickId, BrickSource, PADDED_BRICK};
 use voxscope_volume::{Histogram, QuantizedVolume};
 
 /// The level [`preview`] reads: the finest with at most `max_bricks` bricks (the coarsest if
@@ -16,6 +18,52 @@ pub(crate) fn preview_level(shape: &PyramidShape, max_bricks: u64) -> usize {
         .iter()
         .position(|l| l.brick_count() <= max_bricks)
         .unwrap_or(shape.levels.len() - 1)
+}
+
+/// Threads a preview of a source over a network reads its bricks on, at least (as many as a
+/// URL's streamer has loaders): each waits on the network most of its time, not on a core.
+const REMOTE_READERS: usize = 8;
+
+/// The bricks `ids` read on up to `threads` threads of their own (plain threads: a read that
+/// waits for a URL's reader pool waits without running anything else), each taking the next
+/// brick when it is done; in `ids`' order. Where no thread can be started, on this one.
+fn read_on_threads(
+    source: &dyn BrickSource,
+    ids: &[BrickId],
+    threads: usize,
+) -> Vec<(BrickId, Result<BrickData, BrickError>)> {
+    let next = AtomicUsize::new(0);
+    let work = || {
+        let mut read = Vec::new();
+        loop {
+            let i = next.fetch_add(1, Ordering::Relaxed);
+            let Some(&id) = ids.get(i) else {
+                return read;
+            };
+            read.push((i, (id, source.read_brick(id))));
+        }
+    };
+    let mut read = std::thread::scope(|scope| {
+        let readers: Vec<_> = (0..threads.min(ids.len()))
+            .map_while(|i| {
+                std::thread::Builder::new()
+                    .name(format!("voxscope-preview-{i}"))
+                    .spawn_scoped(scope, work)
+                    .ok()
+            })
+            .collect();
+        // Whatever no reader took (all of it where none started).
+        let mut read = work();
+        for reader in readers {
+            match reader.join() {
+                Ok(part) => read.extend(part),
+                Err(panic) => std::panic::resume_unwind(panic),
+            }
+        }
+        read
+    });
+    read.sort_unstable_by_key(|&(i, _)| i);
+    read.into_iter().map(|(_, read)| read).collect()
 }
 
 /// The finest level of `source` with at most `max_bricks` bricks (the coarsest if none is
@@ -38,10 +86,14 @@ pub fn preview(
             brick: brick.map(|c| c as u32),
         })
         .collect();
-    let read: Vec<(BrickId, Result<_, BrickError>)> = ids
-        .par_iter()
-        .map(|&id| (id, source.read_brick(id)))
-        .collect();
+    let read: Vec<(BrickId, Result<BrickData, BrickError>)> = if source.remote_stats().is_some() {
+        let threads = REMOTE_READERS.max(rayon::current_num_threads());
+        read_on_threads(source, &ids, threads)
+    } else {
+        ids.par_iter()
+            .map(|&id| (id, source.read_brick(id)))
+            .collect()
+    };
     let mut bricks = Vec::with_capacity(read.len());
     let mut first_error = None;
     for (id, result) in read {

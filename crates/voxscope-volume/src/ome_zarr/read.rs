@@ -572,7 +572,7 @@ impl Pyramid {
                 .map(|v| VoxelData::F64(v.into_iter().map(|x| x as f64).collect())),
         };
         let read = match &self.reader_pool {
-            Some(pool) => pool.install(read),
+            Some(pool) => run_on(pool, &read),
             None => read(),
         };
         read.map_err(|error| self.failing_chunk(level, subset, &error))
@@ -702,6 +702,34 @@ impl Pyramid {
             Stored::U64 | Stored::I64 => 8,
         }
     }
+}
+
+/// `job`'s result, run on `pool` (a URL's reader pool) as [`rayon::ThreadPool::install`]
+/// runs it, the calling thread waiting meanwhile. A thread of another rayon pool (the pinned
+/// levels' bricks, the first image's regions, read in parallel on the global pool) hands it
+/// over through a thread of its own: waiting in `install` itself, it would run its own
+/// pool's other jobs meanwhile (rayon steals work while it waits on another pool), each
+/// another brick whose read waits there in turn, nesting without bound until the stack
+/// overflows (issue 57: a preview's 2 048 bricks). The read runs on `pool` either way, with
+/// its threads sized for the network.
+fn run_on<R: Send>(pool: &rayon::ThreadPool, job: &(impl Fn() -> R + Sync)) -> R {
+    if rayon::current_thread_index().is_none() || pool.current_thread_index().is_some() {
+        // A plain thread blocks in `install` without running anything else; a thread of
+        // `pool` runs the job at once.
+        return pool.install(job);
+    }
+    std::thread::scope(|scope| {
+        let handed = std::thread::Builder::new()
+            .name("voxscope-remote-read".into())
+            .spawn_scoped(scope, || pool.install(job));
+        match handed {
+            Ok(reader) => reader
+                .join()
+                .unwrap_or_else(|panic| std::panic::resume_unwind(panic)),
+            // No thread to be had: read here, on the calling thread's own pool.
+            Err(_) => job(),
+        }
+    })
 }
 
 /// Whether zarrs's `error` is an I/O read that met the end of the data.
