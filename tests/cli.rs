@@ -651,3 +651,24 @@ fn render_draws_no_frame_while_nothing_arrives() {
         "{frames} frames drawn in 3 s of waiting for bricks that never came: {text}"
     );
 }
+
+/// A file that names no unit gets none: `probe` said "mm" for an uncalibrated volume.
+#[test]
+fn probe_names_no_unit_where_the_file_names_none() {
+    let output = voxscope(&["probe", "synthetic:sphere:16", "--at", "1,2,3"]);
+    let text = String::from_utf8_lossy(&output.stdout).into_owned();
+    assert!(output.status.success(), "{}", stderr(&output));
+    assert!(
+        text.contains("position   (1.000, 2.000, 3.000) from the first voxel"),
+        "{text}"
+    );
+    assert!(!text.contains("mm"), "{text}");
+    let json = voxscope(&["probe", "synthetic:sphere:16", "--at", "1,2,3", "--json"]);
+    let json = String::from_utf8_lossy(&json.stdout).into_owned();
+    assert!(json.contains("\"position_unit\":null"), "{json}");
+    // NIfTI's standard unit is the millimetre.
+    let head = shared_data("mri-head-128x128x62.nii.gz");
+    let output = voxscope(&["probe", head.to_str().expect("UTF-8"), "--at", "1,2,3"]);
+    let text = String::from_utf8_lossy(&output.stdout).into_owned();
+    assert!(text.contains(") mm from the first voxel"), "{text}");
+}

@@ -188,7 +188,7 @@ pub fn show(
             camera: settings.camera,
         };
         clip_panel::show(ui, &mut view.clipping, &context);
-        measurements(ui, view, volume.spacing, volume.spatial_unit());
+        measurements(ui, view, volume);
     }
 
     ui.separator();
@@ -457,7 +457,8 @@ fn statistics_chart(ui: &mut Ui, statistics: &[LevelStatistics]) {
 }
 
 /// The rulers measured so far, each with its length and a button to remove it.
-fn measurements(ui: &mut Ui, view: &mut ViewState, spacing: [f64; 3], unit: &str) {
+fn measurements(ui: &mut Ui, view: &mut ViewState, volume: &voxscope_volume::Volume) {
+    let spacing = volume.spacing;
     let title = if view.rulers.is_empty() {
         "Measurements".to_owned()
     } else {
@@ -474,7 +475,7 @@ fn measurements(ui: &mut Ui, view: &mut ViewState, spacing: [f64; 3], unit: &str
             egui::Grid::new("rulers").num_columns(3).striped(true).show(ui, |ui| {
                 for (index, ruler) in view.rulers.iter().enumerate() {
                     ui.label(format!("{}", index + 1));
-                    ui.monospace(format!("{:.2} {unit}", ruler.length(spacing)));
+                    ui.monospace(volume.with_unit(format!("{:.2}", ruler.length(spacing))));
                     if ui.small_button("Remove").clicked() {
                         remove = Some(index);
                     }

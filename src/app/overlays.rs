@@ -34,7 +34,6 @@ pub fn paint_overlays_3d(
     let project =
         |voxel: [f64; 3]| viewport::project(&settings.camera, extent, spacing, rect, voxel);
     let painter = ui.painter_at(rect);
-    let unit = volume.spatial_unit();
     for ruler in &view.rulers {
         let (Some(from), Some(to)) = (project(ruler.from), project(ruler.to)) else {
             continue;
@@ -45,7 +44,7 @@ pub fn paint_overlays_3d(
         painter.text(
             from.lerp(to, 0.5) + vec2(6.0, -6.0),
             Align2::LEFT_BOTTOM,
-            format!("{:.1} {unit}", ruler.length(spacing)),
+            volume.with_unit(format!("{:.1}", ruler.length(spacing))),
             egui::FontId::proportional(13.0),
             RULER_COLOR,
         );
@@ -97,7 +96,6 @@ pub fn draw_rulers(
     view: &ViewState,
 ) {
     let volume = &scene.data.volume;
-    let unit = volume.spatial_unit();
     for ruler in &view.rulers {
         let ends = match drawn {
             DrawKey::Volume { camera, .. } => {
@@ -123,7 +121,7 @@ pub fn draw_rulers(
             }
         };
         let Some((from, to)) = ends else { continue };
-        let label = format!("{:.1} {unit}", ruler.length(volume.spacing));
+        let label = volume.with_unit(format!("{:.1}", ruler.length(volume.spacing)));
         draw_ruler(canvas, [from.x, from.y], [to.x, to.y], &label, 1);
     }
 }

@@ -107,7 +107,6 @@ impl super::VoxscopeApp {
         let volume = &scene.data.volume;
         let whole =
             egui::Rect::from_min_size(egui::Pos2::ZERO, egui::vec2(size[0] as f32, size[1] as f32));
-        let unit = volume.spatial_unit();
         let rulers = self
             .view
             .rulers
@@ -126,7 +125,7 @@ impl super::VoxscopeApp {
                 Some(RulerMark {
                     from: [from.x, from.y],
                     to: [to.x, to.y],
-                    label: format!("{:.1} {unit}", ruler.length(volume.spacing)),
+                    label: volume.with_unit(format!("{:.1}", ruler.length(volume.spacing))),
                 })
             })
             .collect();

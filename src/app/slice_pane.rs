@@ -383,11 +383,7 @@ fn paint_ruler(
     painter.text(
         from.lerp(to, 0.5) + vec2(6.0, -6.0),
         Align2::LEFT_BOTTOM,
-        format!(
-            "{:.1} {}",
-            ruler.length(volume.spacing),
-            volume.spatial_unit()
-        ),
+        volume.with_unit(format!("{:.1}", ruler.length(volume.spacing))),
         egui::FontId::proportional(13.0),
         RULER_COLOR,
     );

@@ -82,8 +82,8 @@ pub fn run(args: &ProbeArgs) -> Result<(), String> {
         let [si, sj, sk] = probed.stored_index;
         println!("voxel      ({i}, {j}, {k}) displayed · ({si}, {sj}, {sk}) as stored");
         println!(
-            "position   ({x:.3}, {y:.3}, {z:.3}) {} from the first voxel",
-            volume.spatial_unit()
+            "position   {} from the first voxel",
+            volume.with_unit(format!("({x:.3}, {y:.3}, {z:.3})"))
         );
         match &probed.unit {
             Some(unit) => println!("value      {} {unit}", probed.value),

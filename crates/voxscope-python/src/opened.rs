@@ -249,7 +249,7 @@ impl Opened {
     fn unit(&self) -> String {
         match &self.content {
             Content::Store(pyramid) => pyramid.units[0].clone().unwrap_or_else(|| "mm".into()),
-            Content::File(volume) => volume.spatial_unit().to_owned(),
+            Content::File(volume) => volume.spatial_unit().unwrap_or_default().to_owned(),
         }
     }
 

@@ -103,14 +103,16 @@ impl VolumeData {
     pub fn describe_voxel(&self, voxel: [usize; 3]) -> Option<String> {
         let value = self.value_at(voxel)?;
         let spacing = self.volume.spacing;
-        let unit = self.volume.spatial_unit();
         let value_unit = if self.kind == DataKind::Ct { " HU" } else { "" };
         let [i, j, k] = voxel;
-        Some(format!(
-            "voxel ({i}, {j}, {k}) · ({:.1}, {:.1}, {:.1}) {unit} · value {}{value_unit}",
+        let position = self.volume.with_unit(format!(
+            "({:.1}, {:.1}, {:.1})",
             i as f64 * spacing[0],
             j as f64 * spacing[1],
             k as f64 * spacing[2],
+        ));
+        Some(format!(
+            "voxel ({i}, {j}, {k}) · {position} · value {}{value_unit}",
             format_value(value),
         ))
     }

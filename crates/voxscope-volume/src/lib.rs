@@ -169,9 +169,23 @@ impl Volume {
             .map(|(_, value)| value.trim())
     }
 
-    /// The unit of positions and spacing: the file's where it names one, else mm.
-    pub fn spatial_unit(&self) -> &str {
-        self.metadata_value("unit").unwrap_or("mm")
+    /// The unit of positions and spacing: the file's where it names one, millimetres for the
+    /// patient formats (NIfTI, NRRD, DICOM: their standards' unit), else none (an uncalibrated
+    /// TIFF stack, raw voxels, a synthetic volume): positions are then in the spacing's own
+    /// units, and nothing is to be said of them.
+    pub fn spatial_unit(&self) -> Option<&str> {
+        self.metadata_value("unit")
+            .filter(|unit| !unit.is_empty())
+            .or(matches!(self.format, "NIfTI-1" | "NRRD" | "DICOM").then_some("mm"))
+    }
+
+    /// A length or position of `text` with its unit where the volume has one (`12.5 mm`, or
+    /// `12.5`).
+    pub fn with_unit(&self, text: impl std::fmt::Display) -> String {
+        match self.spatial_unit() {
+            Some(unit) => format!("{text} {unit}"),
+            None => text.to_string(),
+        }
     }
 
     /// Physical size of the grid along x, y, z (dims × spacing).
