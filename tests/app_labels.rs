@@ -167,3 +167,28 @@ fn a_label_volume_toggles_between_labels_and_values() {
     assert_eq!(colormap(&harness), voxscope_octree::Colormap::Labels);
     harness.get_by_label("Drawn as labels.");
 }
+
+/// A label volume opened while MIP is on keeps its label colors (its MIP draws the first label
+/// shown along each ray): the MIP rule of grays over the window is for intensities.
+#[test]
+fn a_label_volume_opened_in_mip_keeps_its_colors() {
+    let mut harness = fresh_app("synthetic:sphere:32");
+    harness.get_by_label("MIP").click();
+    settle(&mut harness);
+    let ctx = harness.ctx.clone();
+    harness.state_mut().run_command(
+        Command::Open(voxscope_scene::VolumeSource::Spec(
+            "synthetic:labels:48x40x36".into(),
+        )),
+        &ctx,
+    );
+    settle(&mut harness);
+    assert_eq!(
+        harness.state().settings.mode,
+        voxscope_render::RenderMode::Mip
+    );
+    assert_eq!(
+        harness.state().settings.transfer.colormap,
+        voxscope_octree::Colormap::Labels
+    );
+}

@@ -21,8 +21,13 @@ pub fn grid_strip(ui: &mut Ui, settings: &mut AppSettings, view: &mut ViewState,
     let label = ui.label("Panes");
     let most = (depth as usize + 1).clamp(2, MAX_GRID_PANES);
     let before = settings.grid_panes.clamp(2, MAX_GRID_PANES);
+    // Clamped where the user drags, not on showing: a shallow volume (or none yet) must not
+    // lower the pane count kept for the next.
     let changed = ui
-        .add(egui::Slider::new(&mut settings.grid_panes, 2..=most))
+        .add(
+            egui::Slider::new(&mut settings.grid_panes, 2..=most)
+                .clamping(egui::SliderClamping::Edits),
+        )
         .labelled_by(label.id)
         .changed();
     if changed && settings.grid_panes != before {

@@ -84,8 +84,9 @@ pub struct TransferRequest {
     /// The window (instead of the preset's or the default's).
     pub window: Option<ValueWindow>,
     /// The view is a maximum intensity projection: where no preset, colormap or opacity is
-    /// asked for, the volume opens in grays over its default window, whatever its kind (a
-    /// CT preset's colors say what its opacity hides, which a projection does not).
+    /// asked for, the volume opens in grays over its default window (a CT preset's colors say
+    /// what its opacity hides, which a projection does not); a label volume keeps its colors
+    /// (its MIP draws the first label shown along each ray, in that label's color).
     pub mip: bool,
 }
 
@@ -94,8 +95,8 @@ const DEFAULT_THRESHOLD: f32 = 0.3;
 
 /// The transfer function a volume of `kind` with these `quantized` values opens with, as
 /// `request` asks: its saved function, else its preset, else its opacity over
-/// `default_window`, else (not for a maximum intensity projection) the kind's default (CT:
-/// the soft-tissue preset; labels: the labels colormap), else alpha = gray over
+/// `default_window`, else the kind's default (CT: the soft-tissue preset, not for a maximum
+/// intensity projection; labels: the labels colormap), else alpha = gray over
 /// `default_window`. The request's window and colormap then override any of them.
 pub fn opening_transfer(
     quantized: &QuantizedVolume,
@@ -117,7 +118,9 @@ pub fn opening_transfer(
         preset.transfer(quantized, colormap)
     } else if let Some(opacity) = request.opacity {
         over_window(opacity)
-    } else if let Some(transfer) = default_transfer(quantized, kind).filter(|_| !request.mip) {
+    } else if let Some(transfer) =
+        default_transfer(quantized, kind).filter(|_| !request.mip || kind.is_labels())
+    {
         transfer
     } else {
         over_window(OpacityMode::Gray)

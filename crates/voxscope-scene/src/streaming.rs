@@ -392,11 +392,11 @@ impl Refinement {
 
 /// Draws `camera`'s view into `target` frame after frame (update, draw, wait for the GPU)
 /// until nothing visible is missing or `max_wait` has passed. No one watches these frames: a
-/// still one uploads every brick ready ([`StillUploads::AllReady`]). A frame is drawn only
-/// where it can differ from the last (the first, and after bricks arrived or the page table
-/// changed): while loads are under way and nothing arrives, the streamer is updated every
-/// [`IDLE_POLL`] and nothing is drawn (it drew frame after frame, 254 in 31 s on a CPU's
-/// Vulkan, for the same image).
+/// still one uploads every brick ready ([`StillUploads::AllReady`]). While loads are under way
+/// and nothing arrived, no frame is drawn (it drew frame after frame, 254 in 31 s on a CPU's
+/// Vulkan, for the same image): the streamer is updated every [`IDLE_POLL`] until bricks
+/// arrive, the page table changes, bricks wait for room (a frame's feedback frees it or cuts
+/// the view to the budget) or no load is left to wait for.
 pub fn refine(
     context: &GpuContext,
     renderer: &mut VolumeRenderer,
@@ -427,7 +427,14 @@ pub fn refine(
             parts.phases += status.phases;
             errors.extend(status.errors.iter().cloned());
             let first = *first_frame.get_or_insert(status.frame);
-            let differs = frames == 0 || status.uploads > 0 || status.table_changed;
+            // A frame can differ from the last (bricks arrived, the table changed), or it is
+            // what moves the streamer on: bricks wait for room that only a frame's feedback
+            // frees (or cuts the view to the budget), or no load is under way to wait for.
+            let differs = frames == 0
+                || status.uploads > 0
+                || status.table_changed
+                || status.waiting_for_room > 0
+                || status.queued + status.loading == 0;
             if differs {
                 let drawing = Instant::now();
                 renderer.render(context, target, camera, settings);

@@ -140,6 +140,9 @@ pub struct StreamStatus {
     pub judged_frame: Option<u32>,
     /// Visible bricks wanted and not on the GPU (what the status bar's "refining: N" says).
     pub missing: usize,
+    /// Bricks read into RAM that wait for an atlas slot (none is free): only frames, whose
+    /// feedback frees slots or cuts the view to the budget, move them on.
+    pub waiting_for_room: usize,
     /// Loads waiting and in progress.
     pub queued: usize,
     pub loading: usize,

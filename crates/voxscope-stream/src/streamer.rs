@@ -1387,6 +1387,7 @@ impl Streamer {
             complete,
             judged_frame: self.feedback_frame,
             missing,
+            waiting_for_room: self.ready.len(),
             queued,
             loading,
             filling: self.fill.len(),
