@@ -55,7 +55,7 @@ fn level_gradient(coords: vec3<f32>, half_texel: vec3<f32>) -> vec3<f32> {
     return (high - low) * params.atlas_scale;
 }
 
-// ray_common.wgsl's `shade_label` (not used here: the composite is of intensities) reads a
+// ray_common.wgsl's `label_entry` (not used here: the composite is of intensities) reads a
 // label: channel 0's.
 fn label_level_at(coords: vec3<f32>) -> u32 {
     return value_index(textureSampleLevel(channels_low, level_sampler, coords, 0.0).r);

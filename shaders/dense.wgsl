@@ -35,7 +35,7 @@ fn level_at(p: vec3<f32>) -> u32 {
     return value_index(textureSampleLevel(levels, level_sampler, p / params.volume.xyz, 0.0).r);
 }
 
-// The label at normalized texture coordinates (`shade_label`, ray_common.wgsl).
+// The label at normalized texture coordinates (`label_entry`, ray_common.wgsl).
 fn label_level_at(coords: vec3<f32>) -> u32 {
     return value_index(textureSampleLevel(levels, level_sampler, coords, 0.0).r);
 }

@@ -54,6 +54,10 @@ override CLIP: bool = false;
 // `params.sample_voxels` > 1. Elsewhere `sample_voxels()` is the constant 1, and the full-detail
 // pipelines are the code of before (an opacity correction per sample cost them 7–15 %, run 54).
 override COARSE: bool = false;
+// The values are labels (FLAG_LABELS): samples meet the voxels the ray enters between them
+// (`label_entry`), undithered (`ray_jitter`). A pipeline of its own, so that the other
+// volumes' pipelines carry none of that code.
+override LABELS: bool = false;
 
 // Keep in sync with `ProbeResult` in src/render/gpu_data.rs.
 struct ProbeResult {
@@ -111,9 +115,10 @@ fn pixel_jitter(pixel: vec2<u32>) -> f32 {
 }
 fn min_component(v: vec3<f32>) -> f32 { return min(v.x, min(v.y, v.z)); }
 
-// Whether the values are labels (categories), drawn unblended and undithered.
+// Whether the values are labels (categories), drawn unblended and undithered: the `LABELS`
+// pipelines (whose frames also set FLAG_LABELS).
 fn labels() -> bool {
-    return (params.flags & FLAG_LABELS) != 0u;
+    return LABELS;
 }
 
 // Where in a sample step pixel `pixel`'s samples sit: `pixel_jitter`, but for labels, which are
@@ -255,6 +260,9 @@ fn shade_sample(rgb: vec3<f32>, gradient: vec3<f32>, light: vec3<f32>) -> vec3<f
     return shade_with(rgb, cosine, weight);
 }
 
+// No label known (`label_entry`'s sample before).
+const NO_LABEL: u32 = 0xffffffffu;
+
 // What a label volume's sample meets (`label_entry`).
 struct LabelEntry {
     // The label: the first voxel the transfer function shows that the ray entered since the
@@ -272,11 +280,12 @@ struct LabelEntry {
 // to fall (zoomed in, that moved the cubes' edges by up to a voxel, and a gradient of
 // nearest-sampled labels lit their faces as noise). So the voxels the ray crossed since the
 // sample before (at most one voxel back along each axis; a voxel is a texel,
-// `2 · frame.half_texel`) are walked in order, and the first one entered from another label
-// that the transfer function shows is what this sample stands for, lit by the face it was
-// entered by (docs/octree.md, "Shading"). Where the sample before was in the same label and
-// the ray crossed one voxel plane at most since, there is nothing to walk.
-fn label_entry(level: u32, coords: vec3<f32>, t: f32, step: f32,
+// `2 · frame.half_texel`; `before` is that sample's label where known, else NO_LABEL) are
+// walked in order, and the first one entered from another label that the transfer function
+// shows is what this sample stands for, lit by the face it was entered by (docs/octree.md,
+// "Shading"). Where the sample before was in the same label and the ray crossed one voxel
+// plane at most since, there is nothing to walk.
+fn label_entry(level: u32, before: u32, coords: vec3<f32>, t: f32, step: f32,
                frame: SampleFrame) -> LabelEntry {
     var entry = LabelEntry(level, vec3<f32>(0.0), t);
     let texel = 2.0 * frame.half_texel;
@@ -284,7 +293,11 @@ fn label_entry(level: u32, coords: vec3<f32>, t: f32, step: f32,
     let back_t = max(t - step, frame.t_enter + 0.001 * step);
     let back = coords - frame.dir * (t - back_t);
     let start = floor(back / texel);
-    var previous = label_level_at((start + 0.5) * texel);
+    // The sample before's label where it is known (`before`), else read.
+    var previous = before;
+    if previous == NO_LABEL || back_t > t - step {
+        previous = label_level_at((start + 0.5) * texel);
+    }
     if back_t > t - step && previous != level && (lookup_table[previous] >> 24u) != 0u {
         // The ray's first voxel is shown: met where the ray enters the volume, unlit (no
         // voxel before it, as the octree's first node).
@@ -338,7 +351,8 @@ fn accumulate_labels(acc: ptr<function, Accumulation>, levels: vec4<u32>, count:
     let step = ts.y - ts.x;
     for (var j = 0u; j < count; j++) {
         let coords = select(frame.next, frame.here, ts[j] < frame.split) + ts[j] * frame.dir;
-        let entry = label_entry(levels[j], coords, ts[j], step, frame);
+        let before = select(NO_LABEL, levels[max(j, 1u) - 1u], j > 0u);
+        let entry = label_entry(levels[j], before, coords, ts[j], step, frame);
         if first_label() {
             if take_label(acc, entry.level, entry.t) {
                 return j + 1u;

@@ -67,7 +67,7 @@ struct RayResult {
 
 // Marches a brick from `t` to `t_out` in the atlas with the sampler's filtering (trilinear, or
 // nearest for labels), at the dense renderer's sample distances t_first + (k + ½)·step
-// (`t_first`: the ray's entry moved by its pixel's jitter, `pixel_jitter`). `to_atlas` maps a
+// (`t_first`: the ray's entry moved by its pixel's jitter, `ray_jitter`). `to_atlas` maps a
 // voxel-space point of this brick to its atlas texel (`brick_to_atlas`). Returns the samples
 // taken.
 // (Unlike the grid walk, this keeps the per-sample offset: the tree walk's entry point is
@@ -122,7 +122,7 @@ fn atlas_level_at(coords: vec3<f32>) -> u32 {
     return value_index(textureSampleLevel(atlas, atlas_sampler, coords, 0.0).r);
 }
 
-// The label at normalized atlas coordinates (`shade_label`, ray_common.wgsl).
+// The label at normalized atlas coordinates (`label_entry`, ray_common.wgsl).
 fn label_level_at(coords: vec3<f32>) -> u32 {
     return atlas_level_at(coords);
 }

@@ -12,7 +12,7 @@
 // CPU a frame or two later) and draws the segment from the finest coarser level the table has
 // there (the coarsest level is always resident). Samples sit where the dense renderer's sit for
 // the level marched, t_enter + (k + jitter)·step with step one voxel of that level and jitter
-// the pixel's (`pixel_jitter`), so a fully resident level 0 gives the bricks renderer's image.
+// the pixel's (`ray_jitter`), so a fully resident level 0 gives the bricks renderer's image.
 // A label volume's bricks are sampled at the nearest voxel (the sampler) and its MIP draws the
 // first visible label (`first_label`). Prepended with ray_common.wgsl.
 
@@ -181,7 +181,7 @@ fn atlas_level_at(coords: vec3<f32>) -> u32 {
     return value_index(textureSampleLevel(atlas, atlas_sampler, coords, 0.0).r);
 }
 
-// The label at normalized atlas coordinates (`shade_label`, ray_common.wgsl).
+// The label at normalized atlas coordinates (`label_entry`, ray_common.wgsl).
 fn label_level_at(coords: vec3<f32>) -> u32 {
     return atlas_level_at(coords);
 }

@@ -441,8 +441,9 @@ impl MovieWriter for Mp4Writer {
     }
 
     fn abandon(mut self: Box<Self>) {
-        drop(self.input.take());
+        // Killed before its input closes: a closed input would start ffmpeg's finishing.
         let _ = self.child.kill();
+        drop(self.input.take());
         let _ = self.child.wait();
         remove_unfinished(&self.path);
     }

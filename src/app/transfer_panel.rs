@@ -244,7 +244,7 @@ fn show_panel(
                 ui.small("Drawn as labels.");
                 if ui
                     .button("Show values")
-                    .on_hover_text("Alpha = gray over the volume's window: the values as numbers, not categories")
+                    .on_hover_text("Alpha = gray over the volume's window: the values' magnitudes in grays (still sampled at the nearest voxel, as categories)")
                     .clicked()
                 {
                     let values = voxscope_octree::TransferFunction::gray(data.default_window);

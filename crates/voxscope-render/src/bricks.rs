@@ -267,7 +267,7 @@ impl Renderer for GpuBricks {
             self.level_detail(settings.max_level),
             LevelDetail::Pyramid { .. }
         );
-        for variant in pipeline_variants(settings, probe, coarse) {
+        for variant in pipeline_variants(settings, probe, coarse, self.labels()) {
             context.raycaster().prepare(context, variant);
         }
     }

@@ -287,7 +287,7 @@ impl Renderer for DenseVolume {
             self.level_detail(settings.max_level),
             LevelDetail::Pyramid { .. }
         );
-        for variant in pipeline_variants(settings, probe, coarse) {
+        for variant in pipeline_variants(settings, probe, coarse, self.labels()) {
             context.dense_raycaster().prepare(context, variant);
         }
     }

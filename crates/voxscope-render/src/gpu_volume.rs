@@ -181,7 +181,7 @@ impl Renderer for GpuVolume {
     }
 
     fn prepare_pipelines(&self, context: &GpuContext, settings: &RenderSettings, probe: bool) {
-        for variant in pipeline_variants(settings, probe, false) {
+        for variant in pipeline_variants(settings, probe, false, self.labels) {
             context.raycaster().prepare(context, variant);
         }
     }

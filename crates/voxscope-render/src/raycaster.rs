@@ -280,10 +280,12 @@ pub(crate) fn frame_variant(settings: &RenderSettings) -> Variant {
 }
 
 /// `variant` for a frame of `params`: the `COARSE` one where it samples a coarser pyramid
-/// level (so a full-detail frame runs the code of before levels had pyramids, pow for pow).
+/// level (so a full-detail frame runs the code of before levels had pyramids, pow for pow),
+/// the `LABELS` one for a label volume.
 pub(crate) fn level_variant(variant: Variant, params: &RaycastParams) -> Variant {
     Variant {
         coarse: params.sample_voxels > 1.0,
+        labels: params.flags & FLAG_LABELS != 0,
         ..variant
     }
 }

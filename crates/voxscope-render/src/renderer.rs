@@ -165,11 +165,12 @@ pub(crate) fn level_detail(
 }
 
 /// The pipeline variants frames with `settings` draw with (and, with `probe`, probe with);
-/// `coarse` where they sample a coarser pyramid level.
+/// `coarse` where they sample a coarser pyramid level, `labels` for a label volume.
 pub(crate) fn pipeline_variants(
     settings: &RenderSettings,
     probe: bool,
     coarse: bool,
+    labels: bool,
 ) -> Vec<Variant> {
     let mut variants = vec![frame_variant(settings)];
     if probe {
@@ -177,6 +178,7 @@ pub(crate) fn pipeline_variants(
     }
     for variant in &mut variants {
         variant.coarse = coarse;
+        variant.labels = labels;
     }
     variants
 }

@@ -1231,9 +1231,13 @@ impl RayPass<StreamVolume> for StreamRaycaster {
         SEGMENTS
     }
 
-    /// Each segment picks its own level from the page table: no coarse variant.
-    fn variant(&self, base: Variant, _params: &RaycastParams) -> Variant {
-        base
+    /// Each segment picks its own level from the page table: no coarse variant; the `LABELS`
+    /// one for a label volume.
+    fn variant(&self, base: Variant, params: &RaycastParams) -> Variant {
+        Variant {
+            labels: params.flags & FLAG_LABELS != 0,
+            ..base
+        }
     }
 
     /// Notes the camera (the load order follows it) and that a frame was drawn (its requests
@@ -1382,7 +1386,7 @@ impl Renderer for StreamVolume {
     }
 
     fn prepare_pipelines(&self, context: &GpuContext, settings: &RenderSettings, probe: bool) {
-        for variant in pipeline_variants(settings, probe, false) {
+        for variant in pipeline_variants(settings, probe, false, self.labels()) {
             context.stream_raycaster().prepare(
                 context,
                 variant,
