@@ -97,6 +97,18 @@ fn still(view: &SavedView, name: &str) -> image::RgbaImage {
     png(&out)
 }
 
+/// Waits (at most a minute) until `folder` holds `count` frames or more.
+fn wait_for_frames(folder: &Path, count: usize) {
+    let started = Instant::now();
+    while frames_in(folder).len() < count {
+        assert!(
+            started.elapsed() < Duration::from_secs(60),
+            "no frame written"
+        );
+        std::thread::sleep(Duration::from_millis(5));
+    }
+}
+
 fn frames_in(folder: &Path) -> Vec<PathBuf> {
     let mut names: Vec<PathBuf> = std::fs::read_dir(folder)
         .map(|entries| entries.map(|e| e.expect("an entry").path()).collect())
@@ -203,14 +215,7 @@ fn preview_plays_the_path_and_returns_and_cancel_stops_an_export() {
     let ctx = harness.ctx.clone();
     harness.state_mut().run_command(Command::ExportMovie, &ctx);
     // Cancelled once frames are written: they go, and the folder the export made with them.
-    let started = Instant::now();
-    while frames_in(&folder).len() < 3 {
-        assert!(
-            started.elapsed() < Duration::from_secs(60),
-            "no frame written"
-        );
-        std::thread::sleep(Duration::from_millis(5));
-    }
+    wait_for_frames(&folder, 3);
     harness.state_mut().run_command(Command::CancelExport, &ctx);
     settle(&mut harness);
     assert_eq!(harness.state().error(), None);
@@ -229,14 +234,7 @@ fn preview_plays_the_path_and_returns_and_cancel_stops_an_export() {
     let kept = folder.join("notes.txt");
     std::fs::write(&kept, "mine").expect("write");
     harness.state_mut().run_command(Command::ExportMovie, &ctx);
-    let started = Instant::now();
-    while frames_in(&folder).len() < 3 {
-        assert!(
-            started.elapsed() < Duration::from_secs(60),
-            "no frame written"
-        );
-        std::thread::sleep(Duration::from_millis(5));
-    }
+    wait_for_frames(&folder, 3);
     harness.state_mut().run_command(Command::CancelExport, &ctx);
     settle(&mut harness);
     assert_eq!(frames_in(&folder), vec![kept]);
