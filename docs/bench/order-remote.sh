@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Two binaries side by side on the lent GPU machine, in one call (docs/benchmarks.md, run 66):
+# Two binaries side by side on the lent GPU machine, in one call (docs/benchmarks.md, "Remote stores"):
 # .bench/voxscope-base.gz and .bench/voxscope.gz on the 4096x4096x1040 store of budget.sh
 # (the PD series tiled 16x16x52, OME-Zarr 0.4, 64³ chunks, zstd): near MIP stopped views from
 # disk (page cache dropped before each cold process, TAKES times each), then `bench --stream`

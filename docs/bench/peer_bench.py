@@ -4,7 +4,7 @@ voxscope beside them through its Python module (`voxscope.Renderer`, wgpu over V
 same frame loop.
 
 A copy of ../shared/peers/peer_bench.py (the peers' harness, unchanged for them) with voxscope
-as a fourth peer; docs/benchmarks.md, "Beside the peers, from Python", says how it is run.
+as a fourth peer; docs/benchmarks.md, "Python", says how it is run.
 
 usage: python3 peer_bench.py VOLUME.npz [frames=100] [width=1024] [height=768]
        python3 peer_bench.py --sheet DIR   (sheets + image comparison of the PNGs in DIR, e.g.

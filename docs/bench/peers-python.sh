@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # voxscope's Python module beside vispy and pygfx in the peers' own harness
-# (docs/bench/peer_bench.py; docs/benchmarks.md "Beside the peers, from Python") on the lent GPU
+# (docs/bench/peer_bench.py; docs/benchmarks.md "Python") on the lent GPU
 # machine. VTK stays out: its wheel (133 MB) does not fit a call's 64 MiB; its figures by the
 # same method are in ../shared/docs/peers.md.
 #

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The remote request path measured on one machine (docs/benchmarks.md "Remote stores"): a
+# The remote request path measured on one machine (docs/performance-log.md "Remote stores"): a
 # 512x512x384 CT phantom converted to OME-Zarr twice (0.4, 64³ chunks, a file per chunk; 0.5,
 # 32³ inner chunks in shards of 4³ chunks), each served on 127.0.0.1 by slow_http.py at 50 ms a
 # request and one 100 MB/s link, and drawn from its URL by `render --renderer stream` at

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The streaming atlas's upload paths side by side on the lent GPU machine, in one call
-# (docs/benchmarks.md, "Uploads scattered by a compute pass"): `bench --stream --uploads P` of
+# (docs/performance-log.md, "Uploads into the atlas"): `bench --stream --uploads P` of
 # one binary (.bench/voxscope.gz) for each path P of PATHS (default "scatter copies"), TAKES
 # times (default 2) in turn, on the 4096x4096x1040 store of budget.sh (the PD series tiled
 # 16x16x52, OME-Zarr 0.4, 64³ chunks, zstd; converted here when the machine lacks it), page
