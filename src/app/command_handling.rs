@@ -9,9 +9,9 @@ use super::command::Command;
 use super::dialogs::DialogAnswer;
 use super::dialogs::{self, DialogKind, NOT_SHOWN_WITHIN};
 use super::file_browser::FileBrowser;
-use super::saved_view;
 use super::settings::AppSettings;
 use super::url_dialog::UrlDialog;
+use super::view_file;
 use super::viewport;
 use super::voxscope_app::VoxscopeApp;
 use voxscope_scene::FrameKey;
@@ -116,7 +116,7 @@ impl VoxscopeApp {
             Command::OpenView(path) => {
                 let wake = ctx.clone();
                 self.jobs.view_file =
-                    Some(saved_view::read_job(path, move || wake.request_repaint()));
+                    Some(view_file::read_job(path, move || wake.request_repaint()));
                 Ok(None)
             }
             Command::AddKeyframe => self.add_keyframe().map(|()| None),
@@ -332,7 +332,7 @@ impl VoxscopeApp {
             self.settings.last_save_folder = Some(folder.to_path_buf());
         }
         let wake = ctx.clone();
-        self.jobs.view_file = Some(saved_view::write_job(view, path, move || {
+        self.jobs.view_file = Some(view_file::write_job(view, path, move || {
             wake.request_repaint()
         }));
         Ok(())

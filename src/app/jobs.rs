@@ -7,7 +7,7 @@ use std::sync::mpsc::{Receiver, TryRecvError};
 
 use super::dialogs::{DialogAnswer, DialogKind};
 use super::movie_export::Exported;
-use super::saved_view::ViewFile;
+use super::view_file::ViewFile;
 use voxscope_render::RendererOptions;
 use voxscope_scene::{Counted, Job, Opened, SavedView, Scene, SceneError};
 

@@ -38,6 +38,7 @@ mod stream_panel;
 mod transfer_editor;
 mod transfer_panel;
 mod url_dialog;
+mod view_file;
 mod view_state;
 mod viewport;
 mod voxscope_app;

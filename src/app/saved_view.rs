@@ -11,55 +11,19 @@
 //! (mode, level, opacity scale and correction, shading, interpolation, heat map, clip box and
 //! plane), the renderer and brick size, the rulers and the layout. The size is the 3D pane's.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use voxscope_octree::TransferFunction;
 use voxscope_render::{BUDGET_STEPS, RenderSettings, RendererKind, RendererOptions};
 use voxscope_scene::{
-    ChannelState, FrameChange, Job, Opened, SavedView, SceneError, Shot, TransferChoice,
-    TransferRequest, VIEW_VERSION, ViewChannel, ViewData, ViewRuler, ViewStream, VolumeSource,
-    opening_transfer,
+    ChannelState, FrameChange, Job, Opened, SavedView, Shot, TransferChoice, TransferRequest,
+    VIEW_VERSION, ViewChannel, ViewData, ViewRuler, ViewStream, VolumeSource, opening_transfer,
 };
 use voxscope_volume::{Selection, ValueWindow};
 
 use super::settings::Layout;
 use super::view_state::{Clipping, Ruler};
 use super::voxscope_app::VoxscopeApp;
-
-/// A view file's job ended: what it did.
-pub enum ViewFile {
-    /// The view was written to this file.
-    Written(PathBuf),
-    /// This file was read and its data exists.
-    Read(PathBuf, Box<SavedView>),
-}
-
-/// Writes `view` to `path` on a job thread (the UI thread never waits on disk).
-pub fn write_job(
-    view: SavedView,
-    path: PathBuf,
-    wake: impl Fn() + Send + 'static,
-) -> Job<ViewFile> {
-    Job::spawn(format!("saving {}", path.display()), wake, move |_| {
-        view.write(&path).map_err(SceneError::failed)?;
-        Ok(ViewFile::Written(path))
-    })
-}
-
-/// Reads the view file `path` on a job thread, and checks that the data it names exists: a
-/// view whose data is missing is one line naming both.
-pub fn read_job(path: PathBuf, wake: impl Fn() + Send + 'static) -> Job<ViewFile> {
-    Job::spawn(format!("reading {}", path.display()), wake, move |_| {
-        let view = SavedView::read(&path).map_err(SceneError::failed)?;
-        if let Some(missing) = view.data.missing_path() {
-            return Err(SceneError::failed(format!(
-                "{}: its data {missing} does not exist",
-                path.display()
-            )));
-        }
-        Ok(ViewFile::Read(path, Box::new(view)))
-    })
-}
 
 /// The view file's name of a layout (as `render --save-view` leaves it for the app).
 pub fn layout_name(layout: Layout) -> &'static str {

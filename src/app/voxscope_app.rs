@@ -21,10 +21,10 @@ use super::menu::{self, NOTICE_DURATION};
 use super::movie_panel::{self, MoviePlan, MoviePreview};
 use super::octree_panel::{self, OctreeFacts};
 use super::overlays;
-use super::saved_view::ViewFile;
 use super::settings::{AppSettings, DEFAULT_COMPARE_TRANSFER, STORAGE_KEY};
 use super::transfer_panel;
 use super::url_dialog::{UrlDialog, UrlOutcome};
+use super::view_file::ViewFile;
 use super::view_state::{Clipping, ViewState};
 use voxscope_octree::{Clip, LevelStatistics, OpacityMode, TransferFunction};
 use voxscope_render::{

@@ -5,8 +5,9 @@ use std::path::PathBuf;
 use clap::{Args, ValueEnum};
 
 use voxscope_octree::{Clip, ClipPlane, Colormap, OpacityCurve, OpacityMode, Preset};
-use voxscope_render::{RenderMode, RenderSettings, RendererKind, Shading};
-use voxscope_scene::{SavedTransfer, TransferRequest};
+use voxscope_render::{RenderMode, RendererKind, Shading};
+pub use voxscope_scene::ChannelChoice;
+use voxscope_scene::{OpenOptions, SavedTransfer, SceneError, TransferOptions};
 use voxscope_volume::{LoadError, LoadErrorKind, LoadOptions, RawLayout, ValueWindow};
 
 /// Which volume to open.
@@ -27,8 +28,8 @@ pub struct VolumeArgs {
     /// ImageJ hyperstacks, NIfTI (dim 5), NRRD (a list, vector or color axis). `render`,
     /// `bench` and `info` show all channels of a multi-channel file unless one is chosen;
     /// other commands read channel 0.
-    #[arg(long, value_name = "N|all", value_parser = ChannelArg::parse)]
-    pub channel: Option<ChannelArg>,
+    #[arg(long, value_name = "N|all", value_parser = ChannelChoice::parse)]
+    pub channel: Option<ChannelChoice>,
     /// Files opened together as the channels of one volume (same dimensions), instead of FILE.
     #[arg(
         long,
@@ -97,6 +98,18 @@ pub fn load_error_text(error: &LoadError) -> String {
     }
 }
 
+/// A scene error as the command line says it: a load error with [`load_error_text`]'s
+/// advice; a volume beyond the octree with the renderers that draw it.
+pub fn scene_error_text(error: &SceneError) -> String {
+    match error {
+        SceneError::Load(load) => load_error_text(load),
+        SceneError::BeyondOctree(text) => format!(
+            "{text} (render draws it with --renderer bricks or stream, bench with --stream)"
+        ),
+        _ => error.to_string(),
+    }
+}
+
 impl VolumeArgs {
     /// FILE with `--field`'s field path appended (the field of a plate is an image group
     /// inside it); an error for `--field` without FILE.
@@ -131,59 +144,32 @@ impl VolumeArgs {
         }
     }
 
+    /// What to open, as the scene layer takes it (`--field` and `--series` applied already).
+    pub fn open_options(&self) -> OpenOptions {
+        OpenOptions {
+            source: self.file.clone(),
+            raw: self.raw,
+            spacing: self.spacing,
+            channel: self.channel,
+            channels_from: self.channels_from.clone(),
+            time: self.time,
+            max_requests: self.max_requests,
+        }
+    }
+
     /// Reads FILE (the channel and time point chosen), or the built-in sample without one.
     pub fn load(&self) -> Result<voxscope_volume::Volume, String> {
-        match &self.file {
-            Some(spec) => voxscope_volume::load(spec, &self.load_options()),
-            None => voxscope_volume::sample(),
-        }
-        .map_err(|e| load_error_text(&e))
+        self.open_options().load().map_err(|e| scene_error_text(&e))
     }
 
     /// FILE, or the built-in sample without one, as the scene layer opens it.
     pub fn source(&self) -> voxscope_scene::VolumeSource {
-        match &self.file {
-            Some(spec) => voxscope_scene::VolumeSource::from_spec(spec),
-            None => voxscope_scene::VolumeSource::Sample,
-        }
+        self.open_options().volume_source()
     }
 
     /// The options for [`voxscope_volume::load`].
     pub fn load_options(&self) -> LoadOptions {
-        LoadOptions {
-            raw: self.raw,
-            spacing: self.spacing,
-            select: voxscope_volume::Selection {
-                channel: match self.channel {
-                    Some(ChannelArg::Index(channel)) => channel,
-                    Some(ChannelArg::All) | None => 0,
-                },
-                time: self.time,
-            },
-            remote: voxscope_volume::remote::RemoteOptions {
-                max_requests: self.max_requests,
-                ..Default::default()
-            },
-        }
-    }
-}
-
-/// `--channel`: one channel, or all of them composited.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum ChannelArg {
-    Index(usize),
-    All,
-}
-
-impl ChannelArg {
-    /// `N` or `all`.
-    pub(super) fn parse(text: &str) -> Result<Self, String> {
-        if text.eq_ignore_ascii_case("all") {
-            return Ok(Self::All);
-        }
-        text.parse()
-            .map(Self::Index)
-            .map_err(|_| format!("channel '{text}' is not a number or 'all'"))
+        self.open_options().load_options()
     }
 }
 
@@ -192,26 +178,15 @@ impl VolumeArgs {
     /// file (`--channel` not a number): every channel of FILE at `--time`, or the
     /// `--channels-from` files. `None` when one channel was chosen.
     pub fn composite_channels(&self) -> Result<Option<Vec<voxscope_volume::Volume>>, String> {
-        let options = self.load_options();
-        if let Some(specs) = &self.channels_from {
-            return voxscope_volume::load_as_channels(specs, &options)
-                .map(Some)
-                .map_err(|e| load_error_text(&e));
-        }
-        match &self.file {
-            Some(spec) if self.wants_composite() => {
-                voxscope_volume::load_all_channels(spec, &options)
-                    .map(Some)
-                    .map_err(|e| load_error_text(&e))
-            }
-            _ => Ok(None),
-        }
+        self.open_options()
+            .composite_channels()
+            .map_err(|e| scene_error_text(&e))
     }
 
     /// Whether these options leave the channels to the file (`--channel` not a number): a file
     /// of several channels is then their composite.
     pub fn wants_composite(&self) -> bool {
-        !matches!(self.channel, Some(ChannelArg::Index(_)))
+        self.open_options().wants_composite()
     }
 }
 
@@ -362,70 +337,48 @@ impl TransferArgs {
             .expect("the defaults of TransferArgs parse")
     }
 
-    /// The saved transfer function of --tf, if given, else a `--view`'s.
-    pub fn saved(&self) -> Result<Option<SavedTransfer>, String> {
-        match self.tf.as_deref() {
-            Some(path) => SavedTransfer::read(path).map(Some),
-            None => Ok(self.view_transfer),
-        }
-    }
-
-    /// What these options ask of the transfer function ([`voxscope_scene::opening_transfer`]
-    /// applies it):
-    /// --tf (`saved`), --preset, --opacity-points or --opacity, --threshold, --window and
-    /// --colormap; without them the data decides.
-    pub fn request(&self, saved: Option<&SavedTransfer>) -> TransferRequest {
+    /// What these options ask of the transfer function and the render settings, as the scene
+    /// layer takes it: --shading / --no-shading (on unless the last of them is
+    /// --no-shading) with the parameters given, else [`Shading::default`]'s.
+    pub fn options(&self) -> TransferOptions {
         let opacity = match (self.opacity_points, self.opacity) {
             (Some(curve), _) => Some(OpacityMode::Points(curve)),
             (None, Some(OpacityArg::Gray)) => Some(OpacityMode::Gray),
             (None, Some(OpacityArg::Binary)) => Some(OpacityMode::Binary),
             (None, None) => None,
         };
-        TransferRequest {
-            saved: saved.map(|s| s.transfer),
-            preset: self.preset,
+        let defaults = Shading::default();
+        TransferOptions {
             opacity,
-            threshold: Some(self.threshold),
-            colormap: self.colormap,
+            preset: self.preset,
+            tf: self.tf.clone(),
+            threshold: self.threshold,
             window: self.window,
-            mip: self.mode == Some(ModeArg::Mip),
-        }
-    }
-
-    /// Render settings for an octree of `depth`; the level is clamped to it. `saved` is the
-    /// --tf file's, whose opacity scale and mode apply unless given here.
-    pub fn render_settings(&self, depth: u32, saved: Option<&SavedTransfer>) -> RenderSettings {
-        let mode = match self.mode {
-            Some(ModeArg::Dvr) => RenderMode::Dvr,
-            Some(ModeArg::Mip) => RenderMode::Mip,
-            None => saved.map_or(RenderMode::Dvr, |s| s.mode),
-        };
-        RenderSettings {
-            mode,
-            max_level: self.level.unwrap_or(depth).min(depth),
+            colormap: self.colormap,
+            density: self.density,
+            mode: self.mode.map(|mode| match mode {
+                ModeArg::Dvr => RenderMode::Dvr,
+                ModeArg::Mip => RenderMode::Mip,
+            }),
+            level: self.level,
             pixel_lod: self.pixel_lod,
             opacity_correction: !self.no_opacity_correction,
-            density: self
-                .density
-                .unwrap_or_else(|| saved.map_or(1.0, |s| s.density)),
             heatmap: self.heatmap,
             trilinear: !self.nearest,
-            shading: self.shading(),
-            clip: Clip::NONE,
+            shading: Shading {
+                enabled: !self.no_shading,
+                ambient: self.ambient.unwrap_or(defaults.ambient),
+                diffuse: self.diffuse.unwrap_or(defaults.diffuse),
+                specular: self.specular.unwrap_or(defaults.specular),
+                shininess: self.shininess.unwrap_or(defaults.shininess),
+            },
+            saved: self.view_transfer,
         }
     }
 
-    /// Shading as --shading / --no-shading (on unless the last of them is --no-shading) and
-    /// the parameters given, else [`Shading::default`]'s.
-    pub fn shading(&self) -> Shading {
-        let defaults = Shading::default();
-        Shading {
-            enabled: !self.no_shading,
-            ambient: self.ambient.unwrap_or(defaults.ambient),
-            diffuse: self.diffuse.unwrap_or(defaults.diffuse),
-            specular: self.specular.unwrap_or(defaults.specular),
-            shininess: self.shininess.unwrap_or(defaults.shininess),
-        }
+    /// The saved transfer function of --tf, if given, else a `--view`'s.
+    pub fn saved(&self) -> Result<Option<SavedTransfer>, String> {
+        self.options().saved().map_err(|e| e.to_string())
     }
 }
 
@@ -498,7 +451,7 @@ mod tests {
 
     #[test]
     fn shading_is_on_unless_the_last_word_is_no_shading() {
-        let shading = |args: &[&str]| parse(args).expect("parses").transfer.shading();
+        let shading = |args: &[&str]| parse(args).expect("parses").transfer.options().shading;
         assert_eq!(shading(&[]), Shading::default());
         assert!(shading(&[]).enabled);
         assert!(!shading(&["--no-shading"]).enabled);

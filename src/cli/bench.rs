@@ -625,7 +625,8 @@ fn time_transfer_edits(
     Ok(EditTimes { gpu, wall })
 }
 
-fn percentile(values: &[f64], p: f64) -> f64 {
+/// Nearest-rank percentile.
+pub(super) fn percentile(values: &[f64], p: f64) -> f64 {
     if values.is_empty() {
         return f64::NAN;
     }
@@ -693,6 +694,9 @@ fn total_bytes(value: &serde_json::Value) -> f64 {
         other => other.as_f64().unwrap_or_default(),
     }
 }
+
+/// How long a stopped view may take to complete before the benchmark says it did not.
+pub(super) const MAX_WAIT: std::time::Duration = std::time::Duration::from_secs(20);
 
 #[cfg(test)]
 mod tests {

@@ -88,62 +88,6 @@ impl ChannelArgs {
         }
     }
 
-    /// The window `--channel-window` gives channel `index`, if any (the last given wins).
-    pub fn window_of(&self, index: usize) -> Option<ValueWindow> {
-        self.channel_window
-            .iter()
-            .rev()
-            .find(|(channel, _)| *channel == index)
-            .map(|(_, window)| *window)
-    }
-
-    /// Whether channel `index` of `volume`'s file (the channel `--channel N` chose) has a
-    /// color of its own: from `--channel-colors`, else from the file (OME-Zarr `omero`,
-    /// OME-XML). A file of several channels checks the options against its channel count.
-    pub fn colors_channel(&self, volume: &Volume, index: usize) -> Result<bool, String> {
-        let count = volume.series.channel_count();
-        self.request().check(count)?;
-        let from_file = volume
-            .series
-            .channels
-            .get(index)
-            .is_some_and(|c| c.color.is_some());
-        let asked = self
-            .channel_colors
-            .as_ref()
-            .is_some_and(|colors| colors.len() > index);
-        Ok(count > 1 && (asked || from_file))
-    }
-
-    /// Channel `index` of a file (the volume `--channel N` read) prepared as the composite
-    /// draws it: its color and window as [`Self::prepare`] gives channel `index` of all.
-    pub fn prepare_one(
-        &self,
-        volume: Volume,
-        index: usize,
-        transfer: &TransferArgs,
-    ) -> Result<PreparedChannel, String> {
-        let request = self.request();
-        request.check(volume.series.channel_count())?;
-        let saved = transfer.saved()?;
-        let transfer_request = transfer.request(saved.as_ref());
-        let quantized = QuantizedVolume::new(&volume);
-        let kind = DataKind::of_volume(&volume, &quantized);
-        let state = ChannelState::opening_of(
-            &volume,
-            &quantized,
-            kind,
-            index,
-            &transfer_request,
-            &request,
-        );
-        Ok(PreparedChannel {
-            volume,
-            quantized,
-            state,
-        })
-    }
-
     /// Quantizes `channels` and gives each its color and transfer function as the scene
     /// layer opens channels ([`ChannelState::opening_of`]): `transfer`'s request over the
     /// channel's window, in grays, to be tinted. A channel number in --channel-window or
@@ -155,7 +99,8 @@ impl ChannelArgs {
     ) -> Result<Vec<PreparedChannel>, String> {
         let request = self.request();
         request.check(channels.len())?;
-        let saved = transfer.saved()?;
+        let transfer = transfer.options();
+        let saved = transfer.saved().map_err(|e| e.to_string())?;
         let transfer_request = transfer.request(saved.as_ref());
         Ok(channels
             .into_iter()

@@ -7,7 +7,6 @@ mod ceilings;
 mod composite;
 mod convert;
 mod decode_bench;
-mod drawing;
 mod info;
 mod labels;
 mod memory;
@@ -24,7 +23,7 @@ mod view;
 
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
-pub use args::{ChannelArg, ClipArgs, RendererArg, TransferArgs, VolumeArgs};
+pub use args::{ChannelChoice, ClipArgs, RendererArg, TransferArgs, VolumeArgs, scene_error_text};
 pub use composite::ChannelArgs;
 pub use convert::{ConvertArgs, write as write_ome_zarr};
 pub use labels::LabelArgs;

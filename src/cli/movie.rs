@@ -8,12 +8,13 @@ use std::time::{Duration, Instant};
 
 use clap::Args;
 
-use super::drawing::{Content, Drawing};
 use super::view::{self, Given};
 use super::{RenderOptions, VolumeArgs};
 use crate::movie_writer::MovieFormat;
 use voxscope_render::{RenderTarget, read_image};
-use voxscope_scene::{ChannelState, SavedView, Shot, keyframe_channels, keyframe_path, turntable};
+use voxscope_scene::{
+    ChannelState, Drawable, SavedView, Shot, keyframe_channels, keyframe_path, turntable,
+};
 
 /// Frames of a turntable without `--frames`.
 const TURNTABLE_FRAMES: u32 = 120;
@@ -82,11 +83,12 @@ pub fn run(args: &MovieArgs, given: &Given) -> Result<super::render::Rendered, S
         view::apply(saved, path, &mut volume, &mut options, given)?;
     }
     options.check()?;
-    let mut drawing = Drawing::open(&volume, &options)?;
+    let mut drawing = super::render::open_drawable(&volume, &options)?;
+    let draw = options.draw_options();
     // The composite's channels per frame, each channel's color and window following the
     // keyframes (empty for one volume).
-    let channel_frames = match &drawing.content {
-        Content::Composite { channels } if keyframes.len() > 1 => {
+    let channel_frames = match drawing.channels() {
+        Some(channels) if keyframes.len() > 1 => {
             let keys: Vec<Vec<ChannelState>> = keyframes
                 .iter()
                 .map(|(_, saved)| key_channels(channels, saved, given))
@@ -97,9 +99,9 @@ pub fn run(args: &MovieArgs, given: &Given) -> Result<super::render::Rendered, S
     };
     let shots = if keyframes.is_empty() {
         let first = Shot {
-            camera: options.camera(),
-            settings: drawing.settings,
-            transfer: drawing.transfer,
+            camera: draw.camera,
+            settings: drawing.render_settings(&draw),
+            transfer: drawing.transfer(),
         };
         turntable(&first, args.frames.unwrap_or(TURNTABLE_FRAMES) as usize)
     } else {
@@ -111,7 +113,7 @@ pub fn run(args: &MovieArgs, given: &Given) -> Result<super::render::Rendered, S
     };
     let size = options.size;
     let mut writer = format.create(&args.output, size, args.fps, shots.len())?;
-    let target = RenderTarget::new(&drawing.context, size.0, size.1);
+    let target = RenderTarget::new(drawing.context(), size.0, size.1);
     let mut times = StageTimes::default();
     let mut coarse_frames = 0;
     let mut unreadable_frames = 0;
@@ -125,23 +127,32 @@ pub fn run(args: &MovieArgs, given: &Given) -> Result<super::render::Rendered, S
     let mut draw_frames = || -> Result<(), String> {
         for (index, shot) in shots.iter().enumerate() {
             let frame_started = Instant::now();
-            drawing.set_transfer(&shot.transfer).map_err(ended)?;
+            drawing
+                .set_transfer(&shot.transfer)
+                .map_err(|e| ended(e.to_string()))?;
             if let Some(channels) = channel_frames.get(index) {
                 drawing.set_channels(channels);
             }
             let drawn = drawing
-                .draw(&target, &shot.camera, &shot.settings)
-                .map_err(ended)?;
+                .draw_complete(&target, &shot.camera, &shot.settings, draw.max_wait)
+                .map_err(|e| ended(e.to_string()))?;
+            if drawn.is_none() {
+                // The frame's render time is the GPU's, not its submission's.
+                drawing
+                    .context()
+                    .wait_idle()
+                    .map_err(|e| ended(e.to_string()))?;
+            }
             if let Some(refinement) = drawn {
                 coarse_frames += usize::from(!refinement.complete);
                 unreadable_frames += usize::from(!refinement.unreadable.is_empty());
             }
             let rendered = Instant::now();
             let mut image =
-                read_image(&drawing.context, &target).map_err(|e| ended(e.to_string()))?;
+                read_image(drawing.context(), &target).map_err(|e| ended(e.to_string()))?;
             drawing
                 .draw_labels_over(&mut image, None, &shot.camera, &shot.settings)
-                .map_err(ended)?;
+                .map_err(|e| ended(e.to_string()))?;
             let read = Instant::now();
             writer.add(&image).map_err(ended)?;
             let encoded = Instant::now();
@@ -173,9 +184,9 @@ pub fn run(args: &MovieArgs, given: &Given) -> Result<super::render::Rendered, S
     let frames = shots.len();
     let per_frame = |d: Duration| d.as_secs_f64() * 1000.0 / frames as f64;
     let written_rate = frames as f64 / drawing_started.elapsed().as_secs_f64().max(1e-9);
-    let what = match &drawing.content {
-        Content::Composite { channels } => format!("composite of {} channels", channels.len()),
-        _ => format!("{} renderer", drawing.renderer.kind().name()),
+    let what = match drawing.channels() {
+        Some(channels) => format!("composite of {} channels", channels.len()),
+        None => format!("{} renderer", drawing.renderer().kind().name()),
     };
     let mut incomplete = Vec::new();
     if coarse_frames > 0 {
@@ -199,7 +210,7 @@ pub fn run(args: &MovieArgs, given: &Given) -> Result<super::render::Rendered, S
         size.0,
         size.1,
         args.fps,
-        drawing.context.describe(),
+        drawing.context().describe(),
         started.elapsed().as_secs_f64(),
         per_frame(times.render),
         per_frame(times.readback),
@@ -267,20 +278,17 @@ fn key_channels(opened: &[ChannelState], saved: &SavedView, given: &Given) -> Ve
 fn key_shot(
     args: &MovieArgs,
     given: &Given,
-    drawing: &Drawing,
+    drawing: &Drawable,
     path: &std::path::Path,
     saved: &SavedView,
 ) -> Result<Shot, String> {
     let (mut volume, mut options) = (args.volume.clone(), args.options.clone());
     view::apply(saved, path, &mut volume, &mut options, given)?;
-    let transfer_saved = options.transfer.saved()?;
-    let mut settings = options
-        .transfer
-        .render_settings(drawing.depth(), transfer_saved.as_ref());
-    settings.clip = options.clip.clip();
+    let draw = options.draw_options();
+    let transfer_saved = draw.transfer.saved().map_err(|e| e.to_string())?;
     Ok(Shot {
-        camera: options.camera(),
-        settings,
-        transfer: view::transfer_of(saved, &drawing.transfer, &args.options, given),
+        camera: draw.camera,
+        settings: draw.render_settings(drawing.depth(), transfer_saved.as_ref()),
+        transfer: view::transfer_of(saved, &drawing.transfer(), &args.options, given),
     })
 }

@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 use voxscope_octree::{self as octree, TransferFunction};
 use voxscope_render::{GpuContext, RendererKind};
 use voxscope_scene::{
-    Progress, SavedTransfer, SceneError, VolumeData, VolumeSource, beyond_octree, opening_transfer,
+    Progress, SavedTransfer, SceneError, VolumeData, VolumeSource, opening_transfer,
     renderer_for_octree,
 };
 use voxscope_volume::Volume;
@@ -35,26 +35,19 @@ impl Prepared {
 
     /// Prepares `volume`, loaded already (a channel of a composite that has only one).
     pub fn from_volume(volume: Volume, transfer_args: &TransferArgs) -> Result<Self, String> {
-        let saved = transfer_args.saved()?;
+        let transfer_options = transfer_args.options();
+        let saved = transfer_options.saved().map_err(|e| e.to_string())?;
         let source = VolumeSource::from_spec(&volume.name);
-        let dims = volume.dims;
         let mut data = reporting_progress(|progress| {
             VolumeData::prepare(&source, volume, Instant::now(), progress)
         })
-        .map_err(|e| {
-            // The paper's octree keeps its limit; the streamed bricks have none.
-            let hint = if beyond_octree(dims) {
-                " (render draws it with --renderer bricks or stream, bench with --stream)"
-            } else {
-                ""
-            };
-            format!("{e}{hint}")
-        })?;
+        // The paper's octree keeps its limit; the streamed bricks have none.
+        .map_err(|e| super::args::scene_error_text(&e))?;
         let transfer = opening_transfer(
             &data.quantized,
             data.kind,
             data.default_window,
-            &transfer_args.request(saved.as_ref()),
+            &transfer_options.request(saved.as_ref()),
         );
         let recolor_time = octree::recolor(&mut data.octree, &transfer);
         Ok(Self {
@@ -68,7 +61,7 @@ impl Prepared {
 
 /// Runs `work`; while it still runs after a second, prints its progress to stderr once a
 /// second (`building octree: 42 %`), so large volumes do not look hung.
-fn reporting_progress<T>(
+pub(super) fn reporting_progress<T>(
     work: impl FnOnce(&Progress) -> Result<T, SceneError>,
 ) -> Result<T, SceneError> {
     let progress = Arc::new(Progress::new());
@@ -81,9 +74,10 @@ fn reporting_progress<T>(
             while !finished.load(Ordering::Relaxed) {
                 std::thread::sleep(Duration::from_millis(50));
                 waited += Duration::from_millis(50);
-                if waited >= Duration::from_secs(1) {
+                let (stage, fraction) = progress.get();
+                // Nothing to say before the first stage begins (the volume is still read).
+                if waited >= Duration::from_secs(1) && !stage.is_empty() {
                     waited = Duration::ZERO;
-                    let (stage, fraction) = progress.get();
                     eprint!("\r{stage}: {:3.0} %", fraction * 100.0);
                     reported = true;
                 }

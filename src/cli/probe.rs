@@ -39,24 +39,21 @@ pub struct Probed {
 }
 
 pub fn run(args: &ProbeArgs) -> Result<(), String> {
-    let volume = match &args.volume.file {
-        Some(spec) => voxscope_volume::load(spec, &args.volume.load_options()),
-        None => voxscope_volume::sample(),
-    }
-    .map_err(|e| super::args::load_error_text(&e))?;
+    let open = args.volume.open_options();
+    let volume = args.volume.load()?;
     let probed = probe(&volume, args.at)?;
     let names = if args.labels.is_empty() {
-        super::labels::label_images(&args.volume)
+        open.label_images()
             .map(|(_, labels)| labels.into_iter().map(|label| label.name).collect())
             .unwrap_or_default()
     } else {
         args.labels.clone()
     };
-    let labels: Vec<(String, f64)> =
-        super::labels::open_overlays(&names, &args.volume, volume.dims)?
-            .iter()
-            .map(|overlay| (overlay.name.clone(), overlay.value_at(probed.index)))
-            .collect();
+    let labels: Vec<(String, f64)> = voxscope_scene::open_overlays(&names, &open, volume.dims)
+        .map_err(|e| e.to_string())?
+        .iter()
+        .map(|overlay| (overlay.name.clone(), overlay.value_at(probed.index)))
+        .collect();
     if args.json {
         let labels: serde_json::Map<String, serde_json::Value> = labels
             .iter()

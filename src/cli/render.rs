@@ -5,11 +5,11 @@ use std::time::Instant;
 
 use clap::Args;
 
-use super::drawing::{Content, Drawing};
+use super::args::scene_error_text;
 use super::view::{self, Given};
 use super::{RenderOptions, VolumeArgs};
-use voxscope_render::{RenderTarget, read_image};
-use voxscope_scene::{Refinement, SavedView, describe_missing};
+use voxscope_render::{HeadlessStart, RenderTarget, RendererKind, read_image};
+use voxscope_scene::{Drawable, Refinement, SavedView, SceneError, describe_missing};
 
 #[derive(Debug, Args)]
 pub struct RenderArgs {
@@ -48,16 +48,19 @@ pub fn run(args: &RenderArgs, given: &Given) -> Result<Rendered, String> {
     check_output(&args.output, volume.file.as_deref())?;
     options.check()?;
     let started = Instant::now();
-    let mut drawing = Drawing::open(&volume, &options)?;
-    let camera = options.camera();
-    let settings = drawing.settings;
+    let mut drawing = open_drawable(&volume, &options)?;
+    let draw = options.draw_options();
+    let camera = draw.camera;
+    let settings = drawing.render_settings(&draw);
     // Seconds from the start to the first frame's drawing (a streamed render's first image
     // is this and the refinement's first frame).
     let mut drawing_began = 0.0;
     let side = drawing.tile_side(options.size, args.tile_size);
     let (mut image, refinement) = match side {
         Some(side) => {
-            let (image, tiles) = drawing.draw_tiled(options.size, side, &camera, &settings)?;
+            let (image, tiles) = drawing
+                .draw_tiled(options.size, side, &camera, &settings, draw.max_wait)
+                .map_err(|e| e.to_string())?;
             let why = if args.tile_size.is_some() {
                 "as --tile-size asks".to_owned()
             } else {
@@ -70,14 +73,18 @@ pub fn run(args: &RenderArgs, given: &Given) -> Result<Rendered, String> {
             (image, merged(tiles))
         }
         None => {
-            let target = RenderTarget::new(&drawing.context, options.size.0, options.size.1);
+            let target = RenderTarget::new(drawing.context(), options.size.0, options.size.1);
             drawing_began = started.elapsed().as_secs_f64();
-            let refinement = drawing.draw(&target, &camera, &settings)?;
-            let image = read_image(&drawing.context, &target).map_err(|e| e.to_string())?;
+            let refinement = drawing
+                .draw_complete(&target, &camera, &settings, draw.max_wait)
+                .map_err(|e| e.to_string())?;
+            let image = read_image(drawing.context(), &target).map_err(|e| e.to_string())?;
             (image, refinement)
         }
     };
-    drawing.draw_labels_over(&mut image, side, &camera, &settings)?;
+    drawing
+        .draw_labels_over(&mut image, side, &camera, &settings)
+        .map_err(|e| e.to_string())?;
     image
         .save(&args.output)
         .map_err(|e| format!("cannot write {}: {e}", args.output.display()))?;
@@ -91,55 +98,80 @@ pub fn run(args: &RenderArgs, given: &Given) -> Result<Rendered, String> {
         image.width(),
         image.height()
     );
-    let names: Vec<&str> = drawing.labels.iter().map(|l| l.name.as_str()).collect();
+    let names: Vec<&str> = drawing.labels().iter().map(|l| l.name.as_str()).collect();
     let labels = if names.is_empty() {
         String::new()
     } else {
         format!(", labels {} over it", names.join(", "))
     };
-    match (&drawing.content, refinement) {
-        (Content::Streamed { depth }, Some(refinement)) => Ok(report_stream(
+    let depth = drawing.depth();
+    if let Some(refinement) = refinement {
+        return Ok(report_stream(
             &written,
             &labels,
             &drawing,
-            *depth,
+            depth,
             &settings,
             &refinement,
             Seconds {
                 whole: seconds,
                 first_image: drawing_began + refinement.first_frame_seconds,
             },
-        )),
-        (Content::Composite { channels }, _) => {
-            let colors: Vec<String> = channels
-                .iter()
-                .map(|c| c.color)
-                .map(|c| format!("#{:02x}{:02x}{:02x}", c[0], c[1], c[2]))
-                .collect();
-            let what = match &channels[..] {
-                [one] => format!("{} in {}", one.name, colors.join("")),
-                _ => format!(
-                    "composite of {} channels ({})",
-                    channels.len(),
-                    colors.join(", ")
-                ),
-            };
-            eprintln!(
-                "{written}, {what}, dense renderer) on {} in {seconds:.2} s",
-                drawing.context.describe(),
-            );
-            Ok(Rendered::Complete)
-        }
-        (Content::Volume { depth } | Content::Streamed { depth }, _) => {
-            eprintln!(
-                "{written}, {} renderer, level {}/{depth}{labels}) on {} in {seconds:.2} s",
-                drawing.renderer.kind().name(),
-                settings.max_level,
-                drawing.context.describe(),
-            );
-            Ok(Rendered::Complete)
-        }
+        ));
     }
+    if let Some(channels) = drawing.channels() {
+        let colors: Vec<String> = channels
+            .iter()
+            .map(|c| c.color)
+            .map(|c| format!("#{:02x}{:02x}{:02x}", c[0], c[1], c[2]))
+            .collect();
+        let what = match channels {
+            [one] => format!("{} in {}", one.name, colors.join("")),
+            _ => format!(
+                "composite of {} channels ({})",
+                channels.len(),
+                colors.join(", ")
+            ),
+        };
+        eprintln!(
+            "{written}, {what}, dense renderer) on {} in {seconds:.2} s",
+            drawing.context().describe(),
+        );
+        return Ok(Rendered::Complete);
+    }
+    eprintln!(
+        "{written}, {} renderer, level {}/{depth}{labels}) on {} in {seconds:.2} s",
+        drawing.renderer().kind().name(),
+        settings.max_level,
+        drawing.context().describe(),
+    );
+    Ok(Rendered::Complete)
+}
+
+/// What `volume` and `options` name, read, prepared and uploaded as `render` and `movie` draw
+/// it: the GPU starts while the volume is read (for the streaming renderer, which is what a
+/// store's `--renderer stream` always draws, it builds the renderer's pipelines too); a long
+/// octree build reports its progress on stderr, and how it is drawn is said there once.
+pub(super) fn open_drawable(
+    volume: &VolumeArgs,
+    options: &RenderOptions,
+) -> Result<Drawable, String> {
+    let draw = options.draw_options();
+    let streams = draw.renderer == Some(RendererKind::Stream);
+    let gpu = HeadlessStart::begin_for(streams.then_some(RendererKind::Stream));
+    let drawable = super::prepare::reporting_progress(|progress| {
+        Drawable::open(
+            &volume.open_options(),
+            &draw,
+            || gpu.finish().map_err(SceneError::Gpu),
+            progress,
+        )
+    })
+    .map_err(|e| scene_error_text(&e))?;
+    for notice in &drawable.notices {
+        eprintln!("{notice}");
+    }
+    Ok(drawable)
 }
 
 /// A streamed image's tiles' refinements as one: complete when every tile is, every tile's
@@ -181,7 +213,7 @@ struct Seconds {
 fn report_stream(
     written: &str,
     labels: &str,
-    drawing: &Drawing,
+    drawing: &Drawable,
     depth: u32,
     settings: &voxscope_render::RenderSettings,
     refinement: &Refinement,
@@ -236,7 +268,7 @@ fn report_stream(
     // A URL's store: what crossed the network (metadata, indexes and chunks) and how many
     // requests were on the wire together.
     let network = drawing
-        .renderer
+        .renderer()
         .stream()
         .and_then(|stream| stream.streamer().source().remote_stats())
         .map(|stats| {
@@ -257,7 +289,7 @@ fn report_stream(
     eprintln!(
         "{written}, stream renderer, level {}/{depth}{labels}) on {} in {seconds:.2} s (first image after {first_image_seconds:.2} s): {} bricks read ({:.1} MiB){decoded}, {} of {} atlas slots used{peak}{network}; {state}{ending}",
         settings.max_level,
-        drawing.context.describe(),
+        drawing.context().describe(),
         counters.loads,
         counters.bytes_read as f64 / (1 << 20) as f64,
         counters.slots_used,

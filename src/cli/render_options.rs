@@ -3,6 +3,8 @@
 //! the camera. One group, so that the Python module's keywords are these options, parsed and
 //! checked by the same code (`voxscope.render(…, mode="mip")` is `render --mode mip`).
 
+use std::time::Duration;
+
 use clap::Args;
 
 use super::args::{RendererArg, parse_brick_size};
@@ -11,7 +13,7 @@ use super::labels::LabelArgs;
 use super::stream::StreamArgs;
 use super::{ClipArgs, TransferArgs};
 use voxscope_render::{Camera, DEFAULT_BRICK_SIZE};
-use voxscope_scene::DEFAULT_MAX_WAIT_SECONDS;
+use voxscope_scene::{DEFAULT_MAX_WAIT_SECONDS, DrawOptions};
 
 /// Every option of `render` but the volume and the output.
 #[derive(Debug, Clone, Args)]
@@ -58,6 +60,23 @@ pub struct RenderOptions {
 }
 
 impl RenderOptions {
+    /// These options as the scene layer draws them.
+    pub fn draw_options(&self) -> DrawOptions {
+        DrawOptions {
+            transfer: self.transfer.options(),
+            clip: self.clip.clip(),
+            channels: self.channels.request(),
+            labels: self.labels.options(),
+            renderer: self.renderer.map(Into::into),
+            brick_size: self.brick_size,
+            stream: self.stream.options(),
+            // `check` refuses a negative or non-finite `--max-wait` before anything is drawn.
+            max_wait: Duration::try_from_secs_f64(self.max_wait).unwrap_or(Duration::ZERO),
+            camera: self.camera(),
+            size: self.size,
+        }
+    }
+
     /// The camera of --azimuth, --elevation, --distance and --fov (and a view's pan).
     pub fn camera(&self) -> Camera {
         Camera {

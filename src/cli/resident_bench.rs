@@ -6,8 +6,7 @@ use std::time::{Duration, Instant};
 
 use serde_json::json;
 
-use super::bench::BenchArgs;
-use super::stream_bench::{MAX_WAIT, percentile};
+use super::bench::{BenchArgs, MAX_WAIT, percentile};
 use voxscope_octree::{BuildOptions, TransferFunction};
 use voxscope_render::{
     Camera, GpuContext, GpuTimer, RenderMode, RenderSettings, RenderTarget, RendererKind,

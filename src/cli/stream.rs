@@ -6,9 +6,10 @@ use std::borrow::Borrow;
 
 use clap::Args;
 
+use super::args::scene_error_text;
 use super::{TransferArgs, VolumeArgs};
 use voxscope_render::GpuContext;
-use voxscope_scene::{OpenedStream, SavedTransfer, SceneError, StreamedVolume};
+use voxscope_scene::{OpenedStream, SavedTransfer, StreamedVolume};
 use voxscope_stream::{AtlasZero, StreamOptions, UploadPath};
 
 /// The streaming renderer's budgets (`--renderer stream`, `bench --stream`).
@@ -146,13 +147,14 @@ pub fn open_streamed(
     transfer_args: &TransferArgs,
 ) -> Result<(StreamedVolume, Option<SavedTransfer>), String> {
     // A bad --tf file fails before the volume is read.
-    let saved = transfer_args.saved()?;
+    let transfer = transfer_args.options();
+    let saved = transfer.saved().map_err(|e| e.to_string())?;
     let streamed = StreamedVolume::open(
         &volume_args.source(),
         &volume_args.load_options(),
-        &transfer_args.request(saved.as_ref()),
+        &transfer.request(saved.as_ref()),
     )
-    .map_err(|error| open_error_text(&error))?;
+    .map_err(|error| scene_error_text(&error))?;
     Ok((streamed, saved))
 }
 
@@ -165,24 +167,17 @@ pub fn open_streamed_with_renderer<G: Borrow<GpuContext>>(
     stream: StreamOptions,
     gpu: impl FnOnce() -> Result<G, String>,
 ) -> Result<(OpenedStream<G>, Option<SavedTransfer>), String> {
-    let saved = transfer_args.saved()?;
+    let transfer = transfer_args.options();
+    let saved = transfer.saved().map_err(|e| e.to_string())?;
     let opened = StreamedVolume::open_with_renderer(
         &volume_args.source(),
         &volume_args.load_options(),
-        &transfer_args.request(saved.as_ref()),
+        &transfer.request(saved.as_ref()),
         stream,
         gpu,
     )
-    .map_err(|error| open_error_text(&error))?;
+    .map_err(|error| scene_error_text(&error))?;
     Ok((opened, saved))
-}
-
-/// The one line that tells why a volume could not be opened for streaming.
-fn open_error_text(error: &SceneError) -> String {
-    match error {
-        SceneError::Load(load) => super::args::load_error_text(load),
-        _ => error.to_string(),
-    }
 }
 
 #[cfg(test)]

@@ -4,12 +4,12 @@
 //! bytes read against the bytes the view needs, and the frame time once resident against the
 //! in-memory bricks renderer on the same view (`resident_bench`).
 
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use serde_json::json;
 
 use super::args::{OpacityArg, TransferArgs};
-use super::bench::BenchArgs;
+use super::bench::{BenchArgs, MAX_WAIT, percentile};
 use super::decode_bench::decode_rate;
 use super::memory;
 use super::resident_bench;
@@ -20,20 +20,6 @@ use voxscope_render::{
 };
 use voxscope_scene::{OpenedStream, refine};
 use voxscope_stream::{StreamCounters, UpdatePhases};
-
-/// How long a stopped view may take to complete before the benchmark says it did not.
-pub(super) const MAX_WAIT: Duration = Duration::from_secs(20);
-
-/// Nearest-rank percentile.
-pub(super) fn percentile(values: &[f64], p: f64) -> f64 {
-    if values.is_empty() {
-        return f64::NAN;
-    }
-    let mut sorted = values.to_vec();
-    sorted.sort_by(f64::total_cmp);
-    let rank = ((p / 100.0) * sorted.len() as f64).ceil().max(1.0) as usize;
-    sorted[rank.min(sorted.len()) - 1]
-}
 
 fn summary(values: &[f64]) -> serde_json::Value {
     json!({

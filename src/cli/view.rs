@@ -8,11 +8,12 @@ use clap::ArgMatches;
 use clap::parser::ValueSource;
 use voxscope_octree::TransferFunction;
 use voxscope_render::RendererKind;
-use voxscope_scene::{SavedTransfer, SavedView, VIEW_VERSION, ViewChannel, ViewData, ViewStream};
+use voxscope_scene::{
+    Drawable, SavedTransfer, SavedView, VIEW_VERSION, ViewChannel, ViewData, ViewStream,
+};
 use voxscope_volume::{Endian, RawLayout};
 
-use super::args::{ChannelArg, RendererArg};
-use super::drawing::{Content, Drawing};
+use super::args::{ChannelChoice, RendererArg};
 use super::{RenderOptions, VolumeArgs};
 
 /// The options given on the command line (not left at their defaults), by their ids (the
@@ -81,7 +82,7 @@ pub fn apply(
             .data
             .channel
             .as_deref()
-            .map(ChannelArg::parse)
+            .map(ChannelChoice::parse)
             .transpose()
             .map_err(|e| bad("channel", e))?;
     }
@@ -264,23 +265,23 @@ fn raw_text(layout: &RawLayout) -> String {
 }
 
 /// The view of what `drawing` drew for `volume` and `options` (`render --save-view`).
-pub fn view_of(volume: &VolumeArgs, options: &RenderOptions, drawing: &Drawing) -> SavedView {
-    let channels = match &drawing.content {
-        Content::Composite { channels } => channels
-            .iter()
-            .map(|c| ViewChannel {
-                color: c.color,
-                transfer: c.transfer,
-                visible: c.visible,
-            })
-            .collect(),
-        _ => Vec::new(),
-    };
+pub fn view_of(volume: &VolumeArgs, options: &RenderOptions, drawing: &Drawable) -> SavedView {
+    let channels = drawing
+        .channels()
+        .unwrap_or_default()
+        .iter()
+        .map(|c| ViewChannel {
+            color: c.color,
+            transfer: c.transfer,
+            visible: c.visible,
+        })
+        .collect();
     // The renderer asked for where the data chose it (streamed beyond the octree, or the
     // composite), else the one that drew.
-    let renderer = match drawing.content {
-        Content::Volume { .. } => Some(drawing.renderer.kind()),
-        Content::Streamed { .. } | Content::Composite { .. } => options.renderer.map(Into::into),
+    let renderer = if drawing.is_streamed() || drawing.channels().is_some() {
+        options.renderer.map(Into::into)
+    } else {
+        Some(drawing.renderer().kind())
     };
     let stream = &options.stream;
     SavedView {
@@ -294,8 +295,8 @@ pub fn view_of(volume: &VolumeArgs, options: &RenderOptions, drawing: &Drawing) 
                 .map(|spec| ViewData::stored_source(spec))
                 .collect(),
             channel: volume.channel.map(|channel| match channel {
-                ChannelArg::Index(index) => index.to_string(),
-                ChannelArg::All => "all".to_owned(),
+                ChannelChoice::Index(index) => index.to_string(),
+                ChannelChoice::All => "all".to_owned(),
             }),
             time: volume.time,
             raw: volume.raw.as_ref().map(raw_text),
@@ -303,9 +304,9 @@ pub fn view_of(volume: &VolumeArgs, options: &RenderOptions, drawing: &Drawing) 
         },
         camera: options.camera(),
         size: [options.size.0, options.size.1],
-        transfer: Some(drawing.transfer),
+        transfer: Some(drawing.transfer()),
         channels,
-        settings: Some(drawing.settings),
+        settings: Some(drawing.render_settings(&options.draw_options())),
         renderer,
         brick_size: Some(options.brick_size),
         stream: Some(ViewStream {

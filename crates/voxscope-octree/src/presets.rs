@@ -12,7 +12,7 @@ use super::transfer::{Colormap, ControlPoint, OpacityCurve, OpacityMode, Transfe
 use voxscope_volume::{QuantizedVolume, ValueWindow, Volume};
 
 /// A named transfer function.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum Preset {
     /// Bone alone: transparent below 152 HU (the lower edge of Slicer's CT-Bones), rising to
     /// 0.72 at 641 HU with CT-Bone's colors.

@@ -11,7 +11,7 @@ use numpy::{Element, PyArrayDyn, PyArrayMethods, PyUntypedArray, PyUntypedArrayM
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 
-use crate::drawn::Channel;
+use voxscope_scene::Channel;
 use voxscope_volume::{
     Orientation, QuantizedVolume, Scalar, Selection, Series, ValueScale, Volume, VoxelData,
 };

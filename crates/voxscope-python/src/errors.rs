@@ -61,9 +61,20 @@ pub enum Failure {
 impl From<SceneError> for Failure {
     fn from(error: SceneError) -> Self {
         match error {
-            SceneError::Load(_) | SceneError::Stream(_) => Self::Load(error.to_string()),
-            SceneError::Render { .. } => Self::Render(error.to_string()),
-            SceneError::Cancelled | SceneError::Failed(_) => Self::Value(error.to_string()),
+            SceneError::Load(_) | SceneError::Stream(_) | SceneError::TransferFile(_) => {
+                Self::Load(error.to_string())
+            }
+            SceneError::Render { .. } | SceneError::Gpu(_) => Self::Render(error.to_string()),
+            // The command line's words name its options; these name the keywords.
+            SceneError::CompositeNeedsDense { channels, renderer } => Self::Value(format!(
+                "the composite of {channels} channels is drawn by the dense renderer; renderer=\"{}\" draws one channel (channel=N)",
+                renderer.name()
+            )),
+            SceneError::Cancelled
+            | SceneError::Invalid(_)
+            | SceneError::LabelsRefused { .. }
+            | SceneError::BeyondOctree(_)
+            | SceneError::Failed(_) => Self::Value(error.to_string()),
         }
     }
 }

@@ -9,14 +9,15 @@ use std::sync::Arc;
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
-use voxscope::cli::{ChannelArg, RenderOptions, RendererArg, VolumeArgs};
+use voxscope::cli::{ChannelChoice, VolumeArgs};
 use voxscope_render::GpuContext;
-use voxscope_scene::{StreamedVolume, VolumeSource};
+use voxscope_render::RendererKind;
+use voxscope_scene::{Channel, DrawOptions, Drawable, StreamedVolume, VolumeSource};
 use voxscope_volume::ome_zarr::{Pyramid, PyramidOptions, VOLUME_VOXEL_BUDGET, is_zarr_spec};
 use voxscope_volume::{Volume as LoadedVolume, VoxelType};
 
 use crate::arrays::{numpy_dtype, to_numpy};
-use crate::drawn::{Channel, Drawn, Notice};
+use crate::drawn::{Drawn, Notice, notice_of};
 use crate::errors::{Failure, LoadError, load_error};
 use crate::keywords::{Given, OPEN};
 
@@ -79,7 +80,7 @@ impl Opened {
         let wanted_channel = channel.unwrap_or(current.channel);
         let wanted_time = time.unwrap_or(current.time);
         let channel_changes = channel.is_some()
-            && !matches!(self.args.channel, Some(ChannelArg::Index(c)) if c == wanted_channel);
+            && !matches!(self.args.channel, Some(ChannelChoice::Index(c)) if c == wanted_channel);
         if !channel_changes && wanted_time == current.time {
             return Ok(None);
         }
@@ -120,30 +121,30 @@ impl Opened {
     /// frame in memory (a store's finest level within 512³).
     pub fn drawn(
         &self,
-        context: &GpuContext,
-        options: &RenderOptions,
+        context: &Arc<GpuContext>,
+        options: &DrawOptions,
     ) -> Result<(Drawn, Notice), Failure> {
         let source = VolumeSource::from_spec(&self.spec);
         let large_store = match &self.content {
             Content::Store(pyramid) => pyramid.levels[0].voxel_count() > VOLUME_VOXEL_BUDGET as u64,
             Content::File(_) => false,
         };
-        let streams = options.renderer == Some(RendererArg::Stream)
+        let streams = options.renderer == Some(RendererKind::Stream)
             || (large_store && options.renderer.is_none());
         if streams {
-            let saved = options.transfer.saved().map_err(Failure::Load)?;
+            let saved = options.transfer.saved()?;
             // The renderer is made while a store's first chunks are on their way.
             let opened = StreamedVolume::open_with_renderer(
                 &source,
                 &self.args.load_options(),
                 &options.transfer.request(saved.as_ref()),
-                options.stream.options(),
-                || Ok(context),
+                options.stream,
+                || Ok(Arc::clone(context)),
             )?;
-            return Ok((Drawn::stream(opened), None));
+            return Ok((Drawable::streamed(opened, saved), None));
         }
         let composite =
-            self.channel_count() > 1 && !matches!(self.args.channel, Some(ChannelArg::Index(_)));
+            self.channel_count() > 1 && !matches!(self.args.channel, Some(ChannelChoice::Index(_)));
         let channels: Vec<Channel> = if composite {
             let volumes = self
                 .args
@@ -159,7 +160,9 @@ impl Opened {
                 )],
             }
         };
-        Drawn::of_channels(context, &source, channels, options)
+        let drawn = Drawable::of_channels(Arc::clone(context), &source, channels, options)?;
+        let notice = notice_of(&drawn);
+        Ok((drawn, notice))
     }
 }
 

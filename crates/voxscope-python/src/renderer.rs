@@ -4,17 +4,17 @@
 //! size a new target; nothing is uploaded again. The GIL is released while loading,
 //! uploading, drawing and reading back.
 
-use std::sync::{Arc, Mutex, MutexGuard};
+use std::sync::{Mutex, MutexGuard};
 
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use voxscope::cli::RenderOptions;
-use voxscope_render::{GpuContext, RenderTarget, read_image};
-use voxscope_scene::{SavedTransfer, VolumeSource};
+use voxscope_render::{RenderTarget, read_image};
+use voxscope_scene::{Drawable, SavedTransfer, VolumeSource};
 
 use crate::arrays::{ArrayOptions, quantize, spacing_of, supported_array};
-use crate::drawn::{CompleteNotice, Drawn, Frame, Notice};
+use crate::drawn::{CompleteNotice, Drawn, Frame, Notice, draw_complete, notice_of};
 use crate::errors::{LoadError, RenderError, VoxscopeError, gpu_error};
 use crate::gpu::device;
 use crate::keywords::{Given, OPEN, RENDER, STRUCTURAL};
@@ -34,7 +34,6 @@ pub struct Renderer {
 /// (and their options, parsed), what its transfer function follows now, and the target of
 /// the last frame.
 struct Resident {
-    context: Arc<GpuContext>,
     drawn: Drawn,
     base: Given,
     base_options: RenderOptions,
@@ -61,20 +60,21 @@ impl Resident {
             .as_ref()
             .is_none_or(|(applied, _)| *applied != words)
         {
+            let draw = options.draw_options();
             let saved = options.transfer.saved().map_err(LoadError::new_err)?;
             self.drawn
-                .apply_transfer(&self.context, &options, saved.as_ref())?;
+                .apply_transfer(&draw, saved)
+                .map_err(crate::errors::Failure::from)?;
             self.applied = Some((words, saved));
         }
-        let saved = self.applied.as_ref().and_then(|(_, saved)| saved.as_ref());
-        let prepared = self.drawn.frame(&options, saved);
+        let prepared = Frame::of(&self.drawn, &options.draw_options());
         let (width, height) = prepared.size;
         let fits = self
             .target
             .as_ref()
             .is_some_and(|t| t.width == width && t.height == height);
         if !fits {
-            self.target = Some(RenderTarget::new(&self.context, width, height));
+            self.target = Some(RenderTarget::new(self.drawn.context(), width, height));
         }
         Ok(prepared)
     }
@@ -85,8 +85,8 @@ impl Resident {
             .target
             .as_ref()
             .ok_or_else(|| VoxscopeError::new_err("nothing drawn yet: call render() or draw()"))?;
-        let image =
-            read_image(&self.context, target).map_err(|e| gpu_error(&self.drawn.name(), e))?;
+        let image = read_image(self.drawn.context(), target)
+            .map_err(|e| gpu_error(&self.drawn.name(), e))?;
         Ok((image.width(), image.height(), image.into_raw()))
     }
 }
@@ -166,7 +166,12 @@ impl Renderer {
             };
             let channels = quantize(&array, &array_options)?;
             let source = VolumeSource::Spec(array_options.name.clone());
-            py.detach(|| Drawn::of_channels(&context, &source, channels, &options))?
+            let draw = options.draw_options();
+            let drawn: Drawn = py
+                .detach(|| Drawable::of_channels(context, &source, channels, &draw))
+                .map_err(crate::errors::Failure::from)?;
+            let notice = notice_of(&drawn);
+            (drawn, notice)
         } else {
             let opened_here;
             let opened: &Opened = if let Ok(volume) = data.cast::<Opened>() {
@@ -189,14 +194,13 @@ impl Renderer {
                 opened_here = Opened::open(py, spec, given)?;
                 &opened_here
             };
-            py.detach(|| opened.drawn(&context, &options))?
+            py.detach(|| opened.drawn(&context, &options.draw_options()))?
         };
         if let Some(notice) = notice {
             warn(py, &notice)?;
         }
         Ok(Self {
             resident: Mutex::new(Resident {
-                context,
                 drawn,
                 base,
                 base_options: options,
@@ -264,15 +268,9 @@ impl Renderer {
         let (pixels, notice) = py.detach(|| -> PyResult<_> {
             let mut resident = self.lock();
             let prepared = resident.prepare(&frame)?;
-            let Resident {
-                context,
-                drawn,
-                target,
-                ..
-            } = &mut *resident;
+            let Resident { drawn, target, .. } = &mut *resident;
             let target = target.as_ref().expect("prepare made the frame's target");
-            let CompleteNotice { mut lines, budget } =
-                drawn.draw_complete(context, target, &prepared)?;
+            let CompleteNotice { mut lines, budget } = draw_complete(drawn, target, &prepared)?;
             // A view the budget limits as the last one did is not said again.
             let limit = budget.as_ref().map(|(_, limit)| limit.clone());
             if limit != resident.budget_said {
@@ -299,14 +297,9 @@ impl Renderer {
         py.detach(|| -> PyResult<()> {
             let mut resident = self.lock();
             let prepared = resident.prepare(&frame)?;
-            let Resident {
-                context,
-                drawn,
-                target,
-                ..
-            } = &mut *resident;
+            let Resident { drawn, target, .. } = &mut *resident;
             let target = target.as_ref().expect("prepare made the frame's target");
-            drawn.draw(context, target, &prepared);
+            drawn.draw(target, &prepared.camera, &prepared.settings);
             Ok(())
         })
     }
@@ -318,7 +311,8 @@ impl Renderer {
         py.detach(|| {
             let resident = self.lock();
             resident
-                .context
+                .drawn
+                .context()
                 .wait_idle()
                 .map_err(|e| gpu_error(&resident.drawn.name(), e))
         })
@@ -365,7 +359,7 @@ impl Renderer {
     /// The GPU it draws on (`NVIDIA H200 (Vulkan)`).
     #[getter]
     fn device(&self) -> String {
-        self.lock().context.describe()
+        self.lock().drawn.context().describe()
     }
 
     fn __repr__(&self) -> String {
@@ -374,7 +368,7 @@ impl Renderer {
             "<voxscope.Renderer of {:?}: {} renderer on {}>",
             resident.drawn.name(),
             resident.drawn.renderer().kind().name(),
-            resident.context.describe()
+            resident.drawn.context().describe()
         )
     }
 }

@@ -15,7 +15,7 @@
 //! A run's bricks share its rows (brick `i` starts `i × row` bytes into each), so they are
 //! the rows of one box of the atlas, and one copy fills the whole run. On the H200 the copy
 //! commands bound the uploads: a copy per brick moved 1.35 GB/s, runs of up to three
-//! 1.9–3.4, runs of any length 3.0–6.9 (docs/benchmarks.md, runs 72 and 74).
+//! 1.9–3.4, runs of any length 3.0–6.9 (docs/performance-log.md, "Uploads into the atlas").
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU8, Ordering};
@@ -40,7 +40,7 @@ const MAX_BUFFER_BYTES: usize = 24 << 20;
 /// The most bytes one buffer of a scattering ring takes, and so a frame's uploads: one core
 /// stages them at about 7 GB/s, 2.3 ms. On the H200, frames of 24 MB took the near orbit's
 /// p99 to 12 ms, of 16 MB to 8.8–10.8 ms, while the bricks it missed rose from 5 % of the
-/// view to 10 % (docs/benchmarks.md, runs 89–90).
+/// view to 10 % (docs/performance-log.md, "Uploads into the atlas").
 const MAX_SCATTER_BYTES: usize = 16 << 20;
 
 /// The share of the GPU budget a scattering ring's buffer on the GPU may take (it counts in

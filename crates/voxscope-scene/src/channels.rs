@@ -31,7 +31,7 @@ pub struct ChannelState {
 
 /// What was asked of the channels' colors and windows (the command line's `--channel-colors`
 /// and `--channel-window`); where nothing is, each channel takes the file's.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ChannelRequest {
     /// Colors of channels 0, 1, … (fewer than the channels: the rest take their defaults).
     pub colors: Vec<[u8; 3]>,
@@ -40,6 +40,15 @@ pub struct ChannelRequest {
 }
 
 impl ChannelRequest {
+    /// The window asked for channel `index`, if any (the last given wins).
+    pub fn window_of(&self, index: usize) -> Option<ValueWindow> {
+        self.windows
+            .iter()
+            .rev()
+            .find(|(channel, _)| *channel == index)
+            .map(|(_, window)| *window)
+    }
+
     /// Checks the request against a file of `count` channels: no window or color for a
     /// channel that is not there.
     pub fn check(&self, count: usize) -> Result<(), String> {

@@ -21,9 +21,33 @@ pub enum SceneError {
     /// The GPU could not hold or draw the volume called `volume`.
     #[error("{volume}: {error}")]
     Render { volume: String, error: RenderError },
+    /// The GPU could not be opened or used (no device, lost).
+    #[error(transparent)]
+    Gpu(RenderError),
     /// A pyramid's bricks could not be read (a streamed source's preview).
     #[error(transparent)]
     Stream(#[from] BrickError),
+    /// A saved transfer function (`--tf`, `tf=`) could not be read: one line naming the file.
+    #[error("{0}")]
+    TransferFile(String),
+    /// What was asked cannot be drawn as asked (a channel's window for a channel that is not
+    /// there, labels over a composite): one line naming the option.
+    #[error("{0}")]
+    Invalid(String),
+    /// Label overlays were asked over what they cannot be drawn over (yet).
+    #[error(
+        "--labels {name}: label overlays are drawn over one volume in memory; not over {over} (yet)"
+    )]
+    LabelsRefused { name: String, over: &'static str },
+    /// Another renderer than the dense one was asked for the composite of several channels.
+    #[error("the composite of {channels} channels is drawn by the dense renderer; --renderer {} draws one channel (--channel N)", renderer.name())]
+    CompositeNeedsDense {
+        channels: usize,
+        renderer: voxscope_render::RendererKind,
+    },
+    /// The volume is longer than the voxel octree holds (the streamed renderers draw it).
+    #[error("{0}")]
+    BeyondOctree(String),
     /// Anything else, one line that names the file or volume.
     #[error("{0}")]
     Failed(String),
@@ -47,6 +71,7 @@ impl SceneError {
     pub fn from_build(name: &str, error: BuildError) -> Self {
         match error {
             BuildError::Cancelled => Self::Cancelled,
+            error @ BuildError::TooDeep { .. } => Self::BeyondOctree(format!("{name}: {error}")),
             error => Self::Failed(format!("{name}: {error}")),
         }
     }

@@ -13,11 +13,14 @@
 
 mod channels;
 mod data;
+mod drawable;
 mod error;
 mod job;
+mod label_open;
 mod label_overlay;
 mod movie_path;
 mod opening;
+mod options;
 mod prefetch;
 mod prepare;
 mod saved_transfer;
@@ -28,8 +31,10 @@ mod view;
 
 pub use channels::{ChannelRequest, ChannelState, CompositeScene};
 pub use data::{HISTOGRAM_BINS, VolumeData};
+pub use drawable::{Channel, Drawable, Outcome};
 pub use error::SceneError;
 pub use job::Job;
+pub use label_open::{open_overlays, open_streamed_overlays};
 pub use label_overlay::{
     DEFAULT_LABEL_OPACITY, LabelLayer, LabelOverlay, MAX_LABEL_VALUES, SlotPass, UploadedLabels,
     blend_slots, label_color, label_pass_settings,
@@ -39,6 +44,7 @@ pub use opening::{
     TransferChoice, TransferRequest, beyond_octree, default_window, file_window, opening_transfer,
     renderer_for_octree,
 };
+pub use options::{ChannelChoice, DrawOptions, LabelOptions, OpenOptions, TransferOptions};
 pub use prefetch::{
     DEFAULT_PREFETCH_FRAMES, FrameKey, MAX_PREFETCH_FRAMES, PREFETCH_BYTES, Prefetch,
     frames_within_cap, window,

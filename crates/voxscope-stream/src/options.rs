@@ -4,7 +4,8 @@
 use std::time::Duration;
 
 /// Choices that size the streamer.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default)]
 pub struct StreamOptions {
     /// GPU memory for everything the streaming renderer holds (atlas, page table, request and
     /// usage buffers, lookup tables, the uploads' staging on the GPU), in bytes
@@ -17,7 +18,7 @@ pub struct StreamOptions {
     /// uploads what its measured upload cost lets it do in a few milliseconds
     /// ([`crate::UPLOAD_SECONDS_PER_FRAME`]). Default 256 MiB. (With a fixed 8 MiB, runs
     /// 46–47 on an H200 kept 199 of 200 frames under 16 ms, and 32 MiB took up to 100 ms a
-    /// frame: docs/performance-log.md, "What bounds the misses".)
+    /// frame: docs/performance-log.md, "Uploads into the atlas".)
     pub upload_bytes_per_frame: u64,
     /// How bricks reach the atlas (`--uploads`). Default [`UploadPath::Scatter`].
     pub uploads: UploadPath,
@@ -64,7 +65,7 @@ impl Default for StreamOptions {
 }
 
 /// How a frame's bricks reach the atlas.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 pub enum UploadPath {
     /// Through the staging ring (buffers mapped once), each brick whole after the last; two
     /// copies (placements, bricks) take them to the GPU and one compute dispatch writes them
@@ -80,7 +81,7 @@ pub enum UploadPath {
 }
 
 /// How the atlas is zeroed before its first use. The images are the same.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 pub enum AtlasZero {
     /// [`Self::Shader`] on a GPU, [`Self::Wgpu`] on a CPU's Vulkan (lavapipe), which stores
     /// texels from a shader more slowly than it copies them.

@@ -1,0 +1,444 @@
+//! What `render`, `movie` and Python's `render`/`Renderer` draw: a volume made ready on the GPU
+//! from a source and [`DrawOptions`] (one volume for its renderer, the composite of its
+//! channels, or a pyramid streamed into the GPU budget, with label overlays), and frames of it
+//! for any camera, settings and transfer function: drawn whole or in tiles beyond the device's
+//! limits, a streamed one refined until nothing visible is missing or its deadline.
+//!
+//! The rules live here once: which renderer draws what ([`Drawable::open`]), what a channel
+//! chosen alone is drawn in, when labels can be drawn over it. The front ends word the
+//! notices and errors.
+
+use std::borrow::Borrow;
+use std::time::Instant;
+
+use voxscope_octree::{self as octree, DataKind, MAX_DEPTH, TransferFunction};
+use voxscope_render::{ChannelLayer, GpuContext, RendererKind, RendererOptions, VolumeRenderer};
+use voxscope_volume::{QuantizedVolume, Volume, format_dims};
+
+use crate::label_open::{open_overlays, open_streamed_overlays};
+use crate::{
+    ChannelChoice, ChannelState, DrawOptions, OpenOptions, OpenedStream, Progress, SavedTransfer,
+    SceneError, StreamedVolume, UploadedLabels, VolumeData, VolumeSource, beyond_octree,
+    opening_transfer, renderer_for_octree,
+};
+
+/// One channel ready to draw: its values, quantized, and the volume that describes them (its
+/// voxels dropped or never copied).
+pub struct Channel {
+    pub volume: Volume,
+    pub quantized: QuantizedVolume,
+}
+
+impl Channel {
+    /// `volume` quantized, described without its voxels (which stay with the caller).
+    pub fn of_volume(volume: &Volume) -> Self {
+        Self {
+            quantized: QuantizedVolume::new(volume),
+            volume: Volume {
+                name: volume.name.clone(),
+                format: volume.format,
+                dims: volume.dims,
+                spacing: volume.spacing,
+                data: volume.data.emptied(),
+                value_scale: volume.value_scale,
+                orientation: volume.orientation.clone(),
+                metadata: volume.metadata.clone(),
+                default_window: volume.default_window,
+                series: volume.series.clone(),
+            },
+        }
+    }
+
+    /// `volume` quantized, its voxels dropped.
+    pub fn from_volume(mut volume: Volume) -> Self {
+        let quantized = QuantizedVolume::new(&volume);
+        volume.data = volume.data.emptied();
+        Self { volume, quantized }
+    }
+}
+
+/// A composite's channel: its values and kind.
+struct CompositeChannel {
+    channel: Channel,
+    kind: DataKind,
+}
+
+/// What is on the GPU.
+enum Drawn {
+    /// One volume in memory.
+    Volume {
+        data: VolumeData,
+        renderer: VolumeRenderer,
+        applied: TransferFunction,
+        /// The octree's nodes are uploaded through this level (deeper frames draw it).
+        upload_level: u32,
+    },
+    /// Several channels drawn together (or one in its color), by the dense renderer.
+    Composite {
+        channels: Vec<CompositeChannel>,
+        renderer: VolumeRenderer,
+        applied: Vec<ChannelState>,
+    },
+    /// A pyramid streamed into the GPU budget.
+    Stream {
+        streamed: StreamedVolume,
+        renderer: VolumeRenderer,
+        applied: TransferFunction,
+    },
+}
+
+/// A volume on the GPU `G` (owned, or shared: `Arc<GpuContext>`), ready to draw frames of.
+pub struct Drawable<G: Borrow<GpuContext> = GpuContext> {
+    gpu: G,
+    drawn: Drawn,
+    /// The label overlays drawn over each image, in order.
+    labels: Vec<UploadedLabels>,
+    /// The saved transfer function (a `tf` file's or a view's) the settings follow.
+    saved: Option<SavedTransfer>,
+    /// What the user should be told of how it is drawn (bricks where the octree does not fit,
+    /// a channel drawn in grays, a volume streamed from memory), said once.
+    pub notices: Vec<String>,
+}
+
+impl<G: Borrow<GpuContext>> Drawable<G> {
+    /// Reads, prepares and uploads what `open` and `options` name, as `render` draws it: the
+    /// streaming renderer when asked, the composite of several channels, a volume beyond the
+    /// octree streamed from memory, or one volume for its renderer. `gpu` gives the device
+    /// (started while the volume is read); `progress` follows the octree's build.
+    pub fn open(
+        open: &OpenOptions,
+        options: &DrawOptions,
+        gpu: impl FnOnce() -> Result<G, SceneError>,
+        progress: &Progress,
+    ) -> Result<Self, SceneError> {
+        // A bad `tf` file fails before the volume is read.
+        let saved = options.transfer.saved()?;
+        let request = options.transfer.request(saved.as_ref());
+        if options.renderer == Some(RendererKind::Stream) {
+            // The renderer is made while the store's first chunks are on their way.
+            let opened = StreamedVolume::open_with_renderer(
+                &open.volume_source(),
+                &open.load_options(),
+                &request,
+                options.stream,
+                || gpu().map_err(|e| e.to_string()),
+            )?;
+            let image_dims = opened.volume.source.shape().dims();
+            let mut drawable = Self::streamed(opened, saved);
+            drawable.labels = open_streamed_overlays(
+                &options.labels,
+                open,
+                image_dims,
+                drawable.gpu.borrow(),
+                options.stream,
+                options.max_wait,
+            )?;
+            return Ok(drawable);
+        }
+        let refuse_labels = |what: &'static str| match options.labels.names.first() {
+            Some(name) => Err(SceneError::LabelsRefused {
+                name: name.clone(),
+                over: what,
+            }),
+            None => Ok(()),
+        };
+        let loaded = match open.composite_channels()? {
+            Some(channels) if channels.len() > 1 => {
+                refuse_labels("the composite of several channels (--channel N draws one)")?;
+                let channels = channels.into_iter().map(Channel::from_volume).collect();
+                return Self::composite(gpu()?, channels, options, saved, None);
+            }
+            Some(mut channels) => channels
+                .pop()
+                .ok_or_else(|| SceneError::failed("no channel was read"))?,
+            None => open.load()?,
+        };
+        // A channel of a file of several channels, chosen alone: drawn as the composite draws
+        // it, in the channel's color and window, where the options or the file give it a
+        // color and the dense renderer can draw it; else in the channel's window, by the
+        // renderer asked for.
+        let mut notices = Vec::new();
+        let mut options = options.clone();
+        if let Some(ChannelChoice::Index(index)) = open.channel {
+            if colors_channel(&options.channels, &loaded, index)? {
+                if matches!(options.renderer, None | Some(RendererKind::Dense))
+                    && !beyond_octree(loaded.dims)
+                {
+                    refuse_labels("a channel in its color (--renderer octree draws it)")?;
+                    let channel = Channel::from_volume(loaded);
+                    return Self::composite(gpu()?, vec![channel], &options, saved, Some(index));
+                }
+                notices.push(format!(
+                    "channel {index} is drawn in grays: its color needs the dense renderer (--renderer dense)"
+                ));
+            }
+            if let Some(window) = options.channels.window_of(index) {
+                options.transfer.window = Some(window);
+            }
+        }
+        let request = options.transfer.request(saved.as_ref());
+        // Longer than the voxel octree holds: bricks are streamed from memory.
+        if beyond_octree(loaded.dims)
+            && matches!(options.renderer, None | Some(RendererKind::Bricks))
+        {
+            notices.push(format!(
+                "{}: {} voxels are beyond the voxel octree's {} a side: drawn by the streaming renderer, from memory",
+                loaded.name,
+                format_dims(loaded.dims),
+                1u32 << MAX_DEPTH
+            ));
+            refuse_labels("a volume streamed from memory")?;
+            let streamed = StreamedVolume::from_volume(loaded, &request, Instant::now())?;
+            let opened = streamed.with_renderer(gpu()?, options.stream)?;
+            let mut drawable = Self::streamed(opened, saved);
+            drawable.notices = notices;
+            return Ok(drawable);
+        }
+        let source = VolumeSource::from_spec(&loaded.name);
+        let data = VolumeData::prepare(&source, loaded, Instant::now(), progress)?;
+        let image_dims = data.volume.dims;
+        let mut drawable = Self::volume(gpu()?, data, &options, saved, &request)?;
+        drawable.notices.splice(0..0, notices);
+        drawable.labels = open_overlays(&options.labels.names, open, image_dims)?
+            .into_iter()
+            .map(|overlay| {
+                let layer = overlay
+                    .layer(
+                        &options.labels.hide,
+                        options.labels.opacity,
+                        drawable.data_spacing(),
+                    )
+                    .map_err(SceneError::Failed)?;
+                let renderer = drawable.renderer_options(&options);
+                layer
+                    .upload(drawable.gpu.borrow(), renderer, drawable.upload_level())
+                    .map_err(SceneError::Failed)
+            })
+            .collect::<Result<_, _>>()?;
+        Ok(drawable)
+    }
+
+    /// The channels given (quantized already) drawn as `options` ask: one volume (streamed
+    /// when asked or longer than the octree holds), or the composite of several.
+    pub fn of_channels(
+        gpu: G,
+        source: &VolumeSource,
+        mut channels: Vec<Channel>,
+        options: &DrawOptions,
+    ) -> Result<Self, SceneError> {
+        let saved = options.transfer.saved()?;
+        if channels.len() > 1 {
+            return Self::composite(gpu, channels, options, saved, None);
+        }
+        let channel = channels
+            .pop()
+            .ok_or_else(|| SceneError::Invalid("no channel to draw".into()))?;
+        let started = Instant::now();
+        let request = options.transfer.request(saved.as_ref());
+        let streams = options.renderer == Some(RendererKind::Stream)
+            || (beyond_octree(channel.volume.dims)
+                && matches!(options.renderer, None | Some(RendererKind::Bricks)));
+        if streams {
+            let streamed = StreamedVolume::from_quantized(
+                &channel.volume,
+                channel.quantized,
+                &request,
+                started,
+            )?;
+            let opened = streamed.with_renderer(gpu, options.stream)?;
+            return Ok(Self::streamed(opened, saved));
+        }
+        let data = VolumeData::from_quantized(
+            source,
+            channel.volume,
+            channel.quantized,
+            started,
+            &Progress::new(),
+        )?;
+        Self::volume(gpu, data, options, saved, &request)
+    }
+
+    /// A streamed volume with its renderer; `saved` is the `tf` file its transfer function
+    /// came from.
+    pub fn streamed(opened: OpenedStream<G>, saved: Option<SavedTransfer>) -> Self {
+        let OpenedStream {
+            volume,
+            gpu,
+            renderer,
+            ..
+        } = opened;
+        Self {
+            gpu,
+            drawn: Drawn::Stream {
+                applied: volume.transfer,
+                streamed: volume,
+                renderer,
+            },
+            labels: Vec::new(),
+            saved,
+            notices: Vec::new(),
+        }
+    }
+
+    /// One volume in memory, colored by what `request` asks, uploaded for the renderer asked
+    /// for (by default the octree, or bricks where it does not fit, said in a notice).
+    fn volume(
+        gpu: G,
+        mut data: VolumeData,
+        options: &DrawOptions,
+        saved: Option<SavedTransfer>,
+        request: &crate::TransferRequest,
+    ) -> Result<Self, SceneError> {
+        let context = gpu.borrow();
+        let transfer = opening_transfer(&data.quantized, data.kind, data.default_window, request);
+        octree::recolor(&mut data.octree, &transfer);
+        let settings = options.render_settings(data.octree.depth, saved.as_ref());
+        let mut notices = Vec::new();
+        let kind = match options.renderer {
+            Some(kind) => kind,
+            None => renderer_for_octree(context, &data.octree, settings.max_level).unwrap_or_else(
+                |(kind, reason)| {
+                    notices.push(format!("{reason}; rendering with bricks"));
+                    kind
+                },
+            ),
+        };
+        let renderer = VolumeRenderer::new(
+            context,
+            RendererOptions {
+                kind,
+                brick_size: options.brick_size,
+                gpu_memory: options.stream.gpu_memory,
+            },
+            &data.octree,
+            &data.quantized,
+            data.volume.spacing,
+            settings.max_level,
+            &transfer,
+        )
+        .map_err(|e| SceneError::render(&data.volume.name, e))?;
+        Ok(Self {
+            gpu,
+            drawn: Drawn::Volume {
+                data,
+                renderer,
+                applied: transfer,
+                upload_level: settings.max_level,
+            },
+            labels: Vec::new(),
+            saved,
+            notices,
+        })
+    }
+
+    /// The composite of `channels` (the dense renderer's), each channel's color and window as
+    /// `options` ask; `alone` is the index in its file of a channel drawn alone in its color.
+    fn composite(
+        gpu: G,
+        channels: Vec<Channel>,
+        options: &DrawOptions,
+        saved: Option<SavedTransfer>,
+        alone: Option<usize>,
+    ) -> Result<Self, SceneError> {
+        if let Some(renderer) = options.renderer
+            && renderer != RendererKind::Dense
+        {
+            return Err(SceneError::CompositeNeedsDense {
+                channels: channels.len(),
+                renderer,
+            });
+        }
+        let channels: Vec<CompositeChannel> = channels
+            .into_iter()
+            .map(|channel| CompositeChannel {
+                kind: DataKind::of_volume(&channel.volume, &channel.quantized),
+                channel,
+            })
+            .collect();
+        let states = channel_states(&channels, options, saved.as_ref(), alone)?;
+        let spacing = channels[0].channel.volume.spacing;
+        let renderer =
+            VolumeRenderer::new_composite(gpu.borrow(), &layers(&channels, &states), spacing)
+                .map_err(|e| SceneError::render(&channels[0].channel.volume.name, e))?;
+        Ok(Self {
+            gpu,
+            drawn: Drawn::Composite {
+                channels,
+                renderer,
+                applied: states,
+            },
+            labels: Vec::new(),
+            saved,
+            notices: Vec::new(),
+        })
+    }
+}
+
+/// Whether channel `index` of `volume`'s file (a channel chosen alone) has a color of its
+/// own: from the request, else from the file (OME-Zarr `omero`, OME-XML). A file of several
+/// channels checks the request against its channel count.
+fn colors_channel(
+    request: &crate::ChannelRequest,
+    volume: &Volume,
+    index: usize,
+) -> Result<bool, SceneError> {
+    let count = volume.series.channel_count();
+    request.check(count).map_err(SceneError::Invalid)?;
+    let from_file = volume
+        .series
+        .channels
+        .get(index)
+        .is_some_and(|c| c.color.is_some());
+    Ok(count > 1 && (request.colors.len() > index || from_file))
+}
+
+/// Each channel's state as `options` ask ([`ChannelState::opening_of`]); `alone` is the file
+/// index of a single channel drawn alone.
+fn channel_states(
+    channels: &[CompositeChannel],
+    options: &DrawOptions,
+    saved: Option<&SavedTransfer>,
+    alone: Option<usize>,
+) -> Result<Vec<ChannelState>, SceneError> {
+    let request = &options.channels;
+    let count = match alone {
+        Some(_) => channels[0].channel.volume.series.channel_count(),
+        None => channels.len(),
+    };
+    request.check(count).map_err(SceneError::Invalid)?;
+    let transfer_request = options.transfer.request(saved);
+    Ok(channels
+        .iter()
+        .enumerate()
+        .map(|(position, c)| {
+            ChannelState::opening_of(
+                &c.channel.volume,
+                &c.channel.quantized,
+                c.kind,
+                alone.unwrap_or(position),
+                &transfer_request,
+                request,
+            )
+        })
+        .collect())
+}
+
+/// The renderer's layers: each channel's levels under its state's transfer function and color.
+fn layers<'a>(
+    channels: &'a [CompositeChannel],
+    states: &'a [ChannelState],
+) -> Vec<ChannelLayer<'a>> {
+    channels
+        .iter()
+        .zip(states)
+        .map(|(c, state)| ChannelLayer {
+            quantized: &c.channel.quantized,
+            transfer: &state.transfer,
+            color: state.color.map(|v| v as f32 / 255.0),
+        })
+        .collect()
+}
+
+#[path = "drawable_frames.rs"]
+mod frames;
+pub use frames::Outcome;

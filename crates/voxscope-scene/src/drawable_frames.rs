@@ -1,0 +1,389 @@
+//! Frames of a [`Drawable`]: its settings for a frame's options, its transfer function and
+//! channels changed in place (a GPU recolor or a table write, nothing uploaded again), and a
+//! frame drawn whole, in tiles, or refined until complete, with the label overlays over it.
+
+use std::borrow::Borrow;
+use std::time::Duration;
+
+use image::{GenericImage, RgbaImage};
+use voxscope_octree::TransferFunction;
+use voxscope_render::{
+    Camera, GpuContext, RenderSettings, RenderTarget, RendererKind, RendererOptions,
+    VolumeRenderer, read_image,
+};
+
+use super::{Drawable, Drawn, channel_states, layers};
+use crate::{
+    ChannelState, DrawOptions, Refinement, SavedTransfer, SceneError, UploadedLabels,
+    opening_transfer, refine,
+};
+
+/// How a frame drawn to completion ended ([`Drawable::outcome`]).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Outcome {
+    /// Everything the view shows is drawn at full detail (or it is not streamed).
+    Complete,
+    /// Complete, but coarser than full detail where the GPU budget left bricks out: the
+    /// limit in words.
+    AtBudget(String),
+    /// Bricks could not be read, or were still on their way at the deadline.
+    Incomplete,
+}
+
+impl<G: Borrow<GpuContext>> Drawable<G> {
+    /// The device it is drawn on.
+    pub fn context(&self) -> &GpuContext {
+        self.gpu.borrow()
+    }
+
+    /// The device as it was given.
+    pub fn gpu(&self) -> &G {
+        &self.gpu
+    }
+
+    /// The renderer drawing it.
+    pub fn renderer(&self) -> &VolumeRenderer {
+        match &self.drawn {
+            Drawn::Volume { renderer, .. }
+            | Drawn::Composite { renderer, .. }
+            | Drawn::Stream { renderer, .. } => renderer,
+        }
+    }
+
+    /// Its name (the file, URL or array's).
+    pub fn name(&self) -> String {
+        match &self.drawn {
+            Drawn::Volume { data, .. } => data.volume.name.clone(),
+            Drawn::Composite { channels, .. } => channels[0].channel.volume.name.clone(),
+            Drawn::Stream { streamed, .. } => streamed.source.name().to_owned(),
+        }
+    }
+
+    /// The deepest max level: the octree's or the pyramid's depth (0 for the composite).
+    pub fn depth(&self) -> u32 {
+        match &self.drawn {
+            Drawn::Volume { data, .. } => data.octree.depth,
+            Drawn::Composite { .. } => 0,
+            Drawn::Stream { streamed, .. } => streamed.depth(),
+        }
+    }
+
+    /// Whether a pyramid is streamed into the GPU budget.
+    pub fn is_streamed(&self) -> bool {
+        matches!(self.drawn, Drawn::Stream { .. })
+    }
+
+    /// The composite's channels as they are drawn; `None` for one volume.
+    pub fn channels(&self) -> Option<&[ChannelState]> {
+        match &self.drawn {
+            Drawn::Composite { applied, .. } => Some(applied),
+            _ => None,
+        }
+    }
+
+    /// The transfer function drawn now (the composite's first channel's).
+    pub fn transfer(&self) -> TransferFunction {
+        match &self.drawn {
+            Drawn::Volume { applied, .. } | Drawn::Stream { applied, .. } => *applied,
+            Drawn::Composite { applied, .. } => applied[0].transfer,
+        }
+    }
+
+    /// The label overlays drawn over each image.
+    pub fn labels(&self) -> &[UploadedLabels] {
+        &self.labels
+    }
+
+    /// The saved transfer function (a `tf` file's or a view's) the settings follow.
+    pub fn saved(&self) -> Option<&SavedTransfer> {
+        self.saved.as_ref()
+    }
+
+    /// The settings of a frame drawn with `options`: theirs over this volume's depth (an
+    /// octree drawn no deeper than its nodes were uploaded), with their clip.
+    pub fn render_settings(&self, options: &DrawOptions) -> RenderSettings {
+        let mut settings = options.render_settings(self.depth(), self.saved.as_ref());
+        if let Drawn::Volume {
+            renderer,
+            upload_level,
+            ..
+        } = &self.drawn
+            && renderer.kind() == RendererKind::Octree
+        {
+            settings.max_level = settings.max_level.min(*upload_level);
+        }
+        settings
+    }
+
+    pub(super) fn data_spacing(&self) -> [f64; 3] {
+        match &self.drawn {
+            Drawn::Volume { data, .. } => data.volume.spacing,
+            Drawn::Composite { channels, .. } => channels[0].channel.volume.spacing,
+            Drawn::Stream { streamed, .. } => streamed.source.spacing(),
+        }
+    }
+
+    pub(super) fn renderer_options(&self, options: &DrawOptions) -> RendererOptions {
+        RendererOptions {
+            kind: self.renderer().kind(),
+            brick_size: options.brick_size,
+            gpu_memory: options.stream.gpu_memory,
+        }
+    }
+
+    pub(super) fn upload_level(&self) -> u32 {
+        match &self.drawn {
+            Drawn::Volume { upload_level, .. } => *upload_level,
+            _ => self.depth(),
+        }
+    }
+
+    /// Gives the renderer another transfer function (the composite keeps its channels' own).
+    pub fn set_transfer(&mut self, transfer: &TransferFunction) -> Result<(), SceneError> {
+        let name = self.name();
+        let context = self.gpu.borrow();
+        match &mut self.drawn {
+            Drawn::Volume {
+                renderer, applied, ..
+            }
+            | Drawn::Stream {
+                renderer, applied, ..
+            } => write_transfer(context, renderer, applied, *transfer, &name),
+            Drawn::Composite { .. } => Ok(()),
+        }
+    }
+
+    /// Applies what `options` ask of the transfer function and channels, where it changed (a
+    /// GPU recolor or a table write); `saved` is their `tf` file, read already, which the
+    /// settings follow from now on.
+    pub fn apply_transfer(
+        &mut self,
+        options: &DrawOptions,
+        saved: Option<SavedTransfer>,
+    ) -> Result<(), SceneError> {
+        self.saved = saved;
+        let request = options.transfer.request(self.saved.as_ref());
+        let name = self.name();
+        let context = self.gpu.borrow();
+        match &mut self.drawn {
+            Drawn::Volume {
+                data,
+                renderer,
+                applied,
+                ..
+            } => {
+                let transfer =
+                    opening_transfer(&data.quantized, data.kind, data.default_window, &request);
+                write_transfer(context, renderer, applied, transfer, &name)
+            }
+            Drawn::Composite {
+                channels,
+                renderer,
+                applied,
+            } => {
+                let states = channel_states(channels, options, self.saved.as_ref(), None)?;
+                if states != *applied
+                    && let Some(volume) = renderer.composite()
+                {
+                    let shown: Vec<bool> = states.iter().map(|s| s.visible).collect();
+                    volume.set_shown_layers(context, &layers(channels, &states), &shown);
+                    *applied = states;
+                }
+                Ok(())
+            }
+            Drawn::Stream {
+                streamed,
+                renderer,
+                applied,
+            } => {
+                let transfer = streamed.transfer_for(&request);
+                write_transfer(context, renderer, applied, transfer, &name)
+            }
+        }
+    }
+
+    /// Draws the composite's channels as `states` say (their colors, windows and transfer
+    /// functions; as many as it has): a movie's frame between keyframes. One volume ignores
+    /// them.
+    pub fn set_channels(&mut self, states: &[ChannelState]) {
+        let context = self.gpu.borrow();
+        let Drawn::Composite {
+            channels,
+            renderer,
+            applied,
+        } = &mut self.drawn
+        else {
+            return;
+        };
+        if states == applied.as_slice() || states.len() != channels.len() {
+            return;
+        }
+        if let Some(composite) = renderer.composite() {
+            let shown: Vec<bool> = states.iter().map(|s| s.visible).collect();
+            composite.set_shown_layers(context, &layers(channels, states), &shown);
+        }
+        *applied = states.to_vec();
+    }
+
+    /// Records and submits a frame into `target` without waiting (the streaming renderer
+    /// takes its per-frame step first: what earlier frames asked for is loaded and uploaded).
+    pub fn draw(&mut self, target: &RenderTarget, camera: &Camera, settings: &RenderSettings) {
+        let context = self.gpu.borrow();
+        let renderer = match &mut self.drawn {
+            Drawn::Stream { renderer, .. } => {
+                renderer.update(context);
+                renderer
+            }
+            Drawn::Volume { renderer, .. } | Drawn::Composite { renderer, .. } => renderer,
+        };
+        renderer.render(context, target, camera, settings);
+    }
+
+    /// Draws a frame until it is complete: submitted once (read it back to wait for it), or
+    /// for a streamed pyramid frame after frame until nothing visible is missing or
+    /// `max_wait` passed, whose refinement it returns.
+    pub fn draw_complete(
+        &mut self,
+        target: &RenderTarget,
+        camera: &Camera,
+        settings: &RenderSettings,
+        max_wait: Duration,
+    ) -> Result<Option<Refinement>, SceneError> {
+        if !self.is_streamed() {
+            self.draw(target, camera, settings);
+            return Ok(None);
+        }
+        let context = self.gpu.borrow();
+        let renderer = match &mut self.drawn {
+            Drawn::Stream { renderer, .. } => renderer,
+            _ => unreachable!("is_streamed"),
+        };
+        refine(context, renderer, target, camera, settings, max_wait).map(Some)
+    }
+
+    /// How a frame whose refinement is `refinement` ended (`None`: not streamed).
+    pub fn outcome(refinement: Option<&Refinement>) -> Outcome {
+        let Some(refinement) = refinement else {
+            return Outcome::Complete;
+        };
+        if !refinement.complete || !refinement.errors.is_empty() {
+            return Outcome::Incomplete;
+        }
+        match refinement
+            .completed_at_budget()
+            .and(crate::describe_budget_limit(&refinement.status))
+        {
+            Some(limit) => Outcome::AtBudget(limit),
+            None => Outcome::Complete,
+        }
+    }
+
+    /// The side of the square tiles this device draws an image of `size` in, where the image
+    /// exceeds what one target may be (its largest 2D texture, storage buffer or buffer), or
+    /// `asked`; `None` where it is drawn whole.
+    pub fn tile_side(&self, size: (u32, u32), asked: Option<u32>) -> Option<u32> {
+        asked.or_else(|| self.context().tile_side([size.0, size.1]))
+    }
+
+    /// Draws an image of `size` in tiles of `side` pixels (see [`RenderTarget::tile`]), each
+    /// drawn, waited for and read back before the next: the image one target of the whole
+    /// size would hold. A streamed pyramid's tile is a target of its own to the streaming
+    /// renderer: its rays' requests are the tile's, and it is refined until nothing it shows
+    /// is missing (or `max_wait`) before it is read; the bricks it loaded stay cached for the
+    /// tiles after it. Returns the image and the refinements of a streamed one's tiles.
+    pub fn draw_tiled(
+        &mut self,
+        size: (u32, u32),
+        side: u32,
+        camera: &Camera,
+        settings: &RenderSettings,
+        max_wait: Duration,
+    ) -> Result<(RgbaImage, Vec<Refinement>), SceneError> {
+        let mut refinements = Vec::new();
+        let (width, height) = size;
+        let side = side.max(1);
+        let mut image = RgbaImage::new(width, height);
+        for y in (0..height).step_by(side as usize) {
+            for x in (0..width).step_by(side as usize) {
+                let part_size = [side.min(width - x), side.min(height - y)];
+                let target = RenderTarget::tile(self.context(), part_size, [x, y], [width, height]);
+                refinements.extend(self.draw_complete(&target, camera, settings, max_wait)?);
+                let part = read_image(self.context(), &target)
+                    .map_err(|e| SceneError::render(&self.name(), e))?;
+                image.copy_from(&part, x, y).map_err(|e| {
+                    SceneError::failed(format!("{}: a tile does not fit: {e}", self.name()))
+                })?;
+            }
+        }
+        Ok((image, refinements))
+    }
+
+    /// Draws the label overlays over `image`, the frame of `camera` and `settings` drawn
+    /// whole (`side` None) or in tiles of `side` pixels, as the image was.
+    pub fn draw_labels_over(
+        &mut self,
+        image: &mut RgbaImage,
+        side: Option<u32>,
+        camera: &Camera,
+        settings: &RenderSettings,
+    ) -> Result<(), SceneError> {
+        let (width, height) = image.dimensions();
+        let context = self.gpu.borrow();
+        for labels in &mut self.labels {
+            let slots = match side {
+                None => {
+                    let target = RenderTarget::new(context, width, height);
+                    labels
+                        .draw_slots(context, &target, camera, settings)
+                        .map_err(SceneError::Failed)?
+                }
+                Some(side) => {
+                    let side = side.max(1);
+                    let mut slots = vec![0u16; (width * height) as usize];
+                    for y in (0..height).step_by(side as usize) {
+                        for x in (0..width).step_by(side as usize) {
+                            let size = [side.min(width - x), side.min(height - y)];
+                            let target = RenderTarget::tile(context, size, [x, y], [width, height]);
+                            let part = labels
+                                .draw_slots(context, &target, camera, settings)
+                                .map_err(SceneError::Failed)?;
+                            for row in 0..size[1] {
+                                let from = (row * size[0]) as usize;
+                                let to = ((y + row) * width + x) as usize;
+                                slots[to..to + size[0] as usize]
+                                    .copy_from_slice(&part[from..from + size[0] as usize]);
+                            }
+                        }
+                    }
+                    slots
+                }
+            };
+            labels.blend(image, &slots);
+        }
+        Ok(())
+    }
+}
+
+/// Writes `transfer` to the GPU where it differs from `applied`.
+fn write_transfer(
+    context: &GpuContext,
+    renderer: &mut VolumeRenderer,
+    applied: &mut TransferFunction,
+    transfer: TransferFunction,
+    name: &str,
+) -> Result<(), SceneError> {
+    if transfer == *applied {
+        return Ok(());
+    }
+    let mut encoder = context
+        .device
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("voxscope::set_transfer"),
+        });
+    renderer
+        .set_transfer(context, &mut encoder, &transfer, None)
+        .map_err(|e| SceneError::render(name, e))?;
+    context.queue.submit([encoder.finish()]);
+    *applied = transfer;
+    Ok(())
+}
