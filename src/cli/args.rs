@@ -3,6 +3,9 @@
 use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
+use voxscope_scene::option_text::{
+    parse_colormap, parse_max_requests, parse_preset, parse_shininess, parse_spacing, parse_unit,
+};
 
 use voxscope_octree::{Clip, ClipPlane, Colormap, OpacityCurve, OpacityMode, Preset};
 use voxscope_render::{RenderMode, RendererKind, Shading};
@@ -76,17 +79,6 @@ fn parse_field(text: &str) -> Result<String, String> {
 /// FILE's series `series` (a bioformats2raw container's group of that number).
 pub fn series_file(file: &str, series: u32) -> String {
     format!("{}/{series}", file.trim_end_matches('/'))
-}
-
-/// `--max-requests`: 1 to [`voxscope_volume::remote::MAX_MAX_REQUESTS`].
-pub fn parse_max_requests(text: &str) -> Result<usize, String> {
-    use voxscope_volume::remote::MAX_MAX_REQUESTS;
-    match text.trim().parse::<usize>() {
-        Ok(n) if (1..=MAX_MAX_REQUESTS).contains(&n) => Ok(n),
-        _ => Err(format!(
-            "'{text}' is not a number of requests from 1 to {MAX_MAX_REQUESTS}"
-        )),
-    }
 }
 
 /// A load error as the command line says it: a file no format recognized can still be read
@@ -379,54 +371,6 @@ impl TransferArgs {
     /// The saved transfer function of --tf, if given, else a `--view`'s.
     pub fn saved(&self) -> Result<Option<SavedTransfer>, String> {
         self.options().saved().map_err(|e| e.to_string())
-    }
-}
-
-pub(super) fn parse_spacing(text: &str) -> Result<[f64; 3], String> {
-    let values: Vec<f64> = text
-        .split(',')
-        .map(|v| v.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
-        .map_err(|_| format!("spacing '{text}' is not SX,SY,SZ"))?;
-    match values[..] {
-        [x, y, z] if [x, y, z].iter().all(|v| v.is_finite() && *v > 0.0) => Ok([x, y, z]),
-        _ => Err(format!("spacing '{text}' needs three positive numbers")),
-    }
-}
-
-/// A brick side: a power of two from 4 to 32.
-pub(super) fn parse_brick_size(text: &str) -> Result<usize, String> {
-    match text.parse::<usize>() {
-        Ok(n) if n.is_power_of_two() && (4..=32).contains(&n) => Ok(n),
-        _ => Err(format!("brick size '{text}' is not 4, 8, 16 or 32")),
-    }
-}
-
-pub(super) fn parse_colormap(text: &str) -> Result<Colormap, String> {
-    Colormap::from_name(text).ok_or_else(|| {
-        let names: Vec<&str> = Colormap::ALL.iter().map(|c| c.name()).collect();
-        format!("colormap '{text}' is not one of {}", names.join(", "))
-    })
-}
-
-fn parse_preset(text: &str) -> Result<Preset, String> {
-    Preset::from_name(text).ok_or_else(|| {
-        let names: Vec<&str> = Preset::ALL.iter().map(|p| p.name()).collect();
-        format!("preset '{text}' is not one of {}", names.join(", "))
-    })
-}
-
-fn parse_shininess(text: &str) -> Result<f32, String> {
-    match text.parse::<f32>() {
-        Ok(v) if (1.0..=128.0).contains(&v) => Ok(v),
-        _ => Err(format!("shininess '{text}' is not a number from 1 to 128")),
-    }
-}
-
-fn parse_unit(text: &str) -> Result<f32, String> {
-    match text.parse::<f32>() {
-        Ok(v) if (0.0..=1.0).contains(&v) => Ok(v),
-        _ => Err(format!("'{text}' is not a number from 0 to 1")),
     }
 }
 

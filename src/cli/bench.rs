@@ -23,7 +23,7 @@ pub struct BenchArgs {
     #[command(flatten)]
     pub volume: VolumeArgs,
     /// Image size WxH.
-    #[arg(long, default_value = "1024x768", value_parser = super::render_options::parse_size)]
+    #[arg(long, default_value = "1024x768", value_parser = voxscope_scene::option_text::parse_size)]
     pub size: (u32, u32),
     /// Timed frames per case; the azimuth sweeps a full turn over them.
     #[arg(long, default_value_t = 200)]
@@ -45,7 +45,7 @@ pub struct BenchArgs {
     #[arg(long, value_enum)]
     pub renderer: Option<RendererArg>,
     /// Voxels along a brick's side (bricks renderer): 4, 8, 16 or 32.
-    #[arg(long, default_value_t = DEFAULT_BRICK_SIZE, value_parser = super::args::parse_brick_size)]
+    #[arg(long, default_value_t = DEFAULT_BRICK_SIZE, value_parser = voxscope_scene::option_text::parse_brick_size)]
     pub brick_size: usize,
     /// Print one JSON object instead of the table.
     #[arg(long)]

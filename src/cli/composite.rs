@@ -5,14 +5,13 @@
 //! its window.
 
 use clap::Args;
+use voxscope_scene::option_text::{parse_channel_window, parse_color};
 
 use super::TransferArgs;
 use voxscope_octree::DataKind;
 use voxscope_render::ChannelLayer;
 use voxscope_scene::{ChannelRequest, ChannelState};
-use voxscope_volume::{
-    DEFAULT_CHANNEL_COLORS, QuantizedVolume, ValueWindow, Volume, channel_color_by_name,
-};
+use voxscope_volume::{QuantizedVolume, ValueWindow, Volume};
 
 /// Colors and windows of the channels of a composite.
 #[derive(Debug, Clone, Args)]
@@ -26,39 +25,6 @@ pub struct ChannelArgs {
     /// the channel, else its 0.5–99.5 percentiles).
     #[arg(long, value_name = "N:LOW:HIGH", allow_hyphen_values = true, value_parser = parse_channel_window)]
     pub channel_window: Vec<(usize, ValueWindow)>,
-}
-
-/// A color name of [`DEFAULT_CHANNEL_COLORS`] (`grey` too) or `#rrggbb`.
-pub fn parse_color(text: &str) -> Result<[u8; 3], String> {
-    if let Some(rgb) = channel_color_by_name(text) {
-        return Ok(rgb);
-    }
-    let name = text.trim().to_lowercase();
-    if let Some(hex) = name.strip_prefix('#')
-        && hex.len() == 6
-        && let Ok(value) = u32::from_str_radix(hex, 16)
-    {
-        let [_, r, g, b] = value.to_be_bytes();
-        return Ok([r, g, b]);
-    }
-    let names: Vec<&str> = DEFAULT_CHANNEL_COLORS.iter().map(|(n, _)| *n).collect();
-    Err(format!(
-        "color '{text}' is not one of {} or #rrggbb",
-        names.join(", ")
-    ))
-}
-
-/// `N:LOW:HIGH`.
-fn parse_channel_window(text: &str) -> Result<(usize, ValueWindow), String> {
-    let (channel, window) = text
-        .split_once(':')
-        .ok_or_else(|| format!("channel window '{text}' is not N:LOW:HIGH"))?;
-    let channel = channel
-        .trim()
-        .parse::<usize>()
-        .map_err(|_| format!("channel window '{text}': '{channel}' is not a channel number"))?;
-    let window = ValueWindow::parse(window).map_err(|e| format!("channel window '{text}': {e}"))?;
-    Ok((channel, window))
 }
 
 /// One channel ready to draw: its values and how it is drawn (color, window, opacity).

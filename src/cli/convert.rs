@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use clap::{Args, ValueEnum};
 
-use super::args::{parse_max_requests, parse_spacing};
+use voxscope_scene::option_text::{parse_max_requests, parse_spacing};
 use voxscope_volume::ome_zarr::{
     Compression, Downsampling, PyramidOptions, PyramidWriter, SlabSource, WriteOptions, ZarrVersion,
 };

@@ -4,6 +4,7 @@
 
 use clap::Args;
 
+use voxscope_scene::option_text::parse_opacity;
 use voxscope_scene::{DEFAULT_LABEL_OPACITY, LabelOptions};
 
 /// The label layers drawn over the image.
@@ -25,13 +26,6 @@ pub struct LabelArgs {
         allow_hyphen_values = true
     )]
     pub labels_hide: Vec<f64>,
-}
-
-fn parse_opacity(text: &str) -> Result<f32, String> {
-    match text.trim().parse::<f32>() {
-        Ok(v) if (0.0..=1.0).contains(&v) => Ok(v),
-        _ => Err(format!("'{text}' is not an opacity from 0 to 1")),
-    }
 }
 
 impl LabelArgs {

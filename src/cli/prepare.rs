@@ -75,8 +75,17 @@ pub(super) fn reporting_progress<T>(
                 std::thread::sleep(Duration::from_millis(50));
                 waited += Duration::from_millis(50);
                 let (stage, fraction) = progress.get();
-                // Nothing to say before the first stage begins (the volume is still read).
-                if waited >= Duration::from_secs(1) && !stage.is_empty() {
+                // Nothing to say outside a stage (the volume is still read, or the GPU
+                // works after the build): only a stage's second counts.
+                if stage.is_empty() {
+                    if reported {
+                        eprintln!("\rbuilding octree: done ");
+                        reported = false;
+                    }
+                    waited = Duration::ZERO;
+                    continue;
+                }
+                if waited >= Duration::from_secs(1) {
                     waited = Duration::ZERO;
                     eprint!("\r{stage}: {:3.0} %", fraction * 100.0);
                     reported = true;

@@ -159,19 +159,16 @@ pub(super) fn open_drawable(
     let draw = options.draw_options();
     let streams = draw.renderer == Some(RendererKind::Stream);
     let gpu = HeadlessStart::begin_for(streams.then_some(RendererKind::Stream));
-    let drawable = super::prepare::reporting_progress(|progress| {
+    super::prepare::reporting_progress(|progress| {
         Drawable::open(
             &volume.open_options(),
             &draw,
             || gpu.finish().map_err(SceneError::Gpu),
             progress,
+            &mut |notice| eprintln!("{notice}"),
         )
     })
-    .map_err(|e| scene_error_text(&e))?;
-    for notice in &drawable.notices {
-        eprintln!("{notice}");
-    }
-    Ok(drawable)
+    .map_err(|e| scene_error_text(&e))
 }
 
 /// A streamed image's tiles' refinements as one: complete when every tile is, every tile's

@@ -7,13 +7,17 @@ use std::time::Duration;
 
 use clap::Args;
 
-use super::args::{RendererArg, parse_brick_size};
+use super::args::RendererArg;
 use super::composite::ChannelArgs;
 use super::labels::LabelArgs;
 use super::stream::StreamArgs;
 use super::{ClipArgs, TransferArgs};
 use voxscope_render::{Camera, DEFAULT_BRICK_SIZE};
+use voxscope_scene::option_text::{parse_brick_size, parse_size};
 use voxscope_scene::{DEFAULT_MAX_WAIT_SECONDS, DrawOptions};
+
+/// The longest `--max-wait` taken as given (about a century).
+const MAX_WAIT_SECONDS: f64 = 3.2e9;
 
 /// Every option of `render` but the volume and the output.
 #[derive(Debug, Clone, Args)]
@@ -70,8 +74,9 @@ impl RenderOptions {
             renderer: self.renderer.map(Into::into),
             brick_size: self.brick_size,
             stream: self.stream.options(),
-            // `check` refuses a negative or non-finite `--max-wait` before anything is drawn.
-            max_wait: Duration::try_from_secs_f64(self.max_wait).unwrap_or(Duration::ZERO),
+            // `check` refuses a negative or non-finite `--max-wait` before anything is drawn;
+            // one beyond a century waits a century.
+            max_wait: Duration::from_secs_f64(self.max_wait.clamp(0.0, MAX_WAIT_SECONDS)),
             camera: self.camera(),
             size: self.size,
         }
@@ -101,13 +106,23 @@ impl RenderOptions {
     }
 }
 
-/// `WxH`, each from 1 to 16384.
-pub fn parse_size(text: &str) -> Result<(u32, u32), String> {
-    let (w, h) = text
-        .split_once('x')
-        .ok_or_else(|| format!("size '{text}' is not WxH"))?;
-    match (w.parse::<u32>(), h.parse::<u32>()) {
-        (Ok(w), Ok(h)) if (1..=16384).contains(&w) && (1..=16384).contains(&h) => Ok((w, h)),
-        _ => Err(format!("size '{text}' needs W and H from 1 to 16384")),
+#[cfg(test)]
+mod tests {
+    use clap::Parser;
+    use voxscope_scene::DrawOptions;
+
+    use super::RenderOptions;
+
+    #[derive(Debug, Parser)]
+    struct Render {
+        #[command(flatten)]
+        options: RenderOptions,
+    }
+
+    /// The scene layer's defaults are `render`'s: the Python module starts from them.
+    #[test]
+    fn no_options_draw_as_the_scene_layer_defaults() {
+        let parsed = Render::try_parse_from(["render"]).expect("parses");
+        assert_eq!(parsed.options.draw_options(), DrawOptions::default());
     }
 }

@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use clap::{Args, ValueEnum};
 
-use super::args::{RendererArg, parse_colormap};
+use super::args::RendererArg;
 use super::prepare::default_renderer;
 use super::render::check_output;
 use super::{Prepared, TransferArgs, VolumeArgs};
@@ -15,6 +15,7 @@ use voxscope_render::{
     DEFAULT_BRICK_SIZE, HeadlessStart, RenderTarget, RendererOptions, SliceConvention, SliceFrame,
     SliceSettings, VolumeRenderer, read_image,
 };
+use voxscope_scene::option_text::{parse_brick_size, parse_colormap};
 use voxscope_volume::ValueWindow;
 
 #[derive(Debug, Args)]
@@ -41,7 +42,7 @@ pub struct SliceArgs {
     #[arg(long, value_enum)]
     pub renderer: Option<RendererArg>,
     /// Voxels along a brick's side (bricks renderer): 4, 8, 16 or 32.
-    #[arg(long, default_value_t = DEFAULT_BRICK_SIZE, value_parser = super::args::parse_brick_size)]
+    #[arg(long, default_value_t = DEFAULT_BRICK_SIZE, value_parser = parse_brick_size)]
     pub brick_size: usize,
     /// Interpolate trilinearly between voxel centers instead of taking the nearest voxel. At
     /// one pixel per voxel every pixel center is a voxel center, so both give each voxel's

@@ -5,6 +5,7 @@
 use std::borrow::Borrow;
 
 use clap::Args;
+use voxscope_scene::option_text::{parse_bytes, parse_lod_scale};
 
 use super::args::scene_error_text;
 use super::{TransferArgs, VolumeArgs};
@@ -101,44 +102,6 @@ impl StreamArgs {
     }
 }
 
-/// `N`, or `N` with a binary unit: `K`/`KiB`, `M`/`MiB`, `G`/`GiB`, `T`/`TiB` (`2GiB`, `512M`).
-pub fn parse_bytes(text: &str) -> Result<u64, String> {
-    let trimmed = text.trim();
-    let split = trimmed
-        .find(|c: char| !c.is_ascii_digit() && c != '.')
-        .unwrap_or(trimmed.len());
-    let (number, unit) = trimmed.split_at(split);
-    let shift = match unit.trim().to_ascii_lowercase().as_str() {
-        "" | "b" => 0,
-        "k" | "kib" => 10,
-        "m" | "mib" => 20,
-        "g" | "gib" => 30,
-        "t" | "tib" => 40,
-        _ => {
-            return Err(format!(
-                "size '{text}' has an unknown unit (use K, M, G, T or KiB, MiB, GiB, TiB)"
-            ));
-        }
-    };
-    let value: f64 = number
-        .parse()
-        .ok()
-        .filter(|v: &f64| v.is_finite() && *v > 0.0)
-        .ok_or_else(|| format!("size '{text}' is not a positive number of bytes"))?;
-    let bytes = value * (1u64 << shift) as f64;
-    if bytes >= u64::MAX as f64 {
-        return Err(format!("size '{text}' is too large"));
-    }
-    Ok(bytes as u64)
-}
-
-fn parse_lod_scale(text: &str) -> Result<f32, String> {
-    match text.parse::<f32>() {
-        Ok(v) if (0.0..=64.0).contains(&v) => Ok(v),
-        _ => Err(format!("lod scale '{text}' is not a number from 0 to 64")),
-    }
-}
-
 /// Opens what `volume_args` names as a pyramid for streaming ([`StreamedVolume::open`]),
 /// with the transfer function `transfer_args` ask for; and the --tf file, whose opacity scale
 /// and mode apply too.
@@ -178,20 +141,4 @@ pub fn open_streamed_with_renderer<G: Borrow<GpuContext>>(
     )
     .map_err(|error| scene_error_text(&error))?;
     Ok((opened, saved))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::parse_bytes;
-
-    #[test]
-    fn sizes_take_binary_units() {
-        assert_eq!(parse_bytes("1024"), Ok(1024));
-        assert_eq!(parse_bytes("2GiB"), Ok(2 << 30));
-        assert_eq!(parse_bytes("512M"), Ok(512 << 20));
-        assert_eq!(parse_bytes("1.5 KiB"), Ok(1536));
-        for bad in ["", "GiB", "-1G", "3 parsecs", "0"] {
-            assert!(parse_bytes(bad).is_err(), "{bad}");
-        }
-    }
 }

@@ -1,8 +1,10 @@
 //! Python keywords as the command line's options: each rendering keyword is the `render`
 //! option of the same name (`opacity_points=` is `--opacity-points`), written as the option's
-//! text and parsed by the command line's own clap groups ([`RenderOptions`], [`VolumeArgs`],
-//! [`ConvertArgs`]). So a keyword means what its option means, takes its defaults and its
-//! checks, and a bad value raises the option's one-line message.
+//! text and read by the parser that option uses (`voxscope_scene::option_text`) into the
+//! scene layer's [`DrawOptions`] and [`OpenOptions`], the model the command line maps into
+//! too. So a keyword means what its option means, takes its defaults and its checks, and a bad
+//! value raises a ValueError naming the keyword. `convert()`'s keywords are parsed by the
+//! command line's [`ConvertArgs`].
 //!
 //! Values: a string is the option's text as typed on the command line (in its x, y, z
 //! order); numbers, booleans, tuples and lists are written for it, tuples of axes in numpy's
@@ -12,7 +14,8 @@ use clap::{Args, Parser};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyString};
-use voxscope::cli::{ConvertArgs, RenderOptions, VolumeArgs};
+use voxscope::cli::ConvertArgs;
+use voxscope_scene::{ChannelChoice, DrawOptions, OpenOptions};
 
 /// How a keyword's Python value becomes command-line words.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -49,10 +52,21 @@ pub enum Form {
 pub struct Keyword {
     pub name: &'static str,
     pub form: Form,
+    /// The option's value name in its messages (`--preset <NAME>`); empty for a flag.
+    pub value: &'static str,
 }
 
 const fn keyword(name: &'static str, form: Form) -> Keyword {
-    Keyword { name, form }
+    Keyword {
+        name,
+        form,
+        value: "",
+    }
+}
+
+/// A keyword whose option's value is called `value` in messages (`--size <SIZE>`).
+const fn valued(name: &'static str, form: Form, value: &'static str) -> Keyword {
+    Keyword { name, form, value }
 }
 
 /// The keywords that choose the transfer function: any of them replaces the others given
@@ -83,51 +97,51 @@ const VIEW_ONLY: [&str; 6] = [
 /// `render`'s options but the volume and the output: what `render()`, `Renderer()` and
 /// `Renderer.render()` take.
 pub const RENDER: &[Keyword] = &[
-    keyword("mode", Form::Value),
-    keyword("opacity", Form::Value),
-    keyword("opacity_points", Form::Points),
-    keyword("preset", Form::Value),
-    keyword("tf", Form::Value),
-    keyword("threshold", Form::Value),
-    keyword("window", Form::Pair(":")),
-    keyword("colormap", Form::Value),
-    keyword("density", Form::Value),
-    keyword("level", Form::Value),
+    valued("mode", Form::Value, "MODE"),
+    valued("opacity", Form::Value, "OPACITY"),
+    valued("opacity_points", Form::Points, "V:A,…"),
+    valued("preset", Form::Value, "NAME"),
+    valued("tf", Form::Value, "FILE.ron"),
+    valued("threshold", Form::Value, "THRESHOLD"),
+    valued("window", Form::Pair(":"), "LOW:HIGH"),
+    valued("colormap", Form::Value, "COLORMAP"),
+    valued("density", Form::Value, "DENSITY"),
+    valued("level", Form::Value, "LEVEL"),
     keyword("pixel_lod", Form::Flag),
     keyword("opacity_correction", Form::NegatedFlag),
     keyword("heatmap", Form::Flag),
     keyword("nearest", Form::Flag),
     keyword("shading", Form::Switch),
-    keyword("ambient", Form::Value),
-    keyword("diffuse", Form::Value),
-    keyword("specular", Form::Value),
-    keyword("shininess", Form::Value),
-    keyword("clip_box", Form::ClipBox),
-    keyword("clip_plane", Form::ClipPlane),
-    keyword("channel_colors", Form::Colors),
-    keyword("channel_window", Form::ChannelWindows),
-    keyword("renderer", Form::Value),
-    keyword("brick_size", Form::Value),
-    keyword("gpu_memory", Form::Value),
-    keyword("ram_cache", Form::Value),
-    keyword("upload_budget", Form::Value),
-    keyword("uploads", Form::Value),
-    keyword("lod_scale", Form::Value),
-    keyword("max_wait", Form::Value),
-    keyword("size", Form::Pair("x")),
-    keyword("azimuth", Form::Value),
-    keyword("elevation", Form::Value),
-    keyword("distance", Form::Value),
-    keyword("fov", Form::Value),
+    valued("ambient", Form::Value, "AMBIENT"),
+    valued("diffuse", Form::Value, "DIFFUSE"),
+    valued("specular", Form::Value, "SPECULAR"),
+    valued("shininess", Form::Value, "SHININESS"),
+    valued("clip_box", Form::ClipBox, "X0:X1,Y0:Y1,Z0:Z1"),
+    valued("clip_plane", Form::ClipPlane, "NX,NY,NZ,D"),
+    valued("channel_colors", Form::Colors, "C0,C1,…"),
+    valued("channel_window", Form::ChannelWindows, "N:LOW:HIGH"),
+    valued("renderer", Form::Value, "RENDERER"),
+    valued("brick_size", Form::Value, "BRICK_SIZE"),
+    valued("gpu_memory", Form::Value, "SIZE"),
+    valued("ram_cache", Form::Value, "SIZE"),
+    valued("upload_budget", Form::Value, "SIZE"),
+    valued("uploads", Form::Value, "PATH"),
+    valued("lod_scale", Form::Value, "F"),
+    valued("max_wait", Form::Value, "SECONDS"),
+    valued("size", Form::Pair("x"), "SIZE"),
+    valued("azimuth", Form::Value, "AZIMUTH"),
+    valued("elevation", Form::Value, "ELEVATION"),
+    valued("distance", Form::Value, "DISTANCE"),
+    valued("fov", Form::Value, "FOV"),
 ];
 
 /// What opens a path or URL: `open()`'s keywords (the command line's volume options).
 pub const OPEN: &[Keyword] = &[
-    keyword("raw", Form::Value),
-    keyword("spacing", Form::Spacing),
-    keyword("channel", Form::Value),
-    keyword("time", Form::Value),
-    keyword("max_requests", Form::Value),
+    valued("raw", Form::Value, "LAYOUT"),
+    valued("spacing", Form::Spacing, "SX,SY,SZ"),
+    valued("channel", Form::Value, "N|all"),
+    valued("time", Form::Value, "TIME"),
+    valued("max_requests", Form::Value, "N"),
 ];
 
 /// `convert()`'s keywords: `convert`'s options but the input and output.
@@ -210,22 +224,21 @@ impl Given {
             .find(|name| names.contains(name))
     }
 
-    /// `options` (these keywords' options parsed already) with `frame`'s camera keywords
+    /// `options` (these keywords' options read already) with `frame`'s camera keywords
     /// set, where `frame` holds camera keywords alone (`azimuth`, `elevation`, `distance`,
-    /// `fov`), each a number read as clap reads it; else `None` (parse them all). A camera
-    /// sweep then costs microseconds a frame in Python, not the parser's fraction of a
-    /// millisecond (building clap's command for some forty options).
-    pub fn with_camera(options: &RenderOptions, frame: &Given) -> Option<RenderOptions> {
+    /// `fov`), each a number; else `None` (read them all). A camera sweep then costs
+    /// microseconds a frame in Python.
+    pub fn with_camera(options: &DrawOptions, frame: &Given) -> Option<DrawOptions> {
         let mut options = options.clone();
         for (name, words) in &frame.words {
             let [word] = &words[..] else { return None };
             let (_, text) = word.split_once('=')?;
             let value: f64 = text.parse().ok()?;
             match *name {
-                "azimuth" => options.azimuth = value,
-                "elevation" => options.elevation = value,
-                "distance" => options.distance = value,
-                "fov" => options.fov = value,
+                "azimuth" => options.camera.azimuth_deg = value,
+                "elevation" => options.camera.elevation_deg = value,
+                "distance" => options.camera.distance = value,
+                "fov" => options.camera.fov_y_deg = value,
                 _ => return None,
             }
         }
@@ -250,16 +263,46 @@ impl Given {
             .collect()
     }
 
-    /// The render options these keywords set (the rest at `render`'s defaults).
-    pub fn render_options(&self) -> PyResult<RenderOptions> {
-        parse(self.argv())
+    /// What these keywords ask of the drawing (the rest at `render`'s defaults): each
+    /// keyword's text read by the parser its `render` option uses (`voxscope_scene::
+    /// option_text`); a bad value is a ValueError naming the keyword.
+    pub fn draw_options(&self) -> PyResult<DrawOptions> {
+        let choices: Vec<&str> = self
+            .words
+            .iter()
+            .map(|(name, _)| *name)
+            .filter(|name| TRANSFER_CHOICE.contains(name))
+            .collect();
+        if let [first, second, ..] = choices[..] {
+            return Err(PyValueError::new_err(format!(
+                "the argument '{}' cannot be used with '{}'",
+                shown(RENDER, first),
+                shown(RENDER, second)
+            )));
+        }
+        let mut options = DrawOptions::default();
+        for (name, words) in &self.words {
+            for word in words {
+                set_option(&mut options, name, word)
+                    .map_err(|e| PyValueError::new_err(e.message(RENDER, name)))?;
+            }
+        }
+        Ok(options)
     }
 
-    /// The volume options of opening `spec` with these keywords.
-    pub fn volume_args(&self, spec: &str) -> PyResult<VolumeArgs> {
-        let mut argv = vec![spec.to_owned()];
-        argv.extend(self.argv());
-        parse(argv)
+    /// What opening `spec` with these keywords (`open()`'s) reads.
+    pub fn open_options(&self, spec: &str) -> PyResult<OpenOptions> {
+        let mut options = OpenOptions {
+            source: Some(spec.to_owned()),
+            ..OpenOptions::default()
+        };
+        for (name, words) in &self.words {
+            for word in words {
+                set_open_option(&mut options, name, word)
+                    .map_err(|e| PyValueError::new_err(e.message(OPEN, name)))?;
+            }
+        }
+        Ok(options)
     }
 
     /// `convert`'s options for `input` to `output` with these keywords.
@@ -268,6 +311,181 @@ impl Given {
         argv.extend(self.argv());
         parse(argv)
     }
+}
+
+/// The text of `word` (`--name=TEXT`), or whether a flag is on (`--name`: true,
+/// `--no-name`: false).
+enum WordValue<'a> {
+    Text(&'a str),
+    Flag(bool),
+}
+
+fn word_value(word: &str) -> WordValue<'_> {
+    match word.split_once('=') {
+        Some((_, text)) => WordValue::Text(text),
+        None => WordValue::Flag(!word.starts_with("--no-")),
+    }
+}
+
+/// Why a keyword's value was refused, worded as the command line words its option's
+/// ([`Self::message`]).
+enum Refused {
+    /// The value's text, and what its parser said (an enum's name says nothing more).
+    Value { text: String, why: Option<String> },
+    /// A whole line.
+    Line(String),
+}
+
+impl Refused {
+    fn value(text: &str) -> impl FnOnce(String) -> Self + '_ {
+        move |why| Self::Value {
+            text: text.to_owned(),
+            why: Some(why),
+        }
+    }
+
+    fn name(text: &str) -> impl FnOnce(String) -> Self + '_ {
+        move |_| Self::Value {
+            text: text.to_owned(),
+            why: None,
+        }
+    }
+
+    /// The command line's line for keyword `name` of `table`: `invalid value 'X' for
+    /// '--name <VALUE>': why`.
+    fn message(self, table: &[Keyword], name: &str) -> String {
+        match self {
+            Self::Value { text, why } => {
+                let mut line = format!("invalid value '{text}' for '{}'", shown(table, name));
+                if let Some(why) = why {
+                    line.push_str(": ");
+                    line.push_str(&why);
+                }
+                line
+            }
+            Self::Line(line) => line,
+        }
+    }
+}
+
+/// Keyword `name` of `table` as the command line shows its option: `--name <VALUE>`, or
+/// `--name` for a flag.
+fn shown(table: &[Keyword], name: &str) -> String {
+    let flag = format!("--{}", name.replace('_', "-"));
+    match table.iter().find(|k| k.name == name) {
+        Some(keyword) if !keyword.value.is_empty() => format!("{flag} <{}>", keyword.value),
+        _ => flag,
+    }
+}
+
+/// A number of type `T`.
+fn number<T: std::str::FromStr>(text: &str) -> Result<T, Refused>
+where
+    T::Err: std::fmt::Display,
+{
+    text.parse().map_err(|e: T::Err| Refused::Value {
+        text: text.to_owned(),
+        why: Some(e.to_string()),
+    })
+}
+
+/// Sets keyword `name`'s `word` (as [`write`] wrote it) into `options`.
+fn set_option(options: &mut DrawOptions, name: &str, word: &str) -> Result<(), Refused> {
+    use voxscope_octree::{Clip, OpacityCurve, OpacityMode};
+    use voxscope_scene::option_text as parse;
+    use voxscope_volume::ValueWindow;
+    let t = match word_value(word) {
+        WordValue::Text(text) => text,
+        WordValue::Flag(on) => {
+            match name {
+                "pixel_lod" => options.transfer.pixel_lod = on,
+                "opacity_correction" => options.transfer.opacity_correction = on,
+                "heatmap" => options.transfer.heatmap = on,
+                "nearest" => options.transfer.trilinear = !on,
+                "shading" => options.transfer.shading.enabled = on,
+                _ => return Err(Refused::Line(format!("{name}= takes a value"))),
+            }
+            return Ok(());
+        }
+    };
+    let value = Refused::value(t);
+    let transfer = &mut options.transfer;
+    match name {
+        "mode" => transfer.mode = Some(parse::parse_mode(t).map_err(Refused::name(t))?),
+        "opacity" => {
+            transfer.opacity = Some(parse::parse_opacity_mode(t).map_err(Refused::name(t))?);
+        }
+        "opacity_points" => {
+            transfer.opacity = Some(OpacityMode::Points(OpacityCurve::parse(t).map_err(value)?));
+        }
+        "preset" => transfer.preset = Some(parse::parse_preset(t).map_err(value)?),
+        "tf" => transfer.tf = Some(t.into()),
+        "threshold" => transfer.threshold = parse::parse_unit(t).map_err(value)?,
+        "window" => transfer.window = Some(ValueWindow::parse(t).map_err(value)?),
+        "colormap" => transfer.colormap = Some(parse::parse_colormap(t).map_err(value)?),
+        "density" => transfer.density = Some(number(t)?),
+        "level" => transfer.level = Some(number(t)?),
+        "ambient" => transfer.shading.ambient = parse::parse_unit(t).map_err(value)?,
+        "diffuse" => transfer.shading.diffuse = parse::parse_unit(t).map_err(value)?,
+        "specular" => transfer.shading.specular = parse::parse_unit(t).map_err(value)?,
+        "shininess" => transfer.shading.shininess = parse::parse_shininess(t).map_err(value)?,
+        "clip_box" => options.clip.bounds = Some(Clip::parse_box(t).map_err(value)?),
+        "clip_plane" => options.clip.plane = Some(Clip::parse_plane(t).map_err(value)?),
+        "channel_colors" => {
+            // One value each, as the option's comma list is.
+            options.channels.colors = t
+                .split(',')
+                .map(|color| parse::parse_color(color).map_err(Refused::value(color)))
+                .collect::<Result<_, _>>()?;
+        }
+        "channel_window" => options
+            .channels
+            .windows
+            .push(parse::parse_channel_window(t).map_err(value)?),
+        "renderer" => options.renderer = Some(parse::parse_renderer(t).map_err(Refused::name(t))?),
+        "brick_size" => options.brick_size = parse::parse_brick_size(t).map_err(value)?,
+        "gpu_memory" => options.stream.gpu_memory = parse::parse_bytes(t).map_err(value)?,
+        "ram_cache" => options.stream.ram_cache = parse::parse_bytes(t).map_err(value)?,
+        "upload_budget" => {
+            options.stream.upload_bytes_per_frame = parse::parse_bytes(t).map_err(value)?;
+        }
+        "uploads" => options.stream.uploads = parse::parse_uploads(t).map_err(Refused::name(t))?,
+        "lod_scale" => options.stream.lod_scale = parse::parse_lod_scale(t).map_err(value)?,
+        "max_wait" => {
+            let seconds: f64 = number(t)?;
+            if !(seconds.is_finite() && seconds >= 0.0) {
+                return Err(Refused::Line(format!(
+                    "--max-wait {seconds} is not a number of seconds"
+                )));
+            }
+            options.max_wait = std::time::Duration::from_secs_f64(seconds.min(3.2e9));
+        }
+        "size" => options.size = parse::parse_size(t).map_err(value)?,
+        "azimuth" => options.camera.azimuth_deg = number(t)?,
+        "elevation" => options.camera.elevation_deg = number(t)?,
+        "distance" => options.camera.distance = number(t)?,
+        "fov" => options.camera.fov_y_deg = number(t)?,
+        _ => return Err(Refused::Line(format!("{name}= is not a drawing keyword"))),
+    }
+    Ok(())
+}
+
+/// Sets `open()`'s keyword `name`'s `word` into `options`.
+fn set_open_option(options: &mut OpenOptions, name: &str, word: &str) -> Result<(), Refused> {
+    use voxscope_scene::option_text as parse;
+    let WordValue::Text(t) = word_value(word) else {
+        return Err(Refused::Line(format!("{name}= takes a value")));
+    };
+    let value = Refused::value(t);
+    match name {
+        "raw" => options.raw = Some(voxscope_volume::RawLayout::parse(t).map_err(value)?),
+        "spacing" => options.spacing = Some(parse::parse_spacing(t).map_err(value)?),
+        "channel" => options.channel = Some(ChannelChoice::parse(t).map_err(value)?),
+        "time" => options.time = number(t)?,
+        "max_requests" => options.max_requests = parse::parse_max_requests(t).map_err(value)?,
+        _ => return Err(Refused::Line(format!("{name}= is not an open() keyword"))),
+    }
+    Ok(())
 }
 
 /// One of the command line's option groups as a parser of its own.

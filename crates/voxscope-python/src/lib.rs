@@ -67,7 +67,7 @@ fn _voxels<'py>(data: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
 #[pyo3(signature = (**options))]
 fn _command_line_words(options: Option<&Bound<'_, PyDict>>) -> PyResult<Vec<String>> {
     let given = keywords::Given::read(options, keywords::RENDER, "view")?;
-    given.render_options()?;
+    given.draw_options()?;
     Ok(given.argv())
 }
 

@@ -9,10 +9,11 @@ use std::sync::Arc;
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
-use voxscope::cli::{ChannelChoice, VolumeArgs};
 use voxscope_render::GpuContext;
 use voxscope_render::RendererKind;
-use voxscope_scene::{Channel, DrawOptions, Drawable, StreamedVolume, VolumeSource};
+use voxscope_scene::{
+    Channel, ChannelChoice, DrawOptions, Drawable, OpenOptions, StreamedVolume, VolumeSource,
+};
 use voxscope_volume::ome_zarr::{Pyramid, PyramidOptions, VOLUME_VOXEL_BUDGET, is_zarr_spec};
 use voxscope_volume::{Volume as LoadedVolume, VoxelType};
 
@@ -35,14 +36,14 @@ pub struct Opened {
     pub spec: String,
     /// The keywords it was opened with (`raw`, `spacing`, `channel`, `time`, `max_requests`).
     pub given: Given,
-    args: VolumeArgs,
+    args: OpenOptions,
     content: Content,
 }
 
 impl Opened {
     /// Opens `spec` with `given` (open's keywords), the GIL released while reading.
     pub fn open(py: Python<'_>, spec: String, given: Given) -> PyResult<Self> {
-        let args = given.volume_args(&spec)?;
+        let args = given.open_options(&spec)?;
         let store = args.raw.is_none() && is_zarr_spec(&spec);
         let content = py.detach(|| -> Result<Content, voxscope_volume::LoadError> {
             let options = args.load_options();
@@ -146,18 +147,12 @@ impl Opened {
         let composite =
             self.channel_count() > 1 && !matches!(self.args.channel, Some(ChannelChoice::Index(_)));
         let channels: Vec<Channel> = if composite {
-            let volumes = self
-                .args
-                .composite_channels()
-                .map_err(Failure::Load)?
-                .unwrap_or_default();
+            let volumes = self.args.composite_channels()?.unwrap_or_default();
             volumes.iter().map(Channel::of_volume).collect()
         } else {
             match &self.content {
                 Content::File(volume) => vec![Channel::of_volume(volume)],
-                Content::Store(_) => vec![Channel::of_volume(
-                    &self.args.load().map_err(Failure::Load)?,
-                )],
+                Content::Store(_) => vec![Channel::of_volume(&self.args.load()?)],
             }
         };
         let drawn = Drawable::of_channels(Arc::clone(context), &source, channels, options)?;

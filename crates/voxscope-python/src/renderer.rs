@@ -6,16 +6,15 @@
 
 use std::sync::{Mutex, MutexGuard};
 
-use pyo3::exceptions::{PyTypeError, PyValueError};
+use pyo3::exceptions::PyTypeError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use voxscope::cli::RenderOptions;
 use voxscope_render::{RenderTarget, read_image};
-use voxscope_scene::{Drawable, SavedTransfer, VolumeSource};
+use voxscope_scene::{DrawOptions, Drawable, SavedTransfer, VolumeSource};
 
 use crate::arrays::{ArrayOptions, quantize, spacing_of, supported_array};
 use crate::drawn::{CompleteNotice, Drawn, Frame, Notice, draw_complete, notice_of};
-use crate::errors::{LoadError, RenderError, VoxscopeError, gpu_error};
+use crate::errors::{RenderError, VoxscopeError, gpu_error};
 use crate::gpu::device;
 use crate::keywords::{Given, OPEN, RENDER, STRUCTURAL};
 use crate::opened::{Opened, spec_of};
@@ -36,7 +35,7 @@ pub struct Renderer {
 struct Resident {
     drawn: Drawn,
     base: Given,
-    base_options: RenderOptions,
+    base_options: DrawOptions,
     /// The transfer keywords' words last applied, and their `tf` file as read then.
     applied: Option<(Vec<String>, Option<SavedTransfer>)>,
     target: Option<RenderTarget>,
@@ -51,23 +50,24 @@ impl Resident {
         let merged = self.base.with(frame);
         let options = match Given::with_camera(&self.base_options, frame) {
             Some(options) => options,
-            None => merged.render_options()?,
+            None => merged.draw_options()?,
         };
-        options.check().map_err(PyValueError::new_err)?;
         let words = merged.transfer_words();
         if self
             .applied
             .as_ref()
             .is_none_or(|(applied, _)| *applied != words)
         {
-            let draw = options.draw_options();
-            let saved = options.transfer.saved().map_err(LoadError::new_err)?;
+            let saved = options
+                .transfer
+                .saved()
+                .map_err(crate::errors::Failure::from)?;
             self.drawn
-                .apply_transfer(&draw, saved)
+                .apply_transfer(&options, saved)
                 .map_err(crate::errors::Failure::from)?;
             self.applied = Some((words, saved));
         }
-        let prepared = Frame::of(&self.drawn, &options.draw_options());
+        let prepared = Frame::of(&self.drawn, &options);
         let (width, height) = prepared.size;
         let fits = self
             .target
@@ -136,8 +136,7 @@ impl Renderer {
             }
         }
         let base = Given::read(Some(&all), RENDER, function)?;
-        let options = base.render_options()?;
-        options.check().map_err(PyValueError::new_err)?;
+        let options = base.draw_options()?;
         let context = py
             .detach(device)
             .map_err(|e| RenderError::new_err(e.to_string()))?;
@@ -166,9 +165,8 @@ impl Renderer {
             };
             let channels = quantize(&array, &array_options)?;
             let source = VolumeSource::Spec(array_options.name.clone());
-            let draw = options.draw_options();
             let drawn: Drawn = py
-                .detach(|| Drawable::of_channels(context, &source, channels, &draw))
+                .detach(|| Drawable::of_channels(context, &source, channels, &options))
                 .map_err(crate::errors::Failure::from)?;
             let notice = notice_of(&drawn);
             (drawn, notice)
@@ -194,7 +192,7 @@ impl Renderer {
                 opened_here = Opened::open(py, spec, given)?;
                 &opened_here
             };
-            py.detach(|| opened.drawn(&context, &options.draw_options()))?
+            py.detach(|| opened.drawn(&context, &options))?
         };
         if let Some(notice) = notice {
             warn(py, &notice)?;

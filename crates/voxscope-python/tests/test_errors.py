@@ -41,6 +41,16 @@ BAD_OPTIONS = [
     ({"brick_size": 12}, ["--brick-size", "12"]),
     ({"mode": "xray"}, ["--mode", "xray"]),
     ({"max_wait": -1}, ["--max-wait=-1"]),
+    ({"density": "thick"}, ["--density", "thick"]),
+    ({"level": "deep"}, ["--level", "deep"]),
+    ({"azimuth": "left"}, ["--azimuth", "left"]),
+    ({"renderer": "raytracer"}, ["--renderer", "raytracer"]),
+    ({"uploads": "post"}, ["--uploads", "post"]),
+    ({"lod_scale": 100}, ["--lod-scale", "100"]),
+    ({"ram_cache": "0"}, ["--ram-cache", "0"]),
+    ({"channel_colors": ["green", "nope"]}, ["--channel-colors", "green,nope"]),
+    ({"channel_window": "1:2"}, ["--channel-window", "1:2"]),
+    ({"preset": "ramp", "tf": "x.ron"}, ["--preset", "ramp", "--tf", "x.ron"]),
 ]
 
 

@@ -78,6 +78,8 @@ enum Drawn {
         channels: Vec<CompositeChannel>,
         renderer: VolumeRenderer,
         applied: Vec<ChannelState>,
+        /// The file index of a single channel drawn alone in its color.
+        alone: Option<usize>,
     },
     /// A pyramid streamed into the GPU budget.
     Stream {
@@ -95,8 +97,8 @@ pub struct Drawable<G: Borrow<GpuContext> = GpuContext> {
     labels: Vec<UploadedLabels>,
     /// The saved transfer function (a `tf` file's or a view's) the settings follow.
     saved: Option<SavedTransfer>,
-    /// What the user should be told of how it is drawn (bricks where the octree does not fit,
-    /// a channel drawn in grays, a volume streamed from memory), said once.
+    /// What the user should be told of how it is drawn (bricks where the octree does not
+    /// fit), said once ([`Self::open`] says them as they are decided instead).
     pub notices: Vec<String>,
 }
 
@@ -104,22 +106,25 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
     /// Reads, prepares and uploads what `open` and `options` name, as `render` draws it: the
     /// streaming renderer when asked, the composite of several channels, a volume beyond the
     /// octree streamed from memory, or one volume for its renderer. `gpu` gives the device
-    /// (started while the volume is read); `progress` follows the octree's build.
+    /// (started while the volume is read); `progress` follows the octree's build (its stage
+    /// is empty again once the build is over); `say` hears how it is drawn (bricks where the
+    /// octree does not fit, a channel in grays, a volume streamed from memory) when it is
+    /// decided.
     pub fn open(
         open: &OpenOptions,
         options: &DrawOptions,
         gpu: impl FnOnce() -> Result<G, SceneError>,
         progress: &Progress,
+        say: &mut dyn FnMut(String),
     ) -> Result<Self, SceneError> {
-        // A bad `tf` file fails before the volume is read.
-        let saved = options.transfer.saved()?;
-        let request = options.transfer.request(saved.as_ref());
         if options.renderer == Some(RendererKind::Stream) {
+            // A bad `tf` file fails before the volume is read.
+            let saved = options.transfer.saved()?;
             // The renderer is made while the store's first chunks are on their way.
             let opened = StreamedVolume::open_with_renderer(
                 &open.volume_source(),
                 &open.load_options(),
-                &request,
+                &options.transfer.request(saved.as_ref()),
                 options.stream,
                 || gpu().map_err(|e| e.to_string()),
             )?;
@@ -146,7 +151,7 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
             Some(channels) if channels.len() > 1 => {
                 refuse_labels("the composite of several channels (--channel N draws one)")?;
                 let channels = channels.into_iter().map(Channel::from_volume).collect();
-                return Self::composite(gpu()?, channels, options, saved, None);
+                return Self::composite(gpu, channels, options, None);
             }
             Some(mut channels) => channels
                 .pop()
@@ -157,7 +162,6 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
         // it, in the channel's color and window, where the options or the file give it a
         // color and the dense renderer can draw it; else in the channel's window, by the
         // renderer asked for.
-        let mut notices = Vec::new();
         let mut options = options.clone();
         if let Some(ChannelChoice::Index(index)) = open.channel {
             if colors_channel(&options.channels, &loaded, index)? {
@@ -166,9 +170,9 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
                 {
                     refuse_labels("a channel in its color (--renderer octree draws it)")?;
                     let channel = Channel::from_volume(loaded);
-                    return Self::composite(gpu()?, vec![channel], &options, saved, Some(index));
+                    return Self::composite(gpu, vec![channel], &options, Some(index));
                 }
-                notices.push(format!(
+                say(format!(
                     "channel {index} is drawn in grays: its color needs the dense renderer (--renderer dense)"
                 ));
             }
@@ -176,42 +180,43 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
                 options.transfer.window = Some(window);
             }
         }
-        let request = options.transfer.request(saved.as_ref());
         // Longer than the voxel octree holds: bricks are streamed from memory.
         if beyond_octree(loaded.dims)
             && matches!(options.renderer, None | Some(RendererKind::Bricks))
         {
-            notices.push(format!(
+            say(format!(
                 "{}: {} voxels are beyond the voxel octree's {} a side: drawn by the streaming renderer, from memory",
                 loaded.name,
                 format_dims(loaded.dims),
                 1u32 << MAX_DEPTH
             ));
             refuse_labels("a volume streamed from memory")?;
+            let saved = options.transfer.saved()?;
+            let request = options.transfer.request(saved.as_ref());
             let streamed = StreamedVolume::from_volume(loaded, &request, Instant::now())?;
             let opened = streamed.with_renderer(gpu()?, options.stream)?;
-            let mut drawable = Self::streamed(opened, saved);
-            drawable.notices = notices;
-            return Ok(drawable);
+            return Ok(Self::streamed(opened, saved));
         }
+        let saved = options.transfer.saved()?;
+        let request = options.transfer.request(saved.as_ref());
         let source = VolumeSource::from_spec(&loaded.name);
-        let data = VolumeData::prepare(&source, loaded, Instant::now(), progress)?;
-        let image_dims = data.volume.dims;
+        let prepared = VolumeData::prepare(&source, loaded, Instant::now(), progress);
+        // The build is over: nothing more to report as its progress.
+        progress.begin("");
+        let data = prepared?;
+        let overlays = open_overlays(&options.labels.names, open, data.volume.dims)?;
         let mut drawable = Self::volume(gpu()?, data, &options, saved, &request)?;
-        drawable.notices.splice(0..0, notices);
-        drawable.labels = open_overlays(&options.labels.names, open, image_dims)?
+        for notice in drawable.notices.drain(..) {
+            say(notice);
+        }
+        let renderer = drawable.renderer_options(&options);
+        let (spacing, level) = (drawable.data_spacing(), drawable.upload_level());
+        drawable.labels = overlays
             .into_iter()
             .map(|overlay| {
-                let layer = overlay
-                    .layer(
-                        &options.labels.hide,
-                        options.labels.opacity,
-                        drawable.data_spacing(),
-                    )
-                    .map_err(SceneError::Failed)?;
-                let renderer = drawable.renderer_options(&options);
-                layer
-                    .upload(drawable.gpu.borrow(), renderer, drawable.upload_level())
+                overlay
+                    .layer(&options.labels.hide, options.labels.opacity, spacing)
+                    .and_then(|layer| layer.upload(drawable.gpu.borrow(), renderer, level))
                     .map_err(SceneError::Failed)
             })
             .collect::<Result<_, _>>()?;
@@ -226,13 +231,13 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
         mut channels: Vec<Channel>,
         options: &DrawOptions,
     ) -> Result<Self, SceneError> {
-        let saved = options.transfer.saved()?;
         if channels.len() > 1 {
-            return Self::composite(gpu, channels, options, saved, None);
+            return Self::composite(|| Ok(gpu), channels, options, None);
         }
         let channel = channels
             .pop()
             .ok_or_else(|| SceneError::Invalid("no channel to draw".into()))?;
+        let saved = options.transfer.saved()?;
         let started = Instant::now();
         let request = options.transfer.request(saved.as_ref());
         let streams = options.renderer == Some(RendererKind::Stream)
@@ -333,11 +338,12 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
 
     /// The composite of `channels` (the dense renderer's), each channel's color and window as
     /// `options` ask; `alone` is the index in its file of a channel drawn alone in its color.
+    /// What was asked is checked (the renderer, the channels' colors and windows, the `tf`
+    /// file) before `gpu` is asked for the device.
     fn composite(
-        gpu: G,
+        gpu: impl FnOnce() -> Result<G, SceneError>,
         channels: Vec<Channel>,
         options: &DrawOptions,
-        saved: Option<SavedTransfer>,
         alone: Option<usize>,
     ) -> Result<Self, SceneError> {
         if let Some(renderer) = options.renderer
@@ -355,8 +361,11 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
                 channel,
             })
             .collect();
+        check_channels(&channels, options, alone)?;
+        let saved = options.transfer.saved()?;
         let states = channel_states(&channels, options, saved.as_ref(), alone)?;
         let spacing = channels[0].channel.volume.spacing;
+        let gpu = gpu()?;
         let renderer =
             VolumeRenderer::new_composite(gpu.borrow(), &layers(&channels, &states), spacing)
                 .map_err(|e| SceneError::render(&channels[0].channel.volume.name, e))?;
@@ -366,6 +375,7 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
                 channels,
                 renderer,
                 applied: states,
+                alone,
             },
             labels: Vec::new(),
             saved,
@@ -401,11 +411,7 @@ fn channel_states(
     alone: Option<usize>,
 ) -> Result<Vec<ChannelState>, SceneError> {
     let request = &options.channels;
-    let count = match alone {
-        Some(_) => channels[0].channel.volume.series.channel_count(),
-        None => channels.len(),
-    };
-    request.check(count).map_err(SceneError::Invalid)?;
+    check_channels(channels, options, alone)?;
     let transfer_request = options.transfer.request(saved);
     Ok(channels
         .iter()
@@ -421,6 +427,20 @@ fn channel_states(
             )
         })
         .collect())
+}
+
+/// No color or window asked for a channel the file does not have (`alone`: the file index of
+/// a single channel drawn alone, whose file's channels count).
+fn check_channels(
+    channels: &[CompositeChannel],
+    options: &DrawOptions,
+    alone: Option<usize>,
+) -> Result<(), SceneError> {
+    let count = match alone {
+        Some(_) => channels[0].channel.volume.series.channel_count(),
+        None => channels.len(),
+    };
+    options.channels.check(count).map_err(SceneError::Invalid)
 }
 
 /// The renderer's layers: each channel's levels under its state's transfer function and color.

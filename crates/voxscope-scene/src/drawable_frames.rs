@@ -155,14 +155,13 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
 
     /// Applies what `options` ask of the transfer function and channels, where it changed (a
     /// GPU recolor or a table write); `saved` is their `tf` file, read already, which the
-    /// settings follow from now on.
+    /// settings follow from now on (once applied without error).
     pub fn apply_transfer(
         &mut self,
         options: &DrawOptions,
         saved: Option<SavedTransfer>,
     ) -> Result<(), SceneError> {
-        self.saved = saved;
-        let request = options.transfer.request(self.saved.as_ref());
+        let request = options.transfer.request(saved.as_ref());
         let name = self.name();
         let context = self.gpu.borrow();
         match &mut self.drawn {
@@ -174,14 +173,15 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
             } => {
                 let transfer =
                     opening_transfer(&data.quantized, data.kind, data.default_window, &request);
-                write_transfer(context, renderer, applied, transfer, &name)
+                write_transfer(context, renderer, applied, transfer, &name)?;
             }
             Drawn::Composite {
                 channels,
                 renderer,
                 applied,
+                alone,
             } => {
-                let states = channel_states(channels, options, self.saved.as_ref(), None)?;
+                let states = channel_states(channels, options, saved.as_ref(), *alone)?;
                 if states != *applied
                     && let Some(volume) = renderer.composite()
                 {
@@ -189,7 +189,6 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
                     volume.set_shown_layers(context, &layers(channels, &states), &shown);
                     *applied = states;
                 }
-                Ok(())
             }
             Drawn::Stream {
                 streamed,
@@ -197,9 +196,12 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
                 applied,
             } => {
                 let transfer = streamed.transfer_for(&request);
-                write_transfer(context, renderer, applied, transfer, &name)
+                write_transfer(context, renderer, applied, transfer, &name)?;
             }
         }
+        // Only what was applied: a frame whose keywords failed leaves the last ones.
+        self.saved = saved;
+        Ok(())
     }
 
     /// Draws the composite's channels as `states` say (their colors, windows and transfer
@@ -211,6 +213,7 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
             channels,
             renderer,
             applied,
+            ..
         } = &mut self.drawn
         else {
             return;
@@ -308,8 +311,7 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
                 let part_size = [side.min(width - x), side.min(height - y)];
                 let target = RenderTarget::tile(self.context(), part_size, [x, y], [width, height]);
                 refinements.extend(self.draw_complete(&target, camera, settings, max_wait)?);
-                let part = read_image(self.context(), &target)
-                    .map_err(|e| SceneError::render(&self.name(), e))?;
+                let part = read_image(self.context(), &target).map_err(SceneError::Gpu)?;
                 image.copy_from(&part, x, y).map_err(|e| {
                     SceneError::failed(format!("{}: a tile does not fit: {e}", self.name()))
                 })?;

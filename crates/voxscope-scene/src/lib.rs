@@ -20,6 +20,7 @@ mod label_open;
 mod label_overlay;
 mod movie_path;
 mod opening;
+pub mod option_text;
 mod options;
 mod prefetch;
 mod prepare;

@@ -111,9 +111,13 @@ impl OpenOptions {
         }
     }
 
-    /// Reads the source (the channel and time point chosen), or the built-in sample.
+    /// Reads the source (the channel and time point chosen), or the built-in sample without
+    /// one (a source named `sample` is a file of that name, as the command line reads it).
     pub fn load(&self) -> Result<Volume, SceneError> {
-        self.volume_source().load_with(&self.load_options())
+        Ok(match &self.source {
+            Some(spec) => voxscope_volume::load(spec, &self.load_options())?,
+            None => voxscope_volume::sample()?,
+        })
     }
 
     /// Whether the channels are left to the file (no channel number chosen): a file of several
