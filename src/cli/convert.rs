@@ -6,12 +6,10 @@ use std::time::Instant;
 
 use clap::{Args, ValueEnum};
 
-use voxscope_scene::option_text::{parse_max_requests, parse_spacing};
-use voxscope_volume::ome_zarr::{
-    Compression, Downsampling, PyramidOptions, PyramidWriter, SlabSource, WriteOptions, ZarrVersion,
-};
-use voxscope_volume::remote::RemoteOptions;
-use voxscope_volume::{LoadOptions, RawLayout, ValueScale, format_dims};
+use voxscope_scene::ConvertOptions;
+use voxscope_scene::option_text::{parse_copies, parse_max_requests, parse_spacing};
+use voxscope_volume::ome_zarr::{Compression, SlabSource, ZarrVersion};
+use voxscope_volume::{RawLayout, format_dims};
 
 #[derive(Debug, Args)]
 pub struct ConvertArgs {
@@ -87,26 +85,44 @@ pub enum FormatArg {
     V05,
 }
 
+impl ConvertArgs {
+    /// These options as the scene layer converts with them.
+    pub fn options(&self) -> ConvertOptions {
+        ConvertOptions {
+            raw: self.raw,
+            spacing: self.spacing,
+            channel: self.channel,
+            time: self.time,
+            max_requests: self.max_requests,
+            version: match self.format {
+                FormatArg::V04 => ZarrVersion::V04,
+                FormatArg::V05 => ZarrVersion::V05,
+            },
+            chunk: self.chunk,
+            shard: self.shard,
+            compression: self.compression,
+            labels: self.labels,
+            unit: self.unit.clone(),
+            tile: self.tile,
+            upsample: self.upsample,
+            noise: self.noise,
+        }
+    }
+}
+
 pub fn run(args: &ConvertArgs) -> Result<(), String> {
     let spec = args.input.as_str();
     if Path::new(spec) == Path::new(&args.output) {
         return Err(format!("{}: the output is the input", args.output));
     }
     let started = Instant::now();
-    let load_options = LoadOptions {
-        raw: args.raw,
-        spacing: args.spacing,
-        select: PyramidOptions {
-            channel: args.channel,
-            time: args.time,
-        },
-        remote: RemoteOptions {
-            max_requests: args.max_requests,
-            ..Default::default()
-        },
-    };
-    let source = SlabSource::open(spec, &load_options).map_err(|e| e.to_string())?;
-    let levels = write(source, args, |message| eprint!("{message}"))?;
+    let options = args.options();
+    let source = SlabSource::open(spec, &options.load_options()).map_err(|e| e.to_string())?;
+    let levels =
+        voxscope_scene::convert(source, spec, Path::new(&args.output), &options, |message| {
+            eprint!("{message}")
+        })
+        .map_err(|e| e.to_string())?;
     let shown: Vec<String> = levels.iter().map(|d| format_dims(*d)).collect();
     println!(
         "wrote {} ({} levels: {}) in {:.2} s",
@@ -116,113 +132,4 @@ pub fn run(args: &ConvertArgs) -> Result<(), String> {
         started.elapsed().as_secs_f64()
     );
     Ok(())
-}
-
-/// Writes `source` (a file opened for reading in slabs, or a volume in memory: the Python
-/// module's arrays) as the OME-Zarr image `args` describe (`args.input` names it), saying
-/// what it does and how far it is through `report`; returns the levels' dimensions.
-pub fn write(
-    mut source: SlabSource,
-    args: &ConvertArgs,
-    mut report: impl FnMut(&str),
-) -> Result<Vec<[usize; 3]>, String> {
-    let spec = args.input.as_str();
-    let output = Path::new(&args.output);
-    if let Some(copies) = args.tile {
-        source = source.tiled(copies).map_err(|e| e.to_string())?;
-    }
-    if let Some(factor) = args.upsample {
-        source = source
-            .upsampled(factor, args.noise)
-            .map_err(|e| e.to_string())?;
-    }
-    let options = WriteOptions {
-        version: match args.format {
-            FormatArg::V04 => ZarrVersion::V04,
-            FormatArg::V05 => ZarrVersion::V05,
-        },
-        chunk: args.chunk,
-        shard_chunks: args.shard,
-        compression: args.compression,
-        downsampling: if args.labels {
-            Downsampling::Max
-        } else {
-            Downsampling::Mean
-        },
-        name: Path::new(spec)
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_else(|| spec.to_owned()),
-        unit: args.unit.clone().or_else(|| source.unit.clone()),
-    };
-    let mut writer = PyramidWriter::create(
-        output,
-        source.dims,
-        source.voxel_type,
-        source.spacing,
-        &options,
-    )
-    .map_err(|p| format!("{}: {p}", args.output))?;
-    report(&format!(
-        "converting {} ({} {}, {}) to OME-Zarr {} in {}³ chunks\n",
-        source.name,
-        format_dims(source.dims),
-        source.voxel_type.name(),
-        if source.streams() {
-            "read in slabs"
-        } else {
-            "loaded whole"
-        },
-        match args.format {
-            FormatArg::V04 => "0.4",
-            FormatArg::V05 => "0.5",
-        },
-        args.chunk
-    ));
-    // Values stored with a scale (NIfTI scl_slope/scl_inter, DICOM rescale) are written in
-    // the data's units: an OME-Zarr image has no such scale, and every reader would take the
-    // stored integers for the values.
-    if source.value_scale != ValueScale::IDENTITY {
-        report(&format!(
-            "values in the data's units: stored {} × {} + {} written as {}\n",
-            source.stored_type.name(),
-            source.value_scale.slope,
-            source.value_scale.intercept,
-            source.voxel_type.name()
-        ));
-    }
-    let depth = source.dims[2];
-    let slab = writer.slab_depth();
-    let mut z = 0;
-    while z < depth {
-        let count = slab.min(depth - z);
-        let data = source.read(z, count).map_err(|e| e.to_string())?;
-        writer
-            .push(&data)
-            .map_err(|p| format!("{}: {p}", args.output))?;
-        z += count;
-        report(&format!(
-            "\rconverting: {:3.0} %",
-            100.0 * z as f64 / depth as f64
-        ));
-    }
-    let levels = writer
-        .finish()
-        .map_err(|p| format!("{}: {p}", args.output))?;
-    report("\rconverting: done \n");
-    Ok(levels)
-}
-
-/// `--tile N` or `--tile X,Y,Z`.
-fn parse_copies(text: &str) -> Result<[usize; 3], String> {
-    let numbers: Vec<usize> = text
-        .split(',')
-        .map(|n| n.trim().parse::<usize>())
-        .collect::<Result<_, _>>()
-        .map_err(|_| format!("'{text}' is not N or X,Y,Z"))?;
-    match numbers[..] {
-        [n] => Ok([n; 3]),
-        [x, y, z] => Ok([x, y, z]),
-        _ => Err(format!("'{text}' is not N or X,Y,Z")),
-    }
 }

@@ -25,7 +25,7 @@ use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
 pub use args::{ChannelChoice, ClipArgs, RendererArg, TransferArgs, VolumeArgs, scene_error_text};
 pub use composite::ChannelArgs;
-pub use convert::{ConvertArgs, write as write_ome_zarr};
+pub use convert::ConvertArgs;
 pub use labels::LabelArgs;
 pub use prepare::Prepared;
 pub use render_options::RenderOptions;

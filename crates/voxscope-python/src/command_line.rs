@@ -13,8 +13,22 @@ use crate::errors::VoxscopeError;
 /// whose image is incomplete: bricks could not be read). A failure raises VoxscopeError with
 /// the command line's one-line message; `--help`, `--version` and usage errors print and exit
 /// the process.
+#[cfg(feature = "app")]
 #[pyfunction]
 pub fn run_command_line(py: Python<'_>, argv: Vec<String>) -> PyResult<u8> {
     py.detach(|| voxscope::cli::run_from(argv))
         .map_err(VoxscopeError::new_err)
+}
+
+/// run_command_line(argv: list[str]) -> int
+///
+/// This build of the module has no command line or app (built without the `app` feature,
+/// which `pip install .` turns on): raises VoxscopeError saying so.
+#[cfg(not(feature = "app"))]
+#[pyfunction]
+pub fn run_command_line(argv: Vec<String>) -> PyResult<u8> {
+    let _ = argv;
+    Err(VoxscopeError::new_err(
+        "this build of the voxscope module has no command line or app: build it with the `app` feature (as `pip install .` does)",
+    ))
 }

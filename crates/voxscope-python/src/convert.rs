@@ -5,9 +5,10 @@
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use voxscope::cli::write_ome_zarr;
+use std::path::Path;
+
+use voxscope_volume::Volume;
 use voxscope_volume::ome_zarr::SlabSource;
-use voxscope_volume::{LoadOptions, Volume};
 
 use crate::arrays::{spacing_of, supported_array};
 use crate::errors::LoadError;
@@ -47,9 +48,12 @@ pub fn convert(
             }
         }
         let given = Given::read(Some(&options), CONVERT, "convert")?;
-        let args = given.convert_args(&name, &output)?;
+        let options = given.convert_options()?;
         let volume = array_volume(source, &name, spacing)?;
-        py.detach(|| write_ome_zarr(SlabSource::from_volume(volume), &args, |_| {}))
+        py.detach(|| {
+            let source = SlabSource::from_volume(volume);
+            voxscope_scene::convert(source, &name, Path::new(&output), &options, |_| {})
+        })
     } else {
         let given = Given::read(options, CONVERT, "convert")?;
         // A Volume converts as it was opened (its `raw`, `spacing`, channel and time).
@@ -57,30 +61,18 @@ pub fn convert(
             Ok(volume) => (volume.get().spec.clone(), volume.get().given.with(&given)),
             Err(_) => (spec_of(source)?, given),
         };
-        let args = given.convert_args(&spec, &output)?;
-        if std::path::Path::new(&spec) == std::path::Path::new(&output) {
+        let options = given.convert_options()?;
+        if Path::new(&spec) == Path::new(&output) {
             return Err(PyValueError::new_err(format!(
                 "{output}: the output is the input"
             )));
         }
         py.detach(|| {
-            let load = LoadOptions {
-                raw: args.raw,
-                spacing: args.spacing,
-                select: voxscope_volume::Selection {
-                    channel: args.channel,
-                    time: args.time,
-                },
-                remote: voxscope_volume::remote::RemoteOptions {
-                    max_requests: args.max_requests,
-                    ..Default::default()
-                },
-            };
-            let source = SlabSource::open(&spec, &load).map_err(|e| e.to_string())?;
-            write_ome_zarr(source, &args, |_| {})
+            let source = SlabSource::open(&spec, &options.load_options())?;
+            voxscope_scene::convert(source, &spec, Path::new(&output), &options, |_| {})
         })
     };
-    let levels = levels.map_err(LoadError::new_err)?;
+    let levels = levels.map_err(|e| LoadError::new_err(e.to_string()))?;
     Ok(levels.into_iter().map(|[x, y, z]| (z, y, x)).collect())
 }
 

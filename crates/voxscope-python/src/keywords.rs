@@ -2,20 +2,17 @@
 //! option of the same name (`opacity_points=` is `--opacity-points`), written as the option's
 //! text and read by the parser that option uses (`voxscope_scene::option_text`) into the
 //! scene layer's [`DrawOptions`] and [`OpenOptions`], the model the command line maps into
-//! too. So a keyword means what its option means, takes its defaults and its checks, and a bad
-//! value raises a ValueError naming the keyword. `convert()`'s keywords are parsed by the
-//! command line's [`ConvertArgs`].
+//! too (`convert()`'s into [`ConvertOptions`]). So a keyword means what its option means,
+//! takes its defaults and its checks, and a bad value raises the option's one-line message.
 //!
 //! Values: a string is the option's text as typed on the command line (in its x, y, z
 //! order); numbers, booleans, tuples and lists are written for it, tuples of axes in numpy's
 //! (z, y, x) order (`spacing`, `clip_box`, `clip_plane`), as the arrays are.
 
-use clap::{Args, Parser};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyString};
-use voxscope::cli::ConvertArgs;
-use voxscope_scene::{ChannelChoice, DrawOptions, OpenOptions};
+use voxscope_scene::{ChannelChoice, ConvertOptions, DrawOptions, OpenOptions};
 
 /// How a keyword's Python value becomes command-line words.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -146,20 +143,20 @@ pub const OPEN: &[Keyword] = &[
 
 /// `convert()`'s keywords: `convert`'s options but the input and output.
 pub const CONVERT: &[Keyword] = &[
-    keyword("raw", Form::Value),
-    keyword("spacing", Form::Spacing),
-    keyword("channel", Form::Value),
-    keyword("time", Form::Value),
-    keyword("max_requests", Form::Value),
-    keyword("format", Form::Value),
-    keyword("chunk", Form::Value),
-    keyword("shard", Form::Value),
-    keyword("compression", Form::Value),
+    valued("raw", Form::Value, "LAYOUT"),
+    valued("spacing", Form::Spacing, "SX,SY,SZ"),
+    valued("channel", Form::Value, "CHANNEL"),
+    valued("time", Form::Value, "TIME"),
+    valued("max_requests", Form::Value, "N"),
+    valued("format", Form::Value, "FORMAT"),
+    valued("chunk", Form::Value, "CHUNK"),
+    valued("shard", Form::Value, "SHARD"),
+    valued("compression", Form::Value, "COMPRESSION"),
     keyword("labels", Form::Flag),
-    keyword("unit", Form::Value),
-    keyword("tile", Form::Triple),
-    keyword("upsample", Form::Triple),
-    keyword("noise", Form::Value),
+    valued("unit", Form::Value, "UNIT"),
+    valued("tile", Form::Triple, "N|X,Y,Z"),
+    valued("upsample", Form::Triple, "N|X,Y,Z"),
+    valued("noise", Form::Value, "NOISE"),
 ];
 
 /// Keywords given to a call, each already written as its command-line words, in the order
@@ -305,11 +302,33 @@ impl Given {
         Ok(options)
     }
 
-    /// `convert`'s options for `input` to `output` with these keywords.
-    pub fn convert_args(&self, input: &str, output: &str) -> PyResult<ConvertArgs> {
-        let mut argv = vec![input.to_owned(), output.to_owned()];
-        argv.extend(self.argv());
-        parse(argv)
+    /// `convert`'s options with these keywords (`convert()`'s).
+    pub fn convert_options(&self) -> PyResult<ConvertOptions> {
+        let given = |name| self.words.iter().any(|(n, _)| *n == name);
+        for other in ["tile", "labels"] {
+            if given("upsample") && given(other) {
+                return Err(PyValueError::new_err(format!(
+                    "the argument '{}' cannot be used with '{}'",
+                    shown(CONVERT, "upsample"),
+                    shown(CONVERT, other)
+                )));
+            }
+        }
+        if given("noise") && !given("upsample") {
+            return Err(PyValueError::new_err(format!(
+                "noise= needs upsample= (the argument '{}' requires '{}')",
+                shown(CONVERT, "noise"),
+                shown(CONVERT, "upsample")
+            )));
+        }
+        let mut options = ConvertOptions::default();
+        for (name, words) in &self.words {
+            for word in words {
+                set_convert_option(&mut options, name, word)
+                    .map_err(|e| PyValueError::new_err(e.message(CONVERT, name)))?;
+            }
+        }
+        Ok(options)
     }
 }
 
@@ -488,26 +507,47 @@ fn set_open_option(options: &mut OpenOptions, name: &str, word: &str) -> Result<
     Ok(())
 }
 
-/// One of the command line's option groups as a parser of its own.
-#[derive(Debug, Parser)]
-#[command(name = "voxscope", no_binary_name = true, disable_help_flag = true)]
-struct Group<T: Args> {
-    #[command(flatten)]
-    inner: T,
-}
-
-/// The group `T` of `argv`; an error is the command line's first line, as a ValueError.
-fn parse<T: Args>(argv: Vec<String>) -> PyResult<T> {
-    Group::<T>::try_parse_from(argv)
-        .map(|group| group.inner)
-        .map_err(|e| PyValueError::new_err(clap_message(&e)))
-}
-
-/// The first line of clap's error without its `error: ` (what the command line prints).
-pub fn clap_message(error: &clap::Error) -> String {
-    let text = error.render().to_string();
-    let first = text.lines().find(|l| !l.trim().is_empty()).unwrap_or("");
-    first.trim_start_matches("error: ").trim().to_owned()
+/// Sets `convert()`'s keyword `name`'s `word` into `options`.
+fn set_convert_option(options: &mut ConvertOptions, name: &str, word: &str) -> Result<(), Refused> {
+    use voxscope_scene::option_text as parse;
+    use voxscope_volume::ome_zarr::{Compression, ZarrVersion};
+    let t = match word_value(word) {
+        WordValue::Text(text) => text,
+        WordValue::Flag(on) if name == "labels" => {
+            options.labels = on;
+            return Ok(());
+        }
+        WordValue::Flag(_) => return Err(Refused::Line(format!("{name}= takes a value"))),
+    };
+    let value = Refused::value(t);
+    match name {
+        "raw" => options.raw = Some(voxscope_volume::RawLayout::parse(t).map_err(value)?),
+        "spacing" => options.spacing = Some(parse::parse_spacing(t).map_err(value)?),
+        "channel" => options.channel = number(t)?,
+        "time" => options.time = number(t)?,
+        "max_requests" => options.max_requests = parse::parse_max_requests(t).map_err(value)?,
+        "format" => {
+            options.version = match t {
+                "0.4" => ZarrVersion::V04,
+                "0.5" => ZarrVersion::V05,
+                _ => {
+                    return Err(Refused::Value {
+                        text: t.to_owned(),
+                        why: None,
+                    });
+                }
+            }
+        }
+        "chunk" => options.chunk = number(t)?,
+        "shard" => options.shard = number(t)?,
+        "compression" => options.compression = Compression::parse(t).map_err(value)?,
+        "unit" => options.unit = Some(t.to_owned()),
+        "tile" => options.tile = Some(parse::parse_copies(t).map_err(value)?),
+        "upsample" => options.upsample = Some(parse::parse_copies(t).map_err(value)?),
+        "noise" => options.noise = number(t)?,
+        _ => return Err(Refused::Line(format!("{name}= is not a convert() keyword"))),
+    }
+    Ok(())
 }
 
 /// The words of `keyword` = `value`.

@@ -12,6 +12,7 @@
 //! nothing here knows of egui.
 
 mod channels;
+mod convert;
 mod data;
 mod drawable;
 mod error;
@@ -31,6 +32,7 @@ mod streaming;
 mod view;
 
 pub use channels::{ChannelRequest, ChannelState, CompositeScene};
+pub use convert::{ConvertOptions, convert};
 pub use data::{HISTOGRAM_BINS, VolumeData};
 pub use drawable::{Channel, Drawable, Outcome};
 pub use error::SceneError;

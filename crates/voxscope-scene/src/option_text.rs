@@ -162,6 +162,20 @@ pub fn parse_opacity(text: &str) -> Result<f32, String> {
     }
 }
 
+/// `N` or `X,Y,Z` copies or factors (`--tile`, `--upsample`).
+pub fn parse_copies(text: &str) -> Result<[usize; 3], String> {
+    let numbers: Vec<usize> = text
+        .split(',')
+        .map(|n| n.trim().parse::<usize>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("'{text}' is not N or X,Y,Z"))?;
+    match numbers[..] {
+        [n] => Ok([n; 3]),
+        [x, y, z] => Ok([x, y, z]),
+        _ => Err(format!("'{text}' is not N or X,Y,Z")),
+    }
+}
+
 /// One of `names` (each with its value), case-insensitive; else a line naming `what` and
 /// the choices.
 fn one_of<T: Copy>(what: &str, text: &str, names: &[(&str, T)]) -> Result<T, String> {

@@ -1,0 +1,170 @@
+//! Any readable volume to a multiscale OME-Zarr image ([`convert`]), its values in the data's
+//! units (a stored value scale applied: [`SlabSource::value_scale`]), as [`ConvertOptions`]
+//! say: the command line's `convert` and the Python module's `convert()` both map into them.
+
+use std::path::Path;
+
+use voxscope_volume::ome_zarr::{
+    Compression, Downsampling, PyramidWriter, SlabSource, WriteOptions, ZarrVersion,
+};
+use voxscope_volume::remote::RemoteOptions;
+use voxscope_volume::{LoadOptions, RawLayout, Selection, ValueScale, format_dims};
+
+use crate::SceneError;
+
+/// How to read the input and write the OME-Zarr image.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ConvertOptions {
+    /// Read the input as headerless voxels of this layout (in slabs, never whole).
+    pub raw: Option<RawLayout>,
+    /// The voxel size, instead of the input's.
+    pub spacing: Option<[f64; 3]>,
+    /// The channel and time point of a multi-channel or time-lapse input.
+    pub channel: usize,
+    pub time: usize,
+    /// A URL input: requests in flight at once, at most.
+    pub max_requests: usize,
+    /// OME-Zarr 0.4 (Zarr v2, a file per chunk) or 0.5 (Zarr v3, sharded).
+    pub version: ZarrVersion,
+    /// Chunk side in voxels, and chunks per shard side (0.5).
+    pub chunk: usize,
+    pub shard: usize,
+    pub compression: Compression,
+    /// Label data: coarser levels take the maximum of each 2×2×2 block, not the mean.
+    pub labels: bool,
+    /// The spacing's unit in the metadata (default: the input's, if it says).
+    pub unit: Option<String>,
+    /// Repeat the input this many times along x, y and z.
+    pub tile: Option<[usize; 3]>,
+    /// Interpolate the input onto a grid this many times finer along x, y and z, each voxel
+    /// shifted by a uniform value in ±`noise`.
+    pub upsample: Option<[usize; 3]>,
+    pub noise: f64,
+}
+
+impl Default for ConvertOptions {
+    fn default() -> Self {
+        Self {
+            raw: None,
+            spacing: None,
+            channel: 0,
+            time: 0,
+            max_requests: voxscope_volume::remote::DEFAULT_MAX_REQUESTS,
+            version: ZarrVersion::V04,
+            chunk: 64,
+            shard: 2,
+            compression: Compression::BloscLz4,
+            labels: false,
+            unit: None,
+            tile: None,
+            upsample: None,
+            noise: 0.0,
+        }
+    }
+}
+
+impl ConvertOptions {
+    /// How the input is read.
+    pub fn load_options(&self) -> LoadOptions {
+        LoadOptions {
+            raw: self.raw,
+            spacing: self.spacing,
+            select: Selection {
+                channel: self.channel,
+                time: self.time,
+            },
+            remote: RemoteOptions {
+                max_requests: self.max_requests,
+                ..Default::default()
+            },
+        }
+    }
+}
+
+/// Writes `source` (a file opened for reading in slabs, or a volume in memory: the Python
+/// module's arrays), which `spec` names, as the OME-Zarr image `options` describe at
+/// `output`, saying what it does and how far it is through `report`; returns the levels'
+/// dimensions.
+pub fn convert(
+    mut source: SlabSource,
+    spec: &str,
+    output: &Path,
+    args: &ConvertOptions,
+    mut report: impl FnMut(&str),
+) -> Result<Vec<[usize; 3]>, SceneError> {
+    let written = |p| SceneError::Failed(format!("{}: {p}", output.display()));
+    if let Some(copies) = args.tile {
+        source = source.tiled(copies)?;
+    }
+    if let Some(factor) = args.upsample {
+        source = source.upsampled(factor, args.noise)?;
+    }
+    let options = WriteOptions {
+        version: args.version,
+        chunk: args.chunk,
+        shard_chunks: args.shard,
+        compression: args.compression,
+        downsampling: if args.labels {
+            Downsampling::Max
+        } else {
+            Downsampling::Mean
+        },
+        name: Path::new(spec)
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|| spec.to_owned()),
+        unit: args.unit.clone().or_else(|| source.unit.clone()),
+    };
+    let mut writer = PyramidWriter::create(
+        output,
+        source.dims,
+        source.voxel_type,
+        source.spacing,
+        &options,
+    )
+    .map_err(written)?;
+    report(&format!(
+        "converting {} ({} {}, {}) to OME-Zarr {} in {}³ chunks\n",
+        source.name,
+        format_dims(source.dims),
+        source.voxel_type.name(),
+        if source.streams() {
+            "read in slabs"
+        } else {
+            "loaded whole"
+        },
+        match args.version {
+            ZarrVersion::V04 => "0.4",
+            ZarrVersion::V05 => "0.5",
+        },
+        args.chunk
+    ));
+    // Values stored with a scale (NIfTI scl_slope/scl_inter, DICOM rescale) are written in
+    // the data's units: an OME-Zarr image has no such scale, and every reader would take the
+    // stored integers for the values.
+    if source.value_scale != ValueScale::IDENTITY {
+        report(&format!(
+            "values in the data's units: stored {} × {} + {} written as {}\n",
+            source.stored_type.name(),
+            source.value_scale.slope,
+            source.value_scale.intercept,
+            source.voxel_type.name()
+        ));
+    }
+    let depth = source.dims[2];
+    let slab = writer.slab_depth();
+    let mut z = 0;
+    while z < depth {
+        let count = slab.min(depth - z);
+        let data = source.read(z, count)?;
+        writer.push(&data).map_err(written)?;
+        z += count;
+        report(&format!(
+            "\rconverting: {:3.0} %",
+            100.0 * z as f64 / depth as f64
+        ));
+    }
+    let levels = writer.finish().map_err(written)?;
+    report("\rconverting: done \n");
+    Ok(levels)
+}
