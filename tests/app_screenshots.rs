@@ -50,6 +50,51 @@ fn save(
         .to_rgba8()
 }
 
+/// `scaled`, a 2× screenshot of `harness`'s view, is `render --view` of that view at its size
+/// but for the axes gizmo in its corner (`name` names the scratch files).
+fn assert_is_render_of_the_view(
+    harness: &Harness<'static, VoxscopeApp>,
+    scaled: &image::RgbaImage,
+    name: &str,
+) {
+    let (width, height) = scaled.dimensions();
+    let view = scratch(&format!("{name}.ron"));
+    SavedView {
+        size: [width, height],
+        ..harness.state().saved_view().expect("a view")
+    }
+    .write(&view)
+    .expect("write the view");
+    let still_path = scratch(&format!("{name}-still.png"));
+    let output = Process::new(env!("CARGO_BIN_EXE_voxscope"))
+        .args(["render", "--view"])
+        .arg(&view)
+        .arg("-o")
+        .arg(&still_path)
+        .output()
+        .expect("the binary runs");
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let still = image::open(&still_path).expect("a still").to_rgba8();
+    // The gizmo at 2×: its backdrop's reach and labels lie within 2 × 110 points of the
+    // bottom-left corner.
+    let gizmo = |x: u32, y: u32| x < 220 && y + 220 > height;
+    let mut in_gizmo = 0;
+    for (x, y, pixel) in scaled.enumerate_pixels() {
+        if pixel != still.get_pixel(x, y) {
+            assert!(gizmo(x, y), "({x}, {y}) differs outside the gizmo");
+            in_gizmo += 1;
+        }
+    }
+    assert!(
+        in_gizmo > 1000,
+        "the gizmo is drawn at 2× ({in_gizmo} pixels)"
+    );
+}
+
 fn ruler_pixels(image: &image::RgbaImage) -> usize {
     image.pixels().filter(|p| **p == RULER).count()
 }
@@ -69,42 +114,7 @@ fn a_screenshot_at_2x_is_the_view_drawn_at_twice_its_pixels_with_rulers_and_gizm
     assert_eq!(scaled.dimensions(), (2 * width, 2 * height));
     assert!(lit_pixels(&scaled) > 2000, "the volume is drawn");
 
-    // `render --view` of the same view at that size: the same picture but for the gizmo.
-    let view = scratch("shot-2x.ron");
-    SavedView {
-        size: [2 * width, 2 * height],
-        ..harness.state().saved_view().expect("a view")
-    }
-    .write(&view)
-    .expect("write the view");
-    let still_path = scratch("shot-2x-still.png");
-    let output = Process::new(env!("CARGO_BIN_EXE_voxscope"))
-        .args(["render", "--view"])
-        .arg(&view)
-        .arg("-o")
-        .arg(&still_path)
-        .output()
-        .expect("the binary runs");
-    assert!(
-        output.status.success(),
-        "{}",
-        String::from_utf8_lossy(&output.stderr)
-    );
-    let still = image::open(&still_path).expect("a still").to_rgba8();
-    // The gizmo at 2×: its backdrop's reach and labels lie within 2 × 110 points of the
-    // bottom-left corner.
-    let gizmo = |x: u32, y: u32| x < 220 && y + 220 > 2 * height;
-    let mut in_gizmo = 0;
-    for (x, y, pixel) in scaled.enumerate_pixels() {
-        if pixel != still.get_pixel(x, y) {
-            assert!(gizmo(x, y), "({x}, {y}) differs outside the gizmo");
-            in_gizmo += 1;
-        }
-    }
-    assert!(
-        in_gizmo > 1000,
-        "the gizmo is drawn at 2× ({in_gizmo} pixels)"
-    );
+    assert_is_render_of_the_view(&harness, &scaled, "shot-2x");
 
     // Drawn in tiles of 64 pixels: the same image.
     harness.state_mut().screenshot_tile = Some(64);
@@ -145,4 +155,50 @@ fn a_screenshot_at_2x_is_the_view_drawn_at_twice_its_pixels_with_rulers_and_gizm
         (3.0..=5.5).contains(&ratio),
         "the ruler at 2× covers {ratio:.2} times its pixels at 1×"
     );
+}
+
+/// The composite of a file's channels, saved at 2× (drawn by the offscreen device's own
+/// composite renderer, whole and in tiles), is what `render --view` draws of its view.
+#[test]
+fn a_composite_screenshot_at_2x_is_what_render_draws_of_its_view() {
+    let file = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/data/channels/two-channels.ome.tif"
+    );
+    let mut harness = harness_with(
+        Some(VolumeSource::Spec(file.to_owned())),
+        egui::vec2(400.0, 300.0),
+    );
+    let ctx = harness.ctx.clone();
+    for panel in [Panel::Transfer, Panel::Octree] {
+        harness
+            .state_mut()
+            .run_command(Command::TogglePanel(panel), &ctx);
+    }
+    settle(&mut harness);
+    assert_eq!(harness.state().error(), None);
+    let view = harness.state().saved_view().expect("a view");
+    assert_eq!(view.channels.len(), 2, "the composite of both channels");
+    let [width, height] = harness.state().pane_sizes()[0];
+    let scaled = save(
+        &mut harness,
+        Command::SaveScaledScreenshot {
+            path: scratch("composite-2x.png"),
+            scale: 2,
+        },
+        "composite-2x.png",
+    );
+    assert_eq!(scaled.dimensions(), (2 * width, 2 * height));
+    assert!(lit_pixels(&scaled) > 2000, "the channels are drawn");
+    assert_is_render_of_the_view(&harness, &scaled, "composite-2x");
+    harness.state_mut().screenshot_tile = Some(64);
+    let tiled = save(
+        &mut harness,
+        Command::SaveScaledScreenshot {
+            path: scratch("composite-2x-tiled.png"),
+            scale: 2,
+        },
+        "composite-2x-tiled.png",
+    );
+    assert!(tiled == scaled, "tiles make the image one target makes");
 }

@@ -186,6 +186,11 @@ impl CompositeScene {
         self.generation
     }
 
+    /// Its channels' data, renderer and the states its tables follow, apart.
+    pub fn into_parts(self) -> (Vec<Arc<VolumeData>>, VolumeRenderer, Vec<ChannelState>) {
+        (self.channels, self.renderer, self.applied)
+    }
+
     /// The channel states the GPU tables follow now.
     pub fn applied(&self) -> &[ChannelState] {
         &self.applied

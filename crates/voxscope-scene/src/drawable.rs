@@ -9,6 +9,7 @@
 //! notices and errors.
 
 use std::borrow::Borrow;
+use std::sync::Arc;
 use std::time::Instant;
 
 use voxscope_octree::{self as octree, DataKind, MAX_DEPTH, TransferFunction};
@@ -17,9 +18,9 @@ use voxscope_volume::{QuantizedVolume, Volume, format_dims};
 
 use crate::label_open::{open_overlays, open_streamed_overlays};
 use crate::{
-    ChannelChoice, ChannelState, DrawOptions, OpenOptions, OpenedStream, Progress, SavedTransfer,
-    SceneError, StreamedVolume, UploadedLabels, VolumeData, VolumeSource, beyond_octree,
-    opening_transfer, renderer_for_octree,
+    ChannelChoice, ChannelState, CompositeScene, DrawOptions, OpenOptions, OpenedStream, Progress,
+    SavedTransfer, Scene, SceneError, StreamedVolume, UploadedLabels, VolumeData, VolumeSource,
+    beyond_octree, opening_transfer, renderer_for_octree,
 };
 
 /// One channel ready to draw: its values, quantized, and the volume that describes them (its
@@ -57,17 +58,38 @@ impl Channel {
     }
 }
 
-/// A composite's channel: its values and kind.
+/// A composite's channel: its values (its own, or the app's data on screen) and kind.
 struct CompositeChannel {
-    channel: Channel,
+    values: ChannelValues,
     kind: DataKind,
+}
+
+enum ChannelValues {
+    Own(Box<Channel>),
+    Shared(Arc<VolumeData>),
+}
+
+impl CompositeChannel {
+    fn volume(&self) -> &Volume {
+        match &self.values {
+            ChannelValues::Own(channel) => &channel.volume,
+            ChannelValues::Shared(data) => &data.volume,
+        }
+    }
+
+    fn quantized(&self) -> &QuantizedVolume {
+        match &self.values {
+            ChannelValues::Own(channel) => &channel.quantized,
+            ChannelValues::Shared(data) => &data.quantized,
+        }
+    }
 }
 
 /// What is on the GPU.
 enum Drawn {
     /// One volume in memory.
     Volume {
-        data: VolumeData,
+        data: Arc<VolumeData>,
         renderer: VolumeRenderer,
         applied: TransferFunction,
         /// The octree's nodes are uploaded through this level (deeper frames draw it).
@@ -83,7 +105,7 @@ enum Drawn {
     },
     /// A pyramid streamed into the GPU budget.
     Stream {
-        streamed: StreamedVolume,
+        streamed: Box<StreamedVolume>,
         renderer: VolumeRenderer,
         applied: TransferFunction,
     },
@@ -276,11 +298,53 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
             gpu,
             drawn: Drawn::Stream {
                 applied: volume.transfer,
-                streamed: volume,
+                streamed: Box::new(volume),
                 renderer,
             },
             labels: Vec::new(),
             saved,
+            notices: Vec::new(),
+        }
+    }
+
+    /// What the app shows (its [`Scene`], uploaded for a renderer of this drawable's own):
+    /// drawn with the transfer function it was uploaded with until told another.
+    pub fn of_scene(gpu: G, scene: Scene) -> Self {
+        let upload_level = scene.data.octree.depth;
+        Self {
+            gpu,
+            drawn: Drawn::Volume {
+                data: scene.data,
+                renderer: scene.renderer,
+                applied: scene.applied_transfer,
+                upload_level,
+            },
+            labels: Vec::new(),
+            saved: None,
+            notices: Vec::new(),
+        }
+    }
+
+    /// The app's composite ([`CompositeScene`]) of its channels on screen.
+    pub fn of_composite(gpu: G, composite: CompositeScene) -> Self {
+        let (channels, renderer, applied) = composite.into_parts();
+        let channels = channels
+            .into_iter()
+            .map(|data| CompositeChannel {
+                kind: data.kind,
+                values: ChannelValues::Shared(data),
+            })
+            .collect();
+        Self {
+            gpu,
+            drawn: Drawn::Composite {
+                channels,
+                renderer,
+                applied,
+                alone: None,
+            },
+            labels: Vec::new(),
+            saved: None,
             notices: Vec::new(),
         }
     }
@@ -325,7 +389,7 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
         Ok(Self {
             gpu,
             drawn: Drawn::Volume {
-                data,
+                data: Arc::new(data),
                 renderer,
                 applied: transfer,
                 upload_level: settings.max_level,
@@ -358,17 +422,17 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
             .into_iter()
             .map(|channel| CompositeChannel {
                 kind: DataKind::of_volume(&channel.volume, &channel.quantized),
-                channel,
+                values: ChannelValues::Own(Box::new(channel)),
             })
             .collect();
         check_channels(&channels, options, alone)?;
         let saved = options.transfer.saved()?;
         let states = channel_states(&channels, options, saved.as_ref(), alone)?;
-        let spacing = channels[0].channel.volume.spacing;
+        let spacing = channels[0].volume().spacing;
         let gpu = gpu()?;
         let renderer =
             VolumeRenderer::new_composite(gpu.borrow(), &layers(&channels, &states), spacing)
-                .map_err(|e| SceneError::render(&channels[0].channel.volume.name, e))?;
+                .map_err(|e| SceneError::render(&channels[0].volume().name, e))?;
         Ok(Self {
             gpu,
             drawn: Drawn::Composite {
@@ -418,8 +482,8 @@ fn channel_states(
         .enumerate()
         .map(|(position, c)| {
             ChannelState::opening_of(
-                &c.channel.volume,
-                &c.channel.quantized,
+                c.volume(),
+                c.quantized(),
                 c.kind,
                 alone.unwrap_or(position),
                 &transfer_request,
@@ -437,7 +501,7 @@ fn check_channels(
     alone: Option<usize>,
 ) -> Result<(), SceneError> {
     let count = match alone {
-        Some(_) => channels[0].channel.volume.series.channel_count(),
+        Some(_) => channels[0].volume().series.channel_count(),
         None => channels.len(),
     };
     options.channels.check(count).map_err(SceneError::Invalid)
@@ -452,7 +516,7 @@ fn layers<'a>(
         .iter()
         .zip(states)
         .map(|(c, state)| ChannelLayer {
-            quantized: &c.channel.quantized,
+            quantized: c.quantized(),
             transfer: &state.transfer,
             color: state.color.map(|v| v as f32 / 255.0),
         })

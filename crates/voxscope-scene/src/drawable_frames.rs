@@ -54,7 +54,7 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
     pub fn name(&self) -> String {
         match &self.drawn {
             Drawn::Volume { data, .. } => data.volume.name.clone(),
-            Drawn::Composite { channels, .. } => channels[0].channel.volume.name.clone(),
+            Drawn::Composite { channels, .. } => channels[0].volume().name.clone(),
             Drawn::Stream { streamed, .. } => streamed.source.name().to_owned(),
         }
     }
@@ -70,7 +70,7 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
 
     /// Whether a pyramid is streamed into the GPU budget.
     pub fn is_streamed(&self) -> bool {
-        matches!(self.drawn, Drawn::Stream { .. })
+        self.renderer().kind() == RendererKind::Stream
     }
 
     /// The composite's channels as they are drawn; `None` for one volume.
@@ -118,7 +118,7 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
     pub(super) fn data_spacing(&self) -> [f64; 3] {
         match &self.drawn {
             Drawn::Volume { data, .. } => data.volume.spacing,
-            Drawn::Composite { channels, .. } => channels[0].channel.volume.spacing,
+            Drawn::Composite { channels, .. } => channels[0].volume().spacing,
             Drawn::Stream { streamed, .. } => streamed.source.spacing(),
         }
     }
@@ -231,14 +231,11 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
     /// Records and submits a frame into `target` without waiting (the streaming renderer
     /// takes its per-frame step first: what earlier frames asked for is loaded and uploaded).
     pub fn draw(&mut self, target: &RenderTarget, camera: &Camera, settings: &RenderSettings) {
-        let context = self.gpu.borrow();
-        let renderer = match &mut self.drawn {
-            Drawn::Stream { renderer, .. } => {
-                renderer.update(context);
-                renderer
-            }
-            Drawn::Volume { renderer, .. } | Drawn::Composite { renderer, .. } => renderer,
-        };
+        let streamed = self.is_streamed();
+        let (context, renderer) = self.parts();
+        if streamed {
+            renderer.update(context);
+        }
         renderer.render(context, target, camera, settings);
     }
 
@@ -256,12 +253,18 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
             self.draw(target, camera, settings);
             return Ok(None);
         }
-        let context = self.gpu.borrow();
-        let renderer = match &mut self.drawn {
-            Drawn::Stream { renderer, .. } => renderer,
-            _ => unreachable!("is_streamed"),
-        };
+        let (context, renderer) = self.parts();
         refine(context, renderer, target, camera, settings, max_wait).map(Some)
+    }
+
+    /// The device and the renderer, to draw with.
+    fn parts(&mut self) -> (&GpuContext, &mut VolumeRenderer) {
+        let renderer = match &mut self.drawn {
+            Drawn::Volume { renderer, .. }
+            | Drawn::Composite { renderer, .. }
+            | Drawn::Stream { renderer, .. } => renderer,
+        };
+        (self.gpu.borrow(), renderer)
     }
 
     /// How a frame whose refinement is `refinement` ended (`None`: not streamed).
