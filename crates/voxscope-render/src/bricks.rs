@@ -15,16 +15,11 @@ use super::level_texture::LevelTexture;
 use super::pipeline::{
     atlas_entry, compute_pipeline, numbered_bind_group, storage_entry, uniform_entry,
 };
-use super::raycaster::{
-    BrickShape, OctreeOnGpu, ProbeTarget, VolumeShape, encode_frame_region, encode_probe_ray,
-};
+use super::raycaster::{BrickShape, OctreeOnGpu, ProbeTarget, VolumeShape, encode_probe_ray};
 use super::recolor::RecolorLevels;
-use super::renderer::{Renderer, level_detail, pipeline_variants};
+use super::renderer::{FramePass, Renderer, level_detail, pipeline_variants};
 use super::slice::SliceSource;
-use super::{
-    Camera, Frame, GpuContext, GpuTransferTable, ImageRegion, LevelDetail, RenderError,
-    RenderSettings, RenderTarget, RendererKind,
-};
+use super::{GpuContext, GpuTransferTable, LevelDetail, RenderError, RenderSettings, RendererKind};
 use voxscope_octree::{BRICK_FLAG, BrickLayout, TransferFunction, ValueBounds};
 use voxscope_stream::{Downsampling, coarser_levels};
 use voxscope_volume::QuantizedVolume;
@@ -210,26 +205,9 @@ impl Renderer for GpuBricks {
         &self,
         context: &GpuContext,
         encoder: &mut wgpu::CommandEncoder,
-        target: &RenderTarget,
-        camera: &Camera,
-        settings: &RenderSettings,
-        region: ImageRegion,
-        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+        pass: FramePass<'_>,
     ) {
-        let frame = Frame {
-            volume: self,
-            target,
-            camera,
-            settings,
-        };
-        encode_frame_region(
-            context.raycaster(),
-            context,
-            encoder,
-            &frame,
-            region,
-            timestamp_writes,
-        );
+        pass.encode_with(context.raycaster(), context, encoder, self);
     }
 
     fn draws_regions(&self) -> bool {

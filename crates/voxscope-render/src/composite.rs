@@ -19,14 +19,9 @@ use super::pipeline::{
     Variant, VariantPipelines, atlas_entry, atlas_sampler_entry, clamped_sampler,
     numbered_bind_group, output_image_entry, storage_entry, uniform_entry,
 };
-use super::raycaster::{
-    ProbeTarget, RayPass, StandIns, VolumeShape, encode_frame_region, frame_params_buffer,
-};
-use super::renderer::Renderer;
-use super::{
-    Camera, Frame, GpuContext, ImageRegion, LevelDetail, RenderError, RenderSettings, RenderTarget,
-    RendererKind,
-};
+use super::raycaster::{ProbeTarget, RayPass, StandIns, VolumeShape, frame_params_buffer};
+use super::renderer::{FramePass, Renderer};
+use super::{GpuContext, LevelDetail, RenderError, RenderSettings, RenderTarget, RendererKind};
 use voxscope_octree::{TransferFunction, pack_rgba, unpack_rgba};
 use voxscope_volume::{MAX_CHANNELS, Quantization, QuantizedVolume};
 
@@ -494,26 +489,9 @@ impl Renderer for CompositeVolume {
         &self,
         context: &GpuContext,
         encoder: &mut wgpu::CommandEncoder,
-        target: &RenderTarget,
-        camera: &Camera,
-        settings: &RenderSettings,
-        region: ImageRegion,
-        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+        pass: FramePass<'_>,
     ) {
-        let frame = Frame {
-            volume: self,
-            target,
-            camera,
-            settings,
-        };
-        encode_frame_region(
-            context.composite_raycaster(),
-            context,
-            encoder,
-            &frame,
-            region,
-            timestamp_writes,
-        );
+        pass.encode_with(context.composite_raycaster(), context, encoder, self);
     }
 
     fn draws_regions(&self) -> bool {

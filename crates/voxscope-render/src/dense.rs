@@ -12,14 +12,13 @@ use super::pipeline::{
     numbered_bind_group, output_image_entry, storage_entry, uniform_entry,
 };
 use super::raycaster::{
-    ProbeTarget, RayPass, StandIns, VolumeShape, encode_frame_region, encode_probe_ray,
-    frame_params_buffer,
+    ProbeTarget, RayPass, StandIns, VolumeShape, encode_probe_ray, frame_params_buffer,
 };
-use super::renderer::{Renderer, level_detail, pipeline_variants};
+use super::renderer::{FramePass, Renderer, level_detail, pipeline_variants};
 use super::slice::SliceSource;
 use super::{
-    Camera, Frame, GpuContext, GpuTransferTable, ImageRegion, LevelDetail, RenderError,
-    RenderSettings, RenderTarget, RendererKind,
+    GpuContext, GpuTransferTable, LevelDetail, RenderError, RenderSettings, RenderTarget,
+    RendererKind,
 };
 use voxscope_octree::TransferFunction;
 use voxscope_stream::{Downsampling, coarser_levels};
@@ -234,26 +233,9 @@ impl Renderer for DenseVolume {
         &self,
         context: &GpuContext,
         encoder: &mut wgpu::CommandEncoder,
-        target: &RenderTarget,
-        camera: &Camera,
-        settings: &RenderSettings,
-        region: ImageRegion,
-        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+        pass: FramePass<'_>,
     ) {
-        let frame = Frame {
-            volume: self,
-            target,
-            camera,
-            settings,
-        };
-        encode_frame_region(
-            context.dense_raycaster(),
-            context,
-            encoder,
-            &frame,
-            region,
-            timestamp_writes,
-        );
+        pass.encode_with(context.dense_raycaster(), context, encoder, self);
     }
 
     fn draws_regions(&self) -> bool {

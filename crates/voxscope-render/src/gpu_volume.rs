@@ -3,13 +3,10 @@
 
 use wgpu::util::DeviceExt;
 
-use super::raycaster::{ProbeTarget, encode_frame_region, encode_probe_ray};
-use super::renderer::{Renderer, level_detail, pipeline_variants};
+use super::raycaster::{ProbeTarget, encode_probe_ray};
+use super::renderer::{FramePass, Renderer, level_detail, pipeline_variants};
 use super::slice::SliceSource;
-use super::{
-    Camera, Frame, GpuContext, GpuTransferTable, ImageRegion, LevelDetail, RenderError,
-    RenderSettings, RenderTarget, RendererKind,
-};
+use super::{GpuContext, GpuTransferTable, LevelDetail, RenderError, RenderSettings, RendererKind};
 use voxscope_octree::{Node, Octree, TransferFunction, ValueBounds};
 
 /// GPU buffers of one octree, uploaded through `levels` (a prefix of the flat list).
@@ -130,26 +127,9 @@ impl Renderer for GpuVolume {
         &self,
         context: &GpuContext,
         encoder: &mut wgpu::CommandEncoder,
-        target: &RenderTarget,
-        camera: &Camera,
-        settings: &RenderSettings,
-        region: ImageRegion,
-        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+        pass: FramePass<'_>,
     ) {
-        let frame = Frame {
-            volume: self,
-            target,
-            camera,
-            settings,
-        };
-        encode_frame_region(
-            context.raycaster(),
-            context,
-            encoder,
-            &frame,
-            region,
-            timestamp_writes,
-        );
+        pass.encode_with(context.raycaster(), context, encoder, self);
     }
 
     fn draws_regions(&self) -> bool {

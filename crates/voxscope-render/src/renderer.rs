@@ -11,12 +11,76 @@ use voxscope_octree::TransferFunction;
 use voxscope_stream::StreamStatus;
 
 use super::pipeline::Variant;
-use super::raycaster::{ProbeTarget, frame_variant, probe_variant};
+use super::raycaster::{
+    Frame, ProbeTarget, RayPass, VolumeShape, encode_frame_region, frame_variant, probe_variant,
+};
 use super::slice::SliceSource;
 use super::{
     Camera, CompositeVolume, GpuContext, ImageRegion, LevelDetail, RenderError, RenderSettings,
     RenderTarget, RendererKind, StreamVolume,
 };
+
+/// What a frame (or a part of one) is drawn into and with: the target, camera and settings,
+/// the pixels asked for, and where the pass's GPU timestamps go.
+pub struct FramePass<'a> {
+    pub target: &'a RenderTarget,
+    pub camera: &'a Camera,
+    pub settings: &'a RenderSettings,
+    pub region: ImageRegion,
+    pub timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'a>>,
+}
+
+impl<'a> FramePass<'a> {
+    /// The whole of `target`.
+    pub fn whole(
+        target: &'a RenderTarget,
+        camera: &'a Camera,
+        settings: &'a RenderSettings,
+        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'a>>,
+    ) -> Self {
+        Self {
+            target,
+            camera,
+            settings,
+            region: ImageRegion::whole(target.width, target.height),
+            timestamp_writes,
+        }
+    }
+
+    /// This pass over the whole target, whatever region it asked for (a renderer that draws
+    /// whole frames only).
+    pub fn of_whole_target(self) -> Self {
+        Self {
+            region: ImageRegion::whole(self.target.width, self.target.height),
+            ..self
+        }
+    }
+
+    /// Records this pass of `volume` with the ray caster `caster` into `encoder`: what every
+    /// renderer's [`Renderer::encode_region`] shares.
+    pub(crate) fn encode_with<V: VolumeShape, P: RayPass<V>>(
+        self,
+        caster: &P,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        volume: &V,
+    ) {
+        let frame = Frame {
+            volume,
+            target: self.target,
+            camera: self.camera,
+            settings: self.settings,
+        };
+        encode_frame_region(
+            caster,
+            context,
+            encoder,
+            &frame,
+            self.region,
+            self.timestamp_writes,
+        );
+    }
+}
 
 /// A volume on the GPU that frames are drawn from.
 pub trait Renderer: Send {
@@ -38,33 +102,21 @@ pub trait Renderer: Send {
         settings: &RenderSettings,
         timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
-        let whole = ImageRegion::whole(target.width, target.height);
-        self.encode_region(
-            context,
-            encoder,
-            target,
-            camera,
-            settings,
-            whole,
-            timestamp_writes,
-        );
+        let pass = FramePass::whole(target, camera, settings, timestamp_writes);
+        self.encode_region(context, encoder, pass);
     }
 
-    /// Records the pixels `region` of one frame ([`Self::encode`] of a part of the image; the
-    /// rest of the target keeps what it holds), for a caller that draws a slow frame in parts
-    /// so that no submission keeps the device busy for long. A renderer that draws whole
-    /// frames only ([`Self::draws_regions`] false: the streaming renderer, whose rays' requests
-    /// and usage marks are a frame's) draws all of it.
-    #[allow(clippy::too_many_arguments)]
+    /// Records the pixels `pass.region` of one frame ([`Self::encode`] of a part of the
+    /// image; the rest of the target keeps what it holds), for a caller that draws a slow
+    /// frame in parts so that no submission keeps the device busy for long. A renderer that
+    /// draws whole frames only ([`Self::draws_regions`] false: the streaming renderer, whose
+    /// rays' requests and usage marks are a frame's) draws all of it. Each renderer names its
+    /// ray caster and [`FramePass::encode_with`] does the rest.
     fn encode_region(
         &self,
         context: &GpuContext,
         encoder: &mut wgpu::CommandEncoder,
-        target: &RenderTarget,
-        camera: &Camera,
-        settings: &RenderSettings,
-        region: ImageRegion,
-        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+        pass: FramePass<'_>,
     );
 
     /// Whether [`Self::encode_region`] draws its region alone.

@@ -22,17 +22,16 @@ use super::pipeline::{
     numbered_bind_group, output_image_entry, storage_entry, uniform_entry,
 };
 use super::raycaster::{
-    BrickShape, ProbeTarget, RayPass, StandIns, VolumeShape, encode_frame, encode_probe_ray,
-    frame_params_buffer,
+    BrickShape, ProbeTarget, RayPass, StandIns, VolumeShape, encode_probe_ray, frame_params_buffer,
 };
 use super::readback::map_state::{FAILED, IDLE, MAPPED, RECORDED};
 use super::readback::{read_mapped, start_map_read};
-use super::renderer::{Renderer, level_detail, pipeline_variants};
+use super::renderer::{FramePass, Renderer, level_detail, pipeline_variants};
 use super::staging_ring::{self, StagedBrick, StagingRing};
 use super::uncleared_texture::{OutOfMemory, uncleared_texture};
 use super::{
-    Camera, Frame, GpuContext, GpuTransferTable, ImageRegion, LevelDetail, RenderError,
-    RenderSettings, RenderTarget, RendererKind,
+    GpuContext, GpuTransferTable, LevelDetail, RenderError, RenderSettings, RenderTarget,
+    RendererKind,
 };
 use voxscope_octree::TransferFunction;
 use voxscope_stream::{
@@ -1343,25 +1342,10 @@ impl Renderer for StreamVolume {
         &self,
         context: &GpuContext,
         encoder: &mut wgpu::CommandEncoder,
-        target: &RenderTarget,
-        camera: &Camera,
-        settings: &RenderSettings,
-        _region: ImageRegion,
-        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+        pass: FramePass<'_>,
     ) {
-        let frame = Frame {
-            volume: self,
-            target,
-            camera,
-            settings,
-        };
-        encode_frame(
-            context.stream_raycaster(),
-            context,
-            encoder,
-            &frame,
-            timestamp_writes,
-        );
+        pass.of_whole_target()
+            .encode_with(context.stream_raycaster(), context, encoder, self);
     }
 
     fn encode_probe(

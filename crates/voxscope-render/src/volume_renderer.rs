@@ -5,11 +5,11 @@
 //! (`pipeline_cache.rs`), built once, whatever the number of volumes and renderers.
 
 use super::raycaster::ProbeTarget;
-use super::renderer::Renderer;
+use super::renderer::{FramePass, Renderer};
 use super::slice::{SliceColorCache, SliceSource};
 use super::{
     Camera, ChannelLayer, CompositeVolume, DenseVolume, GpuBricks, GpuContext, GpuVolume,
-    ImageRegion, RenderError, RenderSettings, RenderTarget, SliceSettings, StreamVolume,
+    RenderError, RenderSettings, RenderTarget, SliceSettings, StreamVolume,
 };
 use std::sync::Arc;
 use voxscope_octree::{BrickLayout, Octree, TransferFunction};
@@ -303,29 +303,16 @@ impl VolumeRenderer {
             .encode(context, encoder, target, camera, settings, timestamp_writes);
     }
 
-    /// Records the pixels `region` of one frame into `encoder` (the rest of `target` keeps
-    /// what it holds): a slow device's frame drawn band by band. A renderer that draws whole
-    /// frames only ([`Self::draws_regions`] false) draws all of it.
-    #[allow(clippy::too_many_arguments)]
+    /// Records the pixels `pass.region` of one frame into `encoder` (the rest of its target
+    /// keeps what it holds): a slow device's frame drawn band by band. A renderer that draws
+    /// whole frames only ([`Self::draws_regions`] false) draws all of it.
     pub fn encode_region(
         &self,
         context: &GpuContext,
         encoder: &mut wgpu::CommandEncoder,
-        target: &RenderTarget,
-        camera: &Camera,
-        settings: &RenderSettings,
-        region: ImageRegion,
-        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+        pass: FramePass<'_>,
     ) {
-        self.renderer.encode_region(
-            context,
-            encoder,
-            target,
-            camera,
-            settings,
-            region,
-            timestamp_writes,
-        );
+        self.renderer.encode_region(context, encoder, pass);
     }
 
     /// Whether [`Self::encode_region`] draws its region alone (every renderer but the

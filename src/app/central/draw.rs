@@ -16,7 +16,7 @@ use super::super::viewport::DrawKey;
 use super::pacing::{FRAME_BUDGET, IDLE_AFTER, IDLE_BUDGET, IN_FLIGHT_POLL, Work};
 use super::pane::Banding;
 use super::{CentralView, Measured, PaneKind, pane_kinds};
-use voxscope_render::{ImageRegion, RenderError, RenderTarget, SliceSettings};
+use voxscope_render::{FramePass, ImageRegion, RenderError, RenderTarget, SliceSettings};
 use voxscope_scene::{NetworkState, Scene};
 
 /// The preview's scale (of each side) before any frame was measured: a sixteenth of the pixels.
@@ -329,15 +329,14 @@ impl CentralView {
                 VolumeWork::Band { first, count } => {
                     let target = pane.target().expect("checked above");
                     let region = ImageRegion::rows(size[0], size[1], first, count);
-                    renderer.encode_region(
-                        context,
-                        &mut encoder,
+                    let pass = FramePass {
                         target,
-                        &camera,
-                        &render_settings,
+                        camera: &camera,
+                        settings: &render_settings,
                         region,
-                        writes,
-                    );
+                        timestamp_writes: writes,
+                    };
+                    renderer.encode_region(context, &mut encoder, pass);
                     let banding = pane.banding.get_or_insert(Banding {
                         key,
                         next_row: 0,
