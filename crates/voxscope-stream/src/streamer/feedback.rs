@@ -1,0 +1,401 @@
+//! A frame's feedback taken in: the usage marks and requests its rays wrote, turned into
+//! the cut of what the budget holds, loads in priority order and stand-ins; the level fill
+//! and the neighbours fetched ahead.
+
+use super::*;
+
+impl Streamer {
+    pub(super) fn take_feedback(&mut self, feedback: Feedback<'_>, view: Option<ViewPoint>) {
+        for (slot, &mark) in feedback.usage.iter().enumerate() {
+            if mark != 0 {
+                self.slots.mark_used(slot as u32, mark >> 1, mark & 1 == 1);
+            }
+        }
+        self.feedback_frame = Some(feedback.frame);
+        self.max_projection = feedback.max_projection;
+        let view = view.unwrap_or(ViewPoint {
+            eye: [0.0; 3],
+            forward: [0.0, 0.0, 1.0],
+        });
+        // Where the camera's motion leads: the prefetch loads what it will see first.
+        let ahead = self
+            .motion
+            .map_or(view, |motion| view.ahead(motion, MOTION_LOOKAHEAD));
+        let mut asked: Vec<u32> = feedback.requests.to_vec();
+        asked.sort_unstable();
+        asked.dedup();
+        // Asked for and unreadable: drawn from the finest coarser level that can be read.
+        self.unreadable = asked
+            .iter()
+            .copied()
+            .filter(|key| self.failed.contains(key))
+            .collect();
+        // What was asked for that can show, each in place of the brick that stands for it
+        // where the budget left it out, within the room the atlas has for this view
+        // (`budget.rs`: the least important give way to their parents where it does not fit).
+        let mut requests = Vec::with_capacity(asked.len());
+        let mut seen = KeySet::default();
+        let mut left_out = vec![0usize; self.shape.levels.len()];
+        for &key in &asked {
+            let Some(id) = self.shape.brick_of(key) else {
+                continue;
+            };
+            let (key, id) = match self.standing_for(id) {
+                Some(stand_in) => {
+                    left_out[id.level as usize] += 1;
+                    stand_in
+                }
+                None => (key, id),
+            };
+            if !seen.insert(key) || self.satisfied_or_invisible(key, id) {
+                continue;
+            }
+            let off_center = view.off_center(self.shape.brick_center(id));
+            let priority = self.visible_priority(key, id, off_center);
+            // Under MIP that entered the range the source knows: a uniform one is drawn from
+            // its value and needs nothing (the cut below counts every request as a slot).
+            if self.max_projection && self.satisfied(key) {
+                continue;
+            }
+            requests.push(Request { priority, id, key });
+        }
+        // Failed bricks are asked for no more; left-out ones are drawn from what stands for
+        // them: what still lacks is what the view misses.
+        self.feedback_missing = requests.len();
+        for (counters, &count) in self.counters.levels.iter_mut().zip(&left_out) {
+            counters.left_out = count;
+        }
+        // The view's bricks in the atlas: those its rays wanted, and those standing for
+        // bricks left out (drawn in their place).
+        let mut committed: KeySet = self.slots.wanted_unpinned_since(feedback.frame).collect();
+        // Of those, the ones its rays wanted at their own levels (the rest stand in).
+        let wanted_in_atlas = committed.len();
+        committed.extend(
+            self.standing
+                .iter()
+                .copied()
+                .filter(|&key| self.table.get(key).is_some_and(|e| e.is_resident())),
+        );
+        // The view's share of the atlas decides what the view can have; what loads now is also
+        // never more than can be placed without evicting what the frame drew (a passing
+        // shortage, while stand-ins are drawn, delays bricks but leaves none out).
+        let room = self.budget_slots().saturating_sub(committed.len());
+        if requests.len() < self.fewest_missing {
+            self.fewest_missing = requests.len();
+            self.progress_at = (self.frame, Instant::now());
+        }
+        // The requests need a slot each (they passed `satisfied` and `known_invisible` above);
+        // only the coarser bricks a cut brings in, and their ancestors, are looked up.
+        let requested: KeySet = requests.iter().map(|r| r.key).collect();
+        let slot_need = |key: u32| self.slot_need(key, &requested, &committed);
+        let cut = cut_within(&requests, room, &self.shape, &view, slot_need);
+        let available = self.slots.available(feedback.frame.max(1));
+        // Stalled: bricks wait in RAM for slots that nothing will free (the stand-ins frames
+        // draw hold more than the fifth of the atlas left to them). What the atlas holds is
+        // then the cut, as when stuck below.
+        // Or, under the budget's pressure, the view has lacked no fewer bricks for a while:
+        // bricks are placed and evicted again in turn (a livelock), and waiting longer
+        // changes nothing.
+        let pressed = !cut.left_out.is_empty() || available < room;
+        let no_progress = pressed
+            && self.frame.saturating_sub(self.progress_at.0) >= NO_PROGRESS_FRAMES
+            && self.progress_at.1.elapsed() >= NO_PROGRESS_TIME;
+        let stalled = self.no_room_frames >= STALLED_FRAMES || no_progress;
+        let cut_now = (available < room || stalled).then(|| {
+            let room_now = if stalled { 0 } else { available };
+            cut_within(&requests, room_now, &self.shape, &view, slot_need)
+        });
+        let loads_now = cut_now.as_ref().map_or(&cut.load, |now| &now.load).clone();
+        // The cut counts every asked brick as a slot; many turn out uniform (no slot) once
+        // read. So the cut stands only once everything it loads is in: until then the rest is
+        // just not loaded yet, and the next frame's cut knows more.
+        if !cut.standing.is_empty() && cut.load.iter().all(|r| self.needs_no_slot(r.key)) {
+            self.stand_in(&cut.standing, view);
+        } else if let Some(now) = cut_now.filter(|now| {
+            // Stuck: every slot holds a brick the frame drew (wanted, or drawn in place of a
+            // finer one), nothing can be placed without evicting one, and nothing is on its
+            // way. What the atlas holds is the cut: its coarser bricks stand for the rest.
+            !now.standing.is_empty()
+                && now.load.iter().all(|r| self.needs_no_slot(r.key))
+                && (stalled || (self.ready.is_empty() && self.queue.counts() == (0, 0)))
+        }) {
+            self.stand_in(&now.standing, view);
+        }
+        if !self.standing.is_empty() {
+            let left_out: usize = left_out.iter().sum::<usize>() + cut.left_out.len();
+            self.note_budget(&cut, &committed, wanted_in_atlas + requests.len(), left_out);
+        }
+        // What the cut loads, and the coarser bricks above each down to the first one the GPU
+        // has (so the picture refines level by level).
+        let mut wanted: KeyMap<Request> = KeyMap::default();
+        wanted.reserve(cut.load.len() + cut.load.len() / 4);
+        let mut prefetch: KeyMap<Request> = KeyMap::default();
+        // Prefetch around a few asks only, and only when the view fits: beyond that the view
+        // is far from complete, or the atlas full, and what is visible keeps the workers busy
+        // (and the frame's CPU time stays small).
+        let prefetch_around = self.options.prefetch
+            && asked.len() <= PREFETCH_AROUND
+            && cut.left_out.is_empty()
+            && self.standing.is_empty();
+        for request in &loads_now {
+            let mut id = request.id;
+            let mut key = request.key;
+            let asked_level = id.level;
+            loop {
+                if self.failed.contains(&key) {
+                    // Unreadable: the finest coarser brick that can be read stands in for it.
+                    let Some(parent) = self.shape.parent(id) else {
+                        break;
+                    };
+                    id = parent;
+                    key = self.shape.key(id).expect("a parent is in the pyramid");
+                    continue;
+                }
+                // In the atlas, uniform, or its range (known without reading it) cannot show:
+                // the rays skip it.
+                if wanted.contains_key(&key) || self.satisfied_or_invisible(key, id) {
+                    break;
+                }
+                let off_center = view.off_center(self.shape.brick_center(id));
+                wanted.insert(
+                    key,
+                    Request {
+                        priority: self.visible_priority(key, id, off_center),
+                        id,
+                        key,
+                    },
+                );
+                if prefetch_around && id.level == asked_level {
+                    self.add_neighbours(id, &ahead, &mut prefetch);
+                }
+                let Some(parent) = self.shape.parent(id) else {
+                    break;
+                };
+                id = parent;
+                key = self.shape.key(id).expect("a parent is in the pyramid");
+            }
+        }
+        let fill = if requests.is_empty() && self.standing.is_empty() {
+            self.level_fill()
+        } else {
+            Vec::new()
+        };
+        self.fill = fill.iter().map(|r| (r.key, *r)).collect();
+        self.fill_view = Some(view);
+        // One pass: per-level counts; ready (in RAM: a hit, unless it was ready already) or
+        // to load; then the level's fill, then the prefetch after them.
+        for level in &mut self.counters.levels {
+            level.requested = 0;
+        }
+        let already: KeySet = self.ready.iter().map(|r| r.key).collect();
+        let (mut ready, mut loads) = (Vec::new(), Vec::new());
+        for request in wanted.values() {
+            self.counters.levels[request.id.level as usize].requested += 1;
+            if self.ram.contains(request.key) {
+                if !already.contains(&request.key) {
+                    self.counters.ram_hits += 1;
+                }
+                ready.push(*request);
+            } else {
+                loads.push(*request);
+            }
+        }
+        for request in fill {
+            if self.ram.contains(request.key) {
+                ready.push(request);
+            } else {
+                loads.push(request);
+            }
+        }
+        ready.sort_unstable_by_key(|r| r.priority);
+        self.ready = ready;
+        let room =
+            self.ram.capacity().saturating_sub(self.ram.bytes()) / self.counters.slot_bytes.max(1);
+        loads.extend(
+            prefetch
+                .into_values()
+                .filter(|r| !wanted.contains_key(&r.key) && !self.ram.contains(r.key))
+                .take(room as usize),
+        );
+        self.queue.replace(loads);
+        // The queue's first bricks' requests go out now, in its order (visible before
+        // prefetch, coarse before fine, the view's center first), not one brick a loader at
+        // a time.
+        self.loader.fetch_ahead();
+        self.missing = wanted.len();
+        self.wanted = wanted;
+    }
+
+    /// The bricks that would let frames walk the level (or the two levels) the page table
+    /// copies flat (every ray wants it, or one near and the other far: `voxscope-render`'s
+    /// stream.rs), loaded once the view lacks nothing: those the table does not know yet, and
+    /// visible ones not in the atlas (behind opaque matter, below a MIP ray's maximum, or,
+    /// of two levels, where the rays want the other, so never asked for). Then each frame walks
+    /// that level's grid as the bricks renderer does, and turning the camera needs nothing
+    /// more. None where one
+    /// of its bricks is unreadable, or where they might not fit in the atlas's free slots
+    /// (nothing is evicted for them), in half the RAM cache on their way, or in the page table
+    /// (with an eighth to spare); none from a store over a network, where what a view reads is
+    /// what it needs (the link is the bound, and may be metered).
+    pub(super) fn level_fill(&self) -> Vec<Request> {
+        if self.source.remote_stats().is_some() {
+            return Vec::new();
+        }
+        let Some(unwalkable) = self.table.level_unwalkable(self.max_projection) else {
+            return Vec::new();
+        };
+        let free = self.slots.capacity() - self.slots.occupied();
+        // Held in RAM on their way, with room to spare for what the view asks for next.
+        let ram_room = self.ram.capacity() / 2 / self.counters.slot_bytes.max(1);
+        // Each brick the table does not know yet takes an entry: they must fit without the
+        // table dropping slotless entries (`insert_entry`), the level's own among them.
+        let new_entries = self.table.level_unknown().unwrap_or(0);
+        let table_room = (self.max_entries - self.max_entries / 8).saturating_sub(self.table.len());
+        if unwalkable == 0
+            || unwalkable > free
+            || unwalkable as u64 > ram_room
+            || new_entries > table_room
+        {
+            return Vec::new();
+        }
+        let mut fill = Vec::with_capacity(unwalkable);
+        for key in self.table.level_unwalkable_keys(self.max_projection) {
+            if self.failed.contains(&key) {
+                return Vec::new();
+            }
+            let Some(id) = self.shape.brick_of(key) else {
+                continue;
+            };
+            fill.push(Request {
+                priority: Priority::new(Tier::Prefetch, id.level, 0.0),
+                id,
+                key,
+            });
+        }
+        fill
+    }
+
+    /// Slots a view may fill with bricks at the levels its rays want ([`view_slots`]).
+    pub(super) fn budget_slots(&self) -> usize {
+        view_slots(self.slots.capacity(), self.slots.pinned())
+    }
+
+    /// The brick that stands for `id` in the view on screen (the coarsest of its ancestors
+    /// standing for bricks the budget left out), if any.
+    pub(super) fn standing_for(&self, id: BrickId) -> Option<(u32, BrickId)> {
+        if self.standing.is_empty() {
+            return None;
+        }
+        let mut found = None;
+        let mut ancestor = self.shape.parent(id);
+        while let Some(up) = ancestor {
+            let key = self.shape.key(up)?;
+            if self.standing.contains(&key) {
+                found = Some((key, up));
+            }
+            ancestor = self.shape.parent(up);
+        }
+        found
+    }
+
+    /// `keys` stand for the bricks below them in `view` from now on.
+    pub(super) fn stand_in(&mut self, keys: &[u32], view: ViewPoint) {
+        self.no_room_frames = 0;
+        self.forget_progress();
+        self.standing.extend(keys.iter().copied());
+        self.standing_view = Some(view);
+        self.changed_frame = self.frame;
+    }
+
+    /// What the view needs against what fits, for the status: `wanted` bricks at the levels
+    /// its rays chose (in the atlas or asked for, the stand-ins drawn from `committed` aside),
+    /// `left_out` more drawn coarser.
+    pub(super) fn note_budget(
+        &mut self,
+        cut: &Cut,
+        committed: &KeySet,
+        wanted: usize,
+        left_out: usize,
+    ) {
+        let level_of = |key: &u32| self.shape.brick_of(*key).map(|id| id.level);
+        let finest = committed.iter().filter_map(level_of).min();
+        let coarsest = self
+            .standing
+            .iter()
+            .filter_map(level_of)
+            .max()
+            .max(cut.coarsest);
+        self.budget = Some(BudgetLimit {
+            needed: wanted + left_out,
+            fit: self.budget_slots(),
+            left_out,
+            finest,
+            coarsest,
+            full_detail: FullDetailBudget::Unknown,
+        });
+    }
+
+    /// Progress is counted from now (a new cut, or one that stands).
+    pub(super) fn forget_progress(&mut self) {
+        self.fewest_missing = usize::MAX;
+        self.progress_at = (self.frame, Instant::now());
+    }
+
+    /// A view other than the one bricks stand in is cut anew.
+    pub(super) fn follow_view(&mut self, view: ViewPoint) {
+        if self
+            .standing_view
+            .is_some_and(|standing_for| standing_for != view)
+        {
+            self.cut_anew();
+        }
+    }
+
+    /// Forgets what stands for what: rays' asks load again and the next cut decides.
+    pub(super) fn cut_anew(&mut self) {
+        self.no_room_frames = 0;
+        self.forget_progress();
+        self.standing.clear();
+        for level in &mut self.counters.levels {
+            level.left_out = 0;
+        }
+        self.standing_view = None;
+        self.budget = None;
+        self.changed_frame = self.frame;
+    }
+
+    /// The face neighbours of `id` in its level, as prefetch requests, nearest the center of
+    /// the view the camera's motion leads to first.
+    pub(super) fn add_neighbours(
+        &self,
+        id: BrickId,
+        ahead: &ViewPoint,
+        into: &mut KeyMap<Request>,
+    ) {
+        let grid = self.shape.levels[id.level as usize].grid;
+        for axis in 0..3 {
+            for step in [-1i64, 1] {
+                let c = id.brick[axis] as i64 + step;
+                if c < 0 || c >= grid[axis] as i64 {
+                    continue;
+                }
+                let mut brick = id.brick;
+                brick[axis] = c as u32;
+                let neighbour = BrickId {
+                    level: id.level,
+                    brick,
+                };
+                let key = self.shape.key(neighbour).expect("inside the grid");
+                if self.satisfied(key) || self.failed.contains(&key) {
+                    continue;
+                }
+                let off_center = ahead.off_center(self.shape.brick_center(neighbour));
+                into.entry(key).or_insert(Request {
+                    priority: Priority::new(Tier::Prefetch, id.level, off_center),
+                    id: neighbour,
+                    key,
+                });
+            }
+        }
+    }
+}
