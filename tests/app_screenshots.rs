@@ -19,8 +19,13 @@ const VOLUME: &str = "synthetic:noise:24x20x16";
 const RULER: image::Rgba<u8> = image::Rgba([80, 220, 255, 255]);
 
 fn app() -> Harness<'static, VoxscopeApp> {
+    app_of(VOLUME)
+}
+
+/// The app at 400×300 points showing `spec`, its side panels closed.
+fn app_of(spec: &str) -> Harness<'static, VoxscopeApp> {
     let mut harness = harness_with(
-        Some(VolumeSource::Spec(VOLUME.to_owned())),
+        Some(VolumeSource::Spec(spec.to_owned())),
         egui::vec2(400.0, 300.0),
     );
     let ctx = harness.ctx.clone();
@@ -165,18 +170,7 @@ fn a_composite_screenshot_at_2x_is_what_render_draws_of_its_view() {
         env!("CARGO_MANIFEST_DIR"),
         "/tests/data/channels/two-channels.ome.tif"
     );
-    let mut harness = harness_with(
-        Some(VolumeSource::Spec(file.to_owned())),
-        egui::vec2(400.0, 300.0),
-    );
-    let ctx = harness.ctx.clone();
-    for panel in [Panel::Transfer, Panel::Octree] {
-        harness
-            .state_mut()
-            .run_command(Command::TogglePanel(panel), &ctx);
-    }
-    settle(&mut harness);
-    assert_eq!(harness.state().error(), None);
+    let mut harness = app_of(file);
     let view = harness.state().saved_view().expect("a view");
     assert_eq!(view.channels.len(), 2, "the composite of both channels");
     let [width, height] = harness.state().pane_sizes()[0];
