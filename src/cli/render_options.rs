@@ -13,11 +13,8 @@ use super::labels::LabelArgs;
 use super::stream::StreamArgs;
 use super::{ClipArgs, TransferArgs};
 use voxscope_render::{Camera, DEFAULT_BRICK_SIZE};
-use voxscope_scene::option_text::{parse_brick_size, parse_size};
+use voxscope_scene::option_text::{max_wait, parse_brick_size, parse_size};
 use voxscope_scene::{DEFAULT_MAX_WAIT_SECONDS, DrawOptions};
-
-/// The longest `--max-wait` taken as given (about a century).
-const MAX_WAIT_SECONDS: f64 = 3.2e9;
 
 /// Every option of `render` but the volume and the output.
 #[derive(Debug, Clone, Args)]
@@ -74,9 +71,8 @@ impl RenderOptions {
             renderer: self.renderer.map(Into::into),
             brick_size: self.brick_size,
             stream: self.stream.options(),
-            // `check` refuses a negative or non-finite `--max-wait` before anything is drawn;
-            // one beyond a century waits a century.
-            max_wait: Duration::from_secs_f64(self.max_wait.clamp(0.0, MAX_WAIT_SECONDS)),
+            // `check` refuses a negative or non-finite `--max-wait` before anything is drawn.
+            max_wait: max_wait(self.max_wait).unwrap_or(Duration::ZERO),
             camera: self.camera(),
             size: self.size,
         }
@@ -95,14 +91,7 @@ impl RenderOptions {
 
     /// What clap cannot check of the values: `--max-wait` is a number of seconds.
     pub fn check(&self) -> Result<(), String> {
-        if self.max_wait.is_finite() && self.max_wait >= 0.0 {
-            Ok(())
-        } else {
-            Err(format!(
-                "--max-wait {} is not a number of seconds",
-                self.max_wait
-            ))
-        }
+        max_wait(self.max_wait).map(|_| ())
     }
 }
 

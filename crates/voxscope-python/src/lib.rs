@@ -15,6 +15,7 @@ mod convert;
 mod drawn;
 mod errors;
 mod gpu;
+mod keyword_values;
 mod keywords;
 mod opened;
 mod renderer;

@@ -525,4 +525,3 @@ fn layers<'a>(
 
 #[path = "drawable_frames.rs"]
 mod frames;
-pub use frames::Outcome;

@@ -18,27 +18,10 @@ use crate::{
     opening_transfer, refine,
 };
 
-/// How a frame drawn to completion ended ([`Drawable::outcome`]).
-#[derive(Debug, Clone, PartialEq)]
-pub enum Outcome {
-    /// Everything the view shows is drawn at full detail (or it is not streamed).
-    Complete,
-    /// Complete, but coarser than full detail where the GPU budget left bricks out: the
-    /// limit in words.
-    AtBudget(String),
-    /// Bricks could not be read, or were still on their way at the deadline.
-    Incomplete,
-}
-
 impl<G: Borrow<GpuContext>> Drawable<G> {
     /// The device it is drawn on.
     pub fn context(&self) -> &GpuContext {
         self.gpu.borrow()
-    }
-
-    /// The device as it was given.
-    pub fn gpu(&self) -> &G {
-        &self.gpu
     }
 
     /// The renderer drawing it.
@@ -265,23 +248,6 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
             | Drawn::Stream { renderer, .. } => renderer,
         };
         (self.gpu.borrow(), renderer)
-    }
-
-    /// How a frame whose refinement is `refinement` ended (`None`: not streamed).
-    pub fn outcome(refinement: Option<&Refinement>) -> Outcome {
-        let Some(refinement) = refinement else {
-            return Outcome::Complete;
-        };
-        if !refinement.complete || !refinement.errors.is_empty() {
-            return Outcome::Incomplete;
-        }
-        match refinement
-            .completed_at_budget()
-            .and(crate::describe_budget_limit(&refinement.status))
-        {
-            Some(limit) => Outcome::AtBudget(limit),
-            None => Outcome::Complete,
-        }
     }
 
     /// The side of the square tiles this device draws an image of `size` in, where the image

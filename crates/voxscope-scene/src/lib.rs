@@ -34,7 +34,7 @@ mod view;
 pub use channels::{ChannelRequest, ChannelState, CompositeScene};
 pub use convert::{ConvertOptions, convert};
 pub use data::{HISTOGRAM_BINS, VolumeData};
-pub use drawable::{Channel, Drawable, Outcome};
+pub use drawable::{Channel, Drawable};
 pub use error::SceneError;
 pub use job::Job;
 pub use label_open::{open_overlays, open_streamed_overlays};

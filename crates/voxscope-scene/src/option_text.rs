@@ -176,6 +176,20 @@ pub fn parse_copies(text: &str) -> Result<[usize; 3], String> {
     }
 }
 
+/// The longest wait taken as given (about a century); a longer one waits that long.
+const MAX_WAIT_SECONDS: f64 = 3.2e9;
+
+/// How long a streamed frame may take (`--max-wait`): seconds, 0 or more.
+pub fn max_wait(seconds: f64) -> Result<std::time::Duration, String> {
+    if seconds.is_finite() && seconds >= 0.0 {
+        Ok(std::time::Duration::from_secs_f64(
+            seconds.min(MAX_WAIT_SECONDS),
+        ))
+    } else {
+        Err(format!("--max-wait {seconds} is not a number of seconds"))
+    }
+}
+
 /// One of `names` (each with its value), case-insensitive; else a line naming `what` and
 /// the choices.
 fn one_of<T: Copy>(what: &str, text: &str, names: &[(&str, T)]) -> Result<T, String> {

@@ -1,0 +1,228 @@
+//! Keyword values read into the scene layer's options: each keyword's text (as
+//! [`crate::keywords`] wrote it) set into [`DrawOptions`], [`OpenOptions`] or
+//! [`ConvertOptions`] by the parser its command-line option uses, and a refused value worded
+//! as the command line words that option's (`invalid value 'X' for '--name <VALUE>': why`).
+
+use voxscope_scene::{ChannelChoice, ConvertOptions, DrawOptions, OpenOptions};
+
+use crate::keywords::Keyword;
+
+/// The text of `word` (`--name=TEXT`), or whether a flag is on (`--name`: true,
+/// `--no-name`: false).
+enum WordValue<'a> {
+    Text(&'a str),
+    Flag(bool),
+}
+
+fn word_value(word: &str) -> WordValue<'_> {
+    match word.split_once('=') {
+        Some((_, text)) => WordValue::Text(text),
+        None => WordValue::Flag(!word.starts_with("--no-")),
+    }
+}
+
+/// Why a keyword's value was refused, worded as the command line words its option's
+/// ([`Self::message`]).
+pub(crate) enum Refused {
+    /// The value's text, and what its parser said (an enum's name says nothing more).
+    Value { text: String, why: Option<String> },
+    /// A whole line.
+    Line(String),
+}
+
+impl Refused {
+    fn value(text: &str) -> impl FnOnce(String) -> Self + '_ {
+        move |why| Self::Value {
+            text: text.to_owned(),
+            why: Some(why),
+        }
+    }
+
+    fn name(text: &str) -> impl FnOnce(String) -> Self + '_ {
+        move |_| Self::Value {
+            text: text.to_owned(),
+            why: None,
+        }
+    }
+
+    /// The command line's line for keyword `name` of `table`: `invalid value 'X' for
+    /// '--name <VALUE>': why`.
+    pub(crate) fn message(self, table: &[Keyword], name: &str) -> String {
+        match self {
+            Self::Value { text, why } => {
+                let mut line = format!("invalid value '{text}' for '{}'", shown(table, name));
+                if let Some(why) = why {
+                    line.push_str(": ");
+                    line.push_str(&why);
+                }
+                line
+            }
+            Self::Line(line) => line,
+        }
+    }
+}
+
+/// Keyword `name` of `table` as the command line shows its option: `--name <VALUE>`, or
+/// `--name` for a flag.
+pub(crate) fn shown(table: &[Keyword], name: &str) -> String {
+    let flag = format!("--{}", name.replace('_', "-"));
+    match table.iter().find(|k| k.name == name) {
+        Some(keyword) if !keyword.value.is_empty() => format!("{flag} <{}>", keyword.value),
+        _ => flag,
+    }
+}
+
+/// A number of type `T`.
+fn number<T: std::str::FromStr>(text: &str) -> Result<T, Refused>
+where
+    T::Err: std::fmt::Display,
+{
+    text.parse().map_err(|e: T::Err| Refused::Value {
+        text: text.to_owned(),
+        why: Some(e.to_string()),
+    })
+}
+
+/// Sets keyword `name`'s `word` (as [`write`] wrote it) into `options`.
+pub(crate) fn set_option(options: &mut DrawOptions, name: &str, word: &str) -> Result<(), Refused> {
+    use voxscope_octree::{Clip, OpacityCurve, OpacityMode};
+    use voxscope_scene::option_text as parse;
+    use voxscope_volume::ValueWindow;
+    let t = match word_value(word) {
+        WordValue::Text(text) => text,
+        WordValue::Flag(on) => {
+            match name {
+                "pixel_lod" => options.transfer.pixel_lod = on,
+                "opacity_correction" => options.transfer.opacity_correction = on,
+                "heatmap" => options.transfer.heatmap = on,
+                "nearest" => options.transfer.trilinear = !on,
+                "shading" => options.transfer.shading.enabled = on,
+                _ => return Err(Refused::Line(format!("{name}= takes a value"))),
+            }
+            return Ok(());
+        }
+    };
+    let value = Refused::value(t);
+    let transfer = &mut options.transfer;
+    match name {
+        "mode" => transfer.mode = Some(parse::parse_mode(t).map_err(Refused::name(t))?),
+        "opacity" => {
+            transfer.opacity = Some(parse::parse_opacity_mode(t).map_err(Refused::name(t))?);
+        }
+        "opacity_points" => {
+            transfer.opacity = Some(OpacityMode::Points(OpacityCurve::parse(t).map_err(value)?));
+        }
+        "preset" => transfer.preset = Some(parse::parse_preset(t).map_err(value)?),
+        "tf" => transfer.tf = Some(t.into()),
+        "threshold" => transfer.threshold = parse::parse_unit(t).map_err(value)?,
+        "window" => transfer.window = Some(ValueWindow::parse(t).map_err(value)?),
+        "colormap" => transfer.colormap = Some(parse::parse_colormap(t).map_err(value)?),
+        "density" => transfer.density = Some(number(t)?),
+        "level" => transfer.level = Some(number(t)?),
+        "ambient" => transfer.shading.ambient = parse::parse_unit(t).map_err(value)?,
+        "diffuse" => transfer.shading.diffuse = parse::parse_unit(t).map_err(value)?,
+        "specular" => transfer.shading.specular = parse::parse_unit(t).map_err(value)?,
+        "shininess" => transfer.shading.shininess = parse::parse_shininess(t).map_err(value)?,
+        "clip_box" => options.clip.bounds = Some(Clip::parse_box(t).map_err(value)?),
+        "clip_plane" => options.clip.plane = Some(Clip::parse_plane(t).map_err(value)?),
+        "channel_colors" => {
+            // One value each, as the option's comma list is.
+            options.channels.colors = t
+                .split(',')
+                .map(|color| parse::parse_color(color).map_err(Refused::value(color)))
+                .collect::<Result<_, _>>()?;
+        }
+        "channel_window" => options
+            .channels
+            .windows
+            .push(parse::parse_channel_window(t).map_err(value)?),
+        "renderer" => options.renderer = Some(parse::parse_renderer(t).map_err(Refused::name(t))?),
+        "brick_size" => options.brick_size = parse::parse_brick_size(t).map_err(value)?,
+        "gpu_memory" => options.stream.gpu_memory = parse::parse_bytes(t).map_err(value)?,
+        "ram_cache" => options.stream.ram_cache = parse::parse_bytes(t).map_err(value)?,
+        "upload_budget" => {
+            options.stream.upload_bytes_per_frame = parse::parse_bytes(t).map_err(value)?;
+        }
+        "uploads" => options.stream.uploads = parse::parse_uploads(t).map_err(Refused::name(t))?,
+        "lod_scale" => options.stream.lod_scale = parse::parse_lod_scale(t).map_err(value)?,
+        "max_wait" => {
+            options.max_wait = parse::max_wait(number(t)?).map_err(Refused::Line)?;
+        }
+        "size" => options.size = parse::parse_size(t).map_err(value)?,
+        "azimuth" => options.camera.azimuth_deg = number(t)?,
+        "elevation" => options.camera.elevation_deg = number(t)?,
+        "distance" => options.camera.distance = number(t)?,
+        "fov" => options.camera.fov_y_deg = number(t)?,
+        _ => return Err(Refused::Line(format!("{name}= is not a drawing keyword"))),
+    }
+    Ok(())
+}
+
+/// Sets `open()`'s keyword `name`'s `word` into `options`.
+pub(crate) fn set_open_option(
+    options: &mut OpenOptions,
+    name: &str,
+    word: &str,
+) -> Result<(), Refused> {
+    use voxscope_scene::option_text as parse;
+    let WordValue::Text(t) = word_value(word) else {
+        return Err(Refused::Line(format!("{name}= takes a value")));
+    };
+    let value = Refused::value(t);
+    match name {
+        "raw" => options.raw = Some(voxscope_volume::RawLayout::parse(t).map_err(value)?),
+        "spacing" => options.spacing = Some(parse::parse_spacing(t).map_err(value)?),
+        "channel" => options.channel = Some(ChannelChoice::parse(t).map_err(value)?),
+        "time" => options.time = number(t)?,
+        "max_requests" => options.max_requests = parse::parse_max_requests(t).map_err(value)?,
+        _ => return Err(Refused::Line(format!("{name}= is not an open() keyword"))),
+    }
+    Ok(())
+}
+
+/// Sets `convert()`'s keyword `name`'s `word` into `options`.
+pub(crate) fn set_convert_option(
+    options: &mut ConvertOptions,
+    name: &str,
+    word: &str,
+) -> Result<(), Refused> {
+    use voxscope_scene::option_text as parse;
+    use voxscope_volume::ome_zarr::{Compression, ZarrVersion};
+    let t = match word_value(word) {
+        WordValue::Text(text) => text,
+        WordValue::Flag(on) if name == "labels" => {
+            options.labels = on;
+            return Ok(());
+        }
+        WordValue::Flag(_) => return Err(Refused::Line(format!("{name}= takes a value"))),
+    };
+    let value = Refused::value(t);
+    match name {
+        "raw" => options.raw = Some(voxscope_volume::RawLayout::parse(t).map_err(value)?),
+        "spacing" => options.spacing = Some(parse::parse_spacing(t).map_err(value)?),
+        "channel" => options.channel = number(t)?,
+        "time" => options.time = number(t)?,
+        "max_requests" => options.max_requests = parse::parse_max_requests(t).map_err(value)?,
+        "format" => {
+            options.version = match t {
+                "0.4" => ZarrVersion::V04,
+                "0.5" => ZarrVersion::V05,
+                _ => {
+                    return Err(Refused::Value {
+                        text: t.to_owned(),
+                        why: None,
+                    });
+                }
+            }
+        }
+        "chunk" => options.chunk = number(t)?,
+        "shard" => options.shard = number(t)?,
+        "compression" => options.compression = Compression::parse(t).map_err(value)?,
+        "unit" => options.unit = Some(t.to_owned()),
+        "tile" => options.tile = Some(parse::parse_copies(t).map_err(value)?),
+        "upsample" => options.upsample = Some(parse::parse_copies(t).map_err(value)?),
+        "noise" => options.noise = number(t)?,
+        _ => return Err(Refused::Line(format!("{name}= is not a convert() keyword"))),
+    }
+    Ok(())
+}
