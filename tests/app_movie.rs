@@ -75,12 +75,9 @@ fn png(path: &Path) -> image::RgbaImage {
 /// The still `render --view` draws of `view` at 32x24.
 fn still(view: &SavedView, name: &str) -> image::RgbaImage {
     let path = scratch(&format!("{name}.ron"));
-    SavedView {
-        size: [32, 24],
-        ..view.clone()
-    }
-    .write(&path)
-    .expect("write the keyframe");
+    let mut keyframe = view.clone();
+    keyframe.draw.size = (32, 24);
+    keyframe.write(&path).expect("write the keyframe");
     let out = scratch(&format!("{name}.png"));
     let output = Process::new(env!("CARGO_BIN_EXE_voxscope"))
         .args(["render", "--view"])
@@ -130,7 +127,7 @@ fn an_exported_movie_starts_and_ends_at_its_keyframes_stills() {
             .movie
             .keyframes
             .iter()
-            .map(|k| k.camera.azimuth_deg)
+            .map(|k| k.draw.camera.azimuth_deg)
             .collect()
     };
     assert_eq!(azimuths(&harness), [250.0, 20.0, 110.0]);
@@ -187,7 +184,7 @@ fn preview_plays_the_path_and_returns_and_cancel_stops_an_export() {
     run(&mut harness, Command::PreviewMovie);
     harness.step();
     assert!(harness.state().previewing());
-    let first = harness.state().movie.keyframes[0].camera;
+    let first = harness.state().movie.keyframes[0].draw.camera;
     assert_eq!(
         harness.state().settings.camera,
         first,

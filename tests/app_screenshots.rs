@@ -11,7 +11,7 @@ use std::process::Command as Process;
 use egui_kittest::Harness;
 use support::app_harness::{harness_with, lit_pixels, scratch, settle};
 use voxscope::app::{Command, Panel, Ruler, VoxscopeApp};
-use voxscope_scene::{SavedView, VolumeSource};
+use voxscope_scene::VolumeSource;
 
 const VOLUME: &str = "synthetic:noise:24x20x16";
 
@@ -64,12 +64,9 @@ fn assert_is_render_of_the_view(
 ) {
     let (width, height) = scaled.dimensions();
     let view = scratch(&format!("{name}.ron"));
-    SavedView {
-        size: [width, height],
-        ..harness.state().saved_view().expect("a view")
-    }
-    .write(&view)
-    .expect("write the view");
+    let mut saved = harness.state().saved_view().expect("a view");
+    saved.draw.size = (width, height);
+    saved.write(&view).expect("write the view");
     let still_path = scratch(&format!("{name}-still.png"));
     let output = Process::new(env!("CARGO_BIN_EXE_voxscope"))
         .args(["render", "--view"])
@@ -172,7 +169,11 @@ fn a_composite_screenshot_at_2x_is_what_render_draws_of_its_view() {
     );
     let mut harness = app_of(file);
     let view = harness.state().saved_view().expect("a view");
-    assert_eq!(view.channels.len(), 2, "the composite of both channels");
+    assert_eq!(
+        view.draw.channels.colors.len(),
+        2,
+        "the composite of both channels"
+    );
     let [width, height] = harness.state().pane_sizes()[0];
     let scaled = save(
         &mut harness,

@@ -14,7 +14,7 @@ use support::app_harness::{differing_pixels, harness_with, lit_pixels, scratch, 
 use voxscope::app::{Command, VoxscopeApp};
 use voxscope_octree::{Colormap, OpacityMode};
 use voxscope_render::Camera;
-use voxscope_scene::{SavedView, TransferChoice, ViewStream, VolumeSource};
+use voxscope_scene::{ChannelChoice, OpenOptions, SavedView, TransferChoice, VolumeSource};
 use voxscope_volume::ValueWindow;
 
 /// Small and asymmetric: a turn or a window changes the picture.
@@ -83,10 +83,10 @@ fn a_saved_view_opens_in_a_fresh_app_as_it_was_and_render_draws_the_same_picture
     assert!(notice.starts_with("view saved: "), "{notice}");
     let saved = SavedView::read(&path).expect("the app wrote a view file");
     assert_eq!(Some(&saved), first.state().saved_view().as_ref());
-    assert_eq!(saved.data.source.as_deref(), Some(VOLUME));
-    assert_eq!(saved.camera.azimuth_deg, 63.0);
-    assert_eq!(saved.settings.map(|s| s.max_level), Some(depth - 1));
-    assert_eq!(saved.stream, Some(ViewStream::with_gpu_memory(128 << 20)));
+    assert_eq!(saved.open.source.as_deref(), Some(VOLUME));
+    assert_eq!(saved.draw.camera.azimuth_deg, 63.0);
+    assert_eq!(saved.draw.transfer.level, Some(depth - 1));
+    assert_eq!(saved.draw.stream.gpu_memory, 128 << 20);
     let shown = view(&first);
     assert!(lit_pixels(&shown) > 500, "the view shows the volume");
     shown
@@ -123,8 +123,9 @@ fn a_saved_view_opens_in_a_fresh_app_as_it_was_and_render_draws_the_same_picture
     settle(&mut second);
     assert_eq!(second.state().error(), None);
     let again = SavedView::read(&path).expect("Ctrl+S wrote the view file");
-    assert_eq!(again.camera.azimuth_deg, 140.0);
-    assert_eq!(again.settings, saved.settings);
+    assert_eq!(again.draw.camera.azimuth_deg, 140.0);
+    assert_eq!(again.draw.transfer, saved.draw.transfer);
+    assert_eq!(again.draw.clip, saved.draw.clip);
 
     // The command line draws the view the app saved (before Ctrl+S) as the app drew it.
     saved.write(&path).expect("rewrite the first view");
@@ -148,11 +149,11 @@ fn a_saved_view_opens_in_a_fresh_app_as_it_was_and_render_draws_the_same_picture
         String::from_utf8_lossy(&output.stderr)
     );
     let rendered = SavedView::read(&resaved).expect("render wrote its view");
-    assert_eq!(rendered.camera, saved.camera);
-    assert_eq!(rendered.transfer, saved.transfer);
-    assert_eq!(rendered.settings, saved.settings);
-    assert_eq!(rendered.size, saved.size);
-    assert_eq!(rendered.stream, saved.stream);
+    assert_eq!(rendered.draw.camera, saved.draw.camera);
+    assert_eq!(rendered.draw.transfer, saved.draw.transfer);
+    assert_eq!(rendered.draw.clip, saved.draw.clip);
+    assert_eq!(rendered.draw.size, saved.draw.size);
+    assert_eq!(rendered.draw.stream, saved.draw.stream);
     let still = image::open(&png).expect("render wrote a PNG").to_rgba8();
     assert_eq!(still.dimensions(), shown.dimensions());
     let differing = differing_pixels(&still, &shown);
@@ -166,7 +167,7 @@ fn a_saved_view_opens_in_a_fresh_app_as_it_was_and_render_draws_the_same_picture
 fn a_view_whose_data_is_missing_says_so_in_one_line_and_the_volume_on_screen_stays() {
     let path = scratch("missing-data-view.ron");
     SavedView {
-        data: voxscope_scene::ViewData {
+        open: OpenOptions {
             source: Some("target/app-test/no-such-volume.nii.gz".into()),
             ..Default::default()
         },
@@ -203,9 +204,9 @@ fn the_composites_channels_travel_with_the_view() {
     run(&mut first, Command::SaveView(path.clone()));
     assert_eq!(first.state().error(), None);
     let saved = SavedView::read(&path).expect("a view file");
-    assert_eq!(saved.data.channel.as_deref(), Some("all"));
-    assert_eq!(saved.channels.len(), 2);
-    assert!(!saved.channels[0].visible && saved.channels[1].visible);
+    assert_eq!(saved.open.channel, Some(ChannelChoice::All));
+    assert_eq!(saved.draw.channels.colors.len(), 2);
+    assert_eq!(saved.draw.channels.hidden, vec![0]);
 
     let mut second = app(VOLUME);
     run(&mut second, Command::OpenView(path));

@@ -106,6 +106,79 @@ fn save_view_then_view_reproduces_the_render_exactly_and_options_beside_it_win()
     assert_eq!(png(&turned), png(&direct));
 }
 
+/// A view file of version 1 (written before views were the options model) draws what the
+/// options that wrote it draw (tests/data/views/README.md lists them).
+#[test]
+fn a_version_1_view_draws_what_its_options_drew() {
+    let dir = tempfile::tempdir().unwrap();
+    for (view, options) in [
+        (
+            "tests/data/views/v1-head.ron",
+            "../shared/data/mri-head-128x128x62.nii.gz --size 96x72 --azimuth 63 --elevation=-12 --distance 2.5 --opacity-points 0.2:0,0.7:0.8 --colormap viridis --clip-box 0:0.8,0.1:1,0:1 --ambient 0.3 --mode dvr --level 5",
+        ),
+        (
+            "tests/data/views/v1-two-channels.ron",
+            "tests/data/channels/two-channels.ome.tif --size 80x64 --azimuth 40 --channel-colors magenta,#00ff00 --channel-window 1:10:200 --mode mip",
+        ),
+    ] {
+        let from_view = dir.path().join("from-view.png");
+        run(&["render", "--view", view, "-o", text(&from_view)]);
+        let direct = dir.path().join("direct.png");
+        let mut args = vec!["render", "-o", text(&direct)];
+        args.extend(options.split(' '));
+        run(&args);
+        assert_eq!(png(&from_view), png(&direct), "{view}");
+    }
+}
+
+/// A channel hidden in a view (the app's eye toggle) stays hidden where the command line
+/// draws the view, and the view it saves again says so.
+#[test]
+fn a_hidden_channel_of_a_view_is_not_drawn() {
+    let dir = tempfile::tempdir().unwrap();
+    let shown = dir.path().join("shown.ron");
+    let both = dir.path().join("both.png");
+    run(&[
+        "render",
+        "tests/data/channels/two-channels.ome.tif",
+        "--size",
+        "48x40",
+        "--channel-colors",
+        "magenta,green",
+        "--mode",
+        "mip",
+        "--save-view",
+        text(&shown),
+        "-o",
+        text(&both),
+    ]);
+    let written = std::fs::read_to_string(&shown).unwrap();
+    assert!(written.contains("hidden: []"), "{written}");
+    let hidden = dir.path().join("hidden.ron");
+    std::fs::write(&hidden, written.replace("hidden: []", "hidden: [0]")).unwrap();
+    let green = dir.path().join("green.png");
+    let again = dir.path().join("again.ron");
+    run(&[
+        "render",
+        "--view",
+        text(&hidden),
+        "--save-view",
+        text(&again),
+        "-o",
+        text(&green),
+    ]);
+    let (both, green) = (png(&both), png(&green));
+    assert!(both != green, "hiding a channel changes the image");
+    let red = |image: &RgbaImage| image.pixels().map(|p| u64::from(p[0])).sum::<u64>();
+    assert!(
+        red(&both) > 0,
+        "magenta shows in the image of both channels"
+    );
+    assert_eq!(red(&green), 0, "no magenta where channel 0 is hidden");
+    let resaved = voxscope_scene::SavedView::read(&again).expect("render saved its view");
+    assert_eq!(resaved.draw.channels.hidden, vec![0]);
+}
+
 #[test]
 fn a_malformed_view_or_one_whose_data_is_missing_is_one_line() {
     let dir = tempfile::tempdir().unwrap();
@@ -115,7 +188,7 @@ fn a_malformed_view_or_one_whose_data_is_missing_is_one_line() {
     let missing = dir.path().join("missing.ron");
     std::fs::write(
         &missing,
-        "(version: 1, data: (source: Some(\"no/such/head.nii.gz\")))",
+        "(version: 2, open: (source: Some(\"no/such/head.nii.gz\")))",
     )
     .unwrap();
     let newer = dir.path().join("newer.ron");

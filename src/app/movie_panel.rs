@@ -92,7 +92,7 @@ fn contents(ui: &mut Ui, plan: &mut MoviePlan, state: PanelState, queue: &mut Co
     }
     for (index, key) in plan.keyframes.iter().enumerate() {
         ui.horizontal(|ui| {
-            let camera = key.camera;
+            let camera = key.draw.camera;
             ui.label(format!(
                 "{}. azimuth {:.0}°, elevation {:.0}°, distance {:.2}",
                 index + 1,
@@ -230,28 +230,26 @@ impl VoxscopeApp {
             return Err("the movie has no keyframes: Add keyframe adds the view on screen".into());
         }
         let (current, current_channels) = self.current_shot();
+        let depth = self.scene.as_ref().map_or(0, |scene| scene.depth());
         let mut shots = Vec::new();
         let mut channels = Vec::new();
         for (index, key) in self.movie.keyframes.iter().enumerate() {
-            if key.data != now.data {
+            if !key.same_data(&now) {
                 return Err(format!(
                     "keyframe {} shows {}, not the volume on screen",
                     index + 1,
-                    key.data.source.as_deref().unwrap_or("the sample")
+                    key.open.source.as_deref().unwrap_or("the sample")
                 ));
             }
+            let transfer = key.transfer().unwrap_or(current.transfer);
             shots.push(Shot {
-                camera: key.camera,
-                settings: key.settings.unwrap_or(current.settings),
-                transfer: key.transfer.unwrap_or(current.transfer),
+                camera: key.draw.camera,
+                settings: key.render_settings(depth),
+                transfer,
             });
             let mut states = current_channels.clone();
-            if key.channels.len() == states.len() {
-                for (state, saved) in states.iter_mut().zip(&key.channels) {
-                    state.color = saved.color;
-                    state.visible = saved.visible;
-                    state.transfer = saved.transfer;
-                }
+            if key.draw.channels.colors.len() == states.len() {
+                super::saved_view::key_channels(&mut states, key, transfer);
             }
             channels.push(states);
         }

@@ -14,11 +14,13 @@
 use std::path::Path;
 
 use voxscope_octree::TransferFunction;
-use voxscope_render::{BUDGET_STEPS, RenderSettings, RendererKind, RendererOptions};
+use voxscope_render::{BUDGET_STEPS, RenderSettings, RendererOptions};
 use voxscope_scene::{
-    ChannelState, FrameChange, Job, Opened, SavedView, Shot, TransferChoice, TransferRequest,
-    VIEW_VERSION, ViewChannel, ViewData, ViewRuler, ViewStream, VolumeSource, opening_transfer,
+    ChannelChoice, ChannelRequest, ChannelState, DrawOptions, FrameChange, Job, OpenOptions,
+    Opened, SavedTransfer, SavedView, Shot, TransferChoice, TransferOptions, TransferRequest,
+    VIEW_VERSION, ViewRuler, VolumeSource, opening_transfer,
 };
+use voxscope_stream::StreamOptions;
 use voxscope_volume::{Selection, ValueWindow};
 
 use super::settings::Layout;
@@ -40,24 +42,20 @@ pub fn layout_named(name: &str) -> Option<Layout> {
     Layout::ALL.into_iter().find(|&l| layout_name(l) == name)
 }
 
-/// The frame a view's data names: its selection, and whether the composite of every channel
-/// is shown (`channel` left out or `all`). An error for a channel that is no number.
-fn view_selection(data: &ViewData) -> Result<(Selection, bool), String> {
-    let (channel, composite) = match data.channel.as_deref().map(str::trim) {
-        None | Some("all") => (0, true),
-        Some(text) => (
-            text.parse::<usize>()
-                .map_err(|_| format!("the channel '{text}' is not a number or 'all'"))?,
-            false,
-        ),
+/// The frame a view opens: its selection, and whether the composite of every channel is
+/// shown (no channel chosen, or `all`).
+fn view_selection(open: &OpenOptions) -> (Selection, bool) {
+    let (channel, composite) = match open.channel {
+        None | Some(ChannelChoice::All) => (0, true),
+        Some(ChannelChoice::Index(channel)) => (channel, false),
     };
-    Ok((
+    (
         Selection {
             channel,
-            time: data.time,
+            time: open.time,
         },
         composite,
-    ))
+    )
 }
 
 impl VoxscopeApp {
@@ -66,28 +64,19 @@ impl VoxscopeApp {
         let scene = self.scene.as_ref()?;
         let volume = &scene.data.volume;
         let channel = if scene.composite.is_some() {
-            Some("all".to_owned())
+            Some(ChannelChoice::All)
         } else if volume.series.channel_count() > 1 {
-            Some(volume.series.selected.channel.to_string())
+            Some(ChannelChoice::Index(volume.series.selected.channel))
         } else {
             None
         };
         let source = match &scene.data.source {
             VolumeSource::Sample => None,
-            VolumeSource::Spec(spec) => Some(ViewData::stored_source(spec)),
+            VolumeSource::Spec(spec) => Some(spec.clone()),
         };
         let live = self.transfer();
-        let channels: Vec<ViewChannel> = match &scene.composite {
-            Some(_) => self
-                .view
-                .composite_channels(live)
-                .into_iter()
-                .map(|state| ViewChannel {
-                    color: state.color,
-                    transfer: state.transfer,
-                    visible: state.visible,
-                })
-                .collect(),
+        let channels = match &scene.composite {
+            Some(_) => self.view.composite_channels(live),
             None => Vec::new(),
         };
         // A composite's own function is channel 0's (the command line draws it so).
@@ -96,34 +85,44 @@ impl VoxscopeApp {
             .central
             .pane_sizes()
             .first()
-            .copied()
-            .filter(|&[w, h]| w > 0 && h > 0)
-            .unwrap_or(SavedView::default().size);
-        let kind = if scene.composite.is_some() {
-            RendererKind::Composite
-        } else {
-            scene.options.kind
+            .map(|&[w, h]| (w, h))
+            .filter(|&(w, h)| w > 0 && h > 0)
+            .unwrap_or(DrawOptions::default().size);
+        // The composite's renderer is the data's choice (all channels), not one to ask for.
+        let renderer = scene.composite.is_none().then_some(scene.options.kind);
+        let settings = self
+            .settings
+            .render_settings(self.view.max_level, self.view.clipping.clip());
+        let saved = SavedTransfer {
+            transfer,
+            density: settings.density,
+            mode: settings.mode,
+        };
+        let open = OpenOptions {
+            source,
+            channel,
+            time: volume.series.selected.time,
+            ..OpenOptions::default()
         };
         Some(SavedView {
             version: VIEW_VERSION,
-            data: ViewData {
-                source,
-                channel,
-                time: volume.series.selected.time,
-                ..ViewData::default()
+            open: open.stored(),
+            draw: DrawOptions {
+                transfer: TransferOptions::drawn(Some(saved), &settings),
+                clip: settings.clip,
+                channels: ChannelRequest::of_states(&channels),
+                renderer,
+                brick_size: self.settings.brick_size,
+                // The GPU budget the user chose; the rest is as the app streams (its
+                // defaults).
+                stream: StreamOptions {
+                    gpu_memory: self.settings.stream_gpu_memory,
+                    ..StreamOptions::default()
+                },
+                camera: self.settings.camera,
+                size,
+                ..DrawOptions::default()
             },
-            camera: self.settings.camera,
-            size,
-            transfer: Some(transfer),
-            channels,
-            settings: Some(
-                self.settings
-                    .render_settings(self.view.max_level, self.view.clipping.clip()),
-            ),
-            renderer: Some(kind),
-            brick_size: Some(self.settings.brick_size),
-            // The GPU budget the user chose; the rest is as the app streams (its defaults).
-            stream: Some(ViewStream::with_gpu_memory(self.settings.stream_gpu_memory)),
             rulers: self
                 .view
                 .rulers
@@ -141,17 +140,14 @@ impl VoxscopeApp {
     /// transfer function); the rest of the view is applied when it is on screen.
     pub(super) fn open_view(&mut self, view: SavedView, ctx: &egui::Context) -> Result<(), String> {
         let gpu = self.gpu.as_ref().ok_or("no GPU device")?;
-        let (selection, composite) = view_selection(&view.data)?;
-        let source = view
-            .data
-            .source
-            .as_deref()
-            .map_or(VolumeSource::Sample, VolumeSource::from_spec);
+        let (selection, composite) = view_selection(&view.open);
+        let source = view.open.volume_source();
+        let saved = view.transfer();
         // The frame, where it is not the first: drawn with the view's function at once (a
         // view without one takes the data's own once open).
         let frame = (selection != Selection::default() || !composite).then(|| FrameChange {
             selection,
-            transfer: view.transfer.unwrap_or(TransferFunction::gray(ValueWindow {
+            transfer: saved.unwrap_or(TransferFunction::gray(ValueWindow {
                 low: 0.0,
                 high: 1.0,
             })),
@@ -159,12 +155,12 @@ impl VoxscopeApp {
             channels: Vec::new(),
         });
         let request = TransferRequest {
-            saved: view.transfer,
+            saved,
             ..TransferRequest::default()
         };
         let options = RendererOptions {
-            kind: view_renderer(&view).unwrap_or(self.settings.renderer),
-            brick_size: view.brick_size.unwrap_or(self.settings.brick_size),
+            kind: view.draw.renderer.unwrap_or(self.settings.renderer),
+            brick_size: view.draw.brick_size,
             gpu_memory: view_gpu_memory(&view).unwrap_or(self.settings.stream_gpu_memory),
         };
         let context = std::sync::Arc::clone(&gpu.context);
@@ -184,12 +180,10 @@ impl VoxscopeApp {
     pub(super) fn show_view_opened(&mut self, mut opened: Opened, view: &SavedView) {
         // The view's renderer is the user's choice now, so that the renderer the data opened
         // with is not replaced by the one chosen before.
-        if let Some(kind) = view_renderer(view) {
+        if let Some(kind) = view.draw.renderer {
             self.settings.renderer = kind;
         }
-        if let Some(size) = view.brick_size {
-            self.settings.brick_size = size;
-        }
+        self.settings.brick_size = view.draw.brick_size;
         // Its GPU budget too (the app's other streaming budgets are its defaults; `render
         // --view` takes them all).
         if let Some(bytes) = view_gpu_memory(view) {
@@ -202,7 +196,7 @@ impl VoxscopeApp {
             return;
         };
         let depth = scene.depth();
-        let transfer = view.transfer.unwrap_or_else(|| {
+        let transfer = view.transfer().unwrap_or_else(|| {
             let data = &scene.data;
             opening_transfer(
                 &data.quantized,
@@ -211,22 +205,17 @@ impl VoxscopeApp {
                 &TransferRequest::default(),
             )
         });
-        if scene.composite.is_some() && view.channels.len() == self.view.channels.len() {
-            for (state, saved) in self.view.channels.iter_mut().zip(&view.channels) {
-                state.color = saved.color;
-                state.transfer = saved.transfer;
-                state.visible = saved.visible;
-            }
+        let asked = &view.draw.channels;
+        if scene.composite.is_some() && asked.colors.len() == self.view.channels.len() {
+            key_channels(&mut self.view.channels, view, transfer);
             self.view.active_channel = 0;
-            let first = view.channels.first().map_or(transfer, |c| c.transfer);
+            let first = self.view.channels.first().map_or(transfer, |c| c.transfer);
             self.set_panel_transfer(first);
         } else {
             self.set_panel_transfer(transfer);
         }
-        self.settings.camera = view.camera;
-        if let Some(settings) = view.settings {
-            self.apply_render_settings(&settings, depth);
-        }
+        self.settings.camera = view.draw.camera;
+        self.apply_render_settings(&view.render_settings(depth), depth);
         self.view.rulers = view
             .rulers
             .iter()
@@ -292,19 +281,24 @@ impl VoxscopeApp {
     }
 }
 
-/// The renderer of one volume a view asks for (`None`: the composite's, or none).
+/// The composite's channels as `view` shows them: `transfer` (the view's function, which
+/// every channel shares) over each channel's window, with the view's colors and visibility.
+pub fn key_channels(states: &mut [ChannelState], view: &SavedView, transfer: TransferFunction) {
+    for state in states.iter_mut() {
+        state.transfer = TransferFunction {
+            window: state.transfer.window,
+            colormap: state.transfer.colormap,
+            ..transfer
+        };
+    }
+    view.draw.channels.apply_to(states);
+}
+
 /// The GPU budget a view names, where it is one a streaming renderer can use (a file edited to
 /// less than the smallest step the budget-limited status names is ignored, as a file from
 /// before budgets were saved).
 fn view_gpu_memory(view: &SavedView) -> Option<u64> {
-    view.stream
-        .map(|stream| stream.gpu_memory)
-        .filter(|&bytes| bytes >= BUDGET_STEPS[0])
-}
-
-fn view_renderer(view: &SavedView) -> Option<RendererKind> {
-    view.renderer
-        .filter(|kind| *kind != RendererKind::Composite)
+    Some(view.draw.stream.gpu_memory).filter(|&bytes| bytes >= BUDGET_STEPS[0])
 }
 
 #[cfg(test)]
@@ -320,33 +314,21 @@ mod tests {
     }
 
     #[test]
-    fn a_view_names_its_frame_and_a_bad_channel_is_one_line() {
-        let data = |channel: Option<&str>, time| ViewData {
-            channel: channel.map(str::to_owned),
+    fn a_view_names_its_frame() {
+        let open = |channel, time| OpenOptions {
+            channel,
             time,
-            ..ViewData::default()
+            ..OpenOptions::default()
         };
+        let frame = |channel, time| Selection { channel, time };
+        assert_eq!(view_selection(&open(None, 2)), (frame(0, 2), true));
         assert_eq!(
-            view_selection(&data(None, 2)),
-            Ok((
-                Selection {
-                    channel: 0,
-                    time: 2
-                },
-                true
-            ))
+            view_selection(&open(Some(ChannelChoice::All), 0)),
+            (frame(0, 0), true)
         );
         assert_eq!(
-            view_selection(&data(Some("1"), 0)),
-            Ok((
-                Selection {
-                    channel: 1,
-                    time: 0
-                },
-                false
-            ))
+            view_selection(&open(Some(ChannelChoice::Index(1)), 0)),
+            (frame(1, 0), false)
         );
-        let error = view_selection(&data(Some("red"), 0)).expect_err("not a channel");
-        assert!(error.contains("'red'"), "{error}");
     }
 }

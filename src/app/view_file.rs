@@ -21,7 +21,8 @@ pub fn write_job(
     wake: impl Fn() + Send + 'static,
 ) -> Job<ViewFile> {
     Job::spawn(format!("saving {}", path.display()), wake, move |_| {
-        view.write(&path).map_err(SceneError::failed)?;
+        view.write(&path)
+            .map_err(|e| SceneError::failed(e.to_string()))?;
         Ok(ViewFile::Written(path))
     })
 }
@@ -30,8 +31,8 @@ pub fn write_job(
 /// view whose data is missing is one line naming both.
 pub fn read_job(path: PathBuf, wake: impl Fn() + Send + 'static) -> Job<ViewFile> {
     Job::spawn(format!("reading {}", path.display()), wake, move |_| {
-        let view = SavedView::read(&path).map_err(SceneError::failed)?;
-        if let Some(missing) = view.data.missing_path() {
+        let view = SavedView::read(&path).map_err(|e| SceneError::failed(e.to_string()))?;
+        if let Some(missing) = view.open.missing_path() {
             return Err(SceneError::failed(format!(
                 "{}: its data {missing} does not exist",
                 path.display()

@@ -253,9 +253,6 @@ pub struct TransferArgs {
     /// Shading: the highlight's exponent, 1…128 (default 10; larger is sharper).
     #[arg(long, value_parser = parse_shininess)]
     pub shininess: Option<f32>,
-    /// The transfer function of a saved view (`--view`), taken like a --tf file's.
-    #[arg(skip)]
-    pub view_transfer: Option<SavedTransfer>,
 }
 
 /// Clipping: a crop box and one clip plane, in normalized volume coordinates (0…1 along each
@@ -364,11 +361,11 @@ impl TransferArgs {
                 specular: self.specular.unwrap_or(defaults.specular),
                 shininess: self.shininess.unwrap_or(defaults.shininess),
             },
-            saved: self.view_transfer,
+            saved: None,
         }
     }
 
-    /// The saved transfer function of --tf, if given, else a `--view`'s.
+    /// The saved transfer function of --tf, if given.
     pub fn saved(&self) -> Result<Option<SavedTransfer>, String> {
         self.options().saved().map_err(|e| e.to_string())
     }

@@ -51,6 +51,7 @@ impl ChannelArgs {
         ChannelRequest {
             colors: self.channel_colors.clone().unwrap_or_default(),
             windows: self.channel_window.clone(),
+            hidden: Vec::new(),
         }
     }
 

@@ -3,7 +3,7 @@
 //! numbered PNGs.
 
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use clap::Args;
@@ -13,7 +13,8 @@ use super::{RenderOptions, VolumeArgs};
 use crate::movie_writer::MovieFormat;
 use voxscope_render::{RenderTarget, read_image};
 use voxscope_scene::{
-    ChannelState, Drawable, SavedView, Shot, keyframe_channels, keyframe_path, turntable,
+    ChannelRequest, ChannelState, DrawOptions, Drawable, OpenOptions, SavedView, Shot,
+    keyframe_channels, keyframe_path, turntable,
 };
 
 /// Frames of a turntable without `--frames`.
@@ -73,26 +74,31 @@ pub fn run(args: &MovieArgs, given: &Given) -> Result<super::render::Rendered, S
     let started = Instant::now();
     let format = MovieFormat::of(&args.output)?;
     let keyframes = read_keyframes(args)?;
-    let (mut volume, mut options) = (args.volume.clone(), args.options.clone());
     let start_view = match (&args.view, keyframes.first()) {
-        (Some(path), _) => Some((path.clone(), SavedView::read(path)?)),
+        (Some(path), _) => Some((
+            path.clone(),
+            SavedView::read(path).map_err(|e| e.to_string())?,
+        )),
         (None, Some(first)) => Some(first.clone()),
         (None, None) => None,
     };
-    if let Some((path, saved)) = &start_view {
-        view::apply(saved, path, &mut volume, &mut options, given)?;
-    }
-    options.check()?;
-    let mut drawing = super::render::open_drawable(&volume, &options)?;
-    let draw = options.draw_options();
+    let (open, draw) = match &start_view {
+        Some((path, saved)) => under_options(args, given, path, saved)?,
+        None => (args.volume.open_options(), args.options.draw_options()),
+    };
+    args.options.check()?;
+    let mut drawing = super::render::open_drawable(&open, &draw)?;
     // The composite's channels per frame, each channel's color and window following the
     // keyframes (empty for one volume).
     let channel_frames = match drawing.channels() {
         Some(channels) if keyframes.len() > 1 => {
             let keys: Vec<Vec<ChannelState>> = keyframes
                 .iter()
-                .map(|(_, saved)| key_channels(channels, saved, given))
-                .collect();
+                .map(|(path, saved)| {
+                    under_options(args, given, path, saved)
+                        .map(|(_, key)| key_channels(channels, &key.channels))
+                })
+                .collect::<Result<_, String>>()?;
             keyframe_channels(&keys, args.frames.unwrap_or(SEGMENT_FRAMES) as usize)
         }
         _ => Vec::new(),
@@ -111,7 +117,7 @@ pub fn run(args: &MovieArgs, given: &Given) -> Result<super::render::Rendered, S
             .collect::<Result<Vec<Shot>, String>>()?;
         keyframe_path(&keys, args.frames.unwrap_or(SEGMENT_FRAMES) as usize)
     };
-    let size = options.size;
+    let size = draw.size;
     let mut writer = format.create(&args.output, size, args.fps, shots.len())?;
     let target = RenderTarget::new(drawing.context(), size.0, size.1);
     let mut times = StageTimes::default();
@@ -240,7 +246,11 @@ fn read_keyframes(args: &MovieArgs) -> Result<Vec<(PathBuf, SavedView)>, String>
     }
     let views = paths
         .iter()
-        .map(|path| SavedView::read(path).map(|view| (path.clone(), view)))
+        .map(|path| {
+            SavedView::read(path)
+                .map(|view| (path.clone(), view))
+                .map_err(|e| e.to_string())
+        })
         .collect::<Result<Vec<_>, String>>()?;
     let (first_path, first) = &views[0];
     for (path, view) in &views[1..] {
@@ -255,40 +265,47 @@ fn read_keyframes(args: &MovieArgs) -> Result<Vec<(PathBuf, SavedView)>, String>
     Ok(views)
 }
 
-/// The composite's channels keyframe `saved` shows: `opened`'s (as the first keyframe and the
-/// options opened them) with the view's colors and windows, where no `--channel-colors` or
-/// `--channel-window` was given beside it (a view of other channels: `opened`'s).
-fn key_channels(opened: &[ChannelState], saved: &SavedView, given: &Given) -> Vec<ChannelState> {
+/// The options keyframe (or start view) `saved`, read from `path`, holds under the options
+/// `given` beside it.
+fn under_options(
+    args: &MovieArgs,
+    given: &Given,
+    path: &Path,
+    saved: &SavedView,
+) -> Result<(OpenOptions, DrawOptions), String> {
+    let flags = (args.volume.open_options(), args.options.draw_options());
+    view::under_options(saved, path, (&flags.0, &flags.1), given)
+}
+
+/// The composite's channels a keyframe shows: `opened`'s (as the first keyframe and the
+/// options opened them) with the colors, windows and visibility `asked` (a keyframe's under
+/// the options beside it); a view of more channels than these: `opened`'s.
+fn key_channels(opened: &[ChannelState], asked: &ChannelRequest) -> Vec<ChannelState> {
     let mut channels = opened.to_vec();
-    if saved.channels.len() == channels.len() {
-        for (state, key) in channels.iter_mut().zip(&saved.channels) {
-            if !given.has("channel_colors") {
-                state.color = key.color;
-            }
-            if !given.has("channel_window") {
-                state.transfer.window = key.transfer.window;
-            }
-        }
+    if asked.colors.len() <= channels.len() {
+        asked.apply_to(&mut channels);
     }
     channels
 }
 
 /// What keyframe `saved` shows, under the options given beside it: its camera, its settings
-/// for the drawing's volume, and its transfer function.
+/// for the drawing's volume, and its transfer function (the drawing's where it holds none or
+/// the options choose the opacity).
 fn key_shot(
     args: &MovieArgs,
     given: &Given,
     drawing: &Drawable,
-    path: &std::path::Path,
+    path: &Path,
     saved: &SavedView,
 ) -> Result<Shot, String> {
-    let (mut volume, mut options) = (args.volume.clone(), args.options.clone());
-    view::apply(saved, path, &mut volume, &mut options, given)?;
-    let draw = options.draw_options();
+    let (_, draw) = under_options(args, given, path, saved)?;
     let transfer_saved = draw.transfer.saved().map_err(|e| e.to_string())?;
     Ok(Shot {
         camera: draw.camera,
         settings: draw.render_settings(drawing.depth(), transfer_saved.as_ref()),
-        transfer: view::transfer_of(saved, &drawing.transfer(), &args.options, given),
+        transfer: draw
+            .transfer
+            .saved_function()
+            .unwrap_or_else(|| drawing.transfer()),
     })
 }

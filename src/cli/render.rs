@@ -9,7 +9,9 @@ use super::args::scene_error_text;
 use super::view::{self, Given};
 use super::{RenderOptions, VolumeArgs};
 use voxscope_render::{HeadlessStart, RenderTarget, RendererKind, read_image};
-use voxscope_scene::{Drawable, Refinement, SavedView, SceneError, describe_missing};
+use voxscope_scene::{
+    DrawOptions, Drawable, OpenOptions, Refinement, SavedView, SceneError, describe_missing,
+};
 
 #[derive(Debug, Args)]
 pub struct RenderArgs {
@@ -44,36 +46,33 @@ pub enum Rendered {
 }
 
 pub fn run(args: &RenderArgs, given: &Given) -> Result<Rendered, String> {
-    let (volume, options) = resolved(args, given)?;
-    check_output(&args.output, volume.file.as_deref())?;
-    options.check()?;
+    let (open, draw) = resolved(args, given)?;
+    check_output(&args.output, open.source.as_deref())?;
+    args.options.check()?;
     let started = Instant::now();
-    let mut drawing = open_drawable(&volume, &options)?;
-    let draw = options.draw_options();
+    let mut drawing = open_drawable(&open, &draw)?;
     let camera = draw.camera;
     let settings = drawing.render_settings(&draw);
+    let size = draw.size;
     // Seconds from the start to the first frame's drawing (a streamed render's first image
     // is this and the refinement's first frame).
     let mut drawing_began = 0.0;
-    let side = drawing.tile_side(options.size, args.tile_size);
+    let side = drawing.tile_side(size, args.tile_size);
     let (mut image, refinement) = match side {
         Some(side) => {
             let (image, tiles) = drawing
-                .draw_tiled(options.size, side, &camera, &settings, draw.max_wait)
+                .draw_tiled(size, side, &camera, &settings, draw.max_wait)
                 .map_err(|e| e.to_string())?;
             let why = if args.tile_size.is_some() {
                 "as --tile-size asks".to_owned()
             } else {
-                format!(
-                    "{}x{} is beyond one target of this device",
-                    options.size.0, options.size.1
-                )
+                format!("{}x{} is beyond one target of this device", size.0, size.1)
             };
             eprintln!("drawn in tiles of {side}x{side} pixels ({why})");
             (image, merged(tiles))
         }
         None => {
-            let target = RenderTarget::new(drawing.context(), options.size.0, options.size.1);
+            let target = RenderTarget::new(drawing.context(), size.0, size.1);
             drawing_began = started.elapsed().as_secs_f64();
             let refinement = drawing
                 .draw_complete(&target, &camera, &settings, draw.max_wait)
@@ -89,7 +88,9 @@ pub fn run(args: &RenderArgs, given: &Given) -> Result<Rendered, String> {
         .save(&args.output)
         .map_err(|e| format!("cannot write {}: {e}", args.output.display()))?;
     if let Some(path) = &args.save_view {
-        view::view_of(&volume, &options, &drawing).write(path)?;
+        SavedView::of(&open, &draw, &drawing)
+            .write(path)
+            .map_err(|e| e.to_string())?;
     }
     let seconds = started.elapsed().as_secs_f64();
     let written = format!(
@@ -152,17 +153,13 @@ pub fn run(args: &RenderArgs, given: &Given) -> Result<Rendered, String> {
 /// it: the GPU starts while the volume is read (for the streaming renderer, which is what a
 /// store's `--renderer stream` always draws, it builds the renderer's pipelines too); a long
 /// octree build reports its progress on stderr, and how it is drawn is said there once.
-pub(super) fn open_drawable(
-    volume: &VolumeArgs,
-    options: &RenderOptions,
-) -> Result<Drawable, String> {
-    let draw = options.draw_options();
+pub(super) fn open_drawable(open: &OpenOptions, draw: &DrawOptions) -> Result<Drawable, String> {
     let streams = draw.renderer == Some(RendererKind::Stream);
     let gpu = HeadlessStart::begin_for(streams.then_some(RendererKind::Stream));
     super::prepare::reporting_progress(|progress| {
         Drawable::open(
-            &volume.open_options(),
-            &draw,
+            open,
+            draw,
             || gpu.finish().map_err(SceneError::Gpu),
             progress,
             &mut |notice| eprintln!("{notice}"),
@@ -188,15 +185,17 @@ fn merged(tiles: Vec<Refinement>) -> Option<Refinement> {
     })
 }
 
-/// The volume and options of `args` under its `--view` (the options `given` on the command
-/// line win over the view's).
-fn resolved(args: &RenderArgs, given: &Given) -> Result<(VolumeArgs, RenderOptions), String> {
-    let (mut volume, mut options) = (args.volume.clone(), args.options.clone());
-    if let Some(path) = &args.view {
-        let saved = SavedView::read(path)?;
-        view::apply(&saved, path, &mut volume, &mut options, given)?;
+/// What `args` open and draw, under its `--view` (the options `given` on the command line
+/// win over the view's).
+fn resolved(args: &RenderArgs, given: &Given) -> Result<(OpenOptions, DrawOptions), String> {
+    let (open, draw) = (args.volume.open_options(), args.options.draw_options());
+    match &args.view {
+        Some(path) => {
+            let saved = SavedView::read(path).map_err(|e| e.to_string())?;
+            view::under_options(&saved, path, (&open, &draw), given)
+        }
+        None => Ok((open, draw)),
     }
-    Ok((volume, options))
 }
 
 /// How long a streamed render took, and until its first image.

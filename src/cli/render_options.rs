@@ -55,9 +55,6 @@ pub struct RenderOptions {
     /// Vertical field of view, degrees.
     #[arg(long, default_value_t = 45.0)]
     pub fov: f64,
-    /// The look-at point's offset from the volume's center (a `--view`'s pan; no option).
-    #[arg(skip)]
-    pub pan: [f64; 3],
 }
 
 impl RenderOptions {
@@ -78,14 +75,14 @@ impl RenderOptions {
         }
     }
 
-    /// The camera of --azimuth, --elevation, --distance and --fov (and a view's pan).
+    /// The camera of --azimuth, --elevation, --distance and --fov.
     pub fn camera(&self) -> Camera {
         Camera {
             azimuth_deg: self.azimuth,
             elevation_deg: self.elevation,
             distance: self.distance,
             fov_y_deg: self.fov,
-            pan: self.pan,
+            pan: [0.0; 3],
         }
     }
 

@@ -1,20 +1,12 @@
-//! `--view V.ron` and `--save-view V.ron`: a saved view ([`SavedView`]) under the options given
-//! beside it on the command line, and the view of what a render drew.
+//! `--view V.ron`: a saved view ([`SavedView`], the scene layer's options as a file) under
+//! the options given beside it on the command line, which win over the view's own.
 
 use std::collections::HashSet;
 use std::path::Path;
 
 use clap::ArgMatches;
 use clap::parser::ValueSource;
-use voxscope_octree::TransferFunction;
-use voxscope_render::RendererKind;
-use voxscope_scene::{
-    Drawable, SavedTransfer, SavedView, VIEW_VERSION, ViewChannel, ViewData, ViewStream,
-};
-use voxscope_volume::{Endian, RawLayout};
-
-use super::args::{ChannelChoice, RendererArg};
-use super::{RenderOptions, VolumeArgs};
+use voxscope_scene::{DrawOptions, OpenOptions, SavedView};
 
 /// The options given on the command line (not left at their defaults), by their ids (the
 /// field names: `azimuth`, `opacity_points`, `file`).
@@ -55,268 +47,187 @@ impl Given {
 /// The options that choose the transfer function's opacity (they replace a view's function).
 pub const OPACITY_OPTIONS: [&str; 4] = ["opacity", "opacity_points", "preset", "tf"];
 
-/// Sets what `view` holds into `volume` and `options`, except where an option was `given`
-/// beside it. A view whose data file is missing (and no file given instead) is an error
-/// naming both.
-pub fn apply(
+/// Takes one command-line option's value from the options the command line gave as a whole
+/// into a view's.
+type Take<T> = fn(&mut T, &T);
+
+/// The options of the data, by their ids, and what each sets (`file` and `channels_from`
+/// name the data together; `max_requests` is the network's, never a view's).
+const OPEN_OPTIONS: &[(&str, Take<OpenOptions>)] = &[
+    ("channel", |view, flags| view.channel = flags.channel),
+    ("time", |view, flags| view.time = flags.time),
+    ("raw", |view, flags| view.raw = flags.raw),
+    ("spacing", |view, flags| view.spacing = flags.spacing),
+];
+
+/// The options of the drawing, by their ids, and what each sets. The opacity options also
+/// drop the view's transfer function; `--threshold` applies to it.
+const DRAW_OPTIONS: &[(&str, Take<DrawOptions>)] = &[
+    ("opacity", |v, f| v.transfer.opacity = f.transfer.opacity),
+    ("opacity_points", |v, f| {
+        v.transfer.opacity = f.transfer.opacity
+    }),
+    ("preset", |v, f| v.transfer.preset = f.transfer.preset),
+    ("tf", |v, f| v.transfer.tf.clone_from(&f.transfer.tf)),
+    ("threshold", |v, f| {
+        v.transfer.threshold = f.transfer.threshold
+    }),
+    ("window", |v, f| v.transfer.window = f.transfer.window),
+    ("colormap", |v, f| v.transfer.colormap = f.transfer.colormap),
+    ("density", |v, f| v.transfer.density = f.transfer.density),
+    ("mode", |v, f| v.transfer.mode = f.transfer.mode),
+    ("level", |v, f| v.transfer.level = f.transfer.level),
+    ("pixel_lod", |v, f| {
+        v.transfer.pixel_lod = f.transfer.pixel_lod
+    }),
+    ("no_opacity_correction", |v, f| {
+        v.transfer.opacity_correction = f.transfer.opacity_correction;
+    }),
+    ("heatmap", |v, f| v.transfer.heatmap = f.transfer.heatmap),
+    ("nearest", |v, f| {
+        v.transfer.trilinear = f.transfer.trilinear
+    }),
+    ("shading", |v, f| {
+        v.transfer.shading.enabled = f.transfer.shading.enabled;
+    }),
+    ("no_shading", |v, f| {
+        v.transfer.shading.enabled = f.transfer.shading.enabled;
+    }),
+    ("ambient", |v, f| {
+        v.transfer.shading.ambient = f.transfer.shading.ambient;
+    }),
+    ("diffuse", |v, f| {
+        v.transfer.shading.diffuse = f.transfer.shading.diffuse;
+    }),
+    ("specular", |v, f| {
+        v.transfer.shading.specular = f.transfer.shading.specular;
+    }),
+    ("shininess", |v, f| {
+        v.transfer.shading.shininess = f.transfer.shading.shininess;
+    }),
+    ("clip_box", |v, f| v.clip.bounds = f.clip.bounds),
+    ("clip_plane", |v, f| v.clip.plane = f.clip.plane),
+    ("channel_colors", |v, f| {
+        v.channels.colors.clone_from(&f.channels.colors);
+    }),
+    ("channel_window", |v, f| {
+        v.channels.windows.clone_from(&f.channels.windows);
+    }),
+    ("labels", |v, f| v.labels.names.clone_from(&f.labels.names)),
+    ("labels_opacity", |v, f| v.labels.opacity = f.labels.opacity),
+    ("labels_hide", |v, f| {
+        v.labels.hide.clone_from(&f.labels.hide)
+    }),
+    ("renderer", |v, f| v.renderer = f.renderer),
+    ("brick_size", |v, f| v.brick_size = f.brick_size),
+    ("gpu_memory", |v, f| {
+        v.stream.gpu_memory = f.stream.gpu_memory
+    }),
+    ("ram_cache", |v, f| v.stream.ram_cache = f.stream.ram_cache),
+    ("upload_budget", |v, f| {
+        v.stream.upload_bytes_per_frame = f.stream.upload_bytes_per_frame;
+    }),
+    ("lod_scale", |v, f| v.stream.lod_scale = f.stream.lod_scale),
+    ("uploads", |v, f| v.stream.uploads = f.stream.uploads),
+    ("atlas_zero", |v, f| {
+        v.stream.atlas_zero = f.stream.atlas_zero
+    }),
+    ("no_level_walk", |v, f| {
+        v.stream.level_walk = f.stream.level_walk
+    }),
+    ("max_wait", |v, f| v.max_wait = f.max_wait),
+    ("size", |v, f| v.size = f.size),
+    ("azimuth", |v, f| {
+        v.camera.azimuth_deg = f.camera.azimuth_deg
+    }),
+    ("elevation", |v, f| {
+        v.camera.elevation_deg = f.camera.elevation_deg
+    }),
+    ("distance", |v, f| v.camera.distance = f.camera.distance),
+    ("fov", |v, f| v.camera.fov_y_deg = f.camera.fov_y_deg),
+];
+
+/// The options of the command line that are not the view's: the output, the views
+/// themselves, and the network's and the tests' settings.
+#[cfg(test)]
+const NOT_IN_VIEWS: &[&str] = &[
+    "file",
+    "channels_from",
+    "field",
+    "series",
+    "max_requests",
+    "output",
+    "view",
+    "save_view",
+    "tile_size",
+];
+
+/// The options `view` holds (read from `path`) with those `given` on the command line over
+/// them; `open` and `draw` are the command line's options as a whole. A view whose data file
+/// is missing (and no file given instead) is an error naming both.
+pub fn under_options(
     view: &SavedView,
     path: &Path,
-    volume: &mut VolumeArgs,
-    options: &mut RenderOptions,
+    (open, draw): (&OpenOptions, &DrawOptions),
     given: &Given,
-) -> Result<(), String> {
-    if !given.any(&["file", "channels_from"]) {
-        if let Some(missing) = view.data.missing_path() {
-            return Err(format!(
-                "{}: its data {missing} does not exist (give the volume beside --view to use another)",
-                path.display()
-            ));
-        }
-        volume.file = view.data.source.clone();
-        volume.channels_from =
-            (!view.data.channels_from.is_empty()).then(|| view.data.channels_from.clone());
-    }
-    let bad = |what: &str, e: String| format!("{}: {what}: {e}", path.display());
-    if !given.has("channel") {
-        volume.channel = view
-            .data
-            .channel
-            .as_deref()
-            .map(ChannelChoice::parse)
-            .transpose()
-            .map_err(|e| bad("channel", e))?;
-    }
-    if !given.has("time") {
-        volume.time = view.data.time;
-    }
-    if !given.has("raw") {
-        volume.raw = view
-            .data
-            .raw
-            .as_deref()
-            .map(RawLayout::parse)
-            .transpose()
-            .map_err(|e| bad("raw", e))?;
-    }
-    if !given.has("spacing") {
-        volume.spacing = view.data.spacing;
-    }
-    let transfer = &mut options.transfer;
-    let settings = view.settings;
-    if let Some(function) = view.transfer
-        && !given.any(&OPACITY_OPTIONS)
-    {
-        let mut function = function;
-        if given.has("threshold") {
-            function.threshold = transfer.threshold;
-        }
-        transfer.view_transfer = Some(SavedTransfer {
-            transfer: function,
-            density: settings.map_or(1.0, |s| s.density),
-            mode: settings.map_or(voxscope_render::RenderMode::Dvr, |s| s.mode),
-        });
-    }
-    if let Some(settings) = settings {
-        let keep = |id: &str| !given.has(id);
-        if keep("level") {
-            transfer.level = Some(settings.max_level);
-        }
-        if keep("pixel_lod") {
-            transfer.pixel_lod = settings.pixel_lod;
-        }
-        if keep("no_opacity_correction") {
-            transfer.no_opacity_correction = !settings.opacity_correction;
-        }
-        if keep("heatmap") {
-            transfer.heatmap = settings.heatmap;
-        }
-        if keep("nearest") {
-            transfer.nearest = !settings.trilinear;
-        }
-        if !given.any(&["shading", "no_shading"]) {
-            transfer.no_shading = !settings.shading.enabled;
-            transfer.shading = settings.shading.enabled;
-        }
-        let shading = settings.shading;
-        for (id, value, slot) in [
-            ("ambient", shading.ambient, &mut transfer.ambient),
-            ("diffuse", shading.diffuse, &mut transfer.diffuse),
-            ("specular", shading.specular, &mut transfer.specular),
-            ("shininess", shading.shininess, &mut transfer.shininess),
-        ] {
-            if keep(id) {
-                *slot = Some(value);
-            }
-        }
-        if keep("clip_box") {
-            options.clip.clip_box = settings.clip.bounds;
-        }
-        if keep("clip_plane") {
-            options.clip.clip_plane = settings.clip.plane;
-        }
-    }
-    if !view.channels.is_empty() {
-        if !given.has("channel_colors") {
-            options.channels.channel_colors = Some(view.channels.iter().map(|c| c.color).collect());
-        }
-        if !given.has("channel_window") {
-            options.channels.channel_window = view
-                .channels
-                .iter()
-                .enumerate()
-                .map(|(index, c)| (index, c.transfer.window))
-                .collect();
-        }
-    }
-    if !given.has("renderer") {
-        options.renderer = view.renderer.and_then(renderer_arg);
-    }
-    if !given.has("brick_size")
-        && let Some(size) = view.brick_size
-    {
-        options.brick_size = size;
-    }
-    if let Some(stream) = view.stream {
-        let stream_options = &mut options.stream;
-        if !given.has("gpu_memory") {
-            stream_options.gpu_memory = stream.gpu_memory;
-        }
-        if !given.has("ram_cache") {
-            stream_options.ram_cache = stream.ram_cache;
-        }
-        if !given.has("upload_budget") {
-            stream_options.upload_budget = stream.upload_budget;
-        }
-        if !given.has("lod_scale") {
-            stream_options.lod_scale = stream.lod_scale;
-        }
-        if !given.has("max_wait") {
-            options.max_wait = stream.max_wait;
-        }
-    }
-    if !given.has("size") {
-        options.size = (view.size[0], view.size[1]);
-    }
-    let camera = view.camera;
-    if !given.has("azimuth") {
-        options.azimuth = camera.azimuth_deg;
-    }
-    if !given.has("elevation") {
-        options.elevation = camera.elevation_deg;
-    }
-    if !given.has("distance") {
-        options.distance = camera.distance;
-    }
-    if !given.has("fov") {
-        options.fov = camera.fov_y_deg;
-    }
-    options.pan = camera.pan;
-    Ok(())
-}
-
-/// The transfer function a keyframe `view` shows under the options `given` beside it:
-/// `opened` (the first keyframe's, as the data opened with the options) where the options
-/// choose the opacity or the view has none, else the view's with the window, colormap and
-/// threshold given over it.
-pub fn transfer_of(
-    view: &SavedView,
-    opened: &TransferFunction,
-    options: &RenderOptions,
-    given: &Given,
-) -> TransferFunction {
-    let Some(mut transfer) = view.transfer.filter(|_| !given.any(&OPACITY_OPTIONS)) else {
-        return *opened;
+) -> Result<(OpenOptions, DrawOptions), String> {
+    let mut opened = OpenOptions {
+        max_requests: open.max_requests,
+        ..view.open.clone()
     };
-    let asked = &options.transfer;
-    if given.has("window")
-        && let Some(window) = asked.window
+    if given.any(&["file", "channels_from"]) {
+        opened.source.clone_from(&open.source);
+        opened.channels_from.clone_from(&open.channels_from);
+    } else if let Some(missing) = view.open.missing_path() {
+        return Err(format!(
+            "{}: its data {missing} does not exist (give the volume beside --view to use another)",
+            path.display()
+        ));
+    }
+    for (id, take) in OPEN_OPTIONS {
+        if given.has(id) {
+            take(&mut opened, open);
+        }
+    }
+    let mut drawn = view.draw.clone();
+    for (id, take) in DRAW_OPTIONS {
+        if given.has(id) {
+            take(&mut drawn, draw);
+        }
+    }
+    if given.any(&OPACITY_OPTIONS) {
+        drawn.transfer.saved = None;
+    } else if given.has("threshold")
+        && let Some(saved) = &mut drawn.transfer.saved
     {
-        transfer.window = window;
+        saved.transfer.threshold = draw.transfer.threshold;
     }
-    if given.has("colormap")
-        && let Some(colormap) = asked.colormap
-    {
-        transfer.colormap = colormap;
-    }
-    if given.has("threshold") {
-        transfer.threshold = asked.threshold;
-    }
-    transfer
+    Ok((opened, drawn))
 }
 
-fn renderer_arg(kind: RendererKind) -> Option<RendererArg> {
-    match kind {
-        RendererKind::Octree => Some(RendererArg::Octree),
-        RendererKind::Dense => Some(RendererArg::Dense),
-        RendererKind::Bricks => Some(RendererArg::Bricks),
-        RendererKind::Stream => Some(RendererArg::Stream),
-        RendererKind::Composite => None,
-    }
-}
+#[cfg(test)]
+mod tests {
+    use clap::CommandFactory;
 
-/// `XxYxZ:TYPE:le|be`, as `--raw` reads it.
-fn raw_text(layout: &RawLayout) -> String {
-    let [x, y, z] = layout.dims;
-    let endian = match layout.endian {
-        Endian::Little => "le",
-        Endian::Big => "be",
-    };
-    format!("{x}x{y}x{z}:{}:{endian}", layout.voxel_type.name())
-}
+    use super::*;
+    use crate::cli::Cli;
 
-/// The view of what `drawing` drew for `volume` and `options` (`render --save-view`).
-pub fn view_of(volume: &VolumeArgs, options: &RenderOptions, drawing: &Drawable) -> SavedView {
-    let channels = drawing
-        .channels()
-        .unwrap_or_default()
-        .iter()
-        .map(|c| ViewChannel {
-            color: c.color,
-            transfer: c.transfer,
-            visible: c.visible,
-        })
-        .collect();
-    // The renderer asked for where the data chose it (streamed beyond the octree, or the
-    // composite), else the one that drew.
-    let renderer = if drawing.is_streamed() || drawing.channels().is_some() {
-        options.renderer.map(Into::into)
-    } else {
-        Some(drawing.renderer().kind())
-    };
-    let stream = &options.stream;
-    SavedView {
-        version: VIEW_VERSION,
-        data: ViewData {
-            source: volume.file.as_deref().map(ViewData::stored_source),
-            channels_from: volume
-                .channels_from
-                .iter()
-                .flatten()
-                .map(|spec| ViewData::stored_source(spec))
-                .collect(),
-            channel: volume.channel.map(|channel| match channel {
-                ChannelChoice::Index(index) => index.to_string(),
-                ChannelChoice::All => "all".to_owned(),
-            }),
-            time: volume.time,
-            raw: volume.raw.as_ref().map(raw_text),
-            spacing: volume.spacing,
-        },
-        camera: options.camera(),
-        size: [options.size.0, options.size.1],
-        transfer: Some(drawing.transfer()),
-        channels,
-        settings: Some(drawing.render_settings(&options.draw_options())),
-        renderer,
-        brick_size: Some(options.brick_size),
-        stream: Some(ViewStream {
-            gpu_memory: stream.gpu_memory,
-            ram_cache: stream.ram_cache,
-            upload_budget: stream.upload_budget,
-            lod_scale: stream.lod_scale,
-            max_wait: options.max_wait,
-        }),
-        rulers: Vec::new(),
-        layout: None,
+    /// A new option of `render` is either a view's (and a view under it takes it) or named
+    /// as not one: none is silently dropped under `--view`.
+    #[test]
+    fn every_render_option_is_taken_over_a_view_or_is_not_a_views() {
+        let command = Cli::command();
+        let render = command.find_subcommand("render").expect("a render command");
+        for arg in render.get_arguments() {
+            let id = arg.get_id().as_str();
+            let known = OPEN_OPTIONS.iter().any(|(name, _)| *name == id)
+                || DRAW_OPTIONS.iter().any(|(name, _)| *name == id)
+                || NOT_IN_VIEWS.contains(&id)
+                || id == "help";
+            assert!(
+                known,
+                "render's --{id} is neither a view's option nor named as not one"
+            );
+        }
     }
 }

@@ -37,6 +37,9 @@ pub struct ChannelRequest {
     pub colors: Vec<[u8; 3]>,
     /// Windows by channel number (the last given for a channel wins).
     pub windows: Vec<(usize, ValueWindow)>,
+    /// Channels not drawn (the app's eye toggle; a saved view's).
+    #[serde(default)]
+    pub hidden: Vec<usize>,
 }
 
 impl ChannelRequest {
@@ -65,6 +68,33 @@ impl ChannelRequest {
             ));
         }
         Ok(())
+    }
+
+    /// What `states` show: every channel's color, window and visibility.
+    pub fn of_states(states: &[ChannelState]) -> Self {
+        Self {
+            colors: states.iter().map(|s| s.color).collect(),
+            windows: states
+                .iter()
+                .enumerate()
+                .map(|(index, s)| (index, s.transfer.window))
+                .collect(),
+            hidden: (0..states.len()).filter(|&i| !states[i].visible).collect(),
+        }
+    }
+
+    /// Sets what is asked of each channel into `states`: its color, window and visibility
+    /// (what is not asked stays).
+    pub fn apply_to(&self, states: &mut [ChannelState]) {
+        for (index, state) in states.iter_mut().enumerate() {
+            if let Some(color) = self.colors.get(index) {
+                state.color = *color;
+            }
+            if let Some(window) = self.window(index) {
+                state.transfer.window = window;
+            }
+            state.visible = !self.hidden.contains(&index);
+        }
     }
 
     fn window(&self, index: usize) -> Option<ValueWindow> {
@@ -122,7 +152,7 @@ impl ChannelState {
                 .get(index)
                 .copied()
                 .unwrap_or_else(|| channel_color(info, index)),
-            visible: true,
+            visible: !channels.hidden.contains(&index),
             transfer,
         }
     }

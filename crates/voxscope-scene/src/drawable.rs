@@ -433,6 +433,12 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
         let renderer =
             VolumeRenderer::new_composite(gpu.borrow(), &layers(&channels, &states), spacing)
                 .map_err(|e| SceneError::render(&channels[0].volume().name, e))?;
+        if let Some(volume) = renderer.composite()
+            && states.iter().any(|s| !s.visible)
+        {
+            let shown: Vec<bool> = states.iter().map(|s| s.visible).collect();
+            volume.set_shown_layers(gpu.borrow(), &layers(&channels, &states), &shown);
+        }
         Ok(Self {
             gpu,
             drawn: Drawn::Composite {

@@ -30,6 +30,7 @@ mod scene;
 mod source;
 mod streaming;
 mod view;
+mod view_v1;
 
 pub use channels::{ChannelRequest, ChannelState, CompositeScene};
 pub use convert::{ConvertOptions, convert};
@@ -47,7 +48,10 @@ pub use opening::{
     TransferChoice, TransferRequest, beyond_octree, default_window, file_window, opening_transfer,
     renderer_for_octree,
 };
-pub use options::{ChannelChoice, DrawOptions, LabelOptions, OpenOptions, TransferOptions};
+pub use options::{
+    ChannelChoice, DEFAULT_MAX_WAIT_SECONDS, DrawOptions, LabelOptions, OpenOptions,
+    TransferOptions,
+};
 pub use prefetch::{
     DEFAULT_PREFETCH_FRAMES, FrameKey, MAX_PREFETCH_FRAMES, PREFETCH_BYTES, Prefetch,
     frames_within_cap, window,
@@ -62,7 +66,5 @@ pub use streaming::{
     OpenedStream, PREVIEW_BRICKS, REMOTE_WORKERS, Refinement, StreamedVolume,
     describe_budget_limit, describe_missing, refine, stream_options_for,
 };
-pub use view::{
-    DEFAULT_MAX_WAIT_SECONDS, SavedView, VIEW_VERSION, ViewChannel, ViewData, ViewRuler, ViewStream,
-};
+pub use view::{SavedView, VIEW_VERSION, ViewFileError, ViewProblem, ViewRuler};
 pub use voxscope_volume::progress::{Cancelled, Progress};

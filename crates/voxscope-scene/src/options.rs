@@ -19,12 +19,16 @@ use voxscope_volume::ome_zarr::{LabelImage, Pyramid};
 use voxscope_volume::{LoadOptions, RawLayout, Selection, ValueWindow, Volume};
 
 use crate::{
-    ChannelRequest, DEFAULT_LABEL_OPACITY, DEFAULT_MAX_WAIT_SECONDS, SavedTransfer, SceneError,
-    TransferRequest, VolumeSource,
+    ChannelRequest, DEFAULT_LABEL_OPACITY, SavedTransfer, SceneError, TransferRequest, VolumeSource,
 };
 
-/// Which channel of a multi-channel file is drawn: one, or all of them composited.
+/// Seconds `render` waits at most for a streamed still to complete (`--max-wait`'s default).
+pub const DEFAULT_MAX_WAIT_SECONDS: f64 = 30.0;
+
+/// Which channel of a multi-channel file is drawn: one, or all of them composited. Written
+/// as the command line reads it (`"2"`, `"all"`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(into = "String", try_from = "String")]
 pub enum ChannelChoice {
     Index(usize),
     All,
@@ -42,12 +46,32 @@ impl ChannelChoice {
     }
 }
 
-/// Which volume to open, and how to read it.
-#[derive(Debug, Clone, PartialEq)]
+impl From<ChannelChoice> for String {
+    fn from(choice: ChannelChoice) -> Self {
+        match choice {
+            ChannelChoice::Index(index) => index.to_string(),
+            ChannelChoice::All => "all".to_owned(),
+        }
+    }
+}
+
+impl TryFrom<String> for ChannelChoice {
+    type Error = String;
+
+    fn try_from(text: String) -> Result<Self, String> {
+        Self::parse(text.trim())
+    }
+}
+
+/// Which volume to open, and how to read it. A view file holds it as `open` (without
+/// `max_requests`, which is the network's, not the view's).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
 pub struct OpenOptions {
     /// A file, folder, URL or `synthetic:KIND:SIZE`; `None` is the built-in sample.
     pub source: Option<String>,
-    /// Read the file as headerless voxels of this layout.
+    /// Read the file as headerless voxels of this layout (`XxYxZ:TYPE:le|be` in a file).
+    #[serde(with = "raw_layout_text")]
     pub raw: Option<RawLayout>,
     /// The voxel size, instead of the file's.
     pub spacing: Option<[f64; 3]>,
@@ -59,6 +83,7 @@ pub struct OpenOptions {
     /// The time point of a time series.
     pub time: usize,
     /// A URL's store: requests in flight at once, at most.
+    #[serde(skip)]
     pub max_requests: usize,
 }
 
@@ -90,6 +115,41 @@ impl OpenOptions {
         self.source
             .as_deref()
             .unwrap_or(voxscope_volume::SAMPLE_NAME)
+    }
+
+    /// These options as a view file stores them: URLs without user name, password, query or
+    /// fragment (credentials and tokens stay out of files that are shared), paths as given.
+    pub fn stored(&self) -> Self {
+        let stored = |spec: &String| {
+            if spec.contains("://") {
+                voxscope_volume::remote::redact_url(spec)
+            } else {
+                spec.clone()
+            }
+        };
+        Self {
+            source: self.source.as_ref().map(stored),
+            channels_from: self
+                .channels_from
+                .as_ref()
+                .map(|specs| specs.iter().map(stored).collect()),
+            max_requests: Self::default().max_requests,
+            ..self.clone()
+        }
+    }
+
+    /// The first path these options name that does not exist (URLs, `synthetic:` and the
+    /// sample are not checked: they are not files).
+    pub fn missing_path(&self) -> Option<&str> {
+        self.source
+            .iter()
+            .chain(self.channels_from.iter().flatten())
+            .map(String::as_str)
+            .find(|spec| {
+                !spec.contains("://")
+                    && !spec.starts_with("synthetic:")
+                    && !std::path::Path::new(spec).exists()
+            })
     }
 
     /// The options for [`voxscope_volume::load`].
@@ -191,7 +251,9 @@ pub struct TransferOptions {
     pub trilinear: bool,
     /// The headlight's shading.
     pub shading: Shading,
-    /// A saved view's transfer function, taken like a `tf` file's.
+    /// A saved view's transfer function, taken like a `tf` file's (`function` in a view
+    /// file).
+    #[serde(rename = "function")]
     pub saved: Option<SavedTransfer>,
 }
 
@@ -226,6 +288,38 @@ impl TransferOptions {
                 .map_err(SceneError::TransferFile),
             None => Ok(self.saved),
         }
+    }
+
+    /// The options that draw `saved` (a transfer function as drawn, its opacity scale and
+    /// mode; `None`: the data's own) with `settings`' level, shading and interpolation: what
+    /// a saved view holds.
+    pub fn drawn(saved: Option<SavedTransfer>, settings: &RenderSettings) -> Self {
+        Self {
+            threshold: saved.map_or(Self::default().threshold, |s| s.transfer.threshold),
+            level: Some(settings.max_level),
+            pixel_lod: settings.pixel_lod,
+            opacity_correction: settings.opacity_correction,
+            heatmap: settings.heatmap,
+            trilinear: settings.trilinear,
+            shading: settings.shading,
+            saved,
+            ..Self::default()
+        }
+    }
+
+    /// The saved (or a view's) transfer function with the window and colormap asked over it;
+    /// `None` without one (the data's own is then drawn).
+    pub fn saved_function(&self) -> Option<voxscope_octree::TransferFunction> {
+        self.saved.map(|saved| {
+            let mut transfer = saved.transfer;
+            if let Some(window) = self.window {
+                transfer.window = window;
+            }
+            if let Some(colormap) = self.colormap {
+                transfer.colormap = colormap;
+            }
+            transfer
+        })
     }
 
     /// What these options ask of the transfer function a volume opens with
@@ -303,7 +397,9 @@ pub struct DrawOptions {
     pub brick_size: usize,
     /// The streaming renderer's budgets.
     pub stream: StreamOptions,
-    /// How long a streamed frame may take to complete before it is read as it is.
+    /// How long a streamed frame may take to complete before it is read as it is (seconds
+    /// in a file).
+    #[serde(with = "seconds")]
     pub max_wait: Duration,
     pub camera: Camera,
     /// The image's width and height in pixels.
@@ -335,5 +431,54 @@ impl DrawOptions {
             clip: self.clip,
             ..self.transfer.render_settings(depth, saved)
         }
+    }
+}
+
+/// A raw layout as `--raw` reads it, `XxYxZ:TYPE:le|be`.
+mod raw_layout_text {
+    use serde::{Deserialize, Deserializer, Serializer};
+    use voxscope_volume::{Endian, RawLayout};
+
+    pub fn serialize<S: Serializer>(layout: &Option<RawLayout>, out: S) -> Result<S::Ok, S::Error> {
+        match layout {
+            Some(layout) => {
+                let [x, y, z] = layout.dims;
+                let endian = match layout.endian {
+                    Endian::Little => "le",
+                    Endian::Big => "be",
+                };
+                out.serialize_some(&format!(
+                    "{x}x{y}x{z}:{}:{endian}",
+                    layout.voxel_type.name()
+                ))
+            }
+            None => out.serialize_none(),
+        }
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(input: D) -> Result<Option<RawLayout>, D::Error> {
+        Option::<String>::deserialize(input)?
+            .map(|text| {
+                RawLayout::parse(&text).map_err(|e| serde::de::Error::custom(format!("raw: {e}")))
+            })
+            .transpose()
+    }
+}
+
+/// A duration as seconds, a number from 0 up.
+mod seconds {
+    use std::time::Duration;
+
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    pub fn serialize<S: Serializer>(duration: &Duration, out: S) -> Result<S::Ok, S::Error> {
+        out.serialize_f64(duration.as_secs_f64())
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(input: D) -> Result<Duration, D::Error> {
+        let seconds = f64::deserialize(input)?;
+        Duration::try_from_secs_f64(seconds).map_err(|_| {
+            serde::de::Error::custom(format!("{seconds} is not a number of seconds from 0 up"))
+        })
     }
 }

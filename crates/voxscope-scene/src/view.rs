@@ -1,114 +1,56 @@
-//! A saved view (`render --save-view`, `render --view`, `movie --keyframes`): what is shown and
-//! how, as RON, so that a colleague opens the same picture again. Paths are stored as given
-//! (a URL without its user name, password or query); a file from an older voxscope loads with
-//! what it lacks at its defaults.
+//! A saved view (`render --save-view`, `render --view`, `movie --keyframes`, the app's File ▸
+//! Save view…): the options that open and draw it — [`OpenOptions`] and [`DrawOptions`], the
+//! model every front end maps into — as RON, with what only the app shows (rulers, its
+//! layout). A colleague opens the same picture again. Paths are stored as given (a URL without
+//! its user name, password or query); a field a file lacks takes its default, and a file of
+//! version 1 (before the model) opens as what it held ([`crate::view_v1`]).
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 use voxscope_octree::TransferFunction;
-use voxscope_render::{Camera, RenderSettings, RendererKind};
+use voxscope_render::RenderSettings;
+
+use std::borrow::Borrow;
+
+use voxscope_render::GpuContext;
+use voxscope_volume::MAX_CHANNELS;
+
+use crate::{DrawOptions, Drawable, OpenOptions, SavedTransfer, TransferOptions};
 
 /// The version [`SavedView::write`] writes; [`SavedView::read`] reads this and earlier ones.
-pub const VIEW_VERSION: u32 = 1;
+pub const VIEW_VERSION: u32 = 2;
 
-/// Everything a view shows: the data, the camera, the transfer function(s) and the rendering
-/// choices. Every field has a default, so that a file written before a field existed loads.
+/// Everything a view shows: what is opened, how it is drawn, and the app's rulers and layout.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct SavedView {
     /// The file format's version ([`VIEW_VERSION`] when written).
     pub version: u32,
-    /// What is shown.
-    pub data: ViewData,
-    /// The orbit camera (azimuth, elevation, distance, field of view, pan).
-    pub camera: Camera,
-    /// The image size, WxH pixels.
-    pub size: [u32; 2],
-    /// The transfer function drawn (for a composite, channel 0's opacity curve, which every
-    /// channel shares; `channels` holds each channel's color and window). `None`: the one the
-    /// data opens with.
-    pub transfer: Option<TransferFunction>,
-    /// The composite's channels, in order (empty for one channel).
-    pub channels: Vec<ViewChannel>,
-    /// Mode, level, density, opacity correction, shading, clip box and plane.
-    pub settings: Option<RenderSettings>,
-    /// The renderer that drew it (`None`: the default for the data).
-    pub renderer: Option<RendererKind>,
-    /// The bricks renderer's brick side.
-    pub brick_size: Option<usize>,
-    /// The streaming renderer's budgets.
-    pub stream: Option<ViewStream>,
+    /// The data: a path (as given), a URL (without user name, password or query),
+    /// `synthetic:KIND:SIZE`, or none for the built-in sample; its channel, time point, raw
+    /// layout and spacing. An HCS plate's field and a bioformats2raw container's series are
+    /// part of the path, as they are opened (`plate.ome.zarr/B/3/0`), so one path names the
+    /// image in every front end.
+    pub open: OpenOptions,
+    /// The camera and image size, the transfer function (as drawn, in `transfer.saved`), the
+    /// render settings, clipping, the composite's channels, label overlays, the renderer and
+    /// its budgets.
+    pub draw: DrawOptions,
     /// Measured distances (voxel space) shown with the view.
     pub rulers: Vec<ViewRuler>,
     /// The app's layout of panes (`single`, `level-grid`, `transfer-pair`, `slices`).
     pub layout: Option<String>,
 }
 
-/// What a view shows: a source and which of its frames. An HCS plate's field and a
-/// bioformats2raw container's series are part of the source's path, as they are opened
-/// (`plate.ome.zarr/B/3/0`, `container.zarr/1`: the command line's `--field` and `--series`
-/// append them before the view is written), so one path names the image in every front end.
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
-pub struct ViewData {
-    /// A path (as given), a URL (without user name, password or query), or
-    /// `synthetic:KIND:SIZE`; `None`: the built-in sample.
-    pub source: Option<String>,
-    /// Files opened together as the channels of one volume (instead of `source`).
-    pub channels_from: Vec<String>,
-    /// `N`, or `all` for the composite; `None`: as the file opens.
-    pub channel: Option<String>,
-    /// The time point.
-    pub time: usize,
-    /// A headerless file's layout, `XxYxZ:TYPE:le|be`.
-    pub raw: Option<String>,
-    /// A voxel size that overrides the file's.
-    pub spacing: Option<[f64; 3]>,
-}
-
-/// One channel of a composite.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct ViewChannel {
-    /// RGB the channel is drawn in.
-    pub color: [u8; 3],
-    /// Its transfer function (its window; the opacity all channels share).
-    pub transfer: TransferFunction,
-    /// Drawn at all (the app's eye toggle); a file without it shows every channel.
-    #[serde(default = "shown")]
-    pub visible: bool,
-}
-
-/// A channel's visibility where a file does not say.
-fn shown() -> bool {
-    true
-}
-
-/// The streaming renderer's budgets.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct ViewStream {
-    pub gpu_memory: u64,
-    pub ram_cache: u64,
-    pub upload_budget: u64,
-    pub lod_scale: f32,
-    /// Seconds a still may take to complete.
-    pub max_wait: f64,
-}
-
-/// Seconds `render` waits at most for a streamed still to complete (`--max-wait`'s default).
-pub const DEFAULT_MAX_WAIT_SECONDS: f64 = 30.0;
-
-impl ViewStream {
-    /// The budgets of a streaming renderer that holds `gpu_memory` and is otherwise as it
-    /// opens by default (the app's: its GPU budget is the one it lets a user choose).
-    pub fn with_gpu_memory(gpu_memory: u64) -> Self {
-        let defaults = voxscope_stream::StreamOptions::default();
+impl Default for SavedView {
+    fn default() -> Self {
         Self {
-            gpu_memory,
-            ram_cache: defaults.ram_cache,
-            upload_budget: defaults.upload_bytes_per_frame,
-            lod_scale: defaults.lod_scale,
-            max_wait: DEFAULT_MAX_WAIT_SECONDS,
+            version: VIEW_VERSION,
+            open: OpenOptions::default(),
+            draw: DrawOptions::default(),
+            rulers: Vec::new(),
+            layout: None,
         }
     }
 }
@@ -120,97 +62,155 @@ pub struct ViewRuler {
     pub to: [f64; 3],
 }
 
-impl Default for SavedView {
-    fn default() -> Self {
-        Self {
-            version: VIEW_VERSION,
-            data: ViewData::default(),
-            camera: Camera::default(),
-            size: [1024, 768],
-            transfer: None,
-            channels: Vec::new(),
-            settings: None,
-            renderer: None,
-            brick_size: None,
-            stream: None,
-            rulers: Vec::new(),
-            layout: None,
-        }
-    }
+/// What is wrong with a view file's text.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ViewProblem {
+    #[error("not a voxscope view file: {0}")]
+    NotAView(String),
+    #[error(
+        "view file version {0} is not one this voxscope reads (1 to {VIEW_VERSION}); a newer voxscope wrote it"
+    )]
+    Version(u32),
+    /// A value out of its range (the words say which).
+    #[error("{0}")]
+    Invalid(String),
 }
 
-impl ViewData {
-    /// `source` as a view stores it: a URL without user name, password, query or fragment
-    /// (credentials and tokens stay out of files that are shared), anything else as given.
-    pub fn stored_source(spec: &str) -> String {
-        if spec.contains("://") {
-            voxscope_volume::remote::redact_url(spec)
-        } else {
-            spec.to_owned()
-        }
-    }
-
-    /// The first path the data names that does not exist (URLs, `synthetic:` and the sample
-    /// are not checked: they are not files).
-    pub fn missing_path(&self) -> Option<&str> {
-        self.source
-            .iter()
-            .chain(&self.channels_from)
-            .map(String::as_str)
-            .find(|spec| {
-                !spec.contains("://")
-                    && !spec.starts_with("synthetic:")
-                    && !Path::new(spec).exists()
-            })
-    }
+/// A view file that could not be read or written: the file, and why.
+#[derive(Debug, thiserror::Error)]
+pub enum ViewFileError {
+    #[error("{}: {problem}", path.display())]
+    Content { path: PathBuf, problem: ViewProblem },
+    #[error("{}: {error}", path.display())]
+    Read {
+        path: PathBuf,
+        error: std::io::Error,
+    },
+    #[error("{}: {bytes} bytes is too large for a view file", path.display())]
+    TooLarge { path: PathBuf, bytes: u64 },
+    #[error("{}: cannot encode the view: {error}", path.display())]
+    Encode { path: PathBuf, error: ron::Error },
+    #[error("{}: cannot write: {error}", path.display())]
+    Write {
+        path: PathBuf,
+        error: std::io::Error,
+    },
 }
 
 impl SavedView {
     /// Largest file accepted as a view.
     const MAX_BYTES: u64 = 1 << 20;
 
+    /// The view of what `drawing` drew of `open` with `draw`: the options as given (sources
+    /// stored as [`OpenOptions::stored`] keeps them), with the transfer function and render
+    /// settings it drew, and every channel's color, window and visibility.
+    pub fn of<G: Borrow<GpuContext>>(
+        open: &OpenOptions,
+        draw: &DrawOptions,
+        drawing: &Drawable<G>,
+    ) -> Self {
+        let settings = drawing.render_settings(draw);
+        let mut draw = draw.clone();
+        draw.transfer = TransferOptions::drawn(
+            Some(SavedTransfer {
+                transfer: drawing.transfer(),
+                density: settings.density,
+                mode: settings.mode,
+            }),
+            &settings,
+        );
+        draw.clip = settings.clip;
+        if let Some(channels) = drawing.channels() {
+            draw.channels = crate::ChannelRequest::of_states(channels);
+        }
+        // The renderer asked for where the data chose it (streamed beyond the octree, or the
+        // composite), else the one that drew.
+        if !(drawing.is_streamed() || drawing.channels().is_some()) {
+            draw.renderer = Some(drawing.renderer().kind());
+        }
+        Self {
+            version: VIEW_VERSION,
+            open: open.stored(),
+            draw,
+            rulers: Vec::new(),
+            layout: None,
+        }
+    }
+
+    /// The transfer function the view draws, where it holds one (else the data's own): its
+    /// saved function with the window and colormap asked over it.
+    pub fn transfer(&self) -> Option<TransferFunction> {
+        self.draw.transfer.saved_function()
+    }
+
+    /// The render settings of the view for data `depth` deep.
+    pub fn render_settings(&self, depth: u32) -> RenderSettings {
+        self.draw
+            .render_settings(depth, self.draw.transfer.saved.as_ref())
+    }
+
     /// Writes it as RON.
-    pub fn write(&self, path: &Path) -> Result<(), String> {
-        let text = ron::ser::to_string_pretty(self, ron::ser::PrettyConfig::default())
-            .map_err(|e| format!("{}: cannot encode the view: {e}", path.display()))?;
-        std::fs::write(path, text).map_err(|e| format!("{}: cannot write: {e}", path.display()))
+    pub fn write(&self, path: &Path) -> Result<(), ViewFileError> {
+        let text = ron::ser::to_string_pretty(self, ron::ser::PrettyConfig::default()).map_err(
+            |error| ViewFileError::Encode {
+                path: path.to_owned(),
+                error,
+            },
+        )?;
+        std::fs::write(path, text).map_err(|error| ViewFileError::Write {
+            path: path.to_owned(),
+            error,
+        })
     }
 
-    /// Reads a view file; every error is one line naming the file.
-    pub fn read(path: &Path) -> Result<Self, String> {
-        let metadata = std::fs::metadata(path).map_err(|e| format!("{}: {e}", path.display()))?;
-        if metadata.len() > Self::MAX_BYTES {
-            return Err(format!(
-                "{}: {} bytes is too large for a view file",
-                path.display(),
-                metadata.len()
-            ));
+    /// Reads a view file of any version; every error is one line naming the file.
+    pub fn read(path: &Path) -> Result<Self, ViewFileError> {
+        let read = |error| ViewFileError::Read {
+            path: path.to_owned(),
+            error,
+        };
+        let bytes = std::fs::metadata(path).map_err(read)?.len();
+        if bytes > Self::MAX_BYTES {
+            return Err(ViewFileError::TooLarge {
+                path: path.to_owned(),
+                bytes,
+            });
         }
-        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-        Self::parse(&text).map_err(|e| format!("{}: {e}", path.display()))
+        let text = std::fs::read_to_string(path).map_err(read)?;
+        Self::parse(&text).map_err(|problem| ViewFileError::Content {
+            path: path.to_owned(),
+            problem,
+        })
     }
 
-    /// Parses and checks a view file's text.
-    pub fn parse(text: &str) -> Result<Self, String> {
-        let view: Self = ron::from_str(text).map_err(|e| {
-            format!(
-                "not a voxscope view file: {}",
-                e.to_string().lines().next().unwrap_or_default()
-            )
-        })?;
-        if view.version == 0 || view.version > VIEW_VERSION {
-            return Err(format!(
-                "view file version {} is not one this voxscope reads (1 to {VIEW_VERSION}); a newer voxscope wrote it",
-                view.version
-            ));
-        }
-        let [width, height] = view.size;
+    /// Parses and checks a view file's text (version 1 files as what they held).
+    pub fn parse(text: &str) -> Result<Self, ViewProblem> {
+        let not_a_view = |e: ron::error::SpannedError| {
+            ViewProblem::NotAView(e.to_string().lines().next().unwrap_or_default().to_owned())
+        };
+        let version = ron::from_str::<FileVersion>(text)
+            .map_err(not_a_view)?
+            .version;
+        let view = match version {
+            1 => crate::view_v1::parse(text).map_err(not_a_view)??,
+            VIEW_VERSION => ron::from_str::<Self>(text).map_err(not_a_view)?,
+            other => return Err(ViewProblem::Version(other)),
+        };
+        view.check()?;
+        Ok(view)
+    }
+
+    /// Whether its values are in their ranges.
+    fn check(&self) -> Result<(), ViewProblem> {
+        let invalid = |words: String| Err(ViewProblem::Invalid(words));
+        let draw = &self.draw;
+        let (width, height) = draw.size;
         if !(1..=16384).contains(&width) || !(1..=16384).contains(&height) {
-            return Err(format!(
+            return invalid(format!(
                 "the size {width}x{height} is not from 1x1 to 16384x16384"
             ));
         }
-        let camera = view.camera;
+        let camera = draw.camera;
         let finite = [
             camera.azimuth_deg,
             camera.elevation_deg,
@@ -221,104 +221,73 @@ impl SavedView {
         .chain(&camera.pan)
         .all(|v| v.is_finite());
         if !finite || camera.distance <= 0.0 {
-            return Err(
+            return invalid(
                 "the camera has a value that is not a finite number (or a distance ≤ 0)".into(),
             );
         }
-        let transfers = view
-            .transfer
+        let transfer = &draw.transfer;
+        let windows = transfer
+            .saved
             .iter()
-            .chain(view.channels.iter().map(|c| &c.transfer));
-        for transfer in transfers {
-            let window = transfer.window;
-            let valid = window.low.is_finite()
-                && window.high.is_finite()
-                && window.high > window.low
-                && (0.0..=1.0).contains(&transfer.threshold);
-            if !valid {
-                return Err("a transfer function's window or threshold is out of range".into());
+            .map(|saved| saved.transfer.window)
+            .chain(transfer.window)
+            .chain(draw.channels.windows.iter().map(|(_, window)| *window));
+        let thresholds = transfer
+            .saved
+            .iter()
+            .map(|saved| saved.transfer.threshold)
+            .chain([transfer.threshold]);
+        let windows_valid = windows
+            .into_iter()
+            .all(|w| w.low.is_finite() && w.high.is_finite() && w.high > w.low);
+        if !windows_valid || !thresholds.into_iter().all(|t| (0.0..=1.0).contains(&t)) {
+            return invalid("a transfer function's window or threshold is out of range".into());
+        }
+        for density in transfer
+            .saved
+            .map(|s| s.density)
+            .into_iter()
+            .chain(transfer.density)
+        {
+            if !(density.is_finite() && density > 0.0) {
+                return invalid(format!(
+                    "the opacity scale (density) {density} is not a positive number"
+                ));
             }
         }
-        if let Some(settings) = view.settings
-            && !(settings.density.is_finite() && settings.density > 0.0)
-        {
-            return Err(format!(
-                "the opacity scale (density) {} is not a positive number",
-                settings.density
+        let channels = draw.channels.colors.len().max(
+            draw.channels
+                .windows
+                .iter()
+                .map(|(index, _)| index + 1)
+                .max()
+                .unwrap_or(0),
+        );
+        if channels > MAX_CHANNELS {
+            return invalid(format!(
+                "{channels} channels: a composite has at most {}",
+                MAX_CHANNELS
             ));
         }
-        if view.channels.len() > 8 {
-            return Err(format!(
-                "{} channels: a composite has at most 8",
-                view.channels.len()
-            ));
-        }
-        Ok(view)
+        Ok(())
     }
 
     /// Whether `other` shows the same data (source, channels, time, layout of a raw file).
     pub fn same_data(&self, other: &Self) -> bool {
-        self.data == other.data
+        self.open == other.open
     }
+}
+
+/// The one field every version of a view file has (a file without it is of version 1).
+#[derive(Deserialize)]
+struct FileVersion {
+    #[serde(default = "first_version")]
+    version: u32,
+}
+
+fn first_version() -> u32 {
+    1
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn a_view_round_trips_and_an_older_file_loads_with_defaults() {
-        let view = SavedView {
-            data: ViewData {
-                source: Some("head.nii.gz".into()),
-                time: 2,
-                ..ViewData::default()
-            },
-            camera: Camera {
-                azimuth_deg: 75.5,
-                ..Camera::default()
-            },
-            size: [64, 48],
-            rulers: vec![ViewRuler {
-                from: [1.0, 2.0, 3.0],
-                to: [4.0, 5.0, 6.0],
-            }],
-            ..SavedView::default()
-        };
-        let text =
-            ron::ser::to_string_pretty(&view, ron::ser::PrettyConfig::default()).expect("encodes");
-        assert_eq!(SavedView::parse(&text), Ok(view));
-        // A file of an earlier version with only a camera.
-        let old = SavedView::parse("(version: 1, camera: (azimuth_deg: 10.0, elevation_deg: 5.0, distance: 2.0, fov_y_deg: 30.0, pan: (0.0, 0.0, 0.0)))")
-            .expect("loads");
-        assert_eq!(old.camera.azimuth_deg, 10.0);
-        assert_eq!(old.size, [1024, 768]);
-        assert_eq!(old.data.source, None);
-    }
-
-    #[test]
-    fn bad_files_say_what_is_wrong_in_one_line() {
-        for (text, expected) in [
-            ("(version: 1, camera: (", "not a voxscope view file"),
-            ("(version: 7)", "a newer voxscope wrote it"),
-            ("(size: (0, 10))", "the size 0x10"),
-            ("[1, 2, 3]", "not a voxscope view file"),
-        ] {
-            let error = SavedView::parse(text).expect_err(text);
-            assert!(error.contains(expected), "{text}: {error}");
-            assert_eq!(error.lines().count(), 1, "{error}");
-        }
-    }
-
-    #[test]
-    fn urls_are_stored_without_credentials_or_query() {
-        assert_eq!(
-            ViewData::stored_source("https://me:secret@example.org/a.ome.zarr?token=x"),
-            "https://example.org/a.ome.zarr"
-        );
-        assert_eq!(
-            ViewData::stored_source("../data/head.nii.gz"),
-            "../data/head.nii.gz"
-        );
-    }
-}
+mod tests;

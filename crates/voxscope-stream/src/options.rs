@@ -26,6 +26,8 @@ pub struct StreamOptions {
     /// [`AtlasZero::Auto`].
     pub atlas_zero: AtlasZero,
     /// Worker threads loading bricks. Default: the machine's cores less one (at least one).
+    /// Not in a view file: it is the machine's, not the view's.
+    #[serde(skip)]
     pub workers: usize,
     /// The pixel footprint is multiplied by this before it picks a level: 1 takes the level
     /// whose voxel is no larger than a pixel's footprint, 2 one level coarser, 0 always the
@@ -42,7 +44,9 @@ pub struct StreamOptions {
     pub level_walk: bool,
     /// A brick that failed to load (a dead server, a damaged chunk) is asked for again after
     /// this long, then after twice as long each time it fails again (at most 5 minutes): a
-    /// view recovers when the server returns. Default 5 s.
+    /// view recovers when the server returns. Default 5 s. Not in a view file (the
+    /// network's, not the view's).
+    #[serde(skip)]
     pub retry_after: Duration,
 }
 
