@@ -177,6 +177,9 @@ fn a_hidden_channel_of_a_view_is_not_drawn() {
     assert_eq!(red(&green), 0, "no magenta where channel 0 is hidden");
     let resaved = voxscope_scene::SavedView::read(&again).expect("render saved its view");
     assert_eq!(resaved.draw.channels.hidden, vec![0]);
+    // The composite marches voxels: the view keeps the level asked for (none: the deepest),
+    // not the composite's own 0, for a renderer of one channel that opens it.
+    assert_eq!(resaved.draw.transfer.level, None);
 }
 
 #[test]

@@ -110,6 +110,7 @@ impl SavedView {
         drawing: &Drawable<G>,
     ) -> Self {
         let settings = drawing.render_settings(draw);
+        let asked_level = draw.transfer.level;
         let mut draw = draw.clone();
         draw.transfer = TransferOptions::drawn(
             Some(SavedTransfer {
@@ -122,6 +123,9 @@ impl SavedView {
         draw.clip = settings.clip;
         if let Some(channels) = drawing.channels() {
             draw.channels = crate::ChannelRequest::of_states(channels);
+            // The composite marches the voxels: the level is the one asked for, for a
+            // renderer of one channel that opens the view.
+            draw.transfer.level = asked_level;
         }
         // The renderer asked for where the data chose it (streamed beyond the octree, or the
         // composite), else the one that drew.
