@@ -35,50 +35,14 @@ pub fn resident_comparison(
     stream_options: StreamOptions,
     timer: Option<&GpuTimer>,
 ) -> Result<serde_json::Value, BenchError> {
-    let (mut volume, level) =
-        preview(&*prepared.source, RESIDENT_BRICKS).map_err(|error| BenchError::Preview {
-            volume: prepared.source.name().to_owned(),
-            error,
-        })?;
-    let scale = prepared.source.shape().levels[level].scale as f64;
-    let spacing = prepared.source.spacing().map(|s| s * scale);
-    let mut octree = voxscope_octree::build(&volume, BuildOptions::default()).map_err(|error| {
-        BenchError::Build {
-            volume: prepared.source.name().to_owned(),
-            error,
-        }
-    })?;
+    let ResidentLevel {
+        bricks,
+        source,
+        dims,
+        level,
+        depth,
+    } = ResidentLevel::read(context, prepared)?;
     let transfer: TransferFunction = prepared.transfer;
-    voxscope_octree::recolor(&mut octree, &transfer);
-    let bricks = VolumeRenderer::new(
-        context,
-        RendererOptions {
-            kind: RendererKind::Bricks,
-            brick_size: 32,
-            ..Default::default()
-        },
-        &octree,
-        &volume,
-        spacing,
-        octree.depth,
-        &transfer,
-    )?;
-    // The bricks renderer holds its own copy on the GPU: the octree and the voxels in RAM go
-    // now (the voxels to the streaming renderer's source), not kept twice.
-    let depth = octree.depth;
-    drop(octree);
-    let source: Arc<dyn voxscope_stream::BrickSource> = Arc::new(
-        MemorySource::from_levels(
-            "resident",
-            std::mem::take(&mut volume.levels),
-            volume.dims,
-            volume.quantization,
-            spacing,
-            Downsampling::Mean,
-        )
-        // One line naming the pyramid, whatever the source's error type.
-        .map_err(|e| BenchError::Pyramid(e.to_string()))?,
-    );
     let mut rows = Vec::new();
     // At full detail (no pixel LOD), as the bricks renderer draws; then, where the options ask
     // for it, with their pixel LOD (its far parts coarser: fewer samples than the bricks
@@ -177,10 +141,81 @@ pub fn resident_comparison(
         }
     }
     Ok(json!({
-        "dims": volume.dims,
+        "dims": dims,
         "pyramid_level": level,
         "rows": rows,
     }))
+}
+
+/// The pyramid level compared, in memory: drawn by the bricks renderer, and as the streaming
+/// renderer's source.
+struct ResidentLevel {
+    bricks: VolumeRenderer,
+    source: Arc<dyn voxscope_stream::BrickSource>,
+    dims: [usize; 3],
+    /// Its level in the pyramid.
+    level: usize,
+    /// Its octree's depth.
+    depth: u32,
+}
+
+impl ResidentLevel {
+    /// The finest level of `prepared`'s pyramid within [`RESIDENT_BRICKS`], read, its octree
+    /// built for the bricks renderer and its voxels handed to a source in memory.
+    fn read(context: &GpuContext, prepared: &StreamedVolume) -> Result<Self, BenchError> {
+        let (mut volume, level) =
+            preview(&*prepared.source, RESIDENT_BRICKS).map_err(|error| BenchError::Preview {
+                volume: prepared.source.name().to_owned(),
+                error,
+            })?;
+        let scale = prepared.source.shape().levels[level].scale as f64;
+        let spacing = prepared.source.spacing().map(|s| s * scale);
+        let mut octree =
+            voxscope_octree::build(&volume, BuildOptions::default()).map_err(|error| {
+                BenchError::Build {
+                    volume: prepared.source.name().to_owned(),
+                    error,
+                }
+            })?;
+        let transfer = prepared.transfer;
+        voxscope_octree::recolor(&mut octree, &transfer);
+        let bricks = VolumeRenderer::new(
+            context,
+            RendererOptions {
+                kind: RendererKind::Bricks,
+                brick_size: 32,
+                ..Default::default()
+            },
+            &octree,
+            &volume,
+            spacing,
+            octree.depth,
+            &transfer,
+        )?;
+        // The bricks renderer holds its own copy on the GPU: the octree and the voxels in RAM go
+        // now (the voxels to the streaming renderer's source), not kept twice.
+        let depth = octree.depth;
+        drop(octree);
+        let source: Arc<dyn voxscope_stream::BrickSource> = Arc::new(
+            MemorySource::from_levels(
+                "resident",
+                std::mem::take(&mut volume.levels),
+                volume.dims,
+                volume.quantization,
+                spacing,
+                Downsampling::Mean,
+            )
+            // One line naming the pyramid, whatever the source's error type.
+            .map_err(|e| BenchError::Pyramid(e.to_string()))?,
+        );
+        Ok(Self {
+            bricks,
+            source,
+            dims: volume.dims,
+            level,
+            depth,
+        })
+    }
 }
 
 /// The medians of the first and the second half of `values` (of a single value, it twice).
