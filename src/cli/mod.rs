@@ -6,19 +6,15 @@ mod bench;
 mod ceilings;
 mod composite;
 mod convert;
-mod decode_bench;
 mod info;
 mod labels;
-mod memory;
 mod movie;
 mod prepare;
 mod probe;
 mod render;
 mod render_options;
-mod resident_bench;
 mod slice;
 mod stream;
-mod stream_bench;
 mod view;
 
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
@@ -133,7 +129,6 @@ where
         Some(Command::Render(args)) => {
             return render::run(&args, &given("render")).map(exit_code);
         }
-        Some(Command::Bench(args)) if args.streams() => stream_bench::run(&args),
         Some(Command::Bench(args)) => bench::run(&args),
         Some(Command::Ceilings(args)) => ceilings::run(&args),
         Some(Command::Probe(args)) => probe::run(&args),

@@ -8,8 +8,7 @@ use std::time::{Duration, Instant};
 use voxscope_octree::{self as octree, TransferFunction};
 use voxscope_render::{GpuContext, RendererKind};
 use voxscope_scene::{
-    Progress, SavedTransfer, SceneError, VolumeData, VolumeSource, opening_transfer,
-    renderer_for_octree,
+    Progress, SavedTransfer, VolumeData, VolumeSource, opening_transfer, renderer_for_octree,
 };
 use voxscope_volume::Volume;
 
@@ -61,9 +60,9 @@ impl Prepared {
 
 /// Runs `work`; while it still runs after a second, prints its progress to stderr once a
 /// second (`building octree: 42 %`), so large volumes do not look hung.
-pub(super) fn reporting_progress<T>(
-    work: impl FnOnce(&Progress) -> Result<T, SceneError>,
-) -> Result<T, SceneError> {
+pub(super) fn reporting_progress<T, E>(
+    work: impl FnOnce(&Progress) -> Result<T, E>,
+) -> Result<T, E> {
     let progress = Arc::new(Progress::new());
     let finished = Arc::new(AtomicBool::new(false));
     let reporter = {

@@ -258,8 +258,13 @@ fn report_stream(
     };
     // The most the process held (Linux): the RAM budget, the device's, and what every
     // process with a GPU holds.
-    let peak = super::memory::resident()
-        .map(|r| format!(", peak memory {:.0} MiB", super::memory::mib(r.peak)))
+    let peak = voxscope_bench::memory::resident()
+        .map(|r| {
+            format!(
+                ", peak memory {:.0} MiB",
+                voxscope_bench::memory::mib(r.peak)
+            )
+        })
         .unwrap_or_default();
     // A URL's store: what crossed the network (metadata, indexes and chunks) and how many
     // requests were on the wire together.

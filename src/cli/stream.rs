@@ -1,16 +1,9 @@
-//! The streaming renderer on the command line: its options (`--gpu-memory`, `--ram-cache`,
-//! …) and opening what the volume options name as a pyramid (the scene layer's
-//! [`StreamedVolume`]).
-
-use std::borrow::Borrow;
+//! The streaming renderer's options on the command line (`--gpu-memory`, `--ram-cache`, …),
+//! as the streamer takes them ([`StreamOptions`]).
 
 use clap::Args;
 use voxscope_scene::option_text::{parse_bytes, parse_lod_scale};
 
-use super::args::scene_error_text;
-use super::{TransferArgs, VolumeArgs};
-use voxscope_render::GpuContext;
-use voxscope_scene::{OpenedStream, SavedTransfer, StreamedVolume};
 use voxscope_stream::{AtlasZero, StreamOptions, UploadPath};
 
 /// The streaming renderer's budgets (`--renderer stream`, `bench --stream`).
@@ -100,45 +93,4 @@ impl StreamArgs {
             ..StreamOptions::default()
         }
     }
-}
-
-/// Opens what `volume_args` names as a pyramid for streaming ([`StreamedVolume::open`]),
-/// with the transfer function `transfer_args` ask for; and the --tf file, whose opacity scale
-/// and mode apply too.
-pub fn open_streamed(
-    volume_args: &VolumeArgs,
-    transfer_args: &TransferArgs,
-) -> Result<(StreamedVolume, Option<SavedTransfer>), String> {
-    // A bad --tf file fails before the volume is read.
-    let transfer = transfer_args.options();
-    let saved = transfer.saved().map_err(|e| e.to_string())?;
-    let streamed = StreamedVolume::open(
-        &volume_args.source(),
-        &volume_args.load_options(),
-        &transfer.request(saved.as_ref()),
-    )
-    .map_err(|error| scene_error_text(&error))?;
-    Ok((streamed, saved))
-}
-
-/// [`open_streamed`] with the stream renderer of the volume, made with `stream`'s options on
-/// the GPU `gpu` gives while the first image's chunks are on their way
-/// ([`StreamedVolume::open_with_renderer`]).
-pub fn open_streamed_with_renderer<G: Borrow<GpuContext>>(
-    volume_args: &VolumeArgs,
-    transfer_args: &TransferArgs,
-    stream: StreamOptions,
-    gpu: impl FnOnce() -> Result<G, String>,
-) -> Result<(OpenedStream<G>, Option<SavedTransfer>), String> {
-    let transfer = transfer_args.options();
-    let saved = transfer.saved().map_err(|e| e.to_string())?;
-    let opened = StreamedVolume::open_with_renderer(
-        &volume_args.source(),
-        &volume_args.load_options(),
-        &transfer.request(saved.as_ref()),
-        stream,
-        gpu,
-    )
-    .map_err(|error| scene_error_text(&error))?;
-    Ok((opened, saved))
 }

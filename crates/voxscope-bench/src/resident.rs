@@ -1,4 +1,4 @@
-//! `voxscope bench --stream`'s last figures: the streaming renderer once everything a view
+//! The streaming benchmark's last figures: the streaming renderer once everything a view
 //! needs is resident, against the in-memory bricks renderer on the same views.
 
 use std::sync::Arc;
@@ -6,7 +6,6 @@ use std::time::{Duration, Instant};
 
 use serde_json::json;
 
-use super::bench::{BenchArgs, MAX_WAIT, percentile};
 use voxscope_octree::{BuildOptions, TransferFunction};
 use voxscope_render::{
     Camera, GpuContext, GpuTimer, RenderMode, RenderSettings, RenderTarget, RendererKind,
@@ -15,8 +14,10 @@ use voxscope_render::{
 use voxscope_scene::{StreamedVolume, refine};
 use voxscope_stream::{Downsampling, MemorySource, StreamOptions, preview};
 
-/// The paper's cameras, in bounding-sphere radii.
-const CAMERAS: [(&str, f64); 3] = [("near", 1.5), ("medium", 3.0), ("far", 6.0)];
+use crate::error::BenchError;
+use crate::options::{BenchOptions, CAMERAS, MAX_WAIT};
+use crate::stats::percentile;
+
 /// Bricks of the level read into memory for the comparison with the bricks renderer when the
 /// pyramid is not in memory (512³ voxels).
 const RESIDENT_BRICKS: u64 = 4096;
@@ -26,54 +27,28 @@ const RESIDENT_BRICKS: u64 = 4096;
 /// most 512³ voxels (the whole volume when it is that small), both at full detail; then the
 /// streaming renderer with the options' pixel LOD (`lod_scale` in the rows) beside the same
 /// bricks renderer's figures.
-pub(super) fn resident_comparison(
+pub fn resident_comparison(
     context: &GpuContext,
-    args: &BenchArgs,
+    options: &BenchOptions,
     prepared: &StreamedVolume,
     target: &RenderTarget,
-    options: StreamOptions,
+    stream_options: StreamOptions,
     timer: Option<&GpuTimer>,
-) -> Result<serde_json::Value, String> {
-    let (mut volume, level) = preview(&*prepared.source, RESIDENT_BRICKS)
-        .map_err(|e| format!("{}: {e}", prepared.source.name()))?;
-    let scale = prepared.source.shape().levels[level].scale as f64;
-    let spacing = prepared.source.spacing().map(|s| s * scale);
-    let mut octree = voxscope_octree::build(&volume, BuildOptions::default())
-        .map_err(|e| format!("{}: {e}", prepared.source.name()))?;
+) -> Result<serde_json::Value, BenchError> {
+    let ResidentLevel {
+        bricks,
+        source,
+        dims,
+        level,
+        depth,
+    } = ResidentLevel::read(context, prepared)?;
     let transfer: TransferFunction = prepared.transfer;
-    voxscope_octree::recolor(&mut octree, &transfer);
-    let bricks = VolumeRenderer::new(
-        context,
-        RendererOptions {
-            kind: RendererKind::Bricks,
-            brick_size: 32,
-            ..Default::default()
-        },
-        &octree,
-        &volume,
-        spacing,
-        octree.depth,
-        &transfer,
-    )
-    .map_err(|e| e.to_string())?;
-    // The bricks renderer holds its own copy on the GPU: the octree and the voxels in RAM go
-    // now (the voxels to the streaming renderer's source), not kept twice.
-    let depth = octree.depth;
-    drop(octree);
-    let source: Arc<dyn voxscope_stream::BrickSource> = Arc::new(MemorySource::from_levels(
-        "resident",
-        std::mem::take(&mut volume.levels),
-        volume.dims,
-        volume.quantization,
-        spacing,
-        Downsampling::Mean,
-    )?);
     let mut rows = Vec::new();
     // At full detail (no pixel LOD), as the bricks renderer draws; then, where the options ask
     // for it, with their pixel LOD (its far parts coarser: fewer samples than the bricks
     // renderer's, and rays that may want two levels).
-    let lod_scales = if options.lod_scale > 0.0 {
-        vec![0.0, options.lod_scale]
+    let lod_scales = if stream_options.lod_scale > 0.0 {
+        vec![0.0, stream_options.lod_scale]
     } else {
         vec![0.0]
     };
@@ -83,15 +58,14 @@ pub(super) fn resident_comparison(
             source.clone(),
             StreamOptions {
                 lod_scale,
-                ..options
+                ..stream_options
             },
             &transfer,
-        )
-        .map_err(|e| e.to_string())?;
+        )?;
         for (mode_name, mode) in [("dvr-gray", RenderMode::Dvr), ("mip", RenderMode::Mip)] {
             let settings = RenderSettings {
                 mode,
-                density: args.density,
+                density: options.density,
                 shading: Shading::OFF,
                 ..RenderSettings::full_detail(depth)
             };
@@ -101,7 +75,7 @@ pub(super) fn resident_comparison(
                     ..Camera::default()
                 };
                 let refinement = refine(context, &mut stream, target, &camera, &settings, MAX_WAIT)
-                    .map_err(|e| e.to_string())?;
+                    .map_err(BenchError::Scene)?;
                 // What a window does next: it keeps updating while the streamer fills the level
                 // every ray wants (or the two), after which frames walk it (`main_level`,
                 // `main_levels`).
@@ -114,7 +88,7 @@ pub(super) fn resident_comparison(
                     target,
                     &camera,
                     &settings,
-                    args.frames,
+                    options.frames,
                     timer,
                 )?;
                 let walked = stream.stream().map_or(0, |s| s.level_walk_frames()) - walked_before;
@@ -130,7 +104,7 @@ pub(super) fn resident_comparison(
                     target,
                     &camera,
                     &settings,
-                    args.frames,
+                    options.frames,
                     timer,
                 )?;
                 let (stream_gpu, bricks_gpu) = (&stream_times.gpu, &bricks_times.gpu);
@@ -167,10 +141,81 @@ pub(super) fn resident_comparison(
         }
     }
     Ok(json!({
-        "dims": volume.dims,
+        "dims": dims,
         "pyramid_level": level,
         "rows": rows,
     }))
+}
+
+/// The pyramid level compared, in memory: drawn by the bricks renderer, and as the streaming
+/// renderer's source.
+struct ResidentLevel {
+    bricks: VolumeRenderer,
+    source: Arc<dyn voxscope_stream::BrickSource>,
+    dims: [usize; 3],
+    /// Its level in the pyramid.
+    level: usize,
+    /// Its octree's depth.
+    depth: u32,
+}
+
+impl ResidentLevel {
+    /// The finest level of `prepared`'s pyramid within [`RESIDENT_BRICKS`], read, its octree
+    /// built for the bricks renderer and its voxels handed to a source in memory.
+    fn read(context: &GpuContext, prepared: &StreamedVolume) -> Result<Self, BenchError> {
+        let (mut volume, level) =
+            preview(&*prepared.source, RESIDENT_BRICKS).map_err(|error| BenchError::Preview {
+                volume: prepared.source.name().to_owned(),
+                error,
+            })?;
+        let scale = prepared.source.shape().levels[level].scale as f64;
+        let spacing = prepared.source.spacing().map(|s| s * scale);
+        let mut octree =
+            voxscope_octree::build(&volume, BuildOptions::default()).map_err(|error| {
+                BenchError::Build {
+                    volume: prepared.source.name().to_owned(),
+                    error,
+                }
+            })?;
+        let transfer = prepared.transfer;
+        voxscope_octree::recolor(&mut octree, &transfer);
+        let bricks = VolumeRenderer::new(
+            context,
+            RendererOptions {
+                kind: RendererKind::Bricks,
+                brick_size: 32,
+                ..Default::default()
+            },
+            &octree,
+            &volume,
+            spacing,
+            octree.depth,
+            &transfer,
+        )?;
+        // The bricks renderer holds its own copy on the GPU: the octree and the voxels in RAM go
+        // now (the voxels to the streaming renderer's source), not kept twice.
+        let depth = octree.depth;
+        drop(octree);
+        let source: Arc<dyn voxscope_stream::BrickSource> = Arc::new(
+            MemorySource::from_levels(
+                "resident",
+                std::mem::take(&mut volume.levels),
+                volume.dims,
+                volume.quantization,
+                spacing,
+                Downsampling::Mean,
+            )
+            // One line naming the pyramid, whatever the source's error type.
+            .map_err(|e| BenchError::Pyramid(e.to_string()))?,
+        );
+        Ok(Self {
+            bricks,
+            source,
+            dims: volume.dims,
+            level,
+            depth,
+        })
+    }
 }
 
 /// The medians of the first and the second half of `values` (of a single value, it twice).
@@ -190,15 +235,13 @@ fn settle_fill(
     target: &RenderTarget,
     camera: &Camera,
     settings: &RenderSettings,
-) -> Result<(u64, usize), String> {
+) -> Result<(u64, usize), BenchError> {
     let started = Instant::now();
     let before = stream
         .stream()
         .map_or(0, |s| s.streamer().resident_keys().count() as u64);
     let busy = loop {
-        let status = stream
-            .update(context)
-            .ok_or("the resident comparison needs the streaming renderer")?;
+        let status = stream.update(context).ok_or(BenchError::NotStreaming)?;
         let busy = status.queued + status.loading;
         if (status.filling == 0 && status.uploads == 0 && status.complete && busy == 0)
             || started.elapsed() >= MAX_WAIT
@@ -208,7 +251,7 @@ fn settle_fill(
         // A window draws again only when the update changed what frames draw.
         if status.uploads > 0 || status.table_changed {
             stream.render(context, target, camera, settings);
-            context.wait_idle().map_err(|e| e.to_string())?;
+            context.wait_idle()?;
         } else {
             std::thread::sleep(Duration::from_millis(1));
         }
@@ -240,7 +283,7 @@ fn time_view(
     settings: &RenderSettings,
     frames: u32,
     timer: Option<&GpuTimer>,
-) -> Result<ViewTimes, String> {
+) -> Result<ViewTimes, BenchError> {
     let submit = |writes| {
         let mut encoder = context
             .device
@@ -251,14 +294,13 @@ fn time_view(
         context.queue.submit([encoder.finish()]);
     };
     // Until the frames' time is steady: the GPU idled at low clocks while the level filled.
-    let warmed = warm_up(context, timer, |_, writes| submit(writes)).map_err(|e| e.to_string())?;
+    let warmed = warm_up(context, timer, |_, writes| submit(writes))?;
     let started = Instant::now();
     for _ in 0..frames {
         submit(None);
     }
-    context.wait_idle().map_err(|e| e.to_string())?;
+    context.wait_idle()?;
     let wall = started.elapsed().as_secs_f64() * 1e3 / frames.max(1) as f64;
-    let gpu = time_passes(context, timer, frames, |_, writes| submit(writes))
-        .map_err(|e| e.to_string())?;
+    let gpu = time_passes(context, timer, frames, |_, writes| submit(writes))?;
     Ok(ViewTimes { gpu, wall, warmed })
 }

@@ -1,6 +1,10 @@
 //! The process's resident memory, for the figures `render` and `bench --stream` give: what it
 //! holds now and the most it held since the last [`reset_peak`] (Linux's `VmRSS` and `VmHWM`;
-//! elsewhere nothing is measured and the figures are left out).
+//! elsewhere nothing is measured and the figures are left out); and the streaming benchmark's
+//! memory by phase ([`Phases`]).
+
+use serde_json::json;
+use voxscope_stream::StreamCounters;
 
 /// Resident bytes now and at most.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -38,6 +42,58 @@ pub fn reset_peak() -> bool {
 /// Mebibytes, for messages.
 pub fn mib(bytes: u64) -> f64 {
     bytes as f64 / (1 << 20) as f64
+}
+
+/// Resident memory by phase: each phase's peak (the kernel's high-water mark, reset at its
+/// start) and what the streamer's caches held at its end.
+pub(crate) struct Phases {
+    baseline: Option<u64>,
+    phases: Vec<serde_json::Value>,
+    streaming_peak: u64,
+}
+
+impl Phases {
+    /// The first phase starts now, at what is resident now (the baseline).
+    pub fn start() -> Self {
+        reset_peak();
+        Self {
+            baseline: resident().map(|r| r.now),
+            phases: Vec::new(),
+            streaming_peak: 0,
+        }
+    }
+
+    /// Ends the phase `name` (`counters`: a streaming one's, at its end) and starts the next.
+    pub fn phase(&mut self, name: &str, counters: Option<&StreamCounters>) {
+        let Some(resident) = resident() else {
+            return;
+        };
+        if counters.is_some() {
+            self.streaming_peak = self.streaming_peak.max(resident.peak);
+        }
+        self.phases.push(json!({
+            "phase": name,
+            "peak_bytes": resident.peak,
+            "end_bytes": resident.now,
+            "ram_cache_bytes": counters.map(|c| c.ram_bytes),
+            "store_cache_bytes": counters.map(|c| c.source_cache_bytes),
+        }));
+        reset_peak();
+    }
+
+    /// The phases, and the streaming phases' peak above the baseline against the RAM budget.
+    pub fn report(&self, ram_budget: u64) -> serde_json::Value {
+        let over_baseline = self
+            .baseline
+            .map(|baseline| self.streaming_peak.saturating_sub(baseline));
+        json!({
+            "baseline_bytes": self.baseline,
+            "ram_budget_bytes": ram_budget,
+            "streaming_peak_bytes": self.streaming_peak,
+            "streaming_peak_over_baseline_bytes": over_baseline,
+            "phases": self.phases,
+        })
+    }
 }
 
 #[cfg(test)]

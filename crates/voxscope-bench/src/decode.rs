@@ -1,5 +1,5 @@
-//! The loaders' read-and-decode rate on their own, from the page cache (`bench --stream`'s
-//! `decode`): a block of finest-level bricks around the volume's center read by the
+//! The loaders' read-and-decode rate on their own, from the page cache (the streaming
+//! benchmark's `decode`): a block of finest-level bricks around the volume's center read by the
 //! streamer's loaders (as many threads, the same queue and the same reads: the source's read
 //! and decode, then the atlas's texel conversion), nearest the center first. The block is read
 //! twice, each time by a fresh source (its decoded-chunk cache empty): the first read puts the
@@ -13,6 +13,8 @@ use serde_json::json;
 use voxscope_stream::{
     AtlasTexels, BrickId, BrickSource, Loader, Priority, Request, RequestQueue, Tier,
 };
+
+use crate::error::BenchError;
 
 /// Finest-level bricks read at most (a block of 32 × 32 × 8 around the center: 8 192 bricks,
 /// 644 MB of padded 16-bit voxels).
@@ -69,23 +71,23 @@ fn read_block(
     bricks: &[BrickId],
     workers: usize,
     texels: AtlasTexels,
-) -> Result<BlockRead, String> {
+) -> Result<BlockRead, BenchError> {
     let queue = Arc::new(RequestQueue::default());
     let requests = bricks
         .iter()
         .enumerate()
         .map(|(order, &id)| {
-            let key = source
-                .shape()
-                .key(id)
-                .ok_or_else(|| format!("{}: no {id}", source.name()))?;
+            let key = source.shape().key(id).ok_or_else(|| BenchError::NoBrick {
+                volume: source.name().to_owned(),
+                id,
+            })?;
             Ok(Request {
                 priority: Priority::new(Tier::Visible, 0, order as f32),
                 id,
                 key,
             })
         })
-        .collect::<Result<Vec<_>, String>>()?;
+        .collect::<Result<Vec<_>, BenchError>>()?;
     let started = Instant::now();
     queue.replace(requests);
     let loader = Loader::start(Arc::clone(source), queue, texels, workers);
@@ -93,12 +95,12 @@ fn read_block(
     while received < bricks.len() {
         let left = MAX_BLOCK_SECONDS.saturating_sub(started.elapsed());
         let Some(result) = loader.next_received(left) else {
-            return Err(format!(
-                "{}: the loaders read {received} of {} bricks in {} s",
-                source.name(),
-                bricks.len(),
-                MAX_BLOCK_SECONDS.as_secs()
-            ));
+            return Err(BenchError::LoadersTooSlow {
+                volume: source.name().to_owned(),
+                received,
+                total: bricks.len(),
+                seconds: MAX_BLOCK_SECONDS.as_secs(),
+            });
         };
         received += 1;
         bytes += result.bytes_read;
@@ -116,11 +118,11 @@ fn read_block(
 /// The read-and-decode rate of the sources `open` makes (each call a fresh one, its caches
 /// sized for `ram_cache`), with `workers` threads, as JSON.
 pub fn decode_rate(
-    open: impl Fn() -> Result<Arc<dyn BrickSource>, String>,
+    open: impl Fn() -> Result<Arc<dyn BrickSource>, BenchError>,
     ram_cache: u64,
     workers: usize,
-) -> Result<serde_json::Value, String> {
-    let fresh = || -> Result<Arc<dyn BrickSource>, String> {
+) -> Result<serde_json::Value, BenchError> {
+    let fresh = || -> Result<Arc<dyn BrickSource>, BenchError> {
         let source = open()?;
         source.reserve_caches(ram_cache);
         Ok(source)
