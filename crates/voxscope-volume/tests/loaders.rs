@@ -547,8 +547,9 @@ const README_COMPANION_EXTENSIONS: [&str; 2] = [".img", ".png"];
 
 #[test]
 fn the_readme_formats_table_matches_the_format_table() {
-    let readme = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md"))
-        .expect("README.md");
+    let readme =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../README.md"))
+            .expect("README.md");
     let section = readme
         .split("\n## Formats\n")
         .nth(1)

@@ -13,7 +13,7 @@
 //! - no planted secret in any message or name.
 //!
 //! CI runs [`CI_CASES`] cases (a minute or so on two cores). The full campaign of 10⁴ cases:
-//! `VOXSCOPE_NET_FUZZ_CASES=10000 cargo test --release --test net_fuzz -- --nocapture`
+//! `VOXSCOPE_NET_FUZZ_CASES=10000 cargo test --release -p voxscope-stream --test net_fuzz -- --nocapture`
 //! (`VOXSCOPE_NET_FUZZ_SEED` picks another campaign).
 
 mod support;
