@@ -10,7 +10,7 @@ use voxscope_scene::option_text::{parse_bytes, parse_lod_scale};
 use super::args::scene_error_text;
 use super::{TransferArgs, VolumeArgs};
 use voxscope_render::GpuContext;
-use voxscope_scene::{OpenedStream, SavedTransfer, StreamedVolume};
+use voxscope_scene::{OpenedStream, SavedTransfer, SceneError, StreamedVolume};
 use voxscope_stream::{AtlasZero, StreamOptions, UploadPath};
 
 /// The streaming renderer's budgets (`--renderer stream`, `bench --stream`).
@@ -128,7 +128,7 @@ pub fn open_streamed_with_renderer<G: Borrow<GpuContext>>(
     volume_args: &VolumeArgs,
     transfer_args: &TransferArgs,
     stream: StreamOptions,
-    gpu: impl FnOnce() -> Result<G, String>,
+    gpu: impl FnOnce() -> Result<G, SceneError>,
 ) -> Result<(OpenedStream<G>, Option<SavedTransfer>), String> {
     let transfer = transfer_args.options();
     let saved = transfer.saved().map_err(|e| e.to_string())?;

@@ -235,7 +235,7 @@ impl StreamVolume {
             ..options
         };
         let mut streamer = Streamer::new(Arc::clone(&source), grid, texels, options, visible)
-            .map_err(RenderError::DoesNotFit)?;
+            .map_err(|e| RenderError::DoesNotFit(e.to_string()))?;
         let level_cells_bytes = if streamer.options().level_walk {
             level_cells_bytes
         } else {
@@ -400,7 +400,7 @@ impl StreamVolume {
         let pinned = self
             .streamer
             .load_pinned()
-            .map_err(RenderError::DoesNotFit)?;
+            .map_err(|e| RenderError::DoesNotFit(e.to_string()))?;
         self.unwritten.extend(pinned);
         self.sizing.pinned = self.streamer.pinned_slots();
         Ok(())
