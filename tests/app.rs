@@ -268,7 +268,8 @@ fn screenshot_transfer_functions_and_settings_are_saved() {
     let error = harness
         .state_mut()
         .load_transfer(&garbage)
-        .expect_err("garbage is refused");
+        .expect_err("garbage is refused")
+        .to_string();
     assert!(
         error.starts_with(&garbage.display().to_string()) && !error.contains('\n'),
         "{error}"

@@ -230,6 +230,7 @@ fn a_malformed_url_is_one_line_and_panics_nothing() {
     let Err(problem) = RemoteStore::open("http://u:p@{bad}/z", RemoteOptions::default()) else {
         panic!("a host with braces opened");
     };
+    let problem = problem.to_string();
     assert!(problem.contains("no host name"), "{problem}");
 }
 
@@ -303,6 +304,7 @@ fn no_secret_is_shown_and_basic_authentication_is_sent() {
     ) else {
         panic!("a password for plain HTTP elsewhere was accepted");
     };
+    let problem = problem.to_string();
     assert!(
         problem.contains("only over https://") && !problem.contains("pw"),
         "{problem}"

@@ -96,10 +96,12 @@ impl VoxscopeApp {
             }
             Command::SaveTransfer(path) => self
                 .save_transfer(&path)
-                .map(|()| Some(self.saved(&path, "transfer function"))),
+                .map(|()| Some(self.saved(&path, "transfer function")))
+                .map_err(|e| e.to_string()),
             Command::LoadTransfer(path) => self
                 .load_transfer(&path)
-                .map(|()| Some(format!("loaded {}", path.display()))),
+                .map(|()| Some(format!("loaded {}", path.display())))
+                .map_err(|e| e.to_string()),
             Command::OpenLabels(path) => {
                 self.labels.add_file(&path.display().to_string());
                 Ok(None)

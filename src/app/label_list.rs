@@ -424,9 +424,12 @@ fn draw_overlay(
                             label,
                             *dims,
                             RemoteOptions::default(),
-                        )?
+                        )
+                        .map_err(|e| e.to_string())?
                     }
-                    LayerSource::File(path) => LabelOverlay::open_file(path, *dims)?,
+                    LayerSource::File(path) => {
+                        LabelOverlay::open_file(path, *dims).map_err(|e| e.to_string())?
+                    }
                 });
                 cache.loaded.insert(name.clone(), Arc::clone(&overlay));
                 overlay
@@ -442,16 +445,17 @@ fn draw_overlay(
             .get(name)
             .is_none_or(|(uploaded_for, _)| *uploaded_for != upload_key)
         {
-            let uploaded = overlay.layer(hidden, *opacity, key.spacing)?.upload(
-                context,
-                key.renderer,
-                key.settings.max_level,
-            )?;
+            let uploaded = overlay
+                .layer(hidden, *opacity, key.spacing)
+                .and_then(|layer| layer.upload(context, key.renderer, key.settings.max_level))
+                .map_err(|e| e.to_string())?;
             cache.uploaded.insert(name.clone(), (upload_key, uploaded));
         }
         let (_, uploaded) = cache.uploaded.get_mut(name).expect("inserted above");
         uploaded.opacity = opacity.clamp(0.0, 1.0);
-        let slots = uploaded.draw_slots(context, &target, &key.camera, &key.settings)?;
+        let slots = uploaded
+            .draw_slots(context, &target, &key.camera, &key.settings)
+            .map_err(|e| e.to_string())?;
         uploaded.compose(&mut premultiplied, &slots);
         let listed = overlay
             .labels
@@ -534,12 +538,15 @@ fn draw_streamed(
             opacity,
             options,
             STREAMED_LABELS_WAIT,
-        )?;
+        )
+        .map_err(|e| e.to_string())?;
         cache.uploaded.insert(name.clone(), (upload_key, uploaded));
     }
     let (_, uploaded) = cache.uploaded.get_mut(name).expect("inserted above");
     uploaded.opacity = opacity.clamp(0.0, 1.0);
-    let slots = uploaded.draw_slots(context, target, &key.camera, &key.settings)?;
+    let slots = uploaded
+        .draw_slots(context, target, &key.camera, &key.settings)
+        .map_err(|e| e.to_string())?;
     uploaded.compose(premultiplied, &slots);
     Ok(DrawnLayer {
         name: name.clone(),

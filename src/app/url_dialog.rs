@@ -67,7 +67,7 @@ impl UrlDialog {
                     && let Err(problem) = checked
                 {
                     let problem = if is_url(text) {
-                        problem
+                        problem.to_string()
                     } else {
                         "a URL starts with http://, https:// or s3://".to_owned()
                     };

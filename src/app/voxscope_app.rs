@@ -33,7 +33,7 @@ use voxscope_render::{
 use voxscope_scene::{FrameKey, Prefetch};
 use voxscope_scene::{Job, Opened, SceneError};
 use voxscope_scene::{OctreeColors, Scene, VolumeData, VolumeSource};
-use voxscope_scene::{SavedTransfer, TransferChoice};
+use voxscope_scene::{SavedTransfer, TransferChoice, TransferFileError};
 
 mod reading;
 
@@ -149,7 +149,7 @@ impl VoxscopeApp {
     }
 
     /// Writes the transfer function, opacity scale and mode as RON.
-    pub fn save_transfer(&self, path: &Path) -> Result<(), String> {
+    pub fn save_transfer(&self, path: &Path) -> Result<(), TransferFileError> {
         SavedTransfer {
             transfer: self.transfer(),
             density: self.settings.density,
@@ -159,7 +159,7 @@ impl VoxscopeApp {
     }
 
     /// Reads a transfer function saved by [`Self::save_transfer`].
-    pub fn load_transfer(&mut self, path: &Path) -> Result<(), String> {
+    pub fn load_transfer(&mut self, path: &Path) -> Result<(), TransferFileError> {
         let preset = SavedTransfer::read(path)?;
         self.settings.transfer = TransferChoice::from(preset.transfer);
         self.view.window = preset.transfer.window;

@@ -65,7 +65,7 @@ impl ChannelArgs {
         transfer: &TransferArgs,
     ) -> Result<Vec<PreparedChannel>, String> {
         let request = self.request();
-        request.check(channels.len())?;
+        request.check(channels.len()).map_err(|e| e.to_string())?;
         let transfer = transfer.options();
         let saved = transfer.saved().map_err(|e| e.to_string())?;
         let transfer_request = transfer.request(saved.as_ref());

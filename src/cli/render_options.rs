@@ -88,7 +88,9 @@ impl RenderOptions {
 
     /// What clap cannot check of the values: `--max-wait` is a number of seconds.
     pub fn check(&self) -> Result<(), String> {
-        max_wait(self.max_wait).map(|_| ())
+        max_wait(self.max_wait)
+            .map(|_| ())
+            .map_err(|e| e.to_string())
     }
 }
 

@@ -40,6 +40,20 @@ pub struct BrickLayout {
     pub labels: bool,
 }
 
+/// Why an octree cannot be cut into bricks: displays as the one line of the renderer's
+/// "does not fit".
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum BrickLayoutError {
+    /// A brick size that is not a power of two of at least 2.
+    #[error("brick size {0} is not a power of two of at least 2")]
+    BrickSize(usize),
+    /// More bricks than an atlas of the device's largest side holds.
+    #[error(
+        "{count} bricks do not fit an atlas of {max_atlas_side} texels per side; use larger bricks"
+    )]
+    AtlasTooSmall { count: usize, max_atlas_side: usize },
+}
+
 impl BrickLayout {
     /// Cuts `octree` (built from `volume`) at bricks of `brick_size`³ voxels, with atlas sides
     /// of at most `max_atlas_side` texels.
@@ -48,11 +62,9 @@ impl BrickLayout {
         volume: &QuantizedVolume,
         brick_size: usize,
         max_atlas_side: usize,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, BrickLayoutError> {
         if !brick_size.is_power_of_two() || brick_size < 2 {
-            return Err(format!(
-                "brick size {brick_size} is not a power of two of at least 2"
-            ));
+            return Err(BrickLayoutError::BrickSize(brick_size));
         }
         let brick_level = octree.depth.saturating_sub(brick_size.trailing_zeros());
         let side = octree.side();
@@ -94,9 +106,10 @@ impl BrickLayout {
         let gy = count.div_ceil(gx).min(gx).clamp(1, per_axis_limit);
         let gz = count.div_ceil(gx * gy);
         if gz > per_axis_limit {
-            return Err(format!(
-                "{count} bricks do not fit an atlas of {max_atlas_side} texels per side; use larger bricks"
-            ));
+            return Err(BrickLayoutError::AtlasTooSmall {
+                count,
+                max_atlas_side,
+            });
         }
         let atlas_grid = [gx, gy, gz];
         let atlas_dims = atlas_grid.map(|g| g * padded);

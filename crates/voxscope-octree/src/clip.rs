@@ -71,27 +71,25 @@ impl Clip {
     }
 
     /// Parses the command line's crop box `X0:X1,Y0:Y1,Z0:Z1` (fractions 0…1).
-    pub fn parse_box(text: &str) -> Result<[[f32; 2]; 3], String> {
+    pub fn parse_box(text: &str) -> Result<[[f32; 2]; 3], ClipError> {
         let axes: Vec<&str> = text.split(',').collect();
         let [x, y, z] = axes[..] else {
-            return Err(format!("'{text}' is not X0:X1,Y0:Y1,Z0:Z1"));
+            return Err(ClipError::NotBox(text.to_owned()));
         };
-        let range = |part: &str| -> Result<[f32; 2], String> {
+        let range = |part: &str| -> Result<[f32; 2], ClipError> {
             let (low, high) = part
                 .split_once(':')
-                .ok_or_else(|| format!("'{part}' is not LOW:HIGH"))?;
+                .ok_or_else(|| ClipError::NotRange(part.to_owned()))?;
             let low: f32 = low
                 .trim()
                 .parse()
-                .map_err(|_| format!("'{low}' is not a number"))?;
+                .map_err(|_| ClipError::NotNumber(low.to_owned()))?;
             let high: f32 = high
                 .trim()
                 .parse()
-                .map_err(|_| format!("'{high}' is not a number"))?;
+                .map_err(|_| ClipError::NotNumber(high.to_owned()))?;
             if !(0.0..=1.0).contains(&low) || !(0.0..=1.0).contains(&high) || low >= high {
-                return Err(format!(
-                    "'{part}' needs 0 ≤ LOW < HIGH ≤ 1 (fractions of the axis)"
-                ));
+                return Err(ClipError::RangeOutside(part.to_owned()));
             }
             Ok([low, high])
         };
@@ -99,24 +97,48 @@ impl Clip {
     }
 
     /// Parses the command line's plane `NX,NY,NZ,D` (normalized volume coordinates).
-    pub fn parse_plane(text: &str) -> Result<ClipPlane, String> {
+    pub fn parse_plane(text: &str) -> Result<ClipPlane, ClipError> {
         let values: Vec<f32> = text
             .split(',')
             .map(|v| v.trim().parse::<f32>())
             .collect::<Result<_, _>>()
-            .map_err(|_| format!("'{text}' is not NX,NY,NZ,D (four numbers)"))?;
+            .map_err(|_| ClipError::NotPlane(text.to_owned()))?;
         let [nx, ny, nz, d] = values[..] else {
-            return Err(format!("'{text}' is not NX,NY,NZ,D (four numbers)"));
+            return Err(ClipError::NotPlane(text.to_owned()));
         };
         let normal = [nx, ny, nz];
         if normal.iter().chain([&d]).any(|v| !v.is_finite()) || normal == [0.0; 3] {
-            return Err(format!("'{text}': the normal must be finite and not zero"));
+            return Err(ClipError::NoNormal(text.to_owned()));
         }
         Ok(ClipPlane {
             normal,
             distance: d,
         })
     }
+}
+
+/// Why the command line's crop box or clip plane text was refused: displays as the one line
+/// shown after the value.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ClipError {
+    /// A box that is not three comma-separated ranges.
+    #[error("'{0}' is not X0:X1,Y0:Y1,Z0:Z1")]
+    NotBox(String),
+    /// One axis's range without its `:`.
+    #[error("'{0}' is not LOW:HIGH")]
+    NotRange(String),
+    /// A bound that is not a number.
+    #[error("'{0}' is not a number")]
+    NotNumber(String),
+    /// A range that is not within 0…1, low below high.
+    #[error("'{0}' needs 0 ≤ LOW < HIGH ≤ 1 (fractions of the axis)")]
+    RangeOutside(String),
+    /// A plane that is not four numbers.
+    #[error("'{0}' is not NX,NY,NZ,D (four numbers)")]
+    NotPlane(String),
+    /// A plane whose normal is zero or not finite.
+    #[error("'{0}': the normal must be finite and not zero")]
+    NoNormal(String),
 }
 
 #[cfg(test)]

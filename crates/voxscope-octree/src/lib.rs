@@ -15,9 +15,9 @@ mod transfer;
 
 use std::ops::Range;
 
-pub use bricks::{BRICK_FLAG, BrickLayout};
+pub use bricks::{BRICK_FLAG, BrickLayout, BrickLayoutError};
 pub use build::{BuildError, BuildOptions, MAX_DEPTH, build, build_with_progress};
-pub use clip::{Clip, ClipPlane};
+pub use clip::{Clip, ClipError, ClipPlane};
 pub use node::{LEAF, Node, ValueBounds, average_color, mode_color, pack_rgba, unpack_rgba};
 pub use presets::{DataKind, MAX_LABELS, Preset, default_transfer, labels_transfer};
 pub use recolor::recolor;
@@ -25,7 +25,8 @@ pub use statistics::{
     LevelStatistics, level_statistics, level_statistics_under, level_statistics_within,
 };
 pub use transfer::{
-    Colormap, ControlPoint, MAX_CURVE_POINTS, OpacityCurve, OpacityMode, TransferFunction,
+    Colormap, ControlPoint, CurveError, MAX_CURVE_POINTS, OpacityCurve, OpacityMode,
+    TransferFunction,
 };
 
 use voxscope_volume::Quantization;

@@ -69,6 +69,37 @@ impl ControlPoint {
     }
 }
 
+/// Why points (or the command line's `V:A,…`) make no opacity curve: displays as the one line
+/// the command line, the Python module and a view file's reader show.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum CurveError {
+    /// No point at all.
+    #[error("an opacity curve needs at least one point")]
+    NoPoints,
+    /// More than [`MAX_CURVE_POINTS`] points.
+    #[error("an opacity curve has at most {MAX_CURVE_POINTS} points, not {0}")]
+    TooManyPoints(usize),
+    /// Point `number` (from 1) has an infinite or NaN value.
+    #[error("point {number} has no finite value")]
+    NotFinite { number: usize },
+    /// Point `number` (from 1) has an opacity outside 0…1.
+    #[error("point {number} at {value}: opacity {opacity} is outside 0…1")]
+    OpacityOutside {
+        number: usize,
+        value: f64,
+        opacity: f32,
+    },
+    /// A point's value is not above the one before it.
+    #[error("points must be sorted by value: {value} follows {previous}")]
+    Unsorted { value: f64, previous: f64 },
+    /// Text without the `:` of `VALUE:OPACITY`.
+    #[error("'{0}' is not VALUE:OPACITY")]
+    NotPair(String),
+    /// Text that is not a number.
+    #[error("'{0}' is not a number")]
+    NotNumber(String),
+}
+
 /// A piecewise-linear opacity curve: control points sorted by value, linear in between, flat
 /// outside (the first point's opacity below it, the last's above). When any point has a
 /// color, colors are interpolated the same way between the points that have one.
@@ -82,34 +113,29 @@ pub struct OpacityCurve {
 impl OpacityCurve {
     /// A curve through `points`, which must be 1…[`MAX_CURVE_POINTS`] points with finite
     /// values in increasing order and opacities in 0…1.
-    pub fn new(points: &[ControlPoint]) -> Result<Self, String> {
+    pub fn new(points: &[ControlPoint]) -> Result<Self, CurveError> {
         if points.is_empty() {
-            return Err("an opacity curve needs at least one point".into());
+            return Err(CurveError::NoPoints);
         }
         if points.len() > MAX_CURVE_POINTS {
-            return Err(format!(
-                "an opacity curve has at most {MAX_CURVE_POINTS} points, not {}",
-                points.len()
-            ));
+            return Err(CurveError::TooManyPoints(points.len()));
         }
         for (i, point) in points.iter().enumerate() {
             if !point.value.is_finite() {
-                return Err(format!("point {} has no finite value", i + 1));
+                return Err(CurveError::NotFinite { number: i + 1 });
             }
             if !(0.0..=1.0).contains(&point.opacity) {
-                return Err(format!(
-                    "point {} at {}: opacity {} is outside 0…1",
-                    i + 1,
-                    point.value,
-                    point.opacity
-                ));
+                return Err(CurveError::OpacityOutside {
+                    number: i + 1,
+                    value: point.value,
+                    opacity: point.opacity,
+                });
             }
             if i > 0 && point.value <= points[i - 1].value {
-                return Err(format!(
-                    "points must be sorted by value: {} follows {}",
-                    point.value,
-                    points[i - 1].value
-                ));
+                return Err(CurveError::Unsorted {
+                    value: point.value,
+                    previous: points[i - 1].value,
+                });
             }
         }
         let mut curve = Self {
@@ -131,24 +157,24 @@ impl OpacityCurve {
     }
 
     /// Parses the command line's `V:A,V:A,…` (value in data units, opacity 0…1).
-    pub fn parse(text: &str) -> Result<Self, String> {
+    pub fn parse(text: &str) -> Result<Self, CurveError> {
         let points = text
             .split(',')
             .map(|pair| {
                 let (value, opacity) = pair
                     .split_once(':')
-                    .ok_or_else(|| format!("'{pair}' is not VALUE:OPACITY"))?;
+                    .ok_or_else(|| CurveError::NotPair(pair.to_owned()))?;
                 let value: f64 = value
                     .trim()
                     .parse()
-                    .map_err(|_| format!("'{value}' is not a number"))?;
+                    .map_err(|_| CurveError::NotNumber(value.to_owned()))?;
                 let opacity: f32 = opacity
                     .trim()
                     .parse()
-                    .map_err(|_| format!("'{opacity}' is not a number"))?;
+                    .map_err(|_| CurveError::NotNumber(opacity.to_owned()))?;
                 Ok(ControlPoint::new(value, opacity))
             })
-            .collect::<Result<Vec<_>, String>>()?;
+            .collect::<Result<Vec<_>, CurveError>>()?;
         Self::new(&points)
     }
 
@@ -238,9 +264,9 @@ impl From<OpacityCurve> for Vec<ControlPoint> {
 }
 
 impl TryFrom<Vec<ControlPoint>> for OpacityCurve {
-    type Error = String;
+    type Error = CurveError;
 
-    fn try_from(points: Vec<ControlPoint>) -> Result<Self, String> {
+    fn try_from(points: Vec<ControlPoint>) -> Result<Self, CurveError> {
         Self::new(&points)
     }
 }

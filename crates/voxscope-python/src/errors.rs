@@ -72,6 +72,10 @@ impl From<SceneError> for Failure {
             )),
             SceneError::Cancelled
             | SceneError::Invalid(_)
+            | SceneError::NoSuchChannel { .. }
+            | SceneError::TooManyColors { .. }
+            | SceneError::Source(_)
+            | SceneError::Labels(_)
             | SceneError::LabelsRefused { .. }
             | SceneError::BeyondOctree(_)
             | SceneError::Failed(_) => Self::Value(error.to_string()),

@@ -31,14 +31,16 @@ pub(crate) enum Refused {
 }
 
 impl Refused {
-    fn value(text: &str) -> impl FnOnce(String) -> Self + '_ {
+    /// The value `text` refused by its parser, which says why.
+    fn value<E: std::fmt::Display>(text: &str) -> impl FnOnce(E) -> Self + '_ {
         move |why| Self::Value {
             text: text.to_owned(),
-            why: Some(why),
+            why: Some(why.to_string()),
         }
     }
 
-    fn name(text: &str) -> impl FnOnce(String) -> Self + '_ {
+    /// The name `text` refused by its parser (an enum's: its name says nothing more).
+    fn name<E>(text: &str) -> impl FnOnce(E) -> Self + '_ {
         move |_| Self::Value {
             text: text.to_owned(),
             why: None,
@@ -102,7 +104,6 @@ pub(crate) fn set_option(options: &mut DrawOptions, name: &str, word: &str) -> R
             return Ok(());
         }
     };
-    let value = Refused::value(t);
     let transfer = &mut options.transfer;
     match name {
         "mode" => transfer.mode = Some(parse::parse_mode(t).map_err(Refused::name(t))?),
@@ -110,21 +111,29 @@ pub(crate) fn set_option(options: &mut DrawOptions, name: &str, word: &str) -> R
             transfer.opacity = Some(parse::parse_opacity_mode(t).map_err(Refused::name(t))?);
         }
         "opacity_points" => {
-            transfer.opacity = Some(OpacityMode::Points(OpacityCurve::parse(t).map_err(value)?));
+            transfer.opacity = Some(OpacityMode::Points(
+                OpacityCurve::parse(t).map_err(Refused::value(t))?,
+            ));
         }
-        "preset" => transfer.preset = Some(parse::parse_preset(t).map_err(value)?),
+        "preset" => transfer.preset = Some(parse::parse_preset(t).map_err(Refused::value(t))?),
         "tf" => transfer.tf = Some(t.into()),
-        "threshold" => transfer.threshold = parse::parse_unit(t).map_err(value)?,
-        "window" => transfer.window = Some(ValueWindow::parse(t).map_err(value)?),
-        "colormap" => transfer.colormap = Some(parse::parse_colormap(t).map_err(value)?),
+        "threshold" => transfer.threshold = parse::parse_unit(t).map_err(Refused::value(t))?,
+        "window" => transfer.window = Some(ValueWindow::parse(t).map_err(Refused::value(t))?),
+        "colormap" => {
+            transfer.colormap = Some(parse::parse_colormap(t).map_err(Refused::value(t))?)
+        }
         "density" => transfer.density = Some(number(t)?),
         "level" => transfer.level = Some(number(t)?),
-        "ambient" => transfer.shading.ambient = parse::parse_unit(t).map_err(value)?,
-        "diffuse" => transfer.shading.diffuse = parse::parse_unit(t).map_err(value)?,
-        "specular" => transfer.shading.specular = parse::parse_unit(t).map_err(value)?,
-        "shininess" => transfer.shading.shininess = parse::parse_shininess(t).map_err(value)?,
-        "clip_box" => options.clip.bounds = Some(Clip::parse_box(t).map_err(value)?),
-        "clip_plane" => options.clip.plane = Some(Clip::parse_plane(t).map_err(value)?),
+        "ambient" => transfer.shading.ambient = parse::parse_unit(t).map_err(Refused::value(t))?,
+        "diffuse" => transfer.shading.diffuse = parse::parse_unit(t).map_err(Refused::value(t))?,
+        "specular" => {
+            transfer.shading.specular = parse::parse_unit(t).map_err(Refused::value(t))?
+        }
+        "shininess" => {
+            transfer.shading.shininess = parse::parse_shininess(t).map_err(Refused::value(t))?
+        }
+        "clip_box" => options.clip.bounds = Some(Clip::parse_box(t).map_err(Refused::value(t))?),
+        "clip_plane" => options.clip.plane = Some(Clip::parse_plane(t).map_err(Refused::value(t))?),
         "channel_colors" => {
             // One value each, as the option's comma list is.
             options.channels.colors = t
@@ -135,20 +144,30 @@ pub(crate) fn set_option(options: &mut DrawOptions, name: &str, word: &str) -> R
         "channel_window" => options
             .channels
             .windows
-            .push(parse::parse_channel_window(t).map_err(value)?),
+            .push(parse::parse_channel_window(t).map_err(Refused::value(t))?),
         "renderer" => options.renderer = Some(parse::parse_renderer(t).map_err(Refused::name(t))?),
-        "brick_size" => options.brick_size = parse::parse_brick_size(t).map_err(value)?,
-        "gpu_memory" => options.stream.gpu_memory = parse::parse_bytes(t).map_err(value)?,
-        "ram_cache" => options.stream.ram_cache = parse::parse_bytes(t).map_err(value)?,
+        "brick_size" => {
+            options.brick_size = parse::parse_brick_size(t).map_err(Refused::value(t))?
+        }
+        "gpu_memory" => {
+            options.stream.gpu_memory = parse::parse_bytes(t).map_err(Refused::value(t))?
+        }
+        "ram_cache" => {
+            options.stream.ram_cache = parse::parse_bytes(t).map_err(Refused::value(t))?
+        }
         "upload_budget" => {
-            options.stream.upload_bytes_per_frame = parse::parse_bytes(t).map_err(value)?;
+            options.stream.upload_bytes_per_frame =
+                parse::parse_bytes(t).map_err(Refused::value(t))?;
         }
         "uploads" => options.stream.uploads = parse::parse_uploads(t).map_err(Refused::name(t))?,
-        "lod_scale" => options.stream.lod_scale = parse::parse_lod_scale(t).map_err(value)?,
-        "max_wait" => {
-            options.max_wait = parse::max_wait(number(t)?).map_err(Refused::Line)?;
+        "lod_scale" => {
+            options.stream.lod_scale = parse::parse_lod_scale(t).map_err(Refused::value(t))?
         }
-        "size" => options.size = parse::parse_size(t).map_err(value)?,
+        "max_wait" => {
+            options.max_wait =
+                parse::max_wait(number(t)?).map_err(|e| Refused::Line(e.to_string()))?;
+        }
+        "size" => options.size = parse::parse_size(t).map_err(Refused::value(t))?,
         "azimuth" => options.camera.azimuth_deg = number(t)?,
         "elevation" => options.camera.elevation_deg = number(t)?,
         "distance" => options.camera.distance = number(t)?,
@@ -168,13 +187,16 @@ pub(crate) fn set_open_option(
     let WordValue::Text(t) = word_value(word) else {
         return Err(Refused::Line(format!("{name}= takes a value")));
     };
-    let value = Refused::value(t);
     match name {
-        "raw" => options.raw = Some(voxscope_volume::RawLayout::parse(t).map_err(value)?),
-        "spacing" => options.spacing = Some(parse::parse_spacing(t).map_err(value)?),
-        "channel" => options.channel = Some(ChannelChoice::parse(t).map_err(value)?),
+        "raw" => {
+            options.raw = Some(voxscope_volume::RawLayout::parse(t).map_err(Refused::value(t))?)
+        }
+        "spacing" => options.spacing = Some(parse::parse_spacing(t).map_err(Refused::value(t))?),
+        "channel" => options.channel = Some(ChannelChoice::parse(t).map_err(Refused::value(t))?),
         "time" => options.time = number(t)?,
-        "max_requests" => options.max_requests = parse::parse_max_requests(t).map_err(value)?,
+        "max_requests" => {
+            options.max_requests = parse::parse_max_requests(t).map_err(Refused::value(t))?
+        }
         _ => return Err(Refused::Line(format!("{name}= is not an open() keyword"))),
     }
     Ok(())
@@ -196,13 +218,16 @@ pub(crate) fn set_convert_option(
         }
         WordValue::Flag(_) => return Err(Refused::Line(format!("{name}= takes a value"))),
     };
-    let value = Refused::value(t);
     match name {
-        "raw" => options.raw = Some(voxscope_volume::RawLayout::parse(t).map_err(value)?),
-        "spacing" => options.spacing = Some(parse::parse_spacing(t).map_err(value)?),
+        "raw" => {
+            options.raw = Some(voxscope_volume::RawLayout::parse(t).map_err(Refused::value(t))?)
+        }
+        "spacing" => options.spacing = Some(parse::parse_spacing(t).map_err(Refused::value(t))?),
         "channel" => options.channel = number(t)?,
         "time" => options.time = number(t)?,
-        "max_requests" => options.max_requests = parse::parse_max_requests(t).map_err(value)?,
+        "max_requests" => {
+            options.max_requests = parse::parse_max_requests(t).map_err(Refused::value(t))?
+        }
         "format" => {
             options.version = match t {
                 "0.4" => ZarrVersion::V04,
@@ -217,10 +242,10 @@ pub(crate) fn set_convert_option(
         }
         "chunk" => options.chunk = number(t)?,
         "shard" => options.shard = number(t)?,
-        "compression" => options.compression = Compression::parse(t).map_err(value)?,
+        "compression" => options.compression = Compression::parse(t).map_err(Refused::value(t))?,
         "unit" => options.unit = Some(t.to_owned()),
-        "tile" => options.tile = Some(parse::parse_copies(t).map_err(value)?),
-        "upsample" => options.upsample = Some(parse::parse_copies(t).map_err(value)?),
+        "tile" => options.tile = Some(parse::parse_copies(t).map_err(Refused::value(t))?),
+        "upsample" => options.upsample = Some(parse::parse_copies(t).map_err(Refused::value(t))?),
         "noise" => options.noise = number(t)?,
         _ => return Err(Refused::Line(format!("{name}= is not a convert() keyword"))),
     }

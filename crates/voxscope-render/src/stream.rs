@@ -190,23 +190,8 @@ impl StreamVolume {
         };
         let quantization = source.quantization();
         let visible = visible_below(&transfer.lookup_table(quantization));
-        // The flat copy of one level, or of one and the next coarser one (none kept without
-        // the level walk: one entry bound).
-        let levels = &source.shape().levels;
-        let level_cells_bytes = (0..levels.len())
-            .flat_map(|l| {
-                let one = levels[l].brick_count();
-                [
-                    Some(one),
-                    levels.get(l + 1).map(|next| one + next.brick_count()),
-                ]
-            })
-            .flatten()
-            .filter(|&bricks| options.level_walk && bricks <= LEVEL_WALK_BRICKS)
-            .max()
-            .unwrap_or(1)
-            .max(1)
-            * std::mem::size_of::<TableEntry>() as u64;
+        let level_cells_bytes =
+            walked_level_cells_bytes(&source.shape().levels, options.level_walk);
         // How the budget becomes the atlas (`AtlasSizing::plan`): the scatter's staging and
         // the level copy take their bytes from it where the rest still holds the
         // always-resident levels and a view. Kept, as asked, to size the budget a larger view
@@ -235,7 +220,7 @@ impl StreamVolume {
             ..options
         };
         let mut streamer = Streamer::new(Arc::clone(&source), grid, texels, options, visible)
-            .map_err(RenderError::DoesNotFit)?;
+            .map_err(|e| RenderError::DoesNotFit(e.to_string()))?;
         let level_cells_bytes = if streamer.options().level_walk {
             level_cells_bytes
         } else {
@@ -243,97 +228,16 @@ impl StreamVolume {
         };
         let device = &context.device;
         let out_of_memory = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-        let size = wgpu::Extent3d {
-            width: (grid[0] * PADDED_BRICK) as u32,
-            height: (grid[1] * PADDED_BRICK) as u32,
-            depth_or_array_layers: (grid[2] * PADDED_BRICK) as u32,
-        };
-        let atlas_desc = wgpu::TextureDescriptor {
-            label: Some("voxscope::stream_atlas"),
-            size,
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D3,
-            format,
-            usage: wgpu::TextureUsages::TEXTURE_BINDING
-                | wgpu::TextureUsages::COPY_DST
-                | ATLAS_READ_BACK
-                | if scatter.is_some() {
-                    wgpu::TextureUsages::STORAGE_BINDING
-                } else {
-                    wgpu::TextureUsages::empty()
-                },
-            view_formats: &[],
-        };
-        // Where the scatter pass can write the atlas, a GPU's atlas is made without wgpu's zero
-        // fill and a pass zeroes it instead (`write`, before the first uploads). A CPU
-        // (lavapipe) stores texels from a shader more slowly than it copies them (80 ms against
-        // a few for 17 M texels), and its next submission waits for that: wgpu fills it there.
-        let zeroes_itself = scatter.is_some()
-            && match options.atlas_zero {
-                AtlasZero::Auto => context.adapter_info.device_type != wgpu::DeviceType::Cpu,
-                AtlasZero::Shader => true,
-                AtlasZero::Wgpu => false,
-            };
-        // SAFETY: no texel is read before the zero pass: every sample is of a brick the page
-        // table (or its level copy) says is in the atlas, and the first `write` submits the
-        // pass before its uploads, the first that put one there; the format is one the device
-        // writes from a shader (`atlas_storage_formats`, as the scatter needs).
-        let uncleared = if zeroes_itself {
-            unsafe { uncleared_texture(device, &atlas_desc) }
-        } else {
-            None
-        };
-        let (atlas, uncleared) = match uncleared {
-            Some(Ok(atlas)) => (atlas, true),
-            Some(Err(OutOfMemory)) => {
-                return Err(RenderError::DoesNotFit(
-                    "the GPU has no room for the streaming atlas: out of memory".to_owned(),
-                ));
-            }
-            None => (device.create_texture(&atlas_desc), false),
-        };
+        let (atlas, uncleared) =
+            create_atlas(context, grid, format, scatter.is_some(), options.atlas_zero)?;
         let atlas_view = atlas.create_view(&wgpu::TextureViewDescriptor::default());
         let slots = grid.iter().product::<usize>();
-        let table = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("voxscope::stream_page_table"),
-            size: (streamer.table().capacity() * std::mem::size_of::<TableEntry>()) as u64,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let requests = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("voxscope::stream_requests"),
-            size: (1 + REQUEST_CAPACITY as u64 + REQUEST_SET as u64) * 4,
-            usage: wgpu::BufferUsages::STORAGE
-                | wgpu::BufferUsages::COPY_SRC
-                | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let usage = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("voxscope::stream_usage"),
-            size: slots as u64 * 4,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let level_cells = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("voxscope::stream_level_cells"),
-            size: level_cells_bytes,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let readback_bytes = (1 + REQUEST_CAPACITY as u64 + slots as u64) * 4;
-        let readbacks = (0..READBACKS)
-            .map(|_| Readback {
-                buffer: device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some("voxscope::stream_readback"),
-                    size: readback_bytes,
-                    usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-                    mapped_at_creation: false,
-                }),
-                frame: 0,
-                state: Arc::new(AtomicU8::new(IDLE)),
-            })
-            .collect();
+        let buffers = StreamBuffers::new(
+            device,
+            streamer.table().capacity(),
+            slots,
+            level_cells_bytes,
+        );
         let transfer_table = GpuTransferTable::new(context, quantization, transfer);
         let bytes_per_texel = texels.bytes() as u32;
         let ring = match (scatter, options.uploads) {
@@ -364,12 +268,12 @@ impl StreamVolume {
             atlas_bytes: slots as u64 * slot_bytes,
             atlas_grid: grid,
             texels,
-            table,
+            table: buffers.table,
             transfer: transfer_table,
-            requests,
-            usage,
-            readbacks,
-            level_cells,
+            requests: buffers.requests,
+            usage: buffers.usage,
+            readbacks: buffers.readbacks,
+            level_cells: buffers.level_cells,
             walk_wanted: AtomicU32::new(NOT_DRAWN),
             walked_frames: AtomicU64::new(0),
             walk_drew: AtomicU32::new(NO_FRAME),
@@ -400,7 +304,7 @@ impl StreamVolume {
         let pinned = self
             .streamer
             .load_pinned()
-            .map_err(RenderError::DoesNotFit)?;
+            .map_err(|e| RenderError::DoesNotFit(e.to_string()))?;
         self.unwritten.extend(pinned);
         self.sizing.pinned = self.streamer.pinned_slots();
         Ok(())
@@ -753,11 +657,13 @@ impl Renderer for StreamVolume {
     }
 }
 
+mod allocation;
 mod atlas;
 mod level_walk;
 mod ray_pass;
 mod uploads;
 
+use allocation::{StreamBuffers, create_atlas, walked_level_cells_bytes};
 pub use atlas::BUDGET_STEPS;
 pub(crate) use atlas::atlas_formats;
 use atlas::*;

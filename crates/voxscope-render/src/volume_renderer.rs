@@ -136,7 +136,7 @@ impl VolumeRenderer {
                     options.brick_size,
                     context.limits.max_texture_dimension_3d as usize,
                 )
-                .map_err(RenderError::DoesNotFit)?;
+                .map_err(|e| RenderError::DoesNotFit(e.to_string()))?;
                 Box::new(GpuBricks::upload(
                     context,
                     &layout,
@@ -149,7 +149,7 @@ impl VolumeRenderer {
             RendererKind::Stream => {
                 let how = Downsampling::of_values(octree.labels);
                 let source = MemorySource::new("volume", quantized, spacing, how)
-                    .map_err(RenderError::Invalid)?;
+                    .map_err(|e| RenderError::Invalid(e.to_string()))?;
                 let stream = StreamOptions {
                     gpu_memory: options.gpu_memory,
                     ..StreamOptions::default()

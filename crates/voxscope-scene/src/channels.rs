@@ -13,7 +13,9 @@ use voxscope_octree::{Colormap, DataKind, TransferFunction};
 use voxscope_render::{ChannelLayer, CompositeVolume, GpuContext, RenderError, VolumeRenderer};
 use voxscope_volume::{QuantizedVolume, ValueWindow, Volume, channel_color};
 
-use crate::{TransferRequest, VolumeData, default_window, file_window, opening_transfer};
+use crate::{
+    SceneError, TransferRequest, VolumeData, default_window, file_window, opening_transfer,
+};
 
 /// What the user set for one channel of the composite.
 #[derive(Debug, Clone, PartialEq)]
@@ -54,18 +56,15 @@ impl ChannelRequest {
 
     /// Checks the request against a file of `count` channels: no window or color for a
     /// channel that is not there.
-    pub fn check(&self, count: usize) -> Result<(), String> {
-        if let Some((channel, _)) = self.windows.iter().find(|(c, _)| *c >= count) {
-            return Err(format!(
-                "--channel-window {channel}: there are {count} channels (0 to {})",
-                count.saturating_sub(1)
-            ));
+    pub fn check(&self, count: usize) -> Result<(), SceneError> {
+        if let Some(&(channel, _)) = self.windows.iter().find(|(c, _)| *c >= count) {
+            return Err(SceneError::NoSuchChannel { channel, count });
         }
         if self.colors.len() > count {
-            return Err(format!(
-                "--channel-colors gives {} colors for {count} channels",
-                self.colors.len()
-            ));
+            return Err(SceneError::TooManyColors {
+                colors: self.colors.len(),
+                count,
+            });
         }
         Ok(())
     }

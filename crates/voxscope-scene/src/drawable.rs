@@ -148,7 +148,7 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
                 &open.load_options(),
                 &options.transfer.request(saved.as_ref()),
                 options.stream,
-                || gpu().map_err(|e| e.to_string()),
+                gpu,
             )?;
             let image_dims = opened.volume.source.shape().dims();
             let mut drawable = Self::streamed(opened, saved);
@@ -239,7 +239,7 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
                 overlay
                     .layer(&options.labels.hide, options.labels.opacity, spacing)
                     .and_then(|layer| layer.upload(drawable.gpu.borrow(), renderer, level))
-                    .map_err(SceneError::Failed)
+                    .map_err(SceneError::from)
             })
             .collect::<Result<_, _>>()?;
         Ok(drawable)
@@ -463,7 +463,7 @@ fn colors_channel(
     index: usize,
 ) -> Result<bool, SceneError> {
     let count = volume.series.channel_count();
-    request.check(count).map_err(SceneError::Invalid)?;
+    request.check(count)?;
     let from_file = volume
         .series
         .channels
@@ -510,7 +510,7 @@ fn check_channels(
         Some(_) => channels[0].volume().series.channel_count(),
         None => channels.len(),
     };
-    options.channels.check(count).map_err(SceneError::Invalid)
+    options.channels.check(count)
 }
 
 /// The renderer's layers: each channel's levels under its state's transfer function and color.

@@ -304,9 +304,7 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
             let slots = match side {
                 None => {
                     let target = RenderTarget::new(context, width, height);
-                    labels
-                        .draw_slots(context, &target, camera, settings)
-                        .map_err(SceneError::Failed)?
+                    labels.draw_slots(context, &target, camera, settings)?
                 }
                 Some(side) => {
                     let side = side.max(1);
@@ -315,9 +313,7 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
                         for x in (0..width).step_by(side as usize) {
                             let size = [side.min(width - x), side.min(height - y)];
                             let target = RenderTarget::tile(context, size, [x, y], [width, height]);
-                            let part = labels
-                                .draw_slots(context, &target, camera, settings)
-                                .map_err(SceneError::Failed)?;
+                            let part = labels.draw_slots(context, &target, camera, settings)?;
                             for row in 0..size[1] {
                                 let from = (row * size[0]) as usize;
                                 let to = ((y + row) * width + x) as usize;

@@ -8,10 +8,10 @@ use std::time::Duration;
 
 use voxscope_render::GpuContext;
 use voxscope_stream::StreamOptions;
+use voxscope_volume::Selection;
 use voxscope_volume::ome_zarr::{LabelImage, Pyramid};
-use voxscope_volume::{Selection, format_dims};
 
-use crate::{LabelOptions, LabelOverlay, OpenOptions, SceneError, UploadedLabels};
+use crate::{LabelError, LabelOptions, LabelOverlay, OpenOptions, SceneError, UploadedLabels};
 
 /// Reads each of `names` (a label image of the image `open` names, else a file) as a label
 /// overlay on the grid of the image, whose volume in memory has `image_dims` voxels. Errors
@@ -28,8 +28,8 @@ pub fn open_overlays(
     names
         .iter()
         .map(|name| open_overlay(name, open, listed.as_ref(), image_dims))
-        .collect::<Result<_, String>>()
-        .map_err(SceneError::Failed)
+        .collect::<Result<_, LabelError>>()
+        .map_err(SceneError::from)
 }
 
 fn open_overlay(
@@ -37,7 +37,7 @@ fn open_overlay(
     open: &OpenOptions,
     listed: Option<&(Pyramid, Vec<LabelImage>)>,
     image_dims: [usize; 3],
-) -> Result<LabelOverlay, String> {
+) -> Result<LabelOverlay, LabelError> {
     let image_name = open.name();
     if let Some((image, labels)) = listed
         && let Some(label) = labels.iter().find(|label| label.name == name)
@@ -49,19 +49,14 @@ fn open_overlay(
         return LabelOverlay::open_file(name, image_dims);
     }
     let known = match listed {
-        Some((_, labels)) if !labels.is_empty() => format!(
-            "its label images are {}",
-            labels
-                .iter()
-                .map(|l| l.name.as_str())
-                .collect::<Vec<_>>()
-                .join(", ")
-        ),
-        _ => "it has no label images".to_owned(),
+        Some((_, labels)) => labels.iter().map(|l| l.name.clone()).collect(),
+        None => Vec::new(),
     };
-    Err(format!(
-        "--labels {name}: no such file, and no label image of {image_name} by that name ({known})"
-    ))
+    Err(LabelError::NotFound {
+        name: name.to_owned(),
+        image: image_name.to_owned(),
+        known,
+    })
 }
 
 /// The label images `labels` names, streamed over a streamed image (`open`, whose level 0 has
@@ -91,24 +86,23 @@ pub fn open_streamed_overlays(
         .names
         .iter()
         .map(|name| {
-            let Some((image, label)) = listed
-                .as_ref()
-                .and_then(|(image, labels)| Some((image, labels.iter().find(|l| &l.name == name)?)))
-            else {
-                return Err(format!(
-                    "--labels {name}: over a streamed image, labels are label images of {image_name} (info lists them); a label file is drawn over the image in memory (without --renderer stream)"
-                ));
+            let Some((image, label)) = listed.as_ref().and_then(|(image, labels)| {
+                Some((image, labels.iter().find(|l| &l.name == name)?))
+            }) else {
+                return Err(LabelError::NotStreamable {
+                    name: name.clone(),
+                    image: image_name.to_owned(),
+                });
             };
             let spec = image.label_spec(image_name, label);
-            let pyramid =
-                Pyramid::open_spec(&spec, Selection::default(), remote).map_err(|e| e.to_string())?;
+            let pyramid = Pyramid::open_spec(&spec, Selection::default(), remote)?;
             let dims = pyramid.levels.first().map(|level| level.dims);
             if dims != Some(image_dims) {
-                return Err(format!(
-                    "{spec}: its grid ({}) is not the image's ({}); labels must lie on the image's grid",
-                    dims.map(format_dims).unwrap_or_default(),
-                    format_dims(image_dims)
-                ));
+                return Err(LabelError::OffGrid {
+                    name: spec,
+                    dims: dims.unwrap_or_default(),
+                    image_dims,
+                });
             }
             UploadedLabels::streamed(
                 context,
@@ -121,6 +115,6 @@ pub fn open_streamed_overlays(
                 max_wait,
             )
         })
-        .collect::<Result<_, String>>()
-        .map_err(SceneError::Failed)
+        .collect::<Result<_, LabelError>>()
+        .map_err(SceneError::from)
 }

@@ -35,8 +35,9 @@ use voxscope_volume::ome_zarr::{LabelColor, LabelImage, Pyramid};
 use voxscope_volume::remote::RemoteOptions;
 use voxscope_volume::{
     LoadOptions, Quantization, QuantizedVolume, Selection, ValueWindow, Volume, VoxelData,
-    format_dims,
 };
+
+use crate::LabelError;
 
 /// The opacity a label layer is drawn with unless told (napari's labels layer's default).
 pub const DEFAULT_LABEL_OPACITY: f32 = 0.7;
@@ -69,13 +70,13 @@ impl LabelOverlay {
         volume: &Volume,
         image_dims: [usize; 3],
         given_colors: Vec<LabelColor>,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, LabelError> {
         if volume.dims != image_dims {
-            return Err(format!(
-                "{name}: its grid ({}) is not the image's ({}); labels must lie on the image's grid",
-                format_dims(volume.dims),
-                format_dims(image_dims)
-            ));
+            return Err(LabelError::OffGrid {
+                name: name.to_owned(),
+                dims: volume.dims,
+                image_dims,
+            });
         }
         let scale = volume.value_scale;
         let value_of = |index: usize| scale.apply(volume.data.get(index).unwrap_or(0.0));
@@ -86,9 +87,7 @@ impl LabelOverlay {
             if value != 0.0 && !value.is_nan() {
                 *counts.entry(value.to_bits()).or_default() += 1;
                 if counts.len() > MAX_LABEL_VALUES {
-                    return Err(format!(
-                        "{name}: more than {MAX_LABEL_VALUES} distinct labels; is it a label volume?"
-                    ));
+                    return Err(LabelError::TooManyLabels(name.to_owned()));
                 }
             }
         }
@@ -128,45 +127,37 @@ impl LabelOverlay {
         label: &LabelImage,
         image_dims: [usize; 3],
         remote: RemoteOptions,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, LabelError> {
         let spec = image.label_spec(image_spec, label);
-        let pyramid =
-            Pyramid::open_spec(&spec, Selection::default(), remote).map_err(|e| e.to_string())?;
+        let pyramid = Pyramid::open_spec(&spec, Selection::default(), remote)?;
         let (Some(finest), Some(image_finest)) = (pyramid.levels.first(), image.levels.first())
         else {
-            return Err(format!("{spec}: has no levels"));
+            return Err(LabelError::NoLevels(spec));
         };
         if finest.dims != image_finest.dims {
-            return Err(format!(
-                "{spec}: its grid ({}) is not the image's ({}); labels must lie on the image's grid",
-                format_dims(finest.dims),
-                format_dims(image_finest.dims)
-            ));
+            return Err(LabelError::OffGrid {
+                name: spec,
+                dims: finest.dims,
+                image_dims: image_finest.dims,
+            });
         }
         let level = pyramid
             .levels
             .iter()
             .position(|level| level.dims == image_dims)
-            .ok_or_else(|| {
-                format!(
-                    "{spec}: no level of {} voxels, the image's level in memory",
-                    format_dims(image_dims)
-                )
+            .ok_or_else(|| LabelError::NoLevelOf {
+                spec: spec.clone(),
+                dims: image_dims,
             })?;
-        let labels = pyramid.level_volume(level).map_err(|e| e.to_string())?;
+        let labels = pyramid.level_volume(level)?;
         Self::new(&label.name, &labels, image_dims, label.colors.clone())
     }
 
     /// A label file (NIfTI, NRRD, TIFF, …, or a Zarr store) on the grid of the image's volume
     /// in memory (`image_dims`), in the labels palette; named by `spec`.
-    pub fn open_file(spec: &str, image_dims: [usize; 3]) -> Result<Self, String> {
-        let labels =
-            voxscope_volume::load(spec, &LoadOptions::default()).map_err(|e| match e.kind {
-                voxscope_volume::LoadErrorKind::Unrecognized => {
-                    format!("{e} (a label file: NIfTI, NRRD, TIFF, …)")
-                }
-                _ => e.to_string(),
-            })?;
+    pub fn open_file(spec: &str, image_dims: [usize; 3]) -> Result<Self, LabelError> {
+        let labels = voxscope_volume::load(spec, &LoadOptions::default())
+            .map_err(LabelError::of_label_file)?;
         Self::new(spec, &labels, image_dims, Vec::new())
     }
 
@@ -195,7 +186,7 @@ impl LabelOverlay {
         hidden: &[f64],
         opacity: f32,
         spacing: [f64; 3],
-    ) -> Result<LabelLayer, String> {
+    ) -> Result<LabelLayer, LabelError> {
         // Each label's color, and the visible colors in slots 1, 2, … (one per distinct color).
         let mut slots: Vec<[u8; 4]> = Vec::new();
         let mut slot_of_color: HashMap<[u8; 4], usize> = HashMap::new();
@@ -225,7 +216,7 @@ impl LabelOverlay {
                     .collect();
                 SlotPass::new(&self.name, self.dims, spacing, codes)
             })
-            .collect::<Result<Vec<_>, String>>()?;
+            .collect::<Result<Vec<_>, LabelError>>()?;
         Ok(LabelLayer {
             name: self.name.clone(),
             slots,
@@ -262,16 +253,18 @@ impl SlotPass {
         dims: [usize; 3],
         spacing: [f64; 3],
         codes: Vec<u8>,
-    ) -> Result<Self, String> {
-        let volume = Volume::new(name, "labels", dims, spacing, VoxelData::U8(codes))
-            .map_err(|e| e.to_string())?;
+    ) -> Result<Self, LabelError> {
+        let volume = Volume::new(name, "labels", dims, spacing, VoxelData::U8(codes))?;
         let quantized = QuantizedVolume::new(&volume);
         // Always labels, whatever their count: nearest voxels, the mode, the first label.
         let options = BuildOptions {
             labels: true,
             ..BuildOptions::default()
         };
-        let mut octree = octree::build(&quantized, options).map_err(|e| format!("{name}: {e}"))?;
+        let mut octree = octree::build(&quantized, options).map_err(|error| LabelError::Build {
+            name: name.to_owned(),
+            error,
+        })?;
         let transfer = slot_transfer();
         octree::recolor(&mut octree, &transfer);
         Ok(Self {
@@ -314,7 +307,7 @@ impl LabelLayer {
         context: &GpuContext,
         options: RendererOptions,
         max_level: u32,
-    ) -> Result<UploadedLabels, String> {
+    ) -> Result<UploadedLabels, LabelError> {
         let renderers = self
             .passes
             .iter()
@@ -328,9 +321,12 @@ impl LabelLayer {
                     max_level.min(pass.octree.depth),
                     &pass.transfer,
                 )
-                .map_err(|e| format!("{}: {e}", self.name))
+                .map_err(|error| LabelError::Render {
+                    name: self.name.clone(),
+                    error,
+                })
             })
-            .collect::<Result<Vec<_>, String>>()?;
+            .collect::<Result<Vec<_>, LabelError>>()?;
         Ok(UploadedLabels {
             name: self.name,
             slots: self.slots,
@@ -378,7 +374,7 @@ impl UploadedLabels {
         opacity: f32,
         options: StreamOptions,
         max_wait: Duration,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, LabelError> {
         let inner = ZarrSource::new(pyramid)?.of_labels(true);
         let quantization = inner.quantization();
         let top = inner.max_value_level();
@@ -396,9 +392,7 @@ impl UploadedLabels {
             if slot == next {
                 slots.push(color);
             }
-            *code = u8::try_from(slot).map_err(|_| {
-                format!("{name}: more than 255 label colors; streamed labels draw at most 255")
-            })?;
+            *code = u8::try_from(slot).map_err(|_| LabelError::TooManyColors(name.to_owned()))?;
         }
         let source = SlotBricks {
             inner: Box::new(inner),
@@ -406,7 +400,10 @@ impl UploadedLabels {
         };
         let renderer =
             VolumeRenderer::new_stream(context, Arc::new(source), options, &slot_transfer())
-                .map_err(|e| format!("{name}: {e}"))?;
+                .map_err(|error| LabelError::Render {
+                    name: name.to_owned(),
+                    error,
+                })?;
         Ok(Self {
             name: name.to_owned(),
             slots,
@@ -424,21 +421,25 @@ impl UploadedLabels {
         target: &RenderTarget,
         camera: &Camera,
         settings: &RenderSettings,
-    ) -> Result<Vec<u16>, String> {
+    ) -> Result<Vec<u16>, LabelError> {
         let settings = label_pass_settings(settings);
         let mut slots = vec![0u16; (target.width * target.height) as usize];
         for (pass, renderer) in self.renderers.iter_mut().enumerate() {
             match self.streamed {
                 Some(max_wait) => {
-                    crate::refine(context, renderer, target, camera, &settings, max_wait)
-                        .map_err(|e| format!("{}: {e}", self.name))?;
+                    crate::refine(context, renderer, target, camera, &settings, max_wait).map_err(
+                        |error| LabelError::Streamed {
+                            name: self.name.clone(),
+                            error: Box::new(error),
+                        },
+                    )?;
                 }
                 None => {
                     renderer.render(context, target, camera, &settings);
-                    context.wait_idle().map_err(|e| e.to_string())?;
+                    context.wait_idle()?;
                 }
             }
-            let image = read_image(context, target).map_err(|e| e.to_string())?;
+            let image = read_image(context, target)?;
             for (slot, pixel) in slots.iter_mut().zip(image.into_raw().chunks_exact(4)) {
                 let code = pixel[0] as u16;
                 if pass == 0 {

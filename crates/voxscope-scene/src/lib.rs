@@ -36,7 +36,7 @@ pub use channels::{ChannelRequest, ChannelState, CompositeScene};
 pub use convert::{ConvertOptions, convert};
 pub use data::{HISTOGRAM_BINS, VolumeData};
 pub use drawable::{Channel, Drawable};
-pub use error::SceneError;
+pub use error::{LabelError, SceneError};
 pub use job::Job;
 pub use label_open::{open_overlays, open_streamed_overlays};
 pub use label_overlay::{
@@ -57,7 +57,7 @@ pub use prefetch::{
     frames_within_cap, window,
 };
 pub use prepare::{FrameChange, Opened, PANEL_LEVEL_VOXELS, prepare_scene};
-pub use saved_transfer::SavedTransfer;
+pub use saved_transfer::{SavedTransfer, TransferFileError};
 pub use scene::{
     Counted, NetworkState, OctreeColors, Scene, statistics_job, upload, upload_colored,
 };

@@ -236,8 +236,7 @@ fn in_memory_pyramid(
         quantization,
         volume.spacing,
         how,
-    )
-    .map_err(SceneError::Failed)?;
+    )?;
     let levels = &pyramid.shape().levels;
     let panel_level = levels
         .iter()

@@ -1,7 +1,7 @@
 //! A transfer function saved to a file (the app's File ▸ Save transfer function…, the command
 //! line's `--tf`), as RON.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 use voxscope_octree::TransferFunction;
@@ -15,35 +15,69 @@ pub struct SavedTransfer {
     pub mode: RenderMode,
 }
 
+/// Why a transfer function file could not be written or read: displays as one line naming
+/// the file.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum TransferFileError {
+    /// RON could not encode it (the error's words).
+    #[error("{}: cannot encode: {error}", path.display())]
+    Encode { path: PathBuf, error: String },
+    /// The file could not be written (the system's words).
+    #[error("{}: cannot write: {error}", path.display())]
+    Write { path: PathBuf, error: String },
+    /// The file could not be read (the system's words).
+    #[error("{}: {error}", path.display())]
+    Read { path: PathBuf, error: String },
+    /// Larger than a transfer function's file can be.
+    #[error("{}: {bytes} bytes is too large for a transfer function", path.display())]
+    TooLarge { path: PathBuf, bytes: u64 },
+    /// Not a transfer function's RON (the first line of the parser's words).
+    #[error("{}: not a voxscope transfer function: {error}", path.display())]
+    NotTransfer { path: PathBuf, error: String },
+    /// Its window, threshold or opacity scale is out of range.
+    #[error("{}: the window, threshold or opacity scale is out of range", path.display())]
+    OutOfRange { path: PathBuf },
+}
+
 impl SavedTransfer {
     /// Largest file accepted as a transfer function.
     const MAX_BYTES: u64 = 1 << 20;
 
     /// Writes it as RON (what File ▸ Save transfer function… saves).
-    pub fn write(&self, path: &Path) -> Result<(), String> {
-        let text = ron::ser::to_string_pretty(self, ron::ser::PrettyConfig::default())
-            .map_err(|e| format!("{}: cannot encode: {e}", path.display()))?;
-        std::fs::write(path, text).map_err(|e| format!("{}: cannot write: {e}", path.display()))
+    pub fn write(&self, path: &Path) -> Result<(), TransferFileError> {
+        let path_buf = || path.to_path_buf();
+        let text =
+            ron::ser::to_string_pretty(self, ron::ser::PrettyConfig::default()).map_err(|e| {
+                TransferFileError::Encode {
+                    path: path_buf(),
+                    error: e.to_string(),
+                }
+            })?;
+        std::fs::write(path, text).map_err(|e| TransferFileError::Write {
+            path: path_buf(),
+            error: e.to_string(),
+        })
     }
 
     /// Reads and validates a file written by File ▸ Save transfer function…; the error is
     /// one line naming the file.
-    pub fn read(path: &Path) -> Result<Self, String> {
-        let metadata = std::fs::metadata(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    pub fn read(path: &Path) -> Result<Self, TransferFileError> {
+        let path_buf = || path.to_path_buf();
+        let unread = |e: std::io::Error| TransferFileError::Read {
+            path: path_buf(),
+            error: e.to_string(),
+        };
+        let metadata = std::fs::metadata(path).map_err(unread)?;
         if metadata.len() > Self::MAX_BYTES {
-            return Err(format!(
-                "{}: {} bytes is too large for a transfer function",
-                path.display(),
-                metadata.len()
-            ));
+            return Err(TransferFileError::TooLarge {
+                path: path_buf(),
+                bytes: metadata.len(),
+            });
         }
-        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-        let saved: Self = ron::from_str(&text).map_err(|e| {
-            format!(
-                "{}: not a voxscope transfer function: {}",
-                path.display(),
-                e.to_string().lines().next().unwrap_or_default()
-            )
+        let text = std::fs::read_to_string(path).map_err(unread)?;
+        let saved: Self = ron::from_str(&text).map_err(|e| TransferFileError::NotTransfer {
+            path: path_buf(),
+            error: e.to_string().lines().next().unwrap_or_default().to_owned(),
         })?;
         let window = saved.transfer.window;
         let valid = window.low.is_finite()
@@ -53,10 +87,7 @@ impl SavedTransfer {
             && saved.density > 0.0
             && saved.density <= 1.0;
         if !valid {
-            return Err(format!(
-                "{}: the window, threshold or opacity scale is out of range",
-                path.display()
-            ));
+            return Err(TransferFileError::OutOfRange { path: path_buf() });
         }
         Ok(saved)
     }

@@ -179,9 +179,7 @@ pub fn upload_colored(
         (_, Some(spec)) if options.kind == RendererKind::Stream => {
             let pyramid =
                 Pyramid::open_spec(spec, data.volume.series.selected, RemoteOptions::default())?;
-            let source = ZarrSource::new(Arc::new(pyramid))
-                .map_err(SceneError::Failed)?
-                .of_labels(data.kind.is_labels());
+            let source = ZarrSource::new(Arc::new(pyramid))?.of_labels(data.kind.is_labels());
             let source = Arc::new(source);
             // The coarse levels the first frames draw, their chunks fetched together (a URL's
             // round trips) on a thread of their own, while this loading thread makes the

@@ -85,11 +85,11 @@ impl StreamedVolume {
         options: &LoadOptions,
         request: &TransferRequest,
         stream: StreamOptions,
-        gpu: impl FnOnce() -> Result<G, String>,
+        gpu: impl FnOnce() -> Result<G, SceneError>,
     ) -> Result<OpenedStream<G>, SceneError> {
         let (volume, made) = Self::open_alongside(source, options, request, |source| {
             let started = Instant::now();
-            let gpu = gpu().map_err(SceneError::Failed)?;
+            let gpu = gpu()?;
             // The transfer function comes from the preview, still on its way: every value is
             // visible until it is set below.
             let renderer = VolumeRenderer::new_stream_unread(
@@ -146,7 +146,7 @@ impl StreamedVolume {
                     ))
                 })?;
                 let name = format!("synthetic:noise:{size}");
-                let source = Arc::new(NoiseSource::new(&name, dims).map_err(SceneError::Failed)?);
+                let source = Arc::new(NoiseSource::new(&name, dims)?);
                 let volume = Self::finish(source, None, None, None, request, started)?;
                 let made = alongside(&volume.source);
                 (volume, made)
@@ -157,7 +157,7 @@ impl StreamedVolume {
                 let pyramid = Pyramid::open_spec(spec, options.select, options.remote)?;
                 let window = pyramid.omero_window();
                 let pyramid = Arc::new(pyramid);
-                let zarr = Arc::new(ZarrSource::new(pyramid.clone()).map_err(SceneError::Failed)?);
+                let zarr = Arc::new(ZarrSource::new(pyramid.clone())?);
                 let source: Arc<dyn BrickSource> = zarr.clone();
                 let made = zarr.warm_first_image_while(PREVIEW_BRICKS, || alongside(&source));
                 let volume = Self::finish(source, None, window, Some(pyramid), request, started)?;
@@ -201,8 +201,7 @@ impl StreamedVolume {
             quantized.quantization,
             volume.spacing,
             downsampling_of(kind),
-        )
-        .map_err(SceneError::Failed)?;
+        )?;
         let window = crate::file_window(volume);
         Self::finish(Arc::new(source), Some(kind), window, None, request, started)
     }

@@ -45,19 +45,19 @@ pub use page_table::{
 pub use preview::preview;
 pub use procedural::NoiseSource;
 pub use pyramid::{
-    Downsampling, EMPTY_KEY, KEY_LEVEL_SHIFT, LevelShape, MAX_LEVELS, PyramidShape, coarser_levels,
-    cut_brick, cut_padded_block, downsample,
+    Downsampling, EMPTY_KEY, KEY_LEVEL_SHIFT, LevelShape, MAX_LEVELS, PyramidShape, ShapeError,
+    coarser_levels, cut_brick, cut_padded_block, downsample,
 };
 pub use queue::{Priority, Request, RequestQueue, Tier};
 pub use ram_cache::RamCache;
 pub use slots::{Allocation, SlotPool};
-pub use source::{BrickError, BrickFault, BrickSource};
+pub use source::{BrickError, BrickFault, BrickSource, SourceError};
 pub use status::{
     BudgetLimit, FullDetailBudget, LevelCounters, StreamCounters, StreamStatus, UpdatePhases,
     UploadParts, format_budget,
 };
 pub use streamer::{
-    StillUploads, Streamer, UPLOAD_SECONDS_PER_FRAME, UPLOAD_SECONDS_STILL, pinned_level_count,
-    view_slots,
+    StillUploads, StreamError, Streamer, UPLOAD_SECONDS_PER_FRAME, UPLOAD_SECONDS_STILL,
+    pinned_level_count, view_slots,
 };
 pub use zarr_source::{MAX_BRICK_READ, MAX_REMOTE_BRICK_CHUNKS, ZarrSource};

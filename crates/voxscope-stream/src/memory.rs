@@ -4,7 +4,7 @@
 //! axis does not bound it.
 
 use super::pyramid::{Downsampling, PyramidShape, coarser_levels, cut_brick};
-use crate::{BrickData, BrickError, BrickId, BrickSource};
+use crate::{BrickData, BrickError, BrickId, BrickSource, SourceError};
 use voxscope_volume::{Quantization, QuantizedVolume};
 
 /// Every level of a pyramid, held whole in memory.
@@ -28,7 +28,7 @@ impl MemorySource {
         quantized: &QuantizedVolume,
         spacing: [f64; 3],
         how: Downsampling,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, SourceError> {
         Self::from_levels(
             name,
             quantized.levels.clone(),
@@ -47,16 +47,14 @@ impl MemorySource {
         quantization: Quantization,
         spacing: [f64; 3],
         how: Downsampling,
-    ) -> Result<Self, String> {
-        let shape = PyramidShape::new(dims).map_err(|problem| format!("{name}: {problem}"))?;
+    ) -> Result<Self, SourceError> {
+        let shape = PyramidShape::new(dims).map_err(SourceError::shape(name))?;
         if levels.len() != dims.iter().product::<usize>() {
-            return Err(format!(
-                "{name}: {} value levels for {}x{}x{} voxels",
-                levels.len(),
-                dims[0],
-                dims[1],
-                dims[2]
-            ));
+            return Err(SourceError::LevelCount {
+                name: name.to_owned(),
+                count: levels.len(),
+                dims,
+            });
         }
         let max_value_level = levels.iter().copied().max().unwrap_or(0);
         let coarser = coarser_levels(&levels, dims, how, shape.levels.len() - 1);

@@ -8,7 +8,7 @@
 //! real pyramid's would, and every level has detail at its own resolution.
 
 use super::pyramid::PyramidShape;
-use crate::{BRICK_SIZE, BrickData, BrickError, BrickId, BrickSource, PADDED_BRICK};
+use crate::{BRICK_SIZE, BrickData, BrickError, BrickId, BrickSource, PADDED_BRICK, SourceError};
 use voxscope_volume::Quantization;
 
 /// Fractal value noise, 16-bit, of any size.
@@ -23,8 +23,8 @@ pub struct NoiseSource {
 
 impl NoiseSource {
     /// Noise of `dims` voxels (`name` is the spec, for messages).
-    pub fn new(name: &str, dims: [usize; 3]) -> Result<Self, String> {
-        let shape = PyramidShape::new(dims).map_err(|problem| format!("{name}: {problem}"))?;
+    pub fn new(name: &str, dims: [usize; 3]) -> Result<Self, SourceError> {
+        let shape = PyramidShape::new(dims).map_err(SourceError::shape(name))?;
         let octaves = shape.depth().max(1);
         let energy: f32 = (1..=octaves).map(amplitude).map(|a| a * a).sum();
         Ok(Self {

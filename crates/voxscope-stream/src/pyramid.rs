@@ -4,6 +4,8 @@
 
 use rayon::prelude::*;
 
+use voxscope_volume::format_dims;
+
 use crate::{BRICK_SIZE, BrickData, BrickId, PADDED_BRICK_VOXELS};
 
 /// The most levels a pyramid may have. Level 15 is left out: its keys are reserved for the
@@ -38,6 +40,24 @@ impl LevelShape {
     }
 }
 
+/// Why dimensions make no pyramid the streamer can hold: displays as the rest of a line
+/// that names the source.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum ShapeError {
+    /// An axis of no voxels.
+    #[error("dimensions {} contain a zero extent", format_dims(*.0))]
+    ZeroExtent([usize; 3]),
+    /// More halvings than [`MAX_LEVELS`] to reach one voxel.
+    #[error("dimensions {} need more than {MAX_LEVELS} pyramid levels", format_dims(*.0))]
+    TooManyLevels([usize; 3]),
+    /// More bricks at full resolution than [`MAX_LEVEL_BRICKS`].
+    #[error(
+        "dimensions {} make {finest} bricks of {BRICK_SIZE}³ at full resolution; the streaming renderer holds at most {MAX_LEVEL_BRICKS}",
+        format_dims(*dims)
+    )]
+    TooManyBricks { dims: [usize; 3], finest: u64 },
+}
+
 /// The levels of a pyramid, finest first.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct PyramidShape {
@@ -48,12 +68,9 @@ impl PyramidShape {
     /// Level 0 of `dims` and every coarser level, each halving the voxels per axis (rounded
     /// up) down to a single voxel: `ceil(log2(max(dims))) + 1` levels, the octree's depth + 1,
     /// so max level `m` of the octree's slider is pyramid level `depth − m`.
-    pub fn new(dims: [usize; 3]) -> Result<Self, String> {
+    pub fn new(dims: [usize; 3]) -> Result<Self, ShapeError> {
         if dims.contains(&0) {
-            return Err(format!(
-                "dimensions {}x{}x{} contain a zero extent",
-                dims[0], dims[1], dims[2]
-            ));
+            return Err(ShapeError::ZeroExtent(dims));
         }
         let mut levels = Vec::new();
         let mut level_dims = dims;
@@ -69,19 +86,13 @@ impl PyramidShape {
                 break;
             }
             if levels.len() == MAX_LEVELS {
-                return Err(format!(
-                    "dimensions {}x{}x{} need more than {MAX_LEVELS} pyramid levels",
-                    dims[0], dims[1], dims[2]
-                ));
+                return Err(ShapeError::TooManyLevels(dims));
             }
             level_dims = level_dims.map(|d| d.div_ceil(2));
         }
         let finest = levels[0].brick_count();
         if finest > MAX_LEVEL_BRICKS {
-            return Err(format!(
-                "dimensions {}x{}x{} make {finest} bricks of {BRICK_SIZE}³ at full resolution; the streaming renderer holds at most {MAX_LEVEL_BRICKS}",
-                dims[0], dims[1], dims[2]
-            ));
+            return Err(ShapeError::TooManyBricks { dims, finest });
         }
         Ok(Self { levels })
     }

@@ -4,10 +4,77 @@
 //! whole pyramid. The streamer asks for bricks on worker threads, so a source is `Send + Sync`
 //! and may take its time (a disk read, a decode, a procedural evaluation).
 
-use super::pyramid::PyramidShape;
+use super::pyramid::{PyramidShape, ShapeError};
+use super::zarr_source::{MAX_BRICK_READ, MAX_REMOTE_BRICK_CHUNKS};
 use super::{BrickData, BrickId, ValueRange};
+use voxscope_volume::format_dims;
 use voxscope_volume::remote::RemoteStats;
 use voxscope_volume::{LoadError, LoadErrorKind, Quantization};
+
+/// Why a brick source could not be made: displays as one line naming the source.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum SourceError {
+    /// Its dimensions make no pyramid the streamer holds.
+    #[error("{name}: {error}")]
+    Shape { name: String, error: ShapeError },
+    /// Level 0's value levels do not match its dimensions.
+    #[error("{name}: {count} value levels for {} voxels", format_dims(*dims))]
+    LevelCount {
+        name: String,
+        count: usize,
+        dims: [usize; 3],
+    },
+    /// A store whose coarsest stored level is too fine to reduce bricks of `level_dims`
+    /// from (`read` voxels a brick).
+    #[error(
+        "{name}: its coarsest level ({}) is too large to stream from: a {}-voxel level would read {read} voxels a brick (at most {MAX_BRICK_READ}); `voxscope convert` writes the coarser levels",
+        format_dims(*coarsest),
+        format_dims(*level_dims)
+    )]
+    CoarsestTooLarge {
+        name: String,
+        coarsest: [usize; 3],
+        level_dims: [usize; 3],
+        read: u64,
+    },
+    /// A remote store whose chunks of stored level `level` are so small that one brick
+    /// takes `requests` requests.
+    #[error(
+        "{name}: level {level} is stored in chunks of {}x{}x{} voxels: one brick would take {requests} requests (at most {MAX_REMOTE_BRICK_CHUNKS} over a network); copy the store and `voxscope convert` it to larger chunks",
+        chunk[0], chunk[1], chunk[2]
+    )]
+    ChunksTooSmall {
+        name: String,
+        level: usize,
+        chunk: [usize; 3],
+        requests: u64,
+    },
+    /// Wide or floating-point values without a stored range, and a coarsest level too large
+    /// to read for one.
+    #[error("{0}: no stored value range, and the coarsest level is too large to read for one")]
+    NoValueRange(String),
+    /// The store could not be read.
+    #[error(transparent)]
+    Load(#[from] LoadError),
+}
+
+impl SourceError {
+    /// The dimensions of the source called `name` make no pyramid.
+    pub fn shape(name: &str) -> impl FnOnce(ShapeError) -> Self + '_ {
+        move |error| Self::Shape {
+            name: name.to_owned(),
+            error,
+        }
+    }
+}
+
+/// A source error as the line a front end that reports in words shows (the benchmarks'
+/// string errors), so that `?` reaches that edge unchanged.
+impl From<SourceError> for String {
+    fn from(error: SourceError) -> Self {
+        error.to_string()
+    }
+}
 
 /// Why a brick could not be read. One line, naming the source and the brick; the variant
 /// says whether another try may succeed.

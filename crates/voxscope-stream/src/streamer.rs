@@ -213,14 +213,35 @@ pub struct Streamer {
     uploads_recent: VecDeque<(Instant, u64)>,
 }
 
+/// Why a streamer could not be made or could not place its always-resident bricks: displays
+/// as one line of the renderer's "does not fit".
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum StreamError {
+    /// The atlas holds too few slots for the always-resident levels and a view.
+    #[error(
+        "an atlas of {capacity} bricks cannot hold the {pinned_levels} always-resident coarse levels and a view; give the renderer more GPU memory"
+    )]
+    AtlasTooSmall {
+        capacity: usize,
+        pinned_levels: usize,
+    },
+    /// A transfer function's visibility counts that are not one per value level and one more.
+    #[error("{0} visibility counts, not 65 537")]
+    VisibilityCounts(usize),
+    /// An always-resident brick found no room in the page table.
+    #[error("{source_name}: the page table has no room for {id}")]
+    TableFull { source_name: String, id: BrickId },
+}
+
 impl Streamer {
     /// Whether an atlas of `capacity` slots holds the `pinned_levels` bricks of the
     /// always-resident levels ([`pinned_level_count`]) and a view: the error says not.
-    pub fn check_capacity(pinned_levels: usize, capacity: usize) -> Result<(), String> {
+    pub fn check_capacity(pinned_levels: usize, capacity: usize) -> Result<(), StreamError> {
         if capacity < pinned_levels + 8 {
-            return Err(format!(
-                "an atlas of {capacity} bricks cannot hold the {pinned_levels} always-resident coarse levels and a view; give the renderer more GPU memory"
-            ));
+            return Err(StreamError::AtlasTooSmall {
+                capacity,
+                pinned_levels,
+            });
         }
         Ok(())
     }
@@ -236,12 +257,9 @@ impl Streamer {
         texels: AtlasTexels,
         options: StreamOptions,
         visible_below: Vec<u32>,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, StreamError> {
         if visible_below.len() != (1 << 16) + 1 {
-            return Err(format!(
-                "{} visibility counts, not 65 537",
-                visible_below.len()
-            ));
+            return Err(StreamError::VisibilityCounts(visible_below.len()));
         }
         let shape = source.shape().clone();
         let capacity = atlas_grid.iter().product::<usize>();
@@ -322,7 +340,7 @@ impl Streamer {
     /// always-resident coarse levels (on the caller's thread and rayon's) and gives each a
     /// pinned slot; returns their uploads (none when called again). One that cannot be read is
     /// a failed brick like any other (asked for again as its failure allows).
-    pub fn load_pinned(&mut self) -> Result<Vec<Upload>, String> {
+    pub fn load_pinned(&mut self) -> Result<Vec<Upload>, StreamError> {
         if std::mem::replace(&mut self.pinned_loaded, true) {
             return Ok(Vec::new());
         }
@@ -500,7 +518,7 @@ impl Streamer {
         id: BrickId,
         brick: &LoadedBrick,
         protect_from: Option<u32>,
-    ) -> Result<Option<Upload>, String> {
+    ) -> Result<Option<Upload>, StreamError> {
         let level = id.level as usize;
         let was = self.table.get(key);
         let Some(texels) = &brick.texels else {
@@ -533,10 +551,10 @@ impl Streamer {
             // Found no room within the probe limit: leave the brick out (its region stays
             // coarser) and free the slot again.
             self.slots.release(allocation.slot);
-            return Err(format!(
-                "{}: the page table has no room for {id}",
-                self.source.name()
-            ));
+            return Err(StreamError::TableFull {
+                source_name: self.source.name().to_owned(),
+                id,
+            });
         }
         if was.is_some_and(|e| !e.is_resident() && e.cell & ENTRY_FAILED == 0) {
             self.empty[level] = self.empty[level].saturating_sub(1);

@@ -15,7 +15,7 @@ use super::pyramid::{Downsampling, PyramidShape};
 use super::streamer::pinned_levels;
 use crate::{
     BRICK_SIZE, BrickData, BrickError, BrickId, BrickSource, PADDED_BRICK, PADDED_BRICK_VOXELS,
-    ValueRange,
+    SourceError, ValueRange,
 };
 use voxscope_volume::ome_zarr::Pyramid;
 use voxscope_volume::remote::RemoteStats;
@@ -142,10 +142,10 @@ impl ZarrSource {
     /// The pyramid of `pyramid`'s selected channel and time point. Reads nothing but, for
     /// floating-point and 32-bit data without stored chunk ranges or an `omero` range, the
     /// coarsest level (to fix the quantization).
-    pub fn new(pyramid: Arc<Pyramid>) -> Result<Self, String> {
+    pub fn new(pyramid: Arc<Pyramid>) -> Result<Self, SourceError> {
         let name = pyramid.source.clone();
         let dims = pyramid.levels[0].dims;
-        let shape = PyramidShape::new(dims).map_err(|problem| format!("{name}: {problem}"))?;
+        let shape = PyramidShape::new(dims).map_err(SourceError::shape(&name))?;
         let factors: Vec<Option<[usize; 3]>> = (0..pyramid.levels.len())
             .map(|level| stored_factor(&pyramid, level))
             .collect();
@@ -167,10 +167,12 @@ impl ZarrSource {
                 .product();
             if read > MAX_BRICK_READ {
                 let coarsest = pyramid.levels.last().map_or(dims, |l| l.dims);
-                return Err(format!(
-                    "{name}: its coarsest level ({}x{}x{}) is too large to stream from: a {}x{}x{}-voxel level would read {read} voxels a brick (at most {MAX_BRICK_READ}); `voxscope convert` writes the coarser levels",
-                    coarsest[0], coarsest[1], coarsest[2], info.dims[0], info.dims[1], info.dims[2],
-                ));
+                return Err(SourceError::CoarsestTooLarge {
+                    name,
+                    coarsest,
+                    level_dims: info.dims,
+                    read,
+                });
             }
             let info = &pyramid.levels[stored];
             let chunks: u64 = (0..3)
@@ -180,10 +182,12 @@ impl ZarrSource {
                 })
                 .product();
             if pyramid.remote_stats().is_some() && chunks > MAX_REMOTE_BRICK_CHUNKS {
-                return Err(format!(
-                    "{name}: level {stored} is stored in chunks of {}x{}x{} voxels: one brick would take {chunks} requests (at most {MAX_REMOTE_BRICK_CHUNKS} over a network); copy the store and `voxscope convert` it to larger chunks",
-                    info.chunk[0], info.chunk[1], info.chunk[2]
-                ));
+                return Err(SourceError::ChunksTooSmall {
+                    name,
+                    level: stored,
+                    chunk: info.chunk,
+                    requests: chunks,
+                });
             }
             sources.push(LevelSource { stored, ratio });
         }

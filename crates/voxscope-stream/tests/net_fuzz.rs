@@ -334,7 +334,7 @@ fn read(
         }
         Reading::Bricks => {
             let remote =
-                ZarrSource::new(Arc::new(pyramid)).inspect_err(|e| messages.push(e.clone()))?;
+                ZarrSource::new(Arc::new(pyramid)).inspect_err(|e| messages.push(e.to_string()))?;
             let local = ZarrSource::new(Arc::new(
                 Pyramid::open(&pristine.join(kind.name()), PyramidOptions::default()).unwrap(),
             ))

@@ -3,6 +3,8 @@
 
 use std::fmt;
 
+use super::{MAX_AXIS, MAX_VOXELS, format_dims};
+
 /// Why a volume could not be loaded. Displays as one line, `SOURCE: PROBLEM`.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct LoadError {
@@ -83,6 +85,44 @@ impl fmt::Display for LoadError {
 }
 
 impl std::error::Error for LoadError {}
+
+/// Why an option's text that the volume layer parses (`--window`, `--compression`) was
+/// refused: displays as the one line the command line and the Python module show after the
+/// value.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum OptionError {
+    /// A window without its `:`.
+    #[error("window '{0}' is not LOW:HIGH")]
+    WindowNotLowHigh(String),
+    /// One bound of a window is not a finite number.
+    #[error("window bound '{0}' is not a number")]
+    WindowBound(String),
+    /// A window whose high bound is not above its low one.
+    #[error("window '{0}' has HIGH <= LOW")]
+    WindowReversed(String),
+    /// A compression that is none of [`crate::ome_zarr::Compression::NAMES`].
+    #[error("compression '{0}' is not one of {names}", names = crate::ome_zarr::Compression::names())]
+    UnknownCompression(String),
+}
+
+/// Why dimensions cannot hold a volume: a zero extent, or more voxels than voxscope reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub(crate) enum DimsError {
+    #[error("dimensions {} contain a zero extent", format_dims(*.0))]
+    ZeroExtent([usize; 3]),
+    #[error("dimensions {} exceed the limit of {MAX_AXIS} voxels per axis", format_dims(*.0))]
+    AxisTooLong([usize; 3]),
+    #[error("dimensions {} exceed the limit of {MAX_VOXELS} voxels", format_dims(*.0))]
+    TooManyVoxels([usize; 3]),
+}
+
+/// A loader's problem text ([`Problem`]) from dimensions that cannot hold a volume: the
+/// loaders name the source when they turn a problem into a [`LoadError`].
+impl From<DimsError> for Problem {
+    fn from(error: DimsError) -> Self {
+        error.to_string()
+    }
+}
 
 /// Short form used inside loaders: `Err(problem)` with the source added by the caller.
 pub(crate) type Problem = String;

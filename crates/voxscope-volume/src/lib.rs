@@ -29,7 +29,8 @@ pub use channels::{
     DEFAULT_CHANNEL_COLORS, MAX_CHANNELS, channel_color, channel_color_by_name, load_all_channels,
     load_as_channels, load_opened_channels,
 };
-pub use error::{LoadError, LoadErrorKind};
+use error::DimsError;
+pub use error::{LoadError, LoadErrorKind, OptionError};
 pub use format::{Format, dialog_extensions, dialog_filter_name};
 pub use nrrd::NrrdEncoding;
 pub use orientation::Orientation;
@@ -110,7 +111,7 @@ impl Volume {
         data: VoxelData,
     ) -> Result<Self, LoadError> {
         let name = name.into();
-        let count = checked_voxel_count(dims).map_err(|p| LoadError::new(&name, p))?;
+        let count = checked_voxel_count(dims).map_err(|e| LoadError::new(&name, e.to_string()))?;
         if data.len() != count {
             return Err(LoadError::new(
                 &name,
@@ -194,27 +195,18 @@ impl Volume {
     }
 }
 
-/// `dims` multiplied out, with the limits checked; the problem says which limit failed.
-pub(crate) fn checked_voxel_count(dims: [usize; 3]) -> Result<usize, String> {
+/// `dims` multiplied out, with the limits checked; the error says which limit failed.
+pub(crate) fn checked_voxel_count(dims: [usize; 3]) -> Result<usize, DimsError> {
     if dims.contains(&0) {
-        return Err(format!(
-            "dimensions {} contain a zero extent",
-            format_dims(dims)
-        ));
+        return Err(DimsError::ZeroExtent(dims));
     }
     if dims.iter().any(|&d| d > MAX_AXIS) {
-        return Err(format!(
-            "dimensions {} exceed the limit of {MAX_AXIS} voxels per axis",
-            format_dims(dims)
-        ));
+        return Err(DimsError::AxisTooLong(dims));
     }
     let count = dims.iter().try_fold(1usize, |acc, &d| acc.checked_mul(d));
     match count {
         Some(count) if count <= MAX_VOXELS => Ok(count),
-        _ => Err(format!(
-            "dimensions {} exceed the limit of {MAX_VOXELS} voxels",
-            format_dims(dims)
-        )),
+        _ => Err(DimsError::TooManyVoxels(dims)),
     }
 }
 

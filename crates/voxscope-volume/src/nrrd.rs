@@ -671,13 +671,24 @@ fn parse_field(header: &mut Header, key: &str, value: &str) -> Result<(), Proble
     Ok(())
 }
 
+/// Why a header field is not a count: displays as the end of a line that names the field.
+#[derive(Debug, thiserror::Error)]
+enum CountError {
+    /// Digits only, but more than a `usize` holds (the text quoted).
+    #[error("{0} is too large")]
+    TooLarge(String),
+    /// Not a whole number (the text quoted).
+    #[error("{0} is not a whole number")]
+    NotWhole(String),
+}
+
 /// A whole number of a header field: `'x' is not a number`, or `'99…9' is too large`.
-fn parse_count(text: &str) -> Result<usize, String> {
+fn parse_count(text: &str) -> Result<usize, CountError> {
     text.parse::<usize>().map_err(|_| {
         if !text.is_empty() && text.bytes().all(|b| b.is_ascii_digit()) {
-            format!("{} is too large", quoted(text))
+            CountError::TooLarge(quoted(text))
         } else {
-            format!("{} is not a whole number", quoted(text))
+            CountError::NotWhole(quoted(text))
         }
     })
 }

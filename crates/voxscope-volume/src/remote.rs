@@ -66,12 +66,15 @@ use documents::Known;
 use fault::{Failure, Health};
 use held::HeldPieces;
 use http::{Answer, HttpTransport};
+pub use open_error::OpenError;
 use s3::S3Transport;
+pub use url::UrlError;
 use url::{Scheme, StoreUrl};
 
 mod aws;
 mod cache;
 mod documents;
+mod open_error;
 pub(crate) use documents::NODE_DOCUMENTS;
 mod fault;
 mod fetch;
@@ -139,7 +142,7 @@ pub fn is_url(spec: &str) -> bool {
 /// Checks `spec` as a store's URL without contacting anything: `Err` is the one line that
 /// says why no request could be made to it (the app's Open URL window shows it as it is
 /// typed).
-pub fn check_url(spec: &str) -> Result<(), String> {
+pub fn check_url(spec: &str) -> Result<(), UrlError> {
     StoreUrl::parse(spec).map(|_| ())
 }
 
@@ -241,7 +244,7 @@ fn install_crypto_provider() {
 }
 
 fn runtime() -> Result<&'static tokio::runtime::Runtime, Problem> {
-    static RUNTIME: OnceLock<Result<tokio::runtime::Runtime, String>> = OnceLock::new();
+    static RUNTIME: OnceLock<std::io::Result<tokio::runtime::Runtime>> = OnceLock::new();
     RUNTIME
         .get_or_init(|| {
             tokio::runtime::Builder::new_multi_thread()
@@ -249,10 +252,9 @@ fn runtime() -> Result<&'static tokio::runtime::Runtime, Problem> {
                 .thread_name("voxscope-net")
                 .enable_all()
                 .build()
-                .map_err(|e| format!("cannot start the network runtime: {e}"))
         })
         .as_ref()
-        .map_err(Clone::clone)
+        .map_err(|e| format!("cannot start the network runtime: {e}"))
 }
 
 /// Runs `future` to its end on the network runtime from a synchronous caller; a panic inside
@@ -279,7 +281,7 @@ impl RemoteStore {
     /// Opens the store at `url` (`http://`, `https://` or `s3://BUCKET/PATH`); contacts nothing
     /// yet. The error is one line without secrets (a URL that cannot be parsed or that no
     /// request can be made to, an unknown scheme, a password for plain HTTP elsewhere).
-    pub fn open(url: &str, options: RemoteOptions) -> Result<Arc<Self>, Problem> {
+    pub fn open(url: &str, options: RemoteOptions) -> Result<Arc<Self>, OpenError> {
         install_crypto_provider();
         let parsed = StoreUrl::parse(url)?;
         let max_requests = options.max_requests.clamp(1, MAX_MAX_REQUESTS);
@@ -689,6 +691,6 @@ mod tests {
         let Err(problem) = RemoteStore::open("ftp://host/x.zarr", RemoteOptions::default()) else {
             panic!("ftp opened");
         };
-        assert!(problem.contains("'ftp:'"), "{problem}");
+        assert!(problem.to_string().contains("'ftp:'"), "{problem}");
     }
 }

@@ -3,6 +3,7 @@
 
 use rayon::prelude::*;
 
+use super::error::OptionError;
 use super::{Scalar, ValueScale, Volume};
 use crate::with_voxel_slice;
 
@@ -70,23 +71,23 @@ pub struct ValueWindow {
 
 impl ValueWindow {
     /// Parses `LOW:HIGH` (for example `-1000:400`).
-    pub fn parse(text: &str) -> Result<Self, String> {
+    pub fn parse(text: &str) -> Result<Self, OptionError> {
         let (low, high) = text
             .split_once(':')
-            .ok_or_else(|| format!("window '{text}' is not LOW:HIGH"))?;
+            .ok_or_else(|| OptionError::WindowNotLowHigh(text.to_owned()))?;
         let parse = |s: &str| {
             s.trim()
                 .parse::<f64>()
                 .ok()
                 .filter(|v| v.is_finite())
-                .ok_or_else(|| format!("window bound '{s}' is not a number"))
+                .ok_or_else(|| OptionError::WindowBound(s.to_owned()))
         };
         let window = Self {
             low: parse(low)?,
             high: parse(high)?,
         };
         if window.high <= window.low {
-            return Err(format!("window '{text}' has HIGH <= LOW"));
+            return Err(OptionError::WindowReversed(text.to_owned()));
         }
         Ok(window)
     }

@@ -16,63 +16,18 @@ use super::{Endian, MAX_VOXELS, Scalar, Volume, VoxelData, VoxelType, checked_vo
 /// Largest file read into memory (the XML and its data are parsed whole).
 const MAX_FILE_BYTES: u64 = 1 << 34;
 
+/// The appended data block of a file: its encoding (`raw` or `base64`) and its bytes after
+/// the `_` that starts them.
+type Appended<'a> = Option<(String, &'a [u8])>;
+
 /// Reads a `.vti` file.
 pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
-    let size = std::fs::metadata(path)
-        .map_err(|e| format!("cannot open: {}", io_reason(&e)))?
-        .len();
-    if size > MAX_FILE_BYTES {
-        return Err(format!(
-            "{size} bytes is beyond the {MAX_FILE_BYTES}-byte limit"
-        ));
-    }
-    let bytes = std::fs::read(path).map_err(|e| format!("cannot read: {}", io_reason(&e)))?;
-    // Appended raw data is binary inside the XML: parse the text before it, and keep the
-    // bytes after the `_` that starts it.
-    let (text, appended) = match find(&bytes, b"<AppendedData") {
-        Some(at) => {
-            let tag_end = find(&bytes[at..], b">")
-                .map(|i| at + i + 1)
-                .ok_or("an unterminated <AppendedData> tag")?;
-            let underscore = find(&bytes[tag_end..], b"_")
-                .map(|i| tag_end + i + 1)
-                .ok_or("<AppendedData> without its '_' marker")?;
-            let encoding =
-                attribute_in(&bytes[at..tag_end], "encoding").unwrap_or_else(|| "raw".into());
-            let mut text = String::from_utf8_lossy(&bytes[..at]).into_owned();
-            text.push_str("</VTKFile>");
-            (text, Some((encoding, &bytes[underscore..])))
-        }
-        None => (String::from_utf8_lossy(&bytes).into_owned(), None),
-    };
+    let bytes = read_whole(path)?;
+    let (text, appended) = split_appended(&bytes)?;
     let document =
         roxmltree::Document::parse(&text).map_err(|e| format!("not valid VTK XML: {e}"))?;
     let root = document.root_element();
-    if root.tag_name().name() != "VTKFile" || root.attribute("type") != Some("ImageData") {
-        return Err(format!(
-            "a VTK XML file of type {}; only ImageData (.vti) holds a regular grid",
-            quoted(root.attribute("type").unwrap_or("?"))
-        ));
-    }
-    let endian = match root.attribute("byte_order") {
-        Some("BigEndian") => Endian::Big,
-        _ => Endian::Little,
-    };
-    let compressed = match root.attribute("compressor") {
-        None | Some("") => false,
-        Some("vtkZLibDataCompressor") => true,
-        Some(other) => {
-            return Err(format!(
-                "compressor {} is not supported (zlib is)",
-                quoted(other)
-            ));
-        }
-    };
-    let encoding = ArrayEncoding {
-        header64: root.attribute("header_type") == Some("UInt64"),
-        endian,
-        compressed,
-    };
+    let encoding = image_data_encoding(root)?;
     let image = child(root, "ImageData").ok_or("no <ImageData> element")?;
     let extent = numbers::<i64>(
         "WholeExtent",
@@ -94,42 +49,7 @@ pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
             pieces.len()
         ));
     }
-    let piece = pieces[0];
-    let mut point_dims = [0i64; 3];
-    for (axis, points) in point_dims.iter_mut().enumerate() {
-        *points = extent[2 * axis + 1]
-            .checked_sub(extent[2 * axis])
-            .and_then(|d| d.checked_add(1))
-            .ok_or_else(|| format!("WholeExtent {} is too large", short_list(&extent)))?;
-    }
-    if point_dims.iter().any(|&n| n < 1) {
-        return Err(format!("WholeExtent {} is empty", short_list(&extent)));
-    }
-    // The scalars: PointData's named Scalars, else its first 1-component array, else CellData's.
-    let (array, dims) = ["PointData", "CellData"]
-        .iter()
-        .filter_map(|section| child(piece, section).map(|s| (s, *section)))
-        .find_map(|(section, name)| {
-            let arrays: Vec<_> = section
-                .children()
-                .filter(|n| n.has_tag_name("DataArray"))
-                .collect();
-            let named = section
-                .attribute("Scalars")
-                .and_then(|s| arrays.iter().find(|a| a.attribute("Name") == Some(s)));
-            let array = named.or_else(|| {
-                arrays
-                    .iter()
-                    .find(|a| a.attribute("NumberOfComponents").is_none_or(|c| c == "1"))
-            })?;
-            let dims = if name == "PointData" {
-                point_dims
-            } else {
-                point_dims.map(|n| (n - 1).max(1))
-            };
-            Some((*array, dims))
-        })
-        .ok_or("no one-component point or cell data array")?;
+    let (array, dims) = scalar_array(pieces[0], point_dims(&extent)?)?;
     let array_name = quoted(array.attribute("Name").unwrap_or(""));
     let components_text = array.attribute("NumberOfComponents").unwrap_or("1");
     let components: usize = components_text.parse().map_err(|_| {
@@ -146,85 +66,25 @@ pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
     let dims = dims.map(|n| n as usize);
     let count = checked_voxel_count(dims)?;
     let type_name = array.attribute("type").ok_or("a DataArray without type")?;
-    let voxel_type = match type_name {
-        "Int8" => VoxelType::I8,
-        "UInt8" => VoxelType::U8,
-        "Int16" => VoxelType::I16,
-        "UInt16" => VoxelType::U16,
-        "Int32" => VoxelType::I32,
-        "UInt32" => VoxelType::U32,
-        "Float32" => VoxelType::F32,
-        "Float64" => VoxelType::F64,
-        other => {
-            return Err(format!(
-                "array {array_name}: DataArray type {} is not supported",
-                quoted(other)
-            ));
-        }
-    };
-    let needed = count * voxel_type.size();
+    let voxel_type = voxel_type_named(type_name).ok_or_else(|| {
+        format!(
+            "array {array_name}: DataArray type {} is not supported",
+            quoted(type_name)
+        )
+    })?;
     let format = array.attribute("format").unwrap_or("ascii");
+    let wanted = WantedArray {
+        name: &array_name,
+        count,
+        voxel_type,
+        encoding,
+    };
     let data = match format {
-        "ascii" => {
-            let values: Vec<f64> = array
-                .text()
-                .unwrap_or_default()
-                .split_ascii_whitespace()
-                .take(count + 1)
-                .map(|v| {
-                    v.parse::<f64>().map_err(|_| {
-                        format!(
-                            "array {array_name}: ascii value {} is not a number",
-                            quoted(v)
-                        )
-                    })
-                })
-                .collect::<Result<_, _>>()?;
-            if values.len() != count {
-                return Err(format!(
-                    "the ascii array holds {} values, {count} expected",
-                    values.len()
-                ));
-            }
-            VoxelData::from_f64_values(voxel_type, &values)
-        }
-        "binary" => {
-            let text: String = array
-                .text()
-                .unwrap_or_default()
-                .chars()
-                .filter(|c| !c.is_ascii_whitespace())
-                .collect();
-            let raw = decode_inline_binary(&text, encoding, needed)?;
-            VoxelData::decode(voxel_type, &raw, endian)
-        }
+        "ascii" => wanted.read_ascii(array.text().unwrap_or_default())?,
+        "binary" => wanted.read_inline_binary(array.text().unwrap_or_default())?,
         "appended" => {
-            let (appended_encoding, appended) =
-                appended.ok_or("an appended array without <AppendedData>")?;
-            let offset_text = array.attribute("offset").unwrap_or("0");
-            let offset: usize = offset_text.parse().map_err(|_| {
-                format!(
-                    "array {array_name}: offset {} is not a whole number",
-                    quoted(offset_text)
-                )
-            })?;
-            let block = appended.get(offset..).ok_or_else(|| {
-                format!("array {array_name}: offset {offset} is past the end of the appended data")
-            })?;
-            let raw = if appended_encoding == "base64" {
-                let end = block
-                    .iter()
-                    .position(|b| !(b.is_ascii_alphanumeric() || matches!(b, b'+' | b'/' | b'=')))
-                    .unwrap_or(block.len());
-                decode_inline_binary(
-                    std::str::from_utf8(&block[..end]).unwrap_or_default(),
-                    encoding,
-                    needed,
-                )?
-            } else {
-                read_blocks(block, encoding, needed)?
-            };
-            VoxelData::decode(voxel_type, &raw, endian)
+            let offset = array.attribute("offset").unwrap_or("0");
+            wanted.read_appended(appended, offset)?
         }
         other => {
             return Err(format!(
@@ -249,7 +109,7 @@ pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
         format!(
             "{} ({type_name}, {format}{})",
             printable(array.attribute("Name").unwrap_or("unnamed")),
-            if compressed { ", zlib" } else { "" }
+            if encoding.compressed { ", zlib" } else { "" }
         ),
     )];
     if let Some(origin) = image.attribute("Origin") {
@@ -258,6 +118,221 @@ pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
             .push(("origin".to_owned(), printable(origin)));
     }
     Ok(volume)
+}
+
+/// The whole file, if it is within [`MAX_FILE_BYTES`].
+fn read_whole(path: &Path) -> Result<Vec<u8>, Problem> {
+    let size = std::fs::metadata(path)
+        .map_err(|e| format!("cannot open: {}", io_reason(&e)))?
+        .len();
+    if size > MAX_FILE_BYTES {
+        return Err(format!(
+            "{size} bytes is beyond the {MAX_FILE_BYTES}-byte limit"
+        ));
+    }
+    std::fs::read(path).map_err(|e| format!("cannot read: {}", io_reason(&e)))
+}
+
+/// The XML text of `bytes` and its appended data, if any. Appended raw data is binary inside
+/// the XML: the text before it is parsed (closed again), and the bytes after the `_` that
+/// starts it are kept.
+fn split_appended(bytes: &[u8]) -> Result<(String, Appended<'_>), Problem> {
+    let Some(at) = find(bytes, b"<AppendedData") else {
+        return Ok((String::from_utf8_lossy(bytes).into_owned(), None));
+    };
+    let tag_end = find(&bytes[at..], b">")
+        .map(|i| at + i + 1)
+        .ok_or("an unterminated <AppendedData> tag")?;
+    let underscore = find(&bytes[tag_end..], b"_")
+        .map(|i| tag_end + i + 1)
+        .ok_or("<AppendedData> without its '_' marker")?;
+    let encoding = attribute_in(&bytes[at..tag_end], "encoding").unwrap_or_else(|| "raw".into());
+    let mut text = String::from_utf8_lossy(&bytes[..at]).into_owned();
+    text.push_str("</VTKFile>");
+    Ok((text, Some((encoding, &bytes[underscore..]))))
+}
+
+/// How the arrays of the `<VTKFile>` element `root` are encoded (byte order, header words,
+/// zlib), once it is checked to hold ImageData.
+fn image_data_encoding(root: roxmltree::Node<'_, '_>) -> Result<ArrayEncoding, Problem> {
+    if root.tag_name().name() != "VTKFile" || root.attribute("type") != Some("ImageData") {
+        return Err(format!(
+            "a VTK XML file of type {}; only ImageData (.vti) holds a regular grid",
+            quoted(root.attribute("type").unwrap_or("?"))
+        ));
+    }
+    let endian = match root.attribute("byte_order") {
+        Some("BigEndian") => Endian::Big,
+        _ => Endian::Little,
+    };
+    let compressed = match root.attribute("compressor") {
+        None | Some("") => false,
+        Some("vtkZLibDataCompressor") => true,
+        Some(other) => {
+            return Err(format!(
+                "compressor {} is not supported (zlib is)",
+                quoted(other)
+            ));
+        }
+    };
+    Ok(ArrayEncoding {
+        header64: root.attribute("header_type") == Some("UInt64"),
+        endian,
+        compressed,
+    })
+}
+
+/// Points along x, y, z of a `WholeExtent` (`x0 x1 y0 y1 z0 z1`, inclusive).
+fn point_dims(extent: &[i64]) -> Result<[i64; 3], Problem> {
+    let mut point_dims = [0i64; 3];
+    for (axis, points) in point_dims.iter_mut().enumerate() {
+        *points = extent[2 * axis + 1]
+            .checked_sub(extent[2 * axis])
+            .and_then(|d| d.checked_add(1))
+            .ok_or_else(|| format!("WholeExtent {} is too large", short_list(extent)))?;
+    }
+    if point_dims.iter().any(|&n| n < 1) {
+        return Err(format!("WholeExtent {} is empty", short_list(extent)));
+    }
+    Ok(point_dims)
+}
+
+/// The scalars of `piece` and their dimensions: PointData's named Scalars, else its first
+/// one-component array, else CellData's (one fewer per axis, at least 1).
+fn scalar_array<'a, 'input>(
+    piece: roxmltree::Node<'a, 'input>,
+    point_dims: [i64; 3],
+) -> Result<(roxmltree::Node<'a, 'input>, [i64; 3]), Problem> {
+    ["PointData", "CellData"]
+        .iter()
+        .filter_map(|section| child(piece, section).map(|s| (s, *section)))
+        .find_map(|(section, name)| {
+            let arrays: Vec<_> = section
+                .children()
+                .filter(|n| n.has_tag_name("DataArray"))
+                .collect();
+            let named = section
+                .attribute("Scalars")
+                .and_then(|s| arrays.iter().find(|a| a.attribute("Name") == Some(s)));
+            let array = named.or_else(|| {
+                arrays
+                    .iter()
+                    .find(|a| a.attribute("NumberOfComponents").is_none_or(|c| c == "1"))
+            })?;
+            let dims = if name == "PointData" {
+                point_dims
+            } else {
+                point_dims.map(|n| (n - 1).max(1))
+            };
+            Some((*array, dims))
+        })
+        .ok_or_else(|| "no one-component point or cell data array".to_owned())
+}
+
+/// The voxel type of a DataArray's `type`, if voxscope reads it.
+fn voxel_type_named(type_name: &str) -> Option<VoxelType> {
+    Some(match type_name {
+        "Int8" => VoxelType::I8,
+        "UInt8" => VoxelType::U8,
+        "Int16" => VoxelType::I16,
+        "UInt16" => VoxelType::U16,
+        "Int32" => VoxelType::I32,
+        "UInt32" => VoxelType::U32,
+        "Float32" => VoxelType::F32,
+        "Float64" => VoxelType::F64,
+        _ => return None,
+    })
+}
+
+/// The scalar array to read: its name (quoted, for messages), how many values of which type,
+/// and how the file encodes its arrays.
+struct WantedArray<'a> {
+    name: &'a str,
+    count: usize,
+    voxel_type: VoxelType,
+    encoding: ArrayEncoding,
+}
+
+impl WantedArray<'_> {
+    /// Bytes the values take once decoded.
+    fn needed(&self) -> usize {
+        self.count * self.voxel_type.size()
+    }
+
+    /// The values of an `ascii` array's `text`.
+    fn read_ascii(&self, text: &str) -> Result<VoxelData, Problem> {
+        let values: Vec<f64> = text
+            .split_ascii_whitespace()
+            .take(self.count + 1)
+            .map(|v| {
+                v.parse::<f64>().map_err(|_| {
+                    format!(
+                        "array {}: ascii value {} is not a number",
+                        self.name,
+                        quoted(v)
+                    )
+                })
+            })
+            .collect::<Result<_, _>>()?;
+        if values.len() != self.count {
+            return Err(format!(
+                "the ascii array holds {} values, {} expected",
+                values.len(),
+                self.count
+            ));
+        }
+        Ok(VoxelData::from_f64_values(self.voxel_type, &values))
+    }
+
+    /// The values of a `binary` (base64) array's `text`, whitespace left out.
+    fn read_inline_binary(&self, text: &str) -> Result<VoxelData, Problem> {
+        let text: String = text.chars().filter(|c| !c.is_ascii_whitespace()).collect();
+        let raw = decode_inline_binary(&text, self.encoding, self.needed())?;
+        Ok(VoxelData::decode(
+            self.voxel_type,
+            &raw,
+            self.encoding.endian,
+        ))
+    }
+
+    /// The values of an `appended` array at `offset_text` in the appended data (raw or
+    /// base64).
+    fn read_appended(
+        &self,
+        appended: Appended<'_>,
+        offset_text: &str,
+    ) -> Result<VoxelData, Problem> {
+        let name = self.name;
+        let (appended_encoding, appended) =
+            appended.ok_or("an appended array without <AppendedData>")?;
+        let offset: usize = offset_text.parse().map_err(|_| {
+            format!(
+                "array {name}: offset {} is not a whole number",
+                quoted(offset_text)
+            )
+        })?;
+        let block = appended.get(offset..).ok_or_else(|| {
+            format!("array {name}: offset {offset} is past the end of the appended data")
+        })?;
+        let raw = if appended_encoding == "base64" {
+            let end = block
+                .iter()
+                .position(|b| !(b.is_ascii_alphanumeric() || matches!(b, b'+' | b'/' | b'=')))
+                .unwrap_or(block.len());
+            decode_inline_binary(
+                std::str::from_utf8(&block[..end]).unwrap_or_default(),
+                self.encoding,
+                self.needed(),
+            )?
+        } else {
+            read_blocks(block, self.encoding, self.needed())?
+        };
+        Ok(VoxelData::decode(
+            self.voxel_type,
+            &raw,
+            self.encoding.endian,
+        ))
+    }
 }
 
 /// Decodes a `binary` (base64) array: header and data encoded together, or (compressed)

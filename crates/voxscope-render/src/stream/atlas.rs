@@ -130,7 +130,7 @@ impl AtlasSizing {
             )
             .and_then(|grid| {
                 Streamer::check_capacity(self.pinned_levels, grid.iter().product())
-                    .map_err(RenderError::DoesNotFit)?;
+                    .map_err(|e| RenderError::DoesNotFit(e.to_string()))?;
                 Ok(grid)
             });
             match fitted {

@@ -5,6 +5,10 @@
 use super::*;
 
 impl Streamer {
+    /// Takes in a frame's `feedback` seen from `view`: marks the slots its rays used, decides
+    /// what the budget holds of what they asked for (and what stands in for the rest), and
+    /// queues the loads: what the cut loads with the coarser bricks above it, the level's fill
+    /// once nothing is missing, then the neighbours ahead of the camera's motion.
     pub(super) fn take_feedback(&mut self, feedback: Feedback<'_>, view: Option<ViewPoint>) {
         for (slot, &mark) in feedback.usage.iter().enumerate() {
             if mark != 0 {
@@ -30,13 +34,41 @@ impl Streamer {
             .copied()
             .filter(|key| self.failed.contains(key))
             .collect();
-        // What was asked for that can show, each in place of the brick that stands for it
-        // where the budget left it out, within the room the atlas has for this view
-        // (`budget.rs`: the least important give way to their parents where it does not fit).
+        let (requests, left_out) = self.requests_of(&asked, view);
+        // Failed bricks are asked for no more; left-out ones are drawn from what stands for
+        // them: what still lacks is what the view misses.
+        self.feedback_missing = requests.len();
+        for (counters, &count) in self.counters.levels.iter_mut().zip(&left_out) {
+            counters.left_out = count;
+        }
+        let (cut, loads_now) = self.cut_for_view(&requests, &left_out, view, feedback.frame);
+        // Prefetch around a few asks only, and only when the view fits: beyond that the view
+        // is far from complete, or the atlas full, and what is visible keeps the workers busy
+        // (and the frame's CPU time stays small).
+        let prefetch_around = self.options.prefetch
+            && asked.len() <= PREFETCH_AROUND
+            && cut.left_out.is_empty()
+            && self.standing.is_empty();
+        let (wanted, prefetch) =
+            self.wanted_with_parents(&loads_now, view, &ahead, prefetch_around);
+        let fill = if requests.is_empty() && self.standing.is_empty() {
+            self.level_fill()
+        } else {
+            Vec::new()
+        };
+        self.fill = fill.iter().map(|r| (r.key, *r)).collect();
+        self.fill_view = Some(view);
+        self.queue_loads(wanted, fill, prefetch);
+    }
+
+    /// What was `asked` for that can show, each in place of the brick that stands for it
+    /// where the budget left it out, with its priority seen from `view`; and how many asked
+    /// bricks of each level were left out.
+    fn requests_of(&mut self, asked: &[u32], view: ViewPoint) -> (Vec<Request>, Vec<usize>) {
         let mut requests = Vec::with_capacity(asked.len());
         let mut seen = KeySet::default();
         let mut left_out = vec![0usize; self.shape.levels.len()];
-        for &key in &asked {
+        for &key in asked {
             let Some(id) = self.shape.brick_of(key) else {
                 continue;
             };
@@ -59,15 +91,23 @@ impl Streamer {
             }
             requests.push(Request { priority, id, key });
         }
-        // Failed bricks are asked for no more; left-out ones are drawn from what stands for
-        // them: what still lacks is what the view misses.
-        self.feedback_missing = requests.len();
-        for (counters, &count) in self.counters.levels.iter_mut().zip(&left_out) {
-            counters.left_out = count;
-        }
+        (requests, left_out)
+    }
+
+    /// The cut of `requests` within the room the atlas has for this view (`budget.rs`: the
+    /// least important give way to their parents where it does not fit), and what loads now:
+    /// never more than can be placed without evicting what the frame drew. Where the cut
+    /// stands (or the view is stuck or stalled), its coarser bricks stand in for the rest.
+    fn cut_for_view(
+        &mut self,
+        requests: &[Request],
+        left_out: &[usize],
+        view: ViewPoint,
+        frame: u32,
+    ) -> (Cut, Vec<Request>) {
         // The view's bricks in the atlas: those its rays wanted, and those standing for
         // bricks left out (drawn in their place).
-        let mut committed: KeySet = self.slots.wanted_unpinned_since(feedback.frame).collect();
+        let mut committed: KeySet = self.slots.wanted_unpinned_since(frame).collect();
         // Of those, the ones its rays wanted at their own levels (the rest stand in).
         let wanted_in_atlas = committed.len();
         committed.extend(
@@ -88,8 +128,8 @@ impl Streamer {
         // only the coarser bricks a cut brings in, and their ancestors, are looked up.
         let requested: KeySet = requests.iter().map(|r| r.key).collect();
         let slot_need = |key: u32| self.slot_need(key, &requested, &committed);
-        let cut = cut_within(&requests, room, &self.shape, &view, slot_need);
-        let available = self.slots.available(feedback.frame.max(1));
+        let cut = cut_within(requests, room, &self.shape, &view, slot_need);
+        let available = self.slots.available(frame.max(1));
         // Stalled: bricks wait in RAM for slots that nothing will free (the stand-ins frames
         // draw hold more than the fifth of the atlas left to them). What the atlas holds is
         // then the cut, as when stuck below.
@@ -103,7 +143,7 @@ impl Streamer {
         let stalled = self.no_room_frames >= STALLED_FRAMES || no_progress;
         let cut_now = (available < room || stalled).then(|| {
             let room_now = if stalled { 0 } else { available };
-            cut_within(&requests, room_now, &self.shape, &view, slot_need)
+            cut_within(requests, room_now, &self.shape, &view, slot_need)
         });
         let loads_now = cut_now.as_ref().map_or(&cut.load, |now| &now.load).clone();
         // The cut counts every asked brick as a slot; many turn out uniform (no slot) once
@@ -125,19 +165,24 @@ impl Streamer {
             let left_out: usize = left_out.iter().sum::<usize>() + cut.left_out.len();
             self.note_budget(&cut, &committed, wanted_in_atlas + requests.len(), left_out);
         }
-        // What the cut loads, and the coarser bricks above each down to the first one the GPU
-        // has (so the picture refines level by level).
+        (cut, loads_now)
+    }
+
+    /// What `loads_now` loads, and the coarser bricks above each down to the first one the
+    /// GPU has (so the picture refines level by level; an unreadable brick's finest readable
+    /// parent in its place); with the neighbours of the asked bricks ahead of the camera
+    /// (`ahead`) to prefetch, where `prefetch_around`.
+    fn wanted_with_parents(
+        &mut self,
+        loads_now: &[Request],
+        view: ViewPoint,
+        ahead: &ViewPoint,
+        prefetch_around: bool,
+    ) -> (KeyMap<Request>, KeyMap<Request>) {
         let mut wanted: KeyMap<Request> = KeyMap::default();
-        wanted.reserve(cut.load.len() + cut.load.len() / 4);
+        wanted.reserve(loads_now.len() + loads_now.len() / 4);
         let mut prefetch: KeyMap<Request> = KeyMap::default();
-        // Prefetch around a few asks only, and only when the view fits: beyond that the view
-        // is far from complete, or the atlas full, and what is visible keeps the workers busy
-        // (and the frame's CPU time stays small).
-        let prefetch_around = self.options.prefetch
-            && asked.len() <= PREFETCH_AROUND
-            && cut.left_out.is_empty()
-            && self.standing.is_empty();
-        for request in &loads_now {
+        for request in loads_now {
             let mut id = request.id;
             let mut key = request.key;
             let asked_level = id.level;
@@ -166,7 +211,7 @@ impl Streamer {
                     },
                 );
                 if prefetch_around && id.level == asked_level {
-                    self.add_neighbours(id, &ahead, &mut prefetch);
+                    self.add_neighbours(id, ahead, &mut prefetch);
                 }
                 let Some(parent) = self.shape.parent(id) else {
                     break;
@@ -175,15 +220,19 @@ impl Streamer {
                 key = self.shape.key(id).expect("a parent is in the pyramid");
             }
         }
-        let fill = if requests.is_empty() && self.standing.is_empty() {
-            self.level_fill()
-        } else {
-            Vec::new()
-        };
-        self.fill = fill.iter().map(|r| (r.key, *r)).collect();
-        self.fill_view = Some(view);
-        // One pass: per-level counts; ready (in RAM: a hit, unless it was ready already) or
-        // to load; then the level's fill, then the prefetch after them.
+        (wanted, prefetch)
+    }
+
+    /// In one pass: per-level counts; each of `wanted` ready (in RAM: a hit, unless it was
+    /// ready already) or to load; then the level's `fill`, then the `prefetch` (as much as
+    /// the RAM cache has room for) after them. The loads replace the queue, and the first
+    /// ones' requests go out.
+    fn queue_loads(
+        &mut self,
+        wanted: KeyMap<Request>,
+        fill: Vec<Request>,
+        prefetch: KeyMap<Request>,
+    ) {
         for level in &mut self.counters.levels {
             level.requested = 0;
         }

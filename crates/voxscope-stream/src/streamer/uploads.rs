@@ -72,9 +72,9 @@ impl Streamer {
                 }
                 Ok(None) if !unseen => self.changed_frame = self.frame,
                 Ok(None) => {}
-                Err(message) => {
+                Err(error) => {
                     self.failed.insert(request.key);
-                    self.new_errors.push(message);
+                    self.new_errors.push(error.to_string());
                 }
             }
         }

@@ -8,7 +8,7 @@ use super::*;
 /// (one level each); wider and floating-point data spread the range that the stored chunk
 /// ranges, the `omero` window's range or the coarsest level give over 65 536 levels (values
 /// outside it clamp).
-pub(super) fn quantization_of(pyramid: &Pyramid) -> Result<(Quantization, u16), String> {
+pub(super) fn quantization_of(pyramid: &Pyramid) -> Result<(Quantization, u16), SourceError> {
     let exact = |offset: f64, max: u16| Ok((Quantization { offset, step: 1.0 }, max));
     match pyramid.voxel_type {
         VoxelType::U8 => return exact(0.0, u8::MAX as u16),
@@ -17,17 +17,14 @@ pub(super) fn quantization_of(pyramid: &Pyramid) -> Result<(Quantization, u16), 
         VoxelType::I16 => return exact(i16::MIN as f64, u16::MAX),
         _ => {}
     }
-    let from_chunks = pyramid
-        .chunk_ranges(0)
-        .map_err(|e| e.to_string())?
-        .and_then(|ranges| {
-            let finite = ranges
-                .iter()
-                .filter(|r| r[0].is_finite() && r[1].is_finite());
-            finite.fold(None, |acc: Option<[f64; 2]>, r| {
-                Some(acc.map_or(*r, |a| [a[0].min(r[0]), a[1].max(r[1])]))
-            })
-        });
+    let from_chunks = pyramid.chunk_ranges(0)?.and_then(|ranges| {
+        let finite = ranges
+            .iter()
+            .filter(|r| r[0].is_finite() && r[1].is_finite());
+        finite.fold(None, |acc: Option<[f64; 2]>, r| {
+            Some(acc.map_or(*r, |a| [a[0].min(r[0]), a[1].max(r[1])]))
+        })
+    });
     let from_omero = || {
         pyramid
             .omero
@@ -39,12 +36,9 @@ pub(super) fn quantization_of(pyramid: &Pyramid) -> Result<(Quantization, u16), 
         None => {
             let coarsest = pyramid.levels.len() - 1;
             if pyramid.levels[coarsest].voxel_count() > MAX_BRICK_READ {
-                return Err(format!(
-                    "{}: no stored value range, and the coarsest level is too large to read for one",
-                    pyramid.source
-                ));
+                return Err(SourceError::NoValueRange(pyramid.source.clone()));
             }
-            let data = pyramid.read_level(coarsest).map_err(|e| e.to_string())?;
+            let data = pyramid.read_level(coarsest)?;
             with_voxel_slice!(&data, values => values.iter().fold([f64::INFINITY, f64::NEG_INFINITY], |r, v| {
                 let v = v.to_f64();
                 if v.is_finite() { [r[0].min(v), r[1].max(v)] } else { r }

@@ -71,6 +71,16 @@ struct SliceHeader {
     frames: usize,
 }
 
+impl SliceHeader {
+    /// Where the slice lies along the series' `normal` (0 without a position or normal).
+    fn along(&self, normal: Option<[f64; 3]>) -> f64 {
+        match (self.position, normal) {
+            (Some(p), Some(n)) => dot(p, n),
+            _ => 0.0,
+        }
+    }
+}
+
 /// Reads a file's header (up to the pixel data). Every element length is checked against the
 /// bytes that remain before dicom-object sees the file (see [`walk`]).
 fn open_header(path: &Path) -> Result<DefaultDicomObject, Problem> {
@@ -139,21 +149,78 @@ pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
     if files.is_empty() {
         return Err("holds no DICOM files".into());
     }
-    // A problem in the file the user named needs no name (the error starts with it); one in
-    // another file of the folder says which.
-    let in_file = |file: &Path, problem: Problem| -> Problem {
-        if chosen_file.as_deref() == Some(file) {
-            problem
-        } else {
-            format!("{}: {problem}", file_name(file))
+    let chosen_file = chosen_file.as_deref();
+    let headers = read_headers(&files, chosen_file)?;
+    let (mut slices, others) = choose_series(headers, chosen_file)?;
+
+    // Sort along the slice normal.
+    let orientation = slices[0].orientation;
+    let normal = orientation.map(|o| cross([o[0], o[1], o[2]], [o[3], o[4], o[5]]));
+    slices.sort_by(|a, b| {
+        a.along(normal)
+            .total_cmp(&b.along(normal))
+            .then_with(|| a.path.cmp(&b.path))
+    });
+    if slices.len() > 1 && slices.iter().any(|s| s.frames > 1) {
+        return Err(
+            "mixes multi-frame files into a series of files; open one multi-frame file alone"
+                .into(),
+        );
+    }
+
+    let (data, size, scale) = stack_pixels(&slices, chosen_file)?;
+    let first = &slices[0].object;
+    let depth = data.len() / (size[0] * size[1]);
+
+    // Spacing: PixelSpacing is row spacing (y), then column spacing (x).
+    let pixel_spacing = floats(first, tags::PIXEL_SPACING)
+        .filter(|v| v.len() == 2)
+        .unwrap_or(vec![1.0, 1.0]);
+    let slice_spacing = slice_spacing(&slices, normal);
+    if slices.len() > 1 && slice_spacing <= 0.0 {
+        return Err("two files share one slice position; the series is not a volume".into());
+    }
+    let spacing = [pixel_spacing[1], pixel_spacing[0], slice_spacing];
+    let name = path.display().to_string();
+    let mut volume = Volume::new(name, "DICOM", [size[0], size[1], depth], spacing, data)
+        .map_err(|e| e.problem)?;
+    volume.value_scale = scale;
+    volume.metadata = series_metadata(first, slices.len(), scale, &others);
+
+    // Patient axes (LPS in DICOM) to RAS: flip x and y.
+    Ok(match (orientation, normal) {
+        (Some(o), Some(n)) => {
+            let ras = |v: [f64; 3]| [-v[0], -v[1], v[2]];
+            reorient_to_ras(
+                volume,
+                [ras([o[0], o[1], o[2]]), ras([o[3], o[4], o[5]]), ras(n)],
+            )
         }
-    };
+        _ => volume,
+    })
+}
+
+/// `problem` of `file`: as it is in the file the user named (the error starts with its
+/// name); naming the file in another file of the folder.
+fn in_file(chosen_file: Option<&Path>, file: &Path, problem: Problem) -> Problem {
+    if chosen_file == Some(file) {
+        problem
+    } else {
+        format!("{}: {problem}", file_name(file))
+    }
+}
+
+/// The headers of `files`: a broken file beside a good series is skipped (and said on
+/// stderr); the one asked for (`chosen_file`), or the only one, is not.
+fn read_headers(
+    files: &[PathBuf],
+    chosen_file: Option<&Path>,
+) -> Result<Vec<SliceHeader>, Problem> {
     let mut headers = Vec::with_capacity(files.len());
-    for file in &files {
+    for file in files {
         let object = match open_header(file) {
             Ok(object) => object,
-            // A broken file beside a good series is skipped; the one asked for is not.
-            Err(problem) if chosen_file.as_deref() != Some(file.as_path()) && files.len() > 1 => {
+            Err(problem) if chosen_file != Some(file.as_path()) && files.len() > 1 => {
                 eprintln!(
                     "voxscope: skipping {}: {}",
                     file_name(file),
@@ -161,7 +228,7 @@ pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
                 );
                 continue;
             }
-            Err(problem) => return Err(in_file(file, problem)),
+            Err(problem) => return Err(in_file(chosen_file, file, problem)),
         };
         headers.push(SliceHeader {
             path: file.clone(),
@@ -175,6 +242,16 @@ pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
             object,
         });
     }
+    Ok(headers)
+}
+
+/// The slices of the series to read (the one `chosen_file` belongs to, else the one of the
+/// most frames; a multi-frame file asked for by name alone), and the others described for
+/// the metadata.
+fn choose_series(
+    headers: Vec<SliceHeader>,
+    chosen_file: Option<&Path>,
+) -> Result<(Vec<SliceHeader>, Vec<String>), Problem> {
     let mut series: BTreeMap<String, Vec<SliceHeader>> = BTreeMap::new();
     for header in headers {
         series
@@ -182,10 +259,10 @@ pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
             .or_default()
             .push(header);
     }
-    let chosen_series = match &chosen_file {
+    let chosen_series = match chosen_file {
         Some(file) => series
             .iter()
-            .find(|(_, slices)| slices.iter().any(|s| &s.path == file))
+            .find(|(_, slices)| slices.iter().any(|s| s.path == file))
             .map(|(uid, _)| uid.clone()),
         None => series
             .iter()
@@ -207,31 +284,21 @@ pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
         .collect();
     let mut slices = series.remove(&chosen_series).expect("chosen from the map");
     // A multi-frame file asked for by name is a volume of its own.
-    if let Some(file) = &chosen_file
-        && let Some(index) = slices.iter().position(|s| &s.path == file && s.frames > 1)
+    if let Some(file) = chosen_file
+        && let Some(index) = slices.iter().position(|s| s.path == file && s.frames > 1)
     {
         slices = vec![slices.swap_remove(index)];
     }
+    Ok((slices, others))
+}
 
-    // Sort along the slice normal.
-    let orientation = slices[0].orientation;
-    let normal = orientation.map(|o| cross([o[0], o[1], o[2]], [o[3], o[4], o[5]]));
-    let along = |s: &SliceHeader| match (s.position, normal) {
-        (Some(p), Some(n)) => dot(p, n),
-        _ => 0.0,
-    };
-    slices.sort_by(|a, b| {
-        along(a)
-            .total_cmp(&along(b))
-            .then_with(|| a.path.cmp(&b.path))
-    });
-    if slices.len() > 1 && slices.iter().any(|s| s.frames > 1) {
-        return Err(
-            "mixes multi-frame files into a series of files; open one multi-frame file alone"
-                .into(),
-        );
-    }
-
+/// The pixels of `slices` (sorted) stacked, the size of a slice (columns, rows) and the
+/// series' rescale: every file of one size, pixel type and rescale.
+fn stack_pixels(
+    slices: &[SliceHeader],
+    chosen_file: Option<&Path>,
+) -> Result<(VoxelData, [usize; 2], ValueScale), Problem> {
+    let in_file = |file: &Path, problem: Problem| in_file(chosen_file, file, problem);
     let mut data: Option<VoxelData> = None;
     let mut size = [0usize; 2];
     let mut first_scale: Option<ValueScale> = None;
@@ -280,34 +347,35 @@ pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
     }
     let data = data.expect("at least one slice");
     let scale = first_scale.expect("at least one slice");
+    Ok((data, size, scale))
+}
+
+/// The distance between slices: the median gap between their positions along `normal`
+/// where every slice has one, else the first file's SpacingBetweenSlices or SliceThickness
+/// (1 without either).
+fn slice_spacing(slices: &[SliceHeader], normal: Option<[f64; 3]>) -> f64 {
     let first = &slices[0].object;
-    let depth = data.len() / (size[0] * size[1]);
-
-    // Spacing: PixelSpacing is row spacing (y), then column spacing (x).
-    let pixel_spacing = floats(first, tags::PIXEL_SPACING)
-        .filter(|v| v.len() == 2)
-        .unwrap_or(vec![1.0, 1.0]);
-    let positions: Vec<f64> = slices.iter().map(&along).collect();
-    let slice_spacing =
-        if positions.len() > 1 && slices.iter().all(|s| s.position.is_some()) && normal.is_some() {
-            let mut gaps: Vec<f64> = positions.windows(2).map(|w| w[1] - w[0]).collect();
-            gaps.sort_by(f64::total_cmp);
-            gaps[gaps.len() / 2]
-        } else {
-            floats(first, tags::SPACING_BETWEEN_SLICES)
-                .or_else(|| floats(first, tags::SLICE_THICKNESS))
-                .and_then(|v| v.first().copied())
-                .unwrap_or(1.0)
-        };
-    if slices.len() > 1 && slice_spacing <= 0.0 {
-        return Err("two files share one slice position; the series is not a volume".into());
+    let positions: Vec<f64> = slices.iter().map(|s| s.along(normal)).collect();
+    if positions.len() > 1 && slices.iter().all(|s| s.position.is_some()) && normal.is_some() {
+        let mut gaps: Vec<f64> = positions.windows(2).map(|w| w[1] - w[0]).collect();
+        gaps.sort_by(f64::total_cmp);
+        gaps[gaps.len() / 2]
+    } else {
+        floats(first, tags::SPACING_BETWEEN_SLICES)
+            .or_else(|| floats(first, tags::SLICE_THICKNESS))
+            .and_then(|v| v.first().copied())
+            .unwrap_or(1.0)
     }
-    let spacing = [pixel_spacing[1], pixel_spacing[0], slice_spacing];
-    let name = path.display().to_string();
-    let mut volume = Volume::new(name, "DICOM", [size[0], size[1], depth], spacing, data)
-        .map_err(|e| e.problem)?;
-    volume.value_scale = scale;
+}
 
+/// What `info` shows of a series: the `first` file's descriptive tags, its transfer syntax,
+/// how many files, the rescale, and the `others` series beside it.
+fn series_metadata(
+    first: &DefaultDicomObject,
+    files: usize,
+    scale: ValueScale,
+    others: &[String],
+) -> Vec<(String, String)> {
     let mut metadata = Vec::new();
     for (key, tag) in [
         ("modality", tags::MODALITY),
@@ -325,7 +393,7 @@ pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
         "transfer syntax".to_owned(),
         printable(first.meta().transfer_syntax()),
     ));
-    metadata.push(("files".to_owned(), slices.len().to_string()));
+    metadata.push(("files".to_owned(), files.to_string()));
     if scale != ValueScale::IDENTITY {
         metadata.push((
             "rescale".to_owned(),
@@ -335,19 +403,7 @@ pub(super) fn load(path: &Path) -> Result<Volume, Problem> {
     for (n, other) in others.iter().enumerate() {
         metadata.push((format!("other series {}", n + 1), other.clone()));
     }
-    volume.metadata = metadata;
-
-    // Patient axes (LPS in DICOM) to RAS: flip x and y.
-    Ok(match (orientation, normal) {
-        (Some(o), Some(n)) => {
-            let ras = |v: [f64; 3]| [-v[0], -v[1], v[2]];
-            reorient_to_ras(
-                volume,
-                [ras([o[0], o[1], o[2]]), ras([o[3], o[4], o[5]]), ras(n)],
-            )
-        }
-        _ => volume,
-    })
+    metadata
 }
 
 /// The pixels of every frame of `object` in its stored type, rows and columns, and the

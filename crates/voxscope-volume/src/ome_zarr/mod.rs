@@ -349,7 +349,7 @@ impl Pyramid {
     ) -> Result<Self, LoadError> {
         let source = super::remote::redact_url(url);
         let store =
-            RemoteStore::open(url, remote).map_err(|problem| LoadError::new(&source, problem))?;
+            RemoteStore::open(url, remote).map_err(|e| LoadError::new(&source, e.to_string()))?;
         // Each step of the walk (the root's documents, then every level's) in one round trip.
         let warm = |names: &[String]| prefetch_named(&store, names);
         guard::register();

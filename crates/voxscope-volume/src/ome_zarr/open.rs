@@ -9,6 +9,9 @@ use super::super::error::{Problem, printable, quoted};
 use super::levels::{layout_of, level_info, type_name};
 use super::metadata::{self, Axis, AxisKind};
 use super::{MAX_METADATA_BYTES, Pyramid, PyramidOptions, ReadableStorage, Stored};
+use level_arrays::{axes_of, check_selection, leading_extent, level_infos, open_arrays};
+
+mod level_arrays;
 
 /// Reads a metadata document (JSON object) at `key`, if present, after checking its size.
 fn read_json(store: &ReadableStorage, key: &str) -> Result<Option<Map<String, Value>>, Problem> {
@@ -500,149 +503,28 @@ fn open_levels(
         options,
         zarr_format,
         prefix,
-        warm,
+        ..
     } = *opening;
     let paths: Vec<String> = match &multiscale {
         Some(m) => m.datasets.iter().map(|d| d.path.clone()).collect(),
         None => vec![String::new()],
     };
-    // Every level's documents at once: each level's array is then opened from them.
-    let documents: Vec<String> = paths
-        .iter()
-        .flat_map(|path| array_documents(&format!("{prefix}{path}"), zarr_format))
-        .collect();
-    warm(&documents);
-    let mut arrays = Vec::with_capacity(paths.len());
-    for path in &paths {
-        let full = format!("{prefix}{path}");
-        let shown = if full.is_empty() {
-            "the root array".to_owned()
-        } else {
-            format!("array {}", quoted(&full))
-        };
-        // The documents zarrs reads whole are bounded first: zarr.json, else (Zarr v2)
-        // .zarray and .zattrs.
-        if !read_size_checked(&store, &document_key(&full, "zarr.json"))? {
-            for name in [".zarray", ".zattrs"] {
-                read_size_checked(&store, &document_key(&full, name))?;
-            }
-        }
-        let array = Array::open(store.clone(), &format!("/{full}"))
-            .map_err(|e| format!("{shown}: {}", printable(&e.to_string())))?;
-        let array = through_codec_plugins(array, &store, &full);
-        arrays.push((full, shown, array));
-    }
-
-    let first = &arrays[0].2;
-    let ndim = first.dimensionality();
-    let axes = match multiscale.as_ref().and_then(|m| m.axes.clone()) {
-        Some(axes) => axes,
-        None => match first.dimension_names() {
-            Some(names) if names.iter().all(Option::is_some) && names.len() == ndim => names
-                .iter()
-                .flatten()
-                .map(|name| Axis {
-                    name: printable(name),
-                    kind: metadata::kind_by_name(name),
-                    unit: None,
-                })
-                .collect(),
-            _ => {
-                if !(2..=5).contains(&ndim) {
-                    return Err(format!(
-                        "{} has {ndim} dimensions; a volume has 2 to 5 (t, c, z, y, x)",
-                        arrays[0].1
-                    ));
-                }
-                metadata::default_axes(ndim)
-            }
-        },
-    };
-    if axes.len() != ndim {
-        return Err(format!(
-            "the metadata names {} axes but {} has {ndim} dimensions",
-            axes.len(),
-            arrays[0].1
-        ));
-    }
+    let arrays = open_arrays(&store, opening, &paths)?;
+    let axes = axes_of(multiscale.as_ref(), &arrays[0])?;
+    let first = &arrays[0].array;
     let layout = layout_of(&axes)?;
     let stored = Stored::of(first.data_type()).ok_or_else(|| {
         format!(
             "{} holds {} values; voxscope reads uint8/16/32/64, int8/16/32/64, float32 and float64",
-            arrays[0].1,
+            arrays[0].shown,
             printable(&type_name(first.data_type()))
         )
     })?;
     let stored_type = type_name(first.data_type());
-    let leading = |array: &Array<dyn ReadableStorageTraits>, dim: Option<usize>| {
-        dim.map_or(1, |d| array.shape()[d])
-    };
-    let time_points = leading(first, layout.time);
-    let channels = leading(first, layout.channel);
-    for (dim, axis) in axes.iter().enumerate() {
-        if let AxisKind::Other(kind) = &axis.kind
-            && first.shape()[dim] != 1
-        {
-            return Err(format!(
-                "axis {} (type {}) has extent {}; voxscope reads space, time and channel axes",
-                quoted(&axis.name),
-                quoted(kind),
-                first.shape()[dim]
-            ));
-        }
-    }
-    if options.time as u64 >= time_points {
-        return Err(format!(
-            "time point {} does not exist (the image has {time_points})",
-            options.time
-        ));
-    }
-    if options.channel as u64 >= channels {
-        return Err(format!(
-            "channel {} does not exist (the image has {channels})",
-            options.channel
-        ));
-    }
-
-    let mut levels = Vec::with_capacity(arrays.len());
-    for (index, (path, shown, array)) in arrays.iter().enumerate() {
-        if array.dimensionality() != ndim {
-            return Err(format!(
-                "{shown} has {} dimensions but level 0 has {ndim}",
-                array.dimensionality()
-            ));
-        }
-        if Stored::of(array.data_type()) != Some(stored) {
-            return Err(format!(
-                "{shown} holds {} but level 0 holds {stored_type}",
-                printable(&type_name(array.data_type()))
-            ));
-        }
-        if leading(array, layout.time) != time_points || leading(array, layout.channel) != channels
-        {
-            return Err(format!(
-                "{shown} has other channel or time extents than level 0"
-            ));
-        }
-        levels.push(level_info(
-            path,
-            shown,
-            array,
-            &layout,
-            stored,
-            multiscale.as_ref().map(|m| (m, index)),
-        )?);
-    }
-    // Levels without a scale are spaced by their size relative to level 0.
-    if multiscale
-        .as_ref()
-        .is_none_or(|m| m.datasets.iter().all(|d| d.scale.is_none()))
-    {
-        let finest = levels[0].dims;
-        for level in &mut levels {
-            level.spacing = std::array::from_fn(|a| finest[a] as f64 / level.dims[a] as f64);
-        }
-    }
+    let time_points = leading_extent(first, layout.time);
+    let channels = leading_extent(first, layout.channel);
+    check_selection(&axes, first, options, time_points, channels)?;
+    let levels = level_infos(&arrays, &layout, stored, multiscale.as_ref())?;
 
     let levels_len = levels.len();
     let units = std::array::from_fn(|a| layout.space[a].and_then(|d| axes[d].unit.clone()));
@@ -669,7 +551,7 @@ fn open_levels(
         downscaling: multiscale.as_ref().and_then(|m| m.downscaling.clone()),
         stored,
         layout,
-        arrays: arrays.into_iter().map(|(_, _, array)| array).collect(),
+        arrays: arrays.into_iter().map(|level| level.array).collect(),
         range_paths: range_paths(&attributes, prefix, levels_len),
         image_prefix: prefix.to_owned(),
         label_image: metadata::ome_attributes(&attributes).contains_key("image-label"),

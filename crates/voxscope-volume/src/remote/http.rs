@@ -18,6 +18,7 @@ use zarrs::storage::Bytes;
 
 use super::cache::Piece;
 use super::fault::{Failure, parse_retry_after, seconds};
+use super::open_error::OpenError;
 use super::url::StoreUrl;
 
 /// What a request found.
@@ -45,13 +46,10 @@ impl HttpTransport {
         url: &StoreUrl,
         connect: Duration,
         max_requests: usize,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, OpenError> {
         let credentials = url.credentials();
         if credentials.is_some() && url.url.scheme() == "http" && !url.is_loopback() {
-            return Err(
-                "carries a user name and password, which voxscope sends only over https:// (or http:// to this machine)"
-                    .to_owned(),
-            );
+            return Err(OpenError::PasswordOverHttp);
         }
         let mut base = url.url.clone();
         let _ = base.set_username("");
@@ -62,7 +60,7 @@ impl HttpTransport {
             .pool_max_idle_per_host(max_requests)
             .redirect(reqwest::redirect::Policy::limited(5))
             .build()
-            .map_err(|e| format!("cannot start an HTTP client: {}", one_line(&e)))?;
+            .map_err(|e| OpenError::HttpClient(one_line(&e)))?;
         Ok(Self {
             client,
             base,

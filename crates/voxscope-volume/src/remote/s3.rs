@@ -17,6 +17,7 @@ use super::aws;
 use super::cache::Piece;
 use super::fault::Failure;
 use super::http::Answer;
+use super::open_error::OpenError;
 use super::url::{StoreUrl, parse_endpoint, redact_text};
 
 /// An S3 bucket's store under a prefix.
@@ -38,7 +39,7 @@ impl S3Transport {
         connect: Duration,
         request: Duration,
         max_requests: usize,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, OpenError> {
         let bucket = url.url.host_str().unwrap_or_default().to_owned();
         let prefix = url.url.path().trim_matches('/').to_owned();
         let credentials = aws::Credentials::find();
@@ -56,8 +57,11 @@ impl S3Transport {
             // object_store pastes the endpoint into each request's URL as it is: it panics on
             // one the `http` crate rejects (a space, a CR from an env file) and puts a query
             // into the path. It is trimmed and checked here, and handed over as parsed.
-            let (endpoint, checked) = parse_endpoint(&given.value)
-                .map_err(|problem| format!("its S3 endpoint ({}) {problem}", given.source))?;
+            let (endpoint, checked) =
+                parse_endpoint(&given.value).map_err(|error| OpenError::S3Endpoint {
+                    given_by: given.source.clone(),
+                    error,
+                })?;
             if let Some((user, password)) = checked.credentials() {
                 secrets.push(user);
                 secrets.extend(password);
@@ -72,12 +76,10 @@ impl S3Transport {
             .with_timeout(request)
             .with_pool_max_idle_per_host(max_requests)
             .with_allow_http(http_endpoint);
-        let store = builder.with_client_options(client).build().map_err(|e| {
-            format!(
-                "cannot read from S3: {}",
-                redact_text(&one_line(&e), &secrets)
-            )
-        })?;
+        let store = builder
+            .with_client_options(client)
+            .build()
+            .map_err(|e| OpenError::S3Client(redact_text(&one_line(&e), &secrets)))?;
         secrets.retain(|s| s.len() >= 3);
         Ok(Self {
             store: Arc::new(store),

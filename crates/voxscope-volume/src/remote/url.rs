@@ -11,6 +11,53 @@ use std::net::IpAddr;
 
 use super::super::error::escape;
 
+/// Why a store's URL (or an S3 endpoint) was refused before any request: displays as the
+/// rest of a line that starts with the URL as shown (`URL is not a valid URL: …`), without
+/// its secrets.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum UrlError {
+    /// A control character (escaped) somewhere in it.
+    #[error("is not a valid URL: it holds the control character {0}")]
+    ControlCharacter(String),
+    /// A scheme (escaped, at most 20 characters) that is not `http`, `https` or `s3`.
+    #[error("has the scheme '{0}:'; remote stores are http://, https:// or s3://")]
+    UnknownScheme(String),
+    /// What the URL parser refused.
+    #[error("is not a valid URL: {0}")]
+    Unparsed(url::ParseError),
+    /// An HTTP URL without a host.
+    #[error("is not a valid URL: it names no host")]
+    NoHost,
+    /// A bracketed host (escaped) that is no IPv6 address.
+    #[error("is not a valid URL: the host '{0}' is no IPv6 address")]
+    NotIpv6(String),
+    /// A host (escaped, at most 80 characters) that is no DNS name or address.
+    #[error("is not a valid URL: the host '{0}' is no host name or address")]
+    NotHostName(String),
+    /// An `s3://` URL without a bucket.
+    #[error("names no bucket (s3://BUCKET/PATH)")]
+    NoBucket,
+    /// A bucket (escaped, at most 80 characters) that is no bucket name.
+    #[error("is not a valid URL: '{0}' is no S3 bucket name (letters, digits, '.', '-', '_')")]
+    NotBucket(String),
+    /// An endpoint with whitespace or a control character inside (`a space`, `the character
+    /// \u{d}`).
+    #[error("is not a valid URL: it holds {0} inside")]
+    Inside(String),
+    /// An endpoint (redacted, at most 80 characters) that is not `http(s)://`.
+    #[error("is not an http:// or https:// URL ('{0}'): {ENDPOINT_FORM}")]
+    EndpointNotHttp(String),
+    /// An endpoint with a query.
+    #[error("has a query ('?…'): {ENDPOINT_FORM}")]
+    EndpointQuery,
+    /// An endpoint with a fragment.
+    #[error("has a fragment ('#…'): {ENDPOINT_FORM}")]
+    EndpointFragment,
+}
+
+/// What an S3 endpoint looks like, as a refused one's message says.
+const ENDPOINT_FORM: &str = "an endpoint is http(s)://HOST[:PORT][/PATH]";
+
 /// The schemes voxscope reads stores from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Scheme {
@@ -33,22 +80,16 @@ pub(crate) struct StoreUrl {
 impl StoreUrl {
     /// Parses `text` as a store's URL, or says in one line (without its secrets) why it is
     /// not one.
-    pub(crate) fn parse(text: &str) -> Result<Self, String> {
+    pub(crate) fn parse(text: &str) -> Result<Self, UrlError> {
         let text = text.trim();
         if let Some(c) = text.chars().find(|c| c.is_control()) {
-            return Err(format!(
-                "is not a valid URL: it holds the control character {}",
-                escape(&c.to_string())
-            ));
+            return Err(UrlError::ControlCharacter(escape(&c.to_string())));
         }
         let scheme = scheme_of(text).ok_or_else(|| {
             let name = text.split(':').next().unwrap_or_default();
-            format!(
-                "has the scheme '{}:'; remote stores are http://, https:// or s3://",
-                escape(&name.chars().take(20).collect::<String>())
-            )
+            UrlError::UnknownScheme(escape(&name.chars().take(20).collect::<String>()))
         })?;
-        let url = url::Url::parse(text).map_err(|e| format!("is not a valid URL: {e}"))?;
+        let url = url::Url::parse(text).map_err(UrlError::Unparsed)?;
         let host = url.host_str().unwrap_or_default();
         match scheme {
             Scheme::Http => check_host(host)?,
@@ -86,30 +127,24 @@ impl StoreUrl {
 /// endpoint into every request's URL as it is: the `http` crate rejects a space, and a query
 /// would end up inside each request's path). What is handed over is the URL as parsed
 /// (percent-encoded where it needs to be), with no `/` added.
-pub(crate) fn parse_endpoint(text: &str) -> Result<(String, StoreUrl), String> {
+pub(crate) fn parse_endpoint(text: &str) -> Result<(String, StoreUrl), UrlError> {
     let text = text.trim();
     if let Some(c) = text.chars().find(|c| c.is_whitespace() || c.is_control()) {
-        return Err(format!(
-            "is not a valid URL: it holds {} inside",
-            match c {
-                ' ' => "a space".to_owned(),
-                c => format!("the character {}", escape(&c.escape_unicode().to_string())),
-            }
-        ));
+        return Err(UrlError::Inside(match c {
+            ' ' => "a space".to_owned(),
+            c => format!("the character {}", escape(&c.escape_unicode().to_string())),
+        }));
     }
-    const FORM: &str = "an endpoint is http(s)://HOST[:PORT][/PATH]";
     if scheme_of(text) != Some(Scheme::Http) {
         let shown: String = redact_url(text).chars().take(80).collect();
-        return Err(format!(
-            "is not an http:// or https:// URL ('{shown}'): {FORM}"
-        ));
+        return Err(UrlError::EndpointNotHttp(shown));
     }
     let url = StoreUrl::parse(text)?;
     if url.url.query().is_some() {
-        return Err(format!("has a query ('?…'): {FORM}"));
+        return Err(UrlError::EndpointQuery);
     }
     if url.url.fragment().is_some() {
-        return Err(format!("has a fragment ('#…'): {FORM}"));
+        return Err(UrlError::EndpointFragment);
     }
     let parsed = url.url.as_str();
     // The parser writes `http://host` as `http://host/`; object_store takes a path's own `/`.
@@ -135,17 +170,15 @@ pub(crate) fn scheme_of(spec: &str) -> Option<Scheme> {
 
 /// A host a request can be made to: a DNS name (letters, digits, `-`, `.`, `_`), an IPv4
 /// address or a bracketed IPv6 address.
-fn check_host(host: &str) -> Result<(), String> {
+fn check_host(host: &str) -> Result<(), UrlError> {
     if host.is_empty() {
-        return Err("is not a valid URL: it names no host".to_owned());
+        return Err(UrlError::NoHost);
     }
     if let Some(inner) = host.strip_prefix('[').and_then(|h| h.strip_suffix(']')) {
-        return inner.parse::<IpAddr>().map(|_| ()).map_err(|_| {
-            format!(
-                "is not a valid URL: the host '{}' is no IPv6 address",
-                escape(host)
-            )
-        });
+        return inner
+            .parse::<IpAddr>()
+            .map(|_| ())
+            .map_err(|_| UrlError::NotIpv6(escape(host)));
     }
     let valid = host.len() <= 253
         && host.split('.').all(|label| {
@@ -158,18 +191,17 @@ fn check_host(host: &str) -> Result<(), String> {
     if valid {
         Ok(())
     } else {
-        Err(format!(
-            "is not a valid URL: the host '{}' is no host name or address",
-            escape(&host.chars().take(80).collect::<String>())
-        ))
+        Err(UrlError::NotHostName(escape(
+            &host.chars().take(80).collect::<String>(),
+        )))
     }
 }
 
 /// An S3 bucket name: 1 to 255 of letters, digits, `.`, `-` and `_` (S3's own rules are
 /// stricter; other S3-compatible stores accept these).
-fn check_bucket(bucket: &str) -> Result<(), String> {
+fn check_bucket(bucket: &str) -> Result<(), UrlError> {
     if bucket.is_empty() {
-        return Err("names no bucket (s3://BUCKET/PATH)".to_owned());
+        return Err(UrlError::NoBucket);
     }
     let valid = bucket.len() <= 255
         && bucket
@@ -178,10 +210,9 @@ fn check_bucket(bucket: &str) -> Result<(), String> {
     if valid {
         Ok(())
     } else {
-        Err(format!(
-            "is not a valid URL: '{}' is no S3 bucket name (letters, digits, '.', '-', '_')",
-            escape(&bucket.chars().take(80).collect::<String>())
-        ))
+        Err(UrlError::NotBucket(escape(
+            &bucket.chars().take(80).collect::<String>(),
+        )))
     }
 }
 
@@ -321,7 +352,7 @@ mod tests {
             ("http://{bad}", "is no host name"),
         ] {
             let error = parse_endpoint(bad).expect_err(bad);
-            assert!(error.contains(wanted), "{bad:?}: {error}");
+            assert!(error.to_string().contains(wanted), "{bad:?}: {error}");
         }
     }
 
@@ -336,7 +367,7 @@ mod tests {
             ("ftp://host/x", "'ftp:'"),
             ("http://[zz]/x", "is not a valid URL"),
         ] {
-            let error = StoreUrl::parse(bad).expect_err(bad);
+            let error = StoreUrl::parse(bad).expect_err(bad).to_string();
             assert!(error.contains(wanted), "{bad}: {error}");
             assert!(!error.contains("u:p"), "{error}");
         }

@@ -3,6 +3,8 @@
 
 use serde_json::{Value, json};
 
+use crate::OptionError;
+
 /// The OME-Zarr version written.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ZarrVersion {
@@ -38,15 +40,18 @@ impl Compression {
     ];
 
     /// Parses a name of [`Self::NAMES`].
-    pub fn parse(text: &str) -> Result<Self, String> {
+    pub fn parse(text: &str) -> Result<Self, OptionError> {
         Self::NAMES
             .iter()
             .find(|(name, _)| *name == text)
             .map(|(_, c)| *c)
-            .ok_or_else(|| {
-                let names: Vec<&str> = Self::NAMES.iter().map(|(n, _)| *n).collect();
-                format!("compression '{text}' is not one of {}", names.join(", "))
-            })
+            .ok_or_else(|| OptionError::UnknownCompression(text.to_owned()))
+    }
+
+    /// The names of [`Self::NAMES`], comma-separated: what a message lists.
+    pub(crate) fn names() -> String {
+        let names: Vec<&str> = Self::NAMES.iter().map(|(n, _)| *n).collect();
+        names.join(", ")
     }
 
     pub(super) fn v2(self) -> Value {
