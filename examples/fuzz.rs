@@ -242,94 +242,131 @@ enum Event {
     Exited(usize),
 }
 
-/// The parent: starts the workers, counts, watches for hangs and crashes, reports.
-fn supervise(options: &Options, seeds: &[seeds::Seed], args: &[String]) -> i32 {
-    let started = Instant::now();
-    let (sender, events) = mpsc::channel();
-    let mut children: Vec<Option<Child>> = Vec::new();
-    let mut running: Vec<Option<(Kind, u64, Instant)>> = vec![None; options.jobs];
-    let mut stderr_tails: Vec<std::sync::Arc<std::sync::Mutex<Vec<String>>>> = Vec::new();
-    for worker in 0..options.jobs {
-        stderr_tails.push(Default::default());
-        children.push(Some(spawn(
+/// What the workers reported, counted by the parent.
+#[derive(Default)]
+struct Counts {
+    tallies: BTreeMap<(Kind, usize), SeedTally>,
+    found: Vec<Found>,
+    /// Cases done, of every format.
+    done: u64,
+    /// Workers that ended (done with their cases, or failed outside one).
+    finished: usize,
+}
+
+/// The last lines a worker wrote to stderr (what a crash report quotes).
+type StderrTail = std::sync::Arc<std::sync::Mutex<Vec<String>>>;
+
+/// The worker processes as the parent sees them: each one's process, the case it runs and
+/// since when, and the tail of its stderr.
+struct Workers<'a> {
+    /// This program's arguments, which each worker is started with.
+    args: &'a [String],
+    sender: mpsc::Sender<Event>,
+    children: Vec<Option<Child>>,
+    running: Vec<Option<(Kind, u64, Instant)>>,
+    stderr_tails: Vec<StderrTail>,
+}
+
+impl<'a> Workers<'a> {
+    /// Starts `jobs` workers, which send their lines and exits to `sender`.
+    fn start(jobs: usize, args: &'a [String], sender: mpsc::Sender<Event>) -> Self {
+        let mut children: Vec<Option<Child>> = Vec::new();
+        let mut stderr_tails: Vec<StderrTail> = Vec::new();
+        for worker in 0..jobs {
+            stderr_tails.push(Default::default());
+            children.push(Some(spawn(
+                args,
+                worker,
+                None,
+                &sender,
+                &stderr_tails[worker],
+            )));
+        }
+        Workers {
             args,
-            worker,
-            None,
-            &sender,
-            &stderr_tails[worker],
-        )));
+            sender,
+            children,
+            running: vec![None; jobs],
+            stderr_tails,
+        }
     }
-    let mut tallies: BTreeMap<(Kind, usize), SeedTally> = BTreeMap::new();
-    let mut found: Vec<Found> = Vec::new();
-    let mut finished = 0;
-    let mut last_progress = Instant::now();
-    let total = options.cases * options.kinds.len() as u64;
-    let mut done = 0u64;
-    while finished < options.jobs {
-        match events.recv_timeout(Duration::from_millis(500)) {
-            Ok(Event::Line(worker, line)) => {
-                let parts: Vec<&str> = line.splitn(4, ' ').collect();
-                let kind = parts.get(1).and_then(|k| Kind::from_name(k));
-                let index = parts.get(2).and_then(|i| i.parse::<u64>().ok());
-                match (parts[0], kind, index) {
-                    ("start", Some(kind), Some(index)) => {
-                        running[worker] = Some((kind, index, Instant::now()))
-                    }
-                    ("fail", Some(kind), Some(index)) => found.push(Found {
+
+    /// Counts a line of `worker`'s: a case started, failed or done (with its figures).
+    fn take_line(&mut self, worker: usize, line: &str, seeds: &[seeds::Seed], counts: &mut Counts) {
+        let parts: Vec<&str> = line.splitn(4, ' ').collect();
+        let kind = parts.get(1).and_then(|k| Kind::from_name(k));
+        let index = parts.get(2).and_then(|i| i.parse::<u64>().ok());
+        match (parts[0], kind, index) {
+            ("start", Some(kind), Some(index)) => {
+                self.running[worker] = Some((kind, index, Instant::now()))
+            }
+            ("fail", Some(kind), Some(index)) => counts.found.push(Found {
+                kind,
+                index,
+                what: parts.get(3).unwrap_or(&"").to_string(),
+            }),
+            ("done", Some(kind), Some(index)) => {
+                self.running[worker] = None;
+                counts.done += 1;
+                let fields: Vec<&str> = parts.get(3).unwrap_or(&"").split(' ').collect();
+                let seed_count = seeds_of(seeds, kind).len() as u64;
+                let tally = counts
+                    .tallies
+                    .entry((kind, (index % seed_count) as usize))
+                    .or_default();
+                tally.cases += 1;
+                tally.loaded += (fields.first() == Some(&"1")) as u64;
+                let peak: usize = fields.get(1).and_then(|p| p.parse().ok()).unwrap_or(0);
+                tally.peak_bytes = tally.peak_bytes.max(peak);
+                let micros: f64 = fields.get(2).and_then(|m| m.parse().ok()).unwrap_or(0.0);
+                tally.max_seconds = tally.max_seconds.max(micros / 1e6);
+            }
+            _ => {}
+        }
+    }
+
+    /// `worker` exited: done, or died inside a case (reported as a crash; the worker starts
+    /// again after that case), or failed outside a case (said, and not started again). Returns
+    /// true for the last.
+    fn exited(&mut self, worker: usize, counts: &mut Counts) -> bool {
+        let status = self.children[worker].as_mut().and_then(|c| c.wait().ok());
+        match self.running[worker].take() {
+            None if status.is_some_and(|s| s.success()) => counts.finished += 1,
+            crashed => {
+                // Died inside a case (or before its first): report and go on after it.
+                let tail = self.stderr_tails[worker]
+                    .lock()
+                    .map(|t| t.join(" | "))
+                    .unwrap_or_default();
+                let resume = crashed.map(|(kind, index, _)| {
+                    counts.found.push(Found {
                         kind,
                         index,
-                        what: parts.get(3).unwrap_or(&"").to_string(),
-                    }),
-                    ("done", Some(kind), Some(index)) => {
-                        running[worker] = None;
-                        done += 1;
-                        let fields: Vec<&str> = parts.get(3).unwrap_or(&"").split(' ').collect();
-                        let seed_count = seeds_of(seeds, kind).len() as u64;
-                        let tally = tallies
-                            .entry((kind, (index % seed_count) as usize))
-                            .or_default();
-                        tally.cases += 1;
-                        tally.loaded += (fields.first() == Some(&"1")) as u64;
-                        let peak: usize = fields.get(1).and_then(|p| p.parse().ok()).unwrap_or(0);
-                        tally.peak_bytes = tally.peak_bytes.max(peak);
-                        let micros: f64 = fields.get(2).and_then(|m| m.parse().ok()).unwrap_or(0.0);
-                        tally.max_seconds = tally.max_seconds.max(micros / 1e6);
-                    }
-                    _ => {}
+                        what: format!("crash: worker exited with {status:?}: {tail}"),
+                    });
+                    (kind, index)
+                });
+                if crashed.is_none() {
+                    eprintln!("worker {worker} failed outside a case ({status:?}): {tail}");
+                    counts.finished += 1;
+                    return true;
                 }
+                self.children[worker] = Some(spawn(
+                    self.args,
+                    worker,
+                    resume,
+                    &self.sender,
+                    &self.stderr_tails[worker],
+                ));
             }
-            Ok(Event::Exited(worker)) => {
-                let status = children[worker].as_mut().and_then(|c| c.wait().ok());
-                match running[worker].take() {
-                    None if status.is_some_and(|s| s.success()) => finished += 1,
-                    crashed => {
-                        // Died inside a case (or before its first): report and go on after it.
-                        let tail = stderr_tails[worker]
-                            .lock()
-                            .map(|t| t.join(" | "))
-                            .unwrap_or_default();
-                        let resume = crashed.map(|(kind, index, _)| {
-                            found.push(Found {
-                                kind,
-                                index,
-                                what: format!("crash: worker exited with {status:?}: {tail}"),
-                            });
-                            (kind, index)
-                        });
-                        if crashed.is_none() {
-                            eprintln!("worker {worker} failed outside a case ({status:?}): {tail}");
-                            finished += 1;
-                            continue;
-                        }
-                        children[worker] =
-                            Some(spawn(args, worker, resume, &sender, &stderr_tails[worker]));
-                    }
-                }
-            }
-            Err(_) => {}
         }
-        for worker in 0..options.jobs {
-            if let Some((kind, index, since)) = running[worker]
+        false
+    }
+
+    /// Kills the workers whose case runs past [`HANG_SECONDS`], reporting it as a hang.
+    fn kill_hung(&mut self, found: &mut Vec<Found>) {
+        for (worker, running) in self.running.iter().enumerate() {
+            if let Some((kind, index, since)) = *running
                 && since.elapsed().as_secs_f64() > HANG_SECONDS
             {
                 found.push(Found {
@@ -337,12 +374,42 @@ fn supervise(options: &Options, seeds: &[seeds::Seed], args: &[String]) -> i32 {
                     index,
                     what: format!("hang: still running after {HANG_SECONDS} s, killed"),
                 });
-                if let Some(child) = children[worker].as_mut() {
+                if let Some(child) = self.children[worker].as_mut() {
                     let _ = child.kill();
                 }
                 // The exit event restarts it after this case.
             }
         }
+    }
+
+    /// Kills every worker and waits for it.
+    fn stop(&mut self) {
+        for child in self.children.iter_mut().flatten() {
+            let _ = child.kill();
+            let _ = child.wait();
+        }
+    }
+}
+
+/// The parent: starts the workers, counts, watches for hangs and crashes, reports.
+fn supervise(options: &Options, seeds: &[seeds::Seed], args: &[String]) -> i32 {
+    let started = Instant::now();
+    let (sender, events) = mpsc::channel();
+    let mut workers = Workers::start(options.jobs, args, sender);
+    let mut counts = Counts::default();
+    let mut last_progress = Instant::now();
+    let total = options.cases * options.kinds.len() as u64;
+    while counts.finished < options.jobs {
+        match events.recv_timeout(Duration::from_millis(500)) {
+            Ok(Event::Line(worker, line)) => workers.take_line(worker, &line, seeds, &mut counts),
+            Ok(Event::Exited(worker)) => {
+                if workers.exited(worker, &mut counts) {
+                    continue;
+                }
+            }
+            Err(_) => {}
+        }
+        workers.kill_hung(&mut counts.found);
         if options
             .stop_after
             .is_some_and(|limit| started.elapsed().as_secs_f64() > limit)
@@ -351,16 +418,14 @@ fn supervise(options: &Options, seeds: &[seeds::Seed], args: &[String]) -> i32 {
                 "stopping after {:.0} s as asked",
                 started.elapsed().as_secs_f64()
             );
-            for child in children.iter_mut().flatten() {
-                let _ = child.kill();
-                let _ = child.wait();
-            }
+            workers.stop();
             break;
         }
         if last_progress.elapsed() > Duration::from_secs(30) {
             eprintln!(
-                "{done} of {total} cases, {} failures, {:.0} s",
-                found.len(),
+                "{} of {total} cases, {} failures, {:.0} s",
+                counts.done,
+                counts.found.len(),
                 started.elapsed().as_secs_f64()
             );
             last_progress = Instant::now();
@@ -369,36 +434,42 @@ fn supervise(options: &Options, seeds: &[seeds::Seed], args: &[String]) -> i32 {
     report(
         options,
         seeds,
-        &tallies,
-        &found,
+        &counts.tallies,
+        &counts.found,
         started.elapsed().as_secs_f64(),
     );
     if let Some(dir) = &options.save {
-        for failure in &found {
-            let case = fuzz::make_case(
-                &seeds_of(seeds, failure.kind),
-                failure.kind,
-                options.seed,
-                failure.index,
-            );
-            let folder = dir.join(format!(
-                "{}-{}-s{}-c{}",
-                failure.kind.name(),
-                failure
-                    .what
-                    .split(':')
-                    .next()
-                    .unwrap_or("failure")
-                    .replace(' ', "-"),
-                options.seed,
-                failure.index
-            ));
-            if let Err(error) = fuzz::save_case(&case, &folder, &failure.what) {
-                eprintln!("cannot save {}: {error}", folder.display());
-            }
+        save_failures(options, seeds, &counts.found, dir);
+    }
+    if counts.found.is_empty() { 0 } else { 1 }
+}
+
+/// Keeps each failing case as a folder in `dir` (for tests/data/fuzz/), named by its format,
+/// the kind of failure, the campaign seed and the case.
+fn save_failures(options: &Options, seeds: &[seeds::Seed], found: &[Found], dir: &Path) {
+    for failure in found {
+        let case = fuzz::make_case(
+            &seeds_of(seeds, failure.kind),
+            failure.kind,
+            options.seed,
+            failure.index,
+        );
+        let folder = dir.join(format!(
+            "{}-{}-s{}-c{}",
+            failure.kind.name(),
+            failure
+                .what
+                .split(':')
+                .next()
+                .unwrap_or("failure")
+                .replace(' ', "-"),
+            options.seed,
+            failure.index
+        ));
+        if let Err(error) = fuzz::save_case(&case, &folder, &failure.what) {
+            eprintln!("cannot save {}: {error}", folder.display());
         }
     }
-    if found.is_empty() { 0 } else { 1 }
 }
 
 fn spawn(

@@ -1,8 +1,9 @@
 //! The central view: its panes laid out for the chosen [`Layout`], each a render target drawn
 //! again only when what it shows changed, paced so that the device is never given more than
-//! it finishes in a UI frame (`central/pacing.rs`, `central/draw.rs`); the strips above the
-//! panes (the level grid's pane count, the transfer pair's B), the pane labels, the
-//! orientation gizmo, and the measured cost of the last frame.
+//! it finishes in a UI frame (`central/pacing.rs`, `central/draw.rs`,
+//! `central/volume_work.rs`); the strips above the panes (the level grid's pane count, the
+//! transfer pair's B), the pane labels, the orientation gizmo, and the measured cost of the
+//! last frame.
 
 use std::time::Instant;
 
@@ -21,6 +22,7 @@ use voxscope_scene::Scene;
 mod draw;
 mod pacing;
 mod pane;
+mod volume_work;
 use pacing::FramePacer;
 use pane::Pane;
 use voxscope_render::{FrameProbe, FrameReport, SliceConvention, read_image};

@@ -22,178 +22,120 @@ impl VoxscopeApp {
     /// Carries out `command` now. Menus, toolbar and shortcuts queue theirs and the app runs
     /// them after the frame's UI; tests call this directly.
     pub fn run_command(&mut self, command: Command, ctx: &egui::Context) {
-        let result = match command {
-            Command::ShowFrame(selection) => {
-                self.show_frame(
-                    FrameKey {
-                        time: selection.time,
-                        channel: Some(selection.channel),
-                    },
-                    ctx,
-                );
-                Ok(None)
-            }
-            Command::ShowComposite => {
-                if let Some(scene) = &self.scene {
-                    let time = scene.data.volume.series.selected.time;
-                    self.show_frame(
-                        FrameKey {
-                            time,
-                            channel: None,
-                        },
-                        ctx,
-                    );
-                }
-                Ok(None)
-            }
-            Command::ShowTime(time) => {
-                if let Some(scene) = &self.scene {
-                    let key = FrameKey {
-                        time,
-                        ..FrameKey::of_scene(scene)
-                    };
-                    self.show_frame(key, ctx);
-                }
-                Ok(None)
-            }
-            Command::SelectChannel(index) => {
-                self.select_channel(index);
-                Ok(None)
-            }
-            Command::Open(source) => {
-                self.open(source, None, ctx);
-                Ok(None)
-            }
-            Command::ShowDialog(kind) if self.no_desktop_dialogs => {
-                self.browse(kind, ctx);
-                Ok(None)
-            }
-            Command::ShowDialog(kind) => {
-                self.show_dialog(kind, ctx);
-                Ok(None)
-            }
-            Command::Browse(kind) => {
-                self.browse(kind, ctx);
-                Ok(None)
-            }
-            Command::AskUrl => {
-                self.url_dialog = Some(UrlDialog::default());
-                Ok(None)
-            }
-            Command::CancelOpen => {
-                self.jobs.cancel_open();
-                Ok(None)
-            }
-            Command::SaveScreenshot(path) => self
-                .save_screenshot(&path, ctx.pixels_per_point())
-                .map(|()| Some(self.saved(&path, "screenshot"))),
+        match command {
+            Command::ShowFrame(selection) => self.show_frame(
+                FrameKey {
+                    time: selection.time,
+                    channel: Some(selection.channel),
+                },
+                ctx,
+            ),
+            Command::ShowComposite => self.show_composite(ctx),
+            Command::ShowTime(time) => self.show_time(time, ctx),
+            Command::SelectChannel(index) => self.select_channel(index),
+            Command::Open(source) => self.open(source, None, ctx),
+            Command::ShowDialog(kind) if self.no_desktop_dialogs => self.browse(kind, ctx),
+            Command::ShowDialog(kind) => self.show_dialog(kind, ctx),
+            Command::Browse(kind) => self.browse(kind, ctx),
+            Command::AskUrl => self.url_dialog = Some(UrlDialog::default()),
+            Command::CancelOpen => self.jobs.cancel_open(),
+            Command::SaveScreenshot(path) => self.reporting(|app| {
+                app.save_screenshot(&path, ctx.pixels_per_point())
+                    .map(|()| Some(app.saved(&path, "screenshot")))
+            }),
             Command::SaveScaledScreenshot { path, scale } => {
-                self.save_scaled_screenshot(path, scale, ctx).map(|()| None)
+                self.reporting(|app| app.save_scaled_screenshot(path, scale, ctx).map(|()| None))
             }
-            Command::SetScreenshotScale(scale) => {
-                self.screenshot_scale = scale.max(1);
-                Ok(None)
+            Command::SetScreenshotScale(scale) => self.screenshot_scale = scale.max(1),
+            Command::SaveTransfer(path) => self.reporting(|app| {
+                app.save_transfer(&path)
+                    .map(|()| Some(app.saved(&path, "transfer function")))
+                    .map_err(|e| e.to_string())
+            }),
+            Command::LoadTransfer(path) => self.reporting(|app| {
+                app.load_transfer(&path)
+                    .map(|()| Some(format!("loaded {}", path.display())))
+                    .map_err(|e| e.to_string())
+            }),
+            Command::OpenLabels(path) => self.labels.add_file(&path.display().to_string()),
+            Command::SaveView(path) => {
+                self.reporting(|app| app.save_view(path, ctx).map(|()| None))
             }
-            Command::SaveTransfer(path) => self
-                .save_transfer(&path)
-                .map(|()| Some(self.saved(&path, "transfer function")))
-                .map_err(|e| e.to_string()),
-            Command::LoadTransfer(path) => self
-                .load_transfer(&path)
-                .map(|()| Some(format!("loaded {}", path.display())))
-                .map_err(|e| e.to_string()),
-            Command::OpenLabels(path) => {
-                self.labels.add_file(&path.display().to_string());
-                Ok(None)
-            }
-            Command::SaveView(path) => self.save_view(path, ctx).map(|()| None),
             Command::SaveViewAgain => match self.last_view_file.clone() {
-                Some(path) => self.save_view(path, ctx).map(|()| None),
-                None => {
-                    self.commands
-                        .send(Command::ShowDialog(DialogKind::SaveView));
-                    Ok(None)
-                }
+                Some(path) => self.reporting(|app| app.save_view(path, ctx).map(|()| None)),
+                None => self
+                    .commands
+                    .send(Command::ShowDialog(DialogKind::SaveView)),
             },
             Command::OpenView(path) => {
                 let wake = ctx.clone();
                 self.jobs.view_file =
                     Some(view_file::read_job(path, move || wake.request_repaint()));
-                Ok(None)
             }
-            Command::AddKeyframe => self.add_keyframe().map(|()| None),
-            Command::MoveKeyframe { from, to } => {
-                self.move_keyframe(from, to);
-                Ok(None)
-            }
+            Command::AddKeyframe => self.reporting(|app| app.add_keyframe().map(|()| None)),
+            Command::MoveKeyframe { from, to } => self.move_keyframe(from, to),
             Command::DeleteKeyframe(index) => {
                 if index < self.movie.keyframes.len() {
                     self.movie.keyframes.remove(index);
                 }
-                Ok(None)
             }
-            Command::SetMovieOutput(path) => {
-                self.movie.output = path.display().to_string();
-                Ok(None)
-            }
-            Command::PreviewMovie => self.start_preview().map(|()| None),
-            Command::StopPreview => {
-                self.stop_preview();
-                Ok(None)
-            }
-            Command::ExportMovie => self.export_movie(ctx).map(|()| None),
+            Command::SetMovieOutput(path) => self.movie.output = path.display().to_string(),
+            Command::PreviewMovie => self.reporting(|app| app.start_preview().map(|()| None)),
+            Command::StopPreview => self.stop_preview(),
+            Command::ExportMovie => self.reporting(|app| app.export_movie(ctx).map(|()| None)),
             Command::CancelExport => {
                 if let Some(job) = &self.jobs.exporting {
                     job.progress.cancel();
                 }
-                Ok(None)
             }
-            Command::SetLayout(layout) => {
-                self.settings.layout = layout;
-                Ok(None)
-            }
+            Command::SetLayout(layout) => self.settings.layout = layout,
             Command::ViewFrom(preset) => {
                 let (azimuth, elevation) = preset.angles();
                 self.settings.camera = viewport::preset(&self.settings.camera, azimuth, elevation);
-                Ok(None)
             }
-            Command::ResetCamera => {
-                self.settings.camera = Default::default();
-                Ok(None)
-            }
-            Command::TogglePanel(panel) => {
-                self.settings.toggle_panel(panel);
-                Ok(None)
-            }
-            Command::SetTool(tool) => {
-                self.settings.tool = tool;
-                Ok(None)
-            }
-            Command::SetSliceLinear(linear) => {
-                self.settings.slice_linear = linear;
-                Ok(None)
-            }
-            Command::ShowSlicePlanes(show) => {
-                self.settings.show_slice_planes = show;
-                Ok(None)
-            }
-            Command::ClearRulers => {
-                self.view.rulers.clear();
-                Ok(None)
-            }
-            Command::DismissError => {
-                self.error = None;
-                Ok(None)
-            }
-            Command::Quit => {
-                ctx.send_viewport_cmd(egui::ViewportCommand::Close);
-                Ok(None)
-            }
-        };
-        match result {
+            Command::ResetCamera => self.settings.camera = Default::default(),
+            Command::TogglePanel(panel) => self.settings.toggle_panel(panel),
+            Command::SetTool(tool) => self.settings.tool = tool,
+            Command::SetSliceLinear(linear) => self.settings.slice_linear = linear,
+            Command::ShowSlicePlanes(show) => self.settings.show_slice_planes = show,
+            Command::ClearRulers => self.view.rulers.clear(),
+            Command::DismissError => self.error = None,
+            Command::Quit => ctx.send_viewport_cmd(egui::ViewportCommand::Close),
+        }
+    }
+
+    /// Runs `action`, a command that can fail, and tells its outcome: the notice it returns
+    /// (what was saved or loaded) or its error.
+    fn reporting(&mut self, action: impl FnOnce(&mut Self) -> Result<Option<String>, String>) {
+        match action(self) {
             Ok(Some(notice)) => self.notify(notice),
             Ok(None) => {}
             Err(message) => self.fail(message),
+        }
+    }
+
+    /// Shows the composite of the time point on screen.
+    fn show_composite(&mut self, ctx: &egui::Context) {
+        if let Some(scene) = &self.scene {
+            let time = scene.data.volume.series.selected.time;
+            self.show_frame(
+                FrameKey {
+                    time,
+                    channel: None,
+                },
+                ctx,
+            );
+        }
+    }
+
+    /// Shows time point `time` of the channel (or the composite) on screen.
+    fn show_time(&mut self, time: usize, ctx: &egui::Context) {
+        if let Some(scene) = &self.scene {
+            let key = FrameKey {
+                time,
+                ..FrameKey::of_scene(scene)
+            };
+            self.show_frame(key, ctx);
         }
     }
 

@@ -37,9 +37,6 @@ pub fn show(
     view: &mut ViewState,
     facts: &OctreeFacts<'_>,
 ) {
-    let depth = facts.scene.map_or(0, Scene::depth);
-    let grid_levels = view.grid_levels_shown(settings.grid_panes.clamp(2, MAX_GRID_PANES), depth);
-    let max_level = &mut view.max_level;
     ui.heading("Octree");
     ui.add_space(4.0);
     let composite = facts.scene.and_then(|s| s.composite.as_ref());
@@ -47,92 +44,158 @@ pub fn show(
         .num_columns(2)
         .spacing([8.0, 6.0])
         .show(ui, |ui| {
-            let grid = (settings.layout == Layout::LevelGrid && composite.is_none())
-                .then(|| grid_levels.clone());
-            let label = ui.label("Max level");
-            if let Some(levels) = &grid {
-                let shown: Vec<String> = levels.iter().map(u32::to_string).collect();
-                ui.label(format!("per pane: {}", shown.join(", ")))
-                    .labelled_by(label.id)
-                    .on_hover_text("The level grid draws each pane at its own max level: set it at the top of the pane. The single view's max level is kept for the other layouts");
-            } else {
-                ui.add_enabled(depth > 0 && composite.is_none(), egui::Slider::new(max_level, 0..=depth))
-                    .labelled_by(label.id)
-                    .on_hover_text("Deepest level rays descend to: 0 is the root alone, the last level the voxels")
-                    .on_disabled_hover_text("The composite is marched through the voxels by the dense renderer: it has no levels");
-            }
-            ui.end_row();
-
-            if let Some(scene) = facts.scene {
-                const DRAWN_HOVER: &str = "What this max level draws with this renderer: the octree's nodes (one color each, as in the paper), or a level of the volume's pyramid (the volume averaged 2× per level), filtered, one sample per voxel of that level";
-                ui.label("Drawn");
-                match &grid {
-                    Some(levels) => {
-                        ui.vertical(|ui| {
-                            for &level in levels {
-                                let detail = level_detail_text(scene.renderer.level_detail(level));
-                                ui.label(format!("{level}: {detail}")).on_hover_text(DRAWN_HOVER);
-                            }
-                        });
-                    }
-                    None => {
-                        ui.label(level_detail_text(scene.renderer.level_detail(*max_level)))
-                            .on_hover_text(DRAWN_HOVER);
-                    }
-                }
-                ui.end_row();
-            }
-
-            // The renderer this volume is drawn with: the data's where it called for one (a
-            // large store streams), else the user's. Choosing one is the user's choice, for
-            // this volume and the next.
-            let shown = view.data_renderer.unwrap_or(settings.renderer);
-            let mut chosen = shown;
-            let label = ui.label("Renderer");
-            let combo = egui::ComboBox::from_id_salt("renderer")
-                .selected_text(shown.name())
-                .show_ui(ui, |ui| {
-                    for kind in RendererKind::ALL.into_iter().chain([RendererKind::Stream]) {
-                        ui.selectable_value(&mut chosen, kind, kind.name());
-                    }
-                })
-                .response
-                .labelled_by(label.id)
-                .on_hover_text("octree: the paper's voxel octree · dense: one 3D texture (the usual way) · bricks: octree down to bricks in a 3D atlas · stream: a pyramid of 32³ bricks streamed into a fixed GPU budget (OME-Zarr stores from the file, at full resolution)");
-            if view.data_renderer.is_some() {
-                combo.on_hover_text(format!(
-                    "This volume called for {}; the next opens with {}, the renderer chosen here",
-                    shown.name(),
-                    settings.renderer.name()
-                ));
-            }
-            if chosen != shown {
-                settings.renderer = chosen;
-                view.data_renderer = None;
-            }
-            ui.end_row();
-
-            if shown == RendererKind::Stream {
-                stream_panel::budget_row(ui, settings, facts.scene);
-            }
-
-            if shown == RendererKind::Bricks {
-                let label = ui.label("Brick size");
-                egui::ComboBox::from_id_salt("brick_size")
-                    .selected_text(format!("{0}³", settings.brick_size))
-                    .show_ui(ui, |ui| {
-                        for size in [8, 16, 32] {
-                            ui.selectable_value(&mut settings.brick_size, size, format!("{size}³"));
-                        }
-                    })
-                    .response
-                    .labelled_by(label.id);
-                ui.end_row();
-            }
+            level_rows(ui, settings, view, facts);
+            renderer_rows(ui, settings, view, facts);
         });
     if composite.is_some() {
         ui.small("The composite is drawn by the dense march; the renderer above draws one channel (choose it under Channels and time) and the slices.");
     }
+    march_options(ui, settings, view, facts);
+    if let Some(scene) = facts.scene {
+        let volume = &scene.data.volume;
+        let context = ClipContext {
+            dims: volume.dims,
+            extent: volume.extent(),
+            cursor: view.cursor,
+            camera: settings.camera,
+        };
+        clip_panel::show(ui, &mut view.clipping, &context);
+        measurements(ui, view, volume);
+    }
+
+    ui.separator();
+    frame_numbers(ui, facts);
+
+    let Some(scene) = facts.scene else { return };
+    if scene.stream_status.is_some() {
+        ui.separator();
+        stream_panel::show(ui, scene);
+    }
+    ui.separator();
+    if let Some(composite) = composite {
+        composite_facts(ui, composite);
+        return;
+    }
+    node_statistics(ui, scene, facts);
+}
+
+/// The grid's level rows: the max level (the level grid's per pane), and what each level
+/// shown draws with this renderer.
+fn level_rows(ui: &mut Ui, settings: &AppSettings, view: &mut ViewState, facts: &OctreeFacts<'_>) {
+    let depth = facts.scene.map_or(0, Scene::depth);
+    let grid_levels = view.grid_levels_shown(settings.grid_panes.clamp(2, MAX_GRID_PANES), depth);
+    let max_level = &mut view.max_level;
+    let composite = facts.scene.and_then(|s| s.composite.as_ref());
+    let grid = (settings.layout == Layout::LevelGrid && composite.is_none()).then_some(grid_levels);
+    let label = ui.label("Max level");
+    if let Some(levels) = &grid {
+        let shown: Vec<String> = levels.iter().map(u32::to_string).collect();
+        ui.label(format!("per pane: {}", shown.join(", ")))
+            .labelled_by(label.id)
+            .on_hover_text("The level grid draws each pane at its own max level: set it at the top of the pane. The single view's max level is kept for the other layouts");
+    } else {
+        ui.add_enabled(
+            depth > 0 && composite.is_none(),
+            egui::Slider::new(max_level, 0..=depth),
+        )
+        .labelled_by(label.id)
+        .on_hover_text(
+            "Deepest level rays descend to: 0 is the root alone, the last level the voxels",
+        )
+        .on_disabled_hover_text(
+            "The composite is marched through the voxels by the dense renderer: it has no levels",
+        );
+    }
+    ui.end_row();
+
+    if let Some(scene) = facts.scene {
+        const DRAWN_HOVER: &str = "What this max level draws with this renderer: the octree's nodes (one color each, as in the paper), or a level of the volume's pyramid (the volume averaged 2× per level), filtered, one sample per voxel of that level";
+        ui.label("Drawn");
+        match &grid {
+            Some(levels) => {
+                ui.vertical(|ui| {
+                    for &level in levels {
+                        let detail = level_detail_text(scene.renderer.level_detail(level));
+                        ui.label(format!("{level}: {detail}"))
+                            .on_hover_text(DRAWN_HOVER);
+                    }
+                });
+            }
+            None => {
+                ui.label(level_detail_text(scene.renderer.level_detail(*max_level)))
+                    .on_hover_text(DRAWN_HOVER);
+            }
+        }
+        ui.end_row();
+    }
+}
+
+/// The grid's renderer rows: the renderer this volume is drawn with, and the stream's budget
+/// or the bricks' size where they apply.
+fn renderer_rows(
+    ui: &mut Ui,
+    settings: &mut AppSettings,
+    view: &mut ViewState,
+    facts: &OctreeFacts<'_>,
+) {
+    // The renderer this volume is drawn with: the data's where it called for one (a
+    // large store streams), else the user's. Choosing one is the user's choice, for
+    // this volume and the next.
+    let shown = view.data_renderer.unwrap_or(settings.renderer);
+    let mut chosen = shown;
+    let label = ui.label("Renderer");
+    let combo = egui::ComboBox::from_id_salt("renderer")
+        .selected_text(shown.name())
+        .show_ui(ui, |ui| {
+            for kind in RendererKind::ALL.into_iter().chain([RendererKind::Stream]) {
+                ui.selectable_value(&mut chosen, kind, kind.name());
+            }
+        })
+        .response
+        .labelled_by(label.id)
+        .on_hover_text("octree: the paper's voxel octree · dense: one 3D texture (the usual way) · bricks: octree down to bricks in a 3D atlas · stream: a pyramid of 32³ bricks streamed into a fixed GPU budget (OME-Zarr stores from the file, at full resolution)");
+    if view.data_renderer.is_some() {
+        combo.on_hover_text(format!(
+            "This volume called for {}; the next opens with {}, the renderer chosen here",
+            shown.name(),
+            settings.renderer.name()
+        ));
+    }
+    if chosen != shown {
+        settings.renderer = chosen;
+        view.data_renderer = None;
+    }
+    ui.end_row();
+
+    if shown == RendererKind::Stream {
+        stream_panel::budget_row(ui, settings, facts.scene);
+    }
+
+    if shown == RendererKind::Bricks {
+        let label = ui.label("Brick size");
+        egui::ComboBox::from_id_salt("brick_size")
+            .selected_text(format!("{0}³", settings.brick_size))
+            .show_ui(ui, |ui| {
+                for size in [8, 16, 32] {
+                    ui.selectable_value(&mut settings.brick_size, size, format!("{size}³"));
+                }
+            })
+            .response
+            .labelled_by(label.id);
+        ui.end_row();
+    }
+}
+
+/// How rays march and what the view shows of it: the pixel-footprint stop, opacity
+/// correction, trilinear filtering, the heat map, previews of slow frames and drawing every
+/// frame.
+fn march_options(
+    ui: &mut Ui,
+    settings: &mut AppSettings,
+    view: &ViewState,
+    facts: &OctreeFacts<'_>,
+) {
+    let composite = facts.scene.and_then(|s| s.composite.as_ref());
     const NO_NODES: &str = "The composite samples the voxels one step apart: it has no nodes to stop at or to correct for";
     ui.add_enabled(
         composite.is_none(),
@@ -178,32 +241,11 @@ pub fn show(
         .on_hover_text(
             "Measure sustained frame rate; otherwise the view is drawn only when something changes",
         );
+}
 
-    if let Some(scene) = facts.scene {
-        let volume = &scene.data.volume;
-        let context = ClipContext {
-            dims: volume.dims,
-            extent: volume.extent(),
-            cursor: view.cursor,
-            camera: settings.camera,
-        };
-        clip_panel::show(ui, &mut view.clipping, &context);
-        measurements(ui, view, volume);
-    }
-
-    ui.separator();
-    frame_numbers(ui, facts);
-
-    let Some(scene) = facts.scene else { return };
-    if scene.stream_status.is_some() {
-        ui.separator();
-        stream_panel::show(ui, scene);
-    }
-    ui.separator();
-    if let Some(composite) = composite {
-        composite_facts(ui, composite);
-        return;
-    }
+/// The octree's nodes per level (table and chart, recounted for a new transfer function) and
+/// how many it stores of the full tree's.
+fn node_statistics(ui: &mut Ui, scene: &Scene, facts: &OctreeFacts<'_>) {
     ui.strong("Nodes per level");
     if facts.statistics_pending {
         ui.small("recounting for the new transfer function…");

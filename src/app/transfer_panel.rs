@@ -69,10 +69,40 @@ fn switch_mode_look(settings: &mut AppSettings, view: &mut ViewState, data: &Vol
     view.window = next.window;
 }
 
+/// The panel's parts, top to bottom: what it edits, how the volume is drawn, the presets, the
+/// value window and its presets, a label volume's choice of colors, and the histogram editor.
 fn show_panel(
     ui: &mut Ui,
     settings: &mut AppSettings,
     window: &mut ValueWindow,
+    data: Option<&VolumeData>,
+    composite: bool,
+) {
+    heading(ui, settings, *window, data, composite);
+    ui.add_space(4.0);
+    let labels = data.is_some_and(|d| matches!(d.kind, DataKind::Labels(_)));
+    look_grid(ui, settings, *window, labels, composite);
+    if let Some(data) = data {
+        ui.add_space(2.0);
+        presets(ui, settings, window, data);
+    }
+    ui.separator();
+    value_window(ui, window, data);
+    let Some(data) = data else { return };
+    window_presets(ui, window, data);
+    if let DataKind::Labels(labels) = data.kind {
+        labels_or_values(ui, settings, window, data, labels);
+    }
+    ui.add_space(4.0);
+    transfer_editor::show(ui, settings, window, data);
+}
+
+/// The panel's title (the channel's, with the composite shown) and the choice to keep this
+/// transfer function for the next volumes.
+fn heading(
+    ui: &mut Ui,
+    settings: &mut AppSettings,
+    window: ValueWindow,
     data: Option<&VolumeData>,
     composite: bool,
 ) {
@@ -91,11 +121,18 @@ fn show_panel(
         )
         .changed()
     {
-        settings.pinned_transfer = keep.then(|| settings.transfer.with_window(*window));
+        settings.pinned_transfer = keep.then(|| settings.transfer.with_window(window));
     }
-    ui.add_space(4.0);
-    let labels = data.is_some_and(|d| matches!(d.kind, DataKind::Labels(_)));
+}
 
+/// How the volume is drawn: DVR or MIP, the opacity, its scale, the shading and the colormap.
+fn look_grid(
+    ui: &mut Ui,
+    settings: &mut AppSettings,
+    window: ValueWindow,
+    labels: bool,
+    composite: bool,
+) {
     egui::Grid::new("transfer_grid")
         .num_columns(2)
         .spacing([8.0, 6.0])
@@ -115,12 +152,12 @@ fn show_panel(
             ui.end_row();
 
             ui.label("Opacity");
-            ui.horizontal(|ui| opacity_modes(ui, settings, *window));
+            ui.horizontal(|ui| opacity_modes(ui, settings, window));
             ui.end_row();
 
             if settings.transfer.opacity == OpacityMode::Binary {
                 let label = ui.label("Threshold");
-                threshold_slider(ui, &mut settings.transfer.threshold, *window)
+                threshold_slider(ui, &mut settings.transfer.threshold, window)
                     .labelled_by(label.id)
                     .on_hover_text("Opaque at and above this value (data units, within the window)");
                 ui.end_row();
@@ -132,36 +169,7 @@ fn show_panel(
                 .on_hover_text("Multiplies every alpha: below 1 makes dense volumes see-through");
             ui.end_row();
 
-            ui.label("Shading");
-            let mip = settings.mode == RenderMode::Mip;
-            ui.add_enabled(
-                !composite && !mip,
-                egui::Checkbox::new(&mut settings.shading.enabled, "Lit (headlight)"),
-            )
-            .on_hover_text(
-                "Blinn-Phong lighting from the eye: gradients of the filtered volume (dense, bricks), the voxels' faces (octree and label volumes); DVR only",
-            )
-            .on_disabled_hover_text(if mip {
-                "A maximum intensity projection is never shaded: it shows the brightest value along each ray, not a surface. Shading applies to DVR."
-            } else {
-                "The composite is unshaded: light would follow one channel's gradient, and which one is a choice it does not make. Choose one channel (Channels and time) to shade it."
-            });
-            ui.end_row();
-
-            if settings.shading.enabled && !composite && !mip {
-                let shading = &mut settings.shading;
-                for (name, value, range) in [
-                    ("Ambient", &mut shading.ambient, 0.0..=1.0),
-                    ("Diffuse", &mut shading.diffuse, 0.0..=1.0),
-                    ("Specular", &mut shading.specular, 0.0..=1.0),
-                    ("Shininess", &mut shading.shininess, 1.0..=100.0),
-                ] {
-                    let label = ui.label(name);
-                    ui.add(egui::Slider::new(value, range).fixed_decimals(2))
-                        .labelled_by(label.id);
-                    ui.end_row();
-                }
-            }
+            shading_rows(ui, settings, composite);
 
             let label = ui.label("Colormap");
             egui::ComboBox::from_id_salt("colormap")
@@ -179,13 +187,46 @@ fn show_panel(
                 .labelled_by(label.id);
             ui.end_row();
         });
+}
 
-    if let Some(data) = data {
-        ui.add_space(2.0);
-        presets(ui, settings, window, data);
+/// The grid's shading rows: lit or not (DVR of one channel only), and the light's terms
+/// while lit.
+fn shading_rows(ui: &mut Ui, settings: &mut AppSettings, composite: bool) {
+    ui.label("Shading");
+    let mip = settings.mode == RenderMode::Mip;
+    ui.add_enabled(
+        !composite && !mip,
+        egui::Checkbox::new(&mut settings.shading.enabled, "Lit (headlight)"),
+    )
+    .on_hover_text(
+        "Blinn-Phong lighting from the eye: gradients of the filtered volume (dense, bricks), the voxels' faces (octree and label volumes); DVR only",
+    )
+    .on_disabled_hover_text(if mip {
+        "A maximum intensity projection is never shaded: it shows the brightest value along each ray, not a surface. Shading applies to DVR."
+    } else {
+        "The composite is unshaded: light would follow one channel's gradient, and which one is a choice it does not make. Choose one channel (Channels and time) to shade it."
+    });
+    ui.end_row();
+
+    if settings.shading.enabled && !composite && !mip {
+        let shading = &mut settings.shading;
+        for (name, value, range) in [
+            ("Ambient", &mut shading.ambient, 0.0..=1.0),
+            ("Diffuse", &mut shading.diffuse, 0.0..=1.0),
+            ("Specular", &mut shading.specular, 0.0..=1.0),
+            ("Shininess", &mut shading.shininess, 1.0..=100.0),
+        ] {
+            let label = ui.label(name);
+            ui.add(egui::Slider::new(value, range).fixed_decimals(2))
+                .labelled_by(label.id);
+            ui.end_row();
+        }
     }
+}
 
-    ui.separator();
+/// The value window's low and high in the data's units (dragged at a 500th of the data's
+/// range), kept with high above low.
+fn value_window(ui: &mut Ui, window: &mut ValueWindow, data: Option<&VolumeData>) {
     ui.label("Value window (data units)");
     let speed = data.map_or(1.0, |d| {
         let [low, high] = d.quantized.value_range;
@@ -202,7 +243,11 @@ fn show_panel(
     if window.high <= window.low {
         window.high = window.low + speed.max(f64::EPSILON * window.low.abs().max(1.0));
     }
-    let Some(data) = data else { return };
+}
+
+/// The value window's presets: the file's own (or the percentiles'), the full range, and for
+/// CT the radiologists' 2-D windows.
+fn window_presets(ui: &mut Ui, window: &mut ValueWindow, data: &VolumeData) {
     ui.horizontal_wrapped(|ui| {
         if ui
             .button("Auto")
@@ -234,35 +279,42 @@ fn show_panel(
             }
         }
     });
-    if let DataKind::Labels(labels) = data.kind {
-        ui.horizontal_wrapped(|ui| {
-            ui.small(format!("Label volume: {labels} distinct values."));
-            let as_labels = labels_transfer(&data.quantized);
-            let shown = settings.transfer == TransferChoice::from(as_labels)
-                && *window == as_labels.window;
-            if shown {
-                ui.small("Drawn as labels.");
-                if ui
-                    .button("Show values")
-                    .on_hover_text("Alpha = gray over the volume's window: the values' magnitudes in grays (still sampled at the nearest voxel, as categories)")
-                    .clicked()
-                {
-                    let values = voxscope_octree::TransferFunction::gray(data.default_window);
-                    *window = values.window;
-                    settings.transfer = values.into();
-                }
-            } else if ui
-                .button("Show labels")
-                .on_hover_text("Categorical colors per value, label 0 transparent")
+}
+
+/// A label volume of `labels` distinct values: drawn as labels (categorical colors) or as
+/// values (grays), and the button that switches to the other.
+fn labels_or_values(
+    ui: &mut Ui,
+    settings: &mut AppSettings,
+    window: &mut ValueWindow,
+    data: &VolumeData,
+    labels: usize,
+) {
+    ui.horizontal_wrapped(|ui| {
+        ui.small(format!("Label volume: {labels} distinct values."));
+        let as_labels = labels_transfer(&data.quantized);
+        let shown =
+            settings.transfer == TransferChoice::from(as_labels) && *window == as_labels.window;
+        if shown {
+            ui.small("Drawn as labels.");
+            if ui
+                .button("Show values")
+                .on_hover_text("Alpha = gray over the volume's window: the values' magnitudes in grays (still sampled at the nearest voxel, as categories)")
                 .clicked()
             {
-                *window = as_labels.window;
-                settings.transfer = as_labels.into();
+                let values = voxscope_octree::TransferFunction::gray(data.default_window);
+                *window = values.window;
+                settings.transfer = values.into();
             }
-        });
-    }
-    ui.add_space(4.0);
-    transfer_editor::show(ui, settings, window, data);
+        } else if ui
+            .button("Show labels")
+            .on_hover_text("Categorical colors per value, label 0 transparent")
+            .clicked()
+        {
+            *window = as_labels.window;
+            settings.transfer = as_labels.into();
+        }
+    });
 }
 
 /// Gray, Binary and Points. Choosing Points turns what is shown into a curve to edit: the

@@ -35,6 +35,7 @@ use voxscope_scene::{Job, Opened, SceneError};
 use voxscope_scene::{OctreeColors, Scene, VolumeData, VolumeSource};
 use voxscope_scene::{SavedTransfer, TransferChoice, TransferFileError};
 
+mod panels;
 mod reading;
 
 /// The voxscope window.
@@ -512,189 +513,18 @@ impl eframe::App for VoxscopeApp {
         self.step_playback(&ctx);
         self.step_preview(&ctx);
 
-        let has_scene = self.scene.is_some();
-        egui::Panel::top("menu_bar").show(ui, |ui| {
-            menu::menu_bar(ui, &self.settings, has_scene, &mut self.commands)
-        });
-        let notice = self.notice().map(str::to_owned);
-        let hovered = self
-            .scene
-            .as_ref()
-            .and_then(|s| self.central.hovered_voxel(s.data.volume.dims));
-        let hovered_labels = hovered.and_then(|voxel| self.labels.describe_at(voxel));
-        egui::Panel::bottom("status_bar").show(ui, |ui| {
-            menu::status_bar(
-                ui,
-                &self.jobs,
-                self.scene.as_ref(),
-                hovered,
-                hovered_labels.as_deref(),
-                notice.as_deref(),
-                &mut self.commands,
-            )
-        });
+        self.show_bars(ui);
         if self.settings.show_transfer_panel {
-            egui::Panel::left("transfer_panel")
-                .default_size(300.0)
-                .show(ui, |ui| {
-                    egui::ScrollArea::vertical().show(ui, |ui| {
-                        if let Some(scene) = &self.scene {
-                            let shown = frame_controls::Shown {
-                                series: &scene.data.volume.series,
-                                container: self.container.as_ref(),
-                                composite: scene.composite.is_some(),
-                                prefetched: self.prefetch.ready().len(),
-                                streamed: scene.renderer.stream().is_some(),
-                                on_screen: self.shown_time,
-                            };
-                            frame_controls::show(
-                                ui,
-                                &shown,
-                                &mut self.playback,
-                                &mut self.settings,
-                                &mut self.commands,
-                            );
-                        }
-                        let composite = self.scene.as_ref().and_then(|s| s.composite.as_ref());
-                        if let Some(composite) = composite {
-                            channel_list::show(ui, composite, &mut self.view, &mut self.commands);
-                        }
-                        label_list::show(ui, &mut self.labels);
-                        let data = match composite {
-                            Some(composite) => composite
-                                .channels
-                                .get(self.view.active_channel)
-                                .map(Arc::as_ref),
-                            None => self.scene.as_ref().map(|s| s.data.as_ref()),
-                        };
-                        transfer_panel::show(
-                            ui,
-                            &mut self.settings,
-                            &mut self.view,
-                            data,
-                            composite.is_some(),
-                        );
-                    });
-                });
+            self.show_transfer_panel(ui);
         }
         if self.settings.show_octree_panel {
-            let transfer = self.transfer();
-            let statistics_pending =
-                self.jobs.counting.is_some() || !self.view.statistics_current(&transfer);
-            // Lent to the panel's facts while the panel edits the rest of the view state.
-            let statistics = std::mem::take(&mut self.view.statistics);
-            egui::Panel::right("octree_panel")
-                .default_size(410.0)
-                .show(ui, |ui| {
-                    egui::ScrollArea::vertical().show(ui, |ui| {
-                        let facts = OctreeFacts {
-                            scene: self.scene.as_ref(),
-                            statistics: &statistics,
-                            statistics_pending,
-                            frame: self.central.frame_facts(self.scene_serial),
-                            fps: self.central.fps(self.settings.continuous),
-                            adapter: self
-                                .gpu
-                                .as_ref()
-                                .map_or("none", |g| g.context.adapter_info.name.as_str()),
-                            target_bytes: self.central.target_bytes(),
-                        };
-                        octree_panel::show(ui, &mut self.settings, &mut self.view, &facts);
-                    });
-                });
-            self.view.statistics = statistics;
+            self.show_octree_panel(ui);
         }
-        egui::CentralPanel::no_frame().show(ui, |ui| {
-            self.central.ui(
-                ui,
-                ViewInputs {
-                    gpu: self.gpu.as_ref(),
-                    scene: self.scene.as_ref(),
-                    settings: &mut self.settings,
-                    view: &mut self.view,
-                    opening: self.jobs.opening.is_some(),
-                },
-            );
-            if let Some(scene) = &self.scene {
-                let sizes = self.central.pane_sizes();
-                let rects = self.central.pane_rects();
-                label_list::paint(
-                    ui,
-                    &self.labels,
-                    scene,
-                    &self.settings,
-                    &self.view,
-                    rects,
-                    &sizes,
-                );
-            }
-            if let Some(message) = &self.error
-                && overlays::error_banner(ui, self.central.rect(), message)
-            {
-                self.commands.send(Command::DismissError);
-            }
-        });
-
-        if self.settings.show_movie_panel {
-            let state = movie_panel::PanelState {
-                has_scene,
-                previewing: self.preview.is_some(),
-                exporting: self.jobs.exporting.is_some(),
-            };
-            let mut open = true;
-            movie_panel::show(&ctx, &mut self.movie, &mut open, state, &mut self.commands);
-            if !open {
-                self.commands
-                    .send(Command::TogglePanel(super::Panel::Movie));
-            }
-        }
-        if let Some(browser) = &mut self.browser
-            && let Some(outcome) = browser.show(&ctx, &self.settings.recent)
-        {
-            let kind = browser.kind();
-            self.browser = None;
-            if let BrowserOutcome::Chosen(path) = outcome {
-                self.chosen(kind, path, &ctx);
-            }
-        }
-        if let Some(dialog) = &mut self.url_dialog {
-            match dialog.show(&ctx, &self.settings.recent) {
-                UrlOutcome::Open => {}
-                UrlOutcome::Cancelled => self.url_dialog = None,
-                UrlOutcome::Chosen(url) => {
-                    self.url_dialog = None;
-                    self.commands.send(Command::Open(VolumeSource::Spec(url)));
-                }
-            }
-        }
+        self.show_central_panel(ui);
+        self.show_windows(&ctx);
         self.run_queued_commands(&ctx);
         self.follow_settings(&ctx);
-        if let (Some(gpu), Some(scene)) = (&self.gpu, &self.scene) {
-            let sizes = self.central.pane_sizes();
-            self.labels
-                .follow(&ctx, gpu, scene, &self.settings, &self.view, &sizes);
-        }
-        if let (Some(gpu), Some(scene)) = (&self.gpu, &mut self.scene) {
-            match self.central.draw(
-                &ctx,
-                gpu,
-                scene,
-                self.scene_serial,
-                &self.settings,
-                &self.view,
-            ) {
-                // Bands left to draw, the stream refining, the device busy: look again.
-                Ok(Some(after)) => ctx.request_repaint_after(after),
-                Ok(None) => {}
-                Err(error) => self.fail(error.to_string()),
-            }
-            self.tell_stream_failures(&ctx);
-        }
-        if let Some(scene) = &self.scene
-            && self.central.shows_scene(self.scene_serial)
-        {
-            self.shown_time = Some(scene.data.volume.series.selected.time);
-        }
+        self.draw_panes(&ctx);
         if self.settings.continuous {
             ctx.request_repaint();
         }

@@ -10,7 +10,7 @@ use clap::Args;
 
 use super::view::{self, Given};
 use super::{RenderOptions, VolumeArgs};
-use crate::movie_writer::MovieFormat;
+use crate::movie_writer::{MovieFormat, MovieWriter};
 use voxscope_render::{RenderTarget, read_image};
 use voxscope_scene::{
     ChannelRequest, ChannelState, DrawOptions, Drawable, OpenOptions, SavedView, Shot,
@@ -70,10 +70,73 @@ struct StageTimes {
     encode: Duration,
 }
 
+/// What drawing the movie's frames came to.
+struct FrameTally {
+    /// When the first frame began.
+    drawing_started: Instant,
+    /// Frames drawn and written.
+    frames: usize,
+    times: StageTimes,
+    /// Frames still coarse at `--max-wait`.
+    coarse_frames: usize,
+    /// Frames drawn around unreadable bricks, from coarser levels.
+    unreadable_frames: usize,
+}
+
+impl FrameTally {
+    /// Frames still coarse or drawn around unreadable bricks: the movie is incomplete, and
+    /// the exit code says so as `render`'s does.
+    fn rendered(&self) -> super::render::Rendered {
+        if self.coarse_frames + self.unreadable_frames > 0 {
+            super::render::Rendered::Incomplete
+        } else {
+            super::render::Rendered::Complete
+        }
+    }
+}
+
+/// The frames of a movie: the camera, settings and transfer function of each, and the
+/// composite's channels of each (empty for one volume).
+struct MovieFrames {
+    shots: Vec<Shot>,
+    channels: Vec<Vec<ChannelState>>,
+}
+
 pub fn run(args: &MovieArgs, given: &Given) -> Result<super::render::Rendered, String> {
     let started = Instant::now();
     let format = MovieFormat::of(&args.output)?;
     let keyframes = read_keyframes(args)?;
+    let (open, draw) = start_options(args, given, &keyframes)?;
+    args.options.check()?;
+    let mut drawing = super::render::open_drawable(&open, &draw)?;
+    let frames = MovieFrames {
+        channels: channel_frames(args, given, &drawing, &keyframes)?,
+        shots: shots(args, given, &drawing, &draw, &keyframes)?,
+    };
+    let mut writer = format.create(&args.output, draw.size, args.fps, frames.shots.len())?;
+    // A frame that fails leaves no half-written movie.
+    let mut tally = match draw_frames(&mut drawing, writer.as_mut(), &frames, &draw) {
+        Ok(tally) => tally,
+        Err(error) => {
+            writer.abandon();
+            return Err(error);
+        }
+    };
+    eprintln!();
+    let finish_started = Instant::now();
+    writer.finish()?;
+    tally.times.encode += finish_started.elapsed();
+    say_written(args, &drawing, draw.size, &tally, started);
+    Ok(tally.rendered())
+}
+
+/// The options the movie opens its volume and draws under: the start view's (`--view`, else
+/// the first keyframe's) under the options given beside it, else the options alone.
+fn start_options(
+    args: &MovieArgs,
+    given: &Given,
+    keyframes: &[(PathBuf, SavedView)],
+) -> Result<(OpenOptions, DrawOptions), String> {
     let start_view = match (&args.view, keyframes.first()) {
         (Some(path), _) => Some((
             path.clone(),
@@ -82,15 +145,21 @@ pub fn run(args: &MovieArgs, given: &Given) -> Result<super::render::Rendered, S
         (None, Some(first)) => Some(first.clone()),
         (None, None) => None,
     };
-    let (open, draw) = match &start_view {
+    Ok(match &start_view {
         Some((path, saved)) => under_options(args, given, path, saved)?,
         None => (args.volume.open_options(), args.options.draw_options()),
-    };
-    args.options.check()?;
-    let mut drawing = super::render::open_drawable(&open, &draw)?;
-    // The composite's channels per frame, each channel's color and window following the
-    // keyframes (empty for one volume).
-    let channel_frames = match drawing.channels() {
+    })
+}
+
+/// The composite's channels per frame, each channel's color and window following the
+/// keyframes (empty for one volume).
+fn channel_frames(
+    args: &MovieArgs,
+    given: &Given,
+    drawing: &Drawable,
+    keyframes: &[(PathBuf, SavedView)],
+) -> Result<Vec<Vec<ChannelState>>, String> {
+    Ok(match drawing.channels() {
         Some(channels) if keyframes.len() > 1 => {
             let keys: Vec<Vec<ChannelState>> = keyframes
                 .iter()
@@ -102,94 +171,125 @@ pub fn run(args: &MovieArgs, given: &Given) -> Result<super::render::Rendered, S
             keyframe_channels(&keys, args.frames.unwrap_or(SEGMENT_FRAMES) as usize)
         }
         _ => Vec::new(),
-    };
-    let shots = if keyframes.is_empty() {
+    })
+}
+
+/// The camera, settings and transfer function of each frame: a turn from the first view, or
+/// the path through the keyframes.
+fn shots(
+    args: &MovieArgs,
+    given: &Given,
+    drawing: &Drawable,
+    draw: &DrawOptions,
+    keyframes: &[(PathBuf, SavedView)],
+) -> Result<Vec<Shot>, String> {
+    Ok(if keyframes.is_empty() {
         let first = Shot {
             camera: draw.camera,
-            settings: drawing.render_settings(&draw),
+            settings: drawing.render_settings(draw),
             transfer: drawing.transfer(),
         };
         turntable(&first, args.frames.unwrap_or(TURNTABLE_FRAMES) as usize)
     } else {
         let keys = keyframes
             .iter()
-            .map(|(path, saved)| key_shot(args, given, &drawing, path, saved))
+            .map(|(path, saved)| key_shot(args, given, drawing, path, saved))
             .collect::<Result<Vec<Shot>, String>>()?;
         keyframe_path(&keys, args.frames.unwrap_or(SEGMENT_FRAMES) as usize)
-    };
+    })
+}
+
+/// Draws the frames one by one, each complete (or at `--max-wait`) before it is read back
+/// and added to `writer`, with a progress line on stderr.
+fn draw_frames(
+    drawing: &mut Drawable,
+    writer: &mut dyn MovieWriter,
+    frames: &MovieFrames,
+    draw: &DrawOptions,
+) -> Result<FrameTally, String> {
     let size = draw.size;
-    let mut writer = format.create(&args.output, size, args.fps, shots.len())?;
     let target = RenderTarget::new(drawing.context(), size.0, size.1);
-    let mut times = StageTimes::default();
-    let mut coarse_frames = 0;
-    let mut unreadable_frames = 0;
-    let drawing_started = Instant::now();
-    // An error ends the progress line before it is said.
-    let ended = |error: String| {
-        eprintln!();
-        error
+    let mut tally = FrameTally {
+        drawing_started: Instant::now(),
+        frames: 0,
+        times: StageTimes::default(),
+        coarse_frames: 0,
+        unreadable_frames: 0,
     };
-    // A frame that fails leaves no half-written movie.
-    let mut draw_frames = || -> Result<(), String> {
-        for (index, shot) in shots.iter().enumerate() {
-            let frame_started = Instant::now();
-            drawing
-                .set_transfer(&shot.transfer)
-                .map_err(|e| ended(e.to_string()))?;
-            if let Some(channels) = channel_frames.get(index) {
-                drawing.set_channels(channels);
-            }
-            let drawn = drawing
-                .draw_complete(&target, &shot.camera, &shot.settings, draw.max_wait)
-                .map_err(|e| ended(e.to_string()))?;
-            if drawn.is_none() {
-                // The frame's render time is the GPU's, not its submission's.
-                drawing
-                    .context()
-                    .wait_idle()
-                    .map_err(|e| ended(e.to_string()))?;
-            }
-            if let Some(refinement) = drawn {
-                coarse_frames += usize::from(!refinement.complete);
-                unreadable_frames += usize::from(!refinement.unreadable.is_empty());
-            }
-            let rendered = Instant::now();
-            let mut image =
-                read_image(drawing.context(), &target).map_err(|e| ended(e.to_string()))?;
-            drawing
-                .draw_labels_over(&mut image, None, &shot.camera, &shot.settings)
-                .map_err(|e| ended(e.to_string()))?;
-            let read = Instant::now();
-            writer.add(&image).map_err(ended)?;
-            let encoded = Instant::now();
-            times.render += rendered - frame_started;
-            times.readback += read - rendered;
-            times.encode += encoded - read;
-            let done = index + 1;
-            let rate = done as f64 / drawing_started.elapsed().as_secs_f64().max(1e-9);
-            let bar_width = 30;
-            let filled = done * bar_width / shots.len();
-            eprint!(
-                "\r[{}{}] frame {done}/{} ({rate:.1} frames/s)",
-                "#".repeat(filled),
-                " ".repeat(bar_width - filled),
-                shots.len()
-            );
-            let _ = std::io::stderr().flush();
+    let shots = &frames.shots;
+    for (index, shot) in shots.iter().enumerate() {
+        let frame_started = Instant::now();
+        drawing
+            .set_transfer(&shot.transfer)
+            .map_err(|e| end_progress_line(e.to_string()))?;
+        if let Some(channels) = frames.channels.get(index) {
+            drawing.set_channels(channels);
         }
-        Ok(())
-    };
-    if let Err(error) = draw_frames() {
-        writer.abandon();
-        return Err(error);
+        let drawn = drawing
+            .draw_complete(&target, &shot.camera, &shot.settings, draw.max_wait)
+            .map_err(|e| end_progress_line(e.to_string()))?;
+        if drawn.is_none() {
+            // The frame's render time is the GPU's, not its submission's.
+            drawing
+                .context()
+                .wait_idle()
+                .map_err(|e| end_progress_line(e.to_string()))?;
+        }
+        if let Some(refinement) = drawn {
+            tally.coarse_frames += usize::from(!refinement.complete);
+            tally.unreadable_frames += usize::from(!refinement.unreadable.is_empty());
+        }
+        let rendered = Instant::now();
+        let mut image =
+            read_image(drawing.context(), &target).map_err(|e| end_progress_line(e.to_string()))?;
+        drawing
+            .draw_labels_over(&mut image, None, &shot.camera, &shot.settings)
+            .map_err(|e| end_progress_line(e.to_string()))?;
+        let read = Instant::now();
+        writer.add(&image).map_err(end_progress_line)?;
+        let encoded = Instant::now();
+        tally.times.render += rendered - frame_started;
+        tally.times.readback += read - rendered;
+        tally.times.encode += encoded - read;
+        tally.frames = index + 1;
+        show_progress(tally.frames, shots.len(), &tally);
     }
+    Ok(tally)
+}
+
+/// An error ends the progress line before it is said.
+fn end_progress_line(error: String) -> String {
     eprintln!();
-    let finish_started = Instant::now();
-    writer.finish()?;
-    times.encode += finish_started.elapsed();
-    let frames = shots.len();
+    error
+}
+
+/// The progress line, drawn over itself: a bar of `done` frames of `total`, and the rate.
+fn show_progress(done: usize, total: usize, tally: &FrameTally) {
+    let rate = done as f64 / tally.drawing_started.elapsed().as_secs_f64().max(1e-9);
+    let bar_width = 30;
+    let filled = done * bar_width / total;
+    eprint!(
+        "\r[{}{}] frame {done}/{} ({rate:.1} frames/s)",
+        "#".repeat(filled),
+        " ".repeat(bar_width - filled),
+        total
+    );
+    let _ = std::io::stderr().flush();
+}
+
+/// The line that says what was written, how fast, and where the movie is incomplete.
+fn say_written(
+    args: &MovieArgs,
+    drawing: &Drawable,
+    size: (u32, u32),
+    tally: &FrameTally,
+    started: Instant,
+) {
+    let times = &tally.times;
+    let (frames, coarse_frames, unreadable_frames) =
+        (tally.frames, tally.coarse_frames, tally.unreadable_frames);
     let per_frame = |d: Duration| d.as_secs_f64() * 1000.0 / frames as f64;
-    let written_rate = frames as f64 / drawing_started.elapsed().as_secs_f64().max(1e-9);
+    let written_rate = frames as f64 / tally.drawing_started.elapsed().as_secs_f64().max(1e-9);
     let what = match drawing.channels() {
         Some(channels) => format!("composite of {} channels", channels.len()),
         None => format!("{} renderer", drawing.renderer().kind().name()),
@@ -222,13 +322,6 @@ pub fn run(args: &MovieArgs, given: &Given) -> Result<super::render::Rendered, S
         per_frame(times.readback),
         per_frame(times.encode),
     );
-    // Frames still coarse or drawn around unreadable bricks: the movie is incomplete, and the
-    // exit code says so as `render`'s does.
-    Ok(if coarse_frames + unreadable_frames > 0 {
-        super::render::Rendered::Incomplete
-    } else {
-        super::render::Rendered::Complete
-    })
 }
 
 /// The `--keyframes` views, read and checked: two or more, all of one volume.
