@@ -13,6 +13,9 @@ use voxscope_volume::{DEFAULT_CHANNEL_COLORS, ValueWindow, channel_color_by_name
 /// (the same words).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum OptionError {
+    /// A channel that is neither a number nor `all`.
+    #[error("channel '{0}' is not a number or 'all'")]
+    Channel(String),
     /// `--max-requests` outside 1…[`MAX_MAX_REQUESTS`].
     #[error("'{0}' is not a number of requests from 1 to {MAX_MAX_REQUESTS}")]
     MaxRequests(String),

@@ -18,6 +18,7 @@ use voxscope_stream::StreamOptions;
 use voxscope_volume::ome_zarr::{LabelImage, Pyramid};
 use voxscope_volume::{LoadOptions, RawLayout, Selection, ValueWindow, Volume};
 
+use crate::option_text::OptionError;
 use crate::{
     ChannelRequest, DEFAULT_LABEL_OPACITY, SavedTransfer, SceneError, TransferRequest, VolumeSource,
 };
@@ -36,13 +37,13 @@ pub enum ChannelChoice {
 
 impl ChannelChoice {
     /// `N` or `all` (as the command line and saved views write it).
-    pub fn parse(text: &str) -> Result<Self, String> {
+    pub fn parse(text: &str) -> Result<Self, OptionError> {
         if text.eq_ignore_ascii_case("all") {
             return Ok(Self::All);
         }
         text.parse()
             .map(Self::Index)
-            .map_err(|_| format!("channel '{text}' is not a number or 'all'"))
+            .map_err(|_| OptionError::Channel(text.to_owned()))
     }
 }
 
@@ -56,9 +57,9 @@ impl From<ChannelChoice> for String {
 }
 
 impl TryFrom<String> for ChannelChoice {
-    type Error = String;
+    type Error = OptionError;
 
-    fn try_from(text: String) -> Result<Self, String> {
+    fn try_from(text: String) -> Result<Self, OptionError> {
         Self::parse(text.trim())
     }
 }

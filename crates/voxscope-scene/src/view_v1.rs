@@ -99,7 +99,7 @@ impl ViewV1 {
                 .as_deref()
                 .map(|text| ChannelChoice::parse(text.trim()))
                 .transpose()
-                .map_err(|e| invalid("channel", e))?,
+                .map_err(|e| invalid("channel", e.to_string()))?,
             time: data.time,
             raw: data
                 .raw

@@ -68,14 +68,6 @@ impl SourceError {
     }
 }
 
-/// A source error as the line a front end that reports in words shows (the benchmarks'
-/// string errors), so that `?` reaches that edge unchanged.
-impl From<SourceError> for String {
-    fn from(error: SourceError) -> Self {
-        error.to_string()
-    }
-}
-
 /// Why a brick could not be read. One line, naming the source and the brick; the variant
 /// says whether another try may succeed.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]

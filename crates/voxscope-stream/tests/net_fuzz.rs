@@ -333,8 +333,11 @@ fn read(
             }
         }
         Reading::Bricks => {
-            let remote =
-                ZarrSource::new(Arc::new(pyramid)).inspect_err(|e| messages.push(e.to_string()))?;
+            let remote = ZarrSource::new(Arc::new(pyramid)).map_err(|e| {
+                let line = e.to_string();
+                messages.push(line.clone());
+                line
+            })?;
             let local = ZarrSource::new(Arc::new(
                 Pyramid::open(&pristine.join(kind.name()), PyramidOptions::default()).unwrap(),
             ))

@@ -103,6 +103,23 @@ pub enum OptionError {
     /// A compression that is none of [`crate::ome_zarr::Compression::NAMES`].
     #[error("compression '{0}' is not one of {names}", names = crate::ome_zarr::Compression::names())]
     UnknownCompression(String),
+    /// A raw layout whose dimensions are not `XxYxZ`.
+    #[error("raw layout '{layout}': '{dims}' is not XxYxZ")]
+    RawDims { layout: String, dims: String },
+    /// A raw layout without its voxel type.
+    #[error("raw layout '{0}' lacks :TYPE (u8, i16, f32, …)")]
+    RawNoType(String),
+    /// A raw layout's voxel type that voxscope does not read.
+    #[error(
+        "raw layout '{layout}': unknown voxel type '{name}' (u8, i8, u16, i16, u32, i32, f32, f64)"
+    )]
+    RawType { layout: String, name: String },
+    /// A raw layout's byte order other than `le` or `be`.
+    #[error("raw layout '{layout}': byte order '{order}' is not le or be")]
+    RawOrder { layout: String, order: String },
+    /// A raw layout of more than three parts.
+    #[error("raw layout '{0}' has too many parts")]
+    RawParts(String),
 }
 
 /// Why dimensions cannot hold a volume: a zero extent, or more voxels than voxscope reads.

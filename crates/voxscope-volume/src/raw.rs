@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use super::error::Problem;
+use super::error::{OptionError, Problem};
 use super::io::{Storage, checked_payload_bytes, open, read_payload};
 use super::{Endian, Volume, VoxelData, VoxelType, format_dims};
 
@@ -16,28 +16,33 @@ pub struct RawLayout {
 
 impl RawLayout {
     /// Parses `XxYxZ:TYPE[:le|:be]`, e.g. `256x256x108:i16:be`.
-    pub fn parse(text: &str) -> Result<Self, String> {
+    pub fn parse(text: &str) -> Result<Self, OptionError> {
+        let layout = || text.to_owned();
         let mut parts = text.split(':');
         let dims_text = parts.next().unwrap_or_default();
-        let dims = parse_dims(dims_text)
-            .ok_or_else(|| format!("raw layout '{text}': '{dims_text}' is not XxYxZ"))?;
+        let dims = parse_dims(dims_text).ok_or_else(|| OptionError::RawDims {
+            layout: layout(),
+            dims: dims_text.to_owned(),
+        })?;
         let type_text = parts
             .next()
-            .ok_or_else(|| format!("raw layout '{text}' lacks :TYPE (u8, i16, f32, …)"))?;
-        let voxel_type = VoxelType::from_name(type_text).ok_or_else(|| {
-            format!("raw layout '{text}': unknown voxel type '{type_text}' (u8, i8, u16, i16, u32, i32, f32, f64)")
+            .ok_or_else(|| OptionError::RawNoType(layout()))?;
+        let voxel_type = VoxelType::from_name(type_text).ok_or_else(|| OptionError::RawType {
+            layout: layout(),
+            name: type_text.to_owned(),
         })?;
         let endian = match parts.next() {
             None | Some("le") => Endian::Little,
             Some("be") => Endian::Big,
             Some(other) => {
-                return Err(format!(
-                    "raw layout '{text}': byte order '{other}' is not le or be"
-                ));
+                return Err(OptionError::RawOrder {
+                    layout: layout(),
+                    order: other.to_owned(),
+                });
             }
         };
         if parts.next().is_some() {
-            return Err(format!("raw layout '{text}' has too many parts"));
+            return Err(OptionError::RawParts(layout()));
         }
         Ok(Self {
             dims,
