@@ -422,8 +422,8 @@ fn a_view_three_times_the_atlas_completes_coarser_where_least_important_and_refi
     // Correct for the cut it says it drew: the same bricks left out of a roomy renderer of the
     // same pyramid draw the same picture.
     let (view, standing) = renderer
-        .stream()
-        .and_then(|s| s.streamer().budget_cut())
+        .streamer()
+        .and_then(|s| s.budget_cut())
         .expect("bricks are left out");
     let mut reference = streaming(
         &context,
@@ -432,9 +432,8 @@ fn a_view_three_times_the_atlas_completes_coarser_where_least_important_and_refi
         &prepared.transfer,
     );
     reference
-        .stream_mut()
-        .expect("streaming")
         .streamer_mut()
+        .expect("streaming")
         .apply_budget_cut(view, standing.iter().copied());
     let expected = refine(&context, &mut reference, &camera, &full);
     save(&refined.image, "budget-cut");
@@ -452,9 +451,8 @@ fn a_view_three_times_the_atlas_completes_coarser_where_least_important_and_refi
         view.off_center(shape.brick_center(id))
     };
     let drawn_fine: Vec<u32> = renderer
-        .stream()
-        .expect("streaming")
         .streamer()
+        .expect("streaming")
         .resident_keys()
         .filter(|&k| shape.brick_of(k).is_some_and(|id| id.level == 0))
         .collect();
@@ -609,7 +607,11 @@ fn uploads_scattered_or_copied_through_the_staging_ring_draw_what_queue_writes_d
             );
             // lavapipe is Vulkan: an atlas that zeroes itself is made so there too, and
             // `auto` leaves its zeroing to wgpu on a CPU.
-            let zeroed = renderer.stream().expect("a stream renderer").atlas_zero();
+            let zeroed = renderer
+                .renderer()
+                .stream_paths()
+                .expect("a stream renderer")
+                .atlas_zero;
             assert_eq!(
                 zeroed,
                 match (uploads, atlas_zero) {
@@ -1040,7 +1042,11 @@ fn settle_fill(
             std::thread::sleep(Duration::from_millis(2));
         }
     }
-    let walked = |r: &VolumeRenderer| r.stream().map_or(0, |s| s.level_walk_frames());
+    let walked = |r: &VolumeRenderer| {
+        r.renderer()
+            .stream_paths()
+            .map_or(0, |p| p.level_walk_frames)
+    };
     let before = walked(renderer);
     renderer.render(context, &target, camera, settings);
     context.wait_idle().expect("GPU");
@@ -1116,13 +1122,14 @@ fn the_level_walk_draws_what_the_segments_draw_once_its_level_is_filled() {
             renderer.render(&context, &target, &camera, &settings);
             let image = read_image(&context, &target).expect("readback");
             let visits = voxscope_render::read_visits(&context, &target).expect("visits");
-            let copied = renderer
-                .stream()
-                .and_then(|s| s.streamer().table().copied_level());
+            let copied = renderer.streamer().and_then(|s| s.table().copied_level());
             // The walk leaves no usage marks; the CPU keeps the level's bricks in the atlas, so
             // the next frames walk it still.
             renderer.update(&context).expect("a streaming renderer");
-            let state = renderer.stream().and_then(|s| s.walk_level_state());
+            let state = renderer
+                .renderer()
+                .stream_paths()
+                .and_then(|p| p.walk_level);
             if walked > 0 {
                 assert_eq!(
                     state,
@@ -1217,8 +1224,8 @@ fn a_folder_store_fills_the_walked_level_and_a_url_reads_only_what_the_view_need
         let status = renderer.update(&context).expect("a streaming renderer");
         // Bricks of level 0 (copied flat) the walk could not take as they are.
         let unwalkable = renderer
-            .stream()
-            .and_then(|s| s.streamer().table().level_unwalkable(false));
+            .streamer()
+            .and_then(|s| s.table().level_unwalkable(false));
         let settled = (status.counters.loads, requests(), unwalkable);
         (refined.image, complete, settled, walked)
     };

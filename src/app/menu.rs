@@ -10,7 +10,6 @@ use super::dialogs::DialogKind;
 use super::jobs::Jobs;
 use super::settings::Panel;
 use super::settings::{AppSettings, Layout, Tool};
-use voxscope_render::VolumeShape;
 use voxscope_scene::{Scene, VolumeSource};
 
 /// How long a notice (`saved …`) stays in the status bar.
@@ -282,8 +281,8 @@ pub fn status_bar(
 /// (histogram, slices, probe) follows where it is coarser.
 fn volume_description(scene: &Scene) -> String {
     let volume = &scene.data.volume;
-    let (dims, spacing) = match scene.renderer.stream() {
-        Some(stream) => (stream.dims(), stream.spacing()),
+    let (dims, spacing) = match scene.renderer.streamer() {
+        Some(streamer) => (streamer.shape().dims(), streamer.source().spacing()),
         None => (volume.dims, volume.spacing),
     };
     let mut description = format!(

@@ -269,8 +269,8 @@ fn node_statistics(ui: &mut Ui, scene: &Scene, facts: &OctreeFacts<'_>) {
 /// table does not apply; empty-space skipping's reach and the memory do.
 fn composite_facts(ui: &mut Ui, composite: &CompositeScene) {
     ui.strong("Composite");
-    let (visible, total) = composite.volume().block_counts();
-    let dims = composite.volume().dims;
+    let (visible, total) = composite.skipped_blocks();
+    let dims = composite.channels[0].volume.dims;
     egui::Grid::new("composite_facts")
         .num_columns(2)
         .spacing([8.0, 3.0])

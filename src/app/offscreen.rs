@@ -95,7 +95,7 @@ impl OffscreenDrawer {
         tile: Option<u32>,
     ) -> Result<RgbaImage, SceneError> {
         self.drawable.set_transfer(&shot.transfer)?;
-        self.drawable.set_channels(channels);
+        self.drawable.set_channels(channels)?;
         let whole = (size[0], size[1]);
         if let Some(side) = self.drawable.tile_side(whole, tile) {
             let (image, _) = self.drawable.draw_tiled(

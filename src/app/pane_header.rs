@@ -78,9 +78,9 @@ pub fn pane_label(
     // What a level draws: the octree's nodes through it, or a pyramid level's voxels (max level
     // m is pyramid level depth − m: the streamed one's, or dense's and bricks' own below their
     // nodes).
-    let nodes = |level: u32| match scene.renderer.stream() {
-        Some(stream) => {
-            let shape = stream.streamer().shape();
+    let nodes = |level: u32| match scene.renderer.streamer() {
+        Some(streamer) => {
+            let shape = streamer.shape();
             let pyramid_level = (depth - level.min(depth)) as usize;
             format!(
                 "{} voxels",

@@ -24,7 +24,7 @@ impl VoxscopeApp {
         let series = &scene.data.volume.series;
         let count = if series.time_points < 2 {
             0
-        } else if scene.renderer.stream().is_some() {
+        } else if scene.renderer.streamer().is_some() {
             // The next time point alone: another streaming renderer, its own GPU budget.
             self.settings.prefetch_frames.min(1)
         } else {
@@ -61,10 +61,9 @@ impl VoxscopeApp {
     /// that view is complete ([`Prefetch::warm`]).
     pub(super) fn warm_prefetch(&mut self) {
         if let Some(scene) = &self.scene
-            && let Some(stream) = scene.renderer.stream()
+            && let Some(streamer) = scene.renderer.streamer()
             && scene.stream_status.as_ref().is_some_and(|s| s.complete)
         {
-            let streamer = stream.streamer();
             let keys: Vec<u32> = streamer.resident_keys().collect();
             let cut = streamer.budget_cut();
             self.prefetch.warm(streamer.shape(), &keys, cut.as_ref());

@@ -93,8 +93,7 @@ pub fn refining_text(scene: &Scene) -> Option<String> {
 /// The status bar's notice when bricks newly could not be read: how many and the most common
 /// cause (each cause's first brick is also on stderr; the panel lists every one).
 pub fn failure_notice(scene: &Scene) -> Option<String> {
-    let stream = scene.renderer.stream()?;
-    let failures = stream.streamer().failures();
+    let failures = scene.renderer.streamer()?.failures();
     let groups = failures.groups();
     let first = groups.first()?;
     let count = failures.count();
@@ -118,10 +117,10 @@ fn shorten(text: &str, max: usize) -> String {
 /// The numbers of the streaming renderer: state, atlas, RAM cache, reads and uploads, and
 /// the per-level brick table (max level m draws pyramid level depth − m).
 pub fn show(ui: &mut Ui, scene: &Scene) {
-    let (Some(status), Some(stream)) = (&scene.stream_status, scene.renderer.stream()) else {
+    let (Some(status), Some(streamer)) = (&scene.stream_status, scene.renderer.streamer()) else {
         return;
     };
-    let shape = stream.streamer().shape();
+    let shape = streamer.shape();
     let depth = shape.depth();
     let counters = &status.counters;
     ui.strong("Streaming");
@@ -135,7 +134,7 @@ pub fn show(ui: &mut Ui, scene: &Scene) {
             ui.add(egui::Label::new(state_text(status)).wrap());
             ui.end_row();
             ui.label("Rays");
-            ui.label(walk_text(status, stream.walk_level_state(), depth))
+            ui.label(walk_text(status, scene.renderer.renderer().stream_paths().and_then(|p| p.walk_level), depth))
                 .on_hover_text("Where every ray wants one pyramid level (or one near and the next coarser one far) and each of its bricks is in the atlas (or drawn without it), rays walk that level's grid as the bricks renderer does (then the coarser one's); otherwise segment by segment. Once a view lacks nothing, the rest of such a level (or of both) is loaded into free atlas slots");
             ui.end_row();
             ui.label("Atlas");
@@ -225,7 +224,7 @@ pub fn show(ui: &mut Ui, scene: &Scene) {
                 ui.end_row();
             }
         });
-    failed_bricks(ui, stream.streamer().failures(), depth);
+    failed_bricks(ui, streamer.failures(), depth);
     egui::ScrollArea::horizontal()
         .id_salt("stream_levels_scroll")
         .show(ui, |ui| {

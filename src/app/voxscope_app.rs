@@ -27,9 +27,7 @@ use super::url_dialog::{UrlDialog, UrlOutcome};
 use super::view_file::ViewFile;
 use super::view_state::{Clipping, ViewState};
 use voxscope_octree::{Clip, LevelStatistics, OpacityMode, TransferFunction};
-use voxscope_render::{
-    Camera, FrameReport, GpuContext, RendererKind, RendererOptions, VolumeShape,
-};
+use voxscope_render::{Camera, FrameReport, GpuContext, RendererKind, RendererOptions};
 use voxscope_scene::{FrameKey, Prefetch};
 use voxscope_scene::{Job, Opened, SceneError};
 use voxscope_scene::{OctreeColors, Scene, VolumeData, VolumeSource};
@@ -409,7 +407,7 @@ impl VoxscopeApp {
         }
         let volume = &scene.data.volume;
         // A streamed store: its own size, then the level held for the panels.
-        let streamed = scene.renderer.stream().map(|s| s.dims());
+        let streamed = scene.renderer.streamer().map(|s| s.shape().dims());
         let dims = voxscope_volume::format_dims(streamed.unwrap_or(volume.dims));
         let panels = match streamed {
             Some(dims) if dims != volume.dims => {
@@ -552,8 +550,8 @@ fn data_renderer_notice(scene: &Scene) -> String {
         RendererKind::Stream => {
             let dims = scene
                 .renderer
-                .stream()
-                .map(|s| voxscope_volume::format_dims(s.streamer().shape().dims()))
+                .streamer()
+                .map(|s| voxscope_volume::format_dims(s.shape().dims()))
                 .unwrap_or_default();
             if scene.data.pyramid.is_some() {
                 format!(

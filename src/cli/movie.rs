@@ -223,7 +223,9 @@ fn draw_frames(
             .set_transfer(&shot.transfer)
             .map_err(|e| end_progress_line(e.to_string()))?;
         if let Some(channels) = frames.channels.get(index) {
-            drawing.set_channels(channels);
+            drawing
+                .set_channels(channels)
+                .map_err(|e| end_progress_line(e.to_string()))?;
         }
         let drawn = drawing
             .draw_complete(&target, &shot.camera, &shot.settings, draw.max_wait)

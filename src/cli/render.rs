@@ -270,8 +270,8 @@ fn report_stream(
     // requests were on the wire together.
     let network = drawing
         .renderer()
-        .stream()
-        .and_then(|stream| stream.streamer().source().remote_stats())
+        .streamer()
+        .and_then(|streamer| streamer.source().remote_stats())
         .map(|stats| {
             format!(
                 "; network: {} requests, {:.1} MB, at most {} in flight",

@@ -81,7 +81,10 @@ pub fn resident_comparison(
                 // `main_levels`).
                 let (filled, loaders_busy) =
                     settle_fill(context, &mut stream, target, &camera, &settings)?;
-                let walked_before = stream.stream().map_or(0, |s| s.level_walk_frames());
+                let walked_before = stream
+                    .renderer()
+                    .stream_paths()
+                    .map_or(0, |p| p.level_walk_frames);
                 let stream_times = time_view(
                     context,
                     &stream,
@@ -91,10 +94,15 @@ pub fn resident_comparison(
                     options.frames,
                     timer,
                 )?;
-                let walked = stream.stream().map_or(0, |s| s.level_walk_frames()) - walked_before;
+                let walked = stream
+                    .renderer()
+                    .stream_paths()
+                    .map_or(0, |p| p.level_walk_frames)
+                    - walked_before;
                 let walked_levels = stream
-                    .stream()
-                    .and_then(|s| s.walk_level_state())
+                    .renderer()
+                    .stream_paths()
+                    .and_then(|p| p.walk_level)
                     .map_or(0, |(_, levels, unwalkable)| {
                         levels * u32::from(unwalkable == 0)
                     });
@@ -238,8 +246,8 @@ fn settle_fill(
 ) -> Result<(u64, usize), BenchError> {
     let started = Instant::now();
     let before = stream
-        .stream()
-        .map_or(0, |s| s.streamer().resident_keys().count() as u64);
+        .streamer()
+        .map_or(0, |s| s.resident_keys().count() as u64);
     let busy = loop {
         let status = stream.update(context).ok_or(BenchError::NotStreaming)?;
         let busy = status.queued + status.loading;
@@ -257,8 +265,8 @@ fn settle_fill(
         }
     };
     let after = stream
-        .stream()
-        .map_or(0, |s| s.streamer().resident_keys().count() as u64);
+        .streamer()
+        .map_or(0, |s| s.resident_keys().count() as u64);
     Ok((after.saturating_sub(before), busy))
 }
 

@@ -263,8 +263,8 @@ impl StreamBench<'_> {
                 .into_iter()
                 .map(|(name, bytes)| (name.to_owned(), bytes.into()))
                 .collect(),
-            upload_path: renderer.stream().map(|volume| volume.upload_path()),
-            atlas_zero: renderer.stream().map(|volume| volume.atlas_zero()),
+            upload_path: renderer.renderer().stream_paths().map(|p| p.upload_path),
+            atlas_zero: renderer.renderer().stream_paths().map(|p| p.atlas_zero),
         })
     }
 

@@ -530,7 +530,29 @@ impl Renderer for CompositeVolume {
         vec![("textures_and_tables", self.bytes)]
     }
 
-    fn composite(&self) -> Option<&CompositeVolume> {
-        Some(self)
+    fn channel_count(&self) -> usize {
+        self.channels
+    }
+
+    fn set_channels(
+        &self,
+        context: &GpuContext,
+        layers: &[ChannelLayer<'_>],
+        shown: &[bool],
+    ) -> Result<(), RenderError> {
+        if layers.len() != self.channels || shown.len() != self.channels {
+            return Err(RenderError::Invalid(format!(
+                "{} channel layers and {} visibilities for a composite of {} channels",
+                layers.len(),
+                shown.len(),
+                self.channels
+            )));
+        }
+        self.set_shown_layers(context, layers, shown);
+        Ok(())
+    }
+
+    fn skipped_blocks(&self) -> Option<(usize, usize)> {
+        Some(self.block_counts())
     }
 }

@@ -45,7 +45,7 @@ pub use raycaster::{Frame, OctreeOnGpu, ProbeTarget, Raycaster, RenderTarget, Vo
 pub use readback::{read_buffer, read_image, read_visits};
 pub use recolor::GpuRecolor;
 pub use region::ImageRegion;
-pub use renderer::{FramePass, Renderer};
+pub use renderer::{FramePass, Renderer, StreamPaths};
 pub use settings::{
     EARLY_TERMINATION_ALPHA, GRADIENT_FOR_FULL_SHADING, HEATMAP_SATURATION, RenderMode,
     RenderSettings, Shading, heatmap_color,

@@ -8,7 +8,7 @@
 //! holds its volume's buffers and textures alone.
 
 use voxscope_octree::TransferFunction;
-use voxscope_stream::StreamStatus;
+use voxscope_stream::{AtlasZero, StreamStatus, Streamer, UploadPath};
 
 use super::pipeline::Variant;
 use super::raycaster::{
@@ -16,8 +16,8 @@ use super::raycaster::{
 };
 use super::slice::SliceSource;
 use super::{
-    Camera, CompositeVolume, GpuContext, ImageRegion, LevelDetail, RenderError, RenderSettings,
-    RenderTarget, RendererKind, StreamVolume,
+    Camera, ChannelLayer, GpuContext, ImageRegion, LevelDetail, RenderError, RenderSettings,
+    RenderTarget, RendererKind,
 };
 
 /// What a frame (or a part of one) is drawn into and with: the target, camera and settings,
@@ -180,20 +180,69 @@ pub trait Renderer: Send {
         None
     }
 
-    /// The streaming renderer's GPU side, if this is one.
-    fn stream(&self) -> Option<&StreamVolume> {
+    /// What streams this renderer's bricks through its GPU budget (the pyramid's shape, the
+    /// counters, the RAM cache, the bricks that failed, the budget's cut, the source), where
+    /// it streams; `None` for the renderers that hold every voxel on the GPU.
+    fn streamer(&self) -> Option<&Streamer> {
         None
     }
 
-    /// The streaming renderer's GPU side, to prefetch into, if this is one.
-    fn stream_mut(&mut self) -> Option<&mut StreamVolume> {
+    /// [`Self::streamer`], to steer: prefetch into, apply a cut, change when uploads go.
+    fn streamer_mut(&mut self) -> Option<&mut Streamer> {
         None
     }
 
-    /// The composite of channels, if this is one (its channels' tables are set there).
-    fn composite(&self) -> Option<&CompositeVolume> {
+    /// Reads the levels a streaming renderer keeps resident (once, after it is made; the
+    /// first [`Self::update`] uploads them). Nothing for the others, which hold every voxel.
+    fn read_pinned(&mut self) -> Result<(), RenderError> {
+        Ok(())
+    }
+
+    /// How a streaming renderer's uploads and frames go (what `bench` reports beside its
+    /// timings); `None` for the others.
+    fn stream_paths(&self) -> Option<StreamPaths> {
         None
     }
+
+    /// How many channels frames composite: 1 but for the composite.
+    fn channel_count(&self) -> usize {
+        1
+    }
+
+    /// Gives each channel of a renderer of several its transfer function and color
+    /// (`layers`, as many as [`Self::channel_count`]; their values are not read again) and
+    /// shows those `shown` marks (a hidden one adds nothing and hides nothing). A renderer of
+    /// one channel takes its transfer function through [`Self::set_transfer`] and refuses.
+    fn set_channels(
+        &self,
+        _context: &GpuContext,
+        layers: &[ChannelLayer<'_>],
+        shown: &[bool],
+    ) -> Result<(), RenderError> {
+        Err(RenderError::Invalid(format!(
+            "the {} renderer draws one channel, not {} ({} shown)",
+            self.kind().name(),
+            layers.len(),
+            shown.iter().filter(|&&s| s).count()
+        )))
+    }
+
+    /// Of the blocks empty-space skipping divides the volume into, how many frames march
+    /// (some shown channel is visible there) and how many there are: the composite's.
+    fn skipped_blocks(&self) -> Option<(usize, usize)> {
+        None
+    }
+}
+
+/// How a streaming renderer's uploads and frames go: the path uploads take, how the atlas
+/// was zeroed, how many frames the level walk drew, and its state (`StreamVolume`'s
+/// `walk_level_state`: finest level copied flat, how many levels, bricks it could not take).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct StreamPaths {
+    pub upload_path: UploadPath,
+    pub atlas_zero: AtlasZero,
+    pub level_walk_frames: u64,
+    pub walk_level: Option<(u32, u32, usize)>,
 }
 
 /// What frames of max level `max_level` draw of a volume of `depth` levels and `dims` voxels

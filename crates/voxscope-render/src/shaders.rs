@@ -25,7 +25,7 @@ macro_rules! shaders {
         $(
             $(#[$doc])*
             pub(crate) const $constant: &str =
-                concat!($(include_str!(concat!("../../../shaders/", $file))),+);
+                concat!($(include_str!(concat!("../shaders/", $file))),+);
         )+
 
         /// Every shader voxscope compiles: its name, the files in `shaders/` it is made of, and

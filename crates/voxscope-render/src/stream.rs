@@ -26,7 +26,7 @@ use super::raycaster::{
 };
 use super::readback::map_state::{FAILED, IDLE, MAPPED, RECORDED};
 use super::readback::{read_mapped, start_map_read};
-use super::renderer::{FramePass, Renderer, level_detail, pipeline_variants};
+use super::renderer::{FramePass, Renderer, StreamPaths, level_detail, pipeline_variants};
 use super::staging_ring::{self, StagedBrick, StagingRing};
 use super::uncleared_texture::{OutOfMemory, uncleared_texture};
 use super::{
@@ -648,12 +648,25 @@ impl Renderer for StreamVolume {
         Some(self.step(context))
     }
 
-    fn stream(&self) -> Option<&StreamVolume> {
-        Some(self)
+    fn streamer(&self) -> Option<&Streamer> {
+        Some(&self.streamer)
     }
 
-    fn stream_mut(&mut self) -> Option<&mut StreamVolume> {
-        Some(self)
+    fn streamer_mut(&mut self) -> Option<&mut Streamer> {
+        Some(&mut self.streamer)
+    }
+
+    fn read_pinned(&mut self) -> Result<(), RenderError> {
+        StreamVolume::read_pinned(self)
+    }
+
+    fn stream_paths(&self) -> Option<StreamPaths> {
+        Some(StreamPaths {
+            upload_path: self.upload_path(),
+            atlas_zero: self.atlas_zero(),
+            level_walk_frames: self.level_walk_frames(),
+            walk_level: self.walk_level_state(),
+        })
     }
 }
 

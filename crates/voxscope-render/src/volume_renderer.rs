@@ -13,7 +13,9 @@ use super::{
 };
 use std::sync::Arc;
 use voxscope_octree::{BrickLayout, Octree, TransferFunction};
-use voxscope_stream::{BrickSource, Downsampling, MemorySource, StreamOptions, StreamStatus};
+use voxscope_stream::{
+    BrickSource, Downsampling, MemorySource, StreamOptions, StreamStatus, Streamer,
+};
 use voxscope_volume::{Quantization, QuantizedVolume};
 
 /// The renderers voxscope has.
@@ -202,8 +204,8 @@ impl VolumeRenderer {
     }
 
     /// The composite of `layers` (1 to 8 channels on one grid, each its transfer function and
-    /// color) with the voxel size `spacing`; its channels' tables are set on
-    /// [`Self::composite`].
+    /// color) with the voxel size `spacing`; its channels' tables are set by
+    /// [`Self::set_channels`].
     pub fn new_composite(
         context: &GpuContext,
         layers: &[ChannelLayer<'_>],
@@ -243,25 +245,31 @@ impl VolumeRenderer {
         self.renderer.update(context)
     }
 
-    /// The streaming renderer's GPU side (its streamer and counters), if this is one.
-    pub fn stream(&self) -> Option<&StreamVolume> {
-        self.renderer.stream()
+    /// What streams this renderer's bricks ([`Renderer::streamer`]), where it streams.
+    pub fn streamer(&self) -> Option<&Streamer> {
+        self.renderer.streamer()
     }
 
-    /// A streaming renderer's always-resident levels read ([`StreamVolume::read_pinned`]);
+    /// [`Self::streamer`], to steer.
+    pub fn streamer_mut(&mut self) -> Option<&mut Streamer> {
+        self.renderer.streamer_mut()
+    }
+
+    /// A streaming renderer's always-resident levels read ([`Renderer::read_pinned`]);
     /// nothing for the others.
     pub fn read_pinned(&mut self) -> Result<(), RenderError> {
-        self.stream_mut().map_or(Ok(()), StreamVolume::read_pinned)
+        self.renderer.read_pinned()
     }
 
-    /// The streaming renderer's GPU side, to prefetch into, if this is one.
-    pub fn stream_mut(&mut self) -> Option<&mut StreamVolume> {
-        self.renderer.stream_mut()
-    }
-
-    /// The composite of channels, if this is one.
-    pub fn composite(&self) -> Option<&CompositeVolume> {
-        self.renderer.composite()
+    /// Gives a composite's channels their tables and colors, `shown` those drawn
+    /// ([`Renderer::set_channels`]).
+    pub fn set_channels(
+        &self,
+        context: &GpuContext,
+        layers: &[ChannelLayer<'_>],
+        shown: &[bool],
+    ) -> Result<(), RenderError> {
+        self.renderer.set_channels(context, layers, shown)
     }
 
     /// What frames of max level `max_level` draw with this renderer.

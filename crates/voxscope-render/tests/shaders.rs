@@ -25,7 +25,7 @@ fn every_shader_validates_and_every_file_is_used() {
             .map(|file| {
                 std::fs::read_to_string(
                     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-                        .join("../../shaders")
+                        .join("shaders")
                         .join(file),
                 )
                 .unwrap_or_else(|e| panic!("{name}: shaders/{file}: {e}"))
@@ -34,7 +34,7 @@ fn every_shader_validates_and_every_file_is_used() {
         assert_eq!(source, files.concat(), "{name} is its files, concatenated");
         used.extend(shader.files.iter().map(|f| f.to_string()));
     }
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shaders");
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("shaders");
     let on_disk: BTreeSet<String> = std::fs::read_dir(&dir)
         .expect("shaders/ exists")
         .map(|entry| entry.unwrap().file_name().to_string_lossy().into_owned())

@@ -10,7 +10,7 @@
 use std::sync::Arc;
 
 use voxscope_octree::{Colormap, DataKind, TransferFunction};
-use voxscope_render::{ChannelLayer, CompositeVolume, GpuContext, RenderError, VolumeRenderer};
+use voxscope_render::{ChannelLayer, GpuContext, RenderError, VolumeRenderer};
 use voxscope_volume::{QuantizedVolume, ValueWindow, Volume, channel_color};
 
 use crate::{
@@ -187,11 +187,10 @@ impl CompositeScene {
         let spacing = channels
             .first()
             .map_or([1.0; 3], |data| data.volume.spacing);
-        let renderer = VolumeRenderer::new_composite(context, &layers(&channels, states), spacing)?;
-        let shown: Vec<bool> = states.iter().map(|s| s.visible).collect();
-        if let Some(volume) = renderer.composite() {
-            volume.set_shown_layers(context, &layers(&channels, states), &shown);
-        }
+        let quantized = || channels.iter().map(|data| &data.quantized);
+        let renderer =
+            VolumeRenderer::new_composite(context, &layers(quantized(), states), spacing)?;
+        write_states(context, &renderer, quantized(), states)?;
         Ok(Self {
             channels,
             renderer,
@@ -202,17 +201,19 @@ impl CompositeScene {
 
     /// Writes the tables of `states` where they differ from what the GPU holds (no reload:
     /// edits stay live); returns the tables' generation, which changes with every write.
-    pub fn apply(&mut self, context: &GpuContext, states: &[ChannelState]) -> u64 {
-        if states.len() == self.channels.len()
-            && states != self.applied.as_slice()
-            && let Some(volume) = self.renderer.composite()
-        {
-            let shown: Vec<bool> = states.iter().map(|s| s.visible).collect();
-            volume.set_shown_layers(context, &layers(&self.channels, states), &shown);
+    /// States for another number of channels are refused, and the tables stay.
+    pub fn apply(
+        &mut self,
+        context: &GpuContext,
+        states: &[ChannelState],
+    ) -> Result<u64, RenderError> {
+        if states != self.applied.as_slice() {
+            let quantized = self.channels.iter().map(|data| &data.quantized);
+            write_states(context, &self.renderer, quantized, states)?;
             self.applied = states.to_vec();
             self.generation += 1;
         }
-        self.generation
+        Ok(self.generation)
     }
 
     /// Its channels' data, renderer and the states its tables follow, apart.
@@ -220,21 +221,29 @@ impl CompositeScene {
         (self.channels, self.renderer, self.applied)
     }
 
+    /// The tables' generation: it changes with every write.
+    pub fn generation(&self) -> u64 {
+        self.generation
+    }
+
     /// The channel states the GPU tables follow now.
     pub fn applied(&self) -> &[ChannelState] {
         &self.applied
     }
 
-    /// The composite on the GPU (its skipping blocks, grid and memory).
-    pub fn volume(&self) -> &CompositeVolume {
-        self.renderer
-            .composite()
-            .expect("a composite scene's renderer is the composite")
+    /// Of the blocks of 8³ voxels empty-space skipping divides the volume into, how many
+    /// frames march (some shown channel is visible there) and how many there are.
+    pub fn skipped_blocks(&self) -> (usize, usize) {
+        self.renderer.renderer().skipped_blocks().unwrap_or((0, 0))
     }
 
     /// Bytes on the GPU: textures and tables.
     pub fn gpu_bytes(&self) -> u64 {
-        self.volume().total_bytes()
+        self.renderer
+            .gpu_bytes()
+            .iter()
+            .map(|(_, bytes)| bytes)
+            .sum()
     }
 
     /// Bytes on the CPU: every channel's value levels and octree nodes.
@@ -244,17 +253,29 @@ impl CompositeScene {
 }
 
 /// The renderer's layers: each channel's levels under its state's transfer function and color.
-fn layers<'a>(
-    channels: &'a [Arc<VolumeData>],
+pub(crate) fn layers<'a>(
+    quantized: impl IntoIterator<Item = &'a QuantizedVolume>,
     states: &'a [ChannelState],
 ) -> Vec<ChannelLayer<'a>> {
-    channels
-        .iter()
+    quantized
+        .into_iter()
         .zip(states)
-        .map(|(data, state)| ChannelLayer {
-            quantized: &data.quantized,
+        .map(|(quantized, state)| ChannelLayer {
+            quantized,
             transfer: &state.transfer,
             color: state.color.map(|c| c as f32 / 255.0),
         })
         .collect()
+}
+
+/// Gives the channels of the composite `renderer` (their values `quantized`) the transfer
+/// functions, colors and visibility of `states`: nothing is read or uploaded again.
+pub(crate) fn write_states<'a>(
+    context: &GpuContext,
+    renderer: &VolumeRenderer,
+    quantized: impl IntoIterator<Item = &'a QuantizedVolume>,
+    states: &'a [ChannelState],
+) -> Result<(), RenderError> {
+    let shown: Vec<bool> = states.iter().map(|s| s.visible).collect();
+    renderer.set_channels(context, &layers(quantized, states), &shown)
 }

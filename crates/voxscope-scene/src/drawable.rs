@@ -13,9 +13,10 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use voxscope_octree::{self as octree, DataKind, MAX_DEPTH, TransferFunction};
-use voxscope_render::{ChannelLayer, GpuContext, RendererKind, RendererOptions, VolumeRenderer};
+use voxscope_render::{GpuContext, RendererKind, RendererOptions, VolumeRenderer};
 use voxscope_volume::{QuantizedVolume, Volume, format_dims};
 
+use crate::channels::{layers, write_states};
 use crate::label_open::{open_overlays, open_streamed_overlays};
 use crate::{
     ChannelChoice, ChannelState, CompositeScene, DrawOptions, OpenOptions, OpenedStream, Progress,
@@ -430,14 +431,14 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
         let states = channel_states(&channels, options, saved.as_ref(), alone)?;
         let spacing = channels[0].volume().spacing;
         let gpu = gpu()?;
+        let quantized = || channels.iter().map(CompositeChannel::quantized);
+        let name = &channels[0].volume().name;
         let renderer =
-            VolumeRenderer::new_composite(gpu.borrow(), &layers(&channels, &states), spacing)
-                .map_err(|e| SceneError::render(&channels[0].volume().name, e))?;
-        if let Some(volume) = renderer.composite()
-            && states.iter().any(|s| !s.visible)
-        {
-            let shown: Vec<bool> = states.iter().map(|s| s.visible).collect();
-            volume.set_shown_layers(gpu.borrow(), &layers(&channels, &states), &shown);
+            VolumeRenderer::new_composite(gpu.borrow(), &layers(quantized(), &states), spacing)
+                .map_err(|e| SceneError::render(name, e))?;
+        if states.iter().any(|s| !s.visible) {
+            write_states(gpu.borrow(), &renderer, quantized(), &states)
+                .map_err(|e| SceneError::render(name, e))?;
         }
         Ok(Self {
             gpu,
@@ -514,20 +515,5 @@ fn check_channels(
 }
 
 /// The renderer's layers: each channel's levels under its state's transfer function and color.
-fn layers<'a>(
-    channels: &'a [CompositeChannel],
-    states: &'a [ChannelState],
-) -> Vec<ChannelLayer<'a>> {
-    channels
-        .iter()
-        .zip(states)
-        .map(|(c, state)| ChannelLayer {
-            quantized: c.quantized(),
-            transfer: &state.transfer,
-            color: state.color.map(|v| v as f32 / 255.0),
-        })
-        .collect()
-}
-
 #[path = "drawable_frames.rs"]
 mod frames;

@@ -12,7 +12,8 @@ use voxscope_render::{
     VolumeRenderer, read_image,
 };
 
-use super::{Drawable, Drawn, channel_states, layers};
+use super::{CompositeChannel, Drawable, Drawn, channel_states};
+use crate::channels::write_states;
 use crate::{
     ChannelState, DrawOptions, Refinement, SavedTransfer, SceneError, UploadedLabels,
     opening_transfer, refine,
@@ -53,7 +54,7 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
 
     /// Whether a pyramid is streamed into the GPU budget.
     pub fn is_streamed(&self) -> bool {
-        self.renderer().kind() == RendererKind::Stream
+        self.renderer().streamer().is_some()
     }
 
     /// The composite's channels as they are drawn; `None` for one volume.
@@ -165,11 +166,10 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
                 alone,
             } => {
                 let states = channel_states(channels, options, saved.as_ref(), *alone)?;
-                if states != *applied
-                    && let Some(volume) = renderer.composite()
-                {
-                    let shown: Vec<bool> = states.iter().map(|s| s.visible).collect();
-                    volume.set_shown_layers(context, &layers(channels, &states), &shown);
+                if states != *applied {
+                    let quantized = channels.iter().map(CompositeChannel::quantized);
+                    write_states(context, renderer, quantized, &states)
+                        .map_err(|e| SceneError::render(&name, e))?;
                     *applied = states;
                 }
             }
@@ -189,8 +189,8 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
 
     /// Draws the composite's channels as `states` say (their colors, windows and transfer
     /// functions; as many as it has): a movie's frame between keyframes. One volume ignores
-    /// them.
-    pub fn set_channels(&mut self, states: &[ChannelState]) {
+    /// them; states for another number of channels are refused.
+    pub fn set_channels(&mut self, states: &[ChannelState]) -> Result<(), SceneError> {
         let context = self.gpu.borrow();
         let Drawn::Composite {
             channels,
@@ -199,16 +199,16 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
             ..
         } = &mut self.drawn
         else {
-            return;
+            return Ok(());
         };
-        if states == applied.as_slice() || states.len() != channels.len() {
-            return;
+        if states == applied.as_slice() {
+            return Ok(());
         }
-        if let Some(composite) = renderer.composite() {
-            let shown: Vec<bool> = states.iter().map(|s| s.visible).collect();
-            composite.set_shown_layers(context, &layers(channels, states), &shown);
-        }
+        let quantized = channels.iter().map(CompositeChannel::quantized);
+        write_states(context, renderer, quantized, states)
+            .map_err(|e| SceneError::render(&channels[0].volume().name, e))?;
         *applied = states.to_vec();
+        Ok(())
     }
 
     /// Records and submits a frame into `target` without waiting (the streaming renderer

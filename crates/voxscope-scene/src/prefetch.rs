@@ -114,17 +114,15 @@ impl Prefetch {
             if self.warmed.contains(key) {
                 continue;
             }
-            let Some(stream) = opened.scene.renderer.stream_mut() else {
+            let Some(streamer) = opened.scene.renderer.streamer_mut() else {
                 continue;
             };
             self.warmed.push(*key);
-            if stream.streamer().shape() == shape {
+            if streamer.shape() == shape {
                 if let Some((view, standing)) = cut {
-                    stream
-                        .streamer_mut()
-                        .apply_budget_cut(*view, standing.iter().copied());
+                    streamer.apply_budget_cut(*view, standing.iter().copied());
                 }
-                queued += stream.streamer_mut().prefetch(keys.iter().copied());
+                queued += streamer.prefetch(keys.iter().copied());
             }
         }
         queued

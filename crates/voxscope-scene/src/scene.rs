@@ -112,17 +112,17 @@ impl Scene {
     /// OME-Zarr store is finer than the level held in memory for the panels).
     pub fn depth(&self) -> u32 {
         self.renderer
-            .stream()
-            .map_or(self.data.octree.depth, |s| s.streamer().shape().depth())
+            .streamer()
+            .map_or(self.data.octree.depth, |s| s.shape().depth())
     }
 
     /// Per axis, the view's voxels (the volume in memory) per voxel of the renderer: 1 but for
     /// a streamed OME-Zarr store, whose full resolution is finer than the level in memory.
     pub fn voxel_scale(&self) -> [f64; 3] {
-        let Some(stream) = self.renderer.stream() else {
+        let Some(streamer) = self.renderer.streamer() else {
             return [1.0; 3];
         };
-        let streamed = stream.streamer().shape().dims();
+        let streamed = streamer.shape().dims();
         std::array::from_fn(|a| self.data.volume.dims[a] as f64 / streamed[a] as f64)
     }
 }

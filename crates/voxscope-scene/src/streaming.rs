@@ -406,8 +406,8 @@ pub fn refine(
 ) -> Result<Refinement, SceneError> {
     let set_still = |renderer: &mut VolumeRenderer, still| {
         renderer
-            .stream_mut()
-            .map(|stream| stream.streamer_mut().set_still_uploads(still))
+            .streamer_mut()
+            .map(|streamer| streamer.set_still_uploads(still))
     };
     let before = set_still(renderer, StillUploads::AllReady);
     let mut draw = || -> Result<Refinement, SceneError> {
@@ -449,11 +449,11 @@ pub fn refine(
                 *first_frame_seconds.get_or_insert_with(|| started.elapsed().as_secs_f64());
             let complete = status.complete && status.judged_frame.is_some_and(|f| f >= first);
             if complete || started.elapsed() >= max_wait {
-                let (unreadable, failed) = renderer.stream().map_or((Vec::new(), 0), |stream| {
-                    let streamer = stream.streamer();
-                    let unreadable: Vec<FailedBrick> = streamer.unreadable().cloned().collect();
-                    (unreadable, streamer.failures().count())
-                });
+                let (unreadable, failed) =
+                    renderer.streamer().map_or((Vec::new(), 0), |streamer| {
+                        let unreadable: Vec<FailedBrick> = streamer.unreadable().cloned().collect();
+                        (unreadable, streamer.failures().count())
+                    });
                 return Ok(Refinement {
                     status,
                     frames,

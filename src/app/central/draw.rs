@@ -318,8 +318,8 @@ impl CentralView {
         }
         if let Some(stats) = scene
             .renderer
-            .stream()
-            .and_then(|s| s.streamer().source().remote_stats())
+            .streamer()
+            .and_then(|s| s.source().remote_stats())
         {
             scene.network = Some(NetworkState::follow(scene.network, stats));
         }
@@ -340,7 +340,10 @@ impl PaneLooks {
         let compare = settings.compare_transfer.with_window(view.window);
         let composite_channels = view.composite_channels(main);
         let layers = match &mut scene.composite {
-            Some(composite) => composite.apply(context, &composite_channels),
+            // A channel list of another length (a scene being replaced) leaves the tables.
+            Some(composite) => composite
+                .apply(context, &composite_channels)
+                .unwrap_or_else(|_| composite.generation()),
             None => 0,
         };
         // With the composite shown the slices are channel 0's (the renderer of one channel).

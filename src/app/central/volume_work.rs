@@ -282,7 +282,7 @@ impl CentralView {
             in_bands: renderer.draws_regions() && !frame.settings.continuous,
             interacting: self.interacting,
             refining: drawing.refining,
-            streaming: renderer.stream().is_some(),
+            streaming: renderer.streamer().is_some(),
             previews: frame.settings.fast_interaction,
         };
         let work = choice.choose(&self.pacer, pane);

@@ -45,7 +45,7 @@ impl VoxscopeApp {
                             container: self.container.as_ref(),
                             composite: scene.composite.is_some(),
                             prefetched: self.prefetch.ready().len(),
-                            streamed: scene.renderer.stream().is_some(),
+                            streamed: scene.renderer.streamer().is_some(),
                             on_screen: self.shown_time,
                         };
                         frame_controls::show(
