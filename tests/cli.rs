@@ -497,6 +497,7 @@ fn bench_runs_briefly_on_any_device_and_reports_every_case() {
             "camera",
             "median_ms",
             "p95_ms",
+            "wall_ms_per_frame",
             "fps",
             "rays_per_s",
             "nodes_per_ray_avg",

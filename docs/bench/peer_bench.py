@@ -45,10 +45,10 @@ Timing, per (peer, mode), after one warm-up render (upload, shader compile) whos
   gets); it is the GPU-bound estimate when the GPU is the bottleneck.
 - voxscope: ms_readback is `Renderer.render()` (draw, then the image read back into numpy);
   ms_batch is `frames` calls of `Renderer.draw()` then one `Renderer.finish()`. ms_call (its
-  rows only) is Python's per-frame overhead: the mean wall time of one `draw()` call as the
-  interpreter sees it (keywords parsed by the command line's parser, the frame's transfer
-  function checked, the frame encoded and submitted, the GIL released around it), without
-  waiting for the GPU; ms_call_p95 its 95th percentile.
+  rows only) is a frame's CPU cost: the mean wall time of one `draw()` call as the
+  interpreter sees it (its camera keywords read as numbers, the frame encoded and submitted as
+  the command line's are, the GIL released around it), without waiting for the GPU;
+  ms_call_p95 its 95th percentile.
 Prints one JSON line per (peer, mode); writes $OUT/{peer}_{mode}_{tag}.png (tag = file stem) at
 az 30 and, in the parent, $OUT/sheet_{tag}.png with all of them side by side plus an image
 comparison line per mode (mean |difference| of the gray images against the first peer's).

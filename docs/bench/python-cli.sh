@@ -1,20 +1,28 @@
 #!/usr/bin/env bash
-# Python's frame beside the command line's, on one machine and one volume (docs/benchmarks.md
-# "Python"): the 256³ T1 MRI as u8, 1024×768, 100 frames. Python: the peers' harness with only
-# voxscope in it (docs/bench/peer_bench.py, `Renderer(renderer="bricks")`, `ms_batch`). The
-# command line: `bench --stream` on the same voxels read raw, its `resident` rows'
-# `bricks_wall_ms_per_frame` (a frame of a batch of 100, then the device's completion), the
-# figure the peers' table quotes.
+# Python's frame beside the command line's, on one machine and one volume, the same frames
+# (docs/benchmarks.md "Python"): the 256³ T1 MRI as u8, 1024×768, 100 frames of a turn at 3
+# radii, opacity gray over the window 0:255, unshaded, the bricks renderer.
+#   Python: the peers' harness with only voxscope in it (docs/bench/peer_bench.py,
+#     `Renderer(renderer="bricks")`, `ms_batch`: 100 `draw()` calls, azimuth 150° turning
+#     3.6° a frame, then `finish()`).
+#   Command line: `bench --renderer bricks` on the same voxels read raw, `--window 0:255
+#     --frames 100 --azimuth 150`: its bricks `medium` rows (3 radii; `dvr-gray`: opacity gray
+#     unshaded; `mip`), `wall_ms_per_frame`: the turn's 100 frames (azimuth 150° turning 3.6°
+#     a frame the other way: the same 100 cameras) submitted back to back, then the device's
+#     completion.
+# The harness's azimuth a is voxscope's 180 − a (peer_bench.py): its AZ0 = 30 is 150 here.
 # Expects what peers-python.sh expects (.whl with the voxscope wheel, .gl, .bench with
 # mri-head-256.nii.gz) and the release binary as .bench/voxscope(.gz).
-# Usage: bash docs/bench/python-cli.sh RUN_NAME   (RUN_NAME-python-cli.tar.gz to $OUT)
+# Usage: bash docs/bench/python-cli.sh RUN_NAME   (RUN_NAME-python-cli.tar.gz to $OUT); its last
+# line: `python-cli DVR python P ms cli C ms ratio R; MIP …` (docs/bench/python_cli_summary.py).
 set -uo pipefail
 RUN=${1:?usage: python-cli.sh RUN_NAME}
+FRAMES=100 SIZE=1024x768 AZIMUTH=150
 DIR=/tmp/$RUN-python-cli
 mkdir -p "$DIR"
 [ -e .bench/voxscope ] || { gunzip -kf .bench/voxscope.gz && chmod +x .bench/voxscope; }
 OUT_SAVED=${OUT:-}
-# The Python side, as peers-python.sh runs it.
+# The Python side, as peers-python.sh runs it (100 frames at 1024×768).
 PEERS=voxscope OUT= bash docs/bench/peers-python.sh "$RUN" >"$DIR/python.log" 2>&1
 cp /tmp/$RUN/$RUN-peers.jsonl "$DIR/python.jsonl" 2>/dev/null
 tail -5 "$DIR/python.log"
@@ -33,11 +41,14 @@ sz, sy, sx = vol.spacing
 open(sys.argv[1] + "/layout", "w").write(f"{x}x{y}x{z}:u8 {sx},{sy},{sz}")
 PY
 read -r layout spacing <"$DIR/layout"
-# Every mode and camera; the `resident` rows hold the batch's wall time per frame.
+# The gray DVR, binary DVR, MIP and shaded DVR cases at 1.5, 3 and 6 radii; the rows compared
+# are the `medium` ones.
 .bench/voxscope bench "$DIR/head.raw" --raw "$layout" --spacing "$spacing" --window 0:255 \
-    --stream --json >"$DIR/cli-stream.json" 2>"$DIR/cli-stream.err"
-echo "cli bench --stream rc=$?"
+    --renderer bricks --frames "$FRAMES" --size "$SIZE" --azimuth "$AZIMUTH" --json \
+    >"$DIR/cli.json" 2>"$DIR/cli.err"
+echo "cli bench rc=$?"
 rm -f "$DIR/head.raw"
+python3 docs/bench/python_cli_summary.py "$DIR/python.jsonl" "$DIR/cli.json" | tee "$DIR/summary.txt"
 if [ -n "$OUT_SAVED" ]; then
     tar -czf "$OUT_SAVED/$RUN-python-cli.tar.gz" -C /tmp "$(basename "$DIR")"
 fi

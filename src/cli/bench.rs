@@ -22,6 +22,11 @@ pub struct BenchArgs {
     /// Timed frames per case; the azimuth sweeps a full turn over them.
     #[arg(long, default_value_t = 200)]
     pub frames: u32,
+    /// The cameras' azimuth, degrees (0: from the front): each case's turn of the azimuth
+    /// starts there; the streaming benchmark's views look from there and its orbits start
+    /// there.
+    #[arg(long, default_value_t = 30.0, allow_hyphen_values = true)]
+    pub azimuth: f64,
     /// Binary threshold on the windowed value, 0…1.
     #[arg(long, default_value_t = 0.3)]
     pub threshold: f32,
@@ -98,6 +103,7 @@ impl BenchArgs {
             open: self.volume.open_options(),
             size: self.size,
             frames: self.frames,
+            azimuth: self.azimuth,
             threshold: self.threshold,
             window: self.window,
             density: self.density,
@@ -145,5 +151,50 @@ fn error_text(error: &BenchError) -> String {
     match error {
         BenchError::Open(error) => scene_error_text(error),
         error => error.to_string(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::Parser;
+    use voxscope_bench::BenchOptions;
+
+    use super::BenchArgs;
+
+    #[derive(Debug, Parser)]
+    struct Bench {
+        #[command(flatten)]
+        args: BenchArgs,
+    }
+
+    fn options(args: &[&str]) -> BenchOptions {
+        let argv = ["bench", "synthetic:sphere:32"].iter().chain(args);
+        Bench::try_parse_from(argv).expect("parses").args.options()
+    }
+
+    /// The bench crate's defaults are the command line's.
+    #[test]
+    fn no_flags_measure_as_the_bench_crate_defaults() {
+        let parsed = options(&[]);
+        assert_eq!(
+            parsed,
+            BenchOptions {
+                open: parsed.open.clone(),
+                ..BenchOptions::default()
+            }
+        );
+    }
+
+    /// `--azimuth` turns every camera, a negative angle too.
+    #[test]
+    fn the_azimuth_turns_the_cameras() {
+        let parsed = options(&["--azimuth", "-150.5"]);
+        assert_eq!(parsed.azimuth, -150.5);
+        let camera = parsed.camera(3.0);
+        assert_eq!((camera.azimuth_deg, camera.distance), (-150.5, 3.0));
+        assert_eq!(
+            camera.elevation_deg,
+            BenchOptions::default().camera(3.0).elevation_deg
+        );
     }
 }

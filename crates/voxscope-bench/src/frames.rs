@@ -1,6 +1,8 @@
 //! Timed frames of one view of an in-memory renderer, and the work its rays do: nodes per ray
 //! and how much of what the warps pay for is work.
 
+use std::time::Instant;
+
 use voxscope_render::{
     Camera, GpuContext, GpuTimer, RenderSettings, RenderTarget, VolumeRenderer, read_visits,
     time_passes, warm_up,
@@ -16,13 +18,24 @@ pub(crate) struct View<'a> {
     pub settings: &'a RenderSettings,
 }
 
-/// Renders `count` frames with the azimuth sweeping a full turn; milliseconds per frame.
+/// What [`time_frames`] measured of a full turn.
+pub(crate) struct FrameTimes {
+    /// Milliseconds of each frame: GPU time from timestamps (else wall time, each waited for).
+    pub each: Vec<f64>,
+    /// Wall milliseconds per frame of the turn's frames submitted back to back, then the
+    /// device's completion: what an app issuing frames sees, each frame's encode and submit
+    /// on the CPU included (a Python `Renderer`'s `draw()` calls, then `finish()`).
+    pub batch_wall: f64,
+}
+
+/// Renders `count` frames with the azimuth sweeping a full turn from the view's, after a warm
+/// up: once as a batch timed on the wall clock, then each frame timed.
 pub(crate) fn time_frames(
     context: &GpuContext,
     view: &View<'_>,
     count: u32,
     timer: Option<&GpuTimer>,
-) -> Result<Vec<f64>, BenchError> {
+) -> Result<FrameTimes, BenchError> {
     let at_azimuth = |i: u32| Camera {
         azimuth_deg: view.camera.azimuth_deg + 360.0 * i as f64 / count as f64,
         ..view.camera
@@ -47,9 +60,16 @@ pub(crate) fn time_frames(
     warm_up(context, timer, |i, writes| {
         submit(&at_azimuth((i % 16) * count / 16), writes)
     })?;
-    Ok(time_passes(context, timer, count, |i, writes| {
+    let started = Instant::now();
+    for i in 0..count {
+        submit(&at_azimuth(i), None);
+    }
+    context.wait_idle()?;
+    let batch_wall = started.elapsed().as_secs_f64() * 1e3 / count.max(1) as f64;
+    let each = time_passes(context, timer, count, |i, writes| {
         submit(&at_azimuth(i), writes)
-    })?)
+    })?;
+    Ok(FrameTimes { each, batch_wall })
 }
 
 /// Work per ray over four azimuths: nodes (octree), samples (dense) or both (bricks).

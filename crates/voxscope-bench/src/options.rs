@@ -4,7 +4,7 @@
 use std::time::Duration;
 
 use voxscope_octree::{Clip, OpacityMode};
-use voxscope_render::{DEFAULT_BRICK_SIZE, RendererKind};
+use voxscope_render::{Camera, DEFAULT_BRICK_SIZE, RendererKind};
 use voxscope_scene::{OpenOptions, TransferOptions};
 use voxscope_stream::StreamOptions;
 use voxscope_volume::ValueWindow;
@@ -21,6 +21,9 @@ pub struct BenchOptions {
     pub size: (u32, u32),
     /// Timed frames per case; the azimuth sweeps a full turn over them.
     pub frames: u32,
+    /// The cameras' azimuth in degrees (0: from the front): where each in-memory case's turn
+    /// starts, and where the streaming benchmark's views look from and its orbits start.
+    pub azimuth: f64,
     /// Binary threshold on the windowed value, 0…1.
     pub threshold: f32,
     /// Value window (default: the 0.5–99.5 percentiles).
@@ -51,6 +54,7 @@ impl Default for BenchOptions {
             open: OpenOptions::default(),
             size: (1024, 768),
             frames: 200,
+            azimuth: Camera::default().azimuth_deg,
             threshold: 0.3,
             window: None,
             density: 1.0,
@@ -74,6 +78,16 @@ impl BenchOptions {
         Ok(())
     }
 
+    /// The camera at `distance` bounding-sphere radii: [`Camera::default`]'s elevation and
+    /// field of view, at the options' azimuth.
+    pub fn camera(&self, distance: f64) -> Camera {
+        Camera {
+            azimuth_deg: self.azimuth,
+            distance,
+            ..Camera::default()
+        }
+    }
+
     /// The transfer function the volume opens with: alpha = gray over the window, with the
     /// threshold of the binary cases; nothing else asked.
     pub fn transfer(&self) -> TransferOptions {
@@ -89,5 +103,9 @@ impl BenchOptions {
 /// How long a stopped view may take to complete before the benchmark says it did not.
 pub const MAX_WAIT: Duration = Duration::from_secs(20);
 
+/// The medium camera's distance in bounding-sphere radii: the streaming benchmark's first
+/// image, stopped view and orbit.
+pub(crate) const MEDIUM: f64 = 3.0;
+
 /// The paper's three cases: near, medium and far, in bounding-sphere radii.
-pub(crate) const CAMERAS: [(&str, f64); 3] = [("near", 1.5), ("medium", 3.0), ("far", 6.0)];
+pub(crate) const CAMERAS: [(&str, f64); 3] = [("near", 1.5), ("medium", MEDIUM), ("far", 6.0)];

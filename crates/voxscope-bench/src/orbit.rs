@@ -24,6 +24,8 @@ pub(crate) struct Orbits<'a> {
     pub prepared: &'a StreamedVolume,
     pub stream: StreamOptions,
     pub settings: RenderSettings,
+    /// The camera each turn starts from, at the turn's own distance.
+    pub camera: Camera,
     /// Frames of a full turn.
     pub frames: u32,
     /// Frames drawn at most this many a second (0: unpaced).
@@ -125,7 +127,7 @@ impl Orbits<'_> {
 
     /// A full turn of `renderer`'s frames at `distance`, each updated, drawn and waited for.
     fn turn(&self, renderer: &mut VolumeRenderer, distance: f64) -> Result<Turn, BenchError> {
-        let (context, medium) = (self.context, Camera::default());
+        let (context, start) = (self.context, self.camera);
         let mut turn = Turn::default();
         let turn_started = Instant::now();
         turn.gpu = time_passes(context, self.timer, self.frames, |i, writes| {
@@ -141,8 +143,8 @@ impl Orbits<'_> {
             turn.missing.push(status.missing as f64);
             let camera = Camera {
                 distance,
-                azimuth_deg: medium.azimuth_deg + 360.0 * i as f64 / self.frames as f64,
-                ..medium
+                azimuth_deg: start.azimuth_deg + 360.0 * i as f64 / self.frames as f64,
+                ..start
             };
             let mut encoder =
                 context

@@ -21,7 +21,7 @@ use voxscope_volume::Volume;
 use crate::edits::{EditTimes, RECOLOR_RUNS, apply_transfer, time_transfer_edits};
 use crate::error::BenchError;
 use crate::frames::{View, sample_visits, time_frames};
-use crate::options::{BenchOptions, CAMERAS};
+use crate::options::{BenchOptions, CAMERAS, MEDIUM};
 use crate::stats::percentile;
 
 /// The volume the in-memory renderers are timed on: its data with the octree colored by the
@@ -135,6 +135,10 @@ pub struct BenchResult {
     pub camera: &'static str,
     pub median_ms: f64,
     pub p95_ms: f64,
+    /// Wall milliseconds per frame of the turn's frames as one batch (submitted back to back,
+    /// then the device's completion), each frame's encode and submit on the CPU included:
+    /// what a Python `Renderer`'s `draw()` calls then `finish()` take a frame.
+    pub wall_ms_per_frame: f64,
     pub fps: f64,
     pub rays_per_s: f64,
     /// Over rays that enter the volume, sampled from four azimuths.
@@ -207,6 +211,7 @@ pub fn run(options: &BenchOptions, volume: &BenchVolume) -> Result<Report, Bench
         target: &target,
         timer: timer.as_ref(),
         frames: options.frames,
+        camera: options.camera(MEDIUM),
         density: options.density,
         clip: options.clip,
         depth,
@@ -277,6 +282,8 @@ pub fn run(options: &BenchOptions, volume: &BenchVolume) -> Result<Report, Bench
         "timing": timing_name(timer.as_ref()),
         "size": [target.width, target.height],
         "frames": options.frames,
+        // Where each case's turn starts, in degrees.
+        "azimuth": options.azimuth,
         "volume": {
             "file": data.volume.name,
             "dims": data.volume.dims,
@@ -303,6 +310,8 @@ struct Bench<'a> {
     target: &'a RenderTarget,
     timer: Option<&'a GpuTimer>,
     frames: u32,
+    /// The camera of every view, at each view's own distance.
+    camera: Camera,
     density: f32,
     clip: Clip,
     /// The octree's depth: the composites draw at full detail.
@@ -388,7 +397,7 @@ impl Bench<'_> {
             target: self.target,
             camera: Camera {
                 distance,
-                ..Camera::default()
+                ..self.camera
             },
             settings,
         }
@@ -404,14 +413,15 @@ impl Bench<'_> {
     ) -> Result<BenchResult, BenchError> {
         let times = time_frames(self.context, view, self.frames, self.timer)?;
         let work = sample_visits(self.context, view)?;
-        let median = percentile(&times, 50.0);
+        let median = percentile(&times.each, 50.0);
         let pixels = self.target.width as f64 * self.target.height as f64;
         Ok(BenchResult {
             renderer,
             mode,
             camera,
             median_ms: median,
-            p95_ms: percentile(&times, 95.0),
+            p95_ms: percentile(&times.each, 95.0),
+            wall_ms_per_frame: times.batch_wall,
             fps: 1000.0 / median,
             rays_per_s: pixels / (median * 1e-3),
             nodes_per_ray_avg: work.average,
@@ -458,25 +468,27 @@ impl Report {
         let report = &self.json;
         let mut lines = vec![
             format!(
-                "{} ({}), {}, {}x{}, {} frames per case",
+                "{} ({}), {}, {}x{}, {} frames per case (a turn from azimuth {}°)",
                 report["adapter"].as_str().unwrap_or_default(),
                 report["backend"].as_str().unwrap_or_default(),
                 report["timing"].as_str().unwrap_or_default(),
                 report["size"][0],
                 report["size"][1],
-                report["frames"]
+                report["frames"],
+                report["azimuth"]
             ),
             format!(
                 "volume {}  octree {} nodes",
                 report["volume"]["file"], report["volume"]["octree_nodes"]
             ),
             format!(
-                "{:<8} {:<15} {:<7} {:>10} {:>10} {:>9} {:>12} {:>11} {:>10} {:>6}",
+                "{:<8} {:<15} {:<7} {:>10} {:>10} {:>10} {:>9} {:>12} {:>11} {:>10} {:>6}",
                 "renderer",
                 "mode",
                 "camera",
                 "median ms",
                 "p95 ms",
+                "wall ms",
                 "fps",
                 "Mrays/s",
                 "nodes/ray",
@@ -486,12 +498,13 @@ impl Report {
         ];
         for r in &self.results {
             lines.push(format!(
-                "{:<8} {:<15} {:<7} {:>10.3} {:>10.3} {:>9.1} {:>12.1} {:>11.1} {:>10} {:>6.2}",
+                "{:<8} {:<15} {:<7} {:>10.3} {:>10.3} {:>10.3} {:>9.1} {:>12.1} {:>11.1} {:>10} {:>6.2}",
                 r.renderer,
                 r.mode,
                 r.camera,
                 r.median_ms,
                 r.p95_ms,
+                r.wall_ms_per_frame,
                 r.fps,
                 r.rays_per_s / 1e6,
                 r.nodes_per_ray_avg,

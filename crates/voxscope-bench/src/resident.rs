@@ -70,10 +70,7 @@ pub fn resident_comparison(
                 ..RenderSettings::full_detail(depth)
             };
             for (camera_name, distance) in CAMERAS {
-                let camera = Camera {
-                    distance,
-                    ..Camera::default()
-                };
+                let camera = options.camera(distance);
                 let refinement = refine(context, &mut stream, target, &camera, &settings, MAX_WAIT)
                     .map_err(BenchError::Scene)?;
                 // What a window does next: it keeps updating while the streamer fills the level

@@ -8,7 +8,7 @@ use std::time::Instant;
 
 use serde_json::json;
 use voxscope_render::{
-    Camera, GpuContext, GpuTimer, RenderMode, RenderSettings, RenderTarget, RendererKind, Shading,
+    GpuContext, GpuTimer, RenderMode, RenderSettings, RenderTarget, RendererKind, Shading,
     VolumeRenderer, timing_name,
 };
 use voxscope_scene::{OpenedStream, StreamedVolume, refine};
@@ -17,7 +17,7 @@ use voxscope_stream::{AtlasZero, StreamCounters, StreamOptions, UploadPath};
 use crate::decode::decode_rate;
 use crate::error::BenchError;
 use crate::memory::Phases;
-use crate::options::{BenchOptions, MAX_WAIT};
+use crate::options::{BenchOptions, MAX_WAIT, MEDIUM};
 use crate::orbit::Orbits;
 use crate::resident::resident_comparison;
 
@@ -70,7 +70,7 @@ pub fn run(options: &BenchOptions) -> Result<serde_json::Value, BenchError> {
     let gray = bench.settings(RenderMode::Dvr);
     let drawing = Instant::now();
     let first_update = renderer.update(&context);
-    renderer.render(&context, &target, &Camera::default(), &gray);
+    renderer.render(&context, &target, &options.camera(MEDIUM), &gray);
     context.wait_idle()?;
     // One clock reading ends both the first image and its last part, so the parts add up to
     // no more than the whole.
@@ -101,10 +101,11 @@ pub fn run(options: &BenchOptions) -> Result<serde_json::Value, BenchError> {
         prepared: &prepared,
         stream: bench.stream,
         settings: gray,
+        camera: options.camera(MEDIUM),
         frames: options.frames,
         fps: options.orbit_fps,
     };
-    let orbits = [("medium", 3.0), ("near", 1.5)]
+    let orbits = [("medium", MEDIUM), ("near", 1.5)]
         .into_iter()
         .map(|(camera_name, distance)| orbits.orbit(camera_name, distance, &mut memory))
         .collect::<Result<Vec<_>, _>>()?;
@@ -145,6 +146,7 @@ pub fn run(options: &BenchOptions) -> Result<serde_json::Value, BenchError> {
         "timing": timing_name(timer.as_ref()),
         "size": [target.width, target.height],
         "frames": options.frames,
+        "azimuth": options.azimuth,
         "volume": {
             "name": prepared.source.name(),
             "dims": prepared.source.shape().dims(),
@@ -221,7 +223,7 @@ impl StreamBench<'_> {
             self.context,
             &mut renderer,
             self.target,
-            &Camera::default(),
+            &self.options.camera(MEDIUM),
             &gray,
             MAX_WAIT,
         )
@@ -282,10 +284,7 @@ impl StreamBench<'_> {
         });
         let prepared = self.prepared;
         for (distance, mode_name, mode) in near_views {
-            let camera = Camera {
-                distance,
-                ..Camera::default()
-            };
+            let camera = self.options.camera(distance);
             let mut renderer = VolumeRenderer::new_stream(
                 self.context,
                 prepared.source.clone(),

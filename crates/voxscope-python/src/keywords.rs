@@ -223,27 +223,6 @@ impl Given {
             .find(|name| names.contains(name))
     }
 
-    /// `options` (these keywords' options read already) with `frame`'s camera keywords
-    /// set, where `frame` holds camera keywords alone (`azimuth`, `elevation`, `distance`,
-    /// `fov`), each a number; else `None` (read them all). A camera sweep then costs
-    /// microseconds a frame in Python.
-    pub fn with_camera(options: &DrawOptions, frame: &Given) -> Option<DrawOptions> {
-        let mut options = options.clone();
-        for (name, words) in &frame.words {
-            let [word] = &words[..] else { return None };
-            let (_, text) = word.split_once('=')?;
-            let value: f64 = text.parse().ok()?;
-            match *name {
-                "azimuth" => options.camera.azimuth_deg = value,
-                "elevation" => options.camera.elevation_deg = value,
-                "distance" => options.camera.distance = value,
-                "fov" => options.camera.fov_y_deg = value,
-                _ => return None,
-            }
-        }
-        Some(options)
-    }
-
     /// The words of the keywords that decide the transfer function and the channels' tables
     /// (all but the camera, size and `max_wait`): what changes them.
     pub fn transfer_words(&self) -> Vec<String> {

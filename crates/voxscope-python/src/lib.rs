@@ -10,6 +10,7 @@
 //! app (egui) is reached only through the command line, in another process.
 
 mod arrays;
+mod camera_keywords;
 mod command_line;
 mod convert;
 mod drawn;

@@ -1,8 +1,9 @@
 //! `voxscope.Renderer` and `voxscope.render`: a volume kept on the GPU (device, pipelines and
 //! voxels resident) and drawn frame after frame into numpy images. A frame costs what the GPU
-//! costs plus the keywords' parsing; a changed transfer function is a GPU recolor, a changed
-//! size a new target; nothing is uploaded again. The GIL is released while loading,
-//! uploading, drawing and reading back.
+//! costs plus the keywords' parsing (camera keywords alone are read as numbers, over the
+//! options parsed when the Renderer was made); a changed transfer function is a GPU recolor,
+//! a changed size a new target; nothing is uploaded again. The GIL is released while
+//! loading, uploading, drawing and reading back.
 
 use std::sync::{Mutex, MutexGuard};
 
@@ -13,6 +14,7 @@ use voxscope_render::{RenderTarget, read_image};
 use voxscope_scene::{DrawOptions, Drawable, SavedTransfer, VolumeSource};
 
 use crate::arrays::{ArrayOptions, quantize, spacing_of, supported_array};
+use crate::camera_keywords::CameraKeywords;
 use crate::drawn::{CompleteNotice, Drawn, Frame, Notice, draw_complete, notice_of};
 use crate::errors::{RenderError, VoxscopeError, gpu_error};
 use crate::gpu::device;
@@ -36,6 +38,8 @@ struct Resident {
     drawn: Drawn,
     base: Given,
     base_options: DrawOptions,
+    /// The words of `base`'s transfer keywords (what a frame of camera keywords alone has).
+    base_words: Vec<String>,
     /// The transfer keywords' words last applied, and their `tf` file as read then.
     applied: Option<(Vec<String>, Option<SavedTransfer>)>,
     target: Option<RenderTarget>,
@@ -43,16 +47,44 @@ struct Resident {
     budget_said: Option<String>,
 }
 
+/// A frame's keywords: camera keywords alone, as numbers (a camera sweep's; no words), or
+/// any, as words.
+struct FrameKeywords {
+    /// The camera keywords, where the frame gives nothing else.
+    camera: Option<CameraKeywords>,
+    given: Given,
+}
+
 impl Resident {
     /// The frame of the Renderer's keywords with `frame`'s on top, applied: the transfer
     /// function and channels where their keywords changed, a target of the frame's size.
-    fn prepare(&mut self, frame: &Given) -> Result<Frame, PyErr> {
-        let merged = self.base.with(frame);
-        let options = match Given::with_camera(&self.base_options, frame) {
-            Some(options) => options,
-            None => merged.draw_options()?,
+    fn prepare(&mut self, frame: &FrameKeywords) -> Result<Frame, PyErr> {
+        // Camera keywords alone over the Renderer's own transfer function, applied already:
+        // its options with the camera moved, nothing merged, read or compared but the words
+        // applied (a camera sweep's frame costs microseconds in Python).
+        if let Some(camera) = frame.camera
+            && self
+                .applied
+                .as_ref()
+                .is_some_and(|(applied, _)| *applied == self.base_words)
+        {
+            let mut prepared = Frame::of(&self.drawn, &self.base_options);
+            prepared.camera = camera.over(prepared.camera);
+            self.fit_target(prepared.size);
+            return Ok(prepared);
+        }
+        let (options, words) = match frame.camera {
+            // Camera keywords are no transfer keywords: the Renderer's own words.
+            Some(camera) => {
+                let mut options = self.base_options.clone();
+                options.camera = camera.over(options.camera);
+                (options, self.base_words.clone())
+            }
+            None => {
+                let merged = self.base.with(&frame.given);
+                (merged.draw_options()?, merged.transfer_words())
+            }
         };
-        let words = merged.transfer_words();
         if self
             .applied
             .as_ref()
@@ -68,7 +100,12 @@ impl Resident {
             self.applied = Some((words, saved));
         }
         let prepared = Frame::of(&self.drawn, &options);
-        let (width, height) = prepared.size;
+        self.fit_target(prepared.size);
+        Ok(prepared)
+    }
+
+    /// Makes the target `size` pixels, unless the last one is.
+    fn fit_target(&mut self, (width, height): (u32, u32)) {
         let fits = self
             .target
             .as_ref()
@@ -76,7 +113,6 @@ impl Resident {
         if !fits {
             self.target = Some(RenderTarget::new(self.drawn.context(), width, height));
         }
-        Ok(prepared)
     }
 
     /// The last frame's pixels, read back (waits for the GPU).
@@ -200,6 +236,7 @@ impl Renderer {
         Ok(Self {
             resident: Mutex::new(Resident {
                 drawn,
+                base_words: base.transfer_words(),
                 base,
                 base_options: options,
                 applied: None,
@@ -209,15 +246,28 @@ impl Renderer {
         })
     }
 
-    /// A frame's keywords: the drawing ones but those fixed when the Renderer was made.
-    fn frame_keywords(options: Option<&Bound<'_, PyDict>>, function: &str) -> PyResult<Given> {
+    /// A frame's keywords: the drawing ones but those fixed when the Renderer was made;
+    /// camera keywords alone as numbers.
+    fn frame_keywords(
+        options: Option<&Bound<'_, PyDict>>,
+        function: &str,
+    ) -> PyResult<FrameKeywords> {
+        if let Some(camera) = CameraKeywords::read(options) {
+            return Ok(FrameKeywords {
+                camera: Some(camera),
+                given: Given::default(),
+            });
+        }
         let given = Given::read(options, RENDER, function)?;
         if let Some(name) = given.any_of(&STRUCTURAL) {
             return Err(PyTypeError::new_err(format!(
                 "{name}= is chosen when the Renderer is made (it decides what is uploaded): make another Renderer"
             )));
         }
-        Ok(given)
+        Ok(FrameKeywords {
+            camera: CameraKeywords::of_given(&given),
+            given,
+        })
     }
 }
 

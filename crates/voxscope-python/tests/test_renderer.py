@@ -60,6 +60,28 @@ def test_each_frame_takes_its_own_transfer_function_size_and_clip(small):
         assert np.array_equal(frame, single), f"{keywords}: {psnr(frame, single):.1f} dB"
 
 
+def test_camera_keywords_alone_draw_as_single_renders_of_them_after_any_frame(small):
+    # A camera sweep's keywords (floats and ints, read as numbers) draw what the same numbers
+    # as words, strings or numpy scalars draw, over the Renderer's own transfer function
+    # whatever frame came before; a bool is no number.
+    voxels, spacing = small
+    renderer = voxscope.Renderer(voxels, spacing=spacing, size=SIZE, preset="ramp", elevation=10)
+    expected = voxscope.render(
+        voxels, spacing=spacing, size=SIZE, preset="ramp", elevation=10, azimuth=40.5, distance=2
+    )
+    sweeps = [
+        dict(azimuth=40.5, distance=2),
+        dict(azimuth=np.float64(40.5), distance=np.int64(2)),
+        dict(azimuth="40.5", distance="2.0", fov=None),
+    ]
+    for keywords in sweeps:
+        for before in ({"mode": "mip", "window": (0, 90)}, {"azimuth": 200}, {}):
+            renderer.render(**before)
+            assert np.array_equal(renderer.render(**keywords), expected), (keywords, before)
+    with pytest.raises(ValueError, match="--azimuth <AZIMUTH>"):
+        renderer.draw(azimuth=True)
+
+
 @pytest.mark.parametrize("kind", ["octree", "dense", "bricks", "stream"])
 def test_draw_finish_and_read_give_the_rendered_frame(small, kind):
     voxels, spacing = small
