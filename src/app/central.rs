@@ -20,6 +20,7 @@ use super::viewport::{self, DrawKey};
 use voxscope_scene::Scene;
 
 mod draw;
+mod frame;
 mod pacing;
 mod pane;
 mod volume_work;

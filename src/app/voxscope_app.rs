@@ -33,6 +33,7 @@ use voxscope_scene::{Job, Opened, SceneError};
 use voxscope_scene::{OctreeColors, Scene, VolumeData, VolumeSource};
 use voxscope_scene::{SavedTransfer, TransferChoice, TransferFileError};
 
+mod movie;
 mod panels;
 mod reading;
 

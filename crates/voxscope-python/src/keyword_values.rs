@@ -5,8 +5,6 @@
 
 use voxscope_scene::{ChannelChoice, ConvertOptions, DrawOptions, OpenOptions};
 
-use crate::keywords::Keyword;
-
 /// The text of `word` (`--name=TEXT`), or whether a flag is on (`--name`: true,
 /// `--no-name`: false).
 enum WordValue<'a> {
@@ -47,12 +45,12 @@ impl Refused {
         }
     }
 
-    /// The command line's line for keyword `name` of `table`: `invalid value 'X' for
-    /// '--name <VALUE>': why`.
-    pub(crate) fn message(self, table: &[Keyword], name: &str) -> String {
+    /// The command line's line for the option `option` (`--name <VALUE>`, as
+    /// `keywords::shown` writes it): `invalid value 'X' for '--name <VALUE>': why`.
+    pub(crate) fn message(self, option: &str) -> String {
         match self {
             Self::Value { text, why } => {
-                let mut line = format!("invalid value '{text}' for '{}'", shown(table, name));
+                let mut line = format!("invalid value '{text}' for '{option}'");
                 if let Some(why) = why {
                     line.push_str(": ");
                     line.push_str(&why);
@@ -61,16 +59,6 @@ impl Refused {
             }
             Self::Line(line) => line,
         }
-    }
-}
-
-/// Keyword `name` of `table` as the command line shows its option: `--name <VALUE>`, or
-/// `--name` for a flag.
-pub(crate) fn shown(table: &[Keyword], name: &str) -> String {
-    let flag = format!("--{}", name.replace('_', "-"));
-    match table.iter().find(|k| k.name == name) {
-        Some(keyword) if !keyword.value.is_empty() => format!("{flag} <{}>", keyword.value),
-        _ => flag,
     }
 }
 

@@ -14,7 +14,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyString};
 use voxscope_scene::{ConvertOptions, DrawOptions, OpenOptions};
 
-use crate::keyword_values::{set_convert_option, set_open_option, set_option, shown};
+use crate::keyword_values::{set_convert_option, set_open_option, set_option};
 
 /// How a keyword's Python value becomes command-line words.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -60,6 +60,16 @@ const fn keyword(name: &'static str, form: Form) -> Keyword {
         name,
         form,
         value: "",
+    }
+}
+
+/// Keyword `name` of `table` as the command line shows its option: `--name <VALUE>`, or
+/// `--name` for a flag.
+pub(crate) fn shown(table: &[Keyword], name: &str) -> String {
+    let flag = format!("--{}", name.replace('_', "-"));
+    match table.iter().find(|k| k.name == name) {
+        Some(keyword) if !keyword.value.is_empty() => format!("{flag} <{}>", keyword.value),
+        _ => flag,
     }
 }
 
@@ -262,7 +272,7 @@ impl Given {
         for (name, words) in &self.words {
             for word in words {
                 set_option(&mut options, name, word)
-                    .map_err(|e| PyValueError::new_err(e.message(RENDER, name)))?;
+                    .map_err(|e| PyValueError::new_err(e.message(&shown(RENDER, name))))?;
             }
         }
         Ok(options)
@@ -277,7 +287,7 @@ impl Given {
         for (name, words) in &self.words {
             for word in words {
                 set_open_option(&mut options, name, word)
-                    .map_err(|e| PyValueError::new_err(e.message(OPEN, name)))?;
+                    .map_err(|e| PyValueError::new_err(e.message(&shown(OPEN, name))))?;
             }
         }
         Ok(options)
@@ -306,7 +316,7 @@ impl Given {
         for (name, words) in &self.words {
             for word in words {
                 set_convert_option(&mut options, name, word)
-                    .map_err(|e| PyValueError::new_err(e.message(CONVERT, name)))?;
+                    .map_err(|e| PyValueError::new_err(e.message(&shown(CONVERT, name))))?;
             }
         }
         Ok(options)

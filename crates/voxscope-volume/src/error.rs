@@ -100,9 +100,9 @@ pub enum OptionError {
     /// A window whose high bound is not above its low one.
     #[error("window '{0}' has HIGH <= LOW")]
     WindowReversed(String),
-    /// A compression that is none of [`crate::ome_zarr::Compression::NAMES`].
-    #[error("compression '{0}' is not one of {names}", names = crate::ome_zarr::Compression::names())]
-    UnknownCompression(String),
+    /// A compression that is none of those `convert --compression` takes (`known`, listed).
+    #[error("compression '{name}' is not one of {known}")]
+    UnknownCompression { name: String, known: String },
     /// A raw layout whose dimensions are not `XxYxZ`.
     #[error("raw layout '{layout}': '{dims}' is not XxYxZ")]
     RawDims { layout: String, dims: String },

@@ -4,15 +4,11 @@
 
 use std::time::Duration;
 
-use super::super::viewport::DrawKey;
-use super::draw::{FrameDrawing, FrameInputs, PassRecorder};
+use super::frame::{FrameDrawing, FrameInputs, PassRecorder, VolumeView};
 use super::pacing::{FramePacer, Work};
 use super::pane::{Banding, Pane};
 use super::{CentralView, Measured};
-use voxscope_octree::TransferFunction;
-use voxscope_render::{
-    Camera, FramePass, ImageRegion, RenderError, RenderSettings, RenderTarget, VolumeRenderer,
-};
+use voxscope_render::{FramePass, ImageRegion, RenderError, RenderTarget, VolumeRenderer};
 use voxscope_scene::Scene;
 
 /// The preview's scale (of each side) before any frame was measured: a sixteenth of the pixels.
@@ -43,26 +39,6 @@ impl VolumeWork {
             VolumeWork::Preview { .. } => false,
             VolumeWork::Band { first, count } => first + count >= height,
         }
-    }
-}
-
-/// A 3D pane's view: its key, and the key's parts the drawing reads.
-#[derive(Debug, Clone, Copy)]
-pub struct VolumeView {
-    pub key: DrawKey,
-    /// The full image's pixel size.
-    pub size: [u32; 2],
-    pub camera: Camera,
-    pub settings: RenderSettings,
-    pub transfer: TransferFunction,
-    /// The pane's max level.
-    pub level: u32,
-}
-
-impl VolumeView {
-    /// Pixels of the full image.
-    fn full_pixels(&self) -> u64 {
-        self.size[0] as u64 * self.size[1] as u64
     }
 }
 

@@ -45,7 +45,10 @@ impl Compression {
             .iter()
             .find(|(name, _)| *name == text)
             .map(|(_, c)| *c)
-            .ok_or_else(|| OptionError::UnknownCompression(text.to_owned()))
+            .ok_or_else(|| OptionError::UnknownCompression {
+                name: text.to_owned(),
+                known: Self::names(),
+            })
     }
 
     /// The names of [`Self::NAMES`], comma-separated: what a message lists.
