@@ -13,8 +13,11 @@
 # The harness's azimuth a is voxscope's 180 − a (peer_bench.py): its AZ0 = 30 is 150 here.
 # Expects what peers-python.sh expects (.whl with the voxscope wheel, .gl, .bench with
 # mri-head-256.nii.gz) and the release binary as .bench/voxscope(.gz).
+# The harness's one batch follows a short warm-up and can catch the GPU's clocks still ramping
+# up; docs/bench/python_steady.py draws the same frames again, the median of 5 batches a mode.
 # Usage: bash docs/bench/python-cli.sh RUN_NAME   (RUN_NAME-python-cli.tar.gz to $OUT); its last
-# line: `python-cli DVR python P ms cli C ms ratio R; MIP …` (docs/bench/python_cli_summary.py).
+# lines: `python-cli DVR python P ms cli C ms ratio R; MIP …` and the same of the steady
+# batches (docs/bench/python_cli_summary.py).
 set -uo pipefail
 RUN=${1:?usage: python-cli.sh RUN_NAME}
 FRAMES=100 SIZE=1024x768 AZIMUTH=150
@@ -36,18 +39,23 @@ vol = voxscope.open(".bench/mri-head-256.nii.gz")
 v = vol.read().astype(np.float64)
 u8 = np.round((v - v.min()) / (v.max() - v.min()) * 255).astype(np.uint8)
 u8.tofile(sys.argv[1] + "/head.raw")
+np.savez(sys.argv[1] + "/head.npz", v=u8)
 z, y, x = u8.shape
 sz, sy, sx = vol.spacing
 open(sys.argv[1] + "/layout", "w").write(f"{x}x{y}x{z}:u8 {sx},{sy},{sz}")
 PY
 read -r layout spacing <"$DIR/layout"
+# The same frames once the GPU's clocks are up: 5 batches a mode, DVR, MIP, MIP, DVR.
+python3 docs/bench/python_steady.py "$DIR/head.npz" "$FRAMES" "${SIZE%x*}" "${SIZE#*x}" "$AZIMUTH" \
+    >>"$DIR/python.jsonl" 2>>"$DIR/python.log"
+echo "python steady rc=$?"
 # The gray DVR, binary DVR, MIP and shaded DVR cases at 1.5, 3 and 6 radii; the rows compared
 # are the `medium` ones.
 .bench/voxscope bench "$DIR/head.raw" --raw "$layout" --spacing "$spacing" --window 0:255 \
     --renderer bricks --frames "$FRAMES" --size "$SIZE" --azimuth "$AZIMUTH" --json \
     >"$DIR/cli.json" 2>"$DIR/cli.err"
 echo "cli bench rc=$?"
-rm -f "$DIR/head.raw"
+rm -f "$DIR/head.raw" "$DIR/head.npz"
 python3 docs/bench/python_cli_summary.py "$DIR/python.jsonl" "$DIR/cli.json" | tee "$DIR/summary.txt"
 if [ -n "$OUT_SAVED" ]; then
     tar -czf "$OUT_SAVED/$RUN-python-cli.tar.gz" -C /tmp "$(basename "$DIR")"

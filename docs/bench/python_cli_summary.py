@@ -7,7 +7,9 @@ PYTHON.jsonl: peer_bench.py's rows (voxscope's `ms_batch`: `frames` draw() calls
 frames and orbit (its `medium` rows' `wall_ms_per_frame`: the turn's frames submitted back to
 back, then the device's completion). Prints
 `python-cli DVR python P ms cli C ms ratio R; MIP python P ms cli C ms ratio R`, and a warning
-line first where the two did not draw the same number of frames at the same size.
+line first where the two did not draw the same number of frames at the same size. Where
+PYTHON.jsonl also holds python_steady.py's rows (`voxscope-steady`: the median of 5 batches per
+pass, once the GPU's clocks are up), a second line `python-cli steady …` compares those.
 """
 import json
 import sys
@@ -39,6 +41,17 @@ def main(python_path, cli_path):
         ratio = f"{p / c:.2f}" if p and c else "?"
         parts.append(f"{name} python {shown(p)} ms cli {shown(c)} ms ratio {ratio}")
     print("python-cli " + "; ".join(parts))
+    steady = [r for r in rows if r.get("peer") == "voxscope-steady"]
+    if steady:
+        parts = []
+        for name, python_mode, cli_mode in MODES:
+            ms = [r["ms_batch"] for r in steady if r["mode"] == python_mode]
+            p = sorted(ms)[len(ms) // 2] if ms else None
+            c = medium.get(cli_mode, {}).get("wall_ms_per_frame")
+            ratio = f"{p / c:.2f}" if p and c else "?"
+            passes = "/".join(f"{m:.3f}" for m in ms)
+            parts.append(f"{name} python {shown(p)} ms ({passes}) cli {shown(c)} ms ratio {ratio}")
+        print("python-cli steady " + "; ".join(parts))
 
 
 if __name__ == "__main__":
