@@ -17,10 +17,7 @@ impl Streamer {
         }
         self.feedback_frame = Some(feedback.frame);
         self.max_projection = feedback.max_projection;
-        let view = view.unwrap_or(ViewPoint {
-            eye: [0.0; 3],
-            forward: [0.0, 0.0, 1.0],
-        });
+        let view = view.unwrap_or(ViewPoint::new([0.0; 3], [0.0, 0.0, 1.0]));
         // Where the camera's motion leads: the prefetch loads what it will see first.
         let ahead = self
             .motion
