@@ -1,10 +1,14 @@
 //! A view within the atlas: when the bricks a view's rays ask for do not fit the slots it may
-//! still fill, the ones the loader would load last (the finest level first, then the farthest
-//! from the view's center) give way to their parents, eight siblings for one, until the rest
-//! fits. The parents stand for them: while the view stays, whatever is asked for below a
-//! standing brick is drawn from it and not loaded, so a view larger than the budget completes
-//! at the resolution the budget allows instead of evicting what it draws to load what it
-//! lacks.
+//! still fill, the ones that matter least give way to their parents, eight siblings for one,
+//! the finest level first, until the rest fits. Which matter least within a level is the
+//! caller's rank ([`cut_ranked`]): under DVR the farthest from the view's center
+//! ([`cut_within`]), under MIP, which weighs every pixel alike, the dimmest (`streamer/cut.rs`).
+//! The parents stand for them: while the view stays, whatever is asked for below a standing
+//! brick is drawn from it and not loaded, so a view larger than the budget completes at the
+//! resolution the budget allows instead of evicting what it draws to load what it lacks.
+//! Since the finest level always gives way first, the asks of one cut end up at most one
+//! level apart wherever the budget coarsened them (a restricted cut); `streamer/refine.rs`
+//! keeps it so across frames.
 
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
@@ -13,6 +17,7 @@ use super::frame::ViewPoint;
 use super::key_hash::{KeyMap, KeySet};
 use super::pyramid::PyramidShape;
 use super::queue::{Priority, Request, Tier};
+use crate::BrickId;
 
 /// What a view's asks come to within the room left: the bricks to load (the asked ones that
 /// fit, and the parents that stand for the groups left out) and the asked bricks left out.
@@ -29,24 +34,24 @@ pub struct Cut {
     pub coarsest: Option<u32>,
 }
 
-/// A group of siblings in the cut: their parent's key and how far it lies from the view's
-/// center. The heap pops the group to give way first: the finest level, then the farthest.
+/// A group of siblings in the cut: their parent's key and rank (how readily it gives way).
+/// The heap pops the group to give way first: the finest level, then the highest rank.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Group {
     parent: u32,
     level: u32,
-    off_center: f32,
+    rank: f32,
 }
 
 impl Eq for Group {}
 
 impl Ord for Group {
     fn cmp(&self, other: &Self) -> Ordering {
-        // Finer children (a lower level) first, then farther from the center.
+        // Finer children (a lower level) first, then the higher rank.
         other
             .level
             .cmp(&self.level)
-            .then(self.off_center.total_cmp(&other.off_center))
+            .then(self.rank.total_cmp(&other.rank))
             .then(self.parent.cmp(&other.parent))
     }
 }
@@ -77,12 +82,27 @@ pub enum SlotNeed {
 /// atlas that is loaded with it (the loader brings the coarser bricks above a brick down to
 /// the first the atlas holds, so the picture refines level by level, and frames draw them
 /// until the finer ones are in). Asked bricks are only ever replaced by ancestors, so every
-/// region stays drawn, at its own level where it fits and coarser where it does not.
+/// region stays drawn, at its own level where it fits and coarser where it does not. Within a
+/// level, the groups farthest from `view`'s center give way first.
 pub fn cut_within(
     asked: &[Request],
     room: usize,
     shape: &PyramidShape,
     view: &ViewPoint,
+    need: impl Fn(u32) -> SlotNeed,
+) -> Cut {
+    let rank = |parent: BrickId| Some(view.off_center(shape.brick_center(parent)));
+    cut_ranked(asked, room, shape, rank, need)
+}
+
+/// [`cut_within`], the groups of a level giving way in the order of `rank(parent)`, the highest
+/// first (ties: the larger key first); a group whose parent ranks `None` never gives way (it
+/// stays as it is, over the room if need be).
+pub fn cut_ranked(
+    asked: &[Request],
+    room: usize,
+    shape: &PyramidShape,
+    rank: impl Fn(BrickId) -> Option<f32>,
     need: impl Fn(u32) -> SlotNeed,
 ) -> Cut {
     let mut targets: KeyMap<Request> = asked.iter().map(|r| (r.key, *r)).collect();
@@ -126,7 +146,7 @@ pub fn cut_within(
             Group {
                 parent: parent_key,
                 level: id.level,
-                off_center: view.off_center(shape.brick_center(parent)),
+                rank: rank(parent)?,
             },
         ))
     };
@@ -166,7 +186,7 @@ pub fn cut_within(
         introduced.insert(group.parent);
         if let std::collections::hash_map::Entry::Vacant(slot) = targets.entry(group.parent) {
             slot.insert(Request {
-                priority: Priority::new(Tier::Visible, parent_id.level, group.off_center),
+                priority: Priority::new(Tier::Visible, parent_id.level, group.rank.max(0.0)),
                 id: parent_id,
                 key: group.parent,
             });
@@ -208,7 +228,6 @@ fn sorted(mut requests: Vec<Request>) -> Vec<Request> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::BrickId;
 
     /// A 256³ pyramid: level 0 has 8³ bricks, level 1 4³, level 2 2³, level 3 one.
     fn shape() -> PyramidShape {
@@ -242,10 +261,7 @@ mod tests {
 
     /// Looking down +z along the volume's axis through the center of brick column (3, 3).
     fn view() -> ViewPoint {
-        ViewPoint {
-            eye: [128.0, 128.0, -500.0],
-            forward: [0.0, 0.0, 1.0],
-        }
+        ViewPoint::new([128.0, 128.0, -500.0], [0.0, 0.0, 1.0])
     }
 
     /// The root (level 3, one brick) is pinned: it takes nothing of a view's room.
@@ -413,5 +429,35 @@ mod tests {
         assert_eq!(cut.standing.len(), 64);
         assert_eq!(cut.load.len(), 64);
         assert_eq!(cut.coarsest, Some(1));
+    }
+
+    #[test]
+    fn a_ranked_cut_gives_way_in_the_rank_s_order_and_never_past_an_unranked_parent() {
+        let (shape, view) = (shape(), view());
+        let asked = level0_block(&shape, &view, 8);
+        // Ranked by x alone (as MIP's dimmest-first rank is blind to the view's center): the
+        // groups of the largest x give way first, whatever their distance from the center.
+        let by_x = |parent: BrickId| Some(parent.brick[0] as f32);
+        let cut = cut_ranked(&asked, 200, &shape, by_x, empty_atlas(&shape));
+        assert!(slots_taken(&shape, &cut) <= 200);
+        let left_out_x: Vec<u32> = cut
+            .standing
+            .iter()
+            .map(|&k| shape.brick_of(k).unwrap().brick[0])
+            .collect();
+        let kept_x = cut
+            .load
+            .iter()
+            .filter(|r| r.id.level == 0)
+            .map(|r| r.id.brick[0] / 2);
+        let lowest_left_out = left_out_x.iter().copied().min().expect("groups gave way");
+        assert!(kept_x.into_iter().all(|x| x <= lowest_left_out));
+        // A parent ranked `None` never takes its group's place: nothing above level 1 stands
+        // in, though the room would want it (the cut stays over the room).
+        let to_level_1 = |parent: BrickId| (parent.level <= 1).then_some(0.0);
+        let cut = cut_ranked(&asked, 9, &shape, to_level_1, empty_atlas(&shape));
+        assert_eq!(cut.coarsest, Some(1));
+        assert_eq!(cut.standing.len(), 64);
+        assert!(slots_taken(&shape, &cut) > 9);
     }
 }

@@ -31,7 +31,7 @@ mod streamer;
 mod zarr_source;
 
 pub use brick::{BRICK_SIZE, BrickData, BrickId, PADDED_BRICK, PADDED_BRICK_VOXELS, ValueRange};
-pub use budget::{Cut, SlotNeed, cut_within};
+pub use budget::{Cut, SlotNeed, cut_ranked, cut_within};
 pub use failures::{FailedBrick, FailureGroup, Failures, MAX_BRICK_ATTEMPTS, group};
 pub use frame::{Feedback, Upload, ViewPoint};
 pub use key_hash::{KeyHasher, KeyMap, KeySet};

@@ -142,6 +142,31 @@ impl PyramidShape {
         })
     }
 
+    /// The bricks of the next finer level that `id` covers (up to eight; fewer at the level's
+    /// far edges), none at level 0.
+    pub fn children(&self, id: BrickId) -> impl Iterator<Item = BrickId> + '_ {
+        let finer = id
+            .level
+            .checked_sub(1)
+            .and_then(|level| Some((level, self.levels.get(level as usize)?.grid)));
+        (0..8u32).filter_map(move |corner| {
+            let (level, grid) = finer?;
+            let brick: [u32; 3] = std::array::from_fn(|a| 2 * id.brick[a] + (corner >> a & 1));
+            (0..3)
+                .all(|a| (brick[a] as usize) < grid[a])
+                .then_some(BrickId { level, brick })
+        })
+    }
+
+    /// The brick of level `level` (at or above `id`'s) that covers `id`.
+    pub fn ancestor_at(&self, id: BrickId, level: u32) -> BrickId {
+        let up = level.saturating_sub(id.level);
+        BrickId {
+            level: id.level + up,
+            brick: id.brick.map(|c| c >> up),
+        }
+    }
+
     /// The center of brick `id` in level-0 voxel space.
     pub fn brick_center(&self, id: BrickId) -> [f64; 3] {
         let side = (BRICK_SIZE * self.levels[id.level as usize].scale) as f64;
@@ -375,5 +400,32 @@ mod tests {
         assert_eq!(second.levels[row + 8], 39);
         assert_eq!(second.levels[row + 20], 39);
         assert_eq!((second.range.min, second.range.max), (32, 39));
+    }
+
+    #[test]
+    fn a_brick_s_children_are_the_bricks_whose_parent_it_is() {
+        // 100×64×40: level 0 has 4×2×2 bricks, level 1 2×1×1.
+        let shape = PyramidShape::new([100, 64, 40]).expect("a pyramid");
+        let parent = BrickId {
+            level: 1,
+            brick: [1, 0, 0],
+        };
+        let children: Vec<BrickId> = shape.children(parent).collect();
+        assert_eq!(children.len(), 8);
+        assert!(children.iter().all(|&c| shape.parent(c) == Some(parent)));
+        // At level 2 (1×1×1) the one brick's children are level 1's two.
+        let root = BrickId {
+            level: 2,
+            brick: [0; 3],
+        };
+        assert_eq!(shape.children(root).count(), 2);
+        assert_eq!(shape.children(children[0]).count(), 0, "none below level 0");
+        let deep = BrickId {
+            level: 0,
+            brick: [3, 1, 1],
+        };
+        assert_eq!(shape.ancestor_at(deep, 1), parent);
+        assert_eq!(shape.ancestor_at(deep, 0), deep);
+        assert_eq!(shape.ancestor_at(deep, 2), root);
     }
 }

@@ -175,6 +175,14 @@ impl SlotPool {
             .map(|((&k, _), _)| k)
     }
 
+    /// Whether `slot` was filled after frame `frame` (`frame` being the latest frame whose
+    /// marks were read back: its marks are another brick's).
+    pub fn filled_after(&self, slot: u32, frame: u32) -> bool {
+        self.last_used
+            .get(slot as usize)
+            .is_some_and(|&used| used > frame)
+    }
+
     /// The key of every occupied slot.
     pub fn keys(&self) -> impl Iterator<Item = u32> + '_ {
         self.keys.iter().copied().filter(|&k| k != EMPTY_KEY)

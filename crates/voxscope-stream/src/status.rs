@@ -214,6 +214,10 @@ pub struct BudgetLimit {
     pub fit: usize,
     /// Bricks left out, drawn from a coarser level.
     pub left_out: usize,
+    /// Bricks the view draws from the atlas (those its rays wanted and those standing for the
+    /// bricks left out, the pinned levels aside): the cut it settles on. Against
+    /// [`StreamCounters::loads`], what the view read beyond its cut.
+    pub drawn: usize,
     /// The finest level drawn.
     pub finest: Option<u32>,
     /// The coarsest level a left-out region is drawn from.
@@ -299,6 +303,7 @@ mod tests {
             needed: 9412,
             fit: 6480,
             left_out: 2932,
+            drawn: 6100,
             finest: Some(0),
             coarsest: Some(2),
             full_detail: FullDetailBudget::Unknown,

@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
 
-use super::budget::{Cut, SlotNeed, cut_within};
+use super::budget::{Cut, SlotNeed, cut_ranked};
 use super::failures::Failures;
 use super::frame::{Feedback, Upload, ViewPoint};
 use super::key_hash::{KeyMap, KeySet};
@@ -27,7 +27,7 @@ use super::status::{
     BudgetLimit, FullDetailBudget, LevelCounters, StreamCounters, StreamStatus, UpdatePhases,
     UploadParts,
 };
-use crate::{BrickId, BrickSource, PADDED_BRICK_VOXELS, ValueRange};
+use crate::{BRICK_SIZE, BrickId, BrickSource, PADDED_BRICK_VOXELS, ValueRange};
 
 /// What a frame may spend on uploads (the upload allowance follows from it and the measured
 /// cost): the CPU's staging and, where the GPU times them, its copies, which a frame waits for
@@ -189,6 +189,15 @@ pub struct Streamer {
     standing: KeySet,
     /// The view they stand in; another view is cut anew.
     standing_view: Option<ViewPoint>,
+    /// The view under the budget's pressure, refining level by level (`streamer/refine.rs`);
+    /// another view is cut anew.
+    pressed: Option<ViewPoint>,
+    /// Under pressure, the finest level anything of the view refines to (one below the
+    /// coarsest brick standing for the budget), once the budget left something out.
+    floor: Option<u32>,
+    /// Under pressure, the bricks placed for the view, kept in the atlas while it stays
+    /// (`Streamer::keep_placed`).
+    kept: KeySet,
     /// What the latest cut came to, while anything is left out.
     budget: Option<BudgetLimit>,
     /// The uploads' measured cost on the CPU, a moving average (0 before the first).
@@ -303,6 +312,9 @@ impl Streamer {
             new_errors: Vec::new(),
             standing: KeySet::default(),
             standing_view: None,
+            pressed: None,
+            floor: None,
+            kept: KeySet::default(),
             budget: None,
             upload_seconds_per_byte: 0.0,
             upload_gpu_seconds_per_byte: 0.0,
@@ -384,82 +396,6 @@ impl Streamer {
         }
         self.changed_frame = self.frame;
         Ok(uploads)
-    }
-
-    /// Bytes a frame may upload: the allowance set from the measured cost
-    /// ([`Self::set_upload_cost`]); while the view has not moved since the last frame,
-    /// [`UPLOAD_SECONDS_STILL`]'s worth, or all that is ready ([`StillUploads`]); never more
-    /// than `--upload-budget` or the renderer's staging holds ([`Self::set_upload_ceiling`]).
-    fn upload_allowance(&self) -> u64 {
-        let allowance = match self.counters.upload_allowance {
-            0 => u64::MAX,
-            _ if self.view_is_still() && self.still_uploads == StillUploads::AllReady => u64::MAX,
-            moving if self.view_is_still() => {
-                (moving as f64 * UPLOAD_SECONDS_STILL / UPLOAD_SECONDS_PER_FRAME) as u64
-            }
-            moving => moving,
-        };
-        allowance
-            .min(self.options.upload_bytes_per_frame)
-            .min(self.upload_ceiling)
-    }
-
-    /// The most bytes one frame's uploads take through the renderer's staging (its ring
-    /// buffer: what does not fit goes a slower way). A frame uploads no more, whether it moves
-    /// or stands still; at least one brick.
-    pub fn set_upload_ceiling(&mut self, bytes: u64) {
-        self.upload_ceiling = bytes.max(self.counters.slot_bytes);
-        self.counters.upload_allowance = self.counters.upload_allowance.min(self.upload_ceiling);
-    }
-
-    /// Sets what a frame uploads while the view stands still; returns what it was.
-    pub fn set_still_uploads(&mut self, still: StillUploads) -> StillUploads {
-        std::mem::replace(&mut self.still_uploads, still)
-    }
-
-    /// Whether the view is where it was a frame ago (its motion is known and nothing).
-    fn view_is_still(&self) -> bool {
-        self.motion
-            .is_some_and(|m| m.eye == [0.0; 3] && m.forward == [0.0; 3])
-    }
-
-    /// What the last frame's uploads cost: `seconds` for `bytes`. The allowance follows, so
-    /// that a frame spends about [`UPLOAD_SECONDS_PER_FRAME`] on uploads whatever the device.
-    pub fn set_upload_cost(&mut self, bytes: u64, seconds: f64, parts: &UploadParts) {
-        self.counters.upload_seconds += seconds;
-        self.counters.upload_parts.add(parts);
-        if bytes == 0 || seconds <= 0.0 {
-            return;
-        }
-        self.upload_seconds_per_byte =
-            moving_average(self.upload_seconds_per_byte, seconds / bytes as f64);
-        self.set_allowance();
-    }
-
-    /// What the GPU's copies of earlier uploads took: `seconds` for `bytes` (measured by GPU
-    /// timestamps a frame or two late). The allowance counts them with the CPU's cost.
-    pub fn set_upload_gpu_cost(&mut self, bytes: u64, seconds: f64) {
-        self.counters.upload_parts.copy_timed_bytes += bytes;
-        self.counters.upload_parts.copy_gpu_seconds += seconds;
-        if bytes == 0 || seconds <= 0.0 {
-            return;
-        }
-        self.upload_gpu_seconds_per_byte =
-            moving_average(self.upload_gpu_seconds_per_byte, seconds / bytes as f64);
-        self.set_allowance();
-    }
-
-    /// The allowance from the measured costs per byte: [`UPLOAD_SECONDS_PER_FRAME`] of the
-    /// CPU's and the GPU's work together, at least one brick.
-    fn set_allowance(&mut self) {
-        let per_byte = self.upload_seconds_per_byte + self.upload_gpu_seconds_per_byte;
-        if per_byte <= 0.0 {
-            return;
-        }
-        let allowance = (UPLOAD_SECONDS_PER_FRAME / per_byte) as u64;
-        self.counters.upload_allowance = allowance
-            .min(self.upload_ceiling)
-            .max(self.counters.slot_bytes);
     }
 
     /// The pyramid's shape.
@@ -566,37 +502,6 @@ impl Streamer {
         }))
     }
 
-    /// Whether some level of `range` (packed) is visible under the transfer function.
-    fn range_visible(&self, range: u32) -> bool {
-        let (low, high) = ((range & 0xffff) as usize, (range >> 16) as usize);
-        self.visible_below[high + 1] > self.visible_below[low]
-    }
-
-    /// A new transfer function's visibility counts (`visible_below[i]`: how many value levels
-    /// below `i` are visible; 65 537 of them): every entry's [`ENTRY_VISIBLE`] bit follows, the
-    /// changed entries to be copied to the GPU. Nothing is reloaded.
-    pub fn set_visibility(&mut self, visible_below: Vec<u32>) {
-        if visible_below.len() != self.visible_below.len() {
-            return;
-        }
-        self.visible_below = visible_below;
-        // Other values visible: another working set, cut anew.
-        self.cut_anew();
-        let counts = &self.visible_below;
-        self.table.update_each(|entry| {
-            let (low, high) = (
-                (entry.range & 0xffff) as usize,
-                (entry.range >> 16) as usize,
-            );
-            let visible = counts[high + 1] > counts[low];
-            ((entry.slot & ENTRY_VISIBLE != 0) != visible).then_some(TableEntry {
-                slot: entry.slot ^ ENTRY_VISIBLE,
-                ..*entry
-            })
-        });
-        self.changed_frame = self.frame;
-    }
-
     /// Inserts `entry` (its [`ENTRY_VISIBLE`] bit set from its range), first dropping the
     /// oldest slotless entries while the table is at its limit.
     fn insert_entry(&mut self, mut entry: TableEntry) -> Result<(), TableFull> {
@@ -690,7 +595,9 @@ impl Streamer {
     }
 }
 
+mod cut;
 mod feedback;
+mod refine;
 mod results;
 mod uploads;
 

@@ -103,10 +103,17 @@ impl RayPass<StreamVolume> for StreamRaycaster {
     /// Notes the camera (the load order follows it) and that a frame was drawn (its requests
     /// are read back). Probes ask for nothing.
     fn before_frame(&self, volume: &StreamVolume, params: &RaycastParams) {
-        let forward = glam::Vec3::from_slice(&params.forward[..3]).normalize_or_zero();
+        let forward = glam::Vec3::from_slice(&params.forward[..3]);
+        // The image's half width and height (`params.right` and `params.up`: voxel space,
+        // against the forward direction there), to the unit forward direction: its frustum.
+        let scale = 1.0 / f64::from(forward.length()).max(1e-12);
+        let extent =
+            [&params.right, &params.up].map(|v| [v[0], v[1], v[2]].map(|c| f64::from(c) * scale));
+        let forward = forward.normalize_or_zero();
         *volume.view.lock().unwrap_or_else(|p| p.into_inner()) = Some(ViewPoint {
             eye: [params.eye[0], params.eye[1], params.eye[2]].map(f64::from),
             forward: forward.to_array().map(f64::from),
+            extent: Some(extent),
         });
         volume
             .max_projection

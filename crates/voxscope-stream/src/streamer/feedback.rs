@@ -2,6 +2,7 @@
 //! the cut of what the budget holds, loads in priority order and stand-ins; the level fill
 //! and the neighbours fetched ahead.
 
+use super::refine::Marks;
 use super::*;
 
 impl Streamer {
@@ -17,10 +18,7 @@ impl Streamer {
         }
         self.feedback_frame = Some(feedback.frame);
         self.max_projection = feedback.max_projection;
-        let view = view.unwrap_or(ViewPoint {
-            eye: [0.0; 3],
-            forward: [0.0, 0.0, 1.0],
-        });
+        let view = view.unwrap_or(ViewPoint::new([0.0; 3], [0.0, 0.0, 1.0]));
         // Where the camera's motion leads: the prefetch loads what it will see first.
         let ahead = self
             .motion
@@ -35,22 +33,34 @@ impl Streamer {
             .filter(|key| self.failed.contains(key))
             .collect();
         let (requests, left_out) = self.requests_of(&asked, view);
-        // Failed bricks are asked for no more; left-out ones are drawn from what stands for
-        // them: what still lacks is what the view misses.
-        self.feedback_missing = requests.len();
+        // Every ray marks the brick it drew in place of a finer one (the request buffer may
+        // have held only the first rays' asks). Under pressure, what was placed for the view
+        // stays.
+        if self.pressed.is_some() {
+            self.keep_placed(feedback.frame, &view);
+        }
+        let truncated = feedback.asked as usize > feedback.requests.len();
+        let marks = Marks {
+            asks_cut_short: truncated,
+            ..self.marks_of(feedback.usage, feedback.frame)
+        };
         for (counters, &count) in self.counters.levels.iter_mut().zip(&left_out) {
             counters.left_out = count;
         }
-        let (cut, loads_now) = self.cut_for_view(&requests, &left_out, view, feedback.frame);
+        let asks = (feedback.asked as usize, truncated);
+        let outcome = self.cut_for_view(&requests, &left_out, &marks, asks, view, feedback.frame);
+        // Failed bricks are asked for no more; left-out ones are drawn from what stands for
+        // them: what still lacks is what the view misses, with the frontier no ask named.
+        self.feedback_missing = requests.len() + outcome.unresolved;
         // Prefetch around a few asks only, and only when the view fits: beyond that the view
         // is far from complete, or the atlas full, and what is visible keeps the workers busy
         // (and the frame's CPU time stays small).
         let prefetch_around = self.options.prefetch
             && asked.len() <= PREFETCH_AROUND
-            && cut.left_out.is_empty()
+            && self.pressed.is_none()
             && self.standing.is_empty();
         let (wanted, prefetch) =
-            self.wanted_with_parents(&loads_now, view, &ahead, prefetch_around);
+            self.wanted_with_parents(&outcome.loads_now, view, &ahead, prefetch_around);
         let fill = if requests.is_empty() && self.standing.is_empty() {
             self.level_fill()
         } else {
@@ -92,80 +102,6 @@ impl Streamer {
             requests.push(Request { priority, id, key });
         }
         (requests, left_out)
-    }
-
-    /// The cut of `requests` within the room the atlas has for this view (`budget.rs`: the
-    /// least important give way to their parents where it does not fit), and what loads now:
-    /// never more than can be placed without evicting what the frame drew. Where the cut
-    /// stands (or the view is stuck or stalled), its coarser bricks stand in for the rest.
-    fn cut_for_view(
-        &mut self,
-        requests: &[Request],
-        left_out: &[usize],
-        view: ViewPoint,
-        frame: u32,
-    ) -> (Cut, Vec<Request>) {
-        // The view's bricks in the atlas: those its rays wanted, and those standing for
-        // bricks left out (drawn in their place).
-        let mut committed: KeySet = self.slots.wanted_unpinned_since(frame).collect();
-        // Of those, the ones its rays wanted at their own levels (the rest stand in).
-        let wanted_in_atlas = committed.len();
-        committed.extend(
-            self.standing
-                .iter()
-                .copied()
-                .filter(|&key| self.table.get(key).is_some_and(|e| e.is_resident())),
-        );
-        // The view's share of the atlas decides what the view can have; what loads now is also
-        // never more than can be placed without evicting what the frame drew (a passing
-        // shortage, while stand-ins are drawn, delays bricks but leaves none out).
-        let room = self.budget_slots().saturating_sub(committed.len());
-        if requests.len() < self.fewest_missing {
-            self.fewest_missing = requests.len();
-            self.progress_at = (self.frame, Instant::now());
-        }
-        // The requests need a slot each (they passed `satisfied` and `known_invisible` above);
-        // only the coarser bricks a cut brings in, and their ancestors, are looked up.
-        let requested: KeySet = requests.iter().map(|r| r.key).collect();
-        let slot_need = |key: u32| self.slot_need(key, &requested, &committed);
-        let cut = cut_within(requests, room, &self.shape, &view, slot_need);
-        let available = self.slots.available(frame.max(1));
-        // Stalled: bricks wait in RAM for slots that nothing will free (the stand-ins frames
-        // draw hold more than the fifth of the atlas left to them). What the atlas holds is
-        // then the cut, as when stuck below.
-        // Or, under the budget's pressure, the view has lacked no fewer bricks for a while:
-        // bricks are placed and evicted again in turn (a livelock), and waiting longer
-        // changes nothing.
-        let pressed = !cut.left_out.is_empty() || available < room;
-        let no_progress = pressed
-            && self.frame.saturating_sub(self.progress_at.0) >= NO_PROGRESS_FRAMES
-            && self.progress_at.1.elapsed() >= NO_PROGRESS_TIME;
-        let stalled = self.no_room_frames >= STALLED_FRAMES || no_progress;
-        let cut_now = (available < room || stalled).then(|| {
-            let room_now = if stalled { 0 } else { available };
-            cut_within(requests, room_now, &self.shape, &view, slot_need)
-        });
-        let loads_now = cut_now.as_ref().map_or(&cut.load, |now| &now.load).clone();
-        // The cut counts every asked brick as a slot; many turn out uniform (no slot) once
-        // read. So the cut stands only once everything it loads is in: until then the rest is
-        // just not loaded yet, and the next frame's cut knows more.
-        if !cut.standing.is_empty() && cut.load.iter().all(|r| self.needs_no_slot(r.key)) {
-            self.stand_in(&cut.standing, view);
-        } else if let Some(now) = cut_now.filter(|now| {
-            // Stuck: every slot holds a brick the frame drew (wanted, or drawn in place of a
-            // finer one), nothing can be placed without evicting one, and nothing is on its
-            // way. What the atlas holds is the cut: its coarser bricks stand for the rest.
-            !now.standing.is_empty()
-                && now.load.iter().all(|r| self.needs_no_slot(r.key))
-                && (stalled || (self.ready.is_empty() && self.queue.counts() == (0, 0)))
-        }) {
-            self.stand_in(&now.standing, view);
-        }
-        if !self.standing.is_empty() {
-            let left_out: usize = left_out.iter().sum::<usize>() + cut.left_out.len();
-            self.note_budget(&cut, &committed, wanted_in_atlas + requests.len(), left_out);
-        }
-        (cut, loads_now)
     }
 
     /// What `loads_now` loads, and the coarser bricks above each down to the first one the
@@ -322,95 +258,6 @@ impl Streamer {
             });
         }
         fill
-    }
-
-    /// Slots a view may fill with bricks at the levels its rays want ([`view_slots`]).
-    pub(super) fn budget_slots(&self) -> usize {
-        view_slots(self.slots.capacity(), self.slots.pinned())
-    }
-
-    /// The brick that stands for `id` in the view on screen (the coarsest of its ancestors
-    /// standing for bricks the budget left out), if any.
-    pub(super) fn standing_for(&self, id: BrickId) -> Option<(u32, BrickId)> {
-        if self.standing.is_empty() {
-            return None;
-        }
-        let mut found = None;
-        let mut ancestor = self.shape.parent(id);
-        while let Some(up) = ancestor {
-            let key = self.shape.key(up)?;
-            if self.standing.contains(&key) {
-                found = Some((key, up));
-            }
-            ancestor = self.shape.parent(up);
-        }
-        found
-    }
-
-    /// `keys` stand for the bricks below them in `view` from now on.
-    pub(super) fn stand_in(&mut self, keys: &[u32], view: ViewPoint) {
-        self.no_room_frames = 0;
-        self.forget_progress();
-        self.standing.extend(keys.iter().copied());
-        self.standing_view = Some(view);
-        self.changed_frame = self.frame;
-    }
-
-    /// What the view needs against what fits, for the status: `wanted` bricks at the levels
-    /// its rays chose (in the atlas or asked for, the stand-ins drawn from `committed` aside),
-    /// `left_out` more drawn coarser.
-    pub(super) fn note_budget(
-        &mut self,
-        cut: &Cut,
-        committed: &KeySet,
-        wanted: usize,
-        left_out: usize,
-    ) {
-        let level_of = |key: &u32| self.shape.brick_of(*key).map(|id| id.level);
-        let finest = committed.iter().filter_map(level_of).min();
-        let coarsest = self
-            .standing
-            .iter()
-            .filter_map(level_of)
-            .max()
-            .max(cut.coarsest);
-        self.budget = Some(BudgetLimit {
-            needed: wanted + left_out,
-            fit: self.budget_slots(),
-            left_out,
-            finest,
-            coarsest,
-            full_detail: FullDetailBudget::Unknown,
-        });
-    }
-
-    /// Progress is counted from now (a new cut, or one that stands).
-    pub(super) fn forget_progress(&mut self) {
-        self.fewest_missing = usize::MAX;
-        self.progress_at = (self.frame, Instant::now());
-    }
-
-    /// A view other than the one bricks stand in is cut anew.
-    pub(super) fn follow_view(&mut self, view: ViewPoint) {
-        if self
-            .standing_view
-            .is_some_and(|standing_for| standing_for != view)
-        {
-            self.cut_anew();
-        }
-    }
-
-    /// Forgets what stands for what: rays' asks load again and the next cut decides.
-    pub(super) fn cut_anew(&mut self) {
-        self.no_room_frames = 0;
-        self.forget_progress();
-        self.standing.clear();
-        for level in &mut self.counters.levels {
-            level.left_out = 0;
-        }
-        self.standing_view = None;
-        self.budget = None;
-        self.changed_frame = self.frame;
     }
 
     /// The face neighbours of `id` in its level, as prefetch requests, nearest the center of

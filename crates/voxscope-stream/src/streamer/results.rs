@@ -1,10 +1,41 @@
 //! What the loader threads sent back, and the bricks that failed: taking in loaded bricks,
 //! remembering failures and asking again when their time comes, and the checks of what a
-//! brick still needs (a slot, a load, nothing).
+//! brick still needs (a slot, a load, nothing) under the transfer function's visibility.
 
 use super::*;
 
 impl Streamer {
+    /// Whether some level of `range` (packed) is visible under the transfer function.
+    pub(super) fn range_visible(&self, range: u32) -> bool {
+        let (low, high) = ((range & 0xffff) as usize, (range >> 16) as usize);
+        self.visible_below[high + 1] > self.visible_below[low]
+    }
+
+    /// A new transfer function's visibility counts (`visible_below[i]`: how many value levels
+    /// below `i` are visible; 65 537 of them): every entry's [`ENTRY_VISIBLE`] bit follows, the
+    /// changed entries to be copied to the GPU. Nothing is reloaded.
+    pub fn set_visibility(&mut self, visible_below: Vec<u32>) {
+        if visible_below.len() != self.visible_below.len() {
+            return;
+        }
+        self.visible_below = visible_below;
+        // Other values visible: another working set, cut anew.
+        self.cut_anew();
+        let counts = &self.visible_below;
+        self.table.update_each(|entry| {
+            let (low, high) = (
+                (entry.range & 0xffff) as usize,
+                (entry.range >> 16) as usize,
+            );
+            let visible = counts[high + 1] > counts[low];
+            ((entry.slot & ENTRY_VISIBLE != 0) != visible).then_some(TableEntry {
+                slot: entry.slot ^ ENTRY_VISIBLE,
+                ..*entry
+            })
+        });
+        self.changed_frame = self.frame;
+    }
+
     /// Forgets the failures whose retry time has come: the rays ask for those bricks again.
     pub(super) fn retry_failed(&mut self) {
         let due = self.failures.due(Instant::now());
@@ -184,7 +215,7 @@ impl Streamer {
             .is_some_and(|range| !self.range_visible(range.packed()))
     }
 
-    /// What brick `key` takes of a view's room in the atlas ([`cut_within`]): a slot to load
+    /// What brick `key` takes of a view's room in the atlas ([`crate::cut_within`]): a slot to load
     /// it into where it is `requested` or not in the atlas and visible; none where the room
     /// counts it already (`committed`), or it is pinned, uniform, failed or invisible; its
     /// slot where the atlas holds it for rays that draw it in place of finer bricks.

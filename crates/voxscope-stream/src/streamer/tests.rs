@@ -75,10 +75,7 @@ fn the_upload_allowance_counts_the_gpus_copies_with_the_cpus_staging() {
     streamer.set_upload_gpu_cost(megabyte, 0.0);
     assert_eq!(streamer.counters.upload_allowance, both);
     // While the view moves, a frame uploads that much; while it stands still, twice that.
-    let view = |x: f64| ViewPoint {
-        eye: [x, 0.0, -3.0],
-        forward: [0.0, 0.0, 1.0],
-    };
+    let view = |x: f64| ViewPoint::new([x, 0.0, -3.0], [0.0, 0.0, 1.0]);
     streamer.begin_frame(None, Some(view(0.0)));
     streamer.begin_frame(None, Some(view(0.1)));
     assert_eq!(streamer.upload_allowance(), both);

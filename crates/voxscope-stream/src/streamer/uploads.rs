@@ -1,10 +1,86 @@
 //! What reaches the atlas each frame (loaded bricks placed in slots within the upload
-//! allowance), the status a frame reports, and what the budget's cut, the level walk and
-//! prefetch ask of the streamer from outside.
+//! allowance, which follows the uploads' measured cost), the status a frame reports, and what
+//! the budget's cut, the level walk and prefetch ask of the streamer from outside.
 
 use super::*;
 
 impl Streamer {
+    /// Bytes a frame may upload: the allowance set from the measured cost
+    /// ([`Self::set_upload_cost`]); while the view has not moved since the last frame,
+    /// [`UPLOAD_SECONDS_STILL`]'s worth, or all that is ready ([`StillUploads`]); never more
+    /// than `--upload-budget` or the renderer's staging holds ([`Self::set_upload_ceiling`]).
+    pub(super) fn upload_allowance(&self) -> u64 {
+        let allowance = match self.counters.upload_allowance {
+            0 => u64::MAX,
+            _ if self.view_is_still() && self.still_uploads == StillUploads::AllReady => u64::MAX,
+            moving if self.view_is_still() => {
+                (moving as f64 * UPLOAD_SECONDS_STILL / UPLOAD_SECONDS_PER_FRAME) as u64
+            }
+            moving => moving,
+        };
+        allowance
+            .min(self.options.upload_bytes_per_frame)
+            .min(self.upload_ceiling)
+    }
+
+    /// The most bytes one frame's uploads take through the renderer's staging (its ring
+    /// buffer: what does not fit goes a slower way). A frame uploads no more, whether it moves
+    /// or stands still; at least one brick.
+    pub fn set_upload_ceiling(&mut self, bytes: u64) {
+        self.upload_ceiling = bytes.max(self.counters.slot_bytes);
+        self.counters.upload_allowance = self.counters.upload_allowance.min(self.upload_ceiling);
+    }
+
+    /// Sets what a frame uploads while the view stands still; returns what it was.
+    pub fn set_still_uploads(&mut self, still: StillUploads) -> StillUploads {
+        std::mem::replace(&mut self.still_uploads, still)
+    }
+
+    /// Whether the view is where it was a frame ago (its motion is known and nothing).
+    pub(super) fn view_is_still(&self) -> bool {
+        self.motion
+            .is_some_and(|m| m.eye == [0.0; 3] && m.forward == [0.0; 3])
+    }
+
+    /// What the last frame's uploads cost: `seconds` for `bytes`. The allowance follows, so
+    /// that a frame spends about [`UPLOAD_SECONDS_PER_FRAME`] on uploads whatever the device.
+    pub fn set_upload_cost(&mut self, bytes: u64, seconds: f64, parts: &UploadParts) {
+        self.counters.upload_seconds += seconds;
+        self.counters.upload_parts.add(parts);
+        if bytes == 0 || seconds <= 0.0 {
+            return;
+        }
+        self.upload_seconds_per_byte =
+            moving_average(self.upload_seconds_per_byte, seconds / bytes as f64);
+        self.set_allowance();
+    }
+
+    /// What the GPU's copies of earlier uploads took: `seconds` for `bytes` (measured by GPU
+    /// timestamps a frame or two late). The allowance counts them with the CPU's cost.
+    pub fn set_upload_gpu_cost(&mut self, bytes: u64, seconds: f64) {
+        self.counters.upload_parts.copy_timed_bytes += bytes;
+        self.counters.upload_parts.copy_gpu_seconds += seconds;
+        if bytes == 0 || seconds <= 0.0 {
+            return;
+        }
+        self.upload_gpu_seconds_per_byte =
+            moving_average(self.upload_gpu_seconds_per_byte, seconds / bytes as f64);
+        self.set_allowance();
+    }
+
+    /// The allowance from the measured costs per byte: [`UPLOAD_SECONDS_PER_FRAME`] of the
+    /// CPU's and the GPU's work together, at least one brick.
+    pub(super) fn set_allowance(&mut self) {
+        let per_byte = self.upload_seconds_per_byte + self.upload_gpu_seconds_per_byte;
+        if per_byte <= 0.0 {
+            return;
+        }
+        let allowance = (UPLOAD_SECONDS_PER_FRAME / per_byte) as u64;
+        self.counters.upload_allowance = allowance
+            .min(self.upload_ceiling)
+            .max(self.counters.slot_bytes);
+    }
+
     /// Uploads ready bricks in priority order within the frame's byte budget. Returns the
     /// uploads, their bytes, and how many bricks placed can change what a ray draws (not the
     /// level fill's, while the view is the one it was chosen in). A brick that finds no slot
@@ -69,6 +145,9 @@ impl Streamer {
                     bytes += cost;
                     uploads.push(upload);
                     asked_for += usize::from(!unseen);
+                    if self.pressed.is_some() && self.max_projection && !fill {
+                        self.kept.insert(request.key);
+                    }
                 }
                 Ok(None) if !unseen => self.changed_frame = self.frame,
                 Ok(None) => {}

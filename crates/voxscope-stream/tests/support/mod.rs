@@ -7,3 +7,4 @@
 pub mod damage;
 #[path = "../../../../tests/support/fault_server.rs"]
 pub mod fault_server;
+pub mod rays;
