@@ -31,7 +31,8 @@ use voxscope_render::{
     Camera, GpuContext, RenderSettings, RenderTarget, RendererKind, RendererOptions,
 };
 use voxscope_scene::{
-    DEFAULT_LABEL_OPACITY, Job, LabelOverlay, Scene, SceneError, UploadedLabels, VolumeSource,
+    DEFAULT_LABEL_OPACITY, Job, LabelOverlay, Scene, SceneError, StreamedLabelLook, UploadedLabels,
+    VolumeSource, open_streamed_label,
 };
 use voxscope_stream::StreamOptions;
 use voxscope_volume::format_value;
@@ -513,33 +514,18 @@ fn draw_streamed(
         let remote = RemoteOptions::default();
         let image =
             Pyramid::open_spec(spec, Default::default(), remote).map_err(|e| e.to_string())?;
-        let label_spec = image.label_spec(spec, label);
-        let pyramid = Pyramid::open_spec(&label_spec, Default::default(), remote)
-            .map_err(|e| e.to_string())?;
-        let dims = |p: &Pyramid| p.levels.first().map(|level| level.dims);
-        if dims(&pyramid) != dims(&image) {
-            return Err(format!(
-                "{label_spec}: its grid is not the image's; labels must lie on the image's grid"
-            ));
-        }
-        // A quarter of the image's budgets.
-        let defaults = StreamOptions::default();
-        let options = StreamOptions {
-            gpu_memory: (key.renderer.gpu_memory / 4).max(16 << 20),
-            ram_cache: defaults.ram_cache / 4,
-            ..defaults
-        };
-        let uploaded = UploadedLabels::streamed(
-            context,
-            &label.name,
-            Arc::new(pyramid),
-            &label.colors,
+        // The label's share of the image's budgets, as `render --labels` takes it.
+        let look = StreamedLabelLook {
             hidden,
             opacity,
-            options,
-            STREAMED_LABELS_WAIT,
-        )
-        .map_err(|e| e.to_string())?;
+            image_options: StreamOptions {
+                gpu_memory: key.renderer.gpu_memory,
+                ..StreamOptions::default()
+            },
+            max_wait: STREAMED_LABELS_WAIT,
+        };
+        let uploaded = open_streamed_label(context, (&image, spec), label, remote, look)
+            .map_err(|e| e.to_string())?;
         cache.uploaded.insert(name.clone(), (upload_key, uploaded));
     }
     let (_, uploaded) = cache.uploaded.get_mut(name).expect("inserted above");

@@ -151,12 +151,10 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
                 options.stream,
                 gpu,
             )?;
-            let image_dims = opened.volume.source.shape().dims();
             let mut drawable = Self::streamed(opened, saved);
             drawable.labels = open_streamed_overlays(
                 &options.labels,
                 open,
-                image_dims,
                 drawable.gpu.borrow(),
                 options.stream,
                 options.max_wait,

@@ -8,9 +8,10 @@ use std::time::Duration;
 
 use voxscope_render::GpuContext;
 use voxscope_stream::StreamOptions;
-use voxscope_volume::Selection;
 use voxscope_volume::ome_zarr::{LabelImage, Pyramid};
+use voxscope_volume::remote::RemoteOptions;
 
+use crate::label_overlay::open_label_pyramid;
 use crate::{LabelError, LabelOptions, LabelOverlay, OpenOptions, SceneError, UploadedLabels};
 
 /// Reads each of `names` (a label image of the image `open` names, else a file) as a label
@@ -59,14 +60,62 @@ fn open_overlay(
     })
 }
 
-/// The label images `labels` names, streamed over a streamed image (`open`, whose level 0 has
-/// `image_dims` voxels) from their own pyramids, each with a quarter of the image's GPU and RAM
-/// budgets (`options`). Only label images of the store: a label file is drawn over an image in
-/// memory.
+/// The least GPU memory and RAM cache a streamed label image has, whatever its image's budgets:
+/// below it an overlay's atlas holds too few bricks to follow the image's view.
+pub const LABEL_BUDGET_FLOOR: u64 = 16 << 20;
+
+/// The budgets of a label image streamed over an image streamed with `image`: a quarter of each
+/// of the image's GPU memory and RAM cache, at least [`LABEL_BUDGET_FLOOR`].
+pub fn label_stream_options(image: StreamOptions) -> StreamOptions {
+    StreamOptions {
+        gpu_memory: (image.gpu_memory / 4).max(LABEL_BUDGET_FLOOR),
+        ram_cache: (image.ram_cache / 4).max(LABEL_BUDGET_FLOOR),
+        ..image
+    }
+}
+
+/// What a streamed label image is drawn with: its values hidden, its opacity, and the budgets
+/// and wait of the image it is drawn over.
+#[derive(Debug, Clone, Copy)]
+pub struct StreamedLabelLook<'a> {
+    pub hidden: &'a [f64],
+    pub opacity: f32,
+    /// The image's streaming options ([`label_stream_options`] takes the label's share).
+    pub image_options: StreamOptions,
+    pub max_wait: Duration,
+}
+
+/// The label image `label` of the image pyramid `image` (opened from `image_name`), read with
+/// `remote` and streamed from its own pyramid with its share of the image's budgets: refused
+/// where its grid is not the image's. The app's Labels list and `render --labels` over a
+/// streamed image both open overlays through it.
+pub fn open_streamed_label(
+    context: &GpuContext,
+    (image, image_name): (&Pyramid, &str),
+    label: &LabelImage,
+    remote: RemoteOptions,
+    look: StreamedLabelLook<'_>,
+) -> Result<UploadedLabels, LabelError> {
+    let (_, pyramid) = open_label_pyramid(image, image_name, label, remote)?;
+    UploadedLabels::streamed(
+        context,
+        &label.name,
+        Arc::new(pyramid),
+        &label.colors,
+        look.hidden,
+        look.opacity,
+        label_stream_options(look.image_options),
+        look.max_wait,
+    )
+}
+
+/// The label images `labels` names, streamed over the streamed image `open` names from their
+/// own pyramids, each with its share of the image's GPU and RAM
+/// budgets (`options`; [`label_stream_options`]). Only label images of the store: a label file
+/// is drawn over an image in memory.
 pub fn open_streamed_overlays(
     labels: &LabelOptions,
     open: &OpenOptions,
-    image_dims: [usize; 3],
     context: &GpuContext,
     options: StreamOptions,
     max_wait: Duration,
@@ -77,10 +126,11 @@ pub fn open_streamed_overlays(
     let listed = open.label_images();
     let image_name = open.name();
     let remote = open.load_options().remote;
-    let options = StreamOptions {
-        gpu_memory: (options.gpu_memory / 4).max(1 << 20),
-        ram_cache: (options.ram_cache / 4).max(1 << 20),
-        ..options
+    let look = StreamedLabelLook {
+        hidden: &labels.hide,
+        opacity: labels.opacity,
+        image_options: options,
+        max_wait,
     };
     labels
         .names
@@ -94,26 +144,7 @@ pub fn open_streamed_overlays(
                     image: image_name.to_owned(),
                 });
             };
-            let spec = image.label_spec(image_name, label);
-            let pyramid = Pyramid::open_spec(&spec, Selection::default(), remote)?;
-            let dims = pyramid.levels.first().map(|level| level.dims);
-            if dims != Some(image_dims) {
-                return Err(LabelError::OffGrid {
-                    name: spec,
-                    dims: dims.unwrap_or_default(),
-                    image_dims,
-                });
-            }
-            UploadedLabels::streamed(
-                context,
-                &label.name,
-                Arc::new(pyramid),
-                &label.colors,
-                &labels.hide,
-                labels.opacity,
-                options,
-                max_wait,
-            )
+            open_streamed_label(context, (image, image_name), label, remote, look)
         })
         .collect::<Result<_, LabelError>>()
         .map_err(SceneError::from)

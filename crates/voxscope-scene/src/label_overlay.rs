@@ -128,19 +128,7 @@ impl LabelOverlay {
         image_dims: [usize; 3],
         remote: RemoteOptions,
     ) -> Result<Self, LabelError> {
-        let spec = image.label_spec(image_spec, label);
-        let pyramid = Pyramid::open_spec(&spec, Selection::default(), remote)?;
-        let (Some(finest), Some(image_finest)) = (pyramid.levels.first(), image.levels.first())
-        else {
-            return Err(LabelError::NoLevels(spec));
-        };
-        if finest.dims != image_finest.dims {
-            return Err(LabelError::OffGrid {
-                name: spec,
-                dims: finest.dims,
-                image_dims: image_finest.dims,
-            });
-        }
+        let (spec, pyramid) = open_label_pyramid(image, image_spec, label, remote)?;
         let level = pyramid
             .levels
             .iter()
@@ -573,4 +561,28 @@ impl BrickSource for SlotBricks {
     fn labels(&self) -> bool {
         true
     }
+}
+
+/// The pyramid of label image `label` of the OME-Zarr image opened from `image_spec`
+/// (`image`), and its spec: refused where its resolution 0 is not the image's (one line naming
+/// both grids). Labels in memory and streamed labels both open theirs through it.
+pub(crate) fn open_label_pyramid(
+    image: &Pyramid,
+    image_spec: &str,
+    label: &LabelImage,
+    remote: RemoteOptions,
+) -> Result<(String, Pyramid), LabelError> {
+    let spec = image.label_spec(image_spec, label);
+    let pyramid = Pyramid::open_spec(&spec, Selection::default(), remote)?;
+    let (Some(finest), Some(image_finest)) = (pyramid.levels.first(), image.levels.first()) else {
+        return Err(LabelError::NoLevels(spec));
+    };
+    if finest.dims != image_finest.dims {
+        return Err(LabelError::OffGrid {
+            name: spec,
+            dims: finest.dims,
+            image_dims: image_finest.dims,
+        });
+    }
+    Ok((spec, pyramid))
 }

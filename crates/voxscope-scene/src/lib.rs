@@ -38,7 +38,10 @@ pub use data::{HISTOGRAM_BINS, VolumeData};
 pub use drawable::{Channel, Drawable};
 pub use error::{LabelError, SceneError};
 pub use job::Job;
-pub use label_open::{open_overlays, open_streamed_overlays};
+pub use label_open::{
+    LABEL_BUDGET_FLOOR, StreamedLabelLook, label_stream_options, open_overlays,
+    open_streamed_label, open_streamed_overlays,
+};
 pub use label_overlay::{
     DEFAULT_LABEL_OPACITY, LabelLayer, LabelOverlay, MAX_LABEL_VALUES, SlotPass, UploadedLabels,
     blend_slots, label_color, label_pass_settings,
