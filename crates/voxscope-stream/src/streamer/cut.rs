@@ -13,13 +13,13 @@ impl Streamer {
     /// whose asks do not, or that asked beyond the request buffer for more than the room
     /// holds, is under the budget's pressure from then on (while the view stays): it refines
     /// level by level (`refine.rs`), so that the cut it settles on is restricted (neighbours
-    /// at most one level apart) and it reads little beyond that cut. `marks`: what the frame
-    /// drew ([`Self::marks_of`]).
+    /// at most one level apart) and it reads little beyond that cut. `usage`: the frame's usage
+    /// marks, read ([`Self::marks_of`]) only by a view under pressure.
     pub(super) fn cut_for_view(
         &mut self,
         requests: &[Request],
         left_out: &[usize],
-        marks: &Marks,
+        usage: &[u32],
         (asked, truncated): (usize, bool),
         view: ViewPoint,
         frame: u32,
@@ -56,7 +56,11 @@ impl Streamer {
                     self.pressed = Some(view);
                     self.forget_progress();
                 }
-                self.refine_level(requests, marks, (room, available), &committed, view)
+                let marks = Marks {
+                    asks_cut_short: truncated,
+                    ..self.marks_of(usage, frame)
+                };
+                self.refine_level(requests, &marks, (room, available), &committed, view)
             }
         };
         if !self.standing.is_empty() {

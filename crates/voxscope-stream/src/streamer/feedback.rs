@@ -2,7 +2,6 @@
 //! the cut of what the budget holds, loads in priority order and stand-ins; the level fill
 //! and the neighbours fetched ahead.
 
-use super::refine::Marks;
 use super::*;
 
 impl Streamer {
@@ -40,15 +39,18 @@ impl Streamer {
             self.keep_placed(feedback.frame, &view);
         }
         let truncated = feedback.asked as usize > feedback.requests.len();
-        let marks = Marks {
-            asks_cut_short: truncated,
-            ..self.marks_of(feedback.usage, feedback.frame)
-        };
         for (counters, &count) in self.counters.levels.iter_mut().zip(&left_out) {
             counters.left_out = count;
         }
         let asks = (feedback.asked as usize, truncated);
-        let outcome = self.cut_for_view(&requests, &left_out, &marks, asks, view, feedback.frame);
+        let outcome = self.cut_for_view(
+            &requests,
+            &left_out,
+            feedback.usage,
+            asks,
+            view,
+            feedback.frame,
+        );
         // Failed bricks are asked for no more; left-out ones are drawn from what stands for
         // them: what still lacks is what the view misses, with the frontier no ask named.
         self.feedback_missing = requests.len() + outcome.unresolved;
