@@ -720,6 +720,7 @@ fn dead_objects_are_not_asked_again_and_again_and_retry_after_is_honoured() {
                                 .read_brick(BrickId {
                                     level: 0,
                                     brick: [x, 0, 0],
+                                    channel: 0,
                                 })
                                 .is_ok()
                         })

@@ -396,6 +396,7 @@ fn opening_and_the_first_image_take_a_few_round_trips_whatever_the_levels() {
             .map(|level| BrickId {
                 level,
                 brick: [0; 3],
+                channel: 0,
             })
             .collect();
         assert!(!pinned.is_empty());

@@ -273,6 +273,7 @@ fn bricks_fetched_ahead_go_out_in_their_order_many_at_once_without_waiting() {
     let brick = |level: u32, x: u32, y: u32, z: u32| BrickId {
         level,
         brick: [x, y, z],
+        channel: 0,
     };
 
     // One request at a time: the chunks reach the server in the order of their bricks, a
@@ -407,6 +408,7 @@ fn bricks_fetched_ahead_through_a_small_fetch_cache_cross_the_link_once() {
                 (0..8).map(move |x| BrickId {
                     level: 0,
                     brick: [x, y, z],
+                    channel: 0,
                 })
             })
         })
@@ -465,6 +467,7 @@ fn a_sharded_levels_bricks_fetched_ahead_come_in_one_request_per_shard() {
             (0..2).map(move |x| BrickId {
                 level: 0,
                 brick: [x, y, 0],
+                channel: 0,
             })
         })
         .collect();

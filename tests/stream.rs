@@ -868,7 +868,11 @@ fn a_brick_that_fails_to_load_leaves_its_region_coarser_and_the_rest_unchanged()
     let t_enter = t0.min(t1).max_element();
     let inside = eye + frame.forward * (t_enter + 4.0);
     let brick = (inside / BRICK_SIZE as f64).floor().as_uvec3().to_array();
-    let broken = BrickId { level: 0, brick };
+    let broken = BrickId {
+        level: 0,
+        brick,
+        channel: 0,
+    };
 
     let mut good = streaming(
         &context,
@@ -1360,6 +1364,7 @@ fn an_ome_zarr_streams_from_its_own_levels_brick_for_brick() {
                     let id = BrickId {
                         level: level as u32,
                         brick: [x, y, z],
+                        channel: 0,
                     };
                     let streamed = source.read_brick(id).expect("a brick");
                     let computed = memory.read_brick(id).expect("a brick");
@@ -1462,6 +1467,7 @@ fn level_zero_bricks(grid: [usize; 3]) -> impl Iterator<Item = BrickId> {
             (0..grid[0] as u32).map(move |x| BrickId {
                 level: 0,
                 brick: [x, y, z],
+                channel: 0,
             })
         })
     })

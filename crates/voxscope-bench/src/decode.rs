@@ -38,6 +38,7 @@ fn center_block(source: &dyn BrickSource) -> Vec<BrickId> {
                         (first[1] + y) as u32,
                         (first[2] + z) as u32,
                     ],
+                    channel: 0,
                 });
             }
         }

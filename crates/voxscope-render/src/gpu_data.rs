@@ -215,8 +215,10 @@ pub(crate) struct StreamParams {
     /// Where the next coarser level's entries begin in the flat copy, where the walk takes it
     /// too (`main_levels`): the walked level's brick count; else 0.
     pub walk_next: u32,
-    pub _pad0: u32,
-    pub _pad1: u32,
+    /// Channels streamed together (1: one volume; the composite's otherwise).
+    pub channel_count: u32,
+    /// Bit `c`: channel `c` is drawn (the composite's).
+    pub shown_channels: u32,
     pub _pad2: u32,
 }
 
@@ -331,8 +333,8 @@ mod tests {
             lod_scale,
             walk_level,
             walk_next,
-            _pad0,
-            _pad1,
+            channel_count,
+            shown_channels,
             _pad2,
         })
     }
@@ -423,7 +425,7 @@ mod tests {
                 ("Params", raycast_params()),
                 ("ProbeResult", probe_result()),
             ],
-            "stream" => vec![
+            "stream" | "stream_composite" => vec![
                 ("Params", raycast_params()),
                 ("StreamParams", stream_params()),
                 ("ProbeResult", probe_result()),

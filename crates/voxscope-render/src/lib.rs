@@ -53,7 +53,7 @@ pub use settings::{
 pub use slice::{
     EdgeLabels, SliceConvention, SliceFrame, SliceSettings, SliceSource, SliceView, Slicer,
 };
-pub use stream::{BUDGET_STEPS, StreamRaycaster, StreamVolume};
+pub use stream::{BUDGET_STEPS, StreamCompositeRaycaster, StreamRaycaster, StreamVolume};
 pub use timer::{GpuTimer, WarmUp, time_passes, timing_name, warm_up};
 pub use transfer_table::GpuTransferTable;
 pub use volume_renderer::{

@@ -16,7 +16,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use super::atlas_scatter::{self, AtlasScatter};
 use super::{
     CompositeRaycaster, DenseRaycaster, GpuBrickRecolor, GpuContext, GpuRecolor, Raycaster,
-    RendererKind, Slicer, StreamRaycaster,
+    RendererKind, Slicer, StreamCompositeRaycaster, StreamRaycaster,
 };
 
 /// The pipeline families of one device, each built on first use.
@@ -28,6 +28,7 @@ pub(crate) struct PipelineCache {
     brick_recolor: OnceLock<GpuBrickRecolor>,
     slicer: OnceLock<Slicer>,
     stream_raycaster: OnceLock<StreamRaycaster>,
+    stream_composite_raycaster: OnceLock<StreamCompositeRaycaster>,
     composite_raycaster: OnceLock<CompositeRaycaster>,
     /// Per format of [`atlas_scatter::FORMATS`].
     atlas_scatter: [OnceLock<AtlasScatter>; atlas_scatter::FORMATS.len()],
@@ -76,6 +77,13 @@ impl GpuContext {
         self.pipelines
             .stream_raycaster
             .get_or_init(|| StreamRaycaster::new(self))
+    }
+
+    /// The streamed composite's ray caster of this device, built on first use.
+    pub fn stream_composite_raycaster(&self) -> &StreamCompositeRaycaster {
+        self.pipelines
+            .stream_composite_raycaster
+            .get_or_init(|| StreamCompositeRaycaster::new(self))
     }
 
     /// The composite-of-channels ray caster of this device, built on first use.

@@ -44,7 +44,9 @@ shaders! {
     /// The dense renderer for up to 8 channels composited.
     COMPOSITE = "composite" ["ray_common.wgsl", "composite.wgsl"];
     /// The streaming renderer (a pyramid of bricks through a page table).
-    STREAM = "stream" ["ray_common.wgsl", "stream.wgsl"];
+    STREAM = "stream" ["ray_common.wgsl", "stream_common.wgsl", "stream.wgsl"];
+    /// The streaming renderer for up to 8 channels composited.
+    STREAM_COMPOSITE = "stream_composite" ["ray_common.wgsl", "stream_common.wgsl", "stream_composite.wgsl"];
     /// Per-level recolor of octree nodes.
     RECOLOR = "recolor" ["node_common.wgsl", "recolor.wgsl"];
     /// Recolor of the brick level.

@@ -30,8 +30,8 @@ use super::renderer::{FramePass, Renderer, StreamPaths, level_detail, pipeline_v
 use super::staging_ring::{self, StagedBrick, StagingRing};
 use super::uncleared_texture::{OutOfMemory, uncleared_texture};
 use super::{
-    GpuContext, GpuTransferTable, LevelDetail, RenderError, RenderSettings, RenderTarget,
-    RendererKind,
+    ChannelLayer, GpuContext, GpuTransferTable, LevelDetail, RenderError, RenderSettings,
+    RenderTarget, RendererKind,
 };
 use voxscope_octree::TransferFunction;
 use voxscope_stream::{
@@ -142,6 +142,9 @@ pub struct StreamVolume {
     /// detail with the budget that would hold it.
     sizing: AtlasSizing,
     full_detail: Option<(usize, FullDetailBudget)>,
+    /// Where the pyramid has several channels: their tables and which are shown (the
+    /// composite, `stream_composite.wgsl`).
+    channels: Option<StreamChannels>,
 }
 
 impl StreamVolume {
@@ -178,7 +181,14 @@ impl StreamVolume {
         // What a frame may upload; through the ring's buffers, scattered into the atlas by a
         // dispatch where the device can (their copy on the GPU counts in the budget).
         let per_frame = (options.upload_bytes_per_frame / slot_bytes).max(1) as usize;
-        let bricks: u64 = source.shape().levels.iter().map(|l| l.brick_count()).sum();
+        // (Of every channel.)
+        let bricks: u64 = source
+            .shape()
+            .levels
+            .iter()
+            .map(|l| l.brick_count())
+            .sum::<u64>()
+            * source.shape().channels as u64;
         // A frame uploads no more bricks than the pyramid has.
         let most_per_frame = per_frame.min(bricks.min(usize::MAX as u64) as usize);
         let scatter = match options.uploads {
@@ -215,8 +225,10 @@ impl StreamVolume {
         let plan = sizing.plan(context, options.gpu_memory)?;
         let scatter = scatter.filter(|_| plan.scatter);
         let grid = plan.grid;
+        let channel_count = source.shape().channels as usize;
         let options = StreamOptions {
-            level_walk: options.level_walk && plan.level_walk,
+            // The composite's rays look each channel up: no level walk.
+            level_walk: options.level_walk && plan.level_walk && channel_count == 1,
             ..options
         };
         let mut streamer = Streamer::new(Arc::clone(&source), grid, texels, options, visible)
@@ -239,6 +251,8 @@ impl StreamVolume {
             level_cells_bytes,
         );
         let transfer_table = GpuTransferTable::new(context, quantization, transfer);
+        let channels = (channel_count > 1)
+            .then(|| StreamChannels::new(context, &*source, channel_count, transfer));
         let bytes_per_texel = texels.bytes() as u32;
         let ring = match (scatter, options.uploads) {
             (Some((pipeline, (bricks, _))), _) => {
@@ -285,6 +299,7 @@ impl StreamVolume {
             spacing: source.spacing(),
             sizing,
             full_detail: None,
+            channels,
             unwritten: Vec::new(),
             unzeroed: uncleared,
             skip_upload_rate: false,
@@ -333,6 +348,9 @@ impl StreamVolume {
     /// next frame. Call once per displayed frame, before drawing it ([`Renderer::update`]
     /// does).
     pub fn step(&mut self, context: &GpuContext) -> StreamStatus {
+        if let Some(visibility) = self.channels.as_ref().and_then(|c| c.take_visibility()) {
+            self.streamer.set_channel_visibility(visibility);
+        }
         if !self.unwritten.is_empty() {
             let unwritten = std::mem::take(&mut self.unwritten);
             self.write(context, &unwritten);
@@ -481,6 +499,10 @@ impl StreamVolume {
     /// visibility bit (written now, so the next frame skips by the new function). Nothing is
     /// reloaded.
     fn apply_transfer(&mut self, context: &GpuContext, transfer: &TransferFunction) {
+        if self.channels.is_some() {
+            // Each channel's transfer function is its own (`set_channels`).
+            return;
+        }
         self.transfer.write(context, transfer);
         let table = transfer.lookup_table(self.streamer.source().quantization());
         self.streamer.set_visibility(visible_below(&table));
@@ -525,8 +547,8 @@ impl StreamVolume {
                 Some([bricks, next]) if next > 0 => bricks as u32,
                 _ => 0,
             },
-            _pad0: 0,
-            _pad1: 0,
+            channel_count: self.channels.as_ref().map_or(1, |c| c.count() as u32),
+            shown_channels: self.channels.as_ref().map_or(1, StreamChannels::shown_mask),
             _pad2: 0,
         }
     }
@@ -592,16 +614,24 @@ impl Renderer for StreamVolume {
         encoder: &mut wgpu::CommandEncoder,
         pass: FramePass<'_>,
     ) {
-        pass.of_whole_target()
-            .encode_with(context.stream_raycaster(), context, encoder, self);
+        let pass = pass.of_whole_target();
+        if self.channels.is_some() {
+            pass.encode_with(context.stream_composite_raycaster(), context, encoder, self);
+        } else {
+            pass.encode_with(context.stream_raycaster(), context, encoder, self);
+        }
     }
 
+    /// One channel's: the composite has no probe (as the in-memory composite).
     fn encode_probe(
         &self,
         context: &GpuContext,
         encoder: &mut wgpu::CommandEncoder,
         probe: &ProbeTarget<'_>,
     ) -> bool {
+        if self.channels.is_some() {
+            return false;
+        }
         encode_probe_ray(context.stream_raycaster(), context, encoder, self, probe);
         true
     }
@@ -618,6 +648,16 @@ impl Renderer for StreamVolume {
     }
 
     fn prepare_pipelines(&self, context: &GpuContext, settings: &RenderSettings, probe: bool) {
+        if self.channels.is_some() {
+            let variant = Variant {
+                clipped: settings.clip.is_active(),
+                ..Variant::PLAIN
+            };
+            context
+                .stream_composite_raycaster()
+                .prepare(context, variant);
+            return;
+        }
         for variant in pipeline_variants(settings, probe, false, self.labels()) {
             context.stream_raycaster().prepare(
                 context,
@@ -638,7 +678,10 @@ impl Renderer for StreamVolume {
                 "readback",
                 self.readbacks.iter().map(|r| r.buffer.size()).sum(),
             ),
-            ("lookup_table", self.transfer.size()),
+            (
+                "lookup_table",
+                self.transfer.size() + self.channels.as_ref().map_or(0, StreamChannels::bytes),
+            ),
             ("upload_staging", self.ring.gpu_bytes()),
             ("level_cells", self.level_cells.size()),
         ]
@@ -660,6 +703,25 @@ impl Renderer for StreamVolume {
         StreamVolume::read_pinned(self)
     }
 
+    fn channel_count(&self) -> usize {
+        self.channels.as_ref().map_or(1, StreamChannels::count)
+    }
+
+    fn set_channels(
+        &self,
+        context: &GpuContext,
+        layers: &[ChannelLayer<'_>],
+        shown: &[bool],
+    ) -> Result<(), RenderError> {
+        match &self.channels {
+            Some(channels) => channels.set(context, &**self.streamer.source(), layers, shown),
+            None => Err(RenderError::Invalid(format!(
+                "the stream renderer of one channel draws one channel, not {}",
+                layers.len()
+            ))),
+        }
+    }
+
     fn stream_paths(&self) -> Option<StreamPaths> {
         Some(StreamPaths {
             upload_path: self.upload_path(),
@@ -672,6 +734,7 @@ impl Renderer for StreamVolume {
 
 mod allocation;
 mod atlas;
+mod channels;
 mod level_walk;
 mod ray_pass;
 mod uploads;
@@ -680,6 +743,8 @@ use allocation::{StreamBuffers, create_atlas, walked_level_cells_bytes};
 pub use atlas::BUDGET_STEPS;
 pub(crate) use atlas::atlas_formats;
 use atlas::*;
+use channels::StreamChannels;
+pub use channels::StreamCompositeRaycaster;
 use level_walk::WalkLevels;
 pub use ray_pass::StreamRaycaster;
 

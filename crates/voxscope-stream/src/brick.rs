@@ -13,17 +13,40 @@ pub const PADDED_BRICK: usize = BRICK_SIZE + 2;
 /// Value levels in a padded brick.
 pub const PADDED_BRICK_VOXELS: usize = PADDED_BRICK * PADDED_BRICK * PADDED_BRICK;
 
-/// One brick of one level: `level`, and the brick's position in that level's brick grid.
+/// One brick of one level of one channel: `level`, the brick's position in that level's
+/// brick grid, and the channel of a pyramid of several ([`crate::PyramidShape::channels`]; 0
+/// where it has one).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct BrickId {
     pub level: u32,
     pub brick: [u32; 3],
+    pub channel: u32,
+}
+
+impl BrickId {
+    /// Brick `brick` of `level` of channel 0 (a pyramid of one channel's bricks).
+    pub fn new(level: u32, brick: [u32; 3]) -> Self {
+        Self {
+            level,
+            brick,
+            channel: 0,
+        }
+    }
+
+    /// The same brick of channel `channel`.
+    pub fn of_channel(self, channel: u32) -> Self {
+        Self { channel, ..self }
+    }
 }
 
 impl fmt::Display for BrickId {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let [x, y, z] = self.brick;
-        write!(f, "level {} brick ({x}, {y}, {z})", self.level)
+        write!(f, "level {} brick ({x}, {y}, {z})", self.level)?;
+        if self.channel > 0 {
+            write!(f, " of channel {}", self.channel)?;
+        }
+        Ok(())
     }
 }
 

@@ -235,7 +235,11 @@ mod tests {
     }
 
     fn ask(shape: &PyramidShape, view: &ViewPoint, level: u32, brick: [u32; 3]) -> Request {
-        let id = BrickId { level, brick };
+        let id = BrickId {
+            level,
+            brick,
+            channel: 0,
+        };
         Request {
             priority: Priority::new(
                 Tier::Visible,
@@ -270,6 +274,7 @@ mod tests {
             .key(BrickId {
                 level: 3,
                 brick: [0; 3],
+                channel: 0,
             })
             .expect("the root")
     }

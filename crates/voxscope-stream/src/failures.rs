@@ -225,10 +225,7 @@ mod tests {
     use super::*;
 
     fn id(level: u32, x: u32) -> BrickId {
-        BrickId {
-            level,
-            brick: [x, 0, 0],
-        }
+        BrickId::new(level, [x, 0, 0])
     }
 
     #[test]

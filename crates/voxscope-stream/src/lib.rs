@@ -12,6 +12,7 @@
 
 mod brick;
 mod budget;
+mod channels;
 mod failures;
 mod frame;
 mod key_hash;
@@ -32,6 +33,7 @@ mod zarr_source;
 
 pub use brick::{BRICK_SIZE, BrickData, BrickId, PADDED_BRICK, PADDED_BRICK_VOXELS, ValueRange};
 pub use budget::{Cut, SlotNeed, cut_ranked, cut_within};
+pub use channels::ChannelSources;
 pub use failures::{FailedBrick, FailureGroup, Failures, MAX_BRICK_ATTEMPTS, group};
 pub use frame::{Feedback, Upload, ViewPoint};
 pub use key_hash::{KeyHasher, KeyMap, KeySet};
@@ -45,8 +47,8 @@ pub use page_table::{
 pub use preview::preview;
 pub use procedural::NoiseSource;
 pub use pyramid::{
-    Downsampling, EMPTY_KEY, KEY_LEVEL_SHIFT, LevelShape, MAX_LEVELS, PyramidShape, ShapeError,
-    coarser_levels, cut_brick, cut_padded_block, downsample,
+    Downsampling, EMPTY_KEY, KEY_LEVEL_SHIFT, LevelShape, MAX_LEVELS, MAX_STREAMED_CHANNELS,
+    PyramidShape, ShapeError, coarser_levels, cut_brick, cut_padded_block, downsample,
 };
 pub use queue::{Priority, Request, RequestQueue, Tier};
 pub use ram_cache::RamCache;
@@ -58,6 +60,6 @@ pub use status::{
 };
 pub use streamer::{
     StillUploads, StreamError, Streamer, UPLOAD_SECONDS_PER_FRAME, UPLOAD_SECONDS_STILL,
-    pinned_level_count, view_slots,
+    VISIBILITY_COUNTS, pinned_level_count, view_slots,
 };
 pub use zarr_source::{MAX_BRICK_READ, MAX_REMOTE_BRICK_CHUNKS, ZarrSource};

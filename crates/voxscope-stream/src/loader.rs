@@ -440,6 +440,7 @@ mod tests {
             id: BrickId {
                 level,
                 brick: [x, 0, 0],
+                channel: 0,
             },
             key: level << 28 | x,
         };
@@ -492,6 +493,7 @@ mod tests {
             id: BrickId {
                 level: 0,
                 brick: [0, 0, 0],
+                channel: 0,
             },
             key: 0,
         }]);
@@ -518,6 +520,7 @@ mod tests {
         let id = BrickId {
             level: 0,
             brick: [1, 0, 0],
+            channel: 0,
         };
         let (brick, bytes) = load_brick(&source, id, AtlasTexels::Unorm8);
         let error = brick.expect_err("it panicked");
@@ -535,6 +538,7 @@ mod tests {
             id: BrickId {
                 level: 0,
                 brick: [key, 0, 0],
+                channel: 0,
             },
             key,
         };
@@ -584,6 +588,7 @@ mod tests {
                     id: BrickId {
                         level: 0,
                         brick: [x, 0, 0],
+                        channel: 0,
                     },
                     key: x,
                 })

@@ -81,10 +81,7 @@ pub fn preview(
     let [gx, gy, gz] = info.grid;
     let ids: Vec<BrickId> = (0..gz)
         .flat_map(|z| (0..gy).flat_map(move |y| (0..gx).map(move |x| [x, y, z])))
-        .map(|brick| BrickId {
-            level: level as u32,
-            brick: brick.map(|c| c as u32),
-        })
+        .map(|brick| BrickId::new(level as u32, brick.map(|c| c as u32)))
         .collect();
     let read: Vec<(BrickId, Result<BrickData, BrickError>)> = if source.remote_stats().is_some() {
         let threads = REMOTE_READERS.max(rayon::current_num_threads());

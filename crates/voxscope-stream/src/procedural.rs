@@ -209,7 +209,11 @@ mod tests {
 
     fn brick(source: &NoiseSource, level: u32, brick: [u32; 3]) -> BrickData {
         source
-            .read_brick(BrickId { level, brick })
+            .read_brick(BrickId {
+                level,
+                brick,
+                channel: 0,
+            })
             .expect("a brick of the pyramid")
     }
 
@@ -231,7 +235,8 @@ mod tests {
             source
                 .read_brick(BrickId {
                     level: 0,
-                    brick: [8, 0, 0]
+                    brick: [8, 0, 0],
+                    channel: 0,
                 })
                 .is_err()
         );

@@ -15,9 +15,13 @@ pub const MAX_LEVELS: usize = 15;
 /// A key's level sits above this many bits of brick index.
 pub const KEY_LEVEL_SHIFT: u32 = 28;
 
-/// The most bricks one level may have: its bricks' indices fit below [`KEY_LEVEL_SHIFT`] (at
-/// 32³ voxels a brick, 2²⁸ bricks is a level of 20 000³ voxels or so).
+/// The most bricks one level may have, of all its channels together: its bricks' indices fit
+/// below [`KEY_LEVEL_SHIFT`] (at 32³ voxels a brick, 2²⁸ bricks is a level of 20 000³ voxels
+/// or so, or eight channels of 10 000³).
 pub const MAX_LEVEL_BRICKS: u64 = 1 << KEY_LEVEL_SHIFT;
+
+/// The most channels one pyramid streams together (the composite's shown channels).
+pub const MAX_STREAMED_CHANNELS: u32 = 8;
 
 /// The key no brick has: level 15, every index bit set.
 pub const EMPTY_KEY: u32 = u32::MAX;
@@ -56,12 +60,18 @@ pub enum ShapeError {
         format_dims(*dims)
     )]
     TooManyBricks { dims: [usize; 3], finest: u64 },
+    /// No channel, or more than are streamed together.
+    #[error("{0} channels streamed together (1 to {MAX_STREAMED_CHANNELS})")]
+    Channels(u32),
 }
 
-/// The levels of a pyramid, finest first.
+/// The levels of a pyramid, finest first, and how many channels of them it holds (each
+/// channel the same levels of other values: a composite's channels, streamed together).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct PyramidShape {
     pub levels: Vec<LevelShape>,
+    /// Channels, 1 to [`MAX_STREAMED_CHANNELS`]: a key names a brick of one of them.
+    pub channels: u32,
 }
 
 impl PyramidShape {
@@ -94,7 +104,24 @@ impl PyramidShape {
         if finest > MAX_LEVEL_BRICKS {
             return Err(ShapeError::TooManyBricks { dims, finest });
         }
-        Ok(Self { levels })
+        Ok(Self {
+            levels,
+            channels: 1,
+        })
+    }
+
+    /// The same levels for `channels` channels (1 to [`MAX_STREAMED_CHANNELS`]), whose keys
+    /// all fit below [`KEY_LEVEL_SHIFT`].
+    pub fn with_channels(self, channels: u32) -> Result<Self, ShapeError> {
+        let dims = self.dims();
+        if !(1..=MAX_STREAMED_CHANNELS).contains(&channels) {
+            return Err(ShapeError::Channels(channels));
+        }
+        let finest = self.levels[0].brick_count() * channels as u64;
+        if finest > MAX_LEVEL_BRICKS {
+            return Err(ShapeError::TooManyBricks { dims, finest });
+        }
+        Ok(Self { channels, ..self })
     }
 
     /// Voxels along x, y, z at full resolution.
@@ -107,16 +134,26 @@ impl PyramidShape {
         self.levels.len() as u32 - 1
     }
 
-    /// The page-table key of `id` (`level << 28 | x + gx·(y + gy·z)`), if `id` is in the
-    /// pyramid.
+    /// The page-table key of `id` (`level << 28 | c·n + x + gx·(y + gy·z)`, channel `c` of a
+    /// level of `n` bricks a channel), if `id` is in the pyramid.
     pub fn key(&self, id: BrickId) -> Option<u32> {
         let level = self.levels.get(id.level as usize)?;
         let [x, y, z] = id.brick.map(|c| c as usize);
         let [gx, gy, gz] = level.grid;
-        if x >= gx || y >= gy || z >= gz {
+        if x >= gx || y >= gy || z >= gz || id.channel >= self.channels {
             return None;
         }
-        Some(id.level << KEY_LEVEL_SHIFT | (x + gx * (y + gy * z)) as u32)
+        let first = id.channel as usize * gx * gy * gz;
+        Some(id.level << KEY_LEVEL_SHIFT | (first + x + gx * (y + gy * z)) as u32)
+    }
+
+    /// The channel of the brick `key` names (0 for a key that names none).
+    pub fn channel_of(&self, key: u32) -> u32 {
+        let Some(level) = self.levels.get((key >> KEY_LEVEL_SHIFT) as usize) else {
+            return 0;
+        };
+        let index = (key & ((1 << KEY_LEVEL_SHIFT) - 1)) as u64;
+        ((index / level.brick_count()) as u32).min(self.channels - 1)
     }
 
     /// The brick a key names, if it is one of this pyramid's.
@@ -125,12 +162,16 @@ impl PyramidShape {
         let shape = self.levels.get(level as usize)?;
         let index = (key & ((1 << KEY_LEVEL_SHIFT) - 1)) as usize;
         let [gx, gy, gz] = shape.grid;
-        if index >= gx * gy * gz {
+        let count = gx * gy * gz;
+        let channel = index / count;
+        if channel >= self.channels as usize {
             return None;
         }
+        let index = index % count;
         Some(BrickId {
             level,
             brick: [index % gx, (index / gx) % gy, index / (gx * gy)].map(|c| c as u32),
+            channel: channel as u32,
         })
     }
 
@@ -139,6 +180,7 @@ impl PyramidShape {
         (id.level as usize + 1 < self.levels.len()).then(|| BrickId {
             level: id.level + 1,
             brick: id.brick.map(|c| c / 2),
+            channel: id.channel,
         })
     }
 
@@ -154,7 +196,11 @@ impl PyramidShape {
             let brick: [u32; 3] = std::array::from_fn(|a| 2 * id.brick[a] + (corner >> a & 1));
             (0..3)
                 .all(|a| (brick[a] as usize) < grid[a])
-                .then_some(BrickId { level, brick })
+                .then_some(BrickId {
+                    level,
+                    brick,
+                    channel: id.channel,
+                })
         })
     }
 
@@ -164,6 +210,7 @@ impl PyramidShape {
         BrickId {
             level: id.level + up,
             brick: id.brick.map(|c| c >> up),
+            channel: id.channel,
         }
     }
 
@@ -333,6 +380,7 @@ mod tests {
                         let id = BrickId {
                             level: level as u32,
                             brick: [x, y, z],
+                            channel: 0,
                         };
                         let key = shape.key(id).expect("in the pyramid");
                         assert_ne!(key, EMPTY_KEY);
@@ -345,18 +393,21 @@ mod tests {
         let outside = BrickId {
             level: 0,
             brick: [4, 0, 0],
+            channel: 0,
         };
         assert_eq!(shape.key(outside), None);
         assert_eq!(shape.brick_of(EMPTY_KEY), None);
         let parent = shape.parent(BrickId {
             level: 0,
             brick: [3, 2, 1],
+            channel: 0,
         });
         assert_eq!(
             parent,
             Some(BrickId {
                 level: 1,
-                brick: [1, 1, 0]
+                brick: [1, 1, 0],
+                channel: 0,
             })
         );
     }
@@ -409,6 +460,7 @@ mod tests {
         let parent = BrickId {
             level: 1,
             brick: [1, 0, 0],
+            channel: 0,
         };
         let children: Vec<BrickId> = shape.children(parent).collect();
         assert_eq!(children.len(), 8);
@@ -417,12 +469,14 @@ mod tests {
         let root = BrickId {
             level: 2,
             brick: [0; 3],
+            channel: 0,
         };
         assert_eq!(shape.children(root).count(), 2);
         assert_eq!(shape.children(children[0]).count(), 0, "none below level 0");
         let deep = BrickId {
             level: 0,
             brick: [3, 1, 1],
+            channel: 0,
         };
         assert_eq!(shape.ancestor_at(deep, 1), parent);
         assert_eq!(shape.ancestor_at(deep, 0), deep);

@@ -189,6 +189,7 @@ mod tests {
             id: BrickId {
                 level,
                 brick: [key, 0, 0],
+                channel: 0,
             },
             key,
         }

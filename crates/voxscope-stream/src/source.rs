@@ -53,6 +53,17 @@ pub enum SourceError {
     /// to read for one.
     #[error("{0}: no stored value range, and the coarsest level is too large to read for one")]
     NoValueRange(String),
+    /// Channels streamed together whose pyramids differ.
+    #[error(
+        "{name}: channels of dimensions {} and {} cannot be streamed together (channels need one grid)",
+        format_dims(*first),
+        format_dims(*other)
+    )]
+    ChannelShapes {
+        name: String,
+        first: [usize; 3],
+        other: [usize; 3],
+    },
     /// The store could not be read.
     #[error(transparent)]
     Load(#[from] LoadError),
@@ -167,8 +178,13 @@ pub trait BrickSource: Send + Sync {
     fn shape(&self) -> &PyramidShape;
     /// Physical size of a level-0 voxel along x, y, z.
     fn spacing(&self) -> [f64; 3];
-    /// What the value levels mean, the same for every brick of every level.
+    /// What the value levels mean, the same for every brick of every level (of channel 0,
+    /// where the pyramid has several: [`Self::channel_quantization`]).
     fn quantization(&self) -> Quantization;
+    /// What channel `channel`'s value levels mean (a pyramid of one channel: its one).
+    fn channel_quantization(&self, _channel: u32) -> Quantization {
+        self.quantization()
+    }
     /// The largest value level any brick may hold: up to 255 the atlas is 8-bit.
     fn max_value_level(&self) -> u16;
     /// Reads brick `id`: its value levels with the apron, and their range. Called from worker

@@ -111,9 +111,9 @@ pub(crate) fn pinned_levels(shape: &PyramidShape) -> Vec<u32> {
         .collect()
 }
 
-/// Bricks of the levels [`pinned_levels`] keeps in the atlas (one each).
+/// Bricks of the levels [`pinned_levels`] keeps in the atlas (one each, of every channel).
 pub fn pinned_level_count(shape: &PyramidShape) -> usize {
-    pinned_levels(shape).len()
+    pinned_levels(shape).len() * shape.channels as usize
 }
 
 /// Whether level `level` of `shape` is one [`pinned_levels`] keeps in the atlas.
@@ -128,6 +128,9 @@ pub fn view_slots(slots: usize, pinned: usize) -> usize {
     let unpinned = slots.saturating_sub(pinned);
     unpinned - unpinned / 5
 }
+
+/// Visibility counts of a transfer function: one per value level and one more.
+pub const VISIBILITY_COUNTS: usize = (1 << 16) + 1;
 
 /// The CPU state of one streamed pyramid.
 pub struct Streamer {
@@ -212,9 +215,9 @@ pub struct Streamer {
     /// The view of the last frame drawn, and how it moved since the one before.
     last_view: Option<ViewPoint>,
     motion: Option<ViewPoint>,
-    /// `visible_below[i]`: value levels below `i` the transfer function makes visible (65 537
-    /// counts): the entries' [`ENTRY_VISIBLE`] bits follow it.
-    visible_below: Vec<u32>,
+    /// Per channel, `visible_below[c][i]`: value levels below `i` its transfer function makes
+    /// visible ([`VISIBILITY_COUNTS`]): the entries' [`ENTRY_VISIBLE`] bits follow them.
+    visible_below: Vec<Vec<u32>>,
     counters: StreamCounters,
     /// Per level: bricks in the atlas, and table entries without a slot.
     resident: Vec<usize>,
@@ -267,7 +270,7 @@ impl Streamer {
         options: StreamOptions,
         visible_below: Vec<u32>,
     ) -> Result<Self, StreamError> {
-        if visible_below.len() != (1 << 16) + 1 {
+        if visible_below.len() != VISIBILITY_COUNTS {
             return Err(StreamError::VisibilityCounts(visible_below.len()));
         }
         let shape = source.shape().clone();
@@ -322,13 +325,13 @@ impl Streamer {
             still_uploads: StillUploads::default(),
             last_view: None,
             motion: None,
-            visible_below,
+            visible_below: vec![visible_below; shape.channels as usize],
             counters: StreamCounters {
                 levels: shape
                     .levels
                     .iter()
                     .map(|l| LevelCounters {
-                        total: l.brick_count(),
+                        total: l.brick_count() * shape.channels as u64,
                         ..Default::default()
                     })
                     .collect(),
@@ -361,11 +364,11 @@ impl Streamer {
         self.ram = RamCache::new(ram - source_caches);
         self.counters.ram_capacity = ram - source_caches;
         self.counters.source_cache_capacity = source_caches;
-        let ids: Vec<BrickId> = pinned_levels(&self.shape)
-            .iter()
-            .map(|&level| BrickId {
-                level,
-                brick: [0; 3],
+        let ids: Vec<BrickId> = (0..self.shape.channels)
+            .flat_map(|channel| {
+                pinned_levels(&self.shape)
+                    .into_iter()
+                    .map(move |level| BrickId::new(level, [0; 3]).of_channel(channel))
             })
             .collect();
         let source = &*self.source;
@@ -506,7 +509,7 @@ impl Streamer {
     /// oldest slotless entries while the table is at its limit.
     fn insert_entry(&mut self, mut entry: TableEntry) -> Result<(), TableFull> {
         entry.slot &= !ENTRY_VISIBLE;
-        if entry.cell & ENTRY_FAILED == 0 && self.range_visible(entry.range) {
+        if entry.cell & ENTRY_FAILED == 0 && self.range_visible(entry.key, entry.range) {
             entry.slot |= ENTRY_VISIBLE;
         }
         while self.table.len() >= self.max_entries {

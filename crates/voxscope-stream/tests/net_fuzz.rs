@@ -348,6 +348,7 @@ fn read(
                     let id = BrickId {
                         level,
                         brick: [x, 0, grid[2] as u32 - 1],
+                        channel: 0,
                     };
                     let brick = remote.read_brick(id).map_err(|e| {
                         messages.push(e.to_string());

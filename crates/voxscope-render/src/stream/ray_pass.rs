@@ -22,20 +22,7 @@ impl StreamRaycaster {
             "stream",
             crate::shaders::STREAM,
             &["main", "main_level", "main_levels"],
-            &[
-                uniform_entry(0, false),
-                uniform_entry(1, false),
-                storage_entry(2, true),
-                output_image_entry(3),
-                storage_entry(4, false),
-                atlas_entry(5),
-                atlas_sampler_entry(6),
-                storage_entry(7, true),
-                storage_entry(8, false),
-                storage_entry(9, false),
-                storage_entry(10, false),
-                storage_entry(11, true),
-            ],
+            &layout_entries(),
         );
         Self {
             pipelines,
@@ -103,21 +90,7 @@ impl RayPass<StreamVolume> for StreamRaycaster {
     /// Notes the camera (the load order follows it) and that a frame was drawn (its requests
     /// are read back). Probes ask for nothing.
     fn before_frame(&self, volume: &StreamVolume, params: &RaycastParams) {
-        let forward = glam::Vec3::from_slice(&params.forward[..3]);
-        // The image's half width and height (`params.right` and `params.up`: voxel space,
-        // against the forward direction there), to the unit forward direction: its frustum.
-        let scale = 1.0 / f64::from(forward.length()).max(1e-12);
-        let extent =
-            [&params.right, &params.up].map(|v| [v[0], v[1], v[2]].map(|c| f64::from(c) * scale));
-        let forward = forward.normalize_or_zero();
-        *volume.view.lock().unwrap_or_else(|p| p.into_inner()) = Some(ViewPoint {
-            eye: [params.eye[0], params.eye[1], params.eye[2]].map(f64::from),
-            forward: forward.to_array().map(f64::from),
-            extent: Some(extent),
-        });
-        volume
-            .max_projection
-            .store(max_projection(params), Ordering::Release);
+        note_view(volume, params);
         // Panes of different max levels on one volume want different levels: two adjacent
         // ones are copied together, else none (copying each in turn would rebuild the copy at
         // every step).
@@ -153,36 +126,104 @@ impl RayPass<StreamVolume> for StreamRaycaster {
         target: &RenderTarget,
         probe: &wgpu::Buffer,
     ) -> wgpu::BindGroup {
-        let device = &context.device;
         let sampler = if volume.filters(settings) {
             &self.sampler
         } else {
             &self.nearest
         };
-        let params_buffer = frame_params_buffer(context, "voxscope::stream_params", params);
-        let stream_params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("voxscope::stream_level_params"),
-            contents: bytemuck::bytes_of(&volume.stream_params(params)),
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
-        numbered_bind_group(
-            device,
-            "voxscope::stream_bind_group",
-            &self.layout,
-            &[
-                params_buffer.as_entire_binding(),
-                stream_params.as_entire_binding(),
-                volume.transfer.buffer.as_entire_binding(),
-                wgpu::BindingResource::TextureView(&target.view),
-                target.visits.as_entire_binding(),
-                wgpu::BindingResource::TextureView(&volume.atlas_view),
-                wgpu::BindingResource::Sampler(sampler),
-                volume.table.as_entire_binding(),
-                volume.requests.as_entire_binding(),
-                volume.usage.as_entire_binding(),
-                probe.as_entire_binding(),
-                volume.level_cells.as_entire_binding(),
-            ],
-        )
+        let bound = Bound {
+            layout: &self.layout,
+            sampler,
+            lookup_table: &volume.transfer.buffer,
+        };
+        bind_group(context, bound, volume, params, target, probe)
     }
+}
+
+/// Notes the camera of a frame of `params` (the load order follows it), whether it takes the
+/// maximum, and that a frame was drawn (its requests are read back).
+pub(super) fn note_view(volume: &StreamVolume, params: &RaycastParams) {
+    let forward = glam::Vec3::from_slice(&params.forward[..3]);
+    // The image's half width and height (`params.right` and `params.up`: voxel space,
+    // against the forward direction there), to the unit forward direction: its frustum.
+    let scale = 1.0 / f64::from(forward.length()).max(1e-12);
+    let extent =
+        [&params.right, &params.up].map(|v| [v[0], v[1], v[2]].map(|c| f64::from(c) * scale));
+    let forward = forward.normalize_or_zero();
+    *volume.view.lock().unwrap_or_else(|p| p.into_inner()) = Some(ViewPoint {
+        eye: [params.eye[0], params.eye[1], params.eye[2]].map(f64::from),
+        forward: forward.to_array().map(f64::from),
+        extent: Some(extent),
+    });
+    volume
+        .max_projection
+        .store(max_projection(params), Ordering::Release);
+}
+
+/// What differs between the streaming passes' bind groups: the layout, the sampler, and the
+/// lookup tables (one transfer function's, or the composite's channels').
+pub(super) struct Bound<'a> {
+    pub layout: &'a wgpu::BindGroupLayout,
+    pub sampler: &'a wgpu::Sampler,
+    pub lookup_table: &'a wgpu::Buffer,
+}
+
+/// The streaming passes' bind group layout (`stream_common.wgsl`'s bindings).
+pub(super) fn layout_entries() -> [wgpu::BindGroupLayoutEntry; 12] {
+    [
+        uniform_entry(0, false),
+        uniform_entry(1, false),
+        storage_entry(2, true),
+        output_image_entry(3),
+        storage_entry(4, false),
+        atlas_entry(5),
+        atlas_sampler_entry(6),
+        storage_entry(7, true),
+        storage_entry(8, false),
+        storage_entry(9, false),
+        storage_entry(10, false),
+        storage_entry(11, true),
+    ]
+}
+
+/// The bind group of one streaming pass over `volume`.
+pub(super) fn bind_group(
+    context: &GpuContext,
+    bound: Bound<'_>,
+    volume: &StreamVolume,
+    params: &RaycastParams,
+    target: &RenderTarget,
+    probe: &wgpu::Buffer,
+) -> wgpu::BindGroup {
+    let device = &context.device;
+    let Bound {
+        layout,
+        sampler,
+        lookup_table,
+    } = bound;
+    let params_buffer = frame_params_buffer(context, "voxscope::stream_params", params);
+    let stream_params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("voxscope::stream_level_params"),
+        contents: bytemuck::bytes_of(&volume.stream_params(params)),
+        usage: wgpu::BufferUsages::UNIFORM,
+    });
+    numbered_bind_group(
+        device,
+        "voxscope::stream_bind_group",
+        layout,
+        &[
+            params_buffer.as_entire_binding(),
+            stream_params.as_entire_binding(),
+            lookup_table.as_entire_binding(),
+            wgpu::BindingResource::TextureView(&target.view),
+            target.visits.as_entire_binding(),
+            wgpu::BindingResource::TextureView(&volume.atlas_view),
+            wgpu::BindingResource::Sampler(sampler),
+            volume.table.as_entire_binding(),
+            volume.requests.as_entire_binding(),
+            volume.usage.as_entire_binding(),
+            probe.as_entire_binding(),
+            volume.level_cells.as_entire_binding(),
+        ],
+    )
 }

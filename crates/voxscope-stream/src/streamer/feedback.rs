@@ -279,10 +279,7 @@ impl Streamer {
                 }
                 let mut brick = id.brick;
                 brick[axis] = c as u32;
-                let neighbour = BrickId {
-                    level: id.level,
-                    brick,
-                };
+                let neighbour = BrickId { brick, ..id };
                 let key = self.shape.key(neighbour).expect("inside the grid");
                 if self.satisfied(key) || self.failed.contains(&key) {
                     continue;

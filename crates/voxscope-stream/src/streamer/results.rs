@@ -5,28 +5,43 @@
 use super::*;
 
 impl Streamer {
-    /// Whether some level of `range` (packed) is visible under the transfer function.
-    pub(super) fn range_visible(&self, range: u32) -> bool {
+    /// Whether some level of `range` (packed) of brick `key` is visible under its channel's
+    /// transfer function.
+    pub(super) fn range_visible(&self, key: u32, range: u32) -> bool {
+        let counts = &self.visible_below[self.shape.channel_of(key) as usize];
         let (low, high) = ((range & 0xffff) as usize, (range >> 16) as usize);
-        self.visible_below[high + 1] > self.visible_below[low]
+        counts[high + 1] > counts[low]
     }
 
     /// A new transfer function's visibility counts (`visible_below[i]`: how many value levels
-    /// below `i` are visible; 65 537 of them): every entry's [`ENTRY_VISIBLE`] bit follows, the
-    /// changed entries to be copied to the GPU. Nothing is reloaded.
+    /// below `i` are visible; 65 537 of them), for every channel: every entry's
+    /// [`ENTRY_VISIBLE`] bit follows, the changed entries to be copied to the GPU. Nothing is
+    /// reloaded.
     pub fn set_visibility(&mut self, visible_below: Vec<u32>) {
-        if visible_below.len() != self.visible_below.len() {
+        let channels = vec![visible_below; self.shape.channels as usize];
+        self.set_channel_visibility(channels);
+    }
+
+    /// [`Self::set_visibility`] per channel: `visible_below[c]` channel c's counts (a hidden
+    /// channel's all 0: none of its bricks is asked for, loaded or drawn). Counts of another
+    /// length or number are ignored.
+    pub fn set_channel_visibility(&mut self, visible_below: Vec<Vec<u32>>) {
+        if visible_below.len() != self.shape.channels as usize
+            || visible_below.iter().any(|c| c.len() != VISIBILITY_COUNTS)
+        {
             return;
         }
         self.visible_below = visible_below;
         // Other values visible: another working set, cut anew.
         self.cut_anew();
         let counts = &self.visible_below;
+        let shape = &self.shape;
         self.table.update_each(|entry| {
             let (low, high) = (
                 (entry.range & 0xffff) as usize,
                 (entry.range >> 16) as usize,
             );
+            let counts = &counts[shape.channel_of(entry.key) as usize];
             let visible = counts[high + 1] > counts[low];
             ((entry.slot & ENTRY_VISIBLE != 0) != visible).then_some(TableEntry {
                 slot: entry.slot ^ ENTRY_VISIBLE,
@@ -136,7 +151,7 @@ impl Streamer {
         let Some(range) = self.source.known_range(id) else {
             return false;
         };
-        if self.range_visible(range.packed()) {
+        if self.range_visible(key, range.packed()) {
             return false;
         }
         if self.enter_known_range(key, id, range) {
@@ -212,7 +227,7 @@ impl Streamer {
         self.shape
             .brick_of(key)
             .and_then(|id| self.source.known_range(id))
-            .is_some_and(|range| !self.range_visible(range.packed()))
+            .is_some_and(|range| !self.range_visible(key, range.packed()))
     }
 
     /// What brick `key` takes of a view's room in the atlas ([`crate::cut_within`]): a slot to load

@@ -226,6 +226,7 @@ impl Rays {
             let id = BrickId {
                 level: wanted,
                 brick: cell,
+                channel: 0,
             };
             let key = shape.key(id).expect("inside the grid");
             let entry = table.get(key);

@@ -154,7 +154,9 @@ struct Layout {
     space: [Option<usize>; 3],
 }
 
-/// A multiscale image (or a plain Zarr array as one level), opened for reading regions.
+/// A multiscale image (or a plain Zarr array as one level), opened for reading regions. A clone
+/// shares the store, its caches and connections ([`Self::of_channel`]).
+#[derive(Clone)]
 pub struct Pyramid {
     /// The path (or store description) it was opened from.
     pub source: String,
@@ -197,7 +199,7 @@ pub struct Pyramid {
     pub bioformats2raw: Option<Bioformats2raw>,
     stored: Stored,
     layout: Layout,
-    arrays: Vec<Array<dyn ReadableStorageTraits>>,
+    arrays: Arc<Vec<Array<dyn ReadableStorageTraits>>>,
     store: ReadableStorage,
     /// Where the levels' chunk ranges are (`voxscope.chunk_ranges.paths`), full store paths.
     range_paths: Vec<String>,
@@ -206,7 +208,7 @@ pub struct Pyramid {
     /// The store again, where it is remote: a region's chunks are fetched together.
     remote: Option<Arc<RemoteStore>>,
     /// Where the store is a folder: its chunk files are read ahead of a streamer's reads.
-    read_ahead: Option<read_ahead::ReadAhead>,
+    read_ahead: Option<Arc<read_ahead::ReadAhead>>,
     /// Where a remote store's reads run: zarrs reads a region's chunks (a sharded array's
     /// shards) on rayon threads, each blocked on the network while it waits, so they get a
     /// pool of their own as large as the request limit, not the cores' global pool.
@@ -320,7 +322,7 @@ impl Pyramid {
             guard::register();
             let mut pyramid = open_root(Arc::new(store), &source, options, &|_| {}, Some(&series))
                 .map_err(|problem| LoadError::new(&source, problem))?;
-            pyramid.read_ahead = read_ahead::ReadAhead::for_folder(root);
+            pyramid.read_ahead = read_ahead::ReadAhead::for_folder(root).map(Arc::new);
             return Ok(pyramid);
         }
         if !path.is_dir() {
@@ -335,7 +337,7 @@ impl Pyramid {
         let store = zarrs::filesystem::FilesystemStore::new(path)
             .map_err(|e| LoadError::new(&source, format!("cannot open: {e}")))?;
         let mut pyramid = Self::open_store(Arc::new(store), &source, options)?;
-        pyramid.read_ahead = read_ahead::ReadAhead::for_folder(path.to_path_buf());
+        pyramid.read_ahead = read_ahead::ReadAhead::for_folder(path.to_path_buf()).map(Arc::new);
         Ok(pyramid)
     }
 
@@ -382,7 +384,7 @@ impl Pyramid {
     /// its index) may have: the decoded size with room for a codec's overhead. A body that
     /// grows past it is refused, whether or not the server said its length.
     fn bound_objects(&self, store: &RemoteStore) {
-        for (level, (info, array)) in self.levels.iter().zip(&self.arrays).enumerate() {
+        for (level, (info, array)) in self.levels.iter().zip(self.arrays.iter()).enumerate() {
             let Some(bound) = self.object_bound(level) else {
                 continue;
             };
@@ -538,6 +540,20 @@ pub(crate) fn load_url(
 }
 
 impl Pyramid {
+    /// The same image reading channel `channel` of the time point this one reads, over the
+    /// same store (nothing is opened or fetched again).
+    pub fn of_channel(&self, channel: usize) -> Result<Self, LoadError> {
+        if channel >= self.channels {
+            return Err(LoadError::new(
+                &self.source,
+                format!("has no channel {channel} ({} channels)", self.channels),
+            ));
+        }
+        let mut pyramid = self.clone();
+        pyramid.selected.channel = channel;
+        Ok(pyramid)
+    }
+
     /// An error where the channel axis is longer than a volume lists its channels
     /// (`Volume::series`: as many as an axis may have voxels).
     pub fn check_channel_axis(&self) -> Result<(), LoadError> {

@@ -551,7 +551,7 @@ fn open_levels(
         downscaling: multiscale.as_ref().and_then(|m| m.downscaling.clone()),
         stored,
         layout,
-        arrays: arrays.into_iter().map(|level| level.array).collect(),
+        arrays: std::sync::Arc::new(arrays.into_iter().map(|level| level.array).collect()),
         range_paths: range_paths(&attributes, prefix, levels_len),
         image_prefix: prefix.to_owned(),
         label_image: metadata::ome_attributes(&attributes).contains_key("image-label"),
