@@ -180,3 +180,67 @@ fn mip_defaults_to_grays_for_any_volume() {
     let (preset, _) = render(ct, &out, &["--mode", "mip", "--preset", "ct-bone"]);
     assert!(!is_gray(&preset));
 }
+
+/// The PSNR of `a` against `b` (RGB), in dB.
+fn psnr(a: &RgbaImage, b: &RgbaImage) -> f64 {
+    support::reference::psnr(a, b)
+}
+
+#[test]
+fn a_stores_channels_stream_together_as_the_in_memory_composite_draws_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let store = "tests/data/ome-zarr/tczyx-v04.ome.zarr";
+    let out = |name: &str| dir.path().join(name);
+    let (in_memory, said) = render(store, &out("memory.png"), &[]);
+    assert!(said.contains("composite of 2 channels"), "{said}");
+    let (streamed, said) = render(store, &out("stream.png"), &["--renderer", "stream"]);
+    assert!(
+        said.contains("stream renderer")
+            && said.contains("composite of 2 channels (#00ff00, #ff00ff)"),
+        "{said}"
+    );
+    assert!(lit(&streamed) > 0.1);
+    let db = psnr(&streamed, &in_memory);
+    assert!(db > 40.0, "{db:.1} dB from the in-memory composite");
+
+    // One channel chosen: drawn alone in its color; the other channel's bricks never read.
+    let (head, said) = render(
+        store,
+        &out("head.png"),
+        &["--renderer", "stream", "--channels", "1"],
+    );
+    assert!(said.contains("head in #ff00ff"), "{said}");
+    assert!(lit(&head) > 0.1);
+    assert!(
+        head.pixels().all(|p| p[1] <= p[0].max(p[2]) / 4 + 2),
+        "magenta only"
+    );
+
+    // A channel the store does not have, and --channels in memory.
+    let bad = voxscope(&[
+        "render",
+        store,
+        "-o",
+        out("bad.png").to_str().unwrap(),
+        "--renderer",
+        "stream",
+        "--channels",
+        "4",
+    ]);
+    let said = String::from_utf8_lossy(&bad.stderr);
+    assert!(!bad.status.success());
+    assert!(
+        said.contains("--channels 4: there are 2 channels (0 to 1)"),
+        "{said}"
+    );
+    let memory = voxscope(&[
+        "render",
+        store,
+        "-o",
+        out("bad.png").to_str().unwrap(),
+        "--channels",
+        "1",
+    ]);
+    assert!(!memory.status.success());
+    assert!(String::from_utf8_lossy(&memory.stderr).contains("--renderer stream"));
+}

@@ -25,6 +25,10 @@ pub struct ChannelArgs {
     /// the channel, else its 0.5–99.5 percentiles).
     #[arg(long, value_name = "N:LOW:HIGH", allow_hyphen_values = true, value_parser = parse_channel_window)]
     pub channel_window: Vec<(usize, ValueWindow)>,
+    /// The channels drawn, in order (at most 8; default: the file's `omero` active channels,
+    /// else its first 8). `--renderer stream` streams them together.
+    #[arg(long, value_name = "N,N,…", value_delimiter = ',')]
+    pub channels: Option<Vec<usize>>,
 }
 
 /// One channel ready to draw: its values and how it is drawn (color, window, opacity).
@@ -52,6 +56,7 @@ impl ChannelArgs {
             colors: self.channel_colors.clone().unwrap_or_default(),
             windows: self.channel_window.clone(),
             hidden: Vec::new(),
+            chosen: self.channels.clone().unwrap_or_default(),
         }
     }
 

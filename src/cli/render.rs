@@ -106,10 +106,30 @@ pub fn run(args: &RenderArgs, given: &Given) -> Result<Rendered, String> {
         format!(", labels {} over it", names.join(", "))
     };
     let depth = drawing.depth();
+    let channels = drawing.channels().map(|channels| {
+        let colors: Vec<String> = channels
+            .iter()
+            .map(|c| c.color)
+            .map(|c| format!("#{:02x}{:02x}{:02x}", c[0], c[1], c[2]))
+            .collect();
+        match channels {
+            [one] => format!("{} in {}", one.name, colors.join("")),
+            _ => format!(
+                "composite of {} channels ({})",
+                channels.len(),
+                colors.join(", ")
+            ),
+        }
+    });
     if let Some(refinement) = refinement {
+        // A streamed composite says its channels beside the stream's report.
+        let described = match &channels {
+            Some(what) => format!(", {what}{labels}"),
+            None => labels,
+        };
         return Ok(report_stream(
             &written,
-            &labels,
+            &described,
             &drawing,
             depth,
             &settings,
@@ -120,20 +140,7 @@ pub fn run(args: &RenderArgs, given: &Given) -> Result<Rendered, String> {
             },
         ));
     }
-    if let Some(channels) = drawing.channels() {
-        let colors: Vec<String> = channels
-            .iter()
-            .map(|c| c.color)
-            .map(|c| format!("#{:02x}{:02x}{:02x}", c[0], c[1], c[2]))
-            .collect();
-        let what = match channels {
-            [one] => format!("{} in {}", one.name, colors.join("")),
-            _ => format!(
-                "composite of {} channels ({})",
-                channels.len(),
-                colors.join(", ")
-            ),
-        };
+    if let Some(what) = channels {
         eprintln!(
             "{written}, {what}, dense renderer) on {} in {seconds:.2} s",
             drawing.context().describe(),

@@ -228,7 +228,7 @@ impl StreamVolume {
         let channel_count = source.shape().channels as usize;
         let options = StreamOptions {
             // The composite's rays look each channel up: no level walk.
-            level_walk: options.level_walk && plan.level_walk && channel_count == 1,
+            level_walk: options.level_walk && plan.level_walk && !source.composite(),
             ..options
         };
         let mut streamer = Streamer::new(Arc::clone(&source), grid, texels, options, visible)
@@ -251,7 +251,7 @@ impl StreamVolume {
             level_cells_bytes,
         );
         let transfer_table = GpuTransferTable::new(context, quantization, transfer);
-        let channels = (channel_count > 1)
+        let channels = (channel_count > 1 || source.composite())
             .then(|| StreamChannels::new(context, &*source, channel_count, transfer));
         let bytes_per_texel = texels.bytes() as u32;
         let ring = match (scatter, options.uploads) {

@@ -42,6 +42,11 @@ pub struct ChannelRequest {
     /// Channels not drawn (the app's eye toggle; a saved view's).
     #[serde(default)]
     pub hidden: Vec<usize>,
+    /// The file's channels drawn, in order (`--channels 0,3,5`; at most
+    /// [`voxscope_volume::MAX_CHANNELS`]); empty: the file's choice (its `omero` list's
+    /// active channels, else its first ones).
+    #[serde(default)]
+    pub chosen: Vec<usize>,
 }
 
 impl ChannelRequest {
@@ -66,6 +71,9 @@ impl ChannelRequest {
                 count,
             });
         }
+        if let Some(&channel) = self.chosen.iter().find(|&&c| c >= count) {
+            return Err(SceneError::NoChosenChannel { channel, count });
+        }
         Ok(())
     }
 
@@ -79,6 +87,7 @@ impl ChannelRequest {
                 .map(|(index, s)| (index, s.transfer.window))
                 .collect(),
             hidden: (0..states.len()).filter(|&i| !states[i].visible).collect(),
+            chosen: Vec::new(),
         }
     }
 
@@ -135,7 +144,30 @@ impl ChannelState {
         // The file's facts of the channel this volume holds (for `--channels-from`, each
         // file's own first channel).
         let info = volume.series.channels.get(volume.series.selected.channel);
-        let window = default_window(file_window(volume), quantized);
+        Self::opening_with(
+            info,
+            file_window(volume),
+            quantized,
+            kind,
+            index,
+            request,
+            channels,
+        )
+    }
+
+    /// Channel `index` as it opens (see [`Self::opening_of`]) from what its file says of it
+    /// (`info`, `file_window`) and its values `quantized` (all of them, or a streamed
+    /// pyramid's coarse level).
+    pub fn opening_with(
+        info: Option<&voxscope_volume::ChannelInfo>,
+        file_window: Option<ValueWindow>,
+        quantized: &QuantizedVolume,
+        kind: DataKind,
+        index: usize,
+        request: &TransferRequest,
+        channels: &ChannelRequest,
+    ) -> Self {
+        let window = default_window(file_window, quantized);
         let request = TransferRequest {
             window: channels.window(index).or(request.window),
             ..*request

@@ -20,8 +20,8 @@ use crate::channels::{layers, write_states};
 use crate::label_open::{open_overlays, open_streamed_overlays};
 use crate::{
     ChannelChoice, ChannelState, CompositeScene, DrawOptions, OpenOptions, OpenedStream, Progress,
-    SavedTransfer, Scene, SceneError, StreamedVolume, UploadedLabels, VolumeData, VolumeSource,
-    beyond_octree, opening_transfer, renderer_for_octree,
+    SavedTransfer, Scene, SceneError, StreamedChannel, StreamedChannels, StreamedVolume,
+    UploadedLabels, VolumeData, VolumeSource, beyond_octree, opening_transfer, renderer_for_octree,
 };
 
 /// One channel ready to draw: its values, quantized, and the volume that describes them (its
@@ -104,12 +104,38 @@ enum Drawn {
         /// The file index of a single channel drawn alone in its color.
         alone: Option<usize>,
     },
-    /// A pyramid streamed into the GPU budget.
+    /// A pyramid streamed into the GPU budget: one channel, or several together (`composite`).
     Stream {
         streamed: Box<StreamedVolume>,
         renderer: VolumeRenderer,
         applied: TransferFunction,
+        composite: Option<StreamComposite>,
     },
+}
+
+/// The channels of a streamed composite and the states its tables follow.
+struct StreamComposite {
+    channels: Vec<StreamedChannel>,
+    applied: Vec<ChannelState>,
+}
+
+impl StreamComposite {
+    /// Writes `states` into `renderer`'s tables where they differ from those applied.
+    fn apply(
+        &mut self,
+        context: &GpuContext,
+        renderer: &VolumeRenderer,
+        states: Vec<ChannelState>,
+        name: &str,
+    ) -> Result<(), SceneError> {
+        if states != self.applied {
+            let previews = self.channels.iter().map(|c| &c.preview);
+            write_states(context, renderer, previews, &states)
+                .map_err(|e| SceneError::render(name, e))?;
+            self.applied = states;
+        }
+        Ok(())
+    }
 }
 
 /// A volume on the GPU `G` (owned, or shared: `Arc<GpuContext>`), ready to draw frames of.
@@ -143,6 +169,22 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
         if options.renderer == Some(RendererKind::Stream) {
             // A bad `tf` file fails before the volume is read.
             let saved = options.transfer.saved()?;
+            // A store's channels stream together unless one is chosen alone.
+            let alone = matches!(open.channel, Some(ChannelChoice::Index(_)));
+            if !alone
+                && let Some(pyramid) = StreamedChannels::store_of_channels(
+                    &open.volume_source(),
+                    &open.load_options(),
+                )?
+            {
+                if let Some(name) = options.labels.names.first() {
+                    return Err(SceneError::LabelsRefused {
+                        name: name.clone(),
+                        over: "the composite of several channels (--channel N draws one)",
+                    });
+                }
+                return Self::streamed_channels(pyramid, options, saved, gpu);
+            }
             // The renderer is made while the store's first chunks are on their way.
             let opened = StreamedVolume::open_with_renderer(
                 &open.volume_source(),
@@ -160,6 +202,11 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
                 options.max_wait,
             )?;
             return Ok(drawable);
+        }
+        if !options.channels.chosen.is_empty() {
+            return Err(SceneError::failed(
+                "--channels chooses the channels of a store streamed together (--renderer stream); in memory every channel of a file is drawn (--channel N draws one)",
+            ));
         }
         let refuse_labels = |what: &'static str| match options.labels.names.first() {
             Some(name) => Err(SceneError::LabelsRefused {
@@ -299,11 +346,54 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
                 applied: volume.transfer,
                 streamed: Box::new(volume),
                 renderer,
+                composite: None,
             },
             labels: Vec::new(),
             saved,
             notices: Vec::new(),
         }
+    }
+
+    /// The channels of the store `pyramid` that `options` choose, streamed together (the
+    /// streamed composite), each channel's color and window as `options` ask.
+    fn streamed_channels(
+        pyramid: voxscope_volume::ome_zarr::Pyramid,
+        options: &DrawOptions,
+        saved: Option<SavedTransfer>,
+        gpu: impl FnOnce() -> Result<G, SceneError>,
+    ) -> Result<Self, SceneError> {
+        let request = options.transfer.request(saved.as_ref());
+        let opened = StreamedChannels::open(pyramid, &options.channels, &request)?;
+        let states = opened.states(&request, &options.channels);
+        let gpu = gpu()?;
+        let volume = opened.volume;
+        let name = volume.source.name().to_owned();
+        let mut renderer = VolumeRenderer::new_stream(
+            gpu.borrow(),
+            volume.source.clone(),
+            volume.stream_options(options.stream),
+            &volume.transfer,
+        )
+        .map_err(|e| SceneError::render(&name, e))?;
+        let mut composite = StreamComposite {
+            channels: opened.channels,
+            applied: Vec::new(),
+        };
+        composite.apply(gpu.borrow(), &renderer, states, &name)?;
+        // The tables reach the streamer's visibility at its next step.
+        renderer.update(gpu.borrow());
+        Ok(Self {
+            gpu,
+            drawn: Drawn::Stream {
+                applied: volume.transfer,
+                streamed: Box::new(volume),
+                renderer,
+                composite: Some(composite),
+            },
+            labels: Vec::new(),
+            saved,
+            notices: Vec::new(),
+        })
     }
 
     /// What the app shows (its [`Scene`], uploaded for a renderer of this drawable's own):

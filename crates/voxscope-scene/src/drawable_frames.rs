@@ -12,7 +12,7 @@ use voxscope_render::{
     VolumeRenderer, read_image,
 };
 
-use super::{CompositeChannel, Drawable, Drawn, channel_states};
+use super::{CompositeChannel, Drawable, Drawn, StreamComposite, channel_states};
 use crate::channels::write_states;
 use crate::{
     ChannelState, DrawOptions, Refinement, SavedTransfer, SceneError, UploadedLabels,
@@ -61,6 +61,10 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
     pub fn channels(&self) -> Option<&[ChannelState]> {
         match &self.drawn {
             Drawn::Composite { applied, .. } => Some(applied),
+            Drawn::Stream {
+                composite: Some(composite),
+                ..
+            } => Some(&composite.applied),
             _ => None,
         }
     }
@@ -174,9 +178,18 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
                 }
             }
             Drawn::Stream {
+                renderer,
+                composite: Some(composite),
+                ..
+            } => {
+                let states = composite_states(composite, &request, options);
+                composite.apply(context, renderer, states, &name)?;
+            }
+            Drawn::Stream {
                 streamed,
                 renderer,
                 applied,
+                composite: None,
             } => {
                 let transfer = streamed.transfer_for(&request);
                 write_transfer(context, renderer, applied, transfer, &name)?;
@@ -191,7 +204,23 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
     /// functions; as many as it has): a movie's frame between keyframes. One volume ignores
     /// them; states for another number of channels are refused.
     pub fn set_channels(&mut self, states: &[ChannelState]) -> Result<(), SceneError> {
+        let name = self.name();
         let context = self.gpu.borrow();
+        if let Drawn::Stream {
+            renderer,
+            composite: Some(composite),
+            ..
+        } = &mut self.drawn
+        {
+            if states.len() != composite.channels.len() {
+                return Err(SceneError::failed(format!(
+                    "{name}: {} channel settings for {} channels",
+                    states.len(),
+                    composite.channels.len()
+                )));
+            }
+            return composite.apply(context, renderer, states.to_vec(), &name);
+        }
         let Drawn::Composite {
             channels,
             renderer,
@@ -332,6 +361,20 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
 }
 
 /// Writes `transfer` to the GPU where it differs from `applied`.
+/// The states of a streamed composite's channels as `options` ask over `request` (a color or
+/// window asked for file channel N goes to channel N).
+fn composite_states(
+    composite: &StreamComposite,
+    request: &crate::TransferRequest,
+    options: &crate::DrawOptions,
+) -> Vec<crate::ChannelState> {
+    composite
+        .channels
+        .iter()
+        .map(|channel| channel.state(request, &options.channels))
+        .collect()
+}
+
 fn write_transfer(
     context: &GpuContext,
     renderer: &mut VolumeRenderer,

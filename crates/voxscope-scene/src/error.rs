@@ -45,6 +45,9 @@ pub enum SceneError {
     /// A channel's window asked for a channel that the file does not have.
     #[error("--channel-window {channel}: there are {count} channels (0 to {})", count.saturating_sub(1))]
     NoSuchChannel { channel: usize, count: usize },
+    /// A channel chosen to draw that the file does not have.
+    #[error("--channels {channel}: there are {count} channels (0 to {})", count.saturating_sub(1))]
+    NoChosenChannel { channel: usize, count: usize },
     /// More channel colors given than the file has channels.
     #[error("--channel-colors gives {colors} colors for {count} channels")]
     TooManyColors { colors: usize, count: usize },

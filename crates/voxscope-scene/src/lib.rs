@@ -28,6 +28,7 @@ mod prepare;
 mod saved_transfer;
 mod scene;
 mod source;
+mod stream_channels;
 mod streaming;
 mod view;
 mod view_v1;
@@ -65,6 +66,7 @@ pub use scene::{
     Counted, NetworkState, OctreeColors, Scene, statistics_job, upload, upload_colored,
 };
 pub use source::VolumeSource;
+pub use stream_channels::{StreamedChannel, StreamedChannels};
 pub use streaming::{
     OpenedStream, PREVIEW_BRICKS, REMOTE_WORKERS, Refinement, StreamedVolume,
     describe_budget_limit, describe_missing, refine, stream_options_for,

@@ -156,6 +156,7 @@ impl ViewV1 {
                 hidden: (0..channels.len())
                     .filter(|&i| !channels[i].visible)
                     .collect(),
+                chosen: Vec::new(),
             },
             // The app wrote the composite's renderer, which the channels choose.
             renderer: self

@@ -82,6 +82,10 @@ impl BrickSource for ChannelSources {
         self.channels[0].quantization()
     }
 
+    fn composite(&self) -> bool {
+        true
+    }
+
     fn channel_quantization(&self, channel: u32) -> Quantization {
         self.channel(channel)
             .map_or_else(|| self.quantization(), |c| c.quantization())

@@ -181,6 +181,11 @@ pub trait BrickSource: Send + Sync {
     /// What the value levels mean, the same for every brick of every level (of channel 0,
     /// where the pyramid has several: [`Self::channel_quantization`]).
     fn quantization(&self) -> Quantization;
+    /// Whether its channels are drawn as a composite (each its own table and color), even one
+    /// ([`crate::ChannelSources`]).
+    fn composite(&self) -> bool {
+        false
+    }
     /// What channel `channel`'s value levels mean (a pyramid of one channel: its one).
     fn channel_quantization(&self, _channel: u32) -> Quantization {
         self.quantization()

@@ -74,6 +74,8 @@ pub struct OmeroChannel {
     pub window: Option<ValueWindow>,
     /// The data range the file states (`window.min` … `window.max`).
     pub range: Option<[f64; 2]>,
+    /// Shown when the image opens (`active`; true where the file does not say).
+    pub active: bool,
 }
 
 /// Where the OME attributes sit: `attributes.ome` (0.5) or the attributes themselves (≤ 0.4).
@@ -353,6 +355,8 @@ pub(crate) fn omero_channels(attributes: &Map<String, Value>) -> Vec<OmeroChanne
                 color,
                 window: display,
                 range,
+                // (Shown unless the file says `false`.)
+                active: channel.get("active").and_then(Value::as_bool) != Some(false),
             }
         })
         .collect()

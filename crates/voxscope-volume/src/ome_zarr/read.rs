@@ -151,6 +151,20 @@ impl Pyramid {
         }
     }
 
+    /// The channels an image of several opens with, at most `most`: its `omero` list's
+    /// `active` ones in order, else (none active, or no `omero`) the first ones.
+    pub fn opening_channels(&self, most: usize) -> Vec<usize> {
+        let active: Vec<usize> = (0..self.channels)
+            .filter(|&c| self.omero.get(c).is_some_and(|o| o.active))
+            .take(most)
+            .collect();
+        if active.is_empty() {
+            (0..self.channels.min(most)).collect()
+        } else {
+            active
+        }
+    }
+
     /// The `omero` window of the selected channel, if the file gives one.
     pub fn omero_window(&self) -> Option<ValueWindow> {
         self.omero

@@ -1,0 +1,140 @@
+//! A store's channels streamed together: up to [`MAX_CHANNELS`] of them (the ones asked for,
+//! else its `omero` list's active ones, else its first ones), each a [`ZarrSource`] over the
+//! one opened store, made one pyramid ([`ChannelSources`]) that the streaming renderer draws
+//! as the composite. Each channel opens as the in-memory composite's do
+//! ([`ChannelState::opening_with`]): its `omero` name, color and window, else the palette's
+//! color and the window of its coarse preview.
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use voxscope_octree::DataKind;
+use voxscope_stream::{BrickSource, ChannelSources, ZarrSource, preview};
+use voxscope_volume::ome_zarr::Pyramid;
+use voxscope_volume::{ChannelInfo, LoadOptions, MAX_CHANNELS, QuantizedVolume, ValueWindow};
+
+use crate::streaming::{PREVIEW_BRICKS, StreamedVolume};
+use crate::{ChannelRequest, ChannelState, SceneError, TransferRequest, VolumeSource};
+
+/// One channel of a streamed composite: which of the file's, what the file says of it, and
+/// its coarse level read whole (its histogram and default window).
+pub struct StreamedChannel {
+    /// Its number in the file.
+    pub index: usize,
+    pub info: ChannelInfo,
+    pub preview: QuantizedVolume,
+    pub kind: DataKind,
+}
+
+/// A store's channels opened for streaming together.
+pub struct StreamedChannels {
+    /// The pyramid of every channel drawn ([`ChannelSources`]); its transfer function is
+    /// channel 0's (each channel has its own: [`Self::states`]).
+    pub volume: StreamedVolume,
+    pub channels: Vec<StreamedChannel>,
+}
+
+impl StreamedChannels {
+    /// The store `source` names, opened at the time point `options` select, where it has
+    /// several channels to stream together (`None`: not a Zarr store, or one channel).
+    pub fn store_of_channels(
+        source: &VolumeSource,
+        options: &LoadOptions,
+    ) -> Result<Option<Pyramid>, SceneError> {
+        if source.zarr_spec().is_none() || options.raw.is_some() {
+            return Ok(None);
+        }
+        let pyramid = Pyramid::open_spec(source.spec(), options.select, options.remote)?;
+        Ok((pyramid.channels > 1).then_some(pyramid))
+    }
+
+    /// Opens the channels `request` chooses (else the file's opening channels) of `pyramid`.
+    pub fn open(
+        pyramid: Pyramid,
+        request: &ChannelRequest,
+        transfer: &TransferRequest,
+    ) -> Result<Self, SceneError> {
+        let started = Instant::now();
+        request.check(pyramid.channels)?;
+        let indices = if request.chosen.is_empty() {
+            pyramid.opening_channels(MAX_CHANNELS)
+        } else {
+            request.chosen.clone()
+        };
+        if indices.len() > MAX_CHANNELS {
+            return Err(SceneError::failed(format!(
+                "{}: {} channels chosen; at most {MAX_CHANNELS} are drawn together",
+                pyramid.source,
+                indices.len()
+            )));
+        }
+        let series = pyramid.series();
+        let mut sources: Vec<Arc<dyn BrickSource>> = Vec::new();
+        let mut channels = Vec::new();
+        let mut first_pyramid = None;
+        for &index in &indices {
+            let channel = Arc::new(pyramid.of_channel(index)?);
+            let zarr = Arc::new(ZarrSource::new(Arc::clone(&channel))?);
+            let (preview, _) = preview(&*zarr, PREVIEW_BRICKS)
+                .map_err(|e| SceneError::failed(format!("{}: {e}", zarr.name())))?;
+            let kind = DataKind::of(&preview, None, false);
+            channels.push(StreamedChannel {
+                index,
+                info: series.channels.get(index).cloned().unwrap_or_default(),
+                preview,
+                kind,
+            });
+            first_pyramid.get_or_insert(channel);
+            sources.push(zarr);
+        }
+        let name = pyramid.source.clone();
+        let together: Arc<dyn BrickSource> = Arc::new(ChannelSources::new(&name, sources)?);
+        let first = &channels[0];
+        let window = first.window();
+        let volume = StreamedVolume {
+            source: together,
+            pyramid: first_pyramid,
+            transfer: crate::opening_transfer(&first.preview, first.kind, window, transfer),
+            open_seconds: started.elapsed().as_secs_f64(),
+            preview: first.preview.clone(),
+            kind: first.kind,
+            default_window: window,
+        };
+        Ok(Self { volume, channels })
+    }
+
+    /// Each channel's color, window and transfer function as `transfer` and `request` ask
+    /// (what is not asked: the file's, else the defaults; a color or window asked for file
+    /// channel N goes to channel N).
+    pub fn states(
+        &self,
+        transfer: &TransferRequest,
+        request: &ChannelRequest,
+    ) -> Vec<ChannelState> {
+        self.channels
+            .iter()
+            .map(|channel| channel.state(transfer, request))
+            .collect()
+    }
+}
+
+impl StreamedChannel {
+    /// Its color, window and transfer function as `transfer` and `request` ask
+    /// ([`ChannelState::opening_with`]).
+    pub fn state(&self, transfer: &TransferRequest, request: &ChannelRequest) -> ChannelState {
+        ChannelState::opening_with(
+            Some(&self.info),
+            self.info.window,
+            &self.preview,
+            self.kind,
+            self.index,
+            transfer,
+            request,
+        )
+    }
+
+    /// The window it opens with: the file's, else its preview's robust window.
+    pub fn window(&self) -> ValueWindow {
+        crate::default_window(self.info.window, &self.preview)
+    }
+}
