@@ -323,3 +323,39 @@ fn a_bioformats2raw_root_of_two_series_offers_the_other_in_the_panel() {
     );
     assert_ne!(before, [5, 4, 3]);
 }
+
+#[test]
+fn a_stores_channels_stream_together_in_the_channel_list_and_hiding_one_reads_nothing() {
+    let mut harness = harness();
+    harness.state_mut().settings.renderer = voxscope_render::RendererKind::Stream;
+    open(&mut harness, OME_ZARR);
+    let channels = harness
+        .state()
+        .composite_channels()
+        .expect("the streamed composite is shown");
+    assert_eq!(channels.len(), 2);
+    assert_eq!(channels[0].color, [0, 255, 0], "omero's colors");
+    assert_eq!(channels[1].color, [255, 0, 255]);
+    harness.get_by_label("0: nuclei");
+    harness.get_by_label("1: head");
+    let status = harness.state().stream_status().expect("streamed").clone();
+    assert!(status.complete, "{status:?}");
+    let both = view(&harness);
+    assert!(lit_pixels(&both) > 1000, "the composite is drawn");
+    assert!(max_component(&both, 0) > 100, "magenta adds red");
+    assert!(max_component(&both, 1) > 100, "green");
+
+    // Hiding the magenta channel: the next frames draw green alone, and nothing is read.
+    let loads = status.counters.loads;
+    harness.state_mut().view.channels[1].visible = false;
+    settle(&mut harness);
+    let green = view(&harness);
+    assert!(lit_pixels(&green) > 1000);
+    assert!(
+        max_component(&green, 0) <= 2,
+        "a hidden channel adds no color (red up to {})",
+        max_component(&green, 0)
+    );
+    let after = harness.state().stream_status().expect("streamed");
+    assert_eq!(after.counters.loads, loads, "nothing loaded");
+}

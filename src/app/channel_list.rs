@@ -19,7 +19,11 @@ pub fn show(
     queue: &mut CommandQueue,
 ) {
     ui.heading("Channels");
-    ui.small("Drawn together by the dense march: colors added, unshaded. Click a row to edit its transfer function.");
+    if composite.is_streamed() {
+        ui.small("Streamed together through the GPU budget: colors added, unshaded; a hidden channel is not read. Click a row to edit its transfer function.");
+    } else {
+        ui.small("Drawn together by the dense march: colors added, unshaded. Click a row to edit its transfer function.");
+    }
     ui.add_space(4.0);
     let active = view.active_channel;
     egui::Grid::new("channel_list")
@@ -60,10 +64,17 @@ pub fn show(
                 ui.end_row();
             }
         });
-    ui.small(format!(
-        "{} channels, {} on the GPU",
-        composite.channels.len(),
-        super::numbers::format_bytes(composite.gpu_bytes())
-    ));
+    if composite.is_streamed() {
+        ui.small(format!(
+            "{} channels streamed (the Streaming panel counts their bricks)",
+            composite.channels.len()
+        ));
+    } else {
+        ui.small(format!(
+            "{} channels, {} on the GPU",
+            composite.channels.len(),
+            super::numbers::format_bytes(composite.gpu_bytes())
+        ));
+    }
     ui.separator();
 }

@@ -47,8 +47,14 @@ pub fn show(
             level_rows(ui, settings, view, facts);
             renderer_rows(ui, settings, view, facts);
         });
-    if composite.is_some() {
-        ui.small("The composite is drawn by the dense march; the renderer above draws one channel (choose it under Channels and time) and the slices.");
+    match composite {
+        Some(composite) if composite.is_streamed() => {
+            ui.small("The channels are streamed together by the renderer above; the slices show the first channel.");
+        }
+        Some(_) => {
+            ui.small("The composite is drawn by the dense march; the renderer above draws one channel (choose it under Channels and time) and the slices.");
+        }
+        None => {}
     }
     march_options(ui, settings, view, facts);
     if let Some(scene) = facts.scene {
@@ -269,7 +275,6 @@ fn node_statistics(ui: &mut Ui, scene: &Scene, facts: &OctreeFacts<'_>) {
 /// table does not apply; empty-space skipping's reach and the memory do.
 fn composite_facts(ui: &mut Ui, composite: &CompositeScene) {
     ui.strong("Composite");
-    let (visible, total) = composite.skipped_blocks();
     let dims = composite.channels[0].volume.dims;
     egui::Grid::new("composite_facts")
         .num_columns(2)
@@ -282,15 +287,24 @@ fn composite_facts(ui: &mut Ui, composite: &CompositeScene) {
                 voxscope_volume::format_dims(dims)
             ));
             ui.end_row();
-            ui.label("Visible blocks");
-            ui.label(format!(
-                "{} of {} ({:.0} %)",
-                group_digits(visible as u64),
-                group_digits(total as u64),
-                100.0 * visible as f64 / total.max(1) as f64
-            ))
-            .on_hover_text("Blocks of 8³ voxels where some shown channel is visible under its transfer function: the rest are skipped");
-            ui.end_row();
+            if let Some((visible, total)) = composite.skipped_blocks() {
+                ui.label("Visible blocks");
+                ui.label(format!(
+                    "{} of {} ({:.0} %)",
+                    group_digits(visible as u64),
+                    group_digits(total as u64),
+                    100.0 * visible as f64 / total.max(1) as f64
+                ))
+                .on_hover_text("Blocks of 8³ voxels where some shown channel is visible under its transfer function: the rest are skipped");
+                ui.end_row();
+            }
+            if composite.is_streamed() {
+                ui.label("Streamed");
+                ui.label("together, through one GPU budget")
+                    .on_hover_text("The channels' bricks share one atlas, page table and RAM cache (the Streaming panel counts them); a hidden channel's bricks are never read");
+                ui.end_row();
+                return;
+            }
             ui.label("Memory");
             ui.label(format!(
                 "{} GPU, {} RAM",

@@ -31,6 +31,13 @@ pub enum OffscreenSource {
     },
     /// The composite of these channels.
     Composite { channels: Vec<Arc<VolumeData>> },
+    /// These channels of a store, streamed together from it.
+    StreamedChannels {
+        source: voxscope_scene::VolumeSource,
+        select: voxscope_volume::Selection,
+        chosen: Vec<usize>,
+        options: RendererOptions,
+    },
 }
 
 impl OffscreenSource {
@@ -38,6 +45,16 @@ impl OffscreenSource {
     /// options.
     pub fn of_scene(scene: &Scene) -> Self {
         match &scene.composite {
+            Some(composite) if composite.is_streamed() => Self::StreamedChannels {
+                source: scene.data.source.clone(),
+                select: scene.data.volume.series.selected,
+                chosen: composite
+                    .channels
+                    .iter()
+                    .map(|data| data.volume.series.selected.channel)
+                    .collect(),
+                options: scene.options,
+            },
             Some(composite) => Self::Composite {
                 channels: composite.channels.clone(),
             },
@@ -75,7 +92,19 @@ impl OffscreenDrawer {
             OffscreenSource::Composite { channels: data } => {
                 let composite = CompositeScene::new(&context, data, channels)
                     .map_err(|e| SceneError::failed(format!("the composite: {e}")))?;
-                Drawable::of_composite(context, composite)
+                Drawable::of_composite(context, composite)?
+            }
+            OffscreenSource::StreamedChannels {
+                source,
+                select,
+                chosen,
+                options,
+            } => {
+                let stream = voxscope_stream::StreamOptions {
+                    gpu_memory: options.gpu_memory,
+                    ..voxscope_stream::StreamOptions::default()
+                };
+                Drawable::of_store_channels(context, &source, select, &chosen, stream)?
             }
         };
         Ok(Self {

@@ -115,8 +115,13 @@ pub fn pane_label(
         paint(
             ui,
             format!(
-                "composite of {} channels · dense march, unshaded",
-                composite.channels.len()
+                "composite of {} channels · {}, unshaded",
+                composite.channels.len(),
+                if composite.is_streamed() {
+                    "streamed"
+                } else {
+                    "dense march"
+                }
             ),
         );
         return;

@@ -88,8 +88,21 @@ impl VoxscopeApp {
             .map(|&[w, h]| (w, h))
             .filter(|&(w, h)| w > 0 && h > 0)
             .unwrap_or(DrawOptions::default().size);
-        // The composite's renderer is the data's choice (all channels), not one to ask for.
-        let renderer = scene.composite.is_none().then_some(scene.options.kind);
+        // The in-memory composite's renderer is the data's choice (all channels), not one to
+        // ask for; a streamed one's is asked for (a small store streams only when asked).
+        let streamed = scene.composite.as_ref().is_some_and(|c| c.is_streamed());
+        let renderer = (scene.composite.is_none() || streamed).then_some(scene.options.kind);
+        let request = match &scene.composite {
+            Some(composite) if streamed => {
+                let indices: Vec<usize> = composite
+                    .channels
+                    .iter()
+                    .map(|data| data.volume.series.selected.channel)
+                    .collect();
+                ChannelRequest::of_chosen(&channels, &indices)
+            }
+            _ => ChannelRequest::of_states(&channels),
+        };
         let settings = self
             .settings
             .render_settings(self.view.max_level, self.view.clipping.clip());
@@ -110,7 +123,7 @@ impl VoxscopeApp {
             draw: DrawOptions {
                 transfer: TransferOptions::drawn(Some(saved), &settings),
                 clip: settings.clip,
-                channels: ChannelRequest::of_states(&channels),
+                channels: request,
                 renderer,
                 brick_size: self.settings.brick_size,
                 // The GPU budget the user chose; the rest is as the app streams (its

@@ -70,6 +70,10 @@ impl From<SceneError> for Failure {
                 "the composite of {channels} channels is drawn by the dense renderer; renderer=\"{}\" draws one channel (channel=N)",
                 renderer.name()
             )),
+            SceneError::NoChosenChannel { channel, count } => Self::Value(format!(
+                "channels: the file has no channel {channel} ({count} channels, 0 to {})",
+                count.saturating_sub(1)
+            )),
             SceneError::Cancelled
             | SceneError::Invalid(_)
             | SceneError::NoSuchChannel { .. }

@@ -91,6 +91,31 @@ impl ChannelRequest {
         }
     }
 
+    /// What `states` show of the file's channels `indices` (a streamed composite's, in order):
+    /// each one's color, window and visibility by its file number, and which are drawn. (A
+    /// color for a file channel not drawn is the palette's: `colors` is by file number.)
+    pub fn of_chosen(states: &[ChannelState], indices: &[usize]) -> Self {
+        let count = indices.iter().max().map_or(0, |&i| i + 1);
+        let colors = (0..count)
+            .map(|file| {
+                indices
+                    .iter()
+                    .position(|&i| i == file)
+                    .map_or_else(|| channel_color(None, file), |p| states[p].color)
+            })
+            .collect();
+        let pairs = || states.iter().zip(indices.iter().copied());
+        Self {
+            colors,
+            windows: pairs().map(|(s, i)| (i, s.transfer.window)).collect(),
+            hidden: pairs()
+                .filter(|(s, _)| !s.visible)
+                .map(|(_, i)| i)
+                .collect(),
+            chosen: indices.to_vec(),
+        }
+    }
+
     /// Sets what is asked of each channel into `states`: its color, window and visibility
     /// (what is not asked stays).
     pub fn apply_to(&self, states: &mut [ChannelState]) {
@@ -192,10 +217,13 @@ impl ChannelState {
 /// The channels of one time point on the GPU as the composite, and what its tables follow.
 pub struct CompositeScene {
     /// Every channel's data (the panels' histogram, window presets and kind for the channel
-    /// being edited); channel 0 is also the scene's [`crate::Scene::data`].
+    /// being edited; a streamed store's panel level); channel 0 is also the scene's
+    /// [`crate::Scene::data`].
     pub channels: Vec<Arc<VolumeData>>,
-    /// The composite renderer ([`voxscope_render::RendererKind::Composite`]).
-    pub renderer: VolumeRenderer,
+    /// The in-memory composite's renderer ([`voxscope_render::RendererKind::Composite`]);
+    /// `None` for a store's channels streamed together, which the scene's own renderer draws
+    /// ([`Self::streamed`]).
+    renderer: Option<VolumeRenderer>,
     /// The channel states the GPU tables were last written from.
     applied: Vec<ChannelState>,
     /// Bumped whenever the tables change, so panes drawn with the old ones redraw.
@@ -225,31 +253,78 @@ impl CompositeScene {
         write_states(context, &renderer, quantized(), states)?;
         Ok(Self {
             channels,
-            renderer,
+            renderer: Some(renderer),
             applied: states.to_vec(),
             generation: 1,
         })
     }
 
+    /// The channels of a store streamed together by the scene's renderer (`streamed`, whose
+    /// channels are `channels`, in order), drawn as `states` say.
+    pub fn streamed(
+        context: &GpuContext,
+        streamed: &VolumeRenderer,
+        channels: Vec<Arc<VolumeData>>,
+        states: &[ChannelState],
+    ) -> Result<Self, RenderError> {
+        if streamed.renderer().channel_count() != channels.len() || states.len() != channels.len() {
+            return Err(RenderError::Invalid(format!(
+                "{} channel settings for {} channels of a renderer of {}",
+                states.len(),
+                channels.len(),
+                streamed.renderer().channel_count()
+            )));
+        }
+        let quantized = channels.iter().map(|data| &data.quantized);
+        write_states(context, streamed, quantized, states)?;
+        Ok(Self {
+            channels,
+            renderer: None,
+            applied: states.to_vec(),
+            generation: 1,
+        })
+    }
+
+    /// The renderer that draws the composite: its own, or (streamed) the scene's
+    /// `scene_renderer`.
+    pub fn renderer<'a>(&'a self, scene_renderer: &'a VolumeRenderer) -> &'a VolumeRenderer {
+        self.renderer.as_ref().unwrap_or(scene_renderer)
+    }
+
+    /// Whether the scene's renderer streams the channels (no renderer of its own).
+    pub fn is_streamed(&self) -> bool {
+        self.renderer.is_none()
+    }
+
     /// Writes the tables of `states` where they differ from what the GPU holds (no reload:
     /// edits stay live); returns the tables' generation, which changes with every write.
     /// States for another number of channels are refused, and the tables stay.
+    /// `scene_renderer` is the scene's, which draws a streamed composite.
     pub fn apply(
         &mut self,
         context: &GpuContext,
+        scene_renderer: &VolumeRenderer,
         states: &[ChannelState],
     ) -> Result<u64, RenderError> {
         if states != self.applied.as_slice() {
             let quantized = self.channels.iter().map(|data| &data.quantized);
-            write_states(context, &self.renderer, quantized, states)?;
+            let renderer = self.renderer.as_ref().unwrap_or(scene_renderer);
+            write_states(context, renderer, quantized, states)?;
             self.applied = states.to_vec();
             self.generation += 1;
         }
         Ok(self.generation)
     }
 
-    /// Its channels' data, renderer and the states its tables follow, apart.
-    pub fn into_parts(self) -> (Vec<Arc<VolumeData>>, VolumeRenderer, Vec<ChannelState>) {
+    /// Its channels' data, renderer (`None`: streamed by the scene's) and the states its
+    /// tables follow, apart.
+    pub fn into_parts(
+        self,
+    ) -> (
+        Vec<Arc<VolumeData>>,
+        Option<VolumeRenderer>,
+        Vec<ChannelState>,
+    ) {
         (self.channels, self.renderer, self.applied)
     }
 
@@ -265,17 +340,17 @@ impl CompositeScene {
 
     /// Of the blocks of 8³ voxels empty-space skipping divides the volume into, how many
     /// frames march (some shown channel is visible there) and how many there are.
-    pub fn skipped_blocks(&self) -> (usize, usize) {
-        self.renderer.renderer().skipped_blocks().unwrap_or((0, 0))
+    /// (None while streamed: the streamer skips by bricks.)
+    pub fn skipped_blocks(&self) -> Option<(usize, usize)> {
+        self.renderer.as_ref()?.renderer().skipped_blocks()
     }
 
-    /// Bytes on the GPU: textures and tables.
+    /// Bytes on the GPU: textures and tables (0 while streamed: the scene's renderer holds
+    /// them).
     pub fn gpu_bytes(&self) -> u64 {
-        self.renderer
-            .gpu_bytes()
-            .iter()
-            .map(|(_, bytes)| bytes)
-            .sum()
+        self.renderer.as_ref().map_or(0, |renderer| {
+            renderer.gpu_bytes().iter().map(|(_, bytes)| bytes).sum()
+        })
     }
 
     /// Bytes on the CPU: every channel's value levels and octree nodes.

@@ -414,9 +414,15 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
         }
     }
 
-    /// The app's composite ([`CompositeScene`]) of its channels on screen.
-    pub fn of_composite(gpu: G, composite: CompositeScene) -> Self {
+    /// The app's composite ([`CompositeScene`]) of its channels on screen, drawn in memory
+    /// (a streamed one: [`Self::of_store_channels`]).
+    pub fn of_composite(gpu: G, composite: CompositeScene) -> Result<Self, SceneError> {
         let (channels, renderer, applied) = composite.into_parts();
+        let Some(renderer) = renderer else {
+            return Err(SceneError::failed(
+                "a streamed composite is drawn from its store, not from memory",
+            ));
+        };
         let channels = channels
             .into_iter()
             .map(|data| CompositeChannel {
@@ -424,7 +430,7 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
                 values: ChannelValues::Shared(data),
             })
             .collect();
-        Self {
+        Ok(Self {
             gpu,
             drawn: Drawn::Composite {
                 channels,
@@ -435,7 +441,33 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
             labels: Vec::new(),
             saved: None,
             notices: Vec::new(),
-        }
+        })
+    }
+
+    /// The channels `chosen` of the store `source` names (at the frame `select` names)
+    /// streamed together within `stream`'s budgets: the app's streamed composite, drawn away
+    /// from the window (its channels' states are set per frame: [`Self::set_channels`]).
+    pub fn of_store_channels(
+        gpu: G,
+        source: &VolumeSource,
+        select: voxscope_volume::Selection,
+        chosen: &[usize],
+        stream: voxscope_stream::StreamOptions,
+    ) -> Result<Self, SceneError> {
+        let pyramid = voxscope_volume::ome_zarr::Pyramid::open_spec(
+            source.spec(),
+            select,
+            voxscope_volume::remote::RemoteOptions::default(),
+        )?;
+        let options = DrawOptions {
+            channels: crate::ChannelRequest {
+                chosen: chosen.to_vec(),
+                ..Default::default()
+            },
+            stream,
+            ..DrawOptions::default()
+        };
+        Self::streamed_channels(pyramid, &options, None, || Ok(gpu))
     }
 
     /// One volume in memory, colored by what `request` asks, uploaded for the renderer asked

@@ -69,6 +69,18 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
         }
     }
 
+    /// The file's channels a streamed composite draws, in order (`None`: not one; the
+    /// in-memory composite draws every channel of its file, in order).
+    pub fn channel_indices(&self) -> Option<Vec<usize>> {
+        match &self.drawn {
+            Drawn::Stream {
+                composite: Some(composite),
+                ..
+            } => Some(composite.channels.iter().map(|c| c.index).collect()),
+            _ => None,
+        }
+    }
+
     /// The transfer function drawn now (the composite's first channel's).
     pub fn transfer(&self) -> TransferFunction {
         match &self.drawn {

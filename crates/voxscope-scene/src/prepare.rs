@@ -82,6 +82,19 @@ pub fn prepare_scene(
         }
         None => None,
     };
+    // A store's channels stream together (the streamed composite).
+    if let Some(pyramid) = &streamed
+        && composite_wanted
+        && pyramid.channels > 1
+    {
+        let asked = crate::stream_channels::Asked {
+            source,
+            frame: frame.as_ref(),
+            request,
+            options,
+        };
+        return crate::stream_channels::prepare_streamed(pyramid, asked, gpu, progress, started);
+    }
     let mut notice = None;
     let volume = match &streamed {
         Some(pyramid) => {
@@ -189,7 +202,7 @@ pub fn prepare_scene(
 /// The level the panels read whole beside a streamed store: the finest within
 /// [`PANEL_LEVEL_VOXELS`], else (a chunk of it cannot be read) the next coarser one that can
 /// be, with a notice saying so: a damaged chunk costs the panels detail, not the open.
-fn panel_level(pyramid: &Pyramid) -> Result<(Volume, Option<String>), SceneError> {
+pub(crate) fn panel_level(pyramid: &Pyramid) -> Result<(Volume, Option<String>), SceneError> {
     let finest = pyramid.finest_within(PANEL_LEVEL_VOXELS);
     let mut first_error = None;
     for level in finest..pyramid.levels.len() {

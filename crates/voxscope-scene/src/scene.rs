@@ -103,9 +103,9 @@ impl Scene {
 
     /// The renderer the 3D views draw: the composite where one is shown, else the volume's.
     pub fn view_renderer(&self) -> &VolumeRenderer {
-        self.composite
-            .as_ref()
-            .map_or(&self.renderer, |composite| &composite.renderer)
+        self.composite.as_ref().map_or(&self.renderer, |composite| {
+            composite.renderer(&self.renderer)
+        })
     }
 
     /// The deepest max level: the octree's depth, or the streamed pyramid's (a streamed

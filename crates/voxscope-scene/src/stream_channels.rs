@@ -8,13 +8,19 @@
 use std::sync::Arc;
 use std::time::Instant;
 
-use voxscope_octree::DataKind;
-use voxscope_stream::{BrickSource, ChannelSources, ZarrSource, preview};
+use voxscope_octree::{self as octree, DataKind};
+use voxscope_render::{GpuContext, RendererKind, RendererOptions, VolumeRenderer};
+use voxscope_stream::{BrickSource, ChannelSources, StreamOptions, ZarrSource, preview};
 use voxscope_volume::ome_zarr::Pyramid;
+use voxscope_volume::progress::Progress;
 use voxscope_volume::{ChannelInfo, LoadOptions, MAX_CHANNELS, QuantizedVolume, ValueWindow};
 
+use crate::prepare::{FrameChange, Opened, panel_level};
 use crate::streaming::{PREVIEW_BRICKS, StreamedVolume};
-use crate::{ChannelRequest, ChannelState, SceneError, TransferRequest, VolumeSource};
+use crate::{
+    ChannelRequest, ChannelState, CompositeScene, Scene, SceneError, TransferRequest, VolumeData,
+    VolumeSource,
+};
 
 /// One channel of a streamed composite: which of the file's, what the file says of it, and
 /// its coarse level read whole (its histogram and default window).
@@ -137,4 +143,91 @@ impl StreamedChannel {
     pub fn window(&self) -> ValueWindow {
         crate::default_window(self.info.window, &self.preview)
     }
+}
+
+/// What the app asked of a store it opens ([`prepare_streamed`]).
+pub(crate) struct Asked<'a> {
+    pub source: &'a VolumeSource,
+    /// The frame change it follows, with the channels' states it keeps.
+    pub frame: Option<&'a FrameChange>,
+    pub request: &'a TransferRequest,
+    pub options: RendererOptions,
+}
+
+/// The app's open of a store of several channels: its opening channels streamed together by
+/// the scene's renderer, each channel's panel level read whole for the panels (histogram,
+/// window presets, slices), the first one the scene's data. Nothing is submitted (a job
+/// thread's open: see `scene::upload_colored`).
+pub(crate) fn prepare_streamed(
+    pyramid: &Pyramid,
+    asked: Asked<'_>,
+    gpu: &GpuContext,
+    progress: &Progress,
+    started: Instant,
+) -> Result<Opened, SceneError> {
+    let chosen = pyramid.opening_channels(MAX_CHANNELS);
+    let mut notice = None;
+    let mut prepared = Vec::new();
+    let mut sources: Vec<Arc<dyn BrickSource>> = Vec::new();
+    for &index in &chosen {
+        let channel = pyramid.of_channel(index)?;
+        let (volume, fallback) = panel_level(&channel)?;
+        notice = notice.or(fallback);
+        progress.check()?;
+        prepared.push(VolumeData::prepare(
+            asked.source,
+            volume,
+            started,
+            progress,
+        )?);
+        sources.push(Arc::new(ZarrSource::new(Arc::new(channel))?));
+    }
+    // Each channel opens with its own window (the file's, else its values').
+    let request = TransferRequest {
+        saved: None,
+        ..*asked.request
+    };
+    let states: Vec<ChannelState> = match asked.frame {
+        Some(frame) if frame.channels.len() == chosen.len() => frame.channels.clone(),
+        _ => prepared
+            .iter()
+            .zip(&chosen)
+            .map(|(data, &index)| ChannelState::opening(data, index, &request))
+            .collect(),
+    };
+    let transfer = states[0].transfer;
+    octree::recolor(&mut prepared[0].octree, &transfer);
+    let statistics = octree::level_statistics(&prepared[0].octree);
+    let channels: Vec<Arc<VolumeData>> = prepared.into_iter().map(Arc::new).collect();
+    progress.begin("uploading to the GPU");
+    let uploading = Instant::now();
+    let together: Arc<dyn BrickSource> = Arc::new(ChannelSources::new(&pyramid.source, sources)?);
+    let stream = StreamOptions {
+        gpu_memory: asked.options.gpu_memory,
+        ..StreamOptions::default()
+    };
+    let failed = |e| SceneError::render(&pyramid.source, e);
+    let renderer = VolumeRenderer::new_stream(gpu, together, stream, &transfer).map_err(failed)?;
+    let composite =
+        CompositeScene::streamed(gpu, &renderer, channels.clone(), &states).map_err(failed)?;
+    let scene = Scene {
+        data: Arc::clone(&channels[0]),
+        renderer,
+        options: RendererOptions {
+            kind: RendererKind::Stream,
+            ..asked.options
+        },
+        applied_transfer: transfer,
+        upload_seconds: uploading.elapsed().as_secs_f64(),
+        stream_status: None,
+        network: None,
+        composite: Some(composite),
+    };
+    Ok(Opened {
+        scene,
+        statistics,
+        frame_change: asked.frame.is_some(),
+        channels: states,
+        notice,
+    })
 }

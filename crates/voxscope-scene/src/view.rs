@@ -122,7 +122,10 @@ impl SavedView {
         );
         draw.clip = settings.clip;
         if let Some(channels) = drawing.channels() {
-            draw.channels = crate::ChannelRequest::of_states(channels);
+            draw.channels = match drawing.channel_indices() {
+                Some(indices) => crate::ChannelRequest::of_chosen(channels, &indices),
+                None => crate::ChannelRequest::of_states(channels),
+            };
             // The composite marches the voxels: the level is the one asked for, for a
             // renderer of one channel that opens the view.
             draw.transfer.level = asked_level;

@@ -259,7 +259,7 @@ impl PaneLooks {
         let layers = match &mut scene.composite {
             // A channel list of another length (a scene being replaced) leaves the tables.
             Some(composite) => composite
-                .apply(context, &composite_channels)
+                .apply(context, &scene.renderer, &composite_channels)
                 .unwrap_or_else(|_| composite.generation()),
             None => 0,
         };

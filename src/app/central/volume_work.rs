@@ -333,8 +333,13 @@ impl CentralView {
         self.logged_scene = serial;
         let how = match &scene.composite {
             Some(composite) => format!(
-                "composite of {} channels, dense march",
-                composite.channels.len()
+                "composite of {} channels, {}",
+                composite.channels.len(),
+                if composite.is_streamed() {
+                    "streamed"
+                } else {
+                    "dense march"
+                }
             ),
             None => format!(
                 "{} renderer, level {}",
