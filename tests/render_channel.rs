@@ -244,3 +244,48 @@ fn a_stores_channels_stream_together_as_the_in_memory_composite_draws_them() {
     assert!(!memory.status.success());
     assert!(String::from_utf8_lossy(&memory.stderr).contains("--renderer stream"));
 }
+
+/// Nine channels (OME-Zarr 0.5, sharded; omero marks 1, 3, 4 and 8 active), written by
+/// ome-zarr-py (tests/data/ome-zarr/make_channels.py).
+const NINE: &str = "tests/data/ome-zarr/channels9-v05-sharded.ome.zarr";
+
+/// The bricks a streamed render says it read.
+fn bricks_read(said: &str) -> u64 {
+    let before = said.split(" bricks read").next().expect("a stream report");
+    before
+        .rsplit(' ')
+        .next()
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no brick count in {said}"))
+}
+
+#[test]
+fn a_store_of_nine_channels_streams_its_active_ones_and_reads_no_other() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = |name: &str| dir.path().join(name);
+    // (Level 0 wherever the view is: at 64x48 the pixels' footprint would take level 1.)
+    let stream = ["--renderer", "stream", "--lod-scale", "0"];
+    let (four, said) = render(NINE, &out("four.png"), &stream);
+    assert!(
+        said.contains("composite of 4 channels (#ff00ff, #ffff00, #ff0000, #ff80ff)"),
+        "omero's active channels, in their colors: {said}"
+    );
+    assert!(lit(&four) > 0.05);
+    let (one, said_one) = render(
+        NINE,
+        &out("one.png"),
+        &[&stream[..], &["--channels", "1"]].concat(),
+    );
+    assert!(said_one.contains("ch1 in #ff00ff"), "{said_one}");
+    // Each channel's bricks alone: four channels read four times one channel's.
+    assert_eq!(
+        bricks_read(&said),
+        4 * bricks_read(&said_one),
+        "{said}\n{said_one}"
+    );
+    // The channel streamed alone draws what the in-memory renderer draws of it.
+    let (in_memory, said) = render(NINE, &out("memory.png"), &["--channel", "1"]);
+    assert!(said.contains("ch1 in #ff00ff, dense renderer"), "{said}");
+    let db = psnr(&one, &in_memory);
+    assert!(db > 40.0, "{db:.1} dB from the in-memory channel");
+}
