@@ -320,6 +320,20 @@ fn volume_json(volume: &Volume, quantized: &QuantizedVolume) -> serde_json::Valu
     })
 }
 
+/// The number of the composite's `index`th channel: in its file, where every channel is one
+/// file's (a file of more channels than are drawn together opens some of them); its place
+/// among `--channels-from`'s files otherwise.
+fn channel_number(channels: &[super::composite::PreparedChannel], index: usize) -> usize {
+    let one_file = channels
+        .iter()
+        .all(|c| c.volume.name == channels[0].volume.name);
+    if one_file {
+        channels[index].volume.series.selected.channel
+    } else {
+        index
+    }
+}
+
 /// Each channel of a composite: name, color, value range and window.
 fn composite_json(channels: &[super::composite::PreparedChannel]) -> serde_json::Value {
     json!(
@@ -329,7 +343,7 @@ fn composite_json(channels: &[super::composite::PreparedChannel]) -> serde_json:
             .map(|(index, c)| {
                 let series = &c.volume.series;
                 json!({
-                    "index": index,
+                    "index": channel_number(channels, index),
                     "file": c.volume.name,
                     "name": series.channels.get(series.selected.channel).and_then(|i| i.name.clone()),
                     "color": hex_color(c.state.color),
@@ -356,6 +370,7 @@ fn composite_table(channels: &[super::composite::PreparedChannel]) -> String {
             .and_then(|i| i.name.as_deref())
             .unwrap_or("(no name)");
         let [low, high] = c.quantized.value_range;
+        let index = channel_number(channels, index);
         let _ = writeln!(
             out,
             "  channel {index}  {name}  {}  range {low} … {high}  window {} … {}",

@@ -113,6 +113,9 @@ const DRAW_OPTIONS: &[(&str, Take<DrawOptions>)] = &[
     ("channel_window", |v, f| {
         v.channels.windows.clone_from(&f.channels.windows);
     }),
+    ("channels", |v, f| {
+        v.channels.chosen.clone_from(&f.channels.chosen);
+    }),
     ("labels", |v, f| v.labels.names.clone_from(&f.labels.names)),
     ("labels_opacity", |v, f| v.labels.opacity = f.labels.opacity),
     ("labels_hide", |v, f| {

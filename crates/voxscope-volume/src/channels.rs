@@ -41,8 +41,10 @@ pub fn channel_color(info: Option<&super::ChannelInfo>, index: usize) -> [u8; 3]
         .unwrap_or(DEFAULT_CHANNEL_COLORS[index % DEFAULT_CHANNEL_COLORS.len()].1)
 }
 
-/// Every channel of `spec` at `options.select.time` (one volume for a one-channel file).
-/// A file of more than [`MAX_CHANNELS`] channels is an error that says to pick one.
+/// The channels of `spec` an image opens with, at `options.select.time` (one volume for a
+/// one-channel file): every channel, or of a file of more than [`MAX_CHANNELS`] those it does
+/// not mark inactive (OME-Zarr `omero` `active`), at most [`MAX_CHANNELS`]
+/// ([`super::Series::opening_channels`]).
 pub fn load_all_channels(spec: &str, options: &LoadOptions) -> Result<Vec<Volume>, LoadError> {
     let at = |channel| LoadOptions {
         select: Selection {
@@ -52,13 +54,17 @@ pub fn load_all_channels(spec: &str, options: &LoadOptions) -> Result<Vec<Volume
         ..options.clone()
     };
     let first = load(spec, &at(0))?;
-    let count = first.series.channel_count();
-    check_channel_count(spec, count)?;
-    let mut channels = vec![first];
-    for channel in 1..count {
-        channels.push(load(spec, &at(channel))?);
-    }
-    Ok(channels)
+    let mut first = Some(first);
+    let opening = first
+        .as_ref()
+        .map_or_else(Vec::new, |f| f.series.opening_channels(MAX_CHANNELS));
+    opening
+        .into_iter()
+        .map(|channel| match first.take_if(|_| channel == 0) {
+            Some(volume) => Ok(volume),
+            None => load(spec, &at(channel)),
+        })
+        .collect()
 }
 
 /// [`load_all_channels`] of a Zarr store already opened as `pyramid`: each channel read from
@@ -69,9 +75,10 @@ pub fn load_opened_channels(
     options: &LoadOptions,
 ) -> Result<Vec<Volume>, LoadError> {
     pyramid.check_channel_axis()?;
-    check_channel_count(spec, pyramid.channels)?;
     let selected = pyramid.selected;
-    let channels = (0..pyramid.channels)
+    let channels = pyramid
+        .opening_channels(MAX_CHANNELS)
+        .into_iter()
         .map(|channel| {
             let select = Selection {
                 channel,
@@ -87,19 +94,6 @@ pub fn load_opened_channels(
         .collect();
     pyramid.selected = selected;
     channels
-}
-
-/// An error for more channels than are shown together.
-fn check_channel_count(spec: &str, count: usize) -> Result<(), LoadError> {
-    if count > MAX_CHANNELS {
-        return Err(LoadError::new(
-            super::remote::redact_url(spec),
-            format!(
-                "has {count} channels; at most {MAX_CHANNELS} are shown together (choose one with --channel N)"
-            ),
-        ));
-    }
-    Ok(())
 }
 
 /// The files `specs` (each its frame `options.select`) as the channels of one volume: they

@@ -48,6 +48,8 @@ pub struct ChannelInfo {
     pub color: Option<[u8; 3]>,
     /// The display window the file advises, in the data's units.
     pub window: Option<ValueWindow>,
+    /// The file says not to show it when the image opens (OME-Zarr `omero` `active: false`).
+    pub inactive: bool,
 }
 
 /// The channels and time points of the file a [`super::Volume`] came from, and which frame
@@ -140,6 +142,20 @@ impl Series {
     /// Channels in the file.
     pub fn channel_count(&self) -> usize {
         self.channels.len()
+    }
+
+    /// The channels an image of several opens with, at most `most`: those the file does not
+    /// mark inactive, in order, else (all are) the first ones.
+    pub fn opening_channels(&self, most: usize) -> Vec<usize> {
+        let active: Vec<usize> = (0..self.channels.len())
+            .filter(|&c| !self.channels[c].inactive)
+            .take(most)
+            .collect();
+        if active.is_empty() {
+            (0..self.channels.len().min(most)).collect()
+        } else {
+            active
+        }
     }
 
     /// Whether the file holds more than the one frame read.

@@ -713,6 +713,7 @@ fn ome_channels(xml: &str) -> Vec<ChannelInfo> {
                 name: xml_attribute(tag, "Name").map(|name| printable(&unescape_xml(name))),
                 color: xml_attribute(tag, "Color").and_then(parse_ome_color),
                 window: None,
+                inactive: false,
             });
         }
         rest = &element[tag.len().max(1)..];

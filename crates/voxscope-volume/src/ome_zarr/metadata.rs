@@ -685,9 +685,10 @@ mod tests {
     fn omero_channels_keep_what_is_valid() {
         let channels = omero_channels(&attributes(
             r#"{"omero": {"channels": [{"label": "DAPI", "color": "0000ff", "window": {"start": 10, "end": 200, "min": 0, "max": 255}},
-                                       {"color": "blue", "window": {"start": 5, "end": 5}}]}}"#,
+                                       {"color": "blue", "window": {"start": 5, "end": 5}},
+                                       {"label": "off", "active": false}]}}"#,
         ));
-        assert_eq!(channels.len(), 2);
+        assert_eq!(channels.len(), 3);
         assert_eq!(channels[0].color.as_deref(), Some("0000FF"));
         assert_eq!(
             channels[0].window,
@@ -697,6 +698,14 @@ mod tests {
             })
         );
         assert_eq!(channels[0].range, Some([0.0, 255.0]));
-        assert_eq!(channels[1], OmeroChannel::default());
+        // Shown unless the file says `active: false`.
+        assert_eq!(
+            channels[1],
+            OmeroChannel {
+                active: true,
+                ..OmeroChannel::default()
+            }
+        );
+        assert!(channels[0].active && !channels[2].active);
     }
 }

@@ -135,6 +135,7 @@ impl Pyramid {
                         .and_then(|c| c.color.as_deref())
                         .and_then(parse_hex_color),
                     window: omero.and_then(|c| c.window),
+                    inactive: omero.is_some_and(|c| !c.active),
                 }
             })
             .collect();
@@ -154,15 +155,7 @@ impl Pyramid {
     /// The channels an image of several opens with, at most `most`: its `omero` list's
     /// `active` ones in order, else (none active, or no `omero`) the first ones.
     pub fn opening_channels(&self, most: usize) -> Vec<usize> {
-        let active: Vec<usize> = (0..self.channels)
-            .filter(|&c| self.omero.get(c).is_some_and(|o| o.active))
-            .take(most)
-            .collect();
-        if active.is_empty() {
-            (0..self.channels.min(most)).collect()
-        } else {
-            active
-        }
+        self.series().opening_channels(most)
     }
 
     /// The `omero` window of the selected channel, if the file gives one.
