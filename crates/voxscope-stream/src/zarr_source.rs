@@ -54,8 +54,9 @@ pub struct ZarrSource {
     /// apron reaches into its neighbours'), so each chunk is decoded once while it is used.
     chunks: Mutex<ChunkCache>,
     /// The six one-voxel faces of decoded chunks, kept longer than the chunks for a tenth of
-    /// their bytes: a brick's apron reaches one voxel into the chunks beside its own, and is
-    /// taken from there rather than by decoding those chunks again ([`chunk_faces`]).
+    /// their bytes (64³ chunks): a brick's apron reaches one voxel into the chunks beside its
+    /// own, and is taken from there rather than by decoding those chunks again
+    /// ([`chunk_faces`]). Not of thin chunks, whose faces are the chunk ([`keeps_faces`]).
     faces: Mutex<ChunkCache>,
     /// Chunks being read and decoded now, each with a lock its reader holds meanwhile: a
     /// loader that needs one waits for that reader rather than decoding it again (the loaders
@@ -412,7 +413,9 @@ impl ZarrSource {
         if let Ok(mut cache) = self.chunks.lock() {
             cache.insert((stored, index), Arc::clone(&levels));
         }
-        if let Ok(mut faces) = self.faces.lock() {
+        if keeps_faces(extent)
+            && let Ok(mut faces) = self.faces.lock()
+        {
             faces.insert((stored, index), Arc::new(chunk_faces(&levels, extent)));
         }
         Ok(levels)
