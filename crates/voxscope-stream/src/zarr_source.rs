@@ -93,6 +93,16 @@ const MAX_FETCHED_AHEAD: usize = 1 << 16;
 /// not fetched ahead at all).
 const MAX_SHARDED_CHUNKS_AHEAD: usize = 96 * 27;
 
+/// Most bytes of inner chunks (as stored voxels: what they hold decoded, more than they
+/// weigh compressed) one [`BrickSource::fetch_ahead`] call hands the store in a sharded batch:
+/// the batch lands in the fetch cache, not held (at most
+/// [`voxscope_volume::remote::FETCH_CACHE_BYTES`], an eighth of the RAM cache), and one larger
+/// than it is evicted before it is read and fetched again. 2 592 one-plane inner chunks of
+/// 1024² were 5 GiB: a level-0 view of a 1024×1024×256 store of them over the link fetched
+/// 1.25 GB for 0.36 GB of chunks (222 requests, 86 distinct), 61.8 s against the 64³ store's
+/// 8.2 s (issue 54). 2 592 inner chunks of 32³ u16 are 162 MiB.
+const MAX_SHARDED_BYTES_AHEAD: u64 = 64 << 20;
+
 /// Most chunks one [`BrickSource::fetch_ahead`] call hands the store (which starts what its
 /// limit has room for: twice `--max-requests`, 64 by default, within half its fetch cache
 /// with what it fetched ahead and is not read yet; the rest on later calls).
@@ -539,11 +549,20 @@ impl BrickSource for ZarrSource {
         self.pyramid.remote_stats()
     }
 
-    /// Decoded chunks get a quarter of `ram` (at most [`CHUNK_CACHE_BYTES`]), their faces a
-    /// sixteenth (at most [`FACE_CACHE_BYTES`]); a network store's fetched bytes an eighth (at
-    /// most [`voxscope_volume::remote::FETCH_CACHE_BYTES`]).
+    /// Decoded chunks get a quarter of `ram` (at most [`CHUNK_CACHE_BYTES`]), or half (at most
+    /// twice that) where a level bricks are read from has thin chunks ([`thin_chunk`]); their
+    /// faces a sixteenth (at most [`FACE_CACHE_BYTES`]); a network store's fetched bytes an
+    /// eighth (at most [`voxscope_volume::remote::FETCH_CACHE_BYTES`]).
     fn reserve_caches(&self, ram: u64) -> u64 {
-        let chunks = (ram / 4).min(CHUNK_CACHE_BYTES as u64);
+        let thin = self
+            .sources
+            .iter()
+            .any(|source| thin_chunk(self.pyramid.levels[source.stored].chunk));
+        let chunks = if thin {
+            (ram / 2).min(2 * CHUNK_CACHE_BYTES as u64)
+        } else {
+            (ram / 4).min(CHUNK_CACHE_BYTES as u64)
+        };
         if let Ok(mut cache) = self.chunks.lock() {
             cache.set_capacity(chunks as usize);
         }
@@ -622,6 +641,7 @@ impl BrickSource for ZarrSource {
             return;
         }
         let mut sharded = Vec::new();
+        let mut sharded_bytes = 0u64;
         let mut chunks: Vec<ChunkKey> = Vec::new();
         // Per brick with chunks to fetch: how many of `chunks` it needs handled.
         let mut bricks: Vec<(BrickId, usize)> = Vec::new();
@@ -666,12 +686,16 @@ impl BrickSource for ZarrSource {
                     // a shard's), their number bounded: a shard batch of too many inner
                     // chunks is not fetched ahead at all.
                     for index in reached {
-                        if sharded.len() >= MAX_SHARDED_CHUNKS_AHEAD {
+                        if sharded.len() >= MAX_SHARDED_CHUNKS_AHEAD
+                            || sharded_bytes >= MAX_SHARDED_BYTES_AHEAD
+                        {
                             break;
                         }
                         let part = part_of(index);
                         if !served(index, &part) && seen.insert((source.stored, index)) {
                             sharded.push((source.stored, part.start, part.extent));
+                            sharded_bytes += part.extent.iter().product::<usize>() as u64
+                                * self.pyramid.voxel_type.size() as u64;
                         }
                     }
                     continue;

@@ -145,3 +145,13 @@ fn a_thin_store_over_a_network_fetches_each_chunk_once_for_a_layer_of_bricks() {
     assert_eq!(after.requests - before.requests, 33);
     assert_eq!(thin.chunks_decoded(), 33);
 }
+
+#[test]
+fn a_thin_store_gives_decoded_chunks_half_the_ram() {
+    // Under a RAM budget, a thin store's decoded planes get half (every brick of a layer is a
+    // copy from the same planes), a 64³ store's chunks a quarter; faces a sixteenth of both.
+    let ram = 64 << 20;
+    assert_eq!(open(THIN).reserve_caches(ram), ram / 2 + ram / 16);
+    assert_eq!(open(THIN_SHARDED).reserve_caches(ram), ram / 2 + ram / 16);
+    assert_eq!(open(CUBIC).reserve_caches(ram), ram / 4 + ram / 16);
+}

@@ -82,3 +82,11 @@ fn thin_chunks_keep_no_faces() {
     assert!(!keeps_faces([1024, 1024, 1]));
     assert!(!keeps_faces([1, 1, 1]));
 }
+
+#[test]
+fn one_to_four_plane_chunks_are_thin() {
+    assert!(thin_chunk([1024, 1024, 1]));
+    assert!(thin_chunk([512, 512, 4]));
+    assert!(!thin_chunk([512, 512, 8]));
+    assert!(!thin_chunk([64, 64, 64]));
+}
