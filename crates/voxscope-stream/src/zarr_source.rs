@@ -54,8 +54,9 @@ pub struct ZarrSource {
     /// apron reaches into its neighbours'), so each chunk is decoded once while it is used.
     chunks: Mutex<ChunkCache>,
     /// The six one-voxel faces of decoded chunks, kept longer than the chunks for a tenth of
-    /// their bytes: a brick's apron reaches one voxel into the chunks beside its own, and is
-    /// taken from there rather than by decoding those chunks again ([`chunk_faces`]).
+    /// their bytes (64³ chunks): a brick's apron reaches one voxel into the chunks beside its
+    /// own, and is taken from there rather than by decoding those chunks again
+    /// ([`chunk_faces`]). Not of thin chunks, whose faces are the chunk ([`keeps_faces`]).
     faces: Mutex<ChunkCache>,
     /// Chunks being read and decoded now, each with a lock its reader holds meanwhile: a
     /// loader that needs one waits for that reader rather than decoding it again (the loaders
@@ -91,6 +92,16 @@ const MAX_FETCHED_AHEAD: usize = 1 << 16;
 /// in a batch (96 bricks' at 27 inner chunks of 32³ each; a batch past 4 096 inner chunks is
 /// not fetched ahead at all).
 const MAX_SHARDED_CHUNKS_AHEAD: usize = 96 * 27;
+
+/// Most bytes of inner chunks (as stored voxels: what they hold decoded, more than they
+/// weigh compressed) one [`BrickSource::fetch_ahead`] call hands the store in a sharded batch:
+/// the batch lands in the fetch cache, not held (at most
+/// [`voxscope_volume::remote::FETCH_CACHE_BYTES`], an eighth of the RAM cache), and one larger
+/// than it is evicted before it is read and fetched again. 2 592 one-plane inner chunks of
+/// 1024² were 5 GiB: a level-0 view of a 1024×1024×256 store of them over the link fetched
+/// 1.25 GB for 0.36 GB of chunks (222 requests, 86 distinct), 61.8 s against the 64³ store's
+/// 8.2 s (issue 54). 2 592 inner chunks of 32³ u16 are 162 MiB.
+const MAX_SHARDED_BYTES_AHEAD: u64 = 64 << 20;
 
 /// Most chunks one [`BrickSource::fetch_ahead`] call hands the store (which starts what its
 /// limit has room for: twice `--max-requests`, 64 by default, within half its fetch cache
@@ -412,7 +423,9 @@ impl ZarrSource {
         if let Ok(mut cache) = self.chunks.lock() {
             cache.insert((stored, index), Arc::clone(&levels));
         }
-        if let Ok(mut faces) = self.faces.lock() {
+        if keeps_faces(extent)
+            && let Ok(mut faces) = self.faces.lock()
+        {
             faces.insert((stored, index), Arc::new(chunk_faces(&levels, extent)));
         }
         Ok(levels)
@@ -536,11 +549,20 @@ impl BrickSource for ZarrSource {
         self.pyramid.remote_stats()
     }
 
-    /// Decoded chunks get a quarter of `ram` (at most [`CHUNK_CACHE_BYTES`]), their faces a
-    /// sixteenth (at most [`FACE_CACHE_BYTES`]); a network store's fetched bytes an eighth (at
-    /// most [`voxscope_volume::remote::FETCH_CACHE_BYTES`]).
+    /// Decoded chunks get a quarter of `ram` (at most [`CHUNK_CACHE_BYTES`]), or half (at most
+    /// twice that) where a level bricks are read from has thin chunks ([`thin_chunk`]); their
+    /// faces a sixteenth (at most [`FACE_CACHE_BYTES`]); a network store's fetched bytes an
+    /// eighth (at most [`voxscope_volume::remote::FETCH_CACHE_BYTES`]).
     fn reserve_caches(&self, ram: u64) -> u64 {
-        let chunks = (ram / 4).min(CHUNK_CACHE_BYTES as u64);
+        let thin = self
+            .sources
+            .iter()
+            .any(|source| thin_chunk(self.pyramid.levels[source.stored].chunk));
+        let chunks = if thin {
+            (ram / 2).min(2 * CHUNK_CACHE_BYTES as u64)
+        } else {
+            (ram / 4).min(CHUNK_CACHE_BYTES as u64)
+        };
         if let Ok(mut cache) = self.chunks.lock() {
             cache.set_capacity(chunks as usize);
         }
@@ -619,6 +641,7 @@ impl BrickSource for ZarrSource {
             return;
         }
         let mut sharded = Vec::new();
+        let mut sharded_bytes = 0u64;
         let mut chunks: Vec<ChunkKey> = Vec::new();
         // Per brick with chunks to fetch: how many of `chunks` it needs handled.
         let mut bricks: Vec<(BrickId, usize)> = Vec::new();
@@ -663,12 +686,16 @@ impl BrickSource for ZarrSource {
                     // a shard's), their number bounded: a shard batch of too many inner
                     // chunks is not fetched ahead at all.
                     for index in reached {
-                        if sharded.len() >= MAX_SHARDED_CHUNKS_AHEAD {
+                        if sharded.len() >= MAX_SHARDED_CHUNKS_AHEAD
+                            || sharded_bytes >= MAX_SHARDED_BYTES_AHEAD
+                        {
                             break;
                         }
                         let part = part_of(index);
                         if !served(index, &part) && seen.insert((source.stored, index)) {
                             sharded.push((source.stored, part.start, part.extent));
+                            sharded_bytes += part.extent.iter().product::<usize>() as u64
+                                * self.pyramid.voxel_type.size() as u64;
                         }
                     }
                     continue;

@@ -2,6 +2,20 @@
 
 use super::*;
 
+/// Whether chunks of `chunk` voxels are thin: at most 4 voxels along an axis (one-plane
+/// acquisition chunks, 1×1024×1024 or 4×512×512 in zarr's order), so that a brick reads a
+/// sliver of each of the many chunks it reaches, and every brick of a layer the same ones. The
+/// decoded chunks are then what is worth keeping (a brick is a copy from them): with a quarter
+/// of a 1 GiB RAM cache (128 planes of 1024²), a view of a 1024×1024×256 store at level 0,
+/// whose loaders take bricks of every layer in turn, decoded 9 915 planes in 60 s and did not
+/// complete in 300 s (the 64³ store's: 1 029 chunks, 4.1 s).
+pub(super) fn thin_chunk(chunk: [usize; 3]) -> bool {
+    chunk
+        .iter()
+        .min()
+        .is_some_and(|&side| side * 8 <= BRICK_SIZE)
+}
+
 /// The least recently used decoded chunks, each with the clock of its last use, within a
 /// byte capacity (the last chunk used is kept even when it alone is larger).
 pub(super) struct ChunkCache {

@@ -107,6 +107,16 @@ pub(super) fn chunk_faces(levels: &[u16], extent: [usize; 3]) -> Vec<u16> {
     faces
 }
 
+/// Whether a decoded chunk of `extent` voxels keeps its faces ([`chunk_faces`]): where they
+/// are fewer voxels than the chunk. A thin chunk's are not (one plane, 1×1024×1024 as an
+/// acquisition writes it: its two faces across z are the plane twice over): copying them cost
+/// eight times the plane's decoding (run of issue 54), for nothing a brick could not take from
+/// the decoded chunk itself.
+pub(super) fn keeps_faces(extent: [usize; 3]) -> bool {
+    let faces: usize = (0..3).map(|a| 2 * face_len(extent, a)).sum();
+    faces < extent.iter().product()
+}
+
 /// The two axes other than `axis`, lower first.
 pub(super) fn other_axes(axis: usize) -> (usize, usize) {
     match axis {

@@ -71,3 +71,22 @@ fn covered_voxels_stay_inside_the_stored_level() {
     assert_eq!(covered(5, 5, 2, 10), (9, 9));
     assert_eq!(covered(4, 4, 2, 9), (8, 8));
 }
+
+#[test]
+fn thin_chunks_keep_no_faces() {
+    for cube in [8, 16, 64] {
+        assert!(keeps_faces([cube; 3]), "{cube}³");
+    }
+    assert!(keeps_faces([512, 512, 4]));
+    assert!(!keeps_faces([512, 512, 2]));
+    assert!(!keeps_faces([1024, 1024, 1]));
+    assert!(!keeps_faces([1, 1, 1]));
+}
+
+#[test]
+fn one_to_four_plane_chunks_are_thin() {
+    assert!(thin_chunk([1024, 1024, 1]));
+    assert!(thin_chunk([512, 512, 4]));
+    assert!(!thin_chunk([512, 512, 8]));
+    assert!(!thin_chunk([64, 64, 64]));
+}
