@@ -47,6 +47,7 @@ fn bricks(source: &ZarrSource, level: u32) -> Vec<BrickId> {
                 ids.push(BrickId {
                     level,
                     brick: [x, y, z],
+                    channel: 0,
                 });
             }
         }
@@ -115,6 +116,7 @@ fn a_sharded_thin_stores_brick_reads_its_inner_chunks_of_a_shard_in_few_requests
     thin.read_brick(BrickId {
         level: 0,
         brick: [1, 1, 0],
+        channel: 0,
     })
     .unwrap();
     let requests = thin.remote_stats().unwrap().requests - before;
