@@ -24,6 +24,7 @@ mod options;
 mod orbit;
 pub mod renderers;
 pub mod resident;
+mod resident_channels;
 mod stats;
 pub mod stream;
 

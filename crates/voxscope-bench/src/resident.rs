@@ -16,6 +16,7 @@ use voxscope_stream::{Downsampling, MemorySource, StreamOptions, preview};
 
 use crate::error::BenchError;
 use crate::options::{BenchOptions, CAMERAS, MAX_WAIT};
+use crate::resident_channels::{ChannelBench, resident_channels};
 use crate::stats::percentile;
 
 /// Bricks of the level read into memory for the comparison with the bricks renderer when the
@@ -41,6 +42,7 @@ pub fn resident_comparison(
         dims,
         level,
         depth,
+        values,
     } = ResidentLevel::read(context, prepared)?;
     let transfer: TransferFunction = prepared.transfer;
     let mut rows = Vec::new();
@@ -145,10 +147,27 @@ pub fn resident_comparison(
             }
         }
     }
+    // The same level as N channels streamed together (`--composite-channels`).
+    let channels = if options.composite_channels.is_empty() {
+        serde_json::Value::Null
+    } else {
+        let bench = ChannelBench {
+            context,
+            options,
+            target,
+            timer,
+            source: source.clone(),
+            quantized: &values,
+            transfer,
+            depth,
+        };
+        resident_channels(&bench, stream_options, &options.composite_channels)?
+    };
     Ok(json!({
         "dims": dims,
         "pyramid_level": level,
         "rows": rows,
+        "channels": channels,
     }))
 }
 
@@ -162,6 +181,8 @@ struct ResidentLevel {
     level: usize,
     /// Its octree's depth.
     depth: u32,
+    /// Its quantization (its levels are the source's now).
+    values: voxscope_volume::QuantizedVolume,
 }
 
 impl ResidentLevel {
@@ -219,6 +240,7 @@ impl ResidentLevel {
             dims: volume.dims,
             level,
             depth,
+            values: volume,
         })
     }
 }
@@ -268,9 +290,9 @@ fn settle_fill(
 }
 
 /// What [`time_view`] measured.
-struct ViewTimes {
+pub(crate) struct ViewTimes {
     /// GPU milliseconds of each frame.
-    gpu: Vec<f64>,
+    pub gpu: Vec<f64>,
     /// Wall milliseconds per frame of a batch of them as an app sees it (encode, submit, and the
     /// GPU's completion).
     wall: f64,
@@ -280,7 +302,7 @@ struct ViewTimes {
 
 /// GPU milliseconds of `frames` frames of one fixed view, after [`warm_up`], and the wall time
 /// per frame of a batch of them.
-fn time_view(
+pub(crate) fn time_view(
     context: &GpuContext,
     renderer: &VolumeRenderer,
     target: &RenderTarget,
