@@ -15,6 +15,7 @@
 #   noise     512³ noise, each renderer     ceilings-end  the ceilings again
 #   levels    the head's bricks and dense at max levels 7, 6, 5 (pyramid levels 1–3)
 #   channels  the head as a composite of 1, 2 and 4 channels (dense march)
+#   stream-channels  the head streamed as 1, 2 and 4 channels together, resident (bench --stream)
 #   stats     shader_stats: the driver's registers for voxscope's shaders and, for each
 #             NAME.wgsl in $BENCH_DIR, its main and main_bricks
 set -uo pipefail
@@ -122,6 +123,11 @@ for job in "${jobs[@]}"; do
         # The composite of 1, 2 and 4 channels (copies of the head, each its own table).
         channels)
             bench head256-composite "$dir/voxscope" "$head" --renderer dense --composite-channels 1,2,4
+            ;;
+        # The same streamed together once resident, against the one-channel streaming renderer.
+        stream-channels)
+            bench head256-stream-channels "$dir/voxscope" "$head" --stream --gpu-memory 2GiB \
+                --composite-channels 1,2,4
             ;;
         stats) shader_stats ;;
         *) echo "unknown job $job" ;;

@@ -82,9 +82,15 @@ pub(crate) fn resident_channels(
             for (camera_name, distance) in CAMERAS {
                 let camera = bench.options.camera(distance);
                 let time = |renderer: &mut VolumeRenderer| {
-                    let refined =
-                        refine(bench.context, renderer, bench.target, &camera, &settings, MAX_WAIT)
-                            .map_err(BenchError::Scene)?;
+                    let refined = refine(
+                        bench.context,
+                        renderer,
+                        bench.target,
+                        &camera,
+                        &settings,
+                        MAX_WAIT,
+                    )
+                    .map_err(BenchError::Scene)?;
                     let times = time_view(
                         bench.context,
                         renderer,

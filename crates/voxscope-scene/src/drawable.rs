@@ -14,6 +14,7 @@ use std::time::Instant;
 
 use voxscope_octree::{self as octree, DataKind, MAX_DEPTH, TransferFunction};
 use voxscope_render::{GpuContext, RendererKind, RendererOptions, VolumeRenderer};
+use voxscope_volume::ome_zarr::{self, Pyramid};
 use voxscope_volume::{QuantizedVolume, Volume, format_dims};
 
 use crate::channels::{layers, write_states};
@@ -169,21 +170,40 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
         if options.renderer == Some(RendererKind::Stream) {
             // A bad `tf` file fails before the volume is read.
             let saved = options.transfer.saved()?;
-            // A store's channels stream together unless one is chosen alone.
+            // A store's channels stream together unless one is chosen alone; so do stores
+            // given as channels.
             let alone = matches!(open.channel, Some(ChannelChoice::Index(_)));
-            if !alone
-                && let Some(pyramid) = StreamedChannels::store_of_channels(
-                    &open.volume_source(),
-                    &open.load_options(),
-                )?
-            {
+            let load = open.load_options();
+            let channels: Option<Box<dyn FnOnce(&_) -> _>> = match &open.channels_from {
+                Some(specs) if specs.iter().all(|s| ome_zarr::is_zarr_spec(s)) => {
+                    let pyramids = specs
+                        .iter()
+                        .map(|spec| Pyramid::open_spec(spec, load.select, load.remote.clone()))
+                        .collect::<Result<Vec<_>, _>>()?;
+                    Some(Box::new(move |request: &_| {
+                        StreamedChannels::open_stores(pyramids, request)
+                    }))
+                }
+                Some(_) => None,
+                None if !alone => {
+                    StreamedChannels::store_of_channels(&open.volume_source(), &load)?.map(
+                        |pyramid| -> Box<dyn FnOnce(&_) -> _> {
+                            Box::new(move |request: &_| {
+                                StreamedChannels::open(pyramid, &options.channels, request)
+                            })
+                        },
+                    )
+                }
+                None => None,
+            };
+            if let Some(channels) = channels {
                 if let Some(name) = options.labels.names.first() {
                     return Err(SceneError::LabelsRefused {
                         name: name.clone(),
                         over: "the composite of several channels (--channel N draws one)",
                     });
                 }
-                return Self::streamed_channels(pyramid, options, saved, gpu);
+                return Self::streamed_channels(channels, options, saved, gpu);
             }
             // The renderer is made while the store's first chunks are on their way.
             let opened = StreamedVolume::open_with_renderer(
@@ -357,13 +377,13 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
     /// The channels of the store `pyramid` that `options` choose, streamed together (the
     /// streamed composite), each channel's color and window as `options` ask.
     fn streamed_channels(
-        pyramid: voxscope_volume::ome_zarr::Pyramid,
+        open: impl FnOnce(&crate::TransferRequest) -> Result<StreamedChannels, SceneError>,
         options: &DrawOptions,
         saved: Option<SavedTransfer>,
         gpu: impl FnOnce() -> Result<G, SceneError>,
     ) -> Result<Self, SceneError> {
         let request = options.transfer.request(saved.as_ref());
-        let opened = StreamedChannels::open(pyramid, &options.channels, &request)?;
+        let opened = open(&request)?;
         let states = opened.states(&request, &options.channels);
         let gpu = gpu()?;
         let volume = opened.volume;
@@ -467,7 +487,10 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
             stream,
             ..DrawOptions::default()
         };
-        Self::streamed_channels(pyramid, &options, None, || Ok(gpu))
+        let open = |request: &crate::TransferRequest| {
+            StreamedChannels::open(pyramid, &options.channels, request)
+        };
+        Self::streamed_channels(open, &options, None, || Ok(gpu))
     }
 
     /// One volume in memory, colored by what `request` asks, uploaded for the renderer asked

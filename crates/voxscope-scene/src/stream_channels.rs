@@ -75,26 +75,87 @@ impl StreamedChannels {
             )));
         }
         let series = pyramid.series();
+        let channels = indices
+            .iter()
+            .map(|&index| {
+                Ok(ChannelOf {
+                    index,
+                    info: series.channels.get(index).cloned().unwrap_or_default(),
+                    pyramid: pyramid.of_channel(index)?,
+                })
+            })
+            .collect::<Result<Vec<_>, SceneError>>()?;
+        Self::assemble(&pyramid.source, channels, transfer, started)
+    }
+
+    /// The stores `pyramids` (one channel each: the one each was opened at, `--channels-from`'s
+    /// files) streamed together as channels 0, 1, … (at most [`MAX_CHANNELS`]; one grid).
+    pub fn open_stores(
+        pyramids: Vec<Pyramid>,
+        transfer: &TransferRequest,
+    ) -> Result<Self, SceneError> {
+        let started = Instant::now();
+        if pyramids.is_empty() || pyramids.len() > MAX_CHANNELS {
+            return Err(SceneError::failed(format!(
+                "{} stores given as channels; 1 to {MAX_CHANNELS} are drawn together",
+                pyramids.len()
+            )));
+        }
+        let name = pyramids
+            .iter()
+            .map(|p| p.source.as_str())
+            .collect::<Vec<_>>()
+            .join(",");
+        let channels = pyramids
+            .into_iter()
+            .enumerate()
+            .map(|(index, pyramid)| ChannelOf {
+                index,
+                info: pyramid
+                    .series()
+                    .channels
+                    .get(pyramid.selected.channel)
+                    .cloned()
+                    .unwrap_or_default(),
+                pyramid,
+            })
+            .collect();
+        Self::assemble(&name, channels, transfer, started)
+    }
+
+    /// `channels` as one pyramid, called `name`: each channel's source and coarse preview
+    /// (read together: a URL's round trips at once), the first one's transfer function.
+    fn assemble(
+        name: &str,
+        channels: Vec<ChannelOf>,
+        transfer: &TransferRequest,
+        started: Instant,
+    ) -> Result<Self, SceneError> {
+        let opened: Vec<Result<(StreamedChannel, Arc<ZarrSource>, Arc<Pyramid>), SceneError>> =
+            std::thread::scope(|scope| {
+                let handles: Vec<_> = channels
+                    .into_iter()
+                    .map(|channel| scope.spawn(move || channel.open()))
+                    .collect();
+                handles
+                    .into_iter()
+                    .map(|handle| {
+                        handle.join().unwrap_or_else(|_| {
+                            Err(SceneError::failed("a channel's open panicked"))
+                        })
+                    })
+                    .collect()
+            });
         let mut sources: Vec<Arc<dyn BrickSource>> = Vec::new();
         let mut channels = Vec::new();
         let mut first_pyramid = None;
-        for &index in &indices {
-            let channel = Arc::new(pyramid.of_channel(index)?);
-            let zarr = Arc::new(ZarrSource::new(Arc::clone(&channel))?);
-            let (preview, _) = preview(&*zarr, PREVIEW_BRICKS)
-                .map_err(|e| SceneError::failed(format!("{}: {e}", zarr.name())))?;
-            let kind = DataKind::of(&preview, None, false);
-            channels.push(StreamedChannel {
-                index,
-                info: series.channels.get(index).cloned().unwrap_or_default(),
-                preview,
-                kind,
-            });
-            first_pyramid.get_or_insert(channel);
+        for result in opened {
+            let (channel, zarr, pyramid) = result?;
+            channels.push(channel);
             sources.push(zarr);
+            first_pyramid.get_or_insert(pyramid);
         }
-        let name = pyramid.source.clone();
-        let together: Arc<dyn BrickSource> = Arc::new(ChannelSources::new(&name, sources)?);
+        let together: Arc<dyn BrickSource> = Arc::new(ChannelSources::new(name, sources)?);
         let first = &channels[0];
         let window = first.window();
         let volume = StreamedVolume {
@@ -121,6 +182,31 @@ impl StreamedChannels {
             .iter()
             .map(|channel| channel.state(transfer, request))
             .collect()
+    }
+}
+
+/// One channel to open: its number, what its file says of it, and its store opened at it.
+struct ChannelOf {
+    index: usize,
+    info: ChannelInfo,
+    pyramid: Pyramid,
+}
+
+impl ChannelOf {
+    /// Its source and its coarse level read whole.
+    fn open(self) -> Result<(StreamedChannel, Arc<ZarrSource>, Arc<Pyramid>), SceneError> {
+        let pyramid = Arc::new(self.pyramid);
+        let zarr = Arc::new(ZarrSource::new(Arc::clone(&pyramid))?);
+        let (preview, _) = preview(&*zarr, PREVIEW_BRICKS)
+            .map_err(|e| SceneError::failed(format!("{}: {e}", zarr.name())))?;
+        let kind = DataKind::of(&preview, None, false);
+        let channel = StreamedChannel {
+            index: self.index,
+            info: self.info,
+            preview,
+            kind,
+        };
+        Ok((channel, zarr, pyramid))
     }
 }
 
