@@ -129,6 +129,12 @@ pub(crate) fn set_option(options: &mut DrawOptions, name: &str, word: &str) -> R
                 .map(|color| parse::parse_color(color).map_err(Refused::value(color)))
                 .collect::<Result<_, _>>()?;
         }
+        "channels" => {
+            options.channels.chosen = t
+                .split(',')
+                .map(|n| n.trim().parse::<usize>().map_err(Refused::value(n)))
+                .collect::<Result<_, _>>()?;
+        }
         "channel_window" => options
             .channels
             .windows

@@ -44,6 +44,8 @@ pub enum Form {
     /// {channel: (low, high)} or (channel, low, high) triples: one `N:LOW:HIGH` each
     /// (`channel_window`).
     ChannelWindows,
+    /// Whole numbers, or one: `N,N,…` (`channels`).
+    Indices,
 }
 
 /// A keyword and the option it stands for.
@@ -129,6 +131,7 @@ pub const RENDER: &[Keyword] = &[
     valued("clip_plane", Form::ClipPlane, "NX,NY,NZ,D"),
     valued("channel_colors", Form::Colors, "C0,C1,…"),
     valued("channel_window", Form::ChannelWindows, "N:LOW:HIGH"),
+    valued("channels", Form::Indices, "N,N,…"),
     valued("renderer", Form::Value, "RENDERER"),
     valued("brick_size", Form::Value, "BRICK_SIZE"),
     valued("gpu_memory", Form::Value, "SIZE"),
@@ -396,6 +399,27 @@ fn write(keyword: &Keyword, value: &Bound<'_, PyAny>) -> PyResult<Vec<String>> {
             }
             let [z, y, x] = numbers::<3>(keyword.name, value)?;
             single(format!("{x},{y},{z}"))
+        }
+        Form::Indices => {
+            if let Ok(one) = value.extract::<u64>() {
+                return single(one.to_string());
+            }
+            let mut indices = Vec::new();
+            for index in value.try_iter()? {
+                indices.push(index?.extract::<u64>().map_err(|_| {
+                    PyTypeError::new_err(format!(
+                        "{}= takes channel numbers (whole numbers from 0)",
+                        keyword.name
+                    ))
+                })?);
+            }
+            single(
+                indices
+                    .iter()
+                    .map(u64::to_string)
+                    .collect::<Vec<_>>()
+                    .join(","),
+            )
         }
         Form::Triple => {
             if let Ok(one) = value.extract::<i64>() {

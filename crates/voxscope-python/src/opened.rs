@@ -132,6 +132,14 @@ impl Opened {
         };
         let streams = options.renderer == Some(RendererKind::Stream)
             || (large_store && options.renderer.is_none());
+        let composite =
+            self.channel_count() > 1 && !matches!(self.args.channel, Some(ChannelChoice::Index(_)));
+        if let (true, true, Content::Store(pyramid)) = (streams, composite, &self.content) {
+            // A store's channels stream together.
+            let drawn =
+                Drawable::of_channels_of_store(Arc::clone(context), (**pyramid).clone(), options)?;
+            return Ok((drawn, None));
+        }
         if streams {
             let saved = options.transfer.saved()?;
             // The renderer is made while a store's first chunks are on their way.
@@ -144,8 +152,6 @@ impl Opened {
             )?;
             return Ok((Drawable::streamed(opened, saved), None));
         }
-        let composite =
-            self.channel_count() > 1 && !matches!(self.args.channel, Some(ChannelChoice::Index(_)));
         let channels: Vec<Channel> = if composite {
             let volumes = self.args.composite_channels()?.unwrap_or_default();
             volumes.iter().map(Channel::of_volume).collect()

@@ -168,3 +168,27 @@ def test_a_path_renders_as_the_command_line(tmp_path, images):
     volume = voxscope.open(path)
     assert psnr(voxscope.render(volume, size=SIZE, preset="ramp"), expected) >= 40
     assert psnr(voxscope.render(str(path), size="96x72", preset="ramp"), expected) >= 40
+
+
+def test_a_stores_channels_stream_together_as_the_command_line_draws_them(tmp_path, images):
+    """`channels=` names the channels of a store streamed together, as `--channels` does; by
+    default its omero active ones stream (nine channels, 1, 3, 4 and 8 active)."""
+    from conftest import REPO, run_cli
+    from PIL import Image
+
+    store = REPO / "tests/data/ome-zarr/channels9-v05-sharded.ome.zarr"
+    for keywords, words in [
+        ({}, []),
+        ({"channels": [8, 1], "mode": "mip"}, ["--channels", "8,1", "--mode", "mip"]),
+        ({"channels": 3}, ["--channels", "3"]),
+    ]:
+        out = tmp_path / "cli.png"
+        run_cli("render", store, "--renderer", "stream", "--lod-scale", "0", "--size", "96x72",
+                *words, "-o", out)
+        expected = np.asarray(Image.open(out).convert("RGBA"))
+        drawn = voxscope.render(store, renderer="stream", lod_scale=0, size=SIZE, **keywords)
+        save(images, f"stream-channels-{len(words)}", drawn)
+        assert lit(drawn) > 0.02, keywords
+        assert psnr(drawn, expected) >= 40, keywords
+    with pytest.raises(ValueError, match="no channel 9"):
+        voxscope.render(store, renderer="stream", channels=[9], size=SIZE)

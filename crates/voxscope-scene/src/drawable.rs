@@ -487,10 +487,21 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
             stream,
             ..DrawOptions::default()
         };
+        Self::of_channels_of_store(gpu, pyramid, &options)
+    }
+
+    /// The channels of the store `pyramid` (of several) that `options` choose, streamed
+    /// together as `options` draw them (the Python module's `render` of such a store).
+    pub fn of_channels_of_store(
+        gpu: G,
+        pyramid: Pyramid,
+        options: &DrawOptions,
+    ) -> Result<Self, SceneError> {
+        let saved = options.transfer.saved()?;
         let open = |request: &crate::TransferRequest| {
             StreamedChannels::open(pyramid, &options.channels, request)
         };
-        Self::streamed_channels(open, &options, None, || Ok(gpu))
+        Self::streamed_channels(open, options, saved, || Ok(gpu))
     }
 
     /// One volume in memory, colored by what `request` asks, uploaded for the renderer asked

@@ -44,6 +44,7 @@ class RenderOptions(TypedDict, total=False):
     clip_plane: Union[Tuple[float, float, float, float], str]
     channel_colors: Union[Sequence[_Color], str]
     channel_window: Union[Mapping[int, Tuple[float, float]], Sequence[Tuple[int, float, float]], str]
+    channels: Union[int, Sequence[int], str]
     renderer: Literal["octree", "dense", "bricks", "stream"]
     brick_size: Literal[4, 8, 16, 32]
     gpu_memory: _Bytes
