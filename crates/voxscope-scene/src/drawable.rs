@@ -21,8 +21,8 @@ use crate::channels::{layers, write_states};
 use crate::label_open::{open_overlays, open_streamed_overlays};
 use crate::{
     ChannelChoice, ChannelState, CompositeScene, DrawOptions, OpenOptions, OpenedStream, Progress,
-    SavedTransfer, Scene, SceneError, StreamedChannel, StreamedChannels, StreamedVolume,
-    UploadedLabels, VolumeData, VolumeSource, beyond_octree, opening_transfer, renderer_for_octree,
+    SavedTransfer, Scene, SceneError, StreamedChannels, StreamedVolume, UploadedLabels, VolumeData,
+    VolumeSource, beyond_octree, opening_transfer, renderer_for_octree,
 };
 
 /// One channel ready to draw: its values, quantized, and the volume that describes them (its
@@ -114,31 +114,6 @@ enum Drawn {
     },
 }
 
-/// The channels of a streamed composite and the states its tables follow.
-struct StreamComposite {
-    channels: Vec<StreamedChannel>,
-    applied: Vec<ChannelState>,
-}
-
-impl StreamComposite {
-    /// Writes `states` into `renderer`'s tables where they differ from those applied.
-    fn apply(
-        &mut self,
-        context: &GpuContext,
-        renderer: &VolumeRenderer,
-        states: Vec<ChannelState>,
-        name: &str,
-    ) -> Result<(), SceneError> {
-        if states != self.applied {
-            let previews = self.channels.iter().map(|c| &c.preview);
-            write_states(context, renderer, previews, &states)
-                .map_err(|e| SceneError::render(name, e))?;
-            self.applied = states;
-        }
-        Ok(())
-    }
-}
-
 /// A volume on the GPU `G` (owned, or shared: `Arc<GpuContext>`), ready to draw frames of.
 pub struct Drawable<G: Borrow<GpuContext> = GpuContext> {
     gpu: G,
@@ -178,7 +153,7 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
                 Some(specs) if specs.iter().all(|s| ome_zarr::is_zarr_spec(s)) => {
                     let pyramids = specs
                         .iter()
-                        .map(|spec| Pyramid::open_spec(spec, load.select, load.remote.clone()))
+                        .map(|spec| Pyramid::open_spec(spec, load.select, load.remote))
                         .collect::<Result<Vec<_>, _>>()?;
                     Some(Box::new(move |request: &_| {
                         StreamedChannels::open_stores(pyramids, request)
@@ -374,48 +349,6 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
         }
     }
 
-    /// The channels of the store `pyramid` that `options` choose, streamed together (the
-    /// streamed composite), each channel's color and window as `options` ask.
-    fn streamed_channels(
-        open: impl FnOnce(&crate::TransferRequest) -> Result<StreamedChannels, SceneError>,
-        options: &DrawOptions,
-        saved: Option<SavedTransfer>,
-        gpu: impl FnOnce() -> Result<G, SceneError>,
-    ) -> Result<Self, SceneError> {
-        let request = options.transfer.request(saved.as_ref());
-        let opened = open(&request)?;
-        let states = opened.states(&request, &options.channels);
-        let gpu = gpu()?;
-        let volume = opened.volume;
-        let name = volume.source.name().to_owned();
-        let mut renderer = VolumeRenderer::new_stream(
-            gpu.borrow(),
-            volume.source.clone(),
-            volume.stream_options(options.stream),
-            &volume.transfer,
-        )
-        .map_err(|e| SceneError::render(&name, e))?;
-        let mut composite = StreamComposite {
-            channels: opened.channels,
-            applied: Vec::new(),
-        };
-        composite.apply(gpu.borrow(), &renderer, states, &name)?;
-        // The tables reach the streamer's visibility at its next step.
-        renderer.update(gpu.borrow());
-        Ok(Self {
-            gpu,
-            drawn: Drawn::Stream {
-                applied: volume.transfer,
-                streamed: Box::new(volume),
-                renderer,
-                composite: Some(composite),
-            },
-            labels: Vec::new(),
-            saved,
-            notices: Vec::new(),
-        })
-    }
-
     /// What the app shows (its [`Scene`], uploaded for a renderer of this drawable's own):
     /// drawn with the transfer function it was uploaded with until told another.
     pub fn of_scene(gpu: G, scene: Scene) -> Self {
@@ -462,46 +395,6 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
             saved: None,
             notices: Vec::new(),
         })
-    }
-
-    /// The channels `chosen` of the store `source` names (at the frame `select` names)
-    /// streamed together within `stream`'s budgets: the app's streamed composite, drawn away
-    /// from the window (its channels' states are set per frame: [`Self::set_channels`]).
-    pub fn of_store_channels(
-        gpu: G,
-        source: &VolumeSource,
-        select: voxscope_volume::Selection,
-        chosen: &[usize],
-        stream: voxscope_stream::StreamOptions,
-    ) -> Result<Self, SceneError> {
-        let pyramid = voxscope_volume::ome_zarr::Pyramid::open_spec(
-            source.spec(),
-            select,
-            voxscope_volume::remote::RemoteOptions::default(),
-        )?;
-        let options = DrawOptions {
-            channels: crate::ChannelRequest {
-                chosen: chosen.to_vec(),
-                ..Default::default()
-            },
-            stream,
-            ..DrawOptions::default()
-        };
-        Self::of_channels_of_store(gpu, pyramid, &options)
-    }
-
-    /// The channels of the store `pyramid` (of several) that `options` choose, streamed
-    /// together as `options` draw them (the Python module's `render` of such a store).
-    pub fn of_channels_of_store(
-        gpu: G,
-        pyramid: Pyramid,
-        options: &DrawOptions,
-    ) -> Result<Self, SceneError> {
-        let saved = options.transfer.saved()?;
-        let open = |request: &crate::TransferRequest| {
-            StreamedChannels::open(pyramid, &options.channels, request)
-        };
-        Self::streamed_channels(open, options, saved, || Ok(gpu))
     }
 
     /// One volume in memory, colored by what `request` asks, uploaded for the renderer asked
@@ -671,3 +564,7 @@ fn check_channels(
 /// The renderer's layers: each channel's levels under its state's transfer function and color.
 #[path = "drawable_frames.rs"]
 mod frames;
+#[path = "drawable_streamed.rs"]
+mod streamed;
+
+use streamed::StreamComposite;

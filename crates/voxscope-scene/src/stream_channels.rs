@@ -131,26 +131,29 @@ impl StreamedChannels {
         transfer: &TransferRequest,
         started: Instant,
     ) -> Result<Self, SceneError> {
-        let opened: Vec<Result<(StreamedChannel, Arc<ZarrSource>, Arc<Pyramid>), SceneError>> =
-            std::thread::scope(|scope| {
-                let handles: Vec<_> = channels
-                    .into_iter()
-                    .map(|channel| scope.spawn(move || channel.open()))
-                    .collect();
-                handles
-                    .into_iter()
-                    .map(|handle| {
-                        handle.join().unwrap_or_else(|_| {
-                            Err(SceneError::failed("a channel's open panicked"))
-                        })
-                    })
-                    .collect()
-            });
+        let opened: Vec<Result<OpenedChannel, SceneError>> = std::thread::scope(|scope| {
+            let handles: Vec<_> = channels
+                .into_iter()
+                .map(|channel| scope.spawn(move || channel.open()))
+                .collect();
+            handles
+                .into_iter()
+                .map(|handle| {
+                    handle
+                        .join()
+                        .unwrap_or_else(|_| Err(SceneError::failed("a channel's open panicked")))
+                })
+                .collect()
+        });
         let mut sources: Vec<Arc<dyn BrickSource>> = Vec::new();
         let mut channels = Vec::new();
         let mut first_pyramid = None;
         for result in opened {
-            let (channel, zarr, pyramid) = result?;
+            let OpenedChannel {
+                channel,
+                zarr,
+                pyramid,
+            } = result?;
             channels.push(channel);
             sources.push(zarr);
             first_pyramid.get_or_insert(pyramid);
@@ -192,9 +195,16 @@ struct ChannelOf {
     pyramid: Pyramid,
 }
 
+/// A channel opened: what it is, its source and its store.
+struct OpenedChannel {
+    channel: StreamedChannel,
+    zarr: Arc<ZarrSource>,
+    pyramid: Arc<Pyramid>,
+}
+
 impl ChannelOf {
     /// Its source and its coarse level read whole.
-    fn open(self) -> Result<(StreamedChannel, Arc<ZarrSource>, Arc<Pyramid>), SceneError> {
+    fn open(self) -> Result<OpenedChannel, SceneError> {
         let pyramid = Arc::new(self.pyramid);
         let zarr = Arc::new(ZarrSource::new(Arc::clone(&pyramid))?);
         let (preview, _) = preview(&*zarr, PREVIEW_BRICKS)
@@ -206,7 +216,11 @@ impl ChannelOf {
             preview,
             kind,
         };
-        Ok((channel, zarr, pyramid))
+        Ok(OpenedChannel {
+            channel,
+            zarr,
+            pyramid,
+        })
     }
 }
 
