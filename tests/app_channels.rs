@@ -359,3 +359,24 @@ fn a_stores_channels_stream_together_in_the_channel_list_and_hiding_one_reads_no
     let after = harness.state().stream_status().expect("streamed");
     assert_eq!(after.counters.loads, loads, "nothing loaded");
 }
+
+#[test]
+fn a_file_of_nine_channels_opens_as_the_composite_of_its_active_ones() {
+    let mut harness = harness();
+    open(
+        &mut harness,
+        "tests/data/ome-zarr/channels9-v05-sharded.ome.zarr",
+    );
+    let channels = harness
+        .state()
+        .composite_channels()
+        .expect("the composite is shown");
+    let names: Vec<&str> = channels.iter().map(|c| c.name.as_str()).collect();
+    assert_eq!(
+        names,
+        ["ch1", "ch3", "ch4", "ch8"],
+        "omero's active channels"
+    );
+    assert_eq!(channels[0].color, [255, 0, 255]);
+    assert!(lit_pixels(&view(&harness)) > 500, "the composite is drawn");
+}

@@ -114,16 +114,30 @@ pub fn prepare_scene(
     } else {
         (volume, None)
     };
-    let channel_count = volume.series.channel_count();
-    let composite = streamed.is_none()
-        && pyramid.is_none()
-        && composite_wanted
-        && (2..=MAX_CHANNELS).contains(&channel_count);
+    // The channels a composite opens with: every one, or of a file of more than are drawn
+    // together those it does not mark inactive (the first of them the scene's data).
+    let opening = volume.series.opening_channels(MAX_CHANNELS);
+    let channel_count = opening.len();
+    let composite =
+        streamed.is_none() && pyramid.is_none() && composite_wanted && channel_count > 1;
+    let volume = match opening.first() {
+        Some(&first) if composite && first != volume.series.selected.channel => {
+            source.load(Selection {
+                channel: first,
+                ..select
+            })?
+        }
+        _ => volume,
+    };
     let mut data = VolumeData::prepare(source, volume, started, progress)?;
     data.pyramid = pyramid;
     // The other channels of a composite: read, quantized, built like the first.
     let mut channels = Vec::new();
-    for channel in 1..if composite { channel_count } else { 0 } {
+    for &channel in opening
+        .iter()
+        .skip(1)
+        .take(if composite { channel_count } else { 0 })
+    {
         let other = source.load(Selection { channel, ..select })?;
         channels.push(Arc::new(VolumeData::prepare(
             source,
@@ -142,8 +156,8 @@ pub fn prepare_scene(
         Some(frame) if composite && frame.channels.len() == channel_count => frame.channels.clone(),
         _ if composite => std::iter::once(&data)
             .chain(channels.iter().map(Arc::as_ref))
-            .enumerate()
-            .map(|(index, data)| ChannelState::opening(data, index, &channel_request))
+            .zip(&opening)
+            .map(|(data, &index)| ChannelState::opening(data, index, &channel_request))
             .collect(),
         _ => Vec::new(),
     };
