@@ -20,14 +20,19 @@
 
 // What one channel draws in the segment being marched.
 struct ChannelSegment {
-    // SEGMENT_NONE, SEGMENT_ATLAS or SEGMENT_UNIFORM.
-    kind: u32,
     // ATLAS: the ray's origin in the atlas coordinates of the channel's brick.
     atlas_origin: vec3<f32>,
-    // ATLAS: the ray's direction there (per level-0 voxel of t, scaled to the brick's level).
-    atlas_dir: vec3<f32>,
+    // SEGMENT_NONE, SEGMENT_ATLAS or SEGMENT_UNIFORM.
+    kind: u32,
+    // ATLAS: the brick's level (the ray's direction there: `atlas_direction`).
+    level: u32,
     // UNIFORM: the brick's one value level.
     value: u32,
+}
+
+// The ray's direction `dir` in the atlas coordinates of a brick of `level` (per unit of t).
+fn atlas_direction(dir: vec3<f32>, level: u32) -> vec3<f32> {
+    return dir / stream.level_scale[level].xyz * params.atlas_texel.xyz;
 }
 
 const SEGMENT_NONE: u32 = 0u;
@@ -53,7 +58,7 @@ fn channel_shown(c: u32) -> bool {
 fn channel_segment(c: u32, wanted: u32, cell: vec3<u32>, p: vec3<f32>, origin: vec3<f32>,
                    dir: vec3<f32>, running_max: u32, level: ptr<function, u32>)
                    -> ChannelSegment {
-    var segment = ChannelSegment(SEGMENT_NONE, vec3<f32>(0.0), vec3<f32>(0.0), 0u);
+    var segment = ChannelSegment(vec3<f32>(0.0), SEGMENT_NONE, 0u, 0u);
     let key = channel_key(wanted, cell, c);
     var entry = table_lookup(key);
     var used = cell;
@@ -100,7 +105,7 @@ fn channel_segment(c: u32, wanted: u32, cell: vec3<u32>, p: vec3<f32>, origin: v
     }
     segment.kind = SEGMENT_ATLAS;
     segment.atlas_origin = atlas_origin(*level, used, entry[TABLE_CELL], origin);
-    segment.atlas_dir = dir / stream.level_scale[*level].xyz * params.atlas_texel.xyz;
+    segment.level = *level;
     return segment;
 }
 
@@ -133,11 +138,12 @@ fn composite_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, jitter: f
         // Each shown channel's brick here; the finest level any of them draws.
         var finest = stream.level_count;
         var drawn = 0u;
-        for (var c = 0u; c < CHANNELS; c++) {
-            segments[c].kind = SEGMENT_NONE;
-            if !channel_shown(c) {
-                continue;
-            }
+        // (Over the shown channels' bits only: a loop of eight with a test each cost a warp the
+        // hidden ones' turns.)
+        var shown = stream.shown_channels & ((1u << stream.channel_count) - 1u);
+        while shown != 0u {
+            let c = firstTrailingBit(shown);
+            shown &= shown - 1u;
             var level = 0u;
             segments[c] = channel_segment(c, wanted, cell, p, origin, dir, maxima[c], &level);
             if segments[c].kind != SEGMENT_NONE {
@@ -164,15 +170,15 @@ fn composite_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, jitter: f
                 let taken = vec4<u32>(0u, 1u, 2u, 3u) < vec4<u32>(count);
                 var premultiplied = array<vec3<f32>, 4>();
                 var transparency = vec4<f32>(1.0);
-                for (var c = 0u; c < CHANNELS; c++) {
-                    if ((drawn >> c) & 1u) == 0u {
-                        continue;
-                    }
+                var channels = drawn;
+                while channels != 0u {
+                    let c = firstTrailingBit(channels);
+                    channels &= channels - 1u;
                     let segment = segments[c];
                     var values = vec4<u32>(segment.value);
                     if segment.kind == SEGMENT_ATLAS {
                         let o = segment.atlas_origin;
-                        let d = segment.atlas_dir;
+                        let d = atlas_direction(dir, segment.level);
                         values = vec4<u32>(atlas_level_at(o + ts.x * d), atlas_level_at(o + ts.y * d),
                                            atlas_level_at(o + ts.z * d), atlas_level_at(o + ts.w * d));
                     }
