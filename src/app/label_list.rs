@@ -279,8 +279,9 @@ impl LabelLayers {
             return None;
         }
         let kind = match scene.options.kind {
-            // The composite is drawn by the dense march: its labels too.
-            _ if scene.composite.is_some() => RendererKind::Dense,
+            // The in-memory composite is drawn by the dense march: its labels too (a streamed
+            // one's stream, as the scene's renderer does).
+            _ if scene.composite.as_ref().is_some_and(|c| !c.is_streamed()) => RendererKind::Dense,
             kind => kind,
         };
         Some(OverlayKey {
