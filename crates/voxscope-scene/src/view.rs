@@ -270,10 +270,18 @@ impl SavedView {
                 .max()
                 .unwrap_or(0),
         );
-        if channels > MAX_CHANNELS {
+        // Colors and windows are by channel number in the file (a store of more channels than
+        // are drawn together names the ones it draws in `chosen`).
+        if channels > voxscope_volume::MAX_AXIS {
             return invalid(format!(
-                "{channels} channels: a composite has at most {}",
-                MAX_CHANNELS
+                "{channels} channels: a channel axis has at most {}",
+                voxscope_volume::MAX_AXIS
+            ));
+        }
+        if draw.channels.chosen.len() > MAX_CHANNELS {
+            return invalid(format!(
+                "{} channels chosen: a composite draws at most {MAX_CHANNELS}",
+                draw.channels.chosen.len()
             ));
         }
         Ok(())
