@@ -358,6 +358,25 @@ fn a_stores_channels_stream_together_in_the_channel_list_and_hiding_one_reads_no
     );
     let after = harness.state().stream_status().expect("streamed");
     assert_eq!(after.counters.loads, loads, "nothing loaded");
+
+    // The next time point streams its channels together too, with the settings kept.
+    let ctx = harness.ctx.clone();
+    harness.state_mut().run_command(Command::ShowTime(1), &ctx);
+    settle(&mut harness);
+    assert_eq!(
+        harness.state().frame(),
+        Some(FrameKey {
+            time: 1,
+            channel: None
+        })
+    );
+    let channels = harness.state().composite_channels().expect("composite");
+    assert_eq!(channels.len(), 2);
+    assert!(!channels[1].visible, "the hidden channel stays hidden");
+    assert!(harness.state().stream_status().is_some(), "streamed");
+    let later = view(&harness);
+    assert!(lit_pixels(&later) > 1000);
+    assert!(max_component(&later, 0) <= 2, "green alone at time 1 too");
 }
 
 #[test]
