@@ -377,6 +377,23 @@ fn a_stores_channels_stream_together_in_the_channel_list_and_hiding_one_reads_no
     let later = view(&harness);
     assert!(lit_pixels(&later) > 1000);
     assert!(max_component(&later, 0) <= 2, "green alone at time 1 too");
+
+    // Another GPU budget: the channels are streamed together again, not the first alone.
+    // (Before, the renderer of the first channel drew it untinted under the composite's name.)
+    harness.state_mut().settings.stream_gpu_memory = 96 << 20;
+    settle(&mut harness);
+    let channels = harness
+        .state()
+        .composite_channels()
+        .expect("still the composite");
+    assert_eq!(channels.len(), 2);
+    assert!(!channels[1].visible);
+    let again = view(&harness);
+    assert!(lit_pixels(&again) > 1000);
+    assert!(
+        max_component(&again, 1) > 100 && max_component(&again, 0) <= 2,
+        "green"
+    );
 }
 
 #[test]

@@ -294,11 +294,12 @@ impl VoxscopeApp {
                         self.switch_failed(error.to_string());
                         continue;
                     }
-                    // The composite does not depend on the renderer of one channel: it stays.
+                    // The in-memory composite does not depend on the renderer of one channel: it
+                    // stays. A streamed one is drawn by the renderer it came with, which goes.
                     if let Some(old) = self.scene.take()
                         && Arc::ptr_eq(&old.data, &scene.data)
                     {
-                        scene.composite = old.composite;
+                        scene.composite = old.composite.filter(|c| !c.is_streamed());
                     }
                     self.scene = Some(*scene);
                     self.scene_serial += 1;
@@ -467,6 +468,20 @@ impl VoxscopeApp {
             .uploading
             .as_ref()
             .is_some_and(|(options, _)| *options == wanted);
+        // A streamed composite under another budget: its channels are opened again (the
+        // renderer of one channel would draw the first alone).
+        let streamed_composite = scene.composite.as_ref().is_some_and(|c| c.is_streamed());
+        if streamed_composite
+            && scene.options != wanted
+            && wanted.kind == scene.options.kind
+            && self.jobs.opening.is_none()
+            && let Some(key) = self.frame()
+        {
+            let frame = self.frame_change(key);
+            let source = scene.data.source.clone();
+            self.open(source, Some(frame), ctx);
+            return;
+        }
         if scene.options != wanted && !upload_pending && self.jobs.opening.is_none() {
             let data = Arc::clone(&scene.data);
             let context = Arc::clone(&gpu.context);
