@@ -208,7 +208,7 @@ impl ChannelState {
                 .get(index)
                 .copied()
                 .unwrap_or_else(|| channel_color(info, index)),
-            visible: !channels.hidden.contains(&index),
+            visible: !channels.hidden.contains(&index) && !info.is_some_and(|c| c.inactive),
             transfer,
         }
     }

@@ -180,6 +180,7 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
                 }
                 return Self::streamed_channels(channels, options, saved, gpu);
             }
+            refuse_chosen(options)?;
             // The renderer is made while the store's first chunks are on their way.
             let opened = StreamedVolume::open_with_renderer(
                 &open.volume_source(),
@@ -198,11 +199,7 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
             )?;
             return Ok(drawable);
         }
-        if !options.channels.chosen.is_empty() {
-            return Err(SceneError::failed(
-                "--channels chooses the channels of a store streamed together (--renderer stream); in memory every channel of a file is drawn (--channel N draws one)",
-            ));
-        }
+        refuse_chosen(options)?;
         let refuse_labels = |what: &'static str| match options.labels.names.first() {
             Some(name) => Err(SceneError::LabelsRefused {
                 name: name.clone(),
@@ -294,6 +291,7 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
         mut channels: Vec<Channel>,
         options: &DrawOptions,
     ) -> Result<Self, SceneError> {
+        refuse_chosen(options)?;
         if channels.len() > 1 {
             return Self::composite(|| Ok(gpu), channels, options, None);
         }
@@ -500,6 +498,17 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
             notices: Vec::new(),
         })
     }
+}
+
+/// Channels chosen (`--channels`) where they are not streamed together: refused with the way,
+/// never ignored.
+fn refuse_chosen(options: &DrawOptions) -> Result<(), SceneError> {
+    if options.channels.chosen.is_empty() {
+        return Ok(());
+    }
+    Err(SceneError::failed(
+        "--channels chooses the channels of a store of several streamed together (--renderer stream); in memory every channel of a file is drawn, and --channel N draws one",
+    ))
 }
 
 /// Whether channel `index` of `volume`'s file (a channel chosen alone) has a color of its

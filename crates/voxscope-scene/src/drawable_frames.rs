@@ -84,6 +84,10 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
     /// The transfer function drawn now (the composite's first channel's).
     pub fn transfer(&self) -> TransferFunction {
         match &self.drawn {
+            Drawn::Stream {
+                composite: Some(composite),
+                ..
+            } => composite.applied[0].transfer,
             Drawn::Volume { applied, .. } | Drawn::Stream { applied, .. } => *applied,
             Drawn::Composite { applied, .. } => applied[0].transfer,
         }

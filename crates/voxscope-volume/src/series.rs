@@ -144,9 +144,13 @@ impl Series {
         self.channels.len()
     }
 
-    /// The channels an image of several opens with, at most `most`: those the file does not
-    /// mark inactive, in order, else (all are) the first ones.
+    /// The channels an image of several opens with: every one where there are at most
+    /// `most` (those the file marks inactive open hidden); of more, those it does not mark
+    /// inactive, in order, at most `most`, else (all are) the first ones.
     pub fn opening_channels(&self, most: usize) -> Vec<usize> {
+        if self.channels.len() <= most {
+            return (0..self.channels.len()).collect();
+        }
         let active: Vec<usize> = (0..self.channels.len())
             .filter(|&c| !self.channels[c].inactive)
             .take(most)
@@ -208,5 +212,40 @@ mod tests {
         assert_eq!(parse_ome_color("-16776961"), Some([255, 0, 0]));
         assert_eq!(parse_ome_color("16711935"), Some([0, 255, 0]));
         assert_eq!(parse_ome_color("x"), None);
+    }
+
+    #[test]
+    fn a_file_of_more_channels_than_are_drawn_opens_its_active_ones_and_a_smaller_one_all() {
+        let series = |inactive: &[bool]| Series {
+            channels: inactive
+                .iter()
+                .map(|&inactive| ChannelInfo {
+                    inactive,
+                    ..ChannelInfo::default()
+                })
+                .collect(),
+            time_points: 1,
+            selected: Selection::default(),
+            container: None,
+        };
+        // Of 4 (at most 8 drawn): all, the inactive one hidden by the composite's state.
+        assert_eq!(
+            series(&[false, true, false, false]).opening_channels(8),
+            [0, 1, 2, 3]
+        );
+        // Of 10: the active ones, at most 8.
+        let mut ten = [true; 10];
+        ten[2] = false;
+        ten[7] = false;
+        assert_eq!(series(&ten).opening_channels(8), [2, 7]);
+        assert_eq!(
+            series(&[false; 10]).opening_channels(8),
+            (0..8).collect::<Vec<_>>()
+        );
+        // None active: the first ones.
+        assert_eq!(
+            series(&[true; 10]).opening_channels(8),
+            (0..8).collect::<Vec<_>>()
+        );
     }
 }
