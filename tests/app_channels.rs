@@ -416,3 +416,48 @@ fn a_file_of_nine_channels_opens_as_the_composite_of_its_active_ones() {
     assert_eq!(channels[0].color, [255, 0, 255]);
     assert!(lit_pixels(&view(&harness)) > 500, "the composite is drawn");
 }
+
+#[test]
+fn a_streamed_composite_of_chosen_channels_keeps_its_colors_through_a_view_file() {
+    let mut harness = harness();
+    harness.state_mut().settings.renderer = voxscope_render::RendererKind::Stream;
+    open(
+        &mut harness,
+        "tests/data/ome-zarr/channels9-v05-sharded.ome.zarr",
+    );
+    assert_eq!(
+        harness.state().composite_channels().map(|c| c.len()),
+        Some(4)
+    );
+    // ch3 (file channel 3) in cyan, ch8 hidden.
+    harness.state_mut().view.channels[1].color = [0, 255, 255];
+    harness.state_mut().view.channels[3].visible = false;
+    settle(&mut harness);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("nine.ron");
+    let ctx = harness.ctx.clone();
+    harness
+        .state_mut()
+        .run_command(Command::SaveView(path.clone()), &ctx);
+    settle(&mut harness);
+    let saved = std::fs::read_to_string(&path).expect("the view is written");
+    assert!(saved.contains("chosen: [\n                1,"), "{saved}");
+
+    let mut again = support::app_harness::harness();
+    let ctx = again.ctx.clone();
+    again.state_mut().run_command(Command::OpenView(path), &ctx);
+    settle(&mut again);
+    assert_eq!(again.state().error(), None);
+    let channels = again
+        .state()
+        .composite_channels()
+        .expect("the composite again");
+    let names: Vec<&str> = channels.iter().map(|c| c.name.as_str()).collect();
+    assert_eq!(names, ["ch1", "ch3", "ch4", "ch8"]);
+    assert_eq!(
+        channels[1].color,
+        [0, 255, 255],
+        "ch3's color, by its file number"
+    );
+    assert!(!channels[3].visible && channels[0].visible);
+}

@@ -219,8 +219,9 @@ impl VoxscopeApp {
             )
         });
         let asked = &view.draw.channels;
-        if scene.composite.is_some() && asked.colors.len() == self.view.channels.len() {
-            key_channels(&mut self.view.channels, view, transfer);
+        let numbers = composite_numbers(scene);
+        if scene.composite.is_some() && asked.fits(&numbers) {
+            key_channels(&mut self.view.channels, &numbers, view, transfer);
             self.view.active_channel = 0;
             let first = self.view.channels.first().map_or(transfer, |c| c.transfer);
             self.set_panel_transfer(first);
@@ -296,7 +297,12 @@ impl VoxscopeApp {
 
 /// The composite's channels as `view` shows them: `transfer` (the view's function, which
 /// every channel shares) over each channel's window, with the view's colors and visibility.
-pub fn key_channels(states: &mut [ChannelState], view: &SavedView, transfer: TransferFunction) {
+pub fn key_channels(
+    states: &mut [ChannelState],
+    numbers: &[usize],
+    view: &SavedView,
+    transfer: TransferFunction,
+) {
     for state in states.iter_mut() {
         state.transfer = TransferFunction {
             window: state.transfer.window,
@@ -304,7 +310,24 @@ pub fn key_channels(states: &mut [ChannelState], view: &SavedView, transfer: Tra
             ..transfer
         };
     }
-    view.draw.channels.apply_to(states);
+    let asked = &view.draw.channels;
+    if asked.chosen.is_empty() {
+        asked.apply_to(states);
+    } else {
+        asked.apply_to_numbered(states, numbers);
+    }
+}
+
+/// The file's channel numbers of the composite on screen, in order (a streamed one's chosen
+/// channels; the in-memory one's every channel).
+pub fn composite_numbers(scene: &voxscope_scene::Scene) -> Vec<usize> {
+    scene.composite.as_ref().map_or_else(Vec::new, |composite| {
+        composite
+            .channels
+            .iter()
+            .map(|data| data.volume.series.selected.channel)
+            .collect()
+    })
 }
 
 /// The GPU budget a view names, where it is one a streaming renderer can use (a file edited to

@@ -116,6 +116,30 @@ impl ChannelRequest {
         }
     }
 
+    /// Whether this request is of channels numbered `numbers` in their file (a streamed
+    /// composite's, `chosen`), or of `count` channels in order.
+    pub fn fits(&self, numbers: &[usize]) -> bool {
+        if self.chosen.is_empty() {
+            self.colors.len() == numbers.len()
+        } else {
+            self.chosen == numbers
+        }
+    }
+
+    /// [`Self::apply_to`] where `states[i]` is the file's channel `numbers[i]` (what is asked
+    /// goes by channel number in the file).
+    pub fn apply_to_numbered(&self, states: &mut [ChannelState], numbers: &[usize]) {
+        for (state, &number) in states.iter_mut().zip(numbers) {
+            if let Some(color) = self.colors.get(number) {
+                state.color = *color;
+            }
+            if let Some(window) = self.window(number) {
+                state.transfer.window = window;
+            }
+            state.visible = !self.hidden.contains(&number);
+        }
+    }
+
     /// Sets what is asked of each channel into `states`: its color, window and visibility
     /// (what is not asked stays).
     pub fn apply_to(&self, states: &mut [ChannelState]) {

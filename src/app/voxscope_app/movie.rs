@@ -48,6 +48,10 @@ impl VoxscopeApp {
         }
         let (current, current_channels) = self.current_shot();
         let depth = self.scene.as_ref().map_or(0, |scene| scene.depth());
+        let numbers = self
+            .scene
+            .as_ref()
+            .map_or_else(Vec::new, crate::app::saved_view::composite_numbers);
         let mut shots = Vec::new();
         let mut channels = Vec::new();
         for (index, key) in self.movie.keyframes.iter().enumerate() {
@@ -65,8 +69,8 @@ impl VoxscopeApp {
                 transfer,
             });
             let mut states = current_channels.clone();
-            if key.draw.channels.colors.len() == states.len() {
-                key_channels(&mut states, key, transfer);
+            if key.draw.channels.fits(&numbers) {
+                key_channels(&mut states, &numbers, key, transfer);
             }
             channels.push(states);
         }
