@@ -214,7 +214,8 @@ impl StreamVolume {
             scatter_per_frame: (options.uploads == UploadPath::Scatter
                 && context.atlas_scatter(format).is_some())
             .then_some(most_per_frame),
-            level_cells_bytes: if options.level_walk {
+            // (The composite's rays look each channel up: it never walks a level.)
+            level_cells_bytes: if options.level_walk && !source.composite() {
                 level_cells_bytes
             } else {
                 0
