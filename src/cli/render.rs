@@ -142,7 +142,7 @@ pub fn run(args: &RenderArgs, given: &Given) -> Result<Rendered, String> {
     }
     if let Some(what) = channels {
         eprintln!(
-            "{written}, {what}, dense renderer) on {} in {seconds:.2} s",
+            "{written}, {what}, dense renderer{labels}) on {} in {seconds:.2} s",
             drawing.context().describe(),
         );
         return Ok(Rendered::Complete);

@@ -7,6 +7,7 @@ pub mod app_harness;
 pub mod damage;
 pub mod fault_server;
 pub mod http_server;
+pub mod labels;
 pub mod octrees;
 pub mod paths;
 pub mod reference;

@@ -20,9 +20,9 @@ use voxscope_volume::{QuantizedVolume, Volume, format_dims};
 use crate::channels::{layers, write_states};
 use crate::label_open::{open_overlays, open_streamed_overlays};
 use crate::{
-    ChannelChoice, ChannelState, CompositeScene, DrawOptions, OpenOptions, OpenedStream, Progress,
-    SavedTransfer, Scene, SceneError, StreamedChannels, StreamedVolume, UploadedLabels, VolumeData,
-    VolumeSource, beyond_octree, opening_transfer, renderer_for_octree,
+    ChannelChoice, ChannelState, CompositeScene, DrawOptions, LabelOverlay, OpenOptions,
+    OpenedStream, Progress, SavedTransfer, Scene, SceneError, StreamedChannels, StreamedVolume,
+    UploadedLabels, VolumeData, VolumeSource, beyond_octree, opening_transfer, renderer_for_octree,
 };
 
 /// One channel ready to draw: its values, quantized, and the volume that describes them (its
@@ -172,13 +172,15 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
                 None => None,
             };
             if let Some(channels) = channels {
-                if let Some(name) = options.labels.names.first() {
-                    return Err(SceneError::LabelsRefused {
-                        name: name.clone(),
-                        over: "the composite of several channels (--channel N draws one)",
-                    });
-                }
-                return Self::streamed_channels(channels, options, saved, gpu);
+                let mut drawable = Self::streamed_channels(channels, options, saved, gpu)?;
+                drawable.labels = open_streamed_overlays(
+                    &options.labels,
+                    open,
+                    drawable.gpu.borrow(),
+                    options.stream,
+                    options.max_wait,
+                )?;
+                return Ok(drawable);
             }
             refuse_chosen(options)?;
             // The renderer is made while the store's first chunks are on their way.
@@ -209,9 +211,12 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
         };
         let loaded = match open.composite_channels()? {
             Some(channels) if channels.len() > 1 => {
-                refuse_labels("the composite of several channels (--channel N draws one)")?;
+                let dims = channels[0].dims;
+                let overlays = open_overlays(&options.labels.names, open, dims)?;
                 let channels = channels.into_iter().map(Channel::from_volume).collect();
-                return Self::composite(gpu, channels, options, None);
+                let mut drawable = Self::composite(gpu, channels, options, None)?;
+                drawable.upload_overlays(overlays, options)?;
+                return Ok(drawable);
             }
             Some(mut channels) => channels
                 .pop()
@@ -228,9 +233,11 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
                 if matches!(options.renderer, None | Some(RendererKind::Dense))
                     && !beyond_octree(loaded.dims)
                 {
-                    refuse_labels("a channel in its color (--renderer octree draws it)")?;
+                    let overlays = open_overlays(&options.labels.names, open, loaded.dims)?;
                     let channel = Channel::from_volume(loaded);
-                    return Self::composite(gpu, vec![channel], &options, Some(index));
+                    let mut drawable = Self::composite(gpu, vec![channel], &options, Some(index))?;
+                    drawable.upload_overlays(overlays, &options)?;
+                    return Ok(drawable);
                 }
                 say(format!(
                     "channel {index} is drawn in grays: its color needs the dense renderer (--renderer dense)"
@@ -269,18 +276,33 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
         for notice in drawable.notices.drain(..) {
             say(notice);
         }
-        let renderer = drawable.renderer_options(&options);
-        let (spacing, level) = (drawable.data_spacing(), drawable.upload_level());
-        drawable.labels = overlays
+        drawable.upload_overlays(overlays, &options)?;
+        Ok(drawable)
+    }
+
+    /// Uploads `overlays` to be drawn over this volume's (or composite's) pictures, for a
+    /// renderer of its kind and through the level it is drawn at, as `options` show them.
+    fn upload_overlays(
+        &mut self,
+        overlays: Vec<LabelOverlay>,
+        options: &DrawOptions,
+    ) -> Result<(), SceneError> {
+        let mut renderer = self.renderer_options(options);
+        if let Drawn::Composite { .. } = self.drawn {
+            // The composite is the dense march's: its labels are marched the same way.
+            renderer.kind = RendererKind::Dense;
+        }
+        let (spacing, level) = (self.data_spacing(), self.upload_level());
+        self.labels = overlays
             .into_iter()
             .map(|overlay| {
                 overlay
                     .layer(&options.labels.hide, options.labels.opacity, spacing)
-                    .and_then(|layer| layer.upload(drawable.gpu.borrow(), renderer, level))
+                    .and_then(|layer| layer.upload(self.gpu.borrow(), renderer, level))
                     .map_err(SceneError::from)
             })
             .collect::<Result<_, _>>()?;
-        Ok(drawable)
+        Ok(())
     }
 
     /// The channels given (quantized already) drawn as `options` ask: one volume (streamed

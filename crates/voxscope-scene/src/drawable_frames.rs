@@ -6,7 +6,7 @@ use std::borrow::Borrow;
 use std::time::Duration;
 
 use image::{GenericImage, RgbaImage};
-use voxscope_octree::TransferFunction;
+use voxscope_octree::{MAX_DEPTH, TransferFunction};
 use voxscope_render::{
     Camera, GpuContext, RenderSettings, RenderTarget, RendererKind, RendererOptions,
     VolumeRenderer, read_image,
@@ -138,6 +138,8 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
     pub(super) fn upload_level(&self) -> u32 {
         match &self.drawn {
             Drawn::Volume { upload_level, .. } => *upload_level,
+            // The composite is drawn at full detail: so are the labels over it.
+            Drawn::Composite { .. } => MAX_DEPTH,
             _ => self.depth(),
         }
     }
@@ -345,6 +347,14 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
     ) -> Result<(), SceneError> {
         let (width, height) = image.dimensions();
         let context = self.gpu.borrow();
+        // The composite is drawn at full detail whatever the level asked: so are its labels.
+        let settings = &match self.drawn {
+            Drawn::Composite { .. } => RenderSettings {
+                max_level: MAX_DEPTH,
+                ..*settings
+            },
+            _ => *settings,
+        };
         for labels in &mut self.labels {
             let slots = match side {
                 None => {

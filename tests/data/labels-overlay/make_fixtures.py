@@ -14,6 +14,8 @@ written by `write_labels`:
 - `regions` (u16): label 5 a slab, 9 another; no colors (the labels palette applies).
 `cells-v05.ome.zarr`: the same image and label images as OME-Zarr 0.5 (Zarr v3; `labels` and
 `image-label` under `attributes.ome` of `zarr.json`).
+`cells-channels-v05.ome.zarr`: two channels (c z y x: the blob, and a ramp along x) as
+OME-Zarr 0.5 with `omero` colors (green, magenta) and windows, and the `cells` label image.
 `cells.nii`: the `cells` label image as NIfTI-1 (written by hand, no orientation codes), and
 `wrong-grid.nii`: a label volume of 12 x 10 x 8 voxels (not the image's grid).
 expected.json records the versions, the labels' voxel counts and a few voxels' values.
@@ -29,7 +31,7 @@ import numpy as np
 import ome_zarr
 import zarr
 from ome_zarr.format import FormatV04, FormatV05
-from ome_zarr.writer import write_image, write_labels
+from ome_zarr.writer import write_image, write_labels, write_multiscale
 
 HERE = Path(__file__).resolve().parent
 SHAPE = (16, 20, 24)  # z, y, x
@@ -93,6 +95,21 @@ def main() -> None:
     write_image(image, root, scale_factors=[], axes="zyx", fmt=fmt)
     write_labels(cells, root, "cells", scale_factors=[], axes="zyx", fmt=fmt, label_metadata={"colors": colors})
     write_labels(regions, root, "regions", scale_factors=[], axes="zyx", fmt=fmt)
+    path = HERE / "cells-channels-v05.ome.zarr"
+    shutil.rmtree(path, ignore_errors=True)
+    root = zarr.open_group(str(path), mode="w", zarr_format=3)
+    ramp = np.broadcast_to(np.arange(SHAPE[2], dtype=np.uint16) * 40 + 50, SHAPE)
+    omero = {
+        "channels": [
+            {"label": "blob", "color": "00FF00", "active": True,
+             "window": {"min": 0, "max": 1000, "start": 100, "end": 1000}},
+            {"label": "ramp", "color": "FF00FF", "active": True,
+             "window": {"min": 0, "max": 1000, "start": 50, "end": 1000}},
+        ]
+    }
+    write_multiscale([np.stack([image, ramp])], root, axes="czyx", fmt=fmt, name="two channels",
+                     metadata={"omero": omero})
+    write_labels(cells, root, "cells", scale_factors=[], axes="zyx", fmt=fmt, label_metadata={"colors": colors})
     write_nifti(HERE / "cells.nii", cells)
     write_nifti(HERE / "wrong-grid.nii", cells[::2, ::2, ::2])
     counts = {
