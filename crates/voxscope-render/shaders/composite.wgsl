@@ -7,7 +7,9 @@
 // DVR: at each sample, every channel's color·opacity from its own table; the sample's color is
 // their sum (additive, premultiplied) and its opacity 1 − Π(1 − αc); then front-to-back.
 // MIP: each channel's maximum along the ray, its color from its table, the colors added.
-// Unshaded, no probe (the composite's options; src/render/composite.rs says why).
+// Unshaded. PROBE: in DVR the sample where the composite's opacity reaches PROBE_ALPHA, in MIP
+// the sample of the maximum of the channel whose color there is the brightest (none where
+// every channel's maximum is black: the pixel shows nothing).
 
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var channels_low: texture_3d<f32>;
@@ -91,6 +93,10 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     // in memory: 4 channels then cost 2.7× one, run 54).
     var maxima_low = vec4<u32>(0u);
     var maxima_high = vec4<u32>(0u);
+    // PROBE, MIP: where each channel's maximum was sampled.
+    var maxima_t_low = vec4<f32>(-1.0);
+    var maxima_t_high = vec4<f32>(-1.0);
+    var probe_t = -1.0;
     var samples = 0u;
     let interval = volume_interval(origin, dir, safe_inverse(dir));
     let t_enter = interval.x;
@@ -123,9 +129,15 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
                 high = textureSampleLevel(channels_high, level_sampler, coords, 0.0);
             }
             if params.mode == MODE_MIP {
-                maxima_low = max(maxima_low, value_indices(low));
+                let levels_low = value_indices(low);
+                let levels_high = value_indices(high);
+                if PROBE {
+                    maxima_t_low = select(maxima_t_low, vec4<f32>(t), levels_low > maxima_low);
+                    maxima_t_high = select(maxima_t_high, vec4<f32>(t), levels_high > maxima_high);
+                }
+                maxima_low = max(maxima_low, levels_low);
                 if count > 4u {
-                    maxima_high = max(maxima_high, value_indices(high));
+                    maxima_high = max(maxima_high, levels_high);
                 }
                 continue;
             }
@@ -140,15 +152,29 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             }
             color += (1.0 - alpha) * premultiplied;
             alpha += (1.0 - alpha) * (1.0 - transparency);
+            if PROBE && probe_t < 0.0 && alpha >= PROBE_ALPHA {
+                probe_t = t;
+            }
             if alpha >= EARLY_TERMINATION_ALPHA {
                 break;
             }
         }
     }
     if params.mode == MODE_MIP {
+        var brightest = 0.0;
         for (var c = 0u; c < count; c++) {
-            color += channel_rgba(c, select(maxima_high, maxima_low, c < 4u)[c & 3u]).rgb;
+            let rgb = channel_rgba(c, select(maxima_high, maxima_low, c < 4u)[c & 3u]).rgb;
+            color += rgb;
+            let brightness = rgb.r + rgb.g + rgb.b;
+            if PROBE && brightness > brightest {
+                brightest = brightness;
+                probe_t = select(maxima_t_high, maxima_t_low, c < 4u)[c & 3u];
+            }
         }
     }
-    write_pixel(pixel, min(color, vec3<f32>(1.0)), samples);
+    if PROBE {
+        write_probe(origin, dir, probe_t);
+    } else {
+        write_pixel(pixel, min(color, vec3<f32>(1.0)), samples);
+    }
 }

@@ -15,8 +15,9 @@
 // DVR: at each sample, every drawn channel's color·opacity from its own table; the sample's
 // color is their sum (additive, premultiplied) and its opacity 1 − Π(1 − αc); front to back
 // with early termination. MIP: each channel's maximum along the ray, its color from its table,
-// the colors added. Unshaded, no probe (as the in-memory composite). Prepended with
-// ray_common.wgsl and stream_common.wgsl.
+// the colors added. Unshaded. PROBE, as the in-memory composite's: in DVR the sample where the
+// opacity reaches PROBE_ALPHA, in MIP the sample of the maximum of the channel whose color
+// there is the brightest. Prepended with ray_common.wgsl and stream_common.wgsl.
 
 // What one channel draws in the segment being marched.
 struct ChannelSegment {
@@ -118,6 +119,8 @@ fn composite_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, jitter: f
     let t_leave = interval.y;
     let mip = max_projection();
     var maxima = array<u32, CHANNELS>(0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u);
+    // PROBE, MIP: where each channel's maximum was sampled.
+    var maxima_t = array<f32, CHANNELS>(-1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0, -1.0);
     let shift = jitter - 0.5;
     let lod_per_t = world_length * params.lod_factor * stream.lod_scale;
     let correct = (params.flags & FLAG_OPACITY_CORRECTION) != 0u;
@@ -185,6 +188,14 @@ fn composite_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, jitter: f
                     if mip {
                         // (Samples past the segment read beyond its brick: not taken.)
                         let inside = select(vec4<u32>(0u), values, taken);
+                        if PROBE {
+                            for (var j = 0u; j < 4u; j++) {
+                                if inside[j] > maxima[c] {
+                                    maxima[c] = inside[j];
+                                    maxima_t[c] = ts[j];
+                                }
+                            }
+                        }
                         maxima[c] = max(maxima[c], max(max(inside.x, inside.y), max(inside.z, inside.w)));
                         continue;
                     }
@@ -201,6 +212,9 @@ fn composite_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, jitter: f
                 for (var j = 0u; j < count; j++) {
                     color += (1.0 - alpha) * premultiplied[j];
                     alpha += (1.0 - alpha) * (1.0 - transparency[j]);
+                    if PROBE && result.probe_t < 0.0 && alpha >= PROBE_ALPHA {
+                        result.probe_t = ts[j];
+                    }
                     if alpha >= EARLY_TERMINATION_ALPHA {
                         break;
                     }
@@ -216,9 +230,16 @@ fn composite_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, jitter: f
         t = t_out;
     }
     if mip {
+        var brightest = 0.0;
         for (var c = 0u; c < CHANNELS; c++) {
             if channel_shown(c) {
-                color += channel_rgba(c, maxima[c]).rgb;
+                let rgb = channel_rgba(c, maxima[c]).rgb;
+                color += rgb;
+                let brightness = rgb.r + rgb.g + rgb.b;
+                if PROBE && brightness > brightest {
+                    brightest = brightness;
+                    result.probe_t = maxima_t[c];
+                }
             }
         }
     }
@@ -235,5 +256,9 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let ray = pixel_ray(pixel);
     let result = composite_ray(params.eye.xyz, ray.dir, ray.world_length, ray_jitter(pixel));
-    write_pixel(pixel, result.color, result.visited);
+    if PROBE {
+        write_probe(params.eye.xyz, ray.dir, result.probe_t);
+    } else {
+        write_pixel(pixel, result.color, result.visited);
+    }
 }

@@ -6,9 +6,9 @@
 //! additive colormaps: black to the color over the window). DVR sums the channels'
 //! premultiplied colors at each sample and takes 1 − Π(1 − αc) as the sample's opacity; MIP
 //! adds the colors of the channels' maxima. DVR skips blocks of 8³ voxels where every channel
-//! is transparent (the union of the channels' visible ranges). The composite is unshaded and
-//! has no probe: those follow one channel's gradient or opacity, and which one is a choice
-//! the app makes.
+//! is transparent (the union of the channels' visible ranges). The composite is unshaded. Its
+//! probe finds, in DVR, where the composite's opacity reaches [`super::PROBE_ALPHA`]; in MIP,
+//! the sample of the maximum of the channel drawn brightest there (what the pixel shows most).
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -19,7 +19,9 @@ use super::pipeline::{
     Variant, VariantPipelines, atlas_entry, atlas_sampler_entry, clamped_sampler,
     numbered_bind_group, output_image_entry, storage_entry, uniform_entry,
 };
-use super::raycaster::{ProbeTarget, RayPass, StandIns, VolumeShape, frame_params_buffer};
+use super::raycaster::{
+    ProbeTarget, RayPass, StandIns, VolumeShape, encode_probe_ray, frame_params_buffer,
+};
 use super::renderer::{FramePass, Renderer};
 use super::{GpuContext, LevelDetail, RenderError, RenderSettings, RenderTarget, RendererKind};
 use voxscope_octree::{TransferFunction, pack_rgba, unpack_rgba};
@@ -431,10 +433,11 @@ impl RayPass<CompositeVolume> for CompositeRaycaster {
         &self.stand_ins
     }
 
-    /// Unshaded, one level: only the clipped variant differs.
+    /// Unshaded, one level: only the clipped and probe variants differ.
     fn variant(&self, base: Variant, _params: &RaycastParams) -> Variant {
         Variant {
             clipped: base.clipped,
+            probe: base.probe,
             ..Variant::PLAIN
         }
     }
@@ -474,8 +477,8 @@ impl RayPass<CompositeVolume> for CompositeRaycaster {
 }
 
 /// The composite of channels: drawn by the device's [`CompositeRaycaster`]. Its channels carry
-/// their own transfer functions ([`CompositeVolume::set_shown_layers`]); it has no levels, no
-/// shading and no probe (the module's doc says why).
+/// their own transfer functions ([`CompositeVolume::set_shown_layers`]); it has no levels and
+/// no shading (the module's doc says why).
 impl Renderer for CompositeVolume {
     fn kind(&self) -> RendererKind {
         RendererKind::Composite
@@ -500,11 +503,12 @@ impl Renderer for CompositeVolume {
 
     fn encode_probe(
         &self,
-        _context: &GpuContext,
-        _encoder: &mut wgpu::CommandEncoder,
-        _probe: &ProbeTarget<'_>,
+        context: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        probe: &ProbeTarget<'_>,
     ) -> bool {
-        false
+        encode_probe_ray(context.composite_raycaster(), context, encoder, self, probe);
+        true
     }
 
     /// Nothing: each channel's transfer function is its own ([`Self::set_shown_layers`]).
@@ -518,12 +522,19 @@ impl Renderer for CompositeVolume {
         Ok(())
     }
 
-    fn prepare_pipelines(&self, context: &GpuContext, settings: &RenderSettings, _probe: bool) {
+    fn prepare_pipelines(&self, context: &GpuContext, settings: &RenderSettings, probe: bool) {
         let variant = Variant {
             clipped: settings.clip.is_active(),
             ..Variant::PLAIN
         };
         context.composite_raycaster().prepare(context, variant);
+        if probe {
+            let probing = Variant {
+                probe: true,
+                ..variant
+            };
+            context.composite_raycaster().prepare(context, probing);
+        }
     }
 
     fn gpu_bytes(&self) -> Vec<(&'static str, u64)> {

@@ -291,3 +291,54 @@ fn the_frame_probe_answers_later_without_waiting_as_the_blocking_one_does() {
     let error = probe_pixel(&context, &renderer, &outside).unwrap_err();
     assert!(error.to_string().contains("outside"), "{error}");
 }
+
+#[test]
+fn the_composite_probe_of_one_channel_in_white_equals_the_marcher() {
+    // One channel in white is the channel's own picture: its opacity and maximum are the
+    // composite's, so its probe must find the marcher's point, as the dense renderer's does.
+    // (The composite's MIP probes the brightest channel's maximum, so none where the pixel is
+    // black: its window starts below the lowest value, which the marcher's MIP takes for
+    // nothing, so that every other maximum is lit.)
+    let context = gpu();
+    let (plain, clips) = scene();
+    let lowest = plain.quantized.value_range[0];
+    let lit = TransferFunction::gray(ValueWindow {
+        low: lowest - 100.0,
+        high: 300.0,
+    });
+    for (mode, transfer) in [(RenderMode::Dvr, plain.transfer), (RenderMode::Mip, lit)] {
+        let sphere = Prepared::new(load("synthetic:sphere:40x36x32"), Some(transfer));
+        let march = MarchVolume::new(&sphere.quantized);
+        let layer = voxscope_render::ChannelLayer {
+            quantized: &sphere.quantized,
+            transfer: &sphere.transfer,
+            color: [1.0; 3],
+        };
+        let renderer = VolumeRenderer::new_composite(&context, &[layer], sphere.volume.spacing)
+            .expect("composite");
+        for (clip_name, clip) in &clips {
+            let settings = settings(&sphere, mode, *clip);
+            compare(
+                &format!("composite {mode:?} {clip_name}"),
+                &pixels(),
+                |pixel| gpu_probe(&context, &renderer, &settings, pixel),
+                |pixel| {
+                    reference_march_probe(
+                        &march,
+                        sphere.volume.spacing,
+                        &sphere.transfer,
+                        &camera(),
+                        &settings,
+                        SIZE,
+                        pixel,
+                    )
+                },
+                0.01,
+                match mode {
+                    RenderMode::Dvr => 0.02,
+                    RenderMode::Mip => 0.1,
+                },
+            );
+        }
+    }
+}

@@ -2,7 +2,7 @@
 //! together through one atlas and page table draw, once the view is complete at full detail,
 //! what the in-memory composite of the same voxels draws (DVR and MIP); a hidden channel's
 //! bricks are never read; hiding or recoloring a channel draws the next frame without reading
-//! anything.
+//! anything; the probe finds the in-memory composite's point.
 
 mod support;
 
@@ -15,8 +15,8 @@ use support::gpu;
 use support::reference::psnr;
 use voxscope_octree::TransferFunction;
 use voxscope_render::{
-    Camera, ChannelLayer, CompositeVolume, GpuContext, RenderMode, RenderSettings, RenderTarget,
-    Renderer, VolumeRenderer, read_image,
+    Camera, ChannelLayer, CompositeVolume, GpuContext, ProbeRequest, RenderMode, RenderSettings,
+    RenderTarget, Renderer, VolumeRenderer, probe_pixel, read_image,
 };
 use voxscope_stream::{
     AtlasZero, BrickData, BrickError, BrickId, BrickSource, ChannelSources, Downsampling,
@@ -297,5 +297,88 @@ fn a_hidden_channel_is_never_read_and_hiding_or_recoloring_reads_nothing() {
             .collect::<Vec<_>>(),
         reads,
         "nothing read"
+    );
+}
+
+/// The probes of `renderer` over a 12×9 grid of pixels, as `settings` draw.
+fn probes(
+    context: &GpuContext,
+    renderer: &VolumeRenderer,
+    settings: &RenderSettings,
+) -> Vec<Option<[f32; 3]>> {
+    (0..9)
+        .flat_map(|row| (0..12).map(move |column| [column * 8 + 3, row * 8 + 3]))
+        .map(|pixel| {
+            let request = ProbeRequest {
+                size: [SIZE.0, SIZE.1],
+                pixel,
+                camera: &camera(),
+                settings,
+            };
+            probe_pixel(context, renderer, &request)
+                .expect("probe")
+                .map(|hit| hit.point)
+        })
+        .collect()
+}
+
+#[test]
+fn the_streamed_composite_probes_where_the_in_memory_composite_does() {
+    // DVR: where the composite's opacity reaches half; MIP: the maximum of the channel drawn
+    // brightest. The two march the same lattice of samples (level 0 resident), so their
+    // points agree but where a sample's 16-bit float rounding in memory tips a comparison.
+    let context = gpu();
+    let channels = channels();
+    let layers = layers(&channels);
+    let shown = [true, true, false, true];
+    let (pyramid, _) = streamed(&channels);
+    let mut renderer =
+        VolumeRenderer::new_stream(&context, pyramid, options(), &channels[0].1).expect("renderer");
+    renderer
+        .renderer()
+        .set_channels(&context, &layers, &shown)
+        .expect("four layers");
+    let memory = VolumeRenderer::new_composite(&context, &layers, [1.0; 3]).expect("composite");
+    memory
+        .renderer()
+        .set_channels(&context, &layers, &shown)
+        .expect("four layers");
+    for (mode, density) in [(RenderMode::Dvr, 0.3), (RenderMode::Mip, 1.0)] {
+        let settings = settings(mode, density);
+        refine(&context, &mut renderer, &settings);
+        let streamed = probes(&context, &renderer, &settings);
+        let expected = probes(&context, &memory, &settings);
+        let (mut found, mut near) = (0, 0);
+        for (got, want) in streamed.iter().zip(&expected) {
+            match (got, want) {
+                (Some(got), Some(want)) => {
+                    found += 1;
+                    let distance = (0..3)
+                        .map(|a| (got[a] - want[a]).powi(2))
+                        .sum::<f32>()
+                        .sqrt();
+                    near += usize::from(distance <= 0.01);
+                }
+                (None, None) => {}
+                _ => panic!("{mode:?}: streamed {got:?}, in memory {want:?}"),
+            }
+        }
+        eprintln!("{mode:?}: {near} of {found} probes at the in-memory composite's point");
+        assert!(found >= 40, "{mode:?}: {found} probes hit");
+        assert!(
+            near * 10 >= found * 9,
+            "{mode:?}: {near} of {found} probes agree"
+        );
+    }
+    // Hiding every channel leaves nothing to probe.
+    renderer
+        .renderer()
+        .set_channels(&context, &layers, &[false; 4])
+        .expect("four layers");
+    let dvr = settings(RenderMode::Dvr, 0.3);
+    assert!(
+        probes(&context, &renderer, &dvr)
+            .iter()
+            .all(Option::is_none)
     );
 }

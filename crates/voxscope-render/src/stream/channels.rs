@@ -158,10 +158,11 @@ impl RayPass<StreamVolume> for StreamCompositeRaycaster {
         &self.stand_ins
     }
 
-    /// Unshaded, unlabelled: the clip's variant alone.
+    /// Unshaded, unlabelled: the clip's and the probe's variants alone.
     fn variant(&self, base: Variant, _params: &RaycastParams) -> Variant {
         Variant {
             clipped: base.clipped,
+            probe: base.probe,
             ..Variant::PLAIN
         }
     }

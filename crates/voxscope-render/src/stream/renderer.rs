@@ -35,7 +35,7 @@ impl Renderer for StreamVolume {
         }
     }
 
-    /// One channel's: the composite has no probe (as the in-memory composite).
+    /// One channel's, or the composite's (as the in-memory composite probes).
     fn encode_probe(
         &self,
         context: &GpuContext,
@@ -43,9 +43,11 @@ impl Renderer for StreamVolume {
         probe: &ProbeTarget<'_>,
     ) -> bool {
         if self.channels.is_some() {
-            return false;
+            let raycaster = context.stream_composite_raycaster();
+            encode_probe_ray(raycaster, context, encoder, self, probe);
+        } else {
+            encode_probe_ray(context.stream_raycaster(), context, encoder, self, probe);
         }
-        encode_probe_ray(context.stream_raycaster(), context, encoder, self, probe);
         true
     }
 
@@ -69,6 +71,15 @@ impl Renderer for StreamVolume {
             context
                 .stream_composite_raycaster()
                 .prepare(context, variant);
+            if probe {
+                let probing = Variant {
+                    probe: true,
+                    ..variant
+                };
+                context
+                    .stream_composite_raycaster()
+                    .prepare(context, probing);
+            }
             return;
         }
         for variant in pipeline_variants(settings, probe, false, self.labels()) {
