@@ -461,3 +461,60 @@ fn a_streamed_composite_of_chosen_channels_keeps_its_colors_through_a_view_file(
     );
     assert!(!channels[3].visible && channels[0].visible);
 }
+
+/// The status bar's text that holds `part`, if any.
+fn status_text(
+    harness: &egui_kittest::Harness<'_, voxscope::app::VoxscopeApp>,
+    part: &str,
+) -> Option<String> {
+    harness
+        .query_all_by_label_contains(part)
+        .next()
+        .and_then(|node| {
+            let node = node.accesskit_node();
+            node.label().or_else(|| node.value())
+        })
+}
+
+#[test]
+fn the_pointer_over_a_composite_reads_each_shown_channels_value_there() {
+    for (renderer, spec) in [
+        (voxscope_render::RendererKind::Octree, HYPERSTACK),
+        (voxscope_render::RendererKind::Stream, OME_ZARR),
+    ] {
+        let mut harness = harness();
+        harness.state_mut().settings.renderer = renderer;
+        open(&mut harness, spec);
+        let names: Vec<String> = harness
+            .state()
+            .composite_channels()
+            .expect("the composite is shown")
+            .iter()
+            .map(|c| c.name.clone())
+            .collect();
+        // The pointer moves over the middle of the 3D view: the probe finds the point there.
+        let center = harness.state().pane_rects()[0].center();
+        let hover = |harness: &mut egui_kittest::Harness<'_, _>, dx: f32| {
+            harness.hover_at(center + egui::vec2(dx, 0.0));
+            harness.step();
+            harness.hover_at(center + egui::vec2(dx + 2.0, 0.0));
+            settle(harness);
+        };
+        hover(&mut harness, 0.0);
+        let text = status_text(&harness, "voxel (")
+            .unwrap_or_else(|| panic!("{spec}: the status bar reads the voxel under the pointer"));
+        for name in &names {
+            assert!(
+                text.contains(&format!("· {name} ")),
+                "{spec}: {name}'s value in {text:?}"
+            );
+        }
+        // A hidden channel is not read.
+        harness.state_mut().view.channels[1].visible = false;
+        settle(&mut harness);
+        hover(&mut harness, 4.0);
+        let text = status_text(&harness, "voxel (").expect("the voxel under the pointer");
+        assert!(text.contains(&format!("· {} ", names[0])), "{text:?}");
+        assert!(!text.contains(&format!("· {} ", names[1])), "{text:?}");
+    }
+}

@@ -323,10 +323,7 @@ impl CentralView {
                     self.interacting |= moved || response.dragged();
                     volume_hovered |= response.hovered();
                     let target = self.panes[index].target().map(|t| [t.width, t.height]);
-                    // The composite has no probe: nothing to pick in its 3D view.
-                    if let (Some(picking), Some(target), None) =
-                        (&mut self.picking, target, &scene.composite)
-                    {
+                    if let (Some(picking), Some(target)) = (&mut self.picking, target) {
                         picking.want(&response, ui, index, *rect, target);
                     }
                     pane_label(ui, scene, settings, view, index, count, *rect);

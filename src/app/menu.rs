@@ -261,7 +261,10 @@ pub fn status_bar(
         }
         if let Some(text) = scene
             .zip(hovered)
-            .and_then(|(s, v)| s.data.describe_voxel(v))
+            .and_then(|(s, v)| match &s.composite {
+                Some(composite) => composite.describe_voxel(v),
+                None => s.data.describe_voxel(v),
+            })
             .map(|text| match hovered_labels {
                 Some(labels) => format!("{text} · {labels}"),
                 None => text,

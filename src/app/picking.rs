@@ -122,6 +122,11 @@ impl Picking {
                 .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                     label: Some("voxscope::app_pick"),
                 });
+        // The composite's renderer where it has its own (in memory), else the scene's.
+        let renderer = match &scene.composite {
+            Some(composite) => composite.renderer(&scene.renderer),
+            None => &scene.renderer,
+        };
         let probe_request = ProbeRequest {
             size,
             pixel,
@@ -130,7 +135,7 @@ impl Picking {
         };
         match self
             .probe
-            .record(&gpu.context, &mut encoder, &scene.renderer, &probe_request)
+            .record(&gpu.context, &mut encoder, renderer, &probe_request)
         {
             Ok(true) => {
                 gpu.context.queue.submit([encoder.finish()]);

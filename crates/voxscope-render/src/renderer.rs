@@ -142,7 +142,7 @@ pub trait Renderer: Send {
     }
 
     /// Records the probe of one pixel (one ray of the frame `probe` describes, its answer
-    /// written to `probe.output`); `false` where this renderer has no probe (the composite).
+    /// written to `probe.output`); `false` where this renderer has no probe.
     fn encode_probe(
         &self,
         context: &GpuContext,

@@ -338,7 +338,7 @@ impl VolumeRenderer {
     }
 
     /// Records the probe of one pixel ([`super::GpuProbe`]); `false` where this renderer has
-    /// no probe.
+    /// no probe (every renderer has one now; the trait keeps the answer for one without).
     pub(crate) fn encode_probe(
         &self,
         context: &GpuContext,

@@ -4,8 +4,9 @@
 //! ([`CompositeScene`]: the dense march of [`voxscope_render::CompositeRaycaster`], additive
 //! DVR and MIP over up to eight channels).
 //!
-//! The composite is unshaded and has no probe (voxscope-render's composite.rs says why). The
-//! other renderers draw one channel.
+//! The composite is unshaded (voxscope-render's composite.rs says why); its probe finds the
+//! point the pointer is on, and [`CompositeScene::describe_voxel`] reads each shown channel
+//! there. The other renderers draw one channel.
 
 use std::sync::Arc;
 
@@ -313,6 +314,19 @@ impl CompositeScene {
     /// `scene_renderer`.
     pub fn renderer<'a>(&'a self, scene_renderer: &'a VolumeRenderer) -> &'a VolumeRenderer {
         self.renderer.as_ref().unwrap_or(scene_renderer)
+    }
+
+    /// What a status bar says of `voxel`: its indices and position, and each shown channel's
+    /// value there in its units, by name (`voxel (3, 4, 5) · (3.0, 4.0, 5.0) µm · nuclei 523
+    /// · membranes 88`).
+    pub fn describe_voxel(&self, voxel: [usize; 3]) -> Option<String> {
+        let mut text = self.channels.first()?.describe_place(voxel)?;
+        for (data, state) in self.channels.iter().zip(&self.applied) {
+            if let (true, Some(value)) = (state.visible, data.describe_value(voxel)) {
+                text.push_str(&format!(" · {} {value}", state.name));
+            }
+        }
+        Some(text)
     }
 
     /// Whether the scene's renderer streams the channels (no renderer of its own).

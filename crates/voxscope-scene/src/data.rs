@@ -101,9 +101,17 @@ impl VolumeData {
 
     /// What a status bar says of `voxel`: its indices, position and value.
     pub fn describe_voxel(&self, voxel: [usize; 3]) -> Option<String> {
-        let value = self.value_at(voxel)?;
+        Some(format!(
+            "{} · value {}",
+            self.describe_place(voxel)?,
+            self.describe_value(voxel)?
+        ))
+    }
+
+    /// Where `voxel` is: its indices and position (`voxel (i, j, k) · (x, y, z) mm`).
+    pub fn describe_place(&self, voxel: [usize; 3]) -> Option<String> {
+        self.value_at(voxel)?;
         let spacing = self.volume.spacing;
-        let value_unit = if self.kind == DataKind::Ct { " HU" } else { "" };
         let [i, j, k] = voxel;
         let position = self.volume.with_unit(format!(
             "({:.1}, {:.1}, {:.1})",
@@ -111,10 +119,14 @@ impl VolumeData {
             j as f64 * spacing[1],
             k as f64 * spacing[2],
         ));
-        Some(format!(
-            "voxel ({i}, {j}, {k}) · {position} · value {}{value_unit}",
-            format_value(value),
-        ))
+        Some(format!("voxel ({i}, {j}, {k}) · {position}"))
+    }
+
+    /// The value at `voxel` in its units (`HU` for a CT).
+    pub fn describe_value(&self, voxel: [usize; 3]) -> Option<String> {
+        let value = self.value_at(voxel)?;
+        let value_unit = if self.kind == DataKind::Ct { " HU" } else { "" };
+        Some(format!("{}{value_unit}", format_value(value)))
     }
 
     /// Bytes it holds in memory: the value levels and the octree's nodes.

@@ -219,8 +219,7 @@ impl CentralView {
         stream: Option<StreamStatus>,
         drew: bool,
     ) {
-        // The composite has no probe (voxscope-render's composite.rs says why).
-        if let Some(picking) = self.picking.as_mut().filter(|_| scene.composite.is_none()) {
+        if let Some(picking) = self.picking.as_mut() {
             let latest: Vec<Option<DrawKey>> = self.panes.iter().map(|p| p.latest_key()).collect();
             picking.record(gpu, scene, &latest);
         }
