@@ -1,9 +1,9 @@
 //! Multi-channel volumes in the app, driven through egui_kittest on the software Vulkan
 //! device: a multi-channel file opens as the composite of its channels with the file's colors
 //! and windows; the channel list's edits (visibility, the channel being edited, its window)
-//! stay live, with no load; shading and the level slider say why the composite has none;
-//! one channel is a click away in the channel combo, and the composite comes back as the
-//! user left it.
+//! stay live, with no load; the composite is shaded, and the level slider says why it has no
+//! levels; one channel is a click away in the channel combo, and the composite comes back as
+//! the user left it.
 
 mod support;
 
@@ -67,12 +67,23 @@ fn a_two_channel_file_opens_as_the_composite_and_its_edits_stay_live() {
     harness.get_by_label("0: nuclei z0 t0");
     harness.get_by_label("1: actin z0 t0");
     assert!(
-        harness
+        !harness
             .get_by_label("Lit (headlight)")
             .accesskit_node()
             .is_disabled(),
-        "the composite is unshaded: its shading control is disabled"
+        "the composite is shaded (each channel by its own gradient)"
     );
+    // Unlit, it is another picture, drawn without a load.
+    harness.state_mut().settings.shading.enabled = false;
+    settle(&mut harness);
+    assert!(!harness.state().is_loading());
+    let unlit = view(&harness);
+    assert!(
+        differing_pixels(&both, &unlit) > 500,
+        "shading changes the composite's picture"
+    );
+    harness.state_mut().settings.shading.enabled = true;
+    settle(&mut harness);
     assert!(
         harness
             .query_all_by_label("Max level")

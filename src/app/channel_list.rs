@@ -20,9 +20,9 @@ pub fn show(
 ) {
     ui.heading("Channels");
     if composite.is_streamed() {
-        ui.small("Streamed together through the GPU budget: colors added, unshaded; a hidden channel is not read. Click a row to edit its transfer function.");
+        ui.small("Streamed together through the GPU budget: colors added, each lit by its own gradient; a hidden channel is not read. Click a row to edit its transfer function.");
     } else {
-        ui.small("Drawn together by the dense march: colors added, unshaded. Click a row to edit its transfer function.");
+        ui.small("Drawn together by the dense march: colors added, each lit by its own gradient. Click a row to edit its transfer function.");
     }
     ui.add_space(4.0);
     let active = view.active_channel;

@@ -179,7 +179,7 @@ pub fn show(
                     .response
                     .labelled_by(label.id)
                     .on_hover_text(
-                        "All channels as the additive composite (drawn by the dense march, unshaded), or one channel with any renderer",
+                        "All channels as the additive composite (drawn by the dense march, or streamed together), or one channel with any renderer",
                     );
                 ui.end_row();
             }

@@ -7,7 +7,7 @@ use super::numbers::group_digits;
 use super::settings::{AppSettings, Layout};
 use super::view_state::{MAX_GRID_PANES, ViewState};
 use voxscope_octree::OpacityMode;
-use voxscope_render::{LevelDetail, RendererKind};
+use voxscope_render::{LevelDetail, RenderMode, RendererKind};
 use voxscope_scene::Scene;
 use voxscope_scene::TransferChoice;
 use voxscope_volume::{ValueWindow, format_value};
@@ -115,12 +115,17 @@ pub fn pane_label(
         paint(
             ui,
             format!(
-                "composite of {} channels · {}, unshaded",
+                "composite of {} channels · {}, {}",
                 composite.channels.len(),
                 if composite.is_streamed() {
                     "streamed"
                 } else {
                     "dense march"
+                },
+                if settings.shading.enabled && settings.mode == RenderMode::Dvr {
+                    "lit"
+                } else {
+                    "unlit"
                 }
             ),
         );

@@ -189,26 +189,25 @@ fn look_grid(
         });
 }
 
-/// The grid's shading rows: lit or not (DVR of one channel only), and the light's terms
-/// while lit.
+/// The grid's shading rows: lit or not (DVR only), and the light's terms while lit.
 fn shading_rows(ui: &mut Ui, settings: &mut AppSettings, composite: bool) {
     ui.label("Shading");
     let mip = settings.mode == RenderMode::Mip;
     ui.add_enabled(
-        !composite && !mip,
+        !mip,
         egui::Checkbox::new(&mut settings.shading.enabled, "Lit (headlight)"),
     )
-    .on_hover_text(
-        "Blinn-Phong lighting from the eye: gradients of the filtered volume (dense, bricks), the voxels' faces (octree and label volumes); DVR only",
-    )
-    .on_disabled_hover_text(if mip {
-        "A maximum intensity projection is never shaded: it shows the brightest value along each ray, not a surface. Shading applies to DVR."
+    .on_hover_text(if composite {
+        "Blinn-Phong lighting from the eye, each channel lit by its own gradient (weighted by its window); DVR only"
     } else {
-        "The composite is unshaded: light would follow one channel's gradient, and which one is a choice it does not make. Choose one channel (Channels and time) to shade it."
-    });
+        "Blinn-Phong lighting from the eye: gradients of the filtered volume (dense, bricks), the voxels' faces (octree and label volumes); DVR only"
+    })
+    .on_disabled_hover_text(
+        "A maximum intensity projection is never shaded: it shows the brightest value along each ray, not a surface. Shading applies to DVR.",
+    );
     ui.end_row();
 
-    if settings.shading.enabled && !composite && !mip {
+    if settings.shading.enabled && !mip {
         let shading = &mut settings.shading;
         for (name, value, range) in [
             ("Ambient", &mut shading.ambient, 0.0..=1.0),

@@ -7,7 +7,9 @@
 // DVR: at each sample, every channel's color·opacity from its own table; the sample's color is
 // their sum (additive, premultiplied) and its opacity 1 − Π(1 − αc); then front-to-back.
 // MIP: each channel's maximum along the ray, its color from its table, the colors added.
-// Unshaded. PROBE: in DVR the sample where the composite's opacity reaches PROBE_ALPHA, in MIP
+// SHADING (DVR): each channel lit by its own gradient, its highlight in its own hue (`channel_gradients`: the central
+// differences of all four channels of a texture at once), weighted by its magnitude in widths of
+// the channel's own window (`channel_shading`). PROBE: in DVR the sample where the composite's opacity reaches PROBE_ALPHA, in MIP
 // the sample of the maximum of the channel whose color there is the brightest (none where
 // every channel's maximum is black: the pixel shows nothing).
 
@@ -23,6 +25,8 @@
 // is above 0 for some level its samples there can take (the union of the channels' visible
 // ranges), else 0; x fastest. Rebuilt with the tables.
 @group(0) @binding(8) var<storage, read> visible_blocks: array<u32>;
+// SHADING: per channel, 1 / the gradient (value levels per voxel) that shades it fully.
+@group(0) @binding(9) var<storage, read> channel_shading: array<f32>;
 
 const TABLE_LEVELS: u32 = 65536u;
 // Keep in sync with `SKIP_BLOCK` in src/render/composite.rs.
@@ -61,6 +65,22 @@ fn level_gradient(coords: vec3<f32>, half_texel: vec3<f32>) -> vec3<f32> {
 // label: channel 0's.
 fn label_level_at(coords: vec3<f32>) -> u32 {
     return value_index(textureSampleLevel(channels_low, level_sampler, coords, 0.0).r);
+}
+
+// The four channels' gradients of `volume` at texture coordinates `coords` (value levels per
+// voxel, central differences `half_texel` either side): x, y and z, a channel per component.
+fn channel_gradients(volume: texture_3d<f32>, coords: vec3<f32>, half_texel: vec3<f32>)
+                     -> array<vec4<f32>, 3> {
+    let dx = vec3<f32>(half_texel.x, 0.0, 0.0);
+    let dy = vec3<f32>(0.0, half_texel.y, 0.0);
+    let dz = vec3<f32>(0.0, 0.0, half_texel.z);
+    return array<vec4<f32>, 3>(
+        textureSampleLevel(volume, level_sampler, coords + dx, 0.0)
+            - textureSampleLevel(volume, level_sampler, coords - dx, 0.0),
+        textureSampleLevel(volume, level_sampler, coords + dy, 0.0)
+            - textureSampleLevel(volume, level_sampler, coords - dy, 0.0),
+        textureSampleLevel(volume, level_sampler, coords + dz, 0.0)
+            - textureSampleLevel(volume, level_sampler, coords - dz, 0.0));
 }
 
 fn channel_count() -> u32 {
@@ -105,6 +125,8 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     // Sample k at t_enter + (k + jitter)·step, the pixel's jitter (`pixel_jitter`).
     let t_first = t_enter + (pixel_jitter(pixel) - 0.5) * step;
     let texel = 1.0 / params.volume.xyz;
+    let half_texel = 0.5 * texel;
+    let light = headlight(dir);
     let inv = safe_inverse(dir);
     if t_enter < t_leave {
         for (var k = 0.0; ; k += 1.0) {
@@ -143,11 +165,34 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             }
             var premultiplied = vec3<f32>(0.0);
             var transparency = 1.0;
+            // SHADING: the channels' gradients here, fetched once some channel shows.
+            var gradients_low = array<vec4<f32>, 3>();
+            var gradients_high = array<vec4<f32>, 3>();
+            var have_gradients = false;
             for (var c = 0u; c < count; c++) {
                 let level = value_index(select(high, low, c < 4u)[c & 3u]);
                 let rgba = channel_rgba(c, level);
                 let a = min(rgba.a * params.density, 1.0);
-                premultiplied += a * rgba.rgb;
+                var rgb = rgba.rgb;
+                if SHADING && a > 0.0 {
+                    if !have_gradients {
+                        gradients_low = channel_gradients(channels_low, coords, half_texel);
+                        if count > 4u {
+                            gradients_high = channel_gradients(channels_high, coords, half_texel);
+                        }
+                        have_gradients = true;
+                    }
+                    var gradient: vec3<f32>;
+                    if c < 4u {
+                        gradient = vec3<f32>(gradients_low[0][c], gradients_low[1][c],
+                                             gradients_low[2][c]);
+                    } else {
+                        gradient = vec3<f32>(gradients_high[0][c - 4u], gradients_high[1][c - 4u],
+                                             gradients_high[2][c - 4u]);
+                    }
+                    rgb = shade_tinted(rgb, gradient * params.atlas_scale, light, channel_shading[c]);
+                }
+                premultiplied += a * rgb;
                 transparency *= 1.0 - a;
             }
             color += (1.0 - alpha) * premultiplied;

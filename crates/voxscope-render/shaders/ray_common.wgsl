@@ -260,6 +260,20 @@ fn shade_sample(rgb: vec3<f32>, gradient: vec3<f32>, light: vec3<f32>) -> vec3<f
     return shade_with(rgb, cosine, weight);
 }
 
+// A composite's channel color `rgb` lit by the channel's own gradient (as `shade_sample`),
+// weighted by its magnitude times `full` (1 / the channel's full-shading gradient). The
+// highlight is in the channel's hue, not white: in an additive composite white says that
+// every channel is there.
+fn shade_tinted(rgb: vec3<f32>, gradient: vec3<f32>, light: vec3<f32>, full: f32) -> vec3<f32> {
+    let magnitude = length(gradient * params.shading_scale.xyz);
+    let weight = min(magnitude * full, 1.0);
+    let cosine = min(abs(dot(gradient, light)) / max(magnitude, 1e-20), 1.0);
+    let k = params.shading;
+    let hue = rgb / max(max(rgb.r, max(rgb.g, rgb.b)), 1e-6);
+    let lit = rgb * (k.x + k.y * cosine) + k.z * pow(max(cosine, 1e-6), k.w) * hue;
+    return mix(rgb, lit, weight);
+}
+
 // No label known (`label_entry`'s sample before).
 const NO_LABEL: u32 = 0xffffffffu;
 

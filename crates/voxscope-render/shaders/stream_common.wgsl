@@ -18,6 +18,7 @@ struct StreamParams {
     channel_count: u32,     // channels streamed together (1: stream.wgsl's one)
     shown_channels: u32,    // bit c: channel c is drawn (stream_composite.wgsl)
     _pad2: u32,
+    channel_shading: array<vec4<f32>, 2>, // [c / 4][c % 4]: channel c's 1 / full-shading gradient
 }
 
 @group(0) @binding(0) var<uniform> params: Params;

@@ -15,7 +15,9 @@
 // DVR: at each sample, every drawn channel's color·opacity from its own table; the sample's
 // color is their sum (additive, premultiplied) and its opacity 1 − Π(1 − αc); front to back
 // with early termination. MIP: each channel's maximum along the ray, its color from its table,
-// the colors added. Unshaded. PROBE, as the in-memory composite's: in DVR the sample where the
+// the colors added. SHADING (DVR): each channel lit by the gradient of its own brick, weighted
+// by its own window (`stream.channel_shading`), its highlight in its hue (`shade_tinted`), as
+// the in-memory composite's. PROBE, as the in-memory composite's: in DVR the sample where the
 // opacity reaches PROBE_ALPHA, in MIP the sample of the maximum of the channel whose color
 // there is the brightest. Prepended with ray_common.wgsl and stream_common.wgsl.
 
@@ -127,6 +129,8 @@ fn composite_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, jitter: f
     var color = vec3<f32>(0.0);
     var alpha = 0.0;
     var segments: array<ChannelSegment, CHANNELS>;
+    let half_texel = 0.5 * params.atlas_texel.xyz;
+    let light = headlight(dir);
     // (A ray that misses the volume takes no segment; its MIP is the channels' level 0, as the
     // in-memory composite's.)
     var t = select(t_leave, t_enter, t_enter < t_leave);
@@ -179,9 +183,10 @@ fn composite_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, jitter: f
                     channels &= channels - 1u;
                     let segment = segments[c];
                     var values = vec4<u32>(segment.value);
-                    if segment.kind == SEGMENT_ATLAS {
-                        let o = segment.atlas_origin;
-                        let d = atlas_direction(dir, segment.level);
+                    let o = segment.atlas_origin;
+                    let d = atlas_direction(dir, segment.level);
+                    let atlas_samples = segment.kind == SEGMENT_ATLAS;
+                    if atlas_samples {
                         values = vec4<u32>(atlas_level_at(o + ts.x * d), atlas_level_at(o + ts.y * d),
                                            atlas_level_at(o + ts.z * d), atlas_level_at(o + ts.w * d));
                     }
@@ -202,7 +207,15 @@ fn composite_ray(origin: vec3<f32>, dir: vec3<f32>, world_length: f32, jitter: f
                     for (var j = 0u; j < 4u; j++) {
                         let rgba = channel_rgba(c, values[j]);
                         let a = step_alpha(rgba.a, exponent);
-                        premultiplied[j] += a * rgba.rgb;
+                        var rgb = rgba.rgb;
+                        // (A uniform brick has no gradient: its color as it is.)
+                        if SHADING && a > 0.0 && atlas_samples && taken[j] {
+                            let scale = stream.level_scale[segment.level].xyz;
+                            let gradient = level_gradient(o + ts[j] * d, half_texel) / scale;
+                            rgb = shade_tinted(rgb, gradient, light,
+                                               stream.channel_shading[c / 4u][c % 4u]);
+                        }
+                        premultiplied[j] += a * rgb;
                         transparency[j] *= 1.0 - a;
                     }
                 }

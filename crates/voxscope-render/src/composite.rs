@@ -6,7 +6,9 @@
 //! additive colormaps: black to the color over the window). DVR sums the channels'
 //! premultiplied colors at each sample and takes 1 − Π(1 − αc) as the sample's opacity; MIP
 //! adds the colors of the channels' maxima. DVR skips blocks of 8³ voxels where every channel
-//! is transparent (the union of the channels' visible ranges). The composite is unshaded. Its
+//! is transparent (the union of the channels' visible ranges). Shaded, each channel is lit by
+//! its own gradient (VTK's independent components do the same): its color at a sample under
+//! the headlight of its own surface, weighted by its gradient in widths of its own window. Its
 //! probe finds, in DVR, where the composite's opacity reaches [`super::PROBE_ALPHA`]; in MIP,
 //! the sample of the maximum of the channel drawn brightest there (what the pixel shows most).
 
@@ -23,6 +25,8 @@ use super::raycaster::{
     ProbeTarget, RayPass, StandIns, VolumeShape, encode_probe_ray, frame_params_buffer,
 };
 use super::renderer::{FramePass, Renderer};
+use super::settings::{GRADIENT_FOR_FULL_SHADING, Shading};
+use super::transfer_table::window_levels;
 use super::{GpuContext, LevelDetail, RenderError, RenderSettings, RenderTarget, RendererKind};
 use voxscope_octree::{TransferFunction, pack_rgba, unpack_rgba};
 use voxscope_volume::{MAX_CHANNELS, Quantization, QuantizedVolume};
@@ -129,12 +133,27 @@ fn visible_blocks(
     visible
 }
 
+/// Each layer's `1 / (window width in levels × GRADIENT_FOR_FULL_SHADING)` (the shader's
+/// `channel_shading`), as one volume's `shading_scale.w` is.
+fn shading_scales(layers: &[ChannelLayer<'_>]) -> Vec<f32> {
+    layers
+        .iter()
+        .map(|layer| {
+            let width = window_levels(layer.quantized.quantization, layer.transfer);
+            1.0 / (width * GRADIENT_FOR_FULL_SHADING)
+        })
+        .collect()
+}
+
 /// Up to 8 channels' value levels in two RGBA 3D textures (16-bit floats: exact up to level
 /// 2048, 11 significant bits above) and their tinted tables one after another.
 pub struct CompositeVolume {
     low: wgpu::TextureView,
     high: wgpu::TextureView,
     tables: wgpu::Buffer,
+    /// Per channel, 1 / the gradient that shades it fully: its window's width in levels times
+    /// [`GRADIENT_FOR_FULL_SHADING`] (each channel is lit by its own gradient).
+    shading_scales: wgpu::Buffer,
     /// Each channel's level range per skipping block, and the blocks' visibility.
     block_ranges: Vec<Vec<[u16; 2]>>,
     visible: wgpu::Buffer,
@@ -214,6 +233,13 @@ impl CompositeVolume {
                 contents: bytemuck::cast_slice(&tables),
                 usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             });
+        let shading_scales = context
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("voxscope::composite_shading_scales"),
+                contents: bytemuck::cast_slice(&shading_scales(layers)),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            });
         if let Some(error) = pollster::block_on(out_of_memory.pop()) {
             return Err(RenderError::DoesNotFit(format!(
                 "the GPU has no room for the composite: {error}"
@@ -224,6 +250,7 @@ impl CompositeVolume {
             high,
             bytes: low_bytes + high_bytes + tables.size() + visible.size(),
             tables,
+            shading_scales,
             block_ranges,
             visible,
             visible_count,
@@ -254,6 +281,11 @@ impl CompositeVolume {
             &self.tables,
             0,
             bytemuck::cast_slice(&Self::tables(layers, shown)),
+        );
+        context.queue.write_buffer(
+            &self.shading_scales,
+            0,
+            bytemuck::cast_slice(&shading_scales(layers)),
         );
         let visible = visible_blocks(layers, &self.block_ranges, shown);
         self.visible_count.store(
@@ -397,6 +429,7 @@ impl CompositeRaycaster {
                 storage_entry(6, false),
                 atlas_entry(7),
                 storage_entry(8, true),
+                storage_entry(9, true),
             ],
         );
         Self {
@@ -433,10 +466,11 @@ impl RayPass<CompositeVolume> for CompositeRaycaster {
         &self.stand_ins
     }
 
-    /// Unshaded, one level: only the clipped and probe variants differ.
+    /// One level: the clipped, shaded and probe variants differ.
     fn variant(&self, base: Variant, _params: &RaycastParams) -> Variant {
         Variant {
             clipped: base.clipped,
+            shaded: base.shaded,
             probe: base.probe,
             ..Variant::PLAIN
         }
@@ -471,14 +505,14 @@ impl RayPass<CompositeVolume> for CompositeRaycaster {
                 probe.as_entire_binding(),
                 wgpu::BindingResource::TextureView(&volume.high),
                 volume.visible.as_entire_binding(),
+                volume.shading_scales.as_entire_binding(),
             ],
         )
     }
 }
 
 /// The composite of channels: drawn by the device's [`CompositeRaycaster`]. Its channels carry
-/// their own transfer functions ([`CompositeVolume::set_shown_layers`]); it has no levels and
-/// no shading (the module's doc says why).
+/// their own transfer functions ([`CompositeVolume::set_shown_layers`]); it has no levels.
 impl Renderer for CompositeVolume {
     fn kind(&self) -> RendererKind {
         RendererKind::Composite
@@ -525,6 +559,7 @@ impl Renderer for CompositeVolume {
     fn prepare_pipelines(&self, context: &GpuContext, settings: &RenderSettings, probe: bool) {
         let variant = Variant {
             clipped: settings.clip.is_active(),
+            shaded: Shading::applies(settings),
             ..Variant::PLAIN
         };
         context.composite_raycaster().prepare(context, variant);

@@ -220,9 +220,12 @@ pub(crate) struct StreamParams {
     /// Bit `c`: channel `c` is drawn (the composite's).
     pub shown_channels: u32,
     pub _pad2: u32,
+    /// Channel `c`'s 1 / the gradient that shades it fully (at `[c / 4][c % 4]`; the
+    /// composite's, as the in-memory composite's `channel_shading`).
+    pub channel_shading: [[f32; 4]; 2],
 }
 
-const _: () = assert!(std::mem::size_of::<StreamParams>() == 560);
+const _: () = assert!(std::mem::size_of::<StreamParams>() == 592);
 
 pub(crate) const FLAG_OPACITY_CORRECTION: u32 = 1;
 pub(crate) const FLAG_PIXEL_LOD: u32 = 2;
@@ -336,6 +339,7 @@ mod tests {
             channel_count,
             shown_channels,
             _pad2,
+            channel_shading,
         })
     }
 

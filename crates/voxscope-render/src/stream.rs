@@ -551,6 +551,10 @@ impl StreamVolume {
             channel_count: self.channels.as_ref().map_or(1, |c| c.count() as u32),
             shown_channels: self.channels.as_ref().map_or(1, StreamChannels::shown_mask),
             _pad2: 0,
+            channel_shading: self
+                .channels
+                .as_ref()
+                .map_or([[0.0; 4]; 2], StreamChannels::shading_scales),
         }
     }
 }

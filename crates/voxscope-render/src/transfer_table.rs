@@ -17,7 +17,7 @@ pub struct GpuTransferTable {
 
 /// The width of `transfer`'s value window in value levels of `quantization` (at least one
 /// level): what the shading's gradient is measured against.
-fn window_levels(quantization: Quantization, transfer: &TransferFunction) -> f32 {
+pub(crate) fn window_levels(quantization: Quantization, transfer: &TransferFunction) -> f32 {
     let width = ((transfer.window.high - transfer.window.low) / quantization.step).abs();
     if width.is_finite() {
         width.max(1.0) as f32

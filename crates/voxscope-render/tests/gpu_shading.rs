@@ -1,6 +1,6 @@
 //! Headlight shading on the GPU against the CPU reference renderers: the octree's face shading
 //! against the octree reference, dense's gradient shading against the trilinear marcher, and
-//! bricks against dense; MIP is never shaded.
+//! bricks against dense; a composite's channel in white as one volume; MIP is never shaded.
 
 mod support;
 
@@ -255,5 +255,58 @@ fn mip_and_the_heat_map_are_never_shaded() {
                 kind.name()
             );
         }
+    }
+}
+
+#[test]
+fn a_composite_of_one_channel_in_white_shades_as_the_cpu_marcher() {
+    // Each channel of a composite is lit by its own gradient, weighted by its own window, its
+    // highlight in its own hue: in white, that is one volume's shading. (The composite holds
+    // 16-bit floats: exact up to level 2048, so the i16 sample differs by that rounding.)
+    let context = gpu();
+    for (name, volume, opacity, density, camera) in cases() {
+        let prepared = prepare(volume, opacity);
+        let layer = voxscope_render::ChannelLayer {
+            quantized: &prepared.quantized,
+            transfer: &prepared.transfer,
+            color: [1.0; 3],
+        };
+        let renderer = voxscope_render::VolumeRenderer::new_composite(
+            &context,
+            &[layer],
+            prepared.volume.spacing,
+        )
+        .expect("composite");
+        let march = MarchVolume::new(&prepared.quantized);
+        let settings = RenderSettings {
+            density,
+            ..shaded(prepared.octree.depth)
+        };
+        let gpu_image = draw(&context, &renderer, &camera, &settings, SIZE);
+        let cpu_image = reference_march(
+            &march,
+            prepared.volume.spacing,
+            &prepared.transfer,
+            &camera,
+            &settings,
+            SIZE.0,
+            SIZE.1,
+        );
+        let unlit = draw(
+            &context,
+            &renderer,
+            &camera,
+            &RenderSettings {
+                shading: Shading::OFF,
+                ..settings
+            },
+            SIZE,
+        );
+        assert!(psnr(&unlit, &cpu_image) < 35.0, "{name}: shading shows");
+        let db = agreement(&format!("shaded-composite-{name}"), &gpu_image, &cpu_image);
+        assert!(
+            db >= 38.0,
+            "{name}: the shaded composite differs from the CPU marcher: {db:.1} dB"
+        );
     }
 }

@@ -1,6 +1,6 @@
 //! The streamed composite (`shaders/stream_composite.wgsl`): channels of one grid streamed
 //! together through one atlas and page table draw, once the view is complete at full detail,
-//! what the in-memory composite of the same voxels draws (DVR and MIP); a hidden channel's
+//! what the in-memory composite of the same voxels draws (DVR, shaded and not, and MIP); a hidden channel's
 //! bricks are never read; hiding or recoloring a channel draws the next frame without reading
 //! anything; the probe finds the in-memory composite's point.
 
@@ -16,7 +16,7 @@ use support::reference::psnr;
 use voxscope_octree::TransferFunction;
 use voxscope_render::{
     Camera, ChannelLayer, CompositeVolume, GpuContext, ProbeRequest, RenderMode, RenderSettings,
-    RenderTarget, Renderer, VolumeRenderer, probe_pixel, read_image,
+    RenderTarget, Renderer, Shading, VolumeRenderer, probe_pixel, read_image,
 };
 use voxscope_stream::{
     AtlasZero, BrickData, BrickError, BrickId, BrickSource, ChannelSources, Downsampling,
@@ -220,8 +220,16 @@ fn the_streamed_composite_draws_the_in_memory_composite_of_the_same_voxels() {
         .renderer()
         .set_channels(&context, &layers, &shown)
         .expect("four layers");
-    for (mode, density, name) in [(RenderMode::Dvr, 0.3, "dvr"), (RenderMode::Mip, 1.0, "mip")] {
-        let settings = settings(mode, density);
+    let cases = [
+        (RenderMode::Dvr, 0.3, Shading::OFF, "dvr"),
+        (RenderMode::Dvr, 0.3, Shading::default(), "dvr-shaded"),
+        (RenderMode::Mip, 1.0, Shading::OFF, "mip"),
+    ];
+    for (mode, density, shading, name) in cases {
+        let settings = RenderSettings {
+            shading,
+            ..settings(mode, density)
+        };
         let (streamed, status) = refine(&context, &mut renderer, &settings);
         let expected = in_memory(&context, &layers, &shown, &settings);
         save(&streamed, name);

@@ -4,8 +4,8 @@
 //! ([`CompositeScene`]: the dense march of [`voxscope_render::CompositeRaycaster`], additive
 //! DVR and MIP over up to eight channels).
 //!
-//! The composite is unshaded (voxscope-render's composite.rs says why); its probe finds the
-//! point the pointer is on, and [`CompositeScene::describe_voxel`] reads each shown channel
+//! Shaded, each channel is lit by its own gradient (voxscope-render's composite.rs); its probe
+//! finds the point the pointer is on, and [`CompositeScene::describe_voxel`] reads each shown channel
 //! there. The other renderers draw one channel.
 
 use std::sync::Arc;

@@ -8,6 +8,10 @@
 use super::*;
 use crate::ChannelLayer;
 use crate::composite::tinted_lookup_table;
+use crate::settings::GRADIENT_FOR_FULL_SHADING;
+use crate::transfer_table::window_levels;
+use voxscope_stream::MAX_STREAMED_CHANNELS;
+use voxscope_volume::Quantization;
 
 /// A streaming renderer's channels, where its pyramid has several.
 pub(super) struct StreamChannels {
@@ -15,6 +19,9 @@ pub(super) struct StreamChannels {
     pub(super) tables: wgpu::Buffer,
     /// Bit `c`: channel `c` is drawn.
     shown: AtomicU32,
+    /// Per channel, 1 / the gradient that shades it fully (f32 bits): its window's width in
+    /// levels times [`GRADIENT_FOR_FULL_SHADING`].
+    shading: [AtomicU32; MAX_STREAMED_CHANNELS as usize],
     /// The channels' visibility counts from the latest [`StreamChannels::set`], for the next
     /// [`StreamVolume::step`] to give the streamer (it needs the renderer mutably).
     pending: Mutex<Option<Vec<Vec<u32>>>>,
@@ -40,12 +47,34 @@ impl StreamChannels {
                 contents: bytemuck::cast_slice(&tables),
                 usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             });
-        Self {
+        let channels = Self {
             tables,
             shown: AtomicU32::new((1u32 << count) - 1),
+            shading: Default::default(),
             pending: Mutex::new(None),
             count,
+        };
+        for c in 0..count {
+            channels.set_shading(c, source.channel_quantization(c as u32), transfer);
         }
+        channels
+    }
+
+    /// Channel `c`'s full-shading gradient from its window under `transfer`.
+    fn set_shading(&self, c: usize, quantization: Quantization, transfer: &TransferFunction) {
+        if let Some(slot) = self.shading.get(c) {
+            let full = 1.0 / (window_levels(quantization, transfer) * GRADIENT_FOR_FULL_SHADING);
+            slot.store(full.to_bits(), Ordering::Release);
+        }
+    }
+
+    /// The channels' full-shading scales as the frame's uniforms hold them (`[c / 4][c % 4]`).
+    pub(super) fn shading_scales(&self) -> [[f32; 4]; 2] {
+        std::array::from_fn(|row| {
+            std::array::from_fn(|column| {
+                f32::from_bits(self.shading[row * 4 + column].load(Ordering::Acquire))
+            })
+        })
     }
 
     pub(super) fn count(&self) -> usize {
@@ -79,6 +108,7 @@ impl StreamChannels {
         let mut mask = 0u32;
         for (c, (layer, &shown)) in layers.iter().zip(shown).enumerate() {
             let quantization = source.channel_quantization(c as u32);
+            self.set_shading(c, quantization, layer.transfer);
             let table = if shown {
                 tinted_lookup_table(layer.transfer, quantization, layer.color)
             } else {
@@ -158,10 +188,11 @@ impl RayPass<StreamVolume> for StreamCompositeRaycaster {
         &self.stand_ins
     }
 
-    /// Unshaded, unlabelled: the clip's and the probe's variants alone.
+    /// Unlabelled: the clip's, the shading's and the probe's variants.
     fn variant(&self, base: Variant, _params: &RaycastParams) -> Variant {
         Variant {
             clipped: base.clipped,
+            shaded: base.shaded,
             probe: base.probe,
             ..Variant::PLAIN
         }

@@ -1,6 +1,7 @@
 //! The streaming renderer as every front end draws it: the [`Renderer`] trait's methods.
 
 use super::*;
+use crate::Shading;
 
 /// The streaming renderer: driven once a frame ([`Renderer::update`]), drawn and probed by the
 /// device's [`StreamRaycaster`] with whatever is resident.
@@ -66,6 +67,7 @@ impl Renderer for StreamVolume {
         if self.channels.is_some() {
             let variant = Variant {
                 clipped: settings.clip.is_active(),
+                shaded: Shading::applies(settings),
                 ..Variant::PLAIN
             };
             context
