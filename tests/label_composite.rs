@@ -1,8 +1,9 @@
 //! Labels over a composite of channels (`render --labels NAME` on a store of several channels,
 //! in memory and streamed together) on the two-channel labelled image that ome-zarr-py wrote
 //! (`tests/data/labels-overlay/cells-channels-v05.ome.zarr`, see make_fixtures.py): the cells
-//! are drawn over the composite's picture as over one volume's. Runs on the software Vulkan
-//! device; GPU tests fail when no adapter is found.
+//! are drawn over the composite's picture as over one volume's, and `probe` reads every
+//! channel and the cells at a voxel. Runs on the software Vulkan device; GPU tests fail when no
+//! adapter is found.
 
 mod support;
 
@@ -131,4 +132,49 @@ fn cells_streamed_over_the_streamed_composite_show_the_cells_the_rays_meet() {
             "{mode}: {disagree} of {labelled} pixels show another cell than the dense march's"
         );
     }
+}
+
+#[test]
+fn probe_reads_every_channel_and_the_cells_at_a_voxel() {
+    // The fixture's channel 0 is the labelled image's blob (its values in expected.json),
+    // channel 1 a ramp of 50 + 40·x (make_fixtures.py).
+    let store = channels_store();
+    for voxel in expected()["voxels"].as_array().expect("voxels") {
+        let at: Vec<u64> = voxel["at"]
+            .as_array()
+            .expect("x, y, z")
+            .iter()
+            .map(|v| v.as_u64().expect("an index"))
+            .collect();
+        let text: Vec<String> = at.iter().map(u64::to_string).collect();
+        let probe = voxscope(&["probe", &store, "--at", &text.join(","), "--json"]);
+        assert!(
+            probe.status.success(),
+            "{}",
+            String::from_utf8_lossy(&probe.stderr)
+        );
+        let json: serde_json::Value = serde_json::from_slice(&probe.stdout).expect("JSON");
+        let channels = json["channels"].as_array().expect("each channel's value");
+        assert_eq!(channels.len(), 2, "{json}");
+        assert_eq!(channels[0]["name"], "blob");
+        assert_eq!(channels[0]["value"].as_f64(), voxel["image"].as_f64());
+        assert_eq!(channels[1]["name"], "ramp");
+        assert_eq!(
+            channels[1]["value"].as_f64(),
+            Some(50.0 + 40.0 * at[0] as f64)
+        );
+        assert_eq!(json["labels"]["cells"].as_f64(), voxel["cells"].as_f64());
+    }
+    // As lines; and one channel chosen reads that one alone.
+    let lines = voxscope(&["probe", &store, "--at", "16,12,9"]);
+    let stdout = String::from_utf8_lossy(&lines.stdout);
+    assert!(
+        stdout.contains("channel 0  ") && stdout.contains(" blob"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("channel 1  690 ramp"), "{stdout}");
+    let one = voxscope(&["probe", &store, "--at", "16,12,9", "--channel", "1"]);
+    let stdout = String::from_utf8_lossy(&one.stdout);
+    assert!(stdout.contains("value      690"), "{stdout}");
+    assert!(!stdout.contains("channel 0"), "{stdout}");
 }

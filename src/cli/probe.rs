@@ -38,10 +38,40 @@ pub struct Probed {
     pub unit: Option<String>,
 }
 
+/// One channel's value at the probed voxel, of a file of several.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ChannelValue {
+    /// Its number in the file.
+    pub index: usize,
+    /// The file's name for it, if any.
+    pub name: Option<String>,
+    pub value: f64,
+    pub unit: Option<String>,
+}
+
 pub fn run(args: &ProbeArgs) -> Result<(), String> {
     let open = args.volume.open_options();
-    let volume = args.volume.load()?;
-    let probed = probe(&volume, args.at)?;
+    // A file of several channels: every channel it opens with (all, or its active ones) is
+    // read at the voxel, unless --channel chose one.
+    let channels = match open.composite_channels().map_err(|e| e.to_string())? {
+        Some(channels) if !channels.is_empty() => channels,
+        _ => vec![args.volume.load()?],
+    };
+    let volume = &channels[0];
+    let probed = probe(volume, args.at)?;
+    let channel_values = if channels.len() > 1 {
+        // Files given as channels (--channels-from) are numbered in their order, named by file.
+        let as_files = args.volume.channels_from.is_some();
+        channels
+            .iter()
+            .enumerate()
+            .map(|(position, channel)| {
+                channel_value(channel, args.at, as_files.then_some(position))
+            })
+            .collect::<Result<Vec<_>, _>>()?
+    } else {
+        Vec::new()
+    };
     let names = if args.labels.is_empty() {
         open.label_images()
             .map(|(_, labels)| labels.into_iter().map(|label| label.name).collect())
@@ -70,6 +100,12 @@ pub fn run(args: &ProbeArgs) -> Result<(), String> {
                 "position_unit": volume.spatial_unit(),
                 "value": probed.value,
                 "unit": probed.unit,
+                "channels": channel_values.iter().map(|c| json!({
+                    "index": c.index,
+                    "name": c.name,
+                    "value": c.value,
+                    "unit": c.unit,
+                })).collect::<Vec<_>>(),
                 "labels": labels,
             })
         );
@@ -82,9 +118,19 @@ pub fn run(args: &ProbeArgs) -> Result<(), String> {
             "position   {} from the first voxel",
             volume.with_unit(format!("({x:.3}, {y:.3}, {z:.3})"))
         );
-        match &probed.unit {
-            Some(unit) => println!("value      {} {unit}", probed.value),
-            None => println!("value      {}", probed.value),
+        if channel_values.is_empty() {
+            match &probed.unit {
+                Some(unit) => println!("value      {} {unit}", probed.value),
+                None => println!("value      {}", probed.value),
+            }
+        }
+        for channel in &channel_values {
+            let unit = channel
+                .unit
+                .as_deref()
+                .map_or(String::new(), |u| format!(" {u}"));
+            let name = channel.name.as_deref().unwrap_or("");
+            println!("channel {}  {}{unit} {name}", channel.index, channel.value);
         }
         for (name, value) in &labels {
             println!("label      {value} ({name})");
@@ -110,6 +156,34 @@ pub fn probe(volume: &Volume, index: [usize; 3]) -> Result<Probed, String> {
         position: std::array::from_fn(|a| index[a] as f64 * volume.spacing[a]),
         value,
         unit: value_unit(volume),
+    })
+}
+
+/// Channel `volume`'s value at `index`, numbered and named by its file (`file_number`: a file
+/// given as a channel, numbered so and named by the file).
+fn channel_value(
+    volume: &Volume,
+    index: [usize; 3],
+    file_number: Option<usize>,
+) -> Result<ChannelValue, String> {
+    let probed = probe(volume, index)?;
+    let channel = volume.series.selected.channel;
+    let (index, name) = match file_number {
+        Some(number) => (number, Some(volume.name.clone())),
+        None => (
+            channel,
+            volume
+                .series
+                .channels
+                .get(channel)
+                .and_then(|c| c.name.clone()),
+        ),
+    };
+    Ok(ChannelValue {
+        index,
+        name,
+        value: probed.value,
+        unit: probed.unit,
     })
 }
 
