@@ -342,6 +342,65 @@ fn a_composite_keyframe_movie_follows_each_channels_window_and_color() {
     assert!(movie[1] != first && movie[1] != last);
 }
 
+/// Keyframes of a streamed composite of chosen channels (the nine-channel store's 1 and 8) keep
+/// their windows by the file's channel numbers: the movie ends on the last view's channels.
+#[test]
+fn keyframes_of_a_streamed_composite_apply_their_channels_by_file_number() {
+    let dir = tempfile::tempdir().unwrap();
+    let store = "tests/data/ome-zarr/channels9-v05-sharded.ome.zarr";
+    let (a, b) = (dir.path().join("a.ron"), dir.path().join("b.ron"));
+    let draw = |name: &str, extra: &[&str]| {
+        let out = dir.path().join(name);
+        let mut args = vec![
+            "render",
+            store,
+            "--renderer",
+            "stream",
+            "--channels",
+            "1,8",
+            "--lod-scale",
+            "0",
+            "--size",
+            "32x24",
+            "-o",
+            text(&out),
+        ];
+        args.extend_from_slice(extra);
+        run(&args);
+        png(&out)
+    };
+    let first = draw("a.png", &["--save-view", text(&a)]);
+    let last = draw(
+        "b.png",
+        &[
+            "--azimuth",
+            "80",
+            "--channel-window",
+            "8:0:9000",
+            "--save-view",
+            text(&b),
+        ],
+    );
+    let folder = dir.path().join("path");
+    let keyframes = format!("{},{}", text(&a), text(&b));
+    run(&[
+        "movie",
+        "--keyframes",
+        &keyframes,
+        "--frames",
+        "2",
+        "-o",
+        text(&folder),
+    ]);
+    let movie = frames(&folder);
+    assert_eq!(movie.len(), 3);
+    assert!(movie[0] == first, "starts with the first view's channels");
+    assert!(
+        movie[2] == last,
+        "ends with channel 8's window of the last view"
+    );
+}
+
 #[test]
 fn gif_webp_and_apng_hold_every_frame_and_mp4_without_ffmpeg_says_how_to_get_it() {
     let dir = tempfile::tempdir().unwrap();

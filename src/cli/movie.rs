@@ -161,11 +161,12 @@ fn channel_frames(
 ) -> Result<Vec<Vec<ChannelState>>, String> {
     Ok(match drawing.channels() {
         Some(channels) if keyframes.len() > 1 => {
+            let numbers = drawing.channel_indices();
             let keys: Vec<Vec<ChannelState>> = keyframes
                 .iter()
                 .map(|(path, saved)| {
                     under_options(args, given, path, saved)
-                        .map(|(_, key)| key_channels(channels, &key.channels))
+                        .map(|(_, key)| key_channels(channels, numbers.as_deref(), &key.channels))
                 })
                 .collect::<Result<_, String>>()?;
             keyframe_channels(&keys, args.frames.unwrap_or(SEGMENT_FRAMES) as usize)
@@ -374,11 +375,21 @@ fn under_options(
 
 /// The composite's channels a keyframe shows: `opened`'s (as the first keyframe and the
 /// options opened them) with the colors, windows and visibility `asked` (a keyframe's under
-/// the options beside it); a view of more channels than these: `opened`'s.
-fn key_channels(opened: &[ChannelState], asked: &ChannelRequest) -> Vec<ChannelState> {
+/// the options beside it): by the file's channel number where the keyframe chose channels (a
+/// streamed composite's, `numbers` in order), else by position; a view of more channels than
+/// these: `opened`'s.
+fn key_channels(
+    opened: &[ChannelState],
+    numbers: Option<&[usize]>,
+    asked: &ChannelRequest,
+) -> Vec<ChannelState> {
     let mut channels = opened.to_vec();
-    if asked.colors.len() <= channels.len() {
-        asked.apply_to(&mut channels);
+    match numbers {
+        Some(numbers) if !asked.chosen.is_empty() => {
+            asked.apply_to_numbered(&mut channels, numbers);
+        }
+        _ if asked.colors.len() <= channels.len() => asked.apply_to(&mut channels),
+        _ => {}
     }
     channels
 }
