@@ -216,7 +216,7 @@ fn a_stores_channels_stream_together_as_the_in_memory_composite_draws_them() {
         "magenta only"
     );
 
-    // A channel the store does not have, and --channels in memory.
+    // A channel the store does not have, and --channels beside --channel.
     let bad = voxscope(&[
         "render",
         store,
@@ -233,16 +233,22 @@ fn a_stores_channels_stream_together_as_the_in_memory_composite_draws_them() {
         said.contains("--channels 4: there are 2 channels (0 to 1)"),
         "{said}"
     );
-    let memory = voxscope(&[
+    let both = voxscope(&[
         "render",
         store,
         "-o",
         out("bad.png").to_str().unwrap(),
         "--channels",
         "1",
+        "--channel",
+        "0",
     ]);
-    assert!(!memory.status.success());
-    assert!(String::from_utf8_lossy(&memory.stderr).contains("--renderer stream"));
+    assert!(!both.status.success());
+    assert!(String::from_utf8_lossy(&both.stderr).contains("--channel N draws one"));
+    // In memory, --channels chooses too: channel 1 alone, in its color.
+    let (memory, said) = render(store, &out("memory-head.png"), &["--channels", "1"]);
+    assert!(said.contains("head in #ff00ff, dense renderer"), "{said}");
+    assert!(lit(&memory) > 0.1);
 }
 
 /// Nine channels (OME-Zarr 0.5, sharded; omero marks 1, 3, 4 and 8 active), written by
@@ -288,4 +294,29 @@ fn a_store_of_nine_channels_streams_its_active_ones_and_reads_no_other() {
     assert!(said.contains("ch1 in #ff00ff, dense renderer"), "{said}");
     let db = psnr(&one, &in_memory);
     assert!(db > 40.0, "{db:.1} dB from the in-memory channel");
+
+    // In memory as streamed, channels go by their number in the file: --channels chooses
+    // them, and channel 8's window is channel 8's (not the fourth's place).
+    let chosen = ["--channels", "1,8", "--channel-window", "8:0:9000"];
+    let (streamed, _) = render(NINE, &out("s18.png"), &[&stream[..], &chosen].concat());
+    let (memory, said) = render(NINE, &out("m18.png"), &chosen);
+    assert!(said.contains("composite of 2 channels"), "{said}");
+    let db = psnr(&memory, &streamed);
+    assert!(
+        db > 40.0,
+        "{db:.1} dB between channels 1 and 8 in memory and streamed"
+    );
+    let (plain, _) = render(NINE, &out("m18-plain.png"), &["--channels", "1,8"]);
+    assert!(psnr(&plain, &memory) < 30.0, "channel 8's window applies");
+    let (four, _) = render(NINE, &out("m-four.png"), &["--channel-window", "8:0:9000"]);
+    let (four_streamed, _) = render(
+        NINE,
+        &out("s-four.png"),
+        &[&stream[..], &["--channel-window", "8:0:9000"]].concat(),
+    );
+    let db = psnr(&four, &four_streamed);
+    assert!(
+        db > 40.0,
+        "{db:.1} dB: the active four with channel 8's window"
+    );
 }

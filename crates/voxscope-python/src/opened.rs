@@ -153,7 +153,8 @@ impl Opened {
             return Ok((Drawable::streamed(opened, saved), None));
         }
         let channels: Vec<Channel> = if composite {
-            let volumes = self.args.composite_channels()?.unwrap_or_default();
+            let chosen = &options.channels.chosen;
+            let volumes = self.args.chosen_channels(chosen)?.unwrap_or_default();
             volumes.iter().map(Channel::of_volume).collect()
         } else {
             match &self.content {

@@ -192,3 +192,20 @@ def test_a_stores_channels_stream_together_as_the_command_line_draws_them(tmp_pa
         assert psnr(drawn, expected) >= 40, keywords
     with pytest.raises(ValueError, match="no channel 9"):
         voxscope.render(store, renderer="stream", channels=[9], size=SIZE)
+
+
+def test_chosen_channels_in_memory_are_the_command_lines(tmp_path, images):
+    """`channels=` in memory loads those channels of the file alone, colors and windows by
+    their number in the file, as `--channels` does."""
+    from conftest import REPO, run_cli
+    from PIL import Image
+
+    store = REPO / "tests/data/ome-zarr/channels9-v05-sharded.ome.zarr"
+    out = tmp_path / "cli.png"
+    run_cli("render", store, "--size", "96x72", "--channels", "8,1", "--channel-window",
+            "8:0:9000", "-o", out)
+    expected = np.asarray(Image.open(out).convert("RGBA"))
+    drawn = voxscope.render(store, channels=[8, 1], channel_window="8:0:9000", size=SIZE)
+    save(images, "memory-channels-8-1", drawn)
+    assert lit(drawn) > 0.02
+    assert psnr(drawn, expected) >= 40

@@ -201,7 +201,10 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
             )?;
             return Ok(drawable);
         }
-        refuse_chosen(options)?;
+        // Chosen channels are a file's: not of files given as channels, nor beside --channel N.
+        if open.channels_from.is_some() || !open.wants_composite() {
+            refuse_chosen(options)?;
+        }
         let refuse_labels = |what: &'static str| match options.labels.names.first() {
             Some(name) => Err(SceneError::LabelsRefused {
                 name: name.clone(),
@@ -209,8 +212,9 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
             }),
             None => Ok(()),
         };
-        let loaded = match open.composite_channels()? {
-            Some(channels) if channels.len() > 1 => {
+        let chosen = &options.channels.chosen;
+        let loaded = match open.chosen_channels(chosen)? {
+            Some(channels) if channels.len() > 1 || !chosen.is_empty() => {
                 let dims = channels[0].dims;
                 let overlays = open_overlays(&options.labels.names, open, dims)?;
                 let channels = channels.into_iter().map(Channel::from_volume).collect();
@@ -313,8 +317,16 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
         mut channels: Vec<Channel>,
         options: &DrawOptions,
     ) -> Result<Self, SceneError> {
-        refuse_chosen(options)?;
-        if channels.len() > 1 {
+        // Chosen channels are drawn where they are the ones given (a file's, read by
+        // `OpenOptions::chosen_channels`), and refused where they are not.
+        let numbers: Vec<usize> = channels
+            .iter()
+            .map(|c| c.volume.series.selected.channel)
+            .collect();
+        if options.channels.chosen != numbers {
+            refuse_chosen(options)?;
+        }
+        if channels.len() > 1 || !options.channels.chosen.is_empty() {
             return Self::composite(|| Ok(gpu), channels, options, None);
         }
         let channel = channels
@@ -522,15 +534,43 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
     }
 }
 
-/// Channels chosen (`--channels`) where they are not streamed together: refused with the way,
-/// never ignored.
+/// Channels chosen (`--channels`) where nothing chooses among a file's channels (one volume
+/// given, or files given as channels): refused with the way, never ignored.
 fn refuse_chosen(options: &DrawOptions) -> Result<(), SceneError> {
     if options.channels.chosen.is_empty() {
         return Ok(());
     }
     Err(SceneError::failed(
-        "--channels chooses the channels of a store of several streamed together (--renderer stream); in memory every channel of a file is drawn, and --channel N draws one",
+        "--channels chooses among the channels of one file of several; --channel N draws one, and --channels-from's files are the channels",
     ))
+}
+
+/// The file's channel numbers of the composite's `channels`, in order: each one's own where
+/// they are channels of one file of several (or `alone`'s), else their places (files given
+/// as channels, each its file's first).
+fn channel_numbers(channels: &[CompositeChannel], alone: Option<usize>) -> Vec<usize> {
+    if let Some(alone) = alone {
+        return vec![alone];
+    }
+    if of_one_file(channels) {
+        channels
+            .iter()
+            .map(|c| c.volume().series.selected.channel)
+            .collect()
+    } else {
+        (0..channels.len()).collect()
+    }
+}
+
+/// Whether `channels` are channels of one file of several (not files given as channels).
+fn of_one_file(channels: &[CompositeChannel]) -> bool {
+    let Some(first) = channels.first() else {
+        return false;
+    };
+    first.volume().series.channel_count() > 1
+        && channels
+            .iter()
+            .all(|c| c.volume().name == first.volume().name)
 }
 
 /// Whether channel `index` of `volume`'s file (a channel chosen alone) has a color of its
@@ -562,15 +602,16 @@ fn channel_states(
     let request = &options.channels;
     check_channels(channels, options, alone)?;
     let transfer_request = options.transfer.request(saved);
+    let numbers = channel_numbers(channels, alone);
     Ok(channels
         .iter()
-        .enumerate()
-        .map(|(position, c)| {
+        .zip(numbers)
+        .map(|(c, number)| {
             ChannelState::opening_of(
                 c.volume(),
                 c.quantized(),
                 c.kind,
-                alone.unwrap_or(position),
+                number,
                 &transfer_request,
                 request,
             )
@@ -578,16 +619,18 @@ fn channel_states(
         .collect())
 }
 
-/// No color or window asked for a channel the file does not have (`alone`: the file index of
-/// a single channel drawn alone, whose file's channels count).
+/// No color or window asked for a channel the file does not have (channels of one file, or
+/// `alone`, the file index of a single channel drawn alone: the file's channels count; files
+/// given as channels: theirs).
 fn check_channels(
     channels: &[CompositeChannel],
     options: &DrawOptions,
     alone: Option<usize>,
 ) -> Result<(), SceneError> {
-    let count = match alone {
-        Some(_) => channels[0].volume().series.channel_count(),
-        None => channels.len(),
+    let count = if alone.is_some() || of_one_file(channels) {
+        channels[0].volume().series.channel_count()
+    } else {
+        channels.len()
     };
     options.channels.check(count)
 }

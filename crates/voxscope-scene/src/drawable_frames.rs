@@ -69,14 +69,24 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
         }
     }
 
-    /// The file's channels a streamed composite draws, in order (`None`: not one; the
-    /// in-memory composite draws every channel of its file, in order).
+    /// The file's channels a composite draws, in order, where they are not simply its
+    /// channels in order (`None`): a streamed composite's, and an in-memory one's of chosen
+    /// channels or of a file of more than it draws.
     pub fn channel_indices(&self) -> Option<Vec<usize>> {
         match &self.drawn {
             Drawn::Stream {
                 composite: Some(composite),
                 ..
             } => Some(composite.channels.iter().map(|c| c.index).collect()),
+            Drawn::Composite {
+                channels,
+                alone: None,
+                ..
+            } if super::of_one_file(channels) => {
+                let numbers = super::channel_numbers(channels, None);
+                let every = channels[0].volume().series.channel_count();
+                (!numbers.iter().copied().eq(0..every)).then_some(numbers)
+            }
             _ => None,
         }
     }

@@ -191,14 +191,20 @@ impl OpenOptions {
     /// file: every channel of the source at the time point, or the `channels_from` files.
     /// `None` when one channel was chosen.
     pub fn composite_channels(&self) -> Result<Option<Vec<Volume>>, SceneError> {
+        self.chosen_channels(&[])
+    }
+
+    /// [`Self::composite_channels`], of the file's channels `chosen` (in that order) where
+    /// any are (`--channels`); files given as channels are each one.
+    pub fn chosen_channels(&self, chosen: &[usize]) -> Result<Option<Vec<Volume>>, SceneError> {
         let options = self.load_options();
         if let Some(specs) = &self.channels_from {
             return Ok(Some(voxscope_volume::load_as_channels(specs, &options)?));
         }
         match &self.source {
-            Some(spec) if self.wants_composite() => {
-                Ok(Some(voxscope_volume::load_all_channels(spec, &options)?))
-            }
+            Some(spec) if self.wants_composite() => Ok(Some(voxscope_volume::load_channels(
+                spec, &options, chosen,
+            )?)),
             _ => Ok(None),
         }
     }

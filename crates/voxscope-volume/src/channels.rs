@@ -67,6 +67,34 @@ pub fn load_all_channels(spec: &str, options: &LoadOptions) -> Result<Vec<Volume
         .collect()
 }
 
+/// The channels numbered `numbers` in `spec`'s file, in that order, at `options.select.time`
+/// (`--channels 1,8` in memory); none: those it opens with ([`load_all_channels`]).
+pub fn load_channels(
+    spec: &str,
+    options: &LoadOptions,
+    numbers: &[usize],
+) -> Result<Vec<Volume>, LoadError> {
+    if numbers.is_empty() {
+        return load_all_channels(spec, options);
+    }
+    numbers
+        .iter()
+        .map(|&channel| {
+            let select = Selection {
+                channel,
+                time: options.select.time,
+            };
+            load(
+                spec,
+                &LoadOptions {
+                    select,
+                    ..options.clone()
+                },
+            )
+        })
+        .collect()
+}
+
 /// [`load_all_channels`] of a Zarr store already opened as `pyramid`: each channel read from
 /// that one open (`pyramid`'s selection is put back after).
 pub fn load_opened_channels(

@@ -27,7 +27,7 @@ mod vti;
 
 pub use channels::{
     DEFAULT_CHANNEL_COLORS, MAX_CHANNELS, channel_color, channel_color_by_name, load_all_channels,
-    load_as_channels, load_opened_channels,
+    load_as_channels, load_channels, load_opened_channels,
 };
 use error::DimsError;
 pub use error::{LoadError, LoadErrorKind, OptionError};
