@@ -139,10 +139,37 @@ impl BrickSource for ChannelSources {
         self.channels[0].remote_stats()
     }
 
-    /// Each channel's caches get an even share of `ram`.
+    /// Each channel's caches get an even share of `ram`; channels of one network store share
+    /// its fetch cache, sized once from their shares together (sized per channel, the
+    /// last one's share would set it for all: 1/N of what it should hold).
     fn reserve_caches(&self, ram: u64) -> u64 {
         let share = ram / self.channels.len() as u64;
-        self.channels.iter().map(|c| c.reserve_caches(share)).sum()
+        let decoded: u64 = self
+            .channels
+            .iter()
+            .map(|c| c.reserve_decoded_caches(share))
+            .sum();
+        let mut fetched = 0;
+        for (index, channel) in self.channels.iter().enumerate() {
+            let store = channel.fetch_store();
+            let sharing = match store {
+                Some(store) => {
+                    let earlier = self.channels[..index]
+                        .iter()
+                        .any(|c| c.fetch_store() == Some(store));
+                    if earlier {
+                        continue;
+                    }
+                    self.channels
+                        .iter()
+                        .filter(|c| c.fetch_store() == Some(store))
+                        .count() as u64
+                }
+                None => 1,
+            };
+            fetched += channel.reserve_fetch_cache(share * sharing);
+        }
+        decoded + fetched
     }
 
     fn cached_bytes(&self) -> u64 {
@@ -155,5 +182,83 @@ impl BrickSource for ChannelSources {
 
     fn labels(&self) -> bool {
         false
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Mutex;
+
+    use super::*;
+    use crate::NoiseSource;
+
+    /// A channel of a network store `store` (None: a folder's) whose fetch-cache reservations
+    /// are recorded, as a `ZarrSource` sets its store's.
+    struct StoreChannel {
+        inner: NoiseSource,
+        store: Option<usize>,
+        decoded: Mutex<Vec<u64>>,
+        fetch: Arc<Mutex<Vec<(Option<usize>, u64)>>>,
+    }
+
+    impl BrickSource for StoreChannel {
+        fn name(&self) -> &str {
+            self.inner.name()
+        }
+        fn shape(&self) -> &PyramidShape {
+            self.inner.shape()
+        }
+        fn spacing(&self) -> [f64; 3] {
+            self.inner.spacing()
+        }
+        fn quantization(&self) -> Quantization {
+            self.inner.quantization()
+        }
+        fn max_value_level(&self) -> u16 {
+            self.inner.max_value_level()
+        }
+        fn read_brick(&self, id: BrickId) -> Result<BrickData, BrickError> {
+            self.inner.read_brick(id)
+        }
+        fn reserve_decoded_caches(&self, ram: u64) -> u64 {
+            self.decoded.lock().unwrap().push(ram);
+            ram / 4
+        }
+        fn reserve_fetch_cache(&self, ram: u64) -> u64 {
+            self.fetch.lock().unwrap().push((self.store, ram));
+            ram / 8
+        }
+        fn fetch_store(&self) -> Option<usize> {
+            self.store
+        }
+    }
+
+    #[test]
+    fn channels_of_one_store_size_its_fetch_cache_once_from_their_shares_together() {
+        let fetch = Arc::new(Mutex::new(Vec::new()));
+        // Three channels of store 7, one of a folder, one of store 9.
+        let stores = [Some(7), Some(7), None, Some(7), Some(9)];
+        let channels: Vec<Arc<dyn BrickSource>> = stores
+            .iter()
+            .map(|&store| {
+                Arc::new(StoreChannel {
+                    inner: NoiseSource::new("noise", [32; 3]).expect("a pyramid"),
+                    store,
+                    decoded: Mutex::new(Vec::new()),
+                    fetch: Arc::clone(&fetch),
+                }) as Arc<dyn BrickSource>
+            })
+            .collect();
+        let sources = ChannelSources::new("five", channels).expect("one grid");
+        let ram = 5 << 20;
+        let share = ram / 5;
+        let taken = sources.reserve_caches(ram);
+        let fetched = fetch.lock().unwrap().clone();
+        assert_eq!(
+            fetched,
+            [(Some(7), 3 * share), (None, share), (Some(9), share)],
+            "store 7's cache is sized once, from its three channels' shares"
+        );
+        assert_eq!(taken, 5 * (share / 4) + (3 * share) / 8 + 2 * (share / 8));
     }
 }

@@ -236,8 +236,26 @@ pub trait BrickSource: Send + Sync {
     /// streamer's whole RAM budget (`--ram-cache`), and returns the bytes they may hold: the
     /// RAM cache of bricks gets the rest. A source that keeps nothing between reads (a volume
     /// in memory, procedural data) takes nothing.
-    fn reserve_caches(&self, _ram: u64) -> u64 {
+    fn reserve_caches(&self, ram: u64) -> u64 {
+        self.reserve_decoded_caches(ram) + self.reserve_fetch_cache(ram)
+    }
+
+    /// The decoded part of [`Self::reserve_caches`] (chunks, faces): the source's own.
+    fn reserve_decoded_caches(&self, _ram: u64) -> u64 {
         0
+    }
+
+    /// The fetched part of [`Self::reserve_caches`]: the bytes the network store behind the
+    /// source keeps, sized from `ram` (none for a folder's store). Sources of one store
+    /// ([`Self::fetch_store`]) share it.
+    fn reserve_fetch_cache(&self, _ram: u64) -> u64 {
+        0
+    }
+
+    /// Which network store's fetch cache the source sets, where sources may share one (the
+    /// channels of one store): equal for sources of the same store.
+    fn fetch_store(&self) -> Option<usize> {
+        None
     }
 
     /// Bytes the source's own caches hold now (at most what [`Self::reserve_caches`] took).

@@ -553,7 +553,7 @@ impl BrickSource for ZarrSource {
     /// twice that) where a level bricks are read from has thin chunks ([`thin_chunk`]); their
     /// faces a sixteenth (at most [`FACE_CACHE_BYTES`]); a network store's fetched bytes an
     /// eighth (at most [`voxscope_volume::remote::FETCH_CACHE_BYTES`]).
-    fn reserve_caches(&self, ram: u64) -> u64 {
+    fn reserve_decoded_caches(&self, ram: u64) -> u64 {
         let thin = self
             .sources
             .iter()
@@ -570,15 +570,20 @@ impl BrickSource for ZarrSource {
         if let Ok(mut cache) = self.faces.lock() {
             cache.set_capacity(faces as usize);
         }
-        let chunks = chunks + faces;
-        let fetched = if self.pyramid.remote_stats().is_some() {
-            let fetched = (ram / 8).min(voxscope_volume::remote::FETCH_CACHE_BYTES);
-            self.pyramid.set_fetch_cache_bytes(fetched);
-            fetched
-        } else {
-            0
-        };
-        chunks + fetched
+        chunks + faces
+    }
+
+    fn reserve_fetch_cache(&self, ram: u64) -> u64 {
+        if self.pyramid.remote_stats().is_none() {
+            return 0;
+        }
+        let fetched = (ram / 8).min(voxscope_volume::remote::FETCH_CACHE_BYTES);
+        self.pyramid.set_fetch_cache_bytes(fetched);
+        fetched
+    }
+
+    fn fetch_store(&self) -> Option<usize> {
+        self.pyramid.remote_store_id()
     }
 
     fn cached_bytes(&self) -> u64 {

@@ -448,6 +448,14 @@ impl Pyramid {
         }
     }
 
+    /// Which network store this pyramid reads, where remote: equal for pyramids that share
+    /// one (clones of one opened store, such as its channels), whose fetch cache is one.
+    pub fn remote_store_id(&self) -> Option<usize> {
+        self.remote
+            .as_ref()
+            .map(|store| Arc::as_ptr(store) as *const () as usize)
+    }
+
     /// Bytes of fetched objects kept in RAM (none for a folder's store).
     pub fn fetch_cached_bytes(&self) -> u64 {
         self.remote.as_ref().map_or(0, |store| store.cached_bytes())
