@@ -192,3 +192,50 @@ fn a_label_volume_opened_in_mip_keeps_its_colors() {
         voxscope_octree::Colormap::Labels
     );
 }
+
+#[test]
+fn a_view_file_keeps_the_label_layers_drawn_and_opens_them_again() {
+    let mut harness = fresh_app(IMAGE);
+    harness.get_by_label("cells").click();
+    settle(&mut harness);
+    harness.get_by_label("label 2").click();
+    settle(&mut harness);
+    let window = harness.render().expect("the window renders");
+    let drawn = pane(&harness, &window);
+    let saved = harness.state().saved_view().expect("a view");
+    assert_eq!(
+        saved.draw.labels,
+        voxscope_scene::LabelOptions {
+            names: vec!["cells".into()],
+            opacity: voxscope_scene::DEFAULT_LABEL_OPACITY,
+            hide: vec![2.0],
+        }
+    );
+    let dir = tempfile::tempdir().expect("a temporary folder");
+    let path = dir.path().join("cells.ron");
+    let ctx = harness.ctx.clone();
+    harness
+        .state_mut()
+        .run_command(Command::SaveView(path.clone()), &ctx);
+    settle(&mut harness);
+    assert_eq!(harness.state().error(), None);
+
+    // A fresh app showing something else opens the view: the cells drawn again, label 2 hidden.
+    let mut second = fresh_app("synthetic:sphere:16");
+    let ctx = second.ctx.clone();
+    second
+        .state_mut()
+        .run_command(Command::OpenView(path), &ctx);
+    settle(&mut second);
+    assert_eq!(second.state().error(), None);
+    assert_eq!(
+        second.state().saved_view().map(|v| v.draw.labels),
+        Some(saved.draw.labels)
+    );
+    let window = second.render().expect("the window renders");
+    window.save(scratch("labels-from-view.png")).expect("saved");
+    let reopened = pane(&second, &window);
+    assert!(red_pixels(&reopened) > 50, "label 1 is drawn");
+    assert!(green_pixels(&reopened) < 20, "label 2 stays hidden");
+    assert_eq!(reopened, drawn, "the same picture");
+}

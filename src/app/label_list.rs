@@ -31,8 +31,8 @@ use voxscope_render::{
     Camera, GpuContext, RenderSettings, RenderTarget, RendererKind, RendererOptions,
 };
 use voxscope_scene::{
-    DEFAULT_LABEL_OPACITY, Job, LabelOverlay, Scene, SceneError, StreamedLabelLook, UploadedLabels,
-    VolumeSource, open_streamed_label,
+    DEFAULT_LABEL_OPACITY, Job, LabelOptions, LabelOverlay, Scene, SceneError, StreamedLabelLook,
+    UploadedLabels, VolumeSource, open_streamed_label,
 };
 use voxscope_stream::StreamOptions;
 use voxscope_volume::format_value;
@@ -64,6 +64,8 @@ pub struct LabelLayers {
     error: Option<String>,
     /// The view last given to a drawing job (one that failed is not tried again).
     tried: Option<OverlayKey>,
+    /// The layers a view file asked for, applied once the image's label images are listed.
+    asked: Option<LabelOptions>,
 }
 
 /// One label image (or file) of the image on screen.
@@ -171,6 +173,13 @@ impl LabelLayers {
                 .into_iter()
                 .map(|label| LabelLayer::new(label.name.clone(), LayerSource::Image(label)))
                 .collect();
+        }
+        // A view file's layers, once the image they are of is listed.
+        if self.listing.is_none()
+            && self.image.is_some()
+            && let Some(asked) = self.asked.take()
+        {
+            self.apply(&asked);
         }
         if let Some(job) = &self.drawing
             && let Some(result) = job.try_take()
@@ -325,6 +334,45 @@ impl LabelLayers {
             }
             Err(error) => {
                 self.error = Some(error);
+            }
+        }
+    }
+
+    /// The layers drawn, as a view file keeps them: their names in order, the first one's
+    /// opacity and the values any of them hides.
+    pub fn drawn_options(&self) -> LabelOptions {
+        let drawn: Vec<&LabelLayer> = self.layers.iter().filter(|l| l.enabled).collect();
+        let mut hide: Vec<f64> = drawn
+            .iter()
+            .flat_map(|l| l.hidden.iter().copied())
+            .collect();
+        hide.sort_by(f64::total_cmp);
+        hide.dedup();
+        LabelOptions {
+            names: drawn.iter().map(|l| l.name.clone()).collect(),
+            opacity: drawn.first().map_or(DEFAULT_LABEL_OPACITY, |l| l.opacity),
+            hide,
+        }
+    }
+
+    /// Draws the layers `asked` names (a view file's), with its opacity and hidden values,
+    /// once the image on screen has its label images listed (at the next [`Self::follow`]);
+    /// a name that is not one of them is a label file on the image's grid.
+    pub fn ask(&mut self, asked: LabelOptions) {
+        self.asked = Some(asked);
+    }
+
+    fn apply(&mut self, asked: &LabelOptions) {
+        for name in &asked.names {
+            if !self.layers.iter().any(|layer| &layer.name == name) {
+                self.add_file(name);
+            }
+        }
+        for layer in &mut self.layers {
+            layer.enabled = asked.names.contains(&layer.name);
+            if layer.enabled {
+                layer.opacity = asked.opacity;
+                layer.hidden.clone_from(&asked.hide);
             }
         }
     }

@@ -92,15 +92,13 @@ impl VoxscopeApp {
         // ask for; a streamed one's is asked for (a small store streams only when asked).
         let streamed = scene.composite.as_ref().is_some_and(|c| c.is_streamed());
         let renderer = (scene.composite.is_none() || streamed).then_some(scene.options.kind);
+        // By the file's channel numbers where they are not simply its channels in order (a
+        // streamed composite's, or one of a file of more channels than it draws), as the
+        // command line's views keep them.
+        let numbers = composite_numbers(scene);
+        let in_order = numbers.iter().copied().eq(0..volume.series.channel_count());
         let request = match &scene.composite {
-            Some(composite) if streamed => {
-                let indices: Vec<usize> = composite
-                    .channels
-                    .iter()
-                    .map(|data| data.volume.series.selected.channel)
-                    .collect();
-                ChannelRequest::of_chosen(&channels, &indices)
-            }
+            Some(_) if streamed || !in_order => ChannelRequest::of_chosen(&channels, &numbers),
             _ => ChannelRequest::of_states(&channels),
         };
         let settings = self
@@ -134,6 +132,7 @@ impl VoxscopeApp {
                 },
                 camera: self.settings.camera,
                 size,
+                labels: self.labels.drawn_options(),
                 ..DrawOptions::default()
             },
             rulers: self
@@ -241,6 +240,7 @@ impl VoxscopeApp {
         if let Some(layout) = view.layout.as_deref().and_then(layout_named) {
             self.settings.layout = layout;
         }
+        self.labels.ask(view.draw.labels.clone());
     }
 
     /// Shows `shot` (a movie's frame: its camera, settings and transfer function) and, for the
