@@ -135,6 +135,18 @@ pub(crate) fn set_option(options: &mut DrawOptions, name: &str, word: &str) -> R
                 .map(|n| n.trim().parse::<usize>().map_err(Refused::value(n)))
                 .collect::<Result<_, _>>()?;
         }
+        "labels" => {
+            options.labels.names = t.split(',').map(|n| n.trim().to_owned()).collect();
+        }
+        "labels_opacity" => {
+            options.labels.opacity = parse::parse_opacity(t).map_err(Refused::value(t))?
+        }
+        "labels_hide" => {
+            options.labels.hide = t
+                .split(',')
+                .map(|v| number::<f64>(v.trim()))
+                .collect::<Result<_, _>>()?;
+        }
         "channel_window" => options
             .channels
             .windows

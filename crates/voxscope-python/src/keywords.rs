@@ -46,6 +46,8 @@ pub enum Form {
     ChannelWindows,
     /// Whole numbers, or one: `N,N,…` (`channels`).
     Indices,
+    /// Names or numbers, or one: `A,B,…` (`labels`, `labels_hide`).
+    List,
 }
 
 /// A keyword and the option it stands for.
@@ -85,8 +87,11 @@ const fn valued(name: &'static str, form: Form, value: &'static str) -> Keyword 
 pub const TRANSFER_CHOICE: [&str; 4] = ["opacity", "opacity_points", "preset", "tf"];
 
 /// Keywords fixed when a [`crate::renderer::Renderer`] is made (they choose what is uploaded).
-pub const STRUCTURAL: [&str; 7] = [
+pub const STRUCTURAL: [&str; 10] = [
     "renderer",
+    "labels",
+    "labels_opacity",
+    "labels_hide",
     "brick_size",
     "gpu_memory",
     "ram_cache",
@@ -132,6 +137,9 @@ pub const RENDER: &[Keyword] = &[
     valued("channel_colors", Form::Colors, "C0,C1,…"),
     valued("channel_window", Form::ChannelWindows, "N:LOW:HIGH"),
     valued("channels", Form::Indices, "N,N,…"),
+    valued("labels", Form::List, "NAME|FILE"),
+    valued("labels_opacity", Form::Value, "F"),
+    valued("labels_hide", Form::List, "V,…"),
     valued("renderer", Form::Value, "RENDERER"),
     valued("brick_size", Form::Value, "BRICK_SIZE"),
     valued("gpu_memory", Form::Value, "SIZE"),
@@ -420,6 +428,16 @@ fn write(keyword: &Keyword, value: &Bound<'_, PyAny>) -> PyResult<Vec<String>> {
                     .collect::<Vec<_>>()
                     .join(","),
             )
+        }
+        Form::List => {
+            if value.extract::<f64>().is_ok() {
+                return single(value.str()?.to_string());
+            }
+            let mut items = Vec::new();
+            for item in value.try_iter()? {
+                items.push(item?.str()?.to_string());
+            }
+            single(items.join(","))
         }
         Form::Triple => {
             if let Ok(one) = value.extract::<i64>() {

@@ -125,6 +125,17 @@ impl Opened {
         context: &Arc<GpuContext>,
         options: &DrawOptions,
     ) -> Result<(Drawn, Notice), Failure> {
+        let (mut drawn, notice) = self.drawn_volume(context, options)?;
+        drawn.open_labels(&self.args, options)?;
+        Ok((drawn, notice))
+    }
+
+    /// [`Self::drawn`] without its label overlays.
+    fn drawn_volume(
+        &self,
+        context: &Arc<GpuContext>,
+        options: &DrawOptions,
+    ) -> Result<(Drawn, Notice), Failure> {
         let source = VolumeSource::from_spec(&self.spec);
         let large_store = match &self.content {
             Content::Store(pyramid) => pyramid.levels[0].voxel_count() > VOLUME_VOXEL_BUDGET as u64,

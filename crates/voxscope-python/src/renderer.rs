@@ -125,6 +125,20 @@ impl Resident {
             .map_err(|e| gpu_error(&self.drawn.name(), e))?;
         Ok((image.width(), image.height(), image.into_raw()))
     }
+
+    /// [`Self::read`], with the label overlays (`labels=`) drawn over it as `frame` draws.
+    fn read_with_labels(&mut self, frame: &Frame) -> Result<(u32, u32, Vec<u8>), PyErr> {
+        let (width, height, pixels) = self.read()?;
+        if self.drawn.labels().is_empty() {
+            return Ok((width, height, pixels));
+        }
+        let mut image = image::RgbaImage::from_raw(width, height, pixels)
+            .ok_or_else(|| VoxscopeError::new_err("the frame read back has another size"))?;
+        self.drawn
+            .draw_labels_over(&mut image, None, &frame.camera, &frame.settings)
+            .map_err(crate::errors::Failure::from)?;
+        Ok((width, height, image.into_raw()))
+    }
 }
 
 /// An image (height, width, 4) uint8 RGBA from its pixels.
@@ -202,7 +216,12 @@ impl Renderer {
             let channels = quantize(&array, &array_options)?;
             let source = VolumeSource::Spec(array_options.name.clone());
             let drawn: Drawn = py
-                .detach(|| Drawable::of_channels(context, &source, channels, &options))
+                .detach(|| -> Result<Drawn, voxscope_scene::SceneError> {
+                    let mut drawn = Drawable::of_channels(context, &source, channels, &options)?;
+                    // Label files on the array's grid.
+                    drawn.open_labels(&voxscope_scene::OpenOptions::default(), &options)?;
+                    Ok(drawn)
+                })
                 .map_err(crate::errors::Failure::from)?;
             let notice = notice_of(&drawn);
             (drawn, notice)
@@ -326,7 +345,7 @@ impl Renderer {
                 resident.budget_said = limit;
             }
             let notice: Notice = (!lines.is_empty()).then(|| lines.join("; "));
-            Ok((resident.read()?, notice))
+            Ok((resident.read_with_labels(&prepared)?, notice))
         })?;
         if let Some(notice) = notice {
             warn(py, &notice)?;

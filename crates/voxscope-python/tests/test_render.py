@@ -209,3 +209,34 @@ def test_chosen_channels_in_memory_are_the_command_lines(tmp_path, images):
     save(images, "memory-channels-8-1", drawn)
     assert lit(drawn) > 0.02
     assert psnr(drawn, expected) >= 40
+
+
+def test_labels_are_drawn_over_the_image_as_the_command_line_draws_them(tmp_path, images):
+    """`labels=`, `labels_opacity=` and `labels_hide=` are `--labels`, `--labels-opacity` and
+    `--labels-hide`: over one volume and over the composite of channels; fixed per Renderer."""
+    from conftest import REPO, run_cli
+    from PIL import Image
+
+    data = REPO / "tests/data/labels-overlay"
+    for store, keywords, words in [
+        (data / "cells-v04.ome.zarr", {"labels": "cells"}, ["--labels", "cells"]),
+        (data / "cells-v04.ome.zarr",
+         {"labels": ["cells", "regions"], "labels_opacity": 0.5, "labels_hide": [2]},
+         ["--labels", "cells,regions", "--labels-opacity", "0.5", "--labels-hide", "2"]),
+        (data / "cells-channels-v05.ome.zarr", {"labels": "cells"}, ["--labels", "cells"]),
+    ]:
+        out = tmp_path / "cli.png"
+        run_cli("render", store, "--size", "96x72", *words, "-o", out)
+        expected = np.asarray(Image.open(out).convert("RGBA"))
+        drawn = voxscope.render(str(store), size=SIZE, **keywords)
+        plain = voxscope.render(str(store), size=SIZE)
+        save(images, f"labels-{store.name}-{len(words)}", drawn)
+        assert psnr(drawn, expected) >= 40, keywords
+        assert (drawn != plain).any(axis=2).sum() > 100, keywords
+    renderer = voxscope.Renderer(str(data / "cells-v04.ome.zarr"), labels="cells", size=SIZE)
+    assert psnr(renderer.render(), voxscope.render(str(data / "cells-v04.ome.zarr"),
+                                                   labels="cells", size=SIZE)) >= 40
+    with pytest.raises(TypeError, match="labels= is chosen when the Renderer is made"):
+        renderer.render(labels="regions")
+    with pytest.raises(ValueError, match="nuclei"):
+        voxscope.render(str(data / "cells-v04.ome.zarr"), labels="nuclei", size=SIZE)

@@ -284,6 +284,37 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
         Ok(drawable)
     }
 
+    /// Opens the label overlays `options` name (`options.labels`) of the image `open` names
+    /// (its label images by name, or label files on its grid) and uploads them to be drawn over
+    /// this volume's pictures: streamed beside a streamed image, else read whole.
+    pub fn open_labels(
+        &mut self,
+        open: &OpenOptions,
+        options: &DrawOptions,
+    ) -> Result<(), SceneError> {
+        if options.labels.names.is_empty() {
+            return Ok(());
+        }
+        if self.is_streamed() {
+            // (A label file, or labels of a volume streamed from memory: one line.)
+            self.labels = open_streamed_overlays(
+                &options.labels,
+                open,
+                self.gpu.borrow(),
+                options.stream,
+                options.max_wait,
+            )?;
+            return Ok(());
+        }
+        let dims = match &self.drawn {
+            Drawn::Volume { data, .. } => data.volume.dims,
+            Drawn::Composite { channels, .. } => channels[0].volume().dims,
+            Drawn::Stream { streamed, .. } => streamed.source.shape().dims(),
+        };
+        let overlays = open_overlays(&options.labels.names, open, dims)?;
+        self.upload_overlays(overlays, options)
+    }
+
     /// Uploads `overlays` to be drawn over this volume's (or composite's) pictures, for a
     /// renderer of its kind and through the level it is drawn at, as `options` show them.
     fn upload_overlays(

@@ -45,6 +45,9 @@ class RenderOptions(TypedDict, total=False):
     channel_colors: Union[Sequence[_Color], str]
     channel_window: Union[Mapping[int, Tuple[float, float]], Sequence[Tuple[int, float, float]], str]
     channels: Union[int, Sequence[int], str]
+    labels: Union[str, Sequence[str]]
+    labels_opacity: float
+    labels_hide: Union[float, Sequence[float], str]
     renderer: Literal["octree", "dense", "bricks", "stream"]
     brick_size: Literal[4, 8, 16, 32]
     gpu_memory: _Bytes
