@@ -73,6 +73,8 @@ pub struct ZarrSource {
     fetched_ahead: Mutex<FetchedAhead>,
     /// Chunks read and decoded so far ([`BrickSource::chunks_decoded`]).
     decoded: std::sync::atomic::AtomicU64,
+    /// Chunks [`BrickSource::fetch_ahead`] has looked up so far ([`Self::chunks_looked_at_ahead`]).
+    looked_at_ahead: std::sync::atomic::AtomicU64,
 }
 
 /// Bytes of chunks' faces a [`ZarrSource`] keeps at most, and less where the streamer's RAM
@@ -203,6 +205,7 @@ impl ZarrSource {
             chunk_ranges,
             fetched_ahead: Mutex::default(),
             decoded: std::sync::atomic::AtomicU64::new(0),
+            looked_at_ahead: std::sync::atomic::AtomicU64::new(0),
         })
     }
 
@@ -483,6 +486,14 @@ impl ZarrSource {
                 }
             }
         }
+    }
+
+    /// Chunks [`BrickSource::fetch_ahead`] has looked up in the caches so far, each time it
+    /// did: what fetching ahead costs the loaders, which call it before each brick they take
+    /// and wait for the decoded chunks' lock while it looks.
+    pub fn chunks_looked_at_ahead(&self) -> u64 {
+        self.looked_at_ahead
+            .load(std::sync::atomic::Ordering::Relaxed)
     }
 
     /// The stored level pyramid level `level` reads, and its reduction per axis.
