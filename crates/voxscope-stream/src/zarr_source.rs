@@ -612,8 +612,9 @@ impl BrickSource for ZarrSource {
     /// before, in the bricks' order: whole chunks ([`Pyramid::fetch_ahead_chunks`]), or a
     /// sharded level's inner chunks shard by shard, coalesced
     /// ([`Pyramid::fetch_ahead_regions`]). The chunks already handed to the store are
-    /// remembered, and so are the bricks whose chunks all were, so that a call costs little
-    /// once a view's chunks are on their way.
+    /// remembered, and so are the bricks whose chunks all were (at a sharded level, whose
+    /// inner chunks were all decoded), so that a call costs little once a view's chunks are
+    /// on their way.
     fn fetch_ahead(&self, ids: &[BrickId]) {
         self.fetch_ahead_bricks(ids);
     }

@@ -8,8 +8,9 @@ use super::*;
 pub(super) struct FetchedAhead {
     /// Chunks of unsharded levels.
     pub(super) chunks: std::collections::HashSet<ChunkKey>,
-    /// Bricks whose chunks were all handed over: passed over at once when a later call's
-    /// window holds them again.
+    /// Bricks whose chunks were all handed over (at a sharded level: whose inner chunks were
+    /// all decoded when looked at): passed over at once when a later call's window holds them
+    /// again.
     pub(super) bricks: std::collections::HashSet<BrickId>,
 }
 
@@ -41,8 +42,9 @@ impl ZarrSource {
     /// before, in the bricks' order: whole chunks ([`Pyramid::fetch_ahead_chunks`]), or a
     /// sharded level's inner chunks shard by shard, coalesced
     /// ([`Pyramid::fetch_ahead_regions`]). The chunks already handed to the store are
-    /// remembered, and so are the bricks whose chunks all were, so that a call costs little
-    /// once a view's chunks are on their way.
+    /// remembered, and so are the bricks whose chunks all were (at a sharded level, whose
+    /// inner chunks were all decoded), so that a call costs little once a view's chunks are
+    /// on their way.
     pub(super) fn fetch_ahead_bricks(&self, ids: &[BrickId]) {
         if !self.pyramid.can_fetch_ahead() {
             return;
