@@ -73,40 +73,9 @@ pub struct ZarrSource {
     fetched_ahead: Mutex<FetchedAhead>,
     /// Chunks read and decoded so far ([`BrickSource::chunks_decoded`]).
     decoded: std::sync::atomic::AtomicU64,
+    /// Chunks [`BrickSource::fetch_ahead`] has looked up so far ([`Self::chunks_looked_at_ahead`]).
+    looked_at_ahead: std::sync::atomic::AtomicU64,
 }
-
-/// What [`BrickSource::fetch_ahead`] handed the store already.
-#[derive(Default)]
-struct FetchedAhead {
-    /// Chunks of unsharded levels.
-    chunks: std::collections::HashSet<ChunkKey>,
-    /// Bricks whose chunks were all handed over: passed over at once when a later call's
-    /// window holds them again.
-    bricks: std::collections::HashSet<BrickId>,
-}
-
-/// The most chunks a [`ZarrSource`] remembers having fetched ahead.
-const MAX_FETCHED_AHEAD: usize = 1 << 16;
-
-/// Most inner chunks of sharded levels one [`BrickSource::fetch_ahead`] call hands the store
-/// in a batch (96 bricks' at 27 inner chunks of 32³ each; a batch past 4 096 inner chunks is
-/// not fetched ahead at all).
-const MAX_SHARDED_CHUNKS_AHEAD: usize = 96 * 27;
-
-/// Most bytes of inner chunks (as stored voxels: what they hold decoded, more than they
-/// weigh compressed) one [`BrickSource::fetch_ahead`] call hands the store in a sharded batch:
-/// the batch lands in the fetch cache, not held (at most
-/// [`voxscope_volume::remote::FETCH_CACHE_BYTES`], an eighth of the RAM cache), and one larger
-/// than it is evicted before it is read and fetched again. 2 592 one-plane inner chunks of
-/// 1024² were 5 GiB: a level-0 view of a 1024×1024×256 store of them over the link fetched
-/// 1.25 GB for 0.36 GB of chunks (222 requests, 86 distinct), 61.8 s against the 64³ store's
-/// 8.2 s (issue 54). 2 592 inner chunks of 32³ u16 are 162 MiB.
-const MAX_SHARDED_BYTES_AHEAD: u64 = 64 << 20;
-
-/// Most chunks one [`BrickSource::fetch_ahead`] call hands the store (which starts what its
-/// limit has room for: twice `--max-requests`, 64 by default, within half its fetch cache
-/// with what it fetched ahead and is not read yet; the rest on later calls).
-const MAX_CHUNKS_AHEAD: usize = 256;
 
 /// Bytes of chunks' faces a [`ZarrSource`] keeps at most, and less where the streamer's RAM
 /// budget is smaller ([`BrickSource::reserve_caches`]): 2 700 chunks' of 64³.
@@ -236,6 +205,7 @@ impl ZarrSource {
             chunk_ranges,
             fetched_ahead: Mutex::default(),
             decoded: std::sync::atomic::AtomicU64::new(0),
+            looked_at_ahead: std::sync::atomic::AtomicU64::new(0),
         })
     }
 
@@ -431,91 +401,12 @@ impl ZarrSource {
         Ok(levels)
     }
 
-    /// Reads, before the first image, what it needs from the store: the stored voxels of the
-    /// level [`preview`](super::preview()) reads with `preview_bricks` and of the levels the
-    /// streamer pins (every level of a single brick), each stored level as one region whose
-    /// chunks are all fetched together ([`Pyramid::prefetch_regions`]), split into the chunk
-    /// cache. Those bricks then read no chunk one by one: over a network, a few round trips in
-    /// all instead of one a chunk. A region of more than [`WARM_VOXELS`] is left to its bricks;
-    /// a read that fails is too (they report it, naming the chunk).
-    pub fn warm_first_image(&self, preview_bricks: u64) {
-        let mut levels = vec![preview_level(&self.shape, preview_bricks)];
-        levels.extend(pinned_levels(&self.shape).into_iter().map(|l| l as usize));
-        // Per stored level, the end (exclusive, whole chunks) of what the levels' bricks read.
-        let mut ends: HashMap<usize, [usize; 3]> = HashMap::new();
-        for level in levels {
-            let (Some(shape), Some(source)) =
-                (self.shape.levels.get(level), self.sources.get(level))
-            else {
-                continue;
-            };
-            let info = &self.pyramid.levels[source.stored];
-            let end: [usize; 3] = std::array::from_fn(|a| {
-                let last = covered(0, shape.dims[a] - 1, source.ratio[a], info.dims[a]).1;
-                (last + 1).next_multiple_of(info.chunk[a]).min(info.dims[a])
-            });
-            let merged = ends.entry(source.stored).or_insert([0; 3]);
-            *merged = std::array::from_fn(|a| merged[a].max(end[a]));
-        }
-        let regions: Vec<(usize, [usize; 3], [usize; 3])> = ends
-            .into_iter()
-            .filter(|(_, end)| end.iter().map(|&e| e as u64).product::<u64>() <= WARM_VOXELS)
-            .map(|(stored, end)| (stored, [0; 3], end))
-            .collect();
-        let _held = self.pyramid.prefetch_regions(&regions);
-        regions.par_iter().for_each(|&(stored, _, end)| {
-            if let Ok(data) = self.pyramid.read_region(stored, [0; 3], end) {
-                self.cache_chunks(stored, end, &to_levels(data, self.quantization));
-            }
-        });
-    }
-
-    /// Runs `alongside` on this thread while [`Self::warm_first_image`] fetches the first
-    /// image's chunks on another (a renderer's making overlaps the open's last round trip);
-    /// returns its result once both are done.
-    pub fn warm_first_image_while<R>(
-        &self,
-        preview_bricks: u64,
-        alongside: impl FnOnce() -> R,
-    ) -> R {
-        std::thread::scope(|scope| {
-            let warming = std::thread::Builder::new()
-                .name("voxscope-first-image".into())
-                .spawn_scoped(scope, || self.warm_first_image(preview_bricks));
-            if warming.is_err() {
-                self.warm_first_image(preview_bricks);
-            }
-            alongside()
-        })
-    }
-
-    /// Puts the stored level's region `[0, end)` (whole chunks, x fastest, as value levels)
-    /// into the chunk cache, chunk by chunk as [`Self::read_levels`] would have read them.
-    fn cache_chunks(&self, stored: usize, end: [usize; 3], levels: &[u16]) {
-        let info = &self.pyramid.levels[stored];
-        let chunk = info.chunk;
-        let grid: [usize; 3] = std::array::from_fn(|a| end[a].div_ceil(chunk[a]));
-        for cz in 0..grid[2] {
-            for cy in 0..grid[1] {
-                for cx in 0..grid[0] {
-                    let index = [cx, cy, cz];
-                    let start: [usize; 3] = std::array::from_fn(|a| index[a] * chunk[a]);
-                    let extent: [usize; 3] =
-                        std::array::from_fn(|a| chunk[a].min(info.dims[a] - start[a]));
-                    let mut out = Vec::with_capacity(extent.iter().product());
-                    for z in 0..extent[2] {
-                        for y in 0..extent[1] {
-                            let from =
-                                start[0] + end[0] * ((start[1] + y) + end[1] * (start[2] + z));
-                            out.extend_from_slice(&levels[from..from + extent[0]]);
-                        }
-                    }
-                    if let Ok(mut cache) = self.chunks.lock() {
-                        cache.insert((stored, index), Arc::new(out));
-                    }
-                }
-            }
-        }
+    /// Chunks [`BrickSource::fetch_ahead`] has looked up in the caches so far, each time it
+    /// did: what fetching ahead costs the loaders, which call it before each brick they take
+    /// and wait for the decoded chunks' lock while it looks.
+    pub fn chunks_looked_at_ahead(&self) -> u64 {
+        self.looked_at_ahead
+            .load(std::sync::atomic::Ordering::Relaxed)
     }
 
     /// The stored level pyramid level `level` reads, and its reduction per axis.
@@ -639,118 +530,11 @@ impl BrickSource for ZarrSource {
     /// before, in the bricks' order: whole chunks ([`Pyramid::fetch_ahead_chunks`]), or a
     /// sharded level's inner chunks shard by shard, coalesced
     /// ([`Pyramid::fetch_ahead_regions`]). The chunks already handed to the store are
-    /// remembered, and so are the bricks whose chunks all were, so that a call costs little
-    /// once a view's chunks are on their way.
+    /// remembered, and so are the bricks whose chunks all were (at a sharded level, whose
+    /// inner chunks were all decoded), so that a call costs little once a view's chunks are
+    /// on their way.
     fn fetch_ahead(&self, ids: &[BrickId]) {
-        if !self.pyramid.can_fetch_ahead() {
-            return;
-        }
-        let mut sharded = Vec::new();
-        let mut sharded_bytes = 0u64;
-        let mut chunks: Vec<ChunkKey> = Vec::new();
-        // Per brick with chunks to fetch: how many of `chunks` it needs handled.
-        let mut bricks: Vec<(BrickId, usize)> = Vec::new();
-        {
-            // (Locked in the order of `region_parts`: decoded chunks, faces, then these.)
-            let (Ok(decoded), Ok(kept_faces), Ok(mut asked)) = (
-                self.chunks.lock(),
-                self.faces.lock(),
-                self.fetched_ahead.lock(),
-            ) else {
-                return;
-            };
-            let mut seen = std::collections::HashSet::new();
-            for &id in ids {
-                if asked.bricks.contains(&id) {
-                    continue;
-                }
-                let (Some(level), Some(source)) = (
-                    self.shape.levels.get(id.level as usize),
-                    self.sources.get(id.level as usize),
-                ) else {
-                    continue;
-                };
-                let info = &self.pyramid.levels[source.stored];
-                let first = id.brick.map(|c| c as usize * BRICK_SIZE);
-                if (0..3).any(|a| first[a] >= level.dims[a]) {
-                    continue;
-                }
-                let voxels = padded_voxels(first, level.dims);
-                let (origin, size) = stored_region(&voxels, source.ratio, info.dims);
-                let reached = chunks_reached(info.chunk, origin, size);
-                // Whether the brick's read takes the chunk's part without decoding it: the
-                // chunk is decoded, or the part lies in its faces, kept.
-                let served = |index: [usize; 3], part: &ChunkPart| {
-                    let key = (source.stored, index);
-                    decoded.chunks.contains_key(&key)
-                        || kept_faces.chunks.contains_key(&key) && part.face().is_some()
-                };
-                let part_of = |index| ChunkPart::of(info.chunk, info.dims, index, origin, size);
-                if info.shard.is_some() {
-                    // Each inner chunk to decode as a region of its own (the batch coalesces
-                    // a shard's), their number bounded: a shard batch of too many inner
-                    // chunks is not fetched ahead at all.
-                    for index in reached {
-                        if sharded.len() >= MAX_SHARDED_CHUNKS_AHEAD
-                            || sharded_bytes >= MAX_SHARDED_BYTES_AHEAD
-                        {
-                            break;
-                        }
-                        let part = part_of(index);
-                        if !served(index, &part) && seen.insert((source.stored, index)) {
-                            sharded.push((source.stored, part.start, part.extent));
-                            sharded_bytes += part.extent.iter().product::<usize>() as u64
-                                * self.pyramid.voxel_type.size() as u64;
-                        }
-                    }
-                    continue;
-                }
-                if chunks.len() >= MAX_CHUNKS_AHEAD {
-                    continue;
-                }
-                // Whether every chunk was handed to the store (by this call or one before): a
-                // chunk only decoded, or whose faces only are kept, may leave its cache, and
-                // the brick is then looked at again.
-                let mut all_handed = true;
-                for index in reached {
-                    let key = (source.stored, index);
-                    if asked.chunks.contains(&key) || seen.contains(&key) {
-                        continue;
-                    }
-                    if served(index, &part_of(index)) {
-                        all_handed = false;
-                    } else {
-                        seen.insert(key);
-                        chunks.push(key);
-                    }
-                }
-                if all_handed {
-                    // Handed over once the first `chunks.len()` are (at once for none).
-                    bricks.push((id, chunks.len()));
-                }
-            }
-            if asked.bricks.len() > MAX_FETCHED_AHEAD {
-                asked.bricks.clear();
-            }
-            let now = bricks.iter().take_while(|&&(_, needs)| needs == 0);
-            let now: Vec<BrickId> = now.map(|&(id, _)| id).collect();
-            asked.bricks.extend(now);
-        }
-        if !sharded.is_empty() {
-            self.pyramid.fetch_ahead_regions(&sharded);
-        }
-        if !chunks.is_empty() {
-            let handled = self.pyramid.fetch_ahead_chunks(&chunks);
-            if let Ok(mut asked) = self.fetched_ahead.lock() {
-                if asked.chunks.len() + handled > MAX_FETCHED_AHEAD {
-                    asked.chunks.clear();
-                    asked.bricks.clear();
-                }
-                asked.chunks.extend(chunks[..handled].iter().copied());
-                let done = bricks.iter().take_while(|&&(_, needs)| needs <= handled);
-                asked.bricks.extend(done.map(|&(id, _)| id));
-            }
-        }
+        self.fetch_ahead_bricks(ids);
     }
 
     fn can_fetch_ahead(&self) -> bool {
@@ -809,10 +593,13 @@ impl ZarrSource {
     }
 }
 
+mod ahead;
 mod chunk_cache;
 mod faces;
 mod levels;
+mod warm;
 
+use ahead::*;
 use chunk_cache::*;
 use faces::*;
 use levels::*;
