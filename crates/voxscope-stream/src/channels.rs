@@ -192,13 +192,16 @@ mod tests {
     use super::*;
     use crate::NoiseSource;
 
+    /// The fetch-cache reservations made: (the store, the bytes it was sized from).
+    type Reservations = Arc<Mutex<Vec<(Option<usize>, u64)>>>;
+
     /// A channel of a network store `store` (None: a folder's) whose fetch-cache reservations
     /// are recorded, as a `ZarrSource` sets its store's.
     struct StoreChannel {
         inner: NoiseSource,
         store: Option<usize>,
         decoded: Mutex<Vec<u64>>,
-        fetch: Arc<Mutex<Vec<(Option<usize>, u64)>>>,
+        fetch: Reservations,
     }
 
     impl BrickSource for StoreChannel {
