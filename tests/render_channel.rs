@@ -308,6 +308,30 @@ fn a_store_of_nine_channels_streams_its_active_ones_and_reads_no_other() {
     );
     let (plain, _) = render(NINE, &out("m18-plain.png"), &["--channels", "1,8"]);
     assert!(psnr(&plain, &memory) < 30.0, "channel 8's window applies");
+    // Chosen channels are checked before any is read: twice, beyond the file, more than 8.
+    for (chosen, said) in [
+        ("1,1", "channel 1 is chosen twice"),
+        ("1,9", "there is no channel 9 (9 channels, 0 to 8)"),
+        (
+            "0,1,2,3,4,5,6,7,8",
+            "9 channels chosen; at most 8 are drawn together",
+        ),
+    ] {
+        let refused = voxscope(&[
+            "render",
+            NINE,
+            "-o",
+            out("refused.png").to_str().unwrap(),
+            "--channels",
+            chosen,
+        ]);
+        let stderr = String::from_utf8_lossy(&refused.stderr);
+        assert!(
+            !refused.status.success() && stderr.contains(said),
+            "{stderr}"
+        );
+        assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    }
     let (four, _) = render(NINE, &out("m-four.png"), &["--channel-window", "8:0:9000"]);
     let (four_streamed, _) = render(
         NINE,

@@ -298,7 +298,13 @@ impl LabelLayers {
             camera: settings.camera,
             settings: RenderSettings {
                 mode: settings.mode,
-                max_level: view.max_level.min(scene.depth()),
+                // The in-memory composite is drawn at full detail: so are its labels (as the
+                // command line and Python draw them).
+                max_level: if kind == RendererKind::Dense && scene.composite.is_some() {
+                    scene.depth()
+                } else {
+                    view.max_level.min(scene.depth())
+                },
                 pixel_lod: settings.pixel_lod,
                 opacity_correction: settings.opacity_correction,
                 density: settings.density,

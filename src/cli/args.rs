@@ -29,8 +29,8 @@ pub struct VolumeArgs {
     pub spacing: Option<[f64; 3]>,
     /// The channel of a multi-channel image (0 = the first), or `all`: OME-Zarr, OME-TIFF,
     /// ImageJ hyperstacks, NIfTI (dim 5), NRRD (a list, vector or color axis). `render`,
-    /// `bench` and `info` show all channels of a multi-channel file unless one is chosen;
-    /// other commands read channel 0.
+    /// `bench`, `info` and `probe` show all channels of a multi-channel file unless one is
+    /// chosen; other commands read channel 0.
     #[arg(long, value_name = "N|all", value_parser = ChannelChoice::parse)]
     pub channel: Option<ChannelChoice>,
     /// Files opened together as the channels of one volume (same dimensions), instead of FILE.

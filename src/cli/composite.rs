@@ -70,14 +70,22 @@ impl ChannelArgs {
         transfer: &TransferArgs,
     ) -> Result<Vec<PreparedChannel>, String> {
         let request = self.request();
-        request.check(channels.len()).map_err(|e| e.to_string())?;
+        // By the file's channel numbers where they are channels of one file (as the scene
+        // layer numbers them), else by place (files given as channels).
+        let numbers = voxscope_scene::file_channel_numbers(&channels);
+        let count = match &numbers {
+            Some(_) => channels[0].series.channel_count(),
+            None => channels.len(),
+        };
+        let numbers = numbers.unwrap_or_else(|| (0..channels.len()).collect());
+        request.check(count).map_err(|e| e.to_string())?;
         let transfer = transfer.options();
         let saved = transfer.saved().map_err(|e| e.to_string())?;
         let transfer_request = transfer.request(saved.as_ref());
         Ok(channels
             .into_iter()
-            .enumerate()
-            .map(|(index, volume)| {
+            .zip(numbers)
+            .map(|(volume, index)| {
                 let quantized = QuantizedVolume::new(&volume);
                 let kind = DataKind::of_volume(&volume, &quantized);
                 let state = ChannelState::opening_of(

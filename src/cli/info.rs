@@ -40,8 +40,13 @@ pub fn run(args: &InfoArgs) -> Result<(), String> {
         _ => None,
     };
     // A store's level, and each of its channels, are read from that one open (a URL's
-    // metadata is fetched once).
+    // metadata is fetched once); channels chosen (--channels) are read alone.
+    let chosen = args.channels.channels.clone().unwrap_or_default();
     let read = match store.as_mut() {
+        _ if !chosen.is_empty() => volume_args
+            .open_options()
+            .chosen_channels(&chosen)
+            .map_err(|e| e.to_string())?,
         Some((pyramid, spec))
             if volume_args.channels_from.is_none() && volume_args.raw.is_none() =>
         {

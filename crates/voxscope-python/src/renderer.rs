@@ -45,6 +45,8 @@ struct Resident {
     target: Option<RenderTarget>,
     /// The GPU budget's limit last said (`render()` says it again only once it changes).
     budget_said: Option<String>,
+    /// The last frame drawn (its camera and settings: what `read()` draws the labels with).
+    last_frame: Option<Frame>,
 }
 
 /// A frame's keywords: camera keywords alone, as numbers (a camera sweep's; no words), or
@@ -261,6 +263,7 @@ impl Renderer {
                 applied: None,
                 target: None,
                 budget_said: None,
+                last_frame: None,
             }),
         })
     }
@@ -306,8 +309,8 @@ impl Renderer {
     /// Uploads `data` to the GPU once for frame after frame. `data`: a numpy array (z, y, x)
     /// (channels and time as leading axes), a `voxscope.Volume`, or a path or URL. Options:
     /// every keyword of `render()`; `renderer`, `brick_size`, `gpu_memory`, `ram_cache`,
-    /// `upload_budget`, `lod_scale` and `uploads` are fixed here, the rest are each frame's
-    /// defaults.
+    /// `upload_budget`, `lod_scale`, `uploads`, `labels`, `labels_opacity` and `labels_hide`
+    /// are fixed here, the rest are each frame's defaults.
     #[new]
     #[pyo3(signature = (data, **options))]
     fn new(
@@ -345,7 +348,9 @@ impl Renderer {
                 resident.budget_said = limit;
             }
             let notice: Notice = (!lines.is_empty()).then(|| lines.join("; "));
-            Ok((resident.read_with_labels(&prepared)?, notice))
+            let pixels = resident.read_with_labels(&prepared)?;
+            resident.last_frame = Some(prepared);
+            Ok((pixels, notice))
         })?;
         if let Some(notice) = notice {
             warn(py, &notice)?;
@@ -367,6 +372,7 @@ impl Renderer {
             let Resident { drawn, target, .. } = &mut *resident;
             let target = target.as_ref().expect("prepare made the frame's target");
             drawn.draw(target, &prepared.camera, &prepared.settings);
+            resident.last_frame = Some(prepared);
             Ok(())
         })
     }
@@ -389,7 +395,17 @@ impl Renderer {
     ///
     /// The last frame drawn, as `render()` returns it (waits for the GPU).
     fn read<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let pixels = py.detach(|| self.lock().read())?;
+        let pixels = py.detach(|| {
+            let mut resident = self.lock();
+            match resident.last_frame.take() {
+                Some(frame) => {
+                    let pixels = resident.read_with_labels(&frame);
+                    resident.last_frame = Some(frame);
+                    pixels
+                }
+                None => resident.read(),
+            }
+        })?;
         image_array(py, pixels)
     }
 

@@ -234,8 +234,12 @@ def test_labels_are_drawn_over_the_image_as_the_command_line_draws_them(tmp_path
         assert psnr(drawn, expected) >= 40, keywords
         assert (drawn != plain).any(axis=2).sum() > 100, keywords
     renderer = voxscope.Renderer(str(data / "cells-v04.ome.zarr"), labels="cells", size=SIZE)
-    assert psnr(renderer.render(), voxscope.render(str(data / "cells-v04.ome.zarr"),
-                                                   labels="cells", size=SIZE)) >= 40
+    rendered = renderer.render()
+    assert psnr(rendered, voxscope.render(str(data / "cells-v04.ome.zarr"),
+                                          labels="cells", size=SIZE)) >= 40
+    renderer.draw(azimuth=80)
+    renderer.draw()
+    assert (renderer.read() == rendered).all(), "read() gives the frame as render() does"
     with pytest.raises(TypeError, match="labels= is chosen when the Renderer is made"):
         renderer.render(labels="regions")
     with pytest.raises(ValueError, match="nuclei"):

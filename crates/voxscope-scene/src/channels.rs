@@ -239,6 +239,25 @@ impl ChannelState {
     }
 }
 
+/// The file's channel numbers of `volumes`, in order, where they are channels of one file of
+/// several (one file name, each its own channel of it, none twice); `None` for files given as
+/// channels (`--channels-from`), which are numbered by their places.
+pub fn file_channel_numbers<'a>(
+    volumes: impl IntoIterator<Item = &'a voxscope_volume::Volume>,
+) -> Option<Vec<usize>> {
+    let volumes: Vec<&voxscope_volume::Volume> = volumes.into_iter().collect();
+    let first = volumes.first()?;
+    if first.series.channel_count() < 2 || volumes.iter().any(|v| v.name != first.name) {
+        return None;
+    }
+    let numbers: Vec<usize> = volumes.iter().map(|v| v.series.selected.channel).collect();
+    let distinct = numbers
+        .iter()
+        .enumerate()
+        .all(|(i, n)| !numbers[..i].contains(n));
+    distinct.then_some(numbers)
+}
+
 /// The channels of one time point on the GPU as the composite, and what its tables follow.
 pub struct CompositeScene {
     /// Every channel's data (the panels' histogram, window presets and kind for the channel

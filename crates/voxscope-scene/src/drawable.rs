@@ -173,13 +173,7 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
             };
             if let Some(channels) = channels {
                 let mut drawable = Self::streamed_channels(channels, options, saved, gpu)?;
-                drawable.labels = open_streamed_overlays(
-                    &options.labels,
-                    open,
-                    drawable.gpu.borrow(),
-                    options.stream,
-                    options.max_wait,
-                )?;
+                drawable.open_labels(open, options)?;
                 return Ok(drawable);
             }
             refuse_chosen(options)?;
@@ -192,13 +186,7 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
                 gpu,
             )?;
             let mut drawable = Self::streamed(opened, saved);
-            drawable.labels = open_streamed_overlays(
-                &options.labels,
-                open,
-                drawable.gpu.borrow(),
-                options.stream,
-                options.max_wait,
-            )?;
+            drawable.open_labels(open, options)?;
             return Ok(drawable);
         }
         // Chosen channels are a file's: not of files given as channels, nor beside --channel N.
@@ -215,11 +203,9 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
         let chosen = &options.channels.chosen;
         let loaded = match open.chosen_channels(chosen)? {
             Some(channels) if channels.len() > 1 || !chosen.is_empty() => {
-                let dims = channels[0].dims;
-                let overlays = open_overlays(&options.labels.names, open, dims)?;
                 let channels = channels.into_iter().map(Channel::from_volume).collect();
                 let mut drawable = Self::composite(gpu, channels, options, None)?;
-                drawable.upload_overlays(overlays, options)?;
+                drawable.open_labels(open, options)?;
                 return Ok(drawable);
             }
             Some(mut channels) => channels
@@ -237,10 +223,9 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
                 if matches!(options.renderer, None | Some(RendererKind::Dense))
                     && !beyond_octree(loaded.dims)
                 {
-                    let overlays = open_overlays(&options.labels.names, open, loaded.dims)?;
                     let channel = Channel::from_volume(loaded);
                     let mut drawable = Self::composite(gpu, vec![channel], &options, Some(index))?;
-                    drawable.upload_overlays(overlays, &options)?;
+                    drawable.open_labels(open, &options)?;
                     return Ok(drawable);
                 }
                 say(format!(
@@ -295,8 +280,20 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
         if options.labels.names.is_empty() {
             return Ok(());
         }
+        if let Drawn::Stream {
+            streamed,
+            composite: None,
+            ..
+        } = &self.drawn
+            && streamed.pyramid.is_none()
+        {
+            return Err(SceneError::LabelsRefused {
+                name: options.labels.names[0].clone(),
+                over: "a volume streamed from memory",
+            });
+        }
         if self.is_streamed() {
-            // (A label file, or labels of a volume streamed from memory: one line.)
+            // (A label file over a streamed store: one line.)
             self.labels = open_streamed_overlays(
                 &options.labels,
                 open,
@@ -565,111 +562,14 @@ impl<G: Borrow<GpuContext>> Drawable<G> {
     }
 }
 
-/// Channels chosen (`--channels`) where nothing chooses among a file's channels (one volume
-/// given, or files given as channels): refused with the way, never ignored.
-fn refuse_chosen(options: &DrawOptions) -> Result<(), SceneError> {
-    if options.channels.chosen.is_empty() {
-        return Ok(());
-    }
-    Err(SceneError::failed(
-        "--channels chooses among the channels of one file of several; --channel N draws one, and --channels-from's files are the channels",
-    ))
-}
-
-/// The file's channel numbers of the composite's `channels`, in order: each one's own where
-/// they are channels of one file of several (or `alone`'s), else their places (files given
-/// as channels, each its file's first).
-fn channel_numbers(channels: &[CompositeChannel], alone: Option<usize>) -> Vec<usize> {
-    if let Some(alone) = alone {
-        return vec![alone];
-    }
-    if of_one_file(channels) {
-        channels
-            .iter()
-            .map(|c| c.volume().series.selected.channel)
-            .collect()
-    } else {
-        (0..channels.len()).collect()
-    }
-}
-
-/// Whether `channels` are channels of one file of several (not files given as channels).
-fn of_one_file(channels: &[CompositeChannel]) -> bool {
-    let Some(first) = channels.first() else {
-        return false;
-    };
-    first.volume().series.channel_count() > 1
-        && channels
-            .iter()
-            .all(|c| c.volume().name == first.volume().name)
-}
-
-/// Whether channel `index` of `volume`'s file (a channel chosen alone) has a color of its
-/// own: from the request, else from the file (OME-Zarr `omero`, OME-XML). A file of several
-/// channels checks the request against its channel count.
-fn colors_channel(
-    request: &crate::ChannelRequest,
-    volume: &Volume,
-    index: usize,
-) -> Result<bool, SceneError> {
-    let count = volume.series.channel_count();
-    request.check(count)?;
-    let from_file = volume
-        .series
-        .channels
-        .get(index)
-        .is_some_and(|c| c.color.is_some());
-    Ok(count > 1 && (request.colors.len() > index || from_file))
-}
-
-/// Each channel's state as `options` ask ([`ChannelState::opening_of`]); `alone` is the file
-/// index of a single channel drawn alone.
-fn channel_states(
-    channels: &[CompositeChannel],
-    options: &DrawOptions,
-    saved: Option<&SavedTransfer>,
-    alone: Option<usize>,
-) -> Result<Vec<ChannelState>, SceneError> {
-    let request = &options.channels;
-    check_channels(channels, options, alone)?;
-    let transfer_request = options.transfer.request(saved);
-    let numbers = channel_numbers(channels, alone);
-    Ok(channels
-        .iter()
-        .zip(numbers)
-        .map(|(c, number)| {
-            ChannelState::opening_of(
-                c.volume(),
-                c.quantized(),
-                c.kind,
-                number,
-                &transfer_request,
-                request,
-            )
-        })
-        .collect())
-}
-
-/// No color or window asked for a channel the file does not have (channels of one file, or
-/// `alone`, the file index of a single channel drawn alone: the file's channels count; files
-/// given as channels: theirs).
-fn check_channels(
-    channels: &[CompositeChannel],
-    options: &DrawOptions,
-    alone: Option<usize>,
-) -> Result<(), SceneError> {
-    let count = if alone.is_some() || of_one_file(channels) {
-        channels[0].volume().series.channel_count()
-    } else {
-        channels.len()
-    };
-    options.channels.check(count)
-}
-
-/// The renderer's layers: each channel's levels under its state's transfer function and color.
+#[path = "drawable_channels.rs"]
+mod channel_rules;
 #[path = "drawable_frames.rs"]
 mod frames;
 #[path = "drawable_streamed.rs"]
 mod streamed;
 
+use channel_rules::{
+    channel_numbers, channel_states, check_channels, colors_channel, of_one_file, refuse_chosen,
+};
 use streamed::StreamComposite;

@@ -546,8 +546,16 @@ impl BrickSource for SlotBricks {
         self.inner.fetch_ahead(ids);
     }
 
-    fn reserve_caches(&self, ram: u64) -> u64 {
-        self.inner.reserve_caches(ram)
+    fn reserve_decoded_caches(&self, ram: u64) -> u64 {
+        self.inner.reserve_decoded_caches(ram)
+    }
+
+    fn reserve_fetch_cache(&self, ram: u64) -> u64 {
+        self.inner.reserve_fetch_cache(ram)
+    }
+
+    fn fetch_store(&self) -> Option<usize> {
+        self.inner.fetch_store()
     }
 
     fn cached_bytes(&self) -> u64 {

@@ -33,7 +33,7 @@ mod streaming;
 mod view;
 mod view_v1;
 
-pub use channels::{ChannelRequest, ChannelState, CompositeScene};
+pub use channels::{ChannelRequest, ChannelState, CompositeScene, file_channel_numbers};
 pub use convert::{ConvertOptions, convert};
 pub use data::{HISTOGRAM_BINS, VolumeData};
 pub use drawable::{Channel, Drawable};

@@ -77,22 +77,49 @@ pub fn load_channels(
     if numbers.is_empty() {
         return load_all_channels(spec, options);
     }
-    numbers
+    let at = |channel| LoadOptions {
+        select: Selection {
+            channel,
+            time: options.select.time,
+        },
+        ..options.clone()
+    };
+    // The first one tells the file's channels: the rest are checked before one is read.
+    let first = load(spec, &at(numbers[0]))?;
+    let count = first.series.channel_count();
+    if numbers.len() > MAX_CHANNELS {
+        return Err(LoadError::new(
+            spec,
+            format!(
+                "{} channels chosen; at most {MAX_CHANNELS} are drawn together",
+                numbers.len()
+            ),
+        ));
+    }
+    if let Some(&beyond) = numbers.iter().find(|&&n| n >= count) {
+        return Err(LoadError::new(
+            spec,
+            format!(
+                "there is no channel {beyond} ({count} channels, 0 to {})",
+                count - 1
+            ),
+        ));
+    }
+    if let Some(twice) = numbers
         .iter()
-        .map(|&channel| {
-            let select = Selection {
-                channel,
-                time: options.select.time,
-            };
-            load(
-                spec,
-                &LoadOptions {
-                    select,
-                    ..options.clone()
-                },
-            )
-        })
-        .collect()
+        .enumerate()
+        .find_map(|(i, n)| numbers[..i].contains(n).then_some(*n))
+    {
+        return Err(LoadError::new(
+            spec,
+            format!("channel {twice} is chosen twice"),
+        ));
+    }
+    let mut volumes = vec![first];
+    for &channel in &numbers[1..] {
+        volumes.push(load(spec, &at(channel))?);
+    }
+    Ok(volumes)
 }
 
 /// [`load_all_channels`] of a Zarr store already opened as `pyramid`: each channel read from
