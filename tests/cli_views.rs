@@ -295,35 +295,28 @@ fn a_keyframe_movie_starts_at_its_first_view_and_ends_at_its_last() {
     assert!(movie[1] != movie[0] && movie[1] != movie[3] && movie[2] != movie[1]);
 }
 
-#[test]
-fn a_composite_keyframe_movie_follows_each_channels_window_and_color() {
+/// Two stills of `render BASE… --size 32x24`, with `first`'s and `last`'s options beside, each
+/// saving its view; then the movie through those two views in 2 frames a segment: the stills
+/// and the movie's frames.
+fn keyframe_movie(
+    base: &[&str],
+    first: &[&str],
+    last: &[&str],
+) -> (RgbaImage, RgbaImage, Vec<RgbaImage>) {
     let dir = tempfile::tempdir().unwrap();
-    let composite = "tests/data/channels/hyperstack.tif";
     let (a, b) = (dir.path().join("a.ron"), dir.path().join("b.ron"));
-    let draw = |name: &str, extra: &[&str]| {
+    let draw = |name: &str, view: &Path, extra: &[&str]| {
         let out = dir.path().join(name);
-        let mut args = vec!["render", composite, "--size", "32x24", "-o", text(&out)];
+        let mut args = vec!["render"];
+        args.extend_from_slice(base);
+        args.extend_from_slice(&["--size", "32x24", "-o", text(&out)]);
         args.extend_from_slice(extra);
+        args.extend_from_slice(&["--save-view", text(view)]);
         run(&args);
         png(&out)
     };
-    let first = draw(
-        "a.png",
-        &["--channel-window", "1:0:1700", "--save-view", text(&a)],
-    );
-    let last = draw(
-        "b.png",
-        &[
-            "--azimuth",
-            "80",
-            "--channel-window",
-            "1:0:300",
-            "--channel-colors",
-            "cyan,red",
-            "--save-view",
-            text(&b),
-        ],
-    );
+    let first = draw("a.png", &a, first);
+    let last = draw("b.png", &b, last);
     let folder = dir.path().join("path");
     let keyframes = format!("{},{}", text(&a), text(&b));
     run(&[
@@ -335,7 +328,23 @@ fn a_composite_keyframe_movie_follows_each_channels_window_and_color() {
         "-o",
         text(&folder),
     ]);
-    let movie = frames(&folder);
+    (first, last, frames(&folder))
+}
+
+#[test]
+fn a_composite_keyframe_movie_follows_each_channels_window_and_color() {
+    let (first, last, movie) = keyframe_movie(
+        &["tests/data/channels/hyperstack.tif"],
+        &["--channel-window", "1:0:1700"],
+        &[
+            "--azimuth",
+            "80",
+            "--channel-window",
+            "1:0:300",
+            "--channel-colors",
+            "cyan,red",
+        ],
+    );
     assert_eq!(movie.len(), 3);
     assert_eq!(movie[0], first, "starts with the first view's channels");
     assert_eq!(movie[2], last, "ends with the last view's channels");
@@ -346,53 +355,19 @@ fn a_composite_keyframe_movie_follows_each_channels_window_and_color() {
 /// their windows by the file's channel numbers: the movie ends on the last view's channels.
 #[test]
 fn keyframes_of_a_streamed_composite_apply_their_channels_by_file_number() {
-    let dir = tempfile::tempdir().unwrap();
-    let store = "tests/data/ome-zarr/channels9-v05-sharded.ome.zarr";
-    let (a, b) = (dir.path().join("a.ron"), dir.path().join("b.ron"));
-    let draw = |name: &str, extra: &[&str]| {
-        let out = dir.path().join(name);
-        let mut args = vec![
-            "render",
-            store,
+    let (first, last, movie) = keyframe_movie(
+        &[
+            "tests/data/ome-zarr/channels9-v05-sharded.ome.zarr",
             "--renderer",
             "stream",
             "--channels",
             "1,8",
             "--lod-scale",
             "0",
-            "--size",
-            "32x24",
-            "-o",
-            text(&out),
-        ];
-        args.extend_from_slice(extra);
-        run(&args);
-        png(&out)
-    };
-    let first = draw("a.png", &["--save-view", text(&a)]);
-    let last = draw(
-        "b.png",
-        &[
-            "--azimuth",
-            "80",
-            "--channel-window",
-            "8:0:9000",
-            "--save-view",
-            text(&b),
         ],
+        &[],
+        &["--azimuth", "80", "--channel-window", "8:0:9000"],
     );
-    let folder = dir.path().join("path");
-    let keyframes = format!("{},{}", text(&a), text(&b));
-    run(&[
-        "movie",
-        "--keyframes",
-        &keyframes,
-        "--frames",
-        "2",
-        "-o",
-        text(&folder),
-    ]);
-    let movie = frames(&folder);
     assert_eq!(movie.len(), 3);
     assert!(movie[0] == first, "starts with the first view's channels");
     assert!(

@@ -29,7 +29,7 @@
 @group(0) @binding(9) var<storage, read> channel_shading: array<f32>;
 
 const TABLE_LEVELS: u32 = 65536u;
-// Keep in sync with `SKIP_BLOCK` in src/render/composite.rs.
+// Keep in sync with `SKIP_BLOCK` in src/composite/skipping.rs.
 const SKIP_BLOCK: f32 = 8.0;
 
 // Where the ray leaves the block holding voxel-space point `p`, if no channel is visible
