@@ -144,16 +144,10 @@ fn pyramid_json(p: &Pyramid) -> serde_json::Value {
 fn pyramid_table(p: &Pyramid) -> String {
     use std::fmt::Write;
     let mut out = String::new();
-    let version = p
-        .ome_version
-        .as_ref()
-        .map(|v| format!(" {v}"))
-        .unwrap_or_default();
     let _ = writeln!(
         out,
-        "zarr         {}{version} (Zarr v{}){}",
-        p.format,
-        p.zarr_format,
+        "zarr         {}{}",
+        p.format_description(),
         p.name
             .as_ref()
             .map(|n| format!(", image '{n}'"))

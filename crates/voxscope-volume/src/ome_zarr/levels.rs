@@ -249,6 +249,21 @@ fn describe_codecs(metadata: &ArrayMetadata) -> String {
                     .unwrap_or_else(|| "none".to_owned());
                 format!("sharding({inner})")
             }
+            // An N5 block: its `compression` (`n5 gzip`, `n5 blosc lz4`, `n5 raw`).
+            "voxscope.n5_block" => {
+                let compression = config.get("compression");
+                let kind = compression
+                    .and_then(|c| c.get("type"))
+                    .and_then(Value::as_str)
+                    .unwrap_or("raw");
+                let cname = compression
+                    .and_then(|c| c.get("cname"))
+                    .and_then(Value::as_str)
+                    .filter(|_| kind == "blosc")
+                    .map(|cname| format!(" {}", printable(cname)))
+                    .unwrap_or_default();
+                format!("n5 {}{cname}", printable(kind))
+            }
             // numcodecs' compressors in Zarr v3 (and zarrs's v3 form of a v2 array's).
             other => printable(other.strip_prefix("numcodecs.").unwrap_or(other)),
         })

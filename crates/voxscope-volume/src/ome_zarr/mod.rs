@@ -17,6 +17,7 @@
 mod guard;
 mod levels;
 mod metadata;
+mod n5;
 mod numcodecs;
 mod open;
 mod read;
@@ -39,6 +40,7 @@ use super::error::Problem;
 use super::remote::{RemoteOptions, RemoteStats, RemoteStore};
 use super::{LoadError, MAX_VOXELS, Selection, Volume, VoxelType, format_dims};
 
+pub use n5::is_n5_folder;
 pub use metadata::{
     Axis, AxisKind, Bioformats2raw, LabelColor, LabelImage, OmeroChannel, Plate, SeriesEntry,
 };
@@ -160,9 +162,9 @@ struct Layout {
 pub struct Pyramid {
     /// The path (or store description) it was opened from.
     pub source: String,
-    /// `OME-Zarr` or `Zarr` (a plain array).
+    /// `OME-Zarr`, `Zarr` (a plain array) or `N5`.
     pub format: &'static str,
-    /// The OME-Zarr version (`0.4`, `0.5`), if the group says.
+    /// The OME-Zarr version (`0.4`, `0.5`), if the group says; an N5 container's `n5` version.
     pub ome_version: Option<String>,
     /// 2 or 3.
     pub zarr_format: u8,
@@ -243,19 +245,21 @@ fn prefetch_named(store: &RemoteStore, names: &[String]) {
 }
 
 /// Whether `spec` names something [`Pyramid::open_spec`] opens: a URL
-/// ([`super::remote::is_url`]) or a Zarr folder.
+/// ([`super::remote::is_url`]) or a Zarr or N5 folder.
 pub fn is_zarr_spec(spec: &str) -> bool {
     super::remote::is_url(spec) || is_zarr_folder(Path::new(spec))
 }
 
-/// Whether `path` is a Zarr folder: `.zgroup`, `.zarray` or `zarr.json` in it; or a
-/// bioformats2raw container's series `ROOT/N`, which opens (or is named missing) from `ROOT`.
+/// Whether `path` is a folder [`Pyramid::open`] reads: a Zarr folder (`.zgroup`, `.zarray` or
+/// `zarr.json` in it; or a bioformats2raw container's series `ROOT/N`, which opens, or is
+/// named missing, from `ROOT`), or an N5 container, group or dataset ([`is_n5_folder`]).
 pub fn is_zarr_folder(path: &Path) -> bool {
     (path.is_dir()
         && [".zgroup", ".zarray", "zarr.json"]
             .iter()
             .any(|name| path.join(name).is_file()))
         || series_path(path).is_some()
+        || is_n5_folder(path)
 }
 
 /// If `path` is `ROOT/N` with `ROOT` a bioformats2raw container (a folder) and `N` a number
@@ -331,12 +335,18 @@ impl Pyramid {
                 "is not a folder (a Zarr store is one)",
             ));
         }
-        if let Some(level) = unfinished_store(path) {
-            return Err(LoadError::new(&source, unfinished_problem(&level)));
-        }
         let store = zarrs::filesystem::FilesystemStore::new(path)
             .map_err(|e| LoadError::new(&source, format!("cannot open: {e}")))?;
-        let mut pyramid = Self::open_store(Arc::new(store), &source, options)?;
+        let mut pyramid = if is_n5_folder(path) {
+            guard::register();
+            n5::open(Arc::new(store), &source, options, &|_| {})
+                .map_err(|problem| LoadError::new(&source, problem))?
+        } else {
+            if let Some(level) = unfinished_store(path) {
+                return Err(LoadError::new(&source, unfinished_problem(&level)));
+            }
+            Self::open_store(Arc::new(store), &source, options)?
+        };
         pyramid.read_ahead = read_ahead::ReadAhead::for_folder(path.to_path_buf()).map(Arc::new);
         Ok(pyramid)
     }
@@ -364,8 +374,14 @@ impl Pyramid {
             &store_keys(&guesses),
             MAX_METADATA_BYTES,
         );
-        let mut pyramid = open_root(store.clone(), &source, options, &warm, None)
-            .map_err(|problem| LoadError::new(&source, problem))?;
+        let store_root: ReadableStorage = store.clone();
+        let opened = if open::is_zarr_root(&store_root) || !n5::is_n5_root(&store_root) {
+            open_root(store_root, &source, options, &warm, None)
+        } else {
+            let warm = |names: &[String]| prefetch_named(&store, &n5::n5_documents(names));
+            n5::open(store_root, &source, options, &warm)
+        };
+        let mut pyramid = opened.map_err(|problem| LoadError::new(&source, problem))?;
         pyramid.note_series();
         store.mark_opened();
         pyramid.bound_objects(&store);
@@ -472,6 +488,21 @@ impl Pyramid {
             .map_err(|problem| LoadError::new(source, problem))?;
         pyramid.note_series();
         Ok(pyramid)
+    }
+
+    /// The format as `info` names it: `OME-Zarr 0.5 (Zarr v3)`, `Zarr (Zarr v2)`, `N5 2.5.1`
+    /// (an N5 container is read as Zarr v3, which it is not).
+    pub fn format_description(&self) -> String {
+        let version = self
+            .ome_version
+            .as_ref()
+            .map(|v| format!(" {v}"))
+            .unwrap_or_default();
+        if self.format == "N5" {
+            format!("N5{version}")
+        } else {
+            format!("{}{version} (Zarr v{})", self.format, self.zarr_format)
+        }
     }
 
     /// The label images of the image (its `labels/` group's list, each with its `image-label`
@@ -630,14 +661,7 @@ impl Pyramid {
 /// The lines `info` shows for a volume read from `pyramid`'s `level`.
 fn volume_facts(pyramid: &Pyramid, level: usize) -> Vec<(String, String)> {
     let mut facts = Vec::new();
-    let version = match &pyramid.ome_version {
-        Some(version) => format!(
-            "{} {version} (Zarr v{})",
-            pyramid.format, pyramid.zarr_format
-        ),
-        None => format!("{} (Zarr v{})", pyramid.format, pyramid.zarr_format),
-    };
-    facts.push(("zarr".to_owned(), version));
+    facts.push(("zarr".to_owned(), pyramid.format_description()));
     facts.push((
         "level".to_owned(),
         format!(

@@ -118,11 +118,19 @@ const GUESSED_LEVELS: usize = 8;
 pub(super) fn first_documents(max_requests: usize) -> (Vec<String>, Vec<String>) {
     let root = node_documents("");
     let per_level = array_documents("0", 2).len();
-    let levels = (max_requests.saturating_sub(root.len()) / per_level).min(GUESSED_LEVELS);
-    let guesses = (0..levels)
+    // The last guess: an N5 container's root document.
+    let levels = (max_requests.saturating_sub(root.len() + 1) / per_level).min(GUESSED_LEVELS);
+    let mut guesses: Vec<String> = (0..levels)
         .flat_map(|level| array_documents(&level.to_string(), 2))
         .collect();
+    guesses.push(super::n5::ATTRIBUTES.to_owned());
     (root, guesses)
+}
+
+/// Whether the root of `store` is a Zarr group or array (a document that cannot be read
+/// counts as none: the caller tries N5, then reports what [`open_root`] finds).
+pub(super) fn is_zarr_root(store: &ReadableStorage) -> bool {
+    matches!(node(store, ""), Ok(Node::Group { .. } | Node::Array { .. }))
 }
 
 /// The documents zarrs reads to open the array at `full` (a path in the store, `""` for the
@@ -625,19 +633,20 @@ mod tests {
     #[test]
     fn the_first_round_trip_guesses_the_levels_that_fit_its_wave_of_requests() {
         let root = node_documents("");
-        for (max_requests, levels) in [(0, 0), (4, 0), (6, 0), (7, 1), (16, 4), (28, 8), (1024, 8)]
+        for (max_requests, levels) in [(0, 0), (4, 0), (7, 0), (8, 1), (17, 4), (29, 8), (1024, 8)]
         {
             let (asked, guesses) = first_documents(max_requests);
             assert_eq!(asked, root);
             assert_eq!(
                 guesses.len(),
-                3 * levels,
+                3 * levels + 1,
                 "{max_requests} requests in flight"
             );
-            assert!(root.len() + guesses.len() <= max_requests.max(root.len()));
+            assert!(root.len() + guesses.len() <= max_requests.max(root.len() + 1));
         }
         let (_, guesses) = first_documents(32);
         assert_eq!(&guesses[..3], ["0/zarr.json", "0/.zarray", "0/.zattrs"]);
-        assert_eq!(guesses.last().map(String::as_str), Some("7/.zattrs"));
+        assert_eq!(guesses[guesses.len() - 2], "7/.zattrs");
+        assert_eq!(guesses.last().map(String::as_str), Some("attributes.json"));
     }
 }
