@@ -404,3 +404,60 @@ fn an_s3_endpoint_is_trimmed_and_a_bad_one_is_one_line_naming_its_variable() {
         assert!(levels >= 1, "{padded:?}: {json}");
     }
 }
+
+#[test]
+fn an_n5_container_renders_from_s3_equal_to_its_folder() {
+    let (endpoint, _moto) = s3_endpoint();
+    let dir = tempfile::tempdir().unwrap();
+    let folder = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/n5/n5-viewer.n5");
+    let bucket = format!("voxscope-n5-{}", std::process::id());
+    let answer = s3_request(&endpoint, "PUT", &format!("/{bucket}"));
+    assert!(answer.starts_with("HTTP/1.1 200"), "creating the bucket: {answer}");
+    upload(&endpoint, &bucket, &folder, "private/cells.n5", false);
+    upload(&endpoint, &bucket, &folder, "public/cells.n5", true);
+    let signed = [
+        ("AWS_ENDPOINT_URL", endpoint.as_str()),
+        ("AWS_ACCESS_KEY_ID", "testing"),
+        ("AWS_SECRET_ACCESS_KEY", "testing-secret"),
+        ("AWS_REGION", "us-east-1"),
+        ("AWS_SHARED_CREDENTIALS_FILE", "/nonexistent"),
+        ("AWS_CONFIG_FILE", "/nonexistent"),
+    ];
+    // Anonymous: what is missing (the Zarr documents looked for first) is denied, not absent.
+    let anonymous = [
+        ("AWS_ENDPOINT_URL", endpoint.as_str()),
+        ("AWS_SHARED_CREDENTIALS_FILE", "/nonexistent"),
+        ("AWS_CONFIG_FILE", "/nonexistent"),
+    ];
+    let render = |spec: &str, env: &[(&str, &str)], name: &str| {
+        let png = dir.path().join(name);
+        let out = voxscope(
+            &[
+                "render",
+                spec,
+                "--size",
+                "96x72",
+                "--window",
+                "0:65535",
+                "-o",
+                png.to_str().unwrap(),
+            ],
+            env,
+        );
+        assert!(out.status.success(), "{spec}: {}", stderr(&out));
+        image::open(&png).unwrap().to_rgba8()
+    };
+    let local = render(folder.to_str().unwrap(), &[], "local.png");
+    assert!(support::reference::coverage(&local) > 0.02);
+    for (what, path, env) in [
+        ("signed", "private", &signed[..]),
+        ("anonymous", "public", &anonymous[..]),
+    ] {
+        let url = format!("s3://{bucket}/{path}/cells.n5");
+        let image = render(&url, env, &format!("{what}.png"));
+        assert_same_image(&image, &local, &format!("{what}: S3 against the folder"));
+        let info = voxscope(&["info", &url], env);
+        let text = String::from_utf8_lossy(&info.stdout);
+        assert!(text.contains("N5 2.5.1") && text.contains("n5 gzip"), "{what}: {text}");
+    }
+}

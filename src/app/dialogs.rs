@@ -35,7 +35,7 @@ pub enum DialogKind {
 
 /// The title of File ▸ Open folder…'s dialog: what a folder can be.
 pub const OPEN_FOLDER_TITLE: &str =
-    "Open a folder: a DICOM series, TIFF/PNG slices or an OME-Zarr store";
+    "Open a folder: a DICOM series, TIFF/PNG slices, an OME-Zarr store or an N5 container";
 
 /// A dialog that closes faster than this was never shown: nobody cancels one so quickly.
 pub const NOT_SHOWN_WITHIN: Duration = Duration::from_millis(300);

@@ -11,7 +11,7 @@ use egui::{Key, RichText, Ui};
 
 use super::dialogs::{DialogKind, OPEN_FOLDER_TITLE, screenshot_file_name, screenshot_title};
 use super::numbers::format_bytes;
-use voxscope_volume::ome_zarr::is_zarr_folder;
+use voxscope_volume::ome_zarr::{is_n5_folder, is_zarr_folder};
 
 /// Most entries shown of one folder (a folder of a million files stays usable).
 const MAX_ENTRIES: usize = 5000;
@@ -32,9 +32,11 @@ pub enum BrowserOutcome {
 #[derive(Debug, Clone, Default)]
 struct Listing {
     folders: Vec<String>,
-    /// Folders that are Zarr stores (`zarr.json`, `.zgroup` or `.zarray` in them): a volume
-    /// each, opened by a click rather than entered.
+    /// Folders that are Zarr stores (`zarr.json`, `.zgroup` or `.zarray` in them) or N5
+    /// containers (`attributes.json`): a volume each, opened by a click rather than entered.
     stores: Vec<String>,
+    /// Those of [`Self::stores`] that are N5.
+    n5: Vec<String>,
     /// File names and sizes.
     files: Vec<(String, u64)>,
     /// Entries left out beyond [`MAX_ENTRIES`].
@@ -204,7 +206,7 @@ impl FileBrowser {
 
     fn fixed_title(kind: DialogKind) -> &'static str {
         match kind {
-            DialogKind::Open => "Open a volume: a file or an OME-Zarr store",
+            DialogKind::Open => "Open a volume: a file, an OME-Zarr store or an N5 container",
             DialogKind::OpenFolder => OPEN_FOLDER_TITLE,
             DialogKind::SaveScreenshot => "Save screenshot (PNG)",
             DialogKind::SaveTransfer => "Save transfer function (RON)",
@@ -343,9 +345,14 @@ impl FileBrowser {
                     let store = listing.stores.contains(folder);
                     if store && opens_stores {
                         // A store is a volume: a click opens it, as a file's does.
+                        let (kind, hover) = if listing.n5.contains(folder) {
+                            ("N5 container", "An N5 container, group or dataset: click to open it")
+                        } else {
+                            ("Zarr store", "An OME-Zarr (or Zarr) store: click to open it")
+                        };
                         if ui
-                            .selectable_label(false, format!("{folder}  ·  Zarr store"))
-                            .on_hover_text("An OME-Zarr (or Zarr) store: click to open it")
+                            .selectable_label(false, format!("{folder}  ·  {kind}"))
+                            .on_hover_text(hover)
                             .clicked()
                         {
                             *outcome = Some(BrowserOutcome::Chosen(self.directory.join(folder)));
@@ -435,6 +442,9 @@ fn list(directory: &Path, folders_only: bool) -> Result<Listing, String> {
         if metadata.is_dir() {
             if is_zarr_folder(&entry.path()) {
                 listing.stores.push(name.clone());
+                if is_n5_folder(&entry.path()) {
+                    listing.n5.push(name.clone());
+                }
             }
             listing.folders.push(name);
         } else if !folders_only {
