@@ -5,7 +5,9 @@
 //! replaced by garbage or by a decompression bomb; metadata that is not JSON, declares a
 //! huge shape, or is tens of megabytes. A reader must refuse each (one line) or, where the
 //! damage changes no value (a byte of a header no value depends on, junk after a gzip
-//! member), read the same values: never other values.
+//! member), read the same values: never other values. An N5 container (n5-viewer levels of
+//! uncompressed blocks, the edge blocks cut as Java's N5 writes them) is written here, by
+//! hand, to the N5 specification.
 
 use std::path::{Path, PathBuf};
 
@@ -26,10 +28,12 @@ pub enum StoreKind {
     Sharded,
     /// OME-Zarr 0.4, uncompressed chunks of 8³.
     Raw,
+    /// N5 (n5-viewer `scales`), uncompressed blocks of 8³, edge blocks cut to the dataset.
+    N5,
 }
 
 impl StoreKind {
-    pub const ALL: [Self; 4] = [Self::Gzip, Self::Zstd, Self::Sharded, Self::Raw];
+    pub const ALL: [Self; 5] = [Self::Gzip, Self::Zstd, Self::Sharded, Self::Raw, Self::N5];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -37,6 +41,7 @@ impl StoreKind {
             Self::Zstd => "zstd.ome.zarr",
             Self::Sharded => "sharded.ome.zarr",
             Self::Raw => "raw.ome.zarr",
+            Self::N5 => "raw.n5",
         }
     }
 }
@@ -56,6 +61,10 @@ pub fn values() -> Vec<u16> {
 pub fn write_store(folder: &Path, kind: StoreKind) -> PathBuf {
     let path = folder.join(kind.name());
     let (version, compression, shard_chunks) = match kind {
+        StoreKind::N5 => {
+            write_n5(&path);
+            return path;
+        }
         StoreKind::Gzip => (ZarrVersion::V04, Compression::Gzip, 1),
         StoreKind::Zstd => (ZarrVersion::V05, Compression::Zstd, 1),
         StoreKind::Sharded => (ZarrVersion::V05, Compression::Zstd, 2),
@@ -79,6 +88,59 @@ pub fn write_store(folder: &Path, kind: StoreKind) -> PathBuf {
         .finish()
         .unwrap_or_else(|e| panic!("{}: {e}", kind.name()));
     path
+}
+
+/// An N5 container of three levels (every other voxel of the one before), blocks of 8³.
+fn write_n5(path: &Path) {
+    const BLOCK: usize = 8;
+    let write_json = |folder: &Path, json: serde_json::Value| {
+        std::fs::create_dir_all(folder).expect("a folder");
+        std::fs::write(folder.join("attributes.json"), json.to_string()).expect("a document");
+    };
+    write_json(
+        path,
+        serde_json::json!({"n5": "2.5.1", "scales": [[1, 1, 1], [2, 2, 2], [4, 4, 4]]}),
+    );
+    let mut dims = DIMS;
+    let mut level = values();
+    for s in 0..3 {
+        let dataset = path.join(format!("s{s}"));
+        write_json(
+            &dataset,
+            serde_json::json!({"dimensions": dims, "blockSize": [BLOCK, BLOCK, BLOCK], "dataType": "uint16",
+                "compression": {"type": "raw"}}),
+        );
+        let grid: [usize; 3] = std::array::from_fn(|a| dims[a].div_ceil(BLOCK));
+        for b in 0..grid.iter().product::<usize>() {
+            let at = [b % grid[0], b / grid[0] % grid[1], b / grid[0] / grid[1]];
+            let start: [usize; 3] = std::array::from_fn(|a| at[a] * BLOCK);
+            let extent: [usize; 3] = std::array::from_fn(|a| BLOCK.min(dims[a] - start[a]));
+            let mut block = vec![0u8, 0, 0, 3];
+            for e in extent {
+                block.extend_from_slice(&(e as u32).to_be_bytes());
+            }
+            for z in 0..extent[2] {
+                for y in 0..extent[1] {
+                    for x in 0..extent[0] {
+                        let (x, y, z) = (start[0] + x, start[1] + y, start[2] + z);
+                        let value = level[x + dims[0] * (y + dims[1] * z)];
+                        block.extend_from_slice(&value.to_be_bytes());
+                    }
+                }
+            }
+            let file = dataset.join(format!("{}/{}/{}", at[0], at[1], at[2]));
+            std::fs::create_dir_all(file.parent().expect("a parent")).expect("a folder");
+            std::fs::write(file, block).expect("a block");
+        }
+        let coarser: [usize; 3] = std::array::from_fn(|a| dims[a].div_ceil(2));
+        level = (0..coarser.iter().product::<usize>())
+            .map(|i| {
+                let (x, y, z) = (i % coarser[0], i / coarser[0] % coarser[1], i / coarser[0] / coarser[1]);
+                level[2 * x + dims[0] * (2 * y + dims[1] * 2 * z)]
+            })
+            .collect();
+        dims = coarser;
+    }
 }
 
 /// Every file under `root`, relative, sorted (the order a seed picks from).
@@ -108,7 +170,10 @@ pub fn is_metadata(relative: &Path) -> bool {
         .file_name()
         .and_then(|n| n.to_str())
         .unwrap_or_default();
-    matches!(name, "zarr.json" | ".zarray" | ".zattrs" | ".zgroup")
+    matches!(
+        name,
+        "zarr.json" | ".zarray" | ".zattrs" | ".zgroup" | "attributes.json"
+    )
 }
 
 /// One kind of damage.
@@ -151,9 +216,13 @@ impl Damage {
             .collect();
         let chunk = chunks[rng.below(chunks.len() as u64) as usize].clone();
         let size = std::fs::metadata(root.join(&chunk)).map_or(0, |m| m.len() as usize);
-        // The raw store carries no check: only damage that changes a chunk's length is
+        // The raw stores carry no check: only damage that changes a chunk's length is
         // detectable there.
-        let chunk_damages = if kind == StoreKind::Raw { 4 } else { 7 };
+        let chunk_damages = if matches!(kind, StoreKind::Raw | StoreKind::N5) {
+            4
+        } else {
+            7
+        };
         let choice = rng.below(chunk_damages + 3);
         if choice >= chunk_damages {
             let document = documents[rng.below(documents.len() as u64) as usize].clone();
@@ -232,7 +301,13 @@ impl Damage {
                 let Ok(mut json) = serde_json::from_str::<serde_json::Value>(&text) else {
                     return b;
                 };
-                if let Some(shape) = json.get_mut("shape").and_then(|s| s.as_array_mut()) {
+                // Zarr's `shape`, N5's `dimensions`.
+                let key = if json.get("shape").is_some() {
+                    "shape"
+                } else {
+                    "dimensions"
+                };
+                if let Some(shape) = json.get_mut(key).and_then(|s| s.as_array_mut()) {
                     for extent in shape.iter_mut() {
                         *extent = serde_json::json!(1_000_000_000_000u64);
                     }
