@@ -76,10 +76,21 @@ fn multiscale_conventions_open_as_pyramids_placed_where_they_say() {
     let coarse = u16_file(&fixtures().join("s1.u16le"));
     assert_eq!(coarse.len(), 5 * 5 * 4);
     let want = voxels();
-    // (fixture, level 0's spacing, level 0's origin, unit)
-    let cases: [(&str, [f64; 3], [f64; 3], Option<&str>); 3] = [
-        ("n5-viewer.n5", [0.5, 0.5, 2.0], [0.0; 3], Some("micrometer")),
-        ("cosem.n5", [0.5, 0.5, 2.0], [30.0, 20.0, 10.0], Some("nanometer")),
+    /// A fixture, level 0's spacing and origin, and the unit.
+    type Case<'a> = (&'a str, [f64; 3], [f64; 3], Option<&'a str>);
+    let cases: [Case; 3] = [
+        (
+            "n5-viewer.n5",
+            [0.5, 0.5, 2.0],
+            [0.0; 3],
+            Some("micrometer"),
+        ),
+        (
+            "cosem.n5",
+            [0.5, 0.5, 2.0],
+            [30.0, 20.0, 10.0],
+            Some("nanometer"),
+        ),
         ("bdv.n5", [1.0; 3], [0.0; 3], None),
     ];
     for (name, spacing, origin, unit) in cases {
@@ -93,7 +104,11 @@ fn multiscale_conventions_open_as_pyramids_placed_where_they_say() {
         // further along each axis (2 voxels averaged).
         for a in 0..3 {
             assert_eq!(s1.spacing[a], 2.0 * spacing[a], "{name} axis {a}");
-            assert_eq!(s1.origin[a], origin[a] + spacing[a] / 2.0, "{name} axis {a}");
+            assert_eq!(
+                s1.origin[a],
+                origin[a] + spacing[a] / 2.0,
+                "{name} axis {a}"
+            );
         }
         assert_eq!(pyramid.units[0].as_deref(), unit, "{name}");
         assert!(level(&pyramid, 0).unwrap() == want, "{name}: s0 differs");
@@ -113,7 +128,12 @@ fn multiscale_conventions_open_as_pyramids_placed_where_they_say() {
 #[test]
 fn a_container_reads_the_same_over_http_as_from_its_folder() {
     let server = FileServer::start(&fixtures(), Faults::default());
-    for name in ["n5-viewer.n5", "edge-lz4.n5", "tensorstore-blosc.n5", "bdv.n5"] {
+    for name in [
+        "n5-viewer.n5",
+        "edge-lz4.n5",
+        "tensorstore-blosc.n5",
+        "bdv.n5",
+    ] {
         let folder = open(&fixtures().join(name)).unwrap();
         let url = server.url(name);
         let remote = Pyramid::open_url(&url, PyramidOptions::default(), RemoteOptions::default())
@@ -148,7 +168,11 @@ fn a_container_renders_equal_to_its_ome_zarr_conversion() {
         source.to_str().unwrap(),
         converted.to_str().unwrap(),
     ]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let read_back = open(&converted).unwrap();
     assert!(level(&read_back, 0).unwrap() == voxels());
     assert_eq!(read_back.levels[0].spacing, [0.5, 0.5, 2.0]);
@@ -171,7 +195,11 @@ fn a_container_renders_equal_to_its_ome_zarr_conversion() {
             "--window",
             "0:65535",
         ]);
-        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
         images.push(image::open(&png).unwrap().to_rgba8());
     }
     assert!(images[0].pixels().any(|p| p[0] > 0), "the image is blank");
@@ -233,7 +261,10 @@ fn damaged_blocks_and_metadata_are_one_line_errors() {
     }
     std::fs::write(path.join("1/1/1"), &header).unwrap();
     let error = read_error(&path);
-    assert!(error.contains("does not fit the block size 6x5x4"), "{error}");
+    assert!(
+        error.contains("does not fit the block size 6x5x4"),
+        "{error}"
+    );
 
     // lz4 blocks that claim more than the block holds.
     let (_dir, path) = copy_fixture("edge-lz4.n5");
@@ -250,7 +281,10 @@ fn damaged_blocks_and_metadata_are_one_line_errors() {
     let good = std::fs::read_to_string(&attributes).unwrap();
     std::fs::write(&attributes, good.replace("[6,5,4]", "[6,5]")).unwrap();
     let error = read_error(&path);
-    assert!(error.contains("3 dimensions and a block size of 2"), "{error}");
+    assert!(
+        error.contains("3 dimensions and a block size of 2"),
+        "{error}"
+    );
     std::fs::write(&attributes, good.replace("\"raw\"", "\"snappy\"")).unwrap();
     let error = read_error(&path);
     assert!(error.contains("compression 'snappy'"), "{error}");

@@ -412,7 +412,10 @@ fn an_n5_container_renders_from_s3_equal_to_its_folder() {
     let folder = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/n5/n5-viewer.n5");
     let bucket = format!("voxscope-n5-{}", std::process::id());
     let answer = s3_request(&endpoint, "PUT", &format!("/{bucket}"));
-    assert!(answer.starts_with("HTTP/1.1 200"), "creating the bucket: {answer}");
+    assert!(
+        answer.starts_with("HTTP/1.1 200"),
+        "creating the bucket: {answer}"
+    );
     upload(&endpoint, &bucket, &folder, "private/cells.n5", false);
     upload(&endpoint, &bucket, &folder, "public/cells.n5", true);
     let signed = [
@@ -458,6 +461,9 @@ fn an_n5_container_renders_from_s3_equal_to_its_folder() {
         assert_same_image(&image, &local, &format!("{what}: S3 against the folder"));
         let info = voxscope(&["info", &url], env);
         let text = String::from_utf8_lossy(&info.stdout);
-        assert!(text.contains("N5 2.5.1") && text.contains("n5 gzip"), "{what}: {text}");
+        assert!(
+            text.contains("N5 2.5.1") && text.contains("n5 gzip"),
+            "{what}: {text}"
+        );
     }
 }

@@ -346,9 +346,15 @@ impl FileBrowser {
                     if store && opens_stores {
                         // A store is a volume: a click opens it, as a file's does.
                         let (kind, hover) = if listing.n5.contains(folder) {
-                            ("N5 container", "An N5 container, group or dataset: click to open it")
+                            (
+                                "N5 container",
+                                "An N5 container, group or dataset: click to open it",
+                            )
                         } else {
-                            ("Zarr store", "An OME-Zarr (or Zarr) store: click to open it")
+                            (
+                                "Zarr store",
+                                "An OME-Zarr (or Zarr) store: click to open it",
+                            )
                         };
                         if ui
                             .selectable_label(false, format!("{folder}  ·  {kind}"))

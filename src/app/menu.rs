@@ -52,15 +52,18 @@ pub fn menu_bar(ui: &mut Ui, settings: &AppSettings, has_scene: bool, queue: &mu
 }
 
 fn file_menu(ui: &mut Ui, settings: &AppSettings, has_scene: bool, queue: &mut CommandQueue) {
-    command_button(ui, "Open…", Command::ShowDialog(DialogKind::Open), queue)
-        .on_hover_text("A volume file; an OME-Zarr store or N5 container is a folder: Open folder… or Open path…");
+    command_button(ui, "Open…", Command::ShowDialog(DialogKind::Open), queue).on_hover_text(
+        "A volume file; an OME-Zarr store or N5 container is a folder: Open folder… or Open path…",
+    );
     command_button(
         ui,
         "Open folder…",
         Command::ShowDialog(DialogKind::OpenFolder),
         queue,
     )
-    .on_hover_text("A DICOM series, a folder of TIFF/PNG slices, an OME-Zarr store or an N5 container");
+    .on_hover_text(
+        "A DICOM series, a folder of TIFF/PNG slices, an OME-Zarr store or an N5 container",
+    );
     ui.menu_button("Open recent", |ui| {
         if settings.recent.is_empty() {
             ui.label("nothing yet");
@@ -76,8 +79,9 @@ fn file_menu(ui: &mut Ui, settings: &AppSettings, has_scene: bool, queue: &mut C
     });
     command_button(ui, "Open path…", Command::Browse(DialogKind::Open), queue)
         .on_hover_text("Type a path or a synthetic: spec, or browse folders");
-    command_button(ui, "Open URL…", Command::AskUrl, queue)
-        .on_hover_text("An OME-Zarr store or N5 container on an HTTP server or in S3-compatible object storage");
+    command_button(ui, "Open URL…", Command::AskUrl, queue).on_hover_text(
+        "An OME-Zarr store or N5 container on an HTTP server or in S3-compatible object storage",
+    );
     command_button(
         ui,
         "Open sample",

@@ -135,7 +135,11 @@ fn write_n5(path: &Path) {
         let coarser: [usize; 3] = std::array::from_fn(|a| dims[a].div_ceil(2));
         level = (0..coarser.iter().product::<usize>())
             .map(|i| {
-                let (x, y, z) = (i % coarser[0], i / coarser[0] % coarser[1], i / coarser[0] / coarser[1]);
+                let (x, y, z) = (
+                    i % coarser[0],
+                    i / coarser[0] % coarser[1],
+                    i / coarser[0] / coarser[1],
+                );
                 level[2 * x + dims[0] * (2 * y + dims[1] * 2 * z)]
             })
             .collect();

@@ -45,7 +45,7 @@ pub const SNIFF_BYTES: usize = 4096;
 /// strongest first (DICOM's `DICM` at byte 128 and MRC's `MAP ` at byte 208 could occur inside
 /// another format's header fields; NIfTI's 4-byte header size is the weakest, so last).
 /// Extensions never overlap, so their order does not matter.
-pub static FORMATS: [Format; 7] = [
+pub static FORMATS: [Format; 8] = [
     Format {
         name: "DICOM",
         extensions: &[".dcm"],
@@ -86,6 +86,14 @@ pub static FORMATS: [Format; 7] = [
         extensions: &[".zarr"],
         opens_folders: true,
         sniff: None,
+        load: super::ome_zarr::load,
+    },
+    Format {
+        name: "N5",
+        extensions: &[".n5"],
+        opens_folders: true,
+        sniff: None,
+        // Read by the Zarr reader (ome_zarr/n5).
         load: super::ome_zarr::load,
     },
     Format {

@@ -40,10 +40,10 @@ use super::error::Problem;
 use super::remote::{RemoteOptions, RemoteStats, RemoteStore};
 use super::{LoadError, MAX_VOXELS, Selection, Volume, VoxelType, format_dims};
 
-pub use n5::is_n5_folder;
 pub use metadata::{
     Axis, AxisKind, Bioformats2raw, LabelColor, LabelImage, OmeroChannel, Plate, SeriesEntry,
 };
+pub use n5::is_n5_folder;
 use open::open_root;
 pub use read::MAX_PREFETCH_CHUNKS;
 pub use source::SlabSource;

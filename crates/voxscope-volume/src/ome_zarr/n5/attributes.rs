@@ -234,8 +234,8 @@ fn cosem(attributes: &Map<String, Value>) -> Option<Multiscale> {
                 .map(|a| a.as_str())
                 .collect::<Option<_>>()?;
             let mut scale: Vec<f64> = numbers(transform.get("scale"))?;
-            let mut translate: Vec<f64> = numbers(transform.get("translate"))
-                .unwrap_or_else(|| vec![0.0; axes.len()]);
+            let mut translate: Vec<f64> =
+                numbers(transform.get("translate")).unwrap_or_else(|| vec![0.0; axes.len()]);
             let mut units: Vec<&str> = transform
                 .get("units")
                 .and_then(Value::as_array)
@@ -312,10 +312,13 @@ fn levels_of(factors: &[[f64; 3]], path: impl Fn(usize) -> String, size: [f64; 3
 
 fn factor_list(value: Option<&Value>) -> Option<Vec<[f64; 3]>> {
     let list = value?.as_array()?;
-    let factors: Vec<[f64; 3]> = list.iter().map(|f| triple(Some(f))).collect::<Option<_>>()?;
+    let factors: Vec<[f64; 3]> = list
+        .iter()
+        .map(|f| triple(Some(f)))
+        .collect::<Option<_>>()?;
     let valid = !factors.is_empty()
         && factors.len() <= 64
-        && factors.iter().flatten().all(|&f| f >= 1.0 && f <= 1e6);
+        && factors.iter().flatten().all(|f| (1.0..=1e6).contains(f));
     valid.then_some(factors)
 }
 
@@ -375,15 +378,24 @@ mod tests {
             document["chunk_grid"]["configuration"]["chunk_shape"],
             json!([16, 32, 64])
         );
-        assert_eq!(document["codecs"][0]["configuration"]["compression"]["type"], "gzip");
-        assert_eq!(document["attributes"], json!({"pixelResolution": {"unit": "um"}}));
+        assert_eq!(
+            document["codecs"][0]["configuration"]["compression"]["type"],
+            "gzip"
+        );
+        assert_eq!(
+            document["attributes"],
+            json!({"pixelResolution": {"unit": "um"}})
+        );
     }
 
     #[test]
     fn bad_datasets_are_named() {
         let bad = |value: Value| zarr_json(&object(value), &none).unwrap_err();
         let error = bad(json!({"dimensions": [1, 2], "blockSize": [1], "dataType": "uint8"}));
-        assert!(error.contains("2 dimensions and a block size of 1"), "{error}");
+        assert!(
+            error.contains("2 dimensions and a block size of 1"),
+            "{error}"
+        );
         let error = bad(json!({"dimensions": [1], "blockSize": [0], "dataType": "uint8"}));
         assert!(error.contains("empty or oversized"), "{error}");
         let error = bad(json!({"dimensions": [1], "blockSize": [1], "dataType": "object"}));
@@ -403,7 +415,10 @@ mod tests {
         assert_eq!(ome["axes"][0]["unit"], "micrometer");
         let s1 = &ome["datasets"][1];
         assert_eq!(s1["path"], "s1");
-        assert_eq!(s1["coordinateTransformations"][0]["scale"], json!([2.0, 1.0, 1.0]));
+        assert_eq!(
+            s1["coordinateTransformations"][0]["scale"],
+            json!([2.0, 1.0, 1.0])
+        );
         assert_eq!(
             s1["coordinateTransformations"][1]["translation"],
             json!([0.0, 0.25, 0.25])
@@ -427,7 +442,8 @@ mod tests {
 
     #[test]
     fn a_big_data_viewer_root_opens_its_first_setup() {
-        let setup = object(json!({"downsamplingFactors": [[1, 1, 1], [2, 2, 2]], "dataType": "uint16"}));
+        let setup =
+            object(json!({"downsamplingFactors": [[1, 1, 1], [2, 2, 2]], "dataType": "uint16"}));
         let read = |path: &str| (path == "setup0").then(|| setup.clone());
         let document = zarr_json(&object(json!({"n5": "2.2.0"})), &read).unwrap();
         let datasets = &document["attributes"]["ome"]["multiscales"][0]["datasets"];

@@ -133,7 +133,12 @@ impl Compression {
     }
 
     /// Decodes `payload` into exactly `expected` bytes.
-    fn decode(&self, payload: &[u8], expected: u64, options: &CodecOptions) -> Result<Vec<u8>, CodecError> {
+    fn decode(
+        &self,
+        payload: &[u8],
+        expected: u64,
+        options: &CodecOptions,
+    ) -> Result<Vec<u8>, CodecError> {
         let decoded = match self {
             Self::Raw => payload.to_vec(),
             Self::Codec(codec) => codec
@@ -410,15 +415,13 @@ impl ArrayToBytesCodecTraits for N5BlockCodec {
         let size = value_size(data_type)?;
         let header = read_header(&bytes, shape)?;
         let elements: u64 = header.extent.iter().product();
-        let mut values =
-            self.compression
-                .decode(&bytes[header.payload_at..], elements * size as u64, options)?;
+        let mut values = self.compression.decode(
+            &bytes[header.payload_at..],
+            elements * size as u64,
+            options,
+        )?;
         swap_big_endian(&mut values, size);
-        let whole = header
-            .extent
-            .iter()
-            .zip(shape)
-            .all(|(&e, s)| e == s.get());
+        let whole = header.extent.iter().zip(shape).all(|(&e, s)| e == s.get());
         let values = if whole {
             values
         } else {
@@ -439,14 +442,18 @@ fn decode_lz4_blocks(stream: &[u8], expected: u64) -> Result<Vec<u8>, CodecError
     let mut decoded = Vec::new();
     let mut at = 0;
     loop {
-        let header = stream
-            .get(at..at + HEADER)
-            .ok_or_else(|| fail(format!("the stream ends inside a block header at byte {at}")))?;
+        let header = stream.get(at..at + HEADER).ok_or_else(|| {
+            fail(format!(
+                "the stream ends inside a block header at byte {at}"
+            ))
+        })?;
         if &header[..8] != MAGIC {
             return Err(fail(format!("no LZ4Block magic at byte {at}")));
         }
         let method = header[8] & 0xF0;
-        let word = |i: usize| u32::from_le_bytes(header[9 + 4 * i..13 + 4 * i].try_into().unwrap_or_default());
+        let word = |i: usize| {
+            u32::from_le_bytes(header[9 + 4 * i..13 + 4 * i].try_into().unwrap_or_default())
+        };
         let (compressed, length) = (word(0) as usize, word(1) as u64);
         at += HEADER;
         if length == 0 {
@@ -555,10 +562,14 @@ mod tests {
         let header = read_header(&bytes, &shape(&[4, 8])).unwrap();
         assert_eq!(header.extent, [3, 5]);
         assert_eq!(header.payload_at, 12);
-        let error = read_header(&bytes, &shape(&[2, 8])).unwrap_err().to_string();
+        let error = read_header(&bytes, &shape(&[2, 8]))
+            .unwrap_err()
+            .to_string();
         assert!(error.contains("does not fit the block size 8x2"), "{error}");
         assert!(read_header(&bytes[..6], &shape(&[4, 8])).is_err());
-        let error = read_header(&bytes, &shape(&[4, 8, 1])).unwrap_err().to_string();
+        let error = read_header(&bytes, &shape(&[4, 8, 1]))
+            .unwrap_err()
+            .to_string();
         assert!(error.contains("2 dimensions"), "{error}");
     }
 
@@ -566,7 +577,10 @@ mod tests {
     fn lz4_blocks_round_trip_and_are_bounded() {
         let values: Vec<u8> = (0..200_000u32).map(|i| (i % 251) as u8).collect();
         let stream = encode_lz4_blocks(&values);
-        assert_eq!(decode_lz4_blocks(&stream, values.len() as u64).unwrap(), values);
+        assert_eq!(
+            decode_lz4_blocks(&stream, values.len() as u64).unwrap(),
+            values
+        );
         let error = decode_lz4_blocks(&stream, 1000).unwrap_err().to_string();
         assert!(error.contains("more than the 1000 bytes"), "{error}");
         assert!(decode_lz4_blocks(&stream[..30], values.len() as u64).is_err());

@@ -63,7 +63,9 @@ fn read_attributes(
     match serde_json::from_slice(&bytes) {
         Ok(Value::Object(map)) => Ok(Some(map)),
         Ok(_) => Err(StorageError::Other(format!("{name} is not a JSON object"))),
-        Err(e) => Err(StorageError::Other(format!("{name} is not valid JSON: {e}"))),
+        Err(e) => Err(StorageError::Other(format!(
+            "{name} is not valid JSON: {e}"
+        ))),
     }
 }
 
