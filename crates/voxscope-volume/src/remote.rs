@@ -88,7 +88,7 @@ use fetch::Fetched;
 
 pub use fault::Timing;
 pub use held::HeldFetches;
-pub use url::redact_url;
+pub use url::{redact_url, resolve_url};
 
 /// Requests in flight at once by default: enough to fill a fast link at 50–100 ms of latency
 /// with chunks of ~1 MiB, few enough for a small lab server.

@@ -264,6 +264,11 @@ fn describe_codecs(metadata: &ArrayMetadata) -> String {
                     .unwrap_or_default();
                 format!("n5 {}{cname}", printable(kind))
             }
+            // A precomputed chunk: its encoding (`precomputed raw`, `precomputed jpeg`).
+            "voxscope.precomputed_chunk" => format!(
+                "precomputed {}",
+                printable(config.get("encoding").and_then(Value::as_str).unwrap_or("?"))
+            ),
             // numcodecs' compressors in Zarr v3 (and zarrs's v3 form of a v2 array's).
             other => printable(other.strip_prefix("numcodecs.").unwrap_or(other)),
         })

@@ -14,12 +14,14 @@
 //! hold only the fill value). A chunk that is present but cannot be decoded, or decodes to
 //! the wrong size, is an error that names the chunk's key.
 
+mod adapted;
 mod guard;
 mod levels;
 mod metadata;
 mod n5;
 mod numcodecs;
 mod open;
+mod precomputed;
 mod read;
 mod read_ahead;
 mod shard_index;
@@ -44,6 +46,7 @@ pub use metadata::{
     Axis, AxisKind, Bioformats2raw, LabelColor, LabelImage, OmeroChannel, Plate, SeriesEntry,
 };
 pub use n5::is_n5_folder;
+pub use precomputed::is_precomputed_folder;
 use open::open_root;
 pub use read::MAX_PREFETCH_CHUNKS;
 pub use source::SlabSource;
@@ -162,7 +165,7 @@ struct Layout {
 pub struct Pyramid {
     /// The path (or store description) it was opened from.
     pub source: String,
-    /// `OME-Zarr`, `Zarr` (a plain array) or `N5`.
+    /// `OME-Zarr`, `Zarr` (a plain array), `N5` or `precomputed` (neuroglancer's).
     pub format: &'static str,
     /// The OME-Zarr version (`0.4`, `0.5`), if the group says; an N5 container's `n5` version.
     pub ome_version: Option<String>,
@@ -252,7 +255,8 @@ pub fn is_zarr_spec(spec: &str) -> bool {
 
 /// Whether `path` is a folder [`Pyramid::open`] reads: a Zarr folder (`.zgroup`, `.zarray` or
 /// `zarr.json` in it; or a bioformats2raw container's series `ROOT/N`, which opens, or is
-/// named missing, from `ROOT`), or an N5 container, group or dataset ([`is_n5_folder`]).
+/// named missing, from `ROOT`), an N5 container, group or dataset ([`is_n5_folder`]), or a
+/// neuroglancer precomputed volume ([`is_precomputed_folder`]).
 pub fn is_zarr_folder(path: &Path) -> bool {
     (path.is_dir()
         && [".zgroup", ".zarray", "zarr.json"]
@@ -260,6 +264,7 @@ pub fn is_zarr_folder(path: &Path) -> bool {
             .any(|name| path.join(name).is_file()))
         || series_path(path).is_some()
         || is_n5_folder(path)
+        || is_precomputed_folder(path)
 }
 
 /// If `path` is `ROOT/N` with `ROOT` a bioformats2raw container (a folder) and `N` a number
@@ -341,6 +346,10 @@ impl Pyramid {
             guard::register();
             n5::open(Arc::new(store), &source, options, &|_| {})
                 .map_err(|problem| LoadError::new(&source, problem))?
+        } else if is_precomputed_folder(path) {
+            guard::register();
+            precomputed::open(Arc::new(store), &source, options, &|_| {})
+                .map_err(|problem| LoadError::new(&source, problem))?
         } else {
             if let Some(level) = unfinished_store(path) {
                 return Err(LoadError::new(&source, unfinished_problem(&level)));
@@ -375,11 +384,16 @@ impl Pyramid {
             MAX_METADATA_BYTES,
         );
         let store_root: ReadableStorage = store.clone();
-        let opened = if open::is_zarr_root(&store_root) || !n5::is_n5_root(&store_root) {
+        let opened = if open::is_zarr_root(&store_root) {
             open_root(store_root, &source, options, &warm, None)
-        } else {
+        } else if n5::is_n5_root(&store_root) {
             let warm = |names: &[String]| prefetch_named(&store, &n5::n5_documents(names));
             n5::open(store_root, &source, options, &warm)
+        } else if precomputed::is_precomputed_root(&store_root) {
+            // The info is all the metadata there is: nothing to fetch ahead.
+            precomputed::open(store_root, &source, options, &|_| {})
+        } else {
+            open_root(store_root, &source, options, &warm, None)
         };
         let mut pyramid = opened.map_err(|problem| LoadError::new(&source, problem))?;
         pyramid.note_series();
@@ -498,8 +512,8 @@ impl Pyramid {
             .as_ref()
             .map(|v| format!(" {v}"))
             .unwrap_or_default();
-        if self.format == "N5" {
-            format!("N5{version}")
+        if matches!(self.format, "N5" | "precomputed") {
+            format!("{}{version}", self.format)
         } else {
             format!("{}{version} (Zarr v{})", self.format, self.zarr_format)
         }

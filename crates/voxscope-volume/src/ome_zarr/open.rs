@@ -118,12 +118,13 @@ const GUESSED_LEVELS: usize = 8;
 pub(super) fn first_documents(max_requests: usize) -> (Vec<String>, Vec<String>) {
     let root = node_documents("");
     let per_level = array_documents("0", 2).len();
-    // The last guess: an N5 container's root document.
-    let levels = (max_requests.saturating_sub(root.len() + 1) / per_level).min(GUESSED_LEVELS);
+    // The last guesses: an N5 container's and a precomputed volume's root documents.
+    let levels = (max_requests.saturating_sub(root.len() + 2) / per_level).min(GUESSED_LEVELS);
     let mut guesses: Vec<String> = (0..levels)
         .flat_map(|level| array_documents(&level.to_string(), 2))
         .collect();
     guesses.push(super::n5::ATTRIBUTES.to_owned());
+    guesses.push(super::precomputed::INFO.to_owned());
     (root, guesses)
 }
 
@@ -633,20 +634,20 @@ mod tests {
     #[test]
     fn the_first_round_trip_guesses_the_levels_that_fit_its_wave_of_requests() {
         let root = node_documents("");
-        for (max_requests, levels) in [(0, 0), (4, 0), (7, 0), (8, 1), (17, 4), (29, 8), (1024, 8)]
+        for (max_requests, levels) in [(0, 0), (4, 0), (8, 0), (9, 1), (18, 4), (30, 8), (1024, 8)]
         {
             let (asked, guesses) = first_documents(max_requests);
             assert_eq!(asked, root);
             assert_eq!(
                 guesses.len(),
-                3 * levels + 1,
+                3 * levels + 2,
                 "{max_requests} requests in flight"
             );
-            assert!(root.len() + guesses.len() <= max_requests.max(root.len() + 1));
+            assert!(root.len() + guesses.len() <= max_requests.max(root.len() + 2));
         }
         let (_, guesses) = first_documents(32);
         assert_eq!(&guesses[..3], ["0/zarr.json", "0/.zarray", "0/.zattrs"]);
-        assert_eq!(guesses[guesses.len() - 2], "7/.zattrs");
-        assert_eq!(guesses.last().map(String::as_str), Some("attributes.json"));
+        assert_eq!(guesses[guesses.len() - 3], "7/.zattrs");
+        assert_eq!(&guesses[guesses.len() - 2..], ["attributes.json", "info"]);
     }
 }

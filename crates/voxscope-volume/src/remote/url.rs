@@ -81,7 +81,8 @@ impl StoreUrl {
     /// Parses `text` as a store's URL, or says in one line (without its secrets) why it is
     /// not one.
     pub(crate) fn parse(text: &str) -> Result<Self, UrlError> {
-        let text = text.trim();
+        let resolved = resolve_url(text.trim());
+        let text = resolved.as_str();
         if let Some(c) = text.chars().find(|c| c.is_control()) {
             return Err(UrlError::ControlCharacter(escape(&c.to_string())));
         }
@@ -156,9 +157,30 @@ pub(crate) fn parse_endpoint(text: &str) -> Result<(String, StoreUrl), UrlError>
     Ok((endpoint.to_owned(), url))
 }
 
+/// neuroglancer's data source prefixes (`precomputed://`, `n5://`, `zarr://`, `zarr2://`,
+/// `zarr3://`, as its URLs and state links carry them) taken off, and Google Cloud Storage's
+/// `gs://BUCKET/PATH` as the bucket's public HTTPS endpoint
+/// (`https://storage.googleapis.com/BUCKET/PATH`, what neuroglancer reads a public bucket
+/// through): the URL voxscope reads. Anything else is returned as it is.
+pub fn resolve_url(spec: &str) -> String {
+    let mut text = spec.trim();
+    for prefix in ["precomputed://", "n5://", "zarr://", "zarr2://", "zarr3://"] {
+        if text.len() > prefix.len() && text[..prefix.len()].eq_ignore_ascii_case(prefix) {
+            text = &text[prefix.len()..];
+            break;
+        }
+    }
+    match text.get(..5) {
+        Some(scheme) if scheme.eq_ignore_ascii_case("gs://") => {
+            format!("https://storage.googleapis.com/{}", &text[5..])
+        }
+        _ => text.to_owned(),
+    }
+}
+
 /// The scheme `spec` starts with, if voxscope reads stores from it.
 pub(crate) fn scheme_of(spec: &str) -> Option<Scheme> {
-    let lower = spec.trim_start().to_ascii_lowercase();
+    let lower = resolve_url(spec).to_ascii_lowercase();
     if lower.starts_with("http://") || lower.starts_with("https://") {
         Some(Scheme::Http)
     } else if lower.starts_with("s3://") {
@@ -300,6 +322,21 @@ pub(crate) fn redact_text(text: &str, secrets: &[String]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn neuroglancer_prefixes_and_gs_urls_resolve_to_what_is_read() {
+        assert_eq!(
+            resolve_url("precomputed://gs://bucket/em/raw"),
+            "https://storage.googleapis.com/bucket/em/raw"
+        );
+        assert_eq!(resolve_url(" n5://s3://b/c.n5"), "s3://b/c.n5");
+        assert_eq!(resolve_url("zarr://https://h/x.zarr"), "https://h/x.zarr");
+        assert_eq!(resolve_url("https://h/x.zarr"), "https://h/x.zarr");
+        assert_eq!(resolve_url("precomputed://"), "precomputed://");
+        assert_eq!(scheme_of("precomputed://gs://b/v"), Some(Scheme::Http));
+        assert_eq!(scheme_of("gs://b/v"), Some(Scheme::Http));
+        assert_eq!(scheme_of("precomputed://relative/path"), None);
+    }
 
     #[test]
     fn redaction_keeps_the_path_and_drops_user_password_query_and_fragment() {

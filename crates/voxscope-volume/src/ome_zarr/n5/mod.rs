@@ -18,6 +18,7 @@ use zarrs::storage::{
     Bytes, MaybeBytes, MaybeBytesIterator, ReadableStorageTraits, StorageError, StoreKey,
 };
 
+use super::adapted::{slice_ranges, zarr_document};
 use super::open::Warm;
 use super::{MAX_METADATA_BYTES, Pyramid, PyramidOptions, ReadableStorage};
 use crate::error::{Problem, printable};
@@ -67,17 +68,6 @@ fn read_attributes(
             "{name} is not valid JSON: {e}"
         ))),
     }
-}
-
-/// The Zarr documents of a key (`zarr.json`, `.zgroup`, …) and the node they describe.
-fn zarr_document(key: &str) -> Option<(&str, &str)> {
-    let (node, name) = match key.rfind('/') {
-        Some(slash) => key.split_at(slash + 1),
-        None => ("", key),
-    };
-    crate::remote::NODE_DOCUMENTS
-        .contains(&name)
-        .then_some((node, name))
 }
 
 /// Opens the N5 node at the root of `store` (a container or group with multiscale metadata,
@@ -168,15 +158,7 @@ impl ReadableStorageTraits for N5Store {
         let Some(document) = self.document(node, name)? else {
             return Ok(None);
         };
-        let size = document.len() as u64;
-        let parts: Vec<Result<Bytes, StorageError>> = byte_ranges
-            .map(|range| {
-                let start = range.start(size).min(size) as usize;
-                let end = range.end(size).min(size) as usize;
-                Ok(document.slice(start..end.max(start)))
-            })
-            .collect();
-        Ok(Some(Box::new(parts.into_iter())))
+        Ok(Some(slice_ranges(document, byte_ranges)))
     }
 
     fn size_key(&self, key: &StoreKey) -> Result<Option<u64>, StorageError> {
@@ -196,10 +178,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn zarr_documents_are_told_from_blocks() {
-        assert_eq!(zarr_document("zarr.json"), Some(("", "zarr.json")));
-        assert_eq!(zarr_document("s0/.zarray"), Some(("s0/", ".zarray")));
-        assert_eq!(zarr_document("s0/1/2/3"), None);
+    fn documents_fetched_ahead_are_n5_ones() {
         assert_eq!(
             n5_documents(&["zarr.json".into(), ".zgroup".into(), "s0/zarr.json".into()]),
             ["attributes.json", "s0/attributes.json"]

@@ -1,0 +1,47 @@
+//! What the stores that show another format to zarrs as Zarr v3 ([`super::n5`],
+//! [`super::precomputed`]) share: telling Zarr documents from data, and answering byte ranges
+//! of what they make up.
+
+use zarrs::storage::byte_range::ByteRangeIterator;
+use zarrs::storage::{Bytes, StorageError};
+
+/// Byte ranges of a value, as zarrs's partial reads answer them.
+pub(super) type Parts<'a> = Box<dyn Iterator<Item = Result<Bytes, StorageError>> + 'a>;
+
+/// The Zarr document a key names (`zarr.json`, `.zgroup`, …) and the node it describes
+/// (`""`, `s0/`), if it names one.
+pub(super) fn zarr_document(key: &str) -> Option<(&str, &str)> {
+    let (node, name) = match key.rfind('/') {
+        Some(slash) => key.split_at(slash + 1),
+        None => ("", key),
+    };
+    crate::remote::NODE_DOCUMENTS
+        .contains(&name)
+        .then_some((node, name))
+}
+
+/// The byte ranges `byte_ranges` of `bytes` (ranges past its end are cut to it).
+pub(super) fn slice_ranges<'a>(bytes: Bytes, byte_ranges: ByteRangeIterator<'a>) -> Parts<'a> {
+    let size = bytes.len() as u64;
+    let parts: Vec<Result<Bytes, StorageError>> = byte_ranges
+        .map(|range| {
+            let start = range.start(size).min(size) as usize;
+            let end = range.end(size).min(size) as usize;
+            Ok(bytes.slice(start..end.max(start)))
+        })
+        .collect();
+    Box::new(parts.into_iter())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn zarr_documents_are_told_from_data() {
+        assert_eq!(zarr_document("zarr.json"), Some(("", "zarr.json")));
+        assert_eq!(zarr_document("s0/.zarray"), Some(("s0/", ".zarray")));
+        assert_eq!(zarr_document("s0/1/2/3"), None);
+        assert_eq!(zarr_document("4_4_40/0-64_0-64_0-64"), None);
+    }
+}
