@@ -137,7 +137,9 @@ fn open_in_the_file_browser_opens_a_zarr_store_clicked_or_typed() {
         .state_mut()
         .run_command(Command::Browse(DialogKind::Open), &ctx);
     settle(&mut harness);
-    harness.get_by_label_contains("a file, an OME-Zarr store or an N5 container");
+    harness.get_by_label_contains(
+        "a file, an OME-Zarr store, an N5 container or a precomputed volume",
+    );
     let path = harness.get_by_label("Path");
     path.focus();
     path.type_text(&fixtures.display().to_string());
@@ -161,7 +163,7 @@ fn open_in_the_file_browser_opens_a_zarr_store_clicked_or_typed() {
         .state_mut()
         .run_command(Command::Browse(DialogKind::OpenFolder), &ctx);
     settle(&mut harness);
-    harness.get_by_label_contains("an OME-Zarr store or an N5 container");
+    harness.get_by_label_contains("an N5 container or a precomputed volume");
 }
 
 #[test]

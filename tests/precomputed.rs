@@ -66,8 +66,16 @@ fn every_encoding_reads_equal_to_the_voxels_it_was_written_from() {
         ("raw-u16", "precomputed raw", voxels()),
         ("raw-u16-gzip", "precomputed raw", voxels()),
         ("png-u8", "precomputed png", values("voxels.u8", 1)),
-        ("cseg-u32", "precomputed compressed_segmentation", values("labels.u32le", 4)),
-        ("cseg-u64", "precomputed compressed_segmentation", values("labels.u64le", 8)),
+        (
+            "cseg-u32",
+            "precomputed compressed_segmentation",
+            values("labels.u32le", 4),
+        ),
+        (
+            "cseg-u64",
+            "precomputed compressed_segmentation",
+            values("labels.u64le", 8),
+        ),
     ] {
         assert!(is_zarr_folder(&fixtures().join(name)), "{name}");
         let pyramid = open(name).unwrap_or_else(|e| panic!("{name}: {e}"));
@@ -87,14 +95,20 @@ fn every_encoding_reads_equal_to_the_voxels_it_was_written_from() {
         .zip(&libjpeg)
         .map(|(a, b)| (a - b).abs())
         .fold(0.0, f64::max);
-    assert!(worst <= 2.0, "JPEG differs from libjpeg-turbo's by up to {worst}");
+    assert!(
+        worst <= 2.0,
+        "JPEG differs from libjpeg-turbo's by up to {worst}"
+    );
     // Three channels, each its own volume.
     let rgb = values("rgb.u8", 1);
     let path = fixtures().join("rgb-u8");
     assert_eq!(open_with(&path, 0).unwrap().channels, 3);
     for c in 0..3 {
         let got = level(&open_with(&path, c).unwrap(), 0).unwrap();
-        assert!(got[..] == rgb[c * 630..(c + 1) * 630], "channel {c} differs");
+        assert!(
+            got[..] == rgb[c * 630..(c + 1) * 630],
+            "channel {c} differs"
+        );
     }
 }
 
@@ -103,7 +117,10 @@ fn scales_are_placed_by_their_resolution_and_offset() {
     let pyramid = open("raw-u16").unwrap();
     assert_eq!(pyramid.levels.len(), 2);
     let [fine, coarse] = [&pyramid.levels[0], &pyramid.levels[1]];
-    assert_eq!((fine.path.as_str(), coarse.path.as_str()), ("4_4_40", "8_8_80"));
+    assert_eq!(
+        (fine.path.as_str(), coarse.path.as_str()),
+        ("4_4_40", "8_8_80")
+    );
     assert_eq!(fine.spacing, [4.0, 4.0, 40.0]);
     // Voxel offset (4, 2, 2) of 4 x 4 x 40 nm.
     assert_eq!(fine.origin, [16.0, 8.0, 80.0]);
@@ -118,7 +135,10 @@ fn a_volume_reads_the_same_over_http_as_from_its_folder() {
     let server = FileServer::start(&fixtures(), Faults::default());
     for name in ["raw-u16", "raw-u16-gzip", "cseg-u64", "jpeg-u8"] {
         let folder = open(name).unwrap();
-        for url in [server.url(name), format!("precomputed://{}", server.url(name))] {
+        for url in [
+            server.url(name),
+            format!("precomputed://{}", server.url(name)),
+        ] {
             let remote =
                 Pyramid::open_url(&url, PyramidOptions::default(), RemoteOptions::default())
                     .unwrap_or_else(|e| panic!("{url}: {e}"));
@@ -144,13 +164,20 @@ fn a_volume_converts_to_ome_zarr_and_renders() {
         source.to_str().unwrap(),
         converted.to_str().unwrap(),
     ]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let read_back = Pyramid::open(&converted, PyramidOptions::default()).unwrap();
     assert!(level(&read_back, 0).unwrap() == voxels());
     assert_eq!(read_back.levels[0].spacing, [4.0, 4.0, 40.0]);
     let info = voxscope(&["info", source.to_str().unwrap()]);
     let text = String::from_utf8_lossy(&info.stdout);
-    assert!(text.contains("precomputed") && text.contains("precomputed raw"), "{text}");
+    assert!(
+        text.contains("precomputed") && text.contains("precomputed raw"),
+        "{text}"
+    );
     let png = dir.path().join("labels.png");
     let labels = fixtures().join("cseg-u32");
     let out = voxscope(&[
@@ -161,9 +188,16 @@ fn a_volume_converts_to_ome_zarr_and_renders() {
         "--size",
         "96x72",
     ]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let image = image::open(&png).unwrap().to_rgba8();
-    assert!(support::reference::coverage(&image) > 0.05, "the labels are not drawn");
+    assert!(
+        support::reference::coverage(&image) > 0.05,
+        "the labels are not drawn"
+    );
 }
 
 /// Copies fixture `name` into a temporary folder to damage it there.
@@ -206,7 +240,11 @@ fn damaged_chunks_and_info_documents_are_one_line_errors() {
     let chunk = "4_4_40/10-14_7-11_6-9";
     for (name, damage, expected) in [
         ("raw-u16", &[1u8, 2, 3][..], "a raw chunk of 3 bytes"),
-        ("cseg-u32", &[0, 0, 0, 0, 255, 255, 255, 0][..], "past the chunk"),
+        (
+            "cseg-u32",
+            &[0, 0, 0, 0, 255, 255, 255, 0][..],
+            "past the chunk",
+        ),
         ("png-u8", &[0x89, b'P', b'N', b'G'][..], "Png"),
         ("jpeg-u8", &[0xFF, 0xD8, 0xFF][..], "Jpeg"),
         ("raw-u16-gzip", &[0x1f, 0x8b, 8, 0][..], "gzip"),
@@ -222,7 +260,10 @@ fn damaged_chunks_and_info_documents_are_one_line_errors() {
         let error = read_error(&path);
         assert!(error.contains(expected), "{name}: {error}");
         assert!(error.contains("10-14_7-11_6-9"), "{name}: {error}");
-        assert_eq!(std::fs::read(fixtures().join(name).join(&file)).unwrap(), before);
+        assert_eq!(
+            std::fs::read(fixtures().join(name).join(&file)).unwrap(),
+            before
+        );
     }
     // A sharded scale is named, not misread.
     let error = read_error(&fixtures().join("sharded-u16"));
@@ -230,7 +271,11 @@ fn damaged_chunks_and_info_documents_are_one_line_errors() {
     // info documents: a type it lacks, a key leaving the volume.
     let (_dir, path) = copy_fixture("raw-u16");
     let info = std::fs::read_to_string(path.join("info")).unwrap();
-    std::fs::write(path.join("info"), info.replace("\"uint16\"", "\"complex64\"")).unwrap();
+    std::fs::write(
+        path.join("info"),
+        info.replace("\"uint16\"", "\"complex64\""),
+    )
+    .unwrap();
     let error = read_error(&path);
     assert!(error.contains("data_type 'complex64'"), "{error}");
     std::fs::write(path.join("info"), info.replace("\"8_8_80\"", "\"../up\"")).unwrap();

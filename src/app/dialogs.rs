@@ -34,8 +34,7 @@ pub enum DialogKind {
 }
 
 /// The title of File ▸ Open folder…'s dialog: what a folder can be.
-pub const OPEN_FOLDER_TITLE: &str =
-    "Open a folder: a DICOM series, TIFF/PNG slices, an OME-Zarr store or an N5 container";
+pub const OPEN_FOLDER_TITLE: &str = "Open a folder: a DICOM series, TIFF/PNG slices, an OME-Zarr store, an N5 container or a precomputed volume";
 
 /// A dialog that closes faster than this was never shown: nobody cancels one so quickly.
 pub const NOT_SHOWN_WITHIN: Duration = Duration::from_millis(300);

@@ -11,7 +11,7 @@ use egui::{Key, RichText, Ui};
 
 use super::dialogs::{DialogKind, OPEN_FOLDER_TITLE, screenshot_file_name, screenshot_title};
 use super::numbers::format_bytes;
-use voxscope_volume::ome_zarr::{is_n5_folder, is_zarr_folder};
+use voxscope_volume::ome_zarr::{StoreKind, is_zarr_folder, store_kind};
 
 /// Most entries shown of one folder (a folder of a million files stays usable).
 const MAX_ENTRIES: usize = 5000;
@@ -32,11 +32,9 @@ pub enum BrowserOutcome {
 #[derive(Debug, Clone, Default)]
 struct Listing {
     folders: Vec<String>,
-    /// Folders that are Zarr stores (`zarr.json`, `.zgroup` or `.zarray` in them) or N5
-    /// containers (`attributes.json`): a volume each, opened by a click rather than entered.
-    stores: Vec<String>,
-    /// Those of [`Self::stores`] that are N5.
-    n5: Vec<String>,
+    /// Folders that are stores ([`store_kind`]: Zarr, N5, precomputed), each with its kind: a
+    /// volume each, opened by a click rather than entered.
+    stores: Vec<(String, StoreKind)>,
     /// File names and sizes.
     files: Vec<(String, u64)>,
     /// Entries left out beyond [`MAX_ENTRIES`].
@@ -206,7 +204,9 @@ impl FileBrowser {
 
     fn fixed_title(kind: DialogKind) -> &'static str {
         match kind {
-            DialogKind::Open => "Open a volume: a file, an OME-Zarr store or an N5 container",
+            DialogKind::Open => {
+                "Open a volume: a file, an OME-Zarr store, an N5 container or a precomputed volume"
+            }
             DialogKind::OpenFolder => OPEN_FOLDER_TITLE,
             DialogKind::SaveScreenshot => "Save screenshot (PNG)",
             DialogKind::SaveTransfer => "Save transfer function (RON)",
@@ -342,20 +342,17 @@ impl FileBrowser {
                 };
                 let opens_stores = matches!(self.kind, DialogKind::Open | DialogKind::OpenFolder);
                 for folder in &listing.folders {
-                    let store = listing.stores.contains(folder);
-                    if store && opens_stores {
+                    let store = listing.stores.iter().find(|(name, _)| name == folder);
+                    if let Some((_, kind)) = store.filter(|_| opens_stores) {
                         // A store is a volume: a click opens it, as a file's does.
-                        let (kind, hover) = if listing.n5.contains(folder) {
-                            (
-                                "N5 container",
-                                "An N5 container, group or dataset: click to open it",
-                            )
-                        } else {
-                            (
-                                "Zarr store",
-                                "An OME-Zarr (or Zarr) store: click to open it",
-                            )
+                        let hover = match *kind {
+                            StoreKind::N5 => "An N5 container, group or dataset: click to open it",
+                            StoreKind::Precomputed => {
+                                "A neuroglancer precomputed volume: click to open it"
+                            }
+                            StoreKind::Zarr => "An OME-Zarr (or Zarr) store: click to open it",
                         };
+                        let kind = kind.name();
                         if ui
                             .selectable_label(false, format!("{folder}  ·  {kind}"))
                             .on_hover_text(hover)
@@ -446,11 +443,8 @@ fn list(directory: &Path, folders_only: bool) -> Result<Listing, String> {
             continue;
         };
         if metadata.is_dir() {
-            if is_zarr_folder(&entry.path()) {
-                listing.stores.push(name.clone());
-                if is_n5_folder(&entry.path()) {
-                    listing.n5.push(name.clone());
-                }
+            if let Some(kind) = store_kind(&entry.path()) {
+                listing.stores.push((name.clone(), kind));
             }
             listing.folders.push(name);
         } else if !folders_only {

@@ -53,7 +53,7 @@ pub fn menu_bar(ui: &mut Ui, settings: &AppSettings, has_scene: bool, queue: &mu
 
 fn file_menu(ui: &mut Ui, settings: &AppSettings, has_scene: bool, queue: &mut CommandQueue) {
     command_button(ui, "Open…", Command::ShowDialog(DialogKind::Open), queue).on_hover_text(
-        "A volume file; an OME-Zarr store or N5 container is a folder: Open folder… or Open path…",
+        "A volume file; an OME-Zarr store, N5 container or precomputed volume is a folder: Open folder… or Open path…",
     );
     command_button(
         ui,
@@ -62,7 +62,7 @@ fn file_menu(ui: &mut Ui, settings: &AppSettings, has_scene: bool, queue: &mut C
         queue,
     )
     .on_hover_text(
-        "A DICOM series, a folder of TIFF/PNG slices, an OME-Zarr store or an N5 container",
+        "A DICOM series, a folder of TIFF/PNG slices, an OME-Zarr store, an N5 container or a precomputed volume",
     );
     ui.menu_button("Open recent", |ui| {
         if settings.recent.is_empty() {
@@ -80,7 +80,7 @@ fn file_menu(ui: &mut Ui, settings: &AppSettings, has_scene: bool, queue: &mut C
     command_button(ui, "Open path…", Command::Browse(DialogKind::Open), queue)
         .on_hover_text("Type a path or a synthetic: spec, or browse folders");
     command_button(ui, "Open URL…", Command::AskUrl, queue).on_hover_text(
-        "An OME-Zarr store or N5 container on an HTTP server or in S3-compatible object storage",
+        "An OME-Zarr store, N5 container or neuroglancer precomputed volume on an HTTP server, in S3-compatible object storage or a public Google Cloud Storage bucket",
     );
     command_button(
         ui,

@@ -48,7 +48,7 @@ impl UrlDialog {
             .pivot(egui::Align2::CENTER_TOP)
             .default_pos(ctx.content_rect().center_top() + egui::vec2(0.0, 80.0))
             .show(ctx, |ui| {
-                ui.label("An OME-Zarr store or N5 container on an HTTP server or in S3 (credentials, region and endpoint from the AWS environment and config files):");
+                ui.label("An OME-Zarr store, N5 container or precomputed volume on an HTTP server, in S3 or a public gs:// bucket (credentials, region and endpoint from the AWS environment and config files):");
                 let response = ui.add(
                     egui::TextEdit::singleline(&mut self.text)
                         .hint_text("https://host/path/image.ome.zarr or s3://bucket/image.ome.zarr")

@@ -45,7 +45,7 @@ pub const SNIFF_BYTES: usize = 4096;
 /// strongest first (DICOM's `DICM` at byte 128 and MRC's `MAP ` at byte 208 could occur inside
 /// another format's header fields; NIfTI's 4-byte header size is the weakest, so last).
 /// Extensions never overlap, so their order does not matter.
-pub static FORMATS: [Format; 8] = [
+pub static FORMATS: [Format; 9] = [
     Format {
         name: "DICOM",
         extensions: &[".dcm"],
@@ -94,6 +94,15 @@ pub static FORMATS: [Format; 8] = [
         opens_folders: true,
         sniff: None,
         // Read by the Zarr reader (ome_zarr/n5).
+        load: super::ome_zarr::load,
+    },
+    Format {
+        name: "precomputed",
+        // A folder holding `info`, whatever its name.
+        extensions: &[],
+        opens_folders: true,
+        sniff: None,
+        // Read by the Zarr reader (ome_zarr/precomputed).
         load: super::ome_zarr::load,
     },
     Format {

@@ -326,7 +326,11 @@ fn decompress_zstd(encoded: &[u8], expected: u64) -> Result<Vec<u8>, CodecError>
 
 /// Reads `decoder` to its end, refusing more than `expected` bytes. The buffer is reserved
 /// for `expected` bytes (the chunk's size, already checked against the limits) and never grows.
-pub(super) fn read_bounded(decoder: impl Read, expected: u64, name: &str) -> Result<Vec<u8>, CodecError> {
+pub(super) fn read_bounded(
+    decoder: impl Read,
+    expected: u64,
+    name: &str,
+) -> Result<Vec<u8>, CodecError> {
     let expected_bytes = usize::try_from(expected)
         .map_err(|_| CodecError::Other(format!("{name}: {expected} bytes do not fit in memory")))?;
     let mut decoded = Vec::with_capacity(expected_bytes);

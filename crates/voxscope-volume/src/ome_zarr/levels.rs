@@ -267,7 +267,12 @@ fn describe_codecs(metadata: &ArrayMetadata) -> String {
             // A precomputed chunk: its encoding (`precomputed raw`, `precomputed jpeg`).
             "voxscope.precomputed_chunk" => format!(
                 "precomputed {}",
-                printable(config.get("encoding").and_then(Value::as_str).unwrap_or("?"))
+                printable(
+                    config
+                        .get("encoding")
+                        .and_then(Value::as_str)
+                        .unwrap_or("?")
+                )
             ),
             // numcodecs' compressors in Zarr v3 (and zarrs's v3 form of a v2 array's).
             other => printable(other.strip_prefix("numcodecs.").unwrap_or(other)),

@@ -46,8 +46,8 @@ pub use metadata::{
     Axis, AxisKind, Bioformats2raw, LabelColor, LabelImage, OmeroChannel, Plate, SeriesEntry,
 };
 pub use n5::is_n5_folder;
-pub use precomputed::is_precomputed_folder;
 use open::open_root;
+pub use precomputed::is_precomputed_folder;
 pub use read::MAX_PREFETCH_CHUNKS;
 pub use source::SlabSource;
 pub use write::{Compression, Downsampling, PyramidWriter, WriteOptions, ZarrVersion, level_dims};
@@ -267,6 +267,36 @@ pub fn is_zarr_folder(path: &Path) -> bool {
         || is_precomputed_folder(path)
 }
 
+/// What kind of store a folder [`is_zarr_folder`] accepts is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StoreKind {
+    Zarr,
+    N5,
+    Precomputed,
+}
+
+impl StoreKind {
+    /// As the app's browser names it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Zarr => "Zarr store",
+            Self::N5 => "N5 container",
+            Self::Precomputed => "precomputed volume",
+        }
+    }
+}
+
+/// The kind of store the folder `path` is, if it is one ([`is_zarr_folder`]).
+pub fn store_kind(path: &Path) -> Option<StoreKind> {
+    if is_n5_folder(path) {
+        Some(StoreKind::N5)
+    } else if is_precomputed_folder(path) {
+        Some(StoreKind::Precomputed)
+    } else {
+        is_zarr_folder(path).then_some(StoreKind::Zarr)
+    }
+}
+
 /// If `path` is `ROOT/N` with `ROOT` a bioformats2raw container (a folder) and `N` a number
 /// (whether or not the series exists): `ROOT` and `N`.
 pub(crate) fn series_path(path: &Path) -> Option<(std::path::PathBuf, String)> {
@@ -384,12 +414,16 @@ impl Pyramid {
             MAX_METADATA_BYTES,
         );
         let store_root: ReadableStorage = store.clone();
+        // N5 and precomputed roots are told by the documents the first round trip fetched
+        // (guesses): a server that answers nothing is asked nothing more.
         let opened = if open::is_zarr_root(&store_root) {
             open_root(store_root, &source, options, &warm, None)
-        } else if n5::is_n5_root(&store_root) {
+        } else if store.has_fetched(n5::ATTRIBUTES) && n5::is_n5_root(&store_root) {
             let warm = |names: &[String]| prefetch_named(&store, &n5::n5_documents(names));
             n5::open(store_root, &source, options, &warm)
-        } else if precomputed::is_precomputed_root(&store_root) {
+        } else if store.has_fetched(precomputed::INFO)
+            && precomputed::is_precomputed_root(&store_root)
+        {
             // The info is all the metadata there is: nothing to fetch ahead.
             precomputed::open(store_root, &source, options, &|_| {})
         } else {

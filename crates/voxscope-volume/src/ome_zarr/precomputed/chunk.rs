@@ -58,7 +58,8 @@ pub(super) fn with_extent(extent: [u32; 3], bytes: &[u8]) -> Vec<u8> {
 pub(super) fn extent_of(name: &str) -> Option<[u32; 3]> {
     fn bound(text: &str) -> Option<i64> {
         let digits = text.strip_prefix('-').unwrap_or(text);
-        let valid = !digits.is_empty() && digits.len() <= 12 && digits.bytes().all(|b| b.is_ascii_digit());
+        let valid =
+            !digits.is_empty() && digits.len() <= 12 && digits.bytes().all(|b| b.is_ascii_digit());
         valid.then(|| text.parse().ok()).flatten()
     }
     let mut extent = [0; 3];
@@ -68,7 +69,9 @@ pub(super) fn extent_of(name: &str) -> Option<[u32; 3]> {
         // The separator: the first '-' after the begin's first character.
         let at = part.get(1..)?.find('-')? + 1;
         let (begin, end) = (bound(&part[..at])?, bound(&part[at + 1..])?);
-        *slot = u32::try_from(end.checked_sub(begin)?).ok().filter(|&e| e > 0)?;
+        *slot = u32::try_from(end.checked_sub(begin)?)
+            .ok()
+            .filter(|&e| e > 0)?;
     }
     parts.next().is_none().then_some(extent)
 }
@@ -110,7 +113,12 @@ impl CodecTraitsV3 for PrecomputedChunkCodec {
                 let block: Vec<usize> = configuration
                     .get("block_size")
                     .and_then(Value::as_array)
-                    .map(|b| b.iter().filter_map(Value::as_u64).map(|v| v as usize).collect())
+                    .map(|b| {
+                        b.iter()
+                            .filter_map(Value::as_u64)
+                            .map(|v| v as usize)
+                            .collect()
+                    })
                     .unwrap_or_default();
                 let block: [usize; 3] = block.try_into().map_err(|_| {
                     PluginCreateError::Other("compressed_segmentation without a block size".into())
@@ -218,7 +226,9 @@ fn decode_image(
     limits.max_image_height = Some(height as u32);
     limits.max_alloc = Some((width * height * 8) as u64 + (1 << 20));
     reader.limits(limits);
-    let decoded = reader.decode().map_err(|e| fail(format!("{format:?}: {e}")))?;
+    let decoded = reader
+        .decode()
+        .map_err(|e| fail(format!("{format:?}: {e}")))?;
     if decoded.width() as usize != width || decoded.height() as usize != height {
         return Err(fail(format!(
             "the image is {}x{}, the chunk {width}x{height}",
@@ -229,7 +239,11 @@ fn decode_image(
     let interleaved = match channels {
         1 => decoded.into_luma8().into_raw(),
         3 => decoded.into_rgb8().into_raw(),
-        n => return Err(fail(format!("an image chunk of {n} channels (1 or 3 are read)"))),
+        n => {
+            return Err(fail(format!(
+                "an image chunk of {n} channels (1 or 3 are read)"
+            )));
+        }
     };
     let pixels = width * height;
     let mut planes = vec![0u8; pixels * channels];
@@ -306,8 +320,7 @@ impl PrecomputedChunkCodec {
                         )));
                     }
                 };
-                segmentation::decode(encoded, extent, *block, self.channels, wide)
-                    .map_err(fail)?
+                segmentation::decode(encoded, extent, *block, self.channels, wide).map_err(fail)?
             }
         };
         Ok(values)
@@ -353,12 +366,20 @@ impl ArrayToBytesCodecTraits for PrecomputedChunkCodec {
             DataTypeSize::Variable => return Err(fail("variable-size values")),
         };
         if bytes.len() < HEADER || &bytes[..4] != MAGIC {
-            return Err(fail("a chunk read without its extent (not through the precomputed store)"));
+            return Err(fail(
+                "a chunk read without its extent (not through the precomputed store)",
+            ));
         }
-        let word = |i: usize| u32::from_le_bytes(bytes[4 + 4 * i..8 + 4 * i].try_into().unwrap_or_default()) as usize;
+        let word = |i: usize| {
+            u32::from_le_bytes(bytes[4 + 4 * i..8 + 4 * i].try_into().unwrap_or_default()) as usize
+        };
         let extent = [word(0), word(1), word(2)];
         let dims: Vec<usize> = shape.iter().map(|s| s.get() as usize).collect();
-        let whole = [dims[dims.len() - 1], dims[dims.len() - 2], dims[dims.len() - 3]];
+        let whole = [
+            dims[dims.len() - 1],
+            dims[dims.len() - 2],
+            dims[dims.len() - 3],
+        ];
         if (0..3).any(|a| extent[a] == 0 || extent[a] > whole[a]) {
             return Err(fail(format!(
                 "a chunk of {}x{}x{} voxels in chunks of {}x{}x{}",
@@ -430,7 +451,10 @@ impl ChunkKeyEncodingTraits for PrecomputedKeyEncoding {
         let n = chunk_grid_indices.len();
         let range = |a: usize| {
             // x, y, z are the last three indices, reversed.
-            let index = chunk_grid_indices.get(n.wrapping_sub(1 + a)).copied().unwrap_or(0) as i64;
+            let index = chunk_grid_indices
+                .get(n.wrapping_sub(1 + a))
+                .copied()
+                .unwrap_or(0) as i64;
             let begin = self.offset[a] + index * self.chunk[a];
             let end = (begin + self.chunk[a]).min(self.offset[a] + self.size[a]);
             format!("{begin}-{end}")

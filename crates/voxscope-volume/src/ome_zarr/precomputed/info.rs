@@ -92,10 +92,15 @@ fn check_key(key: &str) -> Result<(), String> {
     let bad = key.is_empty()
         || key.starts_with('/')
         || key.len() > 256
-        || key.split('/').any(|part| part.is_empty() || part == "." || part == "..")
+        || key
+            .split('/')
+            .any(|part| part.is_empty() || part == "." || part == "..")
         || key.chars().any(char::is_control);
     if bad {
-        Err(format!("scale key '{}' is not a path inside the volume", escape(key)))
+        Err(format!(
+            "scale key '{}' is not a path inside the volume",
+            escape(key)
+        ))
     } else {
         Ok(())
     }
@@ -132,13 +137,11 @@ fn scale_of(value: &Value, index: usize) -> Result<Scale, String> {
         Some("raw") => Encoding::Raw,
         Some("jpeg") => Encoding::Jpeg,
         Some("png") => Encoding::Png,
-        Some("compressed_segmentation") => {
-            Encoding::CompressedSegmentation(triple(
-                value.get("compressed_segmentation_block_size"),
-                &what("compressed_segmentation_block_size"),
-                |v| v.as_u64().filter(|&b| (1..=1024).contains(&b)),
-            )?)
-        }
+        Some("compressed_segmentation") => Encoding::CompressedSegmentation(triple(
+            value.get("compressed_segmentation_block_size"),
+            &what("compressed_segmentation_block_size"),
+            |v| v.as_u64().filter(|&b| (1..=1024).contains(&b)),
+        )?),
         Some(other) => {
             return Err(format!(
                 "scale {index}'s encoding '{}' is not read (raw, jpeg, png and compressed_segmentation are)",
@@ -210,8 +213,7 @@ pub(super) fn parse(document: &Map<String, Value>) -> Result<Info, String> {
         let volume = |s: &Scale| s.resolution.iter().product::<f64>();
         volume(a).total_cmp(&volume(b))
     });
-    if data_type != "uint8" && scales.iter().any(|s| s.encoding == Encoding::Jpeg)
-    {
+    if data_type != "uint8" && scales.iter().any(|s| s.encoding == Encoding::Jpeg) {
         return Err("info's jpeg scales must hold uint8 values".to_owned());
     }
     Ok(Info {
@@ -320,8 +322,10 @@ mod tests {
 
     #[test]
     fn scales_become_levels_finest_first_placed_by_their_offset() {
-        let parsed = info(json!({"type": "image", "data_type": "uint8", "num_channels": 1,
-            "scales": [scale("8_8_40", [8.0, 8.0, 40.0]), scale("4_4_40", [4.0, 4.0, 40.0])]}))
+        let parsed = info(
+            json!({"type": "image", "data_type": "uint8", "num_channels": 1,
+            "scales": [scale("8_8_40", [8.0, 8.0, 40.0]), scale("4_4_40", [4.0, 4.0, 40.0])]}),
+        )
         .unwrap();
         assert_eq!(parsed.scales[0].key, "4_4_40");
         let root = parsed.root_json(None);
@@ -334,7 +338,10 @@ mod tests {
         assert_eq!(coarse[1]["translation"], json!([40.0, 18.0, 26.0]));
         let array = parsed.array_json(&parsed.scales[0]);
         assert_eq!(array["shape"], json!([7, 9, 10]));
-        assert_eq!(array["chunk_grid"]["configuration"]["chunk_shape"], json!([4, 5, 6]));
+        assert_eq!(
+            array["chunk_grid"]["configuration"]["chunk_shape"],
+            json!([4, 5, 6])
+        );
     }
 
     #[test]
@@ -344,8 +351,14 @@ mod tests {
         .unwrap();
         let root = parsed.root_json(Some("cells"));
         assert!(root["attributes"]["ome"].get("image-label").is_some());
-        assert_eq!(root["attributes"]["ome"]["multiscales"][0]["axes"][0]["type"], "channel");
-        assert_eq!(parsed.array_json(&parsed.scales[0])["shape"], json!([3, 7, 9, 10]));
+        assert_eq!(
+            root["attributes"]["ome"]["multiscales"][0]["axes"][0]["type"],
+            "channel"
+        );
+        assert_eq!(
+            parsed.array_json(&parsed.scales[0])["shape"],
+            json!([3, 7, 9, 10])
+        );
     }
 
     #[test]

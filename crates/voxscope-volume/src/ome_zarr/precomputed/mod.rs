@@ -189,9 +189,7 @@ impl ReadableStorageTraits for PrecomputedStore {
 
     fn size_key(&self, key: &StoreKey) -> Result<Option<u64>, StorageError> {
         match self.named(key.as_str()) {
-            Named::Document { node, name } => {
-                Ok(self.document(node, name).map(|d| d.len() as u64))
-            }
+            Named::Document { node, name } => Ok(self.document(node, name).map(|d| d.len() as u64)),
             Named::Chunk(extent) => Ok(self.chunk(key, extent)?.map(|c| c.len() as u64)),
             Named::Other => self.inner.size_key(key),
         }

@@ -16,7 +16,7 @@ pub(super) fn decode(
     channels: usize,
     wide: bool,
 ) -> Result<Vec<u8>, String> {
-    if encoded.len() % 4 != 0 {
+    if !encoded.len().is_multiple_of(4) {
         return Err(format!(
             "a compressed_segmentation chunk of {} bytes, not whole 32-bit words",
             encoded.len()
@@ -53,10 +53,14 @@ pub(super) fn decode(
             let packed = channel.get(values..values + packed_words).ok_or_else(|| {
                 format!("block {b} of channel {c}: its indices lie past the chunk")
             })?;
-            let lookup = channel
-                .get(table..)
-                .ok_or_else(|| format!("block {b} of channel {c}: its table lies past the chunk"))?;
-            let mask = if bits == 32 { u32::MAX } else { (1u32 << bits) - 1 };
+            let lookup = channel.get(table..).ok_or_else(|| {
+                format!("block {b} of channel {c}: its table lies past the chunk")
+            })?;
+            let mask = if bits == 32 {
+                u32::MAX
+            } else {
+                (1u32 << bits) - 1
+            };
             for z in 0..block[2] {
                 let vz = bz * block[2] + z;
                 for y in 0..block[1] {
@@ -108,7 +112,7 @@ mod tests {
         // One channel, extent 3x1x1 in blocks of 2x1x1: block 0 holds labels 7 and 9 (1-bit
         // indices 0, 1), block 1 (cut to one voxel) only label 5 (0 bits).
         let words = [
-            1, // channel 0 at word 1; offsets below count from there
+            1,             // channel 0 at word 1; offsets below count from there
             (1 << 24) | 4, // block 0: table at 4, 1-bit indices
             6,             // block 0's indices at 6
             7,             // block 1: table at 7, 0 bits
