@@ -18,6 +18,8 @@ chunks at the far edges are cut (tensorstore writes them so, as cloud-volume doe
 - `cseg-u32` and `cseg-u64`: segmentations in compressed_segmentation blocks of 4 x 4 x 2
   (labels.u32le / labels.u64le: a few labels in slabs, the u64 ones above 2^32).
 - `sharded-u16`: the raw-u16 voxels in a sharded scale (murmurhash3, gzip indexes and data).
+- `sharded-cseg-u64`: the uint64 labels, compressed_segmentation, in a sharded scale of
+  another layout (identity hash, 4 shards of 2 minishards, raw indexes and data).
 
 versions.json records the versions used.
 """
@@ -130,6 +132,12 @@ def main() -> None:
                 "minishard_index_encoding": "gzip", "data_encoding": "gzip"}
     (sharded,) = create(HERE / "sharded-u16", "uint16", [scale([4, 4, 40], sharding=sharding)])
     write(sharded, values)
+    identity = {"@type": "neuroglancer_uint64_sharded_v1", "preshift_bits": 0,
+                "hash": "identity", "minishard_bits": 1, "shard_bits": 2,
+                "minishard_index_encoding": "raw", "data_encoding": "raw"}
+    (cseg_sharded,) = create(HERE / "sharded-cseg-u64", "uint64",
+                             [scale([4, 4, 40], sharding=identity, **block)], kind="segmentation")
+    write(cseg_sharded, wide)
 
     (HERE / "versions.json").write_text(json.dumps({
         "tensorstore": version("tensorstore"),

@@ -222,6 +222,10 @@ pub struct Pyramid {
     /// ([`Pyramid::fetch_ahead_regions`]): one batch at a time, the next call asks for the
     /// newest regions once it ends.
     shard_batch_busy: Arc<std::sync::atomic::AtomicBool>,
+    /// Whether a chunk's store key names an object a URL's store can fetch ahead by itself
+    /// (false for a precomputed volume with sharded scales, whose chunks are ranges the
+    /// store adapter finds: nothing is fetched ahead or bounded by key).
+    chunks_are_objects: bool,
 }
 
 impl std::fmt::Debug for Pyramid {
@@ -464,6 +468,9 @@ impl Pyramid {
     /// The most bytes one object (a chunk, or a shard with its index) of `level` may have:
     /// its decoded size with room for a codec's overhead.
     fn object_bound(&self, level: usize) -> Option<u64> {
+        if !self.chunks_are_objects {
+            return None;
+        }
         let (info, array) = (self.levels.get(level)?, self.arrays.get(level)?);
         let zeros = vec![0u64; array.dimensionality()];
         let shape = array.chunk_shape(&zeros).ok()?;

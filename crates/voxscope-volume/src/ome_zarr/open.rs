@@ -569,6 +569,7 @@ fn open_levels(
         read_ahead: None,
         reader_pool: None,
         shard_batch_busy: std::sync::Arc::default(),
+        chunks_are_objects: true,
         plate: None,
         bioformats2raw: None,
     })

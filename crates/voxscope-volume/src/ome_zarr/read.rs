@@ -175,7 +175,7 @@ impl Pyramid {
     /// fetched (and the shards' indexes) stays readable while the answer lives, whatever the
     /// fetch cache keeps: the regions' reads, made while it lives, fetch none of it again.
     pub fn prefetch_regions(&self, regions: &[(usize, [usize; 3], [usize; 3])]) -> HeldFetches {
-        let Some(remote) = &self.remote else {
+        let Some(remote) = self.remote.as_ref().filter(|_| self.chunks_are_objects) else {
             return HeldFetches::default();
         };
         let mut held = remote.prefetch(&self.unsharded_chunk_keys(regions));
@@ -198,7 +198,9 @@ impl Pyramid {
         self: &Arc<Self>,
         regions: &[(usize, [usize; 3], [usize; 3])],
     ) -> usize {
-        let Some(remote) = &self.remote else { return 0 };
+        let Some(remote) = self.remote.as_ref().filter(|_| self.chunks_are_objects) else {
+            return 0;
+        };
         let sharded: Vec<(usize, [usize; 3], [usize; 3])> = regions
             .iter()
             .filter(|(level, _, _)| self.levels.get(*level).is_some_and(|l| l.shard.is_some()))
@@ -241,6 +243,9 @@ impl Pyramid {
     ///
     /// [`read_ahead`]: super::read_ahead
     pub fn fetch_ahead_chunks(&self, chunks: &[(usize, [usize; 3])]) -> usize {
+        if !self.chunks_are_objects {
+            return 0;
+        }
         match (&self.remote, &self.read_ahead) {
             (Some(remote), _) => remote.fetch_ahead(&self.unsharded_keys_of(chunks)),
             (None, Some(ahead)) => {
@@ -277,6 +282,9 @@ impl Pyramid {
     /// batch under way; a folder with unsharded levels and room to read more ahead. Cheap: a
     /// streamer asks before it works out its bricks' regions.
     pub fn can_fetch_ahead(&self) -> bool {
+        if !self.chunks_are_objects {
+            return false;
+        }
         if let Some(ahead) = &self.read_ahead {
             return ahead.has_room() && self.levels.iter().any(|l| l.shard.is_none());
         }
@@ -535,6 +543,7 @@ impl Pyramid {
         let array = &self.arrays[level];
         if let Some(remote) = &self.remote
             && info.shard.is_none()
+            && self.chunks_are_objects
         {
             // zarrs asks for one chunk per reading thread at a time: over a network all of
             // the region's chunks are asked for at once first, into the fetch cache. They are

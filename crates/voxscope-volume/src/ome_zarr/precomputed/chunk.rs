@@ -53,27 +53,29 @@ pub(super) fn with_extent(extent: [u32; 3], bytes: &[u8]) -> Vec<u8> {
     out
 }
 
-/// The extent (x, y, z) in a chunk file's name `x0-x1_y0-y1_z0-z1`, if it is one (bounds
-/// may be negative: `-64-0`).
-pub(super) fn extent_of(name: &str) -> Option<[u32; 3]> {
+/// Where a chunk file's name `x0-x1_y0-y1_z0-z1` puts it: its first voxel and its extent
+/// (x, y, z; bounds may be negative: `-64-0`), if it is one.
+pub(super) fn chunk_of_name(name: &str) -> Option<([i64; 3], [u32; 3])> {
     fn bound(text: &str) -> Option<i64> {
         let digits = text.strip_prefix('-').unwrap_or(text);
         let valid =
             !digits.is_empty() && digits.len() <= 12 && digits.bytes().all(|b| b.is_ascii_digit());
         valid.then(|| text.parse().ok()).flatten()
     }
+    let mut begin = [0; 3];
     let mut extent = [0; 3];
     let mut parts = name.split('_');
-    for slot in &mut extent {
+    for a in 0..3 {
         let part = parts.next()?;
         // The separator: the first '-' after the begin's first character.
         let at = part.get(1..)?.find('-')? + 1;
-        let (begin, end) = (bound(&part[..at])?, bound(&part[at + 1..])?);
-        *slot = u32::try_from(end.checked_sub(begin)?)
+        let (first, end) = (bound(&part[..at])?, bound(&part[at + 1..])?);
+        begin[a] = first;
+        extent[a] = u32::try_from(end.checked_sub(first)?)
             .ok()
             .filter(|&e| e > 0)?;
     }
-    parts.next().is_none().then_some(extent)
+    parts.next().is_none().then_some((begin, extent))
 }
 
 /// How a scale's chunks are encoded (the codec's configuration).
@@ -470,8 +472,12 @@ mod tests {
 
     #[test]
     fn chunk_names_carry_their_extent() {
-        assert_eq!(extent_of("3-9_2-7_1-5"), Some([6, 5, 4]));
-        assert_eq!(extent_of("-4-2_0-1_-3--1"), Some([6, 1, 2]));
+        let extent_of = |name| chunk_of_name(name).map(|(_, extent)| extent);
+        assert_eq!(chunk_of_name("3-9_2-7_1-5"), Some(([3, 2, 1], [6, 5, 4])));
+        assert_eq!(
+            chunk_of_name("-4-2_0-1_-3--1"),
+            Some(([-4, 0, -3], [6, 1, 2]))
+        );
         assert_eq!(extent_of("3-9_2-7"), None);
         assert_eq!(extent_of("3-9_2-7_1-5_0-1"), None);
         assert_eq!(extent_of("9-3_2-7_1-5"), None);

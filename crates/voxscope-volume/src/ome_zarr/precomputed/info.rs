@@ -10,6 +10,7 @@
 use serde_json::{Map, Value, json};
 
 use super::chunk::{CHUNK_CODEC, KEY_ENCODING};
+use super::sharded::Sharding;
 use crate::error::{escape, printable};
 
 /// The types precomputed volumes hold.
@@ -56,8 +57,8 @@ pub(super) struct Scale {
     /// The chunk along x, y, z (the first of `chunk_sizes`).
     pub chunk: [u64; 3],
     pub encoding: Encoding,
-    /// The `sharding` specification, where the scale is sharded.
-    pub sharding: Option<Map<String, Value>>,
+    /// Where the scale is sharded, how.
+    pub sharding: Option<Sharding>,
 }
 
 /// The whole `info`.
@@ -152,7 +153,9 @@ fn scale_of(value: &Value, index: usize) -> Result<Scale, String> {
     };
     let sharding = match value.get("sharding") {
         None | Some(Value::Null) => None,
-        Some(Value::Object(sharding)) => Some(sharding.clone()),
+        Some(Value::Object(sharding)) => {
+            Some(Sharding::parse(sharding).map_err(|problem| format!("scale {index}: {problem}"))?)
+        }
         Some(_) => return Err(format!("{} is not an object", what("sharding"))),
     };
     Ok(Scale {

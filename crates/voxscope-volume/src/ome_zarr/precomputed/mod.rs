@@ -6,12 +6,16 @@
 //! metadata is the Zarr path's: levels, region reads, streaming, budgets, the remote client,
 //! `convert` to OME-Zarr. A segmentation is a label image.
 //!
-//! Unsharded scales are read: `raw`, `jpeg`, `png` and `compressed_segmentation` chunks,
-//! gzip-compressed or not (cloud-volume's `.gz` files too).
+//! Scales unsharded (a file a chunk; cloud-volume's gzip-compressed `.gz` files too) and
+//! sharded ([`sharded`]: a chunk is a range of a shard file) are read, their chunks `raw`,
+//! `jpeg`, `png` or `compressed_segmentation`, gzip-compressed or not.
 
 mod chunk;
 mod info;
 mod segmentation;
+mod sharded;
+
+use std::collections::HashMap;
 
 use std::path::Path;
 use std::sync::Arc;
@@ -84,12 +88,19 @@ pub(super) fn open(
     warm: Warm,
 ) -> Result<Pyramid, Problem> {
     let info = read_info(&store)?.ok_or("is not a precomputed volume: no info with scales")?;
-    if let Some(scale) = info.scales.iter().find(|s| s.sharding.is_some()) {
-        return Err(format!(
-            "scale '{}' is sharded; voxscope reads unsharded precomputed scales so far",
-            crate::error::escape(&scale.key)
-        ));
-    }
+    let sharded: HashMap<String, sharded::ShardedScale> = info
+        .scales
+        .iter()
+        .filter_map(|scale| {
+            let grid = std::array::from_fn(|a| scale.size[a].div_ceil(scale.chunk[a]));
+            let sharding = scale.sharding.clone()?;
+            Some((
+                scale.key.clone(),
+                sharded::ShardedScale::new(scale.key.clone(), sharding, grid),
+            ))
+        })
+        .collect();
+    let any_sharded = !sharded.is_empty();
     let name = source
         .trim_end_matches('/')
         .rsplit('/')
@@ -100,10 +111,13 @@ pub(super) fn open(
         inner: store,
         info,
         name,
+        sharded,
     });
     let mut pyramid = super::open::open_root(adapted, source, options, warm, None)?;
     pyramid.format = "precomputed";
     pyramid.ome_version = None;
+    // A sharded chunk's key names no object: nothing is fetched ahead by key.
+    pyramid.chunks_are_objects = !any_sharded;
     Ok(pyramid)
 }
 
@@ -112,14 +126,20 @@ struct PrecomputedStore {
     inner: ReadableStorage,
     info: info::Info,
     name: Option<String>,
+    /// The sharded scales, by key.
+    sharded: HashMap<String, sharded::ShardedScale>,
 }
 
 /// What a key of the adapted store names.
 enum Named<'a> {
     /// A Zarr document (`zarr.json`, …) of the node `node`.
     Document { node: &'a str, name: &'a str },
-    /// A chunk file of this extent (x, y, z).
-    Chunk([u32; 3]),
+    /// A chunk of scale `scale`, its first voxel and extent (x, y, z).
+    Chunk {
+        scale: &'a str,
+        begin: [i64; 3],
+        extent: [u32; 3],
+    },
     /// Anything else (passed through).
     Other,
 }
@@ -130,8 +150,12 @@ impl PrecomputedStore {
             return Named::Document { node, name };
         }
         let (scale, file) = key.rsplit_once('/').unwrap_or(("", key));
-        match chunk::extent_of(file) {
-            Some(extent) if self.info.scale(scale).is_some() => Named::Chunk(extent),
+        match chunk::chunk_of_name(file) {
+            Some((begin, extent)) if self.info.scale(scale).is_some() => Named::Chunk {
+                scale,
+                begin,
+                extent,
+            },
             _ => Named::Other,
         }
     }
@@ -158,10 +182,27 @@ impl PrecomputedStore {
         self.inner.get(&gz)
     }
 
-    fn chunk(&self, key: &StoreKey, extent: [u32; 3]) -> Result<MaybeBytes, StorageError> {
-        Ok(self
-            .chunk_file(key)?
-            .map(|bytes| Bytes::from(chunk::with_extent(extent, &bytes))))
+    /// The chunk `key` names, its extent before its bytes ([`chunk::with_extent`]): its file,
+    /// or its range of a shard file.
+    fn chunk(&self, key: &StoreKey, named: &Named) -> Result<MaybeBytes, StorageError> {
+        let Named::Chunk {
+            scale,
+            begin,
+            extent,
+        } = *named
+        else {
+            return Ok(None);
+        };
+        let bytes = match (self.sharded.get(scale), self.info.scale(scale)) {
+            (Some(sharded), Some(info)) => {
+                let position: [u64; 3] = std::array::from_fn(|a| {
+                    (begin[a] - info.voxel_offset[a]).max(0) as u64 / info.chunk[a]
+                });
+                sharded.chunk(self.inner.as_ref(), position)?
+            }
+            _ => self.chunk_file(key)?,
+        };
+        Ok(bytes.map(|bytes| Bytes::from(chunk::with_extent(extent, &bytes))))
     }
 }
 
@@ -169,7 +210,7 @@ impl ReadableStorageTraits for PrecomputedStore {
     fn get(&self, key: &StoreKey) -> Result<MaybeBytes, StorageError> {
         match self.named(key.as_str()) {
             Named::Document { node, name } => Ok(self.document(node, name)),
-            Named::Chunk(extent) => self.chunk(key, extent),
+            named @ Named::Chunk { .. } => self.chunk(key, &named),
             Named::Other => self.inner.get(key),
         }
     }
@@ -181,7 +222,7 @@ impl ReadableStorageTraits for PrecomputedStore {
     ) -> Result<MaybeBytesIterator<'a>, StorageError> {
         let whole = match self.named(key.as_str()) {
             Named::Document { node, name } => self.document(node, name),
-            Named::Chunk(extent) => self.chunk(key, extent)?,
+            named @ Named::Chunk { .. } => self.chunk(key, &named)?,
             Named::Other => return self.inner.get_partial_many(key, byte_ranges),
         };
         Ok(whole.map(|bytes| slice_ranges(bytes, byte_ranges)))
@@ -190,7 +231,7 @@ impl ReadableStorageTraits for PrecomputedStore {
     fn size_key(&self, key: &StoreKey) -> Result<Option<u64>, StorageError> {
         match self.named(key.as_str()) {
             Named::Document { node, name } => Ok(self.document(node, name).map(|d| d.len() as u64)),
-            Named::Chunk(extent) => Ok(self.chunk(key, extent)?.map(|c| c.len() as u64)),
+            named @ Named::Chunk { .. } => Ok(self.chunk(key, &named)?.map(|c| c.len() as u64)),
             Named::Other => self.inner.size_key(key),
         }
     }
