@@ -673,3 +673,24 @@ fn probe_names_no_unit_where_the_file_names_none() {
     let text = String::from_utf8_lossy(&output.stdout).into_owned();
     assert!(text.contains(") mm from the first voxel"), "{text}");
 }
+
+#[test]
+fn a_reader_that_goes_away_ends_the_output_quietly() {
+    // `voxscope info X | head -1`: the pipe closes before the table is written.
+    let fixture =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/n5/n5-viewer.n5");
+    for args in [vec!["info"], vec!["info", "--json"]] {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_voxscope"))
+            .args(&args)
+            .arg(&fixture)
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        drop(child.stdout.take());
+        let out = child.wait_with_output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{args:?}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+    }
+}

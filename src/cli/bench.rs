@@ -125,9 +125,9 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
     if args.streams() {
         let report = voxscope_bench::stream::run(&options).map_err(|e| error_text(&e))?;
         if args.json {
-            println!("{report}");
+            outln!("{report}");
         } else {
-            println!(
+            outln!(
                 "{}",
                 serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?
             );
@@ -138,9 +138,9 @@ pub fn run(args: &BenchArgs) -> Result<(), String> {
         .map_err(|e| error_text(&e))?;
     let report = voxscope_bench::renderers::run(&options, &volume).map_err(|e| error_text(&e))?;
     if args.json {
-        println!("{}", report.json);
+        outln!("{}", report.json);
     } else {
-        print!("{}", report.table());
+        out!("{}", report.table());
     }
     Ok(())
 }

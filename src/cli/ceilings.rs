@@ -24,9 +24,9 @@ pub fn run(args: &CeilingsArgs) -> Result<(), String> {
     };
     let report = voxscope_bench::ceilings::measure(sizes).map_err(|e| e.to_string())?;
     if args.json {
-        println!("{}", report.json());
+        outln!("{}", report.json());
     } else {
-        print!("{}", report.table());
+        out!("{}", report.table());
     }
     Ok(())
 }

@@ -124,7 +124,7 @@ pub fn run(args: &ConvertArgs) -> Result<(), String> {
         })
         .map_err(|e| e.to_string())?;
     let shown: Vec<String> = levels.iter().map(|d| format_dims(*d)).collect();
-    println!(
+    outln!(
         "wrote {} ({} levels: {}) in {:.2} s",
         args.output,
         levels.len(),

@@ -83,15 +83,15 @@ pub fn run(args: &InfoArgs) -> Result<(), String> {
         if let Some(pyramid) = &pyramid {
             json["pyramid"] = pyramid_json(pyramid);
         }
-        println!("{json}");
+        outln!("{json}");
     } else {
         if let Some(pyramid) = &pyramid {
-            print!("{}", pyramid_table(pyramid));
+            out!("{}", pyramid_table(pyramid));
         }
         // A pyramid's table lists its channels and time points already.
-        print!("{}", info_table(&prepared, pyramid.is_none()));
+        out!("{}", info_table(&prepared, pyramid.is_none()));
         if !channels.is_empty() {
-            print!("{}", composite_table(&channels));
+            out!("{}", composite_table(&channels));
         }
     }
     Ok(())
@@ -260,16 +260,16 @@ fn print_beyond_octree(volume: &Volume, pyramid: Option<&Pyramid>, as_json: bool
         if let Some(pyramid) = pyramid {
             json["pyramid"] = pyramid_json(pyramid);
         }
-        println!("{json}");
+        outln!("{json}");
     } else {
         if let Some(pyramid) = pyramid {
-            print!("{}", pyramid_table(pyramid));
+            out!("{}", pyramid_table(pyramid));
         }
-        print!(
+        out!(
             "{}",
             volume_lines(volume, &quantized, window, pyramid.is_none())
         );
-        println!("octree       {streamed}");
+        outln!("octree       {streamed}");
     }
 }
 

@@ -1,6 +1,24 @@
 //! The command line: `voxscope [FILE]` opens the app; `voxscope info`, `render`, `movie`,
 //! `bench`, `ceilings`, `probe`, `slice` and `convert` work without a window.
 
+/// `print!` to standard output where a reader that has gone (`voxscope info X | head`) ends
+/// the process quietly, as Unix tools do, rather than in a panic.
+macro_rules! out {
+    ($($arg:tt)*) => {
+        $crate::cli::write_out(format_args!($($arg)*))
+    };
+}
+
+/// `println!` as [`out!`] writes.
+macro_rules! outln {
+    () => {
+        $crate::cli::write_out(format_args!("\n"))
+    };
+    ($($arg:tt)*) => {
+        $crate::cli::write_out(format_args!("{}\n", format_args!($($arg)*)))
+    };
+}
+
 mod args;
 mod bench;
 mod ceilings;
@@ -143,4 +161,18 @@ where
         ),
     };
     ran.map(|()| 0)
+}
+
+/// Writes `text` to standard output. A closed pipe ends the process with status 0 (its
+/// reader has what it wanted); any other failure to write is reported once on stderr.
+pub(crate) fn write_out(text: std::fmt::Arguments) {
+    use std::io::Write;
+    let mut stdout = std::io::stdout().lock();
+    if let Err(error) = stdout.write_fmt(text).and_then(|()| stdout.flush()) {
+        if error.kind() == std::io::ErrorKind::BrokenPipe {
+            std::process::exit(0);
+        }
+        eprintln!("error: cannot write to standard output: {error}");
+        std::process::exit(1);
+    }
 }

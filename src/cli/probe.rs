@@ -89,7 +89,7 @@ pub fn run(args: &ProbeArgs) -> Result<(), String> {
             .iter()
             .map(|(name, value)| (name.clone(), json!(value)))
             .collect();
-        println!(
+        outln!(
             "{}",
             json!({
                 "file": volume.name,
@@ -113,15 +113,15 @@ pub fn run(args: &ProbeArgs) -> Result<(), String> {
         let [i, j, k] = probed.index;
         let [x, y, z] = probed.position;
         let [si, sj, sk] = probed.stored_index;
-        println!("voxel      ({i}, {j}, {k}) displayed · ({si}, {sj}, {sk}) as stored");
-        println!(
+        outln!("voxel      ({i}, {j}, {k}) displayed · ({si}, {sj}, {sk}) as stored");
+        outln!(
             "position   {} from the first voxel",
             volume.with_unit(format!("({x:.3}, {y:.3}, {z:.3})"))
         );
         if channel_values.is_empty() {
             match &probed.unit {
-                Some(unit) => println!("value      {} {unit}", probed.value),
-                None => println!("value      {}", probed.value),
+                Some(unit) => outln!("value      {} {unit}", probed.value),
+                None => outln!("value      {}", probed.value),
             }
         }
         for channel in &channel_values {
@@ -130,10 +130,10 @@ pub fn run(args: &ProbeArgs) -> Result<(), String> {
                 .as_deref()
                 .map_or(String::new(), |u| format!(" {u}"));
             let name = channel.name.as_deref().unwrap_or("");
-            println!("channel {}  {}{unit} {name}", channel.index, channel.value);
+            outln!("channel {}  {}{unit} {name}", channel.index, channel.value);
         }
         for (name, value) in &labels {
-            println!("label      {value} ({name})");
+            outln!("label      {value} ({name})");
         }
     }
     Ok(())
