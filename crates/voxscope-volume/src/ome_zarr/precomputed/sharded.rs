@@ -168,13 +168,20 @@ fn murmur3_x86_128_low64(key: u64) -> u64 {
 /// end of the shard's index).
 type Entry = (u64, u64, u64);
 
+/// The minishard indexes read so far, by shard file and minishard, and their bytes.
+#[derive(Default)]
+struct Kept {
+    indexes: HashMap<(String, u64), Arc<Vec<Entry>>>,
+    bytes: usize,
+}
+
 /// One sharded scale, with the minishard indexes read so far.
 pub(super) struct ShardedScale {
     key: String,
     sharding: Sharding,
     /// Chunks along x, y, z.
     grid: [u64; 3],
-    minishards: Mutex<(HashMap<(String, u64), Arc<Vec<Entry>>>, usize)>,
+    minishards: Mutex<Kept>,
 }
 
 fn storage_error(what: String) -> StorageError {
@@ -232,7 +239,7 @@ impl ShardedScale {
     ) -> Result<Option<Arc<Vec<Entry>>>, StorageError> {
         let wanted = (file.to_owned(), minishard);
         if let Ok(kept) = self.minishards.lock()
-            && let Some(entries) = kept.0.get(&wanted)
+            && let Some(entries) = kept.indexes.get(&wanted)
         {
             return Ok(Some(Arc::clone(entries)));
         }
@@ -292,12 +299,12 @@ impl ShardedScale {
         let entries = Arc::new(entries);
         if let Ok(mut kept) = self.minishards.lock() {
             let bytes = n * 24;
-            if kept.1 + bytes > MAX_KEPT_BYTES {
-                kept.0.clear();
-                kept.1 = 0;
+            if kept.bytes + bytes > MAX_KEPT_BYTES {
+                kept.indexes.clear();
+                kept.bytes = 0;
             }
-            kept.1 += bytes;
-            kept.0.insert(wanted, Arc::clone(&entries));
+            kept.bytes += bytes;
+            kept.indexes.insert(wanted, Arc::clone(&entries));
         }
         Ok(Some(entries))
     }
