@@ -268,16 +268,44 @@ fn damaged_chunks_and_info_documents_are_one_line_errors() {
         } else {
             chunk.to_owned()
         };
-        let before = std::fs::read(fixtures().join(name).join(&file)).unwrap();
         std::fs::write(path.join(&file), damage).unwrap();
         let error = read_error(&path);
         assert!(error.contains(expected), "{name}: {error}");
         assert!(error.contains("10-14_7-11_6-9"), "{name}: {error}");
-        assert_eq!(
-            std::fs::read(fixtures().join(name).join(&file)).unwrap(),
-            before
-        );
+        // The damaged file is as it was left: reading changes nothing.
+        assert_eq!(std::fs::read(path.join(&file)).unwrap(), damage, "{name}");
     }
+    // A raw chunk whose first voxel's bytes are gzip's magic is raw data, not gzip.
+    let (_dir, path) = copy_fixture("raw-u16");
+    let file = path.join("4_4_40/4-10_2-7_2-6");
+    let mut bytes = std::fs::read(&file).unwrap();
+    bytes[..2].copy_from_slice(&[0x1f, 0x8b]);
+    std::fs::write(&file, bytes).unwrap();
+    let read = level(&open_with(&path, 0).unwrap(), 0).unwrap();
+    assert_eq!(read[0], f64::from(u16::from_le_bytes([0x1f, 0x8b])));
+    assert!(read[1..] == voxels()[1..]);
+    // A minishard index that gives its chunks petabytes: refused before any read of that size.
+    let (_dir, path) = copy_fixture("sharded-cseg-u64");
+    for shard in ["0", "1", "2", "3"] {
+        let file = path.join(format!("4_4_40/{shard}.shard"));
+        let mut bytes = std::fs::read(&file).unwrap();
+        let word = |b: &[u8], at: usize| u64::from_le_bytes(b[at..at + 8].try_into().unwrap());
+        // Two minishards: a 32-byte shard index, then each minishard's ids, offsets, sizes.
+        for minishard in 0..2 {
+            let (start, end) = (
+                word(&bytes, 16 * minishard),
+                word(&bytes, 16 * minishard + 8),
+            );
+            let entries = ((end - start) / 24) as usize;
+            for i in 0..entries {
+                let at = 32 + start as usize + 8 * (2 * entries + i);
+                bytes[at..at + 8].copy_from_slice(&(1u64 << 62).to_le_bytes());
+            }
+        }
+        std::fs::write(&file, bytes).unwrap();
+    }
+    let error = read_error(&path);
+    assert!(error.contains("holds at most"), "{error}");
     // Shards whose index points past their end; a sharding this reader does not know.
     let (_dir, path) = copy_fixture("sharded-cseg-u64");
     for shard in ["0", "1", "2", "3"] {

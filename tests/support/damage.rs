@@ -7,7 +7,8 @@
 //! damage changes no value (a byte of a header no value depends on, junk after a gzip
 //! member), read the same values: never other values. An N5 container (n5-viewer levels of
 //! uncompressed blocks, the edge blocks cut as Java's N5 writes them) is written here, by
-//! hand, to the N5 specification.
+//! hand, to the N5 specification, and a neuroglancer precomputed volume (raw chunks, the edge
+//! ones cut) to neuroglancer's.
 
 use std::path::{Path, PathBuf};
 
@@ -30,10 +31,19 @@ pub enum StoreKind {
     Raw,
     /// N5 (n5-viewer `scales`), uncompressed blocks of 8³, edge blocks cut to the dataset.
     N5,
+    /// neuroglancer precomputed, unsharded raw chunks of 8³, edge chunks cut to the volume.
+    Precomputed,
 }
 
 impl StoreKind {
-    pub const ALL: [Self; 5] = [Self::Gzip, Self::Zstd, Self::Sharded, Self::Raw, Self::N5];
+    pub const ALL: [Self; 6] = [
+        Self::Gzip,
+        Self::Zstd,
+        Self::Sharded,
+        Self::Raw,
+        Self::N5,
+        Self::Precomputed,
+    ];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -42,6 +52,7 @@ impl StoreKind {
             Self::Sharded => "sharded.ome.zarr",
             Self::Raw => "raw.ome.zarr",
             Self::N5 => "raw.n5",
+            Self::Precomputed => "raw.precomputed",
         }
     }
 }
@@ -63,6 +74,10 @@ pub fn write_store(folder: &Path, kind: StoreKind) -> PathBuf {
     let (version, compression, shard_chunks) = match kind {
         StoreKind::N5 => {
             write_n5(&path);
+            return path;
+        }
+        StoreKind::Precomputed => {
+            write_precomputed(&path);
             return path;
         }
         StoreKind::Gzip => (ZarrVersion::V04, Compression::Gzip, 1),
@@ -101,9 +116,7 @@ fn write_n5(path: &Path) {
         path,
         serde_json::json!({"n5": "2.5.1", "scales": [[1, 1, 1], [2, 2, 2], [4, 4, 4]]}),
     );
-    let mut dims = DIMS;
-    let mut level = values();
-    for s in 0..3 {
+    for (s, (dims, level)) in subsampled_levels().into_iter().enumerate() {
         let dataset = path.join(format!("s{s}"));
         write_json(
             &dataset,
@@ -119,21 +132,24 @@ fn write_n5(path: &Path) {
             for e in extent {
                 block.extend_from_slice(&(e as u32).to_be_bytes());
             }
-            for z in 0..extent[2] {
-                for y in 0..extent[1] {
-                    for x in 0..extent[0] {
-                        let (x, y, z) = (start[0] + x, start[1] + y, start[2] + z);
-                        let value = level[x + dims[0] * (y + dims[1] * z)];
-                        block.extend_from_slice(&value.to_be_bytes());
-                    }
-                }
-            }
+            block_values(&level, dims, start, extent, &mut |v| {
+                block.extend_from_slice(&v.to_be_bytes())
+            });
             let file = dataset.join(format!("{}/{}/{}", at[0], at[1], at[2]));
             std::fs::create_dir_all(file.parent().expect("a parent")).expect("a folder");
             std::fs::write(file, block).expect("a block");
         }
+    }
+}
+
+/// The levels the hand-written stores hold: the volume, then every other voxel of the level
+/// before, twice; each with its dimensions.
+fn subsampled_levels() -> Vec<([usize; 3], Vec<u16>)> {
+    let mut levels = vec![(DIMS, values())];
+    for _ in 0..2 {
+        let (dims, level) = &levels[levels.len() - 1];
         let coarser: [usize; 3] = std::array::from_fn(|a| dims[a].div_ceil(2));
-        level = (0..coarser.iter().product::<usize>())
+        let values = (0..coarser.iter().product::<usize>())
             .map(|i| {
                 let (x, y, z) = (
                     i % coarser[0],
@@ -143,7 +159,69 @@ fn write_n5(path: &Path) {
                 level[2 * x + dims[0] * (2 * y + dims[1] * 2 * z)]
             })
             .collect();
-        dims = coarser;
+        levels.push((coarser, values));
+    }
+    levels
+}
+
+/// The values of the block of `dims` starting at `start` of `extent` voxels, x fastest, each
+/// written by `put`.
+fn block_values(
+    level: &[u16],
+    dims: [usize; 3],
+    start: [usize; 3],
+    extent: [usize; 3],
+    put: &mut dyn FnMut(u16),
+) {
+    for z in 0..extent[2] {
+        for y in 0..extent[1] {
+            for x in 0..extent[0] {
+                let (x, y, z) = (start[0] + x, start[1] + y, start[2] + z);
+                put(level[x + dims[0] * (y + dims[1] * z)]);
+            }
+        }
+    }
+}
+
+/// A neuroglancer precomputed volume of three scales (every other voxel of the one before),
+/// raw chunks of 8³ named by their voxel ranges, the edge ones cut.
+fn write_precomputed(path: &Path) {
+    const CHUNK: usize = 8;
+    let levels = subsampled_levels();
+    let scales: Vec<serde_json::Value> = levels
+        .iter()
+        .enumerate()
+        .map(|(s, (dims, _))| {
+            let f = 1 << s;
+            serde_json::json!({"key": format!("{f}_{f}_{f}"), "size": dims,
+                "resolution": [f, f, f], "voxel_offset": [0, 0, 0],
+                "chunk_sizes": [[CHUNK, CHUNK, CHUNK]], "encoding": "raw"})
+        })
+        .collect();
+    std::fs::create_dir_all(path).expect("a folder");
+    let info = serde_json::json!({"@type": "neuroglancer_multiscale_volume", "type": "image",
+        "data_type": "uint16", "num_channels": 1, "scales": scales});
+    std::fs::write(path.join("info"), info.to_string()).expect("the info");
+    for (s, (dims, level)) in levels.iter().enumerate() {
+        let f = 1 << s;
+        let folder = path.join(format!("{f}_{f}_{f}"));
+        std::fs::create_dir_all(&folder).expect("a folder");
+        let grid: [usize; 3] = std::array::from_fn(|a| dims[a].div_ceil(CHUNK));
+        for b in 0..grid.iter().product::<usize>() {
+            let at = [b % grid[0], b / grid[0] % grid[1], b / grid[0] / grid[1]];
+            let start: [usize; 3] = std::array::from_fn(|a| at[a] * CHUNK);
+            let end: [usize; 3] = std::array::from_fn(|a| (start[a] + CHUNK).min(dims[a]));
+            let extent: [usize; 3] = std::array::from_fn(|a| end[a] - start[a]);
+            let mut bytes = Vec::new();
+            block_values(level, *dims, start, extent, &mut |v| {
+                bytes.extend_from_slice(&v.to_le_bytes())
+            });
+            let name = format!(
+                "{}-{}_{}-{}_{}-{}",
+                start[0], end[0], start[1], end[1], start[2], end[2]
+            );
+            std::fs::write(folder.join(name), bytes).expect("a chunk");
+        }
     }
 }
 
@@ -176,7 +254,7 @@ pub fn is_metadata(relative: &Path) -> bool {
         .unwrap_or_default();
     matches!(
         name,
-        "zarr.json" | ".zarray" | ".zattrs" | ".zgroup" | "attributes.json"
+        "zarr.json" | ".zarray" | ".zattrs" | ".zgroup" | "attributes.json" | "info"
     )
 }
 
@@ -222,7 +300,10 @@ impl Damage {
         let size = std::fs::metadata(root.join(&chunk)).map_or(0, |m| m.len() as usize);
         // The raw stores carry no check: only damage that changes a chunk's length is
         // detectable there.
-        let chunk_damages = if matches!(kind, StoreKind::Raw | StoreKind::N5) {
+        let chunk_damages = if matches!(
+            kind,
+            StoreKind::Raw | StoreKind::N5 | StoreKind::Precomputed
+        ) {
             4
         } else {
             7
@@ -305,6 +386,20 @@ impl Damage {
                 let Ok(mut json) = serde_json::from_str::<serde_json::Value>(&text) else {
                     return b;
                 };
+                // A precomputed volume's every scale's `size` (an N5 group's `scales` are
+                // lists, left as they are).
+                if let Some(scales) = json.get_mut("scales").and_then(|s| s.as_array_mut()) {
+                    let huge = serde_json::Value::from(vec![1_000_000_000_000u64; 3]);
+                    let sized = scales.iter_mut().filter_map(|scale| scale.as_object_mut());
+                    let mut any = false;
+                    for scale in sized {
+                        scale.insert("size".to_owned(), huge.clone());
+                        any = true;
+                    }
+                    if any {
+                        return json.to_string().into_bytes();
+                    }
+                }
                 // Zarr's `shape`, N5's `dimensions`.
                 let key = if json.get("shape").is_some() {
                     "shape"

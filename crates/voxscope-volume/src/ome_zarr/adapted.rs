@@ -2,7 +2,7 @@
 //! [`super::precomputed`]) share: telling Zarr documents from data, and answering byte ranges
 //! of what they make up.
 
-use zarrs::storage::byte_range::ByteRangeIterator;
+use zarrs::storage::byte_range::{ByteRange, ByteRangeIterator};
 use zarrs::storage::{Bytes, StorageError};
 
 /// Byte ranges of a value, as zarrs's partial reads answer them.
@@ -25,9 +25,16 @@ pub(super) fn slice_ranges<'a>(bytes: Bytes, byte_ranges: ByteRangeIterator<'a>)
     let size = bytes.len() as u64;
     let parts: Vec<Result<Bytes, StorageError>> = byte_ranges
         .map(|range| {
-            let start = range.start(size).min(size) as usize;
-            let end = range.end(size).min(size) as usize;
-            Ok(bytes.slice(start..end.max(start)))
+            // Computed here: zarrs's `start` of a suffix longer than the value underflows.
+            let (start, end) = match range {
+                ByteRange::FromStart(offset, length) => {
+                    let start = offset.min(size);
+                    let end = length.map_or(size, |n| start.saturating_add(n).min(size));
+                    (start, end)
+                }
+                ByteRange::Suffix(length) => (size.saturating_sub(length), size),
+            };
+            Ok(bytes.slice(start as usize..end as usize))
         })
         .collect();
     Box::new(parts.into_iter())
@@ -43,5 +50,22 @@ mod tests {
         assert_eq!(zarr_document("s0/.zarray"), Some(("s0/", ".zarray")));
         assert_eq!(zarr_document("s0/1/2/3"), None);
         assert_eq!(zarr_document("4_4_40/0-64_0-64_0-64"), None);
+    }
+
+    #[test]
+    fn ranges_past_the_value_are_cut_to_it() {
+        let ranges = vec![
+            ByteRange::FromStart(2, Some(2)),
+            ByteRange::FromStart(4, Some(10)),
+            ByteRange::FromStart(9, None),
+            ByteRange::Suffix(3),
+            ByteRange::Suffix(100),
+        ];
+        let parts: Vec<Bytes> =
+            slice_ranges(Bytes::from_static(b"abcdef"), Box::new(ranges.into_iter()))
+                .map(Result::unwrap)
+                .collect();
+        let parts: Vec<&[u8]> = parts.iter().map(|p| &p[..]).collect();
+        assert_eq!(parts, [&b"cd"[..], b"ef", b"", b"def", b"abcdef"]);
     }
 }

@@ -418,16 +418,13 @@ impl Pyramid {
             MAX_METADATA_BYTES,
         );
         let store_root: ReadableStorage = store.clone();
-        // N5 and precomputed roots are told by the documents the first round trip fetched
-        // (guesses): a server that answers nothing is asked nothing more.
-        let opened = if open::is_zarr_root(&store_root) {
-            open_root(store_root, &source, options, &warm, None)
-        } else if store.has_fetched(n5::ATTRIBUTES) && n5::is_n5_root(&store_root) {
+        // N5 and precomputed roots are looked for only where the server answered that the
+        // Zarr documents are missing (a server that answers nothing is asked nothing more).
+        let no_zarr_root = open::zarr_root_is_missing(&store_root);
+        let opened = if no_zarr_root && n5::is_n5_root(&store_root) {
             let warm = |names: &[String]| prefetch_named(&store, &n5::n5_documents(names));
             n5::open(store_root, &source, options, &warm)
-        } else if store.has_fetched(precomputed::INFO)
-            && precomputed::is_precomputed_root(&store_root)
-        {
+        } else if no_zarr_root && precomputed::is_precomputed_root(&store_root) {
             // The info is all the metadata there is: nothing to fetch ahead.
             precomputed::open(store_root, &source, options, &|_| {})
         } else {
@@ -485,9 +482,12 @@ impl Pyramid {
         };
         // Compressors add at most a few bytes per block (blosc 16, zstd and deflate a
         // fraction of a percent); a shard adds its index (16 bytes a chunk and a crc32c).
+        // A precomputed compressed_segmentation chunk of few labels per block can be larger
+        // than its labels.
+        let slack = if self.format == "precomputed" { 2 } else { 8 };
         Some(
             decoded
-                .saturating_add(decoded / 8)
+                .saturating_add(decoded / slack)
                 .saturating_add(inner_chunks.saturating_mul(16))
                 .saturating_add(64 << 10),
         )

@@ -128,10 +128,10 @@ pub(super) fn first_documents(max_requests: usize) -> (Vec<String>, Vec<String>)
     (root, guesses)
 }
 
-/// Whether the root of `store` is a Zarr group or array (a document that cannot be read
-/// counts as none: the caller tries N5, then reports what [`open_root`] finds).
-pub(super) fn is_zarr_root(store: &ReadableStorage) -> bool {
-    matches!(node(store, ""), Ok(Node::Group { .. } | Node::Array { .. }))
+/// Whether the root of `store` is answered to hold no Zarr document (not: a Zarr node, or
+/// documents that could not be read).
+pub(super) fn zarr_root_is_missing(store: &ReadableStorage) -> bool {
+    matches!(node(store, ""), Ok(Node::Missing))
 }
 
 /// The documents zarrs reads to open the array at `full` (a path in the store, `""` for the

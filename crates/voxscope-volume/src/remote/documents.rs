@@ -148,15 +148,6 @@ impl RemoteStore {
         self.inner.known.lock().ok()?.get(key.as_str()).cloned()
     }
 
-    /// Whether the object `key` is in the fetch cache now, whole (a document a batch
-    /// fetched): asks nothing of the server.
-    pub fn has_fetched(&self, key: &str) -> bool {
-        self.inner
-            .cache
-            .lock()
-            .is_ok_and(|cache| cache.get(key, Piece::Whole).is_some())
-    }
-
     /// Forgets the batches' failures: once the store is open, a read asks again.
     pub(super) fn forget_failures(&self) {
         if let Ok(mut known) = self.inner.known.lock() {

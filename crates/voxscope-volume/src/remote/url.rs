@@ -165,14 +165,19 @@ pub(crate) fn parse_endpoint(text: &str) -> Result<(String, StoreUrl), UrlError>
 pub fn resolve_url(spec: &str) -> String {
     let mut text = spec.trim();
     for prefix in ["precomputed://", "n5://", "zarr://", "zarr2://", "zarr3://"] {
-        if text.len() > prefix.len() && text[..prefix.len()].eq_ignore_ascii_case(prefix) {
+        // `get`: a name of non-ASCII characters has no byte boundary at the prefix's length.
+        if text.len() > prefix.len()
+            && text
+                .get(..prefix.len())
+                .is_some_and(|start| start.eq_ignore_ascii_case(prefix))
+        {
             text = &text[prefix.len()..];
             break;
         }
     }
-    match text.get(..5) {
-        Some(scheme) if scheme.eq_ignore_ascii_case("gs://") => {
-            format!("https://storage.googleapis.com/{}", &text[5..])
+    match (text.get(..5), text.get(5..)) {
+        (Some(scheme), Some(rest)) if scheme.eq_ignore_ascii_case("gs://") => {
+            format!("https://storage.googleapis.com/{rest}")
         }
         _ => text.to_owned(),
     }
@@ -336,6 +341,11 @@ mod tests {
         assert_eq!(scheme_of("precomputed://gs://b/v"), Some(Scheme::Http));
         assert_eq!(scheme_of("gs://b/v"), Some(Scheme::Http));
         assert_eq!(scheme_of("precomputed://relative/path"), None);
+        // Paths of non-ASCII names are no URLs, whatever byte a prefix's length falls on.
+        for path in ["Imagé.nii", "脑图像数据.nii", "zarr:/é", "gs:/é"] {
+            assert_eq!(resolve_url(path), path);
+            assert_eq!(scheme_of(path), None);
+        }
     }
 
     #[test]

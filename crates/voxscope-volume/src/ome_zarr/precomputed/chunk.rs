@@ -268,9 +268,11 @@ impl PrecomputedChunkCodec {
     ) -> Result<Vec<u8>, CodecError> {
         let voxels = extent.iter().product::<usize>();
         let expected = (voxels * self.channels * size) as u64;
-        // The gzip transfer encoding, whatever the encoding under it.
+        // The gzip transfer encoding, whatever the encoding under it (a raw chunk of its
+        // exact size is raw, whatever its first bytes; the others cannot begin so).
+        let raw_size = matches!(self.encoding, Encoding::Raw) && encoded.len() as u64 == expected;
         let inflated;
-        let encoded = if encoded.starts_with(&[0x1f, 0x8b]) {
+        let encoded = if encoded.starts_with(&[0x1f, 0x8b]) && !raw_size {
             let bound = expected.saturating_mul(4) + (1 << 16);
             let decoder = flate2::read::GzDecoder::new(encoded);
             inflated = super::super::guard::read_bounded(decoder, bound, "precomputed gzip")?;

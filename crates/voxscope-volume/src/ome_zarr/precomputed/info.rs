@@ -233,6 +233,24 @@ impl Info {
         self.scales.iter().find(|s| s.key == key)
     }
 
+    /// The most bytes one stored chunk of `scale` may have: its voxels' bytes, three times
+    /// over (compressed_segmentation of few labels per block can be larger than its
+    /// labels), and 64 KiB for headers.
+    pub(super) fn max_chunk_bytes(&self, scale: &Scale) -> u64 {
+        let value_bytes: u64 = match self.data_type.as_str() {
+            "uint8" | "int8" => 1,
+            "uint16" | "int16" => 2,
+            "uint64" => 8,
+            _ => 4,
+        };
+        let voxels: u64 = scale.chunk.iter().product();
+        voxels
+            .saturating_mul(self.channels)
+            .saturating_mul(value_bytes)
+            .saturating_mul(3)
+            .saturating_add(64 << 10)
+    }
+
     /// The dimensions an array lists, slowest first: (channel,) z, y, x.
     fn reversed(&self, xyz: [u64; 3]) -> Vec<u64> {
         let mut dims = Vec::with_capacity(4);

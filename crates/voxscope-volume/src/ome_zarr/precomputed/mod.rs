@@ -94,9 +94,10 @@ pub(super) fn open(
         .filter_map(|scale| {
             let grid = std::array::from_fn(|a| scale.size[a].div_ceil(scale.chunk[a]));
             let sharding = scale.sharding.clone()?;
+            let max_chunk_bytes = info.max_chunk_bytes(scale);
             Some((
                 scale.key.clone(),
-                sharded::ShardedScale::new(scale.key.clone(), sharding, grid),
+                sharded::ShardedScale::new(scale.key.clone(), sharding, grid, max_chunk_bytes),
             ))
         })
         .collect();

@@ -181,6 +181,9 @@ pub(super) struct ShardedScale {
     sharding: Sharding,
     /// Chunks along x, y, z.
     grid: [u64; 3],
+    /// The most bytes a chunk's range may have (its voxels' bytes, with room for encodings
+    /// that can be larger).
+    max_chunk_bytes: u64,
     minishards: Mutex<Kept>,
 }
 
@@ -189,11 +192,17 @@ fn storage_error(what: String) -> StorageError {
 }
 
 impl ShardedScale {
-    pub(super) fn new(key: String, sharding: Sharding, grid: [u64; 3]) -> Self {
+    pub(super) fn new(
+        key: String,
+        sharding: Sharding,
+        grid: [u64; 3],
+        max_chunk_bytes: u64,
+    ) -> Self {
         Self {
             key,
             sharding,
             grid,
+            max_chunk_bytes,
             minishards: Mutex::default(),
         }
     }
@@ -212,6 +221,12 @@ impl ShardedScale {
         let Some(&(_, offset, size)) = entries.iter().find(|(chunk, _, _)| *chunk == id) else {
             return Ok(None);
         };
+        if size > self.max_chunk_bytes {
+            return Err(storage_error(format!(
+                "{}/{file}: chunk {id} is {size} bytes; a chunk of this scale holds at most {}",
+                self.key, self.max_chunk_bytes
+            )));
+        }
         let start = self
             .index_bytes()
             .checked_add(offset)
@@ -260,14 +275,23 @@ impl ShardedScale {
         }
         let (start, end) = (word(&range, 0), word(&range, 1));
         if start == end {
-            return Ok(None);
+            // An empty minishard: kept, so that its chunks ask nothing again.
+            let entries = Arc::new(Vec::new());
+            if let Ok(mut kept) = self.minishards.lock() {
+                kept.indexes.insert(wanted, Arc::clone(&entries));
+            }
+            return Ok(Some(entries));
         }
         if end < start || end - start > MAX_MINISHARD_INDEX {
             return Err(storage_error(format!(
                 "{name}: minishard {minishard}'s index spans bytes {start} to {end}"
             )));
         }
-        let at = self.index_bytes() + start;
+        let at = self.index_bytes().checked_add(start).ok_or_else(|| {
+            storage_error(format!(
+                "{name}: minishard {minishard}'s index begins past 2^64"
+            ))
+        })?;
         let Some(mut index) =
             store.get_partial(&key, ByteRange::FromStart(at, Some(end - start)))?
         else {
