@@ -15,6 +15,7 @@
 //! the wrong size, is an error that names the chunk's key.
 
 mod adapted;
+mod detect;
 mod guard;
 mod levels;
 mod metadata;
@@ -42,6 +43,8 @@ use super::error::Problem;
 use super::remote::{RemoteOptions, RemoteStats, RemoteStore};
 use super::{LoadError, MAX_VOXELS, Selection, Volume, VoxelType, format_dims};
 
+pub use detect::{StoreKind, is_zarr_folder, is_zarr_spec, store_kind, unfinished_store};
+pub(crate) use detect::{series_path, unfinished_problem};
 pub use metadata::{
     Axis, AxisKind, Bioformats2raw, LabelColor, LabelImage, OmeroChannel, Plate, SeriesEntry,
 };
@@ -249,105 +252,6 @@ fn store_keys(names: &[String]) -> Vec<StoreKey> {
 /// Fetches the metadata documents `names` of the remote `store` together (one round trip).
 fn prefetch_named(store: &RemoteStore, names: &[String]) {
     store.prefetch_documents(&store_keys(names), MAX_METADATA_BYTES);
-}
-
-/// Whether `spec` names something [`Pyramid::open_spec`] opens: a URL
-/// ([`super::remote::is_url`]) or a Zarr or N5 folder.
-pub fn is_zarr_spec(spec: &str) -> bool {
-    super::remote::is_url(spec) || is_zarr_folder(Path::new(spec))
-}
-
-/// Whether `path` is a folder [`Pyramid::open`] reads: a Zarr folder (`.zgroup`, `.zarray` or
-/// `zarr.json` in it; or a bioformats2raw container's series `ROOT/N`, which opens, or is
-/// named missing, from `ROOT`), an N5 container, group or dataset ([`is_n5_folder`]), or a
-/// neuroglancer precomputed volume ([`is_precomputed_folder`]).
-pub fn is_zarr_folder(path: &Path) -> bool {
-    (path.is_dir()
-        && [".zgroup", ".zarray", "zarr.json"]
-            .iter()
-            .any(|name| path.join(name).is_file()))
-        || series_path(path).is_some()
-        || is_n5_folder(path)
-        || is_precomputed_folder(path)
-}
-
-/// What kind of store a folder [`is_zarr_folder`] accepts is.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum StoreKind {
-    Zarr,
-    N5,
-    Precomputed,
-}
-
-impl StoreKind {
-    /// As the app's browser names it.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Zarr => "Zarr store",
-            Self::N5 => "N5 container",
-            Self::Precomputed => "precomputed volume",
-        }
-    }
-}
-
-/// The kind of store the folder `path` is, if it is one ([`is_zarr_folder`]).
-pub fn store_kind(path: &Path) -> Option<StoreKind> {
-    if is_n5_folder(path) {
-        Some(StoreKind::N5)
-    } else if is_precomputed_folder(path) {
-        Some(StoreKind::Precomputed)
-    } else {
-        is_zarr_folder(path).then_some(StoreKind::Zarr)
-    }
-}
-
-/// If `path` is `ROOT/N` with `ROOT` a bioformats2raw container (a folder) and `N` a number
-/// (whether or not the series exists): `ROOT` and `N`.
-pub(crate) fn series_path(path: &Path) -> Option<(std::path::PathBuf, String)> {
-    let name = path.file_name()?.to_str()?;
-    if name.is_empty() || name.len() > 9 || !name.bytes().all(|b| b.is_ascii_digit()) {
-        return None;
-    }
-    let root = path.parent()?;
-    let root = if root.as_os_str().is_empty() {
-        Path::new(".")
-    } else {
-        root
-    };
-    if !root.is_dir() {
-        return None;
-    }
-    let store = zarrs::filesystem::FilesystemStore::new(root).ok()?;
-    let store: ReadableStorage = Arc::new(store);
-    open::is_bioformats2raw_root(&store).then(|| (root.to_path_buf(), name.to_owned()))
-}
-
-/// If the folder `path` is a Zarr store whose root document is not written yet (`voxscope
-/// convert` writes it last, once every level is complete): the subfolder that already holds a
-/// Zarr array or group.
-pub fn unfinished_store(path: &Path) -> Option<String> {
-    if is_zarr_folder(path) {
-        return None;
-    }
-    let mut entries: Vec<_> = std::fs::read_dir(path)
-        .ok()?
-        .flatten()
-        .map(|e| e.path())
-        .collect();
-    entries.sort();
-    entries
-        .into_iter()
-        .take(64)
-        .find(|sub| is_zarr_folder(sub))
-        .and_then(|sub| sub.file_name().map(|n| n.to_string_lossy().into_owned()))
-}
-
-/// The words for a store whose root document is missing while `level` holds an array.
-pub(crate) fn unfinished_problem(level: &str) -> String {
-    format!(
-        "is a Zarr store still being written (or cut short): '{}' holds an array but the root has no zarr.json, .zgroup or .zarray yet; `voxscope convert` writes it last, when every level is complete",
-        super::error::escape(level)
-    )
 }
 
 impl Pyramid {
