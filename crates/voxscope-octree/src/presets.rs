@@ -169,7 +169,8 @@ type PresetPoint = (f64, f32, [u8; 3]);
 pub enum DataKind {
     /// Hounsfield units: a DICOM of modality CT, or values from air (about −1000) to bone.
     Ct,
-    /// A segmentation or atlas: integer voxels with at most [`MAX_LABELS`] distinct values.
+    /// A segmentation or atlas: integer voxels with at most [`MAX_LABELS`] distinct values,
+    /// or a label image's (of distinct quantized values).
     Labels(usize),
     /// Anything else (MRI, microscopy, simulations).
     Other,
@@ -187,6 +188,15 @@ impl DataKind {
     /// The kind of `volume`'s values, quantized as `quantized` (DICOM's modality from its
     /// metadata where it has one).
     pub fn of_volume(volume: &Volume, quantized: &QuantizedVolume) -> Self {
+        if volume.is_label_image() {
+            let distinct = quantized
+                .histogram
+                .counts
+                .iter()
+                .filter(|&&c| c > 0)
+                .count();
+            return Self::Labels(distinct);
+        }
         Self::of(
             quantized,
             volume.metadata_value("modality"),

@@ -162,6 +162,12 @@ impl Volume {
             .map(|v| self.value_scale.apply(v))
     }
 
+    /// Whether the volume was read from a label image (an OME-Zarr `image-label`, a
+    /// precomputed segmentation): its values are categories, whatever their number.
+    pub fn is_label_image(&self) -> bool {
+        self.metadata_value(ome_zarr::LABEL_IMAGE_FACT).is_some()
+    }
+
     /// The value of metadata `key` (`modality`, `unit`, …), where the file gave one.
     pub fn metadata_value(&self, key: &str) -> Option<&str> {
         self.metadata

@@ -617,10 +617,21 @@ impl Pyramid {
     }
 }
 
+/// The fact (a line of `info`) that marks a volume read from a label image: an OME-Zarr
+/// `image-label`, a precomputed segmentation.
+pub(crate) const LABEL_IMAGE_FACT: &str = "labels";
+
 /// The lines `info` shows for a volume read from `pyramid`'s `level`.
 fn volume_facts(pyramid: &Pyramid, level: usize) -> Vec<(String, String)> {
     let mut facts = Vec::new();
     facts.push(("zarr".to_owned(), pyramid.format_description()));
+    if pyramid.label_image {
+        // What the transfer function it opens with reads ([`Volume::is_label_image`]).
+        facts.push((
+            LABEL_IMAGE_FACT.to_owned(),
+            "a label image: its values are categories".to_owned(),
+        ));
+    }
     facts.push((
         "level".to_owned(),
         format!(
