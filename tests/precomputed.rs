@@ -191,26 +191,37 @@ fn a_volume_converts_to_ome_zarr_and_renders() {
         text.contains("precomputed") && text.contains("precomputed raw"),
         "{text}"
     );
-    let png = dir.path().join("labels.png");
-    let labels = fixtures().join("cseg-u32");
-    let out = voxscope(&[
-        "render",
-        labels.to_str().unwrap(),
-        "-o",
-        png.to_str().unwrap(),
-        "--size",
-        "96x72",
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let image = image::open(&png).unwrap().to_rgba8();
-    assert!(
-        support::reference::coverage(&image) > 0.05,
-        "the labels are not drawn"
-    );
+    // Segmentations draw in the labels' colors, a uint64 one (ids above 2^32, read as f64)
+    // as well as a uint32 one.
+    for name in ["cseg-u32", "cseg-u64"] {
+        let png = dir.path().join(format!("{name}.png"));
+        let labels = fixtures().join(name);
+        let out = voxscope(&[
+            "render",
+            labels.to_str().unwrap(),
+            "-o",
+            png.to_str().unwrap(),
+            "--size",
+            "96x72",
+        ]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let image = image::open(&png).unwrap().to_rgba8();
+        assert!(
+            support::reference::coverage(&image) > 0.05,
+            "{name}: nothing drawn"
+        );
+        let colored = image
+            .pixels()
+            .filter(|p| p[0].abs_diff(p[1]) > 40 || p[1].abs_diff(p[2]) > 40);
+        assert!(
+            colored.count() > 50,
+            "{name}: drawn in grays, not the labels' colors"
+        );
+    }
 }
 
 /// Copies fixture `name` into a temporary folder to damage it there.
