@@ -1,6 +1,7 @@
-"""`voxscope.open` of a NIfTI file, a DICOM folder and OME-Zarr stores (a folder, the tests'
-loopback HTTP server and S3), their facts and levels read as numpy arrays (checked against the
-fixtures' expected.json); `convert` of an array and of a file, read back."""
+"""`voxscope.open` of a NIfTI file, a DICOM folder, OME-Zarr stores (a folder, the tests'
+loopback HTTP server and S3), N5 containers and precomputed volumes, their facts and levels read
+as numpy arrays (checked against the fixtures' expected.json or raw voxels); `convert` of an
+array and of a file, read back."""
 
 import http.client
 import json
@@ -181,3 +182,26 @@ def test_python_m_voxscope_is_the_command_line(tmp_path):
     failed = subprocess.run([sys.executable, "-m", "voxscope", "info", str(tmp_path / "none.nii")], capture_output=True, text=True)
     assert failed.returncode == 1
     assert failed.stderr.strip() == run_cli("info", tmp_path / "none.nii", check=False).stderr.strip()
+
+
+DATA = FIXTURES.parent
+
+
+@pytest.mark.parametrize(
+    "store, kind, values",
+    [
+        ("n5/n5-viewer.n5", "N5", "codecs/voxels.u16le"),
+        ("n5/edge-lz4.n5", "N5", "codecs/voxels.u16le"),
+        ("precomputed/raw-u16", "precomputed", "codecs/voxels.u16le"),
+        ("precomputed/sharded-cseg-u64", "precomputed", "precomputed/labels.u64le"),
+    ],
+)
+def test_n5_and_precomputed_folders_open_as_stores(store, kind, values):
+    volume = voxscope.open(DATA / store)
+    assert volume.format == kind
+    assert volume.levels[0] == (7, 9, 10)
+    dtype = "<u8" if values.endswith("u64le") else "<u2"
+    expected = np.fromfile(DATA / values, dtype=dtype).reshape(7, 9, 10)
+    assert np.array_equal(volume.read(0).astype(np.float64), expected.astype(np.float64))
+    image = voxscope.render(volume, size=(64, 48))
+    assert image.shape == (48, 64, 4) and image[..., :3].max() > 0
