@@ -8,6 +8,55 @@ use zarrs::storage::{Bytes, StorageError};
 /// Byte ranges of a value, as zarrs's partial reads answer them.
 pub(super) type Parts<'a> = Box<dyn Iterator<Item = Result<Bytes, StorageError>> + 'a>;
 
+/// The traits every whole-chunk array-to-bytes codec of these stores shares: its
+/// configuration (the `configuration` field, a JSON map) written back as read, no partial
+/// decoding or encoding, one chunk decoded per thread.
+macro_rules! whole_chunk_codec_traits {
+    ($codec:ident) => {
+        impl zarrs::array::CodecTraits for $codec {
+            fn as_any(&self) -> &dyn std::any::Any {
+                self
+            }
+
+            fn configuration(
+                &self,
+                _version: zarrs::plugin::ZarrVersion,
+                _options: &zarrs::array::CodecMetadataOptions,
+            ) -> Option<zarrs::metadata::Configuration> {
+                Some(self.configuration.clone().into())
+            }
+
+            fn partial_decoder_capability(
+                &self,
+            ) -> zarrs::array::codec::api::PartialDecoderCapability {
+                zarrs::array::codec::api::PartialDecoderCapability {
+                    partial_read: false,
+                    partial_decode: false,
+                }
+            }
+
+            fn partial_encoder_capability(
+                &self,
+            ) -> zarrs::array::codec::api::PartialEncoderCapability {
+                zarrs::array::codec::api::PartialEncoderCapability {
+                    partial_encode: false,
+                }
+            }
+        }
+
+        impl zarrs::array::codec::api::ArrayCodecTraits for $codec {
+            fn recommended_concurrency(
+                &self,
+                _shape: &[std::num::NonZeroU64],
+                _data_type: &zarrs::array::DataType,
+            ) -> Result<zarrs::array::RecommendedConcurrency, zarrs::array::CodecError> {
+                Ok(zarrs::array::RecommendedConcurrency::new_maximum(1))
+            }
+        }
+    };
+}
+pub(super) use whole_chunk_codec_traits;
+
 /// The Zarr document a key names (`zarr.json`, `.zgroup`, …) and the node it describes
 /// (`""`, `s0/`), if it names one.
 pub(super) fn zarr_document(key: &str) -> Option<(&str, &str)> {

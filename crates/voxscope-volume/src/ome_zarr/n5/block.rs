@@ -15,25 +15,20 @@
 //! stage decodes into at most the block's bytes, and a header whose extent exceeds the block
 //! size is refused before anything of its size exists.
 
-use std::any::Any;
 use std::borrow::Cow;
 use std::num::NonZeroU64;
 use std::sync::Arc;
 
 use serde_json::{Map, Value};
 use zarrs::array::chunk_key_encoding::api::{ChunkKeyEncodingPlugin, ChunkKeyEncodingTraits};
-use zarrs::array::codec::api::{
-    ArrayCodecTraits, ArrayToBytesCodecTraits, CodecPluginV3, PartialDecoderCapability,
-    PartialEncoderCapability,
-};
+use zarrs::array::codec::api::{ArrayToBytesCodecTraits, CodecPluginV3};
 use zarrs::array::{
     ArrayBytes, ArrayBytesRaw, BytesRepresentation, BytesToBytesCodecTraits, ChunkKeyEncoding,
-    Codec, CodecError, CodecMetadataOptions, CodecOptions, CodecTraits, CodecTraitsV3, DataType,
-    DataTypeSize, FillValue, RecommendedConcurrency,
+    Codec, CodecError, CodecOptions, CodecTraitsV3, DataType, DataTypeSize, FillValue,
 };
 use zarrs::metadata::Configuration;
 use zarrs::metadata::v3::MetadataV3;
-use zarrs::plugin::{PluginCreateError, ZarrVersion};
+use zarrs::plugin::PluginCreateError;
 use zarrs::storage::StoreKey;
 
 /// The codec's name in the Zarr v3 metadata [`super::attributes`] writes.
@@ -179,8 +174,8 @@ fn configuration<const N: usize>(entries: [(&str, Value); N]) -> Configuration {
 /// The `voxscope.n5_block` codec: an N5 block's header, compression and byte order.
 #[derive(Debug, Clone)]
 pub struct N5BlockCodec {
-    /// The dataset's `compression` attribute, as written back in the configuration.
-    compression_attribute: Map<String, Value>,
+    /// `{"compression": …}`: the dataset's `compression` attribute, written back as read.
+    configuration: Map<String, Value>,
     compression: Compression,
 }
 
@@ -200,52 +195,18 @@ impl CodecTraitsV3 for N5BlockCodec {
             .unwrap_or_default();
         let compression =
             Compression::of(&compression_attribute).map_err(PluginCreateError::Other)?;
+        let configuration = Map::from_iter([(
+            "compression".to_owned(),
+            Value::Object(compression_attribute),
+        )]);
         Ok(Codec::ArrayToBytes(Arc::new(Self {
-            compression_attribute,
+            configuration,
             compression,
         })))
     }
 }
 
-impl CodecTraits for N5BlockCodec {
-    fn as_any(&self) -> &dyn Any {
-        self
-    }
-
-    fn configuration(
-        &self,
-        _version: ZarrVersion,
-        _options: &CodecMetadataOptions,
-    ) -> Option<Configuration> {
-        Some(configuration([(
-            "compression",
-            Value::Object(self.compression_attribute.clone()),
-        )]))
-    }
-
-    fn partial_decoder_capability(&self) -> PartialDecoderCapability {
-        PartialDecoderCapability {
-            partial_read: false,
-            partial_decode: false,
-        }
-    }
-
-    fn partial_encoder_capability(&self) -> PartialEncoderCapability {
-        PartialEncoderCapability {
-            partial_encode: false,
-        }
-    }
-}
-
-impl ArrayCodecTraits for N5BlockCodec {
-    fn recommended_concurrency(
-        &self,
-        _shape: &[NonZeroU64],
-        _data_type: &DataType,
-    ) -> Result<RecommendedConcurrency, CodecError> {
-        Ok(RecommendedConcurrency::new_maximum(1))
-    }
-}
+super::super::adapted::whole_chunk_codec_traits!(N5BlockCodec);
 
 /// The size of one value of `data_type` (N5 has fixed-size numeric types only).
 fn value_size(data_type: &DataType) -> Result<usize, CodecError> {

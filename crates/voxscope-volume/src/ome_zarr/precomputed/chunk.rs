@@ -10,21 +10,16 @@
 //! transfer encoding of files cloud-volume writes, or of a server that stores them so): it is
 //! recognized by its magic bytes and inflated, bounded, first.
 
-use std::any::Any;
 use std::io::Cursor;
 use std::num::NonZeroU64;
 use std::sync::Arc;
 
 use serde_json::{Map, Value};
 use zarrs::array::chunk_key_encoding::api::{ChunkKeyEncodingPlugin, ChunkKeyEncodingTraits};
-use zarrs::array::codec::api::{
-    ArrayCodecTraits, ArrayToBytesCodecTraits, CodecPluginV3, PartialDecoderCapability,
-    PartialEncoderCapability,
-};
+use zarrs::array::codec::api::{ArrayToBytesCodecTraits, CodecPluginV3};
 use zarrs::array::{
     ArrayBytes, ArrayBytesRaw, BytesRepresentation, ChunkKeyEncoding, Codec, CodecError,
-    CodecMetadataOptions, CodecOptions, CodecTraits, CodecTraitsV3, DataType, DataTypeSize,
-    FillValue, RecommendedConcurrency,
+    CodecOptions, CodecTraitsV3, DataType, DataTypeSize, FillValue,
 };
 use zarrs::metadata::Configuration;
 use zarrs::metadata::v3::MetadataV3;
@@ -145,42 +140,7 @@ impl CodecTraitsV3 for PrecomputedChunkCodec {
     }
 }
 
-impl CodecTraits for PrecomputedChunkCodec {
-    fn as_any(&self) -> &dyn Any {
-        self
-    }
-
-    fn configuration(
-        &self,
-        _version: ZarrVersion,
-        _options: &CodecMetadataOptions,
-    ) -> Option<Configuration> {
-        Some(self.configuration.clone().into())
-    }
-
-    fn partial_decoder_capability(&self) -> PartialDecoderCapability {
-        PartialDecoderCapability {
-            partial_read: false,
-            partial_decode: false,
-        }
-    }
-
-    fn partial_encoder_capability(&self) -> PartialEncoderCapability {
-        PartialEncoderCapability {
-            partial_encode: false,
-        }
-    }
-}
-
-impl ArrayCodecTraits for PrecomputedChunkCodec {
-    fn recommended_concurrency(
-        &self,
-        _shape: &[NonZeroU64],
-        _data_type: &DataType,
-    ) -> Result<RecommendedConcurrency, CodecError> {
-        Ok(RecommendedConcurrency::new_maximum(1))
-    }
-}
+super::super::adapted::whole_chunk_codec_traits!(PrecomputedChunkCodec);
 
 fn fail(what: impl std::fmt::Display) -> CodecError {
     CodecError::Other(format!("precomputed: {what}"))
