@@ -694,3 +694,24 @@ fn a_reader_that_goes_away_ends_the_output_quietly() {
         assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
     }
 }
+
+#[test]
+fn a_folder_of_stores_names_them_rather_than_a_store_being_written() {
+    let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data");
+    for (folder, first) in [
+        ("ome-zarr", "'channels9-v05-sharded.ome.zarr'"),
+        ("n5", "'bdv.n5'"),
+        ("precomputed", "'cseg-u32'"),
+    ] {
+        let out = voxscope(&["info", data.join(folder).to_str().unwrap()]);
+        assert!(!out.status.success());
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(stderr.lines().count(), 1, "{stderr}");
+        assert!(
+            stderr.contains("is a folder of stores, not one"),
+            "{stderr}"
+        );
+        assert!(stderr.contains(first), "{stderr}");
+        assert!(!stderr.contains("still being written"), "{stderr}");
+    }
+}

@@ -116,6 +116,12 @@ fn load_file(path: &Path, options: &LoadOptions) -> Result<Volume, FileError> {
                 &level,
             )));
         }
+        let stores = super::ome_zarr::stores_inside(path);
+        if !stores.is_empty() {
+            return Err(FileError::Problem(
+                super::ome_zarr::folder_of_stores_problem(&stores),
+            ));
+        }
         return super::slices::load(path).map_err(FileError::Problem);
     }
     // Devices and pipes are refused: /dev/zero would be read forever, a pipe would block.

@@ -81,22 +81,74 @@ pub(crate) fn series_path(path: &Path) -> Option<(std::path::PathBuf, String)> {
 
 /// If the folder `path` is a Zarr store whose root document is not written yet (`voxscope
 /// convert` writes it last, once every level is complete): the subfolder that already holds a
-/// Zarr array or group.
+/// Zarr array named as `convert` names levels (`0`, `1`, …; a subfolder that is a store of
+/// its own is no sign of it).
 pub fn unfinished_store(path: &Path) -> Option<String> {
     if is_zarr_folder(path) {
         return None;
     }
-    let mut entries: Vec<_> = std::fs::read_dir(path)
-        .ok()?
-        .flatten()
-        .map(|e| e.path())
-        .collect();
-    entries.sort();
-    entries
+    subfolders(path)
         .into_iter()
-        .take(64)
-        .find(|sub| is_zarr_folder(sub))
+        .filter(|sub| {
+            sub.file_name().and_then(|n| n.to_str()).is_some_and(|n| {
+                !n.is_empty() && n.len() <= 9 && n.bytes().all(|b| b.is_ascii_digit())
+            })
+        })
+        .find(|sub| is_zarr_array_folder(sub))
         .and_then(|sub| sub.file_name().map(|n| n.to_string_lossy().into_owned()))
+}
+
+/// The first 64 subfolders of `path`, sorted.
+fn subfolders(path: &Path) -> Vec<std::path::PathBuf> {
+    let Ok(entries) = std::fs::read_dir(path) else {
+        return Vec::new();
+    };
+    let mut entries: Vec<_> = entries.flatten().map(|e| e.path()).collect();
+    entries.sort();
+    entries.truncate(64);
+    entries
+}
+
+/// Whether the folder `path` holds a Zarr array's document: `.zarray`, or a `zarr.json` of
+/// `node_type` array.
+fn is_zarr_array_folder(path: &Path) -> bool {
+    path.join(".zarray").is_file()
+        || std::fs::metadata(path.join("zarr.json")).is_ok_and(|m| m.len() <= 1 << 20)
+            && std::fs::read(path.join("zarr.json"))
+                .ok()
+                .and_then(|bytes| serde_json::from_slice::<serde_json::Value>(&bytes).ok())
+                .is_some_and(|doc| doc.get("node_type").and_then(|t| t.as_str()) == Some("array"))
+}
+
+/// The stores (Zarr, N5, precomputed) among the first 64 subfolders of the folder `path`,
+/// where `path` is none itself: a folder of stores, of which one is to be opened.
+pub fn stores_inside(path: &Path) -> Vec<String> {
+    if is_zarr_folder(path) {
+        return Vec::new();
+    }
+    subfolders(path)
+        .into_iter()
+        .filter(|sub| store_kind(sub).is_some())
+        .filter_map(|sub| sub.file_name().map(|n| n.to_string_lossy().into_owned()))
+        .collect()
+}
+
+/// The words for a folder that holds the stores `names` ([`stores_inside`]).
+pub(crate) fn folder_of_stores_problem(names: &[String]) -> String {
+    let shown: Vec<String> = names
+        .iter()
+        .take(4)
+        .map(|n| format!("'{}'", crate::error::escape(n)))
+        .collect();
+    let more = if names.len() > 4 {
+        format!(" and {} more", names.len() - 4)
+    } else {
+        String::new()
+    };
+    format!(
+        "is a folder of stores, not one: {}{more}; open one of them",
+        shown.join(", ")
+    )
 }
 
 /// The words for a store whose root document is missing while `level` holds an array.

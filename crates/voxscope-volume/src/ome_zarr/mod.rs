@@ -43,8 +43,10 @@ use super::error::Problem;
 use super::remote::{RemoteOptions, RemoteStats, RemoteStore};
 use super::{LoadError, MAX_VOXELS, Selection, Volume, VoxelType, format_dims};
 
-pub use detect::{StoreKind, is_zarr_folder, is_zarr_spec, store_kind, unfinished_store};
-pub(crate) use detect::{series_path, unfinished_problem};
+pub use detect::{
+    StoreKind, is_zarr_folder, is_zarr_spec, store_kind, stores_inside, unfinished_store,
+};
+pub(crate) use detect::{folder_of_stores_problem, series_path, unfinished_problem};
 pub use metadata::{
     Axis, AxisKind, Bioformats2raw, LabelColor, LabelImage, OmeroChannel, Plate, SeriesEntry,
 };
