@@ -213,20 +213,9 @@ fn a_container_renders_equal_to_its_ome_zarr_conversion() {
 
 /// Copies fixture `name` into a temporary folder to damage it there.
 fn copy_fixture(name: &str) -> (tempfile::TempDir, PathBuf) {
-    fn copy(from: &Path, to: &Path) {
-        std::fs::create_dir_all(to).unwrap();
-        for entry in std::fs::read_dir(from).unwrap().flatten() {
-            let target = to.join(entry.file_name());
-            if entry.path().is_dir() {
-                copy(&entry.path(), &target);
-            } else {
-                std::fs::copy(entry.path(), &target).unwrap();
-            }
-        }
-    }
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join(name);
-    copy(&fixtures().join(name), &path);
+    support::damage::copy_store(&fixtures().join(name), &path);
     (dir, path)
 }
 

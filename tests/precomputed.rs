@@ -228,25 +228,8 @@ fn a_volume_converts_to_ome_zarr_and_renders() {
 fn copy_fixture(name: &str) -> (tempfile::TempDir, PathBuf) {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join(name);
-    for entry in walk(&fixtures().join(name)) {
-        let relative = entry.strip_prefix(fixtures().join(name)).unwrap();
-        let target = path.join(relative);
-        std::fs::create_dir_all(target.parent().unwrap()).unwrap();
-        std::fs::copy(&entry, &target).unwrap();
-    }
+    support::damage::copy_store(&fixtures().join(name), &path);
     (dir, path)
-}
-
-fn walk(root: &Path) -> Vec<PathBuf> {
-    let mut files = Vec::new();
-    for entry in std::fs::read_dir(root).unwrap().flatten() {
-        if entry.path().is_dir() {
-            files.extend(walk(&entry.path()));
-        } else {
-            files.push(entry.path());
-        }
-    }
-    files
 }
 
 /// The one-line error of opening `path` or reading its finest level.
