@@ -42,10 +42,20 @@ impl Format {
 pub const SNIFF_BYTES: usize = 4096;
 
 /// Every format voxscope reads from a file, in the order the magic bytes are tried: the
-/// strongest first (DICOM's `DICM` at byte 128 and MRC's `MAP ` at byte 208 could occur inside
-/// another format's header fields; NIfTI's 4-byte header size is the weakest, so last).
+/// strongest first (HDF5's 8-byte signature at byte 0; DICOM's `DICM` at byte 128 and MRC's
+/// `MAP ` at byte 208 could occur inside another format's header fields; NIfTI's 4-byte header
+/// size is the weakest, so last).
 /// Extensions never overlap, so their order does not matter.
-pub static FORMATS: [Format; 9] = [
+pub static FORMATS: [Format; 10] = [
+    Format {
+        name: "Imaris",
+        extensions: &[".ims"],
+        opens_folders: false,
+        // HDF5's signature: an `.h5` of Imaris's layout opens; any other HDF5 file is named so.
+        sniff: Some(super::ome_zarr::sniff_hdf5),
+        // Read by the Zarr reader (ome_zarr/imaris).
+        load: super::ome_zarr::load,
+    },
     Format {
         name: "DICOM",
         extensions: &[".dcm"],

@@ -9,9 +9,11 @@ use super::precomputed::is_precomputed_folder;
 use super::{ReadableStorage, open};
 
 /// Whether `spec` names something [`Pyramid::open_spec`] opens: a URL
-/// ([`super::remote::is_url`]) or a Zarr or N5 folder.
+/// ([`super::remote::is_url`]), a Zarr, N5 or precomputed folder, or an Imaris file.
 pub fn is_zarr_spec(spec: &str) -> bool {
-    crate::remote::is_url(spec) || is_zarr_folder(Path::new(spec))
+    crate::remote::is_url(spec)
+        || is_zarr_folder(Path::new(spec))
+        || super::imaris::is_imaris_file(Path::new(spec))
 }
 
 /// Whether `path` is a folder [`Pyramid::open`] reads: a Zarr folder (`.zgroup`, `.zarray` or

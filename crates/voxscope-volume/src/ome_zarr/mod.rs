@@ -17,6 +17,7 @@
 mod adapted;
 mod detect;
 mod guard;
+mod imaris;
 mod levels;
 mod metadata;
 mod n5;
@@ -50,6 +51,7 @@ pub(crate) use detect::{folder_of_stores_problem, series_path, unfinished_proble
 pub use metadata::{
     Axis, AxisKind, Bioformats2raw, LabelColor, LabelImage, OmeroChannel, Plate, SeriesEntry,
 };
+pub use imaris::{is_imaris_file, sniff as sniff_hdf5};
 pub use n5::is_n5_folder;
 use open::open_root;
 pub use precomputed::is_precomputed_folder;
@@ -274,10 +276,15 @@ impl Pyramid {
             pyramid.read_ahead = read_ahead::ReadAhead::for_folder(root).map(Arc::new);
             return Ok(pyramid);
         }
+        if path.is_file() && imaris::is_hdf5_file(path) {
+            guard::register();
+            return imaris::open(path, &source, options)
+                .map_err(|problem| LoadError::new(&source, problem));
+        }
         if !path.is_dir() {
             return Err(LoadError::new(
                 &source,
-                "is not a folder (a Zarr store is one)",
+                "is not a folder (a Zarr store is one) nor an Imaris file",
             ));
         }
         let store = zarrs::filesystem::FilesystemStore::new(path)
@@ -406,6 +413,13 @@ impl Pyramid {
         remote: RemoteOptions,
     ) -> Result<Self, LoadError> {
         if super::remote::is_url(spec) {
+            let path = spec.split(['?', '#']).next().unwrap_or(spec);
+            if path.to_ascii_lowercase().ends_with(".ims") {
+                return Err(LoadError::new(
+                    super::remote::redact_url(spec),
+                    "is an Imaris file: voxscope reads .ims from a disk, not a URL (download it, or convert it to OME-Zarr where it is and stream that)",
+                ));
+            }
             Self::open_url(spec, options, remote)
         } else {
             Self::open(Path::new(spec), options)
@@ -459,7 +473,7 @@ impl Pyramid {
             .as_ref()
             .map(|v| format!(" {v}"))
             .unwrap_or_default();
-        if matches!(self.format, "N5" | "precomputed") {
+        if matches!(self.format, "N5" | "precomputed" | imaris::FORMAT) {
             format!("{}{version}", self.format)
         } else {
             format!("{}{version} (Zarr v{})", self.format, self.zarr_format)

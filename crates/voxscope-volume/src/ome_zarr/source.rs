@@ -1,6 +1,7 @@
 //! Where `convert` reads its input from, z slab by z slab: raw files, raw-encoded NRRD (whose
-//! axes load as stored) and folders of slices are read a slab at a time (so the output can be larger than memory); every other format
-//! is loaded whole and handed out in slabs.
+//! axes load as stored), folders of slices and what the Zarr reader opens (OME-Zarr, N5,
+//! precomputed, Imaris: the finest level, by region) are read a slab at a time (so the output
+//! can be larger than memory); every other format is loaded whole and handed out in slabs.
 
 use std::fs::File;
 use std::io::{Read, Seek, SeekFrom};
@@ -38,9 +39,14 @@ pub struct SlabSource {
     input: Input,
 }
 
-#[derive(Debug)]
 enum Input {
     Memory(VoxelData),
+    /// The finest level of a store, file or URL the Zarr reader opens, read by region
+    /// (`spacing`: `--spacing`, if given).
+    Pyramid {
+        pyramid: Box<super::Pyramid>,
+        spacing: Option<[f64; 3]>,
+    },
     Raw {
         file: File,
         /// Byte offset of the first voxel.
@@ -61,6 +67,19 @@ enum Input {
         factor: [usize; 3],
         noise: f64,
     },
+}
+
+impl std::fmt::Debug for Input {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Self::Memory(_) => "Memory",
+            Self::Pyramid { .. } => "Pyramid",
+            Self::Raw { .. } => "Raw",
+            Self::Slices(_) => "Slices",
+            Self::Tiled { .. } => "Tiled",
+            Self::Upsampled { .. } => "Upsampled",
+        })
+    }
 }
 
 /// Where output voxel `i` of an axis `factor` times finer than `n` voxels samples the input:
@@ -106,6 +125,10 @@ impl SlabSource {
     /// and folders of slices are not read yet.
     pub fn open(spec: &str, options: &LoadOptions) -> Result<Self, LoadError> {
         let path = Path::new(spec);
+        if options.raw.is_none() && super::is_zarr_spec(spec) {
+            let pyramid = super::Pyramid::open_spec(spec, options.select, options.remote)?;
+            return Ok(Self::pyramid(pyramid, options.spacing));
+        }
         // The fast paths below read one-frame sources; another frame goes through the loaders,
         // which read it from a 4-D file or say it does not exist.
         if options.select != super::super::Selection::default() {
@@ -154,9 +177,32 @@ impl SlabSource {
         }
     }
 
+    /// The finest level of `pyramid` (its channel and time point chosen at open), read by
+    /// region: its values as stored (an OME-Zarr image has no value scale; 64-bit integers
+    /// read as f64).
+    fn pyramid(pyramid: super::Pyramid, spacing: Option<[f64; 3]>) -> Self {
+        let finest = &pyramid.levels[0];
+        Self {
+            name: pyramid.source.clone(),
+            dims: finest.dims,
+            spacing: spacing.unwrap_or(finest.spacing),
+            voxel_type: pyramid.voxel_type,
+            stored_type: pyramid.voxel_type,
+            value_scale: ValueScale::IDENTITY,
+            unit: pyramid.units[0].clone(),
+            input: Input::Pyramid {
+                pyramid: Box::new(pyramid),
+                spacing,
+            },
+        }
+    }
+
     /// Whether slabs are read from the file as they are asked for (not loaded whole first).
     pub fn streams(&self) -> bool {
-        matches!(self.input, Input::Raw { .. } | Input::Slices(_))
+        matches!(
+            self.input,
+            Input::Raw { .. } | Input::Slices(_) | Input::Pyramid { .. }
+        )
     }
 
     /// The dimensions `counts` times the input's along x, y and z, for `option` (`--tile`,
@@ -189,21 +235,38 @@ impl SlabSource {
         Ok(dims)
     }
 
+    /// This input held in memory: a pyramid's finest level within the in-memory budget
+    /// loaded whole (what `--tile` and `--upsample` repeat), anything else as it is.
+    fn held(self) -> Result<Self, LoadError> {
+        if !matches!(self.input, Input::Pyramid { .. }) {
+            return Ok(self);
+        }
+        let Input::Pyramid { pyramid, spacing } = self.input else {
+            unreachable!("matched above");
+        };
+        let mut volume = pyramid.memory_volume()?;
+        if let Some(spacing) = spacing {
+            volume.spacing = spacing;
+        }
+        Ok(Self::from_volume(volume))
+    }
+
     /// The input repeated `copies` times along x, y and z (`convert --tile`): large test
     /// volumes with the structure of real data, written slab by slab (only the input is held
     /// in memory). Refused for inputs read slab by slab from the file.
     pub fn tiled(self, copies: [usize; 3]) -> Result<Self, LoadError> {
-        let dims = self.multiplied_dims("--tile", copies, "copies")?;
-        let Input::Memory(data) = self.input else {
+        let this = self.held()?;
+        let dims = this.multiplied_dims("--tile", copies, "copies")?;
+        let Input::Memory(data) = this.input else {
             unreachable!("multiplied_dims refuses inputs not held in memory");
         };
         Ok(Self {
             dims,
             input: Input::Tiled {
                 data,
-                tile: self.dims,
+                tile: this.dims,
             },
-            ..self
+            ..this
         })
     }
 
@@ -212,26 +275,27 @@ impl SlabSource {
     /// ±`noise` (in the data's units) fixed by its place: large test volumes from real data
     /// that, unlike tiles, repeat nothing. For inputs loaded whole.
     pub fn upsampled(self, factor: [usize; 3], noise: f64) -> Result<Self, LoadError> {
-        let dims = self.multiplied_dims("--upsample", factor, "factors")?;
+        let this = self.held()?;
+        let dims = this.multiplied_dims("--upsample", factor, "factors")?;
         if !(noise.is_finite() && noise >= 0.0) {
             return Err(LoadError::new(
-                &self.name,
+                &this.name,
                 format!("--noise {noise}: a value from 0 up"),
             ));
         }
-        let Input::Memory(data) = self.input else {
+        let Input::Memory(data) = this.input else {
             unreachable!("multiplied_dims refuses inputs not held in memory");
         };
         Ok(Self {
             dims,
-            spacing: std::array::from_fn(|a| self.spacing[a] / factor[a] as f64),
+            spacing: std::array::from_fn(|a| this.spacing[a] / factor[a] as f64),
             input: Input::Upsampled {
                 data,
-                from: self.dims,
+                from: this.dims,
                 factor,
                 noise,
             },
-            ..self
+            ..this
         })
     }
 
@@ -364,6 +428,9 @@ impl SlabSource {
                     with_voxel_slice!(&*data, values => part(values, z0 * plane, (z0 + count) * plane)),
                 )
             }
+            Input::Pyramid { pyramid, .. } => pyramid
+                .read_region(0, [0, 0, z0], [self.dims[0], self.dims[1], count])
+                .map_err(|e| e.problem),
             Input::Raw {
                 file,
                 offset,
