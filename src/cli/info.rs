@@ -31,7 +31,7 @@ pub fn run(args: &InfoArgs) -> Result<(), String> {
     args.transfer.saved()?;
     // A Zarr store's pyramid first: its levels, channels and axes, whichever level opens.
     let mut store = match &volume_args.file {
-        Some(spec) if is_zarr_spec(spec) => {
+        Some(spec) if volume_args.raw.is_none() && is_zarr_spec(spec) => {
             let options = volume_args.load_options();
             let pyramid = Pyramid::open_spec(spec, options.select, options.remote)
                 .map_err(|e| e.to_string())?;

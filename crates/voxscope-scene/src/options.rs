@@ -213,7 +213,7 @@ impl OpenOptions {
     /// the pyramid they belong to.
     pub fn label_images(&self) -> Option<(Pyramid, Vec<LabelImage>)> {
         let spec = self.source.as_deref()?;
-        if !voxscope_volume::ome_zarr::is_zarr_spec(spec) {
+        if self.raw.is_some() || !voxscope_volume::ome_zarr::is_zarr_spec(spec) {
             return None;
         }
         let options = self.load_options();

@@ -27,6 +27,7 @@ mod precomputed;
 mod read;
 mod read_ahead;
 mod shard_index;
+mod slab;
 mod source;
 mod write;
 
@@ -48,10 +49,10 @@ pub use detect::{
     StoreKind, is_zarr_folder, is_zarr_spec, store_kind, stores_inside, unfinished_store,
 };
 pub(crate) use detect::{folder_of_stores_problem, series_path, unfinished_problem};
+pub use imaris::{is_imaris_file, sniff as sniff_hdf5};
 pub use metadata::{
     Axis, AxisKind, Bioformats2raw, LabelColor, LabelImage, OmeroChannel, Plate, SeriesEntry,
 };
-pub use imaris::{is_imaris_file, sniff as sniff_hdf5};
 pub use n5::is_n5_folder;
 use open::open_root;
 pub use precomputed::is_precomputed_folder;

@@ -189,7 +189,11 @@ impl SlabSource {
             voxel_type: pyramid.voxel_type,
             stored_type: pyramid.voxel_type,
             value_scale: ValueScale::IDENTITY,
-            unit: pyramid.units[0].clone(),
+            unit: pyramid
+                .units
+                .iter()
+                .flatten()
+                .find_map(|unit| ome_unit(unit)),
             input: Input::Pyramid {
                 pyramid: Box::new(pyramid),
                 spacing,
@@ -428,9 +432,7 @@ impl SlabSource {
                     with_voxel_slice!(&*data, values => part(values, z0 * plane, (z0 + count) * plane)),
                 )
             }
-            Input::Pyramid { pyramid, .. } => pyramid
-                .read_region(0, [0, 0, z0], [self.dims[0], self.dims[1], count])
-                .map_err(|e| e.problem),
+            Input::Pyramid { pyramid, .. } => super::slab::read(pyramid, self.dims, z0, count),
             Input::Raw {
                 file,
                 offset,

@@ -86,7 +86,8 @@ fn read_exact_at(file: &File, mut buffer: &mut [u8], mut offset: u64) -> std::io
 /// Opens the HDF5 file at `path`: no chunk cache of its own (the pyramid's caches hold what
 /// is decoded), reads and chunks bounded.
 pub(super) fn open(path: &Path) -> Result<Hdf5File, String> {
-    let file = File::open(path).map_err(|e| format!("cannot open: {}", crate::io::io_reason(&e)))?;
+    let file =
+        File::open(path).map_err(|e| format!("cannot open: {}", crate::io::io_reason(&e)))?;
     let len = file
         .metadata()
         .map_err(|e| format!("cannot open: {}", crate::io::io_reason(&e)))?

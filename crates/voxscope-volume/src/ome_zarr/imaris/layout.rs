@@ -192,8 +192,10 @@ impl Layout {
                 Some(_) => return Err(format!("{group}/Data has malformed chunks")),
                 None => std::array::from_fn(|a| CONTIGUOUS_CHUNK[a].min(size[a])),
             };
-            let element = hdf5::element_bytes(stored) as u64;
-            if chunk.iter().product::<u64>().saturating_mul(element) > MAX_CHUNK_BYTES as u64 {
+            let bytes = chunk
+                .iter()
+                .try_fold(hdf5::element_bytes(stored) as u64, |n, &c| n.checked_mul(c));
+            if bytes.is_none_or(|bytes| bytes > MAX_CHUNK_BYTES as u64) {
                 return Err(format!(
                     "{group}/Data has chunks of {} x {} x {} voxels, more than {} MiB; voxscope reads chunks up to that size",
                     chunk[2],
@@ -306,11 +308,7 @@ impl Layout {
     /// The Zarr v3 `zarr.json` of level `level`'s array.
     pub(super) fn array_json(&self, level: &Level) -> Value {
         let leading = self.leading();
-        let shape: Vec<u64> = leading
-            .iter()
-            .map(|&(_, n)| n)
-            .chain(level.size)
-            .collect();
+        let shape: Vec<u64> = leading.iter().map(|&(_, n)| n).chain(level.size).collect();
         let chunk: Vec<u64> = leading.iter().map(|_| 1).chain(level.chunk).collect();
         json!({
             "zarr_format": 3,
@@ -465,7 +463,10 @@ mod tests {
     fn chunk_coordinates_are_checked() {
         let mut layout = layout();
         layout.time_points = 3;
-        assert_eq!(layout.chunk_of(0, &[2, 1, 1, 1, 1]), Some((2, 1, [1, 1, 1])));
+        assert_eq!(
+            layout.chunk_of(0, &[2, 1, 1, 1, 1]),
+            Some((2, 1, [1, 1, 1]))
+        );
         assert_eq!(layout.chunk_of(0, &[3, 1, 1, 1, 1]), None);
         assert_eq!(layout.chunk_of(0, &[0, 0, 2, 0, 0]), None);
         assert_eq!(layout.chunk_of(0, &[0, 0, 0, 0]), None);

@@ -6,6 +6,7 @@
 //! and ranges, time points, region reads, the streaming renderer's bricks under its budgets,
 //! `convert` from Imaris to OME-Zarr.
 
+mod chunks;
 mod hdf5;
 mod layout;
 
@@ -22,12 +23,14 @@ use zarrs::storage::{
 use super::adapted::{slice_ranges, zarr_document};
 use super::{Pyramid, PyramidOptions, ReadableStorage};
 use crate::error::Problem;
+use chunks::ChunkMap;
 use layout::Layout;
 
 /// The format's name in `info` and errors.
 pub const FORMAT: &str = "Imaris";
 
-/// HDF5's signature, at the start of the file (or of its superblock past a user block).
+/// HDF5's signature, at the start of the file (files with a user block before their
+/// superblock are opened by `.ims` name, not recognized by these bytes).
 const HDF5_SIGNATURE: &[u8] = b"\x89HDF\r\n\x1a\n";
 
 /// Whether `head` (a file's first bytes) starts with HDF5's signature.
@@ -82,12 +85,23 @@ pub(super) fn open(path: &Path, source: &str, options: PyramidOptions) -> Result
     Ok(pyramid)
 }
 
+/// The most `Data` datasets kept open (each with its chunk map): past them, all are closed.
+const MAX_OPEN_DATASETS: usize = 256;
+
+/// How one `Data` dataset is read.
+enum Data {
+    /// By its chunk map, one chunk per Zarr chunk.
+    Chunks(ChunkMap),
+    /// By region (other chunk indexes, unchunked data, chunks unlike the level's).
+    Regions(Dataset),
+}
+
 /// An Imaris file as a Zarr v3 store (see the module's documentation).
 struct ImarisStore {
     file: Hdf5File,
     layout: Layout,
     /// The `Data` datasets opened so far, by level, time point and channel.
-    datasets: Mutex<HashMap<(usize, u64, u64), Arc<Dataset>>>,
+    datasets: Mutex<HashMap<(usize, u64, u64), Arc<Data>>>,
 }
 
 impl ImarisStore {
@@ -108,9 +122,13 @@ impl ImarisStore {
     }
 
     /// The `Data` of `level`, time point `t`, channel `c`, opened once.
-    fn dataset(&self, level: usize, t: u64, c: u64) -> Result<Arc<Dataset>, StorageError> {
+    fn dataset(&self, level: usize, t: u64, c: u64) -> Result<Arc<Data>, StorageError> {
         let key = (level, t, c);
-        if let Some(dataset) = self.datasets.lock().unwrap_or_else(|e| e.into_inner()).get(&key)
+        if let Some(dataset) = self
+            .datasets
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .get(&key)
         {
             return Ok(dataset.clone());
         }
@@ -129,12 +147,18 @@ impl ImarisStore {
         }
         hdf5::filters(&self.file, &dataset)
             .map_err(|e| StorageError::Other(format!("{path} {e}")))?;
-        let dataset = Arc::new(dataset);
-        self.datasets
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .insert(key, dataset.clone());
-        Ok(dataset)
+        let map = ChunkMap::of(&self.file, &dataset)
+            .map_err(|e| StorageError::Other(format!("{path}: {e}")))?;
+        let data = Arc::new(match map {
+            Some(map) if map.shape() == self.layout.levels[level].chunk => Data::Chunks(map),
+            _ => Data::Regions(dataset),
+        });
+        let mut open = self.datasets.lock().unwrap_or_else(|e| e.into_inner());
+        if open.len() >= MAX_OPEN_DATASETS {
+            open.clear();
+        }
+        open.insert(key, data.clone());
+        Ok(data)
     }
 
     /// The level, time point, channel and z, y, x chunk the chunk key `key` (`L/c/…`) names.
@@ -156,11 +180,14 @@ impl ImarisStore {
             return Ok(None);
         };
         let chunk = self.layout.levels[level].chunk;
-        let dataset = self.dataset(level, t, c)?;
-        let start: [u64; 3] = std::array::from_fn(|a| zyx[a] * chunk[a]);
-        let bytes = hdf5::read_box(&dataset, self.layout.zarr_type, start, chunk).map_err(|e| {
-            StorageError::Other(format!("{}: {e}", self.layout.data_path(level, t, c)))
-        })?;
+        let bytes = match &*self.dataset(level, t, c)? {
+            Data::Chunks(map) => map.read(&self.file, zyx),
+            Data::Regions(dataset) => {
+                let start: [u64; 3] = std::array::from_fn(|a| zyx[a] * chunk[a]);
+                hdf5::read_box(dataset, self.layout.zarr_type, start, chunk)
+            }
+        }
+        .map_err(|e| StorageError::Other(format!("{}: {e}", self.layout.data_path(level, t, c))))?;
         Ok(Some(Bytes::from(bytes)))
     }
 }
