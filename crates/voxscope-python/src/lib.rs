@@ -26,9 +26,9 @@ use pyo3::types::PyDict;
 
 /// open(source, **options) -> Volume
 ///
-/// Opens a file, folder (DICOM series, slices, OME-Zarr), an OME-Zarr store's URL
-/// (http://, https://, s3://BUCKET/PATH), `synthetic:KIND:SIZE` or `sample`, as the command
-/// line does, with the GIL released. Options: `raw` ("XxYxZ:TYPE[:le|:be]"), `spacing` ((sz,
+/// Opens a file (an Imaris file is read like a store), folder (DICOM series, slices,
+/// OME-Zarr, N5, precomputed), a store's URL (http://, https://, s3://BUCKET/PATH),
+/// `synthetic:KIND:SIZE` or `sample`, as the command line does, with the GIL released. Options: `raw` ("XxYxZ:TYPE[:le|:be]"), `spacing` ((sz,
 /// sy, sx)), `channel`, `time`, `max_requests`. A store is opened by its metadata; a file is
 /// read whole.
 #[pyfunction]

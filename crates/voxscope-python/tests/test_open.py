@@ -1,5 +1,5 @@
 """`voxscope.open` of a NIfTI file, a DICOM folder, OME-Zarr stores (a folder, the tests'
-loopback HTTP server and S3), N5 containers and precomputed volumes, their facts and levels read
+loopback HTTP server and S3), N5 containers, precomputed volumes and Imaris files, their facts and levels read
 as numpy arrays (checked against the fixtures' expected.json or raw voxels); `convert` of an
 array and of a file, read back."""
 
@@ -65,6 +65,16 @@ def test_a_dicom_folder_opens_as_its_series():
     assert [voxels.min(), voxels.max()] == facts["value_range"]
     image = voxscope.render(volume, size=(64, 48))
     assert image.shape == (48, 64, 4) and image[..., :3].max() > 0
+
+
+def test_an_imaris_file_opens_its_channels_levels_and_placement():
+    volume = voxscope.open(DATA / "imaris" / "cells.ims", channel=1)
+    assert volume.format == "Imaris"
+    assert volume.levels == [(7, 9, 10), (4, 5, 5)]
+    assert volume.spacing == (2.0, 0.5, 0.5) and volume.unit == "micrometer"
+    assert volume.channels == ["GFP", "tdTomato"]
+    expected = np.fromfile(DATA / "codecs" / "voxels.u16le", dtype="<u2").reshape(7, 9, 10)
+    assert np.array_equal(volume.read(0), expected + 1000)
 
 
 @pytest.mark.parametrize("fixture", ["head-v04-zstd.ome.zarr", "head-v05-sharded-blosc-zstd.ome.zarr", "nuclei-v04-blosc-lz4.ome.zarr"])
@@ -194,9 +204,10 @@ DATA = FIXTURES.parent
         ("n5/edge-lz4.n5", "N5", "codecs/voxels.u16le"),
         ("precomputed/raw-u16", "precomputed", "codecs/voxels.u16le"),
         ("precomputed/sharded-cseg-u64", "precomputed", "precomputed/labels.u64le"),
+        ("imaris/cells.ims", "Imaris", "codecs/voxels.u16le"),
     ],
 )
-def test_n5_and_precomputed_folders_open_as_stores(store, kind, values):
+def test_n5_precomputed_and_imaris_open_as_stores(store, kind, values):
     volume = voxscope.open(DATA / store)
     assert volume.format == kind
     assert volume.levels[0] == (7, 9, 10)
