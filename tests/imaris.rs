@@ -8,8 +8,8 @@
 mod support;
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
+use support::cli::{differing_pixels, renders, voxscope};
 use voxscope_volume::ome_zarr::{Pyramid, PyramidOptions, is_imaris_file, is_zarr_spec};
 
 fn fixtures() -> PathBuf {
@@ -41,13 +41,6 @@ fn open(path: &Path) -> Result<Pyramid, String> {
 fn level(pyramid: &Pyramid, level: usize) -> Result<Vec<f64>, String> {
     let data = pyramid.read_level(level).map_err(|e| e.to_string())?;
     Ok((0..data.len()).map(|i| data.get(i).unwrap()).collect())
-}
-
-fn voxscope(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_voxscope"))
-        .args(args)
-        .output()
-        .expect("the binary runs")
 }
 
 #[test]
@@ -177,32 +170,13 @@ fn a_file_converts_to_ome_zarr_and_renders_equal_to_its_conversion() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let mut images = Vec::new();
-    for (input, name) in [(&source, "ims.png"), (&converted, "zarr.png")] {
-        let png = dir.path().join(name);
-        let out = voxscope(&[
-            "render",
-            input.to_str().unwrap(),
-            "-o",
-            png.to_str().unwrap(),
-            "--size",
-            "96x72",
-            "--window",
-            "0:255",
-        ]);
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        images.push(image::open(&png).unwrap().to_rgba8());
-    }
+    let images = renders(
+        dir.path(),
+        &[&source, &converted],
+        &["--size", "96x72", "--window", "0:255"],
+    );
     assert!(images[0].pixels().any(|p| p[0] > 0), "the image is blank");
-    let differing = images[0]
-        .pixels()
-        .zip(images[1].pixels())
-        .filter(|(a, b)| a != b)
-        .count();
+    let differing = differing_pixels(&images[0], &images[1]);
     assert_eq!(differing, 0, "{differing} pixels differ");
 }
 

@@ -8,9 +8,9 @@
 mod support;
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
 use serde_json::Value;
+use support::cli::{differing_pixels, renders, voxscope};
 use support::http_server::{Faults, FileServer};
 use voxscope_volume::ome_zarr::{Pyramid, PyramidOptions, is_zarr_folder};
 use voxscope_volume::remote::RemoteOptions;
@@ -40,13 +40,6 @@ fn open(path: &Path) -> Result<Pyramid, String> {
 fn level(pyramid: &Pyramid, level: usize) -> Result<Vec<f64>, String> {
     let data = pyramid.read_level(level).map_err(|e| e.to_string())?;
     Ok((0..data.len()).map(|i| data.get(i).unwrap()).collect())
-}
-
-fn voxscope(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_voxscope"))
-        .args(args)
-        .output()
-        .expect("the binary runs")
 }
 
 #[test]
@@ -182,32 +175,13 @@ fn a_container_renders_equal_to_its_ome_zarr_conversion() {
     assert!(text.contains("N5 2.5.1"), "{text}");
     assert!(text.contains("n5 gzip"), "{text}");
 
-    let mut images = Vec::new();
-    for (input, name) in [(&source, "n5.png"), (&converted, "zarr.png")] {
-        let png = dir.path().join(name);
-        let out = voxscope(&[
-            "render",
-            input.to_str().unwrap(),
-            "-o",
-            png.to_str().unwrap(),
-            "--size",
-            "96x72",
-            "--window",
-            "0:65535",
-        ]);
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        images.push(image::open(&png).unwrap().to_rgba8());
-    }
+    let images = renders(
+        dir.path(),
+        &[&source, &converted],
+        &["--size", "96x72", "--window", "0:65535"],
+    );
     assert!(images[0].pixels().any(|p| p[0] > 0), "the image is blank");
-    let differing = images[0]
-        .pixels()
-        .zip(images[1].pixels())
-        .filter(|(a, b)| a != b)
-        .count();
+    let differing = differing_pixels(&images[0], &images[1]);
     assert_eq!(differing, 0, "{differing} pixels differ");
 }
 

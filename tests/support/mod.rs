@@ -4,6 +4,7 @@
 #![allow(dead_code, unused_imports)] // each test binary uses a different part
 
 pub mod app_harness;
+pub mod cli;
 pub mod damage;
 pub mod fault_server;
 pub mod http_server;
