@@ -80,7 +80,7 @@ mod tests {
         // 20 000² planes: bands of whole chunk rows under 2³¹ voxels.
         let rows = band_rows([20_000, 20_000, 640], [64, 64, 64], 64);
         assert!(
-            rows % 64 == 0 && rows * 20_000 * 64 <= BAND_VOXELS,
+            rows.is_multiple_of(64) && rows * 20_000 * 64 <= BAND_VOXELS,
             "{rows}"
         );
         // Thin chunks: bounded by the chunk count.

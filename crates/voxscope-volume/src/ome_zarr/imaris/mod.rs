@@ -93,7 +93,7 @@ enum Data {
     /// By its chunk map, one chunk per Zarr chunk.
     Chunks(ChunkMap),
     /// By region (other chunk indexes, unchunked data, chunks unlike the level's).
-    Regions(Dataset),
+    Regions(Box<Dataset>),
 }
 
 /// An Imaris file as a Zarr v3 store (see the module's documentation).
@@ -151,7 +151,7 @@ impl ImarisStore {
             .map_err(|e| StorageError::Other(format!("{path}: {e}")))?;
         let data = Arc::new(match map {
             Some(map) if map.shape() == self.layout.levels[level].chunk => Data::Chunks(map),
-            _ => Data::Regions(dataset),
+            _ => Data::Regions(Box::new(dataset)),
         });
         let mut open = self.datasets.lock().unwrap_or_else(|e| e.into_inner());
         if open.len() >= MAX_OPEN_DATASETS {
