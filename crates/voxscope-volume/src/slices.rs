@@ -15,8 +15,8 @@ const SLICE_EXTENSIONS: [&str; 3] = ["tif", "tiff", "png"];
 pub(super) fn no_volume_in_folder() -> Problem {
     format!(
         "is a folder without slice images ({}), DICOM files or a Zarr store (.zgroup, .zarray \
-         or zarr.json); open a volume file, a folder of slices or of one DICOM series, or a \
-         Zarr store's folder",
+         or zarr.json), N5 container (attributes.json) or precomputed volume (info); open a \
+         volume file, a folder of slices or of one DICOM series, or a store's folder",
         SLICE_EXTENSIONS.map(|e| format!(".{e}")).join(", ")
     )
 }
