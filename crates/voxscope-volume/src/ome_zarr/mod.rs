@@ -27,8 +27,8 @@ mod precomputed;
 mod read;
 mod read_ahead;
 mod shard_index;
-mod slab;
 mod source;
+mod units;
 mod write;
 
 use std::path::Path;

@@ -108,18 +108,6 @@ fn color_hex(text: &str) -> Option<String> {
     Some(format!("{:02X}{:02X}{:02X}", byte(r), byte(g), byte(b)))
 }
 
-/// The OME unit of Imaris's `Unit` text.
-fn ome_unit(text: &str) -> Option<&'static str> {
-    Some(match text.trim() {
-        "um" | "µm" | "μm" | "micron" | "microns" | "micrometer" => "micrometer",
-        "nm" | "nanometer" => "nanometer",
-        "mm" | "millimeter" => "millimeter",
-        "m" | "meter" => "meter",
-        "pm" => "picometer",
-        _ => return None,
-    })
-}
-
 impl Layout {
     /// Reads the layout of `file`, checking every level's `Data` of the first time point and
     /// channel (others are checked as they are read).
@@ -254,7 +242,7 @@ impl Layout {
             zarr_type: zarr_type.unwrap_or("uint8"),
             extent_min,
             extent_max,
-            unit: attribute(&image, "Unit").and_then(|unit| ome_unit(&unit)),
+            unit: attribute(&image, "Unit").and_then(|unit| super::super::units::ome_unit(&unit)),
             version: attribute("/", "ImarisVersion").filter(|v| !v.is_empty()),
             name: attribute(&image, "Name")
                 .filter(|n| !n.is_empty() && n != "(name not specified)"),
@@ -474,12 +462,10 @@ mod tests {
     }
 
     #[test]
-    fn colors_and_units_read_as_imaris_writes_them() {
+    fn colors_and_numbers_read_as_imaris_writes_them() {
         assert_eq!(color_hex("1.000 0.500 0.000").as_deref(), Some("FF8000"));
         assert_eq!(color_hex("1 0"), None);
         assert_eq!(color_hex("1 x 0"), None);
-        assert_eq!(ome_unit("um"), Some("micrometer"));
-        assert_eq!(ome_unit("furlong"), None);
         assert_eq!(number(Some(" 2048 ".into())), Some(2048.0));
         assert_eq!(number(Some("NaN".into())), None);
     }

@@ -201,19 +201,9 @@ fn triple(value: Option<&Value>) -> Option<[f64; 3]> {
     Some(out)
 }
 
-/// OME-Zarr's name of a unit N5 writers abbreviate.
+/// OME-Zarr's name of a unit N5 writers abbreviate (others kept as written).
 fn unit_name(unit: &str) -> String {
-    match unit {
-        "um" | "µm" | "μm" | "micron" => "micrometer",
-        "nm" => "nanometer",
-        "mm" => "millimeter",
-        "cm" => "centimeter",
-        "m" => "meter",
-        "pm" => "picometer",
-        "A" | "Å" => "angstrom",
-        other => other,
-    }
-    .to_owned()
+    crate::ome_zarr::units::ome_unit(unit).map_or_else(|| unit.to_owned(), str::to_owned)
 }
 
 /// cosem's `multiscales`: every level's `transform` (`axes`, `scale`, `translate`, `units`).

@@ -4,9 +4,9 @@
 //! plane. A band holds at most [`BAND_VOXELS`] voxels and [`BAND_CHUNKS`] chunks, well inside
 //! what one region read allows (2³² voxels; over a network, 16 384 requests).
 
-use super::super::error::Problem;
-use super::super::{Scalar, VoxelData, with_voxel_slice};
-use super::Pyramid;
+use crate::error::Problem;
+use crate::ome_zarr::Pyramid;
+use crate::{Scalar, VoxelData, with_voxel_slice};
 
 /// The most voxels one band reads.
 const BAND_VOXELS: usize = 1 << 31;
