@@ -39,7 +39,7 @@ use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
 pub use args::{ChannelChoice, ClipArgs, RendererArg, TransferArgs, VolumeArgs, scene_error_text};
 pub use composite::ChannelArgs;
-pub use convert::ConvertArgs;
+pub use convert::{ConvertArgs, ConvertCommand};
 pub use labels::LabelArgs;
 pub use prepare::Prepared;
 pub use render_options::RenderOptions;
@@ -80,7 +80,7 @@ pub enum Command {
     /// Write one slice of the volume to a PNG at one pixel per voxel, oriented as the app shows it.
     Slice(slice::SliceArgs),
     /// Write any readable volume as a multiscale OME-Zarr image (0.4, or 0.5 sharded).
-    Convert(convert::ConvertArgs),
+    Convert(convert::ConvertCommand),
 }
 
 /// The exit code of `render` and `movie` when they wrote their output but some bricks a view
@@ -134,10 +134,18 @@ where
         volume.apply_field()?;
         volume.apply_series()?;
     }
-    if let Some(Command::Convert(args)) = &mut cli.command
-        && let Some(series) = args.series.take()
-    {
-        args.input = args::series_file(&args.input, series);
+    if let Some(Command::Convert(command)) = &mut cli.command {
+        let args = match &mut command.step {
+            None => Some(&mut command.args),
+            Some(convert::ConvertStep::Plan(plan)) => Some(&mut plan.args),
+            Some(_) => None,
+        };
+        if let Some(args) = args
+            && let Some(series) = args.series.take()
+            && let Some(input) = &mut args.input
+        {
+            *input = args::series_file(input, series);
+        }
     }
     let ran = match cli.command {
         Some(Command::Info(args)) => info::run(&args),

@@ -34,7 +34,10 @@ mod view;
 mod view_v1;
 
 pub use channels::{ChannelRequest, ChannelState, CompositeScene, file_channel_numbers};
-pub use convert::{ConvertOptions, convert};
+pub use convert::{
+    ConvertOptions, MAX_PARTS, PART_SLAB_BYTES, PLAN_FOLDER, PartMarker, PartOutcome, Plan,
+    PlanOptions, convert, finalize, plan_conversion, run_part,
+};
 pub use data::{HISTOGRAM_BINS, VolumeData};
 pub use drawable::{Channel, Drawable};
 pub use error::{LabelError, SceneError};

@@ -58,7 +58,11 @@ use open::open_root;
 pub use precomputed::is_precomputed_folder;
 pub use read::MAX_PREFETCH_CHUNKS;
 pub use source::SlabSource;
-pub use write::{Compression, Downsampling, PyramidWriter, WriteOptions, ZarrVersion, level_dims};
+pub use write::{
+    Columns, Compression, DisplayWindow, Downsampling, ImageLayout, PyramidWriter, Window,
+    WindowReport, WindowWriter, WriteOptions, Written, ZarrVersion, create_arrays, display_window,
+    level_dims, read_level, write_group,
+};
 /// A store the pyramid reads from: a folder ([`zarrs::filesystem::FilesystemStore`]) or any
 /// other zarrs storage (HTTP, object stores).
 pub use zarrs::storage::ReadableStorage;

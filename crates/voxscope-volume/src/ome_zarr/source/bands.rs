@@ -1,4 +1,4 @@
-//! A z slab of a pyramid's finest level read for `convert` ([`super::SlabSource`]): in one
+//! A box of a pyramid's finest level read for `convert` ([`super::SlabSource`]): in one
 //! region read where it is small enough, else in bands of whole chunk rows along y, each
 //! read at the slab's full depth (so no chunk is decoded twice) and interleaved plane by
 //! plane. A band holds at most [`BAND_VOXELS`] voxels and [`BAND_CHUNKS`] chunks, well inside
@@ -13,28 +13,29 @@ const BAND_VOXELS: usize = 1 << 31;
 /// The most chunks one band reads.
 const BAND_CHUNKS: usize = 8192;
 
-/// Planes `z0..z0 + count` of `pyramid`'s level 0 (`dims` x, y, z), x fastest.
+/// The box `origin .. origin + size` (x, y, z) of `pyramid`'s level 0, x fastest.
 pub(super) fn read(
     pyramid: &Pyramid,
-    dims: [usize; 3],
-    z0: usize,
-    count: usize,
+    origin: [usize; 3],
+    size: [usize; 3],
 ) -> Result<VoxelData, Problem> {
-    let rows = band_rows(dims, pyramid.levels[0].chunk, count);
-    let region = |y0: usize, height: usize| {
+    let [x0, y0, z0] = origin;
+    let [width, height, count] = size;
+    let rows = band_rows([width, height, count], pyramid.levels[0].chunk, count);
+    let region = |y: usize, rows: usize| {
         pyramid
-            .read_region(0, [0, y0, z0], [dims[0], height, count])
+            .read_region(0, [x0, y, z0], [width, rows, count])
             .map_err(|e| e.problem)
     };
-    if rows >= dims[1] {
-        return region(0, dims[1]);
+    if rows >= height {
+        return region(y0, height);
     }
     let mut bands = Vec::new();
-    for y0 in (0..dims[1]).step_by(rows) {
-        let height = rows.min(dims[1] - y0);
-        bands.push((height, region(y0, height)?));
+    for y in (y0..y0 + height).step_by(rows) {
+        let band = rows.min(y0 + height - y);
+        bands.push((band, region(y, band)?));
     }
-    Ok(interleaved(&bands, dims[0], count))
+    Ok(interleaved(&bands, width, count))
 }
 
 /// Rows of a band: whole chunk rows, as many as [`BAND_VOXELS`] and [`BAND_CHUNKS`] allow

@@ -4,21 +4,19 @@
 //! can be larger than memory); every other format is loaded whole and handed out in slabs.
 
 mod bands;
+mod region;
 mod values;
 
 pub use values::scaled_type;
 
 use std::fs::File;
-use std::io::{Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
-
-use rayon::prelude::*;
 
 use super::super::error::Problem;
 use super::super::io::io_reason;
 use super::super::{
-    Endian, LoadError, LoadOptions, MAX_AXIS, RawLayout, Scalar, ValueScale, Volume, VoxelData,
-    VoxelType, format_dims, with_voxel_slice,
+    Endian, LoadError, LoadOptions, MAX_AXIS, RawLayout, ValueScale, Volume, VoxelData, VoxelType,
+    format_dims,
 };
 
 /// An input volume read in z slabs.
@@ -85,44 +83,6 @@ impl std::fmt::Debug for Input {
             Self::Upsampled { .. } => "Upsampled",
         })
     }
-}
-
-/// Where output voxel `i` of an axis `factor` times finer than `n` voxels samples the input:
-/// its two neighbours and the weight of the second (voxel centres aligned, edges clamped).
-fn interpolation_weights(n: usize, factor: usize, count: usize) -> Vec<(usize, usize, f64)> {
-    (0..count)
-        .map(|i| {
-            let at = ((i as f64 + 0.5) / factor as f64 - 0.5).clamp(0.0, (n - 1) as f64);
-            let low = at.floor() as usize;
-            (low, (low + 1).min(n - 1), at - low as f64)
-        })
-        .collect()
-}
-
-/// Slices `z0..z0 + count` of a `dims` grid, each filled by `fill(z, slice)`, slice by slice in
-/// parallel (a 4096² slab is gigabytes, which one thread wrote, and faulted in, while the
-/// others waited).
-fn slices_in_parallel<T: Default + Clone + Send>(
-    dims: [usize; 3],
-    z0: usize,
-    count: usize,
-    fill: impl Fn(usize, &mut [T]) + Sync,
-) -> Vec<T> {
-    let plane = dims[0] * dims[1];
-    let mut out = vec![T::default(); plane * count];
-    out.par_chunks_mut(plane)
-        .enumerate()
-        .for_each(|(i, slice)| fill(z0 + i, slice));
-    out
-}
-
-/// A value in [-1, 1) fixed by `index` (SplitMix64's finalizer).
-fn unit_noise(index: u64) -> f64 {
-    let mut z = index.wrapping_add(0x9e37_79b9_7f4a_7c15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^= z >> 31;
-    (z >> 11) as f64 / (1u64 << 52) as f64 - 1.0
 }
 
 impl SlabSource {
@@ -216,6 +176,12 @@ impl SlabSource {
             self.input,
             Input::Raw { .. } | Input::Slices(_) | Input::Pyramid { .. }
         )
+    }
+
+    /// Whether any box is read without reading the whole input: what parts of a conversion
+    /// need, each reading only its columns (a file loaded whole, such as `.nii.gz`, is not).
+    pub fn reads_by_region(&self) -> bool {
+        !matches!(self.input, Input::Memory(_))
     }
 
     /// The dimensions `counts` times the input's along x, y and z, for `option` (`--tile`,
@@ -403,166 +369,5 @@ impl SlabSource {
             unit: None,
             input: Input::Slices(files),
         })
-    }
-
-    /// Slices `z0 .. z0 + count` (within the depth), x fastest.
-    /// Slices `z0..z0 + count`, in the data's units ([`Self::value_scale`] applied), as
-    /// [`Self::voxel_type`].
-    pub fn read(&mut self, z0: usize, count: usize) -> Result<VoxelData, LoadError> {
-        let stored = self
-            .read_problem(z0, count)
-            .map_err(|problem| LoadError::new(&self.name, problem))?;
-        if self.value_scale == ValueScale::IDENTITY {
-            return Ok(stored);
-        }
-        let scale = self.value_scale;
-        let values: Vec<f64> = (0..stored.len())
-            .into_par_iter()
-            .map(|i| scale.apply(stored.get(i).unwrap_or(0.0)))
-            .collect();
-        Ok(VoxelData::from_f64_values(self.voxel_type, &values))
-    }
-
-    fn read_problem(&mut self, z0: usize, count: usize) -> Result<VoxelData, Problem> {
-        if count == 0 || z0 + count > self.dims[2] {
-            return Err(format!(
-                "slices {z0}..{} lie outside the depth {}",
-                z0 + count,
-                self.dims[2]
-            ));
-        }
-        let plane = self.dims[0] * self.dims[1];
-        match &mut self.input {
-            Input::Memory(data) => {
-                fn part<T: Scalar>(values: &[T], from: usize, to: usize) -> VoxelData {
-                    T::wrap(values[from..to].to_vec())
-                }
-                Ok(
-                    with_voxel_slice!(&*data, values => part(values, z0 * plane, (z0 + count) * plane)),
-                )
-            }
-            Input::Pyramid { pyramid, .. } => bands::read(pyramid, self.dims, z0, count),
-            Input::Raw {
-                file,
-                offset,
-                endian,
-            } => {
-                let size = self.voxel_type.size();
-                let start = *offset + (z0 * plane * size) as u64;
-                let mut bytes = vec![0u8; count * plane * size];
-                file.seek(SeekFrom::Start(start))
-                    .and_then(|_| file.read_exact(&mut bytes))
-                    .map_err(|e| {
-                        format!("cannot read slices {z0}..{}: {}", z0 + count, io_reason(&e))
-                    })?;
-                Ok(VoxelData::decode(self.voxel_type, &bytes, *endian))
-            }
-            Input::Tiled { data, tile } => {
-                fn repeat<T: Scalar + Default + Send + Sync>(
-                    values: &[T],
-                    tile: [usize; 3],
-                    dims: [usize; 3],
-                    z0: usize,
-                    count: usize,
-                ) -> VoxelData {
-                    T::wrap(slices_in_parallel(dims, z0, count, |z, slice| {
-                        for (y, line) in slice.chunks_exact_mut(dims[0]).enumerate() {
-                            let row = tile[0] * ((y % tile[1]) + tile[1] * (z % tile[2]));
-                            let row = &values[row..row + tile[0]];
-                            for copy in line.chunks_exact_mut(tile[0]) {
-                                copy.copy_from_slice(row);
-                            }
-                        }
-                    }))
-                }
-                let (tile, dims) = (*tile, self.dims);
-                Ok(with_voxel_slice!(&*data, values => repeat(values, tile, dims, z0, count)))
-            }
-            Input::Upsampled {
-                data,
-                from,
-                factor,
-                noise,
-            } => {
-                fn interpolate<T: Scalar + Default + Send + Sync>(
-                    values: &[T],
-                    from: [usize; 3],
-                    factor: [usize; 3],
-                    noise: f64,
-                    dims: [usize; 3],
-                    z0: usize,
-                    count: usize,
-                ) -> VoxelData {
-                    let xs = interpolation_weights(from[0], factor[0], dims[0]);
-                    let ys = interpolation_weights(from[1], factor[1], dims[1]);
-                    let zs = interpolation_weights(from[2], factor[2], dims[2]);
-                    let integer = T::TYPE.is_integer();
-                    let at = |x: usize, y: usize, z: usize| {
-                        values[x + from[0] * (y + from[1] * z)].to_f64()
-                    };
-                    T::wrap(slices_in_parallel(dims, z0, count, |z, slice| {
-                        let (z_low, z_high, wz) = zs[z];
-                        for (y, line) in slice.chunks_exact_mut(dims[0]).enumerate() {
-                            let (y_low, y_high, wy) = ys[y];
-                            for (x, voxel) in line.iter_mut().enumerate() {
-                                let (x_low, x_high, wx) = xs[x];
-                                let along_x =
-                                    |y, z| at(x_low, y, z) * (1.0 - wx) + at(x_high, y, z) * wx;
-                                let along_y =
-                                    |z| along_x(y_low, z) * (1.0 - wy) + along_x(y_high, z) * wy;
-                                let mut value = along_y(z_low) * (1.0 - wz) + along_y(z_high) * wz;
-                                if noise > 0.0 {
-                                    let index = x + dims[0] * (y + dims[1] * z);
-                                    value += noise * unit_noise(index as u64);
-                                }
-                                *voxel = T::from_f64(if integer { value.round() } else { value });
-                            }
-                        }
-                    }))
-                }
-                let (from, factor, noise, dims) = (*from, *factor, *noise, self.dims);
-                Ok(
-                    with_voxel_slice!(&*data, values => interpolate(values, from, factor, noise, dims, z0, count)),
-                )
-            }
-            Input::Slices(files) => {
-                let mut data: Option<VoxelData> = None;
-                for file in &files[z0..z0 + count] {
-                    let slice = super::super::slices::read_slice(file)
-                        .map_err(|p| format!("slice {}: {p}", file.display()))?;
-                    if slice.dims != [self.dims[0], self.dims[1], 1] {
-                        return Err(format!(
-                            "slice {} is {} but the first is {}x{}x1",
-                            file.display(),
-                            format_dims(slice.dims),
-                            self.dims[0],
-                            self.dims[1]
-                        ));
-                    }
-                    let slice_type = slice.data.voxel_type();
-                    match &mut data {
-                        None => data = Some(slice.data),
-                        Some(data) => data.append(slice.data).map_err(|_| {
-                            format!(
-                                "slice {} holds {} values but the first holds {}",
-                                file.display(),
-                                slice_type.name(),
-                                self.voxel_type.name()
-                            )
-                        })?,
-                    }
-                }
-                let data = data.ok_or("no slices")?;
-                if data.voxel_type() != self.voxel_type {
-                    return Err(format!(
-                        "slice {} holds {} values but the first holds {}",
-                        files[z0].display(),
-                        data.voxel_type().name(),
-                        self.voxel_type.name()
-                    ));
-                }
-                Ok(data)
-            }
-        }
     }
 }

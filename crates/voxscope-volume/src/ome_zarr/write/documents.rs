@@ -1,16 +1,13 @@
 //! The metadata documents `convert` writes: an array's `.zarray` (0.4) or `zarr.json` (0.5),
-//! with the chunk ranges' extra axis; and opening an array once its document is written.
+//! with the chunk ranges' extra axis.
 
 use std::fs;
 use std::path::Path;
-use std::sync::Arc;
 
 use serde_json::{Value, json};
-use zarrs::array::Array;
-use zarrs::filesystem::FilesystemStore;
 
 use super::super::super::VoxelType;
-use super::super::super::error::{Problem, printable};
+use super::super::super::error::Problem;
 use super::super::super::io::io_reason;
 use super::{Compression, ZarrVersion};
 
@@ -114,18 +111,6 @@ pub(super) fn metadata_name(version: ZarrVersion) -> &'static str {
         ZarrVersion::V04 => ".zarray",
         ZarrVersion::V05 => "zarr.json",
     }
-}
-
-pub(super) fn open_array(
-    store: &Arc<FilesystemStore>,
-    path: &str,
-) -> Result<Array<FilesystemStore>, Problem> {
-    Array::open(store.clone(), &format!("/{path}")).map_err(|e| {
-        format!(
-            "cannot open the array {path} just written: {}",
-            printable(&e.to_string())
-        )
-    })
 }
 
 /// Adds the `[min, max]` axis to a ranges array's document.

@@ -1,54 +1,45 @@
-//! Writing a multiscale OME-Zarr image slab by slab (`voxscope convert`): level 0 as given,
-//! each coarser level by 2×2×2 mean (or max, for labels) of the one before, until the coarsest
-//! fits one chunk. Only one slab (a chunk's or shard's depth of z slices) per level is held in
-//! memory, so the output may be larger than RAM when the input can be read in slabs.
+//! Writing a multiscale OME-Zarr image (`voxscope convert`): level 0 as given, each coarser
+//! level by 2×2×2 mean (or max, for labels) of the one before, until the coarsest fits one
+//! chunk. In three steps any process may run: [`create_arrays`] writes the arrays' metadata;
+//! [`WindowWriter`]s fill columns of levels slab by slab (a conversion's parts: a column's
+//! sides are whole shards at every level it writes, so no two write one object); and
+//! [`write_group`] writes the group's metadata last, so that no reader sees an image before
+//! it is complete. [`PyramidWriter`] is the three in one, over the whole plane.
 //!
 //! Metadata is written as the OME-Zarr 0.4 (Zarr v2) or 0.5 (Zarr v3, sharded) specification
-//! spells it; zarrs encodes and stores the chunks, a slab's chunks in parallel. Beside each
-//! level, a small float64 array `ranges/N` holds every chunk's minimum and maximum (grid z,
-//! y, x, then `[min, max]`; NaN where a chunk holds no number), named in the group's
+//! spells it; zarrs encodes and stores the chunks, a slab's in parallel. Beside each level, a
+//! small float64 array `ranges/N` holds every chunk's minimum and maximum (grid z, y, x, then
+//! `[min, max]`; NaN where a chunk holds no number), named in the group's
 //! `voxscope.chunk_ranges` attribute, so a reader knows which chunks a transfer function makes
-//! empty before it reads them.
+//! empty before it reads them. Its chunks cover [`ImageLayout::tile`] voxels along x and y, the
+//! same whichever columns wrote them: the bytes written do not depend on how many parts did.
 
 use std::fs;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::Arc;
 
-use rayon::prelude::*;
-use serde_json::{Value, json};
-use zarrs::array::{Array, ArraySubset, Element};
+use serde_json::json;
+use zarrs::array::{Array, ArraySubset};
 use zarrs::filesystem::FilesystemStore;
 
 use super::super::error::{Problem, printable};
 use super::super::io::io_reason;
-use super::super::{Scalar, VoxelData, VoxelType, format_dims};
-use crate::with_voxel_slice;
+use super::super::{VoxelData, VoxelType, format_dims};
 use documents::{
-    ArraySpec, array_document, metadata_name, open_array, with_min_max_axis, write_json, zarr_types,
+    ArraySpec, array_document, metadata_name, with_min_max_axis, write_json, zarr_types,
 };
+pub use group::{DisplayWindow, write_group};
 pub use options::{Compression, Downsampling, WriteOptions, ZarrVersion};
+pub use recorded::Written;
+pub use window::{WindowReport, WindowWriter};
 
 mod documents;
+mod group;
 mod options;
+mod recorded;
+mod window;
 
-/// Writes one image; feed it z slices in order with [`Self::push`], then [`Self::finish`].
-pub struct PyramidWriter {
-    inner: Box<dyn SlabSink>,
-    root: PathBuf,
-    received: usize,
-    depth: usize,
-}
-
-impl std::fmt::Debug for PyramidWriter {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("PyramidWriter")
-            .field("root", &self.root)
-            .field("received", &self.received)
-            .finish_non_exhaustive()
-    }
-}
-
-/// The levels [`PyramidWriter`] writes for `dims` and `chunk`: halving (rounding up) until
+/// The levels an image of `dims` in `chunk`-sided chunks has: halving (rounding up) until
 /// every axis fits one chunk.
 pub fn level_dims(dims: [usize; 3], chunk: usize) -> Vec<[usize; 3]> {
     let mut levels = vec![dims];
@@ -62,11 +53,67 @@ pub fn level_dims(dims: [usize; 3], chunk: usize) -> Vec<[usize; 3]> {
     levels
 }
 
-impl PyramidWriter {
-    /// Creates the folder `root` (which must not exist) and the level arrays for a volume of
-    /// `dims` voxels of `voxel_type`, spaced `spacing` (x, y, z).
-    pub fn create(
-        root: &Path,
+/// The image a conversion writes: level 0's voxels, their type and size, and how it is
+/// stored; from these, every level and the columns parts of a conversion may own.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ImageLayout {
+    /// Level 0's voxels along x, y, z.
+    pub dims: [usize; 3],
+    pub voxel_type: VoxelType,
+    /// The voxel size along x, y, z.
+    pub spacing: [f64; 3],
+    pub options: WriteOptions,
+}
+
+/// A box of the x-y plane, all of z: level-0 voxels `origin .. origin + size` along x and y.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Window {
+    pub origin: [usize; 2],
+    pub size: [usize; 2],
+}
+
+impl Window {
+    /// This window at `level` (whose voxels are `dims`): its first voxel and its size.
+    fn at_level(self, level: usize, dims: [usize; 3]) -> ([usize; 2], [usize; 2]) {
+        let origin = self.origin.map(|o| o >> level);
+        let end: [usize; 2] = std::array::from_fn(|a| {
+            (self.origin[a] + self.size[a])
+                .div_ceil(1 << level)
+                .min(dims[a])
+        });
+        (origin, [end[0] - origin[0], end[1] - origin[1]])
+    }
+}
+
+/// How the x-y plane is cut into columns that parts write: `grid` columns of `side` level-0
+/// voxels (the last ones cut by the image's edge), each written at levels `0..levels`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Columns {
+    pub side: [usize; 2],
+    pub grid: [usize; 2],
+    pub levels: usize,
+}
+
+impl Columns {
+    /// How many columns there are.
+    pub fn count(&self) -> usize {
+        self.grid[0] * self.grid[1]
+    }
+
+    /// Column `index` (row by row, x fastest) of a plane of `dims` voxels.
+    pub fn window(&self, index: usize, dims: [usize; 3]) -> Window {
+        let (cx, cy) = (index % self.grid[0], index / self.grid[0]);
+        let origin = [cx * self.side[0], cy * self.side[1]];
+        Window {
+            origin,
+            size: std::array::from_fn(|a| self.side[a].min(dims[a] - origin[a])),
+        }
+    }
+}
+
+impl ImageLayout {
+    /// Checks the options against the image.
+    pub fn new(
         dims: [usize; 3],
         voxel_type: VoxelType,
         spacing: [f64; 3],
@@ -90,59 +137,286 @@ impl PyramidWriter {
                 format_dims(dims)
             ));
         }
-        if root.exists() {
-            return Err(format!(
-                "{} exists; convert writes a new folder",
-                root.display()
-            ));
-        }
-        fs::create_dir_all(root)
-            .map_err(|e| format!("cannot create {}: {}", root.display(), io_reason(&e)))?;
-        let store = Arc::new(
-            FilesystemStore::new(root)
-                .map_err(|e| format!("cannot open {}: {e}", root.display()))?,
-        );
-        let plan = Plan {
-            root: root.to_path_buf(),
+        Ok(Self {
             dims,
             voxel_type,
             spacing,
             options: options.clone(),
-        };
-        macro_rules! typed {
-            ($t:ty) => {
-                Box::new(TypedWriter::<$t>::create(plan, store)?) as Box<dyn SlabSink>
-            };
+        })
+    }
+
+    /// Every level's voxels along x, y, z.
+    pub fn levels(&self) -> Vec<[usize; 3]> {
+        level_dims(self.dims, self.options.chunk)
+    }
+
+    /// The side of what one write stores whole: a shard (0.5) or a chunk (0.4); also the
+    /// depth of a slab.
+    pub fn unit(&self) -> usize {
+        match self.options.version {
+            ZarrVersion::V04 => self.options.chunk,
+            ZarrVersion::V05 => self.options.chunk * self.options.shard_chunks,
         }
-        let inner = match voxel_type {
-            VoxelType::U8 => typed!(u8),
-            VoxelType::I8 => typed!(i8),
-            VoxelType::U16 => typed!(u16),
-            VoxelType::I16 => typed!(i16),
-            VoxelType::U32 => typed!(u32),
-            VoxelType::I32 => typed!(i32),
-            VoxelType::F32 => typed!(f32),
-            VoxelType::F64 => typed!(f64),
+    }
+
+    /// The side, in voxels of any level, of a chunk of the chunk-ranges arrays along x and y:
+    /// whole write units, at least 8 chunks.
+    pub fn tile(&self) -> usize {
+        let per_unit = self.unit() / self.options.chunk;
+        per_unit * 8usize.div_ceil(per_unit) * self.options.chunk
+    }
+
+    /// The columns for `parts` parts: each column's slab of level 0 (a unit deep) within
+    /// `slab_bytes` where the tiles allow, as wide as that lets it, and at least `parts`
+    /// columns where the plane has as many tiles; one column of the whole plane, holding
+    /// every level, where `slab_bytes` is `None` or that column fits it.
+    pub fn columns(&self, parts: usize, slab_bytes: Option<u64>) -> Columns {
+        let levels = self.levels();
+        let [nx, ny, _] = self.dims;
+        let whole = Columns {
+            side: [nx, ny],
+            grid: [1, 1],
+            levels: levels.len(),
         };
-        let depth = inner.slab_depth();
+        let slab = |side: [usize; 2]| {
+            (side[0] as u64 * side[1] as u64)
+                .saturating_mul((self.unit().min(self.dims[2]) * self.voxel_type.size()) as u64)
+        };
+        let Some(budget) = slab_bytes else {
+            return whole;
+        };
+        if parts <= 1 && slab([nx, ny]) <= budget {
+            return whole;
+        }
+        let tile = self.tile();
+        let grid = |side: usize| [nx.div_ceil(side), ny.div_ceil(side)];
+        let mut k = 0;
+        while k + 1 < levels.len() && slab([tile << (k + 1); 2]) <= budget {
+            k += 1;
+        }
+        while k > 0 && grid(tile << k).iter().product::<usize>() < parts {
+            k -= 1;
+        }
+        let side = tile << k;
+        if grid(side) == [1, 1] {
+            return whole;
+        }
+        Columns {
+            side: [side; 2],
+            grid: grid(side),
+            levels: k + 1,
+        }
+    }
+}
+
+/// Creates the folder `root` (which must not exist) and the arrays of every level and their
+/// chunk ranges, empty: what the parts of a conversion fill.
+pub fn create_arrays(root: &Path, layout: &ImageLayout) -> Result<(), Problem> {
+    let options = &layout.options;
+    if root.exists() {
+        return Err(format!(
+            "{} exists; convert writes a new folder",
+            root.display()
+        ));
+    }
+    fs::create_dir_all(root)
+        .map_err(|e| format!("cannot create {}: {}", root.display(), io_reason(&e)))?;
+    let chunk = options.chunk;
+    let unit = layout.unit();
+    let sharded = options.version == ZarrVersion::V05;
+    let tile_chunks = layout.tile() / chunk;
+    for (index, dims) in layout.levels().iter().enumerate() {
+        let zyx = [dims[2], dims[1], dims[0]];
+        // A shard never exceeds the level (its chunks are the grid's anyway).
+        let shard = sharded.then(|| zyx.map(|n| unit.min(n.next_multiple_of(chunk))));
+        let document = array_document(
+            options.version,
+            ArraySpec {
+                shape: zyx,
+                chunk: [chunk; 3],
+                shard,
+                type_names: zarr_types(layout.voxel_type),
+                type_size: layout.voxel_type.size(),
+                compression: options.compression,
+                fill_value: json!(0),
+            },
+        );
+        write_json(
+            &root
+                .join(index.to_string())
+                .join(metadata_name(options.version)),
+            &document,
+        )?;
+        let grid = zyx.map(|n| n.div_ceil(chunk));
+        let ranges_document = array_document(
+            options.version,
+            ArraySpec {
+                shape: grid,
+                chunk: [
+                    (unit / chunk).min(grid[0]),
+                    tile_chunks.min(grid[1]),
+                    tile_chunks.min(grid[2]),
+                ],
+                shard: None,
+                type_names: ("<f8", "float64"),
+                type_size: 8,
+                compression: Compression::Zstd,
+                fill_value: json!("NaN"),
+            },
+        );
+        // v3 arrays are 4D here: z, y, x chunk index, then [min, max].
+        write_json(
+            &root
+                .join("ranges")
+                .join(index.to_string())
+                .join(metadata_name(options.version)),
+            &with_min_max_axis(ranges_document),
+        )?;
+    }
+    match options.version {
+        ZarrVersion::V04 => write_json(&root.join("ranges/.zgroup"), &json!({"zarr_format": 2})),
+        ZarrVersion::V05 => write_json(
+            &root.join("ranges/zarr.json"),
+            &json!({"zarr_format": 3, "node_type": "group", "attributes": {}}),
+        ),
+    }
+}
+
+/// Slices `z0..z0 + count` of level `level` of the image at `root` (written by these
+/// writers for `layout`), x fastest: what `finalize` builds the coarsest levels from.
+pub fn read_level(
+    root: &Path,
+    layout: &ImageLayout,
+    level: usize,
+    z0: usize,
+    count: usize,
+) -> Result<VoxelData, Problem> {
+    let levels = layout.levels();
+    let read = |e: &dyn std::fmt::Display| {
+        format!(
+            "cannot read level {level} back: {}",
+            printable(&e.to_string())
+        )
+    };
+    let [nx, ny, nz] = *levels
+        .get(level)
+        .ok_or_else(|| format!("no level {level} of {}", levels.len()))?;
+    if z0 + count > nz {
+        return Err(format!("slices {z0}..{} of a depth of {nz}", z0 + count));
+    }
+    let store = Arc::new(
+        FilesystemStore::new(root).map_err(|e| format!("cannot open {}: {e}", root.display()))?,
+    );
+    let array = Array::open(store, &format!("/{level}")).map_err(|e| read(&e))?;
+    let subset =
+        ArraySubset::new_with_ranges(&[z0 as u64..(z0 + count) as u64, 0..ny as u64, 0..nx as u64]);
+    macro_rules! typed {
+        ($variant:ident) => {
+            array
+                .retrieve_array_subset(&subset)
+                .map(VoxelData::$variant)
+                .map_err(|e| read(&e))
+        };
+    }
+    match layout.voxel_type {
+        VoxelType::U8 => typed!(U8),
+        VoxelType::I8 => typed!(I8),
+        VoxelType::U16 => typed!(U16),
+        VoxelType::I16 => typed!(I16),
+        VoxelType::U32 => typed!(U32),
+        VoxelType::I32 => typed!(I32),
+        VoxelType::F32 => typed!(F32),
+        VoxelType::F64 => typed!(F64),
+    }
+}
+
+/// The most voxels [`display_window`] reads for the window's percentiles.
+const WINDOW_SAMPLE_VOXELS: usize = 1 << 22;
+
+/// The display window of the image at `root` whose values span `range`: `range`, and the
+/// 0.5 and 99.5 percentiles of the finest level of at most [`WINDOW_SAMPLE_VOXELS`] voxels
+/// (what a viewer opens with), where they differ.
+pub fn display_window(
+    root: &Path,
+    layout: &ImageLayout,
+    range: Option<[f64; 2]>,
+) -> Result<Option<DisplayWindow>, Problem> {
+    let Some(range) = range else {
+        return Ok(None);
+    };
+    let levels = layout.levels();
+    let level = levels
+        .iter()
+        .position(|d| d.iter().product::<usize>() <= WINDOW_SAMPLE_VOXELS)
+        .unwrap_or(levels.len() - 1);
+    let [.., nz] = levels[level];
+    let values = read_level(root, layout, level, 0, nz)?;
+    let mut finite: Vec<f64> = (0..values.len())
+        .filter_map(|i| values.get(i))
+        .filter(|v| v.is_finite())
+        .collect();
+    let mut percentile = |p: f64| {
+        if finite.is_empty() {
+            return None;
+        }
+        let at = ((finite.len() - 1) as f64 * p / 100.0).round() as usize;
+        let (_, v, _) = finite.select_nth_unstable_by(at, f64::total_cmp);
+        Some(*v)
+    };
+    let window = match (percentile(0.5), percentile(99.5)) {
+        (Some(low), Some(high)) if high > low => [low, high],
+        _ => range,
+    };
+    Ok(Some(DisplayWindow { range, window }))
+}
+
+/// Writes one image in one process: [`create_arrays`], one [`WindowWriter`] over the whole
+/// plane and every level, then [`write_group`]. Feed it z slices in order with
+/// [`Self::push`], then [`Self::finish`].
+#[derive(Debug)]
+pub struct PyramidWriter {
+    layout: ImageLayout,
+    writer: WindowWriter,
+    root: std::path::PathBuf,
+    received: usize,
+}
+
+impl PyramidWriter {
+    /// Creates the folder `root` (which must not exist) and the level arrays for a volume of
+    /// `dims` voxels of `voxel_type`, spaced `spacing` (x, y, z).
+    pub fn create(
+        root: &Path,
+        dims: [usize; 3],
+        voxel_type: VoxelType,
+        spacing: [f64; 3],
+        options: &WriteOptions,
+    ) -> Result<Self, Problem> {
+        let layout = ImageLayout::new(dims, voxel_type, spacing, options)?;
+        create_arrays(root, &layout)?;
+        let whole = Window {
+            origin: [0, 0],
+            size: [dims[0], dims[1]],
+        };
+        let last = layout.levels().len() - 1;
+        let writer = WindowWriter::open(root, &layout, whole, 0, last, true)?;
         Ok(Self {
-            inner,
+            layout,
+            writer,
             root: root.to_path_buf(),
             received: 0,
-            depth,
         })
     }
 
     /// How many z slices the writer takes at a time without copying more than it needs (a
     /// slab of level 0): feeding it this many at a time keeps memory at one slab.
     pub fn slab_depth(&self) -> usize {
-        self.depth
+        self.writer.slab_depth()
     }
 
     /// Appends whole z slices: `data` holds `x * y * n` voxels of the volume's type.
     pub fn push(&mut self, data: &VoxelData) -> Result<(), Problem> {
-        let slices = self.inner.push(data)?;
-        self.received += slices;
+        self.writer.push(data)?;
+        self.received += data.len() / (self.layout.dims[0] * self.layout.dims[1]);
         Ok(())
     }
 
@@ -153,462 +427,10 @@ impl PyramidWriter {
 
     /// Writes what remains and the group's metadata (last, so an interrupted conversion
     /// leaves no image that claims to be complete). Returns the levels' dimensions.
-    pub fn finish(mut self) -> Result<Vec<[usize; 3]>, Problem> {
-        self.inner.finish()
-    }
-}
-
-/// The type-erased writer behind [`PyramidWriter`].
-trait SlabSink {
-    fn slab_depth(&self) -> usize;
-    fn push(&mut self, data: &VoxelData) -> Result<usize, Problem>;
-    fn finish(&mut self) -> Result<Vec<[usize; 3]>, Problem>;
-}
-
-struct Plan {
-    root: PathBuf,
-    dims: [usize; 3],
-    voxel_type: VoxelType,
-    spacing: [f64; 3],
-    options: WriteOptions,
-}
-
-/// One level: its array, its ranges array and the slab being filled.
-struct Level<T> {
-    dims: [usize; 3],
-    array: Array<FilesystemStore>,
-    ranges: Array<FilesystemStore>,
-    /// Slices buffered, `dims[0] * dims[1]` voxels each.
-    buffer: Vec<T>,
-    /// Slices already written.
-    written: usize,
-}
-
-struct TypedWriter<T> {
-    plan: Plan,
-    /// Slices per write (a chunk's depth, or a shard's).
-    depth: usize,
-    /// The chunk or shard side (what one `store_array_subset` writes).
-    unit: usize,
-    levels: Vec<Level<T>>,
-    finished: bool,
-}
-
-/// Numbers the writer stores: voxscope's voxel types, as zarrs elements.
-trait Voxel: Scalar + Element + PartialOrd + Default {}
-impl<T: Scalar + Element + PartialOrd + Default> Voxel for T {}
-
-impl<T: Voxel> TypedWriter<T> {
-    fn create(plan: Plan, store: Arc<FilesystemStore>) -> Result<Self, Problem> {
-        let options = &plan.options;
-        let chunk = options.chunk;
-        let sharded = options.version == ZarrVersion::V05;
-        let unit = if sharded {
-            chunk * options.shard_chunks
-        } else {
-            chunk
-        };
-        let names = zarr_types(plan.voxel_type);
-        let size = plan.voxel_type.size();
-        let all = level_dims(plan.dims, chunk);
-        let mut levels = Vec::with_capacity(all.len());
-        for (index, dims) in all.iter().enumerate() {
-            let zyx = [dims[2], dims[1], dims[0]];
-            // A shard never exceeds the level (its chunks are the grid's anyway).
-            let shard = sharded.then(|| zyx.map(|n| unit.min(n.next_multiple_of(chunk))));
-            let document = array_document(
-                options.version,
-                ArraySpec {
-                    shape: zyx,
-                    chunk: [chunk; 3],
-                    shard,
-                    type_names: names,
-                    type_size: size,
-                    compression: options.compression,
-                    fill_value: json!(0),
-                },
-            );
-            write_json(
-                &plan
-                    .root
-                    .join(index.to_string())
-                    .join(metadata_name(options.version)),
-                &document,
-            )?;
-            let grid = zyx.map(|n| n.div_ceil(chunk));
-            let slab_chunks = (unit / chunk).min(grid[0]);
-            let ranges_document = array_document(
-                options.version,
-                ArraySpec {
-                    shape: grid,
-                    chunk: [slab_chunks, grid[1], grid[2]],
-                    shard: None,
-                    type_names: ("<f8", "float64"),
-                    type_size: 8,
-                    compression: Compression::Zstd,
-                    fill_value: json!("NaN"),
-                },
-            );
-            // v3 arrays are 4D here: z, y, x chunk index, then [min, max].
-            let ranges_document = with_min_max_axis(ranges_document);
-            write_json(
-                &plan
-                    .root
-                    .join("ranges")
-                    .join(index.to_string())
-                    .join(metadata_name(options.version)),
-                &ranges_document,
-            )?;
-            levels.push(Level {
-                dims: *dims,
-                array: open_array(&store, &index.to_string())?,
-                ranges: open_array(&store, &format!("ranges/{index}"))?,
-                buffer: Vec::new(),
-                written: 0,
-            });
-        }
-        match options.version {
-            ZarrVersion::V04 => write_json(
-                &plan.root.join("ranges/.zgroup"),
-                &json!({"zarr_format": 2}),
-            )?,
-            ZarrVersion::V05 => write_json(
-                &plan.root.join("ranges/zarr.json"),
-                &json!({"zarr_format": 3, "node_type": "group", "attributes": {}}),
-            )?,
-        }
-        Ok(Self {
-            plan,
-            depth: unit,
-            unit,
-            levels,
-            finished: false,
-        })
-    }
-
-    /// Appends `slices` to level `index`, writing every complete slab: whole slabs straight
-    /// from `slices`, only a partial one copied into the level's buffer (a 4096² slab is
-    /// 2 GiB of 16-bit voxels: copying it on one thread held 16 cores idle).
-    fn push_level(&mut self, index: usize, slices: &[T]) -> Result<(), Problem> {
-        let plane = self.levels[index].dims[0] * self.levels[index].dims[1];
-        let slab_len = plane * self.depth;
-        let mut rest = slices;
-        let buffered = self.levels[index].buffer.len();
-        if buffered > 0 {
-            let take = (slab_len - buffered).min(rest.len());
-            self.levels[index].buffer.extend_from_slice(&rest[..take]);
-            rest = &rest[take..];
-            if self.levels[index].buffer.len() == slab_len {
-                let slab = std::mem::take(&mut self.levels[index].buffer);
-                self.write_slab(index, &slab)?;
-            }
-        }
-        while rest.len() >= slab_len {
-            let (slab, after) = rest.split_at(slab_len);
-            self.write_slab(index, slab)?;
-            rest = after;
-        }
-        self.levels[index].buffer.extend_from_slice(rest);
-        Ok(())
-    }
-
-    /// Writes one slab of level `index` (chunks in parallel), then hands its 2× reduction to
-    /// the next level.
-    fn write_slab(&mut self, index: usize, slab: &[T]) -> Result<(), Problem> {
-        let level = &self.levels[index];
-        let [nx, ny, _] = level.dims;
-        let depth = slab.len() / (nx * ny);
-        let z0 = level.written;
-        let chunk = self.plan.options.chunk;
-        let unit = self.unit;
-        // The write units of this slab: (y, x) tiles of a chunk's or shard's side.
-        let tiles: Vec<(usize, usize)> = (0..ny.div_ceil(unit))
-            .flat_map(|ty| (0..nx.div_ceil(unit)).map(move |tx| (ty, tx)))
-            .collect();
-        let slab_ref = slab;
-        let array = &level.array;
-        // Per tile: the min/max of each chunk inside it, as (chunk index, min, max).
-        let results: Vec<Result<Vec<ChunkRange>, Problem>> = tiles
-            .par_iter()
-            .map(|&(ty, tx)| {
-                let (x0, y0) = (tx * unit, ty * unit);
-                let (x1, y1) = ((x0 + unit).min(nx), (y0 + unit).min(ny));
-                let (w, h) = (x1 - x0, y1 - y0);
-                let mut block = Vec::with_capacity(w * h * depth);
-                for z in 0..depth {
-                    for y in y0..y1 {
-                        let row = z * nx * ny + y * nx;
-                        block.extend_from_slice(&slab_ref[row + x0..row + x1]);
-                    }
-                }
-                let subset = ArraySubset::new_with_ranges(&[
-                    z0 as u64..(z0 + depth) as u64,
-                    y0 as u64..y1 as u64,
-                    x0 as u64..x1 as u64,
-                ]);
-                let mut ranges = Vec::new();
-                for cz in 0..depth.div_ceil(chunk) {
-                    for cy in 0..h.div_ceil(chunk) {
-                        for cx in 0..w.div_ceil(chunk) {
-                            let mut low = f64::INFINITY;
-                            let mut high = f64::NEG_INFINITY;
-                            for z in cz * chunk..((cz + 1) * chunk).min(depth) {
-                                for y in cy * chunk..((cy + 1) * chunk).min(h) {
-                                    let row = (z * h + y) * w;
-                                    for v in
-                                        &block[row + cx * chunk..row + ((cx + 1) * chunk).min(w)]
-                                    {
-                                        let v = v.to_f64();
-                                        if v.is_finite() {
-                                            low = low.min(v);
-                                            high = high.max(v);
-                                        }
-                                    }
-                                }
-                            }
-                            let (low, high) = if low <= high {
-                                (low, high)
-                            } else {
-                                (f64::NAN, f64::NAN)
-                            };
-                            ranges.push((
-                                [(z0 / chunk) + cz, y0 / chunk + cy, x0 / chunk + cx],
-                                low,
-                                high,
-                            ));
-                        }
-                    }
-                }
-                array.store_array_subset(&subset, block).map_err(|e| {
-                    format!(
-                        "cannot write level {index} at z {z0}: {}",
-                        printable(&e.to_string())
-                    )
-                })?;
-                Ok(ranges)
-            })
-            .collect();
-        // The slab's row of the ranges grid.
-        let grid = [nx.div_ceil(chunk), ny.div_ceil(chunk)];
-        let rows = depth.div_ceil(chunk);
-        let mut ranges = vec![f64::NAN; rows * grid[1] * grid[0] * 2];
-        for result in results {
-            for ([cz, cy, cx], low, high) in result? {
-                let at = (((cz - z0 / chunk) * grid[1] + cy) * grid[0] + cx) * 2;
-                ranges[at] = low;
-                ranges[at + 1] = high;
-            }
-        }
-        let subset = ArraySubset::new_with_ranges(&[
-            (z0 / chunk) as u64..(z0 / chunk + rows) as u64,
-            0..grid[1] as u64,
-            0..grid[0] as u64,
-            0..2,
-        ]);
-        level
-            .ranges
-            .store_array_subset(&subset, ranges)
-            .map_err(|e| {
-                format!(
-                    "cannot write the chunk ranges of level {index}: {}",
-                    printable(&e.to_string())
-                )
-            })?;
-        self.levels[index].written += depth;
-        if index + 1 < self.levels.len() {
-            let reduced = reduce(slab, [nx, ny, depth], self.plan.options.downsampling);
-            self.push_level(index + 1, &reduced)?;
-        }
-        Ok(())
-    }
-
-    fn write_group(&self) -> Result<(), Problem> {
-        let options = &self.plan.options;
-        let [sx, sy, sz] = self.plan.spacing;
-        let axis = |name: &str| match &options.unit {
-            Some(unit) => json!({"name": name, "type": "space", "unit": unit}),
-            None => json!({"name": name, "type": "space"}),
-        };
-        let datasets: Vec<Value> = (0..self.levels.len())
-            .map(|index| {
-                let factor = (1u64 << index) as f64;
-                let scale = [sz * factor, sy * factor, sx * factor];
-                let shift = [sz, sy, sx].map(|s| s * (factor - 1.0) / 2.0);
-                json!({
-                    "path": index.to_string(),
-                    "coordinateTransformations": [
-                        {"type": "scale", "scale": scale},
-                        {"type": "translation", "translation": shift}
-                    ]
-                })
-            })
-            .collect();
-        let method = match options.downsampling {
-            Downsampling::Mean => "mean",
-            Downsampling::Max => "max",
-        };
-        let mut multiscale = json!({
-            "name": options.name,
-            "axes": [axis("z"), axis("y"), axis("x")],
-            "datasets": datasets,
-            "type": method,
-            "metadata": {
-                "description": format!("2x2x2 {method} of the level before; odd extents repeat their last voxel"),
-                "method": "voxscope convert",
-                "version": env!("CARGO_PKG_VERSION")
-            }
-        });
-        let ranges = json!({
-            "chunk_ranges": {
-                "paths": (0..self.levels.len()).map(|i| format!("ranges/{i}")).collect::<Vec<_>>(),
-                "layout": "float64 [chunk z, chunk y, chunk x, 2]: the chunk's smallest and largest finite value, NaN where it holds none",
-                "chunk": options.chunk
-            }
-        });
-        match options.version {
-            ZarrVersion::V04 => {
-                multiscale["version"] = json!("0.4");
-                write_json(&self.plan.root.join(".zgroup"), &json!({"zarr_format": 2}))?;
-                write_json(
-                    &self.plan.root.join(".zattrs"),
-                    &json!({"multiscales": [multiscale], "voxscope": ranges}),
-                )
-            }
-            ZarrVersion::V05 => write_json(
-                &self.plan.root.join("zarr.json"),
-                &json!({
-                    "zarr_format": 3,
-                    "node_type": "group",
-                    "attributes": {
-                        "ome": {"version": "0.5", "multiscales": [multiscale]},
-                        "voxscope": ranges
-                    }
-                }),
-            ),
-        }
-    }
-}
-
-/// A chunk's grid index (z, y, x) and its smallest and largest finite value.
-type ChunkRange = ([usize; 3], f64, f64);
-
-/// 2×2×2 reduction of `slab` (x fastest; `dims` = x, y, depth): `ceil(n / 2)` per axis, an
-/// odd extent's last voxel paired with itself.
-fn reduce<T: Voxel>(slab: &[T], dims: [usize; 3], downsampling: Downsampling) -> Vec<T> {
-    let [nx, ny, nz] = dims;
-    let out = [nx.div_ceil(2), ny.div_ceil(2), nz.div_ceil(2)];
-    let plane = out[0] * out[1];
-    let mut reduced = vec![T::default(); plane * out[2]];
-    reduced
-        .par_chunks_mut(plane)
-        .enumerate()
-        .for_each(|(z, plane_out)| {
-            let zs = [2 * z, (2 * z + 1).min(nz - 1)];
-            for y in 0..out[1] {
-                let ys = [2 * y, (2 * y + 1).min(ny - 1)];
-                for x in 0..out[0] {
-                    let xs = [2 * x, (2 * x + 1).min(nx - 1)];
-                    let at = |z: usize, y: usize, x: usize| slab[(z * ny + y) * nx + x];
-                    plane_out[y * out[0] + x] = match downsampling {
-                        Downsampling::Mean => {
-                            let mut sum = 0.0;
-                            for z in zs {
-                                for y in ys {
-                                    for x in xs {
-                                        sum += at(z, y, x).to_f64();
-                                    }
-                                }
-                            }
-                            let mean = sum / 8.0;
-                            T::from_f64(if T::TYPE.is_integer() {
-                                (mean + 0.5).floor()
-                            } else {
-                                mean
-                            })
-                        }
-                        Downsampling::Max => {
-                            let mut best = at(zs[0], ys[0], xs[0]);
-                            for z in zs {
-                                for y in ys {
-                                    for x in xs {
-                                        let v = at(z, y, x);
-                                        if v > best {
-                                            best = v;
-                                        }
-                                    }
-                                }
-                            }
-                            best
-                        }
-                    };
-                }
-            }
-        });
-    reduced
-}
-
-impl<T: Voxel> SlabSink for TypedWriter<T> {
-    fn slab_depth(&self) -> usize {
-        self.depth
-    }
-
-    fn push(&mut self, data: &VoxelData) -> Result<usize, Problem> {
-        let plane = self.plan.dims[0] * self.plan.dims[1];
-        let count = data.len();
-        if !count.is_multiple_of(plane) {
-            return Err(format!(
-                "{count} voxels are not whole {}x{} slices",
-                self.plan.dims[0], self.plan.dims[1]
-            ));
-        }
-        let slices = count / plane;
-        let pending = self.levels[0].written + self.levels[0].buffer.len() / plane;
-        if pending + slices > self.plan.dims[2] {
-            return Err(format!(
-                "{} slices given for a depth of {}",
-                pending + slices,
-                self.plan.dims[2]
-            ));
-        }
-        // The Vec, not a slice: `Any` downcasts only sized types.
-        #[allow(clippy::ptr_arg)]
-        fn typed<T: 'static, U: 'static>(values: &Vec<U>) -> Option<&[T]> {
-            let any: &dyn std::any::Any = values;
-            any.downcast_ref::<Vec<T>>().map(Vec::as_slice)
-        }
-        let values: &[T] =
-            with_voxel_slice!(data, values => typed::<T, _>(values)).ok_or_else(|| {
-                format!(
-                    "{} voxels given to a {} image",
-                    data.voxel_type().name(),
-                    T::TYPE.name()
-                )
-            })?;
-        self.push_level(0, values)?;
-        Ok(slices)
-    }
-
-    fn finish(&mut self) -> Result<Vec<[usize; 3]>, Problem> {
-        if self.finished {
-            return Err("the image is already finished".into());
-        }
-        let plane = self.plan.dims[0] * self.plan.dims[1];
-        let received = self.levels[0].written + self.levels[0].buffer.len() / plane;
-        if received != self.plan.dims[2] {
-            return Err(format!(
-                "{received} slices received for a depth of {}",
-                self.plan.dims[2]
-            ));
-        }
-        // Flush level by level: each remainder feeds the next level's buffer.
-        for index in 0..self.levels.len() {
-            let rest = std::mem::take(&mut self.levels[index].buffer);
-            if !rest.is_empty() {
-                self.write_slab(index, &rest)?;
-            }
-        }
-        self.write_group()?;
-        self.finished = true;
-        Ok(self.levels.iter().map(|l| l.dims).collect())
+    pub fn finish(self) -> Result<Vec<[usize; 3]>, Problem> {
+        let report = self.writer.finish()?;
+        let display = display_window(&self.root, &self.layout, report.range)?;
+        write_group(&self.root, &self.layout, display)?;
+        Ok(self.layout.levels())
     }
 }

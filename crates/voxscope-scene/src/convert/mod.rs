@@ -5,12 +5,23 @@
 use std::path::Path;
 
 use voxscope_volume::ome_zarr::{
-    Compression, Downsampling, PyramidWriter, SlabSource, WriteOptions, ZarrVersion,
+    Compression, Downsampling, ImageLayout, SlabSource, WriteOptions, ZarrVersion, create_arrays,
 };
 use voxscope_volume::remote::RemoteOptions;
 use voxscope_volume::{LoadOptions, RawLayout, Selection, ValueScale, format_dims};
 
 use crate::SceneError;
+
+mod finalize;
+mod part;
+mod plan;
+
+pub use finalize::finalize;
+pub use part::{PartMarker, PartOutcome, run_part};
+pub use plan::{PART_SLAB_BYTES, PLAN_FOLDER, Plan, PlanOptions};
+
+/// The most parts a conversion is cut into.
+pub const MAX_PARTS: usize = 100_000;
 
 /// How to read the input and write the OME-Zarr image.
 #[derive(Debug, Clone, PartialEq)]
@@ -81,23 +92,42 @@ impl ConvertOptions {
     }
 }
 
-/// Writes `source` (a file opened for reading in slabs, or a volume in memory: the Python
-/// module's arrays), which `spec` names, as the OME-Zarr image `options` describe at
-/// `output`, saying what it does and how far it is through `report`; returns the levels'
-/// dimensions.
-pub fn convert(
+/// `source` with `--tile` and `--upsample` applied, as `args` ask.
+pub(super) fn prepared(
     mut source: SlabSource,
-    spec: &str,
-    output: &Path,
     args: &ConvertOptions,
-    mut report: impl FnMut(&str),
-) -> Result<Vec<[usize; 3]>, SceneError> {
-    let written = |p| SceneError::Failed(format!("{}: {p}", output.display()));
+) -> Result<SlabSource, SceneError> {
     if let Some(copies) = args.tile {
         source = source.tiled(copies)?;
     }
     if let Some(factor) = args.upsample {
         source = source.upsampled(factor, args.noise)?;
+    }
+    Ok(source)
+}
+
+/// Plans the conversion of `source` (opened from `spec`; see [`convert`]) into `output` in
+/// `parts` parts: writes the arrays' metadata and the plan (`.voxscope/plan.json`), and
+/// returns the plan and the source, `--tile` and `--upsample` applied. `slab_bytes` bounds
+/// a part's slab ([`PART_SLAB_BYTES`]); `None` writes one column of the whole plane.
+pub fn plan_conversion(
+    source: SlabSource,
+    spec: &str,
+    output: &Path,
+    args: &ConvertOptions,
+    parts: usize,
+    slab_bytes: Option<u64>,
+) -> Result<(Plan, SlabSource), SceneError> {
+    let written = |p| SceneError::Failed(format!("{}: {p}", output.display()));
+    if !(1..=MAX_PARTS).contains(&parts) {
+        return Err(written(format!("--parts {parts}: from 1 to {MAX_PARTS}")));
+    }
+    let source = prepared(source, args)?;
+    if parts > 1 && !source.reads_by_region() {
+        return Err(SceneError::Failed(format!(
+            "{}: this file is read whole, not by region, so each of {parts} parts would read all of it; convert it in one process (`voxscope convert IN OUT`), or to raw voxels first",
+            source.name
+        )));
     }
     let options = WriteOptions {
         version: args.version,
@@ -115,14 +145,27 @@ pub fn convert(
             .unwrap_or_else(|| spec.to_owned()),
         unit: args.unit.clone().or_else(|| source.unit.clone()),
     };
-    let mut writer = PyramidWriter::create(
-        output,
-        source.dims,
-        source.voxel_type,
-        source.spacing,
-        &options,
-    )
-    .map_err(written)?;
+    let layout = ImageLayout::new(source.dims, source.voxel_type, source.spacing, &options)
+        .map_err(written)?;
+    let plan = Plan::new(spec, &source, args, &layout, parts, slab_bytes);
+    create_arrays(output, &layout).map_err(written)?;
+    plan.write(output)?;
+    Ok((plan, source))
+}
+
+/// Writes `source` (a file opened for reading in slabs, or a volume in memory: the Python
+/// module's arrays), which `spec` names, as the OME-Zarr image `options` describe at
+/// `output`, saying what it does and how far it is through `report`; returns the levels'
+/// dimensions. The three steps of a conversion in one process: [`plan_conversion`] of one
+/// part over the whole plane, [`run_part`], [`finalize`].
+pub fn convert(
+    source: SlabSource,
+    spec: &str,
+    output: &Path,
+    args: &ConvertOptions,
+    mut report: impl FnMut(&str),
+) -> Result<Vec<[usize; 3]>, SceneError> {
+    let (_, source) = plan_conversion(source, spec, output, args, 1, None)?;
     report(&format!(
         "converting {} ({} {}, {}) to OME-Zarr {} in {}³ chunks\n",
         source.name,
@@ -133,10 +176,7 @@ pub fn convert(
         } else {
             "loaded whole"
         },
-        match args.version {
-            ZarrVersion::V04 => "0.4",
-            ZarrVersion::V05 => "0.5",
-        },
+        plan::version_name(args.version),
         args.chunk
     ));
     // Values stored with a scale (NIfTI scl_slope/scl_inter, DICOM rescale) are written in
@@ -151,20 +191,10 @@ pub fn convert(
             source.voxel_type.name()
         ));
     }
-    let depth = source.dims[2];
-    let slab = writer.slab_depth();
-    let mut z = 0;
-    while z < depth {
-        let count = slab.min(depth - z);
-        let data = source.read(z, count)?;
-        writer.push(&data).map_err(written)?;
-        z += count;
-        report(&format!(
-            "\rconverting: {:3.0} %",
-            100.0 * z as f64 / depth as f64
-        ));
-    }
-    let levels = writer.finish().map_err(written)?;
+    run_part(output, 0, Some(1), Some(source), |progress| {
+        report(&progress.replace("part 0/1", "converting"))
+    })?;
+    let levels = finalize(output, &mut report)?;
     report("\rconverting: done \n");
     Ok(levels)
 }
