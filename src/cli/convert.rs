@@ -27,7 +27,7 @@ pub struct ConvertCommand {
 pub enum ConvertStep {
     /// Read the input's metadata, write the output's arrays and a plan of N parts
     /// (OUT/.voxscope/plan.json), and print N.
-    Plan(PlanArgs),
+    Plan(Box<PlanArgs>),
     /// Write one part's shards at every level it builds (idempotent: a finished part returns
     /// at once). Its number comes from --part, else SLURM_ARRAY_TASK_ID or
     /// JOB_COMPLETION_INDEX.
