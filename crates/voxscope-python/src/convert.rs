@@ -102,3 +102,94 @@ fn array_volume(source: &Bound<'_, PyAny>, name: &str, spacing: [f64; 3]) -> PyR
         "{name}: the array's dtype is not one voxscope stores"
     )))
 }
+
+/// _convert_plan(source, output, parts, **options) -> str
+///
+/// `voxscope convert plan`: reads only `source`'s metadata (a path or URL voxscope opens),
+/// writes the output's arrays and a plan of `parts` parts into `output`, and returns
+/// `output`: what `convert.run_part(plan, i)` and `convert.finalize(plan)` take, on any
+/// machine that shares the folder (a string, so Dask and Ray ship it as it is).
+#[pyfunction]
+#[pyo3(signature = (source, output, parts, **options))]
+pub fn _convert_plan(
+    py: Python<'_>,
+    source: &Bound<'_, PyAny>,
+    output: &Bound<'_, PyAny>,
+    parts: usize,
+    options: Option<&Bound<'_, PyDict>>,
+) -> PyResult<String> {
+    let output = spec_of(output)?;
+    let given = Given::read(options, CONVERT, "convert")?;
+    let (spec, given) = match source.cast::<crate::opened::Opened>() {
+        Ok(volume) => (volume.get().spec.clone(), volume.get().given.with(&given)),
+        Err(_) => (spec_of(source)?, given),
+    };
+    let options = given.convert_options()?;
+    if Path::new(&spec) == Path::new(&output) {
+        return Err(PyValueError::new_err(format!(
+            "{output}: the output is the input"
+        )));
+    }
+    py.detach(|| {
+        let source = SlabSource::open(&spec, &options.load_options())?;
+        voxscope_scene::plan_conversion(
+            source,
+            &spec,
+            Path::new(&output),
+            &options,
+            parts,
+            Some(voxscope_scene::PART_SLAB_BYTES),
+        )
+        .map(|_| ())
+    })
+    .map_err(|e| LoadError::new_err(e.to_string()))?;
+    Ok(output)
+}
+
+/// _convert_run_part(plan, part) -> dict
+///
+/// `voxscope convert run PLAN --part I/N`: writes part `part` of the conversion `plan` (the
+/// output folder) names, or returns at once where it has finished. Returns its marker's
+/// figures: `part`, `parts`, `objects`, `bytes_in`, `bytes_out`, `seconds`,
+/// `peak_memory_bytes` and `already_done`.
+#[pyfunction]
+pub fn _convert_run_part<'py>(
+    py: Python<'py>,
+    plan: &Bound<'py, PyAny>,
+    part: usize,
+) -> PyResult<Bound<'py, PyDict>> {
+    let output = spec_of(plan)?;
+    let outcome = py
+        .detach(|| voxscope_scene::run_part(Path::new(&output), part, None, None, |_| {}))
+        .map_err(|e| LoadError::new_err(e.to_string()))?;
+    let (marker, already_done) = match outcome {
+        voxscope_scene::PartOutcome::Written(marker) => (marker, false),
+        voxscope_scene::PartOutcome::AlreadyDone(marker) => (marker, true),
+    };
+    let figures = PyDict::new(py);
+    figures.set_item("part", marker.part)?;
+    figures.set_item("parts", marker.parts)?;
+    figures.set_item("objects", marker.objects.len())?;
+    figures.set_item("bytes_in", marker.bytes_in)?;
+    figures.set_item("bytes_out", marker.bytes_out)?;
+    figures.set_item("seconds", marker.seconds)?;
+    figures.set_item("peak_memory_bytes", marker.peak_memory_bytes)?;
+    figures.set_item("already_done", already_done)?;
+    Ok(figures)
+}
+
+/// _convert_finalize(plan) -> list[tuple[int, int, int]]
+///
+/// `voxscope convert finalize PLAN`: checks every part, builds the coarsest levels and writes
+/// the image's metadata, last. Returns each level's shape (z, y, x), finest first.
+#[pyfunction]
+pub fn _convert_finalize(
+    py: Python<'_>,
+    plan: &Bound<'_, PyAny>,
+) -> PyResult<Vec<(usize, usize, usize)>> {
+    let output = spec_of(plan)?;
+    let levels = py
+        .detach(|| voxscope_scene::finalize(Path::new(&output), |_| {}))
+        .map_err(|e| LoadError::new_err(e.to_string()))?;
+    Ok(levels.into_iter().map(|[x, y, z]| (z, y, x)).collect())
+}

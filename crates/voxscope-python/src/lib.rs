@@ -81,6 +81,9 @@ fn voxscope_module(module: &Bound<'_, PyModule>) -> PyResult<()> {
     module.add_function(wrap_pyfunction!(open, module)?)?;
     module.add_function(wrap_pyfunction!(renderer::render, module)?)?;
     module.add_function(wrap_pyfunction!(convert::convert, module)?)?;
+    module.add_function(wrap_pyfunction!(convert::_convert_plan, module)?)?;
+    module.add_function(wrap_pyfunction!(convert::_convert_run_part, module)?)?;
+    module.add_function(wrap_pyfunction!(convert::_convert_finalize, module)?)?;
     module.add_function(wrap_pyfunction!(device, module)?)?;
     module.add_function(wrap_pyfunction!(command_line::run_command_line, module)?)?;
     module.add_function(wrap_pyfunction!(_voxels, module)?)?;

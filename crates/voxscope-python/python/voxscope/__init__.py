@@ -22,12 +22,28 @@ from ._voxscope import (
     Volume,
     VoxscopeError,
     __version__,
-    convert,
+    _convert_finalize,
+    _convert_plan,
+    _convert_run_part,
     device,
     open,
     render,
 )
+from ._voxscope import convert as _convert
 from ._view import Viewer, view
+
+
+def convert(source, output, **options):
+    return _convert(source, output, **options)
+
+
+convert.__doc__ = _convert.__doc__
+# The conversion's three steps, for a scheduler that runs them across machines
+# (docs/cluster.md): `plan = convert.plan(src, out, parts=N, **options)`, then
+# `convert.run_part(plan, i)` for each i (any order, any process), then `convert.finalize(plan)`.
+convert.plan = _convert_plan
+convert.run_part = _convert_run_part
+convert.finalize = _convert_finalize
 
 __all__ = [
     "LoadError",
