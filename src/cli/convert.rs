@@ -180,14 +180,12 @@ impl ConvertArgs {
     }
 }
 
-/// The part a scheduler gives this process: Slurm's array task (from its first), or a
-/// Kubernetes Indexed Job's completion index.
+/// The part a scheduler gives this process: Slurm's array task id (`--array=0-N-1`, or any
+/// of those resubmitted alone: the id is the part), or a Kubernetes Indexed Job's completion
+/// index.
 fn scheduled_part() -> Option<usize> {
     let number = |name: &str| std::env::var(name).ok()?.trim().parse::<usize>().ok();
-    if let Some(task) = number("SLURM_ARRAY_TASK_ID") {
-        return Some(task - number("SLURM_ARRAY_TASK_MIN").unwrap_or(0).min(task));
-    }
-    number("JOB_COMPLETION_INDEX")
+    number("SLURM_ARRAY_TASK_ID").or_else(|| number("JOB_COMPLETION_INDEX"))
 }
 
 pub fn run(command: &ConvertCommand) -> Result<(), String> {

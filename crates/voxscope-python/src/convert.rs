@@ -143,7 +143,10 @@ pub fn _convert_plan(
         .map(|_| ())
     })
     .map_err(|e| LoadError::new_err(e.to_string()))?;
-    Ok(output)
+    // Absolute, so that a worker started elsewhere finds it.
+    Ok(std::fs::canonicalize(&output)
+        .map(|path| path.display().to_string())
+        .unwrap_or(output))
 }
 
 /// _convert_run_part(plan, part) -> dict

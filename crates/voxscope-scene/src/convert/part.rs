@@ -133,7 +133,7 @@ pub fn run_part(
         ));
     }
     if let Some(marker) = PartMarker::read(output, part)? {
-        if marker.plan != plan.id {
+        if marker.plan != plan.id || marker.part != part || marker.parts != count {
             return Err(failed(
                 output,
                 format!(

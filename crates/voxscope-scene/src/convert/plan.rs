@@ -217,8 +217,7 @@ impl Plan {
             column_levels: columns.levels,
             parts: owned,
         };
-        let text = serde_json::to_string(&plan).unwrap_or_default();
-        plan.id = format!("{:08x}", crc32c::crc32c(text.as_bytes()));
+        plan.id = plan.checksum();
         plan
     }
 
@@ -263,19 +262,56 @@ impl Plan {
                 ),
             ));
         }
-        let columns = plan.columns();
-        let parts_valid = !plan.parts.is_empty()
-            && plan
-                .parts
-                .iter()
-                .all(|[a, b]| a <= b && *b <= columns.count());
-        if plan.layout().is_none() || !parts_valid || plan.column_levels == 0 {
+        if let Some(problem) = plan.problem() {
             return Err(failed(
                 output,
-                format!("{PLAN_FOLDER}/{PLAN_FILE} holds values no conversion plans"),
+                format!("{PLAN_FOLDER}/{PLAN_FILE} is not a plan convert made ({problem})"),
             ));
         }
         Ok(plan)
+    }
+
+    /// The checksum [`Self::id`] holds: of the plan without it.
+    fn checksum(&self) -> String {
+        let text = serde_json::to_string(&Self {
+            id: String::new(),
+            ..self.clone()
+        })
+        .unwrap_or_default();
+        format!("{:08x}", crc32c::crc32c(text.as_bytes()))
+    }
+
+    /// What makes this plan one that `plan` did not write (edited, or damaged), if anything:
+    /// parts and `finalize` trust its geometry to write every object once.
+    fn problem(&self) -> Option<String> {
+        if self.id != self.checksum() {
+            return Some("its checksum does not match its contents".to_owned());
+        }
+        let Some(layout) = self.layout() else {
+            return Some("its options or image are not convert's".to_owned());
+        };
+        let levels = layout.levels().len();
+        let [nx, ny, _] = self.dims;
+        let side = self.column_side;
+        let whole = side == [nx, ny] && self.column_grid == [1, 1];
+        let aligned = side[0] == side[1]
+            && side[0] > 0
+            && self.column_levels >= 1
+            && self.column_levels <= levels
+            && layout.tile().checked_shl((self.column_levels - 1) as u32) == Some(side[0])
+            && self.column_grid == [nx.div_ceil(side[0]), ny.div_ceil(side[0])];
+        if !(whole && self.column_levels == levels || aligned) {
+            return Some("its columns do not fit the image".to_owned());
+        }
+        let Some(count) = self.column_grid[0].checked_mul(self.column_grid[1]) else {
+            return Some("its columns do not fit the image".to_owned());
+        };
+        let contiguous = self.parts.first().is_some_and(|p| p[0] == 0)
+            && self.parts.last().is_some_and(|p| p[1] == count)
+            && self.parts.windows(2).all(|w| w[0][1] == w[1][0])
+            && self.parts.iter().all(|[a, b]| a <= b)
+            && self.parts.len() <= super::MAX_PARTS;
+        (!contiguous).then(|| "its parts do not share the columns out once each".to_owned())
     }
 
     pub fn columns(&self) -> Columns {

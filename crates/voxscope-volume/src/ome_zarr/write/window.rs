@@ -331,12 +331,8 @@ fn write_units<T: Voxel>(
                     }
                 }
             }
-            array.store_array_subset(&subset, block).map_err(|e| {
-                format!(
-                    "cannot write level {number} at z {z0}: {}",
-                    printable(&e.to_string())
-                )
-            })?;
+            store_whole_chunks(array, &subset, &block, T::default())
+                .map_err(|e| format!("cannot write level {number} at z {z0}: {e}"))?;
             Ok(ranges)
         })
         .collect();
@@ -402,9 +398,63 @@ fn store_ranges<T>(
         ox as u64..(ox + grid[0]) as u64,
         0..2,
     ]);
-    array
-        .store_array_subset(&subset, values)
-        .map_err(|e| printable(&e.to_string()))
+    store_whole_chunks(array, &subset, &values, f64::NAN)
+}
+
+/// Stores `data` (C order over `subset`, which starts on chunk boundaries and ends on one or
+/// at the array's edge) chunk by chunk, each whole, the part of a chunk beyond the array
+/// `fill`. (zarrs reads a chunk the subset covers in part back and writes it over: what a
+/// killed write left truncated would then fail to decode, and a part run again would fail.)
+fn store_whole_chunks<T: Element + Copy>(
+    array: &Array<Recorded>,
+    subset: &ArraySubset,
+    data: &[T],
+    fill: T,
+) -> Result<(), String> {
+    let words = |e: &dyn std::fmt::Display| printable(&e.to_string());
+    let origin = subset.start();
+    let shape = subset.shape();
+    let n = origin.len();
+    let end: Vec<u64> = (0..n).map(|a| origin[a] + shape[a]).collect();
+    let Some(chunks) = array
+        .chunks_in_array_subset(subset)
+        .map_err(|e| words(&e))?
+    else {
+        return Ok(());
+    };
+    for indices in &chunks.indices() {
+        let chunk = array.chunk_subset(&indices).map_err(|e| words(&e))?;
+        let (start, size) = (chunk.start(), chunk.shape());
+        let lo: Vec<u64> = (0..n).map(|a| start[a].max(origin[a])).collect();
+        let hi: Vec<u64> = (0..n).map(|a| (start[a] + size[a]).min(end[a])).collect();
+        if (0..n).any(|a| lo[a] >= hi[a]) {
+            continue;
+        }
+        let mut block = vec![fill; size.iter().product::<u64>() as usize];
+        let row = (hi[n - 1] - lo[n - 1]) as usize;
+        let offset = |at: &[u64], from: &[u64], dims: &[u64]| {
+            (0..n).fold(0u64, |acc, a| acc * dims[a] + (at[a] - from[a])) as usize
+        };
+        let mut at = lo.clone();
+        'rows: loop {
+            let (src, dst) = (offset(&at, origin, shape), offset(&at, start, size));
+            block[dst..dst + row].copy_from_slice(&data[src..src + row]);
+            let mut axis = n - 1;
+            loop {
+                if axis == 0 {
+                    break 'rows;
+                }
+                axis -= 1;
+                at[axis] += 1;
+                if at[axis] < hi[axis] {
+                    break;
+                }
+                at[axis] = lo[axis];
+            }
+        }
+        array.store_chunk(&indices, block).map_err(|e| words(&e))?;
+    }
+    Ok(())
 }
 
 /// 2×2×2 reduction of `slab` (x fastest; `dims` = x, y, depth): `ceil(n / 2)` per axis, an
