@@ -1,8 +1,11 @@
 """`voxscope.convert.plan`, `run_part` and `finalize`: the conversion's parts run in separate
 worker processes (as Dask's or Ray's workers run them), in any order, write the bytes of the
-one-process `convert`, and zarr-python reads the voxels written."""
+one-process `convert`, and zarr-python reads the voxels written; so does the Dask script of
+docs/cluster.md on a LocalCluster."""
 
 import multiprocessing
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -11,7 +14,7 @@ import zarr
 
 import voxscope
 
-from conftest import shared_data
+from conftest import REPO, shared_data
 
 
 def image_files(root: Path) -> dict:
@@ -63,3 +66,19 @@ def test_a_missing_part_is_named(tmp_path):
         voxscope.convert.finalize(plan)
     with pytest.raises(voxscope.LoadError, match="the plan has 2 parts"):
         voxscope.convert.run_part(plan, 5)
+
+
+def test_the_dask_script_on_a_local_cluster_writes_the_one_process_bytes(tmp_path):
+    # docs/cluster/convert-dask.py as a user runs it: a LocalCluster of 3 worker processes.
+    nuclei = shared_data("nuclei-60x256x256.tif")
+    whole = tmp_path / "whole.ome.zarr"
+    voxscope.convert(nuclei, whole, format="0.5", chunk=32, shard=2, tile="3,3,2")
+    out = tmp_path / "dask.ome.zarr"
+    script = REPO / "docs" / "cluster" / "convert-dask.py"
+    run = subprocess.run(
+        [sys.executable, script, nuclei, out, "3", "format=0.5", "chunk=32", "shard=2", "tile=3,3,2"],
+        capture_output=True, text=True, timeout=300,
+    )
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.count("objects") == 3 and "wrote" in run.stdout, run.stdout
+    assert image_files(out) == image_files(whole)
