@@ -18,7 +18,7 @@ export SLURM_CONF=$WORK/slurm.conf
 mkdir -p "$WORK"/{state,spool,log}
 cat >"$SLURM_CONF" <<CONF
 ClusterName=voxscope-test
-SlurmctldHost=$NODE
+SlurmctldHost=$NODE(127.0.0.1)
 SlurmUser=root
 SlurmdUser=root
 AuthType=auth/munge
@@ -38,7 +38,7 @@ SlurmctldPidFile=$WORK/slurmctld.pid
 SlurmdPidFile=$WORK/slurmd.pid
 SlurmctldLogFile=$WORK/log/slurmctld.log
 SlurmdLogFile=$WORK/log/slurmd.log
-NodeName=$NODE CPUs=$(nproc) RealMemory=2000 State=UNKNOWN
+NodeName=$NODE NodeAddr=127.0.0.1 CPUs=$(nproc) RealMemory=2000 State=UNKNOWN
 PartitionName=test Nodes=ALL Default=YES MaxTime=INFINITE State=UP
 CONF
 MUNGE_STARTED=""
