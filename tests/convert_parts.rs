@@ -244,6 +244,39 @@ fn unsharded_parts_write_the_one_process_bytes() {
 }
 
 #[test]
+fn narrow_columns_and_finalize_in_rounds_write_the_one_process_bytes() {
+    // --part-memory 1MiB: columns of one 256² tile each, only level 0 in the parts, and
+    // finalize builds the rest in rounds of columns (level 1 in four of 512², then the others
+    // from level 1 whole).
+    let dir = tempfile::tempdir().unwrap();
+    let raw = dir.path().join("waves.raw");
+    write_raw(&raw);
+    let format = ["--format", "0.5", "--chunk", "32", "--shard", "2"];
+    let whole = dir.path().join("whole.ome.zarr");
+    let mut args = vec!["convert", s(&raw), s(&whole), "--raw", LAYOUT];
+    args.extend_from_slice(&format);
+    ok(&voxscope(&args));
+    let parted = dir.path().join("parts.ome.zarr");
+    let mut args = vec!["convert", "plan", s(&raw), s(&parted), "--raw", LAYOUT];
+    args.extend_from_slice(&["--parts", "5", "--part-memory", "1MiB"]);
+    args.extend_from_slice(&format);
+    ok(&voxscope(&args));
+    let plan_text = std::fs::read_to_string(parted.join(".voxscope/plan.json")).unwrap();
+    assert!(plan_text.contains("\"column_levels\": 1"), "{plan_text}");
+    for part in ["4/5", "1/5", "3/5", "0/5", "2/5"] {
+        ok(&run_part(&parted, part));
+    }
+    let out = voxscope(&["convert", "finalize", s(&parted)]);
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    ok(&out);
+    assert!(
+        stderr.contains("building levels 1 to 1 from level 0 (770x650x130) in 4 columns"),
+        "{stderr}"
+    );
+    assert_same_files(&whole, &parted);
+}
+
+#[test]
 fn a_missing_part_another_plan_and_a_changed_input_are_refused() {
     let dir = tempfile::tempdir().unwrap();
     let raw = dir.path().join("waves.raw");

@@ -7,7 +7,7 @@ use std::time::Instant;
 use clap::{Args, Subcommand, ValueEnum};
 
 use voxscope_scene::ConvertOptions;
-use voxscope_scene::option_text::{parse_copies, parse_max_requests, parse_spacing};
+use voxscope_scene::option_text::{parse_bytes, parse_copies, parse_max_requests, parse_spacing};
 use voxscope_volume::ome_zarr::{Compression, SlabSource, ZarrVersion};
 use voxscope_volume::{RawLayout, format_dims};
 
@@ -43,6 +43,10 @@ pub struct PlanArgs {
     /// How many parts (separate processes, on any machines that share OUT) write the image.
     #[arg(long, value_name = "N")]
     pub parts: usize,
+    /// The most a part's column slab holds (`256MiB`, `2GiB`); a part's peak memory is about
+    /// twice this, and `finalize` keeps within it too.
+    #[arg(long, value_name = "SIZE", default_value = "512MiB", value_parser = parse_bytes)]
+    pub part_memory: u64,
 }
 
 #[derive(Debug, Args)]
@@ -191,7 +195,7 @@ fn scheduled_part() -> Option<usize> {
 pub fn run(command: &ConvertCommand) -> Result<(), String> {
     match &command.step {
         None => run_whole(&command.args),
-        Some(ConvertStep::Plan(plan)) => run_plan(&plan.args, plan.parts),
+        Some(ConvertStep::Plan(plan)) => run_plan(&plan.args, plan.parts, plan.part_memory),
         Some(ConvertStep::Run(run)) => run_part(run),
         Some(ConvertStep::Finalize(finalize)) => {
             let started = Instant::now();
@@ -242,7 +246,7 @@ fn run_whole(args: &ConvertArgs) -> Result<(), String> {
     Ok(())
 }
 
-fn run_plan(args: &ConvertArgs, parts: usize) -> Result<(), String> {
+fn run_plan(args: &ConvertArgs, parts: usize, part_memory: u64) -> Result<(), String> {
     let (spec, output) = paths(args)?;
     let options = args.options();
     let source = SlabSource::open(spec, &options.load_options()).map_err(|e| e.to_string())?;
@@ -252,7 +256,7 @@ fn run_plan(args: &ConvertArgs, parts: usize) -> Result<(), String> {
         Path::new(output),
         &options,
         parts,
-        Some(voxscope_scene::PART_SLAB_BYTES),
+        Some(part_memory),
     )
     .map_err(|e| e.to_string())?;
     let columns = plan.columns();

@@ -103,22 +103,26 @@ fn array_volume(source: &Bound<'_, PyAny>, name: &str, spacing: [f64; 3]) -> PyR
     )))
 }
 
-/// _convert_plan(source, output, parts, **options) -> str
+/// _convert_plan(source, output, parts, part_memory="512MiB", **options) -> str
 ///
 /// `voxscope convert plan`: reads only `source`'s metadata (a path or URL voxscope opens),
-/// writes the output's arrays and a plan of `parts` parts into `output`, and returns
+/// writes the output's arrays and a plan of `parts` parts (each column slab within
+/// `part_memory`) into `output`, and returns
 /// `output`: what `convert.run_part(plan, i)` and `convert.finalize(plan)` take, on any
 /// machine that shares the folder (a string, so Dask and Ray ship it as it is).
 #[pyfunction]
-#[pyo3(signature = (source, output, parts, **options))]
+#[pyo3(signature = (source, output, parts, part_memory = "512MiB", **options))]
 pub fn _convert_plan(
     py: Python<'_>,
     source: &Bound<'_, PyAny>,
     output: &Bound<'_, PyAny>,
     parts: usize,
+    part_memory: &str,
     options: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<String> {
     let output = spec_of(output)?;
+    let part_memory = voxscope_scene::option_text::parse_bytes(part_memory)
+        .map_err(|e| PyValueError::new_err(format!("part_memory={part_memory:?}: {e}")))?;
     let given = Given::read(options, CONVERT, "convert")?;
     let (spec, given) = match source.cast::<crate::opened::Opened>() {
         Ok(volume) => (volume.get().spec.clone(), volume.get().given.with(&given)),
@@ -138,7 +142,7 @@ pub fn _convert_plan(
             Path::new(&output),
             &options,
             parts,
-            Some(voxscope_scene::PART_SLAB_BYTES),
+            Some(part_memory),
         )
         .map(|_| ())
     })

@@ -8,7 +8,7 @@ use std::path::Path;
 use voxscope_volume::ome_zarr::{Window, WindowWriter, display_window, read_level, write_group};
 
 use super::part::PartMarker;
-use super::plan::{PLAN_FOLDER, Plan};
+use super::plan::{PART_SLAB_BYTES, PLAN_FOLDER, Plan};
 use crate::SceneError;
 
 fn failed(output: &Path, problem: impl std::fmt::Display) -> SceneError {
@@ -80,31 +80,47 @@ pub fn finalize(
         ));
     }
     let levels = layout.levels();
-    let built = plan.column_levels;
-    if built < levels.len() {
-        // The coarsest levels, from the last level the parts wrote, read back whole-plane
-        // slab by slab.
-        let from = built - 1;
+    // The coarsest levels, in rounds: each reads the last level built column by column (a
+    // column's slab within the parts' budget) and builds the levels its columns hold whole.
+    let slab_bytes = plan.slab_bytes.unwrap_or(PART_SLAB_BYTES);
+    let mut from = plan.column_levels - 1;
+    while from + 1 < levels.len() {
+        let columns = layout.columns_at(from, 1, Some(slab_bytes), 2);
+        let to = from + columns.levels - 1;
         let [nx, ny, nz] = levels[from];
         report(&format!(
-            "building levels {built} to {} from level {from} ({nx}x{ny}x{nz})\n",
-            levels.len() - 1
+            "building levels {} to {to} from level {from} ({nx}x{ny}x{nz}) in {} column{}\n",
+            from + 1,
+            columns.count(),
+            if columns.count() == 1 { "" } else { "s" }
         ));
-        let whole = Window {
-            origin: [0, 0],
-            size: [layout.dims[0], layout.dims[1]],
-        };
-        let mut writer = WindowWriter::open(output, &layout, whole, from, levels.len() - 1, false)
-            .map_err(|p| failed(output, p))?;
-        let slab = writer.slab_depth();
-        let mut z = 0;
-        while z < nz {
-            let n = slab.min(nz - z);
-            let data = read_level(output, &layout, from, z, n).map_err(|p| failed(output, p))?;
-            writer.push(&data).map_err(|p| failed(output, p))?;
-            z += n;
+        for column in 0..columns.count() {
+            let window = columns.window(column, levels[from]);
+            // The column in level 0's voxels, as the writer takes windows.
+            let scale = 1usize << from;
+            let origin = window.origin.map(|o| o * scale);
+            let whole = Window {
+                origin,
+                size: std::array::from_fn(|a| {
+                    (window.size[a] * scale).min(layout.dims[a] - origin[a])
+                }),
+            };
+            let mut writer = WindowWriter::open(output, &layout, whole, from, to, false)
+                .map_err(|p| failed(output, p))?;
+            let slab = writer.slab_depth();
+            let mut z = 0;
+            while z < nz {
+                let n = slab.min(nz - z);
+                let [x0, y0] = window.origin;
+                let [w, h] = window.size;
+                let data = read_level(output, &layout, from, [x0, y0, z], [w, h, n])
+                    .map_err(|p| failed(output, p))?;
+                writer.push(&data).map_err(|p| failed(output, p))?;
+                z += n;
+            }
+            writer.finish().map_err(|p| failed(output, p))?;
         }
-        writer.finish().map_err(|p| failed(output, p))?;
+        from = to;
     }
     let display = display_window(output, &layout, range).map_err(|p| failed(output, p))?;
     write_group(output, &layout, display).map_err(|p| failed(output, p))?;

@@ -20,8 +20,9 @@ const PLAN_FILE: &str = "plan.json";
 /// What the plan file says it is (and its version).
 const PLAN_KIND: &str = "voxscope convert plan 1";
 
-/// The most bytes one column's slab of level 0 may hold when parts share the work: a part's
-/// memory stays near twice this, whatever the input's size.
+/// The most bytes one column's slab of level 0 holds when parts share the work, unless the
+/// plan says (`convert plan --part-memory`): a part's memory stays near twice this, whatever
+/// the input's size.
 pub const PART_SLAB_BYTES: u64 = 512 << 20;
 
 /// A conversion's plan, as `plan.json` holds it.
@@ -47,6 +48,9 @@ pub struct Plan {
     pub column_levels: usize,
     /// Part `i` owns columns `parts[i][0] .. parts[i][1]` (row by row, x fastest).
     pub parts: Vec<[usize; 2]>,
+    /// The most bytes a column's slab holds, in the parts and in `finalize`'s rounds
+    /// (`None`: one column of the whole plane, in one process).
+    pub slab_bytes: Option<u64>,
 }
 
 /// The options a part reopens the input with, and the output's, in words.
@@ -216,6 +220,7 @@ impl Plan {
             column_grid: columns.grid,
             column_levels: columns.levels,
             parts: owned,
+            slab_bytes,
         };
         plan.id = plan.checksum();
         plan

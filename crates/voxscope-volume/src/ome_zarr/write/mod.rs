@@ -171,16 +171,29 @@ impl ImageLayout {
     /// columns where the plane has as many tiles; one column of the whole plane, holding
     /// every level, where `slab_bytes` is `None` or that column fits it.
     pub fn columns(&self, parts: usize, slab_bytes: Option<u64>) -> Columns {
-        let levels = self.levels();
-        let [nx, ny, _] = self.dims;
+        self.columns_at(0, parts, slab_bytes, 1)
+    }
+
+    /// [`Self::columns`] of level `level`'s plane (sides in its voxels; `levels` counts
+    /// `level` itself), each holding at least `least_levels` levels where the image has them.
+    pub fn columns_at(
+        &self,
+        level: usize,
+        parts: usize,
+        slab_bytes: Option<u64>,
+        least_levels: usize,
+    ) -> Columns {
+        let all = self.levels();
+        let count = all.len() - level.min(all.len() - 1);
+        let [nx, ny, nz] = all[level.min(all.len() - 1)];
         let whole = Columns {
             side: [nx, ny],
             grid: [1, 1],
-            levels: levels.len(),
+            levels: count,
         };
         let slab = |side: [usize; 2]| {
             (side[0] as u64 * side[1] as u64)
-                .saturating_mul((self.unit().min(self.dims[2]) * self.voxel_type.size()) as u64)
+                .saturating_mul((self.unit().min(nz) * self.voxel_type.size()) as u64)
         };
         let Some(budget) = slab_bytes else {
             return whole;
@@ -190,11 +203,12 @@ impl ImageLayout {
         }
         let tile = self.tile();
         let grid = |side: usize| [nx.div_ceil(side), ny.div_ceil(side)];
-        let mut k = 0;
-        while k + 1 < levels.len() && slab([tile << (k + 1); 2]) <= budget {
+        let least = least_levels.clamp(1, count) - 1;
+        let mut k = least;
+        while k + 1 < count && slab([tile << (k + 1); 2]) <= budget {
             k += 1;
         }
-        while k > 0 && grid(tile << k).iter().product::<usize>() < parts {
+        while k > least && grid(tile << k).iter().product::<usize>() < parts {
             k -= 1;
         }
         let side = tile << k;
@@ -282,14 +296,15 @@ pub fn create_arrays(root: &Path, layout: &ImageLayout) -> Result<(), Problem> {
     }
 }
 
-/// Slices `z0..z0 + count` of level `level` of the image at `root` (written by these
-/// writers for `layout`), x fastest: what `finalize` builds the coarsest levels from.
+/// The box `origin .. origin + size` (x, y, z) of level `level` of the image at `root`
+/// (written by these writers for `layout`), x fastest: what `finalize` builds the coarsest
+/// levels from.
 pub fn read_level(
     root: &Path,
     layout: &ImageLayout,
     level: usize,
-    z0: usize,
-    count: usize,
+    origin: [usize; 3],
+    size: [usize; 3],
 ) -> Result<VoxelData, Problem> {
     let levels = layout.levels();
     let read = |e: &dyn std::fmt::Display| {
@@ -298,18 +313,23 @@ pub fn read_level(
             printable(&e.to_string())
         )
     };
-    let [nx, ny, nz] = *levels
+    let dims = *levels
         .get(level)
         .ok_or_else(|| format!("no level {level} of {}", levels.len()))?;
-    if z0 + count > nz {
-        return Err(format!("slices {z0}..{} of a depth of {nz}", z0 + count));
+    if (0..3).any(|a| origin[a] + size[a] > dims[a]) {
+        return Err(format!(
+            "the box {} at {} lies outside level {level} ({})",
+            format_dims(size),
+            format_dims(origin),
+            format_dims(dims)
+        ));
     }
     let store = Arc::new(
         FilesystemStore::new(root).map_err(|e| format!("cannot open {}: {e}", root.display()))?,
     );
     let array = Array::open(store, &format!("/{level}")).map_err(|e| read(&e))?;
-    let subset =
-        ArraySubset::new_with_ranges(&[z0 as u64..(z0 + count) as u64, 0..ny as u64, 0..nx as u64]);
+    let range = |a: usize| origin[a] as u64..(origin[a] + size[a]) as u64;
+    let subset = ArraySubset::new_with_ranges(&[range(2), range(1), range(0)]);
     macro_rules! typed {
         ($variant:ident) => {
             array
@@ -349,8 +369,7 @@ pub fn display_window(
         .iter()
         .position(|d| d.iter().product::<usize>() <= WINDOW_SAMPLE_VOXELS)
         .unwrap_or(levels.len() - 1);
-    let [.., nz] = levels[level];
-    let values = read_level(root, layout, level, 0, nz)?;
+    let values = read_level(root, layout, level, [0; 3], levels[level])?;
     let mut finite: Vec<f64> = (0..values.len())
         .filter_map(|i| values.get(i))
         .filter(|v| v.is_finite())
