@@ -55,18 +55,7 @@ pub fn convert(
             voxscope_scene::convert(source, &name, Path::new(&output), &options, |_| {})
         })
     } else {
-        let given = Given::read(options, CONVERT, "convert")?;
-        // A Volume converts as it was opened (its `raw`, `spacing`, channel and time).
-        let (spec, given) = match source.cast::<crate::opened::Opened>() {
-            Ok(volume) => (volume.get().spec.clone(), volume.get().given.with(&given)),
-            Err(_) => (spec_of(source)?, given),
-        };
-        let options = given.convert_options()?;
-        if Path::new(&spec) == Path::new(&output) {
-            return Err(PyValueError::new_err(format!(
-                "{output}: the output is the input"
-            )));
-        }
+        let (spec, options) = path_source(source, options, &output)?;
         py.detach(|| {
             let source = SlabSource::open(&spec, &options.load_options())?;
             voxscope_scene::convert(source, &spec, Path::new(&output), &options, |_| {})
@@ -74,6 +63,27 @@ pub fn convert(
     };
     let levels = levels.map_err(|e| LoadError::new_err(e.to_string()))?;
     Ok(levels.into_iter().map(|[x, y, z]| (z, y, x)).collect())
+}
+
+/// The path or URL `source` names (a Volume converts as it was opened: its `raw`, `spacing`,
+/// channel and time) and the convert options `options` give for it; refused where it is
+/// `output`.
+fn path_source(
+    source: &Bound<'_, PyAny>,
+    options: Option<&Bound<'_, PyDict>>,
+    output: &str,
+) -> PyResult<(String, voxscope_scene::ConvertOptions)> {
+    let given = Given::read(options, CONVERT, "convert")?;
+    let (spec, given) = match source.cast::<crate::opened::Opened>() {
+        Ok(volume) => (volume.get().spec.clone(), volume.get().given.with(&given)),
+        Err(_) => (spec_of(source)?, given),
+    };
+    if Path::new(&spec) == Path::new(output) {
+        return Err(PyValueError::new_err(format!(
+            "{output}: the output is the input"
+        )));
+    }
+    Ok((spec, given.convert_options()?))
 }
 
 /// A 3-D array (z, y, x) copied into a [`Volume`].
@@ -123,17 +133,7 @@ pub fn _convert_plan(
     let output = spec_of(output)?;
     let part_memory = voxscope_scene::option_text::parse_bytes(part_memory)
         .map_err(|e| PyValueError::new_err(format!("part_memory={part_memory:?}: {e}")))?;
-    let given = Given::read(options, CONVERT, "convert")?;
-    let (spec, given) = match source.cast::<crate::opened::Opened>() {
-        Ok(volume) => (volume.get().spec.clone(), volume.get().given.with(&given)),
-        Err(_) => (spec_of(source)?, given),
-    };
-    let options = given.convert_options()?;
-    if Path::new(&spec) == Path::new(&output) {
-        return Err(PyValueError::new_err(format!(
-            "{output}: the output is the input"
-        )));
-    }
+    let (spec, options) = path_source(source, options, &output)?;
     py.detach(|| {
         let source = SlabSource::open(&spec, &options.load_options())?;
         voxscope_scene::plan_conversion(
