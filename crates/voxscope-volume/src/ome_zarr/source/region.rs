@@ -139,18 +139,27 @@ impl SlabSource {
                     file.seek(SeekFrom::Start(at(0, 0, z0)))
                         .and_then(|_| file.read_exact(&mut bytes))
                         .map_err(failed)?;
+                } else if 2 * w >= dims[0] {
+                    // A box at least half the plane wide: one read a plane of the span from
+                    // its first row's start to its last row's end, the rows cut out of it
+                    // (a system call a row cost more than the bytes between rows).
+                    let span = ((h - 1) * dims[0] + w) * voxel;
+                    let mut plane = vec![0u8; span];
+                    for (i, rows) in bytes.chunks_exact_mut(w * h * voxel).enumerate() {
+                        file.seek(SeekFrom::Start(at(x0, y0, z0 + i)))
+                            .and_then(|_| file.read_exact(&mut plane))
+                            .map_err(failed)?;
+                        for (j, row) in rows.chunks_exact_mut(w * voxel).enumerate() {
+                            let from = j * dims[0] * voxel;
+                            row.copy_from_slice(&plane[from..from + w * voxel]);
+                        }
+                    }
                 } else {
-                    // One read per plane where the box spans whole rows, else per row.
-                    let whole_rows = w == dims[0];
-                    let run = if whole_rows { w * h * voxel } else { w * voxel };
-                    for (i, part) in bytes.chunks_exact_mut(run).enumerate() {
-                        let (z, y) = if whole_rows {
-                            (z0 + i, y0)
-                        } else {
-                            (z0 + i / h, y0 + i % h)
-                        };
+                    // One read per row (whole rows are one run: the branch above).
+                    for (i, row) in bytes.chunks_exact_mut(w * voxel).enumerate() {
+                        let (z, y) = (z0 + i / h, y0 + i % h);
                         file.seek(SeekFrom::Start(at(x0, y, z)))
-                            .and_then(|_| file.read_exact(part))
+                            .and_then(|_| file.read_exact(row))
                             .map_err(failed)?;
                     }
                 }
