@@ -4,11 +4,14 @@
 # (git-ignored), voxscope.gz (a stripped release binary) and nuclei.npy
 # (../shared/data/nuclei-60x256x256.tif as numpy saved it).
 # Usage: bash docs/bench/convert-parts.sh RUN_NAME   (files RUN_NAME-… to $OUT)
-#   1. /tmp/big.raw: the nuclei as i16, tiled 16x16x18 and cut to 4096x4096x1064 (35.7 GB)
+#   1. /tmp/big.raw: the nuclei as i16 (halved: u16 above 32767 would wrap), tiled 16x16 in
+#      x and y and repeated to DEPTH planes (default 532: 4096x4096x532, 17.9 GB; 1064 makes
+#      the 35.7 GB of issue 56, but it and one output (blosc-lz4 barely compresses microscopy
+#      noise) do not fit the machine's 64 GB disk together)
 #   2. `convert` of it in one process to OME-Zarr 0.5 (64³ chunks in 128³ shards, blosc-lz4)
 #   3. `convert plan --parts 4`, the 4 parts at once as 4 processes of 4 threads, `finalize`
 #   The page cache is dropped before 2 and 3; the parts' objects are compared with the
-#   one-process output's by their markers' CRC-32C.
+#   one-process output's by their markers' CRC-32C (the one-process output is deleted first).
 set -uo pipefail
 RUN=${1:?usage: convert-parts.sh RUN_NAME}
 D=.bench
@@ -16,23 +19,25 @@ OUTDIR=${OUT:-/tmp/out}; mkdir -p "$OUTDIR"
 gunzip -kf $D/voxscope.gz && chmod +x $D/voxscope
 echo "$(nproc) cores; $(free -g | awk '/Mem/ {print $2}') GB; $(df -h /tmp | tail -1)"
 RAW=/tmp/big.raw
-LAYOUT=4096x4096x1064:i16
+DEPTH=${DEPTH:-532}
+LAYOUT=4096x4096x$DEPTH:i16
 FORMAT="--format 0.5 --chunk 64 --shard 2"
 drop() {
     sync
     echo 3 >/proc/sys/vm/drop_caches 2>/dev/null || echo "page cache NOT dropped"
 }
 now() { date +%s.%N; }
-python3 - "$D/nuclei.npy" "$RAW" <<'PY'
+python3 - "$D/nuclei.npy" "$RAW" "$DEPTH" <<'PY'
 import sys, time
 import numpy as np
 started = time.time()
-nuclei = np.load(sys.argv[1]).astype(np.int16)          # 60 x 256 x 256
+nuclei = (np.load(sys.argv[1]) // 2).astype(np.int16)   # 60 x 256 x 256
 plane_tiles = np.tile(nuclei, (1, 16, 16))               # 60 x 4096 x 4096
+depth = int(sys.argv[3])
 with open(sys.argv[2], "wb") as f:
     written = 0
-    while written < 1064:
-        n = min(60, 1064 - written)
+    while written < depth:
+        n = min(60, depth - written)
         plane_tiles[:n].tofile(f)
         written += n
 print(f"raw written in {time.time() - started:.1f} s")
@@ -45,6 +50,7 @@ $D/voxscope convert $RAW /tmp/whole.ome.zarr --raw $LAYOUT $FORMAT \
 echo "whole exit $? in $(python3 -c "print(round($(now) - $t0, 2))") s"; cat "$OUTDIR/$RUN-whole.txt"
 cp /tmp/whole.ome.zarr/.voxscope/parts/0.json "$OUTDIR/$RUN-whole-marker.json"
 du -sh /tmp/whole.ome.zarr
+rm -rf /tmp/whole.ome.zarr
 drop
 t0=$(now)
 $D/voxscope convert plan $RAW /tmp/parts.ome.zarr --raw $LAYOUT $FORMAT --parts 4 2>&1
