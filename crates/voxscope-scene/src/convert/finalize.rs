@@ -9,11 +9,8 @@ use voxscope_volume::ome_zarr::{Window, WindowWriter, display_window, read_level
 
 use super::part::PartMarker;
 use super::plan::{PART_SLAB_BYTES, PLAN_FOLDER, Plan};
+use super::{failed, widened, write_column};
 use crate::SceneError;
-
-fn failed(output: &Path, problem: impl std::fmt::Display) -> SceneError {
-    SceneError::Failed(format!("{}: {problem}", output.display()))
-}
 
 /// Finishes the conversion into `output`; returns the levels' dimensions.
 pub fn finalize(
@@ -56,10 +53,8 @@ pub fn finalize(
                 ));
             }
         }
-        if let Some([low, high]) = marker.range {
-            let merged = range.get_or_insert([low, high]);
-            merged[0] = merged[0].min(low);
-            merged[1] = merged[1].max(high);
+        if let Some(other) = marker.range {
+            widened(&mut range, other);
         }
     }
     if let Some(&first) = missing.first() {
@@ -105,20 +100,15 @@ pub fn finalize(
                     (window.size[a] * scale).min(layout.dims[a] - origin[a])
                 }),
             };
-            let mut writer = WindowWriter::open(output, &layout, whole, from, to, false)
+            let writer = WindowWriter::open(output, &layout, whole, from, to, false)
                 .map_err(|p| failed(output, p))?;
-            let slab = writer.slab_depth();
-            let mut z = 0;
-            while z < nz {
-                let n = slab.min(nz - z);
-                let [x0, y0] = window.origin;
-                let [w, h] = window.size;
-                let data = read_level(output, &layout, from, [x0, y0, z], [w, h, n])
-                    .map_err(|p| failed(output, p))?;
-                writer.push(&data).map_err(|p| failed(output, p))?;
-                z += n;
-            }
-            writer.finish().map_err(|p| failed(output, p))?;
+            let [x0, y0] = window.origin;
+            let [w, h] = window.size;
+            let read = |z, n| {
+                read_level(output, &layout, from, [x0, y0, z], [w, h, n])
+                    .map_err(|p| failed(output, p))
+            };
+            write_column(output, writer, nz, read, |_| {})?;
         }
         from = to;
     }

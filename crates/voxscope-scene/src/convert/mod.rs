@@ -23,6 +23,39 @@ pub use plan::{PART_SLAB_BYTES, PLAN_FOLDER, Plan, PlanOptions};
 /// The most parts a conversion is cut into.
 pub const MAX_PARTS: usize = 100_000;
 
+/// A problem of the conversion into `output`, as its one line says it.
+pub(super) fn failed(output: &Path, problem: impl std::fmt::Display) -> SceneError {
+    SceneError::Failed(format!("{}: {problem}", output.display()))
+}
+
+/// `range` widened to hold `other`.
+pub(super) fn widened(range: &mut Option<[f64; 2]>, [low, high]: [f64; 2]) {
+    let merged = range.get_or_insert([low, high]);
+    merged[0] = merged[0].min(low);
+    merged[1] = merged[1].max(high);
+}
+
+/// Feeds `writer` the `depth` slices of its window that `read(z, n)` returns, a slab at a
+/// time (`progress(z)` after each), and finishes it.
+pub(super) fn write_column(
+    output: &Path,
+    mut writer: voxscope_volume::ome_zarr::WindowWriter,
+    depth: usize,
+    mut read: impl FnMut(usize, usize) -> Result<voxscope_volume::VoxelData, SceneError>,
+    mut progress: impl FnMut(usize),
+) -> Result<voxscope_volume::ome_zarr::WindowReport, SceneError> {
+    let slab = writer.slab_depth();
+    let mut z = 0;
+    while z < depth {
+        let n = slab.min(depth - z);
+        let data = read(z, n)?;
+        writer.push(&data).map_err(|p| failed(output, p))?;
+        z += n;
+        progress(z);
+    }
+    writer.finish().map_err(|p| failed(output, p))
+}
+
 /// How to read the input and write the OME-Zarr image.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ConvertOptions {

@@ -12,7 +12,7 @@ use serde::{Deserialize, Serialize};
 use voxscope_volume::ome_zarr::{SlabSource, WindowWriter};
 
 use super::plan::{Plan, fingerprint, write_atomically};
-use super::{ConvertOptions, prepared};
+use super::{ConvertOptions, failed, prepared, widened, write_column};
 use crate::SceneError;
 
 /// What a finished part leaves: the plan it belongs to, the objects it wrote and its figures.
@@ -30,10 +30,6 @@ pub struct PartMarker {
     pub seconds: f64,
     /// The process's peak resident memory, where the system says (Linux).
     pub peak_memory_bytes: Option<u64>,
-}
-
-fn failed(output: &Path, problem: impl std::fmt::Display) -> SceneError {
-    SceneError::Failed(format!("{}: {problem}", output.display()))
 }
 
 impl PartMarker {
@@ -164,28 +160,29 @@ pub fn run_part(
     let total = (end - first).max(1) * depth;
     for (done, column) in (first..end).enumerate() {
         let window = columns.window(column, source.dims);
-        let mut writer = WindowWriter::open(output, &layout, window, 0, columns.levels - 1, true)
+        let writer = WindowWriter::open(output, &layout, window, 0, columns.levels - 1, true)
             .map_err(|p| failed(output, p))?;
-        let slab = writer.slab_depth();
-        let mut z = 0;
-        while z < depth {
-            let n = slab.min(depth - z);
-            let [x0, y0] = window.origin;
-            let [w, h] = window.size;
-            let data = source.read_box([x0, y0, z], [w, h, n])?;
-            bytes_in += (data.len() * source.stored_type.size()) as u64;
-            writer.push(&data).map_err(|p| failed(output, p))?;
-            z += n;
-            report(&format!(
-                "\rpart {part}/{count}: {:3.0} %",
-                100.0 * (done * depth + z) as f64 / total as f64
-            ));
-        }
-        let written = writer.finish().map_err(|p| failed(output, p))?;
-        if let Some([low, high]) = written.range {
-            let merged = range.get_or_insert([low, high]);
-            merged[0] = merged[0].min(low);
-            merged[1] = merged[1].max(high);
+        let [x0, y0] = window.origin;
+        let [w, h] = window.size;
+        let stored_size = source.stored_type.size();
+        let written = write_column(
+            output,
+            writer,
+            depth,
+            |z, n| {
+                let data = source.read_box([x0, y0, z], [w, h, n])?;
+                bytes_in += (data.len() * stored_size) as u64;
+                Ok(data)
+            },
+            |z| {
+                report(&format!(
+                    "\rpart {part}/{count}: {:3.0} %",
+                    100.0 * (done * depth + z) as f64 / total as f64
+                ))
+            },
+        )?;
+        if let Some(other) = written.range {
+            widened(&mut range, other);
         }
         for (key, object) in written.written {
             objects.insert(key, (object.bytes, object.crc32c));

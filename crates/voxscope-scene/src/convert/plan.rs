@@ -11,7 +11,7 @@ use voxscope_volume::ome_zarr::{
 };
 use voxscope_volume::{Endian, RawLayout, VoxelType, format_dims};
 
-use super::ConvertOptions;
+use super::{ConvertOptions, failed};
 use crate::SceneError;
 
 /// Where the plan and the parts' markers live, inside the output.
@@ -70,10 +70,6 @@ pub struct PlanOptions {
     pub tile: Option<[usize; 3]>,
     pub upsample: Option<[usize; 3]>,
     pub noise: f64,
-}
-
-fn failed(output: &Path, problem: impl std::fmt::Display) -> SceneError {
-    SceneError::Failed(format!("{}: {problem}", output.display()))
 }
 
 impl PlanOptions {
